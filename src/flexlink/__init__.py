@@ -1,0 +1,31 @@
+"""flexlink — planar flexible multibody chains with assumed modes.
+
+Pipeline: scenario → model → simulation → solution → results (see ARCHITECTURE.md).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["simulate", "load_scenario", "load_paper_experiment", "Results", "Scenario"]
+
+
+def __getattr__(name: str) -> Any:
+    # Lazy exports keep `flexlink --help` fast and sub-packages importable on their own.
+    if name == "simulate":
+        from .simulation import simulate
+
+        return simulate
+    if name in ("load_scenario", "load_paper_experiment"):
+        from . import scenario
+
+        return getattr(scenario, name)
+    if name == "Results":
+        from .results import Results
+
+        return Results
+    if name == "Scenario":
+        from .model import Scenario
+
+        return Scenario
+    raise AttributeError(f"module 'flexlink' has no attribute {name!r}")

@@ -1,0 +1,185 @@
+"""First-order equations of a chain with prescribed joints:
+
+    M(t) z̈ + C(t) ż + K(t) z = f(t),   z = [q_1, …, q_N]
+
+obtained by linearising the generalized inertia forces −∫(∂r/∂z)·r̈ dm about the prescribed
+rigid motion (docs/derivation.md). Per link, in its zero-order frame, the body matrices are the
+paper's eq. (14a) M_0 and a gyroscopic G_0; the kinematical synthesis T̂_k = [T_k; E_k] maps them
+onto z. Second-order position terms acting on the zero-order inertia loads give the rotation
+coupling and, with ``geometric_stiffening``, the foreshortening (centrifugal) stiffness.
+All evaluations are vectorised over a leading time axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import Chain
+from ..modes import ModalData, modal_data
+from .kinematics import FrameMotion, JointHistory, frame_motion, rotation
+
+
+@dataclass(frozen=True)
+class LinkBody:
+    """Constant body matrices of one link in the coordinates ξ = [ρx, ρy, θ1, q]."""
+
+    data: ModalData
+    offset: int  # index of q_k[0] in z
+    M0: np.ndarray  # translational mass matrix (paper eq. 14a), (3+n, 3+n)
+    M_rot: np.ndarray  # tip rotary inertia J_t c cᵀ, c = [0, 0, 1, Φ'(L)]
+    G0: np.ndarray  # ∫ P̂ᵀ S P̂ dm, skew, (3+n, 3+n)
+
+    @property
+    def slice(self) -> slice:
+        return slice(self.offset, self.offset + self.data.n)
+
+
+def _link_body(data: ModalData, offset: int) -> LinkBody:
+    n = data.n
+    m, s1, J = data.mass, data.first_moment, data.second_moment
+    M0 = np.zeros((3 + n, 3 + n))
+    M0[:3, :3] = [[m, 0.0, 0.0], [0.0, m, s1], [0.0, s1, J]]
+    M0[1, 3:] = M0[3:, 1] = data.phi_bar
+    M0[2, 3:] = M0[3:, 2] = data.phi_tilde
+    M0[3:, 3:] = data.mass_matrix
+    c = np.zeros(3 + n)
+    c[2] = 1.0
+    c[3:] = data.tip_slope
+    # ∫ p_y dm with p_y = [0, 1, x, Φ(x)]: the only non-zero column of N in G0 = N − Nᵀ.
+    py = np.concatenate([[0.0, m, s1], data.phi_bar])
+    N = np.zeros((3 + n, 3 + n))
+    N[:, 0] = py
+    return LinkBody(data, offset, M0, data.tip_inertia * np.outer(c, c), N - N.T)
+
+
+class FirstOrderSystem:
+    """The assembled first-order model of a chain; evaluate its matrices at any times."""
+
+    def __init__(self, chain: Chain, geometric_stiffening: bool = False) -> None:
+        self.chain = chain
+        self.geometric_stiffening = geometric_stiffening
+        self.modal: list[ModalData] = [modal_data(link) for link in chain.links]
+        offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
+        self.offsets: list[int] = [int(o) for o in offsets[:-1]]
+        self.n: int = int(offsets[-1])
+        self.bodies = [_link_body(d, o) for d, o in zip(self.modal, self.offsets)]
+
+    # -- kinematics -------------------------------------------------------------------------
+    def joint_history(self, t: np.ndarray) -> JointHistory:
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        parts = [joint.evaluate(t) for joint in self.chain.joints]
+        angle, rate, acc = (np.stack([np.broadcast_to(p[i], t.shape) for p in parts], -1)
+                            for i in range(3))
+        return JointHistory(angle, rate, acc)
+
+    def frames(self, t: np.ndarray) -> FrameMotion:
+        return frame_motion(self.joint_history(t), self.modal, self.offsets, self.n)
+
+    def xi_maps(self, frames: FrameMotion, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """T̂_k = [T_k; E_k] and its time derivatives, each (nt, 3+n_k, n)."""
+        body = self.bodies[k]
+        nt = frames.theta.shape[0]
+        nk = body.data.n
+        E = np.zeros((nt, nk, self.n))
+        E[:, :, body.slice] = np.eye(nk)
+        zero = np.zeros_like(E)
+        return (
+            np.concatenate([frames.T[k], E], axis=1),
+            np.concatenate([frames.T_dot[k], zero], axis=1),
+            np.concatenate([frames.T_ddot[k], zero], axis=1),
+        )
+
+    # -- equations --------------------------------------------------------------------------
+    def matrices(
+        self, t: np.ndarray, frames: FrameMotion | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """M, C, K (nt, n, n) and f (nt, n) of M z̈ + C ż + K z = f at times t (s)."""
+        fr = self.frames(t) if frames is None else frames
+        nt = fr.theta.shape[0]
+        n = self.n
+        M = np.zeros((nt, n, n))
+        C = np.zeros((nt, n, n))
+        K = np.zeros((nt, n, n))
+        f = np.zeros((nt, n))
+        outboard = self._outboard_inertia_force(fr)
+        for k, body in enumerate(self.bodies):
+            d = body.data
+            w = fr.omega[:, k, None, None]
+            wd = fr.alpha[:, k, None, None]
+            Th, Th_d, Th_dd = self.xi_maps(fr, k)
+            Mtot = body.M0 + body.M_rot
+            ThT = np.swapaxes(Th, 1, 2)
+            M += ThT @ Mtot @ Th
+            C += ThT @ (2.0 * Mtot @ Th_d + 2.0 * w * (body.G0 @ Th))
+            K += ThT @ (
+                Mtot @ Th_dd + 2.0 * w * (body.G0 @ Th_d) + (wd * body.G0 - w**2 * body.M0) @ Th
+            )
+            f -= np.einsum("tai,ta->ti", Th, self._rigid_load(body, fr, k))
+            K -= self._second_order_stiffness(body, fr, k, outboard[:, k])
+            sl = body.slice
+            K[:, sl, sl] += d.stiffness_matrix
+            C[:, sl, sl] += d.damping_matrix
+        return M, C, K, f
+
+    def accelerations(self, t: np.ndarray, z: np.ndarray, zd: np.ndarray) -> np.ndarray:
+        """z̈ (nt, n) from the equations of motion, given z, ż (nt, n)."""
+        M, C, K, f = self.matrices(t)
+        rhs = f - np.einsum("tij,tj->ti", C, zd) - np.einsum("tij,tj->ti", K, z)
+        return np.linalg.solve(M, rhs[..., None])[..., 0]
+
+    # -- pieces -----------------------------------------------------------------------------
+    def _rigid_load(self, body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
+        """∫ P̂ᵀ a0 dm + J_t c ω̇: zero-order inertia load of link k in ξ space, (nt, 3+n)."""
+        d = body.data
+        ax, ay = fr.origin_accel[:, k, 0], fr.origin_accel[:, k, 1]
+        w, wd = fr.omega[:, k], fr.alpha[:, k]
+        m, s1, J = d.mass, d.first_moment, d.second_moment
+        head = np.stack([m * ax - w**2 * s1, m * ay + wd * s1, s1 * ay + J * wd], -1)
+        elastic = ay[:, None] * d.phi_bar + wd[:, None] * d.phi_tilde
+        load = np.concatenate([head, elastic], -1)
+        load[:, 2] += d.tip_inertia * wd
+        load[:, 3:] += d.tip_inertia * wd[:, None] * d.tip_slope
+        return load
+
+    def _outboard_inertia_force(self, fr: FrameMotion) -> np.ndarray:
+        """Σ_{j>k} ∫_j a0 dm in frame k's axes (N): minus the joint force at link k's tip."""
+        nt, n_links = fr.theta.shape
+        out = np.zeros((nt, n_links, 2))
+        for k in range(n_links - 2, -1, -1):
+            d = self.modal[k + 1]
+            ax, ay = fr.origin_accel[:, k + 1, 0], fr.origin_accel[:, k + 1, 1]
+            w, wd = fr.omega[:, k + 1], fr.alpha[:, k + 1]
+            own = np.stack([d.mass * ax - w**2 * d.first_moment,
+                            d.mass * ay + wd * d.first_moment], -1)
+            turn = rotation(fr.theta[:, k + 1] - fr.theta[:, k])
+            out[:, k] = np.einsum("tij,tj->ti", turn, out[:, k + 1] + own)
+        return out
+
+    def _second_order_stiffness(
+        self, body: LinkBody, fr: FrameMotion, k: int, outboard: np.ndarray
+    ) -> np.ndarray:
+        """∫ (∂r₂/∂z)·a0 dm of link k plus the outboard load acting on its tip's r₂, (nt, n, n).
+
+        r₂ in frame k is [u_x − θ1 w − x θ1²/2, 0] with foreshortening u_x = −½ qᵀS(x)q.
+        """
+        d = body.data
+        ax = fr.origin_accel[:, k, 0]
+        w2 = fr.omega[:, k] ** 2
+        N = outboard[:, 0]
+        vec = ax[:, None] * d.phi_bar - w2[:, None] * d.phi_tilde + N[:, None] * d.tip_value
+        scal = ax * d.first_moment - w2 * d.second_moment + N * d.length
+        theta1 = fr.T[k][:, 2, :]  # (nt, n)
+        sl = body.slice
+        out = scal[:, None, None] * theta1[:, :, None] * theta1[:, None, :]
+        cross = theta1[:, :, None] * vec[:, None, :]  # Θᵀ v, columns on q_k
+        out[:, :, sl] += cross
+        out[:, sl, :] += np.swapaxes(cross, 1, 2)
+        if self.geometric_stiffening:
+            out[:, sl, sl] += (
+                ax[:, None, None] * d.foreshortening_mass
+                - w2[:, None, None] * d.foreshortening_moment
+                + N[:, None, None] * d.foreshortening_tip
+            )
+        return out

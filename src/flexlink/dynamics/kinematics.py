@@ -1,0 +1,135 @@
+"""Kinematical synthesis of a chain: zero-order frame motion and first-order frame perturbations.
+
+Frame k is link k's clamped frame. Zero order (rigid, prescribed): angle θ_k = β_1 + … + β_k,
+origin at the rigid tip of link k−1. First order: the frame is displaced by ρ_k (components in the
+zero-order frame k) and rotated by θ1_k, both linear in the elastic coordinates z:
+
+    [ρx, ρy, θ1]_k = T_k(t) z,   T_1 = 0 (hub at the fixed origin).
+
+Link k's tip in its own frame is displaced by P̃_k ξ_k, ξ_k = [ρx, ρy, θ1, q_k], with
+P̃_k = [[1,0,0,0],[0,1,L,Φ(L)],[0,0,1,Φ'(L)]]; frame k+1 is frame k's tip turned by β_{k+1}:
+T_{k+1} = blockdiag(A(−β_{k+1}), 1) P̃_k T̂_k. Time derivatives follow analytically
+(docs/derivation.md, section "Kinematical synthesis"). Arrays carry a leading time axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..modes import ModalData
+
+
+@dataclass(frozen=True)
+class JointHistory:
+    """Prescribed joint angles, rates and accelerations, shape (nt, N), rad, rad/s, rad/s²."""
+
+    angle: np.ndarray
+    rate: np.ndarray
+    acceleration: np.ndarray
+
+
+@dataclass(frozen=True)
+class FrameMotion:
+    """Zero-order motion of every link frame and its first-order perturbation maps.
+
+    theta, omega, alpha: (nt, N) absolute angle (rad), rate, acceleration of frame k.
+    origin: (nt, N, 2) global position of frame origins (m).
+    origin_accel: (nt, N, 2) origin acceleration in the frame's own axes (m/s²).
+    T, T_dot, T_ddot: per link (nt, 3, n_total) maps z → [ρx, ρy, θ1] and their time derivatives.
+    """
+
+    theta: np.ndarray
+    omega: np.ndarray
+    alpha: np.ndarray
+    origin: np.ndarray
+    origin_accel: np.ndarray
+    T: list[np.ndarray]
+    T_dot: list[np.ndarray]
+    T_ddot: list[np.ndarray]
+
+
+def rotation(angle: np.ndarray) -> np.ndarray:
+    """Planar rotation matrices A(angle), shape (..., 2, 2)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+
+
+_S = np.array([[0.0, -1.0], [1.0, 0.0]])  # 90° turn: S v = ẑ × v
+
+
+def tip_map(data: ModalData) -> np.ndarray:
+    """P̃: ξ = [ρx, ρy, θ1, q] → tip displacement (frame axes) and tip rotation, (3, 3+n)."""
+    n = data.n
+    P = np.zeros((3, 3 + n))
+    P[0, 0] = 1.0
+    P[1, 1] = 1.0
+    P[1, 2] = data.length
+    P[1, 3:] = data.tip_value
+    P[2, 2] = 1.0
+    P[2, 3:] = data.tip_slope
+    return P
+
+
+def frame_motion(
+    joints: JointHistory, modal: list[ModalData], offsets: list[int], n_total: int
+) -> FrameMotion:
+    """Zero-order frame kinematics and first-order perturbation maps for all links."""
+    beta, beta_d, beta_dd = joints.angle, joints.rate, joints.acceleration
+    nt, n_links = beta.shape
+    theta = np.cumsum(beta, axis=1)
+    omega = np.cumsum(beta_d, axis=1)
+    alpha = np.cumsum(beta_dd, axis=1)
+
+    origin = np.zeros((nt, n_links, 2))
+    origin_accel = np.zeros((nt, n_links, 2))
+    T = [np.zeros((nt, 3, n_total))]
+    T_dot = [np.zeros((nt, 3, n_total))]
+    T_ddot = [np.zeros((nt, 3, n_total))]
+    for k in range(n_links - 1):
+        data = modal[k]
+        L = data.length
+        e_k = rotation(theta[:, k])
+        origin[:, k + 1] = origin[:, k] + L * e_k[:, :, 0]
+        # Acceleration of frame k's rigid tip, frame-k axes, then turned into frame k+1.
+        tip_acc = origin_accel[:, k] + L * np.stack([-omega[:, k] ** 2, alpha[:, k]], -1)
+        back = rotation(-beta[:, k + 1])
+        origin_accel[:, k + 1] = np.einsum("tij,tj->ti", back, tip_acc)
+
+        P = tip_map(data)
+        sl = slice(offsets[k], offsets[k] + data.n)
+        U, U_d, U_dd = (_tip_displacement_map(P, Tk, sl) for Tk in (T[k], T_dot[k], T_ddot[k]))
+        # The elastic part of T̂ is constant: only U (not U_d, U_dd) carries it.
+        U_d -= _elastic_part(P, sl, n_total)
+        U_dd -= _elastic_part(P, sl, n_total)
+
+        bd, bdd = beta_d[:, k + 1], beta_dd[:, k + 1]
+        R = _block(back)
+        R_d = _block(-bd[:, None, None] * (_S @ back), corner=0.0)
+        R_dd = _block((-bdd[:, None, None] * _S - (bd**2)[:, None, None] * np.eye(2)) @ back, 0.0)
+        T.append(R @ U)
+        T_dot.append(R_d @ U + R @ U_d)
+        T_ddot.append(R_dd @ U + 2.0 * R_d @ U_d + R @ U_dd)
+    return FrameMotion(theta, omega, alpha, origin, origin_accel, T, T_dot, T_ddot)
+
+
+def _elastic_part(P: np.ndarray, sl: slice, n_total: int) -> np.ndarray:
+    out = np.zeros((3, n_total))
+    out[:, sl] = P[:, 3:]
+    return out
+
+
+def _tip_displacement_map(P: np.ndarray, T_k: np.ndarray, sl: slice) -> np.ndarray:
+    """P̃ T̂_k for T̂_k = [T_k; E_k] without forming E_k: (nt, 3, n_total)."""
+    out = np.einsum("ij,tjn->tin", P[:, :3], T_k)
+    out[:, :, sl] += P[:, 3:]
+    return out
+
+
+def _block(A2: np.ndarray, corner: float = 1.0) -> np.ndarray:
+    """blockdiag(A2, corner) for a stack of 2×2 matrices, (nt, 3, 3)."""
+    out = np.zeros(A2.shape[:-2] + (3, 3))
+    out[..., :2, :2] = A2
+    out[..., 2, 2] = corner
+    return out

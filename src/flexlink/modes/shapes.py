@@ -1,0 +1,203 @@
+"""Assumed-mode shape functions of a uniform clamped beam on [0, L].
+
+Every mode has the classical form (ζ = βx, λ = βL)
+
+    φ(x) = cosh ζ − cos ζ + c (sinh ζ − sin ζ),
+
+which satisfies φ(0) = φ'(0) = 0 and φ'''' = β⁴ φ.  The constant c and the eigenvalue λ
+come from the tip boundary conditions.  To stay finite for large λ the hyperbolic part is
+evaluated as
+
+    cosh ζ + c sinh ζ = ½(1 + c) e^λ · e^{β(x−L)} + ½(1 − c) e^{−βx},
+
+with ½(1 + c) e^λ computed without cancellation (see ``_coefficients``).  All evaluations
+are in the link frame: x in metres from the joint, derivatives with respect to x.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+
+from flexlink.model import Link
+
+__all__ = ["ModeShapes", "clamped_free_modes", "tip_loaded_modes", "mode_shapes_for"]
+
+_NORM_PANELS_PER_MODE = 0.5  # quadrature panels per unit of λ for the normalisation integral
+_GAUSS_POINTS = 20  # Gauss–Legendre points per panel
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class ModeShapes:
+    """n clamped-beam mode shapes Φ(x) = [φ_1 … φ_n] on [0, length] (dimensionless values).
+
+    ``beta_l`` holds the eigenvalues λ_i = β_i L.  Mode i is normalised so that
+    m∫φ_i² dx + m_t φ_i(L)² + J_t φ_i'(L)² = m L (for a bare beam: ∫φ_i² dx = L, |φ_i(L)| = 2)
+    and signed so that φ_i(L) > 0.  Use the factories below rather than the constructor.
+    """
+
+    length: float  # m
+    n: int
+    beta_l: np.ndarray  # (n,) dimensionless eigenvalues β_i L
+    kind: str = "clamped_free"
+    _c: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    _growing: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    _scale: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+
+    @property
+    def beta(self) -> np.ndarray:
+        """Wavenumbers β_i (1/m)."""
+        return self.beta_l / self.length
+
+    def evaluate(self, x: np.ndarray, derivative: int = 0) -> np.ndarray:
+        """Φ or its ``derivative``-th x-derivative (1/m^k) at points x (m): shape (len(x), n)."""
+        if derivative not in (0, 1, 2, 3):
+            raise ValueError(f"derivative must be 0, 1, 2 or 3, got {derivative}")
+        x = np.asarray(x, dtype=float).reshape(-1, 1)
+        beta = self.beta[None, :]
+        z = beta * x
+        k = derivative
+        # ζ-derivatives of −cos ζ − c sin ζ cycle with period 4.
+        cz, sz = np.cos(z), np.sin(z)
+        cos_part = (-cz, sz, cz, -sz)[k]
+        sin_part = (-sz, -cz, sz, cz)[k]
+        c = self._c[None, :]
+        value = (
+            self._growing[None, :] * np.exp(beta * (x - self.length))
+            + 0.5 * (1.0 - c) * (-1.0) ** k * np.exp(-z)
+            + cos_part
+            + c * sin_part
+        )
+        return value * (self._scale * self.beta**k)[None, :]
+
+
+def _coefficients(lam: np.ndarray, mu: float) -> tuple[np.ndarray, np.ndarray]:
+    """c and ½(1 + c)e^λ from the shear condition φ'''(L) + μλ β³ φ(L) = 0.
+
+    With a_k, b_k the k-th ζ-derivatives of (cosh − cos) and (sinh − sin) at ζ = λ,
+    c = −(a_3 + μλ a_0)/(b_3 + μλ b_0).  The denominator D = cosh λ + cos λ + μλ(sinh λ −
+    sin λ) is > 0 for λ > 0, and 1 + c = N/D with N written free of cancellation.
+    """
+    e = np.exp(-lam)
+    s, co = np.sin(lam), np.cos(lam)
+    ml = mu * lam
+    num = (e + co + s) + ml * (co - s - e)  # (b3 − a3) + μλ(b0 − a0)
+    # D·e^{−λ}, i.e. the denominator scaled by e^{−λ}
+    den_scaled = 0.5 * (1 + e * e) + co * e + ml * (0.5 * (1 - e * e) - s * e)
+    one_plus_c_exp = num / den_scaled  # (1 + c) e^λ
+    c = one_plus_c_exp * e - 1.0
+    return c, 0.5 * one_plus_c_exp
+
+
+def _build(length: float, lam: np.ndarray, mu: float, j: float, kind: str) -> ModeShapes:
+    """Mode shapes for eigenvalues ``lam``, normalised and signed (see ModeShapes)."""
+    lam = np.asarray(lam, dtype=float)
+    c, growing = _coefficients(lam, mu)
+    raw = ModeShapes(length, lam.size, _readonly(lam), kind, _readonly(c), _readonly(growing),
+                     _readonly(np.ones_like(lam)))
+    # Normalisation: ∫φ²dx/L + μ φ(L)² + j L² φ'(L)² = 1, by composite Gauss–Legendre.
+    panels = max(2, int(np.ceil(_NORM_PANELS_PER_MODE * lam.max())))
+    g, w = np.polynomial.legendre.leggauss(_GAUSS_POINTS)
+    edges = np.linspace(0.0, length, panels + 1)
+    half = 0.5 * np.diff(edges)
+    x = ((edges[:-1] + half)[:, None] + half[:, None] * g[None, :]).ravel()
+    wx = (half[:, None] * w[None, :]).ravel()
+    phi = raw.evaluate(x)
+    tip = raw.evaluate(np.array([length]))[0]
+    slope = raw.evaluate(np.array([length]), 1)[0]
+    norm = wx @ phi**2 / length + mu * tip**2 + j * length**2 * slope**2
+    sign = np.where(tip != 0.0, np.sign(tip), np.sign(slope))
+    scale = sign / np.sqrt(norm)
+    return ModeShapes(length, lam.size, raw.beta_l, kind, raw._c, raw._growing, _readonly(scale))
+
+
+def _frequency_function(lam: np.ndarray | float, mu: float, j: float) -> np.ndarray:
+    """Frequency determinant divided by cosh λ (bounded, no overflow).
+
+    1 + cos λ cosh λ + μλ(cos λ sinh λ − sin λ cosh λ) − jλ³(cos λ sinh λ + sin λ cosh λ)
+    − μjλ⁴(cos λ cosh λ − 1) = 0, with μ = m_t/(mL), j = J_t/(mL³).
+    """
+    lam = np.asarray(lam, dtype=float)
+    sech, th = 1.0 / np.cosh(lam), np.tanh(lam)
+    s, co = np.sin(lam), np.cos(lam)
+    return (
+        sech + co
+        + mu * lam * (co * th - s)
+        - j * lam**3 * (co * th + s)
+        - mu * j * lam**4 * (co - sech)
+    )
+
+
+def clamped_free_modes(length: float, n: int) -> ModeShapes:
+    """Classical clamped–free eigenfunctions; λ_i are roots of 1 + cos λ cosh λ = 0.
+
+    Root i lies in ((i−1)π, iπ) (where cos λ + sech λ changes sign) and is polished by
+    Brent's method to full precision.
+    """
+    if n < 1:
+        raise ValueError("need at least one mode")
+    lam = np.array(
+        [brentq(_frequency_function, (i - 1) * np.pi, i * np.pi, args=(0.0, 0.0),
+                xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
+         for i in range(1, n + 1)]
+    )
+    return _build(length, lam, 0.0, 0.0, "clamped_free")
+
+
+def tip_loaded_modes(
+    length: float,
+    n: int,
+    mass_per_length: float,
+    EI: float,
+    tip_mass: float,
+    tip_inertia: float,
+) -> ModeShapes:
+    """Exact modes of a clamped beam carrying a tip mass m_t (kg) and rotary inertia J_t (kg·m²).
+
+    Tip conditions: EI φ''(L) = J_t ω² φ'(L), EI φ'''(L) = −m_t ω² φ(L), ω² = β⁴ EI/m.
+    Adding tip inertia lowers every eigenvalue, so the n roots lie in (0, nπ); they are
+    bracketed by a sign scan and refined with Brent's method.  (EI only fixes ω, which
+    cancels from the dimensionless problem; it is accepted for a uniform signature.)
+    """
+    if n < 1:
+        raise ValueError("need at least one mode")
+    if mass_per_length <= 0 or EI <= 0 or length <= 0:
+        raise ValueError("length, mass_per_length and EI must be positive")
+    if tip_mass < 0 or tip_inertia < 0:
+        raise ValueError("tip mass and inertia must be non-negative")
+    mu = tip_mass / (mass_per_length * length)
+    j = tip_inertia / (mass_per_length * length**3)
+    grid = np.unique(np.concatenate([
+        np.geomspace(1e-4, 1.0, 200),
+        np.arange(1.0, n * np.pi + np.pi / 64, np.pi / 64),
+    ]))
+    f = _frequency_function(grid, mu, j)
+    sg = np.sign(f)
+    idx = np.flatnonzero((sg[:-1] * sg[1:] < 0) | (sg[:-1] == 0))[:n]
+    if idx.size < n:
+        raise RuntimeError(f"found only {idx.size} of {n} tip-loaded eigenvalues")
+    lam = np.array([
+        grid[i] if f[i] == 0.0 else
+        brentq(_frequency_function, grid[i], grid[i + 1], args=(mu, j),
+               xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
+        for i in idx
+    ])
+    return _build(length, lam, mu, j, "tip_loaded")
+
+
+def mode_shapes_for(link: Link) -> ModeShapes:
+    """The link's assumed modes, chosen by ``link.mode_shapes``."""
+    if link.mode_shapes == "clamped_free":
+        return clamped_free_modes(link.length, link.modes)
+    if link.mode_shapes == "tip_loaded":
+        return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI,
+                                link.tip_mass, link.tip_inertia)
+    raise ValueError(f"unknown mode_shapes {link.mode_shapes!r} for link {link.name!r}")

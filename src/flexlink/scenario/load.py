@@ -1,0 +1,307 @@
+"""TOML scenario → validated, resolved dict → `Scenario`.
+
+Every check runs before any computation and all problems are raised together in one
+`ScenarioError`. The resolved dict (all defaults filled in, bending stiffness as EI, CSV
+paths absolute) is what a run folder saves; loading it again gives an equal `Scenario`.
+Angles stay in degrees here: the motion constructors take degrees and convert once.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from collections.abc import Mapping
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
+from .errors import Problems, ScenarioError, describe
+from .sensors import read_sensors
+
+SECTIONS = ("simulation", "links", "joints", "sensors", "flexlink_version")
+SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol")
+LINK_KEYS = ("name", "length", "mass_per_length", "EI", "E", "width", "thickness", "tip_mass",
+             "tip_inertia", "damping_ratio", "modes", "mode_shapes")
+MODE_SHAPES = ("clamped_free", "tip_loaded")
+PROFILES: dict[str, tuple[str, ...]] = {
+    "cycloidal": ("from_deg", "to_deg", "start", "duration"),
+    "quintic": ("from_deg", "to_deg", "start", "duration"),
+    "spinup": ("to_rate_deg_s", "start", "duration", "from_deg"),
+    "hold": ("angle_deg",),
+}
+OPTIONAL_PROFILE_KEYS = {"from_deg": 0.0}  # only spinup lists from_deg as optional
+CSV_KEYS = ("csv", "time_column", "angle_column", "lowpass_hz")
+NAME_PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,63}")
+GEOMETRIC_STIFFENING_MESSAGE = (
+    "simulation.geometric_stiffening = true is not available yet (planned: geometric "
+    "stiffening issue); use false (the paper's model)"
+)
+
+
+def flexlink_version() -> str:
+    """The installed flexlink version, or '0+unknown' in a bare source tree."""
+    try:
+        return version("flexlink")
+    except PackageNotFoundError:
+        return "0+unknown"
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a TOML scenario file; CSV paths are relative to its folder."""
+    path = Path(path)
+    return scenario_from_dict(read_toml(path), base_dir=path.parent, name=path.stem,
+                              source=str(path))
+
+
+def scenario_from_dict(
+    d: Mapping[str, Any], base_dir: Path = Path("."), *, name: str = "scenario",
+    source: str | None = None,
+) -> Scenario:
+    """Validate a parsed scenario (as tomllib returns it) and build the `Scenario`.
+
+    ``name`` is used when ``simulation.name`` is absent; ``source`` labels error messages.
+    """
+    resolved, motions = _resolve(d, Path(base_dir), name, source)
+    return _build(resolved, motions)
+
+
+def resolve_scenario_dict(path_or_dict: str | Path | Mapping[str, Any],
+                          base_dir: Path = Path(".")) -> dict[str, Any]:
+    """The fully resolved scenario (defaults filled in, flexlink version added) as a dict."""
+    if isinstance(path_or_dict, Mapping):
+        resolved, _ = _resolve(path_or_dict, Path(base_dir), "scenario", None)
+    else:
+        path = Path(path_or_dict)
+        resolved, _ = _resolve(read_toml(path), path.parent, path.stem, str(path))
+    return resolved
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """Parse a TOML file; a missing file or a syntax error becomes a ScenarioError."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError([f"file not found: {path}"], str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError([f"cannot read {path}: {exc}"], str(path)) from None
+    return parse_toml(text, str(path))
+
+
+def parse_toml(text: str, source: str) -> dict[str, Any]:
+    """Parse TOML text; tomllib's message carries the line and column of a syntax error."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError([f"TOML syntax error: {exc}"], source) from None
+
+
+def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
+             source: str | None) -> tuple[dict[str, Any], list[JointMotion]]:
+    p = Problems()
+    if not isinstance(raw, Mapping):
+        raise ScenarioError([f"expected a table of sections, got {describe(raw)}"], source)
+    p.unknown_keys(raw, SECTIONS, "scenario")
+    if "flexlink_version" in raw:
+        p.string(raw, "flexlink_version", "scenario")
+    simulation = _simulation(raw, p, default_name)
+    links = [_link(t, path, p) for path, t in p.table_array(raw, "links", p, required=True)]
+    link_names = [lk["name"] if lk else None for lk in links]
+    p.check_names(link_names, "links", p)
+    joint_tables = p.table_array(raw, "joints", p, required=True)
+    if links and joint_tables and len(joint_tables) != len(links):
+        p.add(f"joints: expected one [[joints]] table per link ({len(links)}), "
+              f"got {len(joint_tables)}")
+    joints, motions = [], []
+    for path, table in joint_tables:
+        joint, motion = _joint(table, path, base_dir, p)
+        joints.append(joint)
+        motions.append(motion)
+    reserved = {"t", "time"} | {f"joint{k}_angle" for k in range(1, len(links) + 1)}
+    reserved |= {f"{n}_tip_{axis}" for n in link_names if n for axis in "XY"}
+    sensors = read_sensors(p.table_array(raw, "sensors", p, required=False), links, reserved, p)
+    p.check_names([s["name"] if s else None for s in sensors], "sensors", p)
+    if p:
+        raise ScenarioError(p.messages, source)
+    resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
+                "links": links, "joints": joints, "sensors": sensors}
+    return resolved, motions  # type: ignore[return-value]
+
+
+def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[str, Any]:
+    table = raw.get("simulation")
+    if not isinstance(table, Mapping):
+        p.add("missing section [simulation] (t_end and dt_out are required)" if table is None
+              else f"simulation: expected a table [simulation], got {describe(table)}")
+        return {}
+    path = "simulation"
+    p.unknown_keys(table, SIMULATION_KEYS, path)
+    out: dict[str, Any] = {
+        "name": p.string(table, "name", path, default=default_name),
+        "t_end": p.number(table, "t_end", path, unit="s", gt=0),
+        "dt_out": p.number(table, "dt_out", path, unit="s", gt=0),
+        "geometric_stiffening": p.boolean(table, "geometric_stiffening", path, default=False),
+        "rtol": p.number(table, "rtol", path, default=1e-8, gt=0, le=1e-2),
+        "atol": p.number(table, "atol", path, default=1e-10, gt=0),
+    }
+    if out["t_end"] is not None and out["dt_out"] is not None and out["dt_out"] > out["t_end"]:
+        p.add(f"simulation.dt_out must be <= simulation.t_end ({out['t_end']!r} s), "
+              f"got {out['dt_out']!r}")
+    if out["geometric_stiffening"] is True:
+        p.add(GEOMETRIC_STIFFENING_MESSAGE)
+    return out
+
+
+def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any] | None:
+    before = len(p.messages)
+    p.unknown_keys(table, LINK_KEYS, path)
+    out: dict[str, Any] = {
+        "name": p.string(table, "name", path),
+        "length": p.number(table, "length", path, unit="m", gt=0),
+        "mass_per_length": p.number(table, "mass_per_length", path, unit="kg/m", gt=0),
+    }
+    width = p.number(table, "width", path, unit="m", gt=0, default=None)
+    thickness = p.number(table, "thickness", path, unit="m", gt=0, default=None)
+    if "EI" in table and "E" in table:
+        p.add(f"{path}: give either EI (N·m²) or E (Pa) with width and thickness, not both")
+    elif "EI" in table:
+        out["EI"] = p.number(table, "EI", path, unit="N·m²", gt=0)
+    elif "E" in table:
+        modulus = p.number(table, "E", path, unit="Pa", gt=0)
+        for key in ("width", "thickness"):
+            if key not in table:
+                p.add(f"{path}: missing required key '{key}' (m, > 0; needed with E)")
+        if modulus is not None and width is not None and thickness is not None:
+            out["EI"] = modulus * width * thickness**3 / 12.0  # N·m², rectangular section
+    else:
+        p.add(f"{path}: missing bending stiffness: give EI (N·m²), or E (Pa) with width "
+              "and thickness (m)")
+    out.update({
+        "width": width,
+        "thickness": thickness,
+        "tip_mass": p.number(table, "tip_mass", path, unit="kg", ge=0, default=0.0),
+        "tip_inertia": p.number(table, "tip_inertia", path, unit="kg·m²", ge=0, default=0.0),
+        "damping_ratio": p.number(table, "damping_ratio", path, ge=0, lt=1, default=0.0),
+        "modes": p.integer(table, "modes", path, ge=1, le=20, default=4),
+        "mode_shapes": p.string(table, "mode_shapes", path, choices=MODE_SHAPES,
+                                default="clamped_free"),
+    })
+    if len(p.messages) > before:
+        # keep the name (and length) for cross-checks even if another key was wrong
+        return {"name": out["name"], "length": out["length"], "thickness": thickness,
+                "invalid": True}
+    return {k: v for k, v in out.items() if v is not None}
+
+
+def _joint(table: dict[str, Any], path: str, base_dir: Path,
+           p: Problems) -> tuple[dict[str, Any], JointMotion | None]:
+    if "motion" in table and "csv" in table:
+        p.add(f"{path}: give either 'motion' (profiles) or 'csv' (measured angles), not both")
+        return {}, None
+    if "csv" in table:
+        return _csv_joint(table, path, base_dir, p)
+    if "motion" not in table:
+        p.add(f"{path}: missing 'motion' (an array of profiles) or 'csv' (measured angles)")
+        p.unknown_keys(table, ("motion", *CSV_KEYS), path)
+        return {}, None
+    p.unknown_keys(table, ("motion",), path)
+    segments = table["motion"]
+    if not isinstance(segments, list) or not segments:
+        p.add(f"{path}.motion: expected a non-empty array of profiles, e.g. "
+              f"[{{profile = \"hold\", angle_deg = 0.0}}], got {describe(segments)}")
+        return {}, None
+    from .. import motion as motion_module
+
+    resolved, built = [], []
+    for i, segment in enumerate(segments):
+        entry, obj = _segment(segment, f"{path}.motion[{i}]", motion_module, p)
+        resolved.append(entry)
+        built.append(obj)
+    if any(obj is None for obj in built):
+        return {"motion": resolved}, None
+    if len(built) == 1:
+        return {"motion": resolved}, built[0]
+    try:
+        return {"motion": resolved}, motion_module.Sequence(tuple(built))
+    except ValueError as exc:
+        p.add(f"{path}: {exc}")
+        return {"motion": resolved}, None
+
+
+def _segment(segment: Any, path: str, motion_module: Any,
+             p: Problems) -> tuple[dict[str, Any], JointMotion | None]:
+    if not isinstance(segment, Mapping):
+        p.add(f"{path}: expected a table like {{profile = \"hold\", angle_deg = 0.0}}, "
+              f"got {describe(segment)}")
+        return {}, None
+    profile = p.string(segment, "profile", path, choices=PROFILES)
+    if profile is None:
+        return dict(segment), None
+    before = len(p.messages)
+    keys = PROFILES[profile]
+    p.unknown_keys(segment, ("profile", *keys), path)
+    values: dict[str, Any] = {}
+    for key in keys:
+        optional = profile == "spinup" and key in OPTIONAL_PROFILE_KEYS
+        default = OPTIONAL_PROFILE_KEYS[key] if optional else ...
+        values[key] = (p.number(segment, key, path, default=default) if optional
+                       else p.number(segment, key, path))
+    entry = {"profile": profile, **values}
+    if len(p.messages) > before:
+        return entry, None
+    cls = getattr(motion_module, profile.capitalize())
+    try:
+        return entry, cls(**values)
+    except ValueError as exc:
+        p.add(f"{path}: {exc}")
+        return entry, None
+
+
+def _csv_joint(table: dict[str, Any], path: str, base_dir: Path,
+               p: Problems) -> tuple[dict[str, Any], JointMotion | None]:
+    p.unknown_keys(table, CSV_KEYS, path)
+    csv = p.string(table, "csv", path)
+    entry: dict[str, Any] = {
+        "csv": None if csv is None else str((base_dir / csv).resolve()),
+        "time_column": p.string(table, "time_column", path, default="t"),
+        "angle_column": p.string(table, "angle_column", path, default="angle"),
+        "lowpass_hz": p.number(table, "lowpass_hz", path, unit="Hz", gt=0, default=None),
+    }
+    entry = {k: v for k, v in entry.items() if v is not None}
+    if len(entry) < 3 or (entry.get("lowpass_hz") is None and "lowpass_hz" in table):
+        return entry, None
+    if not Path(entry["csv"]).is_file():
+        p.add(f"{path}.csv: file not found: {entry['csv']} (paths are relative to the "
+              "scenario file's folder)")
+        return entry, None
+    from ..motion import MeasuredMotion
+
+    try:
+        return entry, MeasuredMotion.from_csv(Path(entry["csv"]), time_column=entry[
+            "time_column"], angle_column=entry["angle_column"], lowpass_hz=entry.get("lowpass_hz"))
+    except (ValueError, OSError) as exc:
+        p.add(f"{path}.csv: {exc}")
+        return entry, None
+
+
+def _build(resolved: dict[str, Any], motions: list[JointMotion | None]) -> Scenario:
+    sim = resolved["simulation"]
+    settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
+                                  geometric_stiffening=sim["geometric_stiffening"],
+                                  rtol=sim["rtol"], atol=sim["atol"])
+    link_fields = ("name", "length", "mass_per_length", "EI", "tip_mass", "tip_inertia",
+                   "damping_ratio", "modes", "mode_shapes")
+    links = tuple(
+        Link(**{k: lk[k] for k in link_fields}, thickness=lk.get("thickness"))
+        for lk in resolved["links"]
+    )
+    index = {link.name: i for i, link in enumerate(links)}
+    sensors: list[PointSensor | PiezoSensor] = []
+    for s in resolved["sensors"]:
+        fields = {k: v for k, v in s.items() if k not in ("kind", "link")}
+        if s["kind"] == "piezo":
+            sensors.append(PiezoSensor(link=index[s["link"]], **fields))
+        else:
+            sensors.append(PointSensor(kind=s["kind"], link=index[s["link"]], **fields))
+    chain = Chain(links=links, joints=tuple(m for m in motions if m is not None))
+    return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"])

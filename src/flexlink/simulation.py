@@ -1,0 +1,86 @@
+"""Orchestration only: scenario → model → solve → sensors → Results."""
+
+from __future__ import annotations
+
+import time
+from importlib.metadata import PackageNotFoundError, version
+
+import numpy as np
+
+from .dynamics.first_order import FirstOrderSystem
+from .model import Scenario
+from .results import Results
+from .sensors.evaluate import Trajectory, kinematic_channels, sensor_channels
+from .solvers import SimulationError, integrate_second_order
+
+
+def package_version() -> str:
+    try:
+        return version("flexlink")
+    except PackageNotFoundError:  # running from a source tree
+        return "0+unknown"
+
+
+def output_times(t_end: float, dt_out: float) -> np.ndarray:
+    """0, dt_out, 2 dt_out, … up to and including t_end (s)."""
+    count = int(np.floor(t_end / dt_out + 1e-9))
+    t = np.arange(count + 1) * dt_out
+    return t if np.isclose(t[-1], t_end) else np.append(t, t_end)
+
+
+def simulate(scenario: Scenario, progress: bool = False) -> Results:
+    """Run one scenario. Elastic coordinates start at rest; joints follow their prescriptions."""
+    settings = scenario.settings
+    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
+    t = output_times(settings.t_end, settings.dt_out)
+    system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
+
+    started = time.perf_counter()
+    with _ProgressBar(settings.t_end, enabled=progress) as bar:
+        z, zd = integrate_second_order(
+            system.matrices, system.n, t, settings.rtol, settings.atol, settings.method,
+            on_progress=bar.update,
+        )
+    zdd = system.accelerations(t, z, zd)
+    if not np.all(np.isfinite(zdd)):
+        raise SimulationError("accelerations are not finite")
+    traj = Trajectory(t, z, zd, zdd)
+
+    results = Results(time=t, metadata={
+        "scenario": scenario.name,
+        "flexlink_version": package_version(),
+        "model": "first_order",
+        "geometric_stiffening": settings.geometric_stiffening,
+        "wall_time_s": time.perf_counter() - started,
+        "elastic_coordinates": system.n,
+    })
+    for ch in sensor_channels(system, traj, scenario.sensors) + kinematic_channels(system, traj):
+        results.add(ch.name, ch.values, ch.unit, ch.description)
+    return results
+
+
+class _ProgressBar:
+    """A tqdm bar over simulated time that only appears for runs longer than a second."""
+
+    def __init__(self, t_end: float, enabled: bool) -> None:
+        self.t_end = t_end
+        self.enabled = enabled
+        self._bar = None
+        self._shown = 0.0
+
+    def __enter__(self) -> _ProgressBar:
+        if self.enabled:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=self.t_end, unit="s sim", delay=1.0, leave=False,
+                             bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s [{elapsed}<{remaining}]")
+        return self
+
+    def update(self, t: float) -> None:
+        if self._bar is not None and t > self._shown:
+            self._bar.update(t - self._shown)
+            self._shown = t
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.close()
