@@ -96,9 +96,9 @@ class SimulationSettings:
     t_end: float  # s
     dt_out: float  # s
     geometric_stiffening: bool = False
-    rtol: float = 1e-8
-    atol: float = 1e-10
-    method: str = "DOP853"
+    rtol: float = 1e-6  # error relative to the peak of the displacements / velocities
+    atol: float = 1e-12
+    method: str = "magnus"  # or a scipy solve_ivp method: "DOP853", "RK45", "Radau", "LSODA"
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from .dynamics.first_order import FirstOrderSystem
 from .model import Scenario
 from .results import Results
 from .sensors.evaluate import Trajectory, kinematic_channels, sensor_channels
-from .solvers import SimulationError, integrate_second_order
+from .solvers import SimulationError, integrate_magnus, integrate_second_order
 
 
 def package_version() -> str:
@@ -37,10 +37,15 @@ def simulate(scenario: Scenario, progress: bool = False) -> Results:
 
     started = time.perf_counter()
     with _ProgressBar(settings.t_end, enabled=progress) as bar:
-        z, zd = integrate_second_order(
-            system.matrices, system.n, t, settings.rtol, settings.atol, settings.method,
-            on_progress=bar.update,
-        )
+        if settings.method == "magnus":
+            z, zd = integrate_magnus(
+                system.matrices, system.n, t, settings.rtol, settings.atol, on_progress=bar.update
+            )
+        else:
+            z, zd = integrate_second_order(
+                system.matrices, system.n, t, settings.rtol, settings.atol, settings.method,
+                on_progress=bar.update,
+            )
     zdd = system.accelerations(t, z, zd)
     if not np.all(np.isfinite(zdd)):
         raise SimulationError("accelerations are not finite")

@@ -40,17 +40,25 @@ class ModeShapes:
     """n clamped-beam mode shapes Φ(x) = [φ_1 … φ_n] on [0, length] (dimensionless values).
 
     ``beta_l`` holds the eigenvalues λ_i = β_i L.  Mode i is normalised so that
-    m∫φ_i² dx + m_t φ_i(L)² + J_t φ_i'(L)² = m L (for a bare beam: ∫φ_i² dx = L, |φ_i(L)| = 2)
-    and signed so that φ_i(L) > 0.  Use the factories below rather than the constructor.
+    m∫φ_i² dx + m_t φ_i(L)² + J_t φ_i'(L)² = m L (bare beam: ∫φ_i² dx = L, φ_i(L) = 2),
+    and signed so that φ_i(L) > 0.  φ_i = scale_i [growing_i e^{β(x−L)} + ½(1 − c_i) e^{−βx}
+    − cos βx − c_i sin βx].  Build with the factories below, not the constructor.
     """
 
     length: float  # m
     n: int
     beta_l: np.ndarray  # (n,) dimensionless eigenvalues β_i L
+    c: np.ndarray = field(repr=False)  # (n,) coefficient of (sinh − sin)
+    growing: np.ndarray = field(repr=False)  # (n,) ½(1 + c) e^{βL}, bounded
+    scale: np.ndarray = field(repr=False)  # (n,) normalisation factor with sign
     kind: str = "clamped_free"
-    _c: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
-    _growing: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
-    _scale: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        for name in ("beta_l", "c", "growing", "scale"):
+            arr = _readonly(getattr(self, name))
+            if arr.shape != (self.n,):
+                raise ValueError(f"{name} must have shape ({self.n},), got {arr.shape}")
+            object.__setattr__(self, name, arr)
 
     @property
     def beta(self) -> np.ndarray:
@@ -69,22 +77,22 @@ class ModeShapes:
         cz, sz = np.cos(z), np.sin(z)
         cos_part = (-cz, sz, cz, -sz)[k]
         sin_part = (-sz, -cz, sz, cz)[k]
-        c = self._c[None, :]
+        c = self.c[None, :]
         value = (
-            self._growing[None, :] * np.exp(beta * (x - self.length))
+            self.growing[None, :] * np.exp(beta * (x - self.length))
             + 0.5 * (1.0 - c) * (-1.0) ** k * np.exp(-z)
             + cos_part
             + c * sin_part
         )
-        return value * (self._scale * self.beta**k)[None, :]
+        return value * (self.scale * self.beta**k)[None, :]
 
 
 def _coefficients(lam: np.ndarray, mu: float) -> tuple[np.ndarray, np.ndarray]:
     """c and ½(1 + c)e^λ from the shear condition φ'''(L) + μλ β³ φ(L) = 0.
 
     With a_k, b_k the k-th ζ-derivatives of (cosh − cos) and (sinh − sin) at ζ = λ,
-    c = −(a_3 + μλ a_0)/(b_3 + μλ b_0).  The denominator D = cosh λ + cos λ + μλ(sinh λ −
-    sin λ) is > 0 for λ > 0, and 1 + c = N/D with N written free of cancellation.
+    c = −(a_3 + μλ a_0)/(b_3 + μλ b_0).  The denominator D = cosh λ + cos λ
+    + μλ(sinh λ − sin λ) is > 0 for λ > 0; 1 + c = N/D with N free of cancellation.
     """
     e = np.exp(-lam)
     s, co = np.sin(lam), np.cos(lam)
@@ -101,8 +109,7 @@ def _build(length: float, lam: np.ndarray, mu: float, j: float, kind: str) -> Mo
     """Mode shapes for eigenvalues ``lam``, normalised and signed (see ModeShapes)."""
     lam = np.asarray(lam, dtype=float)
     c, growing = _coefficients(lam, mu)
-    raw = ModeShapes(length, lam.size, _readonly(lam), kind, _readonly(c), _readonly(growing),
-                     _readonly(np.ones_like(lam)))
+    raw = ModeShapes(length, lam.size, lam, c, growing, np.ones_like(lam), kind)
     # Normalisation: ∫φ²dx/L + μ φ(L)² + j L² φ'(L)² = 1, by composite Gauss–Legendre.
     panels = max(2, int(np.ceil(_NORM_PANELS_PER_MODE * lam.max())))
     g, w = np.polynomial.legendre.leggauss(_GAUSS_POINTS)
@@ -116,17 +123,19 @@ def _build(length: float, lam: np.ndarray, mu: float, j: float, kind: str) -> Mo
     norm = wx @ phi**2 / length + mu * tip**2 + j * length**2 * slope**2
     sign = np.where(tip != 0.0, np.sign(tip), np.sign(slope))
     scale = sign / np.sqrt(norm)
-    return ModeShapes(length, lam.size, raw.beta_l, kind, raw._c, raw._growing, _readonly(scale))
+    return ModeShapes(length, lam.size, lam, c, growing, scale, kind)
 
 
 def _frequency_function(lam: np.ndarray | float, mu: float, j: float) -> np.ndarray:
     """Frequency determinant divided by cosh λ (bounded, no overflow).
 
-    1 + cos λ cosh λ + μλ(cos λ sinh λ − sin λ cosh λ) − jλ³(cos λ sinh λ + sin λ cosh λ)
-    − μjλ⁴(cos λ cosh λ − 1) = 0, with μ = m_t/(mL), j = J_t/(mL³).
+    1 + cos λ cosh λ + μλ(cos λ sinh λ − sin λ cosh λ)
+    − jλ³(cos λ sinh λ + sin λ cosh λ) − μjλ⁴(cos λ cosh λ − 1) = 0,
+    with μ = m_t/(mL), j = J_t/(mL³).
     """
     lam = np.asarray(lam, dtype=float)
-    sech, th = 1.0 / np.cosh(lam), np.tanh(lam)
+    e2 = np.exp(-2.0 * lam)
+    sech, th = 2.0 * np.sqrt(e2) / (1.0 + e2), np.tanh(lam)
     s, co = np.sin(lam), np.cos(lam)
     return (
         sech + co
@@ -160,7 +169,7 @@ def tip_loaded_modes(
     tip_mass: float,
     tip_inertia: float,
 ) -> ModeShapes:
-    """Exact modes of a clamped beam carrying a tip mass m_t (kg) and rotary inertia J_t (kg·m²).
+    """Exact modes of a clamped beam with tip mass m_t (kg) and rotary inertia J_t (kg·m²).
 
     Tip conditions: EI φ''(L) = J_t ω² φ'(L), EI φ'''(L) = −m_t ω² φ(L), ω² = β⁴ EI/m.
     Adding tip inertia lowers every eigenvalue, so the n roots lie in (0, nπ); they are

@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import BSpline, make_interp_spline
-from scipy.signal import butter, sosfiltfilt
 
 MIN_SAMPLES = 4
 FILTER_ORDER = 4
@@ -94,7 +93,7 @@ class MeasuredMotion:
         path = Path(path)
         lines: list[int] = []
         rows: list[list[str]] = []
-        with path.open(newline="") as fh:
+        with path.open(newline="", encoding="utf-8-sig") as fh:  # tolerate a BOM
             reader = csv.reader(fh)
             for row in reader:
                 if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
@@ -164,6 +163,8 @@ def _lowpass(t: np.ndarray, y: np.ndarray, cutoff_hz: float,
              source: str) -> tuple[np.ndarray, np.ndarray]:
     """Zero-phase Butterworth low-pass of y(t); resamples onto a uniform grid (median step)
     first if the steps are not uniform. Returns the (possibly new) times and filtered values."""
+    from scipy.signal import butter, sosfiltfilt  # slow import, only needed when filtering
+
     try:
         fc = float(cutoff_hz)
     except (TypeError, ValueError):

@@ -39,7 +39,7 @@ def _number(owner: object, name: str, value: object, unit: str, *,
 
 @dataclass(frozen=True)
 class _RestToRest:
-    """Common part of rest-to-rest moves θ = θ0 + Δ·p(τ), τ = (t − start)/duration ∈ [0, 1]."""
+    """Rest-to-rest move θ = θ0 + Δ·p(τ), τ = (t − start)/duration clipped to [0, 1]."""
 
     from_deg: float  # deg, angle held before start
     to_deg: float  # deg, angle reached at start + duration and held afterwards
@@ -131,7 +131,8 @@ class Spinup:
     def evaluate(self, t: np.ndarray) -> Triple:
         """Angle (rad), rate (rad/s), acceleration (rad/s²) at times t (s), shaped like t."""
         t = np.asarray(t, dtype=float)
-        th0, omega, T = math.radians(self.from_deg), math.radians(self.to_rate_deg_s), self.duration
+        th0, omega = math.radians(self.from_deg), math.radians(self.to_rate_deg_s)
+        T = self.duration
         s = t - self.start
         sc = np.clip(s, 0.0, T)
         half = np.pi * sc / T  # half the phase 2πs/T

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -27,6 +28,7 @@ class ScenarioError(ValueError):
 
 
 _MISSING = object()
+NAME_PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,63}")
 
 
 def describe(value: Any) -> str:
@@ -58,7 +60,7 @@ def range_text(
     for bound, sign in ((gt, ">"), (ge, ">="), (lt, "<"), (le, "<=")):
         if bound is not None:
             return f"{sign} {bound:g}"
-    return "any finite number"
+    return ""
 
 
 class Problems:
@@ -73,7 +75,9 @@ class Problems:
     def add(self, message: str) -> None:
         self.messages.append(message)
 
-    def unknown_keys(self, table: Mapping[str, Any], allowed: Iterable[str], path: str) -> None:
+    def unknown_keys(
+        self, table: Mapping[str, Any], allowed: Iterable[str], path: str, noun: str = "key"
+    ) -> None:
         """Report every key of ``table`` not in ``allowed``, suggesting the closest one."""
         allowed = list(allowed)
         for key in table:
@@ -81,7 +85,7 @@ class Problems:
                 continue
             close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
             hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(allowed)
-            self.add(f"{path}: unknown key '{key}' ({hint})")
+            self.add(f"{path + ': ' if path else ''}unknown {noun} '{key}' ({hint})")
 
     def _get(
         self, table: Mapping[str, Any], key: str, path: str, default: Any, what: str
@@ -109,10 +113,9 @@ class Problems:
         nonzero: bool = False,
     ) -> float | None:
         """A finite real number (int or float, not bool) within the given bounds, as float."""
-        allowed = range_text(gt, ge, lt, le) + (f" {unit}" if unit else "")
-        if nonzero:
-            allowed = "non-zero" + (f" {unit}" if unit else "")
-        present, value = self._get(table, key, path, default, f"a number, {allowed}")
+        allowed = f"{'non-zero' if nonzero else range_text(gt, ge, lt, le)} {unit}".strip()
+        what = f"a number {allowed}" if allowed != unit else f"a number ({unit})" if unit else ""
+        present, value = self._get(table, key, path, default, what or "a number")
         if not present:
             return value
         field = f"{path}.{key}"
@@ -191,3 +194,38 @@ class Problems:
             return value
         self.add(f"{path}.{key}: expected true or false, got {describe(value)}")
         return None
+
+    def table_array(
+        self, raw: Mapping[str, Any], key: str, *, required: bool
+    ) -> list[tuple[str, dict[str, Any]]]:
+        """The tables of an array of tables ``[[key]]`` with their paths."""
+        if key not in raw:
+            if required:
+                self.add(f"missing section [[{key}]] (at least one table)")
+            return []
+        value = raw[key]
+        if not isinstance(value, list):
+            self.add(f"{key}: expected an array of tables [[{key}]], got {describe(value)}")
+            return []
+        if required and not value:
+            self.add(f"{key}: needs at least one table")
+        out = []
+        for i, table in enumerate(value):
+            if isinstance(table, Mapping):
+                out.append((f"{key}[{i}]", dict(table)))
+            else:
+                self.add(f"{key}[{i}]: expected a table, got {describe(table)}")
+        return out
+
+    def check_names(self, names: list[str | None], section: str) -> None:
+        """Names label output channels: unique, 1-64 of letters, digits, '_', '-', '.'."""
+        seen: set[str] = set()
+        for i, name in enumerate(names):
+            if name is None:
+                continue
+            if not NAME_PATTERN.fullmatch(name):
+                self.add(f"{section}[{i}].name must be 1-64 letters, digits, '_', '-' or '.' "
+                         f"(it names output channels), got {name!r}")
+            if name in seen:
+                self.add(f"{section}[{i}].name: duplicate name {name!r} (names must be unique)")
+            seen.add(name)

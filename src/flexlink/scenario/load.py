@@ -8,7 +8,6 @@ Angles stay in degrees here: the motion constructors take degrees and convert on
 
 from __future__ import annotations
 
-import re
 import tomllib
 from collections.abc import Mapping
 from importlib.metadata import PackageNotFoundError, version
@@ -30,13 +29,7 @@ PROFILES: dict[str, tuple[str, ...]] = {
     "spinup": ("to_rate_deg_s", "start", "duration", "from_deg"),
     "hold": ("angle_deg",),
 }
-OPTIONAL_PROFILE_KEYS = {"from_deg": 0.0}  # only spinup lists from_deg as optional
 CSV_KEYS = ("csv", "time_column", "angle_column", "lowpass_hz")
-NAME_PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,63}")
-GEOMETRIC_STIFFENING_MESSAGE = (
-    "simulation.geometric_stiffening = true is not available yet (planned: geometric "
-    "stiffening issue); use false (the paper's model)"
-)
 
 
 def flexlink_version() -> str:
@@ -101,26 +94,26 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     p = Problems()
     if not isinstance(raw, Mapping):
         raise ScenarioError([f"expected a table of sections, got {describe(raw)}"], source)
-    p.unknown_keys(raw, SECTIONS, "scenario")
-    if "flexlink_version" in raw:
+    p.unknown_keys(raw, SECTIONS, "", noun="section")
+    if "flexlink_version" in raw:  # informational, written into resolved scenarios
         p.string(raw, "flexlink_version", "scenario")
     simulation = _simulation(raw, p, default_name)
-    links = [_link(t, path, p) for path, t in p.table_array(raw, "links", p, required=True)]
-    link_names = [lk["name"] if lk else None for lk in links]
-    p.check_names(link_names, "links", p)
-    joint_tables = p.table_array(raw, "joints", p, required=True)
+    links = [_link(t, path, p) for path, t in p.table_array(raw, "links", required=True)]
+    link_names = [lk.get("name") for lk in links]
+    p.check_names(link_names, "links")
+    joint_tables = p.table_array(raw, "joints", required=True)
     if links and joint_tables and len(joint_tables) != len(links):
         p.add(f"joints: expected one [[joints]] table per link ({len(links)}), "
               f"got {len(joint_tables)}")
     joints, motions = [], []
     for path, table in joint_tables:
-        joint, motion = _joint(table, path, base_dir, p)
+        joint, motion = _joint(table, path, base_dir, simulation.get("t_end"), p)
         joints.append(joint)
         motions.append(motion)
     reserved = {"t", "time"} | {f"joint{k}_angle" for k in range(1, len(links) + 1)}
     reserved |= {f"{n}_tip_{axis}" for n in link_names if n for axis in "XY"}
-    sensors = read_sensors(p.table_array(raw, "sensors", p, required=False), links, reserved, p)
-    p.check_names([s["name"] if s else None for s in sensors], "sensors", p)
+    sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
+    p.check_names([s.get("name") for s in sensors], "sensors")
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
@@ -148,12 +141,12 @@ def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[
         p.add(f"simulation.dt_out must be <= simulation.t_end ({out['t_end']!r} s), "
               f"got {out['dt_out']!r}")
     if out["geometric_stiffening"] is True:
-        p.add(GEOMETRIC_STIFFENING_MESSAGE)
+        p.add("simulation.geometric_stiffening = true is not available yet (planned: geometric "
+              "stiffening issue); use false (the paper's model)")
     return out
 
 
-def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any] | None:
-    before = len(p.messages)
+def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any]:
     p.unknown_keys(table, LINK_KEYS, path)
     out: dict[str, Any] = {
         "name": p.string(table, "name", path),
@@ -186,20 +179,16 @@ def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any] | Non
         "mode_shapes": p.string(table, "mode_shapes", path, choices=MODE_SHAPES,
                                 default="clamped_free"),
     })
-    if len(p.messages) > before:
-        # keep the name (and length) for cross-checks even if another key was wrong
-        return {"name": out["name"], "length": out["length"], "thickness": thickness,
-                "invalid": True}
     return {k: v for k, v in out.items() if v is not None}
 
 
-def _joint(table: dict[str, Any], path: str, base_dir: Path,
+def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,
            p: Problems) -> tuple[dict[str, Any], JointMotion | None]:
     if "motion" in table and "csv" in table:
         p.add(f"{path}: give either 'motion' (profiles) or 'csv' (measured angles), not both")
         return {}, None
     if "csv" in table:
-        return _csv_joint(table, path, base_dir, p)
+        return _csv_joint(table, path, base_dir, t_end, p)
     if "motion" not in table:
         p.add(f"{path}: missing 'motion' (an array of profiles) or 'csv' (measured angles)")
         p.unknown_keys(table, ("motion", *CSV_KEYS), path)
@@ -224,7 +213,8 @@ def _joint(table: dict[str, Any], path: str, base_dir: Path,
     try:
         return {"motion": resolved}, motion_module.Sequence(tuple(built))
     except ValueError as exc:
-        p.add(f"{path}: {exc}")
+        message = str(exc)  # names the segment as "motion[i]"
+        p.add(f"{path}.{message}" if message.startswith("motion[") else f"{path}: {message}")
         return {"motion": resolved}, None
 
 
@@ -242,10 +232,10 @@ def _segment(segment: Any, path: str, motion_module: Any,
     p.unknown_keys(segment, ("profile", *keys), path)
     values: dict[str, Any] = {}
     for key in keys:
-        optional = profile == "spinup" and key in OPTIONAL_PROFILE_KEYS
-        default = OPTIONAL_PROFILE_KEYS[key] if optional else ...
-        values[key] = (p.number(segment, key, path, default=default) if optional
-                       else p.number(segment, key, path))
+        if profile == "spinup" and key == "from_deg":  # the only optional profile key
+            values[key] = p.number(segment, key, path, default=0.0)
+        else:
+            values[key] = p.number(segment, key, path)
     entry = {"profile": profile, **values}
     if len(p.messages) > before:
         return entry, None
@@ -253,12 +243,15 @@ def _segment(segment: Any, path: str, motion_module: Any,
     try:
         return entry, cls(**values)
     except ValueError as exc:
-        p.add(f"{path}: {exc}")
+        message, label = str(exc), f"{cls.__name__}: "  # "Cycloidal: duration must be …"
+        p.add(f"{path}.{message.removeprefix(label)}" if message.startswith(label)
+              else f"{path}: {message}")
         return entry, None
 
 
-def _csv_joint(table: dict[str, Any], path: str, base_dir: Path,
+def _csv_joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,
                p: Problems) -> tuple[dict[str, Any], JointMotion | None]:
+    before = len(p.messages)
     p.unknown_keys(table, CSV_KEYS, path)
     csv = p.string(table, "csv", path)
     entry: dict[str, Any] = {
@@ -268,7 +261,7 @@ def _csv_joint(table: dict[str, Any], path: str, base_dir: Path,
         "lowpass_hz": p.number(table, "lowpass_hz", path, unit="Hz", gt=0, default=None),
     }
     entry = {k: v for k, v in entry.items() if v is not None}
-    if len(entry) < 3 or (entry.get("lowpass_hz") is None and "lowpass_hz" in table):
+    if len(p.messages) > before:
         return entry, None
     if not Path(entry["csv"]).is_file():
         p.add(f"{path}.csv: file not found: {entry['csv']} (paths are relative to the "
@@ -277,11 +270,17 @@ def _csv_joint(table: dict[str, Any], path: str, base_dir: Path,
     from ..motion import MeasuredMotion
 
     try:
-        return entry, MeasuredMotion.from_csv(Path(entry["csv"]), time_column=entry[
-            "time_column"], angle_column=entry["angle_column"], lowpass_hz=entry.get("lowpass_hz"))
+        motion = MeasuredMotion.from_csv(Path(entry["csv"]), time_column=entry["time_column"],
+                                         angle_column=entry["angle_column"],
+                                         lowpass_hz=entry.get("lowpass_hz"))
     except (ValueError, OSError) as exc:
         p.add(f"{path}.csv: {exc}")
         return entry, None
+    first, last = motion.time_range
+    if t_end is not None and (first > 1e-9 or last < t_end - 1e-9):
+        p.add(f"{path}.csv: the measured angles cover {first:g} s to {last:g} s; the "
+              f"simulation needs 0 s to simulation.t_end = {t_end:g} s")
+    return entry, motion
 
 
 def _build(resolved: dict[str, Any], motions: list[JointMotion | None]) -> Scenario:
@@ -289,12 +288,8 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion | None]) -> Scena
     settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
                                   geometric_stiffening=sim["geometric_stiffening"],
                                   rtol=sim["rtol"], atol=sim["atol"])
-    link_fields = ("name", "length", "mass_per_length", "EI", "tip_mass", "tip_inertia",
-                   "damping_ratio", "modes", "mode_shapes")
-    links = tuple(
-        Link(**{k: lk[k] for k in link_fields}, thickness=lk.get("thickness"))
-        for lk in resolved["links"]
-    )
+    links = tuple(Link(**{k: v for k, v in lk.items() if k != "width"})
+                  for lk in resolved["links"])
     index = {link.name: i for i, link in enumerate(links)}
     sensors: list[PointSensor | PiezoSensor] = []
     for s in resolved["sensors"]:

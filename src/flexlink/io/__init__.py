@@ -1,0 +1,5 @@
+"""Run folders: results (CSV, netCDF), the resolved scenario and figures."""
+
+from .writers import OutputFolderError, check_output_dir, dump_toml, write_run
+
+__all__ = ["OutputFolderError", "check_output_dir", "dump_toml", "write_run"]

@@ -1,0 +1,192 @@
+"""Write one run into a results folder, atomically.
+
+Everything goes into a hidden sibling folder first, which is renamed into place at the end:
+a failed or interrupted run never leaves a half-written results folder behind.
+
+Folder contents: ``results.csv`` (``t`` in s, then one column per channel, SI),
+``channels.csv`` (name, unit, description of each column), ``results.nc`` (netCDF with units
+in the attributes), ``scenario.resolved.toml`` (the scenario with every default filled in, and
+the flexlink version) and ``figures/*.png``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+import shutil
+import uuid
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..results import Results
+
+RESOLVED_NAME = "scenario.resolved.toml"
+CSV_FORMAT = "%.10g"
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+class OutputFolderError(FileExistsError):
+    """The output folder cannot be used (it holds other files, or is not a folder)."""
+
+
+def check_output_dir(out_dir: Path, overwrite: bool = False) -> None:
+    """Raise OutputFolderError unless ``out_dir`` is absent, empty, or (with ``overwrite``)
+    an earlier flexlink results folder. Call it before a long simulation to fail early."""
+    out_dir = Path(out_dir)
+    if not out_dir.exists():
+        return
+    if not out_dir.is_dir():
+        raise OutputFolderError(f"output path {out_dir} exists and is not a folder")
+    if not any(out_dir.iterdir()):
+        return
+    if not overwrite:
+        raise OutputFolderError(f"output folder {out_dir} already exists and is not empty; "
+                                "choose another folder or overwrite it (--overwrite)")
+    if not (out_dir / RESOLVED_NAME).is_file():
+        raise OutputFolderError(f"refusing to overwrite {out_dir}: it does not look like a "
+                                f"flexlink results folder (no {RESOLVED_NAME} in it)")
+
+
+def write_run(
+    results: Results,
+    out_dir: Path,
+    resolved: Mapping[str, Any],
+    figures: bool = True,
+    overwrite: bool = False,
+) -> Path:
+    """Write ``results`` and the ``resolved`` scenario dict into ``out_dir``; return it."""
+    out_dir = Path(out_dir)
+    check_output_dir(out_dir, overwrite)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    partial = out_dir.parent / f".{out_dir.name}.partial-{uuid.uuid4().hex[:8]}"
+    partial.mkdir()
+    try:
+        write_results_csv(results, partial / "results.csv")
+        write_channels_csv(results, partial / "channels.csv")
+        write_netcdf(results, partial / "results.nc")
+        (partial / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
+        if figures:
+            sensors = [s["name"] for s in resolved.get("sensors", [])]
+            write_figures(results, partial / "figures", sensors)
+        _move_into_place(partial, out_dir)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
+    return out_dir
+
+
+def _move_into_place(partial: Path, out_dir: Path) -> None:
+    if out_dir.exists():  # empty, or an old run that check_output_dir allowed to replace
+        old = out_dir.parent / f".{out_dir.name}.old-{uuid.uuid4().hex[:8]}"
+        out_dir.rename(old)
+        partial.rename(out_dir)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        partial.rename(out_dir)
+
+
+def write_results_csv(results: Results, path: Path) -> None:
+    """``t`` (s) then one column per channel (SI), comma separated, 10 significant digits."""
+    table = np.column_stack([results.time, *(results[n] for n in results.names)])
+    header = ",".join(["t", *results.names])
+    np.savetxt(path, table, fmt=CSV_FORMAT, delimiter=",", header=header, comments="")
+
+
+def write_channels_csv(results: Results, path: Path) -> None:
+    """One row per column of results.csv: name, unit, description."""
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["name", "unit", "description"])
+        writer.writerow(["t", "s", "time"])
+        for name, signal in results.signals.items():
+            writer.writerow([name, signal.unit, signal.description])
+
+
+def write_netcdf(results: Results, path: Path) -> None:
+    """netCDF-3 through scipy (no netCDF4 library needed); skipped with a warning on failure."""
+    try:
+        results.to_xarray().to_netcdf(path, engine="scipy")
+    except Exception as exc:  # an optional output: the CSV holds the same data
+        path.unlink(missing_ok=True)
+        warnings.warn(f"results.nc not written: {exc}", RuntimeWarning, stacklevel=3)
+
+
+def write_figures(results: Results, folder: Path, sensors: Sequence[str]) -> list[Path]:
+    """joint_angles.png, sensors.png (if any sensor) and tip_paths.png; return their paths."""
+    from .. import plotting
+
+    folder.mkdir(exist_ok=True)
+    figures = {}
+    if plotting.joint_channels(results):
+        figures["joint_angles"] = plotting.plot_joint_angles(results)
+    present = [s for s in sensors if s in results.signals]
+    if present:
+        figures["sensors"] = plotting.plot_sensors(results, present)
+    if plotting.tip_links(results):
+        figures["tip_paths"] = plotting.plot_tip_paths(results)
+    paths = []
+    for stem, fig in figures.items():
+        paths.append(folder / f"{stem}.png")
+        fig.savefig(paths[-1], dpi=plotting.DPI)
+    return paths
+
+
+def resolved_toml(resolved: Mapping[str, Any]) -> str:
+    """The resolved scenario as TOML, headed by a comment saying what it is."""
+    version = resolved.get("flexlink_version", "unknown")
+    head = (f"# Resolved scenario written by flexlink {version}: every default filled in,\n"
+            "# bending stiffness as EI, CSV paths absolute. Run it again with\n"
+            "#   flexlink run scenario.resolved.toml -o NEW_FOLDER\n\n")
+    return head + dump_toml(resolved)
+
+
+def dump_toml(data: Mapping[str, Any]) -> str:
+    """A small TOML writer for scenario dicts: scalars, arrays, tables, arrays of tables.
+
+    ``None`` values are left out (TOML has no null).
+    """
+    lines: list[str] = []
+    scalars = {k: v for k, v in data.items() if not _is_table(v) and not _is_table_array(v)}
+    lines += [f"{_key(k)} = {_value(v)}" for k, v in scalars.items() if v is not None]
+    for key, value in data.items():
+        if _is_table(value):
+            lines += ["", f"[{_key(key)}]"]
+            lines += [f"{_key(k)} = {_value(v)}" for k, v in value.items() if v is not None]
+        elif _is_table_array(value):
+            for table in value:
+                lines += ["", f"[[{_key(key)}]]"]
+                lines += [f"{_key(k)} = {_value(v)}" for k, v in table.items() if v is not None]
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def _is_table(value: Any) -> bool:
+    return isinstance(value, Mapping)
+
+
+def _is_table_array(value: Any) -> bool:
+    return isinstance(value, list) and bool(value) and all(isinstance(v, Mapping) for v in value)
+
+
+def _key(key: str) -> str:
+    return key if _BARE_KEY.fullmatch(key) else json.dumps(key)
+
+
+def _value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(float(value)) if isinstance(value, float) else repr(value)
+    if isinstance(value, str):
+        # JSON's string escapes are valid TOML; TOML also wants DEL escaped
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
+    if isinstance(value, Mapping):
+        items = ", ".join(f"{_key(k)} = {_value(v)}" for k, v in value.items() if v is not None)
+        return "{ " + items + " }" if items else "{}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {type(value).__name__} {value!r} as TOML")

@@ -1,0 +1,121 @@
+"""Figures of a run, in the style of the paper's Figs. 7–9.
+
+Figures are built on `matplotlib.figure.Figure` directly (no pyplot, no global state), so
+they render with the Agg backend whatever backend is active. Signals are stored in SI and
+radians; the axes show degrees for angles and convenient multiples (mm, µstrain) elsewhere.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from .results import Results
+
+DPI = 150
+_JOINT = re.compile(r"joint(\d+)_angle")
+# stored unit → (display factor, display unit)
+_DISPLAY: dict[str, tuple[float, str]] = {
+    "rad": (180.0 / math.pi, "deg"),
+    "m": (1e3, "mm"),
+    "1": (1e6, "µstrain"),
+    "-": (1e6, "µstrain"),
+    "m/s^2": (1.0, "m/s²"),
+}
+
+
+def display_scale(unit: str) -> tuple[float, str]:
+    """(factor, unit) to show a signal stored in ``unit``: values × factor in that unit."""
+    return _DISPLAY.get(unit, (1.0, unit))
+
+
+def joint_channels(results: Results) -> list[str]:
+    """``joint{k}_angle`` channels, ordered by k."""
+    found = [(int(m.group(1)), n) for n in results.names if (m := _JOINT.fullmatch(n))]
+    return [name for _, name in sorted(found)]
+
+
+def tip_links(results: Results) -> list[str]:
+    """Names of the links whose tip position (``{link}_tip_X``, ``{link}_tip_Y``) was saved."""
+    names = set(results.names)
+    return [n[: -len("_tip_X")] for n in results.names
+            if n.endswith("_tip_X") and n[: -len("_tip_X")] + "_tip_Y" in names]
+
+
+def sensor_channels(results: Results) -> list[str]:
+    """Channels that are neither joint angles nor tip positions: the user's sensors."""
+    automatic = set(joint_channels(results))
+    automatic |= {f"{link}_tip_{axis}" for link in tip_links(results) for axis in "XY"}
+    return [n for n in results.names if n not in automatic]
+
+
+def _style(ax: Axes) -> None:
+    ax.grid(True, linewidth=0.5, alpha=0.6)
+    ax.tick_params(direction="in", top=True, right=True)
+
+
+def plot_joint_angles(results: Results) -> Figure:
+    """Joint angles β_k in degrees against time (s), like the paper's Fig. 7."""
+    names = joint_channels(results)
+    if not names:
+        raise ValueError("no joint angle channels (joint<k>_angle) in the results")
+    fig = Figure(figsize=(6.4, 3.6), dpi=DPI, layout="constrained")
+    ax = fig.add_subplot()
+    for name in names:
+        k = _JOINT.fullmatch(name).group(1)  # type: ignore[union-attr]
+        ax.plot(results.time, np.degrees(results[name]), label=f"β{k}")
+    ax.set_xlabel("time t [s]")
+    ax.set_ylabel("joint angle [deg]")
+    ax.set_xlim(results.time[0], results.time[-1])
+    ax.legend(loc="best")
+    _style(ax)
+    return fig
+
+
+def plot_sensors(results: Results, names: Sequence[str] | None = None) -> Figure:
+    """One panel per sensor channel against time (s), like the paper's Figs. 8–9.
+
+    ``names`` defaults to every channel that is not a joint angle or a tip position.
+    """
+    names = list(sensor_channels(results) if names is None else names)
+    if not names:
+        raise ValueError("no sensor channels to plot")
+    fig = Figure(figsize=(6.4, 1.1 + 1.9 * len(names)), dpi=DPI, layout="constrained")
+    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, name in zip(axes, names, strict=True):
+        signal = results.signals[name]
+        factor, unit = display_scale(signal.unit)
+        ax.plot(results.time, signal.values * factor, linewidth=1.0)
+        ax.set_ylabel(f"[{unit}]" if unit else "[-]")
+        ax.set_title(f"{name}: {signal.description}", fontsize="medium", loc="left")
+        _style(ax)
+    axes[-1].set_xlabel("time t [s]")
+    axes[-1].set_xlim(results.time[0], results.time[-1])
+    return fig
+
+
+def plot_tip_paths(results: Results) -> Figure:
+    """The X–Y path (m) of each link's deformed tip in the plane, with equal axis scales."""
+    links = tip_links(results)
+    if not links:
+        raise ValueError("no tip position channels (<link>_tip_X, <link>_tip_Y) in the results")
+    fig = Figure(figsize=(5.6, 5.2), dpi=DPI, layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot([0.0], [0.0], "k+", markersize=10, label="joint 1 (origin)")
+    for link in links:
+        x, y = results[f"{link}_tip_X"], results[f"{link}_tip_Y"]
+        (line,) = ax.plot(x, y, linewidth=1.0, label=f"tip of {link}")
+        ax.plot(x[0], y[0], "o", color=line.get_color(), markersize=4)
+        ax.plot(x[-1], y[-1], "s", color=line.get_color(), markersize=4)
+    ax.set_xlabel("X [m]")
+    ax.set_ylabel("Y [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_title("tip paths (○ start, □ end)", fontsize="medium")
+    ax.legend(loc="best", fontsize="small")
+    _style(ax)
+    return fig

@@ -1,0 +1,105 @@
+"""The ``[[sensors]]`` section: point sensors and PZT patches, checked against their link."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .errors import Problems
+
+POINT_KINDS = ("deflection", "slope", "strain", "acceleration")
+KINDS = (*POINT_KINDS, "piezo")
+PIEZO_KEYS = ("x_start", "x_end", "width", "E_p", "d31", "thickness", "capacitance")
+
+
+def read_sensors(
+    tables: list[tuple[str, dict[str, Any]]],
+    links: list[dict[str, Any]],
+    reserved: set[str],
+    p: Problems,
+) -> list[dict[str, Any]]:
+    """Resolved sensor dicts (link by name, strain/piezo thickness filled in from the link).
+
+    ``links`` are the resolved link dicts (possibly incomplete when they had problems);
+    ``reserved`` are the automatic channel names a sensor must not take.
+    """
+    by_name = {lk["name"]: lk for lk in links if "name" in lk}
+    out = []
+    for path, table in tables:
+        name = p.string(table, "name", path)
+        if name is not None and name in reserved:
+            p.add(f"{path}.name {name!r} clashes with an automatic output channel "
+                  "(t, time, joint<k>_angle, <link>_tip_X, <link>_tip_Y); choose another")
+        kind = p.string(table, "kind", path, choices=KINDS)
+        link = _link_of(table, path, by_name, p)
+        entry: dict[str, Any] = {"name": name, "kind": kind, "link": link and link["name"]}
+        if kind == "piezo":
+            p.unknown_keys(table, ("name", "kind", "link", *PIEZO_KEYS), path)
+            entry.update(_piezo(table, path, link, p))
+        elif kind is not None:
+            keys = ("name", "kind", "link", "x") + (("thickness",) if kind == "strain" else ())
+            p.unknown_keys(table, keys, path)
+            entry.update(_point(table, path, kind, link, p))
+        out.append({k: v for k, v in entry.items() if v is not None})
+    return out
+
+
+def _link_of(table: dict[str, Any], path: str, by_name: dict[str, dict[str, Any]],
+             p: Problems) -> dict[str, Any] | None:
+    name = p.string(table, "link", path)
+    if name is None:
+        return None
+    if name not in by_name:
+        known = ", ".join(repr(n) for n in by_name) or "none"
+        p.add(f"{path}.link: unknown link {name!r} (known links: {known})")
+        return None
+    return by_name[name]
+
+
+def _position(table: dict[str, Any], key: str, path: str, link: dict[str, Any] | None,
+              p: Problems, **bounds: float) -> float | None:
+    """A position along the link (m), at most the link's length when that is known."""
+    value = p.number(table, key, path, unit="m", **bounds)
+    length = link.get("length") if link else None
+    if value is not None and length is not None and value > length:
+        p.add(f"{path}.{key} must be <= {length!r} m (the length of link "
+              f"{link['name']!r}), got {value!r}")  # type: ignore[index]
+        return None
+    return value
+
+
+def _thickness(table: dict[str, Any], path: str, link: dict[str, Any] | None,
+               p: Problems) -> float | None:
+    """The host beam thickness (m): given here, else the link's ``thickness``."""
+    if "thickness" in table:
+        return p.number(table, "thickness", path, unit="m", gt=0)
+    if link is None:  # the unknown link is reported already
+        return None
+    if link.get("thickness") is None:
+        p.add(f"{path}: missing required key 'thickness' (m, > 0; link {link['name']!r} "
+              "gives no thickness to default to)")
+    return link.get("thickness")
+
+
+def _point(table: dict[str, Any], path: str, kind: str, link: dict[str, Any] | None,
+           p: Problems) -> dict[str, Any]:
+    out = {"x": _position(table, "x", path, link, p, ge=0)}
+    if kind == "strain":
+        out["thickness"] = _thickness(table, path, link, p)
+    return out
+
+
+def _piezo(table: dict[str, Any], path: str, link: dict[str, Any] | None,
+           p: Problems) -> dict[str, Any]:
+    out = {
+        "x_start": _position(table, "x_start", path, link, p, ge=0),
+        "x_end": _position(table, "x_end", path, link, p, gt=0),
+        "width": p.number(table, "width", path, unit="m", gt=0),
+        "E_p": p.number(table, "E_p", path, unit="Pa", gt=0),
+        "d31": p.number(table, "d31", path, unit="m/V", nonzero=True),
+        "thickness": _thickness(table, path, link, p),
+        "capacitance": p.number(table, "capacitance", path, unit="F", gt=0),
+    }
+    start, end = out["x_start"], out["x_end"]
+    if start is not None and end is not None and start >= end:
+        p.add(f"{path}: x_start must be < x_end, got x_start = {start!r} m, x_end = {end!r} m")
+    return out
