@@ -11,7 +11,7 @@ from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 
-ModeShapes = Literal["clamped_free", "tip_loaded"]
+ModeShapes = Literal["clamped_free", "tip_loaded", "outboard_loaded"]
 PointSensorKind = Literal["deflection", "slope", "strain", "acceleration"]
 
 
@@ -31,6 +31,9 @@ class Link:
     tip_inertia: float = 0.0  # kg·m², about the tip, rotates with the tip section
     damping_ratio: float = 0.0  # modal damping ratio of every clamped mode
     modes: int = 4  # number of assumed modes
+    # clamped_free: classical cantilever modes; tip_loaded: modes of the cantilever with this
+    # link's tip mass and inertia; outboard_loaded: the tip body also holds the rest of the chain
+    # (rigid, as at t = 0) — lets an inner link carry the outer links' tip moment.
     mode_shapes: ModeShapes = "clamped_free"
     thickness: float | None = None  # m, section depth in the bending plane (strain sensors)
 

@@ -28,6 +28,9 @@ _DISPLAY: dict[str, tuple[float, str]] = {
     "m/s^2": (1.0, "m/s²"),
 }
 
+_QUANTITY = {"mm": "deflection", "deg": "slope", "µstrain": "strain", "m/s²": "acceleration",
+             "V": "voltage"}  # axis label for a display unit
+
 
 def display_scale(unit: str) -> tuple[float, str]:
     """(factor, unit) to show a signal stored in ``unit``: values × factor in that unit."""
@@ -68,7 +71,7 @@ def plot_joint_angles(results: Results) -> Figure:
     ax = fig.add_subplot()
     for name in names:
         k = _JOINT.fullmatch(name).group(1)  # type: ignore[union-attr]
-        ax.plot(results.time, np.degrees(results[name]), label=f"β{k}")
+        ax.plot(results.time, np.degrees(results[name]), label=rf"$\beta_{{{k}}}$")
     ax.set_xlabel("time t [s]")
     ax.set_ylabel("joint angle [deg]")
     ax.set_xlim(results.time[0], results.time[-1])
@@ -91,7 +94,7 @@ def plot_sensors(results: Results, names: Sequence[str] | None = None) -> Figure
         signal = results.signals[name]
         factor, unit = display_scale(signal.unit)
         ax.plot(results.time, signal.values * factor, linewidth=1.0)
-        ax.set_ylabel(f"[{unit}]" if unit else "[-]")
+        ax.set_ylabel(f"{_QUANTITY.get(unit, name)} [{unit or '-'}]")
         ax.set_title(f"{name}: {signal.description}", fontsize="medium", loc="left")
         _style(ax)
     axes[-1].set_xlabel("time t [s]")

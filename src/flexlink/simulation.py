@@ -39,7 +39,8 @@ def simulate(scenario: Scenario, progress: bool = False) -> Results:
     with _ProgressBar(settings.t_end, enabled=progress) as bar:
         if settings.method == "magnus":
             z, zd = integrate_magnus(
-                system.matrices, system.n, t, settings.rtol, settings.atol, on_progress=bar.update
+                system.matrices, system.n, t, settings.rtol, settings.atol,
+                on_progress=bar.update, max_frequency=system.max_frequency,
             )
         else:
             z, zd = integrate_second_order(

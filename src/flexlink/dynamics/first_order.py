@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Chain
-from ..modes import ModalData, modal_data
+from ..modes import ModalData, ModeShapes, modal_data, tip_loaded_modes
 from .kinematics import FrameMotion, JointHistory, frame_motion, rotation
 
 
@@ -54,17 +54,48 @@ def _link_body(data: ModalData, offset: int) -> LinkBody:
     return LinkBody(data, offset, M0, data.tip_inertia * np.outer(c, c), N - N.T)
 
 
+def _outboard_loaded_shapes(chain: Chain, k: int) -> ModeShapes:
+    """Cantilever modes of link k carrying its tip body plus the rigid outboard chain.
+
+    The outboard links are taken rigid and straight in their t = 0 joint angles; their mass and
+    their rotary inertia about link k's tip make the tip body (the offset of their centre of
+    mass is ignored: this only chooses a basis, the dynamics keep every coupling)."""
+    link = chain.links[k]
+    mass, inertia = link.tip_mass, link.tip_inertia
+    position, angle = np.zeros(2), 0.0
+    for j in range(k + 1, len(chain.links)):
+        outer = chain.links[j]
+        angle += float(np.asarray(chain.joints[j].evaluate(np.array([0.0]))[0]).ravel()[0])
+        axis = np.array([np.cos(angle), np.sin(angle)])
+        m, L = outer.mass_per_length * outer.length, outer.length
+        d = float(position @ axis)  # rigid link from `position` along `axis`, ∫|r|² dm:
+        inertia += m * (position @ position + d * L + L**2 / 3) + outer.tip_inertia
+        position = position + L * axis
+        mass += m + outer.tip_mass
+        inertia += outer.tip_mass * float(position @ position)
+    return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
+
+
 class FirstOrderSystem:
     """The assembled first-order model of a chain; evaluate its matrices at any times."""
 
     def __init__(self, chain: Chain, geometric_stiffening: bool = False) -> None:
         self.chain = chain
         self.geometric_stiffening = geometric_stiffening
-        self.modal: list[ModalData] = [modal_data(link) for link in chain.links]
+        self.modal: list[ModalData] = [
+            modal_data(link, shapes=_outboard_loaded_shapes(chain, k))
+            if link.mode_shapes == "outboard_loaded" else modal_data(link)
+            for k, link in enumerate(chain.links)
+        ]
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
         self.offsets: list[int] = [int(o) for o in offsets[:-1]]
         self.n: int = int(offsets[-1])
         self.bodies = [_link_body(d, o) for d, o in zip(self.modal, self.offsets)]
+
+    @property
+    def max_frequency(self) -> float:
+        """Highest clamped natural frequency of any link, rad/s."""
+        return float(max(2 * np.pi * d.natural_frequencies_hz.max() for d in self.modal))
 
     # -- kinematics -------------------------------------------------------------------------
     def joint_history(self, t: np.ndarray) -> JointHistory:

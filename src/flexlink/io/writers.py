@@ -60,10 +60,10 @@ def write_run(
     overwrite: bool = False,
 ) -> Path:
     """Write ``results`` and the ``resolved`` scenario dict into ``out_dir``; return it."""
-    out_dir = Path(out_dir)
-    check_output_dir(out_dir, overwrite)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    partial = out_dir.parent / f".{out_dir.name}.partial-{uuid.uuid4().hex[:8]}"
+    check_output_dir(Path(out_dir), overwrite)
+    target = Path(out_dir).resolve()
+    target.parent.mkdir(parents=True, exist_ok=True)
+    partial = target.parent / f".{target.name}.partial-{uuid.uuid4().hex[:8]}"
     partial.mkdir()
     try:
         write_results_csv(results, partial / "results.csv")
@@ -73,11 +73,11 @@ def write_run(
         if figures:
             sensors = [s["name"] for s in resolved.get("sensors", [])]
             write_figures(results, partial / "figures", sensors)
-        _move_into_place(partial, out_dir)
+        _move_into_place(partial, target)
     except BaseException:
         shutil.rmtree(partial, ignore_errors=True)
         raise
-    return out_dir
+    return Path(out_dir)
 
 
 def _move_into_place(partial: Path, out_dir: Path) -> None:

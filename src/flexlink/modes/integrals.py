@@ -91,9 +91,11 @@ def _weighted_gram(f: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return _sym(f.T @ (weights[:, None] * f))
 
 
-def modal_data(link: Link, quadrature_points: int | None = None) -> ModalData:
+def modal_data(
+    link: Link, quadrature_points: int | None = None, shapes: ModeShapes | None = None
+) -> ModalData:
     """Compute all modal integrals of ``link`` by composite Gauss–Legendre quadrature."""
-    shapes = mode_shapes_for(link)
+    shapes = mode_shapes_for(link) if shapes is None else shapes
     L, m, m_t, J_t = link.length, link.mass_per_length, link.tip_mass, link.tip_inertia
     x, w = _gauss_legendre(L, float(shapes.beta_l.max()), quadrature_points)
     phi = shapes.evaluate(x)

@@ -25,7 +25,7 @@ from flexlink.model import Link
 
 __all__ = ["ModeShapes", "clamped_free_modes", "tip_loaded_modes", "mode_shapes_for"]
 
-_NORM_PANELS_PER_MODE = 0.5  # quadrature panels per unit of λ for the normalisation integral
+_NORM_PANELS_PER_LAMBDA = 0.5  # quadrature panels per unit of λ for the normalisation integral
 _GAUSS_POINTS = 20  # Gauss–Legendre points per panel
 
 
@@ -111,7 +111,7 @@ def _build(length: float, lam: np.ndarray, mu: float, j: float, kind: str) -> Mo
     c, growing = _coefficients(lam, mu)
     raw = ModeShapes(length, lam.size, lam, c, growing, np.ones_like(lam), kind)
     # Normalisation: ∫φ²dx/L + μ φ(L)² + j L² φ'(L)² = 1, by composite Gauss–Legendre.
-    panels = max(2, int(np.ceil(_NORM_PANELS_PER_MODE * lam.max())))
+    panels = max(2, int(np.ceil(_NORM_PANELS_PER_LAMBDA * lam.max())))
     g, w = np.polynomial.legendre.leggauss(_GAUSS_POINTS)
     edges = np.linspace(0.0, length, panels + 1)
     half = 0.5 * np.diff(edges)

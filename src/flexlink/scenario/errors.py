@@ -176,7 +176,7 @@ class Problems:
             self.add(f"{field}: expected a string, got {describe(value)}")
             return None
         if options is not None and value not in options:
-            close = difflib.get_close_matches(value, options, n=1)
+            close = difflib.get_close_matches(value, options, n=1, cutoff=0.7)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             self.add(f"{field} must be {what}, got {value!r}{hint}")
             return None

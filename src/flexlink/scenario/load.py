@@ -22,7 +22,7 @@ SECTIONS = ("simulation", "links", "joints", "sensors", "flexlink_version")
 SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol")
 LINK_KEYS = ("name", "length", "mass_per_length", "EI", "E", "width", "thickness", "tip_mass",
              "tip_inertia", "damping_ratio", "modes", "mode_shapes")
-MODE_SHAPES = ("clamped_free", "tip_loaded")
+MODE_SHAPES = ("clamped_free", "tip_loaded", "outboard_loaded")
 PROFILES: dict[str, tuple[str, ...]] = {
     "cycloidal": ("from_deg", "to_deg", "start", "duration"),
     "quintic": ("from_deg", "to_deg", "start", "duration"),
@@ -47,10 +47,8 @@ def load_scenario(path: str | Path) -> Scenario:
                               source=str(path))
 
 
-def scenario_from_dict(
-    d: Mapping[str, Any], base_dir: Path = Path("."), *, name: str = "scenario",
-    source: str | None = None,
-) -> Scenario:
+def scenario_from_dict(d: Mapping[str, Any], base_dir: Path = Path("."), *,
+                       name: str = "scenario", source: str | None = None) -> Scenario:
     """Validate a parsed scenario (as tomllib returns it) and build the `Scenario`.
 
     ``name`` is used when ``simulation.name`` is absent; ``source`` labels error messages.
@@ -73,12 +71,11 @@ def resolve_scenario_dict(path_or_dict: str | Path | Mapping[str, Any],
 def read_toml(path: Path) -> dict[str, Any]:
     """Parse a TOML file; a missing file or a syntax error becomes a ScenarioError."""
     try:
-        text = path.read_text(encoding="utf-8")
+        return parse_toml(path.read_text(encoding="utf-8"), str(path))
     except FileNotFoundError:
         raise ScenarioError([f"file not found: {path}"], str(path)) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError([f"cannot read {path}: {exc}"], str(path)) from None
-    return parse_toml(text, str(path))
 
 
 def parse_toml(text: str, source: str) -> dict[str, Any]:
@@ -118,7 +115,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
                 "links": links, "joints": joints, "sensors": sensors}
-    return resolved, motions  # type: ignore[return-value]
+    return resolved, [m for m in motions if m is not None]  # all built: no problems
 
 
 def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[str, Any]:
@@ -206,12 +203,13 @@ def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None
         entry, obj = _segment(segment, f"{path}.motion[{i}]", motion_module, p)
         resolved.append(entry)
         built.append(obj)
-    if any(obj is None for obj in built):
+    segments = [obj for obj in built if obj is not None]
+    if len(segments) < len(built):
         return {"motion": resolved}, None
-    if len(built) == 1:
-        return {"motion": resolved}, built[0]
+    if len(segments) == 1:
+        return {"motion": resolved}, segments[0]
     try:
-        return {"motion": resolved}, motion_module.Sequence(tuple(built))
+        return {"motion": resolved}, motion_module.Sequence(tuple(segments))
     except ValueError as exc:
         message = str(exc)  # names the segment as "motion[i]"
         p.add(f"{path}.{message}" if message.startswith("motion[") else f"{path}: {message}")
@@ -237,7 +235,7 @@ def _segment(segment: Any, path: str, motion_module: Any,
         else:
             values[key] = p.number(segment, key, path)
     entry = {"profile": profile, **values}
-    if len(p.messages) > before:
+    if len(p.messages) > before:  # unknown or missing keys, or wrong types
         return entry, None
     cls = getattr(motion_module, profile.capitalize())
     try:
@@ -283,7 +281,7 @@ def _csv_joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | 
     return entry, motion
 
 
-def _build(resolved: dict[str, Any], motions: list[JointMotion | None]) -> Scenario:
+def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     sim = resolved["simulation"]
     settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
                                   geometric_stiffening=sim["geometric_stiffening"],
@@ -298,5 +296,5 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion | None]) -> Scena
             sensors.append(PiezoSensor(link=index[s["link"]], **fields))
         else:
             sensors.append(PointSensor(kind=s["kind"], link=index[s["link"]], **fields))
-    chain = Chain(links=links, joints=tuple(m for m in motions if m is not None))
+    chain = Chain(links=links, joints=tuple(motions))
     return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"])

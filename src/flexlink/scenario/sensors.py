@@ -56,9 +56,10 @@ def _link_of(table: dict[str, Any], path: str, by_name: dict[str, dict[str, Any]
 
 
 def _position(table: dict[str, Any], key: str, path: str, link: dict[str, Any] | None,
-              p: Problems, **bounds: float) -> float | None:
+              p: Problems, *, ge: float | None = None,
+              gt: float | None = None) -> float | None:
     """A position along the link (m), at most the link's length when that is known."""
-    value = p.number(table, key, path, unit="m", **bounds)
+    value = p.number(table, key, path, unit="m", ge=ge, gt=gt)
     length = link.get("length") if link else None
     if value is not None and length is not None and value > length:
         p.add(f"{path}.{key} must be <= {length!r} m (the length of link "

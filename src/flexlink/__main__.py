@@ -1,0 +1,5 @@
+"""``python -m flexlink`` runs the command line (see flexlink.cli)."""
+
+from .cli import main
+
+raise SystemExit(main())

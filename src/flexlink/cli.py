@@ -1,0 +1,157 @@
+"""Command line: ``flexlink run``, ``flexlink paper``, ``flexlink show-paper``.
+
+Exit status: 0 success, 1 the simulation failed, 2 invalid input (scenario, options, output
+folder), 130 interrupted. Input errors print every problem on stderr, one per line, without a
+traceback, and leave no output folder behind.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Sequence
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+PAPER_DEFAULT_OUTPUT = "paper_results"
+
+
+def _version() -> str:
+    try:
+        return version("flexlink")
+    except PackageNotFoundError:
+        return "0+unknown"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (also used by the docs and tests)."""
+    parser = argparse.ArgumentParser(
+        prog="flexlink",
+        description="Simulate planar chains of flexible links with prescribed joint motion "
+                    "(assumed modes; Choi & Kwak 2016).",
+        epilog="Start from the built-in experiment: flexlink show-paper > my.toml, edit it, "
+               "then flexlink run my.toml -o my_results. Scenario keys: docs/scenario.md.",
+    )
+    parser.add_argument("--version", action="version", version=f"flexlink {_version()}")
+    output = argparse.ArgumentParser(add_help=False)
+    output.add_argument("-o", "--output", metavar="DIR", type=Path,
+                        help="results folder to create (must not exist or be empty)")
+    output.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    output.add_argument("--overwrite", action="store_true",
+                        help="replace DIR if it holds an earlier flexlink run")
+    output.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress bar and no summary; print only the results folder")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    run = commands.add_parser("run", parents=[output], help="simulate a scenario file",
+                              description="Load a TOML scenario, simulate it, write DIR.")
+    run.add_argument("scenario", nargs="?", type=Path, metavar="SCENARIO.toml",
+                     help="scenario file (default output folder: <name>_results)")
+    run.add_argument("--paper", action="store_true",
+                     help="run the built-in paper experiment instead of a file")
+    run.set_defaults(handler=_cmd_run, subparser=run)
+
+    paper = commands.add_parser("paper", parents=[output],
+                                help="simulate the paper's two-link experiment",
+                                description="Simulate the built-in scenario of Choi & Kwak "
+                                            f"(2016). Default DIR: {PAPER_DEFAULT_OUTPUT}.")
+    paper.set_defaults(handler=_cmd_paper, paper=True, scenario=None)
+
+    show = commands.add_parser("show-paper", help="print the built-in scenario as TOML",
+                               description="Print the built-in paper scenario (with comments); "
+                                           "redirect it to a file to start your own.")
+    show.set_defaults(handler=_cmd_show_paper)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``flexlink`` command; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command == "run" and (args.paper == (args.scenario is not None)):
+        args.subparser.error("give a scenario file or --paper (exactly one)")
+    try:
+        return int(args.handler(args))
+    except KeyboardInterrupt:
+        print("flexlink: interrupted", file=sys.stderr)
+        return 130
+
+
+def _cmd_show_paper(args: argparse.Namespace) -> int:
+    from .scenario import paper_experiment_text
+
+    sys.stdout.write(paper_experiment_text())
+    return 0
+
+
+def _cmd_paper(args: argparse.Namespace) -> int:
+    return _cmd_run(args)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from .io import OutputFolderError, check_output_dir
+    from .scenario import ScenarioError
+
+    try:
+        scenario, resolved = _load(args.scenario)
+        out_dir = args.output or Path(
+            PAPER_DEFAULT_OUTPUT if args.scenario is None else f"{args.scenario.stem}_results")
+        check_output_dir(out_dir, args.overwrite)
+    except ScenarioError as exc:
+        return _fail(str(exc))
+    except (OutputFolderError, ValueError, OSError) as exc:
+        return _fail(f"error: {exc}")
+    return _simulate_and_write(scenario, resolved, out_dir, args)
+
+
+def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
+                        args: argparse.Namespace) -> int:
+    from .io import write_run
+    from .simulation import simulate
+    from .solvers import SimulationError
+
+    try:
+        results = simulate(scenario, progress=not args.quiet)
+    except (SimulationError, FloatingPointError) as exc:
+        return _fail(f"simulation failed: {exc}", status=1)
+    except ValueError as exc:
+        return _fail(f"error: {exc}")
+    try:
+        write_run(results, out_dir, resolved, figures=not args.no_figures,
+                  overwrite=args.overwrite)
+    except (ValueError, OSError) as exc:
+        return _fail(f"error: could not write {out_dir}: {exc}")
+    print(out_dir if args.quiet else summary(results, out_dir, scenario.name))
+    return 0
+
+
+def _load(path: Path | None) -> tuple[Any, dict[str, Any]]:
+    """(Scenario, resolved dict) from a file, or the built-in paper scenario for None."""
+    from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
+
+    source = paper_experiment_path() if path is None else path
+    resolved = resolve_scenario_dict(source)
+    return scenario_from_dict(resolved, source=str(source)), resolved
+
+
+def _fail(message: str, status: int = 2) -> int:
+    print(message, file=sys.stderr)
+    return status
+
+
+def summary(results: Any, out_dir: Path, name: str) -> str:
+    """A few lines: what ran, the peak of each channel, and where the files are."""
+    t = results.time
+    lines = [f"flexlink: simulated '{name}', t = {t[0]:g} to {t[-1]:g} s ({t.size} samples)",
+             "peak |value| of each channel:"]
+    width = max(len(n) for n in results.names) if results.names else 0
+    for name_, signal in results.signals.items():
+        peak = float(abs(signal.values).max()) if signal.values.size else 0.0
+        extra = f"  ({math.degrees(peak):.4g} deg)" if signal.unit == "rad" else ""
+        lines.append(f"  {name_:<{width}}  {peak:.4g} {signal.unit}{extra}")
+    files = sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*") if p.is_file())
+    lines.append(f"wrote {out_dir}{'/' if not str(out_dir).endswith('/') else ''}: "
+                 + ", ".join(files))
+    return "\n".join(lines)

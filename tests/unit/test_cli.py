@@ -1,0 +1,217 @@
+"""The flexlink command: exit codes, messages, output folders, agreement with the library."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexlink.simulation
+from flexlink.cli import main
+from flexlink.model import Scenario
+from flexlink.results import Results
+from flexlink.scenario import load_scenario, paper_experiment_path
+from flexlink.solvers import SimulationError
+
+SHORT = """\
+[simulation]
+name = "short"
+t_end = 0.2
+dt_out = 0.02
+
+[[links]]
+name = "arm"
+length = 0.6
+mass_per_length = 0.0636
+E = 70e9
+width = 0.028
+thickness = 0.001
+modes = 1
+damping_ratio = 0.01
+
+[[joints]]
+motion = [{ profile = "cycloidal", from_deg = 0.0, to_deg = 20.0, start = 0.0, duration = 0.2 }]
+
+[[sensors]]
+name = "tip"
+kind = "deflection"
+link = "arm"
+x = 0.6
+"""
+
+BAD = """\
+[simulation]
+t_end = "5"
+dt_out = 0.01
+
+[[links]]
+name = "arm"
+lenght = 0.6
+mass_per_length = 0.0636
+EI = -3.0
+
+[[joints]]
+motion = [{ profile = "sine" }]
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "s.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def fake_simulate(scenario: Scenario, progress: bool = False) -> Results:
+    """Instant stand-in for simulate(): the channels it promises, with zero motion."""
+    t = np.arange(0.0, scenario.settings.t_end + 1e-12, scenario.settings.dt_out)
+    results = Results(time=t)
+    for sensor in scenario.sensors:
+        results.add(sensor.name, np.zeros_like(t), "m", "fake")
+    for k, link in enumerate(scenario.chain.links, start=1):
+        results.add(f"joint{k}_angle", np.zeros_like(t), "rad", "fake")
+        results.add(f"{link.name}_tip_X", np.zeros_like(t), "m", "fake")
+        results.add(f"{link.name}_tip_Y", np.zeros_like(t), "m", "fake")
+    return results
+
+
+@pytest.fixture
+def fake(monkeypatch: pytest.MonkeyPatch) -> list[Scenario]:
+    """Replace simulate() by fake_simulate() and record the scenarios it was given."""
+    seen: list[Scenario] = []
+
+    def record(scenario: Scenario, progress: bool = False) -> Results:
+        seen.append(scenario)
+        return fake_simulate(scenario, progress)
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", record)
+    return seen
+
+
+def test_version_and_help(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0 and capsys.readouterr().out.startswith("flexlink ")
+    with pytest.raises(SystemExit) as info:
+        main(["--help"])
+    out = capsys.readouterr().out
+    assert info.value.code == 0 and "run" in out and "show-paper" in out
+
+
+def test_show_paper_prints_the_builtin_file(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["show-paper"]) == 0
+    out = capsys.readouterr().out
+    assert out == paper_experiment_path().read_text(encoding="utf-8")
+    assert tomllib.loads(out)["simulation"]["name"] == "paper-experiment"
+
+
+def test_real_short_run_writes_what_the_library_returns(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    returned: list[Results] = []
+    real_simulate = flexlink.simulation.simulate
+
+    def spy(scenario: Scenario, progress: bool = False) -> Results:
+        returned.append(real_simulate(scenario, progress=progress))
+        return returned[-1]
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", spy)
+    scenario_file, out = write(tmp_path, SHORT), tmp_path / "out"
+    assert main(["run", str(scenario_file), "-o", str(out), "--no-figures"]) == 0
+    summary = capsys.readouterr().out
+    assert "tip" in summary and "joint1_angle" in summary and str(out) in summary
+    header = (out / "results.csv").read_text().splitlines()[0].split(",")
+    assert header == ["t", "tip", "joint1_angle", "arm_tip_X", "arm_tip_Y"]
+    table = np.loadtxt(out / "results.csv", delimiter=",", skiprows=1)
+    (direct,) = returned
+    np.testing.assert_allclose(table[:, 0], direct.time, atol=1e-12)
+    assert direct.time[-1] == pytest.approx(0.2)
+    np.testing.assert_allclose(table[:, 1:], np.column_stack([direct[n] for n in header[1:]]),
+                               rtol=1e-9, atol=1e-15)
+    assert np.degrees(table[-1, 2]) == pytest.approx(20.0)
+    assert load_scenario(out / "scenario.resolved.toml") == load_scenario(scenario_file)
+
+
+def test_invalid_scenario_lists_every_problem(tmp_path: Path, fake: list[Scenario],
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    assert main(["run", str(write(tmp_path, BAD)), "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.splitlines()
+    assert err[0].endswith("has 5 problems:")
+    assert "  - simulation.t_end: expected a number, got string '5'" in err
+    assert "  - links[0]: unknown key 'lenght' (did you mean 'length'?)" in err
+    assert "  - links[0].EI must be > 0 N·m², got -3.0" in err
+    assert "Traceback" not in captured.err and captured.out == ""
+    assert not out.exists() and fake == []
+
+
+@pytest.mark.parametrize("text", [None, "[simulation\nt_end = 1"])
+def test_missing_or_broken_file(tmp_path: Path, fake: list[Scenario], text: str | None,
+                                capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "s.toml" if text is None else write(tmp_path, text)
+    assert main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert ("file not found" if text is None else "TOML syntax error") in err
+    assert "line 1" in err or text is None
+    assert not (tmp_path / "out").exists()
+
+
+def test_non_empty_output_is_refused_before_simulating(
+        tmp_path: Path, fake: list[Scenario], capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    assert main(["run", str(write(tmp_path, SHORT)), "-o", str(out)]) == 2
+    assert "already exists and is not empty" in capsys.readouterr().err
+    assert fake == [] and sorted(p.name for p in out.iterdir()) == ["keep.txt"]
+
+
+def test_overwrite_an_earlier_run(tmp_path: Path, fake: list[Scenario]) -> None:
+    scenario_file, out = write(tmp_path, SHORT), tmp_path / "out"
+    assert main(["run", str(scenario_file), "-o", str(out), "-q", "--no-figures"]) == 0
+    assert main(["run", str(scenario_file), "-o", str(out), "-q"]) == 2
+    assert main(["run", str(scenario_file), "-o", str(out), "-q", "--overwrite"]) == 0
+    assert len(fake) == 2 and (out / "figures" / "tip_paths.png").is_file()
+
+
+def test_simulation_failure_exits_1_without_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    def diverge(scenario: Scenario, progress: bool = False) -> Results:
+        raise SimulationError("step size too small at t = 0.1 s")
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", diverge)
+    out = tmp_path / "out"
+    assert main(["run", str(write(tmp_path, SHORT)), "-o", str(out)]) == 1
+    assert "simulation failed: step size too small" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == [tmp_path / "s.toml"]
+
+
+@pytest.mark.parametrize("argv", [["paper"], ["run", "--paper"]])
+def test_paper_commands_use_the_builtin_scenario(
+        argv: list[str], tmp_path: Path, fake: list[Scenario],
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main([*argv, "--no-figures", "--quiet"]) == 0
+    assert capsys.readouterr().out.strip() == "paper_results"
+    assert fake[0] == load_scenario(paper_experiment_path())
+    resolved = tomllib.loads((tmp_path / "paper_results" / "scenario.resolved.toml").read_text())
+    assert resolved["simulation"]["name"] == "paper-experiment"
+
+
+def test_run_needs_exactly_one_source(tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    for argv in (["run"], ["run", str(write(tmp_path, SHORT)), "--paper"]):
+        with pytest.raises(SystemExit) as info:
+            main(argv)
+        assert info.value.code == 2
+        assert "give a scenario file or --paper" in capsys.readouterr().err
+
+
+def test_default_output_folder_is_named_after_the_scenario(
+        tmp_path: Path, fake: list[Scenario], monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(write(tmp_path, SHORT, "arm.toml")), "-q", "--no-figures"]) == 0
+    assert (tmp_path / "arm_results" / "results.csv").is_file()

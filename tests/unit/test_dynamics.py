@@ -1,0 +1,65 @@
+"""Properties of the assembled first-order equations."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flexlink.dynamics.first_order import FirstOrderSystem
+from flexlink.model import Link
+from tests.helpers import CubicMotion, chain_of
+
+LINKS = (
+    Link("a", 1.0, 0.6, 120.0, tip_mass=0.2, tip_inertia=0.002, modes=3),
+    Link("b", 0.8, 0.3, 30.0, tip_mass=0.05, modes=3),
+    Link("c", 0.5, 0.1, 5.0, modes=2),
+)
+
+angles = st.floats(-3.0, 3.0)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.tuples(angles, angles, angles), min_size=3, max_size=3), st.booleans())
+def test_mass_matrix_symmetric_positive_definite(coeffs, stiffening) -> None:
+    motions = [CubicMotion(a, b, c) for a, b, c in coeffs]
+    system = FirstOrderSystem(chain_of(LINKS, motions), stiffening)
+    M = system.matrices(np.array([0.4]))[0][0]
+    np.testing.assert_allclose(M, M.T, atol=1e-12 * np.abs(M).max())
+    assert np.linalg.eigvalsh(M).min() > 0
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.lists(st.tuples(angles, angles, angles), min_size=3, max_size=3))
+def test_gyroscopic_part_is_skew(coeffs) -> None:
+    """C − Ṁ − D is skew-symmetric: the Coriolis forces do no work."""
+    motions = [CubicMotion(a, b, c) for a, b, c in coeffs]
+    system = FirstOrderSystem(chain_of(LINKS, motions))
+    h = 1e-6
+    M_p, M_m = (system.matrices(np.array([0.4 + s]))[0][0] for s in (h, -h))
+    C = system.matrices(np.array([0.4]))[1][0]
+    for body in system.bodies:
+        C[body.slice, body.slice] -= body.data.damping_matrix
+    G = C - (M_p - M_m) / (2 * h)
+    np.testing.assert_allclose(G, -G.T, atol=1e-6 * np.abs(C).max())
+
+
+def test_single_link_on_hub_is_paper_eq_27() -> None:
+    """M_b q̈ + (K_b − β̇² M_b) q = −Φ̃ᵀ β̈ (tip mass in M_b and Φ̃, MODEL_NOTES)."""
+    link = Link("a", 1.3, 0.5, 200.0, tip_mass=0.1, modes=4)
+    system = FirstOrderSystem(chain_of([link], [CubicMotion(0.2, 1.5, 2.0)]))
+    t = np.array([0.3])
+    rate, acc = 1.5 + 4.0 * 0.3, 4.0
+    M, C, K, f = (a[0] for a in system.matrices(t))
+    d = system.modal[0]
+    np.testing.assert_allclose(M, d.mass_matrix, rtol=1e-13)
+    np.testing.assert_allclose(K, d.stiffness_matrix - rate**2 * d.mass_matrix, rtol=1e-12)
+    np.testing.assert_allclose(f, -d.phi_tilde * acc, rtol=1e-13)
+
+
+def test_no_motion_no_load() -> None:
+    system = FirstOrderSystem(chain_of(LINKS, [CubicMotion(0.3), CubicMotion(-1.0), CubicMotion(2.0)]))
+    M, C, K, f = system.matrices(np.linspace(0, 1, 5))
+    assert np.all(f == 0.0)
+    for body in system.bodies:
+        np.testing.assert_array_equal(K[:, body.slice, body.slice][0], body.data.stiffness_matrix)
