@@ -57,7 +57,8 @@ def test_minimal_scenario_fills_defaults() -> None:
     a, b = scenario.chain.links
     assert (a.tip_mass, a.tip_inertia, a.damping_ratio, a.modes) == (0.0, 0.0, 0.0, 4)
     assert a.mode_shapes == "clamped_free" and a.thickness is None and b.thickness == 0.002
-    assert scenario.settings.rtol == 1e-8 and scenario.settings.atol == 1e-10
+    assert scenario.settings.rtol == 1e-6 and scenario.settings.atol == 1e-12
+    assert scenario.settings.method == "magnus"
     assert scenario.settings.geometric_stiffening is False
     assert scenario.name == "scenario"
     assert scenario.chain.joints[0] == Hold(0.0)
@@ -109,9 +110,8 @@ def test_all_problems_are_reported_at_once() -> None:
         ("simulation", "t_end", math.nan, "simulation.t_end must be finite, got nan"),
         ("simulation", "geometric_stiffening", "no",
          "simulation.geometric_stiffening: expected true or false, got string 'no'"),
-        ("simulation", "geometric_stiffening", True,
-         "simulation.geometric_stiffening = true is not available yet (planned: geometric "
-         "stiffening issue); use false (the paper's model)"),
+        ("simulation", "method", "rk4", "simulation.method must be one of 'magnus', 'DOP853', "
+         "'RK45', 'Radau', 'LSODA', got 'rk4'"),
         ("links", "length", -1, "links[0].length must be > 0 m, got -1.0"),
         ("links", "tip_mass", -0.1, "links[0].tip_mass must be >= 0 kg, got -0.1"),
         ("links", "tip_inertia", -1.0, "links[0].tip_inertia must be >= 0 kg·m², got -1.0"),
@@ -119,7 +119,7 @@ def test_all_problems_are_reported_at_once() -> None:
         ("links", "modes", 21, "links[0].modes must be an integer from 1 to 20, got 21"),
         ("links", "modes", 4.0, "links[0].modes: expected an integer, got number 4.0"),
         ("links", "mode_shapes", "clamped", "links[0].mode_shapes must be one of "
-         "'clamped_free', 'tip_loaded', got 'clamped' (did you mean 'clamped_free'?)"),
+         "'clamped_free', 'tip_loaded', 'outboard_loaded', got 'clamped' (did you mean 'clamped_free'?)"),
         ("links", "name", "", "links[0].name must not be empty"),
         ("links", "name", "b", "links[1].name: duplicate name 'b' (names must be unique)"),
         ("links", "name", "has space", "links[0].name must be 1-64 letters"),

@@ -15,11 +15,12 @@ from pathlib import Path
 from typing import Any
 
 from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
+from ..solvers import METHODS
 from .errors import Problems, ScenarioError, describe
 from .sensors import read_sensors
 
 SECTIONS = ("simulation", "links", "joints", "sensors", "flexlink_version")
-SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol")
+SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol", "method")
 LINK_KEYS = ("name", "length", "mass_per_length", "EI", "E", "width", "thickness", "tip_mass",
              "tip_inertia", "damping_ratio", "modes", "mode_shapes")
 MODE_SHAPES = ("clamped_free", "tip_loaded", "outboard_loaded")
@@ -131,15 +132,13 @@ def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[
         "t_end": p.number(table, "t_end", path, unit="s", gt=0),
         "dt_out": p.number(table, "dt_out", path, unit="s", gt=0),
         "geometric_stiffening": p.boolean(table, "geometric_stiffening", path, default=False),
-        "rtol": p.number(table, "rtol", path, default=1e-8, gt=0, le=1e-2),
-        "atol": p.number(table, "atol", path, default=1e-10, gt=0),
+        "rtol": p.number(table, "rtol", path, default=1e-6, gt=0, le=1e-2),
+        "atol": p.number(table, "atol", path, default=1e-12, gt=0),
+        "method": p.string(table, "method", path, default="magnus", choices=METHODS),
     }
     if out["t_end"] is not None and out["dt_out"] is not None and out["dt_out"] > out["t_end"]:
         p.add(f"simulation.dt_out must be <= simulation.t_end ({out['t_end']!r} s), "
               f"got {out['dt_out']!r}")
-    if out["geometric_stiffening"] is True:
-        p.add("simulation.geometric_stiffening = true is not available yet (planned: geometric "
-              "stiffening issue); use false (the paper's model)")
     return out
 
 
@@ -285,7 +284,7 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     sim = resolved["simulation"]
     settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
                                   geometric_stiffening=sim["geometric_stiffening"],
-                                  rtol=sim["rtol"], atol=sim["atol"])
+                                  rtol=sim["rtol"], atol=sim["atol"], method=sim["method"])
     links = tuple(Link(**{k: v for k, v in lk.items() if k != "width"})
                   for lk in resolved["links"])
     index = {link.name: i for i, link in enumerate(links)}
