@@ -7,11 +7,15 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["simulate", "load_scenario", "load_paper_experiment", "Results", "Scenario"]
+__all__ = ["__version__", "simulate", "load_scenario", "load_paper_experiment", "Results", "Scenario"]
 
 
 def __getattr__(name: str) -> Any:
     # Lazy exports keep `flexlink --help` fast and sub-packages importable on their own.
+    if name == "__version__":
+        from ._version import package_version
+
+        return package_version()
     if name == "simulate":
         from .simulation import simulate
 

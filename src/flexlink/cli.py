@@ -11,18 +11,12 @@ import argparse
 import math
 import sys
 from collections.abc import Sequence
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
+from ._version import package_version
+
 PAPER_DEFAULT_OUTPUT = "paper_results"
-
-
-def _version() -> str:
-    try:
-        return version("flexlink")
-    except PackageNotFoundError:
-        return "0+unknown"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -34,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Start from the built-in experiment: flexlink show-paper > my.toml, edit it, "
                "then flexlink run my.toml -o my_results. Scenario keys: docs/scenario.md.",
     )
-    parser.add_argument("--version", action="version", version=f"flexlink {_version()}")
+    parser.add_argument("--version", action="version", version=f"flexlink {package_version()}")
     output = argparse.ArgumentParser(add_help=False)
     output.add_argument("-o", "--output", metavar="DIR", type=Path,
                         help="results folder to create (must not exist or be empty)")

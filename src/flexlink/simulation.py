@@ -3,22 +3,15 @@
 from __future__ import annotations
 
 import time
-from importlib.metadata import PackageNotFoundError, version
 
 import numpy as np
 
+from ._version import package_version
 from .dynamics.first_order import FirstOrderSystem
 from .model import Scenario
 from .results import Results
 from .sensors.evaluate import Trajectory, kinematic_channels, sensor_channels
 from .solvers import SimulationError, integrate_magnus, integrate_second_order
-
-
-def package_version() -> str:
-    try:
-        return version("flexlink")
-    except PackageNotFoundError:  # running from a source tree
-        return "0+unknown"
 
 
 def output_times(t_end: float, dt_out: float) -> np.ndarray:
@@ -47,6 +40,7 @@ def simulate(scenario: Scenario, progress: bool = False) -> Results:
                 system.matrices, system.n, t, settings.rtol, settings.atol, settings.method,
                 on_progress=bar.update,
             )
+    _check_small_deflections(system, t, z)
     zdd = system.accelerations(t, z, zd)
     if not np.all(np.isfinite(zdd)):
         raise SimulationError("accelerations are not finite")
@@ -63,6 +57,22 @@ def simulate(scenario: Scenario, progress: bool = False) -> Results:
     for ch in sensor_channels(system, traj, scenario.sensors) + kinematic_channels(system, traj):
         results.add(ch.name, ch.values, ch.unit, ch.description)
     return results
+
+
+def _check_small_deflections(system: FirstOrderSystem, t: np.ndarray, z: np.ndarray) -> None:
+    """Refuse a result whose tip deflection exceeds the link's length: the linear model has
+    diverged (e.g. centrifugal softening without geometric stiffening above the first frequency)."""
+    for body, link in zip(system.bodies, system.chain.links):
+        tip = np.abs(z[:, body.slice] @ body.data.tip_value)
+        if tip.max() > link.length:
+            when = t[int(np.argmax(tip > link.length))]
+            hint = ("; the paper's model has no geometric stiffening and diverges when a link "
+                    "spins faster than its first frequency: set geometric_stiffening = true"
+                    if not system.geometric_stiffening else "")
+            raise SimulationError(
+                f"the tip deflection of {link.name} exceeds its length ({link.length:g} m) at "
+                f"t = {when:.4g} s: the first-order model is not valid here{hint}"
+            )
 
 
 class _ProgressBar:

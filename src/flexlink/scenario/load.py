@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import tomllib
 from collections.abc import Mapping
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
+from .._version import package_version
 from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
 from ..solvers import METHODS
 from .errors import Problems, ScenarioError, describe
@@ -33,12 +33,7 @@ PROFILES: dict[str, tuple[str, ...]] = {
 CSV_KEYS = ("csv", "time_column", "angle_column", "lowpass_hz")
 
 
-def flexlink_version() -> str:
-    """The installed flexlink version, or '0+unknown' in a bare source tree."""
-    try:
-        return version("flexlink")
-    except PackageNotFoundError:
-        return "0+unknown"
+flexlink_version = package_version
 
 
 def load_scenario(path: str | Path) -> Scenario:

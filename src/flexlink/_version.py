@@ -1,0 +1,10 @@
+"""The installed package's version (one place for the CLI, result files and resolved scenarios)."""
+
+from importlib.metadata import PackageNotFoundError, version
+
+
+def package_version() -> str:
+    try:
+        return version("flexlink")
+    except PackageNotFoundError:  # running from a source tree that is not installed
+        return "0+unknown"
