@@ -12,8 +12,8 @@ from flexlink.motion import Cycloidal, Hold
 from flexlink.simulation import simulate
 from tests.helpers import chain_of, paper_links
 
-SWING1 = Cycloidal(0.0, 90.0, 0.1, 0.6)
-SWING2 = Cycloidal(90.0, 170.0, 0.1, 0.6)
+SWING1 = Cycloidal(0.0, 90.0, 0.1, 1.0)
+SWING2 = Cycloidal(90.0, 170.0, 0.1, 1.0)
 
 
 def _run(links, motions, sensors, t_end=1.2, dt=1e-3, **kw) -> dict:
