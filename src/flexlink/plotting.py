@@ -53,6 +53,7 @@ def tip_links(results: Results) -> list[str]:
 def sensor_channels(results: Results) -> list[str]:
     """Channels that are neither joint angles nor tip positions: the user's sensors."""
     automatic = set(joint_channels(results))
+    automatic |= {n.replace("_angle", "_torque") for n in automatic}
     automatic |= {f"{link}_tip_{axis}" for link in tip_links(results) for axis in "XY"}
     return [n for n in results.names if n not in automatic]
 
@@ -67,16 +68,26 @@ def plot_joint_angles(results: Results) -> Figure:
     names = joint_channels(results)
     if not names:
         raise ValueError("no joint angle channels (joint<k>_angle) in the results")
-    fig = Figure(figsize=(6.4, 3.6), dpi=DPI, layout="constrained")
-    ax = fig.add_subplot()
+    torques = [n.replace("_angle", "_torque") for n in names
+               if n.replace("_angle", "_torque") in results.signals]
+    fig = Figure(figsize=(6.4, 3.6 if not torques else 5.6), dpi=DPI, layout="constrained")
+    axes = fig.subplots(2 if torques else 1, 1, sharex=True, squeeze=False)[:, 0]
+    ax = axes[0]
     for name in names:
         k = _JOINT.fullmatch(name).group(1)  # type: ignore[union-attr]
         ax.plot(results.time, np.degrees(results[name]), label=rf"$\beta_{{{k}}}$")
-    ax.set_xlabel("time t [s]")
     ax.set_ylabel("joint angle [deg]")
-    ax.set_xlim(results.time[0], results.time[-1])
     ax.legend(loc="best")
-    _style(ax)
+    for name in torques:
+        k = name[len("joint"):-len("_torque")]
+        axes[1].plot(results.time, results[name], label=rf"$\tau_{{{k}}}$")
+    if torques:
+        axes[1].set_ylabel("motor torque [N·m]")
+        axes[1].legend(loc="best")
+    axes[-1].set_xlabel("time t [s]")
+    axes[-1].set_xlim(results.time[0], results.time[-1])
+    for a in axes:
+        _style(a)
     return fig
 
 

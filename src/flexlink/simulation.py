@@ -10,7 +10,7 @@ from ._version import package_version
 from .dynamics.first_order import FirstOrderSystem
 from .model import Scenario
 from .results import Results
-from .sensors.evaluate import Trajectory, kinematic_channels, sensor_channels
+from .sensors.evaluate import Trajectory, joint_and_tip_channels, sensor_channels
 from .solvers import SimulationError, integrate_magnus, integrate_second_order
 
 
@@ -54,7 +54,7 @@ def simulate(scenario: Scenario, progress: bool = False) -> Results:
         "wall_time_s": time.perf_counter() - started,
         "elastic_coordinates": system.n,
     })
-    for ch in sensor_channels(system, traj, scenario.sensors) + kinematic_channels(system, traj):
+    for ch in sensor_channels(system, traj, scenario.sensors) + joint_and_tip_channels(system, traj):
         results.add(ch.name, ch.values, ch.unit, ch.description)
     return results
 

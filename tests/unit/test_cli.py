@@ -122,7 +122,7 @@ def test_real_short_run_writes_what_the_library_returns(
     summary = capsys.readouterr().out
     assert "tip" in summary and "joint1_angle" in summary and str(out) in summary
     header = (out / "results.csv").read_text().splitlines()[0].split(",")
-    assert header == ["t", "tip", "joint1_angle", "arm_tip_X", "arm_tip_Y"]
+    assert header == ["t", "tip", "joint1_angle", "joint1_torque", "arm_tip_X", "arm_tip_Y"]
     table = np.loadtxt(out / "results.csv", delimiter=",", skiprows=1)
     (direct,) = returned
     np.testing.assert_allclose(table[:, 0], direct.time, atol=1e-12)

@@ -225,9 +225,9 @@ def test_sensor_rules() -> None:
         "sensors[2].kind must be one of 'deflection', 'slope', 'strain', 'acceleration', "
         "'piezo', got 'velocity'",
         "sensors[3].name 'joint1_angle' clashes with an automatic output channel (t, time, "
-        "joint<k>_angle, <link>_tip_X, <link>_tip_Y); choose another",
+        "joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another",
         "sensors[4].name 'b_tip_X' clashes with an automatic output channel (t, time, "
-        "joint<k>_angle, <link>_tip_X, <link>_tip_Y); choose another",
+        "joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another",
         "sensors[4]: unknown key 'thickness' (allowed: name, kind, link, x)",
         "sensors[5].width must be > 0 m, got 0.0",
         "sensors[5].d31 must be non-zero m/V, got 0.0",

@@ -97,3 +97,24 @@ def linearise(links, modal, beta_fn, t0, stiffening, eps=1e-4):
             qm = generalized_inertia(links, modal, beta_fn, t0, *(-a for a in args), stiffening)
             mat[:, j] = (qp - qm) / (2 * eps)
     return M, C, K, -Q0
+
+
+def exact_joint_torques(links, modal, beta_fn, t0, z, zd, zdd, stiffening, h=1e-3):
+    """τ_k = Σ_{j≥k} ∫ (r − P_k) × r̈ dm + J_t ϑ̈ from the exact kinematics, for the trajectory
+    z(t0 + τ) = z + ż τ + ½ z̈ τ²."""
+    taus = (-2 * h, -h, 0.0, h, 2 * h)
+    samples = [chain_points(modal, beta_fn(t0 + tau), z + zd * tau + 0.5 * zdd * tau**2,
+                            stiffening) for tau in taus]
+    now = samples[2]
+    torques = np.zeros(len(modal))
+    for k in range(len(modal)):
+        joint = now[k][1][:, 0]
+        for j in range(k, len(modal)):
+            x, pts, _ = now[j]
+            acc = _second_derivative([s[j][1] for s in samples], h)
+            arm = pts - joint[:, None]
+            moment = arm[0] * acc[1] - arm[1] * acc[0]
+            torques[k] += simpson(moment * links[j].mass_per_length, x=x)
+            torques[k] += links[j].tip_mass * moment[-1]
+            torques[k] += links[j].tip_inertia * _second_derivative([s[j][2] for s in samples], h)
+    return torques

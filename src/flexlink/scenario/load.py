@@ -103,7 +103,8 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         joint, motion = _joint(table, path, base_dir, simulation.get("t_end"), p)
         joints.append(joint)
         motions.append(motion)
-    reserved = {"t", "time"} | {f"joint{k}_angle" for k in range(1, len(links) + 1)}
+    reserved = {"t", "time"} | {f"joint{k}_{q}" for k in range(1, len(links) + 1)
+                                for q in ("angle", "torque")}
     reserved |= {f"{n}_tip_{axis}" for n in link_names if n for axis in "XY"}
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
     p.check_names([s.get("name") for s in sensors], "sensors")

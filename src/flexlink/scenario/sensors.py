@@ -28,7 +28,7 @@ def read_sensors(
         name = p.string(table, "name", path)
         if name is not None and name in reserved:
             p.add(f"{path}.name {name!r} clashes with an automatic output channel "
-                  "(t, time, joint<k>_angle, <link>_tip_X, <link>_tip_Y); choose another")
+                  "(t, time, joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another")
         kind = p.string(table, "kind", path, choices=KINDS)
         link = _link_of(table, path, by_name, p)
         entry: dict[str, Any] = {"name": name, "kind": kind, "link": link and link["name"]}

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.kinematics import FrameMotion, rotation
+from ..dynamics.torques import joint_torques
 from ..model import PiezoSensor, PointSensor, Sensor
 
 
@@ -49,14 +50,18 @@ def sensor_channels(
     return [_read(system, frames, traj, s) for s in sensors]
 
 
-def kinematic_channels(system: FirstOrderSystem, traj: Trajectory) -> list[Channel]:
-    """Joint angles (rad) and global tip positions of every link (m), to first order."""
+def joint_and_tip_channels(system: FirstOrderSystem, traj: Trajectory) -> list[Channel]:
+    """Joint angles (rad) and motor torques (N·m), global tip positions of every link (m)."""
     frames = system.frames(traj.t)
     hist = system.joint_history(traj.t)
+    torque = joint_torques(system, traj.t, traj.z, traj.z_dot, traj.z_ddot)
     out = []
-    for k, link in enumerate(system.chain.links):
+    for k in range(len(system.chain.links)):
         out.append(Channel(f"joint{k + 1}_angle", hist.angle[:, k], "rad",
                            f"prescribed angle of joint {k + 1}"))
+    for k in range(len(system.chain.links)):
+        out.append(Channel(f"joint{k + 1}_torque", torque[:, k], "N*m",
+                           f"motor torque of joint {k + 1} (inverse dynamics, first order)"))
     for k, link in enumerate(system.chain.links):
         tip = _tip_position(system, frames, traj.z, k)
         out.append(Channel(f"{link.name}_tip_X", tip[:, 0], "m", f"X of the tip of {link.name}"))
