@@ -118,3 +118,21 @@ def exact_joint_torques(links, modal, beta_fn, t0, z, zd, zdd, stiffening, h=1e-
             torques[k] += links[j].tip_mass * moment[-1]
             torques[k] += links[j].tip_inertia * _second_derivative([s[j][2] for s in samples], h)
     return torques
+
+
+def exact_energy(links, modal, beta_fn, t0, z, zd, stiffening, h=1e-4):
+    """Kinetic energy of the exact kinematics plus the bending energy ½ qᵀK_b q (J)."""
+    taus = (-2 * h, -h, h, 2 * h)
+    samples = [chain_points(modal, beta_fn(t0 + tau), z + zd * tau, stiffening) for tau in taus]
+    kinetic = 0.0
+    for j, data in enumerate(modal):
+        a, b, d, e = (s[j] for s in samples)
+        vel = (a[1] - 8 * b[1] + 8 * d[1] - e[1]) / (12 * h)
+        spin = (a[2] - 8 * b[2] + 8 * d[2] - e[2]) / (12 * h)
+        speed2 = np.sum(vel**2, axis=0)
+        kinetic += 0.5 * simpson(speed2 * links[j].mass_per_length, x=b[0])
+        kinetic += 0.5 * links[j].tip_mass * speed2[-1] + 0.5 * links[j].tip_inertia * spin**2
+    offsets = np.cumsum([0] + [d.n for d in modal])
+    strain = sum(0.5 * z[o: o + d.n] @ d.stiffness_matrix @ z[o: o + d.n]
+                 for o, d in zip(offsets, modal))
+    return kinetic + strain, strain
