@@ -4,8 +4,8 @@
     python scripts/validation_figures.py --quick    # fewer mode counts, for a smoke run
 
 The reference problems, published values and the independent FE reference come from
-tests/validation/benchmarks.py, the same objects the validation tests use. Takes about a
-minute (eight 15–20 s simulations of the spin-up beam).
+tests/validation/benchmarks.py, the same objects the validation tests use. Eight simulations
+of the spin-up beam plus the FE references: about 30 s.
 """
 
 from __future__ import annotations
@@ -19,25 +19,21 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy.linalg import eigh  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy.linalg import eigh
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # for tests.validation.benchmarks
 
-from flexlink.dynamics.first_order import FirstOrderSystem  # noqa: E402
-from flexlink.model import Chain  # noqa: E402
-from flexlink.motion import Spinup  # noqa: E402
-from flexlink.simulation import output_times, simulate  # noqa: E402
-from flexlink.solvers import SimulationError, integrate_magnus  # noqa: E402
-from tests.validation.benchmarks import (  # noqa: E402
-    KANE_RYAN_BANERJEE_1987 as BEAM,
-)
-from tests.validation.benchmarks import (  # noqa: E402
-    WRIGHT_1982 as TABLE,
-)
-from tests.validation.benchmarks import RotatingBeamFE  # noqa: E402
+from flexlink.dynamics.first_order import FirstOrderSystem
+from flexlink.model import Chain
+from flexlink.motion import Spinup
+from flexlink.simulation import output_times, simulate
+from flexlink.solvers import SimulationError, integrate_magnus
+from tests.validation.benchmarks import KANE_RYAN_BANERJEE_1987 as BEAM
+from tests.validation.benchmarks import WRIGHT_1982 as TABLE
+from tests.validation.benchmarks import RotatingBeamFE
 
 FIGURES = ROOT / "docs" / "figures"
 DPI = 150

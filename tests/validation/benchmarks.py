@@ -235,11 +235,16 @@ class RotatingBeamFE:
     def frequencies(self, rate: float, count: int, in_plane: bool = True) -> np.ndarray:
         """Lowest ``count`` natural frequencies (rad/s) relative to the frame spinning at Ω.
 
-        Solved as the pencil (M, K_Ω) for 1/ω² so that the lowest modes keep their relative
-        accuracy; a negative ω² (divergence) comes back as a negative value of −√|ω²|."""
-        inv = eigh(self.M, self.stiffness(rate, in_plane), eigvals_only=True)
-        inv = inv[::-1][:count]
-        return np.sign(inv) / np.sqrt(np.abs(inv))
+        Solved as the pencil (M, K_Ω) for 1/ω², so that the lowest modes keep their relative
+        accuracy (eigh(K, M) loses ~eps·cond(K) on them). Past a divergence speed K_Ω is not
+        positive definite; then eigh(K_Ω, M) is used and a negative ω² comes back as −√|ω²|."""
+        K = self.stiffness(rate, in_plane)
+        try:
+            inv = eigh(self.M, K, eigvals_only=True)[::-1][:count]
+        except np.linalg.LinAlgError:
+            w2 = eigh(K, self.M, eigvals_only=True)[:count]
+            return np.sign(w2) * np.sqrt(np.abs(w2))
+        return 1.0 / np.sqrt(inv)
 
     def spinup_tip_deflection(self, motion: Spinup, t_end: float, dt_out: float,
                               dt: float = 2e-3) -> tuple[np.ndarray, np.ndarray]:

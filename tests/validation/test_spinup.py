@@ -9,13 +9,13 @@ stiffness the deflection stays bounded, the conventional linear model without it
 because both spin rates exceed the beam's first frequency ω₁ = 3.80 rad/s (see
 test_rotating_beam.py). See docs/validation.md, case 2.
 
-Every test here simulates 10–20 s of a stiff problem with the Magnus integrator (4–8 s each on
-one core), so all are marked slow; the runs are cached and shared between the tests.
+Six simulations (1–3 s each; the Magnus integrator runs BLAS single-threaded) are cached and
+shared between the tests: about 12 s for the module, each test under 4 s, so none is marked slow.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -26,10 +26,9 @@ from flexlink.solvers import SimulationError
 from tests.validation.benchmarks import KANE_RYAN_BANERJEE_1987, RotatingBeamFE
 
 BEAM = KANE_RYAN_BANERJEE_1987
-pytestmark = pytest.mark.slow
 
 
-@lru_cache(maxsize=None)
+@cache
 def run(rate: float, modes: int, stiffening: bool) -> Results | SimulationError:
     """flexlink's tip deflection history, or the SimulationError that refused it. The model
     without stiffening is only run over the spin-up (15 s): it has diverged well before."""
@@ -40,7 +39,7 @@ def run(rate: float, modes: int, stiffening: bool) -> Results | SimulationError:
         return error
 
 
-@lru_cache(maxsize=None)
+@cache
 def fe_reference(rate: float) -> tuple[np.ndarray, np.ndarray]:
     """Tip deflection (m) of the FE/Newmark reference on flexlink's output grid. 24 elements and
     dt = 2 ms: halving either changes the history by < 4e-6 of its peak."""
@@ -56,7 +55,7 @@ def _tip(rate: float, modes: int, stiffening: bool = True) -> tuple[np.ndarray, 
 
 @pytest.mark.parametrize(("rate", "modes"), [(4.0, 8), (10.0, 6)])
 def test_stiffened_tip_deflection_matches_fe_reference(rate: float, modes: int) -> None:
-    """Whole 20 s history within 1e-3 of the peak deflection (measured: 1.5e-5 at Ω = 4 with
+    """Whole 20 s history within 1e-3 of the peak deflection (measured: 4.8e-6 at Ω = 4 with
     8 modes, 2.4e-4 at Ω = 10 with 6 modes, where modal truncation dominates). The reference's
     own error is < 4e-6 of the peak; the allowance covers the modal truncation, which grows
     with Ω (the stiffened mode shapes depart further from the clamped–free ones)."""
@@ -75,7 +74,7 @@ def test_stiffened_deflection_is_bounded(rate: float, modes: int, peak_m: float)
     (8.6% of L) at t = 6.45 s — not 'a few cm': a quasi-static estimate, the cantilever under
     the Euler load m̄xΩ̇ at the peak hub acceleration 2Ω/T, already gives 0.42 m for Ω = 4."""
     t, w = _tip(rate, modes)
-    assert w.max() < 0.02 * peak_m  # no excursion in the direction of rotation
+    assert w.max() < 0.02 * peak_m  # only the residual vibration goes positive
     assert -w.min() == pytest.approx(peak_m, rel=1e-3)
     assert -w.min() < 0.1 * BEAM.length
     after = t > BEAM.spin_time
@@ -83,12 +82,15 @@ def test_stiffened_deflection_is_bounded(rate: float, modes: int, peak_m: float)
 
 
 def test_stiffened_deflection_converges_with_mode_count() -> None:
-    """Ω = 4 rad/s with 4, 6, 8 modes: the difference to the 8-mode history falls with the mode
-    count and is already below 1e-4 of the peak with 4 modes (measured 4.4e-5, 2.6e-6)."""
+    """Ω = 4 rad/s with 4, 6, 8 modes: the largest difference to the 8-mode history, relative
+    to the peak, is 9.3e-5 with 4 modes and 1.1e-5 with 6 (about (4/6)⁵: the Ritz error of the
+    smooth, mostly first-mode response falls fast). Asserted: below 3e-4 with 4 modes, and at
+    least 4× smaller with 6."""
     _, w8 = _tip(4.0, 8)
     peak = np.abs(w8).max()
     diffs = [np.abs(_tip(4.0, n)[1] - w8).max() / peak for n in (4, 6)]
-    assert diffs[1] < diffs[0] <= 1e-4
+    assert diffs[0] <= 3e-4
+    assert diffs[1] < 0.25 * diffs[0]
 
 
 @pytest.mark.parametrize("rate", BEAM.rates)

@@ -10,6 +10,7 @@ from collections.abc import Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from threadpoolctl import threadpool_limits
 
 MatrixFunction = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
 
@@ -37,10 +38,11 @@ def integrate_second_order(
             on_progress(t)
         return np.concatenate([zd, zdd])
 
-    sol = solve_ivp(
-        rhs, (float(t_out[0]), float(t_out[-1])), np.zeros(2 * n), method=method,
-        t_eval=t_out, rtol=rtol, atol=atol,
-    )
+    with threadpool_limits(limits=1):  # tiny matrices: see magnus.integrate_magnus
+        sol = solve_ivp(
+            rhs, (float(t_out[0]), float(t_out[-1])), np.zeros(2 * n), method=method,
+            t_eval=t_out, rtol=rtol, atol=atol,
+        )
     if sol.status != 0:
         raise SimulationError(f"time integration failed at t = {sol.t[-1]:.6g} s: {sol.message}")
     y = sol.y.T
