@@ -114,6 +114,7 @@ def simulate_chain_exudyn(
     spectral_radius: float = 0.9,
     newton_abs_tol: float = 1e-6,
     newton_rel_tol: float = 1e-8,
+    verbose: int = 0,
 ) -> dict[str, Any]:
     """Simulate a chain with prescribed joint angles in Exudyn; return time histories.
 
@@ -236,7 +237,7 @@ def simulate_chain_exudyn(
     s = exu.SimulationSettings()
     s.timeIntegration.numberOfSteps = int(round(t_end / dt))
     s.timeIntegration.endTime = t_end
-    s.timeIntegration.verboseMode = 0
+    s.timeIntegration.verboseMode = verbose
     s.timeIntegration.newton.absoluteTolerance = newton_abs_tol
     s.timeIntegration.newton.relativeTolerance = newton_rel_tol
     s.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
