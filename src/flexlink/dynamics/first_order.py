@@ -122,6 +122,20 @@ class FirstOrderSystem:
             np.concatenate([frames.T_ddot[k], zero], axis=1),
         )
 
+    def xi_states(
+        self, frames: FrameMotion, k: int, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """ξ_k, ξ̇_k, ξ̈_k (each (nt, 3+n_k)) from z, ż, z̈ (nt, n)."""
+        Th, Th_d, Th_dd = self.xi_maps(frames, k)
+
+        def apply(T: np.ndarray, v: np.ndarray) -> np.ndarray:
+            return np.einsum("tai,ti->ta", T, v)
+
+        xi = apply(Th, z)
+        xi_d = apply(Th, zd) + apply(Th_d, z)
+        xi_dd = apply(Th, zdd) + 2 * apply(Th_d, zd) + apply(Th_dd, z)
+        return xi, xi_d, xi_dd
+
     # -- equations --------------------------------------------------------------------------
     def matrices(
         self, t: np.ndarray, frames: FrameMotion | None = None

@@ -29,14 +29,7 @@ def joint_torques(
     fr = system.frames(t)
     nt, n_links = fr.theta.shape
     torque = np.zeros((nt, n_links))
-    states = []
-    for j in range(n_links):
-        maps = system.xi_maps(fr, j)
-        xi = np.einsum("tai,ti->ta", maps[0], z)
-        xi_d = np.einsum("tai,ti->ta", maps[0], zd) + np.einsum("tai,ti->ta", maps[1], z)
-        xi_dd = (np.einsum("tai,ti->ta", maps[0], zdd) + 2 * np.einsum("tai,ti->ta", maps[1], zd)
-                 + np.einsum("tai,ti->ta", maps[2], z))
-        states.append((xi, xi_d, xi_dd))
+    states = [system.xi_states(fr, j, z, zd, zdd) for j in range(n_links)]
 
     for k in range(n_links):
         for j in range(k, n_links):

@@ -113,12 +113,7 @@ def _read(system, frames, traj: Trajectory, sensor: Sensor) -> Channel:
 
 
 def _normal_acceleration(system, frames, traj: Trajectory, k: int, x: float) -> np.ndarray:
-    Th, Th_d, Th_dd = system.xi_maps(frames, k)
-    xi = np.einsum("tai,ti->ta", Th, traj.z)
-    xi_d = np.einsum("tai,ti->ta", Th, traj.z_dot) + np.einsum("tai,ti->ta", Th_d, traj.z)
-    xi_dd = (np.einsum("tai,ti->ta", Th, traj.z_ddot)
-             + 2 * np.einsum("tai,ti->ta", Th_d, traj.z_dot)
-             + np.einsum("tai,ti->ta", Th_dd, traj.z))
+    xi, xi_d, xi_dd = system.xi_states(frames, k, traj.z, traj.z_dot, traj.z_ddot)
     shapes = system.modal[k].shapes
     phi = shapes.evaluate(np.array([x]), 0)[0]
     dphi = shapes.evaluate(np.array([x]), 1)[0]
