@@ -31,7 +31,7 @@ def _balance_error(stiffening: bool) -> float:
     t = np.linspace(0.0, 0.8, 321)
     z, zd = integrate_magnus(system.matrices, system.n, t, 1e-9, 1e-14)
     zdd = system.accelerations(t, z, zd)
-    beta_fn = lambda s: np.array([m.evaluate(np.array(s))[0] for m in MOTIONS])  # noqa: E731
+    beta_fn = lambda s: np.array([m.evaluate(np.array(s))[0] for m in MOTIONS])
     rates = np.stack([m.evaluate(t)[1] for m in MOTIONS], -1)
     power = np.empty(t.size)
     energy = np.empty(t.size)

@@ -53,7 +53,7 @@ def _link_moment(system, fr, j, d, p1, xi, xi_d, xi_dd) -> np.ndarray:
     ny = np.concatenate([[0.0, m, s1], data.phi_bar])  # ∫ g_y dm = ny·ξ
     hy = np.concatenate([[0.0, s1, J], data.phi_tilde])  # ∫ x g_y dm = hy·ξ
     Gy, Gy_d, Gy_dd = xi @ ny, xi_d @ ny, xi_dd @ ny
-    Hy, Hy_d, Hy_dd = xi @ hy, xi_d @ hy, xi_dd @ hy
+    Hy, Hy_dd = xi @ hy, xi_dd @ hy
     rx, rx_d, rx_dd = xi[:, 0], xi_d[:, 0], xi_dd[:, 0]
     accel1 = np.stack([  # ∫ a¹ dm
         m * rx_dd - 2 * w * Gy_d - wd * Gy - w**2 * m * rx,
