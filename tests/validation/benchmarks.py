@@ -116,7 +116,7 @@ class SpinupBeam:
     ``spin_time`` T with rate (Ω/T)(t − (T/2π) sin(2πt/T)) and keeps Ω afterwards (flexlink's
     ``Spinup`` is this profile). The beam bends in the plane of rotation.
 
-    The published results are plots of the tip deflection vs. time (no tabulated values); the
+    The published results are plots of the tip deflection vs. time (no tabulated values found); the
     linear ("conventional") model without geometric stiffening diverges for Ω above the first
     cantilever frequency, the model with the motion-induced stiffness stays bounded.
     """
