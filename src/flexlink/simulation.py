@@ -34,6 +34,7 @@ def simulate(scenario: Scenario, progress: bool = False) -> Results:
             z, zd = integrate_magnus(
                 system.matrices, system.n, t, settings.rtol, settings.atol,
                 on_progress=bar.update, max_frequency=system.max_frequency,
+                coefficient_keys=system.coefficient_keys,
             )
         else:
             z, zd = integrate_second_order(

@@ -76,6 +76,18 @@ def _outboard_loaded_shapes(chain: Chain, k: int) -> ModeShapes:
     return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
 
 
+def _distinct_rows(history: JointHistory) -> tuple[JointHistory, np.ndarray]:
+    """Runs of equal consecutive joint states: the first state of each run and, per time, the
+    index of its run. Linear in the number of times (no sort); a state revisited after a
+    different one counts as a new run, which costs only one more assembly."""
+    rows = np.concatenate([history.angle, history.rate, history.acceleration], axis=1)
+    new = np.ones(rows.shape[0], dtype=bool)
+    new[1:] = np.any(rows[1:] != rows[:-1], axis=1)
+    kept = np.flatnonzero(new)
+    return (JointHistory(history.angle[kept], history.rate[kept], history.acceleration[kept]),
+            np.cumsum(new) - 1)
+
+
 class FirstOrderSystem:
     """The assembled first-order model of a chain; evaluate its matrices at any times."""
 
@@ -107,6 +119,14 @@ class FirstOrderSystem:
 
     def frames(self, t: np.ndarray) -> FrameMotion:
         return frame_motion(self.joint_history(t), self.modal, self.offsets, self.n)
+
+    def coefficient_keys(self, t: np.ndarray) -> np.ndarray:
+        """Integer labels of the times t: equal labels ⇒ equal M, C, K, f.
+
+        With prescribed joints the coefficients depend on time only through the joint angles,
+        rates and accelerations, so every instant of a joint at rest shares one label: the
+        solver then computes one propagator for a whole rest phase."""
+        return _distinct_rows(self.joint_history(t))[1]
 
     def xi_maps(self, frames: FrameMotion, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """T̂_k = [T_k; E_k] and its time derivatives, each (nt, 3+n_k, n)."""
@@ -141,7 +161,18 @@ class FirstOrderSystem:
         self, t: np.ndarray, frames: FrameMotion | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """M, C, K (nt, n, n) and f (nt, n) of M z̈ + C ż + K z = f at times t (s)."""
-        fr = self.frames(t) if frames is None else frames
+        if frames is not None:
+            return self._assemble(frames)
+        # Assemble once per distinct joint state: rest phases repeat one state many times.
+        unique, inverse = _distinct_rows(self.joint_history(t))
+        coefficients = self._assemble(frame_motion(unique, self.modal, self.offsets, self.n))
+        if unique.angle.shape[0] == inverse.size:
+            return coefficients
+        M, C, K, f = (a[inverse] for a in coefficients)
+        return M, C, K, f
+
+    def _assemble(self, fr: FrameMotion) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """M, C, K, f at the instants of a frame motion."""
         nt = fr.theta.shape[0]
         n = self.n
         M = np.zeros((nt, n, n))
