@@ -112,15 +112,12 @@ def test_failure_leaves_no_folder(tmp_path: Path, resolved: dict[str, Any],
     assert list(tmp_path.iterdir()) == []
 
 
-def test_netcdf_failure_is_a_warning(tmp_path: Path, resolved: dict[str, Any],
-                                     monkeypatch: pytest.MonkeyPatch) -> None:
-    def broken(self: Results) -> None:
-        raise ImportError("no backend")
-
-    monkeypatch.setattr(Results, "to_xarray", broken)
-    with pytest.warns(RuntimeWarning, match="results.nc not written: no backend"):
-        out = write_run(fake_results(), tmp_path / "run", resolved, figures=False)
-    assert not (out / "results.nc").exists() and (out / "results.csv").is_file()
+def test_netcdf_file_opens_as_the_results_dataset(tmp_path: Path,
+                                                  resolved: dict[str, Any]) -> None:
+    results = fake_results()
+    out = write_run(results, tmp_path / "run", resolved, figures=False)
+    with xr.open_dataset(out / "results.nc", engine="scipy") as ds:
+        xr.testing.assert_identical(ds.load(), results.to_xarray())
 
 
 def test_dump_toml_escapes_and_skips_none() -> None:

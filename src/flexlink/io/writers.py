@@ -16,7 +16,6 @@ import json
 import re
 import shutil
 import uuid
-import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -108,12 +107,26 @@ def write_channels_csv(results: Results, path: Path) -> None:
 
 
 def write_netcdf(results: Results, path: Path) -> None:
-    """netCDF-3 through scipy (no netCDF4 library needed); skipped with a warning on failure."""
-    try:
-        results.to_xarray().to_netcdf(path, engine="scipy")
-    except Exception as exc:  # an optional output: the CSV holds the same data
-        path.unlink(missing_ok=True)
-        warnings.warn(f"results.nc not written: {exc}", RuntimeWarning, stacklevel=3)
+    """netCDF-3 (classic) written by scipy, laid out as ``Results.to_xarray()``: one variable per
+    channel over ``time`` with ``units`` and ``long_name``, the metadata as global attributes.
+    Writing it directly keeps xarray's import out of a command-line run."""
+    from scipy.io import netcdf_file
+
+    with netcdf_file(path, "w", version=2) as nc:
+        for key, value in results.metadata.items():
+            setattr(nc, key, str(value))
+        nc.createDimension("time", results.time.size)
+        _netcdf_variable(nc, "time", results.time, "s", "")
+        for name, signal in results.signals.items():
+            _netcdf_variable(nc, name, signal.values, signal.unit, signal.description)
+
+
+def _netcdf_variable(nc: Any, name: str, values: np.ndarray, unit: str, long_name: str) -> None:
+    var = nc.createVariable(name, "d", ("time",))
+    var[:] = values
+    var.units = unit
+    if long_name:
+        var.long_name = long_name
 
 
 def write_figures(results: Results, folder: Path, sensors: Sequence[str]) -> list[Path]:

@@ -12,9 +12,12 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.interpolate import BSpline, make_interp_spline
+
+if TYPE_CHECKING:
+    from scipy.interpolate import BSpline
 
 MIN_SAMPLES = 4
 FILTER_ORDER = 4
@@ -24,6 +27,8 @@ RANGE_TOL = 1e-9  # s per s of |t|: round-off allowed at the ends of the covered
 
 def _spline(t: np.ndarray, y: np.ndarray) -> BSpline:
     """Quintic (C⁴) interpolating spline, cubic (C²) if there are fewer than 6 samples."""
+    from scipy.interpolate import make_interp_spline  # slow import: only for measured angles
+
     return make_interp_spline(t, y, k=5 if t.size >= 6 else 3)
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from threadpoolctl import threadpool_limits
 
 MatrixFunction = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
@@ -29,6 +28,8 @@ def integrate_second_order(
     on_progress: Callable[[float], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """z and ż at t_out (each (nt, n)), starting from rest (z = ż = 0) at t_out[0]."""
+    from scipy.integrate import solve_ivp  # a comparison method: keep it out of start-up
+
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         M, C, K, f = matrices(np.array([t]))
