@@ -54,3 +54,4 @@ def expm_stack(A: np.ndarray) -> np.ndarray:
         needs = squarings >= level
         E[needs] = E[needs] @ E[needs]
     return E
+

@@ -1,0 +1,194 @@
+"""Speed and accuracy of flexlink against the alternatives: one table from one run.
+
+    python benchmarks/compare.py                  # everything (Exudyn rows need '.[reference]')
+    python benchmarks/compare.py --quick          # skip the slow rows (10-link solve_ivp, Exudyn)
+
+Rows, all for the same arm and manoeuvre as the built-in paper experiment (5 s simulated,
+output every 1 ms) unless marked:
+
+- flexlink (fourth-order Magnus, default tolerance and a loose one);
+- scipy ``solve_ivp`` (DOP853) of the same first-order equations with a Python right-hand side;
+- Exudyn, geometrically exact 2D beams (Simo–Reissner elements, generalized-α), on the coarsest
+  mesh that agrees with its own finest mesh within 1% of each signal's peak (undamped: the
+  reference model has no modal damping);
+- a chain of ten links with 4 modes each;
+- a batch of paper-experiment variants (EI of link 1 and the manoeuvre time varied) on all
+  cores, through ``flexlink.sweep`` when that module is present.
+
+Every row runs in a fresh process: wall time is the median of ``--repeat`` runs after a warm-up
+(start-up excluded), peak memory is that process's maximum resident set size. Accuracy is the
+largest difference of any signal from the row's reference, relative to that signal's peak:
+for the first-order solvers a Magnus run at rtol 1e-10 (the DOP853 row, a different method on
+the same equations, checks that reference), for Exudyn its finest mesh.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import platform
+import resource
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # the Exudyn model lives with the validation tests
+
+PAPER_SIGNALS = ("link1_tip_acceleration", "link2_tip_deflection", "pzt", "link2_root_strain")
+EXUDYN_MESHES = (2, 4, 8, 16, 32)
+
+
+# -- runs (each executed in a child process) ---------------------------------------------------
+def _peak_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _paper(**settings: Any):
+    from flexlink import load_paper_experiment
+
+    paper = load_paper_experiment()
+    return replace(paper, settings=replace(paper.settings, **settings))
+
+
+def _ten_links(**settings: Any):
+    from flexlink.model import Chain, Link, PointSensor, Scenario, SimulationSettings
+    from flexlink.motion import Cycloidal
+
+    links = tuple(Link(f"link{k + 1}", 0.3, 0.2, 8.0, damping_ratio=0.01, modes=4)
+                  for k in range(10))
+    joints = tuple(Cycloidal(0.0, 15.0, 0.2 + 0.05 * k, 1.0) for k in range(10))
+    sensors = tuple(PointSensor(f"tip{k + 1}", "deflection", k, 0.3) for k in range(10))
+    base = SimulationSettings(t_end=5.0, dt_out=1e-3)
+    return Scenario(Chain(links, joints), sensors, replace(base, **settings), name="ten-links")
+
+
+def _flexlink_row(build: str, repeat: int, settings: dict[str, Any]) -> dict[str, Any]:
+    from flexlink import simulate
+
+    scenario = {"paper": _paper, "ten": _ten_links}[build](**settings)
+    result = simulate(scenario)  # warm-up: imports, caches
+    walls = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        result = simulate(scenario)
+        walls.append(time.perf_counter() - start)
+    names = [s.name for s in scenario.sensors]
+    return {"wall": statistics.median(walls), "t_end": scenario.settings.t_end,
+            "signals": {n: result[n] for n in names}, "peak_mb": _peak_mb()}
+
+
+def _exudyn_row(elements: int, repeat: int, duration: float) -> dict[str, Any]:
+    from flexlink.motion import Cycloidal
+    from tests.helpers import paper_links
+    from tests.validation.exudyn_reference import simulate_chain_exudyn
+
+    links = paper_links(damping=False)
+    motions = [Cycloidal(0.0, 90.0, 0.5, duration), Cycloidal(90.0, 170.0, 0.5, duration)]
+    walls, out = [], {}
+    for _ in range(repeat):
+        out = simulate_chain_exudyn(links, motions, 5.0, 1e-3, elements,
+                                    slope_positions={1: [0.01, 0.04]})
+        walls.append(out["wall_time_s"])
+    signals = {"link1_tip_acceleration": np.asarray(out["tip_acceleration_normal"][0]),
+               "link2_tip_deflection": np.asarray(out["tip_deflection"][1]),
+               "pzt_slope_difference": np.asarray(out["slope"][1][0.04])
+               - np.asarray(out["slope"][1][0.01])}
+    return {"wall": statistics.median(walls), "t_end": 5.0, "signals": signals,
+            "peak_mb": _peak_mb(), "coordinates": out["coordinates"]}
+
+
+def _batch_row(cases: int, workers: int | None) -> dict[str, Any]:
+    import flexlink.sweep as sweep  # type: ignore[import-not-found]
+
+    start = time.perf_counter()
+    data = sweep.run_benchmark_batch(cases, workers=workers)
+    wall = time.perf_counter() - start
+    return {"wall": wall, "t_end": 5.0 * cases, "cases": cases, "peak_mb": _peak_mb(),
+            "signals": data}
+
+
+def _in_child(fn: Callable[..., dict[str, Any]], *args: Any) -> dict[str, Any]:
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        return pool.apply(fn, args)
+
+
+# -- table ---------------------------------------------------------------------------------------
+def _error(signals: dict[str, np.ndarray], reference: dict[str, np.ndarray]) -> float:
+    return max(float(np.abs(signals[n] - reference[n]).max() / np.abs(reference[n]).max())
+               for n in reference)
+
+
+def _row(label: str, run: dict[str, Any], error: float | str, runs: int = 1) -> str:
+    wall = run["wall"]
+    err = error if isinstance(error, str) else f"{100 * error:.2g} %"
+    return (f"| {label} | {wall:.3g} | {run['t_end'] / wall:.3g} | {runs / wall:.3g} | "
+            f"{run['peak_mb']:.0f} | {err} |")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3, help="timed runs per row (median)")
+    parser.add_argument("--quick", action="store_true", help="skip the slow rows")
+    parser.add_argument("--batch", type=int, default=1000, help="cases in the batch row")
+    args = parser.parse_args()
+    rows: list[str] = []
+
+    def add(label: str, run: dict[str, Any], error: float | str, runs: int = 1) -> None:
+        rows.append(_row(label, run, error, runs))
+        print(rows[-1], flush=True)
+
+    print(f"# {platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, "
+          f"numpy {np.__version__}")
+    print("| case | wall [s] | real-time factor | runs/s | peak memory [MB] | error / peak |")
+    print("|---|---|---|---|---|---|")
+    ref = _in_child(_flexlink_row, "paper", 1, {"rtol": 1e-10, "atol": 1e-16})
+    for label, settings in [("paper: flexlink Magnus, rtol 1e-6 (default)", {}),
+                            ("paper: flexlink Magnus, rtol 1e-3", {"rtol": 1e-3})]:
+        run = _in_child(_flexlink_row, "paper", args.repeat, settings)
+        add(label, run, _error(run["signals"], ref["signals"]))
+    run = _in_child(_flexlink_row, "paper", 1, {"method": "DOP853", "rtol": 1e-6, "atol": 1e-12})
+    add("paper: scipy solve_ivp DOP853, rtol 1e-6, Python RHS", run,
+        _error(run["signals"], ref["signals"]))
+
+    if not args.quick:
+        try:
+            import exudyn  # noqa: F401
+        except ImportError:
+            print("(Exudyn not installed: pip install -e '.[reference]' for its rows)")
+        else:
+            meshes = {e: _in_child(_exudyn_row, e, 1, 1.0) for e in EXUDYN_MESHES}
+            finest = meshes[EXUDYN_MESHES[-1]]["signals"]
+            chosen = next(e for e in EXUDYN_MESHES if _error(meshes[e]["signals"], finest) <= 0.01)
+            for e in EXUDYN_MESHES[:-1]:
+                add(f"paper arm (undamped): Exudyn, {e} elements/link"
+                    + (" ← coarsest within 1%" if e == chosen else ""),
+                    meshes[e], _error(meshes[e]["signals"], finest))
+
+    ten_ref = _in_child(_flexlink_row, "ten", 1, {"rtol": 1e-10})
+    run = _in_child(_flexlink_row, "ten", args.repeat, {})
+    add("10 links × 4 modes: flexlink Magnus, rtol 1e-6", run,
+        _error(run["signals"], ten_ref["signals"]))
+    if not args.quick:
+        run = _in_child(_flexlink_row, "ten", 1, {"method": "DOP853", "rtol": 1e-6, "atol": 1e-12})
+        add("10 links × 4 modes: scipy solve_ivp DOP853, rtol 1e-6", run,
+            _error(run["signals"], ten_ref["signals"]))
+
+    try:
+        import flexlink.sweep  # noqa: F401
+    except ImportError:
+        print("(flexlink.sweep not available: batch row skipped)")
+    else:
+        run = _batch_row(args.batch, None)
+        add(f"batch of {args.batch} paper variants, all cores", run, "-", runs=args.batch)
+
+
+if __name__ == "__main__":
+    main()
