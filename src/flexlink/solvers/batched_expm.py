@@ -54,4 +54,3 @@ def expm_stack(A: np.ndarray) -> np.ndarray:
         needs = squarings >= level
         E[needs] = E[needs] @ E[needs]
     return E
-

@@ -115,7 +115,7 @@ def _solve(
     out[0] = y
     for lo in range(0, starts.size, _CHUNK):
         sl = slice(lo, lo + _CHUNK)
-        distinct, first, which = np.unique(labels[sl], return_index=True, return_inverse=True)
+        _, first, which = np.unique(labels[sl], return_index=True, return_inverse=True)
         props = _propagators(matrices, n, starts[sl][first], h[sl][first])
         y = _advance(props, which.ravel(), y, lo, substeps, out)
         if not np.all(np.isfinite(y)):
