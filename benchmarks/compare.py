@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # the Exudyn model lives with the validation tests
 
 PAPER_SIGNALS = ("link1_tip_acceleration", "link2_tip_deflection", "pzt", "link2_root_strain")
-EXUDYN_MESHES = (2, 4, 8, 16, 32)
+EXUDYN_MESHES = (4, 8, 16, 32, 64)
 
 
 # -- runs (each executed in a child process) ---------------------------------------------------
