@@ -62,11 +62,12 @@ def _ten_links(**settings: Any):
     from flexlink.model import Chain, Link, PointSensor, Scenario, SimulationSettings
     from flexlink.motion import Cycloidal
 
-    links = tuple(Link(f"link{k + 1}", 0.3, 0.2, 8.0, damping_ratio=0.01, modes=4)
+    # A 10 m arm of ten 1 m links (first clamped frequencies 2.5 Hz, like the paper's link 2).
+    links = tuple(Link(f"link{k + 1}", 1.0, 0.5, 10.0, damping_ratio=0.01, modes=4)
                   for k in range(10))
-    joints = tuple(Cycloidal(0.0, 15.0, 0.2 + 0.05 * k, 1.0) for k in range(10))
-    sensors = tuple(PointSensor(f"tip{k + 1}", "deflection", k, 0.3) for k in range(10))
-    base = SimulationSettings(t_end=5.0, dt_out=1e-3)
+    joints = tuple(Cycloidal(0.0, 5.0, 0.2, 2.0) for _ in range(10))
+    sensors = tuple(PointSensor(f"tip{k + 1}", "deflection", k, 1.0) for k in range(10))
+    base = SimulationSettings(t_end=5.0, dt_out=1e-3, geometric_stiffening=True)
     return Scenario(Chain(links, joints), sensors, replace(base, **settings), name="ten-links")
 
 
