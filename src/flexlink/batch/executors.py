@@ -1,0 +1,130 @@
+"""Where the chunks of a sweep run: this process, local worker processes, or a Dask cluster.
+
+Each executor is a generator of `ChunkResult` in completion order. Leaving it early (an
+exception or Ctrl-C in the consumer; use ``contextlib.closing``) cancels the chunks not yet
+started and stops the workers, so an interrupted sweep returns at once.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from typing import Any
+
+from ..model import Scenario
+from .errors import SweepError
+from .worker import ChunkResult, init_local_worker, run_chunk
+
+Chunk = list[tuple[int, Scenario]]
+CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
+MAX_CHUNK = 32  # cases per chunk: bounds the result message size and the wait on Ctrl-C
+
+
+def available_cores() -> int:
+    """Cores this process may run on (the affinity mask where the OS has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def make_chunks(indexed: Sequence[tuple[int, Scenario]], workers: int) -> list[Chunk]:
+    """Consecutive cases in chunks of equal size: few enough tasks that the per-task overhead
+    (one message each way) is small, enough of them to keep every worker busy to the end."""
+    size = max(1, min(MAX_CHUNK, math.ceil(len(indexed) / (workers * CHUNKS_PER_WORKER))))
+    return [list(indexed[i:i + size]) for i in range(0, len(indexed), size)]
+
+
+def failed_chunk(chunk: Chunk, exc: BaseException) -> ChunkResult:
+    """Every case of a chunk that could not run (lost worker, unpicklable result …)."""
+    return ChunkResult(failed={index: f"{type(exc).__name__}: {exc}" for index, _ in chunk})
+
+
+def in_process(chunks: Sequence[Chunk], channels: Sequence[str] | None) -> Iterator[ChunkResult]:
+    """One worker: run the cases here, in order (no process start-up, same code path); one
+    case at a time, as there is no per-task overhead to amortise."""
+    for chunk in chunks:
+        for case in chunk:
+            yield run_chunk([case], channels)
+
+
+def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None,
+                    workers: int) -> Iterator[ChunkResult]:
+    """A pool of ``workers`` processes on this machine, one BLAS thread each."""
+    # forkserver: workers fork from a clean single-threaded server (forking this process,
+    # which may run threads such as a progress bar's, can deadlock); spawn where it is missing
+    method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+    context = multiprocessing.get_context(method)
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                               initializer=init_local_worker)
+    futures: dict[Future[ChunkResult], Chunk] = {}
+    finished = False
+    try:
+        futures = {pool.submit(run_chunk, chunk, channels): chunk for chunk in chunks}
+        for future in as_completed(futures):
+            try:
+                result = future.result()
+            except Exception as exc:  # BrokenProcessPool (a worker died), pickling errors
+                result = failed_chunk(futures[future], exc)
+            yield result
+        finished = True
+    finally:
+        if finished:
+            pool.shutdown(wait=True)
+        else:
+            pool.shutdown(wait=False, cancel_futures=True)
+            _terminate_workers(pool)
+
+
+def _terminate_workers(pool: ProcessPoolExecutor) -> None:
+    """Stop the running chunks too (Python 3.14 has ProcessPoolExecutor.terminate_workers)."""
+    terminate = getattr(pool, "terminate_workers", None)
+    if terminate is not None:
+        terminate()
+        return
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+
+
+def dask_cluster(chunks: Sequence[Chunk], channels: Sequence[str] | None,
+                 client: Any) -> Iterator[ChunkResult]:
+    """The chunks as tasks on a `distributed.Client`; results in completion order."""
+    from distributed import as_completed as dask_as_completed
+
+    futures = client.map(run_chunk, chunks, channels=channels, pure=False)
+    by_key = {future.key: chunk for future, chunk in zip(futures, chunks)}
+    finished = False
+    try:
+        for future in dask_as_completed(futures):
+            try:
+                result = future.result()
+            except Exception as exc:  # a worker lost, or flexlink not importable there
+                result = failed_chunk(by_key[future.key], exc)
+            yield result
+        finished = True
+    finally:
+        if not finished:
+            client.cancel(futures)
+
+
+def connect(scheduler: Any) -> tuple[Any, bool]:
+    """(client, whether we opened it) for a scheduler address or an existing Client."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise SweepError(["running on a Dask cluster needs dask.distributed: "
+                          "pip install 'flexlink[cluster]'"]) from None
+    if isinstance(scheduler, Client):
+        return scheduler, False
+    try:
+        return Client(str(scheduler), timeout="10s"), True
+    except (OSError, TimeoutError) as exc:
+        raise SweepError([f"cannot reach the Dask scheduler at {scheduler}: {exc}"]) from None
+
+
+def dask_cores(client: Any) -> int:
+    """Worker threads of the cluster (for the chunk size)."""
+    workers = client.scheduler_info().get("workers", {})
+    return max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))
