@@ -7,9 +7,20 @@ are documented in ``docs/sweep.md``.
 
 from __future__ import annotations
 
-from .errors import SweepError, SweepInterrupted
-from .parameters import GridParameter, RandomParameter, grid_values, random_distribution
-from .run import sweep
+from typing import Any
 
 __all__ = ["GridParameter", "RandomParameter", "SweepError", "SweepInterrupted", "grid_values",
            "random_distribution", "sweep"]
+
+_HOMES = {"sweep": "run", "SweepError": "errors", "SweepInterrupted": "errors",
+          "GridParameter": "parameters", "RandomParameter": "parameters",
+          "grid_values": "parameters", "random_distribution": "parameters"}
+
+
+def __getattr__(name: str) -> Any:
+    # Lazy: `flexlink sweep --help` (which imports .command) must not load numpy and scipy.
+    if name in _HOMES:
+        from importlib import import_module
+
+        return getattr(import_module(f".{_HOMES[name]}", __name__), name)
+    raise AttributeError(f"module 'flexlink.batch' has no attribute {name!r}")

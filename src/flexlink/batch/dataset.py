@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .parameters import CaseTable
-from .worker import Channel, ChunkResult
+from .worker import Channel, ChunkResult, labels
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -52,7 +52,7 @@ class SweepCollector:
         if self._values is None:
             self.channels = chunk.channels
             self._values = np.zeros((len(self.channels), self.table.count, self.time.size))
-        if chunk.channels != self.channels:
+        if labels(chunk.channels) != labels(self.channels):
             for index in chunk.done:
                 self.fail(index, "ValueError: channels differ from the first finished case's")
             return

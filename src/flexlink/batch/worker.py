@@ -30,6 +30,11 @@ class Channel:
     description: str
 
 
+def labels(channels: Sequence[Channel]) -> list[tuple[str, str]]:
+    """Names and units: what must agree between cases (descriptions may name a swept x)."""
+    return [(c.name, c.unit) for c in channels]
+
+
 @dataclass
 class ChunkResult:
     """Outcome of a chunk. ``values[i]`` (channels × time) belongs to case ``done[i]``."""
@@ -57,7 +62,7 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
                 raise KeyError(f"no channel {', '.join(missing)} in this case's results")
             found = tuple(Channel(n, results.signals[n].unit, results.signals[n].description)
                           for n in names)
-            if out.channels and found != out.channels:
+            if out.channels and labels(found) != labels(out.channels):
                 raise ValueError("this case's channels differ from the other cases'")
             block = np.stack([results[n] for n in names])
         except Exception as exc:  # any failure of one case is that case's result
