@@ -21,6 +21,7 @@ from .worker import ChunkResult, init_local_worker, run_chunk
 Chunk = list[tuple[int, Scenario]]
 CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
 MAX_CHUNK = 32  # cases per chunk: bounds the result message size and the wait on Ctrl-C
+CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
 
 
 def available_cores() -> int:
@@ -119,7 +120,7 @@ def connect(scheduler: Any) -> tuple[Any, bool]:
     if isinstance(scheduler, Client):
         return scheduler, False
     try:
-        return Client(str(scheduler), timeout="10s"), True
+        return Client(str(scheduler), timeout=CONNECT_TIMEOUT), True
     except (OSError, TimeoutError) as exc:
         raise SweepError([f"cannot reach the Dask scheduler at {scheduler}: {exc}"]) from None
 

@@ -153,8 +153,7 @@ def _progress(total: int, enabled: bool) -> Iterator[Any]:
 
 class _Checkpoint:
     """Writes the Dataset to ``output`` atomically: at the end, and while running at most every
-    ``interval`` seconds (and never more than a tenth of the time), so a crash keeps the
-    finished cases."""
+    ``interval`` seconds, so a crash keeps the finished cases."""
 
     def __init__(self, output: str | Path | None, interval: float) -> None:
         self.output = None if output is None else Path(output)
@@ -163,8 +162,9 @@ class _Checkpoint:
         self._cost = 0.0
 
     def maybe_write(self, collector: SweepCollector) -> None:
-        now = time.monotonic()
-        if self.output is None or now - self._last < max(self.interval, 10.0 * self._cost):
+        # never spend more than a tenth of the time writing; interval 0: after every chunk
+        wait = max(self.interval, 10.0 * self._cost) if self.interval > 0 else 0.0
+        if self.output is None or time.monotonic() - self._last < wait:
             return
         self.write(collector.dataset())
 

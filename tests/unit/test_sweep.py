@@ -1,0 +1,240 @@
+"""Batch sweeps: every case equals its own `simulate` run, failures and Ctrl-C keep the
+finished cases, the netCDF file round-trips, the command line agrees with the library, and
+the same sweep runs on a Dask cluster started here on loopback."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import flexlink.simulation
+from flexlink.batch import SweepError, SweepInterrupted, executors, sweep
+from flexlink.cli import main
+from flexlink.scenario import paper_experiment_path, scenario_from_dict
+from flexlink.scenario.load import read_toml
+from flexlink.simulation import simulate
+
+SPIN = """\
+[simulation]
+name = "spin"
+t_end = 1.0
+dt_out = 0.05
+
+[[links]]
+name = "arm"
+length = 0.6
+mass_per_length = 0.0636
+EI = 0.163
+modes = 1
+
+[[joints]]
+motion = [{ profile = "spinup", to_rate_deg_s = 30.0, start = 0.0, duration = 0.2 }]
+
+[[sensors]]
+name = "tip"
+kind = "deflection"
+link = "arm"
+x = 0.6
+"""
+# The paper's model (no geometric stiffening) diverges above the first frequency, about
+# 2.5 Hz = 900 deg/s for this arm: 3000 deg/s fails, 100 and 200 deg/s do not.
+RATES = [3000.0, 100.0, 200.0]
+RATE = "joints[0].motion[0].to_rate_deg_s"
+
+
+def short_paper() -> dict[str, Any]:
+    """The paper's two links, 2 modes each, a 20° / 20° move in 0.3 s, 0.4 s simulated."""
+    raw = read_toml(paper_experiment_path())
+    raw["simulation"].update(t_end=0.4, dt_out=0.01, geometric_stiffening=True)
+    raw["joints"][0]["motion"][0].update(start=0.0, duration=0.3, to_deg=20.0)
+    raw["joints"][1]["motion"][0].update(start=0.0, duration=0.3, to_deg=110.0)
+    for link in raw["links"]:
+        link["modes"] = 2
+    return raw
+
+
+def single_run(raw: dict[str, Any], link1_EI: float, duration: float):
+    """The case built by hand, independently of the sweep's path machinery."""
+    raw = copy.deepcopy(raw)
+    link = raw["links"][0]
+    del link["E"]
+    link["EI"] = link1_EI
+    raw["joints"][1]["motion"][0]["duration"] = duration
+    return simulate(scenario_from_dict(raw, paper_experiment_path().parent))
+
+
+def spin_file(tmp_path: Path) -> Path:
+    path = tmp_path / "spin.toml"
+    path.write_text(SPIN, encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def paper_sweep(tmp_path_factory: pytest.TempPathFactory) -> tuple[xr.Dataset, Path]:
+    out = tmp_path_factory.mktemp("sweep") / "paper.nc"
+    dataset = sweep(short_paper(), grid={"links[0].EI": [250.0, 350.0]},
+                    random={"joints[1].motion[0].duration": "uniform:0.25:0.35"},
+                    samples=2, seed=5, output=out, workers=2,
+                    base_dir=paper_experiment_path().parent)
+    return dataset, out
+
+
+def test_every_case_equals_its_own_simulate_run(paper_sweep) -> None:
+    dataset, _ = paper_sweep
+    assert dataset.sizes == {"case": 4, "time": 41}
+    assert dataset.status.values.tolist() == ["ok"] * 4
+    raw = short_paper()
+    for case in range(4):
+        EI = float(dataset["links[0].EI"][case])
+        duration = float(dataset["joints[1].motion[0].duration"][case])
+        reference = single_run(raw, EI, duration)
+        assert set(reference.names) == set(dataset.data_vars) - {"status", "error", "wall_time"}
+        for name in reference.names:
+            # bit for bit: the same computation in a worker process
+            assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)
+        assert dataset[reference.names[0]].attrs["units"] == \
+            reference.signals[reference.names[0]].unit
+    # the cases differ: the sweep really varied the fields
+    assert not np.array_equal(dataset.link1_tip_acceleration[0], dataset.link1_tip_acceleration[2])
+
+
+def test_the_file_holds_the_dataset_and_the_sweep_definition(paper_sweep) -> None:
+    dataset, out = paper_sweep
+    with xr.open_dataset(out) as read:
+        xr.testing.assert_identical(read.load(), dataset)
+        assert read.attrs["sweep_state"] == "finished" and read.attrs["seed"] == "5"
+        assert read["links[0].EI"].attrs["units"] == "N·m²"
+        base = read.attrs["base_scenario"]
+    assert "[[links]]" in base and "EI = 308.7" in base  # the resolved base scenario
+    assert not list(out.parent.glob(".*partial*"))
+
+
+def test_a_failing_case_keeps_the_others(tmp_path: Path) -> None:
+    dataset = sweep(spin_file(tmp_path), grid={RATE: RATES}, workers=1)
+    assert dataset.status.values.tolist() == ["failed", "ok", "ok"]
+    assert "SimulationError: the tip deflection of arm exceeds its length" in \
+        str(dataset.error.values[0])
+    assert dataset.error.values[1] == "" and np.all(dataset.tip.values[0] == 0.0)
+    for data in dataset.data_vars.values():  # never NaN, failed cases hold 0.0
+        assert data.dtype.kind in "US" or np.all(np.isfinite(data.values))
+    for case in (1, 2):
+        raw = read_toml(spin_file(tmp_path))
+        raw["joints"][0]["motion"][0]["to_rate_deg_s"] = RATES[case]
+        reference = simulate(scenario_from_dict(raw))
+        assert np.array_equal(dataset.tip.values[case], reference["tip"])
+
+
+def test_interrupt_writes_the_finished_cases_and_raises(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[int] = []
+    checkpoints: list[list[str]] = []
+    out = tmp_path / "spin.nc"
+
+    def interrupted_on_third(scenario, progress=False):
+        calls.append(1)
+        if len(calls) == 3:
+            with xr.open_dataset(out) as partial:  # the checkpoint after the second case
+                checkpoints.append(partial.status.values.tolist())
+            raise KeyboardInterrupt
+        return simulate(scenario, progress)
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", interrupted_on_third)
+    with pytest.raises(SweepInterrupted) as excinfo:
+        sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0, 300.0, 400.0]}, workers=1,
+              output=out, checkpoint_interval=0.0)
+    assert checkpoints == [["ok", "ok", "not_run", "not_run"]]
+    assert excinfo.value.dataset.status.values.tolist() == ["ok", "ok", "not_run", "not_run"]
+    with xr.open_dataset(out) as written:
+        assert written.status.values.tolist() == ["ok", "ok", "not_run", "not_run"]
+        assert written.attrs["sweep_state"] == "interrupted"
+        assert written.attrs["cases_not_run"] == 2
+
+
+def test_channels_can_be_selected_and_unknown_ones_are_rejected(tmp_path: Path) -> None:
+    dataset = sweep(spin_file(tmp_path), grid={RATE: [100.0]}, channels=["tip"], workers=1)
+    assert [n for n in dataset.data_vars if dataset[n].dims == ("case", "time")] == ["tip"]
+    with pytest.raises(SweepError, match="unknown channel 'tipp'; available: tip, joint1_angle"):
+        sweep(spin_file(tmp_path), grid={RATE: [100.0]}, channels=["tipp"], workers=1)
+
+
+def test_command_line_sweep_matches_the_library(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    scenario, out = spin_file(tmp_path), tmp_path / "cli.nc"
+    status = main(["sweep", str(scenario), "--grid", f"{RATE}={','.join(map(str, RATES))}",
+                   "--workers", "1", "-o", str(out)])
+    report = capsys.readouterr().out
+    assert status == 1  # one case failed; the file holds the others
+    assert "3 cases" in report and "2 ok, 1 failed" in report
+    assert f"case 0 ({RATE} = 3000): SimulationError" in report
+    library = sweep(scenario, grid={RATE: RATES}, workers=1)
+    with xr.open_dataset(out) as read:
+        for name in ("tip", "joint1_angle", "status", RATE):
+            assert np.array_equal(read[name].values, library[name].values)
+    # the file exists now: refused without --overwrite, before anything runs
+    assert main(["sweep", str(scenario), "--grid", f"{RATE}=100", "-o", str(out), "-q"]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert main(["sweep", str(scenario), "--grid", f"{RATE}=100", "-o", str(out), "-q",
+                 "--overwrite", "--workers", "1"]) == 0
+    assert capsys.readouterr().out.strip() == str(out)
+
+
+def test_command_line_random_sweep_of_the_paper_defaults_its_file_name(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.chdir(tmp_path)
+    # not run: the first case is invalid, so the whole sweep is refused with exit status 2
+    status = main(["sweep", "--paper", "--random", "sensors[0].x=uniform:1.3:1.5",
+                   "--samples", "3", "--seed", "2"])
+    err = capsys.readouterr().err
+    assert status == 2 and "sensors[0].x must be <= 1.37 m" in err
+    assert not list(tmp_path.iterdir())
+    assert main(["sweep", "--paper", "--grid", "links[0].EI=abc"]) == 2
+    assert "grid links[0].EI: expected a number, got 'abc'" in capsys.readouterr().err
+
+
+def test_command_line_interrupt_exits_130_with_the_file(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    calls: list[int] = []
+
+    def interrupted_on_second(scenario, progress=False):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return simulate(scenario, progress)
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", interrupted_on_second)
+    out = tmp_path / "cut.nc"
+    status = main(["sweep", str(spin_file(tmp_path)), "--grid", f"{RATE}=100,200,300",
+                   "--workers", "1", "-o", str(out), "-q"])
+    assert status == 130 and "interrupted" in capsys.readouterr().err
+    with xr.open_dataset(out) as written:
+        assert written.status.values.tolist() == ["ok", "not_run", "not_run"]
+
+
+def test_sweep_on_a_dask_cluster_equals_the_local_sweep(tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    scenario = spin_file(tmp_path)
+    local = sweep(scenario, grid={RATE: RATES}, workers=1)
+    # tcp on loopback, one in-process worker with two threads: starts in about a second
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        remote = sweep(scenario, grid={RATE: RATES}, scheduler=cluster.scheduler_address)
+    for name in ("tip", "joint1_angle", "status", "error"):
+        assert np.array_equal(remote[name].values, local[name].values)
+    assert remote.status.values.tolist() == ["failed", "ok", "ok"]
+
+
+def test_an_unreachable_scheduler_is_an_input_error(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("distributed")
+    monkeypatch.setattr(executors, "CONNECT_TIMEOUT", "1s")
+    with pytest.raises(SweepError, match="cannot reach the Dask scheduler"):
+        sweep(spin_file(tmp_path), grid={RATE: [100.0]}, scheduler="tcp://127.0.0.1:9")
