@@ -2,7 +2,7 @@
 
 Layout: one variable per channel with dims (case, time), units and long names in attrs; the
 parameter values as coordinates on ``case``; ``status`` per case (``"ok"``, ``"failed"``,
-``"not_run"``), ``error`` (the failure message, empty otherwise) and ``wall_time`` (s).
+``"not_run"``), ``error`` (the failure message, empty otherwise), ``wall_time`` and ``cpu_time`` (s).
 Cases that did not finish hold 0.0, never NaN: select finished cases with
 ``ds.sel(case=ds.status == "ok")``.
 """
@@ -40,6 +40,7 @@ class SweepCollector:
         self.status = np.full(table.count, "not_run", dtype="<U7")
         self.error = np.full(table.count, "", dtype=object)
         self.wall_time = np.zeros(table.count)
+        self.cpu_time = np.zeros(table.count)
         self.channels: tuple[Channel, ...] = ()
         self._values: np.ndarray | None = None
 
@@ -56,10 +57,12 @@ class SweepCollector:
             for index in chunk.done:
                 self.fail(index, "ValueError: channels differ from the first finished case's")
             return
-        for index, block, wall in zip(chunk.done, chunk.values, chunk.wall_times):
+        for index, block, wall, cpu in zip(chunk.done, chunk.values, chunk.wall_times,
+                                           chunk.cpu_times):
             self._values[:, index, :] = block
             self.status[index] = "ok"
             self.wall_time[index] = wall
+            self.cpu_time[index] = cpu
 
     def fail(self, index: int, message: str) -> None:
         self.status[index] = "failed"
@@ -96,6 +99,9 @@ class SweepCollector:
         data["error"] = ("case", self.error.astype(str), {"long_name": "failure message"})
         data["wall_time"] = ("case", self.wall_time,
                              {"units": "s", "long_name": "wall time of the case's simulation"})
+        data["cpu_time"] = ("case", self.cpu_time,
+                            {"units": "s", "long_name": "CPU time of the case's simulation "
+                                                        "(of the thread that ran it)"})
         counts = self.counts
         attrs = {**self.attrs, **{f"cases_{s}": counts[s] for s in STATUSES}}
         return xr.Dataset(data, coords=coords, attrs=attrs)

@@ -43,6 +43,7 @@ class ChunkResult:
     done: list[int] = field(default_factory=list)
     values: list[np.ndarray] = field(default_factory=list)
     wall_times: list[float] = field(default_factory=list)
+    cpu_times: list[float] = field(default_factory=list)
     failed: dict[int, str] = field(default_factory=dict)
 
 
@@ -53,7 +54,7 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
 
     out = ChunkResult()
     for index, scenario in cases:
-        started = time.perf_counter()
+        started, cpu_started = time.perf_counter(), time.thread_time()
         try:
             results = simulate(scenario)
             names = list(channels) if channels is not None else results.names
@@ -72,6 +73,7 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
         out.done.append(index)
         out.values.append(block)
         out.wall_times.append(time.perf_counter() - started)
+        out.cpu_times.append(time.thread_time() - cpu_started)
     return out
 
 
