@@ -108,16 +108,26 @@ def _join(tokens: PathTokens) -> str:
     return text or "the scenario"
 
 
-def set_value(raw: dict[str, Any], tokens: PathTokens, value: float | int) -> None:
-    """Set one field in place (the path was checked by `check_paths`)."""
-    node: Any = raw
-    for token in tokens[:-1]:
-        node = node[token]
-    key = tokens[-1]
-    node[key] = value
-    alternative = {"EI": "E", "E": "EI"}.get(str(key))
-    if alternative and tokens[0] == "links":
-        node.pop(alternative, None)
+def with_values(raw: Mapping[str, Any], values: Mapping[PathTokens, float | int]
+                ) -> dict[str, Any]:
+    """A copy of ``raw`` with each path set to its value (paths checked by `check_paths`).
+
+    Only the tables and arrays on the paths are copied; the rest is shared with ``raw``,
+    which is never modified (a deep copy per case would cost more than validating it)."""
+    out = dict(raw)
+    for tokens, value in values.items():
+        node: Any = out
+        for token in tokens[:-1]:
+            child = node[token]
+            child = list(child) if isinstance(child, list) else dict(child)
+            node[token] = child
+            node = child
+        key = tokens[-1]
+        node[key] = value
+        alternative = {"EI": "E", "E": "EI"}.get(str(key))
+        if alternative and tokens[0] == "links":
+            node.pop(alternative, None)
+    return out
 
 
 def case_scenarios(base: BaseScenario, table: CaseTable) -> list[Scenario]:
@@ -126,9 +136,7 @@ def case_scenarios(base: BaseScenario, table: CaseTable) -> list[Scenario]:
     scenarios: list[Scenario] = []
     grouped: dict[str, list[int]] = {}
     for index in range(table.count):
-        raw = copy.deepcopy(base.raw)
-        for path, value in table.case(index).items():
-            set_value(raw, tokens[path], value)  # type: ignore[arg-type]
+        raw = with_values(base.raw, {tokens[p]: v for p, v in table.case(index).items()})
         try:
             scenarios.append(scenario_from_dict(raw, base.base_dir, name=base.name,
                                                 source=base.source))
