@@ -194,10 +194,12 @@ def test_invalid_values_name_the_field_value_and_cases() -> None:
                         grid_values("sensors[0].x", [1.0, 2.0])])
     with pytest.raises(SweepError) as excinfo:
         case_scenarios(load_base(paper_experiment_path()), table)
-    text = problems(excinfo)
-    assert "links[0].EI must be > 0 N·m², got -1.0 (2 cases, first case 2:" in text
-    assert "links[0].EI must be > 0 N·m², got -2.0" in text
-    assert "sensors[0].x must be <= 1.37 m" in text and "got 2.0 (3 cases" in text
+    assert excinfo.value.problems == [  # one line per kind of problem, with its first case
+        "sensors[0].x must be <= 1.37 m (the length of link 'link1'), got 2.0 "
+        "(case 1: links[0].EI = 300, sensors[0].x = 2; 2 more cases like it)",
+        "links[0].EI must be > 0 N·m², got -1.0 "
+        "(case 2: links[0].EI = -1, sensors[0].x = 1; 3 more cases like it)",
+    ]
 
 
 def test_an_unknown_key_is_caught_by_the_scenario_checks() -> None:

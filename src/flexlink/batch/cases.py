@@ -134,7 +134,7 @@ def case_scenarios(base: BaseScenario, table: CaseTable) -> list[Scenario]:
     """The validated `Scenario` of every case, or one SweepError listing every problem."""
     tokens = check_paths(base, table)
     scenarios: list[Scenario] = []
-    grouped: dict[str, list[int]] = {}
+    grouped: dict[str, list[tuple[int, str]]] = {}
     for index in range(table.count):
         raw = with_values(base.raw, {tokens[p]: v for p, v in table.case(index).items()})
         try:
@@ -142,19 +142,21 @@ def case_scenarios(base: BaseScenario, table: CaseTable) -> list[Scenario]:
                                                 source=base.source))
         except ScenarioError as exc:
             for problem in exc.problems:
-                grouped.setdefault(problem, []).append(index)
+                # "x must be <= 1.37 m, got 1.4": one line per kind of problem, not per value
+                grouped.setdefault(problem.split(", got ")[0], []).append((index, problem))
     if grouped:
         raise SweepError(_case_problems(grouped, table))
     return scenarios
 
 
-def _case_problems(grouped: dict[str, list[int]], table: CaseTable) -> list[str]:
+def _case_problems(grouped: dict[str, list[tuple[int, str]]], table: CaseTable) -> list[str]:
     lines = []
-    for problem, cases in list(grouped.items())[:MAX_PROBLEMS]:
-        values = ", ".join(f"{p} = {v:g}" for p, v in table.case(cases[0]).items())
-        where = (f"case {cases[0]}: {values}" if len(cases) == 1
-                 else f"{len(cases)} cases, first case {cases[0]}: {values}")
-        lines.append(f"{problem} ({where})")
+    for cases in list(grouped.values())[:MAX_PROBLEMS]:
+        first, problem = cases[0]
+        values = ", ".join(f"{p} = {v:g}" for p, v in table.case(first).items())
+        more = f"; {len(cases) - 1} more case{'s' if len(cases) > 2 else ''} like it" \
+            if len(cases) > 1 else ""
+        lines.append(f"{problem} (case {first}: {values}{more})")
     if len(grouped) > MAX_PROBLEMS:
-        lines.append(f"… and {len(grouped) - MAX_PROBLEMS} more problems")
+        lines.append(f"… and {len(grouped) - MAX_PROBLEMS} more kinds of problem")
     return lines
