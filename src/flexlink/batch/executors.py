@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import threading
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from typing import Any
@@ -53,17 +54,33 @@ def in_process(chunks: Sequence[Chunk], channels: Sequence[str] | None) -> Itera
 
 def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None,
                     workers: int) -> Iterator[ChunkResult]:
-    """A pool of ``workers`` processes on this machine, one BLAS thread each."""
-    # forkserver: workers fork from a clean single-threaded server (forking this process,
-    # which may run threads such as a progress bar's, can deadlock); spawn where it is missing
-    method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
-    context = multiprocessing.get_context(method)
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
+    """A pool of ``workers`` processes on this machine, one BLAS thread each. The workers
+    start and every chunk is queued now; the returned generator yields the results."""
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=_start_context(),
                                initializer=init_local_worker)
-    futures: dict[Future[ChunkResult], Chunk] = {}
-    finished = False
     try:
         futures = {pool.submit(run_chunk, chunk, channels): chunk for chunk in chunks}
+    except BaseException:
+        _stop(pool)
+        raise
+    return _completed(pool, futures)
+
+
+def _start_context() -> multiprocessing.context.BaseContext:
+    """fork while this process has a single thread: no start-up cost, and a script need not
+    guard its code with ``if __name__ == "__main__":``. Forking a process that runs threads
+    can deadlock a child (a lock held by another thread is copied held), so then forkserver
+    (workers forked from a clean server; the script must have the guard), else spawn."""
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        return multiprocessing.get_context("fork")
+    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+
+
+def _completed(pool: ProcessPoolExecutor,
+               futures: dict[Future[ChunkResult], Chunk]) -> Iterator[ChunkResult]:
+    finished = False
+    try:
         for future in as_completed(futures):
             try:
                 result = future.result()
@@ -75,18 +92,19 @@ def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None,
         if finished:
             pool.shutdown(wait=True)
         else:
-            pool.shutdown(wait=False, cancel_futures=True)
-            _terminate_workers(pool)
+            _stop(pool)
 
 
-def _terminate_workers(pool: ProcessPoolExecutor) -> None:
-    """Stop the running chunks too (Python 3.14 has ProcessPoolExecutor.terminate_workers)."""
-    terminate = getattr(pool, "terminate_workers", None)
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel the queued chunks and end the running ones now (not after they finish)."""
+    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
     if terminate is not None:
         terminate()
         return
-    for process in list((getattr(pool, "_processes", None) or {}).values()):
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # before shutdown
+    for process in processes:  # clears it
         process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 def dask_cluster(chunks: Sequence[Chunk], channels: Sequence[str] | None,

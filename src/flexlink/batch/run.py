@@ -46,6 +46,8 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     the netCDF file is also replaced every ``checkpoint_interval`` s while the sweep runs.
     Returns the Dataset described in `flexlink.batch.dataset`.
     """
+    import xarray  # noqa: F401 - now, not at Ctrl-C time: a prompt stop when interrupted
+
     grids, randoms = _parameters(grid, random)
     table = case_table(grids, randoms, samples, seed, sampler)
     scenario_base = load_base(base, base_dir)
