@@ -239,3 +239,76 @@ def test_an_unreachable_scheduler_is_an_input_error(tmp_path: Path,
     monkeypatch.setattr(executors, "CONNECT_TIMEOUT", "1s")
     with pytest.raises(SweepError, match="cannot reach the Dask scheduler"):
         sweep(spin_file(tmp_path), grid={RATE: [100.0]}, scheduler="tcp://127.0.0.1:9")
+
+
+@pytest.fixture
+def forked_workers(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Local workers started by fork, so that they inherit the test's monkeypatches."""
+    import multiprocessing
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("needs the fork start method")
+    monkeypatch.setattr(executors, "_start_context", lambda: multiprocessing.get_context("fork"))
+
+
+def test_a_dying_worker_fails_its_cases_and_loses_none(tmp_path: Path, forked_workers,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    def dies_on_200(scenario, progress=False):
+        if scenario.chain.joints[0].to_rate_deg_s == 200.0:
+            os._exit(1)  # as a worker killed by the out-of-memory killer
+        return simulate(scenario, progress)
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", dies_on_200)
+    dataset = sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0, 300.0, 400.0]}, workers=2)
+    status = dataset.status.values.tolist()
+    assert status[1] == "failed" and "BrokenProcessPool" in str(dataset.error.values[1])
+    assert set(status) <= {"ok", "failed"}  # every case accounted for, none silently lost
+    for case in np.flatnonzero(dataset.status.values == "ok"):
+        raw = read_toml(spin_file(tmp_path))
+        raw["joints"][0]["motion"][0]["to_rate_deg_s"] = float(dataset[RATE][case])
+        assert np.array_equal(dataset.tip.values[case], simulate(scenario_from_dict(raw))["tip"])
+
+
+def test_ctrl_c_ends_running_workers(tmp_path: Path, forked_workers,
+                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+    import signal
+
+    pids = tmp_path / "pids"
+
+    def interrupts_then_hangs(scenario, progress=False):
+        if scenario.chain.joints[0].to_rate_deg_s == 100.0:
+            return simulate(scenario, progress)
+        with pids.open("a") as fh:
+            fh.write(f"{os.getpid()}\n")
+        os.kill(os.getppid(), signal.SIGINT)  # Ctrl-C reaches the sweep process
+        signal.pause()  # a long case: must be ended, not waited for
+        return None
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", interrupts_then_hangs)
+    with pytest.raises(SweepInterrupted) as excinfo:
+        sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0]}, workers=2)
+    assert set(excinfo.value.dataset.status.values.tolist()) <= {"ok", "not_run"}
+    for pid in map(int, pids.read_text().split()):
+        assert _ended(pid), f"worker {pid} still runs after the sweep was interrupted"
+
+
+def _ended(pid: int) -> bool:
+    """Whether a process has exited (a zombie not yet reaped counts as exited), allowing a
+    terminate signal up to 5 s to land."""
+    import time
+
+    stat = Path(f"/proc/{pid}/stat")
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("needs /proc")
+    for _ in range(100):
+        try:
+            state = stat.read_text().rsplit(")", 1)[1].split()[0]
+        except (FileNotFoundError, ProcessLookupError):
+            return True
+        if state in ("Z", "X"):
+            return True
+        time.sleep(0.05)
+    return False
