@@ -312,3 +312,18 @@ def _ended(pid: int) -> bool:
             return True
         time.sleep(0.05)
     return False
+
+
+@pytest.mark.slow
+def test_the_python_example_of_docs_sweep_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    import re
+
+    page = Path(__file__).resolve().parents[2] / "docs" / "sweep.md"
+    block, = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
+    monkeypatch.chdir(tmp_path)
+    exec(compile(block, str(page), "exec"), {"__name__": "docs_sweep_example"})
+    means = [float(v) for v in re.findall(r"[0-9.]+(?:e[+-]?\d+)?", capsys.readouterr().out)]
+    assert len(means) == 2 and all(m > 1.0 for m in means)  # peak accelerations, m/s²
+    with xr.open_dataset(tmp_path / "sweep.nc") as written:
+        assert written.sizes == {"case": 4, "time": 5001}
