@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["__version__", "simulate", "sweep", "load_scenario", "load_paper_experiment", "Results", "Scenario"]
+__all__ = ["__version__", "simulate", "sweep", "load_scenario", "load_paper_experiment", "Results",
+           "Scenario"]
 
 
 def __getattr__(name: str) -> Any:

@@ -327,3 +327,19 @@ def test_the_python_example_of_docs_sweep_runs(tmp_path: Path, monkeypatch: pyte
     assert len(means) == 2 and all(m > 1.0 for m in means)  # peak accelerations, m/s²
     with xr.open_dataset(tmp_path / "sweep.nc") as written:
         assert written.sizes == {"case": 4, "time": 5001}
+
+
+def test_conflicting_places_and_an_unwritable_output_fail_before_any_case_runs(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    def never(*args, **kwargs):
+        raise AssertionError("a case ran")
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", never)
+    with pytest.raises(SweepError, match="workers .* or scheduler .*, not both"):
+        sweep(spin_file(tmp_path), grid={RATE: [100.0]}, workers=2, scheduler="tcp://x:1")
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    status = main(["sweep", str(spin_file(tmp_path)), "--grid", f"{RATE}=100", "--workers", "1",
+                   "-o", str(blocker / "out.nc")])
+    assert status == 2 and "could not write" in capsys.readouterr().err

@@ -83,8 +83,9 @@ def _path_problem(raw: Mapping[str, Any], tokens: PathTokens, path: str) -> str 
             if not isinstance(node, list):
                 return f"{path}: {here} is not an array ({describe(node)})"
             if token >= len(node):
-                return (f"{path}: the scenario has {len(node)} entr{'y' if len(node) == 1 else 'ies'}"
-                        f" in {here} (indices 0 to {len(node) - 1})")
+                entries = "entry" if len(node) == 1 else "entries"
+                return (f"{path}: the scenario has {len(node)} {entries} in {here} "
+                        f"(indices 0 to {len(node) - 1})")
         elif not isinstance(node, Mapping) or token not in node:
             return f"{path}: the scenario has no {_join(tokens[:depth + 1])}"
         node = node[token]

@@ -146,6 +146,7 @@ def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str
         values = ", ".join(f"{p} = {dataset[p].values[index]:g}" for p in parameters)
         lines.append(f"  case {index} ({values}): {dataset.error.values[index]}")
     if failed > max_errors:
-        lines.append(f"  … {failed - max_errors} more failed cases (variable 'error' in the file)")
+        lines.append(f"  … {failed - max_errors} more failed cases (variable 'error' of the "
+                     "file)")
     lines.append(f"wrote {output}")
     return "\n".join(lines)

@@ -2,7 +2,8 @@
 
 Layout: one variable per channel with dims (case, time), units and long names in attrs; the
 parameter values as coordinates on ``case``; ``status`` per case (``"ok"``, ``"failed"``,
-``"not_run"``), ``error`` (the failure message, empty otherwise), ``wall_time`` and ``cpu_time`` (s).
+``"not_run"``), ``error`` (the failure message, empty otherwise), ``wall_time`` and
+``cpu_time`` (s).
 Cases that did not finish hold 0.0, never NaN: select finished cases with
 ``ds.sel(case=ds.status == "ok")``.
 """

@@ -1,8 +1,9 @@
 """Where the chunks of a sweep run: this process, local worker processes, or a Dask cluster.
 
-Each executor is a generator of `ChunkResult` in completion order. Leaving it early (an
-exception or Ctrl-C in the consumer; use ``contextlib.closing``) cancels the chunks not yet
-started and stops the workers, so an interrupted sweep returns at once.
+Each executor gives the `ChunkResult` of every chunk in completion order, and has a
+``close()`` (use ``contextlib.closing``): closed before the end (an exception or Ctrl-C in
+the consumer) it cancels the chunks not yet started and stops the running ones, so an
+interrupted sweep returns at once.
 """
 
 from __future__ import annotations
@@ -53,9 +54,10 @@ def in_process(chunks: Sequence[Chunk], channels: Sequence[str] | None) -> Itera
 
 
 def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None,
-                    workers: int) -> Iterator[ChunkResult]:
+                    workers: int) -> PoolResults:
     """A pool of ``workers`` processes on this machine, one BLAS thread each. The workers
-    start and every chunk is queued now; the returned generator yields the results."""
+    start and every chunk is queued now; iterate over the result for the chunks' results
+    and close it (``contextlib.closing``) to end the pool."""
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=_start_context(),
                                initializer=init_local_worker)
     try:
@@ -63,7 +65,7 @@ def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None,
     except BaseException:
         _stop(pool)
         raise
-    return _completed(pool, futures)
+    return PoolResults(pool, futures)
 
 
 def _start_context() -> multiprocessing.context.BaseContext:
@@ -77,22 +79,31 @@ def _start_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
-def _completed(pool: ProcessPoolExecutor,
-               futures: dict[Future[ChunkResult], Chunk]) -> Iterator[ChunkResult]:
-    finished = False
-    try:
-        for future in as_completed(futures):
+class PoolResults:
+    """The results of a process pool's chunks in completion order. ``close()`` (also when
+    iteration never started) ends the pool: waits for it after a complete iteration, else
+    cancels the queued chunks and terminates the workers."""
+
+    def __init__(self, pool: ProcessPoolExecutor,
+                 futures: dict[Future[ChunkResult], Chunk]) -> None:
+        self.pool = pool
+        self.futures = futures
+        self.finished = False
+
+    def __iter__(self) -> Iterator[ChunkResult]:
+        for future in as_completed(self.futures):
             try:
                 result = future.result()
             except Exception as exc:  # BrokenProcessPool (a worker died), pickling errors
-                result = failed_chunk(futures[future], exc)
+                result = failed_chunk(self.futures[future], exc)
             yield result
-        finished = True
-    finally:
-        if finished:
-            pool.shutdown(wait=True)
+        self.finished = True
+
+    def close(self) -> None:
+        if self.finished:
+            self.pool.shutdown(wait=True)
         else:
-            _stop(pool)
+            _stop(self.pool)
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:

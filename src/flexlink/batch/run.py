@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -58,6 +58,7 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
                                _attributes(scenario_base, table))
     indexed = list(enumerate(scenarios))
     checkpoint = _Checkpoint(output, checkpoint_interval)
+    checkpoint.write(collector.dataset())  # all not_run: fail now if output is unwritable
     with contextlib.ExitStack() as stack:
         results = _executor(stack, indexed, selected, workers, scheduler)
         bar = stack.enter_context(_progress(table.count, progress))
@@ -107,7 +108,10 @@ def _check_channels(base: BaseScenario, channels: Sequence[str] | None) -> list[
 
 
 def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[str] | None,
-              workers: int | None, scheduler: Any) -> Iterator[ChunkResult]:
+              workers: int | None, scheduler: Any) -> Iterable[ChunkResult]:
+    if scheduler is not None and workers is not None:
+        raise SweepError(["give workers (local processes) or scheduler (a Dask cluster), "
+                          "not both: a cluster's workers are set up when it is started"])
     if scheduler is not None:
         client, opened = executors.connect(scheduler)
         if opened:
@@ -120,8 +124,10 @@ def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[st
             raise SweepError([f"workers must be an integer >= 1, got {workers!r}"])
         count = min(count, len(indexed))
         chunks = executors.make_chunks(indexed, count)
-        generator = (executors.in_process(chunks, channels) if count == 1
-                     else executors.local_processes(chunks, channels, count))
+        if count > 1:
+            return stack.enter_context(contextlib.closing(
+                executors.local_processes(chunks, channels, count)))
+        generator = executors.in_process(chunks, channels)
     return stack.enter_context(contextlib.closing(generator))
 
 
