@@ -6,15 +6,16 @@ The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) a
 move durations (0.8-1.2 s) at random (seed 1). Prints one line per quantity: wall time of the
 whole sweep (validation, worker start-up, runs, collection), runs per second, the sum of the
 cases' own run times (their serial cost), the parallel efficiency, the median wall and CPU
-time of one case (on a shared machine CPU time shows the work, wall time the wait), the peak memory
-(resident set of this process plus its worker processes, sampled every 20 ms).
+time of one case (on a shared machine CPU time shows the work, wall time the wait), and the
+peak resident memory of the sweep process and of its largest worker process.
+``--machinery-only`` replaces every run by a stored result, which leaves the sweep's own
+cost: the throughput it can reach at best.
 """
 
 from __future__ import annotations
 
 import argparse
 import platform
-import threading
 import time
 
 import numpy as np
@@ -30,43 +31,31 @@ RANDOM = {
 }
 
 
-class PeakMemory:
-    """Peak summed resident memory (bytes) of this process and its descendants."""
+def peak_memory_mb() -> tuple[float, float]:
+    """Peak resident memory (MB) of this process and of its largest finished child process
+    (Linux and macOS report ru_maxrss in KiB and bytes)."""
+    import resource
+    import sys
 
-    def __init__(self, interval: float = 0.02) -> None:
-        self.interval = interval
-        self.peak = 0
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._sample, daemon=True)
+    scale = 1.0 if sys.platform == "darwin" else 1024.0
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 1e6
+    child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * scale / 1e6
+    return own, child
 
-    def __enter__(self) -> PeakMemory:
-        self._thread.start()
-        return self
 
-    def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join()
+def machinery_only() -> None:
+    """Replace every run by a stored result of the paper experiment: what is left is the
+    sweep's own cost (validation, transfer, collection) — its throughput ceiling. Local
+    workers are then forked so that they inherit the replacement."""
+    import multiprocessing
 
-    def _sample(self) -> None:
-        try:
-            import psutil  # comes with dask[distributed]; else only this process is measured
-        except ImportError:
-            psutil = None
-        while not self._stop.is_set():
-            if psutil is None:
-                import resource
+    import flexlink.simulation
+    from flexlink import load_paper_experiment
+    from flexlink.batch import executors
 
-                self.peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-            else:
-                me = psutil.Process()
-                total = 0
-                for process in [me, *me.children(recursive=True)]:
-                    try:
-                        total += process.memory_info().rss
-                    except psutil.Error:  # a worker that just exited
-                        pass
-                self.peak = max(self.peak, total)
-            self._stop.wait(self.interval)
+    stored = flexlink.simulation.simulate(load_paper_experiment())
+    flexlink.simulation.simulate = lambda scenario, progress=False: stored
+    executors._start_context = lambda: multiprocessing.get_context("fork")
 
 
 def main() -> None:
@@ -75,19 +64,25 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=None, help="default: every core")
     parser.add_argument("--channels", default=None, help="comma-separated (default: all)")
     parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
+    parser.add_argument("--machinery-only", action="store_true",
+                        help="replace the runs by a stored result: the sweep's own ceiling")
     args = parser.parse_args()
+    if args.machinery_only:
+        machinery_only()
     channels = args.channels.split(",") if args.channels else None
     workers = args.workers or available_cores()
 
-    with PeakMemory() as memory:
-        started = time.perf_counter()
-        dataset = sweep(paper_experiment_path(), random=RANDOM, samples=args.cases, seed=1,
-                        channels=channels, workers=workers, scheduler=args.scheduler,
-                        progress=True)
-        wall = time.perf_counter() - started
+    started = time.perf_counter()
+    dataset = sweep(paper_experiment_path(), random=RANDOM, samples=args.cases, seed=1,
+                    channels=channels, workers=None if args.scheduler else workers,
+                    scheduler=args.scheduler, progress=True)
+    wall = time.perf_counter() - started
+    own, child = peak_memory_mb()
     ok = int(dataset.attrs["cases_ok"])
     serial = float(dataset.wall_time.sum())
     where = args.scheduler or f"{workers} local worker processes"
+    if args.machinery_only:
+        where += " (machinery only: runs replaced by a stored result)"
     print(f"batch of {args.cases} paper-experiment variants (t_end = "
           f"{float(dataset.time[-1]):g} s, {dataset.sizes['time']} samples, "
           f"{sum(1 for v in dataset.data_vars.values() if v.dims == ('case', 'time'))} "
@@ -100,7 +95,8 @@ def main() -> None:
     print(f"{'parallel efficiency':34s} {serial / (wall * workers):.2f}")
     print(f"{'median case run time [ms]':34s} {1e3 * float(np.median(dataset.wall_time)):.1f}")
     print(f"{'median case CPU time [ms]':34s} {1e3 * float(np.median(dataset.cpu_time)):.1f}")
-    print(f"{'peak memory, all processes [MB]':34s} {memory.peak / 1e6:.0f}")
+    print(f"{'peak memory, sweep process [MB]':34s} {own:.0f}")
+    print(f"{'peak memory, largest worker [MB]':34s} {child:.0f}")
 
 
 if __name__ == "__main__":

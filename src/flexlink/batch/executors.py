@@ -92,10 +92,12 @@ class PoolResults:
 
     def __iter__(self) -> Iterator[ChunkResult]:
         for future in as_completed(self.futures):
+            chunk = self.futures.pop(future)  # drop it: a held future holds its result
             try:
                 result = future.result()
             except Exception as exc:  # BrokenProcessPool (a worker died), pickling errors
-                result = failed_chunk(self.futures[future], exc)
+                result = failed_chunk(chunk, exc)
+            del future
             yield result
         self.finished = True
 
@@ -124,19 +126,22 @@ def dask_cluster(chunks: Sequence[Chunk], channels: Sequence[str] | None,
     from distributed import as_completed as dask_as_completed
 
     futures = client.map(run_chunk, chunks, channels=channels, pure=False)
-    by_key = {future.key: chunk for future, chunk in zip(futures, chunks)}
-    finished = False
+    pending = {future.key: (future, chunk) for future, chunk in zip(futures, chunks)}
+    completed = dask_as_completed(futures)
+    del futures
     try:
-        for future in dask_as_completed(futures):
+        for future in completed:
+            _, chunk = pending.pop(future.key)
             try:
                 result = future.result()
             except Exception as exc:  # a worker lost, or flexlink not importable there
-                result = failed_chunk(by_key[future.key], exc)
+                result = failed_chunk(chunk, exc)
+            future.release()  # else the cluster keeps every result until the sweep ends
+            del future
             yield result
-        finished = True
     finally:
-        if not finished:
-            client.cancel(futures)
+        if pending:  # left early: cancel what has not run
+            client.cancel([future for future, _ in pending.values()])
 
 
 def connect(scheduler: Any) -> tuple[Any, bool]:
