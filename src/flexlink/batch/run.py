@@ -46,8 +46,10 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     the netCDF file is also replaced every ``checkpoint_interval`` s while the sweep runs.
     Returns the Dataset described in `flexlink.batch.dataset`.
     """
-    import xarray  # noqa: F401 - now, not at Ctrl-C time: a prompt stop when interrupted
+    import xarray
 
+    # xarray's first Dataset costs ~1 s of imports: pay it now, not when Ctrl-C is pressed
+    xarray.Dataset({"case": ("case", [0])})
     grids, randoms = _parameters(grid, random)
     table = case_table(grids, randoms, samples, seed, sampler)
     scenario_base = load_base(base, base_dir)
@@ -58,7 +60,8 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
                                _attributes(scenario_base, table))
     indexed = list(enumerate(scenarios))
     checkpoint = _Checkpoint(output, checkpoint_interval)
-    checkpoint.write(collector.dataset())  # all not_run: fail now if output is unwritable
+    if output is not None:
+        checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
     with contextlib.ExitStack() as stack:
         results = _executor(stack, indexed, selected, workers, scheduler)
         bar = stack.enter_context(_progress(table.count, progress))
@@ -70,13 +73,9 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
         except KeyboardInterrupt:
             collector.attrs["sweep_state"] = "interrupted"
             stack.close()  # stop the workers before writing
-            dataset = collector.dataset()
-            checkpoint.write(dataset)
-            raise SweepInterrupted(dataset) from None
+            raise SweepInterrupted(checkpoint.write(collector)) from None
     collector.attrs["sweep_state"] = "finished"
-    dataset = collector.dataset()
-    checkpoint.write(dataset)
-    return dataset
+    return checkpoint.write(collector)
 
 
 def _parameters(grid: GridSpec, random: RandomSpec
@@ -172,14 +171,16 @@ class _Checkpoint:
     def maybe_write(self, collector: SweepCollector) -> None:
         # never spend more than a tenth of the time writing; interval 0: after every chunk
         wait = max(self.interval, 10.0 * self._cost) if self.interval > 0 else 0.0
-        if self.output is None or time.monotonic() - self._last < wait:
-            return
-        self.write(collector.dataset())
+        if self.output is not None and time.monotonic() - self._last >= wait:
+            self.write(collector)
 
-    def write(self, dataset: xr.Dataset) -> None:
+    def write(self, collector: SweepCollector) -> xr.Dataset:
+        """Write the collected Dataset (if there is an output file); return it."""
         if self.output is None:
-            return
+            return collector.dataset()
         started = time.monotonic()
+        dataset = collector.dataset()
         write_netcdf_atomic(dataset, self.output)
         self._last = time.monotonic()
         self._cost = self._last - started
+        return dataset
