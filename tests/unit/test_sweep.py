@@ -251,6 +251,12 @@ def forked_workers(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(executors, "_start_context", lambda: multiprocessing.get_context("fork"))
 
 
+# Python >= 3.12 warns when forking while threads run (an idle Dask thread may linger from
+# the cluster test): these tests fork on purpose, to share their monkeypatches
+FORK_WITH_THREADS = "ignore:This process .* is multi-threaded:DeprecationWarning"
+
+
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
 def test_a_dying_worker_fails_its_cases_and_loses_none(tmp_path: Path, forked_workers,
                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     import os
@@ -271,6 +277,7 @@ def test_a_dying_worker_fails_its_cases_and_loses_none(tmp_path: Path, forked_wo
         assert np.array_equal(dataset.tip.values[case], simulate(scenario_from_dict(raw))["tip"])
 
 
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
 def test_ctrl_c_ends_running_workers(tmp_path: Path, forked_workers,
                                      monkeypatch: pytest.MonkeyPatch) -> None:
     import os
