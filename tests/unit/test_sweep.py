@@ -350,3 +350,33 @@ def test_conflicting_places_and_an_unwritable_output_fail_before_any_case_runs(
     status = main(["sweep", str(spin_file(tmp_path)), "--grid", f"{RATE}=100", "--workers", "1",
                    "-o", str(blocker / "out.nc")])
     assert status == 2 and "could not write" in capsys.readouterr().err
+
+
+def test_a_sweep_file_defines_the_same_sweep_as_the_options(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from flexlink.batch import read_sweep_file
+
+    spin_file(tmp_path)
+    spec = tmp_path / "rates.toml"
+    spec.write_text('base = "spin.toml"\nsamples = 2\nseed = 4\nchannels = ["tip"]\n\n'
+                    '[grid]\n"links[0].modes" = [1, 2]\n\n'
+                    f'[random]\n"{RATE}" = "uniform:50:150"\n', encoding="utf-8")
+    assert main(["sweep", "--spec", str(spec), "--workers", "1", "-q",
+                 "-o", str(tmp_path / "a.nc")]) == 0
+    assert main(["sweep", str(tmp_path / "spin.toml"), "--grid", "links[0].modes=1,2",
+                 "--random", f"{RATE}=uniform:50:150", "--samples", "2", "--seed", "4",
+                 "--channels", "tip", "--workers", "1", "-q", "-o", str(tmp_path / "b.nc")]) == 0
+    with xr.open_dataset(tmp_path / "a.nc") as a, xr.open_dataset(tmp_path / "b.nc") as b:
+        timings = ["wall_time", "cpu_time"]
+        xr.testing.assert_identical(a.drop_vars(timings).drop_attrs(),
+                                    b.drop_vars(timings).drop_attrs())
+        assert a.sizes["case"] == 4 and list(a.data_vars)[0] == "tip"
+    assert read_sweep_file(spec)["base"] == tmp_path / "spin.toml"
+    capsys.readouterr()
+    spec.write_text('bse = "spin.toml"\nsampler = "sobol"\n[grid]\n"links[0].EI" = "1,x"\n',
+                    encoding="utf-8")
+    assert main(["sweep", "--spec", str(spec)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown key 'bse' (did you mean 'base'?)" in err
+    assert "sweep.sampler must be one of 'random', 'lhs'" in err
+    assert "grid links[0].EI: expected a number, got 'x'" in err

@@ -1,7 +1,8 @@
 """Batch simulation: grid and random sweeps over scenario fields, on all cores or a Dask cluster.
 
-Public API: `sweep` (also ``flexlink.sweep``), `SweepError`, `SweepInterrupted`, and the
-parameter constructors `grid_values`, `random_distribution`. The method and the file layout
+Public API: `sweep` (also ``flexlink.sweep``), `read_sweep_file` (a sweep defined in TOML),
+`SweepError`, `SweepInterrupted`, and the parameter constructors `grid_values`,
+`random_distribution`. The method and the file layout
 are documented in ``docs/sweep.md``.
 """
 
@@ -10,11 +11,12 @@ from __future__ import annotations
 from typing import Any
 
 __all__ = ["GridParameter", "RandomParameter", "SweepError", "SweepInterrupted", "grid_values",
-           "random_distribution", "sweep"]
+           "random_distribution", "read_sweep_file", "sweep"]
 
 _HOMES = {"sweep": "run", "SweepError": "errors", "SweepInterrupted": "errors",
           "GridParameter": "parameters", "RandomParameter": "parameters",
-          "grid_values": "parameters", "random_distribution": "parameters"}
+          "grid_values": "parameters", "random_distribution": "parameters",
+          "read_sweep_file": "spec"}
 
 
 def __getattr__(name: str) -> Any:

@@ -32,6 +32,9 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
                        help="base scenario file")
     sweep.add_argument("--paper", action="store_true",
                        help="use the built-in paper experiment as the base scenario")
+    sweep.add_argument("--spec", type=Path, metavar="SWEEP.toml",
+                       help="a sweep file: base scenario, grid, random, samples, seed, "
+                            "sampler, channels (instead of those options; docs/sweep.md)")
     sweep.add_argument("--grid", action="append", default=[], metavar="PATH=VALUES",
                        help="grid values: PATH=v1,v2,… or PATH=linspace:start:stop:count or "
                             "PATH=geomspace:start:stop:count (repeat for a cartesian product)")
@@ -42,8 +45,8 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
                        help="random draws (with a grid: the same N draws at every grid point)")
     sweep.add_argument("--seed", type=int, help="seed of the random draws (default: drawn "
                                                 "and recorded in the file)")
-    sweep.add_argument("--sampler", choices=("random", "lhs"), default="random",
-                       help="independent draws (default) or a Latin hypercube")
+    sweep.add_argument("--sampler", choices=("random", "lhs"),
+                       help="independent draws (default: random) or a Latin hypercube")
     sweep.add_argument("--channels", metavar="NAME,…",
                        help="keep only these channels (default: all); saves memory")
     sweep.add_argument("-o", "--output", type=Path, metavar="FILE.nc",
@@ -62,26 +65,25 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
 
 def run_command(args: argparse.Namespace) -> int:
     """Handle ``flexlink sweep``; returns the exit status."""
-    from ..scenario import ScenarioError, paper_experiment_path
+    from ..scenario import ScenarioError
     from .errors import SweepError, SweepInterrupted
-    from .parameters import parse_grid_option, parse_random_option
     from .run import sweep
 
-    if args.paper == (args.scenario is not None):
-        args.subparser.error("give a scenario file or --paper (exactly one)")
-    base = paper_experiment_path() if args.paper else args.scenario
+    definition_options = [args.scenario, args.paper or None, args.grid or None,
+                          args.random or None, args.samples, args.seed, args.sampler,
+                          args.channels]
+    if args.spec is not None and any(o is not None for o in definition_options):
+        args.subparser.error("--spec defines the sweep: give no scenario, --paper, --grid, "
+                             "--random, --samples, --seed, --sampler or --channels with it")
+    if args.spec is None and args.paper == (args.scenario is not None):
+        args.subparser.error("give a scenario file or --paper (exactly one), or --spec")
     try:
-        grid = _collect(parse_grid_option, args.grid)
-        random = _collect(parse_random_option, args.random)
-        output = args.output or Path(f"{_base_name(base)}_sweep.nc")
+        definition = _definition(args)
+        output = args.output or Path(f"{_base_name(definition['base'])}_sweep.nc")
         _check_output(output, args.overwrite)
-        channels = None if args.channels is None else [
-            c.strip() for c in args.channels.split(",") if c.strip()]
         started = time.perf_counter()
-        dataset = sweep(base, grid, random, samples=args.samples, seed=args.seed,
-                        sampler=args.sampler, channels=channels, output=output,
-                        workers=args.workers, scheduler=args.scheduler,
-                        progress=not args.quiet)
+        dataset = sweep(**definition, output=output, workers=args.workers,
+                        scheduler=args.scheduler, progress=not args.quiet)
     except (ScenarioError, SweepError) as exc:
         return _fail(str(exc))
     except SweepInterrupted as exc:
@@ -93,6 +95,23 @@ def run_command(args: argparse.Namespace) -> int:
         return _fail(f"error: could not write {output}: {exc}")
     print(output if args.quiet else summary(dataset, output, time.perf_counter() - started))
     return 1 if dataset.attrs["cases_failed"] else 0
+
+
+def _definition(args: argparse.Namespace) -> dict[str, Any]:
+    """The sweep's definition (`sweep` keyword arguments) from a sweep file or the options."""
+    from ..scenario import paper_experiment_path
+    from .parameters import parse_grid_option, parse_random_option
+    from .spec import read_sweep_file
+
+    if args.spec is not None:
+        return read_sweep_file(args.spec)
+    channels = None if args.channels is None else [
+        c.strip() for c in args.channels.split(",") if c.strip()]
+    return {"base": paper_experiment_path() if args.paper else args.scenario,
+            "grid": _collect(parse_grid_option, args.grid),
+            "random": _collect(parse_random_option, args.random),
+            "samples": args.samples, "seed": args.seed,
+            "sampler": args.sampler or "random", "channels": channels}
 
 
 def _collect(parse: Any, options: list[str]) -> list[Any]:
