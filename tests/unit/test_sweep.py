@@ -380,3 +380,49 @@ def test_a_sweep_file_defines_the_same_sweep_as_the_options(
     assert "unknown key 'bse' (did you mean 'base'?)" in err
     assert "sweep.sampler must be one of 'random', 'lhs'" in err
     assert "grid links[0].EI: expected a number, got 'x'" in err
+
+
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
+def test_forked_workers_write_through_the_shared_array_bit_for_bit(
+        tmp_path: Path, forked_workers, monkeypatch: pytest.MonkeyPatch) -> None:
+    from flexlink.batch.dataset import SweepCollector
+
+    sent_back: list[bool] = []
+    add = SweepCollector.add
+
+    def spy(self, chunk):
+        sent_back.extend(block is not None for block in chunk.values)
+        add(self, chunk)
+
+    monkeypatch.setattr(SweepCollector, "add", spy)
+    rates = [100.0, 200.0, 300.0]
+    dataset = sweep(spin_file(tmp_path), grid={RATE: rates}, workers=2)
+    assert sent_back == [False] * 3  # every result went through the shared array
+    for case, rate in enumerate(rates):
+        raw = read_toml(spin_file(tmp_path))
+        raw["joints"][0]["motion"][0]["to_rate_deg_s"] = rate
+        reference = simulate(scenario_from_dict(raw))
+        for name in reference.names:
+            assert np.array_equal(dataset[name].values[case], reference[name])
+
+
+def test_rows_of_unfinished_cases_read_as_zero_while_workers_may_write() -> None:
+    from flexlink.batch.dataset import SweepCollector
+    from flexlink.batch.parameters import case_table, grid_values
+    from flexlink.batch.worker import Channel, ChunkResult, SharedResults
+
+    channels = (Channel("a", "m", "first"), Channel("b", "s", "second"))
+    shared = SharedResults.allocate(channels, 3, 4)
+    collector = SweepCollector(case_table([grid_values("x.y", [1, 2, 3])]), np.arange(4.0),
+                               {}, shared, channels)
+    shared.array[:, 0, :] = 1.0  # case 0: written by a worker, result received
+    collector.add(ChunkResult(channels, done=[0], values=[None], wall_times=[0.1],
+                              cpu_times=[0.1]))
+    shared.array[:, 2, :] = 7.0  # case 2: written, its result not yet received
+    running = collector.dataset()
+    assert running.status.values.tolist() == ["ok", "not_run", "not_run"]
+    assert np.all(running.a.values[0] == 1.0) and np.all(running.a.values[1:] == 0.0)
+    assert np.all(shared.array[:, 2, :] == 7.0)  # not cleared under a writing worker
+    collector.settle()  # workers stopped
+    assert np.all(shared.array[:, 2, :] == 0.0)
+    assert np.all(collector.dataset().b.values == [[1.0] * 4, [0.0] * 4, [0.0] * 4])

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .parameters import CaseTable
-from .worker import Channel, ChunkResult, labels
+from .worker import Channel, ChunkResult, SharedResults, labels
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -32,9 +32,12 @@ PARAMETER_UNITS = {
 
 
 class SweepCollector:
-    """Case results as they arrive, in preallocated arrays (channel × case × time)."""
+    """Case results as they arrive, in preallocated arrays (channel × case × time): allocated
+    at the first result, or given (``shared``, which forked workers write into directly)."""
 
-    def __init__(self, table: CaseTable, time: np.ndarray, attrs: dict[str, str]) -> None:
+    def __init__(self, table: CaseTable, time: np.ndarray, attrs: dict[str, str],
+                 shared: SharedResults | None = None, channels: tuple[Channel, ...] = ()
+                 ) -> None:
         self.table = table
         self.time = time
         self.attrs = attrs
@@ -42,8 +45,11 @@ class SweepCollector:
         self.error = np.full(table.count, "", dtype=object)
         self.wall_time = np.zeros(table.count)
         self.cpu_time = np.zeros(table.count)
-        self.channels: tuple[Channel, ...] = ()
-        self._values: np.ndarray | None = None
+        self.channels: tuple[Channel, ...] = channels if shared is not None else ()
+        self._values: np.ndarray | None = None if shared is None else shared.array
+        # while workers may write into the shared array, rows of cases that are not "ok"
+        # can hold partial data: masked when read, zeroed by `settle` once workers stopped
+        self._unsettled = shared is not None
 
     def add(self, chunk: ChunkResult) -> None:
         """Store a finished chunk; a chunk whose channels differ from the first fails."""
@@ -60,7 +66,8 @@ class SweepCollector:
             return
         for index, block, wall, cpu in zip(chunk.done, chunk.values, chunk.wall_times,
                                            chunk.cpu_times):
-            self._values[:, index, :] = block
+            if block is not None:  # else the worker wrote it into the shared array
+                self._values[:, index, :] = block
             self.status[index] = "ok"
             self.wall_time[index] = wall
             self.cpu_time[index] = cpu
@@ -68,6 +75,12 @@ class SweepCollector:
     def fail(self, index: int, message: str) -> None:
         self.status[index] = "failed"
         self.error[index] = message
+
+    def settle(self) -> None:
+        """No worker writes any more: clear the rows of cases that did not finish."""
+        if self._unsettled and self._values is not None:
+            self._values[:, self.status != "ok", :] = 0.0
+        self._unsettled = False
 
     @property
     def counts(self) -> dict[str, int]:
@@ -90,9 +103,12 @@ class SweepCollector:
                 attrs["units"] = PARAMETER_UNITS[key]
             coords[parameter.path] = ("case", self.table.values[parameter.path], attrs)
         data: dict[str, Any] = {}
+        values = self._values
+        if self._unsettled and values is not None:  # a copy: workers may still write
+            values = np.where((self.status == "ok")[None, :, None], values, 0.0)
         for k, channel in enumerate(self.channels):
-            assert self._values is not None
-            data[channel.name] = (("case", "time"), self._values[k],
+            assert values is not None
+            data[channel.name] = (("case", "time"), values[k],
                                   {"units": channel.unit, "long_name": channel.description})
         data["status"] = ("case", self.status.astype(str),
                           {"long_name": "ok: finished; failed: see error; not_run: never ran "

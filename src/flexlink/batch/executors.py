@@ -18,7 +18,7 @@ from typing import Any
 
 from ..model import Scenario
 from .errors import SweepError
-from .worker import ChunkResult, init_local_worker, run_chunk
+from .worker import ChunkResult, SharedResults, init_local_worker, run_chunk
 
 Chunk = list[tuple[int, Scenario]]
 CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
@@ -53,13 +53,16 @@ def in_process(chunks: Sequence[Chunk], channels: Sequence[str] | None) -> Itera
             yield run_chunk([case], channels)
 
 
-def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None,
-                    workers: int) -> PoolResults:
+def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None, workers: int,
+                    shared: SharedResults | None = None) -> PoolResults:
     """A pool of ``workers`` processes on this machine, one BLAS thread each. The workers
     start and every chunk is queued now; iterate over the result for the chunks' results
-    and close it (``contextlib.closing``) to end the pool."""
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=_start_context(),
-                               initializer=init_local_worker)
+    and close it (``contextlib.closing``) to end the pool. Forked workers write their
+    results into ``shared``; others send them back."""
+    context = _start_context()
+    inherited = shared if context.get_start_method() == "fork" else None
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                               initializer=init_local_worker, initargs=(inherited,))
     try:
         futures = {pool.submit(run_chunk, chunk, channels): chunk for chunk in chunks}
     except BaseException:

@@ -4,6 +4,7 @@ labelled Dataset (and netCDF file). Orchestration only; each case is `flexlink.s
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from datetime import UTC, datetime
@@ -13,13 +14,14 @@ from typing import TYPE_CHECKING, Any
 from .._version import package_version
 from ..io.netcdf import write_netcdf_atomic
 from ..io.writers import dump_toml
+from ..model import Scenario
 from ..simulation import output_times
 from . import executors
 from .cases import BaseScenario, case_scenarios, load_base
 from .dataset import SweepCollector
 from .errors import SweepError, SweepInterrupted
 from .parameters import GridParameter, RandomParameter, case_table, from_mappings
-from .worker import ChunkResult
+from .worker import Channel, ChunkResult, SharedResults, run_chunk
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -55,15 +57,20 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     scenario_base = load_base(base, base_dir)
     scenarios = case_scenarios(scenario_base, table)
     selected = _check_channels(scenario_base, channels)
-    settings = scenarios[0].settings
-    collector = SweepCollector(table, output_times(settings.t_end, settings.dt_out),
-                               _attributes(scenario_base, table))
+    local = _local_workers(workers, scheduler, table.count)
+    time_ = output_times(scenarios[0].settings.t_end, scenarios[0].settings.dt_out)
+    shared, probed = None, ()
+    if local > 1:  # worker processes: let them write into one shared result array
+        probed = _probe_channels(scenarios[0], selected)
+        if probed:
+            shared = SharedResults.allocate(probed, table.count, time_.size)
+    collector = SweepCollector(table, time_, _attributes(scenario_base, table), shared, probed)
     indexed = list(enumerate(scenarios))
     checkpoint = _Checkpoint(output, checkpoint_interval)
     if output is not None:
         checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
     with contextlib.ExitStack() as stack:
-        results = _executor(stack, indexed, selected, workers, scheduler)
+        results = _executor(stack, indexed, selected, local, scheduler, shared)
         bar = stack.enter_context(_progress(table.count, progress))
         try:
             for chunk in results:
@@ -73,7 +80,9 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
         except KeyboardInterrupt:
             collector.attrs["sweep_state"] = "interrupted"
             stack.close()  # stop the workers before writing
+            collector.settle()
             raise SweepInterrupted(checkpoint.write(collector)) from None
+    collector.settle()
     collector.attrs["sweep_state"] = "finished"
     return checkpoint.write(collector)
 
@@ -106,27 +115,41 @@ def _check_channels(base: BaseScenario, channels: Sequence[str] | None) -> list[
     return list(dict.fromkeys(channels))
 
 
-def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[str] | None,
-              workers: int | None, scheduler: Any) -> Iterable[ChunkResult]:
+def _local_workers(workers: int | None, scheduler: Any, cases: int) -> int:
+    """Local worker processes to start (0 on a Dask cluster, 1: run here)."""
     if scheduler is not None and workers is not None:
         raise SweepError(["give workers (local processes) or scheduler (a Dask cluster), "
                           "not both: a cluster's workers are set up when it is started"])
+    if scheduler is not None:
+        return 0
+    count = workers if workers is not None else executors.available_cores()
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise SweepError([f"workers must be an integer >= 1, got {workers!r}"])
+    return min(count, cases)
+
+
+def _probe_channels(scenario: Scenario, channels: list[str] | None) -> tuple[Channel, ...]:
+    """The channels a case produces, from a run of one output step; () if that fails (the
+    results then travel back from the workers instead of through a shared array)."""
+    settings = dataclasses.replace(scenario.settings, t_end=scenario.settings.dt_out)
+    return run_chunk([(0, dataclasses.replace(scenario, settings=settings))], channels).channels
+
+
+def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[str] | None,
+              local: int, scheduler: Any, shared: SharedResults | None
+              ) -> Iterable[ChunkResult]:
     if scheduler is not None:
         client, opened = executors.connect(scheduler)
         if opened:
             stack.callback(client.close)
         chunks = executors.make_chunks(indexed, executors.dask_cores(client))
         generator = executors.dask_cluster(chunks, channels, client)
+    elif local > 1:
+        chunks = executors.make_chunks(indexed, local)
+        return stack.enter_context(contextlib.closing(
+            executors.local_processes(chunks, channels, local, shared)))
     else:
-        count = workers if workers is not None else executors.available_cores()
-        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-            raise SweepError([f"workers must be an integer >= 1, got {workers!r}"])
-        count = min(count, len(indexed))
-        chunks = executors.make_chunks(indexed, count)
-        if count > 1:
-            return stack.enter_context(contextlib.closing(
-                executors.local_processes(chunks, channels, count)))
-        generator = executors.in_process(chunks, channels)
+        generator = executors.in_process(executors.make_chunks(indexed, 1), channels)
     return stack.enter_context(contextlib.closing(generator))
 
 

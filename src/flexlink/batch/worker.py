@@ -2,7 +2,8 @@
 
 A case that raises is recorded with its error message and the chunk goes on: one bad case
 never costs the others. Runs in a local worker process or on a Dask worker (which must be
-able to import flexlink).
+able to import flexlink). A forked local worker writes its results straight into the
+collecting process's result array (`SharedResults`) instead of sending them back.
 """
 
 from __future__ import annotations
@@ -35,13 +36,32 @@ def labels(channels: Sequence[Channel]) -> list[tuple[str, str]]:
     return [(c.name, c.unit) for c in channels]
 
 
+@dataclass(frozen=True)
+class SharedResults:
+    """The collecting process's result array (channel × case × time) in an anonymous shared
+    memory mapping, which forked workers inherit, with the channel labels it holds."""
+
+    array: np.ndarray
+    labels: tuple[tuple[str, str], ...]
+
+    @classmethod
+    def allocate(cls, channels: Sequence[Channel], cases: int, samples: int) -> SharedResults:
+        import mmap
+
+        shape = (len(channels), cases, samples)
+        buffer = mmap.mmap(-1, max(1, 8 * shape[0] * shape[1] * shape[2]))  # zeros, shared
+        array = np.frombuffer(buffer, dtype=np.float64, count=int(np.prod(shape)))
+        return cls(array.reshape(shape), tuple(labels(channels)))
+
+
 @dataclass
 class ChunkResult:
-    """Outcome of a chunk. ``values[i]`` (channels × time) belongs to case ``done[i]``."""
+    """Outcome of a chunk. ``values[i]`` (channels × time) belongs to case ``done[i]``; None
+    when the worker wrote it into the `SharedResults` array already."""
 
     channels: tuple[Channel, ...] = ()
     done: list[int] = field(default_factory=list)
-    values: list[np.ndarray] = field(default_factory=list)
+    values: list[np.ndarray | None] = field(default_factory=list)
     wall_times: list[float] = field(default_factory=list)
     cpu_times: list[float] = field(default_factory=list)
     failed: dict[int, str] = field(default_factory=dict)
@@ -65,7 +85,12 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
                           for n in names)
             if out.channels and labels(found) != labels(out.channels):
                 raise ValueError("this case's channels differ from the other cases'")
-            block = np.stack([results[n] for n in names])
+            block: np.ndarray | None = None
+            if _SHARED is not None and tuple(labels(found)) == _SHARED.labels:
+                for k, name in enumerate(names):  # the collector reads it there
+                    _SHARED.array[k, index, :] = results[name]
+            else:
+                block = np.stack([results[n] for n in names])
         except Exception as exc:  # any failure of one case is that case's result
             out.failed[index] = f"{type(exc).__name__}: {exc}"
             continue
@@ -77,9 +102,12 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
     return out
 
 
-def init_local_worker() -> None:
+def init_local_worker(shared: SharedResults | None = None) -> None:
     """Initializer of a local worker process: one BLAS thread (the cores are already shared
-    out by process) and no SIGINT (Ctrl-C is handled once, by the parent)."""
+    out by process), no SIGINT (Ctrl-C is handled once, by the parent), and the shared
+    result array if the worker was forked (a mapping cannot be sent to a spawned one)."""
+    global _SHARED
+    _SHARED = shared
     for name in BLAS_THREAD_VARIABLES:
         os.environ[name] = "1"
     from threadpoolctl import threadpool_limits
@@ -90,3 +118,4 @@ def init_local_worker() -> None:
 
 
 _THREAD_LIMIT: object = None
+_SHARED: SharedResults | None = None  # set in a local worker process only
