@@ -131,8 +131,12 @@ def _local_workers(workers: int | None, scheduler: Any, cases: int) -> int:
 def _probe_channels(scenario: Scenario, channels: list[str] | None) -> tuple[Channel, ...]:
     """The channels a case produces, from a run of one output step; () if that fails (the
     results then travel back from the workers instead of through a shared array)."""
-    settings = dataclasses.replace(scenario.settings, t_end=scenario.settings.dt_out)
-    return run_chunk([(0, dataclasses.replace(scenario, settings=settings))], channels).channels
+    try:
+        settings = dataclasses.replace(scenario.settings, t_end=scenario.settings.dt_out)
+        short = dataclasses.replace(scenario, settings=settings)
+    except (TypeError, ValueError):  # a model class that refuses the change: no probe
+        return ()
+    return run_chunk([(0, short)], channels).channels
 
 
 def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[str] | None,
