@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["__version__", "simulate", "load_scenario", "load_paper_experiment", "Results", "Scenario"]
+__all__ = ["__version__", "simulate", "sweep", "load_scenario", "load_paper_experiment", "Results",
+           "Scenario"]
 
 
 def __getattr__(name: str) -> Any:
@@ -20,6 +21,10 @@ def __getattr__(name: str) -> Any:
         from .simulation import simulate
 
         return simulate
+    if name == "sweep":
+        from .batch import sweep
+
+        return sweep
     if name in ("load_scenario", "load_paper_experiment"):
         from . import scenario
 

@@ -1,4 +1,4 @@
-"""Command line: ``flexlink run``, ``flexlink paper``, ``flexlink show-paper``.
+"""Command line: ``flexlink run``, ``flexlink paper``, ``flexlink show-paper``, ``flexlink sweep``.
 
 Exit status: 0 success, 1 the simulation failed, 2 invalid input (scenario, options, output
 folder), 130 interrupted. Input errors print every problem on stderr, one per line, without a
@@ -57,6 +57,10 @@ def build_parser() -> argparse.ArgumentParser:
                                description="Print the built-in paper scenario (with comments); "
                                            "redirect it to a file to start your own.")
     show.set_defaults(handler=_cmd_show_paper)
+
+    from .batch.command import add_parser as add_sweep_parser
+
+    add_sweep_parser(commands)
     return parser
 
 

@@ -1,0 +1,103 @@
+"""Batch throughput: N variants of the paper experiment through `flexlink.sweep` on all cores.
+
+    python benchmarks/batch.py [--cases 1000] [--workers N] [--channels a,b] [--scheduler ADDR]
+
+The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) and both joint
+move durations (0.8-1.2 s) at random (seed 1). Prints one line per quantity: wall time of the
+whole sweep (validation, worker start-up, runs, collection), runs per second, the sum of the
+cases' own run times (their serial cost), the parallel efficiency, the median wall and CPU
+time of one case (on a shared machine CPU time shows the work, wall time the wait), and the
+peak resident memory of the sweep process and of its largest worker process.
+``--machinery-only`` replaces every run by a stored result, which leaves the sweep's own
+cost: the throughput it can reach at best.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+import numpy as np
+
+from flexlink import sweep
+from flexlink.batch.executors import available_cores
+from flexlink.scenario import paper_experiment_path
+
+RANDOM = {
+    "links[0].E": "uniform:20e9:40e9",
+    "joints[0].motion[0].duration": "uniform:0.8:1.2",
+    "joints[1].motion[0].duration": "uniform:0.8:1.2",
+}
+
+
+def peak_memory_mb() -> tuple[float, float]:
+    """Peak resident memory (MB) of this process and of its largest finished child process
+    (Linux and macOS report ru_maxrss in KiB and bytes)."""
+    import resource
+    import sys
+
+    scale = 1.0 if sys.platform == "darwin" else 1024.0
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 1e6
+    child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * scale / 1e6
+    return own, child
+
+
+def machinery_only() -> None:
+    """Replace every run by a stored result of the paper experiment: what is left is the
+    sweep's own cost (validation, transfer, collection) — its throughput ceiling. Local
+    workers are then forked so that they inherit the replacement."""
+    import multiprocessing
+
+    import flexlink.simulation
+    from flexlink import load_paper_experiment
+    from flexlink.batch import executors
+
+    stored = flexlink.simulation.simulate(load_paper_experiment())
+    flexlink.simulation.simulate = lambda scenario, progress=False: stored
+    executors._start_context = lambda: multiprocessing.get_context("fork")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, default=1000)
+    parser.add_argument("--workers", type=int, default=None, help="default: every core")
+    parser.add_argument("--channels", default=None, help="comma-separated (default: all)")
+    parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
+    parser.add_argument("--machinery-only", action="store_true",
+                        help="replace the runs by a stored result: the sweep's own ceiling")
+    args = parser.parse_args()
+    if args.machinery_only:
+        machinery_only()
+    channels = args.channels.split(",") if args.channels else None
+    workers = args.workers or available_cores()
+
+    started = time.perf_counter()
+    dataset = sweep(paper_experiment_path(), random=RANDOM, samples=args.cases, seed=1,
+                    channels=channels, workers=None if args.scheduler else workers,
+                    scheduler=args.scheduler, progress=True)
+    wall = time.perf_counter() - started
+    own, child = peak_memory_mb()
+    ok = int(dataset.attrs["cases_ok"])
+    serial = float(dataset.wall_time.sum())
+    where = args.scheduler or f"{workers} local worker processes"
+    if args.machinery_only:
+        where += " (machinery only: runs replaced by a stored result)"
+    print(f"batch of {args.cases} paper-experiment variants (t_end = "
+          f"{float(dataset.time[-1]):g} s, {dataset.sizes['time']} samples, "
+          f"{sum(1 for v in dataset.data_vars.values() if v.dims == ('case', 'time'))} "
+          f"channels) on {where}; {platform.processor() or platform.machine()}, "
+          f"python {platform.python_version()}")
+    print(f"{'cases ok / failed':34s} {ok} / {int(dataset.attrs['cases_failed'])}")
+    print(f"{'wall time, whole sweep [s]':34s} {wall:.3f}")
+    print(f"{'runs per second':34s} {args.cases / wall:.1f}")
+    print(f"{'sum of case run times [s]':34s} {serial:.3f}")
+    print(f"{'parallel efficiency':34s} {serial / (wall * workers):.2f}")
+    print(f"{'median case run time [ms]':34s} {1e3 * float(np.median(dataset.wall_time)):.1f}")
+    print(f"{'median case CPU time [ms]':34s} {1e3 * float(np.median(dataset.cpu_time)):.1f}")
+    print(f"{'peak memory, sweep process [MB]':34s} {own:.0f}")
+    print(f"{'peak memory, largest worker [MB]':34s} {child:.0f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,171 @@
+"""``flexlink sweep``: the command-line face of `flexlink.batch.sweep`.
+
+Exit status as ``flexlink run``: 0 every case finished, 1 some case failed (the file holds the
+others), 2 invalid input (nothing run, no file written), 130 interrupted (the file holds the
+finished cases).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+EXAMPLE = ("flexlink sweep --paper --grid 'links[0].EI=250,300,350' "
+           "--random 'joints[0].motion[0].duration=uniform:0.8:1.2' --samples 20 --seed 1 "
+           "-o sweep.nc")
+
+
+def add_parser(commands: Any) -> argparse.ArgumentParser:
+    """The ``sweep`` sub-command of the ``flexlink`` parser."""
+    sweep = commands.add_parser(
+        "sweep", help="simulate many variants of a scenario (grid or random samples)",
+        description="Run a grid and/or random samples over numeric scenario fields on all "
+                    "cores (or a Dask cluster) and write one netCDF file: every channel over "
+                    "(case, time), the parameter values as coordinates, a status per case. "
+                    "Fields are paths into the scenario file: links[0].EI, "
+                    "joints[0].motion[0].duration, sensors[1].x (docs/sweep.md).",
+        epilog=f"Example: {EXAMPLE}")
+    sweep.add_argument("scenario", nargs="?", type=Path, metavar="SCENARIO.toml",
+                       help="base scenario file")
+    sweep.add_argument("--paper", action="store_true",
+                       help="use the built-in paper experiment as the base scenario")
+    sweep.add_argument("--spec", type=Path, metavar="SWEEP.toml",
+                       help="a sweep file: base scenario, grid, random, samples, seed, "
+                            "sampler, channels (instead of those options; docs/sweep.md)")
+    sweep.add_argument("--grid", action="append", default=[], metavar="PATH=VALUES",
+                       help="grid values: PATH=v1,v2,… or PATH=linspace:start:stop:count or "
+                            "PATH=geomspace:start:stop:count (repeat for a cartesian product)")
+    sweep.add_argument("--random", action="append", default=[], metavar="PATH=DIST",
+                       help="random values: PATH=uniform:low:high, PATH=loguniform:low:high or "
+                            "PATH=normal:mean:std (repeatable; needs --samples)")
+    sweep.add_argument("--samples", type=int, metavar="N",
+                       help="random draws (with a grid: the same N draws at every grid point)")
+    sweep.add_argument("--seed", type=int, help="seed of the random draws (default: drawn "
+                                                "and recorded in the file)")
+    sweep.add_argument("--sampler", choices=("random", "lhs"),
+                       help="independent draws (default: random) or a Latin hypercube")
+    sweep.add_argument("--channels", metavar="NAME,…",
+                       help="keep only these channels (default: all); saves memory")
+    sweep.add_argument("-o", "--output", type=Path, metavar="FILE.nc",
+                       help="netCDF file to write (default: <scenario name>_sweep.nc)")
+    sweep.add_argument("--overwrite", action="store_true", help="replace an existing FILE.nc")
+    sweep.add_argument("--workers", type=int, metavar="N",
+                       help="local worker processes (default: every core)")
+    sweep.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on a Dask cluster, e.g. tcp://10.0.0.5:8786 "
+                            "(needs pip install 'flexlink[cluster]')")
+    sweep.add_argument("-q", "--quiet", action="store_true",
+                       help="no progress bar and no summary; print only the file name")
+    sweep.set_defaults(handler=run_command, subparser=sweep)
+    return sweep
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Handle ``flexlink sweep``; returns the exit status."""
+    from ..scenario import ScenarioError
+    from .errors import SweepError, SweepInterrupted
+    from .run import sweep
+
+    definition_options = [args.scenario, args.paper or None, args.grid or None,
+                          args.random or None, args.samples, args.seed, args.sampler,
+                          args.channels]
+    if args.spec is not None and any(o is not None for o in definition_options):
+        args.subparser.error("--spec defines the sweep: give no scenario, --paper, --grid, "
+                             "--random, --samples, --seed, --sampler or --channels with it")
+    if args.spec is None and args.paper == (args.scenario is not None):
+        args.subparser.error("give a scenario file or --paper (exactly one), or --spec")
+    try:
+        definition = _definition(args)
+        output = args.output or Path(f"{_base_name(definition['base'])}_sweep.nc")
+        _check_output(output, args.overwrite)
+        started = time.perf_counter()
+        dataset = sweep(**definition, output=output, workers=args.workers,
+                        scheduler=args.scheduler, progress=not args.quiet)
+    except (ScenarioError, SweepError) as exc:
+        return _fail(str(exc))
+    except SweepInterrupted as exc:
+        counts = {s: int((exc.dataset.status == s).sum()) for s in ("ok", "failed")}
+        print(f"flexlink: interrupted; wrote {output} with {counts['ok']} finished and "
+              f"{counts['failed']} failed cases", file=sys.stderr)
+        return 130
+    except OSError as exc:
+        return _fail(f"error: could not write {output}: {exc}")
+    print(output if args.quiet else summary(dataset, output, time.perf_counter() - started))
+    return 1 if dataset.attrs["cases_failed"] else 0
+
+
+def _definition(args: argparse.Namespace) -> dict[str, Any]:
+    """The sweep's definition (`sweep` keyword arguments) from a sweep file or the options."""
+    from ..scenario import paper_experiment_path
+    from .parameters import parse_grid_option, parse_random_option
+    from .spec import read_sweep_file
+
+    if args.spec is not None:
+        return read_sweep_file(args.spec)
+    channels = None if args.channels is None else [
+        c.strip() for c in args.channels.split(",") if c.strip()]
+    return {"base": paper_experiment_path() if args.paper else args.scenario,
+            "grid": _collect(parse_grid_option, args.grid),
+            "random": _collect(parse_random_option, args.random),
+            "samples": args.samples, "seed": args.seed,
+            "sampler": args.sampler or "random", "channels": channels}
+
+
+def _collect(parse: Any, options: list[str]) -> list[Any]:
+    from .errors import SweepError
+
+    parsed, problems = [], []
+    for option in options:
+        try:
+            parsed.append(parse(option))
+        except SweepError as exc:
+            problems += exc.problems
+    if problems:
+        raise SweepError(problems)
+    return parsed
+
+
+def _base_name(path: Path) -> str:
+    """The scenario's simulation.name (the file name if it has none), for the default output."""
+    from ..scenario.load import read_toml
+
+    simulation = read_toml(path).get("simulation")
+    name = simulation.get("name") if isinstance(simulation, dict) else None
+    return name if isinstance(name, str) and name.strip() else path.stem
+
+
+def _check_output(path: Path, overwrite: bool) -> None:
+    from .errors import SweepError
+
+    if path.is_dir():
+        raise SweepError([f"output {path} is a folder; give a file name such as sweep.nc"])
+    if path.exists() and not overwrite:
+        raise SweepError([f"output file {path} already exists; choose another name or "
+                          "replace it (--overwrite)"])
+
+
+def _fail(message: str, status: int = 2) -> int:
+    print(message, file=sys.stderr)
+    return status
+
+
+def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str:
+    """What ran, how many cases finished or failed (with the first errors), where it went."""
+    count = dataset.sizes["case"]
+    ok, failed = int(dataset.attrs["cases_ok"]), int(dataset.attrs["cases_failed"])
+    lines = [f"flexlink: swept {dataset.attrs['title'].removeprefix('flexlink sweep of ')!r}, "
+             f"{count} cases in {wall:.3g} s ({count / wall:.3g} cases/s): "
+             f"{ok} ok, {failed} failed"]
+    parameters = [name for name in dataset.coords if dataset[name].dims == ("case",)
+                  and name != "case"]
+    for index in [int(i) for i in dataset.case[dataset.status == "failed"].values][:max_errors]:
+        values = ", ".join(f"{p} = {dataset[p].values[index]:g}" for p in parameters)
+        lines.append(f"  case {index} ({values}): {dataset.error.values[index]}")
+    if failed > max_errors:
+        lines.append(f"  … {failed - max_errors} more failed cases (variable 'error' of the "
+                     "file)")
+    lines.append(f"wrote {output}")
+    return "\n".join(lines)

@@ -1,0 +1,168 @@
+"""Where the chunks of a sweep run: this process, local worker processes, or a Dask cluster.
+
+Each executor gives the `ChunkResult` of every chunk in completion order, and has a
+``close()`` (use ``contextlib.closing``): closed before the end (an exception or Ctrl-C in
+the consumer) it cancels the chunks not yet started and stops the running ones, so an
+interrupted sweep returns at once.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import threading
+from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from typing import Any
+
+from ..model import Scenario
+from .errors import SweepError
+from .worker import ChunkResult, SharedResults, init_local_worker, run_chunk
+
+Chunk = list[tuple[int, Scenario]]
+CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
+MAX_CHUNK = 32  # cases per chunk: bounds the result message size and the wait on Ctrl-C
+CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
+
+
+def available_cores() -> int:
+    """Cores this process may run on (the affinity mask where the OS has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def make_chunks(indexed: Sequence[tuple[int, Scenario]], workers: int) -> list[Chunk]:
+    """Consecutive cases in chunks of equal size: few enough tasks that the per-task overhead
+    (one message each way) is small, enough of them to keep every worker busy to the end."""
+    size = max(1, min(MAX_CHUNK, math.ceil(len(indexed) / (workers * CHUNKS_PER_WORKER))))
+    return [list(indexed[i:i + size]) for i in range(0, len(indexed), size)]
+
+
+def failed_chunk(chunk: Chunk, exc: BaseException) -> ChunkResult:
+    """Every case of a chunk that could not run (lost worker, unpicklable result …)."""
+    return ChunkResult(failed={index: f"{type(exc).__name__}: {exc}" for index, _ in chunk})
+
+
+def in_process(chunks: Sequence[Chunk], channels: Sequence[str] | None) -> Iterator[ChunkResult]:
+    """One worker: run the cases here, in order (no process start-up, same code path); one
+    case at a time, as there is no per-task overhead to amortise."""
+    for chunk in chunks:
+        for case in chunk:
+            yield run_chunk([case], channels)
+
+
+def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None, workers: int,
+                    shared: SharedResults | None = None) -> PoolResults:
+    """A pool of ``workers`` processes on this machine, one BLAS thread each. The workers
+    start and every chunk is queued now; iterate over the result for the chunks' results
+    and close it (``contextlib.closing``) to end the pool. Forked workers write their
+    results into ``shared``; others send them back."""
+    context = _start_context()
+    inherited = shared if context.get_start_method() == "fork" else None
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                               initializer=init_local_worker, initargs=(inherited,))
+    try:
+        futures = {pool.submit(run_chunk, chunk, channels): chunk for chunk in chunks}
+    except BaseException:
+        _stop(pool)
+        raise
+    return PoolResults(pool, futures)
+
+
+def _start_context() -> multiprocessing.context.BaseContext:
+    """fork while this process has a single thread: no start-up cost, and a script need not
+    guard its code with ``if __name__ == "__main__":``. Forking a process that runs threads
+    can deadlock a child (a lock held by another thread is copied held), so then forkserver
+    (workers forked from a clean server; the script must have the guard), else spawn."""
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        return multiprocessing.get_context("fork")
+    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+
+
+class PoolResults:
+    """The results of a process pool's chunks in completion order. ``close()`` (also when
+    iteration never started) ends the pool: waits for it after a complete iteration, else
+    cancels the queued chunks and terminates the workers."""
+
+    def __init__(self, pool: ProcessPoolExecutor,
+                 futures: dict[Future[ChunkResult], Chunk]) -> None:
+        self.pool = pool
+        self.futures = futures
+        self.finished = False
+
+    def __iter__(self) -> Iterator[ChunkResult]:
+        for future in as_completed(self.futures):
+            chunk = self.futures.pop(future)  # drop it: a held future holds its result
+            try:
+                result = future.result()
+            except Exception as exc:  # BrokenProcessPool (a worker died), pickling errors
+                result = failed_chunk(chunk, exc)
+            del future
+            yield result
+        self.finished = True
+
+    def close(self) -> None:
+        if self.finished:
+            self.pool.shutdown(wait=True)
+        else:
+            _stop(self.pool)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel the queued chunks and end the running ones now (not after they finish)."""
+    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
+    if terminate is not None:
+        terminate()
+        return
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # before shutdown
+    for process in processes:  # clears it
+        process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def dask_cluster(chunks: Sequence[Chunk], channels: Sequence[str] | None,
+                 client: Any) -> Iterator[ChunkResult]:
+    """The chunks as tasks on a `distributed.Client`; results in completion order."""
+    from distributed import as_completed as dask_as_completed
+
+    futures = client.map(run_chunk, chunks, channels=channels, pure=False)
+    pending = {future.key: (future, chunk) for future, chunk in zip(futures, chunks)}
+    completed = dask_as_completed(futures)
+    del futures
+    try:
+        for future in completed:
+            _, chunk = pending.pop(future.key)
+            try:
+                result = future.result()
+            except Exception as exc:  # a worker lost, or flexlink not importable there
+                result = failed_chunk(chunk, exc)
+            future.release()  # else the cluster keeps every result until the sweep ends
+            del future
+            yield result
+    finally:
+        if pending:  # left early: cancel what has not run
+            client.cancel([future for future, _ in pending.values()])
+
+
+def connect(scheduler: Any) -> tuple[Any, bool]:
+    """(client, whether we opened it) for a scheduler address or an existing Client."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise SweepError(["running on a Dask cluster needs dask.distributed: "
+                          "pip install 'flexlink[cluster]'"]) from None
+    if isinstance(scheduler, Client):
+        return scheduler, False
+    try:
+        return Client(str(scheduler), timeout=CONNECT_TIMEOUT), True
+    except (OSError, TimeoutError) as exc:
+        raise SweepError([f"cannot reach the Dask scheduler at {scheduler}: {exc}"]) from None
+
+
+def dask_cores(client: Any) -> int:
+    """Worker threads of the cluster (for the chunk size)."""
+    workers = client.scheduler_info().get("workers", {})
+    return max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))

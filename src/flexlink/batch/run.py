@@ -1,0 +1,213 @@
+"""`sweep`: many variants of one scenario, on all local cores or a Dask cluster, into one
+labelled Dataset (and netCDF file). Orchestration only; each case is `flexlink.simulate`."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import time
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from .._version import package_version
+from ..io.netcdf import write_netcdf_atomic
+from ..io.writers import dump_toml
+from ..model import Scenario
+from ..simulation import output_times
+from . import executors
+from .cases import BaseScenario, case_scenarios, load_base
+from .dataset import SweepCollector
+from .errors import SweepError, SweepInterrupted
+from .parameters import GridParameter, RandomParameter, case_table, from_mappings
+from .worker import Channel, ChunkResult, SharedResults, run_chunk
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+GridSpec = Mapping[str, Any] | Sequence[GridParameter] | None
+RandomSpec = Mapping[str, Any] | Sequence[RandomParameter] | None
+
+
+def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: RandomSpec = None,
+          *, samples: int | None = None, seed: int | None = None, sampler: str = "random",
+          channels: Sequence[str] | None = None, output: str | Path | None = None,
+          workers: int | None = None, scheduler: Any = None, progress: bool = False,
+          checkpoint_interval: float = 60.0, base_dir: Path | None = None) -> xr.Dataset:
+    """Simulate every case of a grid and/or random sweep over numeric fields of ``base``.
+
+    ``base``: a scenario file, or a parsed scenario dict (CSV paths relative to ``base_dir``).
+    ``grid``: {path: values or 'linspace:a:b:n' / 'geomspace:a:b:n'}; ``random``: {path:
+    'uniform:low:high' | 'loguniform:low:high' | 'normal:mean:std'} drawn ``samples`` times
+    (``sampler`` 'random' or 'lhs', reproducible with ``seed``). ``channels``: keep only these.
+    Runs on ``workers`` local processes (default: every core) or, given ``scheduler`` (an
+    address or a ``distributed.Client``), on a Dask cluster. Every case is validated first
+    (SweepError). A failing case is recorded and the rest go on; on Ctrl-C the finished cases
+    are written and `SweepInterrupted` (a KeyboardInterrupt) carries them. With ``output``
+    the netCDF file is also replaced every ``checkpoint_interval`` s while the sweep runs.
+    Returns the Dataset described in `flexlink.batch.dataset`.
+    """
+    import xarray
+
+    # xarray's first Dataset costs ~1 s of imports: pay it now, not when Ctrl-C is pressed
+    xarray.Dataset({"case": ("case", [0])})
+    grids, randoms = _parameters(grid, random)
+    table = case_table(grids, randoms, samples, seed, sampler)
+    scenario_base = load_base(base, base_dir)
+    scenarios = case_scenarios(scenario_base, table)
+    selected = _check_channels(scenario_base, channels)
+    local = _local_workers(workers, scheduler, table.count)
+    time_ = output_times(scenarios[0].settings.t_end, scenarios[0].settings.dt_out)
+    shared, probed = None, ()
+    if local > 1:  # worker processes: let them write into one shared result array
+        probed = _probe_channels(scenarios[0], selected)
+        if probed:
+            shared = SharedResults.allocate(probed, table.count, time_.size)
+    collector = SweepCollector(table, time_, _attributes(scenario_base, table), shared, probed)
+    indexed = list(enumerate(scenarios))
+    checkpoint = _Checkpoint(output, checkpoint_interval)
+    if output is not None:
+        checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
+    with contextlib.ExitStack() as stack:
+        results = _executor(stack, indexed, selected, local, scheduler, shared)
+        bar = stack.enter_context(_progress(table.count, progress))
+        try:
+            for chunk in results:
+                collector.add(chunk)
+                bar.update(len(chunk.done) + len(chunk.failed))
+                checkpoint.maybe_write(collector)
+        except KeyboardInterrupt:
+            collector.attrs["sweep_state"] = "interrupted"
+            stack.close()  # stop the workers before writing
+            collector.settle()
+            raise SweepInterrupted(checkpoint.write(collector)) from None
+    collector.settle()
+    collector.attrs["sweep_state"] = "finished"
+    return checkpoint.write(collector)
+
+
+def _parameters(grid: GridSpec, random: RandomSpec
+                ) -> tuple[list[GridParameter], list[RandomParameter]]:
+    grid_map = grid if isinstance(grid, Mapping) else None
+    random_map = random if isinstance(random, Mapping) else None
+    grids, randoms = from_mappings(grid_map, random_map)
+    if grid is not None and grid_map is None:
+        grids = list(grid)  # type: ignore[arg-type]
+    if random is not None and random_map is None:
+        randoms = list(random)  # type: ignore[arg-type]
+    return grids, randoms
+
+
+def _check_channels(base: BaseScenario, channels: Sequence[str] | None) -> list[str] | None:
+    """Requested channels must exist (sensor names, joint angles/torques, link tips)."""
+    if channels is None:
+        return None
+    resolved = base.resolved()
+    links = [link["name"] for link in resolved["links"]]
+    known = [s["name"] for s in resolved["sensors"]]
+    known += [f"joint{k}_{q}" for q in ("angle", "torque") for k in range(1, len(links) + 1)]
+    known += [f"{name}_tip_{axis}" for name in links for axis in "XY"]
+    unknown = [c for c in channels if c not in known]
+    if unknown or not channels:
+        raise SweepError([f"unknown channel {c!r}; available: {', '.join(known)}"
+                          for c in unknown] or ["channels: give at least one channel"])
+    return list(dict.fromkeys(channels))
+
+
+def _local_workers(workers: int | None, scheduler: Any, cases: int) -> int:
+    """Local worker processes to start (0 on a Dask cluster, 1: run here)."""
+    if scheduler is not None and workers is not None:
+        raise SweepError(["give workers (local processes) or scheduler (a Dask cluster), "
+                          "not both: a cluster's workers are set up when it is started"])
+    if scheduler is not None:
+        return 0
+    count = workers if workers is not None else executors.available_cores()
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise SweepError([f"workers must be an integer >= 1, got {workers!r}"])
+    return min(count, cases)
+
+
+def _probe_channels(scenario: Scenario, channels: list[str] | None) -> tuple[Channel, ...]:
+    """The channels a case produces, from a run of one output step; () if that fails (the
+    results then travel back from the workers instead of through a shared array)."""
+    try:
+        settings = dataclasses.replace(scenario.settings, t_end=scenario.settings.dt_out)
+        short = dataclasses.replace(scenario, settings=settings)
+    except (TypeError, ValueError):  # a model class that refuses the change: no probe
+        return ()
+    return run_chunk([(0, short)], channels).channels
+
+
+def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[str] | None,
+              local: int, scheduler: Any, shared: SharedResults | None
+              ) -> Iterable[ChunkResult]:
+    if scheduler is not None:
+        client, opened = executors.connect(scheduler)
+        if opened:
+            stack.callback(client.close)
+        chunks = executors.make_chunks(indexed, executors.dask_cores(client))
+        generator = executors.dask_cluster(chunks, channels, client)
+    elif local > 1:
+        chunks = executors.make_chunks(indexed, local)
+        return stack.enter_context(contextlib.closing(
+            executors.local_processes(chunks, channels, local, shared)))
+    else:
+        generator = executors.in_process(executors.make_chunks(indexed, 1), channels)
+    return stack.enter_context(contextlib.closing(generator))
+
+
+def _attributes(base: BaseScenario, table: Any) -> dict[str, str]:
+    parameters = "; ".join(f"{p.path} {p.description}" for p in table.parameters)
+    return {
+        "title": f"flexlink sweep of {base.name}",
+        "flexlink_version": package_version(),
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        "base_scenario_source": base.source,
+        "base_scenario": dump_toml(base.resolved()),
+        "parameters": parameters,
+        "sampler": table.sampler,
+        "seed": "none" if table.seed is None else str(table.seed),
+        "sweep_state": "running",
+        "status_meaning": "status ok: finished; failed: see error; not_run: never ran. "
+                          "Signals of cases that are not ok hold 0.0 (never NaN).",
+    }
+
+
+@contextlib.contextmanager
+def _progress(total: int, enabled: bool) -> Iterator[Any]:
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, unit="case", disable=not enabled, smoothing=0.1)
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+class _Checkpoint:
+    """Writes the Dataset to ``output`` atomically: at the end, and while running at most every
+    ``interval`` seconds, so a crash keeps the finished cases."""
+
+    def __init__(self, output: str | Path | None, interval: float) -> None:
+        self.output = None if output is None else Path(output)
+        self.interval = interval
+        self._last = time.monotonic()
+        self._cost = 0.0
+
+    def maybe_write(self, collector: SweepCollector) -> None:
+        # never spend more than a tenth of the time writing; interval 0: after every chunk
+        wait = max(self.interval, 10.0 * self._cost) if self.interval > 0 else 0.0
+        if self.output is not None and time.monotonic() - self._last >= wait:
+            self.write(collector)
+
+    def write(self, collector: SweepCollector) -> xr.Dataset:
+        """Write the collected Dataset (if there is an output file); return it."""
+        if self.output is None:
+            return collector.dataset()
+        started = time.monotonic()
+        dataset = collector.dataset()
+        write_netcdf_atomic(dataset, self.output)
+        self._last = time.monotonic()
+        self._cost = self._last - started
+        return dataset

@@ -1,0 +1,121 @@
+"""What a worker runs: a chunk of cases, each through `flexlink.simulate`, one at a time.
+
+A case that raises is recorded with its error message and the chunk goes on: one bad case
+never costs the others. Runs in a local worker process or on a Dask worker (which must be
+able to import flexlink). A forked local worker writes its results straight into the
+collecting process's result array (`SharedResults`) instead of sending them back.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..model import Scenario
+
+BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                         "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
+
+
+@dataclass(frozen=True)
+class Channel:
+    """Name, unit and description of one output channel (as in `flexlink.results.Signal`)."""
+
+    name: str
+    unit: str
+    description: str
+
+
+def labels(channels: Sequence[Channel]) -> list[tuple[str, str]]:
+    """Names and units: what must agree between cases (descriptions may name a swept x)."""
+    return [(c.name, c.unit) for c in channels]
+
+
+@dataclass(frozen=True)
+class SharedResults:
+    """The collecting process's result array (channel × case × time) in an anonymous shared
+    memory mapping, which forked workers inherit, with the channel labels it holds."""
+
+    array: np.ndarray
+    labels: tuple[tuple[str, str], ...]
+
+    @classmethod
+    def allocate(cls, channels: Sequence[Channel], cases: int, samples: int) -> SharedResults:
+        import mmap
+
+        shape = (len(channels), cases, samples)
+        buffer = mmap.mmap(-1, max(1, 8 * shape[0] * shape[1] * shape[2]))  # zeros, shared
+        array = np.frombuffer(buffer, dtype=np.float64, count=int(np.prod(shape)))
+        return cls(array.reshape(shape), tuple(labels(channels)))
+
+
+@dataclass
+class ChunkResult:
+    """Outcome of a chunk. ``values[i]`` (channels × time) belongs to case ``done[i]``; None
+    when the worker wrote it into the `SharedResults` array already."""
+
+    channels: tuple[Channel, ...] = ()
+    done: list[int] = field(default_factory=list)
+    values: list[np.ndarray | None] = field(default_factory=list)
+    wall_times: list[float] = field(default_factory=list)
+    cpu_times: list[float] = field(default_factory=list)
+    failed: dict[int, str] = field(default_factory=dict)
+
+
+def run_chunk(cases: Sequence[tuple[int, Scenario]],
+              channels: Sequence[str] | None = None) -> ChunkResult:
+    """Simulate each (case index, scenario); keep ``channels`` (all if None)."""
+    from ..simulation import simulate
+
+    out = ChunkResult()
+    for index, scenario in cases:
+        started, cpu_started = time.perf_counter(), time.thread_time()
+        try:
+            results = simulate(scenario)
+            names = list(channels) if channels is not None else results.names
+            missing = [n for n in names if n not in results.signals]
+            if missing:
+                raise KeyError(f"no channel {', '.join(missing)} in this case's results")
+            found = tuple(Channel(n, results.signals[n].unit, results.signals[n].description)
+                          for n in names)
+            if out.channels and labels(found) != labels(out.channels):
+                raise ValueError("this case's channels differ from the other cases'")
+            block: np.ndarray | None = None
+            if _SHARED is not None and tuple(labels(found)) == _SHARED.labels:
+                for k, name in enumerate(names):  # the collector reads it there
+                    _SHARED.array[k, index, :] = results[name]
+            else:
+                block = np.stack([results[n] for n in names])
+        except Exception as exc:  # any failure of one case is that case's result
+            out.failed[index] = f"{type(exc).__name__}: {exc}"
+            continue
+        out.channels = found
+        out.done.append(index)
+        out.values.append(block)
+        out.wall_times.append(time.perf_counter() - started)
+        out.cpu_times.append(time.thread_time() - cpu_started)
+    return out
+
+
+def init_local_worker(shared: SharedResults | None = None) -> None:
+    """Initializer of a local worker process: one BLAS thread (the cores are already shared
+    out by process), no SIGINT (Ctrl-C is handled once, by the parent), and the shared
+    result array if the worker was forked (a mapping cannot be sent to a spawned one)."""
+    global _SHARED
+    _SHARED = shared
+    for name in BLAS_THREAD_VARIABLES:
+        os.environ[name] = "1"
+    from threadpoolctl import threadpool_limits
+
+    global _THREAD_LIMIT  # keep the limit alive for the life of the process
+    _THREAD_LIMIT = threadpool_limits(limits=1)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+_THREAD_LIMIT: object = None
+_SHARED: SharedResults | None = None  # set in a local worker process only

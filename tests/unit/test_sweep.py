@@ -1,0 +1,428 @@
+"""Batch sweeps: every case equals its own `simulate` run, failures and Ctrl-C keep the
+finished cases, the netCDF file round-trips, the command line agrees with the library, and
+the same sweep runs on a Dask cluster started here on loopback."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import flexlink.simulation
+from flexlink.batch import SweepError, SweepInterrupted, executors, sweep
+from flexlink.cli import main
+from flexlink.scenario import paper_experiment_path, scenario_from_dict
+from flexlink.scenario.load import read_toml
+from flexlink.simulation import simulate
+
+SPIN = """\
+[simulation]
+name = "spin"
+t_end = 1.0
+dt_out = 0.05
+
+[[links]]
+name = "arm"
+length = 0.6
+mass_per_length = 0.0636
+EI = 0.163
+modes = 1
+
+[[joints]]
+motion = [{ profile = "spinup", to_rate_deg_s = 30.0, start = 0.0, duration = 0.2 }]
+
+[[sensors]]
+name = "tip"
+kind = "deflection"
+link = "arm"
+x = 0.6
+"""
+# The paper's model (no geometric stiffening) diverges above the first frequency, about
+# 2.5 Hz = 900 deg/s for this arm: 3000 deg/s fails, 100 and 200 deg/s do not.
+RATES = [3000.0, 100.0, 200.0]
+RATE = "joints[0].motion[0].to_rate_deg_s"
+
+
+def short_paper() -> dict[str, Any]:
+    """The paper's two links, 2 modes each, a 20° / 20° move in 0.3 s, 0.4 s simulated."""
+    raw = read_toml(paper_experiment_path())
+    raw["simulation"].update(t_end=0.4, dt_out=0.01, geometric_stiffening=True)
+    raw["joints"][0]["motion"][0].update(start=0.0, duration=0.3, to_deg=20.0)
+    raw["joints"][1]["motion"][0].update(start=0.0, duration=0.3, to_deg=110.0)
+    for link in raw["links"]:
+        link["modes"] = 2
+    return raw
+
+
+def single_run(raw: dict[str, Any], link1_EI: float, duration: float):
+    """The case built by hand, independently of the sweep's path machinery."""
+    raw = copy.deepcopy(raw)
+    link = raw["links"][0]
+    del link["E"]
+    link["EI"] = link1_EI
+    raw["joints"][1]["motion"][0]["duration"] = duration
+    return simulate(scenario_from_dict(raw, paper_experiment_path().parent))
+
+
+def spin_file(tmp_path: Path) -> Path:
+    path = tmp_path / "spin.toml"
+    path.write_text(SPIN, encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def paper_sweep(tmp_path_factory: pytest.TempPathFactory) -> tuple[xr.Dataset, Path]:
+    out = tmp_path_factory.mktemp("sweep") / "paper.nc"
+    dataset = sweep(short_paper(), grid={"links[0].EI": [250.0, 350.0]},
+                    random={"joints[1].motion[0].duration": "uniform:0.25:0.35"},
+                    samples=2, seed=5, output=out, workers=2,
+                    base_dir=paper_experiment_path().parent)
+    return dataset, out
+
+
+def test_every_case_equals_its_own_simulate_run(paper_sweep) -> None:
+    dataset, _ = paper_sweep
+    assert dataset.sizes == {"case": 4, "time": 41}
+    assert dataset.status.values.tolist() == ["ok"] * 4
+    raw = short_paper()
+    for case in range(4):
+        EI = float(dataset["links[0].EI"][case])
+        duration = float(dataset["joints[1].motion[0].duration"][case])
+        reference = single_run(raw, EI, duration)
+        assert set(reference.names) == set(dataset.data_vars) - {
+            "status", "error", "wall_time", "cpu_time"}
+        for name in reference.names:
+            # bit for bit: the same computation in a worker process
+            assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)
+        assert dataset[reference.names[0]].attrs["units"] == \
+            reference.signals[reference.names[0]].unit
+    # the cases differ: the sweep really varied the fields
+    assert not np.array_equal(dataset.link1_tip_acceleration[0], dataset.link1_tip_acceleration[2])
+
+
+def test_the_file_holds_the_dataset_and_the_sweep_definition(paper_sweep) -> None:
+    dataset, out = paper_sweep
+    with xr.open_dataset(out) as read:
+        xr.testing.assert_identical(read.load(), dataset)
+        assert read.attrs["sweep_state"] == "finished" and read.attrs["seed"] == "5"
+        assert read["links[0].EI"].attrs["units"] == "N·m²"
+        base = read.attrs["base_scenario"]
+    assert "[[links]]" in base and "EI = 308.7" in base  # the resolved base scenario
+    assert not list(out.parent.glob(".*partial*"))
+
+
+def test_a_failing_case_keeps_the_others(tmp_path: Path) -> None:
+    dataset = sweep(spin_file(tmp_path), grid={RATE: RATES}, workers=1)
+    assert dataset.status.values.tolist() == ["failed", "ok", "ok"]
+    assert "SimulationError: the tip deflection of arm exceeds its length" in \
+        str(dataset.error.values[0])
+    assert dataset.error.values[1] == "" and np.all(dataset.tip.values[0] == 0.0)
+    for data in dataset.data_vars.values():  # never NaN, failed cases hold 0.0
+        assert data.dtype.kind in "US" or np.all(np.isfinite(data.values))
+    for case in (1, 2):
+        raw = read_toml(spin_file(tmp_path))
+        raw["joints"][0]["motion"][0]["to_rate_deg_s"] = RATES[case]
+        reference = simulate(scenario_from_dict(raw))
+        assert np.array_equal(dataset.tip.values[case], reference["tip"])
+
+
+def test_interrupt_writes_the_finished_cases_and_raises(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[int] = []
+    checkpoints: list[list[str]] = []
+    out = tmp_path / "spin.nc"
+
+    def interrupted_on_third(scenario, progress=False):
+        calls.append(1)
+        if len(calls) == 3:
+            with xr.open_dataset(out) as partial:  # the checkpoint after the second case
+                checkpoints.append(partial.status.values.tolist())
+            raise KeyboardInterrupt
+        return simulate(scenario, progress)
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", interrupted_on_third)
+    with pytest.raises(SweepInterrupted) as excinfo:
+        sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0, 300.0, 400.0]}, workers=1,
+              output=out, checkpoint_interval=0.0)
+    assert checkpoints == [["ok", "ok", "not_run", "not_run"]]
+    assert excinfo.value.dataset.status.values.tolist() == ["ok", "ok", "not_run", "not_run"]
+    with xr.open_dataset(out) as written:
+        assert written.status.values.tolist() == ["ok", "ok", "not_run", "not_run"]
+        assert written.attrs["sweep_state"] == "interrupted"
+        assert written.attrs["cases_not_run"] == 2
+
+
+def test_channels_can_be_selected_and_unknown_ones_are_rejected(tmp_path: Path) -> None:
+    dataset = sweep(spin_file(tmp_path), grid={RATE: [100.0]}, channels=["tip"], workers=1)
+    assert [n for n in dataset.data_vars if dataset[n].dims == ("case", "time")] == ["tip"]
+    with pytest.raises(SweepError, match="unknown channel 'tipp'; available: tip, joint1_angle"):
+        sweep(spin_file(tmp_path), grid={RATE: [100.0]}, channels=["tipp"], workers=1)
+
+
+def test_command_line_sweep_matches_the_library(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    scenario, out = spin_file(tmp_path), tmp_path / "cli.nc"
+    status = main(["sweep", str(scenario), "--grid", f"{RATE}={','.join(map(str, RATES))}",
+                   "--workers", "1", "-o", str(out)])
+    report = capsys.readouterr().out
+    assert status == 1  # one case failed; the file holds the others
+    assert "3 cases" in report and "2 ok, 1 failed" in report
+    assert f"case 0 ({RATE} = 3000): SimulationError" in report
+    library = sweep(scenario, grid={RATE: RATES}, workers=1)
+    with xr.open_dataset(out) as read:
+        for name in ("tip", "joint1_angle", "status", RATE):
+            assert np.array_equal(read[name].values, library[name].values)
+    # the file exists now: refused without --overwrite, before anything runs
+    assert main(["sweep", str(scenario), "--grid", f"{RATE}=100", "-o", str(out), "-q"]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert main(["sweep", str(scenario), "--grid", f"{RATE}=100", "-o", str(out), "-q",
+                 "--overwrite", "--workers", "1"]) == 0
+    assert capsys.readouterr().out.strip() == str(out)
+
+
+def test_command_line_random_sweep_of_the_paper_defaults_its_file_name(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.chdir(tmp_path)
+    # not run: the first case is invalid, so the whole sweep is refused with exit status 2
+    status = main(["sweep", "--paper", "--random", "sensors[0].x=uniform:1.3:1.5",
+                   "--samples", "3", "--seed", "2"])
+    err = capsys.readouterr().err
+    assert status == 2 and "sensors[0].x must be <= 1.37 m" in err
+    assert not list(tmp_path.iterdir())
+    assert main(["sweep", "--paper", "--grid", "links[0].EI=abc"]) == 2
+    assert "grid links[0].EI: expected a number, got 'abc'" in capsys.readouterr().err
+
+
+def test_command_line_interrupt_exits_130_with_the_file(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    calls: list[int] = []
+
+    def interrupted_on_second(scenario, progress=False):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return simulate(scenario, progress)
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", interrupted_on_second)
+    out = tmp_path / "cut.nc"
+    status = main(["sweep", str(spin_file(tmp_path)), "--grid", f"{RATE}=100,200,300",
+                   "--workers", "1", "-o", str(out), "-q"])
+    assert status == 130 and "interrupted" in capsys.readouterr().err
+    with xr.open_dataset(out) as written:
+        assert written.status.values.tolist() == ["ok", "not_run", "not_run"]
+
+
+def test_sweep_on_a_dask_cluster_equals_the_local_sweep(tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    scenario = spin_file(tmp_path)
+    local = sweep(scenario, grid={RATE: RATES}, workers=1)
+    # tcp on loopback, one in-process worker with two threads: starts in about a second
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        remote = sweep(scenario, grid={RATE: RATES}, scheduler=cluster.scheduler_address)
+    for name in ("tip", "joint1_angle", "status", "error"):
+        assert np.array_equal(remote[name].values, local[name].values)
+    assert remote.status.values.tolist() == ["failed", "ok", "ok"]
+
+
+def test_an_unreachable_scheduler_is_an_input_error(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("distributed")
+    monkeypatch.setattr(executors, "CONNECT_TIMEOUT", "1s")
+    with pytest.raises(SweepError, match="cannot reach the Dask scheduler"):
+        sweep(spin_file(tmp_path), grid={RATE: [100.0]}, scheduler="tcp://127.0.0.1:9")
+
+
+@pytest.fixture
+def forked_workers(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Local workers started by fork, so that they inherit the test's monkeypatches."""
+    import multiprocessing
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("needs the fork start method")
+    monkeypatch.setattr(executors, "_start_context", lambda: multiprocessing.get_context("fork"))
+
+
+# Python >= 3.12 warns when forking while threads run (an idle Dask thread may linger from
+# the cluster test): these tests fork on purpose, to share their monkeypatches
+FORK_WITH_THREADS = "ignore:This process .* is multi-threaded:DeprecationWarning"
+
+
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
+def test_a_dying_worker_fails_its_cases_and_loses_none(tmp_path: Path, forked_workers,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    def dies_on_200(scenario, progress=False):
+        if scenario.chain.joints[0].to_rate_deg_s == 200.0:
+            os._exit(1)  # as a worker killed by the out-of-memory killer
+        return simulate(scenario, progress)
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", dies_on_200)
+    dataset = sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0, 300.0, 400.0]}, workers=2)
+    status = dataset.status.values.tolist()
+    assert status[1] == "failed" and "BrokenProcessPool" in str(dataset.error.values[1])
+    assert set(status) <= {"ok", "failed"}  # every case accounted for, none silently lost
+    for case in np.flatnonzero(dataset.status.values == "ok"):
+        raw = read_toml(spin_file(tmp_path))
+        raw["joints"][0]["motion"][0]["to_rate_deg_s"] = float(dataset[RATE][case])
+        assert np.array_equal(dataset.tip.values[case], simulate(scenario_from_dict(raw))["tip"])
+
+
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
+def test_ctrl_c_ends_running_workers(tmp_path: Path, forked_workers,
+                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+    import signal
+
+    pids = tmp_path / "pids"
+
+    def interrupts_then_hangs(scenario, progress=False):
+        if scenario.chain.joints[0].to_rate_deg_s == 100.0:
+            return simulate(scenario, progress)
+        with pids.open("a") as fh:
+            fh.write(f"{os.getpid()}\n")
+        os.kill(os.getppid(), signal.SIGINT)  # Ctrl-C reaches the sweep process
+        signal.pause()  # a long case: must be ended, not waited for
+        return None
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", interrupts_then_hangs)
+    with pytest.raises(SweepInterrupted) as excinfo:
+        sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0]}, workers=2)
+    assert set(excinfo.value.dataset.status.values.tolist()) <= {"ok", "not_run"}
+    for pid in map(int, pids.read_text().split()):
+        assert _ended(pid), f"worker {pid} still runs after the sweep was interrupted"
+
+
+def _ended(pid: int) -> bool:
+    """Whether a process has exited (a zombie not yet reaped counts as exited), allowing a
+    terminate signal up to 5 s to land."""
+    import time
+
+    stat = Path(f"/proc/{pid}/stat")
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("needs /proc")
+    for _ in range(100):
+        try:
+            state = stat.read_text().rsplit(")", 1)[1].split()[0]
+        except (FileNotFoundError, ProcessLookupError):
+            return True
+        if state in ("Z", "X"):
+            return True
+        time.sleep(0.05)
+    return False
+
+
+@pytest.mark.slow
+def test_the_python_example_of_docs_sweep_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    import re
+
+    page = Path(__file__).resolve().parents[2] / "docs" / "sweep.md"
+    block, = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
+    monkeypatch.chdir(tmp_path)
+    exec(compile(block, str(page), "exec"), {"__name__": "docs_sweep_example"})
+    means = [float(v) for v in re.findall(r"[0-9.]+(?:e[+-]?\d+)?", capsys.readouterr().out)]
+    assert len(means) == 2 and all(m > 1.0 for m in means)  # peak accelerations, m/s²
+    with xr.open_dataset(tmp_path / "sweep.nc") as written:
+        assert written.sizes == {"case": 4, "time": 5001}
+
+
+def test_conflicting_places_and_an_unwritable_output_fail_before_any_case_runs(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    def never(*args, **kwargs):
+        raise AssertionError("a case ran")
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", never)
+    with pytest.raises(SweepError, match="workers .* or scheduler .*, not both"):
+        sweep(spin_file(tmp_path), grid={RATE: [100.0]}, workers=2, scheduler="tcp://x:1")
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    status = main(["sweep", str(spin_file(tmp_path)), "--grid", f"{RATE}=100", "--workers", "1",
+                   "-o", str(blocker / "out.nc")])
+    assert status == 2 and "could not write" in capsys.readouterr().err
+
+
+def test_a_sweep_file_defines_the_same_sweep_as_the_options(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from flexlink.batch import read_sweep_file
+
+    spin_file(tmp_path)
+    spec = tmp_path / "rates.toml"
+    spec.write_text('base = "spin.toml"\nsamples = 2\nseed = 4\nchannels = ["tip"]\n\n'
+                    '[grid]\n"links[0].modes" = [1, 2]\n\n'
+                    f'[random]\n"{RATE}" = "uniform:50:150"\n', encoding="utf-8")
+    assert main(["sweep", "--spec", str(spec), "--workers", "1", "-q",
+                 "-o", str(tmp_path / "a.nc")]) == 0
+    assert main(["sweep", str(tmp_path / "spin.toml"), "--grid", "links[0].modes=1,2",
+                 "--random", f"{RATE}=uniform:50:150", "--samples", "2", "--seed", "4",
+                 "--channels", "tip", "--workers", "1", "-q", "-o", str(tmp_path / "b.nc")]) == 0
+    with xr.open_dataset(tmp_path / "a.nc") as a, xr.open_dataset(tmp_path / "b.nc") as b:
+        timings = ["wall_time", "cpu_time"]
+        xr.testing.assert_identical(a.drop_vars(timings).drop_attrs(),
+                                    b.drop_vars(timings).drop_attrs())
+        assert a.sizes["case"] == 4 and list(a.data_vars)[0] == "tip"
+    assert read_sweep_file(spec)["base"] == tmp_path / "spin.toml"
+    capsys.readouterr()
+    spec.write_text('bse = "spin.toml"\nsampler = "sobol"\n[grid]\n"links[0].EI" = "1,x"\n',
+                    encoding="utf-8")
+    assert main(["sweep", "--spec", str(spec)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown key 'bse' (did you mean 'base'?)" in err
+    assert "sweep.sampler must be one of 'random', 'lhs'" in err
+    assert "grid links[0].EI: expected a number, got 'x'" in err
+
+
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
+def test_forked_workers_write_through_the_shared_array_bit_for_bit(
+        tmp_path: Path, forked_workers, monkeypatch: pytest.MonkeyPatch) -> None:
+    from flexlink.batch.dataset import SweepCollector
+
+    sent_back: list[bool] = []
+    add = SweepCollector.add
+
+    def spy(self, chunk):
+        sent_back.extend(block is not None for block in chunk.values)
+        add(self, chunk)
+
+    monkeypatch.setattr(SweepCollector, "add", spy)
+    rates = [100.0, 200.0, 300.0]
+    dataset = sweep(spin_file(tmp_path), grid={RATE: rates}, workers=2)
+    assert sent_back == [False] * 3  # every result went through the shared array
+    for case, rate in enumerate(rates):
+        raw = read_toml(spin_file(tmp_path))
+        raw["joints"][0]["motion"][0]["to_rate_deg_s"] = rate
+        reference = simulate(scenario_from_dict(raw))
+        for name in reference.names:
+            assert np.array_equal(dataset[name].values[case], reference[name])
+
+
+def test_rows_of_unfinished_cases_read_as_zero_while_workers_may_write() -> None:
+    from flexlink.batch.dataset import SweepCollector
+    from flexlink.batch.parameters import case_table, grid_values
+    from flexlink.batch.worker import Channel, ChunkResult, SharedResults
+
+    channels = (Channel("a", "m", "first"), Channel("b", "s", "second"))
+    shared = SharedResults.allocate(channels, 3, 4)
+    collector = SweepCollector(case_table([grid_values("x.y", [1, 2, 3])]), np.arange(4.0),
+                               {}, shared, channels)
+    shared.array[:, 0, :] = 1.0  # case 0: written by a worker, result received
+    collector.add(ChunkResult(channels, done=[0], values=[None], wall_times=[0.1],
+                              cpu_times=[0.1]))
+    shared.array[:, 2, :] = 7.0  # case 2: written, its result not yet received
+    running = collector.dataset()
+    assert running.status.values.tolist() == ["ok", "not_run", "not_run"]
+    assert np.all(running.a.values[0] == 1.0) and np.all(running.a.values[1:] == 0.0)
+    assert np.all(shared.array[:, 2, :] == 7.0)  # not cleared under a writing worker
+    collector.settle()  # workers stopped
+    assert np.all(shared.array[:, 2, :] == 0.0)
+    assert np.all(collector.dataset().b.values == [[1.0] * 4, [0.0] * 4, [0.0] * 4])
