@@ -12,11 +12,12 @@ output every 1 ms) unless marked:
   mesh that agrees with its own finest mesh within 1% of each signal's peak (undamped: the
   reference model has no modal damping);
 - a chain of ten links with 4 modes each;
-- a batch of paper-experiment variants (EI of link 1 and the manoeuvre time varied) on all
-  cores, through ``flexlink.sweep`` when that module is present.
+- a batch of paper-experiment variants (E of link 1 and both move durations drawn at random,
+  as in ``benchmarks/batch.py``) on all cores through ``flexlink.sweep``.
 
 Every row runs in a fresh process: wall time is the median of ``--repeat`` runs after a warm-up
-(start-up excluded), peak memory is that process's maximum resident set size. Accuracy is the
+(start-up excluded; the batch row is one sweep, worker start-up included), peak memory is that
+process's maximum resident set size (for the batch: the largest of sweep and worker processes). Accuracy is the
 largest difference of any signal from the row's reference, relative to that signal's peak:
 for the first-order solvers a Magnus run at rtol 1e-10 (the DOP853 row, a different method on
 the same equations, checks that reference), for Exudyn its finest mesh.
@@ -106,14 +107,18 @@ def _exudyn_row(elements: int, repeat: int, duration: float) -> dict[str, Any]:
             "peak_mb": _peak_mb(), "coordinates": out["coordinates"]}
 
 
-def _batch_row(cases: int, workers: int | None) -> dict[str, Any]:
-    from flexlink import sweep  # type: ignore[attr-defined]
+def _batch_row(cases: int) -> dict[str, Any]:
+    from batch import RANDOM  # benchmarks/batch.py: E of link 1 and both move durations
+
+    from flexlink import sweep
+    from flexlink.scenario import paper_experiment_path
 
     start = time.perf_counter()
-    data = sweep.run_benchmark_batch(cases, workers=workers)
+    data = sweep(paper_experiment_path(), random=RANDOM, samples=cases, seed=1)
     wall = time.perf_counter() - start
-    return {"wall": wall, "t_end": 5.0 * cases, "cases": cases, "peak_mb": _peak_mb(),
-            "signals": data}
+    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    return {"wall": wall, "t_end": 5.0 * cases, "peak_mb": max(_peak_mb(), children),
+            "failed": int(data.attrs["cases_failed"])}
 
 
 def _in_child(fn: Callable[..., dict[str, Any]], *args: Any) -> dict[str, Any]:
@@ -182,14 +187,9 @@ def main() -> None:
         add("10 links × 4 modes: scipy solve_ivp DOP853, rtol 1e-6", run,
             _error(run["signals"], ten_ref["signals"]))
 
-    try:
-        import flexlink.sweep  # noqa: F401
-    except ImportError:
-        print("(flexlink.sweep not available: batch row skipped)")
-    else:
-        run = _batch_row(args.batch, None)
-        add(f"batch of {args.batch} paper variants, all cores", run, "-", runs=args.batch)
-
+    run = _in_child(_batch_row, args.batch)
+    add(f"batch of {args.batch} paper variants, all cores ({run['failed']} failed)", run, "-",
+        runs=args.batch)
 
 if __name__ == "__main__":
     main()
