@@ -24,6 +24,10 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
 def simulate(scenario: Scenario, progress: bool = False) -> Results:
     """Run one scenario. Elastic coordinates start at rest; joints follow their prescriptions."""
     settings = scenario.settings
+    if settings.model == "nonlinear":
+        from .simulation_nonlinear import simulate_nonlinear  # imports this module
+
+        return simulate_nonlinear(scenario, progress)
     system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
     t = output_times(settings.t_end, settings.dt_out)
     system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]

@@ -1,0 +1,191 @@
+"""Geometrically nonlinear assumed-modes model of a chain (docs/nonlinear.md).
+
+Each link is an inextensible Euler–Bernoulli beam whose cross-section rotation relative to its
+clamped frame is ψ_k(x, t) = Φ_k′(x) q_k(t). Link k is clamped at link k−1's actual tip, turned
+by β_k from its actual tip section. The absolute angle of every section is therefore *linear*
+in the coordinates, with constant coefficients:
+
+    α(s) = A(s) q + B(s) β,
+
+and every position is an arc integral r(s) = ∫ e(α) dσ, e = (cos, sin), along the chain. On the
+Gauss nodes j of all links (α_j = A_j q + B_j β) a point p is at r_p = Σ_j W_pj e(α_j), W a
+constant matrix of (cumulative) quadrature weights. With G = Wᵀ diag(m_p) W the generalized
+inertia forces of the point masses m_p (beam quadrature masses and tip masses) are
+
+    Σ_p m_p (∂r_p/∂q)ᵀ r̈_p = Aᵀ u,
+    u_j = Σ_l G_jl [cos(α_j − α_l) α̈_l + sin(α_j − α_l) α̇_l²],
+
+and the tip rotary inertias add J_t a_tᵀ α̈_t. The same u with Bᵀ in place of Aᵀ is the vector
+of joint torques. The bending energy ½∫EI ψ′² dx = ½ qᵀ K q has the linear model's constant K.
+All evaluations take a leading batch axis (times or states).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import Chain
+from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
+from .first_order import FirstOrderSystem
+from .kinematics import JointHistory
+
+
+@dataclass(frozen=True, eq=False)
+class LinkArc:
+    """Quadrature of one link on the chain's node axis."""
+
+    quad: ArcQuadrature
+    nodes: slice  # this link's Gauss nodes on the chain's node axis
+    coords: slice  # this link's q_k in q
+    dphi: np.ndarray  # (p, n_k) Φ′ at the nodes, 1/m
+    ddphi: np.ndarray  # (p, n_k) Φ″ at the nodes, 1/m²
+
+
+class NonlinearSystem:
+    """The assembled nonlinear model: constant matrices, evaluated on batches of states."""
+
+    def __init__(self, chain: Chain, panels: int | None = None,
+                 points_per_panel: int = POINTS_PER_PANEL) -> None:
+        # The basis (mode shapes, K, modal damping) is the first-order model's.
+        self.first_order = FirstOrderSystem(chain, geometric_stiffening=True)
+        self.chain = chain
+        self.modal = self.first_order.modal
+        self.n = self.first_order.n
+        n_links = len(chain.links)
+        self.arcs: list[LinkArc] = []
+        start = 0
+        for k, d in enumerate(self.modal):
+            quad = arc_quadrature(d.length, float(d.shapes.beta_l.max()), panels,
+                                  points_per_panel)
+            coords = self.first_order.bodies[k].slice
+            self.arcs.append(LinkArc(quad, slice(start, start + quad.size), coords,
+                                     d.shapes.evaluate(quad.x, 1), d.shapes.evaluate(quad.x, 2)))
+            start += quad.size
+        self.nodes = start
+
+        # Section angles: rows of A (on q) and B (on β) for every node and every link tip.
+        self.A = np.zeros((self.nodes, self.n))
+        self.B = np.zeros((self.nodes, n_links))
+        self.tip_A = np.zeros((n_links, self.n))
+        self.tip_B = np.zeros((n_links, n_links))
+        base = np.zeros(self.n)  # angle of link k's clamped frame, on q
+        for k, (arc, d) in enumerate(zip(self.arcs, self.modal)):
+            self.A[arc.nodes] = base
+            self.A[arc.nodes, arc.coords] = arc.dphi
+            self.B[arc.nodes, : k + 1] = 1.0
+            base = base.copy()
+            base[arc.coords] = d.tip_slope
+            self.tip_A[k] = base
+            self.tip_B[k, : k + 1] = 1.0
+        self.root_A = np.vstack([np.zeros(self.n), self.tip_A[:-1]])  # clamped-frame angles
+
+        # Point masses: beam quadrature masses and tip masses.
+        rows, masses = [], []
+        for k, (arc, link) in enumerate(zip(self.arcs, chain.links)):
+            rows.append(self.position_rows(k, arc.quad.x))
+            masses.append(link.mass_per_length * arc.quad.w)
+            if link.tip_mass > 0.0:
+                rows.append(self.position_rows(k, np.array([link.length])))
+                masses.append(np.array([link.tip_mass]))
+        self.W = np.vstack(rows)
+        self.point_mass = np.concatenate(masses)
+        self.R = np.sqrt(self.point_mass)[:, None] * self.W
+        self.G = self.R.T @ self.R
+        self.tip_inertia = np.array([link.tip_inertia for link in chain.links])
+
+        self.K = np.zeros((self.n, self.n))
+        self.D = np.zeros((self.n, self.n))
+        for arc, d in zip(self.arcs, self.modal):
+            self.K[arc.coords, arc.coords] = d.stiffness_matrix
+            self.D[arc.coords, arc.coords] = d.damping_matrix
+
+    # -- geometry -----------------------------------------------------------------------------
+    def position_rows(self, k: int, x: np.ndarray) -> np.ndarray:
+        """W rows (len(x), nodes): r(x on link k) = Σ_j W_j e(α_j), global frame (m)."""
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        out = np.zeros((x.size, self.nodes))
+        for arc in self.arcs[:k]:
+            out[:, arc.nodes] = arc.quad.w
+        out[:, self.arcs[k].nodes] = self.arcs[k].quad.cumulative(x)
+        return out
+
+    def joint_history(self, t: np.ndarray) -> JointHistory:
+        return self.first_order.joint_history(t)
+
+    def node_angles(self, q: np.ndarray, beta: np.ndarray) -> np.ndarray:
+        """α at every node, (b, nodes), rad."""
+        return q @ self.A.T + beta @ self.B.T
+
+    # -- equations ----------------------------------------------------------------------------
+    def _kernel(self, c: np.ndarray, s: np.ndarray, vectors: list[np.ndarray]) -> list[np.ndarray]:
+        """For each v (b, nodes): Σ_l G_jl cos(α_j − α_l) v_l and Σ_l G_jl sin(α_j − α_l) v_l."""
+        stacked = np.stack([c * v for v in vectors] + [s * v for v in vectors], -1)
+        g = self.G @ stacked  # (b, nodes, 2m)
+        m = len(vectors)
+        gc, gs = g[..., :m], g[..., m:]
+        out = []
+        for i in range(m):
+            out.append(c * gc[..., i] + s * gs[..., i])  # cos part
+            out.append(s * gc[..., i] - c * gs[..., i])  # sin part
+        return out
+
+    def mass_matrix(self, alpha: np.ndarray) -> np.ndarray:
+        """M(q, β) (b, n, n), kg·m² per coordinate unit."""
+        c, s = np.cos(alpha), np.sin(alpha)
+        Yc = self.R @ (c[..., None] * self.A)
+        Ys = self.R @ (s[..., None] * self.A)
+        M = np.swapaxes(Yc, -1, -2) @ Yc + np.swapaxes(Ys, -1, -2) @ Ys
+        return M + np.einsum("k,ki,kj->ij", self.tip_inertia, self.tip_A, self.tip_A)
+
+    def inertia_load(self, alpha: np.ndarray, alpha_dot: np.ndarray,
+                     beta_ddot: np.ndarray) -> np.ndarray:
+        """u_j with α̈ = Bβ̈ (the part of the inertia forces not proportional to q̈), (b, nodes)."""
+        c, s = np.cos(alpha), np.sin(alpha)
+        cos_b, _, _, sin_v = self._kernel(c, s, [beta_ddot @ self.B.T, alpha_dot**2])
+        return cos_b + sin_v
+
+    def forces(self, q: np.ndarray, qd: np.ndarray, beta: np.ndarray, beta_dot: np.ndarray,
+               beta_ddot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """M (b, n, n) and f (b, n) of M q̈ = f: f = −Aᵀu₀ − J_t a_t (b_t β̈) − D q̇ − K q."""
+        alpha = self.node_angles(q, beta)
+        alpha_dot = self.node_angles(qd, beta_dot)
+        u0 = self.inertia_load(alpha, alpha_dot, beta_ddot)
+        rot = (beta_ddot @ self.tip_B.T) * self.tip_inertia
+        f = -(u0 @ self.A + rot @ self.tip_A + qd @ self.D + q @ self.K)
+        return self.mass_matrix(alpha), f
+
+    def accelerations(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """q̈ (b, n) from the equations of motion at times t (b,), s."""
+        hist = self.joint_history(t)
+        M, f = self.forces(q, qd, hist.angle, hist.rate, hist.acceleration)
+        return np.linalg.solve(M, f[..., None])[..., 0]
+
+    def joint_torques(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                      qdd: np.ndarray) -> np.ndarray:
+        """Motor torque of every joint (b, N), N·m: the generalized inertia force of β_k."""
+        hist = self.joint_history(t)
+        alpha = self.node_angles(q, hist.angle)
+        alpha_dot = self.node_angles(qd, hist.rate)
+        alpha_ddot = self.node_angles(qdd, hist.acceleration)
+        c, s = np.cos(alpha), np.sin(alpha)
+        cos_a, _, _, sin_v = self._kernel(c, s, [alpha_ddot, alpha_dot**2])
+        tip_ddot = qdd @ self.tip_A.T + hist.acceleration @ self.tip_B.T
+        return (cos_a + sin_v) @ self.B + (tip_ddot * self.tip_inertia) @ self.tip_B
+
+    def energy(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray,
+                                                                            np.ndarray]:
+        """Kinetic and elastic energy (b,), J."""
+        hist = self.joint_history(t)
+        alpha = self.node_angles(q, hist.angle)
+        alpha_dot = self.node_angles(qd, hist.rate)
+        vx = -np.sin(alpha) * alpha_dot @ self.R.T
+        vy = np.cos(alpha) * alpha_dot @ self.R.T
+        tip_rate = qd @ self.tip_A.T + hist.rate @ self.tip_B.T
+        kinetic = 0.5 * (np.sum(vx**2 + vy**2, -1) + tip_rate**2 @ self.tip_inertia)
+        return kinetic, 0.5 * np.einsum("bi,ij,bj->b", q, self.K, q)
+
+    @property
+    def max_frequency(self) -> float:
+        return self.first_order.max_frequency
