@@ -111,6 +111,14 @@ class NonlinearSystem:
         out[:, self.arcs[k].nodes] = self.arcs[k].quad.cumulative(x)
         return out
 
+    def point_jacobian(self, k: int, x: float, q: np.ndarray, beta: np.ndarray) -> np.ndarray:
+        """∂r/∂q (b, 2, n) of the point x (m) of link k: Σ_j W_j e⊥(α_j) A_j (global axes)."""
+        row = self.position_rows(k, np.array([x]))[0]
+        alpha = self.node_angles(q, beta)
+        jx = (-np.sin(alpha) * row) @ self.A
+        jy = (np.cos(alpha) * row) @ self.A
+        return np.stack([jx, jy], axis=-2)
+
     def joint_history(self, t: np.ndarray) -> JointHistory:
         return self.first_order.joint_history(t)
 
