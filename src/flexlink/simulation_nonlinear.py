@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from ._version import package_version
 from .dynamics.nonlinear import NonlinearSystem
@@ -19,6 +20,12 @@ from .solvers.gauss import solve_nonlinear
 
 def simulate_nonlinear(scenario: Scenario, progress: bool = False) -> Results:
     """Run one scenario with the geometrically nonlinear model (elastic coordinates from rest)."""
+    # Small matrices and batched products over time: BLAS threads only add overhead.
+    with threadpool_limits(limits=1):
+        return _simulate(scenario, progress)
+
+
+def _simulate(scenario: Scenario, progress: bool) -> Results:
     settings = scenario.settings
     system = NonlinearSystem(scenario.chain)
     t = output_times(settings.t_end, settings.dt_out)

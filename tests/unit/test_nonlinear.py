@@ -143,3 +143,21 @@ def test_quintic_hermite_reproduces_a_quintic() -> None:
     s = np.linspace(0.0, 1.0, 37)
     q, v = hermite_quintic(t, p(t), p(t, 1), p(t, 2), s)
     assert np.allclose(q, p(s), atol=1e-13) and np.allclose(v, p(s, 1), atol=1e-12)
+
+
+def test_compiled_and_numpy_loops_agree() -> None:
+    """The numba kernels (step loop, batched accelerations) are the numpy algorithm compiled."""
+    pytest.importorskip("numba")
+    from tests.helpers import SmoothStep
+
+    link1, link2 = paper_links(modes=3, damping=True)
+    motions = [SmoothStep(0.0, 1.5, 0.0, 0.6), SmoothStep(1.5, 2.9, 0.0, 0.6)]
+    system = NonlinearSystem(chain_of([link1, Link(**{**link2.__dict__, "tip_mass": 0.01,
+                                                       "tip_inertia": 1e-6})], motions))
+    runs = [integrate_gauss(system, 0.8, 4e-3, compiled=c) for c in (True, False)]
+    for a, b in zip(runs[0][1:], runs[1][1:]):
+        assert np.abs(a - b).max() <= 1e-8 * np.abs(b).max()
+    t, q, v = runs[0]
+    fast = system.accelerations(t, q, v, compiled=True)
+    slow = system.accelerations(t, q, v, compiled=False)
+    assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()

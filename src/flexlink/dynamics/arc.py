@@ -55,10 +55,10 @@ class ArcQuadrature:
         p = self.points_per_panel
         panel = np.clip((s // h).astype(int), 0, self.panels - 1)
         eta = np.clip(2.0 * (s - panel * h) / h - 1.0, -1.0, 1.0)
-        rows = np.zeros((s.size, self.size))
-        for i, (k, e) in enumerate(zip(panel, eta)):
-            rows[i, : k * p] = self.w[: k * p]
-            rows[i, k * p:(k + 1) * p] = 0.5 * h * legendre.legval(e, self._antiderivative)
+        rows = np.where(np.arange(self.size)[None, :] < (panel * p)[:, None], self.w[None, :], 0.0)
+        partial = 0.5 * h * legendre.legval(eta, self._antiderivative).T  # (len(s), p)
+        columns = panel[:, None] * p + np.arange(p)[None, :]
+        rows[np.arange(s.size)[:, None], columns] = partial
         return rows
 
 

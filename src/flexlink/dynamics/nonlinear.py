@@ -31,6 +31,26 @@ from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .first_order import FirstOrderSystem
 from .kinematics import JointHistory
 
+try:
+    from . import _nonlinear_numba as compiled_kernels
+except ImportError:  # numba is missing: the numpy expressions below do the same, more slowly
+    compiled_kernels = None  # type: ignore[assignment]
+
+
+@dataclass(frozen=True)
+class NodeInputs:
+    """The prescribed joint motion carried to the nodes (B β, B β̇, B β̈) and to the tip
+    sections (B_t β̈), for a batch of times: (b, nodes) and (b, N), rad, rad/s, rad/s²."""
+
+    angle: np.ndarray
+    rate: np.ndarray
+    acceleration: np.ndarray
+    tip_acceleration: np.ndarray
+
+    def __getitem__(self, index: int | slice) -> NodeInputs:
+        return NodeInputs(self.angle[index], self.rate[index], self.acceleration[index],
+                          self.tip_acceleration[index])
+
 
 @dataclass(frozen=True, eq=False)
 class LinkArc:
@@ -94,6 +114,8 @@ class NonlinearSystem:
         self.R = np.sqrt(self.point_mass)[:, None] * self.W
         self.G = self.R.T @ self.R
         self.tip_inertia = np.array([link.tip_inertia for link in chain.links])
+        self._At = np.ascontiguousarray(self.A.T)
+        self._tip_At = np.ascontiguousarray(self.tip_A.T)
 
         self.K = np.zeros((self.n, self.n))
         self.D = np.zeros((self.n, self.n))
@@ -164,23 +186,56 @@ class NonlinearSystem:
         f = -(u0 @ self.A + rot @ self.tip_A + qd @ self.D + q @ self.K)
         return self.mass_matrix(alpha), f
 
-    def accelerations(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """q̈ (b, n) from the equations of motion at times t (b,), s."""
+    def accelerations(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                      compiled: bool | None = None) -> np.ndarray:
+        """q̈ (b, n) from the equations of motion at times t (b,), s. ``compiled``: the numba
+        kernel (default when numba is installed) or numpy."""
+        if compiled is None:
+            compiled = compiled_kernels is not None
+        if compiled:
+            inputs = self.node_inputs(t)
+            return compiled_kernels.accelerations(
+                *(np.ascontiguousarray(a, dtype=float) for a in (
+                    q, qd, inputs.angle, inputs.rate, inputs.acceleration,
+                    inputs.tip_acceleration, self.A, self.G, self.tip_A, self.tip_inertia,
+                    self.D, self.K)))
         hist = self.joint_history(t)
         M, f = self.forces(q, qd, hist.angle, hist.rate, hist.acceleration)
         return np.linalg.solve(M, f[..., None])[..., 0]
 
+    def node_inputs(self, t: np.ndarray) -> NodeInputs:
+        """The joint prescriptions at times t (b,) mapped onto the nodes and tips."""
+        hist = self.joint_history(t)
+        return NodeInputs(hist.angle @ self.B.T, hist.rate @ self.B.T,
+                          hist.acceleration @ self.B.T, hist.acceleration @ self.tip_B.T)
+
+    def _inertia(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                 inputs: NodeInputs) -> tuple[np.ndarray, np.ndarray]:
+        """u (b, nodes) and the tip torques J_t α̈_t (b, N) of the full motion."""
+        alpha = q @ self._At + inputs.angle
+        alpha_dot = qd @ self._At + inputs.rate
+        alpha_ddot = qdd @ self._At + inputs.acceleration
+        c, s = np.cos(alpha), np.sin(alpha)
+        v = alpha_dot**2
+        stacked = np.stack([c * alpha_ddot, s * alpha_ddot, c * v, s * v])  # (4, b, nodes)
+        g = (stacked.reshape(-1, self.nodes) @ self.G).reshape(stacked.shape)  # G symmetric
+        g = np.moveaxis(g, 0, -1)
+        # u = c∘G(c∘α̈) + s∘G(s∘α̈) + s∘G(c∘α̇²) − c∘G(s∘α̇²)
+        u = c * (g[..., 0] - g[..., 3]) + s * (g[..., 1] + g[..., 2])
+        tip = (qdd @ self._tip_At + inputs.tip_acceleration) * self.tip_inertia
+        return u, tip
+
+    def residual(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                 inputs: NodeInputs) -> np.ndarray:
+        """Generalized inertia + damping + elastic forces (b, n): zero on a solution."""
+        u, tip = self._inertia(q, qd, qdd, inputs)
+        return u @ self.A + tip @ self.tip_A + qd @ self.D + q @ self.K
+
     def joint_torques(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
                       qdd: np.ndarray) -> np.ndarray:
         """Motor torque of every joint (b, N), N·m: the generalized inertia force of β_k."""
-        hist = self.joint_history(t)
-        alpha = self.node_angles(q, hist.angle)
-        alpha_dot = self.node_angles(qd, hist.rate)
-        alpha_ddot = self.node_angles(qdd, hist.acceleration)
-        c, s = np.cos(alpha), np.sin(alpha)
-        cos_a, _, _, sin_v = self._kernel(c, s, [alpha_ddot, alpha_dot**2])
-        tip_ddot = qdd @ self.tip_A.T + hist.acceleration @ self.tip_B.T
-        return (cos_a + sin_v) @ self.B + (tip_ddot * self.tip_inertia) @ self.tip_B
+        u, tip = self._inertia(q, qd, qdd, self.node_inputs(t))
+        return u @ self.B + tip @ self.tip_B
 
     def energy(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray,
                                                                             np.ndarray]:

@@ -20,8 +20,13 @@ from collections.abc import Callable
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ..dynamics.nonlinear import NonlinearSystem
+from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
 from .ode import SimulationError
+
+try:
+    from ._gauss_numba import gauss_loop
+except ImportError:  # numba is missing: the numpy loop does the same, more slowly
+    gauss_loop = None
 
 _R3 = np.sqrt(3.0) / 6.0
 NODES = np.array([0.5 - _R3, 0.5 + _R3])
@@ -36,17 +41,16 @@ NEWTON_MAX = 20
 def integrate_gauss(
     system: NonlinearSystem, t_end: float, step: float,
     on_progress: Callable[[float], None] | None = None,
-    q0: np.ndarray | None = None, v0: np.ndarray | None = None,
+    q0: np.ndarray | None = None, v0: np.ndarray | None = None, compiled: bool | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Step ends t (m+1,), q and q̇ there (m+1, n), from q0, v0 (default rest) at t = 0;
-    uniform steps ≤ step (s)."""
+    uniform steps ≤ step (s). ``compiled``: the numba loop (default when numba is installed)
+    or the numpy one."""
     steps = max(1, int(np.ceil(t_end / step - 1e-9)))
     h = t_end / steps
     n = system.n
     t_ends = np.arange(steps + 1) * h
-    hist = system.joint_history((t_ends[:-1, None] + NODES[None, :] * h).ravel())
-    shape = (steps, 2, -1)
-    beta, rate, acc = (a.reshape(shape) for a in (hist.angle, hist.rate, hist.acceleration))
+    inputs = system.node_inputs((t_ends[:-1, None] + NODES[None, :] * h).ravel())
     q = np.zeros((steps + 1, n))
     v = np.zeros((steps + 1, n))
     if q0 is not None:
@@ -54,12 +58,17 @@ def integrate_gauss(
     if v0 is not None:
         v[0] = v0
     X = np.repeat(system.accelerations(np.zeros(1), q[:1], v[:1]), 2, axis=0)
+    if compiled is None:
+        compiled = gauss_loop is not None
+    if compiled:
+        _compiled_loop(system, q, v, X, h, inputs, on_progress, t_ends)
+        return t_ends, q, v
     newton = _Newton(system, h)
     with threadpool_limits(limits=1):  # tiny matrices: threads only add overhead
         for i in range(steps):
             if i > 0:  # predictor: last step's stage accelerations, extrapolated linearly
-                X = X + np.outer(1.0 / (NODES[1] - NODES[0]) * np.ones(2), X[1] - X[0])
-            X = newton.solve(q[i], v[i], X, beta[i], rate[i], acc[i])
+                X = X + (X[1] - X[0]) / (NODES[1] - NODES[0])
+            X = newton.solve(q[i], v[i], X, inputs[2 * i:2 * i + 2])
             v[i + 1] = v[i] + h * (WEIGHTS @ X)
             q[i + 1] = q[i] + h * v[i] + h**2 * (WEIGHTS2 @ X)
             if on_progress is not None and i % 50 == 0:
@@ -67,6 +76,34 @@ def integrate_gauss(
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
         raise SimulationError("the nonlinear integration produced non-finite values")
     return t_ends, q, v
+
+
+CHUNK = 400  # steps per compiled call, between progress reports
+
+
+def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.ndarray,
+                   h: float, inputs: NodeInputs, on_progress: Callable[[float], None] | None,
+                   t_ends: np.ndarray) -> None:
+    """Run the numba step loop over q, v in place, in chunks of CHUNK steps."""
+    assert gauss_loop is not None
+    steps = q.shape[0] - 1
+    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
+        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    for start in range(0, steps, CHUNK):
+        end = min(start + CHUNK, steps)
+        stage = slice(2 * start, 2 * end)
+        failed, _, _ = gauss_loop(
+            q[start:end + 1], v[start:end + 1], X, h,
+            *(np.ascontiguousarray(a[stage]) for a in (
+                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration)),
+            *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX,
+            start > 0)
+        if failed >= 0:
+            raise SimulationError(
+                f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
+                f"{NEWTON_MAX} Newton iterations (h = {h:.3g} s): reduce the step")
+        if on_progress is not None:
+            on_progress(float(t_ends[end]))
 
 
 class _Newton:
@@ -77,23 +114,24 @@ class _Newton:
         self.system, self.h = system, h
         self.inverse: np.ndarray | None = None
         self.rebuilds = 0
+        self.iterations = 0
 
-    def solve(self, q0: np.ndarray, v0: np.ndarray, X: np.ndarray, beta: np.ndarray,
-              rate: np.ndarray, acc: np.ndarray) -> np.ndarray:
+    def solve(self, q0: np.ndarray, v0: np.ndarray, X: np.ndarray,
+              inputs: NodeInputs) -> np.ndarray:
         """Stage accelerations (2, n) of one step from q0, v0 (n,), starting at the guess X."""
         h, n = self.h, self.system.n
         base_q = q0[None, :] + (NODES * h)[:, None] * v0[None, :]
         previous = np.inf
         fresh = False
         for _ in range(NEWTON_MAX):
+            self.iterations += 1
             V = v0[None, :] + h * (COEFFS @ X)
             Q = base_q + h**2 * (COEFFS2 @ X)
-            M, f = self.system.forces(Q, V, beta, rate, acc)
-            residual = np.einsum("sij,sj->si", M, X) - f
             if self.inverse is None:
-                self._rebuild(Q, V, X, beta, rate, acc)
+                self._rebuild(Q, V, X, inputs)
                 fresh = True
             assert self.inverse is not None
+            residual = self.system.residual(Q, V, X, inputs)
             dX = (self.inverse @ residual.ravel()).reshape(2, n)
             X = X - dX
             size = float(np.abs(dX).max())
@@ -107,25 +145,27 @@ class _Newton:
             f"the nonlinear step did not converge in {NEWTON_MAX} Newton iterations "
             f"(h = {h:.3g} s): reduce the step")
 
-    def _rebuild(self, Q: np.ndarray, V: np.ndarray, X: np.ndarray, beta: np.ndarray,
-                 rate: np.ndarray, acc: np.ndarray) -> None:
-        """J_ij = δ_ij M_i + h² (a²)_ij ∂R_i/∂Q + h a_ij ∂R_i/∂V, R_i = M(Q_i) X_i − f_i."""
+    def _rebuild(self, Q: np.ndarray, V: np.ndarray, X: np.ndarray, inputs: NodeInputs) -> None:
+        """J_ij = δ_ij ∂R_i/∂X_i + h² (a²)_ij ∂R_i/∂Q_i + h a_ij ∂R_i/∂V_i for the stage
+        residuals R_i(Q_i, V_i, X_i), by finite differences (exact in X: R is linear in it)."""
         h, n = self.h, self.system.n
         eps = 1e-7
-        count = 2 * n + 1
-        shift = np.zeros((count, 2 * n))
-        shift[1:] = eps * np.eye(2 * n)
+        count = 3 * n + 1
+        shift = np.zeros((count, 3 * n))
+        shift[1:] = np.eye(3 * n)
+        shift[1:2 * n + 1] *= eps
         Qb = (Q[:, None, :] + shift[None, :, :n]).reshape(-1, n)
-        Vb = (V[:, None, :] + shift[None, :, n:]).reshape(-1, n)
-        M, f = self.system.forces(Qb, Vb, *(np.repeat(a, count, 0) for a in (beta, rate, acc)))
-        R = (np.einsum("sij,sj->si", M, np.repeat(X, count, 0)) - f).reshape(2, count, n)
+        Vb = (V[:, None, :] + shift[None, :, n:2 * n]).reshape(-1, n)
+        Xb = (X[:, None, :] + shift[None, :, 2 * n:]).reshape(-1, n)
+        index = np.repeat(np.arange(2), count)
+        R = self.system.residual(Qb, Vb, Xb, inputs[index]).reshape(2, count, n)
         J = np.zeros((2 * n, 2 * n))
         for i in range(2):
-            dR = (R[i, 1:] - R[i, 0]).T / eps  # (n, 2n): ∂R_i/∂Q, then ∂R_i/∂V
+            dR = (R[i, 1:] - R[i, 0]).T  # (n, 3n): ∂R_i/∂Q·ε, ∂R_i/∂V·ε, ∂R_i/∂X
             for j in range(2):
                 J[i * n:(i + 1) * n, j * n:(j + 1) * n] = (
-                    h**2 * COEFFS2[i, j] * dR[:, :n] + h * COEFFS[i, j] * dR[:, n:])
-            J[i * n:(i + 1) * n, i * n:(i + 1) * n] += M[i * count]
+                    h**2 * COEFFS2[i, j] * dR[:, :n] + h * COEFFS[i, j] * dR[:, n:2 * n]) / eps
+            J[i * n:(i + 1) * n, i * n:(i + 1) * n] += dR[:, 2 * n:]
         self.inverse = np.linalg.inv(J)
         self.rebuilds += 1
 
