@@ -87,7 +87,10 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K,  # noq
                     X[st, m] -= dX[st * n + m]
                     size = max(size, abs(dX[st * n + m]))
                     largest = max(largest, abs(X[st, m]))
-            if size <= tol * max(largest, 1e-300):
+            theta = size / previous
+            # (first iteration: no rate yet, the increment itself must be small)
+            remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
+            if remaining <= tol * max(largest, 1e-300):
                 converged = True
                 break
             if size > 0.1 * previous and not fresh:

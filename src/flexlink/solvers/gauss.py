@@ -135,7 +135,11 @@ class _Newton:
             dX = (self.inverse @ residual.ravel()).reshape(2, n)
             X = X - dX
             size = float(np.abs(dX).max())
-            if size <= NEWTON_TOL * max(float(np.abs(X).max()), 1e-300):
+            # stop when the remaining error, estimated from the contraction rate θ, is small
+            theta = size / previous
+            # (first iteration: no rate yet, the increment itself must be small)
+            remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
+            if remaining <= NEWTON_TOL * max(float(np.abs(X).max()), 1e-300):
                 return X
             if size > 0.1 * previous and not fresh:
                 self.inverse = None  # slow convergence: rebuild the matrix at the next iterate
