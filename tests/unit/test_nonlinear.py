@@ -161,3 +161,25 @@ def test_compiled_and_numpy_loops_agree() -> None:
     fast = system.accelerations(t, q, v, compiled=True)
     slow = system.accelerations(t, q, v, compiled=False)
     assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()
+
+
+def test_scenario_selects_the_nonlinear_model_and_names_bad_values() -> None:
+    from flexlink.scenario import ScenarioError, scenario_from_dict
+    from flexlink.simulation import simulate
+    from tests.unit.test_scenario import minimal
+
+    d = minimal()
+    d["simulation"].update(model="nonlinear", step=0.005)
+    d["sensors"].append({"name": "acc", "kind": "acceleration", "link": "a", "x": 1.0})
+    scenario = scenario_from_dict(d)
+    assert (scenario.settings.model, scenario.settings.step) == ("nonlinear", 0.005)
+    results = simulate(scenario)
+    assert results.metadata["model"] == "nonlinear"
+    assert np.all(np.isfinite(results["acc"])) and np.abs(results["tip"]).max() > 0
+    d["simulation"].update(model="nonlinaer", step=0.0)
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_dict(d)
+    text = "\n".join(info.value.problems)
+    assert "simulation.model must be one of 'first_order', 'nonlinear'" in text
+    assert "did you mean 'nonlinear'" in text
+    assert "simulation.step must be > 0 s, got 0.0" in text
