@@ -25,11 +25,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' Exudyn helpers
 
-from flexlink import simulate  # noqa: E402
-from flexlink.model import Chain, PointSensor, Scenario, SimulationSettings  # noqa: E402
-from flexlink.motion import Cycloidal  # noqa: E402
-from tests.helpers import paper_links  # noqa: E402
-from tests.validation.exudyn_reference import simulate_chain_exudyn  # noqa: E402
+from flexlink import simulate
+from flexlink.model import Chain, PointSensor, Scenario, SimulationSettings
+from flexlink.motion import Cycloidal
+from tests.helpers import paper_links
+from tests.validation.exudyn_reference import simulate_chain_exudyn
 
 T_END, DT_OUT = 3.0, 0.002
 SENSORS = (PointSensor("acc", "acceleration", 0, 1.37), PointSensor("w1", "deflection", 0, 1.37),

@@ -37,15 +37,14 @@ def static_tip(load: float, modes: int, panels: int | None = None) -> tuple[floa
     system = NonlinearSystem(Chain((link,), (CubicMotion(0.0),)), panels=panels)
     beta = np.zeros((1, 1))
     q = np.zeros(system.n)
+    def residual(q: np.ndarray, force: np.ndarray) -> np.ndarray:
+        jac = system.point_jacobian(0, LENGTH, q[None], beta)[0]
+        return system.K @ q - jac.T @ force
+
     for fraction in np.linspace(0.1, 1.0, 10):  # load continuation
         force = np.array([0.0, fraction * load * EI / LENGTH**2])
-
-        def residual(q: np.ndarray) -> np.ndarray:
-            jac = system.point_jacobian(0, LENGTH, q[None], beta)[0]
-            return system.K @ q - jac.T @ force
-
-        q = root(residual, q, tol=1e-12).x
-    assert np.abs(residual(q)).max() < 1e-9 * np.abs(system.K @ q).max()
+        q = root(residual, q, args=(force,), tol=1e-12).x
+    assert np.abs(residual(q, force)).max() < 1e-9 * np.abs(system.K @ q).max()
     alpha = system.node_angles(q[None], beta)[0]
     row = system.position_rows(0, np.array([LENGTH]))[0]
     return float(row @ np.cos(alpha)) / LENGTH, float(row @ np.sin(alpha)) / LENGTH
