@@ -117,7 +117,8 @@ def test_joint_torques_and_accelerometer_against_finite_differences() -> None:
 
 
 def test_energy_is_conserved_with_joints_held_and_no_damping() -> None:
-    """Free vibration with link 2 bent by ~0.4 rad: the energy error is bounded and falls as h⁴."""
+    """Free vibration, link 2 released with a 0.53 rad tip rotation: the energy error falls as
+    h⁴ (measured 1.6e-7, 9.7e-9 of the energy at h = 2, 1 ms)."""
     link1, link2 = paper_links(modes=3, damping=False)
     system = NonlinearSystem(chain_of([link1, link2], [CubicMotion(0.3), CubicMotion(1.2)]))
     q0 = np.zeros(system.n)
