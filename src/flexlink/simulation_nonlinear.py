@@ -33,9 +33,8 @@ def _simulate(scenario: Scenario, progress: bool) -> Results:
 
     started = time.perf_counter()
     with _ProgressBar(settings.t_end, enabled=progress) as bar:
-        q, qd, step = solve_nonlinear(system, t, settings.rtol, settings.step,
-                                      on_progress=bar.update)
-    qdd = system.accelerations(t, q, qd)
+        q, qd, qdd, step = solve_nonlinear(system, t, settings.rtol, settings.step,
+                                           on_progress=bar.update)
     if not np.all(np.isfinite(qdd)):
         raise SimulationError("accelerations are not finite")
     traj = Trajectory(t, q, qd, qdd)

@@ -142,8 +142,9 @@ def test_quintic_hermite_reproduces_a_quintic() -> None:
         return poly(s)[:, None]
 
     s = np.linspace(0.0, 1.0, 37)
-    q, v = hermite_quintic(t, p(t), p(t, 1), p(t, 2), s)
+    q, v, a = hermite_quintic(t, p(t), p(t, 1), p(t, 2), s)
     assert np.allclose(q, p(s), atol=1e-13) and np.allclose(v, p(s, 1), atol=1e-12)
+    assert np.allclose(a, p(s, 2), atol=1e-11)
 
 
 def test_compiled_and_numpy_loops_agree() -> None:

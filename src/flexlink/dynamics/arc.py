@@ -14,9 +14,10 @@ import numpy as np
 from numpy.polynomial import legendre
 
 POINTS_PER_PANEL = 12
-# λ = βL per panel: the position integrand cos/sin(Φ′q) carries wavenumbers up to the highest
-# mode's β (times the rotation amplitude): 12 Gauss points resolve λ ≈ 6 per panel to ~1e-10.
-LAMBDA_PER_PANEL = 6.0
+# λ = βL of the highest mode per panel: with 12 Gauss points per λ ≤ 12 the mass matrix gives
+# every clamped frequency to < 1e-6 and the low ones to ~1e-11 (docs/nonlinear.md §1); the node
+# count sets the cost of every step (products with G grow as its square).
+LAMBDA_PER_PANEL = 12.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,5 +67,5 @@ def arc_quadrature(length: float, beta_l_max: float, panels: int | None = None,
                    points_per_panel: int = POINTS_PER_PANEL) -> ArcQuadrature:
     """The default rule for a link whose highest mode has βL = ``beta_l_max``."""
     if panels is None:
-        panels = max(2, int(np.ceil(beta_l_max / LAMBDA_PER_PANEL)))
+        panels = max(1, int(np.ceil(beta_l_max / LAMBDA_PER_PANEL)))
     return ArcQuadrature(length, panels, points_per_panel)

@@ -175,39 +175,40 @@ class _Newton:
 
 
 def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                    t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """q and q̇ at times t from values, rates and accelerations at uniform nodes t_nodes."""
+                    t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, q̇, q̈ at times t from values, rates and accelerations at uniform nodes t_nodes: the
+    quintic Hermite interpolant and its first two derivatives (exact at the nodes)."""
     h = t_nodes[1] - t_nodes[0] if t_nodes.size > 1 else 1.0
     i = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, t_nodes.size - 2)
     s = ((t - t_nodes[i]) / h)[:, None]
-    p0, p1 = q[i], q[i + 1]
-    d0, d1 = h * v[i], h * v[i + 1]
-    c0, c1 = h**2 * a[i], h**2 * a[i + 1]
-    # Quintic Hermite basis on s ∈ [0, 1] and its s-derivative.
-    H = [1 - 10 * s**3 + 15 * s**4 - 6 * s**5, s - 6 * s**3 + 8 * s**4 - 3 * s**5,
-         0.5 * s**2 - 1.5 * s**3 + 1.5 * s**4 - 0.5 * s**5, 10 * s**3 - 15 * s**4 + 6 * s**5,
-         -4 * s**3 + 7 * s**4 - 3 * s**5, 0.5 * s**3 - s**4 + 0.5 * s**5]
-    dH = [-30 * s**2 + 60 * s**3 - 30 * s**4, 1 - 18 * s**2 + 32 * s**3 - 15 * s**4,
-          s - 4.5 * s**2 + 6 * s**3 - 2.5 * s**4, 30 * s**2 - 60 * s**3 + 30 * s**4,
-          -12 * s**2 + 28 * s**3 - 15 * s**4, 1.5 * s**2 - 4 * s**3 + 2.5 * s**4]
-    terms = (p0, d0, c0, p1, d1, c1)
-    qt = sum(b * x for b, x in zip(H, terms))
-    vt = sum(b * x for b, x in zip(dH, terms)) / h
-    return qt, vt
+    terms = (q[i], h * v[i], h**2 * a[i], q[i + 1], h * v[i + 1], h**2 * a[i + 1])
+    # Basis on s ∈ [0, 1] as polynomial coefficients (powers 0…5), one row per term.
+    basis = np.array([[1, 0, 0, -10, 15, -6], [0, 1, 0, -6, 8, -3], [0, 0, 0.5, -1.5, 1.5, -0.5],
+                      [0, 0, 0, 10, -15, 6], [0, 0, 0, -4, 7, -3], [0, 0, 0, 0.5, -1, 0.5]])
+    powers = np.arange(6)
+    out = []
+    for d in range(3):  # d-th derivative of s^k: k!/(k−d)! s^(k−d)
+        factor = np.array([np.prod(np.arange(k - d + 1, k + 1)) if k >= d else 0.0
+                           for k in powers])
+        values = np.where(powers >= d, s ** np.maximum(powers - d, 0), 0.0) * factor  # (m, 6)
+        weights = values @ basis.T  # (m, 6 terms)
+        out.append(sum(weights[:, j:j + 1] * terms[j] for j in range(6)) / h**d)
+    return out[0], out[1], out[2]
 
 
 def solve_nonlinear(
     system: NonlinearSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
     on_progress: Callable[[float], None] | None = None, max_halvings: int = 6,
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """q, q̇ at t_out (from rest at t_out[0] = 0) and the step used (s).
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """q, q̇, q̈ at t_out (from rest at t_out[0] = 0) and the step used (s). q̈ interpolates
+    the equations' accelerations at the step ends (the quintic's second derivative).
 
     With ``step`` given: one run at that step. Otherwise the step is halved from 10 ms until the
     error estimate of the finer solution, |difference| / 15 (fourth order), is within rtol of
     the peak |q| and of the peak |q̇| over the run."""
     t_end = float(t_out[-1])
 
-    def run(h: float) -> tuple[np.ndarray, np.ndarray]:
+    def run(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t_nodes, q, v = integrate_gauss(system, t_end, h, on_progress)
         a = system.accelerations(t_nodes, q, v)
         return hermite_quintic(t_nodes, q, v, a, t_out)
@@ -215,14 +216,14 @@ def solve_nonlinear(
     if step is not None:
         return (*run(step), step)
     h = min(0.01, t_end)
-    q, v = run(h)
+    q, v, a = run(h)
     for _ in range(max_halvings):
         h /= 2
-        q2, v2 = run(h)
+        q2, v2, a = run(h)
         err = max(_relative_change(q, q2), _relative_change(v, v2)) / 15.0
         q, v = q2, v2
         if err <= rtol:
-            return q, v, h
+            return q, v, a, h
     raise SimulationError(
         f"the nonlinear solution did not converge to rtol = {rtol:g} with steps down to "
         f"{h:.3g} s (last change {err:.2g} of the peak): loosen simulation.rtol")
