@@ -77,12 +77,15 @@ def main() -> None:
     _, reference = _exudyn(D, 48, 2.5e-4)
     cases = {
         "Exudyn FE, 8 elements/link, dt 2 ms": lambda: _exudyn(D, 8, 2e-3),
+        "Exudyn FE, 12 elements/link, dt 2 ms": lambda: _exudyn(D, 12, 2e-3),
         "Exudyn FE, 16 elements/link, dt 2 ms": lambda: _exudyn(D, 16, 2e-3),
         "Exudyn FE, 16 elements/link, dt 1 ms": lambda: _exudyn(D, 16, 1e-3),
         "Exudyn FE, 32 elements/link, dt 0.5 ms": lambda: _exudyn(D, 32, 5e-4),
-        "flexlink nonlinear, 3 modes, step 10 ms": lambda: _flexlink(D, 3, 0.01),
+        "flexlink nonlinear, 3 modes, step 20 ms": lambda: _flexlink(D, 3, 0.02),
+        "flexlink nonlinear, 4 modes, step 20 ms": lambda: _flexlink(D, 4, 0.02),
         "flexlink nonlinear, 4 modes, step 10 ms": lambda: _flexlink(D, 4, 0.01),
         "flexlink nonlinear, 4 modes, step 5 ms": lambda: _flexlink(D, 4, 0.005),
+        "flexlink nonlinear, 8 modes, step 5 ms": lambda: _flexlink(D, 8, 0.005),
         "flexlink nonlinear, 8 modes, step 2.5 ms": lambda: _flexlink(D, 8, 0.0025),
     }
     print(f"paper arm, D = {D} s, {T_END} s simulated, {platform.machine()}, "

@@ -47,6 +47,8 @@ def _simulate(scenario: Scenario, progress: bool) -> Results:
         "elastic_coordinates": system.n,
         "time_step_s": step,
     })
-    for ch in sensor_channels(system, traj, scenario.sensors) + joint_and_tip_channels(system, traj):
+    hist = system.joint_history(t)
+    for ch in (sensor_channels(system, traj, scenario.sensors, hist)
+               + joint_and_tip_channels(system, traj, hist)):
         results.add(ch.name, ch.values, ch.unit, ch.description)
     return results

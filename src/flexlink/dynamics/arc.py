@@ -8,6 +8,7 @@ linear row of weights, exact for polynomials of degree < points per panel on eve
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,6 +64,7 @@ class ArcQuadrature:
         return rows
 
 
+@functools.lru_cache(maxsize=128)
 def arc_quadrature(length: float, beta_l_max: float, panels: int | None = None,
                    points_per_panel: int = POINTS_PER_PANEL) -> ArcQuadrature:
     """The default rule for a link whose highest mode has βL = ``beta_l_max``."""

@@ -22,13 +22,15 @@ All evaluations take a leading batch axis (times or states).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Chain
+from ..model import Chain, Link
+from ..modes import ModalData, modal_data
 from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
-from .first_order import FirstOrderSystem
+from .first_order import _outboard_loaded_shapes
 from .kinematics import JointHistory
 
 try:
@@ -63,23 +65,37 @@ class LinkArc:
     ddphi: np.ndarray  # (p, n_k) Φ″ at the nodes, 1/m²
 
 
+@functools.lru_cache(maxsize=64)
+def _link_modal_data(link: Link) -> ModalData:
+    """Modal integrals of a link (immutable): computed once per process, reused by every run
+    of the same link (sweeps over manoeuvres, repeated runs)."""
+    return modal_data(link)
+
+
+def chain_modal_data(chain: Chain) -> list[ModalData]:
+    """The first-order model's basis for every link (FirstOrderSystem.modal)."""
+    return [modal_data(link, shapes=_outboard_loaded_shapes(chain, k))
+            if link.mode_shapes == "outboard_loaded" else _link_modal_data(link)
+            for k, link in enumerate(chain.links)]
+
+
 class NonlinearSystem:
     """The assembled nonlinear model: constant matrices, evaluated on batches of states."""
 
     def __init__(self, chain: Chain, panels: int | None = None,
                  points_per_panel: int = POINTS_PER_PANEL) -> None:
         # The basis (mode shapes, K, modal damping) is the first-order model's.
-        self.first_order = FirstOrderSystem(chain, geometric_stiffening=True)
         self.chain = chain
-        self.modal = self.first_order.modal
-        self.n = self.first_order.n
+        self.modal = chain_modal_data(chain)
+        offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
+        self.n = int(offsets[-1])
         n_links = len(chain.links)
         self.arcs: list[LinkArc] = []
         start = 0
         for k, d in enumerate(self.modal):
             quad = arc_quadrature(d.length, float(d.shapes.beta_l.max()), panels,
                                   points_per_panel)
-            coords = self.first_order.bodies[k].slice
+            coords = slice(int(offsets[k]), int(offsets[k + 1]))
             self.arcs.append(LinkArc(quad, slice(start, start + quad.size), coords,
                                      d.shapes.evaluate(quad.x, 1), d.shapes.evaluate(quad.x, 2)))
             start += quad.size
@@ -142,7 +158,11 @@ class NonlinearSystem:
         return np.stack([jx, jy], axis=-2)
 
     def joint_history(self, t: np.ndarray) -> JointHistory:
-        return self.first_order.joint_history(t)
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        parts = [joint.evaluate(t) for joint in self.chain.joints]
+        angle, rate, acc = (np.stack([np.broadcast_to(p[i], t.shape) for p in parts], -1)
+                            for i in range(3))
+        return JointHistory(angle, rate, acc)
 
     def node_angles(self, q: np.ndarray, beta: np.ndarray) -> np.ndarray:
         """α at every node, (b, nodes), rad."""
@@ -203,9 +223,10 @@ class NonlinearSystem:
         M, f = self.forces(q, qd, hist.angle, hist.rate, hist.acceleration)
         return np.linalg.solve(M, f[..., None])[..., 0]
 
-    def node_inputs(self, t: np.ndarray) -> NodeInputs:
-        """The joint prescriptions at times t (b,) mapped onto the nodes and tips."""
-        hist = self.joint_history(t)
+    def node_inputs(self, t: np.ndarray, hist: JointHistory | None = None) -> NodeInputs:
+        """The joint prescriptions at times t (b,) (or their given history) on the nodes and
+        tips."""
+        hist = self.joint_history(t) if hist is None else hist
         return NodeInputs(hist.angle @ self.B.T, hist.rate @ self.B.T,
                           hist.acceleration @ self.B.T, hist.acceleration @ self.tip_B.T)
 
@@ -231,10 +252,10 @@ class NonlinearSystem:
         u, tip = self._inertia(q, qd, qdd, inputs)
         return u @ self.A + tip @ self.tip_A + qd @ self.D + q @ self.K
 
-    def joint_torques(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                      qdd: np.ndarray) -> np.ndarray:
+    def joint_torques(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                      hist: JointHistory | None = None) -> np.ndarray:
         """Motor torque of every joint (b, N), N·m: the generalized inertia force of β_k."""
-        u, tip = self._inertia(q, qd, qdd, self.node_inputs(t))
+        u, tip = self._inertia(q, qd, qdd, self.node_inputs(t, hist))
         return u @ self.B + tip @ self.tip_B
 
     def energy(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray,
@@ -251,4 +272,5 @@ class NonlinearSystem:
 
     @property
     def max_frequency(self) -> float:
-        return self.first_order.max_frequency
+        """Highest clamped natural frequency of any link, rad/s."""
+        return float(max(2 * np.pi * d.natural_frequencies_hz.max() for d in self.modal))

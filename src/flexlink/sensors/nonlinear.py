@@ -14,21 +14,24 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..dynamics.kinematics import JointHistory
 from ..dynamics.nonlinear import NonlinearSystem
 from ..model import PiezoSensor, PointSensor, Sensor
 from .evaluate import _UNITS, Channel, Trajectory
 
 
-def sensor_channels(system: NonlinearSystem, traj: Trajectory,
-                    sensors: tuple[Sensor, ...]) -> list[Channel]:
-    """One channel per sensor, in the given order."""
-    return [_read(system, traj, s) for s in sensors]
+def sensor_channels(system: NonlinearSystem, traj: Trajectory, sensors: tuple[Sensor, ...],
+                    hist: JointHistory | None = None) -> list[Channel]:
+    """One channel per sensor, in the given order (hist: the joints at traj.t, if known)."""
+    hist = system.joint_history(traj.t) if hist is None else hist
+    return [_read(system, traj, hist, s) for s in sensors]
 
 
-def joint_and_tip_channels(system: NonlinearSystem, traj: Trajectory) -> list[Channel]:
+def joint_and_tip_channels(system: NonlinearSystem, traj: Trajectory,
+                           hist: JointHistory | None = None) -> list[Channel]:
     """Joint angles (rad) and motor torques (N·m), global tip positions of every link (m)."""
-    hist = system.joint_history(traj.t)
-    torque = system.joint_torques(traj.t, traj.z, traj.z_dot, traj.z_ddot)
+    hist = system.joint_history(traj.t) if hist is None else hist
+    torque = system.joint_torques(traj.t, traj.z, traj.z_dot, traj.z_ddot, hist)
     alpha = system.node_angles(traj.z, hist.angle)
     links = system.chain.links
     out = [Channel(f"joint{k + 1}_angle", hist.angle[:, k], "rad",
@@ -45,7 +48,8 @@ def joint_and_tip_channels(system: NonlinearSystem, traj: Trajectory) -> list[Ch
     return out
 
 
-def _read(system: NonlinearSystem, traj: Trajectory, sensor: Sensor) -> Channel:
+def _read(system: NonlinearSystem, traj: Trajectory, hist: JointHistory,
+          sensor: Sensor) -> Channel:
     k = sensor.link
     arc = system.arcs[k]
     shapes = system.modal[k].shapes
@@ -66,14 +70,13 @@ def _read(system: NonlinearSystem, traj: Trajectory, sensor: Sensor) -> Channel:
             raise ValueError(f"strain sensor {sensor.name!r} needs a thickness")
         values = -0.5 * h * (q @ shapes.evaluate(x, 2)[0])
     else:
-        values = normal_acceleration(system, traj, k, sensor.x)
+        values = normal_acceleration(system, traj, hist, k, sensor.x)
     return Channel(sensor.name, values, _UNITS[sensor.kind], f"{sensor.kind} at x = {sensor.x} m")
 
 
-def normal_acceleration(system: NonlinearSystem, traj: Trajectory, k: int,
+def normal_acceleration(system: NonlinearSystem, traj: Trajectory, hist: JointHistory, k: int,
                         x: float) -> np.ndarray:
     """n(x)·r̈(x) = Σ_l W_l [cos(α_x − α_l) α̈_l + sin(α_x − α_l) α̇_l²] (m/s²)."""
-    hist = system.joint_history(traj.t)
     alpha = system.node_angles(traj.z, hist.angle)
     alpha_dot = system.node_angles(traj.z_dot, hist.rate)
     alpha_ddot = system.node_angles(traj.z_ddot, hist.acceleration)

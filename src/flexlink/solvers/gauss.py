@@ -64,7 +64,7 @@ def integrate_gauss(
         _compiled_loop(system, q, v, X, h, inputs, on_progress, t_ends)
         return t_ends, q, v
     newton = _Newton(system, h)
-    with threadpool_limits(limits=1):  # tiny matrices: threads only add overhead
+    with threadpool_limits(limits=1):  # (the compiled path needs no limit: no BLAS calls)  # tiny matrices: threads only add overhead
         for i in range(steps):
             if i > 0:  # predictor: last step's stage accelerations, extrapolated linearly
                 X = X + (X[1] - X[0]) / (NODES[1] - NODES[0])
@@ -174,26 +174,25 @@ class _Newton:
         self.rebuilds += 1
 
 
+# Quintic Hermite basis on s ∈ [0, 1], one row per datum (q₀, h q̇₀, h² q̈₀, q₁, h q̇₁, h² q̈₁),
+# columns the coefficients of s⁰ … s⁵; and its first and second s-derivatives.
+_HERMITE = np.array([[1, 0, 0, -10, 15, -6], [0, 1, 0, -6, 8, -3], [0, 0, 0.5, -1.5, 1.5, -0.5],
+                     [0, 0, 0, 10, -15, 6], [0, 0, 0, -4, 7, -3], [0, 0, 0, 0.5, -1, 0.5]])
+_DERIVATIVE = np.diag(np.arange(1.0, 6.0), -1)  # d/ds on coefficient vectors (s^k → k s^(k−1))
+_HERMITE_D = [_HERMITE, _HERMITE @ _DERIVATIVE, _HERMITE @ _DERIVATIVE @ _DERIVATIVE]
+
+
 def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                     t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q, q̇, q̈ at times t from values, rates and accelerations at uniform nodes t_nodes: the
     quintic Hermite interpolant and its first two derivatives (exact at the nodes)."""
     h = t_nodes[1] - t_nodes[0] if t_nodes.size > 1 else 1.0
     i = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, t_nodes.size - 2)
-    s = ((t - t_nodes[i]) / h)[:, None]
-    terms = (q[i], h * v[i], h**2 * a[i], q[i + 1], h * v[i + 1], h**2 * a[i + 1])
-    # Basis on s ∈ [0, 1] as polynomial coefficients (powers 0…5), one row per term.
-    basis = np.array([[1, 0, 0, -10, 15, -6], [0, 1, 0, -6, 8, -3], [0, 0, 0.5, -1.5, 1.5, -0.5],
-                      [0, 0, 0, 10, -15, 6], [0, 0, 0, -4, 7, -3], [0, 0, 0, 0.5, -1, 0.5]])
-    powers = np.arange(6)
-    out = []
-    for d in range(3):  # d-th derivative of s^k: k!/(k−d)! s^(k−d)
-        factor = np.array([np.prod(np.arange(k - d + 1, k + 1)) if k >= d else 0.0
-                           for k in powers])
-        values = np.where(powers >= d, s ** np.maximum(powers - d, 0), 0.0) * factor  # (m, 6)
-        weights = values @ basis.T  # (m, 6 terms)
-        out.append(sum(weights[:, j:j + 1] * terms[j] for j in range(6)) / h**d)
-    return out[0], out[1], out[2]
+    s = (t - t_nodes[i]) / h
+    terms = np.stack([q[i], h * v[i], h**2 * a[i], q[i + 1], h * v[i + 1], h**2 * a[i + 1]])
+    powers = s[:, None] ** np.arange(6)[None, :]  # (m, 6)
+    return tuple(np.einsum("mj,jmn->mn", powers @ B.T, terms) / h**d  # type: ignore[return-value]
+                 for d, B in enumerate(_HERMITE_D))
 
 
 def solve_nonlinear(
