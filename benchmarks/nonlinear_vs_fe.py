@@ -4,8 +4,9 @@ seconds; 3 s simulated, output every 2 ms).
 
     python benchmarks/nonlinear_vs_fe.py [--duration 2.0] [--repeat 3]
 
-Needs Exudyn (`pip install '.[reference]'`). A fine Exudyn run (48 elements per link, dt 0.25 ms,
-no numerical damping) is the reference; every case is then timed (median of the repeats after a
+Needs Exudyn (`pip install '.[reference]'`). The reference is the stored 64-element solution
+where there is one (D = 0.5 s), else a fine Exudyn run (48 elements per link, dt 0.25 ms, no
+numerical damping); every case is then timed (median of the repeats after a
 warm-up) and its error reported as max |signal − reference| / peak of the reference, for the
 link-1 tip accelerometer, both tip deflections and the PZT slope difference. Exudyn's wall time
 is its solver only (model set-up excluded); flexlink's is the whole `simulate` call (model
@@ -23,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' Exudyn helpers
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # the tests' Exudyn helpers
 
 from flexlink import simulate
 from flexlink.model import Chain, PointSensor, Scenario, SimulationSettings
@@ -74,7 +76,12 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     D = args.duration
-    _, reference = _exudyn(D, 48, 2.5e-4)
+    stored = ROOT / "tests" / "validation" / "data" / f"exudyn_paper_arm_D{D:g}.npz"
+    if stored.exists():  # a converged 64-element solution (tests/validation/data/README.md)
+        data = np.load(stored)
+        reference = {k: data[k] for k in ("acc", "w1", "w2", "piezo")}
+    else:
+        _, reference = _exudyn(D, 48, 2.5e-4)
     cases = {
         "Exudyn FE, 8 elements/link, dt 2 ms": lambda: _exudyn(D, 8, 2e-3),
         "Exudyn FE, 12 elements/link, dt 2 ms": lambda: _exudyn(D, 12, 2e-3),
@@ -93,7 +100,11 @@ def main() -> None:
     print(f"{'case':42s} {'wall [s]':>9s}  " + "  ".join(f"{k:>7s}" for k in reference)
           + "   (error / peak)")
     for label, run in cases.items():
-        wall, signals = _timed(run, args.repeat)
+        try:
+            wall, signals = _timed(run, args.repeat)
+        except RuntimeError as error:  # Exudyn's Newton fails on coarse meshes of the fast swing
+            print(f"{label:42s}    failed: {type(error).__name__}")
+            continue
         errors = [np.abs(signals[k] - reference[k]).max() / np.abs(reference[k]).max()
                   for k in reference]
         print(f"{label:42s} {wall:9.3f}  " + "  ".join(f"{e:7.2%}" for e in errors))
