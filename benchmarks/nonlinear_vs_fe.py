@@ -88,10 +88,12 @@ def main() -> None:
         "Exudyn FE, 16 elements/link, dt 2 ms": lambda: _exudyn(D, 16, 2e-3),
         "Exudyn FE, 16 elements/link, dt 1 ms": lambda: _exudyn(D, 16, 1e-3),
         "Exudyn FE, 32 elements/link, dt 0.5 ms": lambda: _exudyn(D, 32, 5e-4),
+        "Exudyn FE, 48 elements/link, dt 0.25 ms": lambda: _exudyn(D, 48, 2.5e-4),
         "flexlink nonlinear, 3 modes, step 20 ms": lambda: _flexlink(D, 3, 0.02),
         "flexlink nonlinear, 4 modes, step 20 ms": lambda: _flexlink(D, 4, 0.02),
         "flexlink nonlinear, 4 modes, step 10 ms": lambda: _flexlink(D, 4, 0.01),
         "flexlink nonlinear, 4 modes, step 5 ms": lambda: _flexlink(D, 4, 0.005),
+        "flexlink nonlinear, 4 modes, step 2.5 ms": lambda: _flexlink(D, 4, 0.0025),
         "flexlink nonlinear, 8 modes, step 5 ms": lambda: _flexlink(D, 8, 0.005),
         "flexlink nonlinear, 8 modes, step 2.5 ms": lambda: _flexlink(D, 8, 0.0025),
     }

@@ -7,10 +7,12 @@ error stays bounded at O(h⁴) instead of drifting. Steps are uniform, so every 
 run needs is evaluated in one vectorised call before the loop.
 
 One step, with stage accelerations X_i (unknowns), stage velocities V_i = v₀ + h Σ a_ij X_j and
-positions Q_i = q₀ + c_i h v₀ + h² Σ (a²)_ij X_j, solves M(Q_i) X_i − f(Q_i, V_i, t_i) = 0 by
-simplified Newton with the iteration matrix δ_ij M(Q_i) + h a_ij D + h² (a²)_ij K — exact in
-the stiff linear part, so the iteration converges at the rate of the (slow) inertia changes.
-Output times come from the quintic Hermite interpolant of q, q̇, q̈ at the step ends.
+positions Q_i = q₀ + c_i h v₀ + h² Σ (a²)_ij X_j, solves the stage residuals
+R_i = M(Q_i) X_i − f(Q_i, V_i, t_i) = 0 (``NonlinearSystem.residual``, no mass matrix needed)
+by simplified Newton with the iteration matrix δ_ij ∂R_i/∂X + h² (a²)_ij ∂R_i/∂Q +
+h a_ij ∂R_i/∂V — it contains K and D exactly, so the stiff modes do not slow the iteration;
+it is kept across steps while it contracts well. Output times come from the quintic Hermite
+interpolant of q, q̇, q̈ at the step ends. docs/nonlinear.md §4.
 """
 
 from __future__ import annotations
