@@ -134,8 +134,10 @@ def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[
         "atol": p.number(table, "atol", path, default=1e-12, gt=0),
         "method": p.string(table, "method", path, default="magnus", choices=METHODS),
         "model": p.string(table, "model", path, default="first_order", choices=MODELS),
-        "step": p.number(table, "step", path, unit="s", default=None, gt=0),
     }
+    step = p.number(table, "step", path, unit="s", default=None, gt=0)
+    if step is not None:  # optional, no default: absent from the resolved scenario when unset
+        out["step"] = step
     if out["t_end"] is not None and out["dt_out"] is not None and out["dt_out"] > out["t_end"]:
         p.add(f"simulation.dt_out must be <= simulation.t_end ({out['t_end']!r} s), "
               f"got {out['dt_out']!r}")
@@ -285,7 +287,7 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
                                   geometric_stiffening=sim["geometric_stiffening"],
                                   rtol=sim["rtol"], atol=sim["atol"], method=sim["method"],
-                                  model=sim["model"], step=sim["step"])
+                                  model=sim["model"], step=sim.get("step"))
     links = tuple(Link(**{k: v for k, v in lk.items() if k != "width"})
                   for lk in resolved["links"])
     index = {link.name: i for i, link in enumerate(links)}
