@@ -21,9 +21,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from flexlink.motion import Cycloidal  # noqa: E402
-from tests.helpers import paper_links  # noqa: E402
-from tests.validation.exudyn_reference import simulate_chain_exudyn  # noqa: E402
+from flexlink.motion import Cycloidal
+from tests.helpers import paper_links
+from tests.validation.exudyn_reference import simulate_chain_exudyn
 
 
 def main() -> None:
