@@ -75,7 +75,8 @@ def _check_small_deflections(system: FirstOrderSystem, t: np.ndarray, z: np.ndar
                     if not system.geometric_stiffening else "")
             raise SimulationError(
                 f"the tip deflection of {link.name} exceeds its length ({link.length:g} m) at "
-                f"t = {when:.4g} s: the first-order model is not valid here{hint}"
+                f"t = {when:.4g} s: the first-order model is not valid here{hint}; "
+                f"model = \"nonlinear\" handles large deflections"
             )
 
 
