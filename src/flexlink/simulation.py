@@ -24,6 +24,10 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
 def simulate(scenario: Scenario, progress: bool = False) -> Results:
     """Run one scenario. Elastic coordinates start at rest; joints follow their prescriptions."""
     settings = scenario.settings
+    if settings.model == "nonlinear":
+        from .simulation_nonlinear import simulate_nonlinear  # imports this module
+
+        return simulate_nonlinear(scenario, progress)
     system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
     t = output_times(settings.t_end, settings.dt_out)
     system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
@@ -72,7 +76,8 @@ def _check_small_deflections(system: FirstOrderSystem, t: np.ndarray, z: np.ndar
                     if not system.geometric_stiffening else "")
             raise SimulationError(
                 f"the tip deflection of {link.name} exceeds its length ({link.length:g} m) at "
-                f"t = {when:.4g} s: the first-order model is not valid here{hint}"
+                f"t = {when:.4g} s: the first-order model is not valid here{hint}; "
+                f"model = \"nonlinear\" handles large deflections"
             )
 
 

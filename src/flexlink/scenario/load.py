@@ -20,7 +20,9 @@ from .errors import Problems, ScenarioError, describe
 from .sensors import read_sensors
 
 SECTIONS = ("simulation", "links", "joints", "sensors", "flexlink_version")
-SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol", "method")
+SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol", "method",
+                   "model", "step")
+MODELS = ("first_order", "nonlinear")
 LINK_KEYS = ("name", "length", "mass_per_length", "EI", "E", "width", "thickness", "tip_mass",
              "tip_inertia", "damping_ratio", "modes", "mode_shapes")
 MODE_SHAPES = ("clamped_free", "tip_loaded", "outboard_loaded")
@@ -131,7 +133,11 @@ def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[
         "rtol": p.number(table, "rtol", path, default=1e-6, gt=0, le=1e-2),
         "atol": p.number(table, "atol", path, default=1e-12, gt=0),
         "method": p.string(table, "method", path, default="magnus", choices=METHODS),
+        "model": p.string(table, "model", path, default="first_order", choices=MODELS),
     }
+    step = p.number(table, "step", path, unit="s", default=None, gt=0)
+    if step is not None:  # optional, no default: absent from the resolved scenario when unset
+        out["step"] = step
     if out["t_end"] is not None and out["dt_out"] is not None and out["dt_out"] > out["t_end"]:
         p.add(f"simulation.dt_out must be <= simulation.t_end ({out['t_end']!r} s), "
               f"got {out['dt_out']!r}")
@@ -280,7 +286,8 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     sim = resolved["simulation"]
     settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
                                   geometric_stiffening=sim["geometric_stiffening"],
-                                  rtol=sim["rtol"], atol=sim["atol"], method=sim["method"])
+                                  rtol=sim["rtol"], atol=sim["atol"], method=sim["method"],
+                                  model=sim["model"], step=sim.get("step"))
     links = tuple(Link(**{k: v for k, v in lk.items() if k != "width"})
                   for lk in resolved["links"])
     index = {link.name: i for i, link in enumerate(links)}

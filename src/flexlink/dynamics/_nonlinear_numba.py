@@ -1,0 +1,89 @@
+"""Compiled (numba) kernels of the nonlinear model: the residual of one state and the
+accelerations of a batch of states — the numpy expressions of ``NonlinearSystem`` written as
+loops (tiny sizes: BLAS calls and temporary arrays cost more than the arithmetic). The tests
+compare both implementations."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def residual(Q, V, X, ang, rate, acc, tip_acc, A, At, G, tip_A, tip_At, J, D, K):  # noqa: ANN
+    """Generalized inertia + damping + elastic forces of one state (n,) — the numpy
+    NonlinearSystem.residual written as loops (small sizes: no BLAS call overhead)."""
+    nodes, n = A.shape
+    c = np.empty(nodes)
+    s = np.empty(nodes)
+    S = np.empty((nodes, 4))
+    for j in range(nodes):
+        alpha = ang[j]
+        alpha_dot = rate[j]
+        alpha_ddot = acc[j]
+        for i in range(n):
+            alpha += A[j, i] * Q[i]
+            alpha_dot += A[j, i] * V[i]
+            alpha_ddot += A[j, i] * X[i]
+        c[j] = np.cos(alpha)
+        s[j] = np.sin(alpha)
+        v2 = alpha_dot * alpha_dot
+        S[j, 0] = c[j] * alpha_ddot
+        S[j, 1] = s[j] * alpha_ddot
+        S[j, 2] = c[j] * v2
+        S[j, 3] = s[j] * v2
+    out = np.zeros(n)
+    for j in range(nodes):
+        g0 = 0.0
+        g1 = 0.0
+        g2 = 0.0
+        g3 = 0.0
+        for m in range(nodes):
+            w = G[j, m]
+            g0 += w * S[m, 0]
+            g1 += w * S[m, 1]
+            g2 += w * S[m, 2]
+            g3 += w * S[m, 3]
+        u = c[j] * (g0 - g3) + s[j] * (g1 + g2)
+        for i in range(n):
+            out[i] += A[j, i] * u
+    for k in range(tip_A.shape[0]):
+        if J[k] != 0.0:
+            tip = tip_acc[k]
+            for i in range(n):
+                tip += tip_A[k, i] * X[i]
+            for i in range(n):
+                out[i] += tip_A[k, i] * J[k] * tip
+    for i in range(n):
+        for m in range(n):
+            out[i] += D[i, m] * V[m] + K[i, m] * Q[m]
+    return out
+
+
+@njit(cache=True)
+def accelerations(q, qd, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K):  # noqa: ANN
+    """q̈ (b, n) of M q̈ = f for b states; M = Aᵀ(G ∘ cos(α_j − α_l))A + Σ J_t a_t a_tᵀ."""
+    b, n = q.shape
+    nodes = A.shape[0]
+    out = np.empty((b, n))
+    H = np.empty((nodes, nodes))
+    HA = np.empty((nodes, n))
+    At = np.ascontiguousarray(A.T)
+    tip_At = np.ascontiguousarray(tip_A.T)
+    zero = np.zeros(n)
+    for t in range(b):
+        f = -residual(q[t], qd[t], zero, ang[t], rate[t], acc[t], tip_acc[t], A, At, G,
+                      tip_A, tip_At, J, D, K)
+        c = np.cos(np.dot(A, q[t]) + ang[t])
+        s = np.sin(np.dot(A, q[t]) + ang[t])
+        for j in range(nodes):
+            for m in range(nodes):
+                H[j, m] = G[j, m] * (c[j] * c[m] + s[j] * s[m])
+        HA[:, :] = np.dot(H, A)
+        M = np.dot(At, HA)
+        for k in range(tip_A.shape[0]):
+            for i in range(n):
+                for m in range(n):
+                    M[i, m] += J[k] * tip_A[k, i] * tip_A[k, m]
+        out[t] = np.linalg.solve(M, f)
+    return out

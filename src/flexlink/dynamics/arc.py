@@ -1,0 +1,73 @@
+"""Composite Gauss–Legendre quadrature along a link, with cumulative (running) integrals.
+
+The nonlinear model obtains positions by integrating (cos ψ, sin ψ) along the link. With the
+integrand known at the Gauss nodes only, ∫₀ˢ f dσ for any s is the integral of f's Lagrange
+interpolant on the panel that holds s (plus the full Gauss sums of the panels before it): a
+linear row of weights, exact for polynomials of degree < points per panel on every panel.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.polynomial import legendre
+
+POINTS_PER_PANEL = 12
+# λ = βL of the highest mode per panel: with 12 Gauss points per λ ≤ 12 the mass matrix gives
+# every clamped frequency to < 1e-6 and the low ones to ~1e-11 (docs/nonlinear.md §1); the node
+# count sets the cost of every step (products with G grow as its square).
+LAMBDA_PER_PANEL = 12.0
+
+
+@dataclass(frozen=True, eq=False)
+class ArcQuadrature:
+    """Nodes x (m) and weights w (m) of a composite Gauss–Legendre rule on [0, length]."""
+
+    length: float
+    panels: int
+    points_per_panel: int
+    x: np.ndarray = field(init=False, repr=False)
+    w: np.ndarray = field(init=False, repr=False)
+    _antiderivative: np.ndarray = field(init=False, repr=False)  # Legendre coefficients
+
+    def __post_init__(self) -> None:
+        if self.panels < 1 or self.points_per_panel < 1:
+            raise ValueError("quadrature needs at least one panel of one point")
+        g, wg = legendre.leggauss(self.points_per_panel)
+        h = self.length / self.panels
+        starts = np.arange(self.panels) * h
+        object.__setattr__(self, "x", (starts[:, None] + 0.5 * h * (g + 1.0)[None, :]).ravel())
+        object.__setattr__(self, "w", np.tile(0.5 * h * wg, self.panels))
+        # Column j: Legendre coefficients of ∫₋₁^η ℓ_j, ℓ_j the Lagrange basis of the nodes g.
+        basis = np.linalg.inv(legendre.legvander(g, self.points_per_panel - 1))
+        object.__setattr__(self, "_antiderivative", legendre.legint(basis, lbnd=-1.0, axis=0))
+
+    @property
+    def size(self) -> int:
+        return self.panels * self.points_per_panel
+
+    def cumulative(self, s: np.ndarray) -> np.ndarray:
+        """Rows R (len(s), size) with ∫₀ˢ f dσ ≈ R @ f(x), for 0 ≤ s ≤ length (m)."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        if np.any(s < -1e-12 * self.length) or np.any(s > self.length * (1 + 1e-12)):
+            raise ValueError(f"positions must lie in [0, {self.length:g}] m")
+        h = self.length / self.panels
+        p = self.points_per_panel
+        panel = np.clip((s // h).astype(int), 0, self.panels - 1)
+        eta = np.clip(2.0 * (s - panel * h) / h - 1.0, -1.0, 1.0)
+        rows = np.where(np.arange(self.size)[None, :] < (panel * p)[:, None], self.w[None, :], 0.0)
+        partial = 0.5 * h * legendre.legval(eta, self._antiderivative).T  # (len(s), p)
+        columns = panel[:, None] * p + np.arange(p)[None, :]
+        rows[np.arange(s.size)[:, None], columns] = partial
+        return rows
+
+
+@functools.lru_cache(maxsize=128)
+def arc_quadrature(length: float, beta_l_max: float, panels: int | None = None,
+                   points_per_panel: int = POINTS_PER_PANEL) -> ArcQuadrature:
+    """The default rule for a link whose highest mode has βL = ``beta_l_max``."""
+    if panels is None:
+        panels = max(1, int(np.ceil(beta_l_max / LAMBDA_PER_PANEL)))
+    return ArcQuadrature(length, panels, points_per_panel)
