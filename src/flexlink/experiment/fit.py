@@ -1,0 +1,315 @@
+"""Identify scenario parameters from measured signals by bounded nonlinear least squares.
+
+Residuals: for every fitted channel, (gain·sim(t − delay) + offset + drift·t − meas) / std(meas)
+on the fit window (default: the free vibration after the manoeuvre), so that each channel
+weighs alike whatever its unit. Simulations are cached by the model parameters: calibration
+parameters cost no simulation. A starting point close to the answer keeps the number of
+simulations small: EI of link k is first scaled by (f_meas/f_sim)² of the dominant free-vibration
+frequency of the channels on link k (twice), its damping ratio by ζ_meas/ζ_sim, and gains,
+offsets and drifts come from a linear least-squares fit of the measured on the simulated signal.
+
+Uncertainty: cov = s² (JᵀJ)⁻¹ in the scaled variables, s² = Σr²/(m − p), inflated by the
+AR(1) factor (1 + ρ)/(1 − ρ) of the residuals' lag-one autocorrelation ρ (neighbouring samples
+are not independent); 95 % intervals are ±1.96 σ (exp(±1.96 σ) on log-scaled parameters).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..model import Scenario
+from ..results import Results
+from .compare import Comparison, driven_scenario, evaluate, free_vibration_start, on_grid
+from .files import MeasurementError
+from .measurement import Measurement
+from .parameters import Parameter, model_value, with_values
+from .vibration import dominant_mode
+
+Z95 = 1.959964
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A fitted parameter with its 95 % confidence interval."""
+
+    path: str
+    initial: float
+    start: float  # after the initial-guess step
+    value: float
+    std: float
+    ci_low: float
+    ci_high: float
+    lower: float
+    upper: float
+    at_bound: bool
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+@dataclass
+class FitResult:
+    estimates: list[Estimate]
+    scenario: Scenario  # with the fitted model values (measured joint angles as inputs)
+    comparison: Comparison  # calibrated simulation against the measurement
+    channels: list[str]
+    window: tuple[float, float]  # s
+    cost: float  # ½ Σ r² at the estimate
+    rms_residual: float  # RMS of the normalised residuals
+    simulations: int
+    status: str
+    correlation: np.ndarray  # parameter correlation matrix
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+class _Model:
+    """Simulations cached by model parameter values; calibration applied on top."""
+
+    def __init__(self, scenario: Scenario, params: list[Parameter], measurement: Measurement,
+                 progress: Callable[[str], None] | None) -> None:
+        self.base = driven_scenario(scenario, measurement)
+        self.params = params
+        self.model_params = [p for p in params if p.is_model]
+        self.cache: dict[tuple[float, ...], Results] = {}
+        self.simulations = 0
+        self.progress = progress
+
+    def results(self, values: list[float]) -> Results:
+        from ..simulation import simulate
+
+        model = [v for p, v in zip(self.params, values, strict=True) if p.is_model]
+        key = tuple(np.round(model, 14))
+        if key not in self.cache:
+            if len(self.cache) > 64:
+                self.cache.pop(next(iter(self.cache)))
+            self.cache[key] = simulate(with_values(self.base, self.model_params, model))
+            self.simulations += 1
+            if self.progress:
+                shown = ", ".join(f"{p.path} = {v:.5g}" for p, v in zip(self.model_params, model,
+                                                                        strict=True))
+                self.progress(f"simulation {self.simulations}: {shown}")
+        return self.cache[key]
+
+    def scenario(self, values: list[float]) -> Scenario:
+        model = [v for p, v in zip(self.params, values, strict=True) if p.is_model]
+        return with_values(self.base, self.model_params, model)
+
+
+def calibrated(results: Results, channel: str, params: list[Parameter],
+               values: list[float]) -> np.ndarray:
+    """gain · sim(t − delay) + offset + drift · t for one channel."""
+    cal = {p.field: v for p, v in zip(params, values, strict=True)
+           if p.kind == "calibration" and p.channel == channel}
+    t = results.time
+    sim = results[channel]
+    delay = cal.get("delay", 0.0)
+    if delay:
+        sim = np.interp(t - delay, t, sim)
+    return cal.get("gain", 1.0) * sim + cal.get("offset", 0.0) + cal.get("drift", 0.0) * t
+
+
+def fit(scenario: Scenario, measurement: Measurement, params: list[Parameter],
+        channels: list[str] | None = None, window: tuple[float | None, float | None] = (None,
+                                                                                     None),
+        max_simulations: int = 60, progress: Callable[[str], None] | None = None) -> FitResult:
+    """Estimate ``params`` from ``measurement`` (see module doc)."""
+    from scipy.optimize import least_squares
+
+    if not params:
+        raise MeasurementError("no parameters to fit: give at least one (e.g. links[0].EI)")
+    channels = list(channels or measurement.signals)
+    for name in channels:
+        if name not in measurement.signals:
+            raise MeasurementError(f"fit channel {name!r} is not measured (measured: "
+                                   f"{', '.join(measurement.signals) or 'none'})")
+    if not channels:
+        raise MeasurementError(f"{measurement.source}: no measured sensor channel to fit")
+    model = _Model(scenario, params, measurement, progress)
+    initial = [p.initial if p.initial is not None else
+               (model_value(scenario, p) if p.is_model else _neutral(p)) for p in params]
+    first = model.results(initial)
+    t = first.time
+    measured = on_grid(measurement, t)
+    t0, t1 = _window(window, measurement, first)
+    mask = (t >= t0) & (t <= t1)
+    if mask.sum() < 10 * len(params):
+        raise MeasurementError(f"the fit window {t0:g} … {t1:g} s holds {int(mask.sum())} "
+                               f"samples, too few for {len(params)} parameters")
+    norm = {c: float(np.std(measured[c][mask])) or 1.0 for c in channels}
+    start = _initial_guess(model, params, initial, channels, measured, mask)
+
+    scales = [_scale(p, v, measured, norm, t1) for p, v in zip(params, start, strict=True)]
+
+    def physical(u: np.ndarray) -> list[float]:
+        return [s * math.exp(x) if p.log else s * x
+                for p, s, x in zip(params, scales, u, strict=True)]
+
+    def residual(u: np.ndarray) -> np.ndarray:
+        values = physical(u)
+        results = model.results(values)
+        return np.concatenate([(calibrated(results, c, params, values)[mask]
+                                - measured[c][mask]) / norm[c] for c in channels])
+
+    u0 = np.array([math.log(v / s) if p.log else v / s
+                   for p, v, s in zip(params, start, scales, strict=True)])
+    lower = np.array([math.log(p.lower / s) if p.log else p.lower / s
+                      for p, s in zip(params, scales, strict=True)])
+    upper = np.array([math.log(p.upper / s) if p.log else p.upper / s
+                      for p, s in zip(params, scales, strict=True)])
+    u0 = np.clip(u0, lower + 1e-9, upper - 1e-9)
+    n_model = max(1, sum(p.is_model for p in params))
+    solution = least_squares(residual, u0, bounds=(lower, upper), method="trf",
+                             diff_step=1e-3, x_scale=1.0, xtol=1e-5, ftol=1e-8, gtol=1e-8,
+                             max_nfev=max(3, max_simulations // (n_model + 1)))
+    values = physical(solution.x)
+    r = solution.fun
+    m, n = r.size, len(params)
+    estimates, corr = _uncertainty(solution.jac, r, m, n, channels, mask, params, values,
+                                   scales, [p.initial if p.initial is not None else v
+                                            for p, v in zip(params, initial, strict=True)],
+                                   start, solution.active_mask)
+    final = model.results(values)
+    comparison = evaluate(_calibrated_results(final, channels, params, values), measurement)
+    return FitResult(
+        estimates=estimates, scenario=model.scenario(values), comparison=comparison,
+        channels=channels, window=(t0, t1), cost=float(solution.cost),
+        rms_residual=float(np.sqrt(np.mean(r**2))), simulations=model.simulations,
+        status=solution.message, correlation=corr,
+        info={"nfev": int(solution.nfev), "njev": int(solution.njev or 0),
+              "success": bool(solution.success), "samples": int(m)})
+
+
+def _neutral(p: Parameter) -> float:
+    return 1.0 if p.field == "gain" else 0.0
+
+
+def _window(window: tuple[float | None, float | None], measurement: Measurement,
+            results: Results) -> tuple[float, float]:
+    t = results.time
+    start, end = window
+    if start is None:
+        start = free_vibration_start(measurement, results)
+        if start is None:
+            raise MeasurementError(
+                "no free vibration found after the manoeuvre (a joint still moves at the end "
+                "of the data); give the fit window explicitly (--window START:END or "
+                "[fit] window = [START, END])")
+    end = float(t[-1]) if end is None else end
+    if not t[0] <= start < end:
+        raise MeasurementError(f"fit window {start:g} … {end:g} s is empty or outside the "
+                               f"simulated span {t[0]:g} … {t[-1]:g} s")
+    return float(start), float(end)
+
+
+def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
+                   channels: list[str], measured: dict[str, np.ndarray],
+                   mask: np.ndarray) -> list[float]:
+    """Frequency- and damping-matched model values, linear calibration (see module doc)."""
+    values = list(values)
+    t = model.results(values).time
+    ref = {c: dominant_mode(t[mask], measured[c][mask]) for c in channels}
+    link_of = _channel_links(model.base)
+    for _ in range(2):
+        results = model.results(values)
+        changed = False
+        for i, p in enumerate(params):
+            if p.kind != "links" or p.field not in ("EI", "damping_ratio") or p.initial:
+                continue
+            mine = [c for c in channels if link_of.get(c) == p.index] or channels
+            ratios = []
+            for c in mine:
+                sim = dominant_mode(t[mask], results[c][mask])
+                if ref[c] is None or sim is None:
+                    continue
+                if p.field == "EI":
+                    ratio = (ref[c].frequency_hz / sim.frequency_hz) ** 2
+                else:
+                    ratio = ref[c].damping_ratio / max(sim.damping_ratio, 1e-6)
+                if 0.25 < ratio < 4.0:  # the same mode in both, else leave it to the fit
+                    ratios.append(ratio)
+            if ratios:
+                new = float(np.clip(values[i] * np.median(ratios), p.lower, p.upper))
+                changed |= abs(new / values[i] - 1) > 1e-3
+                values[i] = new
+        if not changed:
+            break
+    results = model.results(values)
+    for c in channels:
+        cal = [i for i, p in enumerate(params) if p.kind == "calibration" and p.channel == c
+               and p.field in ("gain", "offset", "drift") and p.initial is None]
+        if not cal:
+            continue
+        columns = {"gain": results[c][mask], "offset": np.ones(int(mask.sum())),
+                   "drift": t[mask]}
+        a = np.column_stack([columns[params[i].field] for i in cal])
+        rest = measured[c][mask] - calibrated(results, c, params, values)[mask]
+        rest += sum(columns[params[i].field] * values[i] for i in cal)
+        coef, *_ = np.linalg.lstsq(a, rest, rcond=None)
+        for i, v in zip(cal, coef, strict=True):
+            values[i] = float(np.clip(v, params[i].lower, params[i].upper))
+    return values
+
+
+def _channel_links(scenario: Scenario) -> dict[str, int]:
+    out = {s.name: s.link for s in scenario.sensors}
+    for k, link in enumerate(scenario.chain.links):
+        out[f"{link.name}_tip_X"] = out[f"{link.name}_tip_Y"] = k
+    return out
+
+
+def _scale(p: Parameter, value: float, measured: dict[str, np.ndarray], norm: dict[str, float],
+           duration: float) -> float:
+    if p.log:
+        return value
+    if p.kind != "calibration":
+        return max(abs(value), 1e-12)
+    size = norm.get(str(p.channel), 1.0)
+    return {"gain": max(abs(value), 0.1), "offset": size, "drift": size / max(duration, 1e-9),
+            "delay": 1e-3}[p.field]
+
+
+def _uncertainty(jac: np.ndarray, r: np.ndarray, m: int, n: int, channels: list[str],
+                 mask: np.ndarray, params: list[Parameter], values: list[float],
+                 scales: list[float], initial: list[float], start: list[float],
+                 active: np.ndarray) -> tuple[list[Estimate], np.ndarray]:
+    dof = max(m - n, 1)
+    s2 = float(r @ r) / dof
+    per = int(mask.sum())
+    rho = np.mean([_lag_one(r[i * per:(i + 1) * per]) for i in range(len(channels))])
+    inflation = (1 + rho) / (1 - rho) if rho > 0 else 1.0
+    cov = s2 * inflation * np.linalg.pinv(jac.T @ jac)
+    std_u = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        corr = cov / np.outer(std_u, std_u)
+    estimates = []
+    for i, p in enumerate(params):
+        v, su = values[i], float(std_u[i])
+        if p.log:
+            std, low, high = v * su, v * math.exp(-Z95 * su), v * math.exp(Z95 * su)
+        else:
+            std = scales[i] * su
+            low, high = v - Z95 * std, v + Z95 * std
+        estimates.append(Estimate(path=p.path, initial=initial[i], start=start[i], value=v,
+                                  std=std, ci_low=low, ci_high=high, lower=p.lower,
+                                  upper=p.upper, at_bound=bool(active[i] != 0)))
+    return estimates, np.nan_to_num(corr)
+
+
+def _lag_one(r: np.ndarray) -> float:
+    r = r - r.mean()
+    denom = float(r @ r)
+    return float(r[1:] @ r[:-1]) / denom if denom > 0 else 0.0
+
+
+def _calibrated_results(results: Results, channels: list[str], params: list[Parameter],
+                        values: list[float]) -> Results:
+    out = Results(time=results.time, metadata=dict(results.metadata))
+    for name, signal in results.signals.items():
+        data = calibrated(results, name, params, values) if name in channels else signal.values
+        out.add(name, data, signal.unit, signal.description)
+    return out
