@@ -1,4 +1,5 @@
-"""Command line: ``flexlink run``, ``flexlink paper``, ``flexlink show-paper``.
+"""Command line: ``flexlink run``, ``flexlink paper``, ``flexlink show-paper``; ``compare`` and
+``fit`` live in `flexlink.experiment.commands`.
 
 Exit status: 0 success, 1 the simulation failed, 2 invalid input (scenario, options, output
 folder), 130 interrupted. Input errors print every problem on stderr, one per line, without a
@@ -57,6 +58,10 @@ def build_parser() -> argparse.ArgumentParser:
                                description="Print the built-in paper scenario (with comments); "
                                            "redirect it to a file to start your own.")
     show.set_defaults(handler=_cmd_show_paper)
+
+    from .experiment.commands import add_commands  # compare, fit: docs/experiment.md
+
+    add_commands(commands, output)
     return parser
 
 

@@ -88,6 +88,7 @@ time_column = "t"
 column = "beta1"
 joint = 1
 unit = "deg"
+lowpass_hz = 30.0
 
 [[measurement.columns]]
 column = "beta2"

@@ -31,6 +31,8 @@ class Mode:
     damping_ratio: float
     amplitude: float
     energy: float
+    frequency_std: float = math.nan  # Hz, standard error from the fit's Jacobian
+    damping_std: float = math.nan  # standard error of the damping ratio
 
 
 def manoeuvre_end(t: np.ndarray, angles: list[np.ndarray], rel_tol: float = 1e-3,
@@ -65,8 +67,11 @@ def dominant_mode(t: np.ndarray, y: np.ndarray, max_modes: int = 3) -> Mode | No
     return max(modes, key=lambda m: m.energy) if modes else None
 
 
-def damped_modes(t: np.ndarray, y: np.ndarray, max_modes: int = 3) -> list[Mode]:
-    """Fitted damped sinusoids of y(t), strongest spectral peaks first (see module doc)."""
+def damped_modes(t: np.ndarray, y: np.ndarray, max_modes: int = 3,
+                 guesses: list[float] | None = None) -> list[Mode]:
+    """Fitted damped sinusoids of y(t), strongest spectral peaks first (see module doc), or
+    one per starting frequency in ``guesses`` (Hz), in that order. Standard errors assume
+    white residuals, widened by the AR(1) factor of their lag-one autocorrelation."""
     from scipy.optimize import least_squares
 
     t = np.asarray(t, dtype=float)
@@ -74,7 +79,8 @@ def damped_modes(t: np.ndarray, y: np.ndarray, max_modes: int = 3) -> list[Mode]
     if t.size < 16 or not np.all(np.isfinite(y)):
         return []
     s = t - t[0]
-    guesses = spectral_peaks(t, y, max_modes)
+    if guesses is None:
+        guesses = spectral_peaks(t, y, max_modes)
     if not guesses:
         return []
     scale = float(np.std(y)) or 1.0
@@ -102,15 +108,30 @@ def damped_modes(t: np.ndarray, y: np.ndarray, max_modes: int = 3) -> list[Mode]
                         method="trf", xtol=1e-12, ftol=1e-12, max_nfev=200)
     a = basis(fit.x)
     coef, *_ = np.linalg.lstsq(a, yn, rcond=None)
+    std = _standard_errors(fit.jac, fit.fun, a.shape[1])
     modes = []
     for k in range(len(guesses)):
         sigma, omega = float(fit.x[k]), float(fit.x[len(guesses) + k])
+        s_sigma, s_omega = std[k], std[len(guesses) + k]
         part = a[:, 2 + 2 * k: 4 + 2 * k] @ coef[2 + 2 * k: 4 + 2 * k] * scale
         modes.append(Mode(frequency_hz=omega / (2 * math.pi),
                           damping_ratio=sigma / math.hypot(sigma, omega),
                           amplitude=float(math.hypot(*coef[2 + 2 * k: 4 + 2 * k]) * scale),
-                          energy=float(np.sum(part**2))))
+                          energy=float(np.sum(part**2)),
+                          frequency_std=s_omega / (2 * math.pi),
+                          damping_std=math.hypot(s_sigma / omega, sigma * s_omega / omega**2)))
     return modes
+
+
+def _standard_errors(jac: np.ndarray, r: np.ndarray, n_linear: int) -> np.ndarray:
+    """σ of the nonlinear parameters: s² (JᵀJ)⁻¹, s² = Σr²/(m − p), AR(1)-widened."""
+    m, p = jac.shape
+    s2 = float(r @ r) / max(m - p - n_linear, 1)
+    rc = r - r.mean()
+    rho = float(rc[1:] @ rc[:-1]) / float(rc @ rc) if float(rc @ rc) > 0 else 0.0
+    s2 *= (1 + rho) / (1 - rho) if 0 < rho < 1 else 1.0
+    cov = s2 * np.linalg.pinv(jac.T @ jac)
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
 def spectral_peaks(t: np.ndarray, y: np.ndarray, max_peaks: int) -> list[float]:

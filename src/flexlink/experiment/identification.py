@@ -24,11 +24,11 @@ import numpy as np
 
 from ..model import Scenario
 from ..results import Results
-from .compare import Comparison, driven_scenario, evaluate, free_vibration_start, on_grid
+from .comparison import Comparison, driven_scenario, evaluate, free_vibration_start, on_grid
 from .files import MeasurementError
 from .measurement import Measurement
 from .parameters import Parameter, model_value, with_values
-from .vibration import dominant_mode
+from .vibration import Mode, damped_modes, dominant_mode
 
 Z95 = 1.959964
 
@@ -113,13 +113,18 @@ def calibrated(results: Results, channel: str, params: list[Parameter],
     return cal.get("gain", 1.0) * sim + cal.get("offset", 0.0) + cal.get("drift", 0.0) * t
 
 
+OBJECTIVES = ("modal", "time")
+
+
 def fit(scenario: Scenario, measurement: Measurement, params: list[Parameter],
         channels: list[str] | None = None, window: tuple[float | None, float | None] = (None,
                                                                                      None),
-        max_simulations: int = 60, progress: Callable[[str], None] | None = None) -> FitResult:
+        max_simulations: int = 60, progress: Callable[[str], None] | None = None,
+        objective: str = "modal") -> FitResult:
     """Estimate ``params`` from ``measurement`` (see module doc)."""
-    from scipy.optimize import least_squares
-
+    if objective not in OBJECTIVES:
+        raise MeasurementError(f"objective must be one of {', '.join(OBJECTIVES)}, got "
+                               f"{objective!r}")
     if not params:
         raise MeasurementError("no parameters to fit: give at least one (e.g. links[0].EI)")
     channels = list(channels or measurement.signals)
@@ -129,6 +134,9 @@ def fit(scenario: Scenario, measurement: Measurement, params: list[Parameter],
                                    f"{', '.join(measurement.signals) or 'none'})")
     if not channels:
         raise MeasurementError(f"{measurement.source}: no measured sensor channel to fit")
+    if objective == "modal" and any(p.field == "delay" for p in params if not p.is_model):
+        raise MeasurementError("a delay changes no frequency or damping: fit it with "
+                               "objective = \"time\"")
     model = _Model(scenario, params, measurement, progress)
     initial = [p.initial if p.initial is not None else
                (model_value(scenario, p) if p.is_model else _neutral(p)) for p in params]
@@ -142,47 +150,148 @@ def fit(scenario: Scenario, measurement: Measurement, params: list[Parameter],
                                f"samples, too few for {len(params)} parameters")
     norm = {c: float(np.std(measured[c][mask])) or 1.0 for c in channels}
     start = _initial_guess(model, params, initial, channels, measured, mask)
+    scales = [_scale(p, v, norm, t1) for p, v in zip(params, start, strict=True)]
+    budget = max(3, max_simulations // (max(1, sum(p.is_model for p in params)) + 1))
+    first_values = [p.initial if p.initial is not None else v
+                    for p, v in zip(params, initial, strict=True)]
+    if objective == "time":
+        def residual(values: list[float]) -> np.ndarray:
+            results = model.results(values)
+            return np.concatenate([(calibrated(results, c, params, values)[mask]
+                                    - measured[c][mask]) / norm[c] for c in channels])
 
-    scales = [_scale(p, v, measured, norm, t1) for p, v in zip(params, start, strict=True)]
+        solved = list(range(len(params)))
+        solution, values = _solve(residual, params, solved, start, scales, budget)
+        r = solution.fun
+        per = int(mask.sum())
+        cov = _covariance(solution.jac, r, _ar1([r[i * per:(i + 1) * per]
+                                                 for i in range(len(channels))]))
+        rms = float(np.sqrt(np.mean(r**2)))
+    else:
+        features = _measured_features(t[mask], measured, channels, mask)
+        if not features:
+            raise MeasurementError("no free vibration found in the measured channels on the fit "
+                                   f"window {t0:g} … {t1:g} s; try objective = \"time\"")
 
-    def physical(u: np.ndarray) -> list[float]:
-        return [s * math.exp(x) if p.log else s * x
-                for p, s, x in zip(params, scales, u, strict=True)]
+        def residual(values: list[float]) -> np.ndarray:
+            results = model.results(values)
+            return _modal_residual(t[mask], results, features, mask)
 
-    def residual(u: np.ndarray) -> np.ndarray:
-        values = physical(u)
-        results = model.results(values)
-        return np.concatenate([(calibrated(results, c, params, values)[mask]
-                                - measured[c][mask]) / norm[c] for c in channels])
-
-    u0 = np.array([math.log(v / s) if p.log else v / s
-                   for p, v, s in zip(params, start, scales, strict=True)])
-    lower = np.array([math.log(p.lower / s) if p.log else p.lower / s
-                      for p, s in zip(params, scales, strict=True)])
-    upper = np.array([math.log(p.upper / s) if p.log else p.upper / s
-                      for p, s in zip(params, scales, strict=True)])
-    u0 = np.clip(u0, lower + 1e-9, upper - 1e-9)
-    n_model = max(1, sum(p.is_model for p in params))
-    solution = least_squares(residual, u0, bounds=(lower, upper), method="trf",
-                             diff_step=1e-3, x_scale=1.0, xtol=1e-5, ftol=1e-8, gtol=1e-8,
-                             max_nfev=max(3, max_simulations // (n_model + 1)))
-    values = physical(solution.x)
-    r = solution.fun
-    m, n = r.size, len(params)
-    estimates, corr = _uncertainty(solution.jac, r, m, n, channels, mask, params, values,
-                                   scales, [p.initial if p.initial is not None else v
-                                            for p, v in zip(params, initial, strict=True)],
-                                   start, solution.active_mask)
+        solved = [i for i, p in enumerate(params) if p.is_model]
+        if solved:
+            solution, values = _solve(residual, params, solved, start, scales, budget)
+            r = solution.fun
+            cov = _covariance(solution.jac, r, 0.0, known_weights=True)
+        else:
+            solution, values, r, cov = None, list(start), np.zeros(0), np.zeros((0, 0))
+        values, cov = _linear_calibration(model.results(values), params, values, channels,
+                                          measured, mask, solved, cov, scales)
+        rms = float(np.sqrt(np.mean(r**2))) if r.size else 0.0
+    estimates, corr = _estimates(params, values, scales, cov, first_values, start,
+                                 solution.active_mask if solution is not None else None,
+                                 solved)
     final = model.results(values)
     comparison = evaluate(_calibrated_results(final, channels, params, values), measurement)
     return FitResult(
         estimates=estimates, scenario=model.scenario(values), comparison=comparison,
-        channels=channels, window=(t0, t1), cost=float(solution.cost),
-        rms_residual=float(np.sqrt(np.mean(r**2))), simulations=model.simulations,
-        status=solution.message, correlation=corr,
-        info={"nfev": int(solution.nfev), "njev": int(solution.njev or 0),
-              "success": bool(solution.success), "samples": int(m)})
+        channels=channels, window=(t0, t1),
+        cost=float(solution.cost) if solution is not None else 0.0,
+        rms_residual=rms, simulations=model.simulations,
+        status=solution.message if solution is not None else "linear calibration only",
+        correlation=corr,
+        info={"objective": objective,
+              "nfev": int(solution.nfev) if solution is not None else 0,
+              "success": bool(solution.success) if solution is not None else True,
+              "residuals": int(r.size)})
 
+
+def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter],
+           chosen: list[int], start: list[float], scales: list[float],
+           budget: int) -> tuple[Any, list[float]]:
+    """Bounded least squares over params[chosen] in scaled variables (log or linear)."""
+    from scipy.optimize import least_squares
+
+    def physical(u: np.ndarray) -> list[float]:
+        values = list(start)
+        for i, x in zip(chosen, u, strict=True):
+            values[i] = scales[i] * math.exp(x) if params[i].log else scales[i] * x
+        return values
+
+    def scaled(i: int, v: float) -> float:
+        return math.log(v / scales[i]) if params[i].log else v / scales[i]
+
+    u0 = np.array([scaled(i, start[i]) for i in chosen])
+    lower = np.array([scaled(i, params[i].lower) if params[i].lower > -math.inf else -np.inf
+                      for i in chosen])
+    upper = np.array([scaled(i, params[i].upper) if params[i].upper < math.inf else np.inf
+                      for i in chosen])
+    u0 = np.clip(u0, lower + 1e-9, upper - 1e-9)
+    solution = least_squares(lambda u: residual(physical(u)), u0, bounds=(lower, upper),
+                             method="trf", diff_step=1e-3, x_scale=1.0, xtol=1e-5, ftol=1e-8,
+                             gtol=1e-8, max_nfev=budget)
+    return solution, physical(solution.x)
+
+
+MAX_FEATURES = 2  # components per channel whose frequency and damping are matched
+MIN_ENERGY = 0.1  # of the channel's dominant component
+
+
+def _measured_features(t: np.ndarray, measured: dict[str, np.ndarray], channels: list[str],
+                       mask: np.ndarray) -> dict[str, list[Mode]]:
+    """The strongest free-vibration components of every measured channel."""
+    out = {}
+    for c in channels:
+        modes = damped_modes(t, measured[c][mask])
+        if not modes:
+            continue
+        top = max(m.energy for m in modes)
+        strong = sorted((m for m in modes if m.energy >= MIN_ENERGY * top),
+                        key=lambda m: -m.energy)[:MAX_FEATURES]
+        out[c] = strong
+    return out
+
+
+def _modal_residual(t: np.ndarray, results: Results, features: dict[str, list[Mode]],
+                    mask: np.ndarray) -> np.ndarray:
+    """(f_sim − f_meas)/σ_f and (ζ_sim − ζ_meas)/σ_ζ of every matched component; the
+    simulated components are fitted from the measured frequencies, so they stay matched."""
+    r = []
+    for c, modes in features.items():
+        sim = damped_modes(t, results[c][mask], guesses=[m.frequency_hz for m in modes])
+        for meas, got in zip(modes, sim, strict=True):
+            sf = max(meas.frequency_std, 1e-4 * meas.frequency_hz)
+            sz = max(meas.damping_std, 0.02 * abs(meas.damping_ratio), 1e-5)
+            r += [(got.frequency_hz - meas.frequency_hz) / sf,
+                  (got.damping_ratio - meas.damping_ratio) / sz]
+    return np.array(r)
+
+
+def _linear_calibration(results: Results, params: list[Parameter], values: list[float],
+                        channels: list[str], measured: dict[str, np.ndarray], mask: np.ndarray,
+                        solved: list[int], cov_model: np.ndarray,
+                        scales: list[float]) -> tuple[list[float], np.ndarray]:
+    """Gains, offsets and drifts by linear least squares on the fitted simulation; the
+    covariance of all parameters (model block from the modal fit, calibration blocks from
+    the regression with AR(1)-widened residual variance), all in scaled units."""
+    values = list(values)
+    n = len(params)
+    cov = np.zeros((n, n))
+    cov[np.ix_(solved, solved)] = cov_model
+    t = results.time[mask]
+    for c in channels:
+        cal = [i for i, p in enumerate(params) if p.kind == "calibration" and p.channel == c]
+        if not cal:
+            continue
+        columns = {"gain": results[c][mask], "offset": np.ones(t.size), "drift": t}
+        a = np.column_stack([columns[params[i].field] for i in cal])
+        coef, *_ = np.linalg.lstsq(a, measured[c][mask], rcond=None)
+        r = a @ coef - measured[c][mask]
+        s2 = float(r @ r) / max(r.size - len(cal), 1) * _ar1_factor(_ar1([r]))
+        size = np.array([scales[i] for i in cal])
+        cov[np.ix_(cal, cal)] = s2 * np.linalg.pinv(a.T @ a) / np.outer(size, size)
+        for i, v in zip(cal, coef, strict=True):
+            values[i] = float(v)
+    return values, cov
 
 def _neutral(p: Parameter) -> float:
     return 1.0 if p.field == "gain" else 0.0
@@ -262,8 +371,7 @@ def _channel_links(scenario: Scenario) -> dict[str, int]:
     return out
 
 
-def _scale(p: Parameter, value: float, measured: dict[str, np.ndarray], norm: dict[str, float],
-           duration: float) -> float:
+def _scale(p: Parameter, value: float, norm: dict[str, float], duration: float) -> float:
     if p.log:
         return value
     if p.kind != "calibration":
@@ -273,20 +381,44 @@ def _scale(p: Parameter, value: float, measured: dict[str, np.ndarray], norm: di
             "delay": 1e-3}[p.field]
 
 
-def _uncertainty(jac: np.ndarray, r: np.ndarray, m: int, n: int, channels: list[str],
-                 mask: np.ndarray, params: list[Parameter], values: list[float],
-                 scales: list[float], initial: list[float], start: list[float],
-                 active: np.ndarray) -> tuple[list[Estimate], np.ndarray]:
-    dof = max(m - n, 1)
-    s2 = float(r @ r) / dof
-    per = int(mask.sum())
-    rho = np.mean([_lag_one(r[i * per:(i + 1) * per]) for i in range(len(channels))])
-    inflation = (1 + rho) / (1 - rho) if rho > 0 else 1.0
-    cov = s2 * inflation * np.linalg.pinv(jac.T @ jac)
-    std_u = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+def _ar1(parts: list[np.ndarray]) -> float:
+    """Mean lag-one autocorrelation of residual blocks."""
+    rhos = []
+    for r in parts:
+        r = r - r.mean()
+        denom = float(r @ r)
+        rhos.append(float(r[1:] @ r[:-1]) / denom if denom > 0 else 0.0)
+    return float(np.mean(rhos)) if rhos else 0.0
+
+
+def _ar1_factor(rho: float) -> float:
+    return (1 + rho) / (1 - rho) if 0 < rho < 1 else 1.0
+
+
+def _covariance(jac: np.ndarray, r: np.ndarray, rho: float,
+                known_weights: bool = False) -> np.ndarray:
+    """s² (JᵀJ)⁻¹ in scaled variables. With residuals already divided by their standard
+    errors (known_weights), s² = max(1, χ²/dof); else s² = Σr²/dof, AR(1)-widened."""
+    m, n = jac.shape
+    dof = m - n
+    chi2 = float(r @ r) / dof if dof > 0 else 1.0
+    s2 = max(1.0, chi2) if known_weights else chi2 * _ar1_factor(rho)
+    return s2 * np.linalg.pinv(jac.T @ jac)
+
+
+def _estimates(params: list[Parameter], values: list[float], scales: list[float],
+               cov: np.ndarray, initial: list[float], start: list[float],
+               active: np.ndarray | None, solved: list[int]) -> tuple[list[Estimate],
+                                                                     np.ndarray]:
+    """Estimates with 95 % intervals from ``cov`` over all params in scaled units (log of
+    value/scale, or value/scale); ``active`` is least_squares' bound mask of params[solved]."""
+    full = cov
+    std_u = np.sqrt(np.clip(np.diag(full), 0.0, None))
     with np.errstate(divide="ignore", invalid="ignore"):
-        corr = cov / np.outer(std_u, std_u)
-    estimates = []
+        corr = np.nan_to_num(full / np.outer(std_u, std_u))
+    at_bound = {i: bool(a != 0) for i, a in zip(solved, active if active is not None else [],
+                                                  strict=False)}
+    out = []
     for i, p in enumerate(params):
         v, su = values[i], float(std_u[i])
         if p.log:
@@ -294,16 +426,10 @@ def _uncertainty(jac: np.ndarray, r: np.ndarray, m: int, n: int, channels: list[
         else:
             std = scales[i] * su
             low, high = v - Z95 * std, v + Z95 * std
-        estimates.append(Estimate(path=p.path, initial=initial[i], start=start[i], value=v,
-                                  std=std, ci_low=low, ci_high=high, lower=p.lower,
-                                  upper=p.upper, at_bound=bool(active[i] != 0)))
-    return estimates, np.nan_to_num(corr)
-
-
-def _lag_one(r: np.ndarray) -> float:
-    r = r - r.mean()
-    denom = float(r @ r)
-    return float(r[1:] @ r[:-1]) / denom if denom > 0 else 0.0
+        out.append(Estimate(path=p.path, initial=initial[i], start=start[i], value=v, std=std,
+                            ci_low=low, ci_high=high, lower=p.lower, upper=p.upper,
+                            at_bound=at_bound.get(i, False)))
+    return out, corr
 
 
 def _calibrated_results(results: Results, channels: list[str], params: list[Parameter],
