@@ -132,7 +132,7 @@ def parse_spec(table: Mapping[str, Any] | None, scenario: Scenario,
     }
     columns = []
     for cpath, ctable in p.table_array(table, "columns", required=False):
-        parsed = _column(ctable, cpath, scenario, p)
+        parsed = _column(ctable, f"measurement.{cpath}", scenario, p)
         if parsed is not None:
             columns.append(parsed)
     _check_targets(columns, p)

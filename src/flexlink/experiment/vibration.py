@@ -63,7 +63,9 @@ def manoeuvre_end(t: np.ndarray, angles: list[np.ndarray], rel_tol: float = 1e-3
 def dominant_mode(t: np.ndarray, y: np.ndarray, max_modes: int = 3) -> Mode | None:
     """The component of the free vibration ``y(t)`` (uniform t) with the most energy, or None
     if the window is too short or holds no oscillation."""
-    modes = damped_modes(t, y, max_modes)
+    duration = float(t[-1] - t[0]) if len(t) else 0.0
+    modes = [m for m in damped_modes(t, y, max_modes)
+             if m.frequency_hz * duration >= MIN_CYCLES]  # a drift is no vibration
     return max(modes, key=lambda m: m.energy) if modes else None
 
 
