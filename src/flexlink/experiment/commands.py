@@ -48,6 +48,9 @@ def add_commands(commands: Any, output: argparse.ArgumentParser) -> None:
                      help="fit window in s (default: the free vibration to the end)")
     fit.add_argument("--max-simulations", type=int, metavar="N",
                      help="budget of simulations (default 60)")
+    fit.add_argument("--objective", choices=("modal", "time"),
+                     help="match free-vibration frequencies and damping (modal, default) or "
+                          "the time histories (time)")
     fit.set_defaults(handler=run_fit)
 
 
@@ -108,10 +111,17 @@ def run_fit(args: argparse.Namespace) -> int:
         experiment = _load(args)
         scenario, resolved, measurement, table = (experiment.scenario, experiment.resolved,
                                                   experiment.measurement, experiment.fit_table)
-        unknown = set(table) - {"parameters", "channels", "window", "max_simulations"}
+        allowed = ("parameters", "channels", "window", "max_simulations", "objective")
+        unknown = set(table) - set(allowed)
         if unknown:
             raise MeasurementError(f"[fit]: unknown key(s) {', '.join(sorted(unknown))} "
-                                   "(allowed: parameters, channels, window, max_simulations)")
+                                   f"(allowed: {', '.join(allowed)})")
+        objective = args.objective or table.get("objective", "modal")
+        channel_list = args.channel or table.get("channels")
+        if channel_list is not None and (not isinstance(channel_list, list) or not all(
+                isinstance(c, str) for c in channel_list)):
+            raise MeasurementError(f"[fit] channels: expected an array of channel names, got "
+                                   f"{channel_list!r}")
         channels = measurement.units
         if args.param:
             params = [parse_parameter_option(p, scenario, channels) for p in args.param]
@@ -129,8 +139,8 @@ def run_fit(args: argparse.Namespace) -> int:
         if isinstance(budget, bool) or not isinstance(budget, int) or budget < 3:
             raise MeasurementError(f"max_simulations must be an integer >= 3, got {budget!r}")
         progress = None if args.quiet else (lambda m: print(m, file=sys.stderr))
-        result = fit(scenario, measurement, params, args.channel or table.get("channels"),
-                     window, max_simulations=budget, progress=progress)
+        result = fit(scenario, measurement, params, channel_list, window,
+                     max_simulations=budget, progress=progress, objective=objective)
         fitted = update_resolved(resolved, params, [e.value for e in result.estimates])
         write_fit(result, out_dir, fitted, overwrite=args.overwrite,
                   figures=not args.no_figures)

@@ -28,7 +28,7 @@ from .comparison import Comparison, driven_scenario, evaluate, free_vibration_st
 from .files import MeasurementError
 from .measurement import Measurement
 from .parameters import Parameter, model_value, with_values
-from .vibration import Mode, damped_modes, dominant_mode
+from .vibration import Mode, damped_modes, dominant_mode, spectral_peaks
 
 Z95 = 1.959964
 
@@ -237,6 +237,7 @@ def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter
 
 
 MAX_FEATURES = 2  # components per channel whose frequency and damping are matched
+MAX_COMPONENTS = 3  # components fitted to a simulated channel
 MIN_ENERGY = 0.1  # of the channel's dominant component
 
 
@@ -261,8 +262,14 @@ def _modal_residual(t: np.ndarray, results: Results, features: dict[str, list[Mo
     simulated components are fitted from the measured frequencies, so they stay matched."""
     r = []
     for c, modes in features.items():
-        sim = damped_modes(t, results[c][mask], guesses=[m.frequency_hz for m in modes])
-        for meas, got in zip(modes, sim, strict=True):
+        y = results[c][mask]
+        guesses = [m.frequency_hz for m in modes]
+        # components the measurement does not show (noise) still bias the matched ones if
+        # left out of the simulated signal's fit: add the simulation's own other peaks
+        others = [f for f in spectral_peaks(t, y, MAX_COMPONENTS)
+                  if all(abs(f / g - 1) > 0.1 for g in guesses)]
+        sim = damped_modes(t, y, guesses=guesses + others[:MAX_COMPONENTS - len(guesses)])
+        for meas, got in zip(modes, sim, strict=False):
             sf = max(meas.frequency_std, 1e-4 * meas.frequency_hz)
             sz = max(meas.damping_std, 0.02 * abs(meas.damping_ratio), 1e-5)
             r += [(got.frequency_hz - meas.frequency_hz) / sf,
