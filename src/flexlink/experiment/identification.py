@@ -184,8 +184,11 @@ def fit(scenario: Scenario, measurement: Measurement, params: list[Parameter],
             cov = _covariance(solution.jac, r, 0.0, known_weights=True)
         else:
             solution, values, r, cov = None, list(start), np.zeros(0), np.zeros((0, 0))
+        # over the whole run: the manoeuvre's forced response pins the gain; the free
+        # vibration's amplitude hangs on how sharply the measured input ends (filtering)
+        whole = np.ones_like(mask)
         values, cov = _linear_calibration(model.results(values), params, values, channels,
-                                          measured, mask, solved, cov, scales)
+                                          measured, whole, solved, cov, scales)
         rms = float(np.sqrt(np.mean(r**2))) if r.size else 0.0
     estimates, corr = _estimates(params, values, scales, cov, first_values, start,
                                  solution.active_mask if solution is not None else None,
