@@ -83,7 +83,7 @@ def test_fit_recovers_stiffness_damping_and_gain(files) -> None:
     ei, zeta, gain = result.estimates
     assert ei.value == pytest.approx(EI_TRUE, rel=0.01)  # judged: 3 %
     assert zeta.value == pytest.approx(ZETA_TRUE, rel=0.10)  # judged: 20 %
-    assert gain.value == pytest.approx(0.9, rel=0.05)
+    assert gain.value == pytest.approx(0.9, rel=0.02)
     for e in (ei, zeta):  # intervals contain the truth and are not absurdly wide
         truth = EI_TRUE if e is ei else ZETA_TRUE
         assert e.ci_low < truth < e.ci_high or abs(e.value / truth - 1) < 0.005
