@@ -182,3 +182,21 @@ def test_mapping_also_from_cli(files, measured) -> None:
                                  maps=["angle=joint1,unit=deg,lowpass_hz=30", "acc=acc"])
     assert set(experiment.measurement.signals) == {"acc"}
     np.testing.assert_allclose(experiment.measurement.signals["acc"], m.signals["acc"])
+
+
+def test_fit_section_parameters() -> None:
+    from flexlink.experiment.parameters import parse_parameter_option, parse_parameter_table
+
+    scenario = scenario_from_dict(tomllib.loads(single_link_text()))
+    units = {"acc": "m/s^2"}
+    p = parse_parameter_table({"path": "links[0].EI", "lower": 100.0, "upper": 500.0,
+                               "initial": 250.0}, "fit.parameters[0]", scenario, units)
+    assert (p.lower, p.upper, p.initial, p.log) == (100.0, 500.0, 250.0, True)
+    q = parse_parameter_option("acc:offset=-1:1", scenario, units)
+    assert (q.lower, q.upper, q.log) == (-1.0, 1.0, False)
+    for entry, message in (({"path": "links[0].EI", "lower": "1"}, "expected a finite number"),
+                           ({"path": "links[0].EI", "lowr": 1}, "unknown key"),
+                           ({"path": "links[0].EI", "lower": 0.0}, "must be > 0"),
+                           ({"path": "links[0].EI", "lower": 5.0, "upper": 1.0}, "below")):
+        with pytest.raises(ValueError, match=message):
+            parse_parameter_table(entry, "fit.parameters[0]", scenario, units)

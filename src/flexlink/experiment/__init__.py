@@ -21,7 +21,10 @@ _EXPORTS = {
     "fit": "identification", "FitResult": "identification", "parse_parameter": "parameters",
     "load_experiment": "loading",
 }
-__all__ = sorted(_EXPORTS)
+__all__ = ["Comparison", "FitResult", "Measurement", "MeasurementError", "MeasurementSpec",
+           "MeasurementWarning", "SignalMetrics", "compare", "condition", "damped_modes",
+           "dominant_mode", "fit", "load_experiment", "parse_parameter", "parse_spec",
+           "read_columns"]
 
 
 def __getattr__(name: str) -> Any:

@@ -143,7 +143,7 @@ def spectral_peaks(t: np.ndarray, y: np.ndarray, max_peaks: int) -> list[float]:
 
     dt = (t[-1] - t[0]) / (t.size - 1)
     detrended = y - np.polyval(np.polyfit(t - t[0], y, 1), t - t[0])
-    n = 1 << max(16, int(math.ceil(math.log2(16 * t.size))))
+    n = 1 << max(16, math.ceil(math.log2(16 * t.size)))
     spectrum = np.abs(np.fft.rfft(detrended * np.hanning(t.size), n))
     freqs = np.fft.rfftfreq(n, dt)
     usable = freqs >= MIN_CYCLES / (t[-1] - t[0])
