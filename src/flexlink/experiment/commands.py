@@ -30,6 +30,9 @@ def add_commands(commands: Any, output: argparse.ArgumentParser) -> None:
                       help="seconds added to the file's times (simulation starts at 0)")
     data.add_argument("--free-from", type=float, metavar="S",
                       help="start of the free vibration (default: detected from the angles)")
+    data.add_argument("--no-hold", action="store_true",
+                      help="drive the joints with the measured angles also after the "
+                           "manoeuvre (default: held at their final values)")
     compare = commands.add_parser(
         "compare", parents=[output, data], help="compare a scenario with measured data",
         description="Drive SCENARIO with the measured joint angles and compare its sensors "
@@ -161,7 +164,8 @@ def _load(args: argparse.Namespace) -> Any:
 
     return load_experiment(args.scenario, args.measured, args.map,
                            time_column=args.time_column, time_offset=args.time_offset,
-                           free_vibration_start=args.free_from)
+                           free_vibration_start=args.free_from,
+                           hold_after_manoeuvre=False if args.no_hold else None)
 
 
 def _window(option: str | None, table_value: Any) -> tuple[float | None, float | None]:

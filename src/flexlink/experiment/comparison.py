@@ -56,7 +56,8 @@ class Comparison:
 def driven_scenario(scenario: Scenario, measurement: Measurement) -> Scenario:
     """``scenario`` with the measured joint angles as joint motions, ending where the data do."""
     joints = list(scenario.chain.joints)
-    for k, angle in measurement.angles.items():
+    angles = held_angles(measurement)
+    for k, angle in angles.items():
         joints[k] = MeasuredMotion.from_arrays(measurement.time, np.degrees(angle),
                                                name=f"joint{k + 1} ({measurement.source})")
     t_last = float(measurement.time[-1])
@@ -69,6 +70,36 @@ def driven_scenario(scenario: Scenario, measurement: Measurement) -> Scenario:
         settings = dataclasses.replace(settings, t_end=t_last)
     chain = dataclasses.replace(scenario.chain, joints=tuple(joints))
     return dataclasses.replace(scenario, chain=chain, settings=settings)
+
+
+HOLD_RAMP = 0.05  # s, blend from the measured to the held angle
+
+
+def held_angles(measurement: Measurement) -> dict[int, np.ndarray]:
+    """The measured joint angles, held at their final value (median of the rest) once the
+    manoeuvre has ended, blended in over HOLD_RAMP before that. Angle-sensor noise after the
+    manoeuvre would otherwise drive the model's free vibration — a forcing the real arm, whose
+    joints are at rest, does not feel — and bias its decay (docs/experiment.md)."""
+    angles = dict(measurement.angles)
+    if not measurement.spec.hold_after_manoeuvre or not angles:
+        return angles
+    t = measurement.time
+    start = measurement.spec.free_vibration_start
+    if start is None:
+        start = manoeuvre_end(t, list(angles.values()))
+    if start is None or start >= t[-1]:
+        return angles
+    s = np.clip((t - (start - HOLD_RAMP)) / HOLD_RAMP, 0.0, 1.0)
+    weight = 0.5 * (1.0 - np.cos(np.pi * s))
+    out = {}
+    for k, angle in angles.items():
+        final = float(np.median(angle[t >= start]))
+        out[k] = (1.0 - weight) * angle + weight * final
+    note = (f"joint angles held at their final values from t = {start:.4g} s (the joints are "
+            "at rest; angle noise would drive the model)")
+    if note not in measurement.notes:
+        measurement.notes.append(note)
+    return out
 
 
 def free_vibration_start(measurement: Measurement, results: Results) -> float | None:

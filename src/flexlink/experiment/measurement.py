@@ -29,7 +29,7 @@ MAX_FILL = 10  # samples: longer runs of NaN, or longer gaps in time, are errors
 UNIFORM_RTOL = 1e-3  # steps within this fraction of the median step count as uniform
 FILTER_ORDER = 4
 MEASUREMENT_KEYS = ("file", "time_column", "time_unit", "time_offset", "free_vibration_start",
-                    "columns")
+                    "hold_after_manoeuvre", "columns")
 COLUMN_KEYS = ("column", "joint", "sensor", "unit", "scale", "offset", "lowpass_hz")
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0}
 # unit name → (factor to SI, SI unit)
@@ -75,6 +75,8 @@ class MeasurementSpec:
     time_unit: str = "s"
     time_offset: float = 0.0  # s, added to the file's times to get simulation time
     free_vibration_start: float | None = None  # s; None: detected from the joint angles
+    # joints at rest after the manoeuvre: hold their angles (sensor noise is not motion)
+    hold_after_manoeuvre: bool = True
     columns: tuple[ColumnMap, ...] = ()  # empty: map columns by name
 
     def as_dict(self) -> dict[str, Any]:
@@ -129,6 +131,7 @@ def parse_spec(table: Mapping[str, Any] | None, scenario: Scenario,
         "time_offset": p.number(table, "time_offset", path, unit="s", default=0.0),
         "free_vibration_start": p.number(table, "free_vibration_start", path, unit="s",
                                          ge=0, default=None),
+        "hold_after_manoeuvre": p.boolean(table, "hold_after_manoeuvre", path, default=True),
     }
     columns = []
     for cpath, ctable in p.table_array(table, "columns", required=False):

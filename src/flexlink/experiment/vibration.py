@@ -47,8 +47,10 @@ def manoeuvre_end(t: np.ndarray, angles: list[np.ndarray], rel_tol: float = 1e-3
         if span < 1e-6:  # rad: a joint that does not move
             continue
         moved = True
-        final = float(np.median(angle[-max(3, angle.size // 50):]))
-        away = np.abs(angle - final) > rel_tol * span
+        tail = angle[-max(3, angle.size // 10):]
+        final = float(np.median(tail))
+        # noisy angles (a potentiometer) never stay within rel_tol: use their noise level
+        away = np.abs(angle - final) > max(rel_tol * span, 4.0 * float(np.std(tail)))
         if away[-1]:
             return None
         last = int(np.flatnonzero(away)[-1]) + 1 if away.any() else 0
