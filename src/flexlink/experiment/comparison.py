@@ -77,7 +77,7 @@ HOLD_RAMP = 0.05  # s, blend from the measured to the held angle
 
 def held_angles(measurement: Measurement) -> dict[int, np.ndarray]:
     """The measured joint angles, held at their final value (median of the rest) once the
-    manoeuvre has ended, blended in over HOLD_RAMP before that. Angle-sensor noise after the
+    manoeuvre has ended, blended in over HOLD_RAMP from the window's start. Angle-sensor noise after the
     manoeuvre would otherwise drive the model's free vibration — a forcing the real arm, whose
     joints are at rest, does not feel — and bias its decay (docs/experiment.md)."""
     angles = dict(measurement.angles)
@@ -89,7 +89,7 @@ def held_angles(measurement: Measurement) -> dict[int, np.ndarray]:
         start = manoeuvre_end(t, list(angles.values()))
     if start is None or start >= t[-1]:
         return angles
-    s = np.clip((t - (start - HOLD_RAMP)) / HOLD_RAMP, 0.0, 1.0)
+    s = np.clip((t - start) / HOLD_RAMP, 0.0, 1.0)
     weight = 0.5 * (1.0 - np.cos(np.pi * s))
     out = {}
     for k, angle in angles.items():

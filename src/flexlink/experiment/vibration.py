@@ -47,10 +47,14 @@ def manoeuvre_end(t: np.ndarray, angles: list[np.ndarray], rel_tol: float = 1e-3
         if span < 1e-6:  # rad: a joint that does not move
             continue
         moved = True
-        tail = angle[-max(3, angle.size // 10):]
+        n_tail = max(3, angle.size // 10)
+        tail = angle[-n_tail:]
         final = float(np.median(tail))
-        # noisy angles (a potentiometer) never stay within rel_tol: use their noise level
-        away = np.abs(angle - final) > max(rel_tol * span, 4.0 * float(np.std(tail)))
+        # noisy angles (a potentiometer) never stay within rel_tol: allow their noise level,
+        # the scatter about a straight line (a joint still moving is not noise)
+        s = t[-n_tail:] - t[-n_tail]
+        noise = float(np.std(tail - np.polyval(np.polyfit(s, tail, 1), s)))
+        away = np.abs(angle - final) > max(rel_tol * span, 4.0 * noise)
         if away[-1]:
             return None
         last = int(np.flatnonzero(away)[-1]) + 1 if away.any() else 0
