@@ -1,16 +1,20 @@
 """Identify scenario parameters from measured signals by bounded nonlinear least squares.
 
-Residuals: for every fitted channel, (gain·sim(t − delay) + offset + drift·t − meas) / std(meas)
-on the fit window (default: the free vibration after the manoeuvre), so that each channel
-weighs alike whatever its unit. Simulations are cached by the model parameters: calibration
-parameters cost no simulation. A starting point close to the answer keeps the number of
-simulations small: EI of link k is first scaled by (f_meas/f_sim)² of the dominant free-vibration
-frequency of the channels on link k (twice), its damping ratio by ζ_meas/ζ_sim, and gains,
-offsets and drifts come from a linear least-squares fit of the measured on the simulated signal.
+Objective ``modal`` (default): residuals are the differences of frequency and damping ratio of
+the strongest free-vibration components of each fitted channel, simulated minus measured, in
+units of the measured values' standard errors; gains, offsets and drifts then follow by linear
+least squares over the whole run. Objective ``time``: residuals are
+(gain·sim(t − delay) + offset + drift·t − meas) / std(meas) on the fit window. Why modal is the
+default, and the tests behind it: docs/experiment.md, docs/validation.md.
 
-Uncertainty: cov = s² (JᵀJ)⁻¹ in the scaled variables, s² = Σr²/(m − p), inflated by the
-AR(1) factor (1 + ρ)/(1 − ρ) of the residuals' lag-one autocorrelation ρ (neighbouring samples
-are not independent); 95 % intervals are ±1.96 σ (exp(±1.96 σ) on log-scaled parameters).
+Simulations are cached by the model parameters: calibration parameters cost none. A starting
+point close to the answer keeps their number small: EI of link k is scaled by (f_meas/f_sim)² of
+the dominant free-vibration frequency of the channels on link k (twice), its damping ratio by
+ζ_meas/ζ_sim, and gains, offsets and drifts come from a linear fit.
+
+Uncertainty: cov = s² (JᵀJ)⁻¹ in the scaled variables (modal: s² = max(1, χ²/dof); time:
+s² = Σr²/(m − p) widened by the AR(1) factor (1 + ρ)/(1 − ρ) of the residuals); 95 % intervals
+are ±1.96 σ (×exp(±1.96 σ) on log-scaled parameters).
 """
 
 from __future__ import annotations

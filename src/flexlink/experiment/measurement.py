@@ -352,7 +352,7 @@ def _uniform(t: np.ndarray, data: dict[str, np.ndarray], source: str, warn: Any,
                 "bridged. Cut the file or fix the data there")
         warn(f"{gaps.size} gap(s) in time up to {steps[worst]:g} s (first at t = "
              f"{t[gaps[0]]:g} s) bridged by linear interpolation")
-    grid = t[0] + h * np.arange(int(math.floor((t[-1] - t[0]) / h * (1 + 1e-12))) + 1)
+    grid = t[0] + h * np.arange(math.floor((t[-1] - t[0]) / h * (1 + 1e-12)) + 1)
     notes.append(f"non-uniform sampling resampled onto a uniform {h:g} s grid (linear)")
     return grid, {k: np.interp(grid, t, v) for k, v in data.items()}
 
