@@ -222,3 +222,14 @@ def test_default_mapping_reads_a_results_csv_layout() -> None:
     assert set(m.angles) == {0} and set(m.signals) == {"pzt"}
     with pytest.raises(MeasurementError, match="no column is mapped"):
         condition({"t": cols["t"], "x": cols["pzt"]}, MeasurementSpec(), SCENARIO, "x")
+
+
+def test_unfiltered_quantised_angle_is_warned() -> None:
+    n = 400
+    cols = {"time_ms": np.arange(n) * 1.0, "b1": np.round(np.linspace(0, 2.0, n) / 0.05) * 0.05,
+            "acc_g": np.zeros(n), "pzt_mv": np.zeros(n)}
+    with pytest.warns(MeasurementWarning, match="steps of 0.05 deg.*Set lowpass_hz"):
+        condition(cols, spec(), SCENARIO, "x")
+    raw = dict(MAPPING)
+    raw["columns"] = [dict(MAPPING["columns"][0], lowpass_hz=30.0)]
+    condition(cols, parse_spec(raw, SCENARIO), SCENARIO, "x")  # filtered: no warning

@@ -279,6 +279,8 @@ def condition(columns: Mapping[str, np.ndarray], spec: MeasurementSpec, scenario
         values = factor * (c.scale * data[c.column] + c.offset)
         if c.lowpass_hz is not None:
             values = lowpass(t, values, c.lowpass_hz, f"{source}: column {c.column!r}")
+        elif c.joint is not None:
+            _check_quantised(values, c.column, warn)
         if c.joint is not None:
             angles[c.joint] = values
         else:
@@ -355,6 +357,22 @@ def _uniform(t: np.ndarray, data: dict[str, np.ndarray], source: str, warn: Any,
     grid = t[0] + h * np.arange(math.floor((t[-1] - t[0]) / h * (1 + 1e-12)) + 1)
     notes.append(f"non-uniform sampling resampled onto a uniform {h:g} s grid (linear)")
     return grid, {k: np.interp(grid, t, v) for k, v in data.items()}
+
+
+def _check_quantised(angle: np.ndarray, name: str, warn: Any) -> None:
+    """Warn about a stepped (encoder) angle fed unfiltered to the spline, whose second
+    derivative — the joint acceleration driving the model — is then spikes."""
+    steps = np.diff(angle)
+    changing = np.flatnonzero(steps != 0.0)
+    if changing.size < 10:
+        return
+    during = steps[changing[0]:changing[-1] + 1]  # from the first change to the last
+    flat = float(np.mean(during == 0.0))
+    if flat > 0.3:
+        size = float(np.min(np.abs(steps[steps != 0]))) if np.any(steps != 0) else 0.0
+        warn(f"column {name!r}: the angle moves in steps of {math.degrees(size):.3g} deg "
+             f"(quantised) and is not filtered; its second derivative drives the model as "
+             "acceleration spikes. Set lowpass_hz (e.g. 30)")
 
 
 def lowpass(t: np.ndarray, values: np.ndarray, cutoff_hz: float, label: str) -> np.ndarray:
