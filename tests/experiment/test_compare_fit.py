@@ -217,3 +217,10 @@ def test_time_objective_with_delay(files) -> None:
     assert abs(delay.value) < 2e-3  # s; the truth has none
     with pytest.raises(ValueError, match="delay changes no frequency"):
         fit(experiment.scenario, experiment.measurement, params, objective="modal")
+
+
+def test_run_ignores_the_experiment_sections(files) -> None:
+    text = (files / "arm.toml").read_text() + '\n[fit]\nobjective = "modal"\n'
+    (files / "arm.toml").write_text(text.replace("t_end = 2.0", "t_end = 0.2"))
+    assert main(["run", str(files / "arm.toml"), "-o", str(files / "run"), "-q",
+                 "--no-figures"]) == 0
