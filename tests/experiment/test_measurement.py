@@ -233,3 +233,26 @@ def test_unfiltered_quantised_angle_is_warned() -> None:
     raw = dict(MAPPING)
     raw["columns"] = [dict(MAPPING["columns"][0], lowpass_hz=30.0)]
     condition(cols, parse_spec(raw, SCENARIO), SCENARIO, "x")  # filtered: no warning
+
+
+def test_joint_angles_held_after_the_manoeuvre() -> None:
+    from flexlink.experiment.comparison import HOLD_RAMP, held_angles
+
+    n = 3000
+    t_ms = np.arange(n) * 1.0
+    tau = np.clip((t_ms / 1000 - 0.5) / 1.0, 0, 1)
+    clean = 9.0 * (tau - np.sin(2 * np.pi * tau) / (2 * np.pi))
+    rng = np.random.default_rng(2)
+    cols = {"time_ms": t_ms, "b1": clean + rng.normal(0, 0.005, n), "acc_g": np.zeros(n),
+            "pzt_mv": np.zeros(n)}
+    m = condition(cols, spec(), SCENARIO, "x")
+    held = held_angles(m)[0]
+    after = m.time > 1.7 + HOLD_RAMP
+    assert np.ptp(held[after]) == 0.0  # the noise is gone after the move …
+    assert held[after][0] == pytest.approx(math.radians(9.0), abs=math.radians(0.002))
+    before = m.time < 1.5
+    np.testing.assert_array_equal(held[before], m.angles[0][before])  # … the move is untouched
+    assert any("held at their final values" in note for note in m.notes)
+    off = condition(cols, MeasurementSpec(**{**spec().__dict__, "hold_after_manoeuvre": False}),
+                    SCENARIO, "x")
+    np.testing.assert_array_equal(held_angles(off)[0], off.angles[0])
