@@ -1,4 +1,5 @@
-"""Command line: ``flexlink run``, ``flexlink paper``, ``flexlink show-paper``, ``flexlink sweep``.
+"""Command line: ``flexlink run``, ``flexlink paper``, ``flexlink show-paper``; ``sweep`` lives in
+`flexlink.batch.command`, ``compare`` and ``fit`` in `flexlink.experiment.commands`.
 
 Exit status: 0 success, 1 the simulation failed, 2 invalid input (scenario, options, output
 folder), 130 interrupted. Input errors print every problem on stderr, one per line, without a
@@ -61,6 +62,10 @@ def build_parser() -> argparse.ArgumentParser:
     from .batch.command import add_parser as add_sweep_parser
 
     add_sweep_parser(commands)
+
+    from .experiment.commands import add_commands  # compare, fit: docs/experiment.md
+
+    add_commands(commands, output)
     return parser
 
 

@@ -20,6 +20,8 @@ from .errors import Problems, ScenarioError, describe
 from .sensors import read_sensors
 
 SECTIONS = ("simulation", "links", "joints", "sensors", "flexlink_version")
+# read by `flexlink compare` / `flexlink fit` (flexlink.experiment); `run` ignores them
+EXPERIMENT_SECTIONS = ("measurement", "fit")
 SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol", "method",
                    "model", "step")
 MODELS = ("first_order", "nonlinear")
@@ -89,7 +91,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     p = Problems()
     if not isinstance(raw, Mapping):
         raise ScenarioError([f"expected a table of sections, got {describe(raw)}"], source)
-    p.unknown_keys(raw, SECTIONS, "", noun="section")
+    p.unknown_keys(raw, SECTIONS + EXPERIMENT_SECTIONS, "", noun="section")
     if "flexlink_version" in raw:  # informational, written into resolved scenarios
         p.string(raw, "flexlink_version", "scenario")
     simulation = _simulation(raw, p, default_name)

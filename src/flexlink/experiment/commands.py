@@ -1,0 +1,185 @@
+"""``flexlink compare`` and ``flexlink fit``: argument definitions and handlers (cli.py only
+registers them). Exit status as for ``run``: 0 success, 1 the simulation failed, 2 invalid
+input (scenario, measurement file, mapping, options, output folder)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+from typing import Any
+
+from .files import MeasurementError
+
+
+def add_commands(commands: Any, output: argparse.ArgumentParser) -> None:
+    """Register ``compare`` and ``fit`` on the subparsers ``commands`` (with the shared
+    output options ``output``)."""
+    data = argparse.ArgumentParser(add_help=False)
+    data.add_argument("scenario", type=Path, metavar="SCENARIO.toml",
+                      help="scenario file; its [measurement] section maps the file's columns")
+    data.add_argument("measured", type=Path, nargs="?", metavar="MEASURED.csv|.mat",
+                      help="measurement file (default: [measurement] file)")
+    data.add_argument("--map", action="append", default=[], metavar="COL=TARGET[,KEY=V]",
+                      help="map a column to joint<k> or a sensor, e.g. "
+                           "beta1=joint1,unit=deg or pzt_v=pzt,lowpass_hz=100 (repeatable; "
+                           "replaces the [measurement] columns)")
+    data.add_argument("--time-column", metavar="NAME", help="time column (default t)")
+    data.add_argument("--time-offset", type=float, metavar="S",
+                      help="seconds added to the file's times (simulation starts at 0)")
+    data.add_argument("--free-from", type=float, metavar="S",
+                      help="start of the free vibration (default: detected from the angles)")
+    data.add_argument("--no-hold", action="store_true",
+                      help="drive the joints with the measured angles also after the "
+                           "manoeuvre (default: held at their final values)")
+    compare = commands.add_parser(
+        "compare", parents=[output, data], help="compare a scenario with measured data",
+        description="Drive SCENARIO with the measured joint angles and compare its sensors "
+                    "with the measured ones: overlays, metrics, report (docs/experiment.md).")
+    compare.set_defaults(handler=run_compare)
+    fit = commands.add_parser(
+        "fit", parents=[output, data], help="identify parameters from measured data",
+        description="Estimate scenario parameters (links[0].EI, links[1].damping_ratio, "
+                    "pzt:gain, …) from measured signals by least squares "
+                    "(docs/experiment.md).")
+    fit.add_argument("-p", "--param", action="append", default=[], metavar="PATH[=LO:HI[:X0]]",
+                     help="parameter to fit (repeatable; replaces [fit] parameters)")
+    fit.add_argument("--channel", action="append", default=[], metavar="NAME",
+                     help="measured channel to fit (default: all mapped sensors)")
+    fit.add_argument("--window", metavar="START:END",
+                     help="fit window in s (default: the free vibration to the end)")
+    fit.add_argument("--max-simulations", type=int, metavar="N",
+                     help="budget of simulations (default 60)")
+    fit.add_argument("--objective", choices=("modal", "time"),
+                     help="match free-vibration frequencies and damping (modal, default) or "
+                          "the time histories (time)")
+    fit.set_defaults(handler=run_fit)
+
+
+def _fail(message: str, status: int = 2) -> int:
+    print(message, file=sys.stderr)
+    return status
+
+
+def _run(args: argparse.Namespace, work: Any) -> int:
+    """Common error handling: input problems → 2, failed simulation → 1; warnings printed."""
+    from ..io import OutputFolderError, check_output_dir
+    from ..scenario import ScenarioError
+    from ..solvers import SimulationError
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            out_dir = args.output or Path(f"{args.scenario.stem}_{args.command}")
+            check_output_dir(out_dir, args.overwrite)
+            status = work(out_dir)
+        except ScenarioError as exc:
+            status = _fail(str(exc))
+        except (MeasurementError, OutputFolderError) as exc:
+            status = _fail(f"error: {exc}")
+        except (SimulationError, FloatingPointError) as exc:
+            status = _fail(f"simulation failed: {exc}", status=1)
+        except (ValueError, OSError) as exc:
+            status = _fail(f"error: {exc}")
+    for w in caught:
+        if not issubclass(w.category, DeprecationWarning):
+            print(f"warning: {w.message}", file=sys.stderr)
+    return status
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    from .comparison import compare
+    from .report import metrics_table, write_comparison
+
+    def work(out_dir: Path) -> int:
+        experiment = _load(args)
+        scenario, resolved, measurement = (experiment.scenario, experiment.resolved,
+                                           experiment.measurement)
+        comparison = compare(scenario, measurement, progress=not args.quiet)
+        write_comparison(comparison, out_dir, resolved, overwrite=args.overwrite,
+                         figures=not args.no_figures)
+        print(out_dir if args.quiet else f"{metrics_table(comparison.metrics)}\nwrote {out_dir}")
+        return 0
+
+    return _run(args, work)
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    from .identification import fit
+    from .parameters import parse_parameter_option, parse_parameter_table, update_resolved
+    from .report import metrics_table, write_fit
+
+    def work(out_dir: Path) -> int:
+        experiment = _load(args)
+        scenario, resolved, measurement, table = (experiment.scenario, experiment.resolved,
+                                                  experiment.measurement, experiment.fit_table)
+        allowed = ("parameters", "channels", "window", "max_simulations", "objective")
+        unknown = set(table) - set(allowed)
+        if unknown:
+            raise MeasurementError(f"[fit]: unknown key(s) {', '.join(sorted(unknown))} "
+                                   f"(allowed: {', '.join(allowed)})")
+        objective = args.objective or table.get("objective", "modal")
+        channel_list = args.channel or table.get("channels")
+        if channel_list is not None and (not isinstance(channel_list, list) or not all(
+                isinstance(c, str) for c in channel_list)):
+            raise MeasurementError(f"[fit] channels: expected an array of channel names, got "
+                                   f"{channel_list!r}")
+        channels = measurement.units
+        if args.param:
+            params = [parse_parameter_option(p, scenario, channels) for p in args.param]
+        else:
+            entries = table.get("parameters", [])
+            if not isinstance(entries, list):
+                raise MeasurementError("[fit] parameters: expected an array of tables")
+            params = [parse_parameter_table(e, f"fit.parameters[{i}]", scenario, channels)
+                      for i, e in enumerate(entries)]
+        if not params:
+            raise MeasurementError("no parameters to fit: give -p links[0].EI (repeatable) or "
+                                   "[[fit.parameters]] path = \"links[0].EI\" in the scenario")
+        window = _window(args.window, table.get("window"))
+        budget = args.max_simulations or table.get("max_simulations") or 60
+        if isinstance(budget, bool) or not isinstance(budget, int) or budget < 3:
+            raise MeasurementError(f"max_simulations must be an integer >= 3, got {budget!r}")
+        progress = None if args.quiet else (lambda m: print(m, file=sys.stderr))
+        result = fit(scenario, measurement, params, channel_list, window,
+                     max_simulations=budget, progress=progress, objective=objective)
+        fitted = update_resolved(resolved, params, [e.value for e in result.estimates])
+        write_fit(result, out_dir, fitted, overwrite=args.overwrite,
+                  figures=not args.no_figures)
+        if args.quiet:
+            print(out_dir)
+        else:
+            for e in result.estimates:
+                print(f"{e.path:<28} {e.value:.6g}  (95 % {e.ci_low:.6g} … {e.ci_high:.6g})"
+                      f"{'  AT BOUND' if e.at_bound else ''}")
+            print(f"{metrics_table(result.comparison.metrics)}\nwrote {out_dir}")
+        return 0
+
+    return _run(args, work)
+
+
+def _load(args: argparse.Namespace) -> Any:
+    from .loading import load_experiment
+
+    return load_experiment(args.scenario, args.measured, args.map,
+                           time_column=args.time_column, time_offset=args.time_offset,
+                           free_vibration_start=args.free_from,
+                           hold_after_manoeuvre=False if args.no_hold else None)
+
+
+def _window(option: str | None, table_value: Any) -> tuple[float | None, float | None]:
+    if option is not None:
+        start, sep, end = option.partition(":")
+        try:
+            return (float(start) if start.strip() else None,
+                    float(end) if sep and end.strip() else None)
+        except ValueError:
+            raise MeasurementError(f"--window {option!r}: expected START:END in s") from None
+    if table_value is None:
+        return None, None
+    if (not isinstance(table_value, list) or len(table_value) != 2
+            or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                       for v in table_value)):
+        raise MeasurementError(f"[fit] window: expected [START, END] in s, got {table_value!r}")
+    return float(table_value[0]), float(table_value[1])

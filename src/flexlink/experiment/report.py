@@ -1,0 +1,230 @@
+"""Output folders of ``flexlink compare`` and ``flexlink fit``: figures, metrics (CSV and
+JSON), a Markdown report with the figures embedded; written to a hidden sibling folder first
+and renamed into place (as `flexlink.io.writers`), so a failure leaves nothing behind.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import shutil
+import uuid
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ..io.writers import RESOLVED_NAME, check_output_dir, resolved_toml, write_results_csv
+from ..plotting import DPI, display_scale
+from .comparison import Comparison, SignalMetrics
+from .identification import FitResult
+
+METRIC_COLUMNS = ("name", "unit", "nrmse", "correlation", "peak_measured", "peak_simulated",
+                  "peak_error", "frequency_measured", "frequency_simulated", "frequency_error",
+                  "damping_measured", "damping_simulated")
+
+
+@contextmanager
+def atomic_folder(out_dir: Path, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary sibling of ``out_dir``; move it into place if the block succeeds."""
+    check_output_dir(Path(out_dir), overwrite)
+    target = Path(out_dir).resolve()
+    target.parent.mkdir(parents=True, exist_ok=True)
+    partial = target.parent / f".{target.name}.partial-{uuid.uuid4().hex[:8]}"
+    partial.mkdir()
+    try:
+        yield partial
+        if target.exists():
+            old = target.parent / f".{target.name}.old-{uuid.uuid4().hex[:8]}"
+            target.rename(old)
+            partial.rename(target)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            partial.rename(target)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
+
+
+def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[str, Any],
+                     overwrite: bool = False, figures: bool = True) -> Path:
+    """metrics.csv, metrics.json, simulated.csv, scenario.resolved.toml, figures, report.md."""
+    with atomic_folder(out_dir, overwrite) as folder:
+        _common(comparison, folder, resolved, figures)
+        lines = [f"# Comparison: {resolved['simulation']['name']} against "
+                 f"{comparison.measurement.source}", ""]
+        lines += _report_body(comparison, figures)
+        (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return Path(out_dir)
+
+
+def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
+              overwrite: bool = False, figures: bool = True) -> Path:
+    """parameters.csv, fit.json, then everything ``write_comparison`` writes for the fitted,
+    calibrated model; scenario.resolved.toml holds the fitted values."""
+    with atomic_folder(out_dir, overwrite) as folder:
+        _common(result.comparison, folder, resolved, figures)
+        rows = [e.as_dict() for e in result.estimates]
+        _write_csv(folder / "parameters.csv", list(rows[0]), rows)
+        info = {"parameters": rows, "channels": result.channels, "window_s": result.window,
+                "cost": result.cost, "rms_normalised_residual": result.rms_residual,
+                "simulations": result.simulations, "status": result.status,
+                "correlation": result.correlation.tolist(), **result.info}
+        (folder / "fit.json").write_text(json.dumps(_clean(info), indent=2) + "\n",
+                                         encoding="utf-8")
+        lines = [f"# Fit: {resolved['simulation']['name']} to "
+                 f"{result.comparison.measurement.source}", "",
+                 f"{len(result.estimates)} parameter(s) from {', '.join(result.channels)} on "
+                 f"{result.window[0]:.4g} … {result.window[1]:.4g} s; {result.simulations} "
+                 f"simulations; RMS normalised residual {result.rms_residual:.4g}; "
+                 f"{result.status}", "",
+                 "| parameter | initial | start | estimate | 95 % interval | bounds |",
+                 "|---|---|---|---|---|---|"]
+        for e in result.estimates:
+            flag = " (at bound)" if e.at_bound else ""
+            lines.append(f"| `{e.path}` | {e.initial:.5g} | {e.start:.5g} | **{e.value:.5g}**"
+                         f"{flag} | {e.ci_low:.5g} … {e.ci_high:.5g} | {e.lower:.3g} … "
+                         f"{e.upper:.3g} |")
+        lines += ["", "*start*: after matching the free-vibration frequency and damping "
+                  "(docs/experiment.md). Intervals assume the model is right; they are "
+                  "widened for correlated residuals but not for model error.", "",
+                  "## Fitted model against the measurement", ""]
+        lines += _report_body(result.comparison, figures)
+        (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return Path(out_dir)
+
+
+def _common(comparison: Comparison, folder: Path, resolved: Mapping[str, Any],
+            figures: bool) -> None:
+    rows = [m.as_dict() for m in comparison.metrics]
+    _write_csv(folder / "metrics.csv", list(METRIC_COLUMNS), rows)
+    meta = {"measurement": comparison.measurement.source,
+            "free_vibration_start_s": comparison.free_start,
+            "notes": comparison.measurement.notes, "metrics": rows}
+    (folder / "metrics.json").write_text(json.dumps(_clean(meta), indent=2) + "\n",
+                                         encoding="utf-8")
+    write_results_csv(comparison.results, folder / "simulated.csv")
+    (folder / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
+    if figures:
+        (folder / "figures").mkdir()
+        overlay_figure(comparison).savefig(folder / "figures" / "overlay.png", dpi=DPI)
+        if comparison.free_start is not None:
+            spectra_figure(comparison).savefig(folder / "figures" / "spectra.png", dpi=DPI)
+
+
+def _report_body(comparison: Comparison, figures: bool) -> list[str]:
+    free = comparison.free_start
+    lines = ["| channel | NRMSE | correlation | peak meas. | peak sim. | peak error | "
+             "f meas. [Hz] | f sim. [Hz] | f error | ζ meas. | ζ sim. |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for m in comparison.metrics:
+        lines.append(f"| {m.name} [{m.unit}] | {m.nrmse:.3g} | {m.correlation:.4f} | "
+                     f"{m.peak_measured:.4g} | {m.peak_simulated:.4g} | {_pct(m.peak_error)} | "
+                     f"{_num(m.frequency_measured)} | {_num(m.frequency_simulated)} | "
+                     f"{_pct(m.frequency_error)} | {_num(m.damping_measured)} | "
+                     f"{_num(m.damping_simulated)} |")
+    lines += ["", "NRMSE = RMS(sim − meas)/RMS(meas) over the whole run; frequency (damped) "
+              "and damping ratio of the dominant component of the free vibration from "
+              + (f"t = {free:.4g} s" if free is not None else "— (no free vibration found)")
+              + " (docs/experiment.md)."]
+    if comparison.measurement.notes:
+        lines += ["", "Data repairs:", *(f"- {n}" for n in comparison.measurement.notes)]
+    if figures:
+        lines += ["", "![measured and simulated signals](figures/overlay.png)"]
+        if free is not None:
+            lines += ["", "![free-vibration spectra](figures/spectra.png)"]
+    return lines
+
+
+def overlay_figure(comparison: Comparison) -> Figure:
+    """Measured and simulated signals, one panel per channel (like the paper's Figs. 8–9)."""
+    names = [m.name for m in comparison.metrics]
+    t = comparison.results.time
+    fig = Figure(figsize=(7.0, 1.2 + 2.0 * len(names)), dpi=DPI, layout="constrained")
+    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, name in zip(axes, names, strict=True):
+        factor, unit = display_scale(comparison.results.signals[name].unit)
+        ax.plot(t, comparison.measured[name] * factor, color="0.55", linewidth=0.8,
+                label="measured")
+        ax.plot(t, comparison.results[name] * factor, color="C3", linewidth=1.0,
+                label="simulated")
+        if comparison.free_start is not None:
+            ax.axvline(comparison.free_start, color="k", linestyle=":", linewidth=0.8)
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.grid(True, linewidth=0.5, alpha=0.6)
+        ax.legend(loc="upper right", fontsize="small")
+    axes[-1].set_xlabel("time t [s]  (dotted: start of free vibration)")
+    axes[-1].set_xlim(t[0], t[-1])
+    return fig
+
+
+def spectra_figure(comparison: Comparison) -> Figure:
+    """Amplitude spectra of the free vibration, measured and simulated."""
+    names = [m.name for m in comparison.metrics]
+    t = comparison.results.time
+    window = t >= (comparison.free_start or t[0])
+    dt = float(t[1] - t[0])
+    fig = Figure(figsize=(7.0, 1.2 + 1.8 * len(names)), dpi=DPI, layout="constrained")
+    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    n = 1 << 16
+    freqs = np.fft.rfftfreq(n, dt)
+    top = 1.0
+    for ax, m in zip(axes, comparison.metrics, strict=True):
+        for data, label, style in ((comparison.measured[m.name], "measured", "0.55"),
+                                   (comparison.results[m.name], "simulated", "C3")):
+            y = data[window] - np.mean(data[window])
+            ax.semilogy(freqs, np.abs(np.fft.rfft(y * np.hanning(y.size), n)) + 1e-300,
+                        color=style, linewidth=0.9, label=label)
+        for f in (m.frequency_measured, m.frequency_simulated):
+            if f:
+                ax.axvline(f, color="k", linestyle=":", linewidth=0.7)
+                top = max(top, 4 * f)
+        ax.set_ylabel(f"|FFT| {m.name}")
+        ax.grid(True, linewidth=0.5, alpha=0.6)
+        ax.legend(loc="upper right", fontsize="small")
+    axes[-1].set_xlim(0, min(top, freqs[-1]))
+    axes[-1].set_xlabel("frequency [Hz]  (dotted: estimated dominant frequencies)")
+    return fig
+
+
+def _write_csv(path: Path, columns: list[str], rows: list[dict[str, Any]]) -> None:
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.DictWriter(fh, fieldnames=columns)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: "" if row.get(k) is None else row.get(k) for k in columns})
+
+
+def _clean(value: Any) -> Any:
+    """JSON-safe: inf/nan → None (JSON has neither), numpy scalars → float."""
+    if isinstance(value, Mapping):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    return value
+
+
+def _num(value: float | None) -> str:
+    return "—" if value is None else f"{value:.4g}"
+
+
+def _pct(value: float | None) -> str:
+    return "—" if value is None or not math.isfinite(value) else f"{100 * value:+.2f} %"
+
+
+def metrics_table(metrics: list[SignalMetrics]) -> str:
+    """A plain-text table for the terminal."""
+    lines = [f"{'channel':<26} {'NRMSE':>7} {'corr':>7} {'f meas':>9} {'f sim':>9} "
+             f"{'f err':>8} {'ζ meas':>8} {'ζ sim':>8}"]
+    for m in metrics:
+        lines.append(f"{m.name:<26} {m.nrmse:7.3f} {m.correlation:7.4f} "
+                     f"{_num(m.frequency_measured):>9} {_num(m.frequency_simulated):>9} "
+                     f"{_pct(m.frequency_error):>8} {_num(m.damping_measured):>8} "
+                     f"{_num(m.damping_simulated):>8}")
+    return "\n".join(lines)
