@@ -18,7 +18,7 @@ import numpy as np
 
 from ..model import Chain
 from ..modes import ModalData, ModeShapes, modal_data, tip_loaded_modes
-from .kinematics import FrameMotion, JointHistory, frame_motion, rotation
+from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
 
 
 @dataclass(frozen=True)
@@ -111,11 +111,8 @@ class FirstOrderSystem:
 
     # -- kinematics -------------------------------------------------------------------------
     def joint_history(self, t: np.ndarray) -> JointHistory:
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        parts = [joint.evaluate(t) for joint in self.chain.joints]
-        angle, rate, acc = (np.stack([np.broadcast_to(p[i], t.shape) for p in parts], -1)
-                            for i in range(3))
-        return JointHistory(angle, rate, acc)
+        """Prescribed joint angles, rates, accelerations at times t (s)."""
+        return joint_history(self.chain.joints, t)
 
     def frames(self, t: np.ndarray) -> FrameMotion:
         return frame_motion(self.joint_history(t), self.modal, self.offsets, self.n)

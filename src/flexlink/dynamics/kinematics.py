@@ -14,10 +14,12 @@ T_{k+1} = blockdiag(A(−β_{k+1}), 1) P̃_k T̂_k. Time derivatives follow anal
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..model import JointMotion
 from ..modes import ModalData
 
 
@@ -28,6 +30,15 @@ class JointHistory:
     angle: np.ndarray
     rate: np.ndarray
     acceleration: np.ndarray
+
+
+def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
+    """Every joint's prescribed angle, rate and acceleration at times t (s), (nt, N) each."""
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    parts = [joint.evaluate(t) for joint in joints]
+    angle, rate, acc = (np.stack([np.broadcast_to(p[i], t.shape) for p in parts], -1)
+                        for i in range(3))
+    return JointHistory(angle, rate, acc)
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from ..model import Chain, Link
 from ..modes import ModalData, modal_data
 from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .first_order import _outboard_loaded_shapes
-from .kinematics import JointHistory
+from .kinematics import JointHistory, joint_history
 
 try:
     from . import _nonlinear_numba as compiled_kernels
@@ -158,11 +158,8 @@ class NonlinearSystem:
         return np.stack([jx, jy], axis=-2)
 
     def joint_history(self, t: np.ndarray) -> JointHistory:
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        parts = [joint.evaluate(t) for joint in self.chain.joints]
-        angle, rate, acc = (np.stack([np.broadcast_to(p[i], t.shape) for p in parts], -1)
-                            for i in range(3))
-        return JointHistory(angle, rate, acc)
+        """Prescribed joint angles, rates, accelerations at times t (s)."""
+        return joint_history(self.chain.joints, t)
 
     def node_angles(self, q: np.ndarray, beta: np.ndarray) -> np.ndarray:
         """α at every node, (b, nodes), rad."""

@@ -8,17 +8,14 @@ from __future__ import annotations
 import csv
 import json
 import math
-import shutil
-import uuid
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..io.writers import RESOLVED_NAME, check_output_dir, resolved_toml, write_results_csv
+from ..io.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write_results_csv
 from ..plotting import DPI, display_scale
 from .comparison import Comparison, SignalMetrics
 from .identification import FitResult
@@ -26,28 +23,6 @@ from .identification import FitResult
 METRIC_COLUMNS = ("name", "unit", "nrmse", "correlation", "peak_measured", "peak_simulated",
                   "peak_error", "frequency_measured", "frequency_simulated", "frequency_error",
                   "damping_measured", "damping_simulated")
-
-
-@contextmanager
-def atomic_folder(out_dir: Path, overwrite: bool = False) -> Iterator[Path]:
-    """Yield a temporary sibling of ``out_dir``; move it into place if the block succeeds."""
-    check_output_dir(Path(out_dir), overwrite)
-    target = Path(out_dir).resolve()
-    target.parent.mkdir(parents=True, exist_ok=True)
-    partial = target.parent / f".{target.name}.partial-{uuid.uuid4().hex[:8]}"
-    partial.mkdir()
-    try:
-        yield partial
-        if target.exists():
-            old = target.parent / f".{target.name}.old-{uuid.uuid4().hex[:8]}"
-            target.rename(old)
-            partial.rename(target)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            partial.rename(target)
-    except BaseException:
-        shutil.rmtree(partial, ignore_errors=True)
-        raise
 
 
 def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[str, Any],

@@ -16,7 +16,8 @@ import json
 import re
 import shutil
 import uuid
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -59,12 +60,7 @@ def write_run(
     overwrite: bool = False,
 ) -> Path:
     """Write ``results`` and the ``resolved`` scenario dict into ``out_dir``; return it."""
-    check_output_dir(Path(out_dir), overwrite)
-    target = Path(out_dir).resolve()
-    target.parent.mkdir(parents=True, exist_ok=True)
-    partial = target.parent / f".{target.name}.partial-{uuid.uuid4().hex[:8]}"
-    partial.mkdir()
-    try:
+    with atomic_folder(out_dir, overwrite) as partial:
         write_results_csv(results, partial / "results.csv")
         write_channels_csv(results, partial / "channels.csv")
         write_netcdf(results, partial / "results.nc")
@@ -72,11 +68,24 @@ def write_run(
         if figures:
             sensors = [s["name"] for s in resolved.get("sensors", [])]
             write_figures(results, partial / "figures", sensors)
+    return Path(out_dir)
+
+
+@contextmanager
+def atomic_folder(out_dir: Path, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a hidden sibling folder of ``out_dir`` to write into; if the block succeeds it is
+    renamed into place (replacing an earlier results folder), otherwise it is removed."""
+    check_output_dir(Path(out_dir), overwrite)
+    target = Path(out_dir).resolve()
+    target.parent.mkdir(parents=True, exist_ok=True)
+    partial = target.parent / f".{target.name}.partial-{uuid.uuid4().hex[:8]}"
+    partial.mkdir()
+    try:
+        yield partial
         _move_into_place(partial, target)
     except BaseException:
         shutil.rmtree(partial, ignore_errors=True)
         raise
-    return Path(out_dir)
 
 
 def _move_into_place(partial: Path, out_dir: Path) -> None:
