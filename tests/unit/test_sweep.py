@@ -1,6 +1,6 @@
 """Batch sweeps: every case equals its own `simulate` run, failures and Ctrl-C keep the
 finished cases, the netCDF file round-trips, the command line agrees with the library, and
-the same sweep runs on a Dask cluster started here on loopback."""
+the same sweep runs on a Dask cluster (test_sweep_dask.py)."""
 
 from __future__ import annotations
 
@@ -216,29 +216,6 @@ def test_command_line_interrupt_exits_130_with_the_file(tmp_path: Path,
     assert status == 130 and "interrupted" in capsys.readouterr().err
     with xr.open_dataset(out) as written:
         assert written.status.values.tolist() == ["ok", "not_run", "not_run"]
-
-
-def test_sweep_on_a_dask_cluster_equals_the_local_sweep(tmp_path: Path) -> None:
-    distributed = pytest.importorskip("distributed")
-    scenario = spin_file(tmp_path)
-    local = sweep(scenario, grid={RATE: RATES}, workers=1)
-    # tcp on loopback, one in-process worker with two threads: starts in about a second
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                                  protocol="tcp", host="127.0.0.1",
-                                  dashboard_address=None) as cluster:
-        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
-        remote = sweep(scenario, grid={RATE: RATES}, scheduler=cluster.scheduler_address)
-    for name in ("tip", "joint1_angle", "status", "error"):
-        assert np.array_equal(remote[name].values, local[name].values)
-    assert remote.status.values.tolist() == ["failed", "ok", "ok"]
-
-
-def test_an_unreachable_scheduler_is_an_input_error(tmp_path: Path,
-                                                    monkeypatch: pytest.MonkeyPatch) -> None:
-    pytest.importorskip("distributed")
-    monkeypatch.setattr(executors, "CONNECT_TIMEOUT", "1s")
-    with pytest.raises(SweepError, match="cannot reach the Dask scheduler"):
-        sweep(spin_file(tmp_path), grid={RATE: [100.0]}, scheduler="tcp://127.0.0.1:9")
 
 
 @pytest.fixture
