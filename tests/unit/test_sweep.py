@@ -272,8 +272,14 @@ def test_ctrl_c_ends_running_workers(tmp_path: Path, forked_workers,
         return None
 
     monkeypatch.setattr(flexlink.simulation, "simulate", interrupts_then_hangs)
-    with pytest.raises(SweepInterrupted) as excinfo:
-        sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0]}, workers=2)
+    # A process started in the background by a non-interactive shell (as a CI runner may
+    # start this suite) ignores SIGINT; Ctrl-C must raise KeyboardInterrupt here.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(SweepInterrupted) as excinfo:
+            sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0]}, workers=2)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert set(excinfo.value.dataset.status.values.tolist()) <= {"ok", "not_run"}
     for pid in map(int, pids.read_text().split()):
         assert _ended(pid), f"worker {pid} still runs after the sweep was interrupted"

@@ -70,9 +70,9 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     if output is not None:
         checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
     with contextlib.ExitStack() as stack:
-        results = _executor(stack, indexed, selected, local, scheduler, shared)
-        bar = stack.enter_context(_progress(table.count, progress))
-        try:
+        try:  # Ctrl-C while the workers start counts too (a forked worker may be quick)
+            results = _executor(stack, indexed, selected, local, scheduler, shared)
+            bar = stack.enter_context(_progress(table.count, progress))
             for chunk in results:
                 collector.add(chunk)
                 bar.update(len(chunk.done) + len(chunk.failed))
