@@ -7,9 +7,12 @@ which converts them once.  Objects are frozen: algorithms take a model and never
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .drives import Base
 
 ModeShapes = Literal["clamped_free", "tip_loaded", "outboard_loaded"]
 PointSensorKind = Literal["deflection", "slope", "strain", "acceleration"]
@@ -110,7 +113,8 @@ class SimulationSettings:
 class Chain:
     """N ≥ 1 links in series. Joint 1 is a hub at the fixed origin; joint k > 1 sits at the
     deformed tip of link k−1. β1 is absolute (from X), βk is relative to link k−1's deformed
-    tip tangent."""
+    tip tangent. A joint is a prescribed ``JointMotion`` or a drive of ``flexlink.drives``
+    (forward dynamics); a ``Scenario.base`` may move the hub and start branches on it."""
 
     links: tuple[Link, ...]
     joints: tuple[JointMotion, ...]
@@ -141,3 +145,6 @@ class Scenario:
         default_factory=lambda: SimulationSettings(t_end=1.0, dt_out=1e-3)
     )
     name: str = "scenario"
+    # None: the chain hangs on a fixed hub at the origin. A Base (flexlink.drives) makes the
+    # hub free or pinned, carries applied loads and lets several branches start on it.
+    base: Base | None = None

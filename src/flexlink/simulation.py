@@ -22,7 +22,12 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
 
 
 def simulate(scenario: Scenario, progress: bool = False) -> Results:
-    """Run one scenario. Elastic coordinates start at rest; joints follow their prescriptions."""
+    """Run one scenario. Elastic coordinates start at rest; joints follow their prescriptions
+    (or, with a moving base or driven joints, the forward dynamics of forward_simulation)."""
+    from .forward_simulation import needs_forward_dynamics, simulate_forward
+
+    if needs_forward_dynamics(scenario):
+        return simulate_forward(scenario)
     settings = scenario.settings
     if settings.model == "nonlinear":
         from .simulation_nonlinear import simulate_nonlinear  # imports this module

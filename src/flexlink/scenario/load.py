@@ -16,10 +16,11 @@ from typing import Any
 from .._version import package_version
 from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
 from ..solvers import METHODS
+from .drives import build_base, build_drive, read_base, read_driven_joint
 from .errors import Problems, ScenarioError, describe
 from .sensors import read_sensors
 
-SECTIONS = ("simulation", "links", "joints", "sensors", "flexlink_version")
+SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_version")
 # read by `flexlink compare` / `flexlink fit` (flexlink.experiment); `run` ignores them
 EXPERIMENT_SECTIONS = ("measurement", "fit")
 SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol", "method",
@@ -107,8 +108,11 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         joint, motion = _joint(table, path, base_dir, simulation.get("t_end"), p)
         joints.append(joint)
         motions.append(motion)
+    base = read_base(raw.get("base"), base_dir, p)
     reserved = {"t", "time"} | {f"joint{k}_{q}" for k in range(1, len(links) + 1)
-                                for q in ("angle", "torque")}
+                                for q in ("angle", "torque", "rate", "reference", "command")}
+    reserved |= {f"base_{c}{r}" for c in ("x", "y", "attitude") for r in ("", "_rate")}
+    reserved |= {"momentum_x", "momentum_y", "angular_momentum"}
     reserved |= {f"{n}_tip_{axis}" for n in link_names if n for axis in "XY"}
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
     p.check_names([s.get("name") for s in sensors], "sensors")
@@ -116,6 +120,8 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
                 "links": links, "joints": joints, "sensors": sensors}
+    if base is not None:
+        resolved["base"] = base
     return resolved, [m for m in motions if m is not None]  # all built: no problems
 
 
@@ -183,7 +189,19 @@ def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any]:
 
 
 def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,
-           p: Problems) -> tuple[dict[str, Any], JointMotion | None]:
+           p: Problems) -> tuple[dict[str, Any], Any]:
+    if "drive" in table:
+        return _driven_joint(table, path, base_dir, p)
+    if "base_point" in table:  # a prescribed joint may start a branch on the base too
+        table = dict(table)
+        point = table.pop("base_point")
+        entry, motion = _joint(table, path, base_dir, t_end, p)
+        probe = Problems()
+        from .drives import _pair
+
+        pair = _pair({"base_point": point}, "base_point", path, probe, "m, base frame", [])
+        p.messages.extend(probe.messages)
+        return ({**entry, "base_point": pair} if pair is not None else entry), motion
     if "motion" in table and "csv" in table:
         p.add(f"{path}: give either 'motion' (profiles) or 'csv' (measured angles), not both")
         return {}, None
@@ -194,29 +212,52 @@ def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None
         p.unknown_keys(table, ("motion", *CSV_KEYS), path)
         return {}, None
     p.unknown_keys(table, ("motion",), path)
-    segments = table["motion"]
+    resolved, motion = _motion(table["motion"], f"{path}.motion", p)
+    return {"motion": resolved}, motion
+
+
+def _driven_joint(table: dict[str, Any], path: str, base_dir: Path,
+                  p: Problems) -> tuple[dict[str, Any], Any]:
+    """A joint whose angle follows from the dynamics (scenario/drives.py)."""
+    before = len(p.messages)
+    reference: list[JointMotion | None] = []
+
+    def motion_reader(value: Any, where: str) -> tuple[Any, JointMotion | None]:
+        resolved, motion = _motion(value, where, p)
+        reference.append(motion)
+        return resolved, motion
+
+    entry = read_driven_joint(table, path, base_dir, p, motion_reader)
+    if len(p.messages) > before:
+        return entry, None
+    return entry, build_drive(entry, reference[0] if reference else None)
+
+
+def _motion(segments: Any, path: str, p: Problems) -> tuple[Any, JointMotion | None]:
+    """An array of motion profiles (one JointMotion, or a Sequence of them)."""
     if not isinstance(segments, list) or not segments:
-        p.add(f"{path}.motion: expected a non-empty array of profiles, e.g. "
+        p.add(f"{path}: expected a non-empty array of profiles, e.g. "
               f"[{{profile = \"hold\", angle_deg = 0.0}}], got {describe(segments)}")
-        return {}, None
+        return [], None
     from .. import motion as motion_module
 
     resolved, built = [], []
     for i, segment in enumerate(segments):
-        entry, obj = _segment(segment, f"{path}.motion[{i}]", motion_module, p)
+        entry, obj = _segment(segment, f"{path}[{i}]", motion_module, p)
         resolved.append(entry)
         built.append(obj)
     segments = [obj for obj in built if obj is not None]
     if len(segments) < len(built):
-        return {"motion": resolved}, None
+        return resolved, None
     if len(segments) == 1:
-        return {"motion": resolved}, segments[0]
+        return resolved, segments[0]
     try:
-        return {"motion": resolved}, motion_module.Sequence(tuple(segments))
+        return resolved, motion_module.Sequence(tuple(segments))
     except ValueError as exc:
         message = str(exc)  # names the segment as "motion[i]"
-        p.add(f"{path}.{message}" if message.startswith("motion[") else f"{path}: {message}")
-        return {"motion": resolved}, None
+        head = path.rsplit(".", 1)[0]
+        p.add(f"{head}.{message}" if message.startswith("motion[") else f"{path}: {message}")
+        return resolved, None
 
 
 def _segment(segment: Any, path: str, motion_module: Any,
@@ -301,4 +342,6 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
         else:
             sensors.append(PointSensor(kind=s["kind"], link=index[s["link"]], **fields))
     chain = Chain(links=links, joints=tuple(motions))
-    return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"])
+    base = build_base(resolved.get("base"), resolved["joints"])
+    return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"],
+                    base=base)

@@ -1,0 +1,412 @@
+"""Forward dynamics: rigid coordinates (base pose, joint angles) and elastic coordinates together.
+
+Coordinates u = [p; z]: p the rigid coordinates (the base's x, y, attitude if it moves, then
+one angle β_k per joint), z the elastic coordinates. At any rigid state (p, ṗ, p̈) the
+first-order equations of docs/derivation.md are assembled in the perturbation coordinates
+x = [δp; z]: a joint or base perturbation is a rigid displacement/rotation of a frame, so it
+enters the kinematical synthesis as extra columns of the maps T_k, and every term of the
+prescribed-joint model (mass, gyroscopic, centrifugal, second-order stiffness, zero-order load)
+carries over unchanged. With δp = 0 (the expansion is about the current rigid state) this gives
+
+    M[:, z] z̈ + C[:, z] ż + K(p̈)[:, z] z = f(p̈) + Q,
+
+linear in the unknown accelerations (p̈ of the free coordinates, z̈): the rigid rows are the
+exact nonlinear rigid-body equations plus their first-order elastic coupling, the elastic rows
+the first-order equations (docs/derivation.md, "Forward dynamics"). Arrays carry a leading
+axis over (time, trial acceleration) pairs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..drives import Base, PositionServo, TorqueDrive, VelocityServo, is_driven
+from ..model import Chain, JointMotion
+from ..modes import ModalData, modal_data
+from .first_order import LinkBody, _link_body
+from .kinematics import FrameMotion, _block, tip_map
+
+_S = np.array([[0.0, -1.0], [1.0, 0.0]])
+
+
+def rotation(angle: np.ndarray) -> np.ndarray:
+    """Planar rotations A(angle), (..., 2, 2): kinematics.rotation without np.stack, which
+    costs more than the arithmetic at the single-time calls of the ODE right-hand side."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.empty(np.shape(angle) + (2, 2))
+    out[..., 0, 0] = c
+    out[..., 0, 1] = -s
+    out[..., 1, 0] = s
+    out[..., 1, 1] = c
+    return out
+
+
+class ForwardSystem:
+    """A base plus a chain (or tree) of flexible links with prescribed and driven joints."""
+
+    def __init__(self, chain: Chain, base: Base, geometric_stiffening: bool = False) -> None:
+        self.chain = chain
+        self.base = base
+        self.geometric_stiffening = geometric_stiffening
+        self.modal: list[ModalData] = [modal_data(link) for link in chain.links]
+        n_links = len(chain.links)
+        self.n_base = len(base.coordinates)
+        self.n_rigid = self.n_base + n_links
+        offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
+        self.n = int(offsets[-1])  # elastic coordinates
+        self.n_x = self.n_rigid + self.n
+        self.bodies: list[LinkBody] = [_link_body(d, self.n_rigid + int(o))
+                                       for d, o in zip(self.modal, offsets[:-1])]
+        self.attach = [base.attachment(k) for k in range(n_links)]
+        self.driven = [k for k, j in enumerate(chain.joints) if is_driven(j)]
+        # Free rigid coordinates: the base's, then the driven joints'.
+        self.free = list(range(self.n_base)) + [self.n_base + k for k in self.driven]
+        self.servos = [k for k in self.driven
+                       if isinstance(chain.joints[k], VelocityServo | PositionServo)]
+
+    # -- rigid state ------------------------------------------------------------------------
+    def joint_index(self, k: int) -> int:
+        return self.n_base + k
+
+    def rigid_state(self, t: np.ndarray, p_free: np.ndarray, pd_free: np.ndarray,
+                    pdd_free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Full p, ṗ, p̈ (nt, n_rigid): free coordinates given, prescribed joints evaluated."""
+        nt = t.shape[0]
+        out = [np.zeros((nt, self.n_rigid)) for _ in range(3)]
+        for k, joint in enumerate(self.chain.joints):
+            if not is_driven(joint):
+                assert isinstance(joint, JointMotion)
+                for arr, v in zip(out, joint.evaluate(t)):
+                    arr[:, self.joint_index(k)] = np.broadcast_to(v, t.shape)
+        for arr, v in zip(out, (p_free, pd_free, pdd_free)):
+            arr[:, self.free] = v
+        return out[0], out[1], out[2]
+
+    # -- kinematics -------------------------------------------------------------------------
+    def frames(self, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray) -> FrameMotion:
+        """Zero-order frames at rigid states (nt, n_rigid) and maps x → [ρx, ρy, θ1]."""
+        nt, nb = p.shape[0], self.n_base
+        n_links = len(self.chain.links)
+        beta, beta_d, beta_dd = (a[:, nb:] for a in (p, pd, pdd))
+        base_pos = np.zeros((nt, 2))
+        base_acc = np.zeros((nt, 2))
+        th_b, w_b, a_b = (np.zeros(nt) for _ in range(3))
+        if self.base.kind == "free":
+            base_pos, base_acc = p[:, :2], pdd[:, :2]
+        if self.base.kind != "fixed":
+            th_b, w_b, a_b = p[:, nb - 1], pd[:, nb - 1], pdd[:, nb - 1]
+        theta = np.zeros((nt, n_links))
+        omega = np.zeros_like(theta)
+        alpha = np.zeros_like(theta)
+        origin = np.zeros((nt, n_links, 2))
+        origin_accel = np.zeros((nt, n_links, 2))
+        T, T_d, T_dd = [], [], []
+        for k in range(n_links):
+            Tk, Tk_d, Tk_dd = (np.zeros((nt, 3, self.n_x)) for _ in range(3))
+            back = rotation(-beta[:, k])
+            bd, bdd = beta_d[:, k, None, None], beta_dd[:, k, None, None]
+            back_d = -bd * (_S @ back)
+            back_dd = (-bdd * _S - bd**2 * np.eye(2)) @ back
+            point = self.attach[k]
+            if point is not None:  # branch start on the base
+                theta[:, k] = th_b + beta[:, k]
+                omega[:, k] = w_b + beta_d[:, k]
+                alpha[:, k] = a_b + beta_dd[:, k]
+                c = np.einsum("tij,j->ti", rotation(th_b), np.asarray(point, dtype=float))
+                origin[:, k] = base_pos + c
+                acc = base_acc + a_b[:, None] * (c @ _S.T) - (w_b**2)[:, None] * c
+                origin_accel[:, k] = np.einsum("tji,tj->ti", rotation(theta[:, k]), acc)
+                if self.base.kind == "free":  # δx, δy: global translation seen in frame k
+                    A = rotation(-theta[:, k])
+                    w, a = omega[:, k, None, None], alpha[:, k, None, None]
+                    Tk[:, :2, :2] = A
+                    Tk_d[:, :2, :2] = -w * (_S @ A)
+                    Tk_dd[:, :2, :2] = (-a * _S - w**2 * np.eye(2)) @ A
+                if self.base.kind != "fixed":  # δθ_b: turns the attachment point and frame
+                    Sc = _S @ np.asarray(point, dtype=float)
+                    Tk[:, :2, nb - 1] = back @ Sc
+                    Tk_d[:, :2, nb - 1] = back_d @ Sc
+                    Tk_dd[:, :2, nb - 1] = back_dd @ Sc
+                    Tk[:, 2, nb - 1] = 1.0
+            else:  # on the deformed tip of link k − 1
+                j, data = k - 1, self.modal[k - 1]
+                theta[:, k] = theta[:, j] + beta[:, k]
+                omega[:, k] = omega[:, j] + beta_d[:, k]
+                alpha[:, k] = alpha[:, j] + beta_dd[:, k]
+                e_j = rotation(theta[:, j])
+                origin[:, k] = origin[:, j] + data.length * e_j[:, :, 0]
+                tip_acc = origin_accel[:, j] + data.length * np.stack(
+                    [-omega[:, j] ** 2, alpha[:, j]], -1)
+                origin_accel[:, k] = np.einsum("tij,tj->ti", back, tip_acc)
+                P = tip_map(data)
+                U, U_d, U_dd = (np.einsum("ij,tjn->tin", P[:, :3], M) for M in
+                                (T[j], T_d[j], T_dd[j]))
+                U[:, :, self.bodies[j].slice] += P[:, 3:]
+                R, R_d, R_dd = _block(back), _block(back_d, 0.0), _block(back_dd, 0.0)
+                Tk = R @ U
+                Tk_d = R_d @ U + R @ U_d
+                Tk_dd = R_dd @ U + 2.0 * R_d @ U_d + R @ U_dd
+            Tk[:, 2, self.joint_index(k)] += 1.0  # δβ_k turns frame k
+            T.append(Tk)
+            T_d.append(Tk_d)
+            T_dd.append(Tk_dd)
+        return FrameMotion(theta, omega, alpha, origin, origin_accel, T, T_d, T_dd)
+
+    def xi_maps(self, fr: FrameMotion, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """T̂_k = [T_k; E_k] and its time derivatives, each (nt, 3+n_k, n_x)."""
+        body = self.bodies[k]
+        nt, nk = fr.theta.shape[0], body.data.n
+        E = np.zeros((nt, nk, self.n_x))
+        E[:, :, body.slice] = np.eye(nk)
+        zero = np.zeros_like(E)
+        return (np.concatenate([fr.T[k], E], 1), np.concatenate([fr.T_dot[k], zero], 1),
+                np.concatenate([fr.T_ddot[k], zero], 1))
+
+    # -- equations --------------------------------------------------------------------------
+    def matrices(self, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """M, C, K (nt, n_x, n_x) and f (nt, n_x) of the perturbation equations in x = [δp; z]
+        about rigid states p, ṗ, p̈ (nt, n_rigid); f is minus the zero-order inertia force."""
+        fr = self.frames(p, pd, pdd)
+        nt, n_x = p.shape[0], self.n_x
+        M = np.zeros((nt, n_x, n_x))
+        C = np.zeros_like(M)
+        K = np.zeros_like(M)
+        f = np.zeros((nt, n_x))
+        own, outboard = self._inertia_forces(fr)
+        for k, body in enumerate(self.bodies):
+            w = fr.omega[:, k, None, None]
+            wd = fr.alpha[:, k, None, None]
+            Th, Th_d, Th_dd = self.xi_maps(fr, k)
+            Mtot = body.M0 + body.M_rot
+            ThT = np.swapaxes(Th, 1, 2)
+            M += ThT @ Mtot @ Th
+            C += ThT @ (2.0 * Mtot @ Th_d + 2.0 * w * (body.G0 @ Th))
+            K += ThT @ (Mtot @ Th_dd + 2.0 * w * (body.G0 @ Th_d)
+                        + (wd * body.G0 - w**2 * body.M0) @ Th)
+            f -= np.einsum("tai,ta->ti", Th, _rigid_load(body, fr, k))
+            K -= self._second_order_stiffness(body, fr, k, outboard[:, k])
+            sl = body.slice
+            K[:, sl, sl] += body.data.stiffness_matrix
+            C[:, sl, sl] += body.data.damping_matrix
+        self._base_inertia(pdd, M, f)
+        self._attachment_turn(p, fr, own, K)
+        for k in self.driven:
+            i = self.joint_index(k)
+            M[:, i, i] += self.chain.joints[k].motor_inertia  # type: ignore[union-attr]
+            f[:, i] -= self.chain.joints[k].motor_inertia * pdd[:, i]  # type: ignore[union-attr]
+        return M, C, K, f
+
+    def _base_inertia(self, pdd: np.ndarray, M: np.ndarray, f: np.ndarray) -> None:
+        """The rigid base's own mass and inertia and their zero-order inertia load."""
+        b, nb = self.base, self.n_base
+        if b.kind == "fixed":
+            return
+        if b.kind == "free":
+            M[:, 0, 0] += b.mass
+            M[:, 1, 1] += b.mass
+            f[:, :2] -= b.mass * pdd[:, :2]
+        M[:, nb - 1, nb - 1] += b.inertia
+        f[:, nb - 1] -= b.inertia * pdd[:, nb - 1]
+
+    def _attachment_turn(self, p: np.ndarray, fr: FrameMotion, own: np.ndarray,
+                         K: np.ndarray) -> None:
+        """The second-order turn of each branch's attachment point on a turning base."""
+        nb = self.n_base
+        if self.base.kind == "fixed":
+            return
+        # A branch hangs on the point c: r = R_b + A(θ_b + δθ) c has −½δθ² A(θ_b)c at second
+        # order, so the branch's inertia force F (global) adds −(A c)·F δθ to the θ_b row.
+        th_b = p[:, nb - 1]
+        for k, point in enumerate(self.attach):
+            if point is None:
+                continue
+            force = np.zeros((p.shape[0], 2))
+            j = k
+            while True:
+                force += np.einsum("tij,tj->ti", rotation(fr.theta[:, j]), own[:, j])
+                j += 1
+                if j >= len(self.attach) or self.attach[j] is not None:
+                    break
+            c = np.einsum("tij,j->ti", rotation(th_b), np.asarray(point, dtype=float))
+            K[:, nb - 1, nb - 1] -= np.einsum("ti,ti->t", c, force)
+
+    def _inertia_forces(self, fr: FrameMotion) -> tuple[np.ndarray, np.ndarray]:
+        """Each link's own ∫a0 dm and the outboard Σ_{j>k, same branch} ∫_j a0 dm, both in
+        frame k's axes, (nt, N, 2)."""
+        nt, n_links = fr.theta.shape
+        own = np.zeros((nt, n_links, 2))
+        for k, d in enumerate(self.modal):
+            ax, ay = fr.origin_accel[:, k, 0], fr.origin_accel[:, k, 1]
+            w, wd = fr.omega[:, k], fr.alpha[:, k]
+            own[:, k] = np.stack([d.mass * ax - w**2 * d.first_moment,
+                                  d.mass * ay + wd * d.first_moment], -1)
+        out = np.zeros((nt, n_links, 2))
+        for k in range(n_links - 2, -1, -1):
+            if self.attach[k + 1] is not None:  # link k + 1 starts a new branch
+                continue
+            turn = rotation(fr.theta[:, k + 1] - fr.theta[:, k])
+            out[:, k] = np.einsum("tij,tj->ti", turn, out[:, k + 1] + own[:, k + 1])
+        return own, out
+
+    def _second_order_stiffness(self, body: LinkBody, fr: FrameMotion, k: int,
+                                outboard: np.ndarray) -> np.ndarray:
+        """As FirstOrderSystem._second_order_stiffness, over x (docs/derivation.md §4)."""
+        d = body.data
+        ax = fr.origin_accel[:, k, 0]
+        w2 = fr.omega[:, k] ** 2
+        N = outboard[:, 0]
+        vec = ax[:, None] * d.phi_bar - w2[:, None] * d.phi_tilde + N[:, None] * d.tip_value
+        scal = ax * d.first_moment - w2 * d.second_moment + N * d.length
+        theta1 = fr.T[k][:, 2, :]
+        sl = body.slice
+        out = scal[:, None, None] * theta1[:, :, None] * theta1[:, None, :]
+        cross = theta1[:, :, None] * vec[:, None, :]
+        out[:, :, sl] += cross
+        out[:, sl, :] += np.swapaxes(cross, 1, 2)
+        if self.geometric_stiffening:
+            out[:, sl, sl] += (ax[:, None, None] * d.foreshortening_mass
+                               - w2[:, None, None] * d.foreshortening_moment
+                               + N[:, None, None] * d.foreshortening_tip)
+        return out
+
+    # -- applied loads ----------------------------------------------------------------------
+    def applied(self, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
+                integral: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Generalized applied forces Q (nt, n_x) and the servos' integral-state rates
+        (nt, n_servos). ``integral`` (nt, n_servos) is the integral of each servo's error."""
+        Q = np.zeros((t.shape[0], self.n_x))
+        from ..drives import servo_torque
+
+        rates = np.zeros((t.shape[0], len(self.servos)))
+        for k in self.driven:
+            joint, i = self.chain.joints[k], self.joint_index(k)
+            if isinstance(joint, TorqueDrive):
+                Q[:, i] = joint.torque.value(t)
+            else:
+                s = self.servos.index(k)
+                Q[:, i], rates[:, s] = servo_torque(joint, t, p[:, i], pd[:, i], integral[:, s])
+        b, nb = self.base, self.n_base
+        if b.kind != "fixed":
+            th = p[:, nb - 1]
+            for load in b.loads:
+                F = np.stack([load.force_x.value(t), load.force_y.value(t)], -1)
+                if load.frame == "body":
+                    F = np.einsum("tij,tj->ti", rotation(th), F)
+                arm = np.einsum("tij,j->ti", rotation(th), np.asarray(load.point, dtype=float))
+                Q[:, nb - 1] += load.moment.value(t) + arm[:, 0] * F[:, 1] - arm[:, 1] * F[:, 0]
+                if b.kind == "free":
+                    Q[:, :2] += F
+        return Q, rates
+
+    # -- the coupled equations --------------------------------------------------------------
+    def accelerations(self, t: np.ndarray, p_free: np.ndarray, pd_free: np.ndarray,
+                      z: np.ndarray, zd: np.ndarray, integral: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """p̈ of the free rigid coordinates, z̈, and the servo integral rates at times t.
+
+        K and f are affine in p̈, so the equations are assembled at p̈_free = 0 and at each
+        unit p̈_free (a trial axis) and the linear system in (p̈_free, z̈) is solved."""
+        nt, nu, n, rig = t.shape[0], len(self.free), self.n, self.n_rigid
+        trials = np.concatenate([np.zeros((1, nu)), np.eye(nu)])  # (1 + nu, nu)
+        rep = np.repeat
+        tt = rep(t, nu + 1)
+        pdd_try = np.tile(trials, (nt, 1))
+        p, pd, pdd = self.rigid_state(tt, rep(p_free, nu + 1, 0), rep(pd_free, nu + 1, 0),
+                                      pdd_try)
+        M, C, K, f = (a.reshape((nt, nu + 1) + a.shape[1:]) for a in self.matrices(p, pd, pdd))
+        Q, rates = self.applied(t, p[:: nu + 1], pd[:: nu + 1], integral)
+        rows = self.free + list(range(rig, self.n_x))
+        zcols = slice(rig, self.n_x)
+        A = np.zeros((nt, len(rows), nu + n))
+        lin_f = f[:, 1:] - f[:, :1]  # (nt, nu, n_x): ∂f/∂p̈_j
+        lin_K = K[:, 1:, :, zcols] - K[:, :1, :, zcols]
+        A[:, :, :nu] = np.swapaxes(-lin_f + np.einsum("tjaz,tz->tja", lin_K, z), 1, 2)[:, rows]
+        A[:, :, nu:] = M[:, 0][:, rows, zcols]
+        rhs = (f[:, 0] + Q - np.einsum("taz,tz->ta", C[:, 0, :, zcols], zd)
+               - np.einsum("taz,tz->ta", K[:, 0, :, zcols], z))[:, rows]
+        sol = np.linalg.solve(A, rhs[..., None])[..., 0]
+        return sol[:, :nu], sol[:, nu:], rates
+
+    def joint_torques(self, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray, z: np.ndarray,
+                      zd: np.ndarray, zdd: np.ndarray) -> np.ndarray:
+        """Torque each joint's motor applies (nt, N), N·m: the joint row of the equations,
+        τ_k = (M ẍ + C ẋ + K x − f)_k with x = [0; z] (plus J_m β̈ of a driven joint)."""
+        M, C, K, f = self.matrices(p, pd, pdd)
+        zc = slice(self.n_rigid, self.n_x)
+        res = (np.einsum("taz,tz->ta", M[:, :, zc], zdd) + np.einsum("taz,tz->ta", C[:, :, zc], zd)
+               + np.einsum("taz,tz->ta", K[:, :, zc], z) - f)
+        return res[:, self.n_base:self.n_rigid]
+
+
+def _rigid_load(body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
+    """∫ P̂ᵀ a0 dm + J_t c ω̇: zero-order inertia load of link k in ξ space, (nt, 3+n)."""
+    d = body.data
+    ax, ay = fr.origin_accel[:, k, 0], fr.origin_accel[:, k, 1]
+    w, wd = fr.omega[:, k], fr.alpha[:, k]
+    m, s1, J = d.mass, d.first_moment, d.second_moment
+    head = np.stack([m * ax - w**2 * s1, m * ay + wd * s1, s1 * ay + J * wd], -1)
+    load = np.concatenate([head, ay[:, None] * d.phi_bar + wd[:, None] * d.phi_tilde], -1)
+    load[:, 2] += d.tip_inertia * wd
+    load[:, 3:] += d.tip_inertia * wd[:, None] * d.tip_slope
+    return load
+
+
+def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray,
+             zd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Linear momentum (nt, 2) in N·s and angular momentum about the origin (nt,) in N·m·s of
+    base and links, to first order in z, straight from the kinematics (not the equations):
+
+        ∫ṙ dm = m Ṙ + e(∫ġ dm + ω S(∫X dm + ∫g dm)),
+        ∫r×ṙ dm = m R'×V' + R'×(∫ġ + ωS∫(X+g)) + ∫(X+g)dm×V' + h_y·ξ̇ + ω(J + 2 s₁ρx)
+                  + J_t(ω + cᵀξ̇),
+
+    with R' = eᵀR, V' = eᵀṘ the origin's position and velocity in frame axes, X = [x, 0],
+    g = P̂(x)ξ, ξ = T̂x (docs/derivation.md, "Forward dynamics")."""
+    nt = p.shape[0]
+    fr = system.frames(p, pd, np.zeros_like(p))
+    b, nb = system.base, system.n_base
+    x = np.concatenate([np.zeros((nt, system.n_rigid)), z], 1)
+    xd = np.concatenate([np.zeros((nt, system.n_rigid)), zd], 1)
+    lin = np.zeros((nt, 2))
+    ang = np.zeros(nt)
+    base_vel = pd[:, :2] if b.kind == "free" else np.zeros((nt, 2))
+    w_b = pd[:, nb - 1] if b.kind != "fixed" else np.zeros(nt)
+    if b.kind == "free":
+        lin += b.mass * base_vel
+        ang += b.mass * (p[:, 0] * pd[:, 1] - p[:, 1] * pd[:, 0])
+    if b.kind != "fixed":
+        ang += b.inertia * w_b
+    velocity = np.zeros((nt, len(system.bodies), 2))  # zero-order origin velocities, global
+    for k, body in enumerate(system.bodies):
+        d = body.data
+        if system.attach[k] is not None:
+            c = fr.origin[:, k] - (p[:, :2] if b.kind == "free" else 0.0)
+            velocity[:, k] = base_vel + w_b[:, None] * (c @ _S.T)
+        else:
+            e = rotation(fr.theta[:, k - 1])
+            velocity[:, k] = (velocity[:, k - 1]
+                              + system.modal[k - 1].length * fr.omega[:, k - 1, None] * e[:, :, 1])
+        Th, Th_d, _ = system.xi_maps(fr, k)
+        xi = np.einsum("tai,ti->ta", Th, x)
+        xi_d = np.einsum("tai,ti->ta", Th, xd) + np.einsum("tai,ti->ta", Th_d, x)
+        ny = np.concatenate([[0.0, d.mass, d.first_moment], d.phi_bar])
+        hy = np.concatenate([[0.0, d.first_moment, d.second_moment], d.phi_tilde])
+        c_tip = np.concatenate([[0.0, 0.0, 1.0], d.tip_slope])
+        w = fr.omega[:, k]
+        int_g = np.stack([d.mass * xi[:, 0], xi @ ny], -1)
+        int_gd = np.stack([d.mass * xi_d[:, 0], xi_d @ ny], -1)
+        int_X = np.stack([np.full(nt, d.first_moment), np.zeros(nt)], -1)
+        inner = int_gd + w[:, None] * ((int_X + int_g) @ _S.T)  # ∫ġ + ωS(X+g) dm, frame axes
+        e = rotation(fr.theta[:, k])
+        R = np.einsum("tji,tj->ti", e, fr.origin[:, k])
+        V = np.einsum("tji,tj->ti", e, velocity[:, k])
+        lin += d.mass * velocity[:, k] + np.einsum("tij,tj->ti", e, inner)
+        ang += (d.mass * _cross(R, V) + _cross(R, inner) + _cross(int_X + int_g, V)
+                + xi_d @ hy + w * (d.second_moment + 2 * d.first_moment * xi[:, 0])
+                + d.tip_inertia * (w + xi_d @ c_tip))
+    return lin, ang
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
