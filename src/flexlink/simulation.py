@@ -26,9 +26,12 @@ def simulate(scenario: Scenario, progress: bool = False) -> Results:
     (or, with a moving base or driven joints, the forward dynamics of forward_simulation)."""
     from .forward_simulation import needs_forward_dynamics, simulate_forward
 
-    if needs_forward_dynamics(scenario):
-        return simulate_forward(scenario)
     settings = scenario.settings
+    if needs_forward_dynamics(scenario):
+        if settings.model == "nonlinear":
+            raise ValueError("model = 'nonlinear' has prescribed joints on a fixed hub only: "
+                             "a moving base or a driven joint needs model = 'first_order'")
+        return simulate_forward(scenario)
     if settings.model == "nonlinear":
         from .simulation_nonlinear import simulate_nonlinear  # imports this module
 

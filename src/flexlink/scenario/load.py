@@ -109,6 +109,11 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         joints.append(joint)
         motions.append(motion)
     base = read_base(raw.get("base"), base_dir, p)
+    forward = base is not None or any("drive" in j or "base_point" in j for j in joints)
+    if forward and simulation.get("model") == "nonlinear":
+        p.add("simulation.model: the nonlinear model has prescribed joints on a fixed hub only; "
+              "a [base], a driven joint (drive = ...) or base_point needs "
+              "model = \"first_order\" (with geometric_stiffening = true)")
     reserved = {"t", "time"} | {f"joint{k}_{q}" for k in range(1, len(links) + 1)
                                 for q in ("angle", "torque", "rate", "reference", "command")}
     reserved |= {f"base_{c}{r}" for c in ("x", "y", "attitude") for r in ("", "_rate")}
