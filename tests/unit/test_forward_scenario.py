@@ -127,3 +127,13 @@ def test_simulate_refuses_the_nonlinear_model_with_a_driven_joint() -> None:
     sc = dataclasses.replace(sc, settings=dataclasses.replace(sc.settings, model="nonlinear"))
     with pytest.raises(ValueError, match="nonlinear.*first_order"):
         flexlink.simulate(sc)
+
+
+def test_a_free_base_of_zero_mass_is_the_first_link_itself() -> None:
+    d = _scenario(base={"type": "free", "mass": 0.0, "inertia": 0.0})
+    d["joints"] = [{"motion": [{"profile": "hold", "angle_deg": 0.0}]}]
+    base = scenario_from_dict(d).base
+    assert base is not None and (base.mass, base.inertia) == (0.0, 0.0)
+    d["base"]["mass"] = -1.0
+    with pytest.raises(ScenarioError, match="base.mass"):
+        scenario_from_dict(d)

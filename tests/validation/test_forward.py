@@ -129,6 +129,23 @@ def test_free_hub_beam_frequencies(eta: float, rho: float) -> None:
     assert np.all(error > -1e-9) and np.all(error < 5e-3)
 
 
+def test_free_flexible_beam_frequencies() -> None:
+    """The first flexible link itself as the free body (a base of zero mass and inertia):
+    three rigid modes and the free-free beam's cos μ cosh μ = 1 (μ = 4.7300, 7.8532, 10.9956),
+    from above; 6 cantilever modes plus the root's rigid motion, measured 7e-5, 3.5e-4, 9e-4."""
+    EI, m, L = 10.0, 1.0, 2.0
+    chain = Chain((Link("beam", L, m, EI, modes=6),), (Hold(0.0),))
+    system = ForwardSystem(chain, Base("free", mass=0.0, inertia=0.0))
+    rest = np.zeros((1, system.n_rigid))
+    M, _, K, _ = system.matrices(rest, rest, rest)
+    keep = [0, 1, 2, *range(system.n_rigid, system.n_x)]
+    omega2 = eigh(K[0][np.ix_(keep, keep)], M[0][np.ix_(keep, keep)], eigvals_only=True)
+    assert np.all(np.abs(omega2[:3]) < 1e-9 * omega2[3])
+    exact = np.array([4.730040745, 7.853204624, 10.99560784]) ** 2 * np.sqrt(EI / (m * L**4))
+    error = np.sqrt(omega2[3:6]) / exact - 1.0
+    assert np.all(error > -1e-9) and np.all(error < 2e-3)
+
+
 def _replay_pair(t_end: float) -> tuple[flexlink.Results, flexlink.Results]:
     """The paper arm (3 modes) on prescribed cycloidal moves, then driven by the
     joint<k>_torque channels that run reported (linear interpolation between samples)."""

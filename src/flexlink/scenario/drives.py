@@ -47,10 +47,11 @@ def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
     kind = p.string(raw, "type", path, choices=("free", "pinned", "fixed"))
     out: dict[str, Any] = {"type": kind}
     moving = kind in ("free", "pinned")
-    out["mass"] = p.number(raw, "mass", path, unit="kg", gt=0, default=None if kind != "free"
+    # 0 is allowed: the first link is then the free body itself (a flexible beam in flight)
+    out["mass"] = p.number(raw, "mass", path, unit="kg", ge=0, default=None if kind != "free"
                            else _required())
     out["inertia"] = p.number(raw, "inertia", path, unit="kg·m² (about the reference point)",
-                              gt=0, default=_required() if moving else None)
+                              ge=0, default=_required() if moving else None)
     out["position"] = _pair(raw, "position", path, p, "m", default=[0.0, 0.0])
     out["attitude_deg"] = p.number(raw, "attitude_deg", path, unit="deg", default=0.0)
     out["velocity"] = _pair(raw, "velocity", path, p, "m/s", default=[0.0, 0.0])
