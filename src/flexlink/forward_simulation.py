@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from threadpoolctl import threadpool_limits
+from .solvers.threads import single_threaded
 
 from ._version import package_version
 from .drives import Base, PositionServo, TorqueDrive, VelocityServo, command_volts
@@ -81,7 +81,7 @@ def integrate(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float
         return np.concatenate([y[nu:2 * nu], pdd[0], y[2 * nu + n:2 * nu + 2 * n], zdd[0],
                                rates[0]])
 
-    with threadpool_limits(limits=1):  # tiny matrices: threads only cost
+    with single_threaded():  # tiny matrices: threads only cost
         max_step = MAX_STEP_OUTPUTS * float(np.min(np.diff(t_out))) if t_out.size > 1 else np.inf
         sol = solve_ivp(rhs, (float(t_out[0]), float(t_out[-1])), y0, method=method,
                         t_eval=t_out, rtol=rtol, atol=atol, max_step=max_step)
@@ -116,7 +116,7 @@ def simulate_forward(scenario: Scenario) -> Results:
     base = scenario.base if scenario.base is not None else Base()
     system = ForwardSystem(scenario.chain, base, settings.geometric_stiffening)
     t = output_times(settings.t_end, settings.dt_out)
-    method = DEFAULT_METHOD if settings.method == "magnus" else settings.method
+    method = DEFAULT_METHOD if settings.method in ("magnus", "lawson") else settings.method
     started = time.perf_counter()
     y = integrate(system, t, settings.rtol, settings.atol, method)
     p_free, pd_free, z, zd, integral = split_state(system, y)

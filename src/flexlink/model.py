@@ -104,7 +104,7 @@ class SimulationSettings:
     geometric_stiffening: bool = False
     rtol: float = 1e-6  # error relative to the peak of the displacements / velocities
     atol: float = 1e-12
-    method: str = "magnus"  # or a scipy solve_ivp method: "DOP853", "RK45", "Radau", "LSODA"
+    method: str = "lawson"  # or "magnus", or a solve_ivp method: "DOP853", "RK45", "Radau", "LSODA"
     model: str = "first_order"  # or "nonlinear": large deflections (docs/nonlinear.md)
     step: float | None = None  # s, fixed step of the nonlinear model (None: step halving)
 

@@ -6,7 +6,6 @@ import functools
 import time
 
 import numpy as np
-from threadpoolctl import ThreadpoolController
 
 from ._version import package_version
 from .dynamics.nonlinear import NonlinearSystem
@@ -14,18 +13,18 @@ from .model import Scenario
 from .results import Results
 from .sensors.evaluate import Trajectory
 from .sensors.nonlinear import joint_and_tip_channels, sensor_channels
+from .solvers.threads import single_threaded
 from .simulation import _ProgressBar, output_times
 from .solvers import SimulationError
 from .solvers.gauss import solve_nonlinear
 
-_THREADPOOLS = ThreadpoolController()  # scanning the loaded BLAS libraries once, not per run
 _version = functools.lru_cache(maxsize=1)(package_version)  # metadata lookup: ~5 ms per call
 
 
 def simulate_nonlinear(scenario: Scenario, progress: bool = False) -> Results:
     """Run one scenario with the geometrically nonlinear model (elastic coordinates from rest)."""
     # Small matrices and batched products over time: BLAS threads only add overhead.
-    with _THREADPOOLS.limit(limits=1):
+    with single_threaded():
         return _simulate(scenario, progress)
 
 

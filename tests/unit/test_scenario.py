@@ -58,7 +58,7 @@ def test_minimal_scenario_fills_defaults() -> None:
     assert (a.tip_mass, a.tip_inertia, a.damping_ratio, a.modes) == (0.0, 0.0, 0.0, 4)
     assert a.mode_shapes == "clamped_free" and a.thickness is None and b.thickness == 0.002
     assert scenario.settings.rtol == 1e-6 and scenario.settings.atol == 1e-12
-    assert scenario.settings.method == "magnus"
+    assert scenario.settings.method == "lawson"
     assert scenario.settings.geometric_stiffening is False
     assert scenario.name == "scenario"
     assert scenario.chain.joints[0] == Hold(0.0)
@@ -110,7 +110,7 @@ def test_all_problems_are_reported_at_once() -> None:
         ("simulation", "t_end", math.nan, "simulation.t_end must be finite, got nan"),
         ("simulation", "geometric_stiffening", "no",
          "simulation.geometric_stiffening: expected true or false, got string 'no'"),
-        ("simulation", "method", "rk4", "simulation.method must be one of 'magnus', 'DOP853', "
+        ("simulation", "method", "rk4", "simulation.method must be one of 'magnus', 'lawson', 'DOP853', "
          "'RK45', 'Radau', 'LSODA', got 'rk4'"),
         ("links", "length", -1, "links[0].length must be > 0 m, got -1.0"),
         ("links", "tip_mass", -0.1, "links[0].tip_mass must be >= 0 kg, got -0.1"),

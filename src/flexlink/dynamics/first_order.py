@@ -103,6 +103,7 @@ class FirstOrderSystem:
         self.offsets: list[int] = [int(o) for o in offsets[:-1]]
         self.n: int = int(offsets[-1])
         self.bodies = [_link_body(d, o) for d, o in zip(self.modal, self.offsets)]
+        self._frames_cache: tuple[np.ndarray, FrameMotion] | None = None
 
     @property
     def max_frequency(self) -> float:
@@ -115,7 +116,19 @@ class FirstOrderSystem:
         return joint_history(self.chain.joints, t)
 
     def frames(self, t: np.ndarray) -> FrameMotion:
-        return frame_motion(self.joint_history(t), self.modal, self.offsets, self.n)
+        """Frame motion at times t (s). Computed once per distinct joint state (a rest phase
+        repeats one state thousands of times) and remembered for the last t asked for: the
+        sensors, the joint torques and the tip paths of one run all need the same frames."""
+        t = np.asarray(t, dtype=float)
+        cached = self._frames_cache
+        if cached is not None and cached[0].shape == t.shape and np.array_equal(cached[0], t):
+            return cached[1]
+        unique, inverse = _distinct_rows(self.joint_history(t))
+        fr = frame_motion(unique, self.modal, self.offsets, self.n)
+        if unique.angle.shape[0] < inverse.size:
+            fr = fr.take(inverse)
+        self._frames_cache = (t.copy(), fr)
+        return fr
 
     def coefficient_keys(self, t: np.ndarray) -> np.ndarray:
         """Integer labels of the times t: equal labels ⇒ equal M, C, K, f.
@@ -143,14 +156,17 @@ class FirstOrderSystem:
         self, frames: FrameMotion, k: int, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """ξ_k, ξ̇_k, ξ̈_k (each (nt, 3+n_k)) from z, ż, z̈ (nt, n)."""
-        Th, Th_d, Th_dd = self.xi_maps(frames, k)
+        T, T_d, T_dd = frames.T[k], frames.T_dot[k], frames.T_ddot[k]
+        sl = self.bodies[k].slice
 
         def apply(T: np.ndarray, v: np.ndarray) -> np.ndarray:
             return np.einsum("tai,ti->ta", T, v)
 
-        xi = apply(Th, z)
-        xi_d = apply(Th, zd) + apply(Th_d, z)
-        xi_dd = apply(Th, zdd) + 2 * apply(Th_d, zd) + apply(Th_dd, z)
+        # T̂ = [T; E] with E picking q_k, constant: the rows of its derivatives are zero.
+        xi = np.concatenate([apply(T, z), z[:, sl]], axis=1)
+        xi_d = np.concatenate([apply(T, zd) + apply(T_d, z), zd[:, sl]], axis=1)
+        xi_dd = np.concatenate([apply(T, zdd) + 2 * apply(T_d, zd) + apply(T_dd, z), zdd[:, sl]],
+                               axis=1)
         return xi, xi_d, xi_dd
 
     # -- equations --------------------------------------------------------------------------

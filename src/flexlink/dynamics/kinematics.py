@@ -60,6 +60,13 @@ class FrameMotion:
     T_dot: list[np.ndarray]
     T_ddot: list[np.ndarray]
 
+    def take(self, index: np.ndarray) -> FrameMotion:
+        """The frame motion at the instants ``index`` (integer array into the time axis)."""
+        return FrameMotion(self.theta[index], self.omega[index], self.alpha[index],
+                           self.origin[index], self.origin_accel[index],
+                           [a[index] for a in self.T], [a[index] for a in self.T_dot],
+                           [a[index] for a in self.T_ddot])
+
 
 def rotation(angle: np.ndarray) -> np.ndarray:
     """Planar rotation matrices A(angle), shape (..., 2, 2)."""

@@ -145,7 +145,7 @@ def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[
         "geometric_stiffening": p.boolean(table, "geometric_stiffening", path, default=False),
         "rtol": p.number(table, "rtol", path, default=1e-6, gt=0, le=1e-2),
         "atol": p.number(table, "atol", path, default=1e-12, gt=0),
-        "method": p.string(table, "method", path, default="magnus", choices=METHODS),
+        "method": p.string(table, "method", path, default="lawson", choices=METHODS),
         "model": p.string(table, "model", path, default="first_order", choices=MODELS),
     }
     step = p.number(table, "step", path, unit="s", default=None, gt=0)

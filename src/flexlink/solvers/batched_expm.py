@@ -54,3 +54,13 @@ def expm_stack(A: np.ndarray) -> np.ndarray:
         needs = squarings >= level
         E[needs] = E[needs] @ E[needs]
     return E
+
+
+def expm_balanced(omega: np.ndarray, n: int, scale: float) -> np.ndarray:
+    """exp(Ω) for a stack of augmented generators Ω ~ h·[[0, I, 0], [−ω², ·, ·], [0, 0, 0]] of
+    state [z (n), ż (n), 1]: computed as D⁻¹ exp(D Ω D⁻¹) D with D = diag(scale·I, I, 1) and
+    scale ~ the highest natural frequency (rad/s). Unbalanced, the ω² entries make ‖Ω‖ ~ h·ω²
+    and the exponential needs many squarings; balanced, ‖Ω‖ ~ h·ω."""
+    d = np.concatenate([np.full(n, scale), np.ones(omega.shape[-1] - n)])
+    E = expm_stack(omega * d[:, None] / d[None, :])
+    return E * (1.0 / d)[:, None] * d[None, :]

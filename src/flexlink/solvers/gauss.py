@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+from .threads import single_threaded
 
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
 from .ode import SimulationError
@@ -66,7 +66,7 @@ def integrate_gauss(
         _compiled_loop(system, q, v, X, h, inputs, on_progress, t_ends)
         return t_ends, q, v
     newton = _Newton(system, h)
-    with threadpool_limits(limits=1):  # (the compiled path needs no limit: no BLAS calls)  # tiny matrices: threads only add overhead
+    with single_threaded():  # (the compiled path needs no limit: no BLAS calls)
         for i in range(steps):
             if i > 0:  # predictor: last step's stage accelerations, extrapolated linearly
                 X = X + (X[1] - X[0]) / (NODES[1] - NODES[0])

@@ -30,9 +30,9 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+from .threads import single_threaded
 
-from .batched_expm import expm_stack
+from .batched_expm import expm_balanced
 from .ode import MatrixFunction, SimulationError
 
 _GAUSS = np.array([0.5 - np.sqrt(3) / 6, 0.5 + np.sqrt(3) / 6])
@@ -59,9 +59,7 @@ def integrate_magnus(
     with h·ω ≫ 1 the expansion is still stable but its error estimate converges slowly.
     coefficient_keys labels instants whose coefficients are equal (see the module docstring).
     """
-    # The matrices are tiny (2n+1 ≤ a few dozen): BLAS threads only add contention, and under
-    # load they slowed a paper run twelvefold. Batch runs parallelise over cases instead.
-    with threadpool_limits(limits=1):
+    with single_threaded():
         return _integrate(matrices, n, t_out, rtol, atol, on_progress, max_frequency,
                           coefficient_keys)
 
@@ -80,7 +78,7 @@ def _integrate(
     common = every_other
     for _ in range(_MAX_HALVINGS):
         fine = _solve(matrices, n, t_out, substeps, on_progress, keys)
-        if _agree(fine, fine[common], previous, n, rtol, atol):
+        if agree(fine, fine[common], previous, n, rtol, atol):
             return fine[:, :n], fine[:, n:]
         previous, common = fine, slice(None)
         substeps *= 2
@@ -90,7 +88,7 @@ def _integrate(
     )
 
 
-def _agree(
+def agree(
     fine: np.ndarray, fine_common: np.ndarray, coarse: np.ndarray, n: int, rtol: float, atol: float
 ) -> bool:
     """Whether the finer solution's estimated error is within atol + rtol · peak."""
@@ -183,24 +181,24 @@ def _fill_powers(Q: np.ndarray, y: np.ndarray, rows: np.ndarray) -> None:
 def _propagators(matrices: MatrixFunction, n: int, t0: np.ndarray, h: np.ndarray) -> np.ndarray:
     """exp(Ω) for every step, (steps, 2n+1, 2n+1)."""
     times = (t0[:, None] + h[:, None] * _GAUSS).ravel()
-    A = _augmented(matrices, n, times).reshape(t0.size, 2, 2 * n + 1, 2 * n + 1)
+    A = augmented(state_rows(matrices, times)).reshape(t0.size, 2, 2 * n + 1, 2 * n + 1)
     A1, A2 = A[:, 0], A[:, 1]
     hh = h[:, None, None]
     omega = 0.5 * hh * (A1 + A2) + (np.sqrt(3) / 12) * hh**2 * (A2 @ A1 - A1 @ A2)
-    # Balance by D = diag(s·I, I, 1), s ~ highest frequency: exp(Ω) = D⁻¹ exp(D Ω D⁻¹) D. Without
-    # it the ω² entries make ‖Ω‖ ~ h·ω² and the exponential needs many squarings.
     s = np.sqrt(max(np.abs(A1[:, n: 2 * n, :n]).max(), np.abs(A2[:, n: 2 * n, :n]).max(), 1.0))
-    scale = np.concatenate([np.full(n, s), np.ones(n + 1)])
-    E = expm_stack(omega * scale[:, None] / scale[None, :])
-    return E * (1.0 / scale)[:, None] * scale[None, :]
+    return expm_balanced(omega, n, s)
 
 
-def _augmented(matrices: MatrixFunction, n: int, times: np.ndarray) -> np.ndarray:
-    """Ã = [[0, I, 0], [−M⁻¹K, −M⁻¹C, M⁻¹f], [0, 0, 0]] at every time."""
+def state_rows(matrices: MatrixFunction, times: np.ndarray) -> np.ndarray:
+    """M⁻¹[−K, −C, f] at every time, (nt, n, 2n+1): z̈ = this · [z; ż; 1]."""
     M, C, K, f = matrices(times)
-    rhs = np.concatenate([-K, -C, f[:, :, None]], axis=2)
-    solved = np.linalg.solve(M, rhs)
-    A = np.zeros((times.size, 2 * n + 1, 2 * n + 1))
-    A[:, :n, n: 2 * n] = np.eye(n)
-    A[:, n: 2 * n, :] = solved
+    return np.linalg.solve(M, np.concatenate([-K, -C, f[:, :, None]], axis=2))
+
+
+def augmented(rows: np.ndarray) -> np.ndarray:
+    """Ã = [[0, I, 0], [rows], [0, 0, 0]] of the state [z, ż, 1] from state_rows, (…, 2n+1, 2n+1)."""
+    n = rows.shape[-2]
+    A = np.zeros(rows.shape[:-2] + (2 * n + 1, 2 * n + 1))
+    A[..., :n, n: 2 * n] = np.eye(n)
+    A[..., n: 2 * n, :] = rows
     return A

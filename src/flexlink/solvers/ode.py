@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+from .threads import single_threaded
 
 MatrixFunction = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
 
@@ -39,7 +39,7 @@ def integrate_second_order(
             on_progress(t)
         return np.concatenate([zd, zdd])
 
-    with threadpool_limits(limits=1):  # tiny matrices: see magnus.integrate_magnus
+    with single_threaded():
         sol = solve_ivp(
             rhs, (float(t_out[0]), float(t_out[-1])), np.zeros(2 * n), method=method,
             t_eval=t_out, rtol=rtol, atol=atol,

@@ -1,0 +1,205 @@
+"""The state matrix of a prescribed-motion run, tabulated once as piecewise polynomials in time.
+
+With prescribed joints the equations ż = A(t)[z; ż; 1] (A = M⁻¹[−K, −C, f], shape (n, 2n+1))
+change only as fast as the manoeuvre, far slower than the vibration they describe. Assembling
+A costs ~10 µs per instant in numpy, more than a whole step of a compiled integrator, so the
+integrator reads A from this table instead: per block of output intervals a polynomial of
+degree 5 in τ ∈ [0, 1] through six Chebyshev–Lobatto samples.
+
+The table checks itself: A is also assembled midway between the samples, and a block whose
+polynomial misses one of those values by more than ``tolerance`` × (that entry's range over the
+run) is split in two, down to one output interval, whose time range is then split in pieces
+(down to 1/64 of it) around a kink of A between output times. Intervals where the joints rest (equal joint
+states at both ends and in the middle, ``coefficient_keys``) form static blocks with A exactly
+constant. Blocks never straddle a change from rest to motion, so the kinks of A where a motion
+starts or stops fall on block ends when they fall on output times.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+RowsFunction = Callable[[np.ndarray], np.ndarray]  # times (nt,) → A (nt, n, 2n+1)
+KeyFunction = Callable[[np.ndarray], np.ndarray]
+
+DEGREE = 5
+_NODES = 0.5 - 0.5 * np.cos(np.pi * np.arange(DEGREE + 1) / DEGREE)  # Chebyshev–Lobatto, [0, 1]
+_CHECKS = 0.5 * (_NODES[1:] + _NODES[:-1])
+_FIT = np.linalg.inv(np.vander(_NODES, increasing=True))  # samples → monomial coefficients
+_MAX_INTERVALS = 64  # output intervals per moving block before refinement
+_MAX_BLOCK = 0.064  # s, the same bound in time
+_MIN_PIECE = 1.0 / 64  # smallest piece of one output interval (around a kink of A)
+
+
+@dataclass(frozen=True)
+class CoefficientTable:
+    """Blocks of output intervals, each with A as piecewise polynomials in its local time τ ∈ [0, 1].
+
+    first, last: output indices where block b starts and ends (last > first).
+    static: whether A is constant on the block (joints at rest).
+    pieces: block b's polynomials are pieces[b] … pieces[b+1]−1 (one, unless a block of one
+        output interval had to be split further, around a kink of A).
+    lower, upper: the τ range of each piece; poly: (pieces, DEGREE+1, n, 2n+1) monomial
+        coefficients in the piece's own τ' = (τ − lower) / (upper − lower).
+    reference: (blocks, n, 2n+1) A at the block's middle (τ = 1/2).
+    """
+
+    first: np.ndarray
+    last: np.ndarray
+    static: np.ndarray
+    pieces: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    poly: np.ndarray
+    reference: np.ndarray
+    assemblies: int  # how many instants were assembled to build the table
+
+    def __len__(self) -> int:
+        return int(self.first.size)
+
+    def evaluate(self, block: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """A at local times τ of the given blocks (arrays of equal shape), (…, n, 2n+1)."""
+        p = self.pieces[block] + np.array([np.searchsorted(self.upper[a:b], x)
+                                           for a, b, x in zip(self.pieces[block],
+                                                              self.pieces[block + 1], tau)])
+        p = np.minimum(p, self.pieces[block + 1] - 1)
+        local = (tau - self.lower[p]) / (self.upper[p] - self.lower[p])
+        powers = local[:, None] ** np.arange(DEGREE + 1)
+        return np.einsum("tp,tpkl->tkl", powers, self.poly[p])
+
+
+class RoughCoefficients(Exception):
+    """A(t) is not smooth between output times (say a measured motion's spline with a knot at
+    every sample): tabulating it would cost more assemblies than integrating with them."""
+
+
+def tabulate(
+    rows: RowsFunction, t_out: np.ndarray, keys: KeyFunction | None, tolerance: float,
+    budget: float | None = None,
+) -> CoefficientTable:
+    """Build the table of A(t) over the output times t_out (s). Raises RoughCoefficients when
+    it would need more than ``budget`` assemblies per moving output interval (+ 200)."""
+    blocks = _initial_blocks(t_out, keys)
+    sampler = _Sampler(rows)
+    limit = (np.inf if budget is None
+             else budget * sum(b - a for a, b, static in blocks if not static) + 200)
+    # Candidate pieces (first, last, τ lower, τ upper) of the moving blocks.
+    moving = [(a, b, 0.0, 1.0) for a, b, static in blocks if not static]
+    static = [(a, b) for a, b, static in blocks if static]
+    static_values = sampler.at(np.array([t_out[a] for a, _ in static]))
+    scale = None
+    done: list[tuple[int, int, float, float, np.ndarray]] = []
+    while moving:
+        span = np.array([[t_out[a], t_out[b], lo, hi] for a, b, lo, hi in moving])
+        starts = span[:, :1] + (span[:, 1:2] - span[:, :1]) * span[:, 2:3]
+        lengths = (span[:, 1:2] - span[:, :1]) * (span[:, 3:4] - span[:, 2:3])
+        nodes = sampler.at((starts + lengths * _NODES).ravel()).reshape(len(moving), DEGREE + 1,
+                                                                       *static_values.shape[1:])
+        checks = sampler.at((starts + lengths * _CHECKS).ravel()).reshape(len(moving), DEGREE,
+                                                                          *nodes.shape[2:])
+        poly = np.einsum("pj,bjkl->bpkl", _FIT, nodes)
+        if scale is None:  # each entry's range over the run: what an error is measured against
+            every = np.concatenate([nodes.reshape(-1, *nodes.shape[2:]), static_values])
+            spread = every.max(axis=0) - every.min(axis=0)
+            scale = np.maximum(spread, 1e-9 * np.abs(every).max(axis=0)) + 1e-300
+        predicted = np.einsum("cp,bpkl->bckl", np.vander(_CHECKS, DEGREE + 1, increasing=True),
+                              poly)
+        miss = (np.abs(predicted - checks) / scale).max(axis=(1, 2, 3))
+        refine = []
+        for (a, b, lo, hi), p, m in zip(moving, poly, miss):
+            if m <= tolerance or hi - lo <= _MIN_PIECE:
+                done.append((a, b, lo, hi, p))
+            elif b - a > 1:
+                mid = (a + b) // 2
+                refine += [(a, mid, 0.0, 1.0), (mid, b, 0.0, 1.0)]
+            else:  # one output interval: split its time range
+                refine += [(a, b, lo, 0.5 * (lo + hi)), (a, b, 0.5 * (lo + hi), hi)]
+        moving = refine
+        if sampler.count > limit:
+            raise RoughCoefficients(f"{sampler.count} assemblies and still refining")
+    return _assemble_table(done, static, static_values, sampler.count)
+
+
+def _initial_blocks(t_out: np.ndarray, keys: KeyFunction | None) -> list[tuple[int, int, bool]]:
+    """(first, last, static) blocks: runs of resting intervals, and moving runs cut into pieces
+    of ≤ _MAX_INTERVALS intervals of equal length and ≤ _MAX_BLOCK seconds."""
+    intervals = np.diff(t_out)
+    if keys is None:
+        resting = np.zeros(intervals.size, dtype=bool)
+        label = np.zeros(intervals.size)
+    else:
+        interleaved = np.empty(2 * t_out.size - 1)  # in time order: keys label runs
+        interleaved[0::2] = t_out
+        interleaved[1::2] = t_out[:-1] + 0.5 * intervals
+        k = keys(interleaved)
+        at, mid = k[0::2], k[1::2]
+        resting = (at[:-1] == at[1:]) & (at[:-1] == mid)
+        label = at[:-1]
+    # Equal step lengths within a block (the last output interval may be shorter).
+    length_key = np.round(intervals / intervals.max(), 9)
+    # Runs of intervals alike in rest/motion, rest state and length; moving runs then cut.
+    change = np.ones(intervals.size, dtype=bool)
+    change[1:] = ((resting[1:] != resting[:-1]) | (length_key[1:] != length_key[:-1])
+                  | (resting[1:] & (label[1:] != label[:-1])))
+    starts = np.flatnonzero(change)
+    ends = np.append(starts[1:], intervals.size)
+    blocks: list[tuple[int, int, bool]] = []
+    for a, b in zip(starts.tolist(), ends.tolist()):
+        if resting[a]:
+            blocks.append((a, b, True))
+        else:
+            cut = int(max(1, min(_MAX_INTERVALS, _MAX_BLOCK // intervals[a])))
+            blocks += [(lo, min(lo + cut, b), False) for lo in range(a, b, cut)]
+    return blocks
+
+
+class _Sampler:
+    """A(t) at any times, counting the assemblies (one call per refinement level)."""
+
+    def __init__(self, rows: RowsFunction) -> None:
+        self._rows = rows
+        self.count = 0
+
+    def at(self, times: np.ndarray) -> np.ndarray:
+        unique, inverse = np.unique(times, return_inverse=True)
+        self.count += unique.size
+        values = self._rows(unique)
+        if not np.all(np.isfinite(values)):
+            raise FloatingPointError("the equations of motion have non-finite coefficients")
+        return values[inverse.ravel()]
+
+
+def _assemble_table(
+    moving: list[tuple[int, int, float, float, np.ndarray]], static: list[tuple[int, int]],
+    static_values: np.ndarray, assemblies: int,
+) -> CoefficientTable:
+    shape = static_values.shape[1:]
+    entries = list(moving)
+    for (a, b), value in zip(static, static_values):
+        p = np.zeros((DEGREE + 1, *shape))
+        p[0] = value
+        entries.append((a, b, 0.0, 1.0, p))
+    entries.sort(key=lambda e: (e[0], e[2]))
+    firsts = np.array([e[0] for e in entries], dtype=np.int64)
+    new_block = np.ones(len(entries), dtype=bool)
+    new_block[1:] = firsts[1:] != firsts[:-1]
+    pieces = np.append(np.flatnonzero(new_block), len(entries)).astype(np.int64)
+    static_firsts = {a for a, _ in static}
+    table = CoefficientTable(
+        first=firsts[new_block],
+        last=np.array([e[1] for e in entries], dtype=np.int64)[new_block],
+        static=np.array([a in static_firsts for a in firsts[new_block]], dtype=np.bool_),
+        pieces=pieces,
+        lower=np.array([e[2] for e in entries]),
+        upper=np.array([e[3] for e in entries]),
+        poly=np.ascontiguousarray(np.array([e[4] for e in entries]).reshape(
+            len(entries), DEGREE + 1, *shape)),
+        reference=np.empty((0, *shape)),
+        assemblies=assemblies,
+    )
+    blocks = np.arange(len(table))
+    reference = table.evaluate(blocks, np.full(blocks.size, 0.5))
+    return replace(table, reference=np.ascontiguousarray(reference))

@@ -1,0 +1,118 @@
+"""Lawson (integrating-factor) fourth-order Runge–Kutta on a tabulated state matrix.
+
+The fast integrator of the first-order model, ``method = "lawson"``. For ẏ = Ã(t) y with the
+augmented state y = [z, ż, 1], each block of the coefficient table (``coefficient_table.py``)
+splits Ã(t) = Ã_ref + ΔÃ(t), Ã_ref its value mid-block. The stiff, oscillatory part Ã_ref is
+integrated exactly through E = exp(h/2 Ã_ref) (one exponential per block, not per step), the
+slow remainder ΔÃ(t) y by classical RK4 in the interaction picture (Lawson 1967; Hochbruck &
+Ostermann, Acta Numerica 19, 2010, §2.1):
+
+    a = E(y + h/2 k₁),  b = E y + h/2 k₂,  c = E(E y + h k₃),
+    y⁺ = E(E(y + h/6 k₁) + h/3 (k₂ + k₃)) + h/6 k₄,   k_i = ΔÃ(t_i)·(stage i).
+
+Its error is fourth order in h·‖ΔÃ‖, which a slow manoeuvre keeps small: unlike an explicit
+method its step is not bounded by the highest modal frequency, and unlike Magnus it needs no
+exponential per step. On resting blocks ΔÃ = 0 and a step is one product with exp(h Ã).
+
+Error control as for Magnus: the solution with s steps per output interval is compared with
+the one with 2s (Richardson, error ≈ difference / 15) until it is within atol + rtol · peak.
+The table itself is accurate to rtol of each coefficient's range (checked when it is built).
+Coefficients too rough to tabulate cheaply (a measured motion's spline has a knot at every
+sample) are integrated by Magnus instead, which assembles them where it needs them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from .threads import single_threaded
+
+from .batched_expm import expm_balanced
+from .coefficient_table import CoefficientTable, KeyFunction, RoughCoefficients, tabulate
+from .magnus import agree, augmented, integrate_magnus, state_rows
+from .ode import MatrixFunction, SimulationError
+
+_MAX_HALVINGS = 10
+_ASSEMBLIES_PER_STEP = 4
+_BLOCKS_PER_CALL = 64  # progress is reported between calls of the compiled loop
+
+
+def integrate_lawson(
+    matrices: MatrixFunction,
+    n: int,
+    t_out: np.ndarray,
+    rtol: float,
+    atol: float,
+    on_progress: Callable[[float], None] | None = None,
+    max_frequency: float = 0.0,
+    coefficient_keys: KeyFunction | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """z, ż and z̈ at t_out (each (nt, n)) from rest at t_out[0], and the method that ran:
+    "lawson", or "magnus" when the coefficients are too rough to tabulate (RoughCoefficients).
+
+    max_frequency (rad/s) sets the first step, as for Magnus; coefficient_keys labels instants
+    with equal coefficients (rest phases), see coefficient_table."""
+    first_step = min(2e-3, 3.0 / max_frequency) if max_frequency > 0 else 2e-3
+    substeps = max(1, int(np.ceil(np.diff(t_out).max() / first_step)))
+    with single_threaded():
+        try:  # more than Magnus' 2 assemblies per step and pass would not pay
+            table = tabulate(lambda times: state_rows(matrices, times), t_out, coefficient_keys,
+                             tolerance=rtol, budget=_ASSEMBLIES_PER_STEP * substeps)
+        except RoughCoefficients:
+            # Magnus assembles A where it needs it, which then costs less than a table.
+            z, zd = integrate_magnus(matrices, n, t_out, rtol, atol, on_progress, max_frequency,
+                                     coefficient_keys)
+            rows = state_rows(matrices, t_out)
+            zdd = np.einsum("tij,tj->ti", rows[:, :, : 2 * n], np.hstack([z, zd])) + rows[:, :, -1]
+            return z, zd, zdd, "magnus"
+        previous = _solve(table, n, t_out, substeps, on_progress)
+        for _ in range(_MAX_HALVINGS):
+            substeps *= 2
+            fine = _solve(table, n, t_out, substeps, on_progress)
+            if agree(fine[0][:, :-1], fine[0][:, :-1], previous[0][:, :-1], n, rtol, atol):
+                states, acc = fine
+                return states[:, :n], states[:, n: 2 * n], acc, "lawson"
+            previous = fine
+    raise SimulationError(
+        f"the integration did not reach rtol = {rtol:g}, atol = {atol:g} with {substeps} steps "
+        "per output interval; loosen the tolerances or check the model"
+    )
+
+
+def _solve(
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
+    on_progress: Callable[[float], None] | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval."""
+    from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used
+
+    E = _block_propagators(table, n, t_out, substeps)
+    states = np.empty((t_out.size, 2 * n + 1))
+    acc = np.empty((t_out.size, n))
+    y = np.zeros(2 * n + 1)
+    y[-1] = 1.0
+    states[0] = y
+    acc[0] = table.poly[0, 0] @ y  # A at τ = 0 of the first block
+    for lo in range(0, len(table), _BLOCKS_PER_CALL):
+        sl = slice(lo, lo + _BLOCKS_PER_CALL)
+        y = lawson_blocks(y, t_out, table.first[sl], table.last[sl], table.static[sl],
+                          table.pieces[lo:], table.lower, table.upper, table.poly,
+                          table.reference[sl], E[sl], substeps, states, acc)
+        if not np.all(np.isfinite(y)):
+            raise SimulationError(
+                f"the state became non-finite near t = {t_out[table.last[sl][-1]]:.4g} s")
+        if on_progress is not None:
+            on_progress(float(t_out[table.last[sl][-1]]))
+    return states, acc
+
+
+def _block_propagators(
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int
+) -> np.ndarray:
+    """exp(h Ã) for static blocks, exp(h/2 Ã_ref) for moving ones, (blocks, 2n+1, 2n+1)."""
+    h = (t_out[table.last] - t_out[table.first]) / ((table.last - table.first) * substeps)
+    factor = np.where(table.static, h, 0.5 * h)
+    A = augmented(table.reference)
+    scale = np.sqrt(max(np.abs(table.reference[:, :, :n]).max(), 1.0))
+    return np.ascontiguousarray(expm_balanced(A * factor[:, None, None], n, scale))

@@ -1,0 +1,104 @@
+"""The Lawson integrator and its coefficient table against the plain computations they replace."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flexlink.dynamics.first_order import FirstOrderSystem
+from flexlink.motion import Cycloidal, MeasuredMotion
+from flexlink.simulation import output_times
+from flexlink.solvers import integrate_lawson, integrate_magnus
+from flexlink.solvers.coefficient_table import tabulate
+from flexlink.solvers.lawson import _solve
+from flexlink.solvers.magnus import state_rows
+from tests.helpers import chain_of, paper_links
+
+
+def _system(start2: float = 0.7) -> FirstOrderSystem:
+    # Rest, move, rest, second move, rest.
+    motions = [Cycloidal(0.0, 60.0, 0.2, 0.3), Cycloidal(20.0, -40.0, start2, 0.2)]
+    return FirstOrderSystem(chain_of(paper_links(2), motions), True)
+
+
+def _table(system: FirstOrderSystem, t: np.ndarray, tolerance: float = 1e-7):
+    return tabulate(lambda times: state_rows(system.matrices, times), t,
+                    system.coefficient_keys, tolerance)
+
+
+def test_table_is_static_exactly_where_the_joints_rest() -> None:
+    system = _system()
+    t = output_times(1.2, 0.002)
+    table = _table(system, t)
+    moves = [(0.2, 0.5), (0.7, 0.9)]
+    for a, b, static in zip(table.first, table.last, table.static):
+        # Output times are multiples of 0.01 up to rounding: leave them that margin.
+        rests = all(t[b] < lo - 1e-9 or t[a] > hi + 1e-9 for lo, hi in moves)
+        moving = any(t[a] < hi - 1e-9 and t[b] > lo + 1e-9 for lo, hi in moves)
+        assert (static and not moving) or (not static and not rests), (t[a], t[b])
+    assert table.static.sum() == 3  # each rest phase is one block
+    assert np.all(table.last[:-1] == table.first[1:]) and table.last[-1] == t.size - 1
+
+
+@pytest.mark.parametrize("start2", [0.7, 0.7043])  # a kink on an output time, and between two
+def test_table_reproduces_the_assembled_coefficients(start2: float) -> None:
+    system = _system(start2)
+    t = output_times(1.2, 0.01)
+    tolerance = 1e-7
+    table = _table(system, t, tolerance)
+    probe = np.random.default_rng(0).uniform(0.0, 1.2, 400)
+    exact = state_rows(system.matrices, probe)
+    b = np.searchsorted(t[table.last], probe)  # block of each probe time
+    tau = (probe - t[table.first[b]]) / (t[table.last[b]] - t[table.first[b]])
+    interpolated = table.evaluate(b, tau)
+    spread = exact.max(axis=0) - exact.min(axis=0)
+    error = np.abs(interpolated - exact) / (spread + 1e-9 * np.abs(exact).max(axis=0) + 1e-300)
+    assert error.max() < 20 * tolerance
+    split = np.diff(table.pieces) > 1  # blocks of one output interval cut in pieces
+    assert split.any() == (start2 == 0.7043)
+
+
+def test_lawson_agrees_with_magnus() -> None:
+    system = _system(0.7043)
+    t = np.append(output_times(1.2, 0.005), 1.2037)  # a last, shorter interval
+    z, zd, zdd, _ = integrate_lawson(system.matrices, system.n, t, 1e-8, 1e-14,
+                                  max_frequency=system.max_frequency,
+                                  coefficient_keys=system.coefficient_keys)
+    zm, zdm = integrate_magnus(system.matrices, system.n, t, 1e-10, 1e-14,
+                               max_frequency=system.max_frequency,
+                               coefficient_keys=system.coefficient_keys)
+    assert np.abs(z - zm).max() < 1e-6 * np.abs(zm).max()
+    assert np.abs(zd - zdm).max() < 1e-6 * np.abs(zdm).max()
+    # z̈ from the table equals z̈ from the assembled equations at the same state.
+    assert np.abs(zdd - system.accelerations(t, z, zd)).max() < 1e-5 * np.abs(zdd).max()
+
+
+def test_lawson_is_fourth_order() -> None:
+    system = FirstOrderSystem(chain_of(paper_links(2), [Cycloidal(0.0, 90.0, 0.1, 1.0),
+                                                        Cycloidal(90.0, 170.0, 0.1, 1.0)]), True)
+    t = output_times(1.5, 0.02)
+    table = _table(system, t, 1e-10)
+    runs = [_solve(table, system.n, t, substeps, None)[0] for substeps in (4, 8, 16, 32)]
+    changes = [np.abs(fine - coarse).max() for coarse, fine in zip(runs, runs[1:])]
+    orders = np.log2(np.array(changes[:-1]) / np.array(changes[1:]))
+    assert np.all((orders > 3.5) & (orders < 4.5)), orders
+
+
+def test_rough_coefficients_are_integrated_by_magnus() -> None:
+    # Measured angles with noise, sampled at 1.7 ms: a spline knot every sample, between the
+    # output times; tabulating A(t) would cost more than assembling it where Magnus needs it.
+    t_data = np.arange(0.0, 0.6, 0.0017)
+    noise = np.random.default_rng(3).normal(0.0, 0.05, t_data.size)
+    angle = 30.0 * np.sin(2 * np.pi * t_data / 0.6) ** 2 + noise
+    motions = [MeasuredMotion.from_arrays(t_data, angle), Cycloidal(0.0, 0.0, 0.0, 1.0)]
+    system = FirstOrderSystem(chain_of(paper_links(2), motions), True)
+    t = output_times(0.5, 0.001)
+    z, zd, zdd, method = integrate_lawson(system.matrices, system.n, t, 1e-6, 1e-12,
+                                          max_frequency=system.max_frequency,
+                                          coefficient_keys=system.coefficient_keys)
+    assert method == "magnus"
+    zm, zdm = integrate_magnus(system.matrices, system.n, t, 1e-6, 1e-12,
+                               max_frequency=system.max_frequency,
+                               coefficient_keys=system.coefficient_keys)
+    assert np.array_equal(z, zm) and np.array_equal(zd, zdm)
+    assert np.allclose(zdd, system.accelerations(t, z, zd), rtol=1e-9, atol=1e-9 * np.abs(zdd).max())
