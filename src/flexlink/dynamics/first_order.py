@@ -12,11 +12,12 @@ All evaluations are vectorised over a leading time axis.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Chain
+from ..model import Chain, Link
 from ..modes import ModalData, ModeShapes, modal_data, tip_loaded_modes
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
 
@@ -76,6 +77,20 @@ def _outboard_loaded_shapes(chain: Chain, k: int) -> ModeShapes:
     return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
 
 
+@functools.lru_cache(maxsize=64)
+def _link_modal_data(link: Link) -> ModalData:
+    """Modal integrals of a link (immutable): computed once per process, reused by every run
+    of the same link (sweeps over manoeuvres, repeated runs)."""
+    return modal_data(link)
+
+
+def chain_modal_data(chain: Chain) -> list[ModalData]:
+    """The modal basis of every link (outboard-loaded modes depend on the whole chain)."""
+    return [modal_data(link, shapes=_outboard_loaded_shapes(chain, k))
+            if link.mode_shapes == "outboard_loaded" else _link_modal_data(link)
+            for k, link in enumerate(chain.links)]
+
+
 def _distinct_rows(history: JointHistory) -> tuple[JointHistory, np.ndarray]:
     """Runs of equal consecutive joint states: the first state of each run and, per time, the
     index of its run. Linear in the number of times (no sort); a state revisited after a
@@ -94,16 +109,13 @@ class FirstOrderSystem:
     def __init__(self, chain: Chain, geometric_stiffening: bool = False) -> None:
         self.chain = chain
         self.geometric_stiffening = geometric_stiffening
-        self.modal: list[ModalData] = [
-            modal_data(link, shapes=_outboard_loaded_shapes(chain, k))
-            if link.mode_shapes == "outboard_loaded" else modal_data(link)
-            for k, link in enumerate(chain.links)
-        ]
+        self.modal: list[ModalData] = chain_modal_data(chain)
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
         self.offsets: list[int] = [int(o) for o in offsets[:-1]]
         self.n: int = int(offsets[-1])
         self.bodies = [_link_body(d, o) for d, o in zip(self.modal, self.offsets)]
         self._frames_cache: tuple[np.ndarray, FrameMotion] | None = None
+        self._history_cache: tuple[np.ndarray, JointHistory] | None = None
 
     @property
     def max_frequency(self) -> float:
@@ -112,8 +124,15 @@ class FirstOrderSystem:
 
     # -- kinematics -------------------------------------------------------------------------
     def joint_history(self, t: np.ndarray) -> JointHistory:
-        """Prescribed joint angles, rates, accelerations at times t (s)."""
-        return joint_history(self.chain.joints, t)
+        """Prescribed joint angles, rates, accelerations at times t (s); remembered for the
+        last t asked for (a run asks for its output times several times)."""
+        t = np.asarray(t, dtype=float)
+        cached = self._history_cache
+        if cached is not None and cached[0].shape == t.shape and np.array_equal(cached[0], t):
+            return cached[1]
+        history = joint_history(self.chain.joints, t)
+        self._history_cache = (t.copy(), history)
+        return history
 
     def frames(self, t: np.ndarray) -> FrameMotion:
         """Frame motion at times t (s). Computed once per distinct joint state (a rest phase
@@ -126,7 +145,7 @@ class FirstOrderSystem:
         unique, inverse = _distinct_rows(self.joint_history(t))
         fr = frame_motion(unique, self.modal, self.offsets, self.n)
         if unique.angle.shape[0] < inverse.size:
-            fr = fr.take(inverse)
+            fr = fr.at_rows(inverse)
         self._frames_cache = (t.copy(), fr)
         return fr
 
@@ -156,11 +175,11 @@ class FirstOrderSystem:
         self, frames: FrameMotion, k: int, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """ξ_k, ξ̇_k, ξ̈_k (each (nt, 3+n_k)) from z, ż, z̈ (nt, n)."""
-        T, T_d, T_dd = frames.T[k], frames.T_dot[k], frames.T_ddot[k]
+        T, T_d, T_dd = frames.T, frames.T_dot, frames.T_ddot
         sl = self.bodies[k].slice
 
-        def apply(T: np.ndarray, v: np.ndarray) -> np.ndarray:
-            return np.einsum("tai,ti->ta", T, v)
+        def apply(maps: list[np.ndarray], v: np.ndarray) -> np.ndarray:
+            return frames.apply(maps, k, v)
 
         # T̂ = [T; E] with E picking q_k, constant: the rows of its derivatives are zero.
         xi = np.concatenate([apply(T, z), z[:, sl]], axis=1)

@@ -41,6 +41,45 @@ def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
     return JointHistory(angle, rate, acc)
 
 
+def _per_time(maps: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """maps[t] @ v[t] for every t: maps (nt, a, i), v (nt, i) → (nt, a)."""
+    return np.einsum("tai,ti->ta", maps, v)
+
+
+@dataclass(frozen=True)
+class RowIndex:
+    """Which distinct joint state each time has, for maps stored once per distinct state.
+
+    Long runs of one state (rest phases) are applied by one matrix product each, the rest by a
+    gather of the few maps they need: gathering every map for every time cost more than the
+    whole kinematical synthesis."""
+
+    size: int  # number of times
+    runs: tuple[tuple[int, int, int], ...]  # (first time, end time, state) of long runs
+    singles: np.ndarray  # times outside long runs
+    single_rows: np.ndarray  # their states
+
+    @classmethod
+    def from_rows(cls, rows: np.ndarray, long_run: int = 16) -> RowIndex:
+        starts = np.flatnonzero(np.diff(rows, prepend=-1) != 0)
+        ends = np.append(starts[1:], rows.size)
+        long = ends - starts >= long_run
+        runs = tuple((int(a), int(b), int(rows[a])) for a, b in zip(starts[long], ends[long]))
+        covered = np.zeros(rows.size, dtype=bool)
+        for a, b, _ in runs:
+            covered[a:b] = True
+        singles = np.flatnonzero(~covered)
+        return cls(rows.size, runs, singles, rows[singles])
+
+    def apply(self, maps: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """maps[state of t] @ v[t] for every time t: maps (states, a, i), v (nt, i) → (nt, a)."""
+        out = np.empty((self.size, maps.shape[1]))
+        for a, b, row in self.runs:
+            out[a:b] = v[a:b] @ maps[row].T
+        out[self.singles] = _per_time(maps[self.single_rows], v[self.singles])
+        return out
+
+
 @dataclass(frozen=True)
 class FrameMotion:
     """Zero-order motion of every link frame and its first-order perturbation maps.
@@ -48,7 +87,8 @@ class FrameMotion:
     theta, omega, alpha: (nt, N) absolute angle (rad), rate, acceleration of frame k.
     origin: (nt, N, 2) global position of frame origins (m).
     origin_accel: (nt, N, 2) origin acceleration in the frame's own axes (m/s²).
-    T, T_dot, T_ddot: per link (nt, 3, n_total) maps z → [ρx, ρy, θ1] and their time derivatives.
+    T, T_dot, T_ddot: per link (nt, 3, n_total) maps z → [ρx, ρy, θ1] and their time derivatives;
+    with ``rows`` set, one map per distinct joint state instead (apply them with ``apply``).
     """
 
     theta: np.ndarray
@@ -59,13 +99,20 @@ class FrameMotion:
     T: list[np.ndarray]
     T_dot: list[np.ndarray]
     T_ddot: list[np.ndarray]
+    rows: RowIndex | None = None
 
-    def take(self, index: np.ndarray) -> FrameMotion:
-        """The frame motion at the instants ``index`` (integer array into the time axis)."""
-        return FrameMotion(self.theta[index], self.omega[index], self.alpha[index],
-                           self.origin[index], self.origin_accel[index],
-                           [a[index] for a in self.T], [a[index] for a in self.T_dot],
-                           [a[index] for a in self.T_ddot])
+    def apply(self, maps: list[np.ndarray], k: int, v: np.ndarray) -> np.ndarray:
+        """maps[k](t) · v(t) at every time, (nt, 3): maps is T, T_dot or T_ddot, v (nt, n)."""
+        if self.rows is None:
+            return _per_time(maps[k], v)
+        return self.rows.apply(maps[k], v)
+
+    def at_rows(self, rows: np.ndarray) -> FrameMotion:
+        """This motion, computed once per distinct joint state, at times whose state indices
+        are ``rows``: the small arrays are expanded, the maps stay per state (``apply``)."""
+        return FrameMotion(self.theta[rows], self.omega[rows], self.alpha[rows],
+                           self.origin[rows], self.origin_accel[rows],
+                           self.T, self.T_dot, self.T_ddot, RowIndex.from_rows(rows))
 
 
 def rotation(angle: np.ndarray) -> np.ndarray:

@@ -22,15 +22,13 @@ All evaluations take a leading batch axis (times or states).
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Chain, Link
-from ..modes import ModalData, modal_data
+from ..model import Chain
 from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
-from .first_order import _outboard_loaded_shapes
+from .first_order import chain_modal_data
 from .kinematics import JointHistory, joint_history
 
 try:
@@ -63,20 +61,6 @@ class LinkArc:
     coords: slice  # this link's q_k in q
     dphi: np.ndarray  # (p, n_k) Φ′ at the nodes, 1/m
     ddphi: np.ndarray  # (p, n_k) Φ″ at the nodes, 1/m²
-
-
-@functools.lru_cache(maxsize=64)
-def _link_modal_data(link: Link) -> ModalData:
-    """Modal integrals of a link (immutable): computed once per process, reused by every run
-    of the same link (sweeps over manoeuvres, repeated runs)."""
-    return modal_data(link)
-
-
-def chain_modal_data(chain: Chain) -> list[ModalData]:
-    """The first-order model's basis for every link (FirstOrderSystem.modal)."""
-    return [modal_data(link, shapes=_outboard_loaded_shapes(chain, k))
-            if link.mode_shapes == "outboard_loaded" else _link_modal_data(link)
-            for k, link in enumerate(chain.links)]
 
 
 class NonlinearSystem:

@@ -75,7 +75,7 @@ def _q(system: FirstOrderSystem, z: np.ndarray, k: int) -> np.ndarray:
 
 def _xi(system: FirstOrderSystem, frames: FrameMotion, z: np.ndarray, k: int) -> np.ndarray:
     """ξ_k = [ρx, ρy, θ1, q_k] at every time, (nt, 3+n_k)."""
-    rho = np.einsum("tai,ti->ta", frames.T[k], z)
+    rho = frames.apply(frames.T, k, z)
     return np.concatenate([rho, _q(system, z, k)], axis=1)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=True)
 def _delta(poly, lower, upper, p0, p1, reference, tau, out):  # noqa: ANN001, ANN202
     """out = A(τ) − A_ref for one block whose pieces are p0 … p1−1 (Horner in τ)."""
     p = p0
@@ -19,14 +19,22 @@ def _delta(poly, lower, upper, p0, p1, reference, tau, out):  # noqa: ANN001, AN
         p += 1
     local = (tau - lower[p]) / (upper[p] - lower[p])
     degree = poly.shape[1] - 1
-    out[:, :] = poly[p, degree]
-    for d in range(degree - 1, -1, -1):
-        out *= local
-        out += poly[p, d]
-    out -= reference
+    for i in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            acc = poly[p, degree, i, j]
+            for d in range(degree - 1, -1, -1):
+                acc = acc * local + poly[p, d, i, j]
+            out[i, j] = acc - reference[i, j]
 
 
 @njit(cache=True)
+def _add(w, n, scale, k):  # noqa: ANN001, ANN202
+    """w[n:2n] += scale · k (the stages act on the velocity rows only)."""
+    for i in range(k.shape[0]):
+        w[n + i] += scale * k[i]
+
+
+@njit(cache=True, fastmath=True)  # lets the sums vectorise
 def _mv(A, x, out):  # noqa: ANN001, ANN202
     """out = A x without allocating (numba's @ allocates a result per call)."""
     for i in range(A.shape[0]):
@@ -37,14 +45,18 @@ def _mv(A, x, out):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True)
-def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, poly, reference, E,  # noqa: ANN001, ANN201
-                  substeps, states, accelerations):
-    """Advance the augmented state y = [z, ż, 1] through the blocks, in place.
+def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, poly, reference,  # noqa: ANN001, ANN201
+                  E_step, E_single, substeps, stride, states, accelerations, written):
+    """Advance the augmented state y = [z, ż, 1] through the blocks.
 
     Block b spans output indices first[b]..last[b], its polynomials are pieces[b]…pieces[b+1]−1
-    (coefficient_table.CoefficientTable); E[b] = exp(h/2 Ã_ref) for its step h (for a
-    static block, exp(h Ã) itself, the exact step). Writes y at every output index reached into
-    ``states`` and z̈ = A y into ``accelerations``. Returns y after the last block.
+    (coefficient_table.CoefficientTable). A moving block is crossed in steps of ``stride``
+    output intervals (1 or 2; an odd interval left at its end is one interval), each in
+    ``substeps`` Lawson steps: E_step[b] = exp(h/2 Ã_ref) for the step h of a stride,
+    E_single[b] for the step of one interval. A static block is crossed interval by interval
+    with E_single[b] = exp(Δt Ã), exact. Writes y where a stride ends into ``states`` (and
+    marks ``written``); with stride 1, also z̈ = A y of moving blocks into ``accelerations``.
+    Returns the last y.
     """
     m = y.shape[0]
     n = (m - 1) // 2
@@ -56,51 +68,55 @@ def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, poly, ref
     u[:] = y
     for b in range(first.size):
         i0, i1 = first[b], last[b]
-        P = np.ascontiguousarray(E[b])
         A_ref = reference[b]
         if static[b]:
-            Q = P.copy()  # one output interval: P^substeps
-            for _ in range(substeps - 1):
-                Q = Q @ P
+            P = np.ascontiguousarray(E_single[b])
             for i in range(i0, i1):
-                _mv(Q, u, w)
+                _mv(P, u, w)
                 u[:] = w
                 states[i + 1] = u
-                _mv(A_ref, u, r)
-                accelerations[i + 1] = r
+                written[i + 1] = True
             continue
-        steps = (i1 - i0) * substeps
-        h = (t_out[i1] - t_out[i0]) / steps
-        delta = 1.0 / steps
-        _delta(poly, lower, upper, pieces[b], pieces[b + 1], A_ref, 0.0, D1)
-        for j in range(steps):
-            tau = j * delta
-            _delta(poly, lower, upper, pieces[b], pieces[b + 1], A_ref, tau + 0.5 * delta, Dm)
-            _delta(poly, lower, upper, pieces[b], pieces[b + 1], A_ref, tau + delta, D2)
-            _mv(D1, u, k1)
-            w[:] = u
-            w[n:2 * n] += 0.5 * h * k1
-            _mv(P, w, a)
-            _mv(Dm, a, k2)
-            _mv(P, u, Ey)
-            w[:] = Ey
-            w[n:2 * n] += 0.5 * h * k2
-            _mv(Dm, w, k3)
-            w[:] = Ey
-            w[n:2 * n] += h * k3
-            _mv(P, w, a)  # stage c
-            _mv(D2, a, k4)
-            w[:] = u
-            w[n:2 * n] += (h / 6.0) * k1
-            _mv(P, w, v)
-            v[n:2 * n] += (h / 3.0) * (k2 + k3)
-            _mv(P, v, u)
-            u[n:2 * n] += (h / 6.0) * k4
-            D1[:, :] = D2
-            if (j + 1) % substeps == 0:
-                i = i0 + (j + 1) // substeps
-                states[i] = u
+        span = t_out[i1] - t_out[i0]
+        p0, p1 = pieces[b], pieces[b + 1]
+        _delta(poly, lower, upper, p0, p1, A_ref, 0.0, D1)
+        i = i0
+        while i < i1:
+            count = stride if i + stride <= i1 else 1
+            P = np.ascontiguousarray(E_step[b] if count == stride else E_single[b])
+            h = (t_out[i + count] - t_out[i]) / substeps
+            for j in range(substeps):
+                tau = (t_out[i] - t_out[i0] + j * h) / span
+                dtau = h / span
+                _delta(poly, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
+                _delta(poly, lower, upper, p0, p1, A_ref, tau + dtau, D2)
+                _mv(D1, u, k1)
+                w[:] = u
+                _add(w, n, 0.5 * h, k1)
+                _mv(P, w, a)
+                _mv(Dm, a, k2)
+                _mv(P, u, Ey)
+                w[:] = Ey
+                _add(w, n, 0.5 * h, k2)
+                _mv(Dm, w, k3)
+                w[:] = Ey
+                _add(w, n, h, k3)
+                _mv(P, w, a)  # stage c
+                _mv(D2, a, k4)
+                w[:] = u
+                _add(w, n, h / 6.0, k1)
+                _mv(P, w, v)
+                _add(v, n, h / 3.0, k2)
+                _add(v, n, h / 3.0, k3)
+                _mv(P, v, u)
+                _add(u, n, h / 6.0, k4)
+                D1[:, :] = D2
+            i += count
+            states[i] = u
+            written[i] = True
+            if stride == 1:
                 _mv(A_ref, u, r)
                 _mv(D2, u, k1)
-                accelerations[i] = r + k1
+                for q in range(n):
+                    accelerations[i, q] = r[q] + k1[q]
     return u
