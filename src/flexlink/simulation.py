@@ -53,7 +53,7 @@ def simulate(scenario: Scenario, progress: bool = False) -> Results:
             z, zd, zdd, method = integrate_lawson(
                 system.matrices, system.n, t, settings.rtol, settings.atol,
                 on_progress=bar.update, max_frequency=system.max_frequency,
-                coefficient_keys=system.coefficient_keys,
+                coefficient_keys=system.coefficient_keys, breaks=system.breakpoints(),
             )
         else:
             z, zd = integrate_second_order(

@@ -21,9 +21,11 @@ def _system(start2: float = 0.7) -> FirstOrderSystem:
     return FirstOrderSystem(chain_of(paper_links(2), motions), True)
 
 
-def _table(system: FirstOrderSystem, t: np.ndarray, tolerance: float = 1e-7):
+def _table(system: FirstOrderSystem, t: np.ndarray, tolerance: float = 1e-7,
+           breaks: bool = False):
     return tabulate(lambda times: state_rows(system.matrices, times), t,
-                    system.coefficient_keys, tolerance)
+                    system.coefficient_keys, tolerance,
+                    breaks=system.breakpoints() if breaks else None)
 
 
 def test_table_is_static_exactly_where_the_joints_rest() -> None:
@@ -40,12 +42,13 @@ def test_table_is_static_exactly_where_the_joints_rest() -> None:
     assert np.all(table.last[:-1] == table.first[1:]) and table.last[-1] == t.size - 1
 
 
+@pytest.mark.parametrize("breaks", [False, True])
 @pytest.mark.parametrize("start2", [0.7, 0.7043])  # a kink on an output time, and between two
-def test_table_reproduces_the_assembled_coefficients(start2: float) -> None:
+def test_table_reproduces_the_assembled_coefficients(start2: float, breaks: bool) -> None:
     system = _system(start2)
     t = output_times(1.2, 0.01)
     tolerance = 1e-7
-    table = _table(system, t, tolerance)
+    table = _table(system, t, tolerance, breaks)
     probe = np.random.default_rng(0).uniform(0.0, 1.2, 400)
     exact = state_rows(system.matrices, probe)
     b = np.searchsorted(t[table.last], probe)  # block of each probe time
@@ -56,14 +59,28 @@ def test_table_reproduces_the_assembled_coefficients(start2: float) -> None:
     assert error.max() < 20 * tolerance
     split = np.diff(table.pieces) > 1  # blocks of one output interval cut in pieces
     assert split.any() == (start2 == 0.7043)
+    if breaks and start2 == 0.7043:  # cut exactly at the kinks: two pieces, no refinement
+        assert np.diff(table.pieces).max() == 2
+        b = np.flatnonzero(split)
+        cuts = t[table.first[b]] + table.upper[table.pieces[b]] * (t[table.last[b]]
+                                                                   - t[table.first[b]])
+        assert np.allclose(cuts, [0.7043, 0.9043])
 
 
-def test_lawson_agrees_with_magnus() -> None:
+def test_breaks_save_the_refinement_around_kinks() -> None:
+    system = _system(0.7043)
+    t = output_times(1.2, 0.001)
+    assert _table(system, t, 1e-7, breaks=True).assemblies < 0.8 * _table(system, t, 1e-7).assemblies
+
+
+@pytest.mark.parametrize("breaks", [False, True])
+def test_lawson_agrees_with_magnus(breaks: bool) -> None:
     system = _system(0.7043)
     t = np.append(output_times(1.2, 0.005), 1.2037)  # a last, shorter interval
     z, zd, zdd, _ = integrate_lawson(system.matrices, system.n, t, 1e-8, 1e-14,
-                                  max_frequency=system.max_frequency,
-                                  coefficient_keys=system.coefficient_keys)
+                                     max_frequency=system.max_frequency,
+                                     coefficient_keys=system.coefficient_keys,
+                                     breaks=system.breakpoints() if breaks else None)
     zm, zdm = integrate_magnus(system.matrices, system.n, t, 1e-10, 1e-14,
                                max_frequency=system.max_frequency,
                                coefficient_keys=system.coefficient_keys)

@@ -272,3 +272,14 @@ def test_from_csv_reads_columns(tmp_path) -> None:
 def test_from_csv_errors(tmp_path, text: str, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         MeasuredMotion.from_csv(_write(tmp_path, text))
+
+
+def test_breakpoints_are_where_the_acceleration_jumps() -> None:
+    from flexlink.motion import Cycloidal, Hold, Quintic, Sequence, Spinup
+
+    assert Cycloidal(0.0, 10.0, 0.5, 1.0).breakpoints == (0.5, 1.5)
+    assert Quintic(0.0, 10.0, 0.2, 0.3).breakpoints == (0.2, 0.5)
+    assert Spinup(10.0, 1.0, 2.0).breakpoints == (1.0, 3.0)
+    assert Hold(5.0).breakpoints == ()
+    seq = Sequence((Hold(0.0), Cycloidal(0.0, 10.0, 0.5, 1.0), Cycloidal(10.0, 0.0, 1.5, 1.0)))
+    assert seq.breakpoints == (0.5, 1.5, 2.5)

@@ -149,6 +149,12 @@ class FirstOrderSystem:
         self._frames_cache = (t.copy(), fr)
         return fr
 
+    def breakpoints(self) -> np.ndarray:
+        """Times (s) where a joint's acceleration, and so the coefficients, are not smooth
+        (from each motion's ``breakpoints``, where it has them)."""
+        times = {b for joint in self.chain.joints for b in getattr(joint, "breakpoints", ())}
+        return np.array(sorted(times), dtype=float)
+
     def coefficient_keys(self, t: np.ndarray) -> np.ndarray:
         """Integer labels of the times t: equal labels ⇒ equal M, C, K, f.
 

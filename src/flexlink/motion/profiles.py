@@ -57,6 +57,11 @@ class _RestToRest:
         """Time the move ends, s."""
         return self.start + self.duration
 
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        """Times (s) where the acceleration is not smooth: the move's start and end."""
+        return (self.start, self.end)
+
     @staticmethod
     def _shape(tau: np.ndarray) -> Triple:
         """Normalised profile p(τ) and its derivatives dp/dτ, d²p/dτ²."""
@@ -128,6 +133,11 @@ class Spinup:
         """Time the spin-up phase ends (the rotation continues at Ω), s."""
         return self.start + self.duration
 
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        """Times (s) where the acceleration is not smooth: the spin-up's start and end."""
+        return (self.start, self.end)
+
     def evaluate(self, t: np.ndarray) -> Triple:
         """Angle (rad), rate (rad/s), acceleration (rad/s²) at times t (s), shaped like t."""
         t = np.asarray(t, dtype=float)
@@ -155,6 +165,8 @@ class Hold:
 
     def __post_init__(self) -> None:
         _number(self, "angle_deg", self.angle_deg, "deg")
+
+    breakpoints: ClassVar[tuple[float, ...]] = ()  # a held joint never changes
 
     def evaluate(self, t: np.ndarray) -> Triple:
         """Constant angle (rad), zero rate and acceleration, shaped like t (s)."""
@@ -196,6 +208,11 @@ class Sequence:
                                  "only the last segment can be a Spinup")
         for i in range(1, len(segments)):
             self._check_follows(i, segments[i - 1], segments[i])
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        """Times (s) where the acceleration is not smooth: those of every segment."""
+        return tuple(sorted({b for seg in self.segments for b in seg.breakpoints}))
 
     @staticmethod
     def _check_follows(i: int, prev: Segment, seg: Segment) -> None:

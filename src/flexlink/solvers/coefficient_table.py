@@ -32,6 +32,7 @@ _FIT = np.linalg.inv(np.vander(_NODES, increasing=True))  # samples → monomial
 _MAX_INTERVALS = 64  # output intervals per moving block before refinement
 _MAX_BLOCK = 0.064  # s, the same bound in time
 _MIN_PIECE = 1.0 / 64  # smallest piece of one output interval (around a kink of A)
+_BREAK_TOL = 1e-12  # s: a break this close to an output time is on it (arange rounding)
 
 
 @dataclass(frozen=True)
@@ -78,16 +79,21 @@ class RoughCoefficients(Exception):
 
 def tabulate(
     rows: RowsFunction, t_out: np.ndarray, keys: KeyFunction | None, tolerance: float,
-    budget: float | None = None,
+    budget: float | None = None, breaks: np.ndarray | None = None,
 ) -> CoefficientTable:
-    """Build the table of A(t) over the output times t_out (s). Raises RoughCoefficients when
-    it would need more than ``budget`` assemblies per moving output interval (+ 200)."""
-    blocks = _initial_blocks(t_out, keys)
+    """Build the table of A(t) over the output times t_out (s). ``breaks``: times (s) where A
+    is known not to be smooth (a motion starts or stops); blocks and pieces end there instead
+    of being refined down to them. Raises RoughCoefficients when it would need more than
+    ``budget`` assemblies per moving output interval (+ 200)."""
+    breaks = np.asarray([] if breaks is None else breaks, dtype=float)
+    breaks = breaks[(breaks > t_out[0]) & (breaks < t_out[-1])]
+    blocks = _initial_blocks(t_out, keys, breaks)
     sampler = _Sampler(rows)
     limit = (np.inf if budget is None
              else budget * sum(b - a for a, b, static in blocks if not static) + 200)
     # Candidate pieces (first, last, τ lower, τ upper) of the moving blocks.
-    moving = [(a, b, 0.0, 1.0) for a, b, static in blocks if not static]
+    moving = [piece for a, b, static in blocks if not static
+              for piece in _pieces_between_breaks(a, b, t_out, breaks)]
     static = [(a, b) for a, b, static in blocks if static]
     static_values = sampler.at(np.array([t_out[a] for a, _ in static]))
     scale = None
@@ -123,9 +129,23 @@ def tabulate(
     return _assemble_table(done, static, static_values, sampler.count)
 
 
-def _initial_blocks(t_out: np.ndarray, keys: KeyFunction | None) -> list[tuple[int, int, bool]]:
+def _pieces_between_breaks(
+    a: int, b: int, t_out: np.ndarray, breaks: np.ndarray
+) -> list[tuple[int, int, float, float]]:
+    """The block's initial pieces: one, or (a block of one interval) one per side of each
+    break inside it."""
+    inside = breaks[(breaks > t_out[a] + _BREAK_TOL) & (breaks < t_out[b] - _BREAK_TOL)]
+    if b - a > 1 or inside.size == 0:
+        return [(a, b, 0.0, 1.0)]
+    tau = np.concatenate([[0.0], (inside - t_out[a]) / (t_out[b] - t_out[a]), [1.0]])
+    return [(a, b, float(lo), float(hi)) for lo, hi in zip(tau[:-1], tau[1:]) if hi > lo]
+
+
+def _initial_blocks(
+    t_out: np.ndarray, keys: KeyFunction | None, breaks: np.ndarray
+) -> list[tuple[int, int, bool]]:
     """(first, last, static) blocks: runs of resting intervals, and moving runs cut into pieces
-    of ≤ _MAX_INTERVALS intervals of equal length and ≤ _MAX_BLOCK seconds."""
+    of ≤ _MAX_INTERVALS intervals of equal length and ≤ _MAX_BLOCK seconds, cut at breaks."""
     intervals = np.diff(t_out)
     if keys is None:
         resting = np.zeros(intervals.size, dtype=bool)
@@ -144,6 +164,14 @@ def _initial_blocks(t_out: np.ndarray, keys: KeyFunction | None) -> list[tuple[i
     change = np.ones(intervals.size, dtype=bool)
     change[1:] = ((resting[1:] != resting[:-1]) | (length_key[1:] != length_key[:-1])
                   | (resting[1:] & (label[1:] != label[:-1])))
+    # A break on an output time starts a block there; one inside an interval makes that
+    # interval a block of its own.
+    at = np.searchsorted(t_out, breaks)  # t_out[at - 1] < break ≤ t_out[at]
+    on_time = np.isclose(t_out[np.minimum(at, t_out.size - 1)], breaks, rtol=0.0, atol=_BREAK_TOL)
+    change[np.clip(at[on_time], 0, intervals.size - 1)] = True
+    inner = at[~on_time] - 1
+    change[inner] = True
+    change[np.minimum(inner + 1, intervals.size - 1)] = True
     starts = np.flatnonzero(change)
     ends = np.append(starts[1:], intervals.size)
     blocks: list[tuple[int, int, bool]] = []

@@ -48,12 +48,14 @@ def integrate_lawson(
     on_progress: Callable[[float], None] | None = None,
     max_frequency: float = 0.0,
     coefficient_keys: KeyFunction | None = None,
+    breaks: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     """z, ż and z̈ at t_out (each (nt, n)) from rest at t_out[0], and the method that ran:
     "lawson", or "magnus" when the coefficients are too rough to tabulate (RoughCoefficients).
 
     max_frequency (rad/s) sets the first step, as for Magnus; coefficient_keys labels instants
-    with equal coefficients (rest phases), see coefficient_table."""
+    with equal coefficients (rest phases), breaks are times where they are not smooth (see
+    coefficient_table)."""
     first_step = min(2e-3, 3.0 / max_frequency) if max_frequency > 0 else 2e-3
     # A fourth-order error goes as h⁴: tighter tolerances start with shorter steps (the paper
     # arm meets rtol 1e-4 with the first step above, 1 ms).
@@ -62,7 +64,8 @@ def integrate_lawson(
     with single_threaded():
         try:  # more than Magnus' 2 assemblies per step and pass would not pay
             table = tabulate(lambda times: state_rows(matrices, times), t_out, coefficient_keys,
-                             tolerance=rtol, budget=_ASSEMBLIES_PER_STEP * substeps)
+                             tolerance=rtol, budget=_ASSEMBLIES_PER_STEP * substeps,
+                             breaks=breaks)
         except RoughCoefficients:
             # Magnus assembles A where it needs it, which then costs less than a table.
             z, zd = integrate_magnus(matrices, n, t_out, rtol, atol, on_progress, max_frequency,
