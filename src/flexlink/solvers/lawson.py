@@ -24,6 +24,7 @@ sample) are integrated by Magnus instead, which assembles them where it needs th
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -73,10 +74,12 @@ def integrate_lawson(
             rows = state_rows(matrices, t_out)
             zdd = np.einsum("tij,tj->ti", rows[:, :, : 2 * n], np.hstack([z, zd])) + rows[:, :, -1]
             return z, zd, zdd, "magnus"
+        propagators = functools.cache(
+            lambda steps, stride: _block_propagators(table, n, t_out, steps, stride))
         # The first estimate compares steps h with steps 2h on every other output interval.
-        coarse, common = _solve(table, n, t_out, substeps, on_progress, stride=2)
+        coarse, common = _solve(table, n, t_out, substeps, on_progress, 2, propagators)
         for _ in range(_MAX_HALVINGS):
-            fine, _ = _solve(table, n, t_out, substeps, on_progress)
+            fine, _ = _solve(table, n, t_out, substeps, on_progress, 1, propagators)
             states, acc = fine
             if agree(states[:, :-1], states[common, :-1], coarse[0][common, :-1], n, rtol, atol):
                 return states[:, :n], states[:, n: 2 * n], acc, "lawson"
@@ -91,13 +94,18 @@ def integrate_lawson(
 def _solve(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
     on_progress: Callable[[float], None] | None, stride: int = 1,
+    propagators: Callable[[int, int], np.ndarray] | None = None,
 ) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
     """((augmented states (nt, 2n+1), z̈ (nt, n)), the output indices reached) with
-    `substeps` steps per `stride` output intervals; z̈ only for stride 1."""
+    `substeps` steps per `stride` output intervals; z̈ only for stride 1. ``propagators``
+    (substeps, stride) → _block_propagators, shared between the passes of one run."""
     from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used
 
-    E_step = _block_propagators(table, n, t_out, substeps, stride)
-    E_single = E_step if stride == 1 else _block_propagators(table, n, t_out, substeps, 1)
+    if propagators is None:
+        def propagators(steps: int, stride: int) -> np.ndarray:
+            return _block_propagators(table, n, t_out, steps, stride)
+    E_step = propagators(substeps, stride)
+    E_single = propagators(substeps, 1)
     states = np.empty((t_out.size, 2 * n + 1))
     acc = np.empty((t_out.size, n))
     written = np.zeros(t_out.size, dtype=np.bool_)
