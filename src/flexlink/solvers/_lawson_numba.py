@@ -1,7 +1,7 @@
 """Compiled (numba) step loop of the Lawson integrator (``lawson.py``).
 
-One step is five products with the 17 × 17 block propagator and three evaluations of a
-degree-5 polynomial of 8 × 17 matrices for the paper arm: ~4·10³ flops, ~2 µs compiled against
+One step is five products with the 17 × 17 block propagator and two evaluations of a
+degree-5 polynomial of 8 × 17 matrices for the paper arm: ~4·10³ flops, ~1 µs compiled against
 ~40 µs as a sequence of numpy calls. Compiled functions are cached on disk (``cache=True``).
 """
 
@@ -11,20 +11,20 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, fastmath=True)
-def _delta(poly, lower, upper, p0, p1, reference, tau, out):  # noqa: ANN001, ANN202
-    """out = A(τ) − A_ref for one block whose pieces are p0 … p1−1 (Horner in τ)."""
+@njit(cache=True)
+def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):  # noqa: ANN001, ANN202
+    """outT = (A(τ) − A_ref)ᵀ for one block whose pieces are p0 … p1−1 (Horner in τ)."""
     p = p0
     while p < p1 - 1 and tau > upper[p]:
         p += 1
     local = (tau - lower[p]) / (upper[p] - lower[p])
-    degree = poly.shape[1] - 1
-    for i in range(out.shape[0]):
-        for j in range(out.shape[1]):
-            acc = poly[p, degree, i, j]
+    degree = polyT.shape[1] - 1
+    for j in range(outT.shape[0]):
+        for i in range(outT.shape[1]):
+            acc = polyT[p, degree, j, i]
             for d in range(degree - 1, -1, -1):
-                acc = acc * local + poly[p, d, i, j]
-            out[i, j] = acc - reference[i, j]
+                acc = acc * local + polyT[p, d, j, i]
+            outT[j, i] = acc - referenceT[j, i]
 
 
 @njit(cache=True)
@@ -34,43 +34,47 @@ def _add(w, n, scale, k):  # noqa: ANN001, ANN202
         w[n + i] += scale * k[i]
 
 
-@njit(cache=True, fastmath=True)  # lets the sums vectorise
-def _mv(A, x, out):  # noqa: ANN001, ANN202
-    """out = A x without allocating (numba's @ allocates a result per call)."""
-    for i in range(A.shape[0]):
-        acc = 0.0
-        for j in range(A.shape[1]):
-            acc += A[i, j] * x[j]
-        out[i] = acc
+@njit(cache=True)
+def _mv(AT, x, out):  # noqa: ANN001, ANN202
+    """out = A x from Aᵀ, without allocating (numba's @ allocates a result per call).
+
+    Column by column: the inner loop is element-wise and vectorises without fastmath, and
+    each out[i] still sums in the order j = 0, 1, … (fastmath's reassociated sums depended on
+    memory alignment: a sweep case then differed in the last bits from its own single run)."""
+    out[:] = 0.0
+    for j in range(AT.shape[0]):
+        xj = x[j]
+        for i in range(AT.shape[1]):
+            out[i] += AT[j, i] * xj
 
 
 @njit(cache=True)
-def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, poly, reference,  # noqa: ANN001, ANN201
-                  E_step, E_single, substeps, stride, states, accelerations, written):
+def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,  # noqa: ANN001, ANN201
+                  E_stepT, E_singleT, substeps, stride, states, accelerations, written):
     """Advance the augmented state y = [z, ż, 1] through the blocks.
 
     Block b spans output indices first[b]..last[b], its polynomials are pieces[b]…pieces[b+1]−1
-    (coefficient_table.CoefficientTable). A moving block is crossed in steps of ``stride``
-    output intervals (1 or 2; an odd interval left at its end is one interval), each in
-    ``substeps`` Lawson steps: E_step[b] = exp(h/2 Ã_ref) for the step h of a stride,
-    E_single[b] for the step of one interval. A static block is crossed interval by interval
-    with E_single[b] = exp(Δt Ã), exact. Writes y where a stride ends into ``states`` (and
-    marks ``written``); with stride 1, also z̈ = A y of moving blocks into ``accelerations``.
-    Returns the last y.
+    (coefficient_table.CoefficientTable; every matrix here is passed transposed, for _mv). A
+    moving block is crossed in steps of ``stride`` output intervals (1 or 2; an odd interval
+    left at its end is one interval), each in ``substeps`` Lawson steps: E_step[b] =
+    exp(h/2 Ã_ref) for the step h of a stride, E_single[b] for the step of one interval. A
+    static block is crossed interval by interval with E_single[b] = exp(Δt Ã), exact. Writes
+    y where a stride ends into ``states`` (and marks ``written``); with stride 1, also
+    z̈ = A y of moving blocks into ``accelerations``. Returns the last y.
     """
     m = y.shape[0]
     n = (m - 1) // 2
-    D1 = np.empty((n, m))
-    Dm = np.empty((n, m))
-    D2 = np.empty((n, m))
+    D1 = np.empty((m, n))
+    Dm = np.empty((m, n))
+    D2 = np.empty((m, n))
     k1, k2, k3, k4, r = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     u, w, a, Ey, v = np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     u[:] = y
     for b in range(first.size):
         i0, i1 = first[b], last[b]
-        A_ref = reference[b]
+        A_ref = referenceT[b]
         if static[b]:
-            P = np.ascontiguousarray(E_single[b])
+            P = E_singleT[b]
             for i in range(i0, i1):
                 _mv(P, u, w)
                 u[:] = w
@@ -79,17 +83,17 @@ def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, poly, ref
             continue
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[b], pieces[b + 1]
-        _delta(poly, lower, upper, p0, p1, A_ref, 0.0, D1)
+        _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, D1)
         i = i0
         while i < i1:
             count = stride if i + stride <= i1 else 1
-            P = np.ascontiguousarray(E_step[b] if count == stride else E_single[b])
+            P = E_stepT[b] if count == stride else E_singleT[b]
             h = (t_out[i + count] - t_out[i]) / substeps
             for j in range(substeps):
                 tau = (t_out[i] - t_out[i0] + j * h) / span
                 dtau = h / span
-                _delta(poly, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
-                _delta(poly, lower, upper, p0, p1, A_ref, tau + dtau, D2)
+                _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
+                _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, D2)
                 _mv(D1, u, k1)
                 w[:] = u
                 _add(w, n, 0.5 * h, k1)

@@ -9,10 +9,11 @@ degree 5 in τ ∈ [0, 1] through six Chebyshev–Lobatto samples.
 The table checks itself: A is also assembled midway between the samples, and a block whose
 polynomial misses one of those values by more than ``tolerance`` × (that entry's range over the
 run) is split in two, down to one output interval, whose time range is then split in pieces
-(down to 1/64 of it) around a kink of A between output times. Intervals where the joints rest (equal joint
-states at both ends and in the middle, ``coefficient_keys``) form static blocks with A exactly
-constant. Blocks never straddle a change from rest to motion, so the kinks of A where a motion
-starts or stops fall on block ends when they fall on output times.
+(down to 1/64 of it) around a kink of A between output times. Intervals where the joints rest
+(equal joint states at both ends and in the middle, ``coefficient_keys``) form static blocks
+with A exactly constant. Where the joint motions say their acceleration jumps (``breaks``, a
+motion's start and end), blocks end, or a block of one interval is cut into pieces, exactly
+there, so that no refinement is spent on those kinks.
 """
 
 from __future__ import annotations
