@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from flexlink.dynamics.first_order import FirstOrderSystem
-from flexlink.motion import Cycloidal, MeasuredMotion
+from flexlink.motion import Cycloidal, MeasuredMotion, Sequence
 from flexlink.simulation import output_times
 from flexlink.solvers import integrate_lawson, integrate_magnus
 from flexlink.solvers.coefficient_table import tabulate
@@ -95,7 +95,7 @@ def test_lawson_is_fourth_order() -> None:
                                                         Cycloidal(90.0, 170.0, 0.1, 1.0)]), True)
     t = output_times(1.5, 0.02)
     table = _table(system, t, 1e-10)
-    runs = [_solve(table, system.n, t, substeps, None)[0][0] for substeps in (4, 8, 16, 32)]
+    runs = [_solve(table, system.n, t, substeps, None)[0] for substeps in (4, 8, 16, 32)]
     changes = [np.abs(fine - coarse).max() for coarse, fine in zip(runs, runs[1:])]
     orders = np.log2(np.array(changes[:-1]) / np.array(changes[1:]))
     assert np.all((orders > 3.5) & (orders < 4.5)), orders
@@ -119,3 +119,26 @@ def test_rough_coefficients_are_integrated_by_magnus() -> None:
                                coefficient_keys=system.coefficient_keys)
     assert np.array_equal(z, zm) and np.array_equal(zd, zdm)
     assert np.allclose(zdd, system.accelerations(t, z, zd), rtol=1e-9, atol=1e-9 * np.abs(zdd).max())
+
+
+@pytest.mark.parametrize("motion", [
+    Cycloidal(0.0, 1.0, 0.5123, 0.03),  # a whole move inside one output interval
+    Sequence((Cycloidal(0.0, 1.0, 0.5, 0.02), Cycloidal(1.0, 0.0, 0.52, 0.02))),  # and back
+])
+def test_a_move_inside_one_output_interval_is_integrated(motion) -> None:  # noqa: ANN001
+    # Regressions: the move there and back left equal joint states at both ends and in the
+    # middle of its interval, which was taken for rest (the move was skipped: 100% error); and
+    # a block of one interval had no error estimate in the first comparison (6e-4 of peak).
+    system = FirstOrderSystem(chain_of(paper_links(2), [motion, Cycloidal(90.0, 90.0, 0.0, 1.0)]),
+                              True)
+    t = output_times(1.0, 0.1)
+    z, zd, _, method = integrate_lawson(system.matrices, system.n, t, 1e-6, 1e-14,
+                                        max_frequency=system.max_frequency,
+                                        coefficient_keys=system.coefficient_keys,
+                                        breaks=system.breakpoints())
+    zm, zdm = integrate_magnus(system.matrices, system.n, t, 1e-8, 1e-14,
+                               max_frequency=system.max_frequency,
+                               coefficient_keys=system.coefficient_keys)
+    assert method == "lawson" and np.abs(zm).max() > 0
+    assert np.abs(z - zm).max() < 2e-5 * np.abs(zm).max()
+    assert np.abs(zd - zdm).max() < 2e-5 * np.abs(zdm).max()

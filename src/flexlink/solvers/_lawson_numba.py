@@ -50,17 +50,15 @@ def _mv(AT, x, out):  # noqa: ANN001, ANN202
 
 @njit(cache=True)
 def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,  # noqa: ANN001, ANN201
-                  E_stepT, E_singleT, substeps, stride, states, accelerations, written):
+                  ET, substeps, states, accelerations):
     """Advance the augmented state y = [z, ż, 1] through the blocks.
 
     Block b spans output indices first[b]..last[b], its polynomials are pieces[b]…pieces[b+1]−1
     (coefficient_table.CoefficientTable; every matrix here is passed transposed, for _mv). A
-    moving block is crossed in steps of ``stride`` output intervals (1 or 2; an odd interval
-    left at its end is one interval), each in ``substeps`` Lawson steps: E_step[b] =
-    exp(h/2 Ã_ref) for the step h of a stride, E_single[b] for the step of one interval. A
-    static block is crossed interval by interval with E_single[b] = exp(Δt Ã), exact. Writes
-    y where a stride ends into ``states`` (and marks ``written``); with stride 1, also
-    z̈ = A y of moving blocks into ``accelerations``. Returns the last y.
+    moving block is crossed in ``substeps`` Lawson steps per output interval, E[b] =
+    exp(h/2 Ã_ref); a static block interval by interval with E[b] = exp(Δt Ã), exact. Writes y
+    at every output index into ``states`` and, on moving blocks, z̈ = A y into
+    ``accelerations``. Returns the last y.
     """
     m = y.shape[0]
     n = (m - 1) // 2
@@ -73,22 +71,18 @@ def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, polyT, re
     for b in range(first.size):
         i0, i1 = first[b], last[b]
         A_ref = referenceT[b]
+        P = ET[b]
         if static[b]:
-            P = E_singleT[b]
             for i in range(i0, i1):
                 _mv(P, u, w)
                 u[:] = w
                 states[i + 1] = u
-                written[i + 1] = True
             continue
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[b], pieces[b + 1]
         _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, D1)
-        i = i0
-        while i < i1:
-            count = stride if i + stride <= i1 else 1
-            P = E_stepT[b] if count == stride else E_singleT[b]
-            h = (t_out[i + count] - t_out[i]) / substeps
+        for i in range(i0, i1):
+            h = (t_out[i + 1] - t_out[i]) / substeps
             for j in range(substeps):
                 tau = (t_out[i] - t_out[i0] + j * h) / span
                 dtau = h / span
@@ -115,12 +109,9 @@ def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, polyT, re
                 _mv(P, v, u)
                 _add(u, n, h / 6.0, k4)
                 D1[:, :] = D2
-            i += count
-            states[i] = u
-            written[i] = True
-            if stride == 1:
-                _mv(A_ref, u, r)
-                _mv(D2, u, k1)
-                for q in range(n):
-                    accelerations[i, q] = r[q] + k1[q]
+            states[i + 1] = u
+            _mv(A_ref, u, r)
+            _mv(D2, u, k1)
+            for q in range(n):
+                accelerations[i + 1, q] = r[q] + k1[q]
     return u

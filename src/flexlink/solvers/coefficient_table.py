@@ -159,6 +159,13 @@ def _initial_blocks(
         at, mid = k[0::2], k[1::2]
         resting = (at[:-1] == at[1:]) & (at[:-1] == mid)
         label = at[:-1]
+    # A break inside an interval means motion there, even if the joints are back where they
+    # were at both ends and in the middle (a quick move there and back).
+    where = np.searchsorted(t_out, breaks)  # t_out[where - 1] < break ≤ t_out[where]
+    on_time = np.isclose(t_out[np.minimum(where, t_out.size - 1)], breaks, rtol=0.0,
+                         atol=_BREAK_TOL)
+    inner = where[~on_time] - 1
+    resting[inner] = False
     # Equal step lengths within a block (the last output interval may be shorter).
     length_key = np.round(intervals / intervals.max(), 9)
     # Runs of intervals alike in rest/motion, rest state and length; moving runs then cut.
@@ -167,10 +174,7 @@ def _initial_blocks(
                   | (resting[1:] & (label[1:] != label[:-1])))
     # A break on an output time starts a block there; one inside an interval makes that
     # interval a block of its own.
-    at = np.searchsorted(t_out, breaks)  # t_out[at - 1] < break ≤ t_out[at]
-    on_time = np.isclose(t_out[np.minimum(at, t_out.size - 1)], breaks, rtol=0.0, atol=_BREAK_TOL)
-    change[np.clip(at[on_time], 0, intervals.size - 1)] = True
-    inner = at[~on_time] - 1
+    change[np.clip(where[on_time], 0, intervals.size - 1)] = True
     change[inner] = True
     change[np.minimum(inner + 1, intervals.size - 1)] = True
     starts = np.flatnonzero(change)

@@ -15,8 +15,8 @@ method its step is not bounded by the highest modal frequency, and unlike Magnus
 exponential per step. On resting blocks ΔÃ = 0 and a step is one product with exp(h Ã).
 
 Error control as for Magnus: the solution with steps h is compared with the one with steps 2h
-(first on every other output interval, then with h halved; Richardson, error ≈ difference /
-15) until it is within atol + rtol · peak.
+(Richardson, error ≈ difference / 15), h halved until that is within atol + rtol · peak. The
+number of steps per output interval is even, at least two.
 The table itself is accurate to rtol of each coefficient's range (checked when it is built).
 Coefficients too rough to tabulate cheaply (a measured motion's spline has a knot at every
 sample) are integrated by Magnus instead, which assembles them where it needs them.
@@ -24,7 +24,6 @@ sample) are integrated by Magnus instead, which assembles them where it needs th
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -61,7 +60,9 @@ def integrate_lawson(
     # A fourth-order error goes as h⁴: tighter tolerances start with shorter steps (the paper
     # arm meets rtol 1e-4 with the first step above, 1 ms).
     first_step *= min(1.0, (rtol / 1e-4) ** 0.25)
-    substeps = max(1, int(np.ceil(np.diff(t_out).max() / first_step)))
+    # An even number of steps per output interval, so that the first error estimate can
+    # compare with half as many on every interval, a block of one interval included.
+    substeps = 2 * max(1, int(np.ceil(np.diff(t_out).max() / (2 * first_step))))
     with single_threaded():
         try:  # more than Magnus' 2 assemblies per step and pass would not pay
             table = tabulate(lambda times: state_rows(matrices, times), t_out, coefficient_keys,
@@ -74,16 +75,13 @@ def integrate_lawson(
             rows = state_rows(matrices, t_out)
             zdd = np.einsum("tij,tj->ti", rows[:, :, : 2 * n], np.hstack([z, zd])) + rows[:, :, -1]
             return z, zd, zdd, "magnus"
-        propagators = functools.cache(
-            lambda steps, stride: _block_propagators(table, n, t_out, steps, stride))
-        # The first estimate compares steps h with steps 2h on every other output interval.
-        coarse, common = _solve(table, n, t_out, substeps, on_progress, 2, propagators)
+        coarse = _solve(table, n, t_out, substeps // 2, on_progress)
         for _ in range(_MAX_HALVINGS):
-            fine, _ = _solve(table, n, t_out, substeps, on_progress, 1, propagators)
+            fine = _solve(table, n, t_out, substeps, on_progress)
             states, acc = fine
-            if agree(states[:, :-1], states[common, :-1], coarse[0][common, :-1], n, rtol, atol):
+            if agree(states[:, :-1], states[:, :-1], coarse[0][:, :-1], n, rtol, atol):
                 return states[:, :n], states[:, n: 2 * n], acc, "lawson"
-            coarse, common = fine, slice(None)
+            coarse = fine
             substeps *= 2
     raise SimulationError(
         f"the integration did not reach rtol = {rtol:g}, atol = {atol:g} with {substeps} steps "
@@ -93,55 +91,44 @@ def integrate_lawson(
 
 def _solve(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
-    on_progress: Callable[[float], None] | None, stride: int = 1,
-    propagators: Callable[[int, int], np.ndarray] | None = None,
-) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
-    """((augmented states (nt, 2n+1), z̈ (nt, n)), the output indices reached) with
-    `substeps` steps per `stride` output intervals; z̈ only for stride 1. ``propagators``
-    (substeps, stride) → _block_propagators, shared between the passes of one run."""
+    on_progress: Callable[[float], None] | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval."""
     from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used
 
-    if propagators is None:
-        def propagators(steps: int, stride: int) -> np.ndarray:
-            return _block_propagators(table, n, t_out, steps, stride)
-    E_step = propagators(substeps, stride)
-    E_single = propagators(substeps, 1)
+    ET = _block_propagators(table, n, t_out, substeps)
     polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))  # the loop takes transposes
     referenceT = np.ascontiguousarray(np.swapaxes(table.reference, 1, 2))
     states = np.empty((t_out.size, 2 * n + 1))
     acc = np.empty((t_out.size, n))
-    written = np.zeros(t_out.size, dtype=np.bool_)
     y = np.zeros(2 * n + 1)
     y[-1] = 1.0
     states[0] = y
-    written[0] = True
     acc[0] = table.poly[0, 0] @ y  # A at τ = 0 of the first block
     for lo in range(0, len(table), _BLOCKS_PER_CALL):
         sl = slice(lo, lo + _BLOCKS_PER_CALL)
         y = lawson_blocks(y, t_out, table.first[sl], table.last[sl], table.static[sl],
                           table.pieces[lo:], table.lower, table.upper, polyT,
-                          referenceT[sl], E_step[sl], E_single[sl], substeps, stride,
-                          states, acc, written)
+                          referenceT[sl], ET[sl], substeps, states, acc)
         if not np.all(np.isfinite(y)):
             raise SimulationError(
                 f"the state became non-finite near t = {t_out[table.last[sl][-1]]:.4g} s")
         if on_progress is not None:
             on_progress(float(t_out[table.last[sl][-1]]))
-    if stride == 1:
-        for a, b, A in zip(table.first[table.static], table.last[table.static],
-                           table.reference[table.static]):
-            acc[a + 1: b + 1] = states[a + 1: b + 1] @ A.T  # resting: z̈ = A y, A constant
-    return (states, acc), np.flatnonzero(written)
+    for a, b, A in zip(table.first[table.static], table.last[table.static],
+                       table.reference[table.static]):
+        acc[a + 1: b + 1] = states[a + 1: b + 1] @ A.T  # resting: z̈ = A y, A constant
+    return states, acc
 
 
 def _block_propagators(
-    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int, stride: int
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int
 ) -> np.ndarray:
     """Per block, transposed for the compiled loop, (blocks, 2n+1, 2n+1): exp(Δt Ã)ᵀ of one
-    output interval Δt for a static block, exp(h/2 Ã_ref)ᵀ for a moving one, h = stride · Δt /
+    output interval Δt for a static block, exp(h/2 Ã_ref)ᵀ for a moving one, h = Δt /
     substeps."""
     dt = (t_out[table.last] - t_out[table.first]) / (table.last - table.first)
-    factor = np.where(table.static, dt, 0.5 * stride * dt / substeps)
+    factor = np.where(table.static, dt, 0.5 * dt / substeps)
     A = augmented(table.reference)
     scale = np.sqrt(max(np.abs(table.reference[:, :, :n]).max(), 1.0))
     return np.ascontiguousarray(np.swapaxes(expm_balanced(A * factor[:, None, None], n, scale),
