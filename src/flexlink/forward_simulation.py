@@ -12,7 +12,6 @@ import time
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from .solvers.threads import single_threaded
 
 from ._version import package_version
 from .drives import Base, PositionServo, TorqueDrive, VelocityServo, command_volts
@@ -22,8 +21,9 @@ from .model import Scenario
 from .results import Results
 from .sensors.evaluate import Trajectory, _tip_position, sensor_channels
 from .solvers import SimulationError
+from .solvers.threads import single_threaded
 
-DEFAULT_METHOD = "DOP853"  # "magnus" (the prescribed-joint integrator) does not apply here
+DEFAULT_METHOD = "DOP853"  # "lawson", "magnus" (prescribed-joint integrators) do not apply here
 MAX_STEP_OUTPUTS = 10  # longest step, in output intervals (simulation.dt_out)
 # A run whose right-hand side is called STALL_CALLS times while time advances by less than
 # STALL_FRACTION of the span is stopped: solve_ivp would otherwise grind on at steps of

@@ -13,10 +13,10 @@ from .model import Scenario
 from .results import Results
 from .sensors.evaluate import Trajectory
 from .sensors.nonlinear import joint_and_tip_channels, sensor_channels
-from .solvers.threads import single_threaded
 from .simulation import _ProgressBar, output_times
 from .solvers import SimulationError
 from .solvers.gauss import solve_nonlinear
+from .solvers.threads import single_threaded
 
 _version = functools.lru_cache(maxsize=1)(package_version)  # metadata lookup: ~5 ms per call
 

@@ -20,10 +20,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from .threads import single_threaded
 
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
 from .ode import SimulationError
+from .threads import single_threaded
 
 try:
     from ._gauss_numba import gauss_loop

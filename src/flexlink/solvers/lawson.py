@@ -27,12 +27,12 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from .threads import single_threaded
 
 from .batched_expm import expm_balanced
 from .coefficient_table import CoefficientTable, KeyFunction, RoughCoefficients, tabulate
 from .magnus import agree, augmented, initial_step, integrate_magnus, state_rows
 from .ode import MatrixFunction, SimulationError
+from .threads import single_threaded
 
 _MAX_HALVINGS = 10
 _ASSEMBLIES_PER_STEP = 4

@@ -30,10 +30,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from .threads import single_threaded
 
 from .batched_expm import expm_balanced
 from .ode import MatrixFunction, SimulationError
+from .threads import single_threaded
 
 _GAUSS = np.array([0.5 - np.sqrt(3) / 6, 0.5 + np.sqrt(3) / 6])
 _CHUNK = 2048  # time samples per vectorised assembly (bounds memory for long chains)
