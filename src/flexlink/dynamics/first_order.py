@@ -165,17 +165,7 @@ class FirstOrderSystem:
 
     def xi_maps(self, frames: FrameMotion, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """T̂_k = [T_k; E_k] and its time derivatives, each (nt, 3+n_k, n)."""
-        body = self.bodies[k]
-        nt = frames.theta.shape[0]
-        nk = body.data.n
-        E = np.zeros((nt, nk, self.n))
-        E[:, :, body.slice] = np.eye(nk)
-        zero = np.zeros_like(E)
-        return (
-            np.concatenate([frames.T[k], E], axis=1),
-            np.concatenate([frames.T_dot[k], zero], axis=1),
-            np.concatenate([frames.T_ddot[k], zero], axis=1),
-        )
+        return xi_maps(frames, self.bodies[k], k, self.n)
 
     def xi_states(
         self, frames: FrameMotion, k: int, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray
@@ -219,22 +209,8 @@ class FirstOrderSystem:
         f = np.zeros((nt, n))
         outboard = self._outboard_inertia_force(fr)
         for k, body in enumerate(self.bodies):
-            d = body.data
-            w = fr.omega[:, k, None, None]
-            wd = fr.alpha[:, k, None, None]
-            Th, Th_d, Th_dd = self.xi_maps(fr, k)
-            Mtot = body.M0 + body.M_rot
-            ThT = np.swapaxes(Th, 1, 2)
-            M += ThT @ Mtot @ Th
-            C += ThT @ (2.0 * Mtot @ Th_d + 2.0 * w * (body.G0 @ Th))
-            K += ThT @ (
-                Mtot @ Th_dd + 2.0 * w * (body.G0 @ Th_d) + (wd * body.G0 - w**2 * body.M0) @ Th
-            )
-            f -= np.einsum("tai,ta->ti", Th, self._rigid_load(body, fr, k))
-            K -= self._second_order_stiffness(body, fr, k, outboard[:, k])
-            sl = body.slice
-            K[:, sl, sl] += d.stiffness_matrix
-            C[:, sl, sl] += d.damping_matrix
+            add_link_terms(body, fr, k, self.xi_maps(fr, k), self._rigid_load(body, fr, k),
+                           self._second_order_stiffness(body, fr, k, outboard[:, k]), M, C, K, f)
         return M, C, K, f
 
     def accelerations(self, t: np.ndarray, z: np.ndarray, zd: np.ndarray) -> np.ndarray:
@@ -245,17 +221,8 @@ class FirstOrderSystem:
 
     # -- pieces -----------------------------------------------------------------------------
     def _rigid_load(self, body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
-        """∫ P̂ᵀ a0 dm + J_t c ω̇: zero-order inertia load of link k in ξ space, (nt, 3+n)."""
-        d = body.data
-        ax, ay = fr.origin_accel[:, k, 0], fr.origin_accel[:, k, 1]
-        w, wd = fr.omega[:, k], fr.alpha[:, k]
-        m, s1, J = d.mass, d.first_moment, d.second_moment
-        head = np.stack([m * ax - w**2 * s1, m * ay + wd * s1, s1 * ay + J * wd], -1)
-        elastic = ay[:, None] * d.phi_bar + wd[:, None] * d.phi_tilde
-        load = np.concatenate([head, elastic], -1)
-        load[:, 2] += d.tip_inertia * wd
-        load[:, 3:] += d.tip_inertia * wd[:, None] * d.tip_slope
-        return load
+        """rigid_load of link k (a method: the energy test removes one of its terms)."""
+        return rigid_load(body, fr, k)
 
     def _outboard_inertia_force(self, fr: FrameMotion) -> np.ndarray:
         """Σ_{j>k} ∫_j a0 dm in frame k's axes (N): minus the joint force at link k's tip."""
@@ -274,26 +241,91 @@ class FirstOrderSystem:
     def _second_order_stiffness(
         self, body: LinkBody, fr: FrameMotion, k: int, outboard: np.ndarray
     ) -> np.ndarray:
-        """∫ (∂r₂/∂z)·a0 dm of link k plus the outboard load acting on its tip's r₂, (nt, n, n).
+        """second_order_stiffness of link k in z (docs/derivation.md §4)."""
+        return second_order_stiffness(body, fr, k, outboard, self.geometric_stiffening)
 
-        r₂ in frame k is [u_x − θ1 w − x θ1²/2, 0] with foreshortening u_x = −½ qᵀS(x)q.
-        """
-        d = body.data
-        ax = fr.origin_accel[:, k, 0]
-        w2 = fr.omega[:, k] ** 2
-        N = outboard[:, 0]
-        vec = ax[:, None] * d.phi_bar - w2[:, None] * d.phi_tilde + N[:, None] * d.tip_value
-        scal = ax * d.first_moment - w2 * d.second_moment + N * d.length
-        theta1 = fr.T[k][:, 2, :]  # (nt, n)
-        sl = body.slice
-        out = scal[:, None, None] * theta1[:, :, None] * theta1[:, None, :]
-        cross = theta1[:, :, None] * vec[:, None, :]  # Θᵀ v, columns on q_k
-        out[:, :, sl] += cross
-        out[:, sl, :] += np.swapaxes(cross, 1, 2)
-        if self.geometric_stiffening:
-            out[:, sl, sl] += (
-                ax[:, None, None] * d.foreshortening_mass
-                - w2[:, None, None] * d.foreshortening_moment
-                + N[:, None, None] * d.foreshortening_tip
-            )
-        return out
+
+# -- per-link terms, shared with the forward-dynamics system (dynamics/forward.py) ------------
+def xi_maps(fr: FrameMotion, body: LinkBody, k: int, n_total: int
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """T̂_k = [T_k; E_k] and its time derivatives, each (nt, 3+n_k, n_total); E_k picks q_k
+    out of the n_total coordinates, so its derivatives are zero."""
+    nt = fr.theta.shape[0]
+    nk = body.data.n
+    E = np.zeros((nt, nk, n_total))
+    E[:, :, body.slice] = np.eye(nk)
+    zero = np.zeros_like(E)
+    return (
+        np.concatenate([fr.T[k], E], axis=1),
+        np.concatenate([fr.T_dot[k], zero], axis=1),
+        np.concatenate([fr.T_ddot[k], zero], axis=1),
+    )
+
+
+def add_link_terms(
+    body: LinkBody, fr: FrameMotion, k: int, maps: tuple[np.ndarray, np.ndarray, np.ndarray],
+    load: np.ndarray, second_order: np.ndarray,
+    M: np.ndarray, C: np.ndarray, K: np.ndarray, f: np.ndarray,
+) -> None:
+    """Add link k's inertia, gyroscopic, elastic and damping terms to M, C, K, f in place.
+
+    maps: T̂_k and its derivatives (xi_maps); load: its zero-order inertia load (rigid_load);
+    second_order: its second-order stiffness (second_order_stiffness)."""
+    w = fr.omega[:, k, None, None]
+    wd = fr.alpha[:, k, None, None]
+    Th, Th_d, Th_dd = maps
+    Mtot = body.M0 + body.M_rot
+    ThT = np.swapaxes(Th, 1, 2)
+    M += ThT @ Mtot @ Th
+    C += ThT @ (2.0 * Mtot @ Th_d + 2.0 * w * (body.G0 @ Th))
+    K += ThT @ (
+        Mtot @ Th_dd + 2.0 * w * (body.G0 @ Th_d) + (wd * body.G0 - w**2 * body.M0) @ Th
+    )
+    f -= np.einsum("tai,ta->ti", Th, load)
+    K -= second_order
+    sl = body.slice
+    K[:, sl, sl] += body.data.stiffness_matrix
+    C[:, sl, sl] += body.data.damping_matrix
+
+
+def rigid_load(body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
+    """∫ P̂ᵀ a0 dm + J_t c ω̇: zero-order inertia load of link k in ξ space, (nt, 3+n)."""
+    d = body.data
+    ax, ay = fr.origin_accel[:, k, 0], fr.origin_accel[:, k, 1]
+    w, wd = fr.omega[:, k], fr.alpha[:, k]
+    m, s1, J = d.mass, d.first_moment, d.second_moment
+    head = np.stack([m * ax - w**2 * s1, m * ay + wd * s1, s1 * ay + J * wd], -1)
+    elastic = ay[:, None] * d.phi_bar + wd[:, None] * d.phi_tilde
+    load = np.concatenate([head, elastic], -1)
+    load[:, 2] += d.tip_inertia * wd
+    load[:, 3:] += d.tip_inertia * wd[:, None] * d.tip_slope
+    return load
+
+
+def second_order_stiffness(
+    body: LinkBody, fr: FrameMotion, k: int, outboard: np.ndarray, geometric_stiffening: bool
+) -> np.ndarray:
+    """∫ (∂r₂/∂x)·a0 dm of link k plus the outboard load (outboard[:, 0], N, along frame k's x)
+    acting on its tip's r₂, (nt, n, n) over whatever coordinates fr.T[k] maps from.
+
+    r₂ in frame k is [u_x − θ1 w − x θ1²/2, 0] with foreshortening u_x = −½ qᵀS(x)q.
+    """
+    d = body.data
+    ax = fr.origin_accel[:, k, 0]
+    w2 = fr.omega[:, k] ** 2
+    N = outboard[:, 0]
+    vec = ax[:, None] * d.phi_bar - w2[:, None] * d.phi_tilde + N[:, None] * d.tip_value
+    scal = ax * d.first_moment - w2 * d.second_moment + N * d.length
+    theta1 = fr.T[k][:, 2, :]  # (nt, n)
+    sl = body.slice
+    out = scal[:, None, None] * theta1[:, :, None] * theta1[:, None, :]
+    cross = theta1[:, :, None] * vec[:, None, :]  # Θᵀ v, columns on q_k
+    out[:, :, sl] += cross
+    out[:, sl, :] += np.swapaxes(cross, 1, 2)
+    if geometric_stiffening:
+        out[:, sl, sl] += (
+            ax[:, None, None] * d.foreshortening_mass
+            - w2[:, None, None] * d.foreshortening_moment
+            + N[:, None, None] * d.foreshortening_tip
+        )
+    return out

@@ -23,7 +23,14 @@ import numpy as np
 from ..drives import Base, PositionServo, TorqueDrive, VelocityServo, is_driven
 from ..model import Chain, JointMotion
 from ..modes import ModalData, modal_data
-from .first_order import LinkBody, _link_body
+from .first_order import (
+    LinkBody,
+    _link_body,
+    add_link_terms,
+    rigid_load,
+    second_order_stiffness,
+    xi_maps,
+)
 from .kinematics import FrameMotion, _block, tip_map
 
 _S = np.array([[0.0, -1.0], [1.0, 0.0]])
@@ -154,13 +161,7 @@ class ForwardSystem:
 
     def xi_maps(self, fr: FrameMotion, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """T̂_k = [T_k; E_k] and its time derivatives, each (nt, 3+n_k, n_x)."""
-        body = self.bodies[k]
-        nt, nk = fr.theta.shape[0], body.data.n
-        E = np.zeros((nt, nk, self.n_x))
-        E[:, :, body.slice] = np.eye(nk)
-        zero = np.zeros_like(E)
-        return (np.concatenate([fr.T[k], E], 1), np.concatenate([fr.T_dot[k], zero], 1),
-                np.concatenate([fr.T_ddot[k], zero], 1))
+        return xi_maps(fr, self.bodies[k], k, self.n_x)
 
     # -- equations --------------------------------------------------------------------------
     def matrices(self, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray
@@ -175,20 +176,8 @@ class ForwardSystem:
         f = np.zeros((nt, n_x))
         own, outboard = self._inertia_forces(fr)
         for k, body in enumerate(self.bodies):
-            w = fr.omega[:, k, None, None]
-            wd = fr.alpha[:, k, None, None]
-            Th, Th_d, Th_dd = self.xi_maps(fr, k)
-            Mtot = body.M0 + body.M_rot
-            ThT = np.swapaxes(Th, 1, 2)
-            M += ThT @ Mtot @ Th
-            C += ThT @ (2.0 * Mtot @ Th_d + 2.0 * w * (body.G0 @ Th))
-            K += ThT @ (Mtot @ Th_dd + 2.0 * w * (body.G0 @ Th_d)
-                        + (wd * body.G0 - w**2 * body.M0) @ Th)
-            f -= np.einsum("tai,ta->ti", Th, _rigid_load(body, fr, k))
-            K -= self._second_order_stiffness(body, fr, k, outboard[:, k])
-            sl = body.slice
-            K[:, sl, sl] += body.data.stiffness_matrix
-            C[:, sl, sl] += body.data.damping_matrix
+            add_link_terms(body, fr, k, self.xi_maps(fr, k), rigid_load(body, fr, k),
+                           self._second_order_stiffness(body, fr, k, outboard[:, k]), M, C, K, f)
         self._base_inertia(pdd, M, f)
         self._attachment_turn(p, fr, own, K)
         for k in self.driven:
@@ -251,24 +240,8 @@ class ForwardSystem:
 
     def _second_order_stiffness(self, body: LinkBody, fr: FrameMotion, k: int,
                                 outboard: np.ndarray) -> np.ndarray:
-        """As FirstOrderSystem._second_order_stiffness, over x (docs/derivation.md §4)."""
-        d = body.data
-        ax = fr.origin_accel[:, k, 0]
-        w2 = fr.omega[:, k] ** 2
-        N = outboard[:, 0]
-        vec = ax[:, None] * d.phi_bar - w2[:, None] * d.phi_tilde + N[:, None] * d.tip_value
-        scal = ax * d.first_moment - w2 * d.second_moment + N * d.length
-        theta1 = fr.T[k][:, 2, :]
-        sl = body.slice
-        out = scal[:, None, None] * theta1[:, :, None] * theta1[:, None, :]
-        cross = theta1[:, :, None] * vec[:, None, :]
-        out[:, :, sl] += cross
-        out[:, sl, :] += np.swapaxes(cross, 1, 2)
-        if self.geometric_stiffening:
-            out[:, sl, sl] += (ax[:, None, None] * d.foreshortening_mass
-                               - w2[:, None, None] * d.foreshortening_moment
-                               + N[:, None, None] * d.foreshortening_tip)
-        return out
+        """first_order.second_order_stiffness over x (docs/derivation.md §4)."""
+        return second_order_stiffness(body, fr, k, outboard, self.geometric_stiffening)
 
     # -- applied loads ----------------------------------------------------------------------
     def applied(self, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
@@ -337,19 +310,6 @@ class ForwardSystem:
         res = (np.einsum("taz,tz->ta", M[:, :, zc], zdd) + np.einsum("taz,tz->ta", C[:, :, zc], zd)
                + np.einsum("taz,tz->ta", K[:, :, zc], z) - f)
         return res[:, self.n_base:self.n_rigid]
-
-
-def _rigid_load(body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
-    """∫ P̂ᵀ a0 dm + J_t c ω̇: zero-order inertia load of link k in ξ space, (nt, 3+n)."""
-    d = body.data
-    ax, ay = fr.origin_accel[:, k, 0], fr.origin_accel[:, k, 1]
-    w, wd = fr.omega[:, k], fr.alpha[:, k]
-    m, s1, J = d.mass, d.first_moment, d.second_moment
-    head = np.stack([m * ax - w**2 * s1, m * ay + wd * s1, s1 * ay + J * wd], -1)
-    load = np.concatenate([head, ay[:, None] * d.phi_bar + wd[:, None] * d.phi_tilde], -1)
-    load[:, 2] += d.tip_inertia * wd
-    load[:, 3:] += d.tip_inertia * wd[:, None] * d.tip_slope
-    return load
 
 
 def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray,
