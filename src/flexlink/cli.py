@@ -94,7 +94,7 @@ def _cmd_paper(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .io import OutputFolderError, check_output_dir
+    from .results.writers import OutputFolderError, check_output_dir
     from .scenario import ScenarioError
 
     try:
@@ -111,7 +111,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
                         args: argparse.Namespace) -> int:
-    from .io import write_run
+    from .results.writers import write_run
     from .simulation import simulate
     from .solvers import SimulationError
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import flexlink
-from flexlink.drives import BangBang, PositionServo, Sum, Table, TorqueDrive, VelocityServo
+from flexlink.model import BangBang, PositionServo, Sum, Table, TorqueDrive, VelocityServo
 from flexlink.scenario import ScenarioError, scenario_from_dict
 from flexlink.scenario.load import resolve_scenario_dict
 
@@ -100,7 +100,7 @@ def test_example_resolves_round_trips_and_runs_shortened(name: str) -> None:
     """The shipped examples load, their resolved form loads to the same model, and a
     shortened run gives finite output with the forward channels."""
     resolved = resolve_scenario_dict(EXAMPLES / name)
-    from flexlink.io.writers import dump_toml
+    from flexlink.scenario.toml_writer import dump_toml
 
     again = scenario_from_dict(tomllib.loads(dump_toml(resolved)))
     scenario = flexlink.load_scenario(EXAMPLES / name)

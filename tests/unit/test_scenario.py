@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from flexlink.io import dump_toml
+from flexlink.scenario.toml_writer import dump_toml
 from flexlink.model import PiezoSensor, PointSensor
 from flexlink.motion import Cycloidal, Hold, MeasuredMotion, Sequence, Spinup
 from flexlink.scenario import (

@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from flexlink import plotting
-from flexlink.io import OutputFolderError, dump_toml, write_run, writers
+from flexlink.results import plotting
+from flexlink.results import writers
+from flexlink.results.writers import OutputFolderError, write_run
+from flexlink.scenario.toml_writer import dump_toml
 from flexlink.results import Results
 from flexlink.scenario import load_scenario, resolve_scenario_dict, scenario_from_dict
 

@@ -12,7 +12,7 @@ import pytest
 from scipy.linalg import eigh
 
 import flexlink
-from flexlink.drives import BangBang, Base, Table, TorqueDrive
+from flexlink.model import BangBang, Base, Table, TorqueDrive
 from flexlink.dynamics.first_order import FirstOrderSystem
 from flexlink.dynamics.forward import ForwardSystem, momentum
 from flexlink.dynamics.torques import joint_torques

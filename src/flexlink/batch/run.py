@@ -12,8 +12,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .._version import package_version
-from ..io.netcdf import write_netcdf_atomic
-from ..io.writers import dump_toml
+from ..results.netcdf import write_netcdf_atomic
+from ..scenario.toml_writer import dump_toml
 from ..model import Scenario
 from ..simulation import output_times
 from . import executors

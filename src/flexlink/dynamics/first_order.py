@@ -37,7 +37,7 @@ class LinkBody:
         return slice(self.offset, self.offset + self.data.n)
 
 
-def _link_body(data: ModalData, offset: int) -> LinkBody:
+def link_body(data: ModalData, offset: int) -> LinkBody:
     n = data.n
     m, s1, J = data.mass, data.first_moment, data.second_moment
     M0 = np.zeros((3 + n, 3 + n))
@@ -113,7 +113,7 @@ class FirstOrderSystem:
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
         self.offsets: list[int] = [int(o) for o in offsets[:-1]]
         self.n: int = int(offsets[-1])
-        self.bodies = [_link_body(d, o) for d, o in zip(self.modal, self.offsets)]
+        self.bodies = [link_body(d, o) for d, o in zip(self.modal, self.offsets)]
         self._frames_cache: tuple[np.ndarray, FrameMotion] | None = None
         self._history_cache: tuple[np.ndarray, JointHistory] | None = None
 

@@ -20,32 +20,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..drives import Base, PositionServo, TorqueDrive, VelocityServo, is_driven
-from ..model import Chain, JointMotion
+from ..model import Base, Chain, JointMotion, PositionServo, TorqueDrive, VelocityServo, is_driven
 from ..modes import ModalData, modal_data
 from .first_order import (
     LinkBody,
-    _link_body,
+    link_body,
     add_link_terms,
     rigid_load,
     second_order_stiffness,
     xi_maps,
 )
-from .kinematics import FrameMotion, _block, tip_map
+from .kinematics import TURN, FrameMotion, block_map, rotation, tip_map
 
-_S = np.array([[0.0, -1.0], [1.0, 0.0]])
-
-
-def rotation(angle: np.ndarray) -> np.ndarray:
-    """Planar rotations A(angle), (..., 2, 2): kinematics.rotation without np.stack, which
-    costs more than the arithmetic at the single-time calls of the ODE right-hand side."""
-    c, s = np.cos(angle), np.sin(angle)
-    out = np.empty(np.shape(angle) + (2, 2))
-    out[..., 0, 0] = c
-    out[..., 0, 1] = -s
-    out[..., 1, 0] = s
-    out[..., 1, 1] = c
-    return out
 
 
 class ForwardSystem:
@@ -62,7 +48,7 @@ class ForwardSystem:
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
         self.n = int(offsets[-1])  # elastic coordinates
         self.n_x = self.n_rigid + self.n
-        self.bodies: list[LinkBody] = [_link_body(d, self.n_rigid + int(o))
+        self.bodies: list[LinkBody] = [link_body(d, self.n_rigid + int(o))
                                        for d, o in zip(self.modal, offsets[:-1])]
         self.attach = [base.attachment(k) for k in range(n_links)]
         self.driven = [k for k, j in enumerate(chain.joints) if is_driven(j)]
@@ -112,8 +98,8 @@ class ForwardSystem:
             Tk, Tk_d, Tk_dd = (np.zeros((nt, 3, self.n_x)) for _ in range(3))
             back = rotation(-beta[:, k])
             bd, bdd = beta_d[:, k, None, None], beta_dd[:, k, None, None]
-            back_d = -bd * (_S @ back)
-            back_dd = (-bdd * _S - bd**2 * np.eye(2)) @ back
+            back_d = -bd * (TURN @ back)
+            back_dd = (-bdd * TURN - bd**2 * np.eye(2)) @ back
             point = self.attach[k]
             if point is not None:  # branch start on the base
                 theta[:, k] = th_b + beta[:, k]
@@ -121,16 +107,16 @@ class ForwardSystem:
                 alpha[:, k] = a_b + beta_dd[:, k]
                 c = np.einsum("tij,j->ti", rotation(th_b), np.asarray(point, dtype=float))
                 origin[:, k] = base_pos + c
-                acc = base_acc + a_b[:, None] * (c @ _S.T) - (w_b**2)[:, None] * c
+                acc = base_acc + a_b[:, None] * (c @ TURN.T) - (w_b**2)[:, None] * c
                 origin_accel[:, k] = np.einsum("tji,tj->ti", rotation(theta[:, k]), acc)
                 if self.base.kind == "free":  # δx, δy: global translation seen in frame k
                     A = rotation(-theta[:, k])
                     w, a = omega[:, k, None, None], alpha[:, k, None, None]
                     Tk[:, :2, :2] = A
-                    Tk_d[:, :2, :2] = -w * (_S @ A)
-                    Tk_dd[:, :2, :2] = (-a * _S - w**2 * np.eye(2)) @ A
+                    Tk_d[:, :2, :2] = -w * (TURN @ A)
+                    Tk_dd[:, :2, :2] = (-a * TURN - w**2 * np.eye(2)) @ A
                 if self.base.kind != "fixed":  # δθ_b: turns the attachment point and frame
-                    Sc = _S @ np.asarray(point, dtype=float)
+                    Sc = TURN @ np.asarray(point, dtype=float)
                     Tk[:, :2, nb - 1] = back @ Sc
                     Tk_d[:, :2, nb - 1] = back_d @ Sc
                     Tk_dd[:, :2, nb - 1] = back_dd @ Sc
@@ -149,7 +135,7 @@ class ForwardSystem:
                 U, U_d, U_dd = (np.einsum("ij,tjn->tin", P[:, :3], M) for M in
                                 (T[j], T_d[j], T_dd[j]))
                 U[:, :, self.bodies[j].slice] += P[:, 3:]
-                R, R_d, R_dd = _block(back), _block(back_d, 0.0), _block(back_dd, 0.0)
+                R, R_d, R_dd = block_map(back), block_map(back_d, 0.0), block_map(back_dd, 0.0)
                 Tk = R @ U
                 Tk_d = R_d @ U + R @ U_d
                 Tk_dd = R_dd @ U + 2.0 * R_d @ U_d + R @ U_dd
@@ -249,7 +235,7 @@ class ForwardSystem:
         """Generalized applied forces Q (nt, n_x) and the servos' integral-state rates
         (nt, n_servos). ``integral`` (nt, n_servos) is the integral of each servo's error."""
         Q = np.zeros((t.shape[0], self.n_x))
-        from ..drives import servo_torque
+        from .servos import servo_torque
 
         rates = np.zeros((t.shape[0], len(self.servos)))
         for k in self.driven:
@@ -342,7 +328,7 @@ def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray
         d = body.data
         if system.attach[k] is not None:
             c = fr.origin[:, k] - (p[:, :2] if b.kind == "free" else 0.0)
-            velocity[:, k] = base_vel + w_b[:, None] * (c @ _S.T)
+            velocity[:, k] = base_vel + w_b[:, None] * (c @ TURN.T)
         else:
             e = rotation(fr.theta[:, k - 1])
             velocity[:, k] = (velocity[:, k - 1]
@@ -357,7 +343,7 @@ def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray
         int_g = np.stack([d.mass * xi[:, 0], xi @ ny], -1)
         int_gd = np.stack([d.mass * xi_d[:, 0], xi_d @ ny], -1)
         int_X = np.stack([np.full(nt, d.first_moment), np.zeros(nt)], -1)
-        inner = int_gd + w[:, None] * ((int_X + int_g) @ _S.T)  # ∫ġ + ωS(X+g) dm, frame axes
+        inner = int_gd + w[:, None] * ((int_X + int_g) @ TURN.T)  # ∫ġ + ωS(X+g) dm, frame axes
         e = rotation(fr.theta[:, k])
         R = np.einsum("tji,tj->ti", e, fr.origin[:, k])
         V = np.einsum("tji,tj->ti", e, velocity[:, k])

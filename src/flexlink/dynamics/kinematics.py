@@ -117,11 +117,18 @@ class FrameMotion:
 
 def rotation(angle: np.ndarray) -> np.ndarray:
     """Planar rotation matrices A(angle), shape (..., 2, 2)."""
+    # Filled in place: np.stack costs more than the arithmetic at the single-time calls of
+    # the forward dynamics' right-hand side.
     c, s = np.cos(angle), np.sin(angle)
-    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+    out = np.empty(np.shape(angle) + (2, 2))
+    out[..., 0, 0] = c
+    out[..., 0, 1] = -s
+    out[..., 1, 0] = s
+    out[..., 1, 1] = c
+    return out
 
 
-_S = np.array([[0.0, -1.0], [1.0, 0.0]])  # 90° turn: S v = ẑ × v
+TURN = np.array([[0.0, -1.0], [1.0, 0.0]])  # 90° turn: S v = ẑ × v
 
 
 def tip_map(data: ModalData) -> np.ndarray:
@@ -170,9 +177,9 @@ def frame_motion(
         U_dd -= _elastic_part(P, sl, n_total)
 
         bd, bdd = beta_d[:, k + 1], beta_dd[:, k + 1]
-        R = _block(back)
-        R_d = _block(-bd[:, None, None] * (_S @ back), corner=0.0)
-        R_dd = _block((-bdd[:, None, None] * _S - (bd**2)[:, None, None] * np.eye(2)) @ back, 0.0)
+        R = block_map(back)
+        R_d = block_map(-bd[:, None, None] * (TURN @ back), corner=0.0)
+        R_dd = block_map((-bdd[:, None, None] * TURN - (bd**2)[:, None, None] * np.eye(2)) @ back, 0.0)
         T.append(R @ U)
         T_dot.append(R_d @ U + R @ U_d)
         T_ddot.append(R_dd @ U + 2.0 * R_d @ U_d + R @ U_dd)
@@ -192,7 +199,7 @@ def _tip_displacement_map(P: np.ndarray, T_k: np.ndarray, sl: slice) -> np.ndarr
     return out
 
 
-def _block(A2: np.ndarray, corner: float = 1.0) -> np.ndarray:
+def block_map(A2: np.ndarray, corner: float = 1.0) -> np.ndarray:
     """blockdiag(A2, corner) for a stack of 2×2 matrices, (nt, 3, 3)."""
     out = np.zeros(A2.shape[:-2] + (3, 3))
     out[..., :2, :2] = A2

@@ -64,7 +64,7 @@ def _fail(message: str, status: int = 2) -> int:
 
 def _run(args: argparse.Namespace, work: Any) -> int:
     """Common error handling: input problems → 2, failed simulation → 1; warnings printed."""
-    from ..io import OutputFolderError, check_output_dir
+    from ..results.writers import OutputFolderError, check_output_dir
     from ..scenario import ScenarioError
     from ..solvers import SimulationError
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..model import Scenario
 from ..motion import MeasuredMotion
+from ..channels import ChannelKind
 from ..results import Results
 from .files import MeasurementError
 from .measurement import Measurement, MeasurementWarning
@@ -106,8 +107,8 @@ def free_vibration_start(measurement: Measurement, results: Results) -> float | 
     """Start (s) of the free vibration: the spec's value, else detected from the joint angles."""
     if measurement.spec.free_vibration_start is not None:
         return measurement.spec.free_vibration_start
-    angles = [results[name] for name in results.names
-              if name.startswith("joint") and name.endswith("_angle")]
+    angles = [results[name] for name in results.names_of(ChannelKind.JOINT)
+              if results.channels[name].quantity == "angle"]
     return manoeuvre_end(results.time, angles)
 
 

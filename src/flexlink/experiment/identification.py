@@ -453,7 +453,7 @@ def _estimates(params: list[Parameter], values: list[float], scales: list[float]
 def _calibrated_results(results: Results, channels: list[str], params: list[Parameter],
                         values: list[float]) -> Results:
     out = Results(time=results.time, metadata=dict(results.metadata))
-    for name, signal in results.signals.items():
-        data = calibrated(results, name, params, values) if name in channels else signal.values
-        out.add(name, data, signal.unit, signal.description)
+    for name, channel in results.channels.items():
+        data = calibrated(results, name, params, values) if name in channels else results[name]
+        out.add(channel, data)
     return out

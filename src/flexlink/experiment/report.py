@@ -1,6 +1,6 @@
 """Output folders of ``flexlink compare`` and ``flexlink fit``: figures, metrics (CSV and
 JSON), a Markdown report with the figures embedded; written to a hidden sibling folder first
-and renamed into place (as `flexlink.io.writers`), so a failure leaves nothing behind.
+and renamed into place (as `flexlink.results.writers`), so a failure leaves nothing behind.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..io.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write_results_csv
-from ..plotting import DPI, display_scale
+from ..results.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write_results_csv
+from ..results.plotting import DPI, display_scale
 from .comparison import Comparison, SignalMetrics
 from .identification import FitResult
 
@@ -122,7 +122,7 @@ def overlay_figure(comparison: Comparison) -> Figure:
     fig = Figure(figsize=(7.0, 1.2 + 2.0 * len(names)), dpi=DPI, layout="constrained")
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     for ax, name in zip(axes, names, strict=True):
-        factor, unit = display_scale(comparison.results.signals[name].unit)
+        factor, unit = display_scale(comparison.results.channels[name].unit)
         ax.plot(t, comparison.measured[name] * factor, color="0.55", linewidth=0.8,
                 label="measured")
         ax.plot(t, comparison.results[name] * factor, color="C3", linewidth=1.0,

@@ -12,7 +12,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from .. import drives
+from .. import model
 from ..model import JointMotion
 from .errors import Problems, describe
 
@@ -148,7 +148,7 @@ def _segment(seg: Any, path: str, base_dir: Path, p: Problems) -> dict[str, Any]
                       f"{describe(v)}")
                 return out
         try:
-            drives.Table(tuple(map(float, seg["t"])), tuple(map(float, seg["values"])))
+            model.Table(tuple(map(float, seg["t"])), tuple(map(float, seg["values"])))
         except ValueError as exc:
             p.add(f"{path}: {exc}")
         out.update(t=[float(x) for x in seg["t"]], values=[float(x) for x in seg["values"]])
@@ -160,7 +160,7 @@ def _segment(seg: Any, path: str, base_dir: Path, p: Problems) -> dict[str, Any]
     return {k: v for k, v in out.items() if v is not None}
 
 
-def _csv_table(entry: Mapping[str, Any]) -> drives.Table:
+def _csv_table(entry: Mapping[str, Any]) -> model.Table:
     import pandas as pd
 
     try:
@@ -173,22 +173,22 @@ def _csv_table(entry: Mapping[str, Any]) -> drives.Table:
                              + ", ".join(map(str, frame.columns)) + ")")
     t = frame[entry["time_column"]].to_numpy(float)
     u = frame[entry["column"]].to_numpy(float)
-    return drives.Table(tuple(t), tuple(u))
+    return model.Table(tuple(t), tuple(u))
 
 
-def build_history(segments: list[dict[str, Any]]) -> drives.History:
-    parts: list[drives.History] = []
+def build_history(segments: list[dict[str, Any]]) -> model.History:
+    parts: list[model.History] = []
     for s in segments:
         if "csv" in s:
             parts.append(_csv_table(s))
         elif s["profile"] == "table":
-            parts.append(drives.Table(tuple(s["t"]), tuple(s["values"])))
+            parts.append(model.Table(tuple(s["t"]), tuple(s["values"])))
         elif s["profile"] == "bang_bang":
-            parts.append(drives.BangBang(s["amplitude"], s["start"], s["duration"]))
+            parts.append(model.BangBang(s["amplitude"], s["start"], s["duration"]))
         else:
-            parts.append(drives.Step(s["amplitude"], s["start"],
+            parts.append(model.Step(s["amplitude"], s["start"],
                                      s.get("duration", float("inf"))))
-    return parts[0] if len(parts) == 1 else drives.Sum(tuple(parts))
+    return parts[0] if len(parts) == 1 else model.Sum(tuple(parts))
 
 
 def read_driven_joint(table: Mapping[str, Any], path: str, base_dir: Path, p: Problems,
@@ -246,35 +246,35 @@ def read_driven_joint(table: Mapping[str, Any], path: str, base_dir: Path, p: Pr
     return {k: v for k, v in out.items() if v is not None}
 
 
-def build_drive(entry: Mapping[str, Any], reference: JointMotion | None) -> drives.Drive:
+def build_drive(entry: Mapping[str, Any], reference: JointMotion | None) -> model.Drive:
     if entry["drive"] == "torque":
-        return drives.TorqueDrive(build_history(entry["torque"]),
+        return model.TorqueDrive(build_history(entry["torque"]),
                                   math.radians(entry["initial_angle_deg"]),
                                   math.radians(entry["initial_rate_deg_s"]),
                                   entry["motor_inertia"])
     assert reference is not None
     limit = entry.get("torque_limit", float("inf"))
     if entry["servo"] == "velocity_pid":
-        return drives.VelocityServo(reference, entry["P"], entry["I"], entry["D"],
+        return model.VelocityServo(reference, entry["P"], entry["I"], entry["D"],
                                     entry["saturation_V"],
                                     math.radians(entry["rate_per_volt_deg_s"]),
                                     entry["loop_gain"], limit, entry["motor_inertia"])
-    return drives.PositionServo(reference, entry["bandwidth"],
+    return model.PositionServo(reference, entry["bandwidth"],
                                 math.radians(entry["rate_limit_deg_s"]), entry["loop_gain"],
                                 limit, entry["motor_inertia"])
 
 
 def build_base(entry: Mapping[str, Any] | None, joints: list[Mapping[str, Any]]
-               ) -> drives.Base | None:
+               ) -> model.Base | None:
     attachments = tuple((k, (float(j["base_point"][0]), float(j["base_point"][1])))
                         for k, j in enumerate(joints) if "base_point" in j)
     if entry is None:
-        return drives.Base("fixed", attachments=attachments) if attachments else None
-    loads = tuple(drives.BaseLoad(
+        return model.Base("fixed", attachments=attachments) if attachments else None
+    loads = tuple(model.BaseLoad(
         **{k: build_history(v) for k, v in load.items() if k in ("force_x", "force_y", "moment")},
         point=(load["point"][0], load["point"][1]), frame=load["frame"])
         for load in entry["loads"])
-    return drives.Base(entry["type"], entry.get("mass", 0.0), entry.get("inertia", 0.0),
+    return model.Base(entry["type"], entry.get("mass", 0.0), entry.get("inertia", 0.0),
                        attachments, loads, tuple(entry["position"]),  # type: ignore[arg-type]
                        math.radians(entry["attitude_deg"]), tuple(entry["velocity"]),  # type: ignore[arg-type]
                        math.radians(entry["rate_deg_s"]))

@@ -14,8 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from .._version import package_version
-from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
-from ..solvers import METHODS
+from ..channels.catalogue import reserved_names
+from ..model import (METHODS, MODE_SHAPES, MODELS, Chain, JointMotion, Link, PiezoSensor,
+                     PointSensor, Scenario, SimulationSettings)
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .errors import Problems, ScenarioError, describe
 from .sensors import read_sensors
@@ -25,10 +26,8 @@ SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_versio
 EXPERIMENT_SECTIONS = ("measurement", "fit")
 SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol", "method",
                    "model", "step")
-MODELS = ("first_order", "nonlinear")
 LINK_KEYS = ("name", "length", "mass_per_length", "EI", "E", "width", "thickness", "tip_mass",
              "tip_inertia", "damping_ratio", "modes", "mode_shapes")
-MODE_SHAPES = ("clamped_free", "tip_loaded", "outboard_loaded")
 PROFILES: dict[str, tuple[str, ...]] = {
     "cycloidal": ("from_deg", "to_deg", "start", "duration"),
     "quintic": ("from_deg", "to_deg", "start", "duration"),
@@ -114,11 +113,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         p.add("simulation.model: the nonlinear model has prescribed joints on a fixed hub only; "
               "a [base], a driven joint (drive = ...) or base_point needs "
               "model = \"first_order\" (with geometric_stiffening = true)")
-    reserved = {"t", "time"} | {f"joint{k}_{q}" for k in range(1, len(links) + 1)
-                                for q in ("angle", "torque", "rate", "reference", "command")}
-    reserved |= {f"base_{c}{r}" for c in ("x", "y", "attitude") for r in ("", "_rate")}
-    reserved |= {"momentum_x", "momentum_y", "angular_momentum"}
-    reserved |= {f"{n}_tip_{axis}" for n in link_names if n for axis in "XY"}
+    reserved = reserved_names([n for n in link_names if n], len(links))
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
     p.check_names([s.get("name") for s in sensors], "sensors")
     if p:

@@ -1,86 +1,18 @@
-"""Forward-dynamics inputs: a free or pinned rigid base, applied load histories, driven joints.
+"""Forward-dynamics description: a free or pinned rigid base, applied loads, driven joints.
 
 A joint in ``Chain.joints`` is either a prescribed ``JointMotion`` or one of the drives here,
 whose angle then follows from the equations of motion (docs/derivation.md, "Forward
-dynamics"). Everything is SI and radians; the scenario loader converts degrees once.
+dynamics"). Description only: the servo laws are evaluated in ``dynamics/servos.py``.
+Everything is SI and radians; the scenario loader converts degrees once.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal, Protocol, runtime_checkable
+from typing import Literal, get_args
 
-import numpy as np
-
-from .model import JointMotion
-
-
-@runtime_checkable
-class History(Protocol):
-    """A scalar input history u(t) (N, N·m, …) evaluated at times t (s)."""
-
-    def value(self, t: np.ndarray) -> np.ndarray: ...
-
-
-@dataclass(frozen=True)
-class Table:
-    """Samples (t_i, u_i), linearly interpolated, held constant outside [t_0, t_last]."""
-
-    t: tuple[float, ...]
-    u: tuple[float, ...]
-
-    def __post_init__(self) -> None:
-        t = np.asarray(self.t, dtype=float)
-        if t.ndim != 1 or t.size < 2 or len(self.u) != t.size:
-            raise ValueError("a table needs at least two samples and as many values as times")
-        if not np.all(np.diff(t) > 0) or not np.all(np.isfinite(self.u)):
-            raise ValueError("table times must increase strictly and values must be finite")
-
-    def value(self, t: np.ndarray) -> np.ndarray:
-        return np.interp(np.asarray(t, dtype=float), self.t, self.u)
-
-
-@dataclass(frozen=True)
-class BangBang:
-    """+amplitude on [start, start + duration/2), −amplitude on [start + duration/2,
-    start + duration), zero elsewhere: a rest-to-rest slew of a rigid body."""
-
-    amplitude: float
-    start: float
-    duration: float
-
-    def value(self, t: np.ndarray) -> np.ndarray:
-        t = np.asarray(t, dtype=float)
-        half = self.start + 0.5 * self.duration
-        out = np.where((t >= self.start) & (t < half), self.amplitude, 0.0)
-        return np.where((t >= half) & (t < self.start + self.duration), -self.amplitude, out)
-
-
-@dataclass(frozen=True)
-class Step:
-    """``amplitude`` on [start, start + duration), zero elsewhere (duration may be inf)."""
-
-    amplitude: float
-    start: float = 0.0
-    duration: float = float("inf")
-
-    def value(self, t: np.ndarray) -> np.ndarray:
-        t = np.asarray(t, dtype=float)
-        return np.where((t >= self.start) & (t < self.start + self.duration), self.amplitude, 0.0)
-
-
-@dataclass(frozen=True)
-class Sum:
-    """The sum of several histories (a list of segments in a scenario file)."""
-
-    parts: tuple[History, ...]
-
-    def value(self, t: np.ndarray) -> np.ndarray:
-        t = np.asarray(t, dtype=float)
-        return sum((p.value(t) for p in self.parts), np.zeros_like(t))
-
-
-ZERO = Sum(())
+from .chain import JointMotion
+from .histories import ZERO, History
 
 
 @dataclass(frozen=True)
@@ -137,37 +69,14 @@ Servo = VelocityServo | PositionServo
 
 
 def is_driven(joint: object) -> bool:
+    """True for a drive, False for a prescribed joint motion."""
     return isinstance(joint, TorqueDrive | VelocityServo | PositionServo)
 
 
-def servo_torque(servo: Servo, t: np.ndarray, angle: np.ndarray, rate: np.ndarray,
-                 integral: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Motor torque (N·m) and the rate of the integral state (rad) of a servo at times t (s),
-    joint angle (rad), rate (rad/s) and integral of the error (rad·s), all of one shape."""
-    ref, ref_rate, _ = servo.reference.evaluate(np.asarray(t, dtype=float))
-    error = ref - angle
-    if isinstance(servo, VelocityServo):
-        raw = servo.P * error + servo.I * integral + servo.D * (ref_rate - rate)
-        volts = np.clip(raw, -servo.saturation, servo.saturation)
-        command = servo.rate_per_volt * volts
-        # Conditional integration: no wind-up while the command is saturated.
-        integral_rate = np.where((volts == raw) & servo.integrator, error, 0.0)
-    else:
-        command = np.clip(servo.bandwidth * error, -servo.rate_limit, servo.rate_limit)
-        integral_rate = np.zeros_like(error)
-    torque = np.clip(servo.loop_gain * (command - rate), -servo.torque_limit, servo.torque_limit)
-    return torque, integral_rate
-
-
-def command_volts(servo: VelocityServo, t: np.ndarray, angle: np.ndarray, rate: np.ndarray,
-                  integral: np.ndarray) -> np.ndarray:
-    """The PID's saturated command (V) of a velocity servo."""
-    ref, ref_rate, _ = servo.reference.evaluate(np.asarray(t, dtype=float))
-    raw = servo.P * (ref - angle) + servo.I * integral + servo.D * (ref_rate - rate)
-    return np.clip(raw, -servo.saturation, servo.saturation)
-
-
 BaseKind = Literal["free", "pinned", "fixed"]
+BASE_KINDS: tuple[str, ...] = get_args(BaseKind)
+LoadFrame = Literal["inertial", "body"]
+LOAD_FRAMES: tuple[str, ...] = get_args(LoadFrame)
 
 
 @dataclass(frozen=True)
@@ -179,7 +88,7 @@ class BaseLoad:
     force_y: History = ZERO
     moment: History = ZERO
     point: tuple[float, float] = (0.0, 0.0)
-    frame: Literal["body", "inertial"] = "inertial"
+    frame: LoadFrame = "inertial"
 
 
 @dataclass(frozen=True)

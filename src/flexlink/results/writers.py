@@ -12,8 +12,6 @@ the flexlink version) and ``figures/*.png``.
 from __future__ import annotations
 
 import csv
-import json
-import re
 import shutil
 import uuid
 from collections.abc import Iterator, Mapping, Sequence
@@ -23,11 +21,11 @@ from typing import Any
 
 import numpy as np
 
-from ..results import Results
+from ..scenario.toml_writer import dump_toml
+from .results import Results
 
 RESOLVED_NAME = "scenario.resolved.toml"
 CSV_FORMAT = "%.10g"
-_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
 class OutputFolderError(FileExistsError):
@@ -111,8 +109,8 @@ def write_channels_csv(results: Results, path: Path) -> None:
         writer = csv.writer(fh)
         writer.writerow(["name", "unit", "description"])
         writer.writerow(["t", "s", "time"])
-        for name, signal in results.signals.items():
-            writer.writerow([name, signal.unit, signal.description])
+        for name, channel in results.channels.items():
+            writer.writerow([name, channel.unit, channel.description])
 
 
 def write_netcdf(results: Results, path: Path) -> None:
@@ -126,8 +124,8 @@ def write_netcdf(results: Results, path: Path) -> None:
             setattr(nc, key, str(value))
         nc.createDimension("time", results.time.size)
         _netcdf_variable(nc, "time", results.time, "s", "")
-        for name, signal in results.signals.items():
-            _netcdf_variable(nc, name, signal.values, signal.unit, signal.description)
+        for name, channel in results.channels.items():
+            _netcdf_variable(nc, name, results[name], channel.unit, channel.description)
 
 
 def _netcdf_variable(nc: Any, name: str, values: np.ndarray, unit: str, long_name: str) -> None:
@@ -140,13 +138,13 @@ def _netcdf_variable(nc: Any, name: str, values: np.ndarray, unit: str, long_nam
 
 def write_figures(results: Results, folder: Path, sensors: Sequence[str]) -> list[Path]:
     """joint_angles.png, sensors.png (if any sensor) and tip_paths.png; return their paths."""
-    from .. import plotting
+    from . import plotting
 
     folder.mkdir(exist_ok=True)
     figures = {}
     if plotting.joint_channels(results):
         figures["joint_angles"] = plotting.plot_joint_angles(results)
-    present = [s for s in sensors if s in results.signals]
+    present = [s for s in sensors if s in results]
     if present:
         figures["sensors"] = plotting.plot_sensors(results, present)
     if plotting.tip_links(results):
@@ -165,50 +163,3 @@ def resolved_toml(resolved: Mapping[str, Any]) -> str:
             "# bending stiffness as EI, CSV paths absolute. Run it again with\n"
             "#   flexlink run scenario.resolved.toml -o NEW_FOLDER\n\n")
     return head + dump_toml(resolved)
-
-
-def dump_toml(data: Mapping[str, Any]) -> str:
-    """A small TOML writer for scenario dicts: scalars, arrays, tables, arrays of tables.
-
-    ``None`` values are left out (TOML has no null).
-    """
-    lines: list[str] = []
-    scalars = {k: v for k, v in data.items() if not _is_table(v) and not _is_table_array(v)}
-    lines += [f"{_key(k)} = {_value(v)}" for k, v in scalars.items() if v is not None]
-    for key, value in data.items():
-        if _is_table(value):
-            lines += ["", f"[{_key(key)}]"]
-            lines += [f"{_key(k)} = {_value(v)}" for k, v in value.items() if v is not None]
-        elif _is_table_array(value):
-            for table in value:
-                lines += ["", f"[[{_key(key)}]]"]
-                lines += [f"{_key(k)} = {_value(v)}" for k, v in table.items() if v is not None]
-    return "\n".join(lines).lstrip("\n") + "\n"
-
-
-def _is_table(value: Any) -> bool:
-    return isinstance(value, Mapping)
-
-
-def _is_table_array(value: Any) -> bool:
-    return isinstance(value, list) and bool(value) and all(isinstance(v, Mapping) for v in value)
-
-
-def _key(key: str) -> str:
-    return key if _BARE_KEY.fullmatch(key) else json.dumps(key)
-
-
-def _value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int | float):
-        return repr(float(value)) if isinstance(value, float) else repr(value)
-    if isinstance(value, str):
-        # JSON's string escapes are valid TOML; TOML also wants DEL escaped
-        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
-    if isinstance(value, Mapping):
-        items = ", ".join(f"{_key(k)} = {_value(v)}" for k, v in value.items() if v is not None)
-        return "{ " + items + " }" if items else "{}"
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_value(v) for v in value) + "]"
-    raise TypeError(f"cannot write {type(value).__name__} {value!r} as TOML")

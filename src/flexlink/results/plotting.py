@@ -8,28 +8,26 @@ radians; the axes show degrees for angles and convenient multiples (mm, µstrain
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from ..channels import ChannelKind, Unit
 from .results import Results
 
 DPI = 150
-_JOINT = re.compile(r"joint(\d+)_angle")
 # stored unit → (display factor, display unit)
 _DISPLAY: dict[str, tuple[float, str]] = {
-    "rad": (180.0 / math.pi, "deg"),
-    "m": (1e3, "mm"),
-    "1": (1e6, "µstrain"),
-    "-": (1e6, "µstrain"),
-    "m/s^2": (1.0, "m/s²"),
+    Unit.RADIAN: (180.0 / math.pi, "deg"),
+    Unit.METRE: (1e3, "mm"),
+    Unit.ONE: (1e6, "µstrain"),
+    Unit.METRE_PER_SECOND2: (1.0, "m/s²"),
+    Unit.RADIAN_PER_SECOND: (180.0 / math.pi, "deg/s"),
+    Unit.NEWTON_METRE: (1.0, "N·m"),
 }
-
-_QUANTITY = {"mm": "deflection", "deg": "slope", "µstrain": "strain", "m/s²": "acceleration",
-             "V": "voltage"}  # axis label for a display unit
+_QUANTITY = {"piezo": "voltage"}  # axis label of a quantity, where it differs
 
 
 def display_scale(unit: str) -> tuple[float, str]:
@@ -37,25 +35,38 @@ def display_scale(unit: str) -> tuple[float, str]:
     return _DISPLAY.get(unit, (1.0, unit))
 
 
-def joint_channels(results: Results) -> list[str]:
-    """``joint{k}_angle`` channels, ordered by k."""
-    found = [(int(m.group(1)), n) for n in results.names if (m := _JOINT.fullmatch(n))]
-    return [name for _, name in sorted(found)]
+def joint_channels(results: Results, quantity: str = "angle") -> list[str]:
+    """Joint channels of one quantity (``angle``, ``torque``, ``reference`` …), joint order."""
+    return [n for n in results.names_of(ChannelKind.JOINT)
+            if results.channels[n].quantity == quantity]
 
 
 def tip_links(results: Results) -> list[str]:
-    """Names of the links whose tip position (``{link}_tip_X``, ``{link}_tip_Y``) was saved."""
-    names = set(results.names)
-    return [n[: -len("_tip_X")] for n in results.names
-            if n.endswith("_tip_X") and n[: -len("_tip_X")] + "_tip_Y" in names]
+    """Names of the links whose tip position (X and Y) was saved."""
+    subjects = [results.channels[n].subject for n in results.names_of(ChannelKind.TIP)]
+    return [s for s in dict.fromkeys(subjects) if subjects.count(s) == 2]
+
+
+def _tip(results: Results, link: str, quantity: str) -> np.ndarray:
+    for n in results.names_of(ChannelKind.TIP):
+        c = results.channels[n]
+        if c.subject == link and c.quantity == quantity:
+            return results[n]
+    raise KeyError(f"no tip {quantity} of {link!r}")
 
 
 def sensor_channels(results: Results) -> list[str]:
-    """Channels that are neither joint angles nor tip positions: the user's sensors."""
-    automatic = set(joint_channels(results))
-    automatic |= {n.replace("_angle", "_torque") for n in automatic}
-    automatic |= {f"{link}_tip_{axis}" for link in tip_links(results) for axis in "XY"}
-    return [n for n in results.names if n not in automatic]
+    """The user's sensors."""
+    return results.names_of(ChannelKind.SENSOR)
+
+
+def plot_kind(results: Results, kind: ChannelKind) -> Figure:
+    """The figure of one kind of channel: joints, tips (paths), or one panel per channel."""
+    if kind is ChannelKind.JOINT:
+        return plot_joint_angles(results)
+    if kind is ChannelKind.TIP:
+        return plot_tip_paths(results)
+    return plot_channels(results, results.names_of(kind))
 
 
 def _figure(width: float, height: float, top: float = 0.15) -> Figure:
@@ -78,19 +89,23 @@ def plot_joint_angles(results: Results) -> Figure:
     """Joint angles β_k in degrees against time (s), like the paper's Fig. 7."""
     names = joint_channels(results)
     if not names:
-        raise ValueError("no joint angle channels (joint<k>_angle) in the results")
-    torques = [n.replace("_angle", "_torque") for n in names
-               if n.replace("_angle", "_torque") in results.signals]
+        raise ValueError("no joint angle channels in the results")
+    torques = joint_channels(results, "torque")
+    references = {results.channels[n].subject: n for n in joint_channels(results, "reference")}
     fig = _figure(6.4, 3.6 if not torques else 5.6)
     axes = fig.subplots(2 if torques else 1, 1, sharex=True, squeeze=False)[:, 0]
     ax = axes[0]
     for name in names:
-        k = _JOINT.fullmatch(name).group(1)  # type: ignore[union-attr]
-        ax.plot(results.time, np.degrees(results[name]), label=rf"$\beta_{{{k}}}$")
+        subject = results.channels[name].subject
+        k = subject.removeprefix("joint")
+        (line,) = ax.plot(results.time, np.degrees(results[name]), label=rf"$\beta_{{{k}}}$")
+        if subject in references:
+            ax.plot(results.time, np.degrees(results[references[subject]]), "--",
+                    color=line.get_color(), linewidth=0.8, label=rf"$\beta_{{{k}}}$ reference")
     ax.set_ylabel("joint angle [deg]")
     ax.legend(loc="lower right")  # "best" scans every vertex: ~0.1 s a legend
     for name in torques:
-        k = name[len("joint"):-len("_torque")]
+        k = results.channels[name].subject.removeprefix("joint")
         axes[1].plot(results.time, results[name], label=rf"$\tau_{{{k}}}$")
     if torques:
         axes[1].set_ylabel("motor torque [N·m]")
@@ -105,19 +120,27 @@ def plot_joint_angles(results: Results) -> Figure:
 def plot_sensors(results: Results, names: Sequence[str] | None = None) -> Figure:
     """One panel per sensor channel against time (s), like the paper's Figs. 8–9.
 
-    ``names`` defaults to every channel that is not a joint angle or a tip position.
+    ``names`` defaults to every channel of kind ``sensor``.
     """
     names = list(sensor_channels(results) if names is None else names)
     if not names:
         raise ValueError("no sensor channels to plot")
+    return plot_channels(results, names)
+
+
+def plot_channels(results: Results, names: Sequence[str]) -> Figure:
+    """One panel per channel against time (s), in display units."""
+    if not names:
+        raise ValueError("no channels to plot")
     fig = _figure(6.4, 1.1 + 1.9 * len(names), top=0.35)
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     for ax, name in zip(axes, names, strict=True):
-        signal = results.signals[name]
-        factor, unit = display_scale(signal.unit)
-        ax.plot(results.time, signal.values * factor, linewidth=1.0)
-        ax.set_ylabel(f"{_QUANTITY.get(unit, name)} [{unit or '-'}]")
-        ax.set_title(f"{name}: {signal.description}", fontsize="medium", loc="left")
+        channel = results.channels[name]
+        factor, unit = display_scale(channel.unit)
+        ax.plot(results.time, results[name] * factor, linewidth=1.0)
+        label = _QUANTITY.get(channel.quantity, channel.quantity) or name
+        ax.set_ylabel(f"{label} [{unit or '-'}]")
+        ax.set_title(f"{name}: {channel.description}", fontsize="medium", loc="left")
         _style(ax)
     axes[-1].set_xlabel("time t [s]")
     axes[-1].set_xlim(results.time[0], results.time[-1])
@@ -128,12 +151,12 @@ def plot_tip_paths(results: Results) -> Figure:
     """The X–Y path (m) of each link's deformed tip in the plane, with equal axis scales."""
     links = tip_links(results)
     if not links:
-        raise ValueError("no tip position channels (<link>_tip_X, <link>_tip_Y) in the results")
+        raise ValueError("no tip position channels in the results")
     fig = _figure(5.6, 5.2, top=0.4)
     ax = fig.add_subplot()
     ax.plot([0.0], [0.0], "k+", markersize=10, label="joint 1 (origin)")
     for link in links:
-        x, y = results[f"{link}_tip_X"], results[f"{link}_tip_Y"]
+        x, y = _tip(results, link, "X"), _tip(results, link, "Y")
         (line,) = ax.plot(x, y, linewidth=1.0, label=f"tip of {link}")
         ax.plot(x[0], y[0], "o", color=line.get_color(), markersize=4)
         ax.plot(x[-1], y[-1], "s", color=line.get_color(), markersize=4)

@@ -1,0 +1,126 @@
+"""Which channels a run of a scenario produces: names, kinds, units and descriptions.
+
+The one place where channel names are made. The channel computations of every model path
+take their records from here and add only the values; the scenario loader (names a sensor
+must not take), the measurement mapping and sweeps read the same records.
+
+Order: sensors, base pose and rates, joint quantities (all angles, then rates, torques,
+servo references and commands), momentum, tip positions.
+"""
+
+from __future__ import annotations
+
+from ..model import Chain, PiezoSensor, PositionServo, Scenario, Sensor, TorqueDrive, VelocityServo
+from .record import SENSOR_UNITS, Channel, ChannelKind, Unit
+
+JOINT_QUANTITIES = ("angle", "rate", "torque", "reference", "command")
+BASE_COORDINATES = {"free": ("x", "y", "attitude"), "pinned": ("attitude",), "fixed": ()}
+_BASE_UNITS = {"x": (Unit.METRE, Unit.METRE_PER_SECOND), "y": (Unit.METRE, Unit.METRE_PER_SECOND),
+               "attitude": (Unit.RADIAN, Unit.RADIAN_PER_SECOND)}
+
+
+def joint_name(k: int, quantity: str) -> str:
+    """Channel name of a joint quantity, joint k counted from 0: ``joint1_angle``."""
+    return f"joint{k + 1}_{quantity}"
+
+
+def tip_name(link: str, axis: str) -> str:
+    """Channel name of a tip coordinate: ``link1_tip_X``."""
+    return f"{link}_tip_{axis}"
+
+
+def reserved_names(link_names: list[str], joints: int) -> set[str]:
+    """Every automatic channel name a chain of these links could produce (and ``t``,
+    ``time``): a sensor must not take one."""
+    names = {"t", "time", "momentum_x", "momentum_y", "angular_momentum"}
+    names |= {joint_name(k, q) for k in range(joints) for q in JOINT_QUANTITIES}
+    names |= {f"base_{c}{r}" for c in BASE_COORDINATES["free"] for r in ("", "_rate")}
+    names |= {tip_name(n, axis) for n in link_names for axis in "XY"}
+    return names
+
+
+def sensor_channel(sensor: Sensor, chain: Chain) -> Channel:
+    link = chain.links[sensor.link].name
+    if isinstance(sensor, PiezoSensor):
+        return Channel(sensor.name, ChannelKind.SENSOR, SENSOR_UNITS["piezo"],
+                       "PZT voltage, pin-force model (eq. 37)", "piezo", link)
+    return Channel(sensor.name, ChannelKind.SENSOR, SENSOR_UNITS[sensor.kind],
+                   f"{sensor.kind} at x = {sensor.x} m", sensor.kind, link)
+
+
+def sensor_channels(scenario: Scenario) -> list[Channel]:
+    return [sensor_channel(s, scenario.chain) for s in scenario.sensors]
+
+
+def base_channels(kind: str) -> list[Channel]:
+    """Pose and rates of a moving base (inertial, reference point)."""
+    out = []
+    for name in BASE_COORDINATES[kind]:
+        unit, rate_unit = _BASE_UNITS[name]
+        out.append(Channel(f"base_{name}", ChannelKind.BASE, unit,
+                           f"base {name} (reference point, inertial)", name, "base"))
+        out.append(Channel(f"base_{name}_rate", ChannelKind.BASE, rate_unit,
+                           f"rate of base {name}", f"{name}_rate", "base"))
+    return out
+
+
+def joint_channels(scenario: Scenario, model: str) -> list[Channel]:
+    """Joint angles and motor torques; forward runs add rates, servo references and commands.
+
+    ``model`` names the equations the torques come from, for the descriptions."""
+    joints = scenario.chain.joints
+    forward = scenario.is_forward
+    torque_source = "equations of motion" if forward else "inverse dynamics"
+    out: dict[str, list[Channel]] = {q: [] for q in JOINT_QUANTITIES}
+    for k, joint in enumerate(joints):
+        subject = f"joint{k + 1}"
+        how = {TorqueDrive: "torque-driven", VelocityServo: "velocity servo",
+               PositionServo: "position servo"}.get(type(joint), "prescribed")
+        out["angle"].append(Channel(joint_name(k, "angle"), ChannelKind.JOINT, Unit.RADIAN,
+                                    f"angle of joint {k + 1} ({how})", "angle", subject))
+        if forward:
+            out["rate"].append(Channel(joint_name(k, "rate"), ChannelKind.JOINT,
+                                       Unit.RADIAN_PER_SECOND, f"rate of joint {k + 1}",
+                                       "rate", subject))
+        out["torque"].append(Channel(joint_name(k, "torque"), ChannelKind.JOINT,
+                                     Unit.NEWTON_METRE, f"motor torque of joint {k + 1} "
+                                     f"({torque_source}, {model.replace('_', ' ')} model)",
+                                     "torque", subject))
+        if isinstance(joint, VelocityServo | PositionServo):
+            out["reference"].append(Channel(joint_name(k, "reference"), ChannelKind.JOINT,
+                                            Unit.RADIAN, f"reference angle of joint {k + 1}'s "
+                                            "servo", "reference", subject))
+        if isinstance(joint, VelocityServo):
+            out["command"].append(Channel(joint_name(k, "command"), ChannelKind.JOINT,
+                                          Unit.VOLT, f"servo command of joint {k + 1}",
+                                          "command", subject))
+    return [c for q in JOINT_QUANTITIES for c in out[q]]
+
+
+def momentum_channels(model: str) -> list[Channel]:
+    how = f"({model.replace('_', ' ')} model)"
+    return [Channel("momentum_x", ChannelKind.MOMENTUM, Unit.NEWTON_SECOND,
+                    f"linear momentum, X {how}", "momentum_x", "system"),
+            Channel("momentum_y", ChannelKind.MOMENTUM, Unit.NEWTON_SECOND,
+                    f"linear momentum, Y {how}", "momentum_y", "system"),
+            Channel("angular_momentum", ChannelKind.MOMENTUM, Unit.NEWTON_METRE_SECOND,
+                    f"angular momentum about the origin {how}", "angular_momentum", "system")]
+
+
+def tip_channels(chain: Chain) -> list[Channel]:
+    return [Channel(tip_name(link.name, axis), ChannelKind.TIP, Unit.METRE,
+                    f"{axis} of the tip of {link.name}", axis, link.name)
+            for link in chain.links for axis in "XY"]
+
+
+def catalogue(scenario: Scenario) -> list[Channel]:
+    """Every channel a run of ``scenario`` produces, in the order of the results."""
+    model = scenario.settings.model
+    out = sensor_channels(scenario)
+    base = scenario.base
+    if base is not None:
+        out += base_channels(base.kind)
+    out += joint_channels(scenario, model)
+    if base is not None and base.kind != "fixed":
+        out += momentum_channels(model)
+    return out + tip_channels(scenario.chain)

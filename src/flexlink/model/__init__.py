@@ -1,0 +1,22 @@
+"""The model: an immutable description of a planar chain, free of physics (SI, radians).
+
+Links and joints (`chain`), sensors, settings, the base and drives of forward runs, input
+histories, and the `Scenario` that holds them. Degrees only appear at the scenario/CLI edge,
+which converts them once. Algorithms take a model and never mutate it.
+"""
+
+from .chain import MODE_SHAPES, Chain, JointMotion, Link, ModeShapes
+from .drives import (BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad, Drive, PositionServo,
+                     Servo, TorqueDrive, VelocityServo, is_driven)
+from .histories import ZERO, BangBang, History, Step, Sum, Table
+from .scenario import Scenario
+from .sensors import POINT_SENSOR_KINDS, PiezoSensor, PointSensor, PointSensorKind, Sensor
+from .settings import METHODS, MODELS, MethodName, ModelName, SimulationSettings
+
+__all__ = [
+    "BASE_KINDS", "LOAD_FRAMES", "METHODS", "MODELS", "MODE_SHAPES", "POINT_SENSOR_KINDS",
+    "ZERO", "BangBang", "Base", "BaseKind", "BaseLoad", "Chain", "Drive", "History",
+    "JointMotion", "Link", "MethodName", "ModeShapes", "ModelName", "PiezoSensor",
+    "PointSensor", "PointSensorKind", "PositionServo", "Scenario", "Sensor", "Servo",
+    "SimulationSettings", "Step", "Sum", "Table", "TorqueDrive", "VelocityServo", "is_driven",
+]

@@ -1,0 +1,31 @@
+"""A scenario: everything one simulation needs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .chain import Chain
+from .drives import Base, is_driven
+from .sensors import Sensor
+from .settings import SimulationSettings
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """The chain, its sensors, the settings, and optionally the base it hangs on."""
+
+    chain: Chain
+    sensors: tuple[Sensor, ...] = ()
+    settings: SimulationSettings = field(
+        default_factory=lambda: SimulationSettings(t_end=1.0, dt_out=1e-3)
+    )
+    name: str = "scenario"
+    # None: the chain hangs on a fixed hub at the origin. A Base makes the hub free or
+    # pinned, carries applied loads and lets several branches start on it.
+    base: Base | None = None
+
+    @property
+    def is_forward(self) -> bool:
+        """True if the base moves, branches start on it, or a joint is driven: the joint
+        angles then follow from the equations of motion (forward dynamics)."""
+        return self.base is not None or any(is_driven(j) for j in self.chain.joints)
