@@ -113,7 +113,7 @@ def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
                         args: argparse.Namespace) -> int:
     from .results.writers import write_run
     from .simulation import simulate
-    from .solvers import SimulationError
+    from .errors import SimulationError
 
     try:
         results = simulate(scenario, progress=not args.quiet)
@@ -150,10 +150,11 @@ def summary(results: Any, out_dir: Path, name: str) -> str:
     lines = [f"flexlink: simulated '{name}', t = {t[0]:g} to {t[-1]:g} s ({t.size} samples)",
              "peak |value| of each channel:"]
     width = max(len(n) for n in results.names) if results.names else 0
-    for name_, signal in results.signals.items():
-        peak = float(abs(signal.values).max()) if signal.values.size else 0.0
-        extra = f"  ({math.degrees(peak):.4g} deg)" if signal.unit == "rad" else ""
-        lines.append(f"  {name_:<{width}}  {peak:.4g} {signal.unit}{extra}")
+    for name_, channel in results.channels.items():
+        values = results[name_]
+        peak = float(abs(values).max()) if values.size else 0.0
+        extra = f"  ({math.degrees(peak):.4g} deg)" if channel.unit == "rad" else ""
+        lines.append(f"  {name_:<{width}}  {peak:.4g} {channel.unit}{extra}")
     files = sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*") if p.is_file())
     lines.append(f"wrote {out_dir}{'/' if not str(out_dir).endswith('/') else ''}: "
                  + ", ".join(files))

@@ -11,9 +11,10 @@ import pytest
 import flexlink.simulation
 from flexlink.cli import main
 from flexlink.model import Scenario
+from flexlink.channels.catalogue import catalogue
 from flexlink.results import Results
 from flexlink.scenario import load_scenario, paper_experiment_path
-from flexlink.solvers import SimulationError
+from flexlink.errors import SimulationError
 
 SHORT = """\
 [simulation]
@@ -67,12 +68,8 @@ def fake_simulate(scenario: Scenario, progress: bool = False) -> Results:
     """Instant stand-in for simulate(): the channels it promises, with zero motion."""
     t = np.arange(0.0, scenario.settings.t_end + 1e-12, scenario.settings.dt_out)
     results = Results(time=t)
-    for sensor in scenario.sensors:
-        results.add(sensor.name, np.zeros_like(t), "m", "fake")
-    for k, link in enumerate(scenario.chain.links, start=1):
-        results.add(f"joint{k}_angle", np.zeros_like(t), "rad", "fake")
-        results.add(f"{link.name}_tip_X", np.zeros_like(t), "m", "fake")
-        results.add(f"{link.name}_tip_Y", np.zeros_like(t), "m", "fake")
+    for channel in catalogue(scenario):
+        results.add(channel, np.zeros_like(t))
     return results
 
 

@@ -8,7 +8,7 @@ import pytest
 from flexlink.dynamics.first_order import FirstOrderSystem
 from flexlink.motion import Cycloidal, MeasuredMotion, Sequence
 from flexlink.simulation import output_times
-from flexlink.solvers import integrate_lawson, integrate_magnus
+from flexlink.solvers import GivenMatrices, Solution, integrate_lawson, integrate_magnus
 from flexlink.solvers.coefficient_table import tabulate
 from flexlink.solvers.lawson import _solve
 from flexlink.solvers.magnus import state_rows
@@ -26,6 +26,16 @@ def _table(system: FirstOrderSystem, t: np.ndarray, tolerance: float = 1e-7,
     return tabulate(lambda times: state_rows(system.matrices, times), t,
                     system.coefficient_keys, tolerance,
                     breaks=system.breakpoints() if breaks else None)
+
+
+def _without_breaks(system: FirstOrderSystem) -> GivenMatrices:
+    """The same equations with no breakpoints: the table must find the kinks itself."""
+    return GivenMatrices(system.matrices, system.n, system.max_frequency,
+                         coefficient_keys=system.coefficient_keys)
+
+
+def _states(solution: Solution) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return solution.q, solution.q_dot, solution.q_ddot
 
 
 def test_table_is_static_exactly_where_the_joints_rest() -> None:
@@ -77,13 +87,9 @@ def test_breaks_save_the_refinement_around_kinks() -> None:
 def test_lawson_agrees_with_magnus(breaks: bool) -> None:
     system = _system(0.7043)
     t = np.append(output_times(1.2, 0.005), 1.2037)  # a last, shorter interval
-    z, zd, zdd, _ = integrate_lawson(system.matrices, system.n, t, 1e-8, 1e-14,
-                                     max_frequency=system.max_frequency,
-                                     coefficient_keys=system.coefficient_keys,
-                                     breaks=system.breakpoints() if breaks else None)
-    zm, zdm = integrate_magnus(system.matrices, system.n, t, 1e-10, 1e-14,
-                               max_frequency=system.max_frequency,
-                               coefficient_keys=system.coefficient_keys)
+    solved = system if breaks else _without_breaks(system)
+    z, zd, zdd = _states(integrate_lawson(solved, t, 1e-8, 1e-14))
+    zm, zdm, _ = _states(integrate_magnus(system, t, 1e-10, 1e-14))
     assert np.abs(z - zm).max() < 1e-7 * np.abs(zm).max()
     assert np.abs(zd - zdm).max() < 1e-7 * np.abs(zdm).max()
     # z̈ from the table equals z̈ from the assembled equations at the same state.
@@ -110,13 +116,10 @@ def test_rough_coefficients_are_integrated_by_magnus() -> None:
     motions = [MeasuredMotion.from_arrays(t_data, angle), Cycloidal(0.0, 0.0, 0.0, 1.0)]
     system = FirstOrderSystem(chain_of(paper_links(2), motions), True)
     t = output_times(0.5, 0.001)
-    z, zd, zdd, method = integrate_lawson(system.matrices, system.n, t, 1e-6, 1e-12,
-                                          max_frequency=system.max_frequency,
-                                          coefficient_keys=system.coefficient_keys)
-    assert method == "magnus"
-    zm, zdm = integrate_magnus(system.matrices, system.n, t, 1e-6, 1e-12,
-                               max_frequency=system.max_frequency,
-                               coefficient_keys=system.coefficient_keys)
+    solution = integrate_lawson(_without_breaks(system), t, 1e-6, 1e-12)
+    z, zd, zdd = _states(solution)
+    assert solution.method == "magnus"
+    zm, zdm, _ = _states(integrate_magnus(system, t, 1e-6, 1e-12))
     assert np.array_equal(z, zm) and np.array_equal(zd, zdm)
     assert np.allclose(zdd, system.accelerations(t, z, zd), rtol=1e-9, atol=1e-9 * np.abs(zdd).max())
 
@@ -132,13 +135,9 @@ def test_a_move_inside_one_output_interval_is_integrated(motion) -> None:  # noq
     system = FirstOrderSystem(chain_of(paper_links(2), [motion, Cycloidal(90.0, 90.0, 0.0, 1.0)]),
                               True)
     t = output_times(1.0, 0.1)
-    z, zd, _, method = integrate_lawson(system.matrices, system.n, t, 1e-6, 1e-14,
-                                        max_frequency=system.max_frequency,
-                                        coefficient_keys=system.coefficient_keys,
-                                        breaks=system.breakpoints())
-    zm, zdm = integrate_magnus(system.matrices, system.n, t, 1e-8, 1e-14,
-                               max_frequency=system.max_frequency,
-                               coefficient_keys=system.coefficient_keys)
-    assert method == "lawson" and np.abs(zm).max() > 0
+    solution = integrate_lawson(system, t, 1e-6, 1e-14)
+    z, zd, _ = _states(solution)
+    zm, zdm, _ = _states(integrate_magnus(system, t, 1e-8, 1e-14))
+    assert solution.method == "lawson" and np.abs(zm).max() > 0
     assert np.abs(z - zm).max() < 2e-5 * np.abs(zm).max()
     assert np.abs(zd - zdm).max() < 2e-5 * np.abs(zdm).max()

@@ -8,8 +8,8 @@ import pytest
 from flexlink.dynamics.arc import ArcQuadrature
 from flexlink.dynamics.nonlinear import NonlinearSystem
 from flexlink.model import Link, PiezoSensor, PointSensor
-from flexlink.sensors.evaluate import Trajectory
-from flexlink.sensors.nonlinear import joint_and_tip_channels, sensor_channels
+from flexlink.channels.nonlinear import sensor_values, tip_values
+from flexlink.solvers import Solution
 from flexlink.solvers.gauss import hermite_quintic, integrate_gauss
 from tests.helpers import CubicMotion, chain_of, paper_links
 
@@ -97,10 +97,11 @@ def test_joint_torques_and_accelerometer_against_finite_differences() -> None:
     torque = system.joint_torques(np.array([T0]), q[None], qd[None], qdd[None])[0]
     assert torque[1] == pytest.approx(moment, rel=1e-4)
 
-    traj = Trajectory(np.array([T0]), q[None], qd[None], qdd[None])
+    traj = Solution(np.array([T0]), q[None], qd[None], qdd[None], "test")
+    hist = system.joint_history(traj.t)
     sensors = (PointSensor("a", "acceleration", 1, 0.45), PointSensor("w", "deflection", 1, 0.45),
                PointSensor("s", "slope", 1, 0.45), PiezoSensor("p", 1, 0.1, 0.45, 1, 1, 1, 1, 1))
-    channels = {c.name: c.values[0] for c in sensor_channels(system, traj, sensors)}
+    channels = {name: v[0] for name, v in sensor_values(system, traj, sensors, hist).items()}
     point = [_positions(system, 1, np.array([0.45]), T0 + s, at(s))[0] for s in (-dt, 0.0, dt)]
     angle = system.joint_history(np.array([T0])).angle[0].sum() + system.root_A[1] @ q
     psi = system.modal[1].shapes.evaluate(np.array([0.45]), 1)[0] @ q[system.arcs[1].coords]
@@ -111,7 +112,7 @@ def test_joint_torques_and_accelerometer_against_finite_differences() -> None:
     assert channels["w"] == pytest.approx(
         np.array([-np.sin(angle), np.cos(angle)]) @ (point[1] - root), rel=1e-10)
     assert channels["s"] == pytest.approx(psi, rel=1e-12)
-    tip = {c.name: c.values[0] for c in joint_and_tip_channels(system, traj)}
+    tip = {name: v[0] for name, v in tip_values(system, traj, hist).items()}
     end = _positions(system, 1, np.array([link2.length]), T0, q)[0]
     assert (tip["link2_tip_X"], tip["link2_tip_Y"]) == pytest.approx(tuple(end), rel=1e-12)
 

@@ -99,7 +99,7 @@ def test_every_case_equals_its_own_simulate_run(paper_sweep) -> None:
             # bit for bit: the same computation in a worker process
             assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)
         assert dataset[reference.names[0]].attrs["units"] == \
-            reference.signals[reference.names[0]].unit
+            reference.channels[reference.names[0]].unit
     # the cases differ: the sweep really varied the fields
     assert not np.array_equal(dataset.link1_tip_acceleration[0], dataset.link1_tip_acceleration[2])
 
@@ -392,9 +392,11 @@ def test_forked_workers_write_through_the_shared_array_bit_for_bit(
 def test_rows_of_unfinished_cases_read_as_zero_while_workers_may_write() -> None:
     from flexlink.batch.dataset import SweepCollector
     from flexlink.batch.parameters import case_table, grid_values
-    from flexlink.batch.worker import Channel, ChunkResult, SharedResults
+    from flexlink.batch.worker import ChunkResult, SharedResults
+    from flexlink.channels import Channel, ChannelKind
 
-    channels = (Channel("a", "m", "first"), Channel("b", "s", "second"))
+    channels = (Channel("a", ChannelKind.SENSOR, "m", "first"),
+                Channel("b", ChannelKind.SENSOR, "s", "second"))
     shared = SharedResults.allocate(channels, 3, 4)
     collector = SweepCollector(case_table([grid_values("x.y", [1, 2, 3])]), np.arange(4.0),
                                {}, shared, channels)

@@ -15,6 +15,7 @@ from flexlink.results import plotting
 from flexlink.results import writers
 from flexlink.results.writers import OutputFolderError, write_run
 from flexlink.scenario.toml_writer import dump_toml
+from flexlink.channels import Channel, ChannelKind
 from flexlink.results import Results
 from flexlink.scenario import load_scenario, resolve_scenario_dict, scenario_from_dict
 
@@ -36,11 +37,16 @@ def fake_results() -> Results:
     t = np.linspace(0.0, 0.1, 11)
     beta = np.radians(30.0) * t / 0.1
     results = Results(time=t, metadata={"scenario": "unit"})
-    results.add("tip", 1e-3 * np.sin(40 * t) + 1.0 / 3.0, "m", "deflection at x = 0.6 m")
-    results.add("root", 1e-5 * np.cos(40 * t), "1", "strain at x = 0.0 m")
-    results.add("joint1_angle", beta, "rad", "joint 1 angle")
-    results.add("arm_tip_X", 0.6 * np.cos(beta), "m", "X of the tip of arm")
-    results.add("arm_tip_Y", 0.6 * np.sin(beta), "m", "Y of the tip of arm")
+    sensor, joint, tip = ChannelKind.SENSOR, ChannelKind.JOINT, ChannelKind.TIP
+    results.add(Channel("tip", sensor, "m", "deflection at x = 0.6 m", "deflection", "arm"),
+                1e-3 * np.sin(40 * t) + 1.0 / 3.0)
+    results.add(Channel("root", sensor, "1", "strain at x = 0.0 m", "strain", "arm"),
+                1e-5 * np.cos(40 * t))
+    results.add(Channel("joint1_angle", joint, "rad", "joint 1 angle", "angle", "joint1"), beta)
+    results.add(Channel("arm_tip_X", tip, "m", "X of the tip of arm", "X", "arm"),
+                0.6 * np.cos(beta))
+    results.add(Channel("arm_tip_Y", tip, "m", "Y of the tip of arm", "Y", "arm"),
+                0.6 * np.sin(beta))
     return results
 
 

@@ -17,7 +17,7 @@ from scipy.integrate import cumulative_simpson
 from flexlink.dynamics import first_order
 from flexlink.model import Link
 from flexlink.motion import Cycloidal
-from flexlink.solvers import integrate_magnus
+from flexlink.solvers import GivenMatrices, integrate_magnus
 from tests.helpers import chain_of
 from tests.validation.brute_force import exact_energy, exact_joint_torques
 
@@ -29,7 +29,8 @@ MOTIONS = (Cycloidal(0.0, 40.0, 0.05, 0.5), Cycloidal(30.0, -20.0, 0.1, 0.4))
 def _balance_error(stiffening: bool) -> float:
     system = first_order.FirstOrderSystem(chain_of(LINKS, MOTIONS), stiffening)
     t = np.linspace(0.0, 0.8, 321)
-    z, zd = integrate_magnus(system.matrices, system.n, t, 1e-9, 1e-14)
+    solution = integrate_magnus(GivenMatrices(system.matrices, system.n), t, 1e-9, 1e-14)
+    z, zd = solution.q, solution.q_dot
     zdd = system.accelerations(t, z, zd)
     beta_fn = lambda s: np.array([m.evaluate(np.array(s))[0] for m in MOTIONS])
     rates = np.stack([m.evaluate(t)[1] for m in MOTIONS], -1)

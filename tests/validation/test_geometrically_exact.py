@@ -12,7 +12,7 @@ import pytest
 from flexlink.model import Chain, PointSensor, Scenario, SimulationSettings
 from flexlink.motion import Cycloidal
 from flexlink.simulation import simulate
-from flexlink.solvers import SimulationError
+from flexlink.errors import SimulationError
 from tests.helpers import chain_of, paper_links
 
 pytest.importorskip("exudyn")

@@ -128,7 +128,8 @@ def test_work_of_joint_torques_equals_energy_change_in_a_violent_swing() -> None
     motions = [Cycloidal(0.0, 180.0, 0.2, 0.4), Cycloidal(-90.0, 90.0, 0.2, 0.4)]
     system = NonlinearSystem(chain_of(paper_links(modes=4, damping=False), motions))
     t = np.arange(0.0, 1.0 + 1e-9, 5e-4)
-    q, v, a, _ = solve_nonlinear(system, t, 1e-4, step=0.0025)
+    solution = solve_nonlinear(system, t, 1e-4, step=0.0025)
+    q, v, a = solution.q, solution.q_dot, solution.q_ddot
     kinetic, elastic = system.energy(t, q, v)
     energy = kinetic + elastic - kinetic[0] - elastic[0]
     power = (system.joint_torques(t, q, v, a) * system.joint_history(t).rate).sum(axis=1)

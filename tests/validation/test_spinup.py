@@ -22,7 +22,7 @@ import pytest
 
 from flexlink.results import Results
 from flexlink.simulation import simulate
-from flexlink.solvers import SimulationError
+from flexlink.errors import SimulationError
 from tests.validation.benchmarks import KANE_RYAN_BANERJEE_1987, RotatingBeamFE
 
 BEAM = KANE_RYAN_BANERJEE_1987

@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .parameters import CaseTable
-from .worker import Channel, ChunkResult, SharedResults, labels
+from ..channels import Channel
+from .worker import ChunkResult, SharedResults, labels
 
 if TYPE_CHECKING:
     import xarray as xr

@@ -15,13 +15,14 @@ from .._version import package_version
 from ..results.netcdf import write_netcdf_atomic
 from ..scenario.toml_writer import dump_toml
 from ..model import Scenario
-from ..simulation import output_times
+from ..simulation.common import output_times
 from . import executors
 from .cases import BaseScenario, case_scenarios, load_base
 from .dataset import SweepCollector
 from .errors import SweepError, SweepInterrupted
 from .parameters import GridParameter, RandomParameter, case_table, from_mappings
-from .worker import Channel, ChunkResult, SharedResults, run_chunk
+from ..channels import Channel
+from .worker import ChunkResult, SharedResults, run_chunk
 
 if TYPE_CHECKING:
     import xarray as xr

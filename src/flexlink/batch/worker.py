@@ -16,19 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..channels import Channel
 from ..model import Scenario
 
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
                          "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
-
-
-@dataclass(frozen=True)
-class Channel:
-    """Name, unit and description of one output channel (as in `flexlink.results.Signal`)."""
-
-    name: str
-    unit: str
-    description: str
 
 
 def labels(channels: Sequence[Channel]) -> list[tuple[str, str]]:
@@ -78,11 +70,10 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
         try:
             results = simulate(scenario)
             names = list(channels) if channels is not None else results.names
-            missing = [n for n in names if n not in results.signals]
+            missing = [n for n in names if n not in results]
             if missing:
                 raise KeyError(f"no channel {', '.join(missing)} in this case's results")
-            found = tuple(Channel(n, results.signals[n].unit, results.signals[n].description)
-                          for n in names)
+            found = tuple(results.channels[n] for n in names)
             if out.channels and labels(found) != labels(out.channels):
                 raise ValueError("this case's channels differ from the other cases'")
             block: np.ndarray | None = None

@@ -171,18 +171,7 @@ class FirstOrderSystem:
         self, frames: FrameMotion, k: int, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """ξ_k, ξ̇_k, ξ̈_k (each (nt, 3+n_k)) from z, ż, z̈ (nt, n)."""
-        T, T_d, T_dd = frames.T, frames.T_dot, frames.T_ddot
-        sl = self.bodies[k].slice
-
-        def apply(maps: list[np.ndarray], v: np.ndarray) -> np.ndarray:
-            return frames.apply(maps, k, v)
-
-        # T̂ = [T; E] with E picking q_k, constant: the rows of its derivatives are zero.
-        xi = np.concatenate([apply(T, z), z[:, sl]], axis=1)
-        xi_d = np.concatenate([apply(T, zd) + apply(T_d, z), zd[:, sl]], axis=1)
-        xi_dd = np.concatenate([apply(T, zdd) + 2 * apply(T_d, zd) + apply(T_dd, z), zdd[:, sl]],
-                               axis=1)
-        return xi, xi_d, xi_dd
+        return xi_states(frames, k, self.bodies[k].slice, z, zd, zdd)
 
     # -- equations --------------------------------------------------------------------------
     def matrices(
@@ -260,6 +249,23 @@ def xi_maps(fr: FrameMotion, body: LinkBody, k: int, n_total: int
         np.concatenate([fr.T_dot[k], zero], axis=1),
         np.concatenate([fr.T_ddot[k], zero], axis=1),
     )
+
+
+def xi_states(frames: FrameMotion, k: int, own: slice, z: np.ndarray, zd: np.ndarray,
+              zdd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ξ_k = [ρx, ρy, θ1, q_k], ξ̇_k, ξ̈_k (each (nt, 3+n_k)) from z, ż, z̈ (nt, n); ``own``
+    picks link k's modal coordinates q_k out of z."""
+    T, T_d, T_dd = frames.T, frames.T_dot, frames.T_ddot
+
+    def apply(maps: list[np.ndarray], v: np.ndarray) -> np.ndarray:
+        return frames.apply(maps, k, v)
+
+    # T̂ = [T; E] with E picking q_k, constant: the rows of its derivatives are zero.
+    xi = np.concatenate([apply(T, z), z[:, own]], axis=1)
+    xi_d = np.concatenate([apply(T, zd) + apply(T_d, z), zd[:, own]], axis=1)
+    xi_dd = np.concatenate([apply(T, zdd) + 2 * apply(T_d, zd) + apply(T_dd, z), zdd[:, own]],
+                           axis=1)
+    return xi, xi_d, xi_dd
 
 
 def add_link_terms(

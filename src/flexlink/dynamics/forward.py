@@ -58,6 +58,24 @@ class ForwardSystem:
                        if isinstance(chain.joints[k], VelocityServo | PositionServo)]
 
     # -- rigid state ------------------------------------------------------------------------
+    def initial_state(self) -> np.ndarray:
+        """[p_free, ṗ_free, z, ż, integrals] at t = 0: base and driven joints as given
+        (servos start on their reference), elastic coordinates at rest."""
+        b = self.base
+        p0, v0 = {"free": ([*b.position, b.attitude], [*b.velocity, b.rate]),
+                  "pinned": ([b.attitude], [b.rate]), "fixed": ([], [])}[b.kind]
+        p, v = list(p0), list(v0)
+        for k in self.driven:
+            joint = self.chain.joints[k]
+            if isinstance(joint, TorqueDrive):
+                p.append(joint.initial_angle)
+                v.append(joint.initial_rate)
+            else:
+                angle, rate, _ = joint.reference.evaluate(np.array([0.0]))
+                p.append(float(np.ravel(angle)[0]))
+                v.append(float(np.ravel(rate)[0]))
+        return np.concatenate([p, v, np.zeros(2 * self.n + len(self.servos))])
+
     def joint_index(self, k: int) -> int:
         return self.n_base + k
 

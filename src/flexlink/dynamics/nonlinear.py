@@ -31,11 +31,6 @@ from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .first_order import chain_modal_data
 from .kinematics import JointHistory, joint_history
 
-try:
-    from . import _nonlinear_numba as compiled_kernels
-except ImportError:  # numba is missing: the numpy expressions below do the same, more slowly
-    compiled_kernels = None  # type: ignore[assignment]
-
 
 @dataclass(frozen=True)
 class NodeInputs:
@@ -188,12 +183,12 @@ class NonlinearSystem:
         return self.mass_matrix(alpha), f
 
     def accelerations(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                      compiled: bool | None = None) -> np.ndarray:
+                      compiled: bool = True) -> np.ndarray:
         """q̈ (b, n) from the equations of motion at times t (b,), s. ``compiled``: the numba
-        kernel (default when numba is installed) or numpy."""
-        if compiled is None:
-            compiled = compiled_kernels is not None
+        kernel (numba is a dependency), or the numpy expressions it is tested against."""
         if compiled:
+            from . import _nonlinear_numba as compiled_kernels  # numba: only when used
+
             inputs = self.node_inputs(t)
             return compiled_kernels.accelerations(
                 *(np.ascontiguousarray(a, dtype=float) for a in (

@@ -66,7 +66,7 @@ def _run(args: argparse.Namespace, work: Any) -> int:
     """Common error handling: input problems → 2, failed simulation → 1; warnings printed."""
     from ..results.writers import OutputFolderError, check_output_dir
     from ..scenario import ScenarioError
-    from ..solvers import SimulationError
+    from ..errors import SimulationError
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

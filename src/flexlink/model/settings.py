@@ -11,7 +11,7 @@ from typing import Literal, get_args
 
 ModelName = Literal["first_order", "nonlinear"]
 # "lawson" and "magnus" integrate prescribed-joint runs; the others are scipy solve_ivp methods
-MethodName = Literal["lawson", "magnus", "DOP853", "RK45", "Radau", "LSODA"]
+MethodName = Literal["magnus", "lawson", "DOP853", "RK45", "Radau", "LSODA"]
 
 MODELS: tuple[str, ...] = get_args(ModelName)
 METHODS: tuple[str, ...] = get_args(MethodName)

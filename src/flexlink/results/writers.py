@@ -126,6 +126,7 @@ def write_netcdf(results: Results, path: Path) -> None:
         _netcdf_variable(nc, "time", results.time, "s", "")
         for name, channel in results.channels.items():
             _netcdf_variable(nc, name, results[name], channel.unit, channel.description)
+            nc.variables[name].kind = channel.kind.value
 
 
 def _netcdf_variable(nc: Any, name: str, values: np.ndarray, unit: str, long_name: str) -> None:

@@ -22,13 +22,9 @@ from collections.abc import Callable
 import numpy as np
 
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
-from .ode import SimulationError
+from ..errors import SimulationError
+from .solution import Solution
 from .threads import single_threaded
-
-try:
-    from ._gauss_numba import gauss_loop
-except ImportError:  # numba is missing: the numpy loop does the same, more slowly
-    gauss_loop = None
 
 _R3 = np.sqrt(3.0) / 6.0
 NODES = np.array([0.5 - _R3, 0.5 + _R3])
@@ -43,11 +39,11 @@ NEWTON_MAX = 20
 def integrate_gauss(
     system: NonlinearSystem, t_end: float, step: float,
     on_progress: Callable[[float], None] | None = None,
-    q0: np.ndarray | None = None, v0: np.ndarray | None = None, compiled: bool | None = None,
+    q0: np.ndarray | None = None, v0: np.ndarray | None = None, compiled: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Step ends t (m+1,), q and q̇ there (m+1, n), from q0, v0 (default rest) at t = 0;
-    uniform steps ≤ step (s). ``compiled``: the numba loop (default when numba is installed)
-    or the numpy one."""
+    uniform steps ≤ step (s). ``compiled``: the numba loop (numba is a dependency), or the
+    numpy one that it is tested against."""
     steps = max(1, int(np.ceil(t_end / step - 1e-9)))
     h = t_end / steps
     n = system.n
@@ -60,8 +56,6 @@ def integrate_gauss(
     if v0 is not None:
         v[0] = v0
     X = np.repeat(system.accelerations(np.zeros(1), q[:1], v[:1]), 2, axis=0)
-    if compiled is None:
-        compiled = gauss_loop is not None
     if compiled:
         _compiled_loop(system, q, v, X, h, inputs, on_progress, t_ends)
         return t_ends, q, v
@@ -87,8 +81,9 @@ def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.
                    h: float, inputs: NodeInputs, on_progress: Callable[[float], None] | None,
                    t_ends: np.ndarray) -> None:
     """Run the numba step loop over q, v in place, in chunks of CHUNK steps."""
-    assert gauss_loop is not None
     steps = q.shape[0] - 1
+    from ._gauss_numba import gauss_loop  # numba loads in ~0.5 s: only when used
+
     arrays = [np.ascontiguousarray(a, dtype=float) for a in (
         system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
     for start in range(0, steps, CHUNK):
@@ -200,9 +195,10 @@ def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.nda
 def solve_nonlinear(
     system: NonlinearSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
     on_progress: Callable[[float], None] | None = None, max_halvings: int = 6,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """q, q̇, q̈ at t_out (from rest at t_out[0] = 0) and the step used (s). q̈ interpolates
-    the equations' accelerations at the step ends (the quintic's second derivative).
+) -> Solution:
+    """q, q̇, q̈ at t_out (from rest at t_out[0] = 0), method "gauss", the step used (s) in
+    its stats. q̈ interpolates the equations' accelerations at the step ends (the quintic's
+    second derivative).
 
     With ``step`` given: one run at that step. Otherwise the step is halved from 10 ms until the
     error estimate of the finer solution, |difference| / 15 (fourth order), is within rtol of
@@ -216,8 +212,11 @@ def solve_nonlinear(
         a = system.accelerations(t_nodes, q, v)
         return hermite_quintic(t_nodes, q, v, a, t_out)
 
+    def solution(q: np.ndarray, v: np.ndarray, a: np.ndarray, h: float) -> Solution:
+        return Solution(t_out, q, v, a, "gauss", {"time_step_s": h})
+
     if step is not None:
-        return (*run(step), step)
+        return solution(*run(step), step)
     h = min(0.01, t_end)
     previous = None
     err = np.inf
@@ -231,7 +230,7 @@ def solve_nonlinear(
         if previous is not None:
             err = max(_relative_change(previous[0], q), _relative_change(previous[1], v)) / 15.0
             if err <= rtol:
-                return q, v, a, h
+                return solution(q, v, a, h)
         previous = (q, v)
         h /= 2
     raise SimulationError(

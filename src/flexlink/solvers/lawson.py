@@ -24,14 +24,13 @@ sample) are integrated by Magnus instead, which assembles them where it needs th
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
+from ..errors import SimulationError
 from .batched_expm import expm_balanced
-from .coefficient_table import CoefficientTable, KeyFunction, RoughCoefficients, tabulate
+from .coefficient_table import CoefficientTable, RoughCoefficients, tabulate
 from .magnus import agree, augmented, initial_step, integrate_magnus, state_rows
-from .ode import MatrixFunction, SimulationError
+from .solution import LinearSystem, Progress, Solution
 from .threads import single_threaded
 
 _MAX_HALVINGS = 10
@@ -39,24 +38,16 @@ _ASSEMBLIES_PER_STEP = 4
 _BLOCKS_PER_CALL = 64  # progress is reported between calls of the compiled loop
 
 
-def integrate_lawson(
-    matrices: MatrixFunction,
-    n: int,
-    t_out: np.ndarray,
-    rtol: float,
-    atol: float,
-    on_progress: Callable[[float], None] | None = None,
-    max_frequency: float = 0.0,
-    coefficient_keys: KeyFunction | None = None,
-    breaks: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
-    """z, ż and z̈ at t_out (each (nt, n)) from rest at t_out[0], and the method that ran:
-    "lawson", or "magnus" when the coefficients are too rough to tabulate (RoughCoefficients).
+def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
+                     on_progress: Progress | None = None) -> Solution:
+    """The system's q, q̇, q̈ at t_out from rest at t_out[0]. Its method is "lawson", or
+    "magnus" when the coefficients are too rough to tabulate (RoughCoefficients).
 
-    max_frequency (rad/s) sets the first step, as for Magnus; coefficient_keys labels instants
-    with equal coefficients (rest phases), breaks are times where they are not smooth (see
-    coefficient_table)."""
-    first_step = initial_step(max_frequency)
+    The system's max_frequency (rad/s) sets the first step, as for Magnus; its
+    coefficient_keys label instants with equal coefficients (rest phases), its breakpoints
+    are times where they are not smooth (see coefficient_table)."""
+    n, matrices = system.n, system.matrices
+    first_step = initial_step(system.max_frequency)
     # A fourth-order error goes as h⁴: tighter tolerances start with shorter steps (the paper
     # arm meets rtol 1e-4 with the first step above, 1 ms).
     first_step *= min(1.0, (rtol / 1e-4) ** 0.25)
@@ -65,22 +56,20 @@ def integrate_lawson(
     substeps = 2 * max(1, int(np.ceil(np.diff(t_out).max() / (2 * first_step))))
     with single_threaded():
         try:  # more than Magnus' 2 assemblies per step and pass would not pay
-            table = tabulate(lambda times: state_rows(matrices, times), t_out, coefficient_keys,
-                             tolerance=rtol, budget=_ASSEMBLIES_PER_STEP * substeps,
-                             breaks=breaks)
+            table = tabulate(lambda times: state_rows(matrices, times), t_out,
+                             system.coefficient_keys, tolerance=rtol,
+                             budget=_ASSEMBLIES_PER_STEP * substeps,
+                             breaks=system.breakpoints())
         except RoughCoefficients:
             # Magnus assembles A where it needs it, which then costs less than a table.
-            z, zd = integrate_magnus(matrices, n, t_out, rtol, atol, on_progress, max_frequency,
-                                     coefficient_keys)
-            rows = state_rows(matrices, t_out)
-            zdd = np.einsum("tij,tj->ti", rows[:, :, : 2 * n], np.hstack([z, zd])) + rows[:, :, -1]
-            return z, zd, zdd, "magnus"
+            return integrate_magnus(system, t_out, rtol, atol, on_progress)
         coarse = _solve(table, n, t_out, substeps // 2, on_progress)
         for _ in range(_MAX_HALVINGS):
             fine = _solve(table, n, t_out, substeps, on_progress)
             states, acc = fine
             if agree(states[:, :-1], states[:, :-1], coarse[0][:, :-1], n, rtol, atol):
-                return states[:, :n], states[:, n: 2 * n], acc, "lawson"
+                stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
+                return Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats)
             coarse = fine
             substeps *= 2
     raise SimulationError(
@@ -91,7 +80,7 @@ def integrate_lawson(
 
 def _solve(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
-    on_progress: Callable[[float], None] | None,
+    on_progress: Progress | None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval."""
     from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used

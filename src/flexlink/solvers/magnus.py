@@ -31,8 +31,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..errors import SimulationError
 from .batched_expm import expm_balanced
-from .ode import MatrixFunction, SimulationError
+from .solution import LinearSystem, Matrices, Progress, Solution
 from .threads import single_threaded
 
 _GAUSS = np.array([0.5 - np.sqrt(3) / 6, 0.5 + np.sqrt(3) / 6])
@@ -41,34 +42,37 @@ _MAX_HALVINGS = 12
 _RICHARDSON = 2**4 - 1
 
 KeyFunction = Callable[[np.ndarray], np.ndarray]
+MatrixFunction = Callable[[np.ndarray], Matrices]
 
 
-def integrate_magnus(
-    matrices: MatrixFunction,
-    n: int,
-    t_out: np.ndarray,
-    rtol: float,
-    atol: float,
-    on_progress: Callable[[float], None] | None = None,
-    max_frequency: float = 0.0,
-    coefficient_keys: KeyFunction | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """z and ż at t_out (each (nt, n)) from rest at t_out[0].
+def integrate_magnus(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
+                     on_progress: Progress | None = None) -> Solution:
+    """The system's q, q̇, q̈ at t_out from rest at t_out[0].
 
-    max_frequency (rad/s), the highest natural frequency of the model, sets the first step:
-    with h·ω ≫ 1 the expansion is still stable but its error estimate converges slowly.
-    coefficient_keys labels instants whose coefficients are equal (see the module docstring).
+    Its max_frequency (rad/s), the highest natural frequency, sets the first step: with
+    h·ω ≫ 1 the expansion is still stable but its error estimate converges slowly. Its
+    coefficient_keys label instants whose coefficients are equal (module docstring).
     """
     with single_threaded():
-        return _integrate(matrices, n, t_out, rtol, atol, on_progress, max_frequency,
-                          coefficient_keys)
+        z, zd, substeps = _integrate(system.matrices, system.n, t_out, rtol, atol, on_progress,
+                                     system.max_frequency, system.coefficient_keys)
+        zdd = accelerations(system.matrices, t_out, z, zd)
+    return Solution(t_out, z, zd, zdd, "magnus", {"steps_per_output_interval": substeps})
+
+
+def accelerations(matrices: MatrixFunction, t: np.ndarray, z: np.ndarray,
+                  zd: np.ndarray) -> np.ndarray:
+    """q̈ (nt, n) from the equations of motion at times t."""
+    rows = state_rows(matrices, t)
+    n = z.shape[1]
+    return np.einsum("tij,tj->ti", rows[:, :, : 2 * n], np.hstack([z, zd])) + rows[:, :, -1]
 
 
 def _integrate(
     matrices: MatrixFunction, n: int, t_out: np.ndarray, rtol: float, atol: float,
-    on_progress: Callable[[float], None] | None, max_frequency: float,
+    on_progress: Progress | None, max_frequency: float,
     keys: KeyFunction | None,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, int]:
     intervals = np.diff(t_out)
     first_step = initial_step(max_frequency)
     substeps = max(1, int(np.ceil(intervals.max() / first_step)))
@@ -79,7 +83,7 @@ def _integrate(
     for _ in range(_MAX_HALVINGS):
         fine = _solve(matrices, n, t_out, substeps, on_progress, keys)
         if agree(fine, fine[common], previous, n, rtol, atol):
-            return fine[:, :n], fine[:, n:]
+            return fine[:, :n], fine[:, n:], substeps
         previous, common = fine, slice(None)
         substeps *= 2
     raise SimulationError(
@@ -184,6 +188,8 @@ def _fill_powers(Q: np.ndarray, y: np.ndarray, rows: np.ndarray) -> None:
         rows[filled: filled + take] = rows[:take] @ Qm.T
         filled += take
         Qm = Qm @ Qm
+
+
 def _propagators(matrices: MatrixFunction, n: int, t0: np.ndarray, h: np.ndarray) -> np.ndarray:
     """exp(Ω) for every step, (steps, 2n+1, 2n+1)."""
     times = (t0[:, None] + h[:, None] * _GAUSS).ravel()

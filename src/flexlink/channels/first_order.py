@@ -1,0 +1,103 @@
+"""Channel values of the first-order model from a solved run (vectorised over output times).
+
+Point quantities use the link's clamped frame: deflection w(x), slope w'(x), surface strain
+−(h/2) w''(x) on the +y face. The accelerometer reads the absolute acceleration of the material
+point along its deformed normal, to first order (docs/derivation.md, "Sensors"):
+
+    a_n = a0_y + a1_y − a0_x (θ1 + w'(x)),
+
+computed from z̈ of the equations of motion, never by differentiating displacements.
+
+Prescribed runs read the `FirstOrderSystem`; forward runs a view of theirs restricted to the
+elastic coordinates about the solved rigid motion (channels/forward.py): both are an
+`ElasticModel`.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+from ..dynamics.first_order import LinkBody
+from ..dynamics.kinematics import FrameMotion, rotation
+from ..model import Chain, PointSensor, Sensor
+from ..modes import ModalData
+from ..solvers import Solution
+from .catalogue import tip_name
+from .modal import modal_reading
+
+
+class ElasticModel(Protocol):
+    """What the readings need of a first-order model: the chain, its modal data and the
+    coordinates of each link's modes, and ξ_k = [ρx, ρy, θ1, q_k] from z."""
+
+    chain: Chain
+    modal: list[ModalData]
+    bodies: list[LinkBody]
+
+    def xi_states(self, frames: FrameMotion, k: int, z: np.ndarray, zd: np.ndarray,
+                  zdd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+
+def sensor_values(model: ElasticModel, frames: FrameMotion, solution: Solution,
+                  sensors: tuple[Sensor, ...]) -> dict[str, np.ndarray]:
+    """Each sensor's reading at the solution's times, by sensor name."""
+    return {s.name: _read(model, frames, solution, s) for s in sensors}
+
+
+def tip_values(model: ElasticModel, frames: FrameMotion, z: np.ndarray) -> dict[str, np.ndarray]:
+    """Global X and Y (m) of every link's deformed tip, by channel name."""
+    out = {}
+    for k, link in enumerate(model.chain.links):
+        tip = tip_position(model, frames, z, k)
+        out[tip_name(link.name, "X")] = tip[:, 0]
+        out[tip_name(link.name, "Y")] = tip[:, 1]
+    return out
+
+
+def tip_deflections(model: ElasticModel, z: np.ndarray) -> np.ndarray:
+    """|w(L)| of every link in its clamped frame, (nt, links), m."""
+    return np.abs(np.column_stack([z[:, b.slice] @ b.data.tip_value for b in model.bodies]))
+
+
+def tip_position(model: ElasticModel, frames: FrameMotion, z: np.ndarray, k: int) -> np.ndarray:
+    """Global position (nt, 2) of link k's deformed tip, m."""
+    d = model.modal[k]
+    rho = frames.apply(frames.T, k, z)
+    q = z[:, model.bodies[k].slice]
+    local = np.stack([d.length + rho[:, 0], rho[:, 1] + d.length * rho[:, 2] + q @ d.tip_value],
+                     -1)
+    return frames.origin[:, k] + np.einsum("tij,tj->ti", rotation(frames.theta[:, k]), local)
+
+
+def _read(model: ElasticModel, frames: FrameMotion, solution: Solution,
+          sensor: Sensor) -> np.ndarray:
+    k = sensor.link
+    shapes = model.modal[k].shapes
+    q = solution.q[:, model.bodies[k].slice]
+    reading = modal_reading(sensor, shapes, q, model.chain)
+    if reading is not None:
+        return reading
+    assert isinstance(sensor, PointSensor)
+    if sensor.kind == "deflection":
+        return q @ shapes.evaluate(np.array([sensor.x]), 0)[0]
+    return _normal_acceleration(model, frames, solution, k, sensor.x)
+
+
+def _normal_acceleration(model: ElasticModel, frames: FrameMotion, solution: Solution, k: int,
+                         x: float) -> np.ndarray:
+    xi, xi_d, xi_dd = model.xi_states(frames, k, solution.q, solution.q_dot, solution.q_ddot)
+    shapes = model.modal[k].shapes
+    phi = shapes.evaluate(np.array([x]), 0)[0]
+    dphi = shapes.evaluate(np.array([x]), 1)[0]
+
+    def transverse(v: np.ndarray) -> np.ndarray:
+        return v[:, 1] + x * v[:, 2] + v[:, 3:] @ phi
+
+    w, wd = frames.omega[:, k], frames.alpha[:, k]
+    ax, ay = frames.origin_accel[:, k, 0], frames.origin_accel[:, k, 1]
+    a0x, a0y = ax - w**2 * x, ay + wd * x
+    a1y = transverse(xi_dd) + 2 * w * xi_d[:, 0] + wd * xi[:, 0] - w**2 * transverse(xi)
+    rotation_angle = xi[:, 2] + xi[:, 3:] @ dphi
+    return a0y + a1y - a0x * rotation_angle

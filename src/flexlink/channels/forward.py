@@ -1,0 +1,67 @@
+"""Channel values of a forward run (free or pinned base, driven joints).
+
+Sensors and tips are read as in a prescribed run (channels/first_order.py), about the solved
+rigid motion: the expansion is about the actual rigid state, so ρ and θ1 depend on z only.
+Base pose, joint quantities and momentum come from the rigid coordinates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..dynamics.first_order import LinkBody, link_body, xi_states
+from ..dynamics.forward import ForwardSystem, momentum
+from ..dynamics.kinematics import FrameMotion
+from ..dynamics.servos import command_volts
+from ..model import PositionServo, VelocityServo
+from .catalogue import BASE_COORDINATES, joint_name
+
+
+class SolvedMotion:
+    """The solved rigid motion seen as a prescribed one (an `ElasticModel` for the readings
+    of channels/first_order.py): frames and maps restricted to the elastic coordinates."""
+
+    def __init__(self, system: ForwardSystem, frames: FrameMotion) -> None:
+        self.chain = system.chain
+        self.modal = system.modal
+        self.n = system.n
+        self.bodies: list[LinkBody] = [link_body(b.data, b.offset - system.n_rigid)
+                                       for b in system.bodies]
+        zc = slice(system.n_rigid, system.n_x)
+        self.frames = FrameMotion(frames.theta, frames.omega, frames.alpha, frames.origin,
+                                  frames.origin_accel, [T[:, :, zc] for T in frames.T],
+                                  [T[:, :, zc] for T in frames.T_dot],
+                                  [T[:, :, zc] for T in frames.T_ddot])
+
+    def xi_states(self, frames: FrameMotion, k: int, z: np.ndarray, zd: np.ndarray,
+                  zdd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """ξ_k, ξ̇_k, ξ̈_k (nt, 3+n_k) from z, ż, z̈."""
+        return xi_states(frames, k, self.bodies[k].slice, z, zd, zdd)
+
+
+def rigid_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
+                 pdd: np.ndarray, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray,
+                 integral: np.ndarray) -> dict[str, np.ndarray]:
+    """Base pose and rates, joint angles, rates, torques, servo references and commands,
+    and (base not fixed) momentum, by channel name."""
+    out: dict[str, np.ndarray] = {}
+    for i, name in enumerate(BASE_COORDINATES[system.base.kind]):
+        out[f"base_{name}"] = p[:, i]
+        out[f"base_{name}_rate"] = pd[:, i]
+    torque = system.joint_torques(p, pd, pdd, z, zd, zdd)
+    for k, joint in enumerate(system.chain.joints):
+        i = system.joint_index(k)
+        out[joint_name(k, "angle")] = p[:, i]
+        out[joint_name(k, "rate")] = pd[:, i]
+        out[joint_name(k, "torque")] = torque[:, k]
+        if isinstance(joint, VelocityServo | PositionServo):
+            out[joint_name(k, "reference")] = joint.reference.evaluate(t)[0] + 0 * t
+        if isinstance(joint, VelocityServo):
+            s = system.servos.index(k)
+            out[joint_name(k, "command")] = command_volts(joint, t, p[:, i], pd[:, i],
+                                                          integral[:, s])
+    if system.base.kind != "fixed":
+        linear, angular = momentum(system, p, pd, z, zd)
+        out["momentum_x"], out["momentum_y"] = linear[:, 0], linear[:, 1]
+        out["angular_momentum"] = angular
+    return out

@@ -1,0 +1,116 @@
+"""What every model path shares: the output grid, progress, the validity check of the
+first-order model, and the assembly of `Results` from the channel catalogue."""
+
+from __future__ import annotations
+
+import functools
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .._version import package_version
+from ..channels.catalogue import catalogue
+from ..errors import SimulationError
+from ..model import Link, Scenario
+from ..results import Results
+from ..solvers import Solution
+
+_version = functools.lru_cache(maxsize=1)(package_version)  # metadata lookup: ~5 ms per call
+
+Progress = Callable[[float], None]
+
+
+def output_times(t_end: float, dt_out: float) -> np.ndarray:
+    """0, dt_out, 2 dt_out, … up to and including t_end (s)."""
+    count = int(np.floor(t_end / dt_out + 1e-9))
+    t = np.arange(count + 1) * dt_out
+    return t if np.isclose(t[-1], t_end) else np.append(t, t_end)
+
+
+@dataclass(frozen=True)
+class PathRun:
+    """What a model path hands back: its solution, every channel's values by name (the
+    catalogue's names), and what it adds to the metadata."""
+
+    solution: Solution
+    values: Mapping[str, np.ndarray]
+    metadata: Mapping[str, Any] = field(default_factory=dict)
+
+
+def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Results:
+    """`Results` with the catalogue's channels in its order and the common metadata."""
+    solution = run.solution
+    results = Results(time=solution.t, metadata={
+        "scenario": scenario.name,
+        "flexlink_version": _version(),
+        "model": scenario.settings.model,
+        "method": solution.method,
+        **run.metadata,
+        **solution.stats,
+        "wall_time_s": wall_time,
+    })
+    values = dict(run.values)
+    for channel in catalogue(scenario):
+        results.add(channel, values.pop(channel.name))
+    if values:  # a path computed a channel the catalogue does not list
+        raise AssertionError(f"channels outside the catalogue: {', '.join(values)}")
+    return results
+
+
+def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,
+                         geometric_stiffening: bool) -> float:
+    """The largest tip deflection relative to its link's length (first-order model);
+    a SimulationError where it exceeds the length: the linear model has diverged (e.g.
+    centrifugal softening without geometric stiffening above the first frequency).
+    ``deflection``: |w(L)| of every link, (nt, links), m."""
+    lengths = np.array([link.length for link in links])
+    ratio = deflection / lengths
+    for k, link in enumerate(links):
+        beyond = ratio[:, k] > 1.0
+        if beyond.any():
+            when = t[int(np.argmax(beyond))]
+            hint = ("; the paper's model has no geometric stiffening and diverges when a link "
+                    "spins faster than its first frequency: set geometric_stiffening = true"
+                    if not geometric_stiffening else "")
+            raise SimulationError(
+                f"the tip deflection of {link.name} exceeds its length ({link.length:g} m) at "
+                f"t = {when:.4g} s: the first-order model is not valid here{hint}; "
+                f"model = \"nonlinear\" handles large deflections")
+    return float(ratio.max()) if ratio.size else 0.0
+
+
+class ProgressBar:
+    """A tqdm bar over simulated time that only appears for runs longer than a second."""
+
+    def __init__(self, t_end: float, enabled: bool) -> None:
+        self.t_end = t_end
+        self.enabled = enabled
+        self._bar: Any = None
+        self._shown = 0.0
+
+    def __enter__(self) -> ProgressBar:
+        if self.enabled:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=self.t_end, unit="s sim", delay=1.0, leave=False,
+                             bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s [{elapsed}<{remaining}]")
+        return self
+
+    def update(self, t: float) -> None:
+        if self._bar is not None and t > self._shown:
+            self._bar.update(t - self._shown)
+            self._shown = t
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+def timed(run: Callable[[], PathRun]) -> tuple[PathRun, float]:
+    """The path's run and its wall time (s)."""
+    started = time.perf_counter()
+    out = run()
+    return out, time.perf_counter() - started

@@ -1,0 +1,35 @@
+"""Prescribed joints, first-order model: FirstOrderSystem → a linear integrator → channels."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..channels.catalogue import joint_name
+from ..channels.first_order import sensor_values, tip_deflections, tip_values
+from ..dynamics.first_order import FirstOrderSystem
+from ..dynamics.torques import joint_torques
+from ..model import Scenario
+from ..solvers import PRESCRIBED_METHODS
+from .common import PathRun, Progress, check_tip_deflection
+
+
+def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> PathRun:
+    settings = scenario.settings
+    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
+    system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
+    integrate = PRESCRIBED_METHODS[settings.method]
+    solution = integrate(system, t, settings.rtol, settings.atol, on_progress)
+    z = solution.q
+    validity = check_tip_deflection(scenario.chain.links, t, tip_deflections(system, z),
+                                    system.geometric_stiffening)
+    frames = system.frames(t)
+    hist = system.joint_history(t)
+    torque = joint_torques(system, t, z, solution.q_dot, solution.q_ddot)
+    values = sensor_values(system, frames, solution, scenario.sensors)
+    for k in range(len(scenario.chain.links)):
+        values[joint_name(k, "angle")] = hist.angle[:, k]
+        values[joint_name(k, "torque")] = torque[:, k]
+    values.update(tip_values(system, frames, z))
+    return PathRun(solution, values, {
+        "path": "prescribed", "geometric_stiffening": settings.geometric_stiffening,
+        "elastic_coordinates": system.n, "peak_tip_deflection_per_length": validity})
