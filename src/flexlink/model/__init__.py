@@ -5,9 +5,10 @@ histories, and the `Scenario` that holds them. Degrees only appear at the scenar
 which converts them once. Algorithms take a model and never mutate it.
 """
 
-from .chain import MODE_SHAPES, Chain, JointMotion, Link, ModeShapes
-from .drives import (BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad, Drive, PositionServo,
-                     Servo, TorqueDrive, VelocityServo, is_driven)
+from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad
+from .chain import MODE_SHAPES, Chain, Link, ModeShapes
+from .joints import (Drive, Joint, JointMotion, PositionServo, Servo, TorqueDrive, VelocityServo,
+                     is_driven)
 from .histories import ZERO, BangBang, History, Step, Sum, Table
 from .scenario import Scenario
 from .sensors import POINT_SENSOR_KINDS, PiezoSensor, PointSensor, PointSensorKind, Sensor
@@ -16,7 +17,7 @@ from .settings import METHODS, MODELS, MethodName, ModelName, SimulationSettings
 __all__ = [
     "BASE_KINDS", "LOAD_FRAMES", "METHODS", "MODELS", "MODE_SHAPES", "POINT_SENSOR_KINDS",
     "ZERO", "BangBang", "Base", "BaseKind", "BaseLoad", "Chain", "Drive", "History",
-    "JointMotion", "Link", "MethodName", "ModeShapes", "ModelName", "PiezoSensor",
+    "Joint", "JointMotion", "Link", "MethodName", "ModeShapes", "ModelName", "PiezoSensor",
     "PointSensor", "PointSensorKind", "PositionServo", "Scenario", "Sensor", "Servo",
     "SimulationSettings", "Step", "Sum", "Table", "TorqueDrive", "VelocityServo", "is_driven",
 ]

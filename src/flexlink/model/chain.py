@@ -1,4 +1,4 @@
-"""Links, joint motions and the chain they form (SI units, radians).
+"""Links and the chain they form with their joints (SI units, radians).
 
 Objects are frozen: algorithms take a model and never mutate it.
 """
@@ -6,12 +6,9 @@ Objects are frozen: algorithms take a model and never mutate it.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, Protocol, get_args, runtime_checkable
+from typing import Literal, get_args
 
-import numpy as np
-
-if TYPE_CHECKING:
-    from .drives import Drive
+from .joints import Joint
 
 ModeShapes = Literal["clamped_free", "tip_loaded", "outboard_loaded"]
 MODE_SHAPES: tuple[str, ...] = get_args(ModeShapes)
@@ -45,26 +42,15 @@ class Link:
         return self.mass_per_length * self.length + self.tip_mass
 
 
-@runtime_checkable
-class JointMotion(Protocol):
-    """A prescribed joint angle history β(t)."""
-
-    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Angle (rad), rate (rad/s) and acceleration (rad/s²) at times t (s)."""
-        ...
-
-
-
-
 @dataclass(frozen=True)
 class Chain:
     """N ≥ 1 links in series. Joint 1 is a hub at the fixed origin; joint k > 1 sits at the
     deformed tip of link k−1. β1 is absolute (from X), βk is relative to link k−1's deformed
-    tip tangent. A joint is a prescribed ``JointMotion`` or a drive (``model.drives``:
+    tip tangent. A joint is a prescribed ``JointMotion`` or a drive (``model.joints``:
     forward dynamics); a ``Scenario.base`` may move the hub and start branches on it."""
 
     links: tuple[Link, ...]
-    joints: tuple[JointMotion | Drive, ...]
+    joints: tuple[Joint, ...]
 
     def __post_init__(self) -> None:
         if len(self.links) == 0:

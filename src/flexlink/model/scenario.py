@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from .chain import Chain
-from .drives import Base, is_driven
+from .joints import is_driven
+from .base import Base
 from .sensors import Sensor
 from .settings import SimulationSettings
 
