@@ -1,0 +1,144 @@
+"""The simulation stage's contract: one path per scenario, every path returns the channels of
+the catalogue, integrators return a Solution, and the stages import only the stages below."""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexlink
+from flexlink.channels import Channel, ChannelKind
+from flexlink.channels.catalogue import catalogue
+from flexlink.errors import SimulationError
+from flexlink.model import METHODS, Base, TorqueDrive
+from flexlink.model.histories import Step
+from flexlink.scenario import scenario_from_dict
+from flexlink.simulation import PATHS, model_path, simulate
+from flexlink.simulation.common import PathRun, assemble_results
+from flexlink.solvers import PRESCRIBED_METHODS, Solution
+from tests.unit.test_scenario import minimal
+
+PACKAGE = Path(flexlink.__file__).parent
+
+
+def _short(**simulation: object) -> flexlink.Scenario:
+    d = minimal()
+    d["simulation"].update(t_end=0.05, dt_out=0.01, **simulation)
+    return scenario_from_dict(d)
+
+
+def _driven(scenario: flexlink.Scenario) -> flexlink.Scenario:
+    drives = tuple(TorqueDrive(Step(0.01)) for _ in scenario.chain.joints)
+    chain = dataclasses.replace(scenario.chain, joints=drives)
+    return dataclasses.replace(scenario, chain=chain, base=Base("pinned", inertia=0.1))
+
+
+def test_every_method_has_an_integrator() -> None:
+    assert set(PRESCRIBED_METHODS) == set(METHODS)
+
+
+def test_each_scenario_takes_one_path() -> None:
+    assert model_path(_short()) == "prescribed"
+    assert model_path(_short(model="nonlinear")) == "nonlinear"
+    assert model_path(_driven(_short())) == "forward"
+    assert set(PATHS) == {"prescribed", "nonlinear", "forward"}
+    with pytest.raises(ValueError, match="model = 'nonlinear' has prescribed joints"):
+        model_path(_driven(_short(model="nonlinear")))
+
+
+@pytest.mark.parametrize("make", [lambda: _short(), lambda: _short(model="nonlinear"),
+                                  lambda: _driven(_short(geometric_stiffening=True))],
+                         ids=["prescribed", "nonlinear", "forward"])
+def test_every_path_returns_the_catalogue(make) -> None:  # noqa: ANN001
+    scenario = make()
+    results = simulate(scenario)
+    assert list(results.channels.values()) == catalogue(scenario)
+    assert results.names_of(ChannelKind.SENSOR) == [s.name for s in scenario.sensors]
+    assert results.metadata["method"] and results.metadata["wall_time_s"] > 0
+
+
+def test_a_path_that_strays_from_the_catalogue_is_refused() -> None:
+    scenario = _short()
+    t = np.linspace(0.0, 0.05, 6)
+    zeros = np.zeros((t.size, 1))
+    values = {c.name: np.zeros_like(t) for c in catalogue(scenario)}
+    run = PathRun(Solution(t, zeros, zeros, zeros, "test"), {**values, "extra": t})
+    with pytest.raises(AssertionError, match="outside the catalogue: extra"):
+        assemble_results(scenario, run, 0.0)
+    del values["tip"]
+    with pytest.raises(KeyError, match="tip"):
+        assemble_results(scenario, PathRun(run.solution, values), 0.0)
+
+
+def test_a_solution_is_finite() -> None:
+    t = np.zeros(2)
+    q = np.array([[0.0], [np.nan]])
+    with pytest.raises(SimulationError, match="coordinates are not finite"):
+        Solution(t, q, np.zeros_like(q), np.zeros_like(q), "test")
+
+
+def test_channel_records_are_frozen_and_typed() -> None:
+    channel = Channel("a", ChannelKind.SENSOR, "m", "deflection")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        channel.name = "b"  # type: ignore[misc]
+    assert ChannelKind("joint") is ChannelKind.JOINT
+
+
+def _imports(path: Path) -> set[str]:
+    """flexlink sub-packages (or top-level modules) a module imports, anywhere in it."""
+    module = ".".join(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    package = module.rsplit(".", 1)[0] if path.name != "__init__.py" else module
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                name = ".".join(base + ([node.module] if node.module else []))
+                targets = [name] if node.module else [f"{name}.{a.name}" for a in node.names]
+            else:
+                targets = [node.module or ""]
+        elif isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        else:
+            continue
+        found |= {t.split(".")[1] for t in targets if t.startswith("flexlink.")}
+    return found
+
+
+def _stage(path: Path) -> str:
+    return path.relative_to(PACKAGE).parts[0].removesuffix(".py")
+
+
+def test_the_stages_import_no_circle() -> None:
+    """Sub-packages and top-level modules form a graph without cycles (an import that climbs
+    back up to a stage that imports this one would close a circle)."""
+    graph: dict[str, set[str]] = {}
+    for path in PACKAGE.rglob("*.py"):
+        stage = _stage(path)
+        graph.setdefault(stage, set()).update(_imports(path) - {stage})
+    visiting: list[str] = []
+    done: set[str] = set()
+
+    def visit(node: str) -> None:
+        if node in done:
+            return
+        assert node not in visiting, f"import circle: {' -> '.join(visiting + [node])}"
+        visiting.append(node)
+        for target in sorted(graph.get(node, ())):
+            visit(target)
+        visiting.pop()
+        done.add(node)
+
+    for stage in sorted(graph):
+        if stage not in ("__init__", "__main__"):  # the package's lazy exports sit on top
+            visit(stage)
+
+
+def test_the_model_is_free_of_physics() -> None:
+    """model/ imports nothing of flexlink but itself: a description, no algorithms."""
+    for path in (PACKAGE / "model").glob("*.py"):
+        assert _imports(path) <= {"model"}, path.name
