@@ -23,6 +23,7 @@ from .schema import (
     HISTORY_PROFILE,
     LOADS,
     POSITION,
+    SERVO,
     TORQUE,
     VELOCITY_PID,
     read_field,
@@ -180,7 +181,7 @@ def read_driven_joint(table: Mapping[str, Any], path: str, base_dir: Path, p: Pr
             out["torque"] = read_history(table["torque"], f"{path}.torque", base_dir, p)
         out.update(read_fields(table, _TORQUE_INITIAL, path, p))
     elif drive == "servo":
-        servo = read_field(table, VELOCITY_PID["servo"], path, p)
+        servo = read_field(table, SERVO, path, p)
         out["servo"] = servo
         if servo is not None:
             p.unknown_keys(table, _SERVOS[servo].keys, path)

@@ -181,11 +181,11 @@ SIMULATION = Section("simulation", [
 
 # --- [[links]] ------------------------------------------------------------------------------
 
-NAME_RULE = "unique; 1–64 letters, digits, `_`, `-`, `.` (it names output channels)"
+NAME_RULE = "unique; 1–64 letters, digits, `_`, `-`, `.`"
 LINKS = Section("links", [
-    Field("name", "string", rule=NAME_RULE),
-    Field("length", unit="m", gt=0),
-    Field("mass_per_length", unit="kg/m", gt=0),
+    Field("name", "string", rule=NAME_RULE, doc="names the link's output channels"),
+    Field("length", unit="m", gt=0, doc="from the joint to the tip"),
+    Field("mass_per_length", unit="kg/m", gt=0, doc="uniform along the link"),
     Field("EI", unit="N·m²", gt=0, default_doc="`EI` **or** `E`",
           doc="bending stiffness in the plane of motion"),
     Field("E", unit="Pa", gt=0, default_doc="`EI` **or** `E`",
@@ -263,8 +263,8 @@ MEASURED_ANGLES = Section("measured_angles", [
 # --- [[sensors]] ----------------------------------------------------------------------------
 
 SENSORS = Section("sensors", [
-    Field("name", "string", rule="unique; 1–64 letters, digits, `_`, `-`, `.`; not `t`, "
-                                 "`time` or an automatic channel name (below)",
+    Field("name", "string", rule=f"{NAME_RULE}; not `t`, `time` or an automatic channel name "
+                                 "(below)",
           doc="names the sensor's output channel"),
     Field("kind", "string", choices=(*POINT_SENSOR_KINDS, "piezo"),
           doc="a point sensor or a piezo patch, below"),
@@ -302,11 +302,11 @@ BASE = Section("base", [
     Field("inertia", unit="kg·m² (about the reference point)", ge=0, default=None,
           default_doc="required for free/pinned",
           doc="the centre of mass of a free base is its reference point"),
-    Field("position", "pair", unit="m", default=(0.0, 0.0), rule="`[0, 0]` unless free",
+    Field("position", "pair", unit="m", default=(0.0, 0.0), rule="`[0, 0]` if pinned",
           doc="initial reference point"),
     Field("attitude_deg", unit="deg", default=0.0, rule="0 for a fixed base",
           doc="initial attitude"),
-    Field("velocity", "pair", unit="m/s", default=(0.0, 0.0), rule="`[0, 0]` unless free",
+    Field("velocity", "pair", unit="m/s", default=(0.0, 0.0), rule="`[0, 0]` if pinned",
           doc="initial velocity"),
     Field("rate_deg_s", unit="deg/s", default=0.0, rule="0 for a fixed base",
           doc="initial angular rate"),
@@ -322,7 +322,7 @@ LOADS = Section("base.loads", [
     Field("moment", "history", unit="N·m", default=None, default_doc=_ONE_OF_THREE,
           doc="moment history"),
     Field("point", "pair", unit="m, body frame", default=(0.0, 0.0),
-          doc="where the force acts, base frame, from the reference point"),
+          doc="where the force acts on the base, from the reference point"),
     Field("frame", "string", choices=LOAD_FRAMES, default="inertial",
           doc="the axes of `force_x`, `force_y`"),
 ])
@@ -351,9 +351,13 @@ HISTORY_CSV = Section("history_csv", [
 
 # --- driven [[joints]] ----------------------------------------------------------------------
 
-DRIVE = Field("drive", "string", choices=("torque", "servo"),
-              doc="the angle results from the dynamics; `joint<k>_torque` is the motor's "
-                  "torque")
+DRIVE = Field("drive", "string", choices=("torque", "servo"), notes={
+    "torque": "a torque history drives the joint", "servo": "a servo follows `reference`"},
+    doc="`joint<k>_torque` is the motor's torque")
+SERVO = Field("servo", "string", choices=("velocity_pid", "position"), notes={
+    "velocity_pid": "V = sat(P e + I∫e + D ė), Ω = k_v V, τ = K_v(Ω − β̇)",
+    "position": "Ω = clip(ω_b e, ±Ω_max), τ = K_v(Ω − β̇) (small RC servos)"},
+    doc="e = reference − angle, β̇ the joint rate")
 MOTOR_INERTIA = Field("motor_inertia", unit="kg·m²", ge=0, default=0.0,
                       doc="rotor inertia reflected to the joint")
 TORQUE = Section("torque", [
@@ -372,7 +376,7 @@ def _servo(name: str, loop_gain: float, own: Iterable[Field]) -> Section:
     own."""
     return Section(name, [
         DRIVE,
-        Field("servo", "string", choices=("velocity_pid", "position")),
+        SERVO,
         Field("reference", "profiles",
               doc="an array of motion profiles, as `motion`; the servo starts on it (angle "
                   "and rate at t = 0)"),
