@@ -170,10 +170,9 @@ def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None
     if "drive" in table:
         return _driven_joint(table, path, base_dir, p)
     if "base_point" in table:  # a prescribed joint may start a branch on the base too
-        table = dict(table)
-        point = table.pop("base_point")
-        entry, motion = _joint(table, path, base_dir, t_end, p)
-        pair = read_field({"base_point": point}, JOINTS["base_point"], path, p)
+        rest = {k: v for k, v in table.items() if k != "base_point"}
+        entry, motion = _joint(rest, path, base_dir, t_end, p)
+        pair = read_field(table, JOINTS["base_point"], path, p)
         return ({**entry, "base_point": pair} if pair is not None else entry), motion
     if "motion" in table and "csv" in table:
         p.add(f"{path}: give either 'motion' (profiles) or 'csv' (measured angles), not both")
