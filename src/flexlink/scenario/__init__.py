@@ -1,8 +1,9 @@
 """Scenario files: TOML → validated `Scenario`, with every problem reported at once.
 
 Public API: `load_scenario`, `scenario_from_dict`, `resolve_scenario_dict`, `ScenarioError`,
-`load_paper_experiment`, `paper_experiment_path`. The file format is documented in
-``docs/scenario.md``.
+`load_paper_experiment`, `paper_experiment_path`. Every key, with its unit, default and
+allowed values, is declared once in `flexlink.scenario.schema`; the key tables of
+``docs/scenario.md``, which documents the file format, are generated from it.
 """
 
 from __future__ import annotations

@@ -14,23 +14,29 @@ from typing import Any
 
 from .. import model
 from ..model import JointMotion
-from .errors import Problems, describe
+from .errors import REQUIRED, Problems, describe
+from .schema import (
+    BASE,
+    DRIVE,
+    HISTORIES,
+    HISTORY_CSV,
+    HISTORY_PROFILE,
+    LOADS,
+    POSITION,
+    SERVO,
+    TORQUE,
+    VELOCITY_PID,
+    read_field,
+    read_fields,
+)
 
-BASE_KEYS = ("type", "mass", "inertia", "position", "attitude_deg", "velocity", "rate_deg_s",
-             "loads")
-LOAD_KEYS = ("force_x", "force_y", "moment", "point", "frame")
-HISTORY_PROFILES: dict[str, tuple[str, ...]] = {
-    "bang_bang": ("amplitude", "start", "duration"),
-    "step": ("amplitude", "start", "duration"),
-    "table": ("t", "values"),
-}
-HISTORY_CSV_KEYS = ("csv", "time_column", "column")
-TORQUE_KEYS = ("drive", "torque", "initial_angle_deg", "initial_rate_deg_s", "motor_inertia",
-               "base_point")
-SERVO_COMMON = ("drive", "servo", "reference", "loop_gain", "torque_limit", "motor_inertia",
-                "base_point")
-VELOCITY_PID_KEYS = (*SERVO_COMMON, "P", "I", "D", "saturation_V", "rate_per_volt_deg_s")
-POSITION_KEYS = (*SERVO_COMMON, "bandwidth", "rate_limit_deg_s")
+_BASE_FIELDS = BASE.pick("mass", "inertia", "position", "attitude_deg", "velocity", "rate_deg_s")
+_SERVOS = {"velocity_pid": VELOCITY_PID, "position": POSITION}
+_SERVO_COMMON = set(VELOCITY_PID.keys) & set(POSITION.keys)
+_TORQUE_INITIAL = TORQUE.pick("initial_angle_deg", "initial_rate_deg_s")
+# read first: the keys of one servo only (its gains)
+_SERVO_OWN = {name: tuple(f for f in s.fields if f.key not in _SERVO_COMMON)
+              for name, s in _SERVOS.items()}
 
 SegmentReader = Callable[[Any, str, Problems], tuple[dict[str, Any], JointMotion | None]]
 
@@ -43,19 +49,12 @@ def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
         p.add(f"base: expected a table [base], got {describe(raw)}")
         return None
     path = "base"
-    p.unknown_keys(raw, BASE_KEYS, path)
-    kind = p.string(raw, "type", path, choices=("free", "pinned", "fixed"))
-    out: dict[str, Any] = {"type": kind}
+    p.unknown_keys(raw, BASE.keys, path)
+    kind = read_field(raw, BASE["type"], path, p)
     moving = kind in ("free", "pinned")
-    # 0 is allowed: the first link is then the free body itself (a flexible beam in flight)
-    out["mass"] = p.number(raw, "mass", path, unit="kg", ge=0, default=None if kind != "free"
-                           else _required())
-    out["inertia"] = p.number(raw, "inertia", path, unit="kg·m² (about the reference point)",
-                              ge=0, default=_required() if moving else None)
-    out["position"] = _pair(raw, "position", path, p, "m", default=[0.0, 0.0])
-    out["attitude_deg"] = p.number(raw, "attitude_deg", path, unit="deg", default=0.0)
-    out["velocity"] = _pair(raw, "velocity", path, p, "m/s", default=[0.0, 0.0])
-    out["rate_deg_s"] = p.number(raw, "rate_deg_s", path, unit="deg/s", default=0.0)
+    out: dict[str, Any] = {"type": kind, **read_fields(raw, _BASE_FIELDS, path, p, defaults={
+        "mass": REQUIRED if kind == "free" else None,
+        "inertia": REQUIRED if moving else None})}
     if kind == "pinned" and (out["position"] != [0.0, 0.0] or out["velocity"] != [0.0, 0.0]):
         p.add("base: a pinned base turns about its fixed reference point: position and "
               "velocity must be [0, 0] (give type = \"free\" to let it translate)")
@@ -70,38 +69,18 @@ def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
     return {k: v for k, v in out.items() if v is not None}
 
 
-def _required() -> Any:
-    from .errors import _MISSING
-
-    return _MISSING
-
-
-def _pair(table: Mapping[str, Any], key: str, path: str, p: Problems, unit: str,
-          default: list[float]) -> list[float] | None:
-    value = table.get(key, default)
-    ok = (isinstance(value, list) and len(value) == 2
-          and all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-                  for v in value))
-    if not ok:
-        p.add(f"{path}.{key}: expected two numbers [x, y] ({unit}), got {describe(value)}")
-        return None
-    return [float(v) for v in value]
-
-
 def _load(table: Any, path: str, base_dir: Path, p: Problems) -> dict[str, Any]:
     if not isinstance(table, Mapping):
         p.add(f"{path}: expected a table, got {describe(table)}")
         return {}
-    p.unknown_keys(table, LOAD_KEYS, path)
-    out: dict[str, Any] = {k: read_history(table[k], f"{path}.{k}", base_dir, p)
-                           for k in ("force_x", "force_y", "moment") if k in table}
+    p.unknown_keys(table, LOADS.keys, path)
+    out: dict[str, Any] = {f.key: read_history(table[f.key], f"{path}.{f.key}", base_dir, p)
+                           for f in LOADS.fields if f.kind == "history" and f.key in table}
     if not out:
         p.add(f"{path}: give at least one of force_x, force_y (N) or moment (N·m), each an "
               "array of segments like [{ profile = \"bang_bang\", amplitude = 1.0, start = 0.0, "
               "duration = 10.0 }]")
-    out["point"] = _pair(table, "point", path, p, "m, body frame", default=[0.0, 0.0])
-    out["frame"] = p.string(table, "frame", path, choices=("inertial", "body"),
-                            default="inertial")
+    out.update(read_fields(table, LOADS.pick("point", "frame"), path, p))
     return out
 
 
@@ -120,11 +99,10 @@ def _segment(seg: Any, path: str, base_dir: Path, p: Problems) -> dict[str, Any]
         p.add(f"{path}: expected a table, got {describe(seg)}")
         return {}
     if "csv" in seg:
-        p.unknown_keys(seg, HISTORY_CSV_KEYS, path)
-        csv = p.string(seg, "csv", path)
-        out = {"csv": None if csv is None else str((base_dir / csv).resolve()),
-               "time_column": p.string(seg, "time_column", path, default="t"),
-               "column": p.string(seg, "column", path)}
+        p.unknown_keys(seg, HISTORY_CSV.keys, path)
+        out = read_fields(seg, HISTORY_CSV.fields, path, p)
+        if out["csv"] is not None:
+            out["csv"] = str((base_dir / out["csv"]).resolve())
         if out["csv"] is not None and not Path(out["csv"]).is_file():
             p.add(f"{path}.csv: file not found: {out['csv']} (paths are relative to the "
                   "scenario file's folder)")
@@ -134,13 +112,14 @@ def _segment(seg: Any, path: str, base_dir: Path, p: Problems) -> dict[str, Any]
             except ValueError as exc:
                 p.add(f"{path}.csv: {exc}")
         return {k: v for k, v in out.items() if v is not None}
-    profile = p.string(seg, "profile", path, choices=HISTORY_PROFILES)
+    profile = read_field(seg, HISTORY_PROFILE, path, p)
     if profile is None:
         return dict(seg)
-    p.unknown_keys(seg, ("profile", *HISTORY_PROFILES[profile]), path)
+    section = HISTORIES[profile]
+    p.unknown_keys(seg, ("profile", *section.keys), path)
     out = {"profile": profile}
     if profile == "table":
-        for key in ("t", "values"):
+        for key in section.keys:
             v = seg.get(key)
             if not (isinstance(v, list) and len(v) >= 2 and all(
                     isinstance(x, int | float) and not isinstance(x, bool) for x in v)):
@@ -153,10 +132,7 @@ def _segment(seg: Any, path: str, base_dir: Path, p: Problems) -> dict[str, Any]
             p.add(f"{path}: {exc}")
         out.update(t=[float(x) for x in seg["t"]], values=[float(x) for x in seg["values"]])
         return out
-    out["amplitude"] = p.number(seg, "amplitude", path)
-    out["start"] = p.number(seg, "start", path, unit="s", ge=0, default=0.0)
-    if profile == "bang_bang" or "duration" in seg:
-        out["duration"] = p.number(seg, "duration", path, unit="s", gt=0)
+    out.update(read_fields(seg, section.fields, path, p))  # a step's duration is optional
     return {k: v for k, v in out.items() if v is not None}
 
 
@@ -195,54 +171,34 @@ def read_driven_joint(table: Mapping[str, Any], path: str, base_dir: Path, p: Pr
                       motion_reader: Callable[[Any, str], tuple[Any, JointMotion | None]]
                       ) -> dict[str, Any]:
     """The resolved table of a joint with ``drive = "torque"`` or ``"servo"``."""
-    drive = p.string(table, "drive", path, choices=("torque", "servo"))
+    drive = read_field(table, DRIVE, path, p)
     out: dict[str, Any] = {"drive": drive}
     if drive == "torque":
-        p.unknown_keys(table, TORQUE_KEYS, path)
+        p.unknown_keys(table, TORQUE.keys, path)
         if "torque" not in table:
             p.add(f"{path}: drive = \"torque\" needs 'torque', an array of segments (N·m)")
         else:
             out["torque"] = read_history(table["torque"], f"{path}.torque", base_dir, p)
-        out["initial_angle_deg"] = p.number(table, "initial_angle_deg", path, unit="deg",
-                                            default=0.0)
-        out["initial_rate_deg_s"] = p.number(table, "initial_rate_deg_s", path, unit="deg/s",
-                                             default=0.0)
+        out.update(read_fields(table, _TORQUE_INITIAL, path, p))
     elif drive == "servo":
-        servo = p.string(table, "servo", path, choices=("velocity_pid", "position"))
+        servo = read_field(table, SERVO, path, p)
         out["servo"] = servo
-        if servo == "velocity_pid":
-            p.unknown_keys(table, VELOCITY_PID_KEYS, path)
-            out["P"] = p.number(table, "P", path, unit="V/rad", ge=0)
-            out["I"] = p.number(table, "I", path, unit="V/(rad·s)", ge=0, default=0.0)
-            out["D"] = p.number(table, "D", path, unit="V·s/rad", ge=0, default=0.0)
-            out["saturation_V"] = p.number(table, "saturation_V", path, unit="V", gt=0,
-                                           default=10.0)
-            out["rate_per_volt_deg_s"] = p.number(table, "rate_per_volt_deg_s", path,
-                                                  unit="deg/s per V", gt=0)
-            default_gain = 50.0
-        elif servo == "position":
-            p.unknown_keys(table, POSITION_KEYS, path)
-            out["bandwidth"] = p.number(table, "bandwidth", path, unit="rad/s", gt=0)
-            out["rate_limit_deg_s"] = p.number(table, "rate_limit_deg_s", path, unit="deg/s",
-                                               gt=0)
-            default_gain = 5.0
-        else:
-            default_gain = 0.0
-        out["loop_gain"] = p.number(table, "loop_gain", path, unit="N·m·s/rad", gt=0,
-                                    default=default_gain)
-        out["torque_limit"] = p.number(table, "torque_limit", path, unit="N·m", gt=0,
-                                       default=None)
+        if servo is not None:
+            p.unknown_keys(table, _SERVOS[servo].keys, path)
+            out.update(read_fields(table, _SERVO_OWN[servo], path, p))
+        # an unknown servo is reported already; its common keys are still checked
+        section = _SERVOS.get(servo, VELOCITY_PID)
+        out.update(read_fields(table, section.pick("loop_gain", "torque_limit"), path, p))
         if "reference" not in table:
             p.add(f"{path}: drive = \"servo\" needs 'reference', an array of motion profiles "
                   "like the prescribed 'motion'")
         else:
             out["reference"], _ = motion_reader(table["reference"], f"{path}.reference")
     else:
-        p.unknown_keys(table, (*TORQUE_KEYS, *VELOCITY_PID_KEYS, *POSITION_KEYS), path)
-    out["motor_inertia"] = p.number(table, "motor_inertia", path, unit="kg·m²", ge=0,
-                                    default=0.0)
+        p.unknown_keys(table, TORQUE.keys + VELOCITY_PID.keys + POSITION.keys, path)
+    out["motor_inertia"] = read_field(table, TORQUE["motor_inertia"], path, p)
     if "base_point" in table:
-        out["base_point"] = _pair(table, "base_point", path, p, "m, base frame", default=[])
+        out["base_point"] = read_field(table, TORQUE["base_point"], path, p)
     return {k: v for k, v in out.items() if v is not None}
 
 

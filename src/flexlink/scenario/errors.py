@@ -1,9 +1,10 @@
 """Scenario errors: every problem in a scenario is collected, then reported at once.
 
 `Problems` is the collector the loader threads through its checks; its typed readers
-(`number`, `integer`, `string`, `boolean`) each check one key of one table and record a
-message naming the field path, the value and what is allowed, e.g.
-``links[1].EI must be > 0 N·m², got -3.0``.
+(`number`, `integer`, `string`, `boolean`, `pair`) each check one key of one table and record
+a message naming the field path, the value and what is allowed, e.g.
+``links[1].EI must be > 0 N·m², got -3.0``. A reader's ``default`` is `REQUIRED` unless the
+key is optional.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from typing import Any
 
 
@@ -27,7 +28,14 @@ class ScenarioError(ValueError):
         super().__init__("\n".join([head, *(f"  - {p}" for p in self.problems)]))
 
 
-_MISSING = object()
+class _Required:
+    """The type of `REQUIRED`; its repr names it in signatures and error reports."""
+
+    def __repr__(self) -> str:
+        return "REQUIRED"
+
+
+REQUIRED: Any = _Required()  # a reader's default for a key that must be given
 NAME_PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,63}")
 
 
@@ -93,7 +101,7 @@ class Problems:
         """(present, value); a missing required key is reported and read as None."""
         if key in table:
             return True, table[key]
-        if default is _MISSING:
+        if default is REQUIRED:
             self.add(f"{path}: missing required key '{key}' ({what})")
             return False, None
         return False, default
@@ -105,7 +113,7 @@ class Problems:
         path: str,
         *,
         unit: str = "",
-        default: Any = _MISSING,
+        default: Any = REQUIRED,
         gt: float | None = None,
         ge: float | None = None,
         lt: float | None = None,
@@ -119,6 +127,8 @@ class Problems:
             return f"{'non-zero' if nonzero else range_text(gt, ge, lt, le)} {unit}".strip()
 
         if key not in table:
+            if default is not REQUIRED:
+                return default
             text = allowed()
             what = f"a number {text}" if text != unit else f"a number ({unit})" if unit else ""
             return self._get(table, key, path, default, what or "a number")[1]
@@ -144,7 +154,7 @@ class Problems:
         key: str,
         path: str,
         *,
-        default: Any = _MISSING,
+        default: Any = REQUIRED,
         ge: int,
         le: int,
     ) -> int | None:
@@ -167,23 +177,25 @@ class Problems:
         key: str,
         path: str,
         *,
-        default: Any = _MISSING,
-        choices: Iterable[str] | None = None,
+        default: Any = REQUIRED,
+        choices: Collection[str] | None = None,
     ) -> str | None:
         """A non-empty string, optionally one of ``choices``."""
-        options = list(choices) if choices is not None else None
-        what = "one of " + ", ".join(repr(c) for c in options) if options else "a string"
-        present, value = self._get(table, key, path, default, what)
-        if not present:
-            return value
+
+        def what() -> str:  # built only for a message, like number's
+            return "one of " + ", ".join(map(repr, choices)) if choices else "a string"
+
+        if key not in table:
+            return self._get(table, key, path, default, what())[1]
+        value = table[key]
         field = f"{path}.{key}"
         if not isinstance(value, str):
             self.add(f"{field}: expected a string, got {describe(value)}")
             return None
-        if options is not None and value not in options:
-            close = difflib.get_close_matches(value, options, n=1, cutoff=0.7)
+        if choices is not None and value not in choices:
+            close = difflib.get_close_matches(value, list(choices), n=1, cutoff=0.7)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            self.add(f"{field} must be {what}, got {value!r}{hint}")
+            self.add(f"{field} must be {what()}, got {value!r}{hint}")
             return None
         if not value.strip():
             self.add(f"{field} must not be empty")
@@ -191,7 +203,7 @@ class Problems:
         return value
 
     def boolean(
-        self, table: Mapping[str, Any], key: str, path: str, *, default: Any = _MISSING
+        self, table: Mapping[str, Any], key: str, path: str, *, default: Any = REQUIRED
     ) -> bool | None:
         """true or false."""
         present, value = self._get(table, key, path, default, "true or false")
@@ -199,6 +211,24 @@ class Problems:
             return value
         self.add(f"{path}.{key}: expected true or false, got {describe(value)}")
         return None
+
+    def pair(
+        self, table: Mapping[str, Any], key: str, path: str, *, unit: str,
+        default: Any = REQUIRED,
+    ) -> list[float] | None:
+        """Two finite numbers ``[x, y]`` in ``unit``, as a new list of floats."""
+        if key not in table:  # the default: None, or a pair that needs no check
+            if default is REQUIRED:
+                self.add(f"{path}: missing required key '{key}' (two numbers [x, y], {unit})")
+            return None if default is None or default is REQUIRED else [*map(float, default)]
+        value = table[key]
+        ok = (isinstance(value, list) and len(value) == 2
+              and all(isinstance(v, int | float) and not isinstance(v, bool)
+                      and math.isfinite(v) for v in value))
+        if not ok:
+            self.add(f"{path}.{key}: expected two numbers [x, y] ({unit}), got {describe(value)}")
+            return None
+        return [float(v) for v in value]
 
     def table_array(
         self, raw: Mapping[str, Any], key: str, *, required: bool

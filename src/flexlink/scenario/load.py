@@ -15,26 +15,21 @@ from typing import Any
 
 from .._version import package_version
 from ..channels.catalogue import reserved_names
-from ..model import (METHODS, MODE_SHAPES, MODELS, Chain, JointMotion, Link, PiezoSensor,
-                     PointSensor, Scenario, SimulationSettings)
+from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
+from . import schema
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .errors import Problems, ScenarioError, describe
+from .schema import JOINTS, LINKS, MEASURED_ANGLES, SIMULATION, read_field, read_fields
 from .sensors import read_sensors
 
 SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_version")
 # read by `flexlink compare` / `flexlink fit` (flexlink.experiment); `run` ignores them
 EXPERIMENT_SECTIONS = ("measurement", "fit")
-SIMULATION_KEYS = ("name", "t_end", "dt_out", "geometric_stiffening", "rtol", "atol", "method",
-                   "model", "step")
-LINK_KEYS = ("name", "length", "mass_per_length", "EI", "E", "width", "thickness", "tip_mass",
-             "tip_inertia", "damping_ratio", "modes", "mode_shapes")
-PROFILES: dict[str, tuple[str, ...]] = {
-    "cycloidal": ("from_deg", "to_deg", "start", "duration"),
-    "quintic": ("from_deg", "to_deg", "start", "duration"),
-    "spinup": ("to_rate_deg_s", "start", "duration", "from_deg"),
-    "hold": ("angle_deg",),
-}
-CSV_KEYS = ("csv", "time_column", "angle_column", "lowpass_hz")
+# the keys of each motion profile (flexlink.batch reads them to recognise sweep paths)
+PROFILES: dict[str, tuple[str, ...]] = {name: s.keys for name, s in schema.PROFILES.items()}
+# links: the section's dimensions are read before the bending stiffness, which needs them
+_LINK_HEAD = LINKS.pick("name", "length", "mass_per_length", "width", "thickness")
+_LINK_TAIL = LINKS.pick("tip_mass", "tip_inertia", "damping_ratio", "modes", "mode_shapes")
 
 
 flexlink_version = package_version
@@ -132,60 +127,42 @@ def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[
               else f"simulation: expected a table [simulation], got {describe(table)}")
         return {}
     path = "simulation"
-    p.unknown_keys(table, SIMULATION_KEYS, path)
-    out: dict[str, Any] = {
-        "name": p.string(table, "name", path, default=default_name),
-        "t_end": p.number(table, "t_end", path, unit="s", gt=0),
-        "dt_out": p.number(table, "dt_out", path, unit="s", gt=0),
-        "geometric_stiffening": p.boolean(table, "geometric_stiffening", path, default=False),
-        "rtol": p.number(table, "rtol", path, default=1e-6, gt=0, le=1e-2),
-        "atol": p.number(table, "atol", path, default=1e-12, gt=0),
-        "method": p.string(table, "method", path, default="lawson", choices=METHODS),
-        "model": p.string(table, "model", path, default="first_order", choices=MODELS),
-    }
-    step = p.number(table, "step", path, unit="s", default=None, gt=0)
-    if step is not None:  # optional, no default: absent from the resolved scenario when unset
-        out["step"] = step
+    p.unknown_keys(table, SIMULATION.keys, path)
+    out = read_fields(table, SIMULATION.fields, path, p, defaults={"name": default_name})
     if out["t_end"] is not None and out["dt_out"] is not None and out["dt_out"] > out["t_end"]:
         p.add(f"simulation.dt_out must be <= simulation.t_end ({out['t_end']!r} s), "
               f"got {out['dt_out']!r}")
-    return out
+    # unusable values are reported (no resolved scenario then); an unset step stays absent
+    return {k: v for k, v in out.items() if v is not None}
 
 
 def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any]:
-    p.unknown_keys(table, LINK_KEYS, path)
-    out: dict[str, Any] = {
-        "name": p.string(table, "name", path),
-        "length": p.number(table, "length", path, unit="m", gt=0),
-        "mass_per_length": p.number(table, "mass_per_length", path, unit="kg/m", gt=0),
-    }
-    width = p.number(table, "width", path, unit="m", gt=0, default=None)
-    thickness = p.number(table, "thickness", path, unit="m", gt=0, default=None)
+    p.unknown_keys(table, LINKS.keys, path)
+    out = read_fields(table, _LINK_HEAD, path, p)
+    out["EI"] = _bending_stiffness(table, path, out["width"], out["thickness"], p)
+    out.update(read_fields(table, _LINK_TAIL, path, p))
+    # in the schema's key order (the resolved file's), without E and unusable values
+    return {k: out[k] for k in LINKS.keys if out.get(k) is not None}
+
+
+def _bending_stiffness(table: dict[str, Any], path: str, width: float | None,
+                       thickness: float | None, p: Problems) -> float | None:
+    """EI (N·m²): given, or E·width·thickness³/12 of a rectangular section."""
     if "EI" in table and "E" in table:
         p.add(f"{path}: give either EI (N·m²) or E (Pa) with width and thickness, not both")
     elif "EI" in table:
-        out["EI"] = p.number(table, "EI", path, unit="N·m²", gt=0)
+        return read_field(table, LINKS["EI"], path, p)
     elif "E" in table:
-        modulus = p.number(table, "E", path, unit="Pa", gt=0)
+        modulus = read_field(table, LINKS["E"], path, p)
         for key in ("width", "thickness"):
             if key not in table:
                 p.add(f"{path}: missing required key '{key}' (m, > 0; needed with E)")
         if modulus is not None and width is not None and thickness is not None:
-            out["EI"] = modulus * width * thickness**3 / 12.0  # N·m², rectangular section
+            return modulus * width * thickness**3 / 12.0
     else:
         p.add(f"{path}: missing bending stiffness: give EI (N·m²), or E (Pa) with width "
               "and thickness (m)")
-    out.update({
-        "width": width,
-        "thickness": thickness,
-        "tip_mass": p.number(table, "tip_mass", path, unit="kg", ge=0, default=0.0),
-        "tip_inertia": p.number(table, "tip_inertia", path, unit="kg·m²", ge=0, default=0.0),
-        "damping_ratio": p.number(table, "damping_ratio", path, ge=0, lt=1, default=0.0),
-        "modes": p.integer(table, "modes", path, ge=1, le=20, default=4),
-        "mode_shapes": p.string(table, "mode_shapes", path, choices=MODE_SHAPES,
-                                default="clamped_free"),
-    })
-    return {k: v for k, v in out.items() if v is not None}
+    return None
 
 
 def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,
@@ -193,14 +170,9 @@ def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None
     if "drive" in table:
         return _driven_joint(table, path, base_dir, p)
     if "base_point" in table:  # a prescribed joint may start a branch on the base too
-        table = dict(table)
-        point = table.pop("base_point")
-        entry, motion = _joint(table, path, base_dir, t_end, p)
-        probe = Problems()
-        from .drives import _pair
-
-        pair = _pair({"base_point": point}, "base_point", path, probe, "m, base frame", [])
-        p.messages.extend(probe.messages)
+        rest = {k: v for k, v in table.items() if k != "base_point"}
+        entry, motion = _joint(rest, path, base_dir, t_end, p)
+        pair = read_field(table, JOINTS["base_point"], path, p)
         return ({**entry, "base_point": pair} if pair is not None else entry), motion
     if "motion" in table and "csv" in table:
         p.add(f"{path}: give either 'motion' (profiles) or 'csv' (measured angles), not both")
@@ -209,9 +181,9 @@ def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None
         return _csv_joint(table, path, base_dir, t_end, p)
     if "motion" not in table:
         p.add(f"{path}: missing 'motion' (an array of profiles) or 'csv' (measured angles)")
-        p.unknown_keys(table, ("motion", *CSV_KEYS), path)
+        p.unknown_keys(table, ("motion", *MEASURED_ANGLES.keys), path)
         return {}, None
-    p.unknown_keys(table, ("motion",), path)
+    p.unknown_keys(table, ("motion",), path)  # base_point is taken out above
     resolved, motion = _motion(table["motion"], f"{path}.motion", p)
     return {"motion": resolved}, motion
 
@@ -266,18 +238,13 @@ def _segment(segment: Any, path: str, motion_module: Any,
         p.add(f"{path}: expected a table like {{profile = \"hold\", angle_deg = 0.0}}, "
               f"got {describe(segment)}")
         return {}, None
-    profile = p.string(segment, "profile", path, choices=PROFILES)
+    profile = read_field(segment, schema.PROFILE, path, p)
     if profile is None:
         return dict(segment), None
     before = len(p.messages)
-    keys = PROFILES[profile]
-    p.unknown_keys(segment, ("profile", *keys), path)
-    values: dict[str, Any] = {}
-    for key in keys:
-        if profile == "spinup" and key == "from_deg":  # the only optional profile key
-            values[key] = p.number(segment, key, path, default=0.0)
-        else:
-            values[key] = p.number(segment, key, path)
+    section = schema.PROFILES[profile]
+    p.unknown_keys(segment, ("profile", *section.keys), path)
+    values = read_fields(segment, section.fields, path, p)
     entry = {"profile": profile, **values}
     if len(p.messages) > before:  # unknown or missing keys, or wrong types
         return entry, None
@@ -294,14 +261,10 @@ def _segment(segment: Any, path: str, motion_module: Any,
 def _csv_joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,
                p: Problems) -> tuple[dict[str, Any], JointMotion | None]:
     before = len(p.messages)
-    p.unknown_keys(table, CSV_KEYS, path)
-    csv = p.string(table, "csv", path)
-    entry: dict[str, Any] = {
-        "csv": None if csv is None else str((base_dir / csv).resolve()),
-        "time_column": p.string(table, "time_column", path, default="t"),
-        "angle_column": p.string(table, "angle_column", path, default="angle"),
-        "lowpass_hz": p.number(table, "lowpass_hz", path, unit="Hz", gt=0, default=None),
-    }
+    p.unknown_keys(table, MEASURED_ANGLES.keys, path)
+    entry = read_fields(table, MEASURED_ANGLES.fields, path, p)
+    if entry["csv"] is not None:
+        entry["csv"] = str((base_dir / entry["csv"]).resolve())
     entry = {k: v for k, v in entry.items() if v is not None}
     if len(p.messages) > before:
         return entry, None

@@ -5,10 +5,11 @@ from __future__ import annotations
 from typing import Any
 
 from .errors import Problems
+from .schema import PIEZO, POINT_SENSORS, SENSORS, Field, read_field, read_fields
 
-POINT_KINDS = ("deflection", "slope", "strain", "acceleration")
-KINDS = (*POINT_KINDS, "piezo")
-PIEZO_KEYS = ("x_start", "x_end", "width", "E_p", "d31", "thickness", "capacitance")
+_PIEZO_MIDDLE = PIEZO.pick("width", "E_p", "d31")
+# only a strain gauge has a thickness (its distance from the neutral axis)
+_UNSTRAINED_KEYS = tuple(k for k in POINT_SENSORS.keys if k != "thickness")
 
 
 def read_sensors(
@@ -25,19 +26,19 @@ def read_sensors(
     by_name = {lk["name"]: lk for lk in links if "name" in lk}
     out = []
     for path, table in tables:
-        name = p.string(table, "name", path)
+        name = read_field(table, SENSORS["name"], path, p)
         if name is not None and name in reserved:
             p.add(f"{path}.name {name!r} clashes with an automatic output channel "
                   "(t, time, joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another")
-        kind = p.string(table, "kind", path, choices=KINDS)
+        kind = read_field(table, SENSORS["kind"], path, p)
         link = _link_of(table, path, by_name, p)
         entry: dict[str, Any] = {"name": name, "kind": kind, "link": link and link["name"]}
         if kind == "piezo":
-            p.unknown_keys(table, ("name", "kind", "link", *PIEZO_KEYS), path)
+            p.unknown_keys(table, SENSORS.keys + PIEZO.keys, path)
             entry.update(_piezo(table, path, link, p))
         elif kind is not None:
-            keys = ("name", "kind", "link", "x") + (("thickness",) if kind == "strain" else ())
-            p.unknown_keys(table, keys, path)
+            keys = POINT_SENSORS.keys if kind == "strain" else _UNSTRAINED_KEYS
+            p.unknown_keys(table, SENSORS.keys + keys, path)
             entry.update(_point(table, path, kind, link, p))
         out.append({k: v for k, v in entry.items() if v is not None})
     return out
@@ -45,7 +46,7 @@ def read_sensors(
 
 def _link_of(table: dict[str, Any], path: str, by_name: dict[str, dict[str, Any]],
              p: Problems) -> dict[str, Any] | None:
-    name = p.string(table, "link", path)
+    name = read_field(table, SENSORS["link"], path, p)
     if name is None:
         return None
     if name not in by_name:
@@ -55,24 +56,23 @@ def _link_of(table: dict[str, Any], path: str, by_name: dict[str, dict[str, Any]
     return by_name[name]
 
 
-def _position(table: dict[str, Any], key: str, path: str, link: dict[str, Any] | None,
-              p: Problems, *, ge: float | None = None,
-              gt: float | None = None) -> float | None:
+def _position(table: dict[str, Any], field: Field, path: str, link: dict[str, Any] | None,
+              p: Problems) -> float | None:
     """A position along the link (m), at most the link's length when that is known."""
-    value = p.number(table, key, path, unit="m", ge=ge, gt=gt)
+    value = read_field(table, field, path, p)
     length = link.get("length") if link else None
     if value is not None and length is not None and value > length:
-        p.add(f"{path}.{key} must be <= {length!r} m (the length of link "
+        p.add(f"{path}.{field.key} must be <= {length!r} m (the length of link "
               f"{link['name']!r}), got {value!r}")  # type: ignore[index]
         return None
     return value
 
 
-def _thickness(table: dict[str, Any], path: str, link: dict[str, Any] | None,
+def _thickness(table: dict[str, Any], field: Field, path: str, link: dict[str, Any] | None,
                p: Problems) -> float | None:
     """The host beam thickness (m): given here, else the link's ``thickness``."""
     if "thickness" in table:
-        return p.number(table, "thickness", path, unit="m", gt=0)
+        return read_field(table, field, path, p)
     if link is None:  # the unknown link is reported already
         return None
     if link.get("thickness") is None:
@@ -83,22 +83,20 @@ def _thickness(table: dict[str, Any], path: str, link: dict[str, Any] | None,
 
 def _point(table: dict[str, Any], path: str, kind: str, link: dict[str, Any] | None,
            p: Problems) -> dict[str, Any]:
-    out = {"x": _position(table, "x", path, link, p, ge=0)}
+    out = {"x": _position(table, POINT_SENSORS["x"], path, link, p)}
     if kind == "strain":
-        out["thickness"] = _thickness(table, path, link, p)
+        out["thickness"] = _thickness(table, POINT_SENSORS["thickness"], path, link, p)
     return out
 
 
 def _piezo(table: dict[str, Any], path: str, link: dict[str, Any] | None,
            p: Problems) -> dict[str, Any]:
     out = {
-        "x_start": _position(table, "x_start", path, link, p, ge=0),
-        "x_end": _position(table, "x_end", path, link, p, gt=0),
-        "width": p.number(table, "width", path, unit="m", gt=0),
-        "E_p": p.number(table, "E_p", path, unit="Pa", gt=0),
-        "d31": p.number(table, "d31", path, unit="m/V", nonzero=True),
-        "thickness": _thickness(table, path, link, p),
-        "capacitance": p.number(table, "capacitance", path, unit="F", gt=0),
+        "x_start": _position(table, PIEZO["x_start"], path, link, p),
+        "x_end": _position(table, PIEZO["x_end"], path, link, p),
+        **read_fields(table, _PIEZO_MIDDLE, path, p),
+        "thickness": _thickness(table, PIEZO["thickness"], path, link, p),
+        "capacitance": read_field(table, PIEZO["capacitance"], path, p),
     }
     start, end = out["x_start"], out["x_end"]
     if start is not None and end is not None and start >= end:

@@ -1,0 +1,409 @@
+"""The scenario schema: every key of every kind of table, with its type, unit, default, bounds,
+allowed values and documentation — the one source the loader reads and docs/scenario.md's
+key tables are generated from (`schema_docs.py`).
+
+A `Field` describes one key; a `Section` lists the keys of one kind of table in file order
+(the order unknown-key hints list them). `read_fields` checks keys with the typed readers of
+`Problems`; rules that involve several keys (EI or E, x within the link, ...) stay in the
+readers (load.py, sensors.py, drives.py) and are described here in ``rule`` for the docs.
+Allowed values of the model's choices come from its literal types, never a copy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from ..model import BASE_KINDS, LOAD_FRAMES, METHODS, MODE_SHAPES, MODELS, POINT_SENSOR_KINDS
+from .errors import REQUIRED, Problems
+
+# scalar kinds are read by `read_fields`; the others (arrays of tables, segments) by code
+Kind = Literal["number", "integer", "string", "boolean", "pair", "numbers", "profiles",
+               "history", "tables"]
+_READERS: dict[str, Callable[..., Any]] = {
+    "number": Problems.number, "integer": Problems.integer, "string": Problems.string,
+    "boolean": Problems.boolean, "pair": Problems.pair,
+}
+
+
+@dataclass(frozen=True)
+class Field:
+    """One key: how it is read and checked, and how the docs describe it.
+
+    ``default`` is `REQUIRED`, None (optional, absent from the resolved scenario) or the
+    value; ``default_doc`` replaces the docs' default text when the reader sets the default
+    (e.g. from another key). ``rule``: a further constraint checked in code, for the docs.
+    ``notes``: what each allowed value means. ``by_model``: unit and bounds are checked by
+    the motion constructors (with their messages); the reader only checks for a number.
+    """
+
+    key: str
+    kind: Kind = "number"
+    unit: str = ""
+    default: Any = REQUIRED
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+    nonzero: bool = False
+    choices: tuple[str, ...] | None = None
+    doc: str = ""
+    notes: Mapping[str, str] = field(default_factory=dict)
+    default_doc: str = ""
+    rule: str = ""
+    by_model: bool = False
+    # the keyword arguments of this field's `Problems` reader, computed once (sweeps validate
+    # thousands of scenarios): only those that differ from the reader's own defaults
+    options: dict[str, Any] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "options", self._reader_options())
+
+    def _reader_options(self) -> dict[str, Any]:
+        """Unit, bounds or choices as the reader of ``kind`` takes them."""
+        if self.by_model:
+            return {}
+        if self.kind == "number":
+            given = {"unit": self.unit, "gt": self.gt, "ge": self.ge, "lt": self.lt,
+                     "le": self.le, "nonzero": self.nonzero}
+            return {k: v for k, v in given.items()
+                    if v is not None and v is not False and v != ""}
+        if self.kind == "integer":
+            return {"ge": self.ge, "le": self.le}
+        if self.kind == "string" and self.choices is not None:
+            return {"choices": self.choices}
+        if self.kind == "pair":
+            return {"unit": self.unit}
+        return {}
+
+
+class Section:
+    """The keys of one kind of table, in file order. ``label`` and ``doc`` describe a
+    segment kind (a profile) in the docs' profile tables."""
+
+    def __init__(self, name: str, fields: Iterable[Field], *, label: str = "",
+                 doc: str = "") -> None:
+        self.name = name
+        self.fields = tuple(fields)
+        self.label = label
+        self.doc = doc
+        self.keys = tuple(f.key for f in self.fields)
+        self._by_key = {f.key: f for f in self.fields}
+
+    def __getitem__(self, key: str) -> Field:
+        return self._by_key[key]
+
+    def pick(self, *keys: str) -> tuple[Field, ...]:
+        """The fields of ``keys``, in that order (the order the reader checks them)."""
+        return tuple(self._by_key[k] for k in keys)
+
+    def __repr__(self) -> str:
+        return f"Section({self.name!r}, keys={self.keys})"
+
+
+_FIELD_DEFAULT: Any = object()
+
+
+def read_field(table: Mapping[str, Any], f: Field, path: str, problems: Problems, *,
+               default: Any = _FIELD_DEFAULT) -> Any:
+    """The value of one scalar key (None if unusable, the problem recorded), checked as its
+    field says; ``default`` overrides the field's when the reader computes it."""
+    if default is _FIELD_DEFAULT:
+        default = f.default
+    if f.key not in table and default is not REQUIRED:
+        return _fresh(default)
+    return _READERS[f.kind](problems, table, f.key, path, default=default, **f.options)
+
+
+def read_fields(table: Mapping[str, Any], fields: Iterable[Field], path: str,
+                problems: Problems, defaults: Mapping[str, Any] | None = None
+                ) -> dict[str, Any]:
+    """{key: value} of scalar keys, read in order; unusable values are None.
+
+    ``defaults`` override the fields' defaults by key (e.g. the scenario name).
+    """
+    out = {}
+    for f in fields:  # read_field inlined: a call per key costs 4% of a scenario's load
+        default = defaults.get(f.key, f.default) if defaults else f.default
+        if f.key not in table and default is not REQUIRED:
+            out[f.key] = _fresh(default)  # the common case, without a reader call
+        else:
+            out[f.key] = _READERS[f.kind](problems, table, f.key, path, default=default,
+                                          **f.options)
+    return out
+
+
+def _fresh(default: Any) -> Any:
+    """The value of a left-out key: its default; a pair (a tuple here) as a new list, as
+    TOML arrays are read."""
+    return [*map(float, default)] if isinstance(default, tuple) else default
+
+
+# --- [simulation] ---------------------------------------------------------------------------
+
+SIMULATION = Section("simulation", [
+    Field("name", "string", default=None, default_doc="the file name without `.toml` "
+          "(`\"scenario\"` from a dict)", doc="names the run and its results folder"),
+    Field("t_end", unit="s", gt=0, doc="end of the simulated time span"),
+    Field("dt_out", unit="s", gt=0, rule="≤ `t_end`",
+          doc="output samples are 0, dt_out, 2·dt_out, … up to and including t_end"),
+    Field("geometric_stiffening", "boolean", default=False, notes={
+        "true": "(**recommended**) the consistent linearisation with the axial (centrifugal) "
+                "stiffening of every link, including the pull of outer links and tip masses",
+        "false": "the paper's model, which keeps centrifugal softening only and diverges when "
+                 "a link spins faster than its first frequency (docs/derivation.md §4, "
+                 "docs/validation.md)"}),
+    Field("rtol", default=1e-6, gt=0, le=1e-2,
+          doc="error of the time integration relative to the peak displacements and "
+              "velocities"),
+    Field("atol", default=1e-12, gt=0, doc="absolute error floor of the time integration"),
+    Field("method", "string", default="lawson", choices=METHODS, notes={
+        "lawson": "fourth-order Lawson–Runge–Kutta on a tabulated state matrix, compiled; "
+                  "falls back to Magnus for coefficients too rough to tabulate, say measured "
+                  "angles (the run's `method` attribute says which ran)",
+        "magnus": "fourth-order Magnus, vectorised numpy, no compiled code"},
+        doc="both error-controlled by step halving; the others are scipy `solve_ivp` "
+            "methods, for comparison (first-order models only)"),
+    Field("model", "string", default="first_order", choices=MODELS, notes={
+        "first_order": "the linearised models above (`geometric_stiffening` chooses the "
+                       "paper's or the stiffened one)",
+        "nonlinear": "large deflections and rotations of every link, exact kinematics with "
+                     "the same assumed modes (docs/nonlinear.md); `geometric_stiffening` and "
+                     "`method` are then ignored"}),
+    Field("step", unit="s", default=None, gt=0,
+          doc="nonlinear model only: fixed time step of its Gauss collocation solver (10 ms "
+              "suits slow manoeuvres with 4 modes, 2.5 ms the fast ones, docs/validation.md). "
+              "Without it the step is halved from 10 ms until the estimated error is below "
+              "`rtol` of the peak coordinates — set `rtol = 1e-4` then, the default 1e-6 "
+              "costs several halvings"),
+])
+
+# --- [[links]] ------------------------------------------------------------------------------
+
+NAME_RULE = "unique; 1–64 letters, digits, `_`, `-`, `.`"
+LINKS = Section("links", [
+    Field("name", "string", rule=NAME_RULE, doc="names the link's output channels"),
+    Field("length", unit="m", gt=0, doc="from the joint to the tip"),
+    Field("mass_per_length", unit="kg/m", gt=0, doc="uniform along the link"),
+    Field("EI", unit="N·m²", gt=0, default_doc="`EI` **or** `E`",
+          doc="bending stiffness in the plane of motion"),
+    Field("E", unit="Pa", gt=0, default_doc="`EI` **or** `E`",
+          doc="Young's modulus; then `width` and `thickness` are required and "
+              "EI = E·width·thickness³/12"),
+    Field("width", unit="m", gt=0, default=None, default_doc="optional unless `E` is given",
+          doc="section size across the plane of motion"),
+    Field("thickness", unit="m", gt=0, default=None,
+          default_doc="optional unless `E` is given",
+          doc="section depth *in* the bending plane; also the default for strain and piezo "
+              "sensors on this link"),
+    Field("tip_mass", unit="kg", ge=0, default=0.0, doc="point mass at x = length"),
+    Field("tip_inertia", unit="kg·m²", ge=0, default=0.0,
+          doc="rotary inertia of the tip body about the tip"),
+    Field("damping_ratio", ge=0, lt=1, default=0.0, doc="modal damping ratio of every mode"),
+    Field("modes", "integer", ge=1, le=20, default=4, doc="number of assumed modes"),
+    Field("mode_shapes", "string", choices=MODE_SHAPES, default="clamped_free", notes={
+        "clamped_free": "cantilever modes",
+        "tip_loaded": "exact modes of a cantilever carrying the tip mass and tip inertia",
+        "outboard_loaded": "modes of the cantilever whose tip body is its tip mass plus the "
+                           "rest of the chain, rigid, as at t = 0"},
+        doc="cantilever modes have no curvature at the tip, so an inner link that carries a "
+            "heavy outer link converges slowly (~1/N) with them; `outboard_loaded` converges "
+            "fast there (docs/validation.md, tests/validation/test_physics.py)"),
+])
+
+# --- [[joints]]: prescribed motion ----------------------------------------------------------
+
+BASE_POINT = Field("base_point", "pair", unit="m, base frame", default=None,
+                   doc="where the joint sits on the base: starts a new branch there instead "
+                       "of on the previous link's tip")
+JOINTS = Section("joints", [
+    Field("motion", "profiles", default_doc="`motion`, `csv` or `drive`",
+          doc="the joint angle: one or more profiles, below"),
+    BASE_POINT,
+])
+
+
+def _profile_key(key: str, unit: str, **bounds: Any) -> Field:
+    """A profile key: read as a number; the motion constructor checks unit and bounds."""
+    return Field(key, unit=unit, by_model=True, **bounds)
+
+
+_START = _profile_key("start", "s", ge=0)
+_DURATION = _profile_key("duration", "s", gt=0)
+_MOVE = (_profile_key("from_deg", "deg"), _profile_key("to_deg", "deg"), _START, _DURATION)
+PROFILES: dict[str, Section] = {
+    "cycloidal": Section("cycloidal", _MOVE, label='`"cycloidal"`',
+                         doc="rest-to-rest move with zero acceleration at both ends; holds "
+                             "`from_deg` before `start` and `to_deg` after"),
+    "quintic": Section("quintic", _MOVE, label='`"quintic"`',
+                       doc="rest-to-rest quintic polynomial (zero rate and acceleration at "
+                           "both ends)"),
+    "spinup": Section("spinup", [_profile_key("to_rate_deg_s", "deg/s"), _START, _DURATION,
+                                 _profile_key("from_deg", "deg", default=0.0)],
+                      label='`"spinup"`', doc="spin-up to a constant rate (Kane, Ryan & "
+                                              "Banerjee 1987), then constant rate"),
+    "hold": Section("hold", [_profile_key("angle_deg", "deg")], label='`"hold"`',
+                    doc="constant angle"),
+}
+PROFILE = Field("profile", "string", choices=tuple(PROFILES))
+
+MEASURED_ANGLES = Section("measured_angles", [
+    Field("csv", "string", doc="path of a CSV file with a header row, relative to the "
+                               "scenario file's folder"),
+    Field("time_column", "string", default="t",
+          doc="column of times in s, strictly increasing; must cover 0 … `t_end`"),
+    Field("angle_column", "string", default="angle", doc="column of joint angles in deg"),
+    Field("lowpass_hz", unit="Hz", gt=0, default=None, default_doc="none (no filtering)",
+          rule="below the Nyquist frequency of the samples",
+          doc="zero-phase Butterworth low-pass filter (the paper filtered its potentiometer "
+              "signal at 30 Hz)"),
+])
+
+# --- [[sensors]] ----------------------------------------------------------------------------
+
+SENSORS = Section("sensors", [
+    Field("name", "string", rule=f"{NAME_RULE}; not `t`, `time` or an automatic channel name "
+                                 "(below)",
+          doc="names the sensor's output channel"),
+    Field("kind", "string", choices=(*POINT_SENSOR_KINDS, "piezo"),
+          doc="a point sensor or a piezo patch, below"),
+    Field("link", "string", rule="the `name` of a link", doc="the link the sensor is on"),
+])
+POINT_SENSORS = Section("point_sensors", [
+    Field("x", unit="m", ge=0, rule="≤ the link's length", doc="measured from the link's joint"),
+    Field("thickness", unit="m", gt=0, default=None,
+          default_doc="strain only; default: the link's `thickness` (required if the link "
+                      "has none)", doc="host beam thickness"),
+])
+PIEZO = Section("piezo", [
+    Field("x_start", unit="m", ge=0, rule="< `x_end`", doc="where the patch starts"),
+    Field("x_end", unit="m", gt=0, rule="≤ the link's length", doc="where the patch ends"),
+    Field("width", unit="m", gt=0, doc="patch width"),
+    Field("E_p", unit="Pa", gt=0, doc="Young's modulus of the patch"),
+    Field("d31", unit="m/V", nonzero=True, rule="either sign",
+          doc="piezoelectric strain constant"),
+    Field("thickness", unit="m", gt=0, default=None,
+          default_doc="the link's `thickness`", doc="host beam thickness"),
+    Field("capacitance", unit="F", gt=0, doc="charge amplifier capacitance C_c"),
+])
+
+# --- [base] and its loads -------------------------------------------------------------------
+
+BASE = Section("base", [
+    Field("type", "string", choices=BASE_KINDS, notes={
+        "free": "moves and turns in the plane",
+        "pinned": "turns about its fixed reference point",
+        "fixed": "does not move; only useful to start several branches"}),
+    # 0 is allowed: the first link is then the free body itself (a flexible beam in flight)
+    Field("mass", unit="kg", ge=0, default=None, default_doc="required for free",
+          doc="mass of the rigid base; 0 (with `inertia = 0`) makes the first link itself "
+              "the free body, its root the reference point"),
+    Field("inertia", unit="kg·m² (about the reference point)", ge=0, default=None,
+          default_doc="required for free/pinned",
+          doc="the centre of mass of a free base is its reference point"),
+    Field("position", "pair", unit="m", default=(0.0, 0.0), rule="`[0, 0]` if pinned",
+          doc="initial reference point"),
+    Field("attitude_deg", unit="deg", default=0.0, rule="0 for a fixed base",
+          doc="initial attitude"),
+    Field("velocity", "pair", unit="m/s", default=(0.0, 0.0), rule="`[0, 0]` if pinned",
+          doc="initial velocity"),
+    Field("rate_deg_s", unit="deg/s", default=0.0, rule="0 for a fixed base",
+          doc="initial angular rate"),
+    Field("loads", "tables", default=None, default_doc="none", rule="not on a fixed base",
+          doc="applied loads, `[[base.loads]]` tables (below)"),
+])
+_ONE_OF_THREE = "none; give at least one of `force_x`, `force_y`, `moment`"
+LOADS = Section("base.loads", [
+    Field("force_x", "history", unit="N", default=None, default_doc=_ONE_OF_THREE,
+          doc="force history (segments, below)"),
+    Field("force_y", "history", unit="N", default=None, default_doc=_ONE_OF_THREE,
+          doc="force history (segments, below)"),
+    Field("moment", "history", unit="N·m", default=None, default_doc=_ONE_OF_THREE,
+          doc="moment history"),
+    Field("point", "pair", unit="m, body frame", default=(0.0, 0.0),
+          doc="where the force acts on the base, from the reference point"),
+    Field("frame", "string", choices=LOAD_FRAMES, default="inertial",
+          doc="the axes of `force_x`, `force_y`"),
+])
+
+_AMPLITUDE = Field("amplitude", doc="in the unit of the history")
+_FROM = Field("start", unit="s", ge=0, default=0.0)
+HISTORIES: dict[str, Section] = {
+    "bang_bang": Section("bang_bang", [_AMPLITUDE, _FROM, Field("duration", unit="s", gt=0)],
+                         label='`"bang_bang"`', doc="+amplitude for the first half, "
+                                                   "−amplitude for the second"),
+    "step": Section("step", [_AMPLITUDE, _FROM, Field("duration", unit="s", gt=0, default=None,
+                                                      default_doc="∞")],
+                    label='`"step"`', doc="amplitude from `start` for `duration`"),
+    "table": Section("table", [Field("t", "numbers", unit="s", rule="increasing"),
+                               Field("values", "numbers")],
+                     label='`"table"`', doc="linear between the samples, held outside"),
+}
+HISTORY_PROFILE = Field("profile", "string", choices=tuple(HISTORIES))
+HISTORY_CSV = Section("history_csv", [
+    Field("csv", "string"),
+    Field("time_column", "string", default="t"),
+    Field("column", "string"),
+], label='`csv = "…"` (no `profile`)',
+    doc="a column of a CSV file (path relative to the scenario file's folder), linear, held "
+        "outside; for example the `joint1_torque` column of another run's `results.csv`")
+
+# --- driven [[joints]] ----------------------------------------------------------------------
+
+DRIVE = Field("drive", "string", choices=("torque", "servo"), notes={
+    "torque": "a torque history drives the joint", "servo": "a servo follows `reference`"},
+    doc="`joint<k>_torque` is the motor's torque")
+SERVO = Field("servo", "string", choices=("velocity_pid", "position"), notes={
+    "velocity_pid": "V = sat(P e + I∫e + D ė), Ω = k_v V, τ = K_v(Ω − β̇)",
+    "position": "Ω = clip(ω_b e, ±Ω_max), τ = K_v(Ω − β̇) (small RC servos)"},
+    doc="e = reference − angle, β̇ the joint rate")
+MOTOR_INERTIA = Field("motor_inertia", unit="kg·m²", ge=0, default=0.0,
+                      doc="rotor inertia reflected to the joint")
+TORQUE = Section("torque", [
+    DRIVE,
+    Field("torque", "history", unit="N·m",
+          doc="torque history on link k, reaction on its parent (segments, as base loads)"),
+    Field("initial_angle_deg", unit="deg", default=0.0, doc="initial joint angle"),
+    Field("initial_rate_deg_s", unit="deg/s", default=0.0, doc="initial joint rate"),
+    MOTOR_INERTIA,
+    BASE_POINT,
+])
+
+
+def _servo(name: str, loop_gain: float, own: Iterable[Field]) -> Section:
+    """A servo's keys: the common ones, whose loop gain default depends on the servo, and its
+    own."""
+    return Section(name, [
+        DRIVE,
+        SERVO,
+        Field("reference", "profiles",
+              doc="an array of motion profiles, as `motion`; the servo starts on it (angle "
+                  "and rate at t = 0)"),
+        Field("loop_gain", unit="N·m·s/rad", gt=0, default=loop_gain,
+              doc="K_v, the velocity loop"),
+        Field("torque_limit", unit="N·m", gt=0, default=None, doc="motor torque limit"),
+        MOTOR_INERTIA,
+        BASE_POINT,
+        *own,
+    ])
+
+
+VELOCITY_PID = _servo("velocity_pid", 50.0, [
+    Field("P", unit="V/rad", ge=0, doc="proportional gain on the error e = reference − angle "
+                                      "(radians)"),
+    Field("I", unit="V/(rad·s)", ge=0, default=0.0, doc="integral gain"),
+    Field("D", unit="V·s/rad", ge=0, default=0.0, doc="derivative gain"),
+    Field("saturation_V", unit="V", gt=0, default=10.0, doc="command limit"),
+    Field("rate_per_volt_deg_s", unit="deg/s per V", gt=0,
+          doc="k_v, the amplifier's commanded joint rate per volt"),
+])
+POSITION = _servo("position", 5.0, [
+    Field("bandwidth", unit="rad/s", gt=0, doc="ω_b"),
+    Field("rate_limit_deg_s", unit="deg/s", gt=0, doc="Ω_max"),
+])
+
+# every table kind, by the name of its generated docs block
+SECTIONS: dict[str, Section] = {s.name: s for s in (
+    SIMULATION, LINKS, JOINTS, *PROFILES.values(), MEASURED_ANGLES, SENSORS, POINT_SENSORS,
+    PIEZO, BASE, LOADS, *HISTORIES.values(), HISTORY_CSV, TORQUE, VELOCITY_PID, POSITION)}
