@@ -11,6 +11,10 @@ __all__ = ["__version__", "simulate", "sweep", "load_scenario", "load_paper_expe
            "Scenario"]
 
 
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
 def __getattr__(name: str) -> Any:
     # Lazy exports keep `flexlink --help` fast and sub-packages importable on their own.
     if name == "__version__":

@@ -382,7 +382,9 @@ def _servo(name: str, loop_gain: float, own: Iterable[Field]) -> Section:
                   "and rate at t = 0)"),
         Field("loop_gain", unit="N·m·s/rad", gt=0, default=loop_gain,
               doc="K_v, the velocity loop"),
-        Field("torque_limit", unit="N·m", gt=0, default=None, doc="motor torque limit"),
+        Field("torque_limit", unit="N·m", gt=0, default=None,
+              doc="the servo motor's torque limit (servo drives only: a torque drive applies its "
+                  "torque history as given); none: unlimited"),
         MOTOR_INERTIA,
         BASE_POINT,
         *own,

@@ -18,7 +18,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> Pat
     settings = scenario.settings
     system = ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening)
     method = settings.method if settings.method not in ("lawson", "magnus") else DEFAULT_METHOD
-    solution = integrate_forward(system, t, settings.rtol, settings.atol, method)
+    solution = integrate_forward(system, t, settings.rtol, settings.atol, method, on_progress)
     nu = len(system.free)
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
                                     solution.q_ddot[:, :nu])

@@ -12,14 +12,15 @@ import numpy as np
 from ..dynamics.forward import ForwardSystem
 from ..errors import SimulationError
 from .ode import Stalled, integrate_ivp
-from .solution import Solution
+from .solution import Progress, Solution
 
 DEFAULT_METHOD = "DOP853"  # "lawson", "magnus" (prescribed-joint integrators) do not apply here
 MAX_STEP_OUTPUTS = 10  # longest step, in output intervals (simulation.dt_out)
 
 
 def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
-                      method: str = DEFAULT_METHOD) -> Solution:
+                      method: str = DEFAULT_METHOD, on_progress: Progress | None = None
+                      ) -> Solution:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
     initial state; the servo integrals as ``extra``.
 
@@ -30,6 +31,8 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         parts = split_state(system, y[None])
         pdd, zdd, rates = system.accelerations(np.array([t]), *parts)
+        if on_progress is not None:
+            on_progress(t)
         return np.concatenate([y[nu:2 * nu], pdd[0], y[2 * nu + n:2 * nu + 2 * n], zdd[0],
                                rates[0]])
 
