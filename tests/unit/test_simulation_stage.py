@@ -142,3 +142,20 @@ def test_the_model_is_free_of_physics() -> None:
     """model/ imports nothing of flexlink but itself: a description, no algorithms."""
     for path in (PACKAGE / "model").glob("*.py"):
         assert _imports(path) <= {"model"}, path.name
+
+
+def test_the_first_order_validity_is_reported() -> None:
+    from flexlink.model import Link
+    from flexlink.simulation.common import check_tip_deflection
+
+    links = (Link("a", 1.0, 1.0, 1.0), Link("b", 0.5, 1.0, 1.0))
+    t = np.linspace(0.0, 1.0, 3)
+    fine = check_tip_deflection(links, t, np.array([[0.0, 0.0], [0.1, 0.05], [0.0, 0.0]]), True)
+    assert fine == {"peak_tip_deflection_per_length": pytest.approx(0.1)}
+    bent = check_tip_deflection(links, t, np.array([[0.0, 0.0], [0.1, 0.2], [0.0, 0.0]]), True)
+    assert bent["peak_tip_deflection_per_length"] == pytest.approx(0.4)
+    assert "the tip of b deflected 40% of its length" in bent["validity_warning"]
+    assert 'model = "nonlinear"' in bent["validity_warning"]
+    with pytest.raises(SimulationError, match="tip deflection of b exceeds its length .* at "
+                                              "t = 0.5 s.*geometric_stiffening = true"):
+        check_tip_deflection(links, t, np.array([[0.0, 0.0], [0.1, 0.6], [0.0, 0.0]]), False)

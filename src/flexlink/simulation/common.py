@@ -60,11 +60,15 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
     return results
 
 
+FIRST_ORDER_LIMIT = 0.2  # tip deflection per length up to which first-order theory holds
+
+
 def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,
-                         geometric_stiffening: bool) -> float:
-    """The largest tip deflection relative to its link's length (first-order model);
-    a SimulationError where it exceeds the length: the linear model has diverged (e.g.
-    centrifugal softening without geometric stiffening above the first frequency).
+                         geometric_stiffening: bool) -> dict[str, Any]:
+    """Metadata on the first-order model's validity: the largest tip deflection relative to
+    its link's length, and a warning text where it passes FIRST_ORDER_LIMIT. A SimulationError
+    where it exceeds the length: the linear model has diverged (e.g. centrifugal softening
+    without geometric stiffening above the first frequency).
     ``deflection``: |w(L)| of every link, (nt, links), m."""
     lengths = np.array([link.length for link in links])
     ratio = deflection / lengths
@@ -79,7 +83,15 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
                 f"the tip deflection of {link.name} exceeds its length ({link.length:g} m) at "
                 f"t = {when:.4g} s: the first-order model is not valid here{hint}; "
                 f"model = \"nonlinear\" handles large deflections")
-    return float(ratio.max()) if ratio.size else 0.0
+    peaks = ratio.max(axis=0) if ratio.size else np.zeros(len(links))
+    worst = int(np.argmax(peaks))
+    out: dict[str, Any] = {"peak_tip_deflection_per_length": float(peaks[worst])}
+    if peaks[worst] > FIRST_ORDER_LIMIT:
+        out["validity_warning"] = (
+            f"the tip of {links[worst].name} deflected {100 * peaks[worst]:.0f}% of its length "
+            f"(first-order theory holds to about {100 * FIRST_ORDER_LIMIT:.0f}%): "
+            "model = \"nonlinear\" is accurate at large deflections")
+    return out
 
 
 class ProgressBar:

@@ -33,4 +33,4 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> Pat
     return PathRun(solution, values, {
         "path": "forward", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,
-        "peak_tip_deflection_per_length": validity})
+        **validity})

@@ -32,4 +32,4 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> 
     values.update(tip_values(system, frames, z))
     return PathRun(solution, values, {
         "path": "prescribed", "geometric_stiffening": settings.geometric_stiffening,
-        "elastic_coordinates": system.n, "peak_tip_deflection_per_length": validity})
+        "elastic_coordinates": system.n, **validity})
