@@ -25,7 +25,7 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
         description="Run a grid and/or random samples over numeric scenario fields on all "
                     "cores (or a Dask cluster) and write one netCDF file: every channel over "
                     "(case, time), the parameter values as coordinates, a status per case. "
-                    "Fields are paths into the scenario file: links[0].EI, "
+                    "Fields are paths into the scenario file: links[0].EI, links[link1].E, "
                     "joints[0].motion[0].duration, sensors[1].x (docs/sweep.md).",
         epilog=f"Example: {EXAMPLE}")
     sweep.add_argument("scenario", nargs="?", type=Path, metavar="SCENARIO.toml",
