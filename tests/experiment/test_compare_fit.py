@@ -20,6 +20,7 @@ from flexlink.experiment.measurement import condition, parse_spec
 from flexlink.experiment.parameters import parse_parameter
 from flexlink.experiment.vibration import dominant_mode
 from flexlink.scenario import scenario_from_dict
+from flexlink.scenario.fields import ScenarioFile
 from flexlink.simulation import simulate
 
 from .synthetic import single_link_measurement, single_link_text, write_csv
@@ -77,9 +78,9 @@ def test_compare_reports_the_true_frequency(files) -> None:
 def test_fit_recovers_stiffness_damping_and_gain(files) -> None:
     experiment = load_experiment(files / "arm.toml")
     units = experiment.measurement.units
-    params = [parse_parameter(p, experiment.scenario, units)
+    params = [parse_parameter(p, experiment.file, units)
               for p in ("links[0].EI", "links[arm].damping_ratio", "strain:gain")]
-    result = fit(experiment.scenario, experiment.measurement, params)
+    result = fit(experiment.file, experiment.measurement, params)
     ei, zeta, gain = result.estimates
     assert ei.value == pytest.approx(EI_TRUE, rel=0.01)  # judged: 3 %
     assert zeta.value == pytest.approx(ZETA_TRUE, rel=0.10)  # judged: 20 %
@@ -164,13 +165,27 @@ def test_cli_warns_about_repairs(files, measured, capsys) -> None:
 def test_bad_parameters_are_clear(files) -> None:
     experiment = load_experiment(files / "arm.toml")
     units = experiment.measurement.units
-    for text, message in (("links[3].EI", "index 3 out of range"),
-                          ("links[0].length", "no fittable field 'length'"),
-                          ("acc:gian", "unknown calibration 'gian'"),
-                          ("pzt:gain", "not a measured channel"),
-                          ("EI", r"expected links\[i\]\.FIELD")):
+    for text, message in (
+            ("links[3].EI", r"the scenario has 1 entry in links \(indices 0 to 0\)"),
+            ("links[0].name", "string 'arm'; only numeric fields"),
+            ("links[0].modes", "takes integers"),
+            ("links[lnk].EI", r"no entry named 'lnk' \(known names: 'arm'\)"),
+            ("links[0].lenght", "give an initial value"),
+            ("simulation.dt_out", "cannot be fitted"),
+            ("acc:gian", "unknown calibration 'gian'"),
+            ("pzt:gain", "not a measured channel"),
+            ("EI", r"give a path into one, e\.g\. links\[0\]\.EI"),
+            ("links[0]EI", "bad parameter path")):
         with pytest.raises(ValueError, match=message):
-            parse_parameter(text, experiment.scenario, units)
+            parse_parameter(text, experiment.file, units)
+
+
+def test_fields_of_a_measured_joint_are_refused(files) -> None:
+    """The measured angles replace joint 1's motion: its profile keys would change nothing."""
+    experiment = load_experiment(files / "arm.toml")
+    param = parse_parameter("joints[0].motion[0].duration", experiment.file, {})
+    with pytest.raises(ValueError, match="joint 1 is driven by the measured angles"):
+        fit(experiment.file, experiment.measurement, [param])
 
 
 def test_mapping_also_from_cli(files, measured) -> None:
@@ -187,8 +202,8 @@ def test_mapping_also_from_cli(files, measured) -> None:
 def test_fit_section_parameters() -> None:
     from flexlink.experiment.parameters import parse_parameter_option, parse_parameter_table
 
-    scenario = scenario_from_dict(tomllib.loads(single_link_text()))
-    units = {"acc": "m/s^2"}
+    scenario = ScenarioFile(tomllib.loads(single_link_text()))
+    units = {"acc": "m s-2"}
     p = parse_parameter_table({"path": "links[0].EI", "lower": 100.0, "upper": 500.0,
                                "initial": 250.0}, "fit.parameters[0]", scenario, units)
     assert (p.lower, p.upper, p.initial, p.log) == (100.0, 500.0, 250.0, True)
@@ -207,16 +222,16 @@ def test_time_objective_with_delay(files) -> None:
     differs from the truth only in stiffening and mode count here, so it recovers EI too."""
     experiment = load_experiment(files / "arm.toml")
     units = experiment.measurement.units
-    params = [parse_parameter(p, experiment.scenario, units)
+    params = [parse_parameter(p, experiment.file, units)
               for p in ("links[0].EI", "links[0].damping_ratio", "acc:delay")]
-    result = fit(experiment.scenario, experiment.measurement, params, channels=["acc"],
+    result = fit(experiment.file, experiment.measurement, params, channels=["acc"],
                  objective="time", max_simulations=40)
     ei, zeta, delay = result.estimates
     assert ei.value == pytest.approx(EI_TRUE, rel=0.01)
     assert zeta.value == pytest.approx(ZETA_TRUE, rel=0.1)
     assert abs(delay.value) < 2e-3  # s; the truth has none
     with pytest.raises(ValueError, match="delay changes no frequency"):
-        fit(experiment.scenario, experiment.measurement, params, objective="modal")
+        fit(experiment.file, experiment.measurement, params, objective="modal")
 
 
 def test_run_ignores_the_experiment_sections(files) -> None:

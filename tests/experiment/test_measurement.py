@@ -63,7 +63,7 @@ def test_units_scale_and_offset() -> None:
     assert m.angles[0][-1] == pytest.approx(math.radians(9.0))
     assert m.signals["link1_tip_acceleration"][0] == pytest.approx(0.5 * 9.80665)
     assert m.signals["pzt"][0] == pytest.approx((2.0 * 3.0 - 1.0) * 1e-3)  # V
-    assert m.units == {"joint1_angle": "rad", "link1_tip_acceleration": "m/s^2", "pzt": "V"}
+    assert m.units == {"joint1_angle": "rad", "link1_tip_acceleration": "m s-2", "pzt": "V"}
 
 
 def test_csv_and_mat_read_alike(tmp_path) -> None:

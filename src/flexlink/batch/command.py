@@ -25,7 +25,7 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
         description="Run a grid and/or random samples over numeric scenario fields on all "
                     "cores (or a Dask cluster) and write one netCDF file: every channel over "
                     "(case, time), the parameter values as coordinates, a status per case. "
-                    "Fields are paths into the scenario file: links[0].EI, "
+                    "Fields are paths into the scenario file: links[0].EI, links[link1].E, "
                     "joints[0].motion[0].duration, sensors[1].x (docs/sweep.md).",
         epilog=f"Example: {EXAMPLE}")
     sweep.add_argument("scenario", nargs="?", type=Path, metavar="SCENARIO.toml",
@@ -143,8 +143,8 @@ def _check_output(path: Path, overwrite: bool) -> None:
     if path.is_dir():
         raise SweepError([f"output {path} is a folder; give a file name such as sweep.nc"])
     if path.exists() and not overwrite:
-        raise SweepError([f"output file {path} already exists; choose another name or "
-                          "replace it (--overwrite)"])
+        raise SweepError([(f"output file {path} already exists; choose another name or "
+                           "replace it (--overwrite)")])
 
 
 def _fail(message: str, status: int = 2) -> int:
@@ -156,9 +156,9 @@ def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str
     """What ran, how many cases finished or failed (with the first errors), where it went."""
     count = dataset.sizes["case"]
     ok, failed = int(dataset.attrs["cases_ok"]), int(dataset.attrs["cases_failed"])
-    lines = [f"flexlink: swept {dataset.attrs['title'].removeprefix('flexlink sweep of ')!r}, "
-             f"{count} cases in {wall:.3g} s ({count / wall:.3g} cases/s): "
-             f"{ok} ok, {failed} failed"]
+    lines = [(f"flexlink: swept {dataset.attrs['title'].removeprefix('flexlink sweep of ')!r}, "
+              f"{count} cases in {wall:.3g} s ({count / wall:.3g} cases/s): "
+              f"{ok} ok, {failed} failed")]
     parameters = [name for name in dataset.coords if dataset[name].dims == ("case",)
                   and name != "case"]
     for index in [int(i) for i in dataset.case[dataset.status == "failed"].values][:max_errors]:

@@ -1,7 +1,8 @@
 """Sweep parameters: field paths, grid values and random distributions → the table of cases.
 
-A parameter names one numeric field of the scenario file by its path, e.g. ``links[0].EI``
-or ``joints[0].motion[0].duration``. Grid parameters give a list of values (or a
+A parameter names one numeric field of the scenario file by its path
+(`flexlink.scenario.fields`), e.g. ``links[0].EI``, ``links[link1].E`` or
+``joints[0].motion[0].duration``. Grid parameters give a list of values (or a
 ``linspace:a:b:n`` / ``geomspace:a:b:n`` rule); random parameters give a distribution
 (``uniform:low:high``, ``loguniform:low:high``, ``normal:mean:std``). The cases are the
 cartesian product of the grid values, each combined with the same ``samples`` random draws
@@ -19,12 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from ..scenario.fields import FieldPath, FieldPathError, parse
 from .errors import SweepError
 
-PathTokens = tuple[str | int, ...]
-_SEGMENT = r"[A-Za-z_][A-Za-z0-9_]*(?:\[\d+\])*"
-_PATH = re.compile(rf"{_SEGMENT}(?:\.{_SEGMENT})*")
-_TOKEN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)|\[(\d+)\]")
 _INTEGER = re.compile(r"[+-]?\d+")
 DISTRIBUTIONS = {"uniform": ("low", "high"), "loguniform": ("low", "high"),
                  "normal": ("mean", "std")}
@@ -32,12 +30,12 @@ SAMPLERS = ("random", "lhs")
 RULES = ("linspace", "geomspace")
 
 
-def parse_path(path: str) -> PathTokens:
-    """``links[0].EI`` → ('links', 0, 'EI'); a malformed path raises SweepError."""
-    if not isinstance(path, str) or not _PATH.fullmatch(path):
-        raise SweepError([f"bad parameter path {path!r}: expected keys and [indices] joined "
-                          "by dots, e.g. links[0].EI or joints[0].motion[0].duration"])
-    return tuple(name if name else int(index) for name, index in _TOKEN.findall(path))
+def parse_path(path: str) -> FieldPath:
+    """`flexlink.scenario.fields.parse`, a malformed path raised as a SweepError."""
+    try:
+        return parse(path)
+    except FieldPathError as exc:
+        raise SweepError([str(exc)]) from None
 
 
 @dataclass(frozen=True)
@@ -120,9 +118,9 @@ def grid_values(path: str, spec: str | Sequence[float | int]) -> GridParameter:
             rule = np.linspace if head == "linspace" else np.geomspace
             values: list[float | int] = [float(v) for v in rule(start, stop, count)]
         elif colon:
-            raise SweepError([f"{where}: unknown rule {head!r} in {spec!r}; give numbers "
-                              "separated by commas, linspace:start:stop:count or "
-                              "geomspace:start:stop:count"])
+            raise SweepError([(f"{where}: unknown rule {head!r} in {spec!r}; give numbers "
+                               "separated by commas, linspace:start:stop:count or "
+                               "geomspace:start:stop:count")])
         else:
             values = [_number(v, where) for v in spec.split(",")]
     else:
@@ -144,8 +142,8 @@ def random_distribution(path: str, spec: str | Sequence[Any]) -> RandomParameter
     parts = spec.split(":") if isinstance(spec, str) else list(spec)
     name = parts[0] if parts else None
     if name not in DISTRIBUTIONS or len(parts) != 3:
-        raise SweepError([f"{where}: expected uniform:low:high, loguniform:low:high or "
-                          f"normal:mean:std, got {spec!r}"])
+        raise SweepError([(f"{where}: expected uniform:low:high, loguniform:low:high or "
+                           f"normal:mean:std, got {spec!r}")])
     a, b = (_number(str(p), where) if isinstance(p, str) else p for p in parts[1:])
     for value in (a, b):
         if isinstance(value, bool) or not isinstance(value, int | float) \

@@ -64,9 +64,9 @@ def _fail(message: str, status: int = 2) -> int:
 
 def _run(args: argparse.Namespace, work: Any) -> int:
     """Common error handling: input problems → 2, failed simulation → 1; warnings printed."""
+    from ..errors import SimulationError
     from ..results.writers import OutputFolderError, check_output_dir
     from ..scenario import ScenarioError
-    from ..errors import SimulationError
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -107,13 +107,13 @@ def run_compare(args: argparse.Namespace) -> int:
 
 def run_fit(args: argparse.Namespace) -> int:
     from .identification import fit
-    from .parameters import parse_parameter_option, parse_parameter_table, update_resolved
+    from .parameters import model_values, parse_parameter_option, parse_parameter_table
     from .report import metrics_table, write_fit
 
     def work(out_dir: Path) -> int:
         experiment = _load(args)
-        scenario, resolved, measurement, table = (experiment.scenario, experiment.resolved,
-                                                  experiment.measurement, experiment.fit_table)
+        file, measurement, table = (experiment.file, experiment.measurement,
+                                    experiment.fit_table)
         allowed = ("parameters", "channels", "window", "max_simulations", "objective")
         unknown = set(table) - set(allowed)
         if unknown:
@@ -127,12 +127,12 @@ def run_fit(args: argparse.Namespace) -> int:
                                    f"{channel_list!r}")
         channels = measurement.units
         if args.param:
-            params = [parse_parameter_option(p, scenario, channels) for p in args.param]
+            params = [parse_parameter_option(p, file, channels) for p in args.param]
         else:
             entries = table.get("parameters", [])
             if not isinstance(entries, list):
                 raise MeasurementError("[fit] parameters: expected an array of tables")
-            params = [parse_parameter_table(e, f"fit.parameters[{i}]", scenario, channels)
+            params = [parse_parameter_table(e, f"fit.parameters[{i}]", file, channels)
                       for i, e in enumerate(entries)]
         if not params:
             raise MeasurementError("no parameters to fit: give -p links[0].EI (repeatable) or "
@@ -142,9 +142,9 @@ def run_fit(args: argparse.Namespace) -> int:
         if isinstance(budget, bool) or not isinstance(budget, int) or budget < 3:
             raise MeasurementError(f"max_simulations must be an integer >= 3, got {budget!r}")
         progress = None if args.quiet else (lambda m: print(m, file=sys.stderr))
-        result = fit(scenario, measurement, params, channel_list, window,
+        result = fit(file, measurement, params, channel_list, window,
                      max_simulations=budget, progress=progress, objective=objective)
-        fitted = update_resolved(resolved, params, [e.value for e in result.estimates])
+        fitted = file.resolved(model_values(params, [e.value for e in result.estimates]))
         write_fit(result, out_dir, fitted, overwrite=args.overwrite,
                   figures=not args.no_figures)
         if args.quiet:

@@ -13,9 +13,10 @@ from typing import Any
 
 import numpy as np
 
+from ..channels import ChannelKind
+from ..channels.catalogue import joint_name
 from ..model import Scenario
 from ..motion import MeasuredMotion
-from ..channels import ChannelKind
 from ..results import Results
 from .files import MeasurementError
 from .measurement import Measurement, MeasurementWarning
@@ -54,23 +55,45 @@ class Comparison:
     free_start: float | None  # s, start of the free-vibration window (None: none)
 
 
-def driven_scenario(scenario: Scenario, measurement: Measurement) -> Scenario:
-    """``scenario`` with the measured joint angles as joint motions, ending where the data do."""
-    joints = list(scenario.chain.joints)
-    angles = held_angles(measurement)
-    for k, angle in angles.items():
-        joints[k] = MeasuredMotion.from_arrays(measurement.time, np.degrees(angle),
-                                               name=f"joint{k + 1} ({measurement.source})")
+@dataclass(frozen=True)
+class MeasuredInputs:
+    """The measured joint angles as joint motions (spline fits, made once) and the end of the
+    data (s): what drives a scenario in compare and in every simulation of a fit."""
+
+    joints: dict[int, MeasuredMotion]  # joint index (0-based) → its measured motion
+    t_last: float  # s
+
+    def drive(self, scenario: Scenario) -> Scenario:
+        """``scenario`` with the measured joints replaced, ending where the data do."""
+        joints = list(scenario.chain.joints)
+        for k, motion in self.joints.items():
+            joints[k] = motion
+        settings = scenario.settings
+        if self.t_last < settings.t_end - 1e-9:
+            settings = dataclasses.replace(settings, t_end=self.t_last)
+        chain = dataclasses.replace(scenario.chain, joints=tuple(joints))
+        return dataclasses.replace(scenario, chain=chain, settings=settings)
+
+
+def measured_inputs(scenario: Scenario, measurement: Measurement) -> MeasuredInputs:
+    """The measured joint motions of ``measurement`` (held once at rest, see `held_angles`);
+    warns when the data end before ``scenario``'s t_end."""
+    joints = {k: MeasuredMotion.from_arrays(measurement.time, np.degrees(angle),
+                                            name=f"{joint_name(k, 'angle')} ({measurement.source})")
+              for k, angle in held_angles(measurement).items()}
     t_last = float(measurement.time[-1])
-    settings = scenario.settings
-    if t_last < settings.t_end - 1e-9:
+    t_end = scenario.settings.t_end
+    if t_last < t_end - 1e-9:
         warnings.warn(f"{measurement.source}: the data end at t = {t_last:g} s, before "
-                      f"simulation.t_end = {settings.t_end:g} s; simulating up to {t_last:g} s",
+                      f"simulation.t_end = {t_end:g} s; simulating up to {t_last:g} s",
                       MeasurementWarning, stacklevel=2)
         measurement.notes.append(f"simulated up to the end of the data, t = {t_last:g} s")
-        settings = dataclasses.replace(settings, t_end=t_last)
-    chain = dataclasses.replace(scenario.chain, joints=tuple(joints))
-    return dataclasses.replace(scenario, chain=chain, settings=settings)
+    return MeasuredInputs(joints, t_last)
+
+
+def driven_scenario(scenario: Scenario, measurement: Measurement) -> Scenario:
+    """``scenario`` with the measured joint angles as joint motions, ending where the data do."""
+    return measured_inputs(scenario, measurement).drive(scenario)
 
 
 HOLD_RAMP = 0.05  # s, blend from the measured to the held angle

@@ -26,12 +26,15 @@ from typing import Any
 
 import numpy as np
 
+from ..channels.catalogue import catalogue
 from ..model import Scenario
 from ..results import Results
-from .comparison import Comparison, driven_scenario, evaluate, free_vibration_start, on_grid
+from ..scenario import ScenarioError
+from ..scenario.fields import ScenarioFile
+from .comparison import Comparison, evaluate, free_vibration_start, measured_inputs, on_grid
 from .files import MeasurementError
 from .measurement import Measurement
-from .parameters import Parameter, model_value, with_values
+from .parameters import Parameter, model_values
 from .vibration import Mode, damped_modes, dominant_mode, spectral_peaks
 
 Z95 = 1.959964
@@ -72,11 +75,15 @@ class FitResult:
 
 
 class _Model:
-    """Simulations cached by model parameter values; calibration applied on top."""
+    """Simulations cached by model parameter values; calibration applied on top. Each
+    simulation rebuilds the scenario from the file with the values set (so derived fields
+    follow: EI from E, a sensor's default thickness) and drives it with the measured angles."""
 
-    def __init__(self, scenario: Scenario, params: list[Parameter], measurement: Measurement,
+    def __init__(self, file: ScenarioFile, params: list[Parameter], measurement: Measurement,
                  progress: Callable[[str], None] | None) -> None:
-        self.base = driven_scenario(scenario, measurement)
+        self.file = file
+        self.inputs = measured_inputs(file.build(), measurement)  # splines made once
+        self.base = self.inputs.drive(file.build())
         self.params = params
         self.model_params = [p for p in params if p.is_model]
         self.cache: dict[tuple[float, ...], Results] = {}
@@ -91,24 +98,32 @@ class _Model:
         if key not in self.cache:
             if len(self.cache) > 64:
                 self.cache.pop(next(iter(self.cache)))
-            self.cache[key] = simulate(with_values(self.base, self.model_params, model))
+            self.cache[key] = simulate(self.scenario(values))
             self.simulations += 1
             if self.progress:
-                shown = ", ".join(f"{p.path} = {v:.5g}" for p, v in zip(self.model_params, model,
-                                                                        strict=True))
-                self.progress(f"simulation {self.simulations}: {shown}")
+                self.progress(f"simulation {self.simulations}: {_shown(self.model_params, model)}")
         return self.cache[key]
 
     def scenario(self, values: list[float]) -> Scenario:
-        model = [v for p, v in zip(self.params, values, strict=True) if p.is_model]
-        return with_values(self.base, self.model_params, model)
+        """The driven scenario with the model values set."""
+        try:
+            return self.inputs.drive(self.file.build(model_values(self.params, values)))
+        except ScenarioError as exc:
+            model = [v for p, v in zip(self.params, values, strict=True) if p.is_model]
+            raise MeasurementError(
+                f"the fit reached an invalid scenario at {_shown(self.model_params, model)}: "
+                f"{'; '.join(exc.problems)}; narrow the parameters' bounds") from None
+
+
+def _shown(params: list[Parameter], values: list[float]) -> str:
+    return ", ".join(f"{p.path} = {v:.5g}" for p, v in zip(params, values, strict=True))
 
 
 def calibrated(results: Results, channel: str, params: list[Parameter],
                values: list[float]) -> np.ndarray:
     """gain · sim(t − delay) + offset + drift · t for one channel."""
     cal = {p.field: v for p, v in zip(params, values, strict=True)
-           if p.kind == "calibration" and p.channel == channel}
+           if not p.is_model and p.channel == channel}
     t = results.time
     sim = results[channel]
     delay = cal.get("delay", 0.0)
@@ -120,12 +135,13 @@ def calibrated(results: Results, channel: str, params: list[Parameter],
 OBJECTIVES = ("modal", "time")
 
 
-def fit(scenario: Scenario, measurement: Measurement, params: list[Parameter],
+def fit(scenario: ScenarioFile, measurement: Measurement, params: list[Parameter],
         channels: list[str] | None = None, window: tuple[float | None, float | None] = (None,
                                                                                      None),
         max_simulations: int = 60, progress: Callable[[str], None] | None = None,
         objective: str = "modal") -> FitResult:
-    """Estimate ``params`` from ``measurement`` (see module doc)."""
+    """Estimate ``params`` of the scenario file ``scenario`` from ``measurement`` (see module
+    doc)."""
     if objective not in OBJECTIVES:
         raise MeasurementError(f"objective must be one of {', '.join(OBJECTIVES)}, got "
                                f"{objective!r}")
@@ -141,9 +157,10 @@ def fit(scenario: Scenario, measurement: Measurement, params: list[Parameter],
     if objective == "modal" and any(p.field == "delay" for p in params if not p.is_model):
         raise MeasurementError("a delay changes no frequency or damping: fit it with "
                                "objective = \"time\"")
+    _check_measured_joints(params, measurement)
     model = _Model(scenario, params, measurement, progress)
     initial = [p.initial if p.initial is not None else
-               (model_value(scenario, p) if p.is_model else _neutral(p)) for p in params]
+               (p.value if p.is_model else _neutral(p)) for p in params]
     first = model.results(initial)
     t = first.time
     measured = on_grid(measurement, t)
@@ -297,7 +314,7 @@ def _linear_calibration(results: Results, params: list[Parameter], values: list[
     cov[np.ix_(solved, solved)] = cov_model
     t = results.time[mask]
     for c in channels:
-        cal = [i for i, p in enumerate(params) if p.kind == "calibration" and p.channel == c]
+        cal = [i for i, p in enumerate(params) if not p.is_model and p.channel == c]
         if not cal:
             continue
         columns = {"gain": results[c][mask], "offset": np.ones(t.size), "drift": t}
@@ -345,15 +362,16 @@ def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
         results = model.results(values)
         changed = False
         for i, p in enumerate(params):
-            if p.kind != "links" or p.field not in ("EI", "damping_ratio") or p.initial:
+            link = _link_of(p)
+            if link is None or p.field not in ("EI", "E", "damping_ratio") or p.initial:
                 continue
-            mine = [c for c in channels if link_of.get(c) == p.index] or channels
+            mine = [c for c in channels if link_of.get(c) == link] or channels
             ratios = []
             for c in mine:
                 sim = dominant_mode(t[mask], results[c][mask])
                 if ref[c] is None or sim is None:
                     continue
-                if p.field == "EI":
+                if p.field != "damping_ratio":  # f² ∝ EI ∝ E
                     ratio = (ref[c].frequency_hz / sim.frequency_hz) ** 2
                 else:
                     ratio = ref[c].damping_ratio / max(sim.damping_ratio, 1e-6)
@@ -367,7 +385,7 @@ def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
             break
     results = model.results(values)
     for c in channels:
-        cal = [i for i, p in enumerate(params) if p.kind == "calibration" and p.channel == c
+        cal = [i for i, p in enumerate(params) if not p.is_model and p.channel == c
                and p.field in ("gain", "offset", "drift") and p.initial is None]
         if not cal:
             continue
@@ -382,18 +400,33 @@ def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
     return values
 
 
+def _link_of(p: Parameter) -> int | None:
+    """The link index of a ``links[k].…`` parameter, else None."""
+    if p.target is None or p.target[0] != "links" or len(p.target) != 3:
+        return None
+    return int(p.target[1])  # type: ignore[arg-type]  # entry names are resolved to indices
+
+
 def _channel_links(scenario: Scenario) -> dict[str, int]:
-    out = {s.name: s.link for s in scenario.sensors}
-    for k, link in enumerate(scenario.chain.links):
-        out[f"{link.name}_tip_X"] = out[f"{link.name}_tip_Y"] = k
-    return out
+    """The link each channel of ``scenario`` is on (sensors and tip positions)."""
+    index = {link.name: k for k, link in enumerate(scenario.chain.links)}
+    return {c.name: index[c.subject] for c in catalogue(scenario) if c.subject in index}
+
+
+def _check_measured_joints(params: list[Parameter], measurement: Measurement) -> None:
+    """Fields of a joint driven by the measured angles change nothing: refuse them."""
+    for p in params:
+        joint = p.target[1] if p.target and p.target[0] == "joints" else None
+        if joint in measurement.angles:
+            raise MeasurementError(f"parameter {p.path}: joint {int(joint) + 1} is driven by "  # type: ignore[arg-type]
+                                   "the measured angles, so its fields change nothing")
 
 
 def _scale(p: Parameter, value: float, norm: dict[str, float], duration: float) -> float:
     if p.log:
         return value
-    if p.kind != "calibration":
-        return max(abs(value), 1e-12)
+    if p.is_model:  # a zero start has both bounds (parameters.py)
+        return abs(value) or (p.upper - p.lower) / 10.0
     size = norm.get(str(p.channel), 1.0)
     return {"gain": max(abs(value), 0.1), "offset": size, "drift": size / max(duration, 1e-9),
             "delay": 1e-3}[p.field]

@@ -8,12 +8,14 @@ from pathlib import Path
 from typing import Any
 
 from ..model import Scenario
+from ..scenario.fields import ScenarioFile
 from .files import MeasurementError, read_columns
 from .measurement import Measurement, condition, parse_map_option, parse_spec
 
 
 @dataclass
 class Experiment:
+    file: ScenarioFile  # the parsed scenario file: what fit parameters are paths into
     scenario: Scenario
     resolved: dict[str, Any]  # the scenario with every default filled in
     measurement: Measurement
@@ -26,13 +28,11 @@ def load_experiment(scenario_path: str | Path, measured: str | Path | None = Non
     measurement file. ``maps`` are ``--map`` texts (they replace the section's columns);
     ``overrides`` set ``time_column``, ``time_offset`` or ``free_vibration_start`` (None:
     keep). ``measured`` defaults to ``[measurement] file`` (relative to the scenario)."""
-    from ..scenario import resolve_scenario_dict, scenario_from_dict
-    from ..scenario.load import read_toml
-
     path = Path(scenario_path)
-    raw = read_toml(path)
-    scenario = scenario_from_dict(raw, base_dir=path.parent, name=path.stem, source=str(path))
-    resolved = resolve_scenario_dict(path)
+    file = ScenarioFile.read(path)
+    raw = file.raw
+    scenario = file.build()
+    resolved = file.resolved()
     spec = parse_spec(raw.get("measurement"), scenario, f"{path} [measurement]")
     changes = {k: v for k, v in overrides.items() if v is not None}
     if maps:
@@ -48,4 +48,4 @@ def load_experiment(scenario_path: str | Path, measured: str | Path | None = Non
     fit_table = raw.get("fit", {})
     if not isinstance(fit_table, Mapping):
         raise MeasurementError(f"{path}: [fit] must be a table")
-    return Experiment(scenario, resolved, measurement, dict(fit_table))
+    return Experiment(file, scenario, resolved, measurement, dict(fit_table))

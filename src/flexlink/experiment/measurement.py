@@ -13,7 +13,6 @@ non-uniform sampling is resampled onto a uniform grid, and gaps of a few samples
 from __future__ import annotations
 
 import math
-import re
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -21,7 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from ..model import PiezoSensor, Scenario
+from ..channels import Channel, ChannelKind, Unit
+from ..channels.catalogue import catalogue, joint_name
+from ..model import Scenario
 from ..scenario.errors import Problems
 from .files import MeasurementError
 
@@ -32,17 +33,21 @@ MEASUREMENT_KEYS = ("file", "time_column", "time_unit", "time_offset", "free_vib
                     "hold_after_manoeuvre", "columns")
 COLUMN_KEYS = ("column", "joint", "sensor", "unit", "scale", "offset", "lowpass_hz")
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0}
-# unit name → (factor to SI, SI unit)
+# unit name → (factor to SI, SI unit in UDUNITS spelling, as the channel records give it);
+# the older spellings m/s^2 and N*m are still read
 UNITS: dict[str, tuple[float, str]] = {
-    "rad": (1.0, "rad"), "deg": (math.pi / 180.0, "rad"), "mrad": (1e-3, "rad"),
-    "m": (1.0, "m"), "mm": (1e-3, "m"), "um": (1e-6, "m"),
-    "m/s^2": (1.0, "m/s^2"), "mm/s^2": (1e-3, "m/s^2"), "g": (9.80665, "m/s^2"),
-    "V": (1.0, "V"), "mV": (1e-3, "V"),
-    "1": (1.0, "1"), "strain": (1.0, "1"), "ustrain": (1e-6, "1"),
-    "N*m": (1.0, "N*m"),
+    "rad": (1.0, Unit.RADIAN), "deg": (math.pi / 180.0, Unit.RADIAN),
+    "mrad": (1e-3, Unit.RADIAN),
+    "m": (1.0, Unit.METRE), "mm": (1e-3, Unit.METRE), "um": (1e-6, Unit.METRE),
+    "m s-2": (1.0, Unit.METRE_PER_SECOND2), "mm s-2": (1e-3, Unit.METRE_PER_SECOND2),
+    "m/s^2": (1.0, Unit.METRE_PER_SECOND2), "mm/s^2": (1e-3, Unit.METRE_PER_SECOND2),
+    "g": (9.80665, Unit.METRE_PER_SECOND2),
+    "V": (1.0, Unit.VOLT), "mV": (1e-3, Unit.VOLT),
+    "1": (1.0, Unit.ONE), "strain": (1.0, Unit.ONE), "ustrain": (1e-6, Unit.ONE),
+    "N m": (1.0, Unit.NEWTON_METRE), "N*m": (1.0, Unit.NEWTON_METRE),
+    "rad s-1": (1.0, Unit.RADIAN_PER_SECOND), "deg s-1": (math.pi / 180.0, Unit.RADIAN_PER_SECOND),
+    "m s-1": (1.0, Unit.METRE_PER_SECOND),
 }
-_JOINT = re.compile(r"joint(\d+)(?:_angle)?")
-_SENSOR_UNITS = {"deflection": "m", "slope": "rad", "strain": "1", "acceleration": "m/s^2"}
 
 
 class MeasurementWarning(UserWarning):
@@ -63,7 +68,7 @@ class ColumnMap:
 
     @property
     def target(self) -> str:
-        return f"joint{self.joint + 1}_angle" if self.joint is not None else str(self.sensor)
+        return joint_name(self.joint, "angle") if self.joint is not None else str(self.sensor)
 
 
 @dataclass(frozen=True)
@@ -103,14 +108,16 @@ class Measurement:
 
 
 def channel_units(scenario: Scenario) -> dict[str, str]:
-    """SI unit of every channel a simulation of ``scenario`` produces (except joint angles)."""
-    units: dict[str, str] = {}
-    for s in scenario.sensors:
-        units[s.name] = "V" if isinstance(s, PiezoSensor) else _SENSOR_UNITS[s.kind]
-    for k, link in enumerate(scenario.chain.links):
-        units[f"joint{k + 1}_torque"] = "N*m"
-        units[f"{link.name}_tip_X"] = units[f"{link.name}_tip_Y"] = "m"
-    return units
+    """Unit of every channel a simulation of ``scenario`` produces, except the joint angles
+    (those are inputs: a column maps to ``joint = k``)."""
+    angles = {c.name for c in joint_angle_channels(scenario)}
+    return {c.name: c.unit for c in catalogue(scenario) if c.name not in angles}
+
+
+def joint_angle_channels(scenario: Scenario) -> list[Channel]:
+    """The joint-angle channels, joint 1 first (the catalogue lists them in joint order)."""
+    return [c for c in catalogue(scenario)
+            if c.kind == ChannelKind.JOINT and c.quantity == "angle"]
 
 
 def parse_spec(table: Mapping[str, Any] | None, scenario: Scenario,
@@ -155,9 +162,10 @@ def parse_map_option(text: str, scenario: Scenario) -> ColumnMap:
                                "sensor name), e.g. --map beta1=joint1,unit=deg")
     column, target = (s.strip() for s in head.split("=", 1))
     table: dict[str, Any] = {"column": column}
-    match = _JOINT.fullmatch(target)
-    if match:
-        table["joint"] = int(match.group(1))
+    joints = [k for k, c in enumerate(joint_angle_channels(scenario))
+              if target in (c.name, c.subject)]  # joint2_angle, or joint2
+    if joints:
+        table["joint"] = joints[0] + 1
     else:
         table["sensor"] = target
     for option in options:
@@ -196,7 +204,7 @@ def _column(table: Mapping[str, Any], path: str, scenario: Scenario,
             p.add(f"{path}.sensor: the scenario has no sensor or channel {sensor!r} (known: "
                   f"{', '.join(repr(n) for n in units)})")
     unit = p.string(table, "unit", path, default=None, choices=UNITS)
-    si = "rad" if joint is not None else units.get(sensor or "")
+    si = Unit.RADIAN if joint is not None else units.get(sensor or "")
     if unit is not None and si is not None and UNITS[unit][1] != si:
         allowed = ", ".join(repr(u) for u, (_, s) in UNITS.items() if s == si)
         p.add(f"{path}.unit {unit!r} does not fit {'a joint angle' if joint else sensor!r} "
@@ -221,14 +229,14 @@ def _check_targets(columns: Sequence[ColumnMap], p: Problems) -> None:
 
 
 def default_columns(names: Sequence[str], scenario: Scenario) -> tuple[ColumnMap, ...]:
-    """Map by name: ``joint<k>_angle`` (rad) and every sensor/channel name (SI)."""
-    units = channel_units(scenario)
+    """Map by name: joint-angle channels (``joint1_angle``, rad) and sensors (SI)."""
+    joints = {c.name: k for k, c in enumerate(joint_angle_channels(scenario))}
+    sensors = {c.name for c in catalogue(scenario) if c.kind == ChannelKind.SENSOR}
     out = []
     for name in names:
-        match = re.fullmatch(r"joint(\d+)_angle", name)
-        if match and 1 <= int(match.group(1)) <= len(scenario.chain.links):
-            out.append(ColumnMap(column=name, joint=int(match.group(1)) - 1))
-        elif name in units and not name.endswith(("_tip_X", "_tip_Y", "_torque")):
+        if name in joints:
+            out.append(ColumnMap(column=name, joint=joints[name]))
+        elif name in sensors:
             out.append(ColumnMap(column=name, sensor=name))
     return tuple(out)
 
@@ -273,8 +281,9 @@ def condition(columns: Mapping[str, np.ndarray], spec: MeasurementSpec, scenario
     angles: dict[int, np.ndarray] = {}
     signals: dict[str, np.ndarray] = {}
     units: dict[str, str] = {}
+    units_of = channel_units(scenario)
     for c in maps:
-        si_unit = "rad" if c.joint is not None else channel_units(scenario)[str(c.sensor)]
+        si_unit = Unit.RADIAN if c.joint is not None else units_of[str(c.sensor)]
         factor = UNITS[c.unit][0] if c.unit else 1.0
         values = factor * (c.scale * data[c.column] + c.offset)
         if c.lowpass_hz is not None:

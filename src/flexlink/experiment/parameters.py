@@ -1,9 +1,10 @@
-"""Parameters to identify, named by path: model fields of the scenario, or the calibration of a
-measured channel.
+"""Parameters to identify, named by path: a numeric field of the scenario, or the calibration
+of a measured channel.
 
-- ``links[0].EI``, ``links[link1].damping_ratio`` — a numeric field of a link (index or name):
-  ``EI``, ``damping_ratio``, ``tip_mass``, ``tip_inertia``, ``mass_per_length``;
-- ``sensors[pzt].capacitance`` — a numeric field of a sensor (index or name);
+- a field path of `flexlink.scenario.fields`, the grammar sweeps use: ``links[0].EI``,
+  ``links[link1].damping_ratio``, ``sensors[pzt].capacitance``, ``links[0].E`` (a link given
+  by E, width and thickness: EI follows), ``base.mass``, ``joints[1].P`` — any real-valued
+  field the file sets or leaves at its default;
 - ``pzt:gain``, ``pzt:offset``, ``pzt:drift``, ``pzt:delay`` — the measured channel ``pzt`` is
   compared with ``gain · sim(t − delay) + offset + drift · t`` (charge amplifier gain, zero
   offset and drift in the channel's unit (per s), timing offset in s).
@@ -17,77 +18,49 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..model import Scenario
+from ..scenario import ScenarioError
+from ..scenario.fields import FieldPath, FieldPathError, ScenarioFile, Target, is_time_grid
 from .files import MeasurementError
 
-LINK_FIELDS = ("EI", "damping_ratio", "tip_mass", "tip_inertia", "mass_per_length")
-SENSOR_FIELDS = ("x", "x_start", "x_end", "width", "E_p", "d31", "thickness", "capacitance")
 CALIBRATION = ("gain", "offset", "drift", "delay")
-_MODEL_PATH = re.compile(r"(links|sensors)\[([^\]]+)\]\.(\w+)")
-_CAL_PATH = re.compile(r"(.+):(\w+)")
+DAMPING_BOUNDS = (1e-4, 0.5)  # default bounds of a damping ratio
+RANGE = 10.0  # default bounds of other positive fields: value / RANGE … value · RANGE
+BOUND_STEPS = 30  # bisections that pull a default bound into the scenario's valid range
 
 
 @dataclass(frozen=True)
 class Parameter:
-    """One fitted quantity. ``index`` points into links or sensors for model fields;
-    ``channel`` names the measured channel for calibration values."""
+    """One fitted quantity: a model field (``target``, its path with entry names as indices,
+    and the scenario's ``value``) or the calibration ``field`` of a measured ``channel``."""
 
     path: str
-    kind: str  # "links", "sensors" or "calibration"
-    field: str
-    index: int | None = None
+    field: str  # the model field's key, or one of CALIBRATION
+    target: FieldPath | None = None
     channel: str | None = None
     lower: float = -math.inf
     upper: float = math.inf
     initial: float | None = None  # None: the scenario's value (model) or a linear estimate
     log: bool = False
+    value: float | None = None  # the scenario's value of a model field
 
     @property
     def is_model(self) -> bool:
-        return self.kind != "calibration"
+        return self.target is not None
 
 
-def parse_parameter(text: str, scenario: Scenario, channels: Mapping[str, str],
+def parse_parameter(text: str, scenario: ScenarioFile, channels: Mapping[str, str],
                     bounds: tuple[float | None, float | None] = (None, None),
                     initial: float | None = None) -> Parameter:
     """A Parameter from its path (see module doc); ``channels`` are the measured channels."""
     path = text.strip()
-    model = _MODEL_PATH.fullmatch(path)
-    if model:
-        section, key, field_name = model.groups()
-        items = scenario.chain.links if section == "links" else scenario.sensors
-        index = _index(items, key, section, path)
-        allowed = LINK_FIELDS if section == "links" else SENSOR_FIELDS
-        if field_name not in allowed or not hasattr(items[index], field_name):
-            fields = [f for f in allowed if hasattr(items[index], f)]
-            raise MeasurementError(f"parameter {path!r}: {section}[{key}] has no fittable field "
-                                   f"{field_name!r} (fittable: {', '.join(fields)})")
-        value = getattr(items[index], field_name)
-        log = value > 0
-        lower, upper = _default_bounds(field_name, value)
-        param = Parameter(path, section, field_name, index=index, lower=lower, upper=upper,
-                          log=log)
+    if ":" in path:  # field paths never hold a colon
+        param = _calibration(path, channels)
     else:
-        cal = _CAL_PATH.fullmatch(path)
-        if not cal:
-            raise MeasurementError(
-                f"parameter {path!r}: expected links[i].FIELD, sensors[i].FIELD or "
-                f"CHANNEL:{'|'.join(CALIBRATION)} (e.g. links[0].EI, pzt:gain)")
-        channel, field_name = cal.groups()
-        if field_name not in CALIBRATION:
-            raise MeasurementError(f"parameter {path!r}: unknown calibration {field_name!r} "
-                                   f"(one of {', '.join(CALIBRATION)})")
-        if channel not in channels:
-            raise MeasurementError(f"parameter {path!r}: {channel!r} is not a measured channel "
-                                   f"(measured: {', '.join(channels) or 'none'})")
-        lower, upper = (-0.05, 0.05) if field_name == "delay" else (-math.inf, math.inf)
-        param = Parameter(path, "calibration", field_name, channel=channel, lower=lower,
-                          upper=upper)
+        param = _model_field(path, scenario, initial, bounds)
     lo = param.lower if bounds[0] is None else float(bounds[0])
     hi = param.upper if bounds[1] is None else float(bounds[1])
     if not lo < hi:
@@ -96,10 +69,104 @@ def parse_parameter(text: str, scenario: Scenario, channels: Mapping[str, str],
     if param.log and lo <= 0:
         raise MeasurementError(f"parameter {path!r}: the lower bound must be > 0 (it is fitted "
                                f"on a log scale), got {lo:g}")
+    if param.is_model:
+        for bound, given in ((lo, bounds[0]), (hi, bounds[1])):
+            if given is not None:
+                _check_value(scenario, param, bound, "bound ")
     return dataclasses.replace(param, lower=lo, upper=hi, initial=initial)
 
 
-def parse_parameter_option(text: str, scenario: Scenario,
+def _calibration(path: str, channels: Mapping[str, str]) -> Parameter:
+    channel, _, quantity = path.rpartition(":")
+    if quantity not in CALIBRATION:
+        raise MeasurementError(f"parameter {path!r}: unknown calibration {quantity!r} "
+                               f"(one of {', '.join(CALIBRATION)})")
+    if channel not in channels:
+        raise MeasurementError(f"parameter {path!r}: {channel!r} is not a measured channel "
+                               f"(measured: {', '.join(channels) or 'none'})")
+    lower, upper = (-0.05, 0.05) if quantity == "delay" else (-math.inf, math.inf)
+    return Parameter(path, quantity, channel=channel, lower=lower, upper=upper)
+
+
+def _model_field(path: str, scenario: ScenarioFile, initial: float | None,
+                 bounds: tuple[float | None, float | None]) -> Parameter:
+    """A field of the scenario file, its default bounds inside the scenario's valid range."""
+    target = _target(path, scenario)
+    value = target.value if target.value is not None else initial
+    if value is None:
+        raise MeasurementError(
+            f"parameter {path}: the scenario does not set {target.key} and it has no default; "
+            f"give an initial value (-p {path}=LOW:HIGH:INITIAL, or initial = … in "
+            "[[fit.parameters]])")
+    value = float(value)
+    if value == 0.0 and None in bounds:
+        raise MeasurementError(f"parameter {path} is 0 in the scenario: give both bounds "
+                               f"(-p {path}=LOW:HIGH) so the fit knows its scale")
+    param = Parameter(path, target.key, target.path, value=value, log=value > 0)
+    _check_value(scenario, param, value, "")
+    if target.key == "damping_ratio":
+        lower, upper = DAMPING_BOUNDS
+    elif value > 0:
+        lower, upper = value / RANGE, value * RANGE
+    else:
+        lower, upper = -math.inf, math.inf
+    if bounds[0] is None:  # a given bound is checked as given, never moved
+        lower = _valid_bound(scenario, param, lower)
+    if bounds[1] is None:
+        upper = _valid_bound(scenario, param, upper)
+    return dataclasses.replace(param, lower=lower, upper=upper)
+
+
+def _target(path: str, scenario: ScenarioFile) -> Target:
+    try:
+        target = scenario.locate(path)
+    except FieldPathError as exc:
+        raise MeasurementError(f"parameter {exc}") from None
+    if is_time_grid(target.path):
+        raise MeasurementError(f"parameter {path} cannot be fitted: the measurement is compared "
+                               "on the simulation's time grid (set it in the scenario)")
+    if target.integer:
+        raise MeasurementError(f"parameter {path}: {target.key} takes integers; only "
+                               "real-valued fields can be fitted (sweep it instead)")
+    return target
+
+
+def _check_value(scenario: ScenarioFile, param: Parameter, value: float, what: str) -> None:
+    """Raise MeasurementError when the scenario is invalid with ``param`` at ``value``."""
+    try:
+        scenario.build({param.target: value})  # type: ignore[dict-item]
+    except ScenarioError as exc:
+        raise MeasurementError(f"parameter {param.path}: at the {what}value {value:g} the "
+                               f"scenario is invalid: {'; '.join(exc.problems)}") from None
+
+
+def _valid_bound(scenario: ScenarioFile, param: Parameter, bound: float) -> float:
+    """``bound``, or the valid value nearest to it found by bisection towards the scenario's
+    value (a sensor at the tip of a link cannot move by ten times its position)."""
+    if not math.isfinite(bound) or _valid(scenario, param, bound):
+        return bound
+    good, bad = float(param.value), bound  # type: ignore[arg-type]
+    for _ in range(BOUND_STEPS):
+        middle = math.sqrt(good * bad) if param.log else 0.5 * (good + bad)
+        good, bad = (middle, bad) if _valid(scenario, param, middle) else (good, middle)
+    return good
+
+
+def _valid(scenario: ScenarioFile, param: Parameter, value: float) -> bool:
+    try:
+        scenario.build({param.target: value})  # type: ignore[dict-item]
+    except ScenarioError:
+        return False
+    return True
+
+
+def model_values(params: list[Parameter], values: list[float]) -> dict[FieldPath, float]:
+    """{path: value} of the model fields among ``params`` (calibration values left out)."""
+    return {p.target: float(v) for p, v in zip(params, values, strict=True)
+            if p.target is not None}
+
+
+def parse_parameter_option(text: str, scenario: ScenarioFile,
                            channels: Mapping[str, str]) -> Parameter:
     """``PATH``, ``PATH=LOW:HIGH`` or ``PATH=LOW:HIGH:INITIAL`` from the command line."""
     path, sep, rest = text.partition("=")
@@ -116,7 +183,7 @@ def parse_parameter_option(text: str, scenario: Scenario,
                            values[2] if len(values) == 3 else None)
 
 
-def parse_parameter_table(entry: Any, where: str, scenario: Scenario,
+def parse_parameter_table(entry: Any, where: str, scenario: ScenarioFile,
                           channels: Mapping[str, str]) -> Parameter:
     """From a ``[[fit.parameters]]`` table: path, lower, upper, initial (all but path optional)."""
     if isinstance(entry, str):
@@ -135,58 +202,3 @@ def parse_parameter_table(entry: Any, where: str, scenario: Scenario,
             raise MeasurementError(f"{where}.{key}: expected a finite number, got {value!r}")
     return parse_parameter(entry["path"], scenario, channels,
                            (entry.get("lower"), entry.get("upper")), entry.get("initial"))
-
-
-def _index(items: Any, key: str, section: str, path: str) -> int:
-    key = key.strip().strip("'\"")
-    if key.lstrip("-").isdigit():
-        index = int(key)
-        if not 0 <= index < len(items):
-            raise MeasurementError(f"parameter {path!r}: {section} index {index} out of range "
-                                   f"(0 … {len(items) - 1})")
-        return index
-    names = [item.name for item in items]
-    if key not in names:
-        raise MeasurementError(f"parameter {path!r}: no {section[:-1]} named {key!r} (known: "
-                               f"{', '.join(names)})")
-    return names.index(key)
-
-
-def _default_bounds(field_name: str, value: float) -> tuple[float, float]:
-    if field_name == "damping_ratio":
-        return 1e-4, 0.5
-    if value > 0:
-        return value / 10.0, value * 10.0
-    return -math.inf, math.inf
-
-
-def model_value(scenario: Scenario, param: Parameter) -> float:
-    items = scenario.chain.links if param.kind == "links" else scenario.sensors
-    return float(getattr(items[param.index], param.field))  # type: ignore[index]
-
-
-def with_values(scenario: Scenario, params: list[Parameter], values: list[float]) -> Scenario:
-    """``scenario`` with the model parameters set (calibration parameters are ignored)."""
-    links = list(scenario.chain.links)
-    sensors = list(scenario.sensors)
-    for param, value in zip(params, values, strict=True):
-        if param.kind == "links":
-            links[param.index] = dataclasses.replace(links[param.index],  # type: ignore[index]
-                                                     **{param.field: float(value)})
-        elif param.kind == "sensors":
-            sensors[param.index] = dataclasses.replace(sensors[param.index],  # type: ignore[index]
-                                                       **{param.field: float(value)})
-    chain = dataclasses.replace(scenario.chain, links=tuple(links))
-    return dataclasses.replace(scenario, chain=chain, sensors=tuple(sensors))
-
-
-def update_resolved(resolved: dict[str, Any], params: list[Parameter],
-                    values: list[float]) -> dict[str, Any]:
-    """A copy of the resolved scenario dict with the fitted model values written in."""
-    import copy
-
-    out = copy.deepcopy(resolved)
-    for param, value in zip(params, values, strict=True):
-        if param.is_model:
-            out[param.kind][param.index][param.field] = float(value)  # type: ignore[index]
-    return out
