@@ -109,7 +109,9 @@ def test_the_file_holds_the_dataset_and_the_sweep_definition(paper_sweep) -> Non
     with xr.open_dataset(out) as read:
         xr.testing.assert_identical(read.load(), dataset)
         assert read.attrs["sweep_state"] == "finished" and read.attrs["seed"] == "5"
-        assert read["links[0].EI"].attrs["units"] == "N·m²"
+        assert read.attrs["cases_ok"] == 4 and read.attrs["Conventions"] == "CF-1.8"
+        assert read["links[0].EI"].attrs["units"] == "N m2"  # UDUNITS spelling
+        assert read["link1_tip_acceleration"].attrs["kind"] == "sensor"
         base = read.attrs["base_scenario"]
     assert "[[links]]" in base and "EI = 308.7" in base  # the resolved base scenario
     assert not list(out.parent.glob(".*partial*"))
@@ -120,9 +122,10 @@ def test_a_failing_case_keeps_the_others(tmp_path: Path) -> None:
     assert dataset.status.values.tolist() == ["failed", "ok", "ok"]
     assert "SimulationError: the tip deflection of arm exceeds its length" in \
         str(dataset.error.values[0])
-    assert dataset.error.values[1] == "" and np.all(dataset.tip.values[0] == 0.0)
-    for data in dataset.data_vars.values():  # never NaN, failed cases hold 0.0
-        assert data.dtype.kind in "US" or np.all(np.isfinite(data.values))
+    assert dataset.error.values[1] == ""
+    for name in ("tip", "joint1_angle", "wall_time", "cpu_time"):  # the failed case is NaN
+        assert np.all(np.isnan(dataset[name].values[0]))
+        assert np.all(np.isfinite(dataset[name].values[1:]))
     for case in (1, 2):
         raw = read_toml(spin_file(tmp_path))
         raw["joints"][0]["motion"][0]["to_rate_deg_s"] = RATES[case]
@@ -163,6 +166,24 @@ def test_channels_can_be_selected_and_unknown_ones_are_rejected(tmp_path: Path) 
         sweep(spin_file(tmp_path), grid={RATE: [100.0]}, channels=["tipp"], workers=1)
 
 
+def test_a_sweep_written_as_mat_holds_the_same_layout(tmp_path: Path) -> None:
+    from scipy.io import loadmat
+
+    out = tmp_path / "rates.mat"
+    dataset = sweep(spin_file(tmp_path), grid={RATE: RATES}, workers=1, output=out)
+    mat = loadmat(out, simplify_cells=True)
+    assert list(mat["status"]) == ["failed", "ok", "ok"]
+    assert mat["error"][0].startswith("SimulationError")
+    rate = "joints_0_motion_0_to_rate_deg_s"  # MATLAB names, the mapping in `variables`
+    np.testing.assert_array_equal(mat[rate], RATES)
+    np.testing.assert_array_equal(mat["tip"], dataset.tip.values)  # case × time, NaN row 0
+    assert np.all(np.isnan(mat["tip"][0])) and mat["t"].shape == (dataset.sizes["time"],)
+    table = {v["name"]: v for v in mat["variables"]}
+    assert table[RATE]["matlab_name"] == rate and table[RATE]["units"] == "degree s-1"
+    assert table["tip"]["dims"] == "case,time" and table["tip"]["kind"] == "sensor"
+    assert mat["attributes"]["cases_failed"] == 1
+
+
 def test_command_line_sweep_matches_the_library(tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     scenario, out = spin_file(tmp_path), tmp_path / "cli.nc"
@@ -174,8 +195,9 @@ def test_command_line_sweep_matches_the_library(tmp_path: Path,
     assert f"case 0 ({RATE} = 3000): SimulationError" in report
     library = sweep(scenario, grid={RATE: RATES}, workers=1)
     with xr.open_dataset(out) as read:
-        for name in ("tip", "joint1_angle", "status", RATE):
-            assert np.array_equal(read[name].values, library[name].values)
+        for name in ("tip", "joint1_angle", "status", RATE):  # NaN where case 0 failed
+            np.testing.assert_array_equal(read[name].values, library[name].values)
+        assert read.tip.encoding["_FillValue"] != read.tip.encoding["_FillValue"]  # NaN
     # the file exists now: refused without --overwrite, before anything runs
     assert main(["sweep", str(scenario), "--grid", f"{RATE}=100", "-o", str(out), "-q"]) == 2
     assert "already exists" in capsys.readouterr().err
@@ -310,9 +332,9 @@ def test_the_python_example_of_docs_sweep_runs(tmp_path: Path, monkeypatch: pyte
     import re
 
     page = Path(__file__).resolve().parents[2] / "docs" / "sweep.md"
-    block, = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
+    block, = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.DOTALL)
     monkeypatch.chdir(tmp_path)
-    exec(compile(block, str(page), "exec"), {"__name__": "docs_sweep_example"})
+    exec(compile(block, str(page), "exec"), {"__name__": "docs_sweep_example"})  # noqa: S102
     means = [float(v) for v in re.findall(r"[0-9.]+(?:e[+-]?\d+)?", capsys.readouterr().out)]
     assert len(means) == 2 and all(m > 1.0 for m in means)  # peak accelerations, m/s²
     with xr.open_dataset(tmp_path / "sweep.nc") as written:
@@ -353,7 +375,7 @@ def test_a_sweep_file_defines_the_same_sweep_as_the_options(
         timings = ["wall_time", "cpu_time"]
         xr.testing.assert_identical(a.drop_vars(timings).drop_attrs(),
                                     b.drop_vars(timings).drop_attrs())
-        assert a.sizes["case"] == 4 and list(a.data_vars)[0] == "tip"
+        assert a.sizes["case"] == 4 and next(iter(a.data_vars)) == "tip"
     assert read_sweep_file(spec)["base"] == tmp_path / "spin.toml"
     capsys.readouterr()
     spec.write_text('bse = "spin.toml"\nsampler = "sobol"\n[grid]\n"links[0].EI" = "1,x"\n',
@@ -389,7 +411,7 @@ def test_forked_workers_write_through_the_shared_array_bit_for_bit(
             assert np.array_equal(dataset[name].values[case], reference[name])
 
 
-def test_rows_of_unfinished_cases_read_as_zero_while_workers_may_write() -> None:
+def test_rows_of_unfinished_cases_read_as_nan_while_workers_may_write() -> None:
     from flexlink.batch.dataset import SweepCollector
     from flexlink.batch.parameters import case_table, grid_values
     from flexlink.batch.worker import ChunkResult, SharedResults
@@ -406,8 +428,9 @@ def test_rows_of_unfinished_cases_read_as_zero_while_workers_may_write() -> None
     shared.array[:, 2, :] = 7.0  # case 2: written, its result not yet received
     running = collector.dataset()
     assert running.status.values.tolist() == ["ok", "not_run", "not_run"]
-    assert np.all(running.a.values[0] == 1.0) and np.all(running.a.values[1:] == 0.0)
+    assert np.all(running.a.values[0] == 1.0) and np.all(np.isnan(running.a.values[1:]))
     assert np.all(shared.array[:, 2, :] == 7.0)  # not cleared under a writing worker
     collector.settle()  # workers stopped
-    assert np.all(shared.array[:, 2, :] == 0.0)
-    assert np.all(collector.dataset().b.values == [[1.0] * 4, [0.0] * 4, [0.0] * 4])
+    assert np.all(np.isnan(shared.array[:, 2, :]))
+    np.testing.assert_array_equal(collector.dataset().b.values,
+                                  [[1.0] * 4, [np.nan] * 4, [np.nan] * 4])

@@ -25,8 +25,8 @@ def test_sweep_on_a_dask_cluster_equals_the_local_sweep(tmp_path: Path) -> None:
                                   dashboard_address=None) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         remote = sweep(scenario, grid={RATE: RATES}, scheduler=cluster.scheduler_address)
-    for name in ("tip", "joint1_angle", "status", "error"):
-        assert np.array_equal(remote[name].values, local[name].values)
+    for name in ("tip", "joint1_angle", "status", "error"):  # NaN where case 0 failed
+        np.testing.assert_array_equal(remote[name].values, local[name].values)
     assert remote.status.values.tolist() == ["failed", "ok", "ok"]
 
 

@@ -11,13 +11,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from flexlink.results import plotting
-from flexlink.results import writers
-from flexlink.results.writers import OutputFolderError, write_run
-from flexlink.scenario.toml_writer import dump_toml
 from flexlink.channels import Channel, ChannelKind
-from flexlink.results import Results
+from flexlink.results import Results, plotting, writers
+from flexlink.results.writers import OutputFolderError, write_run
 from flexlink.scenario import load_scenario, resolve_scenario_dict, scenario_from_dict
+from flexlink.scenario.toml_writer import dump_toml
 
 
 def scenario_dict() -> dict[str, Any]:
@@ -36,7 +34,9 @@ def fake_results() -> Results:
     """Results shaped like simulate()'s, with simple known values."""
     t = np.linspace(0.0, 0.1, 11)
     beta = np.radians(30.0) * t / 0.1
-    results = Results(time=t, metadata={"scenario": "unit"})
+    results = Results(time=t, metadata={"scenario": "unit", "flexlink_version": "9.9",
+                                        "model": "first_order", "geometric_stiffening": True,
+                                        "table_blocks": 3, "wall_time_s": 0.125})
     sensor, joint, tip = ChannelKind.SENSOR, ChannelKind.JOINT, ChannelKind.TIP
     results.add(Channel("tip", sensor, "m", "deflection at x = 0.6 m", "deflection", "arm"),
                 1e-3 * np.sin(40 * t) + 1.0 / 3.0)
@@ -59,7 +59,8 @@ def test_run_folder_contents(tmp_path: Path, resolved: dict[str, Any]) -> None:
     results = fake_results()
     out = write_run(results, tmp_path / "run", resolved)
     assert sorted(p.name for p in out.iterdir()) == [
-        "channels.csv", "figures", "results.csv", "results.nc", "scenario.resolved.toml"]
+        "channels.csv", "figures", "results.csv", "results.mat", "results.nc",
+        "scenario.resolved.toml"]
     assert sorted(p.name for p in (out / "figures").iterdir()) == [
         "joint_angles.png", "sensors.png", "tip_paths.png"]
     lines = (out / "results.csv").read_text().splitlines()
@@ -70,8 +71,9 @@ def test_run_folder_contents(tmp_path: Path, resolved: dict[str, Any]) -> None:
     assert lines[1].split(",")[1] == "0.3333333333"  # '%.10g'
     with (out / "channels.csv").open() as fh:
         rows = list(csv.reader(fh))
-    assert rows[0] == ["name", "unit", "description"] and rows[1] == ["t", "s", "time"]
-    assert rows[2] == ["tip", "m", "deflection at x = 0.6 m"]
+    assert rows[0] == ["name", "unit", "kind", "quantity", "subject", "description"]
+    assert rows[1] == ["t", "s", "", "", "", "time"]
+    assert rows[2] == ["tip", "m", "sensor", "deflection", "arm", "deflection at x = 0.6 m"]
     with xr.open_dataset(out / "results.nc", engine="scipy") as ds:
         assert ds["root"].attrs["units"] == "1"
         np.testing.assert_array_equal(ds["tip"].values, results["tip"])
@@ -148,3 +150,130 @@ def test_figures_are_labelled() -> None:
     assert paths.get_aspect() == 1.0
     with pytest.raises(ValueError, match="no sensor channels"):
         plotting.plot_sensors(results, [])
+
+
+def forward_results() -> Results:
+    """`fake_results` with the channels of a forward run: base pose, joint rate, momentum."""
+    results = fake_results()
+    t = results.time
+    base, joint = ChannelKind.BASE, ChannelKind.JOINT
+    results.add(Channel("base_x", base, "m", "base x", "x", "base"), 0.1 * t)
+    results.add(Channel("joint1_rate", joint, "rad s-1", "rate of joint 1", "rate", "joint1"),
+                np.ones_like(t))
+    results.add(Channel("angular_momentum", ChannelKind.MOMENTUM, "N m s", "angular momentum",
+                        "angular_momentum", "system"), np.zeros_like(t))
+    return results
+
+
+def test_the_sensor_figure_shows_channels_of_kind_sensor_only(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    drawn: list[list[str]] = []
+    plot_channels = plotting.plot_channels
+
+    def spy(results: Results, names: list[str]):
+        drawn.append(list(names))
+        return plot_channels(results, names)
+
+    monkeypatch.setattr(plotting, "plot_channels", spy)
+    paths = writers.write_figures(forward_results(), tmp_path / "figures")
+    assert [p.name for p in paths] == ["joint_angles.png", "sensors.png", "tip_paths.png"]
+    assert drawn == [["tip", "root"]]  # no base_x, joint1_rate, angular_momentum
+    titles = [ax.get_title(loc="left") for ax in forward_results().plot().axes]
+    assert [t.split(":")[0] for t in titles] == ["tip", "root"]
+
+
+def test_results_plot_repr_and_html() -> None:
+    results = forward_results()
+    base = results.plot("base").axes
+    assert [ax.get_title(loc="left").split(":")[0] for ax in base] == ["base_x"]
+    assert base[0].get_ylabel() == "x [mm]"
+    assert results.plot("joint").axes[0].get_ylabel() == "joint angle [deg]"
+    assert results.plot(ChannelKind.TIP).axes[0].get_xlabel() == "X [m]"
+    with pytest.raises(ValueError, match="no channels of kind 'controller'"):
+        results.plot("controller")
+    with pytest.raises(ValueError, match="unknown channel kind 'sensors'; kinds: 'sensor'"):
+        results.plot("sensors")
+    assert repr(results) == ("<Results 'unit' first_order: t = 0 … 0.1 s, 11 samples; "
+                             "sensor 2, joint 2, tip 2, base 1, momentum 1>")
+    html = results._repr_html_()
+    assert html.count("<tr>") == 1 + len(results.names)
+    assert "<td>root</td><td>sensor</td><td>1</td><td>1e-05</td>" in html
+    assert repr(Results(time=np.zeros(0))) == "<Results no samples; no channels>"
+
+
+def test_netcdf_layout_attributes(tmp_path: Path, resolved: dict[str, Any]) -> None:
+    results = fake_results()
+    out = write_run(results, tmp_path / "run", resolved, figures=False)
+    with xr.open_dataset(out / "results.nc", engine="scipy") as ds:
+        attrs = ds.attrs
+        assert attrs["Conventions"] == "CF-1.8" and attrs["source"] == "flexlink 9.9"
+        assert "Choi and M. K. Kwak (2016)" in attrs["references"]
+        assert attrs["history"].startswith(f"{results.created} flexlink 9.9: simulate")
+        assert attrs["date_created"] == results.created
+        # numbers stay numbers; netCDF-3 has no bool: 1/0, named in boolean_attributes
+        assert attrs["table_blocks"] == 3 and attrs["wall_time_s"] == 0.125
+        assert attrs["geometric_stiffening"] == 1
+        assert attrs["boolean_attributes"] == "geometric_stiffening"
+        assert ds.time.attrs["units"] == "s"
+        assert ds.tip.attrs == {"units": "m", "long_name": "deflection at x = 0.6 m",
+                                "kind": "sensor", "quantity": "deflection", "subject": "arm"}
+        assert "_FillValue" not in ds.tip.encoding  # a run's values all exist
+
+
+def test_mat_file_holds_values_units_and_kinds(tmp_path: Path,
+                                               resolved: dict[str, Any]) -> None:
+    from scipy.io import loadmat
+
+    results = fake_results()
+    out = write_run(results, tmp_path / "run", resolved, figures=False)
+    mat = loadmat(out / "results.mat", simplify_cells=True)
+    np.testing.assert_array_equal(mat["t"], results.time)
+    for name in results.names:
+        np.testing.assert_array_equal(mat[name], results[name])
+    table = {v["name"]: v for v in mat["variables"]}
+    assert table["time"]["matlab_name"] == "t" and table["time"]["units"] == "s"
+    assert (table["root"]["units"], table["root"]["kind"]) == ("1", "sensor")
+    assert table["joint1_angle"]["long_name"] == "joint 1 angle"
+    assert mat["attributes"]["geometric_stiffening"] == 1
+    assert mat["attributes"]["Conventions"] == "CF-1.8"
+
+
+def test_matlab_names_are_valid_unique_and_recorded() -> None:
+    from flexlink.results.matlab import matlab_names
+
+    names = matlab_names(["links[0].EI", "1st", "end", "a-b", "a_b", "x" * 70, "tip"],
+                         taken=["t"])
+    assert names == {"links[0].EI": "links_0_EI", "1st": "x1st", "end": "end_", "a-b": "a_b",
+                     "a_b": "a_b_2", "x" * 70: "x" * 63, "tip": "tip"}
+    assert matlab_names(["t"], taken=["t"]) == {"t": "t_2"}
+
+
+def test_read_run_from_netcdf_and_from_csv(tmp_path: Path, resolved: dict[str, Any]) -> None:
+    from flexlink.results import read_run
+
+    results = forward_results()
+    out = write_run(results, tmp_path / "run", resolved, figures=False)
+    read = read_run(out)
+    assert read.channels == results.channels and read.metadata == results.metadata
+    assert read.metadata["geometric_stiffening"] is True and read.created == results.created
+    for name in results.names:
+        np.testing.assert_array_equal(read[name], results[name])
+    (out / "results.nc").unlink()
+    from_csv = read_run(out)  # CSV + channels.csv: 10 significant digits, no metadata
+    assert from_csv.channels == results.channels and from_csv.metadata == {}
+    for name in results.names:
+        np.testing.assert_allclose(from_csv[name], results[name], rtol=1e-9, atol=1e-15)
+
+
+def test_read_run_names_the_folder_and_the_missing_files(tmp_path: Path) -> None:
+    from flexlink.results import read_run
+    from flexlink.results.reading import NotARunFolderError
+
+    with pytest.raises(NotARunFolderError, match=r"nowhere is not a flexlink run folder: no "
+                                                 "such folder"):
+        read_run(tmp_path / "nowhere")
+    (tmp_path / "results.csv").write_text("t\n0\n")
+    with pytest.raises(NotARunFolderError, match=rf"{tmp_path} is not a flexlink run folder: "
+                                                 "it has no results.nc and no channels.csv"):
+        read_run(tmp_path)
+    assert issubclass(NotARunFolderError, FileNotFoundError)

@@ -1,11 +1,11 @@
 """Collect case results into one labelled `xarray.Dataset` (case × time per channel).
 
-Layout: one variable per channel with dims (case, time), units and long names in attrs; the
-parameter values as coordinates on ``case``; ``status`` per case (``"ok"``, ``"failed"``,
-``"not_run"``), ``error`` (the failure message, empty otherwise), ``wall_time`` and
-``cpu_time`` (s).
-Cases that did not finish hold 0.0, never NaN: select finished cases with
-``ds.sel(case=ds.status == "ok")``.
+Layout (`flexlink.results.layout.sweep_layout`, the same as a run's results.nc): one variable
+per channel with dims (case, time), units, long name and kind in attrs; the parameter values
+as coordinates on ``case``; ``status`` per case (``"ok"``, ``"failed"``, ``"not_run"``),
+``error`` (the failure message, empty otherwise), ``wall_time`` and ``cpu_time`` (s).
+The signals (and times) of cases that did not finish are NaN (``_FillValue``): select
+finished cases with ``ds.sel(case=ds.status == "ok")``.
 """
 
 from __future__ import annotations
@@ -14,20 +14,22 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .parameters import CaseTable
 from ..channels import Channel
+from ..results.layout import Layout, parameter_variable, sweep_layout
+from .parameters import CaseTable
 from .worker import ChunkResult, SharedResults, labels
 
 if TYPE_CHECKING:
     import xarray as xr
 
 STATUSES = ("ok", "failed", "not_run")
+# units of the scenario fields a sweep can vary, by key, in UDUNITS spelling
 PARAMETER_UNITS = {
-    "length": "m", "mass_per_length": "kg/m", "EI": "N·m²", "E": "Pa", "width": "m",
-    "thickness": "m", "tip_mass": "kg", "tip_inertia": "kg·m²", "damping_ratio": "1",
-    "modes": "1", "from_deg": "deg", "to_deg": "deg", "angle_deg": "deg",
-    "to_rate_deg_s": "deg/s", "start": "s", "duration": "s", "lowpass_hz": "Hz", "x": "m",
-    "x_start": "m", "x_end": "m", "E_p": "Pa", "d31": "m/V", "capacitance": "F",
+    "length": "m", "mass_per_length": "kg m-1", "EI": "N m2", "E": "Pa", "width": "m",
+    "thickness": "m", "tip_mass": "kg", "tip_inertia": "kg m2", "damping_ratio": "1",
+    "modes": "1", "from_deg": "degree", "to_deg": "degree", "angle_deg": "degree",
+    "to_rate_deg_s": "degree s-1", "start": "s", "duration": "s", "lowpass_hz": "Hz",
+    "x": "m", "x_start": "m", "x_end": "m", "E_p": "Pa", "d31": "m V-1", "capacitance": "F",
     "rtol": "1", "atol": "1",
 }
 
@@ -36,7 +38,7 @@ class SweepCollector:
     """Case results as they arrive, in preallocated arrays (channel × case × time): allocated
     at the first result, or given (``shared``, which forked workers write into directly)."""
 
-    def __init__(self, table: CaseTable, time: np.ndarray, attrs: dict[str, str],
+    def __init__(self, table: CaseTable, time: np.ndarray, attrs: dict[str, Any],
                  shared: SharedResults | None = None, channels: tuple[Channel, ...] = ()
                  ) -> None:
         self.table = table
@@ -44,12 +46,12 @@ class SweepCollector:
         self.attrs = attrs
         self.status = np.full(table.count, "not_run", dtype="<U7")
         self.error = np.full(table.count, "", dtype=object)
-        self.wall_time = np.zeros(table.count)
-        self.cpu_time = np.zeros(table.count)
+        self.wall_time = np.full(table.count, np.nan)
+        self.cpu_time = np.full(table.count, np.nan)
         self.channels: tuple[Channel, ...] = channels if shared is not None else ()
         self._values: np.ndarray | None = None if shared is None else shared.array
         # while workers may write into the shared array, rows of cases that are not "ok"
-        # can hold partial data: masked when read, zeroed by `settle` once workers stopped
+        # can hold partial data: masked when read, set to NaN by `settle` once workers stopped
         self._unsettled = shared is not None
 
     def add(self, chunk: ChunkResult) -> None:
@@ -60,7 +62,8 @@ class SweepCollector:
             return
         if self._values is None:
             self.channels = chunk.channels
-            self._values = np.zeros((len(self.channels), self.table.count, self.time.size))
+            self._values = np.full((len(self.channels), self.table.count, self.time.size),
+                                   np.nan)
         if labels(chunk.channels) != labels(self.channels):
             for index in chunk.done:
                 self.fail(index, "ValueError: channels differ from the first finished case's")
@@ -78,9 +81,9 @@ class SweepCollector:
         self.error[index] = message
 
     def settle(self) -> None:
-        """No worker writes any more: clear the rows of cases that did not finish."""
+        """No worker writes any more: NaN in the rows of cases that did not finish."""
         if self._unsettled and self._values is not None:
-            self._values[:, self.status != "ok", :] = 0.0
+            self._values[:, self.status != "ok", :] = np.nan
         self._unsettled = False
 
     @property
@@ -89,37 +92,20 @@ class SweepCollector:
 
     def dataset(self) -> xr.Dataset:
         """The Dataset of everything collected so far (see the module docstring)."""
-        import xarray as xr
+        return self.layout().to_xarray()
 
-        coords: dict[str, Any] = {
-            "case": ("case", np.arange(self.table.count, dtype=np.int32),
-                     {"long_name": "case number (0-based, in the order of the parameter table)"}),
-            "time": ("time", self.time, {"units": "s", "long_name": "time"}),
-        }
+    def layout(self) -> Layout:
+        """Everything collected so far in the one layout of flexlink's files."""
+        parameters = {}
         for parameter in self.table.parameters:
             key = parameter.path.rsplit(".", 1)[-1]
-            attrs = {"long_name": f"scenario field {parameter.path}",
-                     "sweep": parameter.description}
-            if key in PARAMETER_UNITS:
-                attrs["units"] = PARAMETER_UNITS[key]
-            coords[parameter.path] = ("case", self.table.values[parameter.path], attrs)
-        data: dict[str, Any] = {}
+            parameters[parameter.path] = parameter_variable(
+                parameter.path, self.table.values[parameter.path], parameter.description,
+                PARAMETER_UNITS.get(key))
         values = self._values
         if self._unsettled and values is not None:  # a copy: workers may still write
-            values = np.where((self.status == "ok")[None, :, None], values, 0.0)
-        for k, channel in enumerate(self.channels):
-            assert values is not None
-            data[channel.name] = (("case", "time"), values[k],
-                                  {"units": channel.unit, "long_name": channel.description})
-        data["status"] = ("case", self.status.astype(str),
-                          {"long_name": "ok: finished; failed: see error; not_run: never ran "
-                                        "(interrupted). Signals of cases not ok hold 0.0"})
-        data["error"] = ("case", self.error.astype(str), {"long_name": "failure message"})
-        data["wall_time"] = ("case", self.wall_time,
-                             {"units": "s", "long_name": "wall time of the case's simulation"})
-        data["cpu_time"] = ("case", self.cpu_time,
-                            {"units": "s", "long_name": "CPU time of the case's simulation "
-                                                        "(of the thread that ran it)"})
+            values = np.where((self.status == "ok")[None, :, None], values, np.nan)
         counts = self.counts
-        attrs = {**self.attrs, **{f"cases_{s}": counts[s] for s in STATUSES}}
-        return xr.Dataset(data, coords=coords, attrs=attrs)
+        metadata = {**self.attrs, **{f"cases_{s}": counts[s] for s in STATUSES}}
+        return sweep_layout(self.time, parameters, self.channels, values, self.status,
+                            self.error, self.wall_time, self.cpu_time, metadata)

@@ -12,16 +12,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .._version import package_version
+from ..channels import Channel
+from ..model import Scenario
+from ..results.matlab import write_mat_atomic
 from ..results.netcdf import write_netcdf_atomic
 from ..scenario.toml_writer import dump_toml
-from ..model import Scenario
 from ..simulation.common import output_times
 from . import executors
 from .cases import BaseScenario, case_scenarios, load_base
 from .dataset import SweepCollector
 from .errors import SweepError, SweepInterrupted
 from .parameters import GridParameter, RandomParameter, case_table, from_mappings
-from ..channels import Channel
 from .worker import ChunkResult, SharedResults, run_chunk
 
 if TYPE_CHECKING:
@@ -119,8 +120,8 @@ def _check_channels(base: BaseScenario, channels: Sequence[str] | None) -> list[
 def _local_workers(workers: int | None, scheduler: Any, cases: int) -> int:
     """Local worker processes to start (0 on a Dask cluster, 1: run here)."""
     if scheduler is not None and workers is not None:
-        raise SweepError(["give workers (local processes) or scheduler (a Dask cluster), "
-                          "not both: a cluster's workers are set up when it is started"])
+        raise SweepError([("give workers (local processes) or scheduler (a Dask cluster), "
+                           "not both: a cluster's workers are set up when it is started")])
     if scheduler is not None:
         return 0
     count = workers if workers is not None else executors.available_cores()
@@ -158,21 +159,23 @@ def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[st
     return stack.enter_context(contextlib.closing(generator))
 
 
-def _attributes(base: BaseScenario, table: Any) -> dict[str, str]:
+def _attributes(base: BaseScenario, table: Any) -> dict[str, Any]:
+    """The sweep's metadata: title and date_created (for the layout's CF attributes), then
+    what defines the sweep. The seed is text: it has 64 bits, netCDF-3 integers 32."""
     parameters = "; ".join(f"{p.path} {p.description}" for p in table.parameters)
-    return {
+    attrs = {
         "title": f"flexlink sweep of {base.name}",
+        "date_created": datetime.now(UTC).isoformat(timespec="seconds"),
         "flexlink_version": package_version(),
-        "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "base_scenario_source": base.source,
         "base_scenario": dump_toml(base.resolved()),
         "parameters": parameters,
         "sampler": table.sampler,
-        "seed": "none" if table.seed is None else str(table.seed),
         "sweep_state": "running",
-        "status_meaning": "status ok: finished; failed: see error; not_run: never ran. "
-                          "Signals of cases that are not ok hold 0.0 (never NaN).",
     }
+    if table.seed is not None:  # None: no random parameters
+        attrs["seed"] = str(table.seed)
+    return attrs
 
 
 @contextlib.contextmanager
@@ -188,7 +191,8 @@ def _progress(total: int, enabled: bool) -> Iterator[Any]:
 
 class _Checkpoint:
     """Writes the Dataset to ``output`` atomically: at the end, and while running at most every
-    ``interval`` seconds, so a crash keeps the finished cases."""
+    ``interval`` seconds, so a crash keeps the finished cases. A MATLAB file if ``output``
+    ends in ``.mat``, else netCDF; the same layout either way."""
 
     def __init__(self, output: str | Path | None, interval: float) -> None:
         self.output = None if output is None else Path(output)
@@ -207,8 +211,10 @@ class _Checkpoint:
         if self.output is None:
             return collector.dataset()
         started = time.monotonic()
-        dataset = collector.dataset()
-        write_netcdf_atomic(dataset, self.output)
+        layout = collector.layout()
+        write = write_mat_atomic if self.output.suffix.lower() == ".mat" else write_netcdf_atomic
+        write(layout, self.output)
+        dataset = layout.to_xarray()
         self._last = time.monotonic()
         self._cost = self._last - started
         return dataset

@@ -1,23 +1,229 @@
-"""The one netCDF layout of runs and sweeps, as an `xarray.Dataset`."""
+"""The one netCDF layout of runs and sweeps: what results.nc and a sweep's file hold.
+
+A `Layout` is plain numpy arrays and attribute dicts, no xarray: `flexlink run` writes
+results.nc without importing xarray, which would add about 1 s to a 2 s command.
+`Layout.to_xarray()` is the same content as an `xarray.Dataset` (what `Results.to_xarray()`
+and `flexlink.sweep` return); `netcdf.write_netcdf_atomic` and `matlab.write_mat_atomic`
+write it, `netcdf.read_netcdf` reads it back.
+
+Conventions (CF-1.8):
+
+- every variable has ``units`` (UDUNITS spelling) and ``long_name``; a channel adds its
+  ``kind``, and its ``quantity`` and ``subject`` where it has them;
+- the coordinate ``time`` is in s from the start of the simulation;
+- global attributes ``Conventions``, ``title``, ``history`` (ISO time and what wrote it),
+  ``references``, ``source`` (flexlink and its version), ``date_created``, then the metadata
+  of the run or sweep, numbers as numbers;
+- netCDF-3 has no booleans: true and false are stored as 1 and 0, and the names of those
+  attributes are listed in the attribute ``boolean_attributes``; it has no 64-bit integers
+  either: integers beyond 32 bits are stored as text (a sweep's ``seed`` always is);
+- values that do not exist (the signals of a sweep's cases that did not finish) are NaN,
+  declared by ``_FillValue`` = NaN.
+"""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..channels import Channel, ChannelKind
 
 if TYPE_CHECKING:
     import xarray as xr
 
     from .results import Results
 
+CONVENTIONS = "CF-1.8"
+REFERENCES = ("M. S. Choi and M. K. Kwak (2016), Dynamic modeling of planar system consisting "
+              "of two flexible links and experiment (the model flexlink implements and extends)")
+BOOLEANS = "boolean_attributes"
+# global attributes that describe the file, not the run: not part of a run's metadata
+FILE_ATTRIBUTES = ("Conventions", "title", "history", "references", "source", "date_created",
+                   BOOLEANS)
+_INT32 = np.iinfo(np.int32)
 
-def run_dataset(results: Results) -> xr.Dataset:
-    """One variable per channel over ``time`` with ``units``, ``long_name`` and ``kind``."""
-    import xarray as xr
 
-    data_vars = {
-        n: ("time", results[n], {"units": c.unit, "long_name": c.description, "kind": c.kind.value})
-        for n, c in results.channels.items()
+@dataclass(frozen=True)
+class Variable:
+    """One netCDF variable: dimension names, values, attributes; ``missing``: NaN marks values
+    that do not exist (written with ``_FillValue`` NaN)."""
+
+    dims: tuple[str, ...]
+    values: np.ndarray
+    attrs: Mapping[str, Any] = field(default_factory=dict)
+    missing: bool = False
+
+
+@dataclass(frozen=True)
+class Layout:
+    """The content of one netCDF file: coordinates, data variables, global attributes."""
+
+    coords: dict[str, Variable]
+    data: dict[str, Variable]
+    attrs: dict[str, Any]
+
+    @property
+    def variables(self) -> dict[str, Variable]:
+        """Coordinates first, then data variables, in order."""
+        return {**self.coords, **self.data}
+
+    def to_xarray(self) -> xr.Dataset:
+        """The same content as an `xarray.Dataset`; ``encoding`` carries the fill values, so
+        that ``dataset.to_netcdf`` writes what `write_netcdf_atomic` writes."""
+        import xarray as xr
+
+        def variable(v: Variable) -> xr.Variable:
+            out = xr.Variable(v.dims, v.values, dict(v.attrs))
+            if out.dtype.kind == "f":
+                out.encoding["_FillValue"] = np.nan if v.missing else None
+            return out
+
+        return xr.Dataset({n: variable(v) for n, v in self.data.items()},
+                          coords={n: variable(v) for n, v in self.coords.items()},
+                          attrs=dict(self.attrs))
+
+
+def time_variable(time: np.ndarray) -> Variable:
+    """The coordinate ``time`` (s)."""
+    return Variable(("time",), np.asarray(time, dtype=float),
+                    {"units": "s", "long_name": "time from the start of the simulation"})
+
+
+def channel_attributes(channel: Channel) -> dict[str, str]:
+    """``units``, ``long_name``, ``kind``, and ``quantity`` and ``subject`` if not empty."""
+    attrs = {"units": channel.unit, "long_name": channel.description,
+             "kind": channel.kind.value}
+    attrs.update({k: v for k, v in (("quantity", channel.quantity),
+                                    ("subject", channel.subject)) if v})
+    return attrs
+
+
+def channel_of(name: str, attrs: Mapping[str, Any]) -> Channel:
+    """The channel record a variable's attributes describe (inverse of `channel_attributes`)."""
+    return Channel(name, ChannelKind(attrs["kind"]), str(attrs.get("units", "")),
+                   str(attrs.get("long_name", "")), str(attrs.get("quantity", "")),
+                   str(attrs.get("subject", "")))
+
+
+def global_attributes(title: str, created: str, wrote: str,
+                      metadata: Mapping[str, Any]) -> dict[str, Any]:
+    """The CF attributes, then ``metadata`` encoded for netCDF-3 (see the module docstring).
+
+    ``created``: ISO 8601 time; ``wrote``: what made the data (``simulate …``, ``sweep …``)."""
+    version = metadata.get("flexlink_version", "unknown")
+    attrs: dict[str, Any] = {
+        "Conventions": CONVENTIONS, "title": title,
+        "history": f"{created} flexlink {version}: {wrote}",
+        "references": REFERENCES, "source": f"flexlink {version}", "date_created": created,
     }
-    attrs = {k: str(v) for k, v in results.metadata.items()}
-    return xr.Dataset(data_vars, coords={"time": ("time", results.time, {"units": "s"})},
-                      attrs=attrs)
+    booleans = []
+    for key, value in metadata.items():
+        if value is None or key in FILE_ATTRIBUTES:
+            continue
+        if isinstance(value, bool | np.bool_):
+            booleans.append(key)
+        attrs[key] = encode_attribute(value)
+    if booleans:
+        attrs[BOOLEANS] = " ".join(booleans)
+    return attrs
+
+
+def encode_attribute(value: Any) -> str | int | float:
+    """A metadata value as netCDF-3 can hold it: bool as 0/1, int as int32 or else text,
+    float, text."""
+    if isinstance(value, bool | np.bool_):
+        return int(value)
+    if isinstance(value, int | np.integer):
+        return int(value) if _INT32.min <= value <= _INT32.max else str(value)
+    if isinstance(value, float | np.floating):
+        return float(value)
+    return str(value)
+
+
+def metadata_of(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """The metadata among global attributes (inverse of `global_attributes`: booleans back)."""
+    booleans = set(str(attrs.get(BOOLEANS, "")).split())
+    out: dict[str, Any] = {}
+    for key, value in attrs.items():
+        if key in FILE_ATTRIBUTES:
+            continue
+        if isinstance(value, np.generic):
+            value = value.item()
+        out[key] = bool(value) if key in booleans else value
+    return out
+
+
+def run_layout(results: Results) -> Layout:
+    """A run: one variable per channel over ``time``; the metadata as global attributes."""
+    meta = results.metadata
+    data = {n: Variable(("time",), results[n], channel_attributes(c))
+            for n, c in results.channels.items()}
+    what = ", ".join(f"{meta[k]}" for k in ("model", "method") if k in meta)
+    wrote = f"simulate scenario {meta.get('scenario', '')!r}" + (f" ({what})" if what else "")
+    title = f"flexlink run of scenario {meta.get('scenario', '')!r}"
+    return Layout({"time": time_variable(results.time)}, data,
+                  global_attributes(title, results.created, wrote, meta))
+
+
+def results_of(layout: Layout) -> Results:
+    """The `Results` a run's layout holds (inverse of `run_layout`): every variable over
+    ``time`` with a ``kind`` is a channel."""
+    from .results import Results
+
+    results = Results(time=np.asarray(layout.coords["time"].values, dtype=float),
+                      metadata=metadata_of(layout.attrs),
+                      created=str(layout.attrs.get("date_created", "")))
+    for name, variable in layout.data.items():
+        if variable.dims == ("time",) and "kind" in variable.attrs:
+            results.add(channel_of(name, variable.attrs), variable.values)
+    return results
+
+
+def parameter_variable(path: str, values: np.ndarray, description: str,
+                       unit: str | None) -> Variable:
+    """A sweep parameter's coordinate on ``case``: the scenario field's value in each case."""
+    attrs = {"long_name": f"scenario field {path}", "sweep": description}
+    if unit is not None:
+        attrs["units"] = unit
+    return Variable(("case",), np.asarray(values), attrs)
+
+
+STATUS_MEANING = ("ok: finished; failed: see error; not_run: never ran (interrupted). "
+                  "The signals of cases that are not ok are NaN")
+
+
+def sweep_layout(time: np.ndarray, parameters: Mapping[str, Variable],
+                 channels: Sequence[Channel], values: np.ndarray | None, status: np.ndarray,
+                 error: np.ndarray, wall_time: np.ndarray, cpu_time: np.ndarray,
+                 metadata: Mapping[str, Any]) -> Layout:
+    """A sweep: every channel over (case, time), NaN where a case is not ``ok``; the
+    parameters as coordinates on ``case``; ``status``, ``error``, ``wall_time`` and
+    ``cpu_time`` (s, NaN where a case did not finish) per case.
+
+    ``values``: channel × case × time; ``metadata`` holds ``title`` and ``date_created``."""
+    cases = status.size
+    coords = {
+        "case": Variable(("case",), np.arange(cases, dtype=np.int32),
+                         {"long_name": "case number (0-based, in the order of the parameter "
+                                       "table)", "units": "1"}),
+        "time": time_variable(time),
+        **parameters,
+    }
+    data = {c.name: Variable(("case", "time"), values[k], channel_attributes(c), missing=True)
+            for k, c in enumerate(channels) if values is not None}
+    data["status"] = Variable(("case",), status.astype(str), {"long_name": STATUS_MEANING})
+    data["error"] = Variable(("case",), error.astype(str),
+                             {"long_name": "failure message of a failed case, else empty"})
+    data["wall_time"] = Variable(("case",), wall_time, {
+        "units": "s", "long_name": "wall time of the case's simulation"}, missing=True)
+    data["cpu_time"] = Variable(("case",), cpu_time, {
+        "units": "s", "long_name": "CPU time of the case's simulation (of the thread that "
+                                   "ran it)"}, missing=True)
+    rest = {k: v for k, v in metadata.items() if k not in ("title", "date_created")}
+    wrote = f"sweep of {cases} cases ({rest.get('sweep_state', '')})"
+    return Layout(coords, data, global_attributes(str(metadata.get("title", "flexlink sweep")),
+                                                  str(metadata.get("date_created", "")), wrote,
+                                                  rest))

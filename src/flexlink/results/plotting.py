@@ -26,6 +26,9 @@ _DISPLAY: dict[str, tuple[float, str]] = {
     Unit.METRE_PER_SECOND2: (1.0, "m/s²"),
     Unit.RADIAN_PER_SECOND: (180.0 / math.pi, "deg/s"),
     Unit.NEWTON_METRE: (1.0, "N·m"),
+    Unit.METRE_PER_SECOND: (1.0, "m/s"),
+    Unit.NEWTON_SECOND: (1.0, "N·s"),
+    Unit.NEWTON_METRE_SECOND: (1.0, "N·m·s"),
 }
 _QUANTITY = {"piezo": "voltage"}  # axis label of a quantity, where it differs
 
@@ -62,6 +65,8 @@ def sensor_channels(results: Results) -> list[str]:
 
 def plot_kind(results: Results, kind: ChannelKind) -> Figure:
     """The figure of one kind of channel: joints, tips (paths), or one panel per channel."""
+    if not results.names_of(kind):
+        raise ValueError(f"no channels of kind {kind.value!r} in the results")
     if kind is ChannelKind.JOINT:
         return plot_joint_angles(results)
     if kind is ChannelKind.TIP:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -21,13 +22,16 @@ class Results:
     """Channels sampled at ``time`` (s), in the order they were added.
 
     ``results[name]`` is a channel's values, ``results.channels[name]`` its record (kind,
-    unit, description); ``metadata`` says what ran (model, integrator, version, wall time).
+    unit, description); ``metadata`` says what ran (model, integrator, version, wall time);
+    ``created`` when (ISO 8601, UTC: the ``history`` of results.nc).
     """
 
     time: np.ndarray
     metadata: dict[str, Any] = field(default_factory=dict)
     channels: dict[str, Channel] = field(default_factory=dict)
     _values: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    created: str = field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"),
+                         compare=False)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self._values[name]
@@ -67,38 +71,52 @@ class Results:
         return frame
 
     def to_xarray(self) -> xr.Dataset:
-        """A Dataset over ``time``: the layout of results.nc (``results.layout``)."""
-        from .layout import run_dataset
+        """A Dataset over ``time`` with units, long names and kinds in the attributes: what
+        results.nc reads back as (the layout is `flexlink.results.layout`)."""
+        from .layout import run_layout
 
-        return run_dataset(self)
+        return run_layout(self).to_xarray()
 
     def plot(self, kind: ChannelKind | str = ChannelKind.SENSOR) -> Figure:
-        """A figure of the channels of one kind against time (joint angles with ``"joint"``,
-        tip paths with ``"tip"``), as in the run folder's figures."""
+        """A figure of the channels of one kind against time, as in the run folder: joint
+        angles (and torques) for ``"joint"``, X–Y paths for ``"tip"``, else one panel per
+        channel. ValueError if the results have no channel of that kind."""
         from . import plotting
 
-        return plotting.plot_kind(self, ChannelKind(kind))
+        try:
+            kind = ChannelKind(kind)
+        except ValueError:
+            known = ", ".join(repr(k.value) for k in ChannelKind)
+            raise ValueError(f"unknown channel kind {kind!r}; kinds: {known}") from None
+        return plotting.plot_kind(self, kind)
+
+    def kind_counts(self) -> dict[str, int]:
+        """How many channels of each kind, in order of first appearance."""
+        counts: dict[str, int] = {}
+        for channel in self.channels.values():
+            counts[channel.kind.value] = counts.get(channel.kind.value, 0) + 1
+        return counts
 
     def __repr__(self) -> str:
         t = self.time
         span = f"t = {t[0]:g} … {t[-1]:g} s, {t.size} samples" if t.size else "no samples"
-        kinds = {}
-        for c in self.channels.values():
-            kinds[c.kind.value] = kinds.get(c.kind.value, 0) + 1
-        what = ", ".join(f"{k}: {v}" for k, v in kinds.items()) or "no channels"
-        model = self.metadata.get("model", "")
-        return f"<Results {self.metadata.get('scenario', '')!r} {model} ({span}; {what})>"
+        what = ", ".join(f"{k} {v}" for k, v in self.kind_counts().items()) or "no channels"
+        name = " ".join(str(self.metadata[k]) if k == "model" else repr(self.metadata[k])
+                        for k in ("scenario", "model") if k in self.metadata)
+        return f"<Results {name + ': ' if name else ''}{span}; {what}>"
 
     def _repr_html_(self) -> str:
-        """A table of channels with their kind, unit, peak and description (notebooks)."""
+        """The repr above a table of the channels: name, kind, unit, peak |value|,
+        description (notebooks)."""
         from html import escape
 
-        rows = "".join(
-            f"<tr><td>{escape(n)}</td><td>{c.kind.value}</td><td>{escape(c.unit)}</td>"
-            f"<td>{np.abs(self._values[n]).max() if self.time.size else 0.0:.4g}</td>"
-            f"<td>{escape(c.description)}</td></tr>"
-            for n, c in self.channels.items())
-        head = escape(repr(self))
-        return (f"<p><b>{head}</b></p><table><thead><tr><th>channel</th><th>kind</th>"
-                f"<th>unit</th><th>peak |value|</th><th>description</th></tr></thead>"
+        def row(name: str, channel: Channel) -> str:
+            peak = f"{np.abs(self._values[name]).max():.4g}" if self.time.size else ""
+            cells = (name, channel.kind.value, channel.unit, peak, channel.description)
+            return "<tr>" + "".join(f"<td>{escape(c)}</td>" for c in cells) + "</tr>"
+
+        head = "".join(f"<th>{h}</th>" for h in
+                       ("channel", "kind", "unit", "peak |value|", "description"))
+        rows = "".join(row(n, c) for n, c in self.channels.items())
+        return (f"<p><b>{escape(repr(self))}</b></p><table><thead><tr>{head}</tr></thead>"
                 f"<tbody>{rows}</tbody></table>")

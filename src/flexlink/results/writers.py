@@ -4,9 +4,10 @@ Everything goes into a hidden sibling folder first, which is renamed into place 
 a failed or interrupted run never leaves a half-written results folder behind.
 
 Folder contents: ``results.csv`` (``t`` in s, then one column per channel, SI),
-``channels.csv`` (name, unit, description of each column), ``results.nc`` (netCDF with units
-in the attributes), ``scenario.resolved.toml`` (the scenario with every default filled in, and
-the flexlink version) and ``figures/*.png``.
+``channels.csv`` (name, unit, kind, quantity, subject, description of each column),
+``results.nc`` (netCDF, `layout`), ``results.mat`` (MATLAB, the same content),
+``scenario.resolved.toml`` (the scenario with every default filled in, and the flexlink
+version) and ``figures/*.png``. `reading.read_run` reads such a folder back.
 """
 
 from __future__ import annotations
@@ -14,18 +15,27 @@ from __future__ import annotations
 import csv
 import shutil
 import uuid
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..channels import ChannelKind
 from ..scenario.toml_writer import dump_toml
+from .layout import run_layout
+from .matlab import write_mat
+from .netcdf import write_netcdf
 from .results import Results
 
 RESOLVED_NAME = "scenario.resolved.toml"
+RESULTS_CSV = "results.csv"
+CHANNELS_CSV = "channels.csv"
+RESULTS_NC = "results.nc"
+RESULTS_MAT = "results.mat"
 CSV_FORMAT = "%.10g"
+CHANNEL_COLUMNS = ("name", "unit", "kind", "quantity", "subject", "description")
 
 
 class OutputFolderError(FileExistsError):
@@ -59,13 +69,14 @@ def write_run(
 ) -> Path:
     """Write ``results`` and the ``resolved`` scenario dict into ``out_dir``; return it."""
     with atomic_folder(out_dir, overwrite) as partial:
-        write_results_csv(results, partial / "results.csv")
-        write_channels_csv(results, partial / "channels.csv")
-        write_netcdf(results, partial / "results.nc")
+        write_results_csv(results, partial / RESULTS_CSV)
+        write_channels_csv(results, partial / CHANNELS_CSV)
+        layout = run_layout(results)
+        write_netcdf(layout, partial / RESULTS_NC)  # the folder is atomic already
+        write_mat(layout, partial / RESULTS_MAT)
         (partial / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
         if figures:
-            sensors = [s["name"] for s in resolved.get("sensors", [])]
-            write_figures(results, partial / "figures", sensors)
+            write_figures(results, partial / "figures")
     return Path(out_dir)
 
 
@@ -104,50 +115,28 @@ def write_results_csv(results: Results, path: Path) -> None:
 
 
 def write_channels_csv(results: Results, path: Path) -> None:
-    """One row per column of results.csv: name, unit, description."""
+    """One row per column of results.csv: name, unit (UDUNITS), kind, quantity, subject,
+    description (the channel's record)."""
     with path.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
-        writer.writerow(["name", "unit", "description"])
-        writer.writerow(["t", "s", "time"])
-        for name, channel in results.channels.items():
-            writer.writerow([name, channel.unit, channel.description])
+        writer.writerow(CHANNEL_COLUMNS)
+        writer.writerow(["t", "s", "", "", "", "time"])
+        for channel in results.channels.values():
+            writer.writerow([channel.name, channel.unit, channel.kind.value, channel.quantity,
+                             channel.subject, channel.description])
 
 
-def write_netcdf(results: Results, path: Path) -> None:
-    """netCDF-3 (classic) written by scipy, laid out as ``Results.to_xarray()``: one variable per
-    channel over ``time`` with ``units`` and ``long_name``, the metadata as global attributes.
-    Writing it directly keeps xarray's import out of a command-line run."""
-    from scipy.io import netcdf_file
-
-    with netcdf_file(path, "w", version=2) as nc:
-        for key, value in results.metadata.items():
-            setattr(nc, key, str(value))
-        nc.createDimension("time", results.time.size)
-        _netcdf_variable(nc, "time", results.time, "s", "")
-        for name, channel in results.channels.items():
-            _netcdf_variable(nc, name, results[name], channel.unit, channel.description)
-            nc.variables[name].kind = channel.kind.value
-
-
-def _netcdf_variable(nc: Any, name: str, values: np.ndarray, unit: str, long_name: str) -> None:
-    var = nc.createVariable(name, "d", ("time",))
-    var[:] = values
-    var.units = unit
-    if long_name:
-        var.long_name = long_name
-
-
-def write_figures(results: Results, folder: Path, sensors: Sequence[str]) -> list[Path]:
-    """joint_angles.png, sensors.png (if any sensor) and tip_paths.png; return their paths."""
+def write_figures(results: Results, folder: Path) -> list[Path]:
+    """joint_angles.png, sensors.png (channels of kind ``sensor`` only) and tip_paths.png,
+    each if the results have such channels; return their paths."""
     from . import plotting
 
     folder.mkdir(exist_ok=True)
     figures = {}
     if plotting.joint_channels(results):
         figures["joint_angles"] = plotting.plot_joint_angles(results)
-    present = [s for s in sensors if s in results]
-    if present:
-        figures["sensors"] = plotting.plot_sensors(results, present)
+    if results.names_of(ChannelKind.SENSOR):
+        figures["sensors"] = plotting.plot_sensors(results)
     if plotting.tip_links(results):
         figures["tip_paths"] = plotting.plot_tip_paths(results)
     paths = []

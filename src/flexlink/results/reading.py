@@ -1,0 +1,64 @@
+"""Read a run folder (written by `writers.write_run`) back into `Results`."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from ..channels import Channel, ChannelKind
+from .layout import results_of
+from .netcdf import read_netcdf
+from .results import Results
+from .writers import CHANNELS_CSV, RESULTS_CSV, RESULTS_NC
+
+
+class NotARunFolderError(FileNotFoundError):
+    """The folder is missing, or holds neither results.nc nor results.csv with channels.csv."""
+
+
+def read_run(folder: str | Path) -> Results:
+    """The `Results` of a flexlink run folder: from results.nc (channels, kinds, metadata),
+    else from results.csv and channels.csv (no metadata). NotARunFolderError names the folder
+    and the missing files."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise NotARunFolderError(f"{folder} is not a flexlink run folder: no such folder")
+    if (folder / RESULTS_NC).is_file():
+        return results_of(read_netcdf(folder / RESULTS_NC))
+    missing = [n for n in (RESULTS_CSV, CHANNELS_CSV) if not (folder / n).is_file()]
+    if missing:
+        raise NotARunFolderError(
+            f"{folder} is not a flexlink run folder: it has no {RESULTS_NC} and no "
+            f"{' and no '.join(missing)} (flexlink run writes them)")
+    return read_csv_run(folder / RESULTS_CSV, folder / CHANNELS_CSV)
+
+
+def read_csv_run(results_csv: Path, channels_csv: Path) -> Results:
+    """`Results` from results.csv (``t``, then one column per channel) and channels.csv."""
+    channels = _read_channels(channels_csv)
+    with results_csv.open(encoding="utf-8") as fh:
+        header = fh.readline().strip().split(",")
+    table = np.loadtxt(results_csv, delimiter=",", skiprows=1, ndmin=2)
+    if header[:1] != ["t"] or len(header) != table.shape[1]:
+        raise ValueError(f"{results_csv}: expected a header 't,<channel>,…' over every column")
+    unknown = [n for n in header[1:] if n not in channels]
+    if unknown:
+        raise ValueError(f"{channels_csv} does not describe column(s) {', '.join(unknown)} "
+                         f"of {results_csv}")
+    results = Results(time=table[:, 0])
+    for k, name in enumerate(header[1:], start=1):
+        results.add(channels[name], table[:, k])
+    return results
+
+
+def _read_channels(path: Path) -> dict[str, Channel]:
+    with path.open(newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    if rows and "kind" not in rows[0]:
+        raise ValueError(f"{path} has no 'kind' column (an older flexlink wrote it); "
+                         "read results.nc instead")
+    return {r["name"]: Channel(r["name"], ChannelKind(r["kind"]), r["unit"], r["description"],
+                               r.get("quantity") or "", r.get("subject") or "")
+            for r in rows if r["name"] != "t"}
