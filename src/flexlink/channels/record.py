@@ -8,6 +8,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Any, Protocol
+
+import numpy as np
 
 
 class ChannelKind(StrEnum):
@@ -56,3 +59,17 @@ class Channel:
     description: str
     quantity: str = ""
     subject: str = ""
+
+
+class ChannelTable(Protocol):
+    """Channels on a time grid, as the readers of results need them (plots, file layouts):
+    `flexlink.results.Results` is one."""
+
+    time: np.ndarray
+    metadata: dict[str, Any]
+    channels: dict[str, Channel]
+    created: str
+
+    def __getitem__(self, name: str) -> np.ndarray: ...
+
+    def names_of(self, *kinds: ChannelKind) -> list[str]: ...

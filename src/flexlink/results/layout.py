@@ -29,12 +29,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..channels import Channel, ChannelKind
+from ..channels import Channel, ChannelKind, ChannelTable
 
 if TYPE_CHECKING:
     import xarray as xr
-
-    from .results import Results
 
 CONVENTIONS = "CF-1.8"
 REFERENCES = ("M. S. Choi and M. K. Kwak (2016), Dynamic modeling of planar system consisting "
@@ -156,7 +154,7 @@ def metadata_of(attrs: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def run_layout(results: Results) -> Layout:
+def run_layout(results: ChannelTable) -> Layout:
     """A run: one variable per channel over ``time``; the metadata as global attributes."""
     meta = results.metadata
     data = {n: Variable(("time",), results[n], channel_attributes(c))
@@ -166,20 +164,6 @@ def run_layout(results: Results) -> Layout:
     title = f"flexlink run of scenario {meta.get('scenario', '')!r}"
     return Layout({"time": time_variable(results.time)}, data,
                   global_attributes(title, results.created, wrote, meta))
-
-
-def results_of(layout: Layout) -> Results:
-    """The `Results` a run's layout holds (inverse of `run_layout`): every variable over
-    ``time`` with a ``kind`` is a channel."""
-    from .results import Results
-
-    results = Results(time=np.asarray(layout.coords["time"].values, dtype=float),
-                      metadata=metadata_of(layout.attrs),
-                      created=str(layout.attrs.get("date_created", "")))
-    for name, variable in layout.data.items():
-        if variable.dims == ("time",) and "kind" in variable.attrs:
-            results.add(channel_of(name, variable.attrs), variable.values)
-    return results
 
 
 def parameter_variable(path: str, values: np.ndarray, description: str,

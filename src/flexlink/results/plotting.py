@@ -14,8 +14,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from ..channels import ChannelKind, Unit
-from .results import Results
+from ..channels import ChannelKind, ChannelTable, Unit
 
 DPI = 150
 # stored unit → (display factor, display unit)
@@ -38,19 +37,19 @@ def display_scale(unit: str) -> tuple[float, str]:
     return _DISPLAY.get(unit, (1.0, unit))
 
 
-def joint_channels(results: Results, quantity: str = "angle") -> list[str]:
+def joint_channels(results: ChannelTable, quantity: str = "angle") -> list[str]:
     """Joint channels of one quantity (``angle``, ``torque``, ``reference`` …), joint order."""
     return [n for n in results.names_of(ChannelKind.JOINT)
             if results.channels[n].quantity == quantity]
 
 
-def tip_links(results: Results) -> list[str]:
+def tip_links(results: ChannelTable) -> list[str]:
     """Names of the links whose tip position (X and Y) was saved."""
     subjects = [results.channels[n].subject for n in results.names_of(ChannelKind.TIP)]
     return [s for s in dict.fromkeys(subjects) if subjects.count(s) == 2]
 
 
-def _tip(results: Results, link: str, quantity: str) -> np.ndarray:
+def _tip(results: ChannelTable, link: str, quantity: str) -> np.ndarray:
     for n in results.names_of(ChannelKind.TIP):
         c = results.channels[n]
         if c.subject == link and c.quantity == quantity:
@@ -58,12 +57,12 @@ def _tip(results: Results, link: str, quantity: str) -> np.ndarray:
     raise KeyError(f"no tip {quantity} of {link!r}")
 
 
-def sensor_channels(results: Results) -> list[str]:
+def sensor_channels(results: ChannelTable) -> list[str]:
     """The user's sensors."""
     return results.names_of(ChannelKind.SENSOR)
 
 
-def plot_kind(results: Results, kind: ChannelKind) -> Figure:
+def plot_kind(results: ChannelTable, kind: ChannelKind) -> Figure:
     """The figure of one kind of channel: joints, tips (paths), or one panel per channel."""
     if not results.names_of(kind):
         raise ValueError(f"no channels of kind {kind.value!r} in the results")
@@ -90,7 +89,7 @@ def _style(ax: Axes) -> None:
     ax.tick_params(direction="in", top=True, right=True)
 
 
-def plot_joint_angles(results: Results) -> Figure:
+def plot_joint_angles(results: ChannelTable) -> Figure:
     """Joint angles β_k in degrees against time (s), like the paper's Fig. 7."""
     names = joint_channels(results)
     if not names:
@@ -122,7 +121,7 @@ def plot_joint_angles(results: Results) -> Figure:
     return fig
 
 
-def plot_sensors(results: Results, names: Sequence[str] | None = None) -> Figure:
+def plot_sensors(results: ChannelTable, names: Sequence[str] | None = None) -> Figure:
     """One panel per sensor channel against time (s), like the paper's Figs. 8–9.
 
     ``names`` defaults to every channel of kind ``sensor``.
@@ -133,7 +132,7 @@ def plot_sensors(results: Results, names: Sequence[str] | None = None) -> Figure
     return plot_channels(results, names)
 
 
-def plot_channels(results: Results, names: Sequence[str]) -> Figure:
+def plot_channels(results: ChannelTable, names: Sequence[str]) -> Figure:
     """One panel per channel against time (s), in display units."""
     if not names:
         raise ValueError("no channels to plot")
@@ -152,7 +151,7 @@ def plot_channels(results: Results, names: Sequence[str]) -> Figure:
     return fig
 
 
-def plot_tip_paths(results: Results) -> Figure:
+def plot_tip_paths(results: ChannelTable) -> Figure:
     """The X–Y path (m) of each link's deformed tip in the plane, with equal axis scales."""
     links = tip_links(results)
     if not links:

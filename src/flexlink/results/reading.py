@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..channels import Channel, ChannelKind
-from .layout import results_of
+from .layout import Layout, channel_of, metadata_of
 from .netcdf import read_netcdf
 from .results import Results
 from .writers import CHANNELS_CSV, RESULTS_CSV, RESULTS_NC
@@ -33,6 +33,18 @@ def read_run(folder: str | Path) -> Results:
             f"{folder} is not a flexlink run folder: it has no {RESULTS_NC} and no "
             f"{' and no '.join(missing)} (flexlink run writes them)")
     return read_csv_run(folder / RESULTS_CSV, folder / CHANNELS_CSV)
+
+
+def results_of(layout: Layout) -> Results:
+    """The `Results` a run's layout holds (inverse of `layout.run_layout`): every variable over
+    ``time`` with a ``kind`` is a channel."""
+    results = Results(time=np.asarray(layout.coords["time"].values, dtype=float),
+                      metadata=metadata_of(layout.attrs),
+                      created=str(layout.attrs.get("date_created", "")))
+    for name, variable in layout.data.items():
+        if variable.dims == ("time",) and "kind" in variable.attrs:
+            results.add(channel_of(name, variable.attrs), variable.values)
+    return results
 
 
 def read_csv_run(results_csv: Path, channels_csv: Path) -> Results:
