@@ -111,9 +111,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
                         args: argparse.Namespace) -> int:
+    from .errors import SimulationError
     from .results.writers import write_run
     from .simulation import simulate
-    from .errors import SimulationError
 
     try:
         results = simulate(scenario, progress=not args.quiet)

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..channels import Channel
 from ..results.layout import Layout, parameter_variable, sweep_layout
+from ..scenario.fields import parse
 from .parameters import CaseTable
 from .worker import ChunkResult, SharedResults, labels
 
@@ -98,7 +99,7 @@ class SweepCollector:
         """Everything collected so far in the one layout of flexlink's files."""
         parameters = {}
         for parameter in self.table.parameters:
-            key = parameter.path.rsplit(".", 1)[-1]
+            key = next(step for step in reversed(parse(parameter.path)) if isinstance(step, str))
             parameters[parameter.path] = parameter_variable(
                 parameter.path, self.table.values[parameter.path], parameter.description,
                 PARAMETER_UNITS.get(key))

@@ -4,7 +4,6 @@ labelled Dataset (and netCDF file). Orchestration only; each case is `flexlink.s
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from datetime import UTC, datetime
@@ -13,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from .._version import package_version
 from ..channels import Channel
+from ..channels.catalogue import catalogue
 from ..model import Scenario
 from ..results.matlab import write_mat_atomic
 from ..results.netcdf import write_netcdf_atomic
@@ -23,7 +23,7 @@ from .cases import BaseScenario, case_scenarios, load_base
 from .dataset import SweepCollector
 from .errors import SweepError, SweepInterrupted
 from .parameters import GridParameter, RandomParameter, case_table, from_mappings
-from .worker import ChunkResult, SharedResults, run_chunk
+from .worker import ChunkResult, SharedResults
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -58,7 +58,7 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     table = case_table(grids, randoms, samples, seed, sampler)
     scenario_base = load_base(base, base_dir)
     scenarios = case_scenarios(scenario_base, table)
-    selected = _check_channels(scenario_base, channels)
+    selected = _check_channels(scenarios[0], channels)
     local = _local_workers(workers, scheduler, table.count)
     time_ = output_times(scenarios[0].settings.t_end, scenarios[0].settings.dt_out)
     shared, probed = None, ()
@@ -101,15 +101,11 @@ def _parameters(grid: GridSpec, random: RandomSpec
     return grids, randoms
 
 
-def _check_channels(base: BaseScenario, channels: Sequence[str] | None) -> list[str] | None:
-    """Requested channels must exist (sensor names, joint angles/torques, link tips)."""
+def _check_channels(scenario: Scenario, channels: Sequence[str] | None) -> list[str] | None:
+    """Requested channels must be among those a run of the scenario produces."""
     if channels is None:
         return None
-    resolved = base.resolved()
-    links = [link["name"] for link in resolved["links"]]
-    known = [s["name"] for s in resolved["sensors"]]
-    known += [f"joint{k}_{q}" for q in ("angle", "torque") for k in range(1, len(links) + 1)]
-    known += [f"{name}_tip_{axis}" for name in links for axis in "XY"]
+    known = [c.name for c in catalogue(scenario)]
     unknown = [c for c in channels if c not in known]
     if unknown or not channels:
         raise SweepError([f"unknown channel {c!r}; available: {', '.join(known)}"
@@ -131,14 +127,10 @@ def _local_workers(workers: int | None, scheduler: Any, cases: int) -> int:
 
 
 def _probe_channels(scenario: Scenario, channels: list[str] | None) -> tuple[Channel, ...]:
-    """The channels a case produces, from a run of one output step; () if that fails (the
-    results then travel back from the workers instead of through a shared array)."""
-    try:
-        settings = dataclasses.replace(scenario.settings, t_end=scenario.settings.dt_out)
-        short = dataclasses.replace(scenario, settings=settings)
-    except (TypeError, ValueError):  # a model class that refuses the change: no probe
-        return ()
-    return run_chunk([(0, short)], channels).channels
+    """The records of the channels every case produces (the catalogue's, in its order, or the
+    requested ones in the requested order)."""
+    records = {c.name: c for c in catalogue(scenario)}
+    return tuple(records.values()) if channels is None else tuple(records[n] for n in channels)
 
 
 def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[str] | None,

@@ -7,9 +7,17 @@ which converts them once. Algorithms take a model and never mutate it.
 
 from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad
 from .chain import MODE_SHAPES, Chain, Link, ModeShapes
-from .joints import (Drive, Joint, JointMotion, PositionServo, Servo, TorqueDrive, VelocityServo,
-                     is_driven)
 from .histories import ZERO, BangBang, History, Step, Sum, Table
+from .joints import (
+                     Drive,
+                     Joint,
+                     JointMotion,
+                     PositionServo,
+                     Servo,
+                     TorqueDrive,
+                     VelocityServo,
+                     is_driven,
+)
 from .scenario import Scenario
 from .sensors import POINT_SENSOR_KINDS, PiezoSensor, PointSensor, PointSensorKind, Sensor
 from .settings import METHODS, MODELS, MethodName, ModelName, SimulationSettings

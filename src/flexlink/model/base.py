@@ -8,7 +8,6 @@ from typing import Literal, get_args
 
 from .histories import ZERO, History
 
-
 BaseKind = Literal["free", "pinned", "fixed"]
 BASE_KINDS: tuple[str, ...] = get_args(BaseKind)
 LoadFrame = Literal["inertial", "body"]

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from .base import Base
 from .chain import Chain
 from .joints import is_driven
-from .base import Base
 from .sensors import Sensor
 from .settings import SimulationSettings
 
