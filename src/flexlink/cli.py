@@ -148,14 +148,32 @@ def summary(results: Any, out_dir: Path, name: str) -> str:
     """A few lines: what ran, the peak of each channel, and where the files are."""
     t = results.time
     lines = [f"flexlink: simulated '{name}', t = {t[0]:g} to {t[-1]:g} s ({t.size} samples)",
-             "peak |value| of each channel:"]
+             _model_line(results.metadata), "peak |value| of each channel:"]
     width = max(len(n) for n in results.names) if results.names else 0
     for name_, channel in results.channels.items():
         values = results[name_]
         peak = float(abs(values).max()) if values.size else 0.0
         extra = f"  ({math.degrees(peak):.4g} deg)" if channel.unit == "rad" else ""
         lines.append(f"  {name_:<{width}}  {peak:.4g} {channel.unit}{extra}")
+    if "validity_warning" in results.metadata:
+        lines.append(f"warning: {results.metadata['validity_warning']}")
     files = sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*") if p.is_file())
     lines.append(f"wrote {out_dir}{'/' if not str(out_dir).endswith('/') else ''}: "
                  + ", ".join(files))
     return "\n".join(lines)
+
+
+def _model_line(meta: dict[str, Any]) -> str:
+    """Which model and integrator ran and, for first order, how far the deflection went."""
+    model = str(meta.get("model", "?")).replace("_", "-")
+    if meta.get("geometric_stiffening") is not None and model == "first-order":
+        model += " (geometrically stiffened)" if meta["geometric_stiffening"] else \
+            " (the paper's, without geometric stiffening)"
+    line = f"model: {model}, {meta.get('path', '?')} joints, integrator {meta.get('method', '?')}"
+    if "peak_tip_deflection_per_length" in meta:
+        from .simulation.common import FIRST_ORDER_LIMIT
+
+        line += (f"; peak tip deflection {100 * meta['peak_tip_deflection_per_length']:.1f}% "
+                 f"of its link's length (first-order theory holds to about "
+                 f"{100 * FIRST_ORDER_LIMIT:.0f}%)")
+    return line

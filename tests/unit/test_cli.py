@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 import flexlink.simulation
-from flexlink.cli import main
-from flexlink.model import Scenario
 from flexlink.channels.catalogue import catalogue
+from flexlink.cli import main
+from flexlink.errors import SimulationError
+from flexlink.model import Scenario
 from flexlink.results import Results
 from flexlink.scenario import load_scenario, paper_experiment_path
-from flexlink.errors import SimulationError
 
 SHORT = """\
 [simulation]
@@ -212,3 +212,21 @@ def test_default_output_folder_is_named_after_the_scenario(
     monkeypatch.chdir(tmp_path)
     assert main(["run", str(write(tmp_path, SHORT, "arm.toml")), "-q", "--no-figures"]) == 0
     assert (tmp_path / "arm_results" / "results.csv").is_file()
+
+
+def test_summary_says_which_model_ran_and_warns_past_its_validity(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    gentle = write(tmp_path, SHORT.replace("to_deg = 20.0", "to_deg = 5.0"))
+    assert main(["run", str(gentle), "-o", str(tmp_path / "a"), "--no-figures"]) == 0
+    out = capsys.readouterr().out
+    assert "model: first-order (the paper's, without geometric stiffening), prescribed joints" in out
+    assert "peak tip deflection" in out and "warning" not in out
+    # the same arm swung through 90° in 0.1 s: its tip deflects about half its length
+    fast = write(tmp_path, SHORT.replace("to_deg = 20.0, start = 0.0, duration = 0.2",
+                                         "to_deg = 90.0, start = 0.0, duration = 0.1")
+                 .replace('name = "short"', 'name = "short"\ngeometric_stiffening = true'),
+                 "fast.toml")
+    assert main(["run", str(fast), "-o", str(tmp_path / "b"), "--no-figures"]) == 0
+    out = capsys.readouterr().out
+    assert "(geometrically stiffened)" in out
+    assert "warning: the tip of arm deflected" in out and 'model = "nonlinear"' in out
