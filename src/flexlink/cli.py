@@ -169,7 +169,9 @@ def _model_line(meta: dict[str, Any]) -> str:
     if meta.get("geometric_stiffening") is not None and model == "first-order":
         model += " (geometrically stiffened)" if meta["geometric_stiffening"] else \
             " (the paper's, without geometric stiffening)"
-    line = f"model: {model}, {meta.get('path', '?')} joints, integrator {meta.get('method', '?')}"
+    path = {"prescribed": "prescribed joints",
+            "forward": "forward dynamics"}.get(str(meta.get("path")), str(meta.get("path")))
+    line = f"model: {model}, {path}, integrator {meta.get('method', '?')}"
     if "peak_tip_deflection_per_length" in meta:
         from .simulation.common import FIRST_ORDER_LIMIT
 
