@@ -176,16 +176,18 @@ def test_the_sensor_figure_shows_channels_of_kind_sensor_only(
 
     monkeypatch.setattr(plotting, "plot_channels", spy)
     paths = writers.write_figures(forward_results(), tmp_path / "figures")
-    assert [p.name for p in paths] == ["joint_angles.png", "sensors.png", "tip_paths.png"]
-    assert drawn == [["tip", "root"]]  # no base_x, joint1_rate, angular_momentum
+    assert [p.name for p in paths] == ["joint_angles.png", "sensors.png", "tip_paths.png",
+                                       "base.png"]
+    # sensors.png: no base_x, joint1_rate, angular_momentum; base.png: the base's pose only
+    assert drawn == [["tip", "root"], ["base_x"]]
     titles = [ax.get_title(loc="left") for ax in forward_results().plot().axes]
-    assert [t.split(":")[0] for t in titles] == ["tip", "root"]
+    assert [t.split(" — ")[0] for t in titles] == ["tip", "root"]
 
 
 def test_results_plot_repr_and_html() -> None:
     results = forward_results()
     base = results.plot("base").axes
-    assert [ax.get_title(loc="left").split(":")[0] for ax in base] == ["base_x"]
+    assert [ax.get_title(loc="left").split(" — ")[0] for ax in base] == ["base_x"]
     assert base[0].get_ylabel() == "x [mm]"
     assert results.plot("joint").axes[0].get_ylabel() == "joint angle [deg]"
     assert results.plot(ChannelKind.TIP).axes[0].get_xlabel() == "X [m]"
@@ -277,3 +279,31 @@ def test_read_run_names_the_folder_and_the_missing_files(tmp_path: Path) -> None
                                                  "it has no results.nc and no channels.csv"):
         read_run(tmp_path)
     assert issubclass(NotARunFolderError, FileNotFoundError)
+
+
+def test_figures_name_scenario_model_and_link() -> None:
+    results = forward_results()
+    results.metadata.update(scenario="unit", model="first_order", geometric_stiffening=True,
+                            path="forward", method="DOP853")
+    fig = results.plot()
+    assert [t.get_text() for t in fig.texts] == [
+        "scenario 'unit' · first-order, stiffened model · forward dynamics · DOP853"]
+    assert fig.axes[0].get_title(loc="left") == "tip — deflection at x = 0.6 m (on arm)"
+
+
+def test_torques_of_different_size_get_panels_of_their_own() -> None:
+    t = np.linspace(0.0, 1.0, 11)
+    results = Results(time=t)
+    for k, scale in ((1, 8.0), (2, 0.1)):
+        results.add(Channel(f"joint{k}_angle", ChannelKind.JOINT, "rad", "", "angle",
+                            f"joint{k}"), t)
+        results.add(Channel(f"joint{k}_torque", ChannelKind.JOINT, "N m", "", "torque",
+                            f"joint{k}"), scale * np.sin(t))
+    assert len(results.plot("joint").axes) == 3  # angles, τ1, τ2
+    alike = Results(time=t)
+    for k in (1, 2):
+        alike.add(results.channels[f"joint{k}_angle"], t)
+        alike.add(results.channels[f"joint{k}_torque"], np.sin(t))
+    axes = alike.plot("joint").axes
+    assert len(axes) == 2  # one shared torque panel, the equal curves in different styles
+    assert [ln.get_linestyle() for ln in axes[1].get_lines()] == ["-", "--"]

@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from ..channels import ChannelKind, ChannelTable, Unit
+from ..channels import Channel, ChannelKind, ChannelTable, Unit
 
 DPI = 150
 # stored unit → (display factor, display unit)
@@ -30,6 +30,9 @@ _DISPLAY: dict[str, tuple[float, str]] = {
     Unit.NEWTON_METRE_SECOND: (1.0, "N·m·s"),
 }
 _QUANTITY = {"piezo": "voltage"}  # axis label of a quantity, where it differs
+# Line styles cycled over curves that share an axis: equal curves (symmetric appendages)
+# would otherwise hide one another.
+_STYLES = ("-", "--", "-.", ":")
 
 
 def display_scale(unit: str) -> tuple[float, str]:
@@ -70,17 +73,39 @@ def plot_kind(results: ChannelTable, kind: ChannelKind) -> Figure:
         return plot_joint_angles(results)
     if kind is ChannelKind.TIP:
         return plot_tip_paths(results)
+    if kind is ChannelKind.BASE:
+        return plot_base(results)
     return plot_channels(results, results.names_of(kind))
 
 
-def _figure(width: float, height: float, top: float = 0.15) -> Figure:
-    """A figure with fixed margins in inches (room for the y labels and the time axis).
+def caption(results: ChannelTable) -> str:
+    """What a figure shows: the scenario, the model and the integrator that ran."""
+    meta = results.metadata
+    model = str(meta.get("model", "")).replace("_", "-")
+    if model == "first-order" and "geometric_stiffening" in meta:
+        model += ", stiffened" if meta["geometric_stiffening"] else ", the paper's"
+    parts = [f"scenario '{meta['scenario']}'" if "scenario" in meta else "",
+             f"{model} model" if model else "",
+             "forward dynamics" if meta.get("path") == "forward" else "",
+             str(meta.get("method", ""))]
+    return " · ".join(p for p in parts if p)
+
+
+def _figure(results: ChannelTable, width: float, height: float, panels: int = 1,
+            top: float = 0.45, bottom: float = 0.5, gap: float = 0.45) -> Figure:
+    """A figure with fixed margins in inches (room for the y labels, the time axis, a caption
+    naming scenario and model at the top, and ``gap`` between panels for their titles).
 
     Fixed margins instead of matplotlib's constrained layout: the layout solver took half of a
     command-line run's plotting time, and these figures all share one simple structure."""
     fig = Figure(figsize=(width, height), dpi=DPI)
-    fig.subplots_adjust(left=0.85 / width, right=1 - 0.12 / width, bottom=0.5 / height,
-                        top=1 - top / height, hspace=0.35 / max(height / 3.0, 1.0))
+    panel = (height - top - bottom - gap * (panels - 1)) / panels
+    fig.subplots_adjust(left=0.85 / width, right=1 - 0.15 / width, bottom=bottom / height,
+                        top=1 - top / height, hspace=gap / panel)
+    text = caption(results)
+    if text:
+        fig.text(0.1 / width, 1 - 0.08 / height, text, fontsize="small", color="0.3",
+                 va="top", ha="left")
     return fig
 
 
@@ -90,35 +115,53 @@ def _style(ax: Axes) -> None:
 
 
 def plot_joint_angles(results: ChannelTable) -> Figure:
-    """Joint angles β_k in degrees against time (s), like the paper's Fig. 7."""
+    """Joint angles β_k in degrees against time (s), like the paper's Fig. 7, servo references
+    dashed; below, the joint torques, each joint on its own panel when their sizes differ
+    (a small torque would hide under a large one on a shared axis)."""
     names = joint_channels(results)
     if not names:
         raise ValueError("no joint angle channels in the results")
     torques = joint_channels(results, "torque")
+    groups = _torque_panels(results, torques)
     references = {results.channels[n].subject: n for n in joint_channels(results, "reference")}
-    fig = _figure(6.4, 3.6 if not torques else 5.6)
-    axes = fig.subplots(2 if torques else 1, 1, sharex=True, squeeze=False)[:, 0]
+    height = 3.0 + 1.9 * len(groups)
+    fig = _figure(results, 6.4, height, panels=1 + len(groups), gap=0.25)
+    axes = fig.subplots(1 + len(groups), 1, sharex=True, squeeze=False)[:, 0]
     ax = axes[0]
-    for name in names:
+    colours = {}  # a joint's torque in its angle's colour
+    for i, name in enumerate(names):
         subject = results.channels[name].subject
         k = subject.removeprefix("joint")
-        (line,) = ax.plot(results.time, np.degrees(results[name]), label=rf"$\beta_{{{k}}}$")
+        (line,) = ax.plot(results.time, np.degrees(results[name]), label=rf"$\beta_{{{k}}}$",
+                          linestyle=_STYLES[i % len(_STYLES)])
+        colours[name] = line.get_color()
         if subject in references:
             ax.plot(results.time, np.degrees(results[references[subject]]), "--",
                     color=line.get_color(), linewidth=0.8, label=rf"$\beta_{{{k}}}$ reference")
     ax.set_ylabel("joint angle [deg]")
     ax.legend(loc="lower right")  # "best" scans every vertex: ~0.1 s a legend
-    for name in torques:
-        k = results.channels[name].subject.removeprefix("joint")
-        axes[1].plot(results.time, results[name], label=rf"$\tau_{{{k}}}$")
-    if torques:
-        axes[1].set_ylabel("motor torque [N·m]")
-        axes[1].legend(loc="upper right")
+    for panel, group in zip(axes[1:], groups):
+        for i, name in enumerate(group):
+            k = results.channels[name].subject.removeprefix("joint")
+            angle = f"joint{k}_angle"
+            panel.plot(results.time, results[name], label=rf"$\tau_{{{k}}}$",
+                       color=colours.get(angle), linestyle=_STYLES[i % len(_STYLES)])
+        panel.set_ylabel("joint torque [N·m]")
+        panel.legend(loc="upper right")
     axes[-1].set_xlabel("time t [s]")
     axes[-1].set_xlim(results.time[0], results.time[-1])
     for a in axes:
         _style(a)
     return fig
+
+
+def _torque_panels(results: ChannelTable, torques: list[str]) -> list[list[str]]:
+    """Torques sharing a panel: all of them when their peaks are within a factor of 5, else
+    one panel each."""
+    peaks = [float(np.abs(results[n]).max()) for n in torques]
+    if not torques or max(peaks) <= 5.0 * max(min(peaks), 1e-300):
+        return [torques] if torques else []
+    return [[n] for n in torques]
 
 
 def plot_sensors(results: ChannelTable, names: Sequence[str] | None = None) -> Figure:
@@ -136,7 +179,7 @@ def plot_channels(results: ChannelTable, names: Sequence[str]) -> Figure:
     """One panel per channel against time (s), in display units."""
     if not names:
         raise ValueError("no channels to plot")
-    fig = _figure(6.4, 1.1 + 1.9 * len(names), top=0.35)
+    fig = _figure(results, 6.4, 1.3 + 2.2 * len(names), panels=len(names), top=0.7)
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     for ax, name in zip(axes, names, strict=True):
         channel = results.channels[name]
@@ -144,11 +187,29 @@ def plot_channels(results: ChannelTable, names: Sequence[str]) -> Figure:
         ax.plot(results.time, results[name] * factor, linewidth=1.0)
         label = _QUANTITY.get(channel.quantity, channel.quantity) or name
         ax.set_ylabel(f"{label} [{unit or '-'}]")
-        ax.set_title(f"{name}: {channel.description}", fontsize="medium", loc="left")
+        ax.set_title(panel_title(channel), fontsize="medium", loc="left")
+        ax.yaxis.set_offset_position("right")  # a "1e-14" multiplier clear of the title
         _style(ax)
     axes[-1].set_xlabel("time t [s]")
     axes[-1].set_xlim(results.time[0], results.time[-1])
     return fig
+
+
+def panel_title(channel: Channel) -> str:
+    """``name — description (on link)``: which link a sensor sits on, where it is not in the
+    description already."""
+    where = channel.subject
+    on = f" (on {where})" if where and channel.kind is ChannelKind.SENSOR else ""
+    return f"{channel.name} — {channel.description}{on}"
+
+
+def plot_base(results: ChannelTable) -> Figure:
+    """The moving base's pose against time: attitude in degrees, position in mm."""
+    names = [n for n in results.names_of(ChannelKind.BASE)
+             if not results.channels[n].quantity.endswith("_rate")]
+    if not names:
+        raise ValueError("no base pose channels in the results")
+    return plot_channels(results, names)
 
 
 def plot_tip_paths(results: ChannelTable) -> Figure:
@@ -156,7 +217,7 @@ def plot_tip_paths(results: ChannelTable) -> Figure:
     links = tip_links(results)
     if not links:
         raise ValueError("no tip position channels in the results")
-    fig = _figure(5.6, 5.2, top=0.4)
+    fig = _figure(results, 5.6, 5.8, top=0.6, bottom=1.1)
     ax = fig.add_subplot()
     ax.plot([0.0], [0.0], "k+", markersize=10, label="joint 1 (origin)")
     for link in links:
@@ -168,6 +229,8 @@ def plot_tip_paths(results: ChannelTable) -> Figure:
     ax.set_ylabel("Y [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_title("tip paths (○ start, □ end)", fontsize="medium")
-    ax.legend(loc="upper right", fontsize="small")
+    # below the axes: inside, a legend can cover a path
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, fontsize="small",
+              frameon=False)
     _style(ax)
     return fig

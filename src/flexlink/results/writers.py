@@ -127,8 +127,9 @@ def write_channels_csv(results: Results, path: Path) -> None:
 
 
 def write_figures(results: Results, folder: Path) -> list[Path]:
-    """joint_angles.png, sensors.png (channels of kind ``sensor`` only) and tip_paths.png,
-    each if the results have such channels; return their paths."""
+    """joint_angles.png, sensors.png (channels of kind ``sensor`` only), tip_paths.png and
+    base.png (a moving base's pose), each if the results have such channels; return their
+    paths."""
     from . import plotting
 
     folder.mkdir(exist_ok=True)
@@ -139,6 +140,8 @@ def write_figures(results: Results, folder: Path) -> list[Path]:
         figures["sensors"] = plotting.plot_sensors(results)
     if plotting.tip_links(results):
         figures["tip_paths"] = plotting.plot_tip_paths(results)
+    if results.names_of(ChannelKind.BASE):
+        figures["base"] = plotting.plot_base(results)
     paths = []
     for stem, fig in figures.items():
         paths.append(folder / f"{stem}.png")
