@@ -3,8 +3,10 @@
 The "truth" is the paper's arm with geometric stiffening, 6 modes per link (the fitted scenario
 has 4 and no stiffening), a link-1 modulus and damping ratios the fitted scenario is not told;
 the measurement adds what real instruments do: a quantised encoder angle, a noisy potentiometer
-angle (filtered at 30 Hz by the mapping), accelerometer noise, and a PZT read through a charge
-amplifier with a gain error, an offset, a drift and noise, all sensors 1 ms late.
+angle (white noise through the potentiometer's analog filter, filtered again at 30 Hz by the
+mapping), accelerometer noise and gain error, and a PZT read through a charge amplifier with a
+gain error, an offset, a drift and noise, all sensors late. ``Truth`` sets the manoeuvre (start,
+duration, rest after it) and every nuisance; ``MANOEUVRES`` are the lab cases the slow tests fit.
 """
 
 from __future__ import annotations
@@ -28,12 +30,16 @@ class Truth:
     modes: int = 6
     stiffening: bool = True
     t_end: float = 5.0  # s
+    move_start: float = 0.5  # s, both joints move together (cycloidal)
+    move_duration: float = 1.0  # s
     pzt_gain: float = 1.15
+    acc_gain: float = 1.0
     pzt_offset: float = 0.02  # V
     pzt_drift: float = 0.004  # V/s
     delay: float = 1e-3  # s, sensors lag the angles
     encoder_step_deg: float = 0.01
-    pot_noise_deg: float = 0.05
+    pot_noise_deg: float = 0.05  # std of the potentiometer's noise after its analog filter
+    pot_analog_hz: float | None = None  # Hz, analog (2nd-order) filter of the noise; None: white
     acc_noise: float = 0.02  # fraction of the peak
     pzt_noise: float = 0.02  # fraction of the peak
     seed: int = 0
@@ -51,8 +57,26 @@ def truth_scenario(truth: Truth) -> Scenario:
     link2 = dataclasses.replace(link2, damping_ratio=truth.zeta2, modes=truth.modes)
     settings = SimulationSettings(t_end=truth.t_end, dt_out=1e-3,
                                   geometric_stiffening=truth.stiffening)
-    return Scenario(chain=Chain((link1, link2), base.chain.joints), sensors=base.sensors,
+    return Scenario(chain=Chain((link1, link2), joint_motions(truth)), sensors=base.sensors,
                     settings=settings, name="truth")
+
+
+def joint_motions(truth: Truth) -> tuple[Cycloidal, Cycloidal]:
+    """The true manoeuvre: β1 0 → 90°, β2 90 → 170°, together."""
+    return (Cycloidal(0.0, 90.0, truth.move_start, truth.move_duration),
+            Cycloidal(90.0, 170.0, truth.move_start, truth.move_duration))
+
+
+def pot_noise(truth: Truth, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Potentiometer noise (deg): white, or through its analog filter, scaled to
+    pot_noise_deg after the filter."""
+    noise = rng.normal(size=t.size)
+    if truth.pot_analog_hz is not None:
+        from scipy.signal import butter, lfilter
+
+        b, a = butter(2, truth.pot_analog_hz, fs=1.0 / (t[1] - t[0]))
+        noise = lfilter(b, a, noise)
+    return truth.pot_noise_deg * noise / np.std(noise)
 
 
 def measured_columns(truth: Truth) -> tuple[dict[str, np.ndarray], object]:
@@ -61,10 +85,9 @@ def measured_columns(truth: Truth) -> tuple[dict[str, np.ndarray], object]:
     results = simulate(truth_scenario(truth))
     t = results.time
     rng = np.random.default_rng(truth.seed)
-    beta1 = np.degrees(Cycloidal(0.0, 90.0, 0.5, 1.0).evaluate(t)[0])
-    beta2 = np.degrees(Cycloidal(90.0, 170.0, 0.5, 1.0).evaluate(t)[0])
+    beta1, beta2 = (np.degrees(m.evaluate(t)[0]) for m in joint_motions(truth))
     late = t - truth.delay
-    acc = np.interp(late, t, results["link1_tip_acceleration"])
+    acc = truth.acc_gain * np.interp(late, t, results["link1_tip_acceleration"])
     pzt = np.interp(late, t, results["pzt"])
     acc = acc + truth.acc_noise * np.abs(acc).max() * rng.normal(size=t.size)
     pzt = (truth.pzt_gain * pzt + truth.pzt_offset + truth.pzt_drift * t
@@ -72,11 +95,31 @@ def measured_columns(truth: Truth) -> tuple[dict[str, np.ndarray], object]:
     columns = {
         "t": t,
         "beta1": np.round(beta1 / truth.encoder_step_deg) * truth.encoder_step_deg,
-        "beta2": beta2 + truth.pot_noise_deg * rng.normal(size=t.size),
+        "beta2": beta2 + pot_noise(truth, t, rng),
         "acc": acc,
         "pzt_v": pzt,
     }
     return columns, results
+
+
+# the lab cases of the slow tests: two manoeuvres with 2 s of rest after them, noise levels
+# from a good potentiometer to a poor one, a coarse encoder, gain errors, delays
+MANOEUVRES = {
+    "1.5 s move, 0.2 deg pot": Truth(move_duration=1.5, t_end=4.0, pot_noise_deg=0.2,
+                                     pot_analog_hz=100.0, seed=5),
+    "2 s move, coarse encoder": Truth(move_start=0.3, move_duration=2.0, t_end=4.3,
+                                      encoder_step_deg=0.05, pot_noise_deg=0.1,
+                                      pot_analog_hz=200.0, acc_gain=0.97, pzt_gain=0.8,
+                                      delay=2e-3, E1=35e9, zeta1=0.015, zeta2=0.02, seed=6),
+}
+
+
+def scenario_text(truth: Truth) -> str:
+    """The paper's scenario file (what is fitted), ending where ``truth``'s data do."""
+    from flexlink.scenario import paper_experiment_path
+
+    text = paper_experiment_path().read_text(encoding="utf-8")
+    return text.replace("t_end = 5.0 ", f"t_end = {truth.t_end:g} ", 1)
 
 
 MAPPING = """

@@ -14,6 +14,7 @@ from flexlink.experiment.files import MeasurementError, read_columns
 from flexlink.experiment.measurement import (
     MeasurementSpec,
     MeasurementWarning,
+    NoisyAngleWarning,
     condition,
     parse_map_option,
     parse_spec,
@@ -235,7 +236,7 @@ def test_unfiltered_quantised_angle_is_warned() -> None:
     condition(cols, parse_spec(raw, SCENARIO), SCENARIO, "x")  # filtered: no warning
 
 
-def test_joint_angles_held_after_the_manoeuvre() -> None:
+def test_joint_angles_held_before_and_after_the_manoeuvre() -> None:
     from flexlink.experiment.comparison import HOLD_RAMP, held_angles
 
     n = 3000
@@ -245,14 +246,65 @@ def test_joint_angles_held_after_the_manoeuvre() -> None:
     rng = np.random.default_rng(2)
     cols = {"time_ms": t_ms, "b1": clean + rng.normal(0, 0.005, n), "acc_g": np.zeros(n),
             "pzt_mv": np.zeros(n)}
-    m = condition(cols, spec(), SCENARIO, "x")
+    with pytest.warns(NoisyAngleWarning):  # unfiltered noise: warned (see below)
+        m = condition(cols, spec(), SCENARIO, "x")
     held = held_angles(m)[0]
     after = m.time > 1.7 + HOLD_RAMP
     assert np.ptp(held[after]) == 0.0  # the noise is gone after the move …
     assert held[after][0] == pytest.approx(math.radians(9.0), abs=math.radians(0.002))
-    before = m.time < 1.5
-    np.testing.assert_array_equal(held[before], m.angles[0][before])  # … the move is untouched
+    before = m.time < 0.3
+    assert np.ptp(held[before]) == 0.0  # … and before it (the arm is at rest there too) …
+    assert held[0] == pytest.approx(0.0, abs=math.radians(0.002))
+    during = (m.time > 0.5) & (m.time < 1.5)
+    np.testing.assert_array_equal(held[during], m.angles[0][during])  # … the move is untouched
     assert any("held at their final values" in note for note in m.notes)
-    off = condition(cols, MeasurementSpec(**{**spec().__dict__, "hold_after_manoeuvre": False}),
-                    SCENARIO, "x")
+    assert any("held at their initial values" in note for note in m.notes)
+    with pytest.warns(NoisyAngleWarning):
+        off = condition(cols, MeasurementSpec(**{**spec().__dict__,
+                                                 "hold_after_manoeuvre": False}), SCENARIO, "x")
     np.testing.assert_array_equal(held_angles(off)[0], off.angles[0])
+
+
+def noisy_move(noise_deg: float, seed: int = 0, n: int = 4000) -> dict[str, np.ndarray]:
+    """A 1.5 s cycloidal move of 80° from 0.5 s, white angle noise, 2 s of rest after."""
+    t_ms = np.arange(n) * 1.0
+    tau = np.clip((t_ms / 1000 - 0.5) / 1.5, 0, 1)
+    clean = 80.0 * (tau - np.sin(2 * np.pi * tau) / (2 * np.pi))
+    rng = np.random.default_rng(seed)
+    return {"time_ms": t_ms, "b1": clean + rng.normal(0, noise_deg, n), "acc_g": np.zeros(n),
+            "pzt_mv": np.zeros(n)}
+
+
+def test_noisy_unfiltered_angle_is_warned_with_a_cutoff() -> None:
+    """Issue 15: 0.2° of noise, unfiltered, made the spline's joint accelerations noise and
+    the run stop with a misleading large-deflection message."""
+    with pytest.warns(NoisyAngleWarning, match=r"column 'b1'.*Set lowpass_hz = (\d+)") as got:
+        m = condition(noisy_move(0.2), spec(), SCENARIO, "x")
+    cutoff = float(__import__("re").search(r"lowpass_hz = (\d+)", str(got[0].message))[1])
+    assert 3.0 <= cutoff <= 30.0
+    assert "b1" in m.noisy_angles[0]
+    raw = dict(MAPPING)
+    raw["columns"] = [dict(MAPPING["columns"][0], lowpass_hz=cutoff)]
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("error")  # the suggested cut-off is enough
+        condition(noisy_move(0.2), parse_spec(raw, SCENARIO), SCENARIO, "x")
+    condition(noisy_move(0.0), spec(), SCENARIO, "x")  # a clean angle: no warning
+
+
+def test_failed_run_names_the_noisy_column(monkeypatch) -> None:
+    import flexlink.simulation
+    from flexlink.errors import SimulationError
+    from flexlink.experiment.comparison import simulate_driven
+
+    def fails(scenario, progress=False):
+        raise SimulationError("the tip deflection of link2 exceeds its length")
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", fails)
+    with pytest.warns(NoisyAngleWarning):
+        m = condition(noisy_move(0.2), spec(), SCENARIO, "x")
+    with pytest.raises(SimulationError, match=r"(?s)exceeds its length.*Likely cause.*'b1'"):
+        simulate_driven(SCENARIO, m)
+    clean = condition(noisy_move(0.0), spec(), SCENARIO, "x")
+    with pytest.raises(SimulationError) as err:
+        simulate_driven(SCENARIO, clean)
+    assert "Likely cause" not in str(err.value)

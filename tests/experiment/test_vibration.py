@@ -63,3 +63,42 @@ def test_manoeuvre_end() -> None:
     assert 1.5 < end < 1.65  # the move ends at 1.5 s; the margin is a tenth of its length
     assert manoeuvre_end(t, [np.zeros_like(t)]) == 0.0
     assert manoeuvre_end(t, [t]) is None  # still moving at the end
+
+
+def filtered_pot_move(duration: float, rest: float, noise_deg: float, seed: int):
+    """Joint angles (rad) of a cycloidal move from 0.5 s: an encoder (0.05° steps) and a
+    potentiometer with white noise, both filtered at 30 Hz as the docs suggest."""
+    from flexlink.experiment.measurement import lowpass
+
+    t = np.arange(0.0, 0.5 + duration + rest + 5e-4, 1e-3)
+    tau = np.clip((t - 0.5) / duration, 0, 1)
+    shape = tau - np.sin(2 * np.pi * tau) / (2 * np.pi)
+    rng = np.random.default_rng(seed)
+    encoder = np.round((90.0 * shape) / 0.05) * 0.05
+    pot = 90.0 + 80.0 * shape + rng.normal(0.0, noise_deg, t.size)
+    return t, {name: lowpass(t, np.radians(a), 30.0, name)
+               for name, a in (("joint1_angle", encoder), ("joint2_angle", pot))}
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize(("duration", "rest"), [(1.0, 3.5), (1.5, 2.0), (2.0, 2.0)])
+def test_window_robust_to_filtered_noise(duration, rest, seed) -> None:
+    """Issue 15: with 0.2° of potentiometer noise filtered at 30 Hz the window started at
+    3.1 s for a move ending at 1.5 s, or was not found with 2 s of rest after the move."""
+    from flexlink.experiment.vibration import detect_manoeuvre
+
+    t, angles = filtered_pot_move(duration, rest, 0.2, seed)
+    found = detect_manoeuvre(t, angles)
+    end = 0.5 + duration
+    assert found.free_start is not None, found.reason
+    assert end <= found.free_start < end + 0.25 * duration
+    assert 0.5 - 0.05 < found.start < 0.5 + 0.15 * duration
+
+
+def test_window_refusal_names_the_moving_joint() -> None:
+    from flexlink.experiment.vibration import detect_manoeuvre
+
+    t = np.linspace(0.0, 3.0, 3001)
+    found = detect_manoeuvre(t, {"joint1_angle": np.zeros_like(t), "joint2_angle": 0.3 * t})
+    assert found.free_start is None
+    assert "joint2_angle still moves" in found.reason and "deg" in found.reason

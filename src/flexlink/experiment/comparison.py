@@ -20,7 +20,7 @@ from ..motion import MeasuredMotion
 from ..results import Results
 from .files import MeasurementError
 from .measurement import Measurement, MeasurementWarning
-from .vibration import dominant_mode, manoeuvre_end
+from .vibration import Manoeuvre, detect_manoeuvre, dominant_mode
 
 
 @dataclass(frozen=True)
@@ -96,43 +96,102 @@ def driven_scenario(scenario: Scenario, measurement: Measurement) -> Scenario:
     return measured_inputs(scenario, measurement).drive(scenario)
 
 
-HOLD_RAMP = 0.05  # s, blend from the measured to the held angle
+HOLD_RAMP = 0.05  # s, blend between the measured and the held angle
+
+
+def manoeuvre(measurement: Measurement, results: Results | None = None) -> Manoeuvre:
+    """The joints' manoeuvre in the measured angles (and in the simulated angles of joints
+    the measurement does not drive), with ``free_vibration_start`` of the spec if given."""
+    t = measurement.time
+    angles = {joint_name(k, "angle"): a for k, a in measurement.angles.items()}
+    if results is not None:
+        for name in results.names_of(ChannelKind.JOINT):
+            if results.channels[name].quantity == "angle" and name not in angles:
+                angles[name] = np.interp(t, results.time, results[name])
+    found = detect_manoeuvre(t, angles)
+    given = measurement.spec.free_vibration_start
+    if given is not None:
+        found = dataclasses.replace(found, free_start=given, reason="")
+    return found
 
 
 def held_angles(measurement: Measurement) -> dict[int, np.ndarray]:
-    """The measured joint angles, held at their final value (median of the rest) once the
-    manoeuvre has ended, blended in over HOLD_RAMP from the window's start. Angle-sensor noise after the
-    manoeuvre would otherwise drive the model's free vibration — a forcing the real arm, whose
-    joints are at rest, does not feel — and bias its decay (docs/experiment.md)."""
+    """The measured joint angles held at their rest values before and after the manoeuvre:
+    the initial angle (median at rest) up to ``margin`` before the move starts, the final one
+    (median of the rest after it) from the free vibration's start, blended in over HOLD_RAMP.
+    Angle-sensor noise at rest would otherwise drive the model — a forcing the real arm, whose
+    joints are at rest, does not feel — and bias its decay and the gains (docs/experiment.md)."""
     angles = dict(measurement.angles)
     if not measurement.spec.hold_after_manoeuvre or not angles:
         return angles
     t = measurement.time
-    start = measurement.spec.free_vibration_start
-    if start is None:
-        start = manoeuvre_end(t, list(angles.values()))
-    if start is None or start >= t[-1]:
-        return angles
-    s = np.clip((t - start) / HOLD_RAMP, 0.0, 1.0)
-    weight = 0.5 * (1.0 - np.cos(np.pi * s))
+    move = manoeuvre(measurement)
+    hold_from = move.free_start
+    hold_to = move.start - move.margin - HOLD_RAMP if move.end > move.start else None
     out = {}
     for k, angle in angles.items():
-        final = float(np.median(angle[t >= start]))
-        out[k] = (1.0 - weight) * angle + weight * final
-    note = (f"joint angles held at their final values from t = {start:.4g} s (the joints are "
-            "at rest; angle noise would drive the model)")
-    if note not in measurement.notes:
-        measurement.notes.append(note)
+        held = angle
+        if hold_to is not None and hold_to > t[0]:
+            weight = _ramp((hold_to - t) / HOLD_RAMP)
+            held = (1.0 - weight) * held + weight * float(np.median(angle[t <= hold_to]))
+        if hold_from is not None and hold_from < t[-1]:
+            weight = _ramp((t - hold_from) / HOLD_RAMP)
+            held = (1.0 - weight) * held + weight * float(np.median(angle[t >= hold_from]))
+        out[k] = held
+    notes = []
+    if hold_to is not None and hold_to > t[0]:
+        notes.append(f"joint angles held at their initial values up to t = {hold_to:.4g} s")
+    if hold_from is not None and hold_from < t[-1]:
+        notes.append(f"joint angles held at their final values from t = {hold_from:.4g} s")
+    for note in notes:
+        note += " (the joints are at rest; angle noise would drive the model)"
+        if note not in measurement.notes:
+            measurement.notes.append(note)
     return out
 
 
+def _ramp(s: np.ndarray) -> np.ndarray:
+    """0 for s ≤ 0, 1 for s ≥ 1, a cosine between."""
+    return 0.5 * (1.0 - np.cos(np.pi * np.clip(s, 0.0, 1.0)))
+
+
 def free_vibration_start(measurement: Measurement, results: Results) -> float | None:
-    """Start (s) of the free vibration: the spec's value, else detected from the joint angles."""
-    if measurement.spec.free_vibration_start is not None:
-        return measurement.spec.free_vibration_start
-    angles = [results[name] for name in results.names_of(ChannelKind.JOINT)
-              if results.channels[name].quantity == "angle"]
-    return manoeuvre_end(results.time, angles)
+    """Start (s) of the free vibration: the spec's value, else detected from the joint angles;
+    warns with the reason when there is none."""
+    found = manoeuvre(measurement, results)
+    if found.free_start is None:
+        _warn_once(measurement, f"no free-vibration window: {found.reason}; frequency and "
+                                "damping are not estimated (set free_vibration_start in "
+                                "[measurement] or --free-from if the arm is at rest)")
+    return found.free_start
+
+
+EARLY_FRACTION = 0.05  # of the simulated peak: a response before the move beyond this is warned
+
+
+def _check_early_response(results: Results, measured: dict[str, np.ndarray], start: float,
+                          measurement: Measurement) -> None:
+    """Warn when a simulated channel responds before any measured joint moves (start, s)
+    while the measured one is quiet: the model is driven by something the arm did not do
+    (angle noise, with the hold switched off, or a joint profile moving early)."""
+    before = results.time < start - HOLD_RAMP
+    if before.sum() < 10:
+        return
+    for name, meas in measured.items():
+        sim = results[name]
+        quiet, early = float(np.std(meas[before])), float(np.std(sim[before]))
+        if early > max(3.0 * quiet, EARLY_FRACTION * float(np.ptp(sim))):
+            _warn_once(measurement, f"simulated {name} responds before the measured motion "
+                                    f"starts at t = {start:.4g} s ({early:.3g} RMS against "
+                                    f"{quiet:.3g} measured): the model is driven by what the "
+                                    "arm did not do (angle noise? hold the joints at rest)")
+
+
+def _warn_once(measurement: Measurement, message: str) -> None:
+    """A MeasurementWarning, also kept in the measurement's notes (the report lists them)."""
+    if message not in measurement.notes:
+        measurement.notes.append(message)
+        warnings.warn(f"{measurement.source}: {message}", MeasurementWarning, stacklevel=3)
 
 
 def on_grid(measurement: Measurement, t: np.ndarray) -> dict[str, np.ndarray]:
@@ -170,19 +229,37 @@ def signal_metrics(name: str, unit: str, t: np.ndarray, measured: np.ndarray,
 def compare(scenario: Scenario, measurement: Measurement, progress: bool = False) -> Comparison:
     """Simulate ``scenario`` driven by ``measurement``'s angles; metrics of every measured
     sensor channel."""
-    from ..simulation import simulate
-
     if not measurement.signals:
         raise MeasurementError(f"{measurement.source}: no sensor column to compare with (only "
                                "joint angles are mapped)")
-    results = simulate(driven_scenario(scenario, measurement), progress=progress)
+    results = simulate_driven(driven_scenario(scenario, measurement), measurement,
+                              progress=progress)
     return evaluate(results, measurement)
+
+
+def simulate_driven(scenario: Scenario, measurement: Measurement,
+                    progress: bool = False) -> Results:
+    """``simulate(scenario)``; if it fails while a measured angle is too noisy to drive the
+    model (`measurement.noisy_angles`), the error names that column as the likely cause."""
+    from ..errors import SimulationError
+    from ..simulation import simulate
+
+    try:
+        return simulate(scenario, progress=progress)
+    except SimulationError as exc:
+        if not measurement.noisy_angles:
+            raise
+        raise SimulationError(f"{exc}\nLikely cause: the measured joint accelerations are "
+                              "noise, not motion. "
+                              + " ".join(measurement.noisy_angles.values())) from exc
 
 
 def evaluate(results: Results, measurement: Measurement) -> Comparison:
     """Metrics of a finished simulation against the measurement."""
     measured = on_grid(measurement, results.time)
     free = free_vibration_start(measurement, results)
+    _check_early_response(results, measured, manoeuvre(measurement, results).start,
+                          measurement)
     metrics = [signal_metrics(name, measurement.units[name], results.time, values,
                               results[name], free)
                for name, values in measured.items()]

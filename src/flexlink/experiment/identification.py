@@ -28,16 +28,30 @@ import numpy as np
 
 from ..channels.catalogue import catalogue
 from ..model import Scenario
+from ..motion.measured import zero_phase_lowpass
 from ..results import Results
 from ..scenario import ScenarioError
 from ..scenario.fields import ScenarioFile
-from .comparison import Comparison, evaluate, free_vibration_start, measured_inputs, on_grid
+from .comparison import (
+    Comparison,
+    evaluate,
+    manoeuvre,
+    measured_inputs,
+    on_grid,
+    simulate_driven,
+)
 from .files import MeasurementError
 from .measurement import Measurement
 from .parameters import Parameter, model_values
 from .vibration import Mode, damped_modes, dominant_mode, spectral_peaks
 
 Z95 = 1.959964
+UNIDENTIFIABLE_RATIO = 10.0  # a 95 % interval wider than a decade says little
+
+
+class FitWarning(UserWarning):
+    """The fit finished but its answer is doubtful: the optimiser ran out of simulations, or
+    a parameter's interval is too wide to identify it; the message says which."""
 
 
 @dataclass(frozen=True)
@@ -54,6 +68,23 @@ class Estimate:
     lower: float
     upper: float
     at_bound: bool
+    identifiable: bool = True  # False: 95 % interval over a decade (or ± its typical size)
+
+    @property
+    def decades(self) -> float:
+        """Decades the 95 % interval spans (inf if it reaches 0 or changes sign)."""
+        if self.ci_low <= 0.0 < self.ci_high or self.ci_low * self.ci_high <= 0.0:
+            return math.inf
+        return abs(math.log10(self.ci_high / self.ci_low))
+
+    @property
+    def doubt(self) -> str:
+        """Why the parameter is not identifiable ("" if it is)."""
+        if self.identifiable:
+            return ""
+        span = ("reaches zero" if math.isinf(self.decades)
+                else f"spans {self.decades:.2g} decades")
+        return f"its 95 % interval {self.ci_low:.3g} … {self.ci_high:.3g} {span}"
 
     def as_dict(self) -> dict[str, Any]:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
@@ -82,6 +113,7 @@ class _Model:
     def __init__(self, file: ScenarioFile, params: list[Parameter], measurement: Measurement,
                  progress: Callable[[str], None] | None) -> None:
         self.file = file
+        self.measurement = measurement
         self.inputs = measured_inputs(file.build(), measurement)  # splines made once
         self.base = self.inputs.drive(file.build())
         self.params = params
@@ -91,14 +123,12 @@ class _Model:
         self.progress = progress
 
     def results(self, values: list[float]) -> Results:
-        from ..simulation import simulate
-
         model = [v for p, v in zip(self.params, values, strict=True) if p.is_model]
         key = tuple(np.round(model, 14))
         if key not in self.cache:
             if len(self.cache) > 64:
                 self.cache.pop(next(iter(self.cache)))
-            self.cache[key] = simulate(self.scenario(values))
+            self.cache[key] = simulate_driven(self.scenario(values), self.measurement)
             self.simulations += 1
             if self.progress:
                 self.progress(f"simulation {self.simulations}: {_shown(self.model_params, model)}")
@@ -205,15 +235,20 @@ def fit(scenario: ScenarioFile, measurement: Measurement, params: list[Parameter
             cov = _covariance(solution.jac, r, 0.0, known_weights=True)
         else:
             solution, values, r, cov = None, list(start), np.zeros(0), np.zeros((0, 0))
-        # over the whole run: the manoeuvre's forced response pins the gain; the free
-        # vibration's amplitude hangs on how sharply the measured input ends (filtering)
+        # over the whole run, below the free vibration's frequencies: the manoeuvre's forced
+        # (quasi-static) response pins the gain there; at the resonances the simulated
+        # response also holds what the angles' noise drives and how sharply the filtered
+        # input ends, content the measurement lacks and a regression would read as a low gain
         whole = np.ones_like(mask)
+        bands = {c: BAND_FRACTION * min(m.frequency_hz for m in modes)
+                 for c, modes in features.items()}
         values, cov = _linear_calibration(model.results(values), params, values, channels,
-                                          measured, whole, solved, cov, scales)
+                                          measured, whole, solved, cov, scales, bands)
         rms = float(np.sqrt(np.mean(r**2))) if r.size else 0.0
     estimates, corr = _estimates(params, values, scales, cov, first_values, start,
                                  solution.active_mask if solution is not None else None,
                                  solved)
+    _warn_doubts(estimates, solution, model.simulations)
     final = model.results(values)
     comparison = evaluate(_calibrated_results(final, channels, params, values), measurement)
     return FitResult(
@@ -221,11 +256,14 @@ def fit(scenario: ScenarioFile, measurement: Measurement, params: list[Parameter
         channels=channels, window=(t0, t1),
         cost=float(solution.cost) if solution is not None else 0.0,
         rms_residual=rms, simulations=model.simulations,
-        status=solution.message if solution is not None else "linear calibration only",
+        status=(("converged" if solution.status > 0 else "stopped at the simulation budget")
+                if solution is not None else "linear calibration only"),
         correlation=corr,
         info={"objective": objective,
               "nfev": int(solution.nfev) if solution is not None else 0,
               "success": bool(solution.success) if solution is not None else True,
+              "converged": solution is None or solution.status > 0,
+              "optimizer_message": solution.message if solution is not None else "",
               "residuals": int(r.size)})
 
 
@@ -301,13 +339,17 @@ def _modal_residual(t: np.ndarray, results: Results, features: dict[str, list[Mo
     return np.array(r)
 
 
+BAND_FRACTION = 0.5  # gains are regressed below this fraction of the lowest free frequency
+
+
 def _linear_calibration(results: Results, params: list[Parameter], values: list[float],
                         channels: list[str], measured: dict[str, np.ndarray], mask: np.ndarray,
-                        solved: list[int], cov_model: np.ndarray,
-                        scales: list[float]) -> tuple[list[float], np.ndarray]:
-    """Gains, offsets and drifts by linear least squares on the fitted simulation; the
-    covariance of all parameters (model block from the modal fit, calibration blocks from
-    the regression with AR(1)-widened residual variance), all in scaled units."""
+                        solved: list[int], cov_model: np.ndarray, scales: list[float],
+                        bands: dict[str, float] | None = None) -> tuple[list[float], np.ndarray]:
+    """Gains, offsets and drifts by linear least squares on the fitted simulation, both sides
+    low-passed at ``bands[channel]`` (Hz) where given; the covariance of all parameters
+    (model block from the modal fit, calibration blocks from the regression with
+    AR(1)-widened residual variance), all in scaled units."""
     values = list(values)
     n = len(params)
     cov = np.zeros((n, n))
@@ -319,8 +361,15 @@ def _linear_calibration(results: Results, params: list[Parameter], values: list[
             continue
         columns = {"gain": results[c][mask], "offset": np.ones(t.size), "drift": t}
         a = np.column_stack([columns[params[i].field] for i in cal])
-        coef, *_ = np.linalg.lstsq(a, measured[c][mask], rcond=None)
-        r = a @ coef - measured[c][mask]
+        b = measured[c][mask]
+        band = (bands or {}).get(c)
+        if band is not None and band < 0.5 / float(t[1] - t[0]):
+            # the same linear filter on both sides keeps meas = gain·sim + … exact
+            fs = 1.0 / float(t[1] - t[0])
+            a = np.column_stack([zero_phase_lowpass(col, band, fs) for col in a.T])
+            b = zero_phase_lowpass(b, band, fs)
+        coef, *_ = np.linalg.lstsq(a, b, rcond=None)
+        r = a @ coef - b
         s2 = float(r @ r) / max(r.size - len(cal), 1) * _ar1_factor(_ar1([r]))
         size = np.array([scales[i] for i in cal])
         cov[np.ix_(cal, cal)] = s2 * np.linalg.pinv(a.T @ a) / np.outer(size, size)
@@ -337,12 +386,13 @@ def _window(window: tuple[float | None, float | None], measurement: Measurement,
     t = results.time
     start, end = window
     if start is None:
-        start = free_vibration_start(measurement, results)
+        found = manoeuvre(measurement, results)
+        start = found.free_start
         if start is None:
             raise MeasurementError(
-                "no free vibration found after the manoeuvre (a joint still moves at the end "
-                "of the data); give the fit window explicitly (--window START:END or "
-                "[fit] window = [START, END])")
+                f"no free vibration found after the manoeuvre: {found.reason}; give the fit "
+                "window explicitly (--window START:END or [fit] window = [START, END]) or "
+                "free_vibration_start in [measurement]")
     end = float(t[-1]) if end is None else end
     if not t[0] <= start < end:
         raise MeasurementError(f"fit window {start:g} … {end:g} s is empty or outside the "
@@ -477,10 +527,27 @@ def _estimates(params: list[Parameter], values: list[float], scales: list[float]
         else:
             std = scales[i] * su
             low, high = v - Z95 * std, v + Z95 * std
+        # log-scaled: wider than a decade; linear: wider than ± the parameter's typical size
+        wide = (high / low > UNIDENTIFIABLE_RATIO if p.log and low > 0
+                else not math.isfinite(su) or Z95 * su > 1.0)
         out.append(Estimate(path=p.path, initial=initial[i], start=start[i], value=v, std=std,
                             ci_low=low, ci_high=high, lower=p.lower, upper=p.upper,
-                            at_bound=at_bound.get(i, False)))
+                            at_bound=at_bound.get(i, False), identifiable=not wide))
     return out, corr
+
+
+def _warn_doubts(estimates: list[Estimate], solution: Any, simulations: int) -> None:
+    """FitWarning for an optimiser stopped by its budget and for unidentifiable parameters."""
+    import warnings
+
+    if solution is not None and solution.status == 0:  # scipy: max_nfev reached
+        warnings.warn(f"the fit stopped at its budget ({simulations} simulations) before "
+                      "converging; the estimates may not be the optimum: raise "
+                      "max_simulations or start closer", FitWarning, stacklevel=3)
+    for e in estimates:
+        if not e.identifiable:
+            warnings.warn(f"{e.path} is not identifiable from these data: {e.doubt}; fix it "
+                          "or measure what excites it", FitWarning, stacklevel=3)
 
 
 def _calibrated_results(results: Results, channels: list[str], params: list[Parameter],

@@ -23,12 +23,13 @@ import numpy as np
 from ..channels import Channel, ChannelKind, Unit
 from ..channels.catalogue import catalogue, joint_name
 from ..model import Scenario
+from ..motion.measured import zero_phase_lowpass
 from ..scenario.errors import Problems
 from .files import MeasurementError
+from .vibration import EDGE_S, joint_rest
 
 MAX_FILL = 10  # samples: longer runs of NaN, or longer gaps in time, are errors
 UNIFORM_RTOL = 1e-3  # steps within this fraction of the median step count as uniform
-FILTER_ORDER = 4
 MEASUREMENT_KEYS = ("file", "time_column", "time_unit", "time_offset", "free_vibration_start",
                     "hold_after_manoeuvre", "columns")
 COLUMN_KEYS = ("column", "joint", "sensor", "unit", "scale", "offset", "lowpass_hz")
@@ -105,6 +106,8 @@ class Measurement:
     source: str
     spec: MeasurementSpec
     notes: list[str] = field(default_factory=list)  # every repair, as warned
+    # joint index (0-based) → why its angle is too noisy to drive the model (warned)
+    noisy_angles: dict[int, str] = field(default_factory=dict)
 
 
 def channel_units(scenario: Scenario) -> dict[str, str]:
@@ -258,10 +261,11 @@ def condition(columns: Mapping[str, np.ndarray], spec: MeasurementSpec, scenario
         raise MeasurementError(f"{source}: no column {', '.join(repr(m) for m in missing)}; "
                                f"available columns: {', '.join(columns)}")
     notes: list[str] = []
+    hints: dict[int, str] = {}
 
-    def warn(message: str) -> None:
+    def warn(message: str, category: type[MeasurementWarning] = MeasurementWarning) -> None:
         notes.append(message)
-        warnings.warn(f"{source}: {message}", MeasurementWarning, stacklevel=3)
+        warnings.warn(f"{source}: {message}", category, stacklevel=3)
 
     t = np.asarray(columns[spec.time_column], dtype=float) * TIME_UNITS[spec.time_unit]
     t = t + spec.time_offset
@@ -288,15 +292,17 @@ def condition(columns: Mapping[str, np.ndarray], spec: MeasurementSpec, scenario
         values = factor * (c.scale * data[c.column] + c.offset)
         if c.lowpass_hz is not None:
             values = lowpass(t, values, c.lowpass_hz, f"{source}: column {c.column!r}")
-        elif c.joint is not None:
-            _check_quantised(values, c.column, warn)
         if c.joint is not None:
+            quantised = c.lowpass_hz is None and _check_quantised(values, c.column, warn)
+            noisy = None if quantised else _check_noisy(t, values, c.column, c.lowpass_hz, warn)
+            if noisy:
+                hints[c.joint] = noisy
             angles[c.joint] = values
         else:
             signals[str(c.sensor)] = values
         units[c.target] = si_unit
     return Measurement(time=t, angles=angles, signals=signals, units=units, source=source,
-                       spec=spec, notes=notes)
+                       spec=spec, notes=notes, noisy_angles=hints)
 
 
 def _clean_time(t: np.ndarray, data: dict[str, np.ndarray], name: str, source: str,
@@ -368,13 +374,13 @@ def _uniform(t: np.ndarray, data: dict[str, np.ndarray], source: str, warn: Any,
     return grid, {k: np.interp(grid, t, v) for k, v in data.items()}
 
 
-def _check_quantised(angle: np.ndarray, name: str, warn: Any) -> None:
+def _check_quantised(angle: np.ndarray, name: str, warn: Any) -> bool:
     """Warn about a stepped (encoder) angle fed unfiltered to the spline, whose second
     derivative — the joint acceleration driving the model — is then spikes."""
     steps = np.diff(angle)
     changing = np.flatnonzero(steps != 0.0)
     if changing.size < 10:
-        return
+        return False
     during = steps[changing[0]:changing[-1] + 1]  # from the first change to the last
     flat = float(np.mean(during == 0.0))
     if flat > 0.3:
@@ -382,15 +388,73 @@ def _check_quantised(angle: np.ndarray, name: str, warn: Any) -> None:
         warn(f"column {name!r}: the angle moves in steps of {math.degrees(size):.3g} deg "
              f"(quantised) and is not filtered; its second derivative drives the model as "
              "acceleration spikes. Set lowpass_hz (e.g. 30)")
+        return True
+    return False
 
 
 def lowpass(t: np.ndarray, values: np.ndarray, cutoff_hz: float, label: str) -> np.ndarray:
     """Zero-phase Butterworth low-pass (order 4, forward and backward) on a uniform grid."""
-    from scipy.signal import butter, sosfiltfilt
-
     fs = (t.size - 1) / (t[-1] - t[0])
     if cutoff_hz >= 0.5 * fs:
         raise MeasurementError(f"{label}: lowpass_hz = {cutoff_hz:g} Hz must be below the "
                                f"Nyquist frequency {0.5 * fs:g} Hz of the samples")
-    sos = butter(FILTER_ORDER, cutoff_hz, btype="low", output="sos", fs=fs)
-    return sosfiltfilt(sos, values, padlen=min(3 * (2 * len(sos) + 1), t.size - 1))
+    return zero_phase_lowpass(values, cutoff_hz, fs)
+
+
+class NoisyAngleWarning(MeasurementWarning):
+    """A measured joint angle is so noisy that the spline's second derivative — the joint
+    acceleration driving the model — is mostly noise; the message names the column and a
+    ``lowpass_hz`` that would do."""
+
+
+NOISE_RATIO = 1.0  # noise-driven joint acceleration (RMS at rest) / manoeuvre's: warned above
+CUTOFFS_HZ = (100.0, 50.0, 30.0, 20.0, 15.0, 10.0, 7.0, 5.0, 3.0, 2.0, 1.0)  # suggestions
+MIN_CUTOFF_CYCLES = 5.0  # a suggested cut-off keeps ≥ this many cycles per move duration
+
+
+def _check_noisy(t: np.ndarray, angle: np.ndarray, column: str, cutoff_hz: float | None,
+                 warn: Any) -> str | None:
+    """Warn when the angle's noise at rest, differentiated twice, gives joint accelerations
+    beyond NOISE_RATIO × the manoeuvre's (4·travel/duration², the least any rest-to-rest move
+    of that travel and duration needs); suggest the highest cut-off from CUTOFFS_HZ that
+    brings them below half of that. Returns the warning's text (None: not noisy)."""
+    rest = joint_rest(t, angle)
+    if rest is None or rest.end <= rest.start:
+        return None
+    duration = rest.end - rest.start
+    a_move = 4.0 * rest.travel / (duration * (1.0 + 2.0 * rest.hidden)) ** 2
+    spare = rest.hidden * duration + EDGE_S
+    before = (t < rest.start - spare) & (t > t[0] + EDGE_S)
+    after = (t > rest.end + spare) & (t < t[-1] - EDGE_S)
+    at_rest = before | after
+    if at_rest.sum() < 10:
+        return None
+    a_noise = _acceleration_rms(t, angle, at_rest)
+    if a_noise <= NOISE_RATIO * a_move:
+        return None
+    fs = (t.size - 1) / (t[-1] - t[0])
+    floor = MIN_CUTOFF_CYCLES / duration
+    usable = [f for f in CUTOFFS_HZ if floor <= f < min(0.5 * fs, cutoff_hz or math.inf)]
+    good = [f for f in usable if _acceleration_rms(
+        t, zero_phase_lowpass(angle, f, fs), at_rest) <= 0.5 * NOISE_RATIO * a_move]
+    if good:
+        advice = f"set lowpass_hz = {good[0]:g} (Hz) on this column"
+    else:
+        advice = (f"even lowpass_hz = {min(usable, default=floor):.3g} Hz (the lowest that "
+                  "keeps the manoeuvre) leaves it noisy: check the sensor")
+    noise = math.sqrt(np.mean([np.var(angle[part]) for part in (before, after) if part.any()]))
+    message = (f"column {column!r}: its noise at rest ({math.degrees(noise):.2g} deg{'' if cutoff_hz is None else f' after lowpass_hz = {cutoff_hz:g}'}) "
+               f"makes joint accelerations of {a_noise:.3g} rad s-2 RMS through the spline's "
+               f"second derivative, {a_noise / a_move:.3g}× the manoeuvre's "
+               f"({a_move:.3g} rad s-2); they drive the model (a run may stop with a spurious "
+               f"large deflection). {advice[0].upper()}{advice[1:]}")
+    warn(message, NoisyAngleWarning)
+    return message
+
+
+def _acceleration_rms(t: np.ndarray, angle: np.ndarray, mask: np.ndarray) -> float:
+    """RMS (rad/s²) of the second differences of angle (rad) over the samples in mask."""
+    dt = float(t[1] - t[0])
+    inner = mask[1:-1] & mask[:-2] & mask[2:]
+    d2 = (angle[2:] - 2.0 * angle[1:-1] + angle[:-2])[inner] / dt**2
+    return float(np.sqrt(np.mean(d2**2))) if d2.size else 0.0

@@ -15,11 +15,12 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..results.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write_results_csv
 from ..results.plotting import DPI, display_scale
+from ..results.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write_results_csv
 from .comparison import Comparison, SignalMetrics
 from .identification import FitResult
 
+SPECTRUM_DECADES = 1e-4  # the spectra's axis spans this ratio below the highest peak
 METRIC_COLUMNS = ("name", "unit", "nrmse", "correlation", "peak_measured", "peak_simulated",
                   "peak_error", "frequency_measured", "frequency_simulated", "frequency_error",
                   "damping_measured", "damping_simulated")
@@ -30,8 +31,8 @@ def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[st
     """metrics.csv, metrics.json, simulated.csv, scenario.resolved.toml, figures, report.md."""
     with atomic_folder(out_dir, overwrite) as folder:
         _common(comparison, folder, resolved, figures)
-        lines = [f"# Comparison: {resolved['simulation']['name']} against "
-                 f"{comparison.measurement.source}", ""]
+        lines = [(f"# Comparison: {resolved['simulation']['name']} against "
+                 f"{comparison.measurement.source}"), ""]
         lines += _report_body(comparison, figures)
         (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     return Path(out_dir)
@@ -51,26 +52,42 @@ def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
                 "correlation": result.correlation.tolist(), **result.info}
         (folder / "fit.json").write_text(json.dumps(_clean(info), indent=2) + "\n",
                                          encoding="utf-8")
-        lines = [f"# Fit: {resolved['simulation']['name']} to "
-                 f"{result.comparison.measurement.source}", "",
-                 f"{len(result.estimates)} parameter(s) from {', '.join(result.channels)} on "
+        lines = [(f"# Fit: {resolved['simulation']['name']} to "
+                 f"{result.comparison.measurement.source}"), "",
+                 (f"{len(result.estimates)} parameter(s) from {', '.join(result.channels)} on "
                  f"{result.window[0]:.4g} … {result.window[1]:.4g} s; {result.simulations} "
                  f"simulations; RMS normalised residual {result.rms_residual:.4g}; "
-                 f"{result.status}", "",
-                 "| parameter | initial | start | estimate | 95 % interval | bounds |",
+                 f"{result.status}."), ""]
+        lines += _fit_warnings(result)
+        lines += ["| parameter | initial | start | estimate | 95 % interval | bounds |",
                  "|---|---|---|---|---|---|"]
         for e in result.estimates:
-            flag = " (at bound)" if e.at_bound else ""
+            flag = (" (at bound)" if e.at_bound else "") + (
+                "" if e.identifiable else " (not identifiable)")
             lines.append(f"| `{e.path}` | {e.initial:.5g} | {e.start:.5g} | **{e.value:.5g}**"
                          f"{flag} | {e.ci_low:.5g} … {e.ci_high:.5g} | {e.lower:.3g} … "
                          f"{e.upper:.3g} |")
-        lines += ["", "*start*: after matching the free-vibration frequency and damping "
+        lines += ["", ("*start*: after matching the free-vibration frequency and damping "
                   "(docs/experiment.md). Intervals assume the model is right; they are "
-                  "widened for correlated residuals but not for model error.", "",
+                  "widened for correlated residuals but not for model error."), "",
                   "## Fitted model against the measurement", ""]
         lines += _report_body(result.comparison, figures)
         (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     return Path(out_dir)
+
+
+def _fit_warnings(result: FitResult) -> list[str]:
+    """Warning lines of the fit report: a budget-stopped optimiser, unidentifiable values."""
+    lines = []
+    if not result.info.get("converged", True):
+        lines.append(f"> **Warning:** the optimiser stopped at its budget of "
+                     f"{result.simulations} simulations before converging (scipy: "
+                     f"{result.info.get('optimizer_message', '')}); raise max_simulations.")
+    for e in result.estimates:
+        if not e.identifiable:
+            lines.append(f"> **Warning:** `{e.path}` is not identifiable from these data: "
+                         f"{e.doubt}.")
+    return [*lines, ""] if lines else []
 
 
 def _common(comparison: Comparison, folder: Path, resolved: Mapping[str, Any],
@@ -93,8 +110,8 @@ def _common(comparison: Comparison, folder: Path, resolved: Mapping[str, Any],
 
 def _report_body(comparison: Comparison, figures: bool) -> list[str]:
     free = comparison.free_start
-    lines = ["| channel | NRMSE | correlation | peak meas. | peak sim. | peak error | "
-             "f meas. [Hz] | f sim. [Hz] | f error | ζ meas. | ζ sim. |",
+    lines = [("| channel | NRMSE | correlation | peak meas. | peak sim. | peak error | "
+             "f meas. [Hz] | f sim. [Hz] | f error | ζ meas. | ζ sim. |"),
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for m in comparison.metrics:
         lines.append(f"| {m.name} [{m.unit}] | {m.nrmse:.3g} | {m.correlation:.4f} | "
@@ -147,17 +164,22 @@ def spectra_figure(comparison: Comparison) -> Figure:
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     n = 1 << 16
     freqs = np.fft.rfftfreq(n, dt)
-    top = 1.0
+    top = max([4 * f for m in comparison.metrics
+                for f in (m.frequency_measured, m.frequency_simulated) if f] or [1.0])
+    shown = freqs <= min(top, freqs[-1])
     for ax, m in zip(axes, comparison.metrics, strict=True):
+        highest = 0.0
         for data, label, style in ((comparison.measured[m.name], "measured", "0.55"),
                                    (comparison.results[m.name], "simulated", "C3")):
             y = data[window] - np.mean(data[window])
-            ax.semilogy(freqs, np.abs(np.fft.rfft(y * np.hanning(y.size), n)) + 1e-300,
-                        color=style, linewidth=0.9, label=label)
+            amplitude = np.abs(np.fft.rfft(y * np.hanning(y.size), n)) + 1e-300
+            highest = max(highest, float(amplitude[shown].max()))
+            ax.semilogy(freqs, amplitude, color=style, linewidth=0.9, label=label)
         for f in (m.frequency_measured, m.frequency_simulated):
             if f:
                 ax.axvline(f, color="k", linestyle=":", linewidth=0.7)
-                top = max(top, 4 * f)
+        if highest > 0:  # four decades below the highest peak: the noise floor, not 1e-10
+            ax.set_ylim(highest * SPECTRUM_DECADES, highest * 2.0)
         ax.set_ylabel(f"|FFT| {m.name}")
         ax.grid(True, linewidth=0.5, alpha=0.6)
         ax.legend(loc="upper right", fontsize="small")
@@ -195,8 +217,8 @@ def _pct(value: float | None) -> str:
 
 def metrics_table(metrics: list[SignalMetrics]) -> str:
     """A plain-text table for the terminal."""
-    lines = [f"{'channel':<26} {'NRMSE':>7} {'corr':>7} {'f meas':>9} {'f sim':>9} "
-             f"{'f err':>8} {'ζ meas':>8} {'ζ sim':>8}"]
+    lines = [(f"{'channel':<26} {'NRMSE':>7} {'corr':>7} {'f meas':>9} {'f sim':>9} "
+             f"{'f err':>8} {'ζ meas':>8} {'ζ sim':>8}")]
     for m in metrics:
         lines.append(f"{m.name:<26} {m.nrmse:7.3f} {m.correlation:7.4f} "
                      f"{_num(m.frequency_measured):>9} {_num(m.frequency_simulated):>9} "

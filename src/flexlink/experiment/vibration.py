@@ -14,7 +14,9 @@ by noise and by how well the components are separated, not by the window length.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,35 +37,148 @@ class Mode:
     damping_std: float = math.nan  # standard error of the damping ratio
 
 
-def manoeuvre_end(t: np.ndarray, angles: list[np.ndarray], rel_tol: float = 1e-3,
-                  margin: float = 0.1) -> float | None:
-    """Time (s) after which every joint angle stays within ``rel_tol`` of its range of its
-    final value, plus ``margin`` × the manoeuvre's duration (the end of a smooth move is
-    asymptotic). 0 if nothing moves, None if some joint is still moving at the end."""
-    start, end = t[-1], t[0]
-    moved = False
-    for angle in angles:
-        span = float(np.ptp(angle))
-        if span < 1e-6:  # rad: a joint that does not move
-            continue
-        moved = True
-        n_tail = max(3, angle.size // 10)
-        tail = angle[-n_tail:]
-        final = float(np.median(tail))
-        # noisy angles (a potentiometer) never stay within rel_tol: allow their noise level,
-        # the scatter about a straight line (a joint still moving is not noise)
-        s = t[-n_tail:] - t[-n_tail]
-        noise = float(np.std(tail - np.polyval(np.polyfit(s, tail, 1), s)))
-        away = np.abs(angle - final) > max(rel_tol * span, 4.0 * noise)
-        if away[-1]:
-            return None
-        last = int(np.flatnonzero(away)[-1]) + 1 if away.any() else 0
-        first = int(np.argmax(np.abs(angle - angle[0]) > rel_tol * span))
-        start, end = min(start, t[first]), max(end, t[last])
-    if not moved:
-        return float(t[0])
-    free = end + margin * max(end - start, 0.0)
-    return float(free) if free < t[-1] else None
+EDGE_S = 0.1  # s ignored at each end of a record: a zero-phase filter's edge transients
+SMOOTH_S = 0.05  # s, moving average before thresholds: noise is not motion
+REST_FRACTION = 0.1  # of the record at each end where the rest angle and its noise are measured
+NOISE_SIGMAS = 5.0  # a departure from rest beyond this many noise σ is motion
+
+
+@dataclass(frozen=True)
+class JointRest:
+    """One joint's rest–move–rest: rest angles (rad) before and after, times (s) where it
+    leaves the first and reaches the second, the threshold (rad) that decided, the fraction
+    of the move's duration those thresholds may hide, and — if it has not come to rest at
+    the end of the data — by how much it still moves (rad over the record's last tenth)."""
+
+    name: str
+    initial: float
+    final: float
+    start: float
+    end: float
+    threshold: float
+    hidden: float
+    moving: float | None = None  # rad, change over the last tenth; None: at rest at the end
+
+    @property
+    def travel(self) -> float:
+        return abs(self.final - self.initial)
+
+
+@dataclass(frozen=True)
+class Manoeuvre:
+    """When the joints move (s) and where the free vibration starts (None: a joint still
+    moves at the end of the data, ``reason`` says which and by how much)."""
+
+    start: float
+    end: float
+    free_start: float | None
+    margin: float = 0.0  # s added after the detected end (and kept before the start)
+    joints: tuple[JointRest, ...] = ()
+    reason: str = ""
+
+
+MARGIN_FRACTION_MIN = 0.1  # of the manoeuvre's duration: a smooth move ends asymptotically
+
+
+def _smoothed(y: np.ndarray, width: int) -> np.ndarray:
+    """Centred moving average over ``width`` samples (edges use the samples there are)."""
+    if width <= 1:
+        return y.astype(float)
+    kernel = np.ones(width)
+    return np.convolve(y, kernel, "same") / np.convolve(np.ones_like(y), kernel, "same")
+
+
+def _rest_level(t: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+    """Median (rad), scatter about a straight line (rad, std) and change along that line
+    over the segment (rad) of a rest segment."""
+    s = t - t[0]
+    line = np.polyfit(s, y, 1) if y.size > 2 else np.array([0.0, float(np.mean(y))])
+    return (float(np.median(y)), float(np.std(y - np.polyval(line, s))),
+            float(line[0] * (s[-1] if s.size else 0.0)))
+
+
+def joint_rest(t: np.ndarray, angle: np.ndarray, name: str = "",
+               rel_tol: float = 1e-3) -> JointRest | None:
+    """The rest–move–rest of one joint angle (rad) on a uniform grid t (s), or None if it
+    does not move. Robust to filtered noise (moving average; thresholds from the noise at
+    rest, measured on the record's ends, then again on all of the rest found) and to filter
+    edge effects (EDGE_S ignored at both ends)."""
+    dt = float(t[1] - t[0])
+    edge = min(round(EDGE_S / dt), angle.size // 20)
+    y = _smoothed(angle, max(1, round(SMOOTH_S / dt)))
+    ti, yi = t[edge:angle.size - edge], y[edge:angle.size - edge]
+    n_rest = max(3, int(REST_FRACTION * angle.size))
+    rest = _move(ti, yi, n_rest, n_rest, rel_tol)
+    if rest is None:
+        return None
+    # the noise of a short rest segment is poorly known (filtered noise is correlated):
+    # measure it again on all the rest before and after the move
+    head = int(np.searchsorted(ti, rest.start - rest.hidden * (rest.end - rest.start)))
+    tail = yi.size - int(np.searchsorted(ti, rest.end + rest.hidden * (rest.end - rest.start)))
+    if head > n_rest or tail > n_rest:
+        rest = _move(ti, yi, max(head, n_rest), max(tail, n_rest), rel_tol) or rest
+    return dataclasses.replace(rest, name=name)
+
+
+def _move(t: np.ndarray, y: np.ndarray, n_head: int, n_tail: int,
+          rel_tol: float) -> JointRest | None:
+    """`joint_rest` with the rest measured on the first n_head and last n_tail samples."""
+    initial, noise0, _ = _rest_level(t[:n_head], y[:n_head])
+    final, noise1, _ = _rest_level(t[-n_tail:], y[-n_tail:])
+    span = max(abs(final - initial), float(np.ptp(y)))
+    if span <= max(NOISE_SIGMAS * max(noise0, noise1), 1e-6):  # rad: it does not move
+        return None
+    thr0, thr1 = (max(rel_tol * span, NOISE_SIGMAS * n) for n in (noise0, noise1))
+    away0 = np.flatnonzero(np.abs(y - initial) > thr0)
+    away1 = np.flatnonzero(np.abs(y - final) > thr1)
+    first = int(away0[0]) if away0.size else 0
+    last = int(away1[-1]) if away1.size else y.size - 1
+    # a rest-to-rest move leaves and reaches rest like c·u³ of its travel (c ≥ 1: cycloidal
+    # 6.6, quintic 10), so a threshold of a fraction r of the travel hides up to r^(1/3) of
+    # its duration at each end
+    hidden = max(MARGIN_FRACTION_MIN, 1.2 * (max(thr0, thr1) / span) ** (1.0 / 3.0))
+    n_last = max(3, int(REST_FRACTION * y.size))
+    _, _, change = _rest_level(t[-n_last:], y[-n_last:])
+    still = abs(change) > thr1 or last >= y.size - 1
+    return JointRest(name="", initial=initial, final=final, start=float(t[first]),
+                     end=float(t[last]), threshold=max(thr0, thr1), hidden=hidden,
+                     moving=max(abs(change), abs(float(y[-1]) - final)) if still else None)
+
+
+def detect_manoeuvre(t: np.ndarray, angles: Mapping[str, np.ndarray],
+                     rel_tol: float = 1e-3) -> Manoeuvre:
+    """The joints' manoeuvre on a uniform grid t (s) from their angles (rad, by name): it
+    starts when the first leaves rest and ends when the last reaches it (a departure beyond
+    ``rel_tol`` of its travel or five noise σ at rest, after a 50 ms moving average). The
+    free vibration starts a margin later (the thresholds hide the asymptotic end of a smooth
+    move: at least a tenth of its duration)."""
+    rests = [r for name, a in angles.items()
+             if (r := joint_rest(t, np.asarray(a, dtype=float), name, rel_tol)) is not None]
+    if not rests:
+        return Manoeuvre(start=float(t[0]), end=float(t[0]), free_start=float(t[0]))
+    start = min(r.start for r in rests)
+    end = max(r.end for r in rests)
+    margin = max(r.hidden for r in rests) * (end - start)
+    moving = [r for r in rests if r.moving is not None]
+    free = end + margin
+    reason = ""
+    if moving:
+        reason = "; ".join(
+            f"{r.name or 'a joint'} still moves at the end of the data: "
+            f"{math.degrees(r.moving):.3g} deg over the last {REST_FRACTION:.0%} of the record "
+            f"(its noise at rest allows {math.degrees(r.threshold):.2g} deg)" for r in moving)
+    elif free >= t[-1]:
+        reason = (f"the manoeuvre ends at t = {end:.4g} s and the free vibration would start "
+                  f"at {free:.4g} s, too close to the end of the data ({t[-1]:.4g} s)")
+    return Manoeuvre(start=start, end=end, free_start=None if reason else float(free),
+                     margin=margin, joints=tuple(rests), reason=reason)
+
+
+def manoeuvre_end(t: np.ndarray, angles: list[np.ndarray], rel_tol: float = 1e-3) -> float | None:
+    """Start (s) of the free vibration after the joints' manoeuvre (`detect_manoeuvre`):
+    t[0] if nothing moves, None if some joint is still moving at the end."""
+    return detect_manoeuvre(t, {f"joint{k + 1}": a for k, a in enumerate(angles)},
+                            rel_tol).free_start
 
 
 def dominant_mode(t: np.ndarray, y: np.ndarray, max_modes: int = 3) -> Mode | None:

@@ -168,8 +168,6 @@ def _lowpass(t: np.ndarray, y: np.ndarray, cutoff_hz: float,
              source: str) -> tuple[np.ndarray, np.ndarray]:
     """Zero-phase Butterworth low-pass of y(t); resamples onto a uniform grid (median step)
     first if the steps are not uniform. Returns the (possibly new) times and filtered values."""
-    from scipy.signal import butter, sosfiltfilt  # slow import, only needed when filtering
-
     try:
         fc = float(cutoff_hz)
     except (TypeError, ValueError):
@@ -179,7 +177,7 @@ def _lowpass(t: np.ndarray, y: np.ndarray, cutoff_hz: float,
     steps = np.diff(t)
     h = float(np.median(steps))
     if np.max(np.abs(steps - h)) > UNIFORM_RTOL * h:
-        count = int(round((t[-1] - t[0]) / h)) + 1
+        count = round((t[-1] - t[0]) / h) + 1
         grid = np.linspace(t[0], t[-1], max(count, MIN_SAMPLES))
         y = _spline(t, y)(grid)
         t = grid
@@ -187,6 +185,16 @@ def _lowpass(t: np.ndarray, y: np.ndarray, cutoff_hz: float,
     if fc >= 0.5 * fs:
         raise ValueError(f"{source}: lowpass_hz = {fc:g} Hz must be below the Nyquist "
                          f"frequency {0.5 * fs:g} Hz (sampling step {1.0 / fs:g} s)")
-    sos = butter(FILTER_ORDER, fc, btype="low", output="sos", fs=fs)
-    padlen = min(3 * (2 * len(sos) + 1), t.size - 1)
-    return t, sosfiltfilt(sos, y, padlen=padlen)
+    return t, zero_phase_lowpass(y, fc, fs)
+
+
+def zero_phase_lowpass(y: np.ndarray, cutoff_hz: float, fs: float) -> np.ndarray:
+    """Butterworth low-pass of order FILTER_ORDER at cutoff_hz (Hz, below fs/2), forward and
+    backward, of samples y at rate fs (Hz). The ends are padded by even reflection over three
+    periods of the cut-off: a measured angle usually rests there, and the default odd
+    reflection would pin the filtered end to the last sample's noise."""
+    from scipy.signal import butter, sosfiltfilt
+
+    sos = butter(FILTER_ORDER, cutoff_hz, btype="low", output="sos", fs=fs)
+    padlen = min(max(3 * (2 * len(sos) + 1), int(3.0 * fs / cutoff_hz)), y.size - 1)
+    return sosfiltfilt(sos, y, padtype="even", padlen=padlen)
