@@ -19,6 +19,7 @@ from ..results.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write
 from ..results.plotting import DPI, display_scale
 from .comparison import Comparison, SignalMetrics
 from .identification import FitResult
+from .report_html import write_experiment_report
 
 METRIC_COLUMNS = ("name", "unit", "nrmse", "correlation", "peak_measured", "peak_simulated",
                   "peak_error", "frequency_measured", "frequency_simulated", "frequency_error",
@@ -34,6 +35,7 @@ def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[st
                  f"{comparison.measurement.source}", ""]
         lines += _report_body(comparison, figures)
         (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        write_experiment_report(folder, comparison, resolved)
     return Path(out_dir)
 
 
@@ -70,6 +72,7 @@ def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
                   "## Fitted model against the measurement", ""]
         lines += _report_body(result.comparison, figures)
         (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        write_experiment_report(folder, result.comparison, resolved, fit=result)
     return Path(out_dir)
 
 
