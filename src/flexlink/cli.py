@@ -1,5 +1,6 @@
 """Command line: ``flexlink run``, ``flexlink paper``, ``flexlink show-paper``; ``sweep`` lives in
-`flexlink.batch.command`, ``compare`` and ``fit`` in `flexlink.experiment.commands`.
+`flexlink.batch.command`, ``compare`` and ``fit`` in `flexlink.experiment.commands`,
+``animate`` and ``report`` in `flexlink.results.command`.
 
 Exit status: 0 success, 1 the simulation failed, 2 invalid input (scenario, options, output
 folder), 130 interrupted. Input errors print every problem on stderr, one per line, without a
@@ -39,8 +40,13 @@ def build_parser() -> argparse.ArgumentParser:
     output.add_argument("-q", "--quiet", action="store_true",
                         help="no progress bar and no summary; print only the results folder")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    page = argparse.ArgumentParser(add_help=False)
+    page.add_argument("--no-report", action="store_true",
+                      help="skip report.html (the self-contained page of the run)")
+    page.add_argument("--animate", action="store_true",
+                      help="also write animation.gif (a few seconds) and show it in the report")
 
-    run = commands.add_parser("run", parents=[output], help="simulate a scenario file",
+    run = commands.add_parser("run", parents=[output, page], help="simulate a scenario file",
                               description="Load a TOML scenario, simulate it, write DIR.")
     run.add_argument("scenario", nargs="?", type=Path, metavar="SCENARIO.toml",
                      help="scenario file (default output folder: <name>_results)")
@@ -48,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="run the built-in paper experiment instead of a file")
     run.set_defaults(handler=_cmd_run, subparser=run)
 
-    paper = commands.add_parser("paper", parents=[output],
+    paper = commands.add_parser("paper", parents=[output, page],
                                 help="simulate the paper's two-link experiment",
                                 description="Simulate the built-in scenario of Choi & Kwak "
                                             f"(2016). Default DIR: {PAPER_DEFAULT_OUTPUT}.")
@@ -66,6 +72,10 @@ def build_parser() -> argparse.ArgumentParser:
     from .experiment.commands import add_commands  # compare, fit: docs/experiment.md
 
     add_commands(commands, output)
+
+    from .results.command import add_commands as add_results_commands  # animate, report
+
+    add_results_commands(commands)
     return parser
 
 
@@ -123,7 +133,7 @@ def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
         return _fail(f"error: {exc}")
     try:
         write_run(results, out_dir, resolved, figures=not args.no_figures,
-                  overwrite=args.overwrite)
+                  overwrite=args.overwrite, report=not args.no_report, animation=args.animate)
     except (ValueError, OSError) as exc:
         return _fail(f"error: could not write {out_dir}: {exc}")
     print(out_dir if args.quiet else summary(results, out_dir, scenario.name))

@@ -59,7 +59,7 @@ def test_run_folder_contents(tmp_path: Path, resolved: dict[str, Any]) -> None:
     results = fake_results()
     out = write_run(results, tmp_path / "run", resolved)
     assert sorted(p.name for p in out.iterdir()) == [
-        "channels.csv", "figures", "results.csv", "results.mat", "results.nc",
+        "channels.csv", "figures", "report.html", "results.csv", "results.mat", "results.nc",
         "scenario.resolved.toml"]
     assert sorted(p.name for p in (out / "figures").iterdir()) == [
         "joint_angles.png", "sensors.png", "tip_paths.png"]

@@ -86,7 +86,12 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
             raise SweepInterrupted(checkpoint.write(collector)) from None
     collector.settle()
     collector.attrs["sweep_state"] = "finished"
-    return checkpoint.write(collector)
+    dataset = checkpoint.write(collector)
+    if output is not None:  # the sweep's page beside its file (results/report_html.py)
+        from ..results.report_html import write_sweep_report
+
+        write_sweep_report(Path(output), layout=collector.layout())
+    return dataset
 
 
 def _parameters(grid: GridSpec, random: RandomSpec

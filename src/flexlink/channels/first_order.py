@@ -20,12 +20,13 @@ from typing import Protocol
 import numpy as np
 
 from ..dynamics.first_order import LinkBody
-from ..dynamics.kinematics import FrameMotion, rotation
+from ..dynamics.kinematics import FrameMotion
 from ..model import Chain, PointSensor, Sensor
 from ..modes import ModalData
 from ..solvers import Solution
 from .catalogue import tip_name
 from .modal import modal_reading
+from .shapes import POINTS, LinkShape, fractions
 
 
 class ElasticModel(Protocol):
@@ -64,11 +65,41 @@ def tip_deflections(model: ElasticModel, z: np.ndarray) -> np.ndarray:
 def tip_position(model: ElasticModel, frames: FrameMotion, z: np.ndarray, k: int) -> np.ndarray:
     """Global position (nt, 2) of link k's deformed tip, m."""
     d = model.modal[k]
+    X, Y = link_points(model, frames, z, k, np.array([d.length]), d.tip_value[None])
+    return np.column_stack([X[:, 0], Y[:, 0]])
+
+
+def link_points(model: ElasticModel, frames: FrameMotion, z: np.ndarray, k: int, x: np.ndarray,
+                phi: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Global X and Y, (nt, len(x)) each, m, of the points x (m from the joint) of link k:
+    origin_k + A(θ_k)·[x + ρx, ρy + x·θ1 + Φ(x)q_k]. ``phi``: Φ(x) (len(x), n_k) if known."""
+    d = model.modal[k]
+    if phi is None:
+        phi = d.shapes.evaluate(x, 0)
     rho = frames.apply(frames.T, k, z)
     q = z[:, model.bodies[k].slice]
-    local = np.stack([d.length + rho[:, 0], rho[:, 1] + d.length * rho[:, 2] + q @ d.tip_value],
-                     -1)
-    return frames.origin[:, k] + np.einsum("tij,tj->ti", rotation(frames.theta[:, k]), local)
+    c, s = np.cos(frames.theta[:, k]), np.sin(frames.theta[:, k])
+    # Linear in per-time factors: one small matrix product per axis instead of elementwise
+    # arithmetic on (nt, len(x)) arrays (a quarter of the cost on a paper run).
+    grid = np.vstack([np.ones_like(x), x, x, phi.T])  # (3 + n_k, len(x))
+    origin = frames.origin[:, k]
+    fx = np.column_stack([origin[:, 0] + c * rho[:, 0] - s * rho[:, 1], c, -s * rho[:, 2],
+                          -s[:, None] * q])
+    fy = np.column_stack([origin[:, 1] + s * rho[:, 0] + c * rho[:, 1], s, c * rho[:, 2],
+                          c[:, None] * q])
+    return fx @ grid, fy @ grid
+
+
+def shape_values(model: ElasticModel, frames: FrameMotion, z: np.ndarray,
+                 points: int = POINTS) -> list[LinkShape]:
+    """Every link's deformed shape on `points` evenly spaced points, and its rigid frame."""
+    out = []
+    for k, link in enumerate(model.chain.links):
+        fraction = fractions(points)
+        X, Y = link_points(model, frames, z, k, fraction * link.length)
+        out.append(LinkShape(link.name, link.length, fraction, X, Y,
+                             frames.origin[:, k], frames.theta[:, k]))
+    return out
 
 
 def _read(model: ElasticModel, frames: FrameMotion, solution: Solution,

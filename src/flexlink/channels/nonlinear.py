@@ -18,6 +18,7 @@ from ..model import PointSensor, Sensor
 from ..solvers import Solution
 from .catalogue import tip_name
 from .modal import modal_reading
+from .shapes import POINTS, LinkShape, fractions, rigid_chain_frames
 
 
 def sensor_values(system: NonlinearSystem, solution: Solution, sensors: tuple[Sensor, ...],
@@ -35,6 +36,23 @@ def tip_values(system: NonlinearSystem, solution: Solution,
         row = system.position_rows(k, np.array([link.length]))[0]
         out[tip_name(link.name, "X")] = np.cos(alpha) @ row
         out[tip_name(link.name, "Y")] = np.sin(alpha) @ row
+    return out
+
+
+def shape_values(system: NonlinearSystem, solution: Solution, hist: JointHistory,
+                 points: int = POINTS) -> list[LinkShape]:
+    """Every link's deformed shape on `points` evenly spaced points (exact positions), and its
+    rigid frame (the chain at the joint angles with straight links)."""
+    alpha = system.node_angles(solution.q, hist.angle)
+    c, s = np.cos(alpha), np.sin(alpha)
+    links = system.chain.links
+    origins, theta = rigid_chain_frames([link.length for link in links], hist.angle)
+    out = []
+    for k, link in enumerate(links):
+        fraction = fractions(points)
+        rows = system.position_rows(k, fraction * link.length)
+        out.append(LinkShape(link.name, link.length, fraction, c @ rows.T, s @ rows.T,
+                             origins[:, k], theta[:, k]))
     return out
 
 

@@ -19,6 +19,7 @@ from ..results.plotting import DPI, display_scale
 from ..results.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write_results_csv
 from .comparison import Comparison, SignalMetrics
 from .identification import FitResult
+from .report_html import write_experiment_report
 
 SPECTRUM_DECADES = 1e-4  # the spectra's axis spans this ratio below the highest peak
 METRIC_COLUMNS = ("name", "unit", "nrmse", "correlation", "peak_measured", "peak_simulated",
@@ -35,6 +36,7 @@ def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[st
                  f"{comparison.measurement.source}"), ""]
         lines += _report_body(comparison, figures)
         (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        write_experiment_report(folder, comparison, resolved)
     return Path(out_dir)
 
 
@@ -73,6 +75,7 @@ def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
                   "## Fitted model against the measurement", ""]
         lines += _report_body(result.comparison, figures)
         (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        write_experiment_report(folder, result.comparison, resolved, fit=result)
     return Path(out_dir)
 
 

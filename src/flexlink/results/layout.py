@@ -155,14 +155,19 @@ def metadata_of(attrs: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def run_layout(results: ChannelTable) -> Layout:
-    """A run: one variable per channel over ``time``; the metadata as global attributes."""
+    """A run: one variable per channel over ``time``; the links' deformed shapes, if the
+    results have them (`shapes.shape_variables`); the metadata as global attributes."""
+    from .shapes import shape_variables
+
     meta = results.metadata
     data = {n: Variable(("time",), results[n], channel_attributes(c))
             for n, c in results.channels.items()}
+    shape_coords, shape_data = shape_variables(getattr(results, "shapes", ()))
+    data.update(shape_data)
     what = ", ".join(f"{meta[k]}" for k in ("model", "method") if k in meta)
     wrote = f"simulate scenario {meta.get('scenario', '')!r}" + (f" ({what})" if what else "")
     title = f"flexlink run of scenario {meta.get('scenario', '')!r}"
-    return Layout({"time": time_variable(results.time)}, data,
+    return Layout({"time": time_variable(results.time), **shape_coords}, data,
                   global_attributes(title, results.created, wrote, meta))
 
 

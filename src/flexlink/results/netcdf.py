@@ -68,6 +68,8 @@ def _stored(variable: Variable) -> tuple[tuple[str, ...], np.ndarray]:
         if values.size and (values.min() < _INT32.min or values.max() > _INT32.max):
             raise ValueError("netCDF-3 holds integers of 32 bits only")
         return variable.dims, values.astype(np.int32)
+    if values.dtype == np.float32:  # stored single on purpose (the links' shapes)
+        return variable.dims, values
     return variable.dims, values.astype(np.float64)
 
 

@@ -11,6 +11,7 @@ from ..channels import Channel, ChannelKind
 from .layout import Layout, channel_of, metadata_of
 from .netcdf import read_netcdf
 from .results import Results
+from .shapes import shapes_of
 from .writers import CHANNELS_CSV, RESULTS_CSV, RESULTS_NC
 
 
@@ -37,12 +38,14 @@ def read_run(folder: str | Path) -> Results:
 
 def results_of(layout: Layout) -> Results:
     """The `Results` a run's layout holds (inverse of `layout.run_layout`): every variable over
-    ``time`` with a ``kind`` is a channel."""
+    ``time`` with a channel's ``kind`` is a channel; the shape variables are its ``shapes``."""
     results = Results(time=np.asarray(layout.coords["time"].values, dtype=float),
                       metadata=metadata_of(layout.attrs),
-                      created=str(layout.attrs.get("date_created", "")))
+                      created=str(layout.attrs.get("date_created", "")),
+                      shapes=shapes_of(layout))
+    kinds = {k.value for k in ChannelKind}
     for name, variable in layout.data.items():
-        if variable.dims == ("time",) and "kind" in variable.attrs:
+        if variable.dims == ("time",) and variable.attrs.get("kind") in kinds:
             results.add(channel_of(name, variable.attrs), variable.values)
     return results
 

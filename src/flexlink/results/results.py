@@ -5,11 +5,13 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..channels import Channel, ChannelKind
+from ..channels.shapes import LinkShape
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -23,7 +25,9 @@ class Results:
 
     ``results[name]`` is a channel's values, ``results.channels[name]`` its record (kind,
     unit, description); ``metadata`` says what ran (model, integrator, version, wall time);
-    ``created`` when (ISO 8601, UTC: the ``history`` of results.nc).
+    ``created`` when (ISO 8601, UTC: the ``history`` of results.nc); ``shapes`` every link's
+    deformed shape on a grid of points (`flexlink.channels.shapes`, what `animate` draws;
+    empty for results that do not have them).
     """
 
     time: np.ndarray
@@ -32,6 +36,7 @@ class Results:
     _values: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     created: str = field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"),
                          compare=False)
+    shapes: list[LinkShape] = field(default_factory=list, compare=False, repr=False)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self._values[name]
@@ -89,6 +94,14 @@ class Results:
             known = ", ".join(repr(k.value) for k in ChannelKind)
             raise ValueError(f"unknown channel kind {kind!r}; kinds: {known}") from None
         return plotting.plot_kind(self, kind)
+
+    def animate(self, path: str | Path, **options: Any) -> Path:
+        """Write an animation of the moving, deforming arm to ``path`` (.gif or .mp4); options
+        of `flexlink.results.animation.animate` (channels, magnification, fps, speed, trail).
+        Returns the path."""
+        from .animation import animate
+
+        return animate(self, path, **options).path
 
     def kind_counts(self) -> dict[str, int]:
         """How many channels of each kind, in order of first appearance."""

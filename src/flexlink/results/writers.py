@@ -7,7 +7,8 @@ Folder contents: ``results.csv`` (``t`` in s, then one column per channel, SI),
 ``channels.csv`` (name, unit, kind, quantity, subject, description of each column),
 ``results.nc`` (netCDF, `layout`), ``results.mat`` (MATLAB, the same content),
 ``scenario.resolved.toml`` (the scenario with every default filled in, and the flexlink
-version) and ``figures/*.png``. `reading.read_run` reads such a folder back.
+version), ``figures/*.png``, ``report.html`` (one self-contained page) and, when asked,
+``animation.gif``. `reading.read_run` reads such a folder back.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ RESULTS_CSV = "results.csv"
 CHANNELS_CSV = "channels.csv"
 RESULTS_NC = "results.nc"
 RESULTS_MAT = "results.mat"
+ANIMATION_GIF = "animation.gif"
 CSV_FORMAT = "%.10g"
 CHANNEL_COLUMNS = ("name", "unit", "kind", "quantity", "subject", "description")
 
@@ -66,8 +68,12 @@ def write_run(
     resolved: Mapping[str, Any],
     figures: bool = True,
     overwrite: bool = False,
+    report: bool = True,
+    animation: bool = False,
 ) -> Path:
-    """Write ``results`` and the ``resolved`` scenario dict into ``out_dir``; return it."""
+    """Write ``results`` and the ``resolved`` scenario dict into ``out_dir``; return it.
+    ``report``: report.html (`report_html`); ``animation``: animation.gif (`animation`, a few
+    seconds), shown in the report."""
     with atomic_folder(out_dir, overwrite) as partial:
         write_results_csv(results, partial / RESULTS_CSV)
         write_channels_csv(results, partial / CHANNELS_CSV)
@@ -77,6 +83,14 @@ def write_run(
         (partial / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
         if figures:
             write_figures(results, partial / "figures")
+        if animation:
+            from .animation import animate
+
+            animate(results, partial / ANIMATION_GIF)
+        if report:
+            from .report_html import write_run_report
+
+            write_run_report(partial, results)
     return Path(out_dir)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -13,6 +13,7 @@ import numpy as np
 
 from .._version import package_version
 from ..channels.catalogue import catalogue
+from ..channels.shapes import LinkShape
 from ..errors import SimulationError
 from ..model import Link, Scenario
 from ..results import Results
@@ -33,11 +34,13 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
 @dataclass(frozen=True)
 class PathRun:
     """What a model path hands back: its solution, every channel's values by name (the
-    catalogue's names), and what it adds to the metadata."""
+    catalogue's names), what it adds to the metadata, and every link's deformed shape on a
+    grid of points (channels/shapes.py: what the animation draws)."""
 
     solution: Solution
     values: Mapping[str, np.ndarray]
     metadata: Mapping[str, Any] = field(default_factory=dict)
+    shapes: Sequence[LinkShape] = ()
 
 
 def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Results:
@@ -57,6 +60,7 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
         results.add(channel, values.pop(channel.name))
     if values:  # a path computed a channel the catalogue does not list
         raise AssertionError(f"channels outside the catalogue: {', '.join(values)}")
+    results.shapes = list(run.shapes)
     return results
 
 

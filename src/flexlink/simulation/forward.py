@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..channels.first_order import sensor_values, tip_deflections, tip_values
+from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.forward import SolvedMotion, rigid_values
 from ..dynamics.forward import ForwardSystem
 from ..model import Base, Scenario
@@ -30,7 +30,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> Pat
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
     values.update(rigid_values(system, t, p, pd, pdd, z, zd, zdd, solution.extra))
     values.update(tip_values(view, view.frames, z))
-    return PathRun(solution, values, {
+    shapes = shape_values(view, view.frames, z)
+    return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,
         **validity})

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..channels.catalogue import joint_name
-from ..channels.nonlinear import sensor_values, tip_values
+from ..channels.nonlinear import sensor_values, shape_values, tip_values
 from ..dynamics.nonlinear import NonlinearSystem
 from ..model import Scenario
 from ..solvers.gauss import solve_nonlinear
@@ -23,4 +23,6 @@ def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> P
         values[joint_name(k, "angle")] = hist.angle[:, k]
         values[joint_name(k, "torque")] = torque[:, k]
     values.update(tip_values(system, solution, hist))
-    return PathRun(solution, values, {"path": "prescribed", "elastic_coordinates": system.n})
+    shapes = shape_values(system, solution, hist)
+    return PathRun(solution, values, shapes=shapes,
+                   metadata={"path": "prescribed", "elastic_coordinates": system.n})

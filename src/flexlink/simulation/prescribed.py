@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..channels.catalogue import joint_name
-from ..channels.first_order import sensor_values, tip_deflections, tip_values
+from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.torques import joint_torques
 from ..model import Scenario
@@ -30,6 +30,7 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> 
         values[joint_name(k, "angle")] = hist.angle[:, k]
         values[joint_name(k, "torque")] = torque[:, k]
     values.update(tip_values(system, frames, z))
-    return PathRun(solution, values, {
+    shapes = shape_values(system, frames, z)
+    return PathRun(solution, values, shapes=shapes, metadata={
         "path": "prescribed", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, **validity})

@@ -1,0 +1,116 @@
+"""What an animation draws of each case: the links as polylines over time (global frame, m),
+every link's tip, and a moving base, from a run's `Results` or a sweep file.
+
+A run draws each link's stored deformed shape (`flexlink.channels.shapes`); a sweep file holds
+channels only, so each case is drawn as the chords from joint to tip of a serial chain (the
+tip channels), or only its tips when the scenario hangs its links on a base.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..channels import ChannelKind, ChannelTable
+
+
+class AnimationInputError(ValueError):
+    """The input cannot be animated: not a run or sweep, a missing channel, a bad option."""
+
+
+@dataclass(frozen=True)
+class ArmTrack:
+    """One case to draw: ``links`` (X, Y) polylines (nt, points) each, m, global;
+    ``tips`` (nt, 2) per link at the stated magnification; ``base`` (nt, 3): x, y (m) and
+    attitude (rad) of a moving base, else None; ``label`` for the legend."""
+
+    links: list[tuple[np.ndarray, np.ndarray]]
+    tips: list[np.ndarray]
+    base: np.ndarray | None
+    label: str
+
+
+def run_track(results: ChannelTable, magnification: float = 1.0) -> ArmTrack:
+    """The arm of a run: every link's deformed shape, deflections × ``magnification``."""
+    shapes = list(getattr(results, "shapes", ()))
+    if not shapes:
+        raise AnimationInputError(
+            "these results hold no link shapes (written by a flexlink older than the "
+            "animation, or not a run): run the scenario again to animate it")
+    links = [s.magnified(magnification) for s in shapes]
+    if magnification == 1.0:  # the tip channels themselves: what the animation is checked by
+        tips = [_tip_xy(results, s.link) for s in shapes]
+    else:
+        tips = [np.column_stack([X[:, -1], Y[:, -1]]) for X, Y in links]
+    return ArmTrack(links, tips, _base(results), str(results.metadata.get("scenario", "")))
+
+
+def _tip_xy(results: ChannelTable, link: str) -> np.ndarray:
+    axes = {results.channels[n].quantity: results[n] for n in results.names_of(ChannelKind.TIP)
+            if results.channels[n].subject == link}
+    if set(axes) != {"X", "Y"}:
+        raise AnimationInputError(f"missing channel: the tip X and Y of {link} "
+                                  f"({link}_tip_X, {link}_tip_Y)")
+    return np.column_stack([axes["X"], axes["Y"]])
+
+
+def _base(results: ChannelTable) -> np.ndarray | None:
+    """x, y, attitude of a moving base (a pinned base turns about the origin), else None."""
+    pose = {results.channels[n].quantity: results[n] for n in results.names_of(ChannelKind.BASE)}
+    if "attitude" not in pose:
+        return None
+    zero = np.zeros_like(pose["attitude"])
+    return np.column_stack([pose.get("x", zero), pose.get("y", zero), pose["attitude"]])
+
+
+def sweep_tracks(path: Path) -> tuple[np.ndarray, list[ArmTrack]]:
+    """Time (s) and one track per finished case of a sweep file (netCDF)."""
+    from .netcdf import read_netcdf
+
+    try:
+        layout = read_netcdf(path)
+    except (OSError, ValueError, TypeError) as exc:
+        raise AnimationInputError(f"{path} is not a flexlink sweep file: {exc}") from None
+    if "case" not in layout.coords or "status" not in layout.data:
+        raise AnimationInputError(f"{path} is not a flexlink sweep file (no case coordinate)")
+    base = tomllib.loads(str(layout.attrs.get("base_scenario", "")) or "")
+    names = [link["name"] for link in base.get("links", [])]
+    on_base = "base" in base
+    tips = {}
+    for name in names:
+        x, y = layout.data.get(f"{name}_tip_X"), layout.data.get(f"{name}_tip_Y")
+        if x is None or y is None:
+            raise AnimationInputError(f"missing channel: {name}_tip_X and {name}_tip_Y are not "
+                                      f"in {path} (sweep with --channels that keep them)")
+        tips[name] = (np.asarray(x.values, float), np.asarray(y.values, float))
+    if not names:
+        raise AnimationInputError(f"{path} names no links (attribute base_scenario)")
+    status = np.asarray(layout.data["status"].values).astype(str)
+    parameters = [n for n, v in layout.coords.items() if v.dims == ("case",) and n != "case"]
+    tracks = []
+    for case in np.flatnonzero(status == "ok"):
+        case_tips = [np.column_stack([tips[n][0][case], tips[n][1][case]]) for n in names]
+        links = [] if on_base else _chords(case_tips)
+        label = ", ".join(f"{p} = {layout.coords[p].values[case]:.4g}" for p in parameters)
+        tracks.append(ArmTrack(links, case_tips, None, label or f"case {case}"))
+    if not tracks:
+        raise AnimationInputError(f"{path}: no case finished (status ok)")
+    return np.asarray(layout.coords["time"].values, float), tracks
+
+
+def _chords(tips: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Straight lines joint → tip of a serial chain on a hub at the origin."""
+    roots = [np.zeros_like(tips[0])] + tips[:-1]
+    return [(np.column_stack([r[:, 0], t[:, 0]]), np.column_stack([r[:, 1], t[:, 1]]))
+            for r, t in zip(roots, tips, strict=True)]
+
+
+def check_channels(results: ChannelTable, names: list[str]) -> None:
+    """AnimationInputError naming every requested channel the results do not have."""
+    missing = [n for n in names if n not in results.channels]
+    if missing:
+        raise AnimationInputError(
+            f"missing channel(s): {', '.join(missing)}; available: {', '.join(results.channels)}")
