@@ -54,7 +54,7 @@ def machinery_only() -> None:
     from flexlink.batch import executors
 
     stored = flexlink.simulation.simulate(load_paper_experiment())
-    flexlink.simulation.simulate = lambda scenario, progress=False: stored
+    flexlink.simulation.simulate = lambda scenario, progress=False, shapes=True: stored
     executors._start_context = lambda: multiprocessing.get_context("fork")
 
 

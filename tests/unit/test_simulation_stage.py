@@ -159,3 +159,9 @@ def test_the_first_order_validity_is_reported() -> None:
     with pytest.raises(SimulationError, match="tip deflection of b exceeds its length .* at "
                                               "t = 0.5 s.*geometric_stiffening = true"):
         check_tip_deflection(links, t, np.array([[0.0, 0.0], [0.1, 0.6], [0.0, 0.0]]), False)
+
+
+def test_shapes_are_computed_unless_declined() -> None:
+    scenario = _short()
+    assert [s.link for s in simulate(scenario).shapes] == ["a", "b"]
+    assert simulate(scenario, shapes=False).shapes == []

@@ -139,7 +139,7 @@ def test_interrupt_writes_the_finished_cases_and_raises(tmp_path: Path,
     checkpoints: list[list[str]] = []
     out = tmp_path / "spin.nc"
 
-    def interrupted_on_third(scenario, progress=False):
+    def interrupted_on_third(scenario, progress=False, shapes=True):
         calls.append(1)
         if len(calls) == 3:
             with xr.open_dataset(out) as partial:  # the checkpoint after the second case
@@ -225,7 +225,7 @@ def test_command_line_interrupt_exits_130_with_the_file(tmp_path: Path,
                                                       capsys: pytest.CaptureFixture[str]) -> None:
     calls: list[int] = []
 
-    def interrupted_on_second(scenario, progress=False):
+    def interrupted_on_second(scenario, progress=False, shapes=True):
         calls.append(1)
         if len(calls) == 2:
             raise KeyboardInterrupt
@@ -260,7 +260,7 @@ def test_a_dying_worker_fails_its_cases_and_loses_none(tmp_path: Path, forked_wo
                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     import os
 
-    def dies_on_200(scenario, progress=False):
+    def dies_on_200(scenario, progress=False, shapes=True):
         if scenario.chain.joints[0].to_rate_deg_s == 200.0:
             os._exit(1)  # as a worker killed by the out-of-memory killer
         return simulate(scenario, progress)
@@ -284,7 +284,7 @@ def test_ctrl_c_ends_running_workers(tmp_path: Path, forked_workers,
 
     pids = tmp_path / "pids"
 
-    def interrupts_then_hangs(scenario, progress=False):
+    def interrupts_then_hangs(scenario, progress=False, shapes=True):
         if scenario.chain.joints[0].to_rate_deg_s == 100.0:
             return simulate(scenario, progress)
         with pids.open("a") as fh:

@@ -68,7 +68,7 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
     for index, scenario in cases:
         started, cpu_started = time.perf_counter(), time.thread_time()
         try:
-            results = simulate(scenario)
+            results = simulate(scenario, shapes=False)  # a sweep keeps no shapes
             names = list(channels) if channels is not None else results.names
             missing = [n for n in names if n not in results]
             if missing:

@@ -29,16 +29,17 @@ def model_path(scenario: Scenario) -> str:
     return "nonlinear" if scenario.settings.model == "nonlinear" else "prescribed"
 
 
-def simulate(scenario: Scenario, progress: bool = False) -> Results:
+def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) -> Results:
     """Run one scenario: elastic coordinates start at rest; joints follow their prescriptions,
     or (moving base, driven joints) the equations of motion. ``progress``: a progress bar on
-    runs longer than a second."""
+    runs longer than a second; ``shapes``: every link's deformed shape on a grid of points
+    (what animations draw; sweeps leave it out)."""
     path = PATHS[model_path(scenario)]
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
     # Small matrices and batched products over time: BLAS threads only add overhead.
     with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
-        run, wall_time = timed(lambda: path(scenario, t, bar.update))
+        run, wall_time = timed(lambda: path(scenario, t, bar.update, shapes))
     return assemble_results(scenario, run, wall_time)
 
 

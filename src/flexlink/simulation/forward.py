@@ -14,7 +14,8 @@ from ..solvers.forward import DEFAULT_METHOD, integrate_forward
 from .common import PathRun, Progress, check_tip_deflection
 
 
-def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> PathRun:
+def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
+                  with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
     system = ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening)
     method = settings.method if settings.method not in ("lawson", "magnus") else DEFAULT_METHOD
@@ -30,7 +31,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> Pat
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
     values.update(rigid_values(system, t, p, pd, pdd, z, zd, zdd, solution.extra))
     values.update(tip_values(view, view.frames, z))
-    shapes = shape_values(view, view.frames, z)
+    shapes = shape_values(view, view.frames, z) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,

@@ -12,7 +12,8 @@ from ..solvers.gauss import solve_nonlinear
 from .common import PathRun, Progress
 
 
-def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> PathRun:
+def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
+                  with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
     system = NonlinearSystem(scenario.chain)
     hist = system.joint_history(t)  # fails early if a measured motion does not cover t
@@ -23,6 +24,6 @@ def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> P
         values[joint_name(k, "angle")] = hist.angle[:, k]
         values[joint_name(k, "torque")] = torque[:, k]
     values.update(tip_values(system, solution, hist))
-    shapes = shape_values(system, solution, hist)
+    shapes = shape_values(system, solution, hist) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes,
                    metadata={"path": "prescribed", "elastic_coordinates": system.n})

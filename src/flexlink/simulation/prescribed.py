@@ -13,7 +13,8 @@ from ..solvers import PRESCRIBED_METHODS
 from .common import PathRun, Progress, check_tip_deflection
 
 
-def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> PathRun:
+def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
+                  with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
     system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
     system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
@@ -30,7 +31,7 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress) -> 
         values[joint_name(k, "angle")] = hist.angle[:, k]
         values[joint_name(k, "torque")] = torque[:, k]
     values.update(tip_values(system, frames, z))
-    shapes = shape_values(system, frames, z)
+    shapes = shape_values(system, frames, z) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "prescribed", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, **validity})
