@@ -69,20 +69,42 @@ def check_paths(base: ScenarioFile, table: CaseTable) -> dict[str, FieldPath]:
 
 def case_scenarios(base: ScenarioFile, table: CaseTable) -> list[Scenario]:
     """The validated `Scenario` of every case, or one SweepError listing every problem."""
+    scenarios, invalid = valid_cases(base, table)
+    if invalid:
+        raise SweepError(_case_problems(_grouped(invalid), table))
+    return [scenarios[i] for i in range(table.count)]
+
+
+def valid_cases(base: ScenarioFile, table: CaseTable
+                ) -> tuple[dict[int, Scenario], dict[int, list[str]]]:
+    """The `Scenario` of every valid case and the problems of every invalid one, by case
+    index; a SweepError if a parameter path itself is wrong (no case could run)."""
     paths = check_paths(base, table)
-    scenarios: list[Scenario] = []
-    grouped: dict[str, list[tuple[int, str]]] = {}
+    scenarios: dict[int, Scenario] = {}
+    invalid: dict[int, list[str]] = {}
     for index in range(table.count):
         values = {paths[p]: v for p, v in table.case(index).items()}
         try:
-            scenarios.append(base.build(values))
+            scenarios[index] = base.build(values)
         except ScenarioError as exc:
-            for problem in exc.problems:
-                # "x must be <= 1.37 m, got 1.4": one line per kind of problem, not per value
-                grouped.setdefault(problem.split(", got ")[0], []).append((index, problem))
-    if grouped:
-        raise SweepError(_case_problems(grouped, table))
-    return scenarios
+            invalid[index] = exc.problems
+    if not scenarios and invalid:  # nothing to run: refuse as a whole
+        raise SweepError(_case_problems(_grouped(invalid), table))
+    return scenarios, invalid
+
+
+def invalid_message(problems: list[str]) -> str:
+    """The error recorded for an invalid case skipped by ``skip_invalid``."""
+    return "invalid case, not run: " + "; ".join(problems)
+
+
+def _grouped(invalid: dict[int, list[str]]) -> dict[str, list[tuple[int, str]]]:
+    """Problems by kind ("x must be <= 1.37 m, got 1.4": one line per kind, not per value)."""
+    grouped: dict[str, list[tuple[int, str]]] = {}
+    for index, problems in invalid.items():
+        for problem in problems:
+            grouped.setdefault(problem.split(", got ")[0], []).append((index, problem))
+    return grouped
 
 
 def _case_problems(grouped: dict[str, list[tuple[int, str]]], table: CaseTable) -> list[str]:

@@ -8,6 +8,7 @@ finished cases).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -57,6 +58,9 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
     sweep.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on a Dask cluster, e.g. tcp://10.0.0.5:8786 "
                             "(needs pip install 'flexlink[cluster]')")
+    sweep.add_argument("--skip-invalid", action="store_true",
+                       help="run the valid cases and record the invalid ones (with their "
+                            "problems) as failed cases; default: refuse the whole sweep")
     sweep.add_argument("-q", "--quiet", action="store_true",
                        help="no progress bar and no summary; print only the file name")
     sweep.set_defaults(handler=run_command, subparser=sweep)
@@ -79,11 +83,14 @@ def run_command(args: argparse.Namespace) -> int:
         args.subparser.error("give a scenario file or --paper (exactly one), or --spec")
     try:
         definition = _definition(args)
-        output = args.output or Path(f"{_base_name(definition['base'])}_sweep.nc")
+        with _spec_errors(args.spec):  # the base scenario may be missing
+            output = args.output or Path(f"{_base_name(definition['base'])}_sweep.nc")
         _check_output(output, args.overwrite)
         started = time.perf_counter()
-        dataset = sweep(**definition, output=output, workers=args.workers,
-                        scheduler=args.scheduler, progress=not args.quiet)
+        with _spec_errors(args.spec):
+            dataset = sweep(**definition, output=output, workers=args.workers,
+                            scheduler=args.scheduler, progress=not args.quiet,
+                            skip_invalid=args.skip_invalid)
     except (ScenarioError, SweepError) as exc:
         return _fail(str(exc))
     except SweepInterrupted as exc:
@@ -91,6 +98,10 @@ def run_command(args: argparse.Namespace) -> int:
         print(f"flexlink: interrupted; wrote {output} with {counts['ok']} finished and "
               f"{counts['failed']} failed cases", file=sys.stderr)
         return 130
+    except MemoryError:
+        return _fail(f"error: out of memory collecting the cases for {output} (memory, not "
+                     "the disk): keep fewer channels (--channels), run fewer cases or a "
+                     "coarser dt_out")
     except OSError as exc:
         return _fail(f"error: could not write {output}: {exc}")
     print(output if args.quiet else summary(dataset, output, time.perf_counter() - started))
@@ -112,6 +123,13 @@ def _definition(args: argparse.Namespace) -> dict[str, Any]:
             "random": _collect(parse_random_option, args.random),
             "samples": args.samples, "seed": args.seed,
             "sampler": args.sampler or "random", "channels": channels}
+
+
+def _spec_errors(spec: Path | None) -> contextlib.AbstractContextManager[None]:
+    """Problems of a sweep defined by a sweep file name that file."""
+    from .spec import sweep_file_errors
+
+    return contextlib.nullcontext() if spec is None else sweep_file_errors(spec)
 
 
 def _collect(parse: Any, options: list[str]) -> list[Any]:

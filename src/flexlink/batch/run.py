@@ -17,9 +17,9 @@ from ..model import Scenario
 from ..results.matlab import write_mat_atomic
 from ..results.netcdf import write_netcdf_atomic
 from ..scenario.toml_writer import dump_toml
-from ..simulation.common import output_times
+from ..simulation.common import MemoryEstimate, memory_problem, output_times, run_memory
 from . import executors
-from .cases import BaseScenario, case_scenarios, load_base
+from .cases import BaseScenario, case_scenarios, invalid_message, load_base, valid_cases
 from .dataset import SweepCollector
 from .errors import SweepError, SweepInterrupted
 from .parameters import GridParameter, RandomParameter, case_table, from_mappings
@@ -36,7 +36,8 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
           *, samples: int | None = None, seed: int | None = None, sampler: str = "random",
           channels: Sequence[str] | None = None, output: str | Path | None = None,
           workers: int | None = None, scheduler: Any = None, progress: bool = False,
-          checkpoint_interval: float = 60.0, base_dir: Path | None = None) -> xr.Dataset:
+          checkpoint_interval: float = 60.0, base_dir: Path | None = None,
+          skip_invalid: bool = False) -> xr.Dataset:
     """Simulate every case of a grid and/or random sweep over numeric fields of ``base``.
 
     ``base``: a scenario file, or a parsed scenario dict (CSV paths relative to ``base_dir``).
@@ -48,6 +49,8 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     (SweepError). A failing case is recorded and the rest go on; on Ctrl-C the finished cases
     are written and `SweepInterrupted` (a KeyboardInterrupt) carries them. With ``output``
     the netCDF file is also replaced every ``checkpoint_interval`` s while the sweep runs.
+    ``skip_invalid``: instead of refusing the sweep when some cases are invalid (a value out
+    of range), run the valid ones and record the others as failed with their problems.
     Returns the Dataset described in `flexlink.batch.dataset`.
     """
     import xarray
@@ -57,17 +60,20 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     grids, randoms = _parameters(grid, random)
     table = case_table(grids, randoms, samples, seed, sampler)
     scenario_base = load_base(base, base_dir)
-    scenarios = case_scenarios(scenario_base, table)
-    selected = _check_channels(scenarios[0], channels)
-    local = _local_workers(workers, scheduler, table.count)
-    time_ = output_times(scenarios[0].settings.t_end, scenarios[0].settings.dt_out)
+    scenarios, invalid = _cases(scenario_base, table, skip_invalid)
+    first = next(iter(scenarios.values()))
+    selected = _check_channels(first, channels)
+    local = _local_workers(workers, scheduler, len(scenarios))
+    check_sweep_memory(first, table.count, len(selected) if selected else None)
+    time_ = output_times(first.settings.t_end, first.settings.dt_out)
     shared, probed = None, ()
     if local > 1:  # worker processes: let them write into one shared result array
-        probed = _probe_channels(scenarios[0], selected)
+        probed = _probe_channels(first, selected)
         if probed:
             shared = SharedResults.allocate(probed, table.count, time_.size)
     collector = SweepCollector(table, time_, _attributes(scenario_base, table), shared, probed)
-    indexed = list(enumerate(scenarios))
+    collector.add(ChunkResult(failed={i: invalid_message(m) for i, m in invalid.items()}))
+    indexed = list(scenarios.items())
     checkpoint = _Checkpoint(output, checkpoint_interval)
     if output is not None:
         checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
@@ -75,6 +81,7 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
         try:  # Ctrl-C while the workers start counts too (a forked worker may be quick)
             results = _executor(stack, indexed, selected, local, scheduler, shared)
             bar = stack.enter_context(_progress(table.count, progress))
+            bar.update(len(invalid))
             for chunk in results:
                 collector.add(chunk)
                 bar.update(len(chunk.done) + len(chunk.failed))
@@ -92,6 +99,28 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
 
         write_sweep_report(Path(output), layout=collector.layout())
     return dataset
+
+
+def check_sweep_memory(scenario: Scenario, cases: int, channels: int | None) -> None:
+    """SweepError, before any case runs, if the sweep's result array (cases × channels ×
+    samples × 8 bytes, twice: collected and in the Dataset written) and a run would not fit
+    in memory; ``channels`` kept (None: all)."""
+    run = run_memory(scenario)
+    kept = channels if channels is not None else len(catalogue(scenario))
+    per_sample = run.per_sample + 2 * 8 * kept * cases
+    problem = memory_problem(MemoryEstimate(run.samples, per_sample), scenario.settings.t_end,
+                             f"a sweep of {cases} cases × {kept} channels")
+    if problem:
+        raise SweepError([f"{problem}; or fewer cases or channels (--channels)"])
+
+
+def _cases(base: BaseScenario, table: Any, skip_invalid: bool
+           ) -> tuple[dict[int, Scenario], dict[int, list[str]]]:
+    """The scenario of every case to run and, with ``skip_invalid``, the problems of the
+    invalid cases (without it an invalid case refuses the sweep: SweepError)."""
+    if skip_invalid:
+        return valid_cases(base, table)
+    return dict(enumerate(case_scenarios(base, table))), {}
 
 
 def _parameters(grid: GridSpec, random: RandomSpec

@@ -18,6 +18,8 @@ Keys with brackets must be quoted in TOML. Every problem is reported at once (Sw
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +38,7 @@ def read_sweep_file(path: str | Path) -> dict[str, Any]:
     try:
         raw = read_toml(path)
     except ScenarioError as exc:
-        raise SweepError(exc.problems) from None
+        raise SweepError(_in_file(path, exc.problems)) from None
     p = Problems()
     p.unknown_keys(raw, KEYS, "")
     where = "sweep"  # messages read "sweep.samples must be …", prefixed with the file
@@ -68,5 +70,24 @@ def read_sweep_file(path: str | Path) -> dict[str, Any]:
             except SweepError as exc:
                 p.messages += exc.problems
     if p:
-        raise SweepError([f"{path}: {m}" for m in p.messages])
+        raise SweepError(_in_file(path, p.messages))
     return out
+
+
+def _in_file(path: Path, problems: list[str]) -> list[str]:
+    """Problems prefixed with the sweep file (unless they name it already)."""
+    return [m if m.startswith(str(path)) else f"{path}: {m}" for m in problems]
+
+
+@contextlib.contextmanager
+def sweep_file_errors(path: str | Path) -> Iterator[None]:
+    """Name the sweep file in the problems of a sweep it defines: a SweepError's (an unknown
+    field path, a missing samples, an invalid case) and its base scenario's."""
+    path = Path(path)
+    try:
+        yield
+    except SweepError as exc:
+        raise SweepError(_in_file(path, exc.problems)) from None
+    except ScenarioError as exc:
+        base = f"base scenario {exc.source}" if exc.source else "base scenario"
+        raise SweepError([f"{path}: {base}: {m}" for m in exc.problems]) from None

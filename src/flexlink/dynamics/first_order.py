@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Chain, Link
-from ..modes import ModalData, ModeShapes, modal_data, tip_loaded_modes
+from ..modes import ModalData, ModeShapes, highest_frequency, modal_data, tip_loaded_modes
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
 
 
@@ -120,7 +120,7 @@ class FirstOrderSystem:
     @property
     def max_frequency(self) -> float:
         """Highest clamped natural frequency of any link, rad/s."""
-        return float(max(2 * np.pi * d.natural_frequencies_hz.max() for d in self.modal))
+        return highest_frequency(self.modal)
 
     # -- kinematics -------------------------------------------------------------------------
     def joint_history(self, t: np.ndarray) -> JointHistory:

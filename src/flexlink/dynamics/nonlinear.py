@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Chain
+from ..modes import highest_frequency
 from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .first_order import chain_modal_data
 from .kinematics import JointHistory, joint_history
@@ -72,7 +73,7 @@ class NonlinearSystem:
         self.arcs: list[LinkArc] = []
         start = 0
         for k, d in enumerate(self.modal):
-            quad = arc_quadrature(d.length, float(d.shapes.beta_l.max()), panels,
+            quad = arc_quadrature(d.length, float(d.shapes.beta_l.max(initial=0.0)), panels,
                                   points_per_panel)
             coords = slice(int(offsets[k]), int(offsets[k + 1]))
             self.arcs.append(LinkArc(quad, slice(start, start + quad.size), coords,
@@ -249,4 +250,4 @@ class NonlinearSystem:
     @property
     def max_frequency(self) -> float:
         """Highest clamped natural frequency of any link, rad/s."""
-        return float(max(2 * np.pi * d.natural_frequencies_hz.max() for d in self.modal))
+        return highest_frequency(self.modal)

@@ -29,12 +29,17 @@ class Link:
     tip_mass: float = 0.0  # kg, point mass at x = length
     tip_inertia: float = 0.0  # kg·m², about the tip, rotates with the tip section
     damping_ratio: float = 0.0  # modal damping ratio of every clamped mode
-    modes: int = 4  # number of assumed modes
+    modes: int = 4  # number of assumed modes; 0: a rigid link (EI is then not used)
     # clamped_free: classical cantilever modes; tip_loaded: modes of the cantilever with this
     # link's tip mass and inertia; outboard_loaded: the tip body also holds the rest of the chain
     # (rigid, as at t = 0) — lets an inner link carry the outer links' tip moment.
     mode_shapes: ModeShapes = "clamped_free"
     thickness: float | None = None  # m, section depth in the bending plane (strain sensors)
+
+    @property
+    def rigid(self) -> bool:
+        """Whether the link has no assumed modes (it does not bend)."""
+        return self.modes == 0
 
     @property
     def mass(self) -> float:

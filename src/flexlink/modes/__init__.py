@@ -1,6 +1,6 @@
 """Assumed modes of a clamped flexible link and their modal integrals."""
 
-from flexlink.modes.integrals import ModalData, modal_data
+from flexlink.modes.integrals import ModalData, highest_frequency, modal_data
 from flexlink.modes.shapes import (
     ModeShapes,
     clamped_free_modes,
@@ -9,10 +9,11 @@ from flexlink.modes.shapes import (
 )
 
 __all__ = [
+    "ModalData",
     "ModeShapes",
     "clamped_free_modes",
-    "tip_loaded_modes",
-    "mode_shapes_for",
-    "ModalData",
+    "highest_frequency",
     "modal_data",
+    "mode_shapes_for",
+    "tip_loaded_modes",
 ]

@@ -15,7 +15,7 @@ from scipy.linalg import eigh
 from flexlink.model import Link
 from flexlink.modes.shapes import ModeShapes, mode_shapes_for
 
-__all__ = ["ModalData", "modal_data"]
+__all__ = ["ModalData", "highest_frequency", "modal_data"]
 
 _POINTS_PER_PANEL = 20
 _LAMBDA_PER_PANEL = 3.0  # max β_n · (panel width) — keeps e^{±2βx} resolved to round-off
@@ -97,7 +97,7 @@ def modal_data(
     """Compute all modal integrals of ``link`` by composite Gauss–Legendre quadrature."""
     shapes = mode_shapes_for(link) if shapes is None else shapes
     L, m, m_t, J_t = link.length, link.mass_per_length, link.tip_mass, link.tip_inertia
-    x, w = _gauss_legendre(L, float(shapes.beta_l.max()), quadrature_points)
+    x, w = _gauss_legendre(L, float(shapes.beta_l.max(initial=0.0)), quadrature_points)
     phi = shapes.evaluate(x)
     dphi = shapes.evaluate(x, 1)
     ddphi = shapes.evaluate(x, 2)
@@ -139,3 +139,9 @@ def modal_data(
         damping_matrix=_sym(damping),
         natural_frequencies_hz=_ro(omega / (2.0 * np.pi)),
     )
+
+
+def highest_frequency(modal: list[ModalData]) -> float:
+    """Highest clamped natural frequency of any link, rad/s; 0 when every link is rigid."""
+    return float(max((2 * np.pi * d.natural_frequencies_hz.max(initial=0.0) for d in modal),
+                     default=0.0))

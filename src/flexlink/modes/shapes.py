@@ -23,7 +23,7 @@ from scipy.optimize import brentq
 
 from flexlink.model import Link
 
-__all__ = ["ModeShapes", "clamped_free_modes", "tip_loaded_modes", "mode_shapes_for"]
+__all__ = ["ModeShapes", "clamped_free_modes", "mode_shapes_for", "tip_loaded_modes"]
 
 _NORM_PANELS_PER_LAMBDA = 0.5  # quadrature panels per unit of λ for the normalisation integral
 _GAUSS_POINTS = 20  # Gauss–Legendre points per panel
@@ -108,6 +108,8 @@ def _coefficients(lam: np.ndarray, mu: float) -> tuple[np.ndarray, np.ndarray]:
 def _build(length: float, lam: np.ndarray, mu: float, j: float, kind: str) -> ModeShapes:
     """Mode shapes for eigenvalues ``lam``, normalised and signed (see ModeShapes)."""
     lam = np.asarray(lam, dtype=float)
+    if lam.size == 0:  # a rigid link: no modes, nothing to normalise
+        return ModeShapes(length, 0, lam, lam, lam, lam, kind)
     c, growing = _coefficients(lam, mu)
     raw = ModeShapes(length, lam.size, lam, c, growing, np.ones_like(lam), kind)
     # Normalisation: ∫φ²dx/L + μ φ(L)² + j L² φ'(L)² = 1, by composite Gauss–Legendre.
@@ -149,10 +151,10 @@ def clamped_free_modes(length: float, n: int) -> ModeShapes:
     """Classical clamped–free eigenfunctions; λ_i are roots of 1 + cos λ cosh λ = 0.
 
     Root i lies in ((i−1)π, iπ) (where cos λ + sech λ changes sign) and is polished by
-    Brent's method to full precision.
+    Brent's method to full precision. n = 0: no modes (a rigid link).
     """
-    if n < 1:
-        raise ValueError("need at least one mode")
+    if n < 0:
+        raise ValueError("the number of modes must be >= 0")
     lam = np.array(
         [brentq(_frequency_function, (i - 1) * np.pi, i * np.pi, args=(0.0, 0.0),
                 xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
@@ -175,13 +177,16 @@ def tip_loaded_modes(
     Adding tip inertia lowers every eigenvalue, so the n roots lie in (0, nπ); they are
     bracketed by a sign scan and refined with Brent's method.  (EI only fixes ω, which
     cancels from the dimensionless problem; it is accepted for a uniform signature.)
+    n = 0: no modes (a rigid link).
     """
-    if n < 1:
-        raise ValueError("need at least one mode")
+    if n < 0:
+        raise ValueError("the number of modes must be >= 0")
     if mass_per_length <= 0 or EI <= 0 or length <= 0:
         raise ValueError("length, mass_per_length and EI must be positive")
     if tip_mass < 0 or tip_inertia < 0:
         raise ValueError("tip mass and inertia must be non-negative")
+    if n == 0:
+        return _build(length, np.empty(0), 0.0, 0.0, "tip_loaded")
     mu = tip_mass / (mass_per_length * length)
     j = tip_inertia / (mass_per_length * length**3)
     grid = np.unique(np.concatenate([

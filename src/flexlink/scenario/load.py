@@ -8,6 +8,7 @@ Angles stay in degrees here: the motion constructors take degrees and convert on
 
 from __future__ import annotations
 
+import math
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -30,6 +31,8 @@ PROFILES: dict[str, tuple[str, ...]] = {name: s.keys for name, s in schema.PROFI
 # links: the section's dimensions are read before the bending stiffness, which needs them
 _LINK_HEAD = LINKS.pick("name", "length", "mass_per_length", "width", "thickness")
 _LINK_TAIL = LINKS.pick("tip_mass", "tip_inertia", "damping_ratio", "modes", "mode_shapes")
+_RIGID_TAIL = LINKS.pick("tip_mass", "tip_inertia")
+_ELASTIC_ONLY = ("damping_ratio", "modes", "mode_shapes")
 
 
 flexlink_version = package_version
@@ -139,10 +142,72 @@ def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[
 def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any]:
     p.unknown_keys(table, LINKS.keys, path)
     out = read_fields(table, _LINK_HEAD, path, p)
-    out["EI"] = _bending_stiffness(table, path, out["width"], out["thickness"], p)
-    out.update(read_fields(table, _LINK_TAIL, path, p))
+    if read_field(table, LINKS["rigid"], path, p):
+        out.update(_rigid_link(table, path, out, p))
+    else:
+        out["EI"] = _bending_stiffness(table, path, out["width"], out["thickness"], p)
+        out.update(read_fields(table, _LINK_TAIL, path, p))
+        _check_frequencies(out, table, path, p)
+    _check_inertia(out, path, p)
     # in the schema's key order (the resolved file's), without E and unusable values
     return {k: out[k] for k in LINKS.keys if out.get(k) is not None}
+
+
+def _rigid_link(table: dict[str, Any], path: str, head: dict[str, Any],
+                p: Problems) -> dict[str, Any]:
+    """The keys of a rigid link (rigid = true): its tip body; a bending stiffness if given
+    (unused, kept so that rigid = false restores the link); no modal keys."""
+    for key in _ELASTIC_ONLY:
+        if key in table:
+            p.add(f"{path}.{key}: a rigid link (rigid = true) has no modes; leave out '{key}' "
+                  "or set rigid = false")
+    out = read_fields(table, _RIGID_TAIL, path, p)
+    if "EI" in table or "E" in table:
+        out["EI"] = _bending_stiffness(table, path, head["width"], head["thickness"], p)
+    return {**out, "rigid": True}
+
+
+MAX_FREQUENCY = 1e12  # rad/s: far above any beam's modes, far below a float's overflow
+
+
+def _check_frequencies(link: dict[str, Any], table: Mapping[str, Any], path: str,
+                       p: Problems) -> None:
+    """The highest assumed mode's frequency ((n − ½)π/L)² √(EI/m) (rad/s, bare cantilever;
+    a tip body only lowers it) must be below MAX_FREQUENCY: beyond, the solver's matrices
+    overflow or its steps vanish. Computed in logarithms, which cannot overflow."""
+    EI, m, L, n = (link.get(k) for k in ("EI", "mass_per_length", "length", "modes"))
+    if None in (EI, m, L, n):
+        return
+    log_omega = (2 * math.log((n - 0.5) * math.pi) - 2 * math.log(L)
+                 + 0.5 * (math.log(EI) - math.log(m)))
+    if log_omega > math.log(MAX_FREQUENCY):
+        given = "E" if "E" in table else "EI"
+        p.add(f"{path}: {given} (EI = {EI:.3g} N·m²), mass_per_length = {m:.3g} kg/m and "
+              f"length = {L:.3g} m give mode {n} a frequency of "
+              f"10^{log_omega / math.log(10):.0f} rad/s (at most {MAX_FREQUENCY:.0e}): not a "
+              "physical beam; check these values, or for a link that does not bend set "
+              "rigid = true")
+
+
+MAX_INERTIA = 1e100  # kg·m²: products of two such terms stay finite in the solver
+
+
+def _check_inertia(link: dict[str, Any], path: str, p: Problems) -> None:
+    """The link's inertia about its joint, m L³/3 + m_t L² + J_t (kg·m², logarithms of the
+    terms), must stay below MAX_INERTIA, or the equations overflow."""
+    m, L = link.get("mass_per_length"), link.get("length")
+    if m is None or L is None:
+        return
+    terms = {"mass_per_length": math.log(m) + 3 * math.log(L) - math.log(3)}
+    if link.get("tip_mass"):
+        terms["tip_mass"] = math.log(link["tip_mass"]) + 2 * math.log(L)
+    if link.get("tip_inertia"):
+        terms["tip_inertia"] = math.log(link["tip_inertia"])
+    key, worst = max(terms.items(), key=lambda item: item[1])
+    if worst > math.log(MAX_INERTIA):
+        p.add(f"{path}: length = {L:.3g} m and {key} = {link[key]:.3g} give an inertia about "
+              f"the joint of 10^{worst / math.log(10):.0f} kg·m² (at most {MAX_INERTIA:.0e}): "
+              "check these values and their units")
 
 
 def _bending_stiffness(table: dict[str, Any], path: str, width: float | None,
@@ -288,14 +353,22 @@ def _csv_joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | 
     return entry, motion
 
 
+def _link_model(entry: dict[str, Any]) -> Link:
+    """The `Link` of a resolved [[links]] entry; a rigid link has no modes (and, if no EI
+    was given, an infinite one)."""
+    fields = {k: v for k, v in entry.items() if k not in ("width", "rigid")}
+    if entry.get("rigid"):
+        fields.update(modes=0, EI=fields.get("EI", math.inf))
+    return Link(**fields)
+
+
 def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     sim = resolved["simulation"]
     settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
                                   geometric_stiffening=sim["geometric_stiffening"],
                                   rtol=sim["rtol"], atol=sim["atol"], method=sim["method"],
                                   model=sim["model"], step=sim.get("step"))
-    links = tuple(Link(**{k: v for k, v in lk.items() if k != "width"})
-                  for lk in resolved["links"])
+    links = tuple(_link_model(lk) for lk in resolved["links"])
     index = {link.name: i for i, link in enumerate(links)}
     sensors: list[PointSensor | PiezoSensor] = []
     for s in resolved["sensors"]:

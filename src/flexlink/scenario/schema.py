@@ -186,7 +186,8 @@ LINKS = Section("links", [
     Field("name", "string", rule=NAME_RULE, doc="names the link's output channels"),
     Field("length", unit="m", gt=0, doc="from the joint to the tip"),
     Field("mass_per_length", unit="kg/m", gt=0, doc="uniform along the link"),
-    Field("EI", unit="N·m²", gt=0, default_doc="`EI` **or** `E`",
+    Field("EI", unit="N·m²", gt=0, default_doc="`EI` **or** `E` (neither with `rigid = true`)",
+          rule="with `mass_per_length` and `length`, the highest mode below 10¹² rad/s",
           doc="bending stiffness in the plane of motion"),
     Field("E", unit="Pa", gt=0, default_doc="`EI` **or** `E`",
           doc="Young's modulus; then `width` and `thickness` are required and "
@@ -209,7 +210,15 @@ LINKS = Section("links", [
                            "rest of the chain, rigid, as at t = 0"},
         doc="cantilever modes have no curvature at the tip, so an inner link that carries a "
             "heavy outer link converges slowly (~1/N) with them; `outboard_loaded` converges "
-            "fast there (docs/validation.md, tests/validation/test_physics.py)"),
+            "fast there (docs/validation.md, tests/validation/test_physics.py)"),    Field("rigid", "boolean", default=False, notes={
+        "true": "no assumed modes: the link keeps its mass, tip mass and tip inertia and does "
+                "not bend (its sensors read zero deflection, slope and strain); `EI`/`E` may "
+                "be left out, `modes`, `damping_ratio` and `mode_shapes` must be",
+        "false": "a flexible link with `modes` assumed modes"},
+        doc="a link far stiffer than the rest costs as little as a rigid one: with "
+            "prescribed joints, a link whose first frequency is far above what `dt_out` "
+            "resolves and whose quasi-static deflection is below `rtol` of its length runs "
+            "as rigid (the run's `rigid_links` attribute says which)"),
 ])
 
 # --- [[joints]]: prescribed motion ----------------------------------------------------------

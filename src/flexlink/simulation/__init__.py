@@ -8,15 +8,32 @@ assembles the `Results`. One module per path, sharing `common`:
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
 from ..model import Scenario
 from ..results import Results
 from ..solvers.threads import single_threaded
-from .common import ProgressBar, assemble_results, output_times, timed
+from .common import (
+    PathRun,
+    Progress,
+    ProgressBar,
+    assemble_results,
+    check_run_memory,
+    output_times,
+    timed,
+)
 from .forward import run_forward
 from .nonlinear import run_nonlinear
 from .prescribed import run_prescribed
+from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
-PATHS = {"prescribed": run_prescribed, "nonlinear": run_nonlinear, "forward": run_forward}
+# (scenario, output times, progress callback, with shapes) → the path's run
+PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
+PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run_nonlinear,
+                                  "forward": run_forward}
 
 
 def model_path(scenario: Scenario) -> str:
@@ -35,12 +52,23 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) ->
     runs longer than a second; ``shapes``: every link's deformed shape on a grid of points
     (what animations draw; sweeps leave it out)."""
     path = PATHS[model_path(scenario)]
+    check_run_memory(scenario)
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
     # Small matrices and batched products over time: BLAS threads only add overhead.
     with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
-        run, wall_time = timed(lambda: path(scenario, t, bar.update, shapes))
+        run, wall_time = timed(lambda: _run_path(path, scenario, t, bar.update, shapes))
     return assemble_results(scenario, run, wall_time)
+
+
+def _run_path(path: PathFunction, scenario: Scenario, t: np.ndarray,
+              on_progress: Progress, shapes: bool) -> PathRun:
+    """Run ``path``, with the links too stiff to matter made rigid (simulation/rigid.py)."""
+    stiff = quasi_rigid_links(scenario, t)
+    if not stiff:
+        return path(scenario, t, on_progress, shapes)
+    run = path(with_rigid_links(scenario, stiff), t, on_progress, shapes)
+    return replace(run, metadata={**run.metadata, **rigid_metadata(scenario, stiff)})
 
 
 __all__ = ["PATHS", "model_path", "output_times", "simulate"]

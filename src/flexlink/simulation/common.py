@@ -7,7 +7,7 @@ import functools
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
@@ -22,6 +22,91 @@ from ..solvers import Solution
 _version = functools.lru_cache(maxsize=1)(package_version)  # metadata lookup: ~5 ms per call
 
 Progress = Callable[[float], None]
+
+
+MEMORY_SHARE = 0.5  # of the memory available when a run starts: the rest for everything else
+
+
+@dataclass(frozen=True)
+class MemoryEstimate:
+    """What a run's arrays take: ``samples`` output times of ``per_sample`` bytes each."""
+
+    samples: int
+    per_sample: int  # bytes per output time
+
+    @property
+    def total(self) -> float:
+        """Bytes (a float: a grid of 10¹⁵ samples must not overflow)."""
+        return float(self.samples) * self.per_sample
+
+
+def sample_count(t_end: float, dt_out: float) -> int:
+    """How many output times ``output_times`` makes, without making them."""
+    return int(np.floor(t_end / dt_out + 1e-9)) + 2
+
+
+def run_memory(scenario: Scenario) -> MemoryEstimate:
+    """The arrays of one run per output time, 8 bytes each: every channel three times (the
+    paths' values, `Results`, the writers' tables); the integrators' states and
+    accelerations (Lawson keeps two solutions, 2 × (3n + 1)), the solution (3n), the joint
+    history and frame motion (~16 per link) and the kinematical maps (9 n per link)."""
+    n = sum(link.modes for link in scenario.chain.links)
+    links = len(scenario.chain.links)
+    values = 3 * len(catalogue(scenario)) + 9 * n + 2 + 16 * links + 9 * n * links
+    settings = scenario.settings
+    return MemoryEstimate(sample_count(settings.t_end, settings.dt_out), 8 * values)
+
+
+def available_memory() -> int:
+    """Bytes of memory available now (psutil if installed, else the free physical pages)."""
+    try:
+        import psutil
+
+        return int(psutil.virtual_memory().available)
+    except ImportError:
+        import os
+
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+
+
+def memory_problem(estimate: MemoryEstimate, t_end: float, what: str,
+                   available: int | None = None) -> str | None:
+    """Why ``what`` would not fit in memory, with the numbers and a coarser dt_out that
+    fits; None if it fits within MEMORY_SHARE of the available memory."""
+    available = available_memory() if available is None else available
+    budget = MEMORY_SHARE * available
+    if estimate.total <= budget:
+        return None
+    fit = max(1, int(budget // estimate.per_sample) - 2)  # intervals (sample_count: + 2)
+    return (f"simulation.dt_out: {what} needs {estimate.samples:.3g} output samples × "
+            f"{_size(estimate.per_sample)} = {_size(estimate.total)} of memory, more than "
+            f"{MEMORY_SHARE:.0%} of the {_size(available)} available; dt_out = "
+            f"{_round_up(t_end / fit):g} s or coarser fits (or a shorter t_end)")
+
+
+def check_run_memory(scenario: Scenario) -> None:
+    """SimulationError, before anything runs, if the run's arrays would not fit in memory."""
+    problem = memory_problem(run_memory(scenario), scenario.settings.t_end, "this run")
+    if problem:
+        raise SimulationError(problem)
+
+
+def _size(count: float) -> str:
+    """Bytes as B, kB, MB, GB, TB, PB (decimal)."""
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if count < 1000:
+            return f"{count:.3g} {unit}"
+        count /= 1000
+    return f"{count:.3g} PB"
+
+
+def _round_up(value: float) -> float:
+    """The next number of the 1–2–5 series at or above ``value``."""
+    decade = 10.0 ** np.floor(np.log10(value))
+    for step in (1.0, 2.0, 5.0, 10.0):
+        if step * decade >= value * (1 - 1e-12):
+            return float(step * decade)
+    return float(10 * decade)
 
 
 def output_times(t_end: float, dt_out: float) -> np.ndarray:
@@ -107,7 +192,7 @@ class ProgressBar:
         self._bar: Any = None
         self._shown = 0.0
 
-    def __enter__(self) -> ProgressBar:
+    def __enter__(self) -> Self:
         if self.enabled:
             from tqdm import tqdm
 

@@ -8,6 +8,7 @@ from ..channels.catalogue import joint_name
 from ..channels.nonlinear import sensor_values, shape_values, tip_values
 from ..dynamics.nonlinear import NonlinearSystem
 from ..model import Scenario
+from ..solvers import rigid_solution
 from ..solvers.gauss import solve_nonlinear
 from .common import PathRun, Progress
 
@@ -17,7 +18,8 @@ def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     settings = scenario.settings
     system = NonlinearSystem(scenario.chain)
     hist = system.joint_history(t)  # fails early if a measured motion does not cover t
-    solution = solve_nonlinear(system, t, settings.rtol, settings.step, on_progress=on_progress)
+    solution = (solve_nonlinear(system, t, settings.rtol, settings.step, on_progress=on_progress)
+                if system.n else rigid_solution(t, "gauss"))
     torque = system.joint_torques(t, solution.q, solution.q_dot, solution.q_ddot, hist)
     values = sensor_values(system, solution, scenario.sensors, hist)
     for k in range(len(scenario.chain.links)):

@@ -9,7 +9,7 @@ from ..channels.first_order import sensor_values, shape_values, tip_deflections,
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.torques import joint_torques
 from ..model import Scenario
-from ..solvers import PRESCRIBED_METHODS
+from ..solvers import PRESCRIBED_METHODS, rigid_solution
 from .common import PathRun, Progress, check_tip_deflection
 
 
@@ -18,8 +18,11 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     settings = scenario.settings
     system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
     system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
-    integrate = PRESCRIBED_METHODS[settings.method]
-    solution = integrate(system, t, settings.rtol, settings.atol, on_progress)
+    if system.n:
+        integrate = PRESCRIBED_METHODS[settings.method]
+        solution = integrate(system, t, settings.rtol, settings.atol, on_progress)
+    else:  # every link rigid: the motion is prescribed, nothing to integrate
+        solution = rigid_solution(t, settings.method)
     z = solution.q
     validity = check_tip_deflection(scenario.chain.links, t, tip_deflections(system, z),
                                     system.geometric_stiffening)

@@ -14,7 +14,7 @@ import numpy as np
 from .lawson import integrate_lawson
 from .magnus import integrate_magnus
 from .ode import integrate_scipy
-from .solution import GivenMatrices, LinearSystem, Progress, Solution
+from .solution import GivenMatrices, LinearSystem, Progress, Solution, rigid_solution
 
 LinearIntegrator = Callable[[LinearSystem, np.ndarray, float, float, Progress | None], Solution]
 
@@ -24,5 +24,14 @@ PRESCRIBED_METHODS: dict[str, LinearIntegrator] = {
     **{name: partial(integrate_scipy, method=name) for name in ("DOP853", "RK45", "Radau", "LSODA")},
 }
 
-__all__ = ["PRESCRIBED_METHODS", "GivenMatrices", "LinearIntegrator", "LinearSystem", "Solution",
-           "integrate_lawson", "integrate_magnus", "integrate_scipy"]
+__all__ = [
+    "PRESCRIBED_METHODS",
+    "GivenMatrices",
+    "LinearIntegrator",
+    "LinearSystem",
+    "Solution",
+    "integrate_lawson",
+    "integrate_magnus",
+    "integrate_scipy",
+    "rigid_solution",
+]

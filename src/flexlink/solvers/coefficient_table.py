@@ -18,6 +18,7 @@ there, so that no refinement is spent on those kinks.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -110,8 +111,7 @@ def tabulate(
         poly = np.einsum("pj,bjkl->bpkl", _FIT, nodes)
         if scale is None:  # each entry's range over the run: what an error is measured against
             every = np.concatenate([nodes.reshape(-1, *nodes.shape[2:]), static_values])
-            spread = every.max(axis=0) - every.min(axis=0)
-            scale = np.maximum(spread, 1e-9 * np.abs(every).max(axis=0)) + 1e-300
+            scale = _entry_scale(every)
         predicted = np.einsum("cp,bpkl->bckl", np.vander(_CHECKS, DEGREE + 1, increasing=True),
                               poly)
         miss = (np.abs(predicted - checks) / scale).max(axis=(1, 2, 3))
@@ -130,6 +130,22 @@ def tabulate(
     return _assemble_table(done, static, static_values, sampler.count)
 
 
+def _entry_scale(every: np.ndarray) -> np.ndarray:
+    """What a table error of each entry of A = [−M⁻¹K, −M⁻¹C, M⁻¹f] (n, 2n+1) is measured
+    against: its range over the samples ``every``, at least 1e-9 of its row's largest entry
+    of the same part — for the damping part (1/s) also of √ of the stiffness part's (1/s²),
+    the row's frequency. The floor keeps entries that are round-off (couplings to a rigid
+    link, zero in exact arithmetic) from being refined down to the smallest piece."""
+    spread = every.max(axis=0) - every.min(axis=0)
+    size = np.abs(every).max(axis=0)
+    n = every.shape[-2]
+    stiffness = size[:, :n].max(axis=1, keepdims=True)
+    damping = np.maximum(size[:, n:2 * n].max(axis=1, keepdims=True), np.sqrt(stiffness))
+    floor = np.concatenate([np.broadcast_to(stiffness, (n, n)), np.broadcast_to(damping, (n, n)),
+                            size[:, 2 * n:]], axis=1)
+    return np.maximum(spread, 1e-9 * floor) + 1e-300
+
+
 def _pieces_between_breaks(
     a: int, b: int, t_out: np.ndarray, breaks: np.ndarray
 ) -> list[tuple[int, int, float, float]]:
@@ -139,7 +155,7 @@ def _pieces_between_breaks(
     if b - a > 1 or inside.size == 0:
         return [(a, b, 0.0, 1.0)]
     tau = np.concatenate([[0.0], (inside - t_out[a]) / (t_out[b] - t_out[a]), [1.0]])
-    return [(a, b, float(lo), float(hi)) for lo, hi in zip(tau[:-1], tau[1:]) if hi > lo]
+    return [(a, b, float(lo), float(hi)) for lo, hi in itertools.pairwise(tau) if hi > lo]
 
 
 def _initial_blocks(

@@ -41,6 +41,13 @@ class Solution:
                 raise SimulationError(f"{what} are not finite")
 
 
+def rigid_solution(t: np.ndarray, method: str) -> Solution:
+    """The solution of a system without coordinates (every link rigid, joints prescribed):
+    nothing to integrate, arrays of shape (nt, 0)."""
+    none = np.zeros((np.size(t), 0))
+    return Solution(np.asarray(t, dtype=float), none, none, none, method)
+
+
 class LinearSystem(Protocol):
     """M(t) q̈ + C(t) q̇ + K(t) q = f(t), coefficients at any time; q starts at rest."""
 

@@ -1,0 +1,87 @@
+"""Links too stiff to matter, run as rigid links (prescribed joints only).
+
+The integrators' step follows the highest modal frequency (solvers/magnus.py:initial_step), so
+a link a million times stiffer than the rest costs a million times more steps — for vibration
+far above anything the output grid shows and a deflection far below the run's tolerance. Such
+a link is run rigid (no modes, its mass, tip mass and inertia kept), which changes the results
+by less than ``rtol`` of its length; the run's ``rigid_links`` attribute names it. Forward
+runs are left alone: their joint accelerations, which set the deflection, are not known
+before the run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..dynamics.first_order import chain_modal_data
+from ..dynamics.kinematics import frame_motion, joint_history
+from ..model import Link, Scenario
+from ..modes import modal_data
+
+# The first frequency must be this many times the output grid's Nyquist frequency: its
+# vibration is then invisible in the output (it would only alias).
+UNRESOLVED_FACTOR = 10.0
+# Static tip deflection of a uniform cantilever under a uniform acceleration a is
+# 1.55 a/ω1² (q L⁴/8EI with ω1² = 12.36 EI/mL⁴); 2 covers tip masses and inner loads.
+DEFLECTION_FACTOR = 2.0
+
+
+def rigid_body(link: Link) -> Link:
+    """The link without modes (rigid): same mass, tip mass and tip inertia."""
+    return dataclasses.replace(link, modes=0)
+
+
+def peak_accelerations(scenario: Scenario, t: np.ndarray) -> np.ndarray:
+    """Per link, a bound of the largest rigid-body acceleration of any of its points (m/s²)
+    over the prescribed motion at times t (s): |origin| + L·√(ω⁴ + ω̇²)."""
+    links = scenario.chain.links
+    rigid = [modal_data(rigid_body(link)) for link in links]
+    fr = frame_motion(joint_history(scenario.chain.joints, t), rigid, [0] * len(links), 0)
+    lengths = np.array([link.length for link in links])
+    spin = np.sqrt(fr.omega**4 + fr.alpha**2) * lengths
+    return (np.linalg.norm(fr.origin_accel, axis=-1) + spin).max(axis=0)
+
+
+def quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
+    """Indices of the flexible links whose first frequency is above UNRESOLVED_FACTOR × the
+    output grid's Nyquist frequency and whose estimated quasi-static deflection is below
+    ``rtol`` × their length; none for forward runs."""
+    if scenario.is_forward:
+        return []
+    settings = scenario.settings
+    nyquist = 0.5 / settings.dt_out  # Hz
+    modal = chain_modal_data(scenario.chain)
+    candidates = [k for k, d in enumerate(modal)
+                  if d.n and d.natural_frequencies_hz[0] > UNRESOLVED_FACTOR * nyquist]
+    if not candidates:
+        return []
+    acceleration = peak_accelerations(scenario, t)
+    out = []
+    for k in candidates:
+        omega1 = 2 * np.pi * modal[k].natural_frequencies_hz[0]
+        deflection = DEFLECTION_FACTOR * acceleration[k] / omega1**2
+        if deflection <= settings.rtol * scenario.chain.links[k].length:
+            out.append(k)
+    return out
+
+
+def with_rigid_links(scenario: Scenario, indices: list[int]) -> Scenario:
+    """The scenario with the links at ``indices`` made rigid."""
+    links = tuple(rigid_body(link) if k in indices else link
+                  for k, link in enumerate(scenario.chain.links))
+    return dataclasses.replace(scenario, chain=dataclasses.replace(scenario.chain, links=links))
+
+
+def rigid_metadata(scenario: Scenario, indices: list[int]) -> dict[str, str]:
+    """The run's attributes on the links it ran rigid (none: no attribute)."""
+    if not indices:
+        return {}
+    names = [scenario.chain.links[k].name for k in indices]
+    return {"rigid_links": ", ".join(names),
+            "rigid_links_note": (
+                f"{', '.join(names)} ran as rigid: first frequency above "
+                f"{UNRESOLVED_FACTOR:g}× the output grid's Nyquist frequency and quasi-static "
+                "deflection below rtol of the length (set rigid = true to say so; a finer "
+                "dt_out or a smaller rtol keeps the modes)")}
