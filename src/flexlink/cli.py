@@ -121,12 +121,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
                         args: argparse.Namespace) -> int:
-    from .errors import SimulationError
+    from .errors import RunTooLarge, SimulationError
     from .results.writers import write_run
     from .simulation import simulate
 
     try:
         results = simulate(scenario, progress=not args.quiet)
+    except RunTooLarge as exc:  # refused before anything ran: an input error
+        return _fail(f"error: {exc}")
     except (SimulationError, FloatingPointError) as exc:
         return _fail(f"simulation failed: {exc}", status=1)
     except ValueError as exc:

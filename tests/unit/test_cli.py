@@ -229,3 +229,12 @@ def test_summary_says_which_model_ran_and_warns_past_its_validity(
     out = capsys.readouterr().out
     assert "(geometrically stiffened)" in out
     assert "warning: the tip of arm deflected" in out and 'model = "nonlinear"' in out
+
+
+def test_a_run_too_large_for_memory_is_an_input_error(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    huge = write(tmp_path, SHORT.replace("dt_out = 0.02", "dt_out = 1e-10"))
+    assert main(["run", str(huge), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: simulation.dt_out: this run needs") and "coarser fits" in err
+    assert not (tmp_path / "out").exists()

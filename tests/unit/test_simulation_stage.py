@@ -53,7 +53,7 @@ def test_each_scenario_takes_one_path() -> None:
 @pytest.mark.parametrize("make", [lambda: _short(), lambda: _short(model="nonlinear"),
                                   lambda: _driven(_short(geometric_stiffening=True))],
                          ids=["prescribed", "nonlinear", "forward"])
-def test_every_path_returns_the_catalogue(make) -> None:  # noqa: ANN001
+def test_every_path_returns_the_catalogue(make) -> None:
     scenario = make()
     results = simulate(scenario)
     assert list(results.channels.values()) == catalogue(scenario)
@@ -165,3 +165,18 @@ def test_shapes_are_computed_unless_declined() -> None:
     scenario = _short()
     assert [s.link for s in simulate(scenario).shapes] == ["a", "b"]
     assert simulate(scenario, shapes=False).shapes == []
+
+
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("t_end", -1.0, "simulation.t_end must be > 0, got -1.0"),
+    ("dt_out", 2.0, "simulation.dt_out must be <= simulation.t_end"),
+    ("rtol", 0.5, r"simulation.rtol must be in \(0, 0.01\]"),
+    ("method", "rk4", "simulation.method must be one of 'magnus'"),
+    ("model", "linear", "simulation.model must be one of 'first_order'"),
+])
+def test_settings_built_in_python_are_checked(field: str, value: object, message: str) -> None:
+    """Regression: a negative t_end from Python ended in an IndexError inside output_times."""
+    from flexlink.model import SimulationSettings
+
+    with pytest.raises(ValueError, match=message):
+        SimulationSettings(**{"t_end": 1.0, "dt_out": 0.01, field: value})

@@ -29,3 +29,24 @@ class SimulationSettings:
     method: MethodName = "lawson"
     model: ModelName = "first_order"  # "nonlinear": large deflections (docs/nonlinear.md)
     step: float | None = None  # s, fixed step of the nonlinear model (None: step halving)
+
+    def __post_init__(self) -> None:
+        # The scenario loader reports these with every other problem; a model built in
+        # Python gets the same words here instead of an error deep inside a run.
+        for name in ("t_end", "dt_out", "atol"):
+            value = getattr(self, name)
+            if not value > 0:
+                raise ValueError(f"simulation.{name} must be > 0, got {value!r}")
+        if self.dt_out > self.t_end:
+            raise ValueError(f"simulation.dt_out must be <= simulation.t_end ({self.t_end!r} s), "
+                             f"got {self.dt_out!r}")
+        if not 0 < self.rtol <= 1e-2:
+            raise ValueError(f"simulation.rtol must be in (0, 0.01], got {self.rtol!r}")
+        if self.method not in METHODS:
+            raise ValueError(f"simulation.method must be one of {', '.join(map(repr, METHODS))}, "
+                             f"got {self.method!r}")
+        if self.model not in MODELS:
+            raise ValueError(f"simulation.model must be one of {', '.join(map(repr, MODELS))}, "
+                             f"got {self.model!r}")
+        if self.step is not None and not self.step > 0:
+            raise ValueError(f"simulation.step must be > 0 s, got {self.step!r}")

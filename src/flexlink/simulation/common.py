@@ -14,7 +14,7 @@ import numpy as np
 from .._version import package_version
 from ..channels.catalogue import catalogue
 from ..channels.shapes import LinkShape
-from ..errors import SimulationError
+from ..errors import RunTooLarge, SimulationError
 from ..model import Link, Scenario
 from ..results import Results
 from ..solvers import Solution
@@ -85,10 +85,10 @@ def memory_problem(estimate: MemoryEstimate, t_end: float, what: str,
 
 
 def check_run_memory(scenario: Scenario) -> None:
-    """SimulationError, before anything runs, if the run's arrays would not fit in memory."""
+    """RunTooLarge, before anything runs, if the run's arrays would not fit in memory."""
     problem = memory_problem(run_memory(scenario), scenario.settings.t_end, "this run")
     if problem:
-        raise SimulationError(problem)
+        raise RunTooLarge(problem)
 
 
 def _size(count: float) -> str:
