@@ -193,6 +193,8 @@ def test_command_line_sweep_matches_the_library(tmp_path: Path,
     assert status == 1  # one case failed; the file holds the others
     assert "3 cases" in report and "2 ok, 1 failed" in report
     assert f"case 0 ({RATE} = 3000): SimulationError" in report
+    # the progress bar's rate, and where the rest of the time went
+    assert "cases/s while the cases ran" in report and "start the workers and write" in report
     library = sweep(scenario, grid={RATE: RATES}, workers=1)
     with xr.open_dataset(out) as read:
         for name in ("tip", "joint1_angle", "status", RATE):  # NaN where case 0 failed

@@ -175,8 +175,12 @@ def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str
     count = dataset.sizes["case"]
     ok, failed = int(dataset.attrs["cases_ok"]), int(dataset.attrs["cases_failed"])
     lines = [(f"flexlink: swept {dataset.attrs['title'].removeprefix('flexlink sweep of ')!r}, "
-              f"{count} cases in {wall:.3g} s ({count / wall:.3g} cases/s): "
-              f"{ok} ok, {failed} failed")]
+              f"{count} cases in {wall:.3g} s: {ok} ok, {failed} failed")]
+    running = float(dataset.attrs.get("running_time_s", 0.0))
+    if running > 0:  # the progress bar's rate; the rest is start-up, checks and writing
+        lines.append(f"  {count / running:.3g} cases/s while the cases ran ({running:.3g} s); "
+                     f"{max(wall - running, 0.0):.2g} s to check the cases, start the workers "
+                     "and write")
     parameters = [name for name in dataset.coords if dataset[name].dims == ("case",)
                   and name != "case"]
     for index in [int(i) for i in dataset.case[dataset.status == "failed"].values][:max_errors]:

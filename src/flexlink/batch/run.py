@@ -82,10 +82,13 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
             results = _executor(stack, indexed, selected, local, scheduler, shared)
             bar = stack.enter_context(_progress(table.count, progress))
             bar.update(len(invalid))
+            started = time.perf_counter()
             for chunk in results:
                 collector.add(chunk)
                 bar.update(len(chunk.done) + len(chunk.failed))
                 checkpoint.maybe_write(collector)
+            # what the progress bar's rate measures, for the summary
+            collector.attrs["running_time_s"] = time.perf_counter() - started
         except KeyboardInterrupt:
             collector.attrs["sweep_state"] = "interrupted"
             stack.close()  # stop the workers before writing
