@@ -63,6 +63,9 @@ def test_run_folder_contents(tmp_path: Path, resolved: dict[str, Any]) -> None:
         "scenario.resolved.toml"]
     assert sorted(p.name for p in (out / "figures").iterdir()) == [
         "joint_angles.png", "sensors.png", "tip_paths.png"]
+    page = (out / "report.html").read_text(encoding="utf-8")
+    # regression: the page named the hidden folder it was written in (.run.partial-…)
+    assert "<td>run</td>" in page and "partial" not in page
     lines = (out / "results.csv").read_text().splitlines()
     assert lines[0] == "t,tip,root,joint1_angle,arm_tip_X,arm_tip_Y"
     table = np.loadtxt(out / "results.csv", delimiter=",", skiprows=1)

@@ -118,13 +118,16 @@ def channel_traces(results: ChannelTable, kinds: Sequence[ChannelKind]) -> list[
     return out
 
 
-def run_page(folder: Path, results: ChannelTable, resolved_text: str) -> ReportPage:
+def run_page(folder: Path, results: ChannelTable, resolved_text: str,
+             name: str | None = None) -> ReportPage:
     """The page of a run folder: summary, zoomable sensor and joint traces, the figures, the
-    animation if the folder has one, the resolved scenario."""
+    animation if the folder has one, the resolved scenario. ``name``: the folder's name when
+    ``folder`` is where it is being written (an atomic write's hidden partial folder)."""
     meta = results.metadata
     t = results.time
-    page = ReportPage(f"flexlink run: {meta.get('scenario', folder.name)}")
-    page.summary = {"folder": folder.name, "time": f"{t[0]:g} … {t[-1]:g} s, {t.size} samples",
+    name = name or folder.name
+    page = ReportPage(f"flexlink run: {meta.get('scenario', name)}")
+    page.summary = {"folder": name, "time": f"{t[0]:g} … {t[-1]:g} s, {t.size} samples",
                     **{k: meta[k] for k in ("model", "path", "method", "geometric_stiffening",
                                             "elastic_coordinates", "wall_time_s",
                                             "peak_tip_deflection_per_length",
@@ -143,8 +146,10 @@ def run_page(folder: Path, results: ChannelTable, resolved_text: str) -> ReportP
     return page
 
 
-def write_run_report(folder: Path, results: ChannelTable | None = None) -> Path:
-    """Write report.html into a run folder (reads the folder's results if not given)."""
+def write_run_report(folder: Path, results: ChannelTable | None = None,
+                     name: str | None = None) -> Path:
+    """Write report.html into a run folder (reads the folder's results if not given);
+    ``name``: the folder's final name if ``folder`` is a partial one."""
     from .writers import RESOLVED_NAME
 
     if results is None:
@@ -153,7 +158,7 @@ def write_run_report(folder: Path, results: ChannelTable | None = None) -> Path:
         results = read_run(folder)
     resolved = folder / RESOLVED_NAME
     text = resolved.read_text(encoding="utf-8") if resolved.is_file() else ""
-    return run_page(folder, results, text).write(folder / REPORT_NAME)
+    return run_page(folder, results, text, name).write(folder / REPORT_NAME)
 
 
 def _kind_counts(results: ChannelTable) -> dict[str, int]:

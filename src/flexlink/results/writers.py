@@ -90,7 +90,7 @@ def write_run(
         if report:
             from .report_html import write_run_report
 
-            write_run_report(partial, results)
+            write_run_report(partial, results, name=Path(out_dir).name)
     return Path(out_dir)
 
 
