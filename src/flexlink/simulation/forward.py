@@ -1,5 +1,5 @@
 """Forward dynamics, first-order model (free or pinned base, driven joints):
-ForwardSystem → solve_ivp → channels."""
+ForwardSystem → compiled RK4 loop (or solve_ivp, method = "DOP853", "Radau", …) → channels."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from ..channels.forward import SolvedMotion, rigid_values
 from ..dynamics.forward import ForwardSystem
 from ..model import Base, Scenario
 from ..solvers import Solution
-from ..solvers.forward import DEFAULT_METHOD, integrate_forward
+from ..solvers.forward import FAST_METHOD, integrate_forward
 from .common import PathRun, Progress, check_tip_deflection
 
 
@@ -18,7 +18,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
     system = ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening)
-    method = settings.method if settings.method not in ("lawson", "magnus") else DEFAULT_METHOD
+    method = settings.method if settings.method not in ("lawson", "magnus") else FAST_METHOD
     solution = integrate_forward(system, t, settings.rtol, settings.atol, method, on_progress)
     nu = len(system.free)
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],

@@ -1,38 +1,63 @@
-"""Forward-dynamics runs (free or pinned base, driven joints) through scipy's ``solve_ivp``.
+"""Forward-dynamics runs (free or pinned base, driven joints): the compiled RK4 loop
+(``method = "rk4"``, `forward_rk4.py`, what a run's default "lawson" maps to) or scipy's
+``solve_ivp`` (DOP853, Radau, …: the tight-tolerance reference).
 
 The state is [p_free, ṗ_free, z, ż, servo integrals]; the coupled equations of
 `dynamics.forward.ForwardSystem` (nonlinear in the rigid coordinates, first order in z) give
-its rate. The `Solution`'s coordinates are [p_free, z], its ``extra`` the servo integrals.
+its rate — through the compiled kernel (`dynamics/_forward_numba.py`, tested against the
+numpy equations to round-off) unless ``compiled=False``. The `Solution`'s coordinates are
+[p_free, z], its ``extra`` the servo integrals.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..dynamics import forward_kernel
 from ..dynamics.forward import ForwardSystem
 from ..errors import SimulationError
+from .forward_rk4 import BlowUp, integrate_forward_rk4
 from .ode import Stalled, integrate_ivp
 from .solution import Progress, Solution
 
-DEFAULT_METHOD = "DOP853"  # "lawson", "magnus" (prescribed-joint integrators) do not apply here
+DEFAULT_METHOD = "DOP853"  # of integrate_forward: the reference
+FAST_METHOD = "rk4"  # what a run's "lawson" or "magnus" (prescribed-joint integrators) maps to
 MAX_STEP_OUTPUTS = 10  # longest step, in output intervals (simulation.dt_out)
 
 
 def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
-                      method: str = DEFAULT_METHOD, on_progress: Progress | None = None
-                      ) -> Solution:
+                      method: str = DEFAULT_METHOD, on_progress: Progress | None = None,
+                      compiled: bool = True) -> Solution:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
-    initial state; the servo integrals as ``extra``.
+    initial state; the servo integrals as ``extra``. ``method``: "rk4" (compiled loop) or a
+    solve_ivp method, whose right-hand side is the compiled kernel or (``compiled=False``)
+    the numpy ForwardSystem.
 
-    The step is limited to MAX_STEP_OUTPUTS output intervals: while nothing moves the error
-    estimate is zero and the step would otherwise grow past the start of an input."""
+    solve_ivp's step is limited to MAX_STEP_OUTPUTS output intervals: while nothing moves the
+    error estimate is zero and the step would otherwise grow past the start of an input."""
+    if method == FAST_METHOD:
+        try:
+            return integrate_forward_rk4(system, t_out, rtol, atol, on_progress)
+        except BlowUp as exc:
+            raise SimulationError(_stall_message(system, exc.t, "the state grew without "
+                                                 "bound")) from None
     nu, n = len(system.free), system.n
+    if compiled:
+        from ..dynamics._forward_numba import rates as kernel
+        from ..dynamics._forward_numba import workspace
+
+        data = forward_kernel.pack(system)
+        work = workspace(data, len(system.servos))
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
-        parts = split_state(system, y[None])
-        pdd, zdd, rates = system.accelerations(np.array([t]), *parts)
         if on_progress is not None:
             on_progress(t)
+        if compiled:
+            dy = np.empty_like(y)
+            kernel(data, work, forward_kernel.inputs(system, np.array([t]))[0], y, dy)
+            return dy
+        parts = split_state(system, y[None])
+        pdd, zdd, rates = system.accelerations(np.array([t]), *parts)
         return np.concatenate([y[nu:2 * nu], pdd[0], y[2 * nu + n:2 * nu + 2 * n], zdd[0],
                                rates[0]])
 
@@ -41,7 +66,7 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
         y, evaluations = integrate_ivp(rhs, system.initial_state(), t_out, rtol, atol, method,
                                        max_step)
     except Stalled as exc:
-        raise SimulationError(_stall_message(system, exc.t)) from None
+        raise SimulationError(_stall_message(system, exc.t, "the time step collapsed")) from None
     p_free, pd_free, z, zd, integral = split_state(system, y)
     pdd_free, zdd, _ = system.accelerations(t_out, p_free, pd_free, z, zd, integral)
     return Solution(t_out, np.hstack([p_free, z]), np.hstack([pd_free, zd]),
@@ -56,10 +81,10 @@ def split_state(system: ForwardSystem, y: np.ndarray) -> tuple[np.ndarray, ...]:
     return tuple(np.split(y, cuts, axis=1))
 
 
-def _stall_message(system: ForwardSystem, t: float) -> str:
+def _stall_message(system: ForwardSystem, t: float, why: str) -> str:
     hint = ("; the paper's model (geometric_stiffening = false) is not energy-consistent and "
             "can blow up when a light link swings fast: set geometric_stiffening = true"
             if not system.geometric_stiffening else
             "; the first-order model may be outside its range (large deflections), or a servo "
             "loop is very stiff: try method = \"Radau\"")
-    return f"the forward run stalled at t = {t:.6g} s (the time step collapsed){hint}"
+    return f"the forward run stalled at t = {t:.6g} s ({why}){hint}"

@@ -1,0 +1,400 @@
+"""Compiled (numba) kernels of the forward dynamics: the coupled equations of
+`dynamics.forward.ForwardSystem` at one state, written as loops over tiny arrays.
+
+The numpy `ForwardSystem` stays the reference (docs/derivation.md §10); `tests/unit/
+test_forward_kernel.py` compares the two to round-off on random states of several systems.
+The data layout (`ForwardData`, the input row) is built by `dynamics/forward_kernel.py`.
+
+Differences of form, not of physics: the kernel never forms C and K. With x = [0; z] only
+their products with ż and z enter, so it forms
+
+    r(p̈) = C ẋ + K(p̈) x − f(p̈)   (n_x,)
+
+link by link from ξ = T̂ z, ξ̇ = Ṫ̂ z + T̂ ż, … (mat-vec, not mat-mat), M once, and the columns
+∂r/∂p̈_j by one more evaluation of r per free coordinate (r is affine in p̈, §10). The
+attachment-turn term of K (ForwardSystem._attachment_turn) multiplies δθ_b = 0 and drops out.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+Workspace = namedtuple("Workspace", [
+    "theta", "omega", "alpha", "oacc", "T", "Td", "Tdd", "own", "out", "xi", "xi_d", "xi_dd", "v", "TM",
+    "p", "pd", "pdd", "x", "xd", "r0", "rj", "M", "Q", "srates", "A", "b"])
+Workspace.__doc__ = "Scratch arrays of the kernels (allocated once per run: see workspace)."
+
+
+def workspace(d, n_servos: int) -> Workspace:
+    """Scratch arrays for ForwardData d: allocation inside the kernels cost more than the
+    arithmetic of the tiny matrices."""
+    N, nx, nr = d.length.shape[0], d.n_x, d.n_rigid
+    m = 3 + d.phi_bar.shape[1]
+    nu = d.free.shape[0]
+    e = np.empty
+    return Workspace(e(N), e(N), e(N), e((N, 2)), e((N, 3, nx)), e((N, 3, nx)), e((N, 3, nx)),
+                     e((N, 2)), e((N, 2)), e(m), e(m), e(m), e(m), e((m, nx)),
+                     e(nr), e(nr), e(nr), e(nx), e(nx), e(nx), e(nx), e((nx, nx)), e(nx),
+                     e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr))
+
+# Joint kinds in ForwardData.joint_kind.
+PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO = 0, 1, 2, 3
+# Base kinds in ForwardData.base_kind.
+FIXED, PINNED, FREE = 0, 1, 2
+
+
+@njit(cache=True)
+def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
+    """Fill the zero-order frame angles, rates, accelerations, origin accelerations (frame
+    axes) and the maps x → [ρx, ρy, θ1] of every link with their time derivatives
+    (ForwardSystem.frames; docs/derivation.md §2 and §10: rigid perturbations are extra
+    columns)."""
+    N = d.length.shape[0]
+    nb = d.n_base
+    T[:] = 0.0
+    Td[:] = 0.0
+    Tdd[:] = 0.0
+    bax = bay = 0.0  # the base's acceleration (its position does not enter)
+    th_b = w_b = a_b = 0.0
+    if d.base_kind == FREE:
+        bax, bay = pdd[0], pdd[1]
+    if d.base_kind != FIXED:
+        th_b, w_b, a_b = p[nb - 1], pd[nb - 1], pdd[nb - 1]
+    for k in range(N):
+        beta, bd, bdd = p[nb + k], pd[nb + k], pdd[nb + k]
+        cb, sb = np.cos(beta), np.sin(beta)
+        # back = A(−β), back_d = −β̇ S back, back_dd = (−β̈ S − β̇² I) back
+        b00, b01, b10, b11 = cb, sb, -sb, cb
+        d00, d01, d10, d11 = -bd * sb, bd * cb, -bd * cb, -bd * sb
+        e00 = -bdd * (-b10) - bd * bd * b00
+        e01 = -bdd * (-b11) - bd * bd * b01
+        e10 = -bdd * b00 - bd * bd * b10
+        e11 = -bdd * b01 - bd * bd * b11
+        if d.attached[k]:
+            theta[k] = th_b + beta
+            omega[k] = w_b + bd
+            alpha[k] = a_b + bdd
+            ct, st = np.cos(th_b), np.sin(th_b)
+            px, py = d.point[k, 0], d.point[k, 1]
+            cx, cy = ct * px - st * py, st * px + ct * py
+            ax = bax - a_b * cy - w_b * w_b * cx
+            ay = bay + a_b * cx - w_b * w_b * cy
+            ck, sk = np.cos(theta[k]), np.sin(theta[k])
+            oacc[k, 0] = ck * ax + sk * ay
+            oacc[k, 1] = -sk * ax + ck * ay
+            if d.base_kind == FREE:  # δx, δy: a global translation seen in frame k
+                w, a = omega[k], alpha[k]
+                A00, A01, A10, A11 = ck, sk, -sk, ck  # A(−θ)
+                T[k, 0, 0], T[k, 0, 1], T[k, 1, 0], T[k, 1, 1] = A00, A01, A10, A11
+                Td[k, 0, 0], Td[k, 0, 1] = w * A10, w * A11
+                Td[k, 1, 0], Td[k, 1, 1] = -w * A00, -w * A01
+                Tdd[k, 0, 0] = a * A10 - w * w * A00
+                Tdd[k, 0, 1] = a * A11 - w * w * A01
+                Tdd[k, 1, 0] = -a * A00 - w * w * A10
+                Tdd[k, 1, 1] = -a * A01 - w * w * A11
+            if d.base_kind != FIXED:  # δθ_b turns the attachment point and the frame
+                scx, scy = -py, px
+                j = nb - 1
+                T[k, 0, j] = b00 * scx + b01 * scy
+                T[k, 1, j] = b10 * scx + b11 * scy
+                Td[k, 0, j] = d00 * scx + d01 * scy
+                Td[k, 1, j] = d10 * scx + d11 * scy
+                Tdd[k, 0, j] = e00 * scx + e01 * scy
+                Tdd[k, 1, j] = e10 * scx + e11 * scy
+                T[k, 2, j] = 1.0
+        else:  # on the deformed tip of link k − 1: T_k = blockdiag(back, 1) P̃ T̂_{k−1}
+            j = k - 1
+            L = d.length[j]
+            theta[k] = theta[j] + beta
+            omega[k] = omega[j] + bd
+            alpha[k] = alpha[j] + bdd
+            tx = oacc[j, 0] - L * omega[j] * omega[j]
+            ty = oacc[j, 1] + L * alpha[j]
+            oacc[k, 0] = b00 * tx + b01 * ty
+            oacc[k, 1] = b10 * tx + b11 * ty
+            o, nj = d.offset[j], d.n_modes[j]
+            for c in range(d.n_x):
+                # U = P̃ T̂_{j}: rows ρx, ρy + L θ1 (+ Φ(L) q), θ1 (+ Φ'(L) q)
+                u0, u1, u2 = T[j, 0, c], T[j, 1, c] + L * T[j, 2, c], T[j, 2, c]
+                v0, v1, v2 = Td[j, 0, c], Td[j, 1, c] + L * Td[j, 2, c], Td[j, 2, c]
+                w0, w1, w2 = Tdd[j, 0, c], Tdd[j, 1, c] + L * Tdd[j, 2, c], Tdd[j, 2, c]
+                if o <= c < o + nj:
+                    u1 += d.tip_value[j, c - o]
+                    u2 += d.tip_slope[j, c - o]
+                T[k, 0, c] = b00 * u0 + b01 * u1
+                T[k, 1, c] = b10 * u0 + b11 * u1
+                T[k, 2, c] = u2
+                Td[k, 0, c] = d00 * u0 + d01 * u1 + b00 * v0 + b01 * v1
+                Td[k, 1, c] = d10 * u0 + d11 * u1 + b10 * v0 + b11 * v1
+                Td[k, 2, c] = v2
+                Tdd[k, 0, c] = e00 * u0 + e01 * u1 + 2.0 * (d00 * v0 + d01 * v1) \
+                    + b00 * w0 + b01 * w1
+                Tdd[k, 1, c] = e10 * u0 + e11 * u1 + 2.0 * (d10 * v0 + d11 * v1) \
+                    + b10 * w0 + b11 * w1
+                Tdd[k, 2, c] = w2
+        T[k, 2, nb + k] += 1.0  # δβ_k turns frame k
+
+
+@njit(cache=True)
+def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
+    """r = C ẋ + K x − f (n_x,) at rigid state (p, ṗ, p̈) for x = [0; z], ẋ = [0; ż], and
+    (want_M) the mass matrix M (n_x, n_x): ForwardSystem.matrices through its products.
+
+    Per link (first_order.add_link_terms, docs/derivation.md §3–4), with ξ = T̂x:
+    T̂ᵀ[M_t(ξ̈ + 2ξ̇) + 2ω G₀(ξ̇ + ξ) + (ω̇ G₀ − ω² M₀)ξ + load] − S₂x + K_e q + D q̇."""
+    N = d.length.shape[0]
+    nx = d.n_x
+    omega, alpha, oacc, T, Td, Tdd = w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td, w_.Tdd
+    frames(d, p, pd, pdd, w_.theta, omega, alpha, oacc, T, Td, Tdd)
+    # Outboard inertia force Σ_{j>k, same branch} ∫a0 dm along frame k's x (its x part is
+    # all the second-order stiffness needs; both components are carried for the turn).
+    own, out = w_.own, w_.out
+    out[:] = 0.0
+    for k in range(N):
+        w, wd = omega[k], alpha[k]
+        own[k, 0] = d.mass[k] * oacc[k, 0] - w * w * d.s1[k]
+        own[k, 1] = d.mass[k] * oacc[k, 1] + wd * d.s1[k]
+    for k in range(N - 2, -1, -1):
+        if d.attached[k + 1]:
+            continue
+        fx, fy = out[k + 1, 0] + own[k + 1, 0], out[k + 1, 1] + own[k + 1, 1]
+        beta = p[d.n_base + k + 1]  # θ_{k+1} − θ_k
+        cb, sb = np.cos(beta), np.sin(beta)
+        out[k, 0] = cb * fx - sb * fy
+        out[k, 1] = sb * fx + cb * fy
+    r[:] = 0.0
+    if want_M:
+        M[:] = 0.0
+    xi = w_.xi
+    xi_d = w_.xi_d  # Ṫ̂ x + T̂ ẋ
+    xi_dd = w_.xi_dd  # T̈̂ x + 2 Ṫ̂ ẋ
+    v = w_.v
+    TM = w_.TM  # M_t T̂
+    for k in range(N):
+        nk, o = d.n_modes[k], d.offset[k]
+        mk = 3 + nk
+        w, wd = omega[k], alpha[k]
+        for a in range(3):
+            s0 = s1 = s2 = 0.0
+            for c in range(nx):
+                s0 += T[k, a, c] * x[c]
+                s1 += Td[k, a, c] * x[c] + T[k, a, c] * xd[c]
+                s2 += Tdd[k, a, c] * x[c] + 2.0 * Td[k, a, c] * xd[c]
+            xi[a], xi_d[a], xi_dd[a] = s0, s1, s2
+        for i in range(nk):
+            xi[3 + i] = x[o + i]
+            xi_d[3 + i] = xd[o + i]
+            xi_dd[3 + i] = 0.0
+        # Zero-order inertia load (first_order.rigid_load), then the body terms.
+        ax, ay = oacc[k, 0], oacc[k, 1]
+        mass, s1k, J, Jt = d.mass[k], d.s1[k], d.J[k], d.Jt[k]
+        v[0] = mass * ax - w * w * s1k
+        v[1] = mass * ay + wd * s1k
+        v[2] = s1k * ay + J * wd + Jt * wd
+        for i in range(nk):
+            v[3 + i] = ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i] + Jt * wd * d.tip_slope[k, i]
+        for a in range(mk):
+            acc = 0.0
+            for b in range(mk):
+                acc += (d.Mtot[k, a, b] * xi_dd[b] + 2.0 * w * d.G0[k, a, b] * xi_d[b]
+                        + (wd * d.G0[k, a, b] - w * w * d.M0[k, a, b]) * xi[b])
+            v[a] += acc
+        # r += T̂ᵀ v
+        for c in range(nx):
+            acc = 0.0
+            for a in range(3):
+                acc += T[k, a, c] * v[a]
+            r[c] += acc
+        for i in range(nk):
+            r[o + i] += v[3 + i]
+        # Second-order stiffness (first_order.second_order_stiffness) times x.
+        N_out = out[k, 0]
+        w2 = w * w
+        scal = ax * s1k - w2 * J + N_out * d.length[k]
+        t1x = 0.0
+        for c in range(nx):
+            t1x += T[k, 2, c] * x[c]
+        vq = 0.0
+        for i in range(nk):
+            vec_i = ax * d.phi_bar[k, i] - w2 * d.phi_tilde[k, i] + N_out * d.tip_value[k, i]
+            vq += vec_i * x[o + i]
+            r[o + i] -= vec_i * t1x
+        for c in range(nx):
+            r[c] -= T[k, 2, c] * (scal * t1x + vq)
+        for i in range(nk):
+            acc = 0.0
+            for j in range(nk):
+                if d.stiffening:
+                    acc -= (ax * d.fore_mass[k, i, j] - w2 * d.fore_moment[k, i, j]
+                            + N_out * d.fore_tip[k, i, j]) * x[o + j]
+                acc += d.stiffness[k, i, j] * x[o + j] + d.damping[k, i, j] * xd[o + j]
+            r[o + i] += acc
+        if want_M:  # M += T̂ᵀ M_t T̂
+            for a in range(mk):
+                for c in range(nx):
+                    acc = 0.0
+                    for b in range(3):
+                        acc += d.Mtot[k, a, b] * T[k, b, c]
+                    TM[a, c] = acc
+                for i in range(nk):
+                    TM[a, o + i] += d.Mtot[k, a, 3 + i]
+            for c1 in range(nx):
+                for c2 in range(nx):
+                    acc = 0.0
+                    for b in range(3):
+                        acc += T[k, b, c1] * TM[b, c2]
+                    M[c1, c2] += acc
+            for i in range(nk):
+                for c2 in range(nx):
+                    M[o + i, c2] += TM[3 + i, c2]
+    # The rigid base's mass and inertia and their zero-order load (ForwardSystem._base_inertia).
+    nb = d.n_base
+    if d.base_kind == FREE:
+        r[0] += d.base_mass * pdd[0]
+        r[1] += d.base_mass * pdd[1]
+        if want_M:
+            M[0, 0] += d.base_mass
+            M[1, 1] += d.base_mass
+    if d.base_kind != FIXED:
+        r[nb - 1] += d.base_inertia * pdd[nb - 1]
+        if want_M:
+            M[nb - 1, nb - 1] += d.base_inertia
+    for k in range(N):  # motor inertia of a driven joint: J_m β̈ on its row
+        i = nb + k
+        r[i] += d.motor_inertia[k] * pdd[i]
+        if want_M:
+            M[i, i] += d.motor_inertia[k]
+
+
+@njit(cache=True)
+def applied(d, u, p, pd, integral, Q, rates):
+    """Generalized applied forces Q (n_x,) and servo integral rates at one time
+    (ForwardSystem.applied, dynamics/servos.py). u is the input row (forward_kernel.inputs):
+    [motion or reference angle, rate, acceleration (N each), torque (N), per base load
+    F_x, F_y (N), moment (N·m)]."""
+    N = d.length.shape[0]
+    nb = d.n_base
+    Q[:] = 0.0
+    for k in range(N):
+        kind = d.joint_kind[k]
+        i = nb + k
+        if kind == TORQUE:
+            Q[i] = u[3 * N + k]
+            continue
+        if kind == PRESCRIBED:
+            continue
+        error = u[k] - p[i]
+        if kind == VELOCITY_SERVO:
+            raw = d.P[k] * error + d.I[k] * integral[d.servo_index[k]] \
+                + d.D[k] * (u[N + k] - pd[i])
+            volts = min(max(raw, -d.saturation[k]), d.saturation[k])
+            command = d.rate_per_volt[k] * volts
+            # Conditional integration: no wind-up while the command is saturated.
+            rates[d.servo_index[k]] = error if (volts == raw and d.I[k] != 0.0) else 0.0
+        else:
+            command = min(max(d.bandwidth[k] * error, -d.rate_limit[k]), d.rate_limit[k])
+        tau = d.loop_gain[k] * (command - pd[i])
+        Q[i] = min(max(tau, -d.torque_limit[k]), d.torque_limit[k])
+    if d.base_kind != FIXED:
+        th = p[nb - 1]
+        ct, st = np.cos(th), np.sin(th)
+        base = 4 * N
+        nl = d.load_point.shape[0]
+        for j in range(nl):
+            fx, fy, mz = u[base + j], u[base + nl + j], u[base + 2 * nl + j]
+            if d.load_body[j]:
+                fx, fy = ct * fx - st * fy, st * fx + ct * fy
+            px, py = d.load_point[j, 0], d.load_point[j, 1]
+            arm_x, arm_y = ct * px - st * py, st * px + ct * py
+            Q[nb - 1] += mz + arm_x * fy - arm_y * fx
+            if d.base_kind == FREE:
+                Q[0] += fx
+                Q[1] += fy
+
+
+@njit(cache=True)
+def _solve(A, b):
+    """Solve A y = b in place (b ← y) by Gaussian elimination with partial pivoting."""
+    n = b.shape[0]
+    for c in range(n):
+        piv = c
+        big = abs(A[c, c])
+        for i in range(c + 1, n):
+            if abs(A[i, c]) > big:
+                big, piv = abs(A[i, c]), i
+        if piv != c:
+            for j in range(n):
+                A[c, j], A[piv, j] = A[piv, j], A[c, j]
+            b[c], b[piv] = b[piv], b[c]
+        if A[c, c] == 0.0:  # singular (a blown-up state): NaN, which the loop reports
+            b[:] = np.nan
+            return
+        inv = 1.0 / A[c, c]
+        for i in range(c + 1, n):
+            f = A[i, c] * inv
+            if f != 0.0:
+                for j in range(c, n):
+                    A[i, j] -= f * A[c, j]
+                b[i] -= f * b[c]
+    for i in range(n - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, n):
+            acc -= A[i, j] * b[j]
+        b[i] = acc / A[i, i]
+
+
+@njit(cache=True)
+def rates(d, w_, u, y, dy):
+    """dy/dt of the state y = [p_free, ṗ_free, z, ż, servo integrals] at one time with input
+    row u (ForwardSystem.accelerations); w_ is a Workspace. The equations are linear in
+    (p̈_free, z̈),
+
+        [∂r/∂p̈_free | M[:, z]] (p̈_free, z̈) = Q − r(p̈_free = 0)   on the free and z rows."""
+    N = d.length.shape[0]
+    nb, nr, nx = d.n_base, d.n_rigid, d.n_x
+    free = d.free
+    nu = free.shape[0]
+    n = nx - nr
+    ns = y.shape[0] - 2 * nu - 2 * n
+    p, pd, pdd, x, xd = w_.p, w_.pd, w_.pdd, w_.x, w_.xd
+    for k in range(N):  # prescribed joints from the input row, driven ones from the state
+        p[nb + k], pd[nb + k], pdd[nb + k] = u[k], u[N + k], u[2 * N + k]
+    for j in range(nu):
+        p[free[j]] = y[j]
+        pd[free[j]] = y[nu + j]
+        pdd[free[j]] = 0.0
+    x[:] = 0.0
+    xd[:] = 0.0
+    for i in range(n):
+        x[nr + i] = y[2 * nu + i]
+        xd[nr + i] = y[2 * nu + n + i]
+    integral = y[2 * nu + 2 * n:]
+    r0, rj, M, Q, srates, A, b = w_.r0, w_.rj, w_.M, w_.Q, w_.srates, w_.A, w_.b
+    residual(d, w_, p, pd, pdd, x, xd, r0, M, True)
+    srates[:] = 0.0
+    applied(d, u, p, pd, integral, Q, srates)
+    m = nu + n
+    for row in range(m):
+        a = free[row] if row < nu else nr + row - nu
+        b[row] = Q[a] - r0[a]
+        for i in range(n):
+            A[row, nu + i] = M[a, nr + i]
+    for j in range(nu):
+        pdd[free[j]] = 1.0
+        residual(d, w_, p, pd, pdd, x, xd, rj, M, False)
+        pdd[free[j]] = 0.0
+        for row in range(m):
+            a = free[row] if row < nu else nr + row - nu
+            A[row, j] = rj[a] - r0[a]
+    _solve(A, b)
+    for j in range(nu):
+        dy[j] = y[nu + j]
+        dy[nu + j] = b[j]
+    for i in range(n):
+        dy[2 * nu + i] = y[2 * nu + n + i]
+        dy[2 * nu + n + i] = b[nu + i]
+    for s in range(ns):
+        dy[2 * nu + 2 * n + s] = srates[s]

@@ -1,0 +1,191 @@
+"""The forward dynamics of a `ForwardSystem` as data for the compiled kernels
+(`_forward_numba.py`): constant arrays (`ForwardData`) and the input rows u(t).
+
+The kernels evaluate the same equations as the numpy `ForwardSystem` (the reference,
+docs/derivation.md §10); `tests/unit/test_forward_kernel.py` compares them to round-off.
+Inputs — prescribed joint motions, servo references, torque histories, base loads — are
+Python objects: they are evaluated here, vectorised over every time the integrator will need,
+and handed to the compiled loop as rows (`inputs`).
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from ..model import (
+    BangBang,
+    JointMotion,
+    PositionServo,
+    Step,
+    Sum,
+    Table,
+    TorqueDrive,
+    VelocityServo,
+)
+from ..model.histories import History
+from .forward import ForwardSystem
+
+ForwardData = namedtuple("ForwardData", [
+    "n_base", "base_kind", "n_rigid", "n_x", "stiffening", "base_mass", "base_inertia",
+    "free", "attached", "point", "length", "mass", "s1", "J", "Jt", "n_modes", "offset",
+    "Mtot", "M0", "G0", "phi_bar", "phi_tilde", "tip_value", "tip_slope", "stiffness",
+    "damping", "fore_mass", "fore_moment", "fore_tip", "joint_kind", "motor_inertia",
+    "servo_index", "P", "I", "D", "saturation", "rate_per_volt", "loop_gain", "torque_limit",
+    "bandwidth", "rate_limit", "load_point", "load_body"])
+ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI units, link "
+                       "arrays padded to the most modes, offsets into x = [δp; z].")
+
+
+def pack(system: ForwardSystem) -> ForwardData:
+    """The constant data of ``system`` (see ForwardData)."""
+    from ._forward_numba import (
+        FIXED,
+        FREE,
+        PINNED,
+        POSITION_SERVO,
+        PRESCRIBED,
+        TORQUE,
+        VELOCITY_SERVO,
+    )
+
+    chain, base = system.chain, system.base
+    N = len(chain.links)
+    nm = max(d.n for d in system.modal)
+    m = 3 + nm
+
+    def pad(values: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+        out = np.zeros((N, *shape))
+        for k, v in enumerate(values):
+            out[(k, *(slice(0, s) for s in np.shape(v)))] = v
+        return out
+
+    bodies, modal = system.bodies, system.modal
+    kind = np.zeros(N, dtype=np.int64)
+    servo_index = np.full(N, -1, dtype=np.int64)
+    params = {name: np.zeros(N) for name in ("P", "I", "D", "saturation", "rate_per_volt",
+                                             "loop_gain", "bandwidth", "rate_limit")}
+    torque_limit = np.full(N, np.inf)
+    motor = np.zeros(N)
+    for k, joint in enumerate(chain.joints):
+        if isinstance(joint, TorqueDrive):
+            kind[k] = TORQUE
+        elif isinstance(joint, VelocityServo):
+            kind[k] = VELOCITY_SERVO
+            for name in ("P", "I", "D", "saturation", "rate_per_volt"):
+                params[name][k] = getattr(joint, name)
+        elif isinstance(joint, PositionServo):
+            kind[k] = POSITION_SERVO
+            params["bandwidth"][k], params["rate_limit"][k] = joint.bandwidth, joint.rate_limit
+        else:
+            kind[k] = PRESCRIBED
+        if isinstance(joint, VelocityServo | PositionServo):
+            servo_index[k] = system.servos.index(k)
+            params["loop_gain"][k] = joint.loop_gain
+            torque_limit[k] = joint.torque_limit
+        if kind[k] != PRESCRIBED:
+            motor[k] = joint.motor_inertia  # type: ignore[union-attr]
+    loads = base.loads if base.kind != "fixed" else ()
+    return ForwardData(
+        n_base=system.n_base, base_kind={"fixed": FIXED, "pinned": PINNED, "free": FREE}[base.kind],
+        n_rigid=system.n_rigid, n_x=system.n_x, stiffening=bool(system.geometric_stiffening),
+        base_mass=float(base.mass), base_inertia=float(base.inertia),
+        free=np.asarray(system.free, dtype=np.int64),
+        attached=np.array([a is not None for a in system.attach]),
+        point=np.array([a if a is not None else (0.0, 0.0) for a in system.attach], dtype=float),
+        length=np.array([d.length for d in modal]), mass=np.array([d.mass for d in modal]),
+        s1=np.array([d.first_moment for d in modal]), J=np.array([d.second_moment for d in modal]),
+        Jt=np.array([d.tip_inertia for d in modal]),
+        n_modes=np.array([d.n for d in modal], dtype=np.int64),
+        offset=np.array([b.offset for b in bodies], dtype=np.int64),
+        Mtot=pad([b.M0 + b.M_rot for b in bodies], (m, m)), M0=pad([b.M0 for b in bodies], (m, m)),
+        G0=pad([b.G0 for b in bodies], (m, m)),
+        phi_bar=pad([d.phi_bar for d in modal], (nm,)),
+        phi_tilde=pad([d.phi_tilde for d in modal], (nm,)),
+        tip_value=pad([d.tip_value for d in modal], (nm,)),
+        tip_slope=pad([d.tip_slope for d in modal], (nm,)),
+        stiffness=pad([d.stiffness_matrix for d in modal], (nm, nm)),
+        damping=pad([d.damping_matrix for d in modal], (nm, nm)),
+        fore_mass=pad([d.foreshortening_mass for d in modal], (nm, nm)),
+        fore_moment=pad([d.foreshortening_moment for d in modal], (nm, nm)),
+        fore_tip=pad([d.foreshortening_tip for d in modal], (nm, nm)),
+        joint_kind=kind, motor_inertia=motor, servo_index=servo_index, torque_limit=torque_limit,
+        **params,
+        load_point=np.array([ld.point for ld in loads], dtype=float).reshape(len(loads), 2),
+        load_body=np.array([ld.frame == "body" for ld in loads], dtype=bool))
+
+
+def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:
+    """Input rows u(t) (nt, 4N + 3·loads): per joint its prescribed motion or servo reference
+    (angle rad, rate rad/s, acceleration rad/s², N columns each), its drive torque (N·m,
+    torque drives), then per base load F_x, F_y (N) and the moment (N·m)."""
+    t = np.asarray(t, dtype=float)
+    chain, base = system.chain, system.base
+    N = len(chain.links)
+    loads = base.loads if base.kind != "fixed" else ()
+    u = np.zeros((t.size, 4 * N + 3 * len(loads)))
+    for k, joint in enumerate(chain.joints):
+        if isinstance(joint, TorqueDrive):
+            u[:, 3 * N + k] = joint.torque.value(t)
+            continue
+        motion: JointMotion = (joint.reference if isinstance(joint, VelocityServo | PositionServo)
+                               else joint)
+        for i, v in enumerate(motion.evaluate(t)):
+            u[:, i * N + k] = np.broadcast_to(v, t.shape)
+    nl = len(loads)
+    for j, load in enumerate(loads):
+        u[:, 4 * N + j] = load.force_x.value(t)
+        u[:, 4 * N + nl + j] = load.force_y.value(t)
+        u[:, 4 * N + 2 * nl + j] = load.moment.value(t)
+    return u
+
+
+def history_breakpoints(history: History) -> set[float]:
+    """Times (s) where an input history jumps or kinks (its samples, for a table)."""
+    if isinstance(history, BangBang):
+        return {history.start, history.start + 0.5 * history.duration,
+                history.start + history.duration}
+    if isinstance(history, Step):
+        return {history.start, history.start + history.duration}
+    if isinstance(history, Table):
+        return set(history.t)
+    if isinstance(history, Sum):
+        return set().union(*(history_breakpoints(p) for p in history.parts))
+    return set(getattr(history, "breakpoints", ()))
+
+
+def breakpoints(system: ForwardSystem) -> np.ndarray:
+    """Sorted times (s) where an input (motion, reference, torque, base load) is not smooth:
+    the compiled integrator ends steps there."""
+    times: set[float] = set()
+    for joint in system.chain.joints:
+        if isinstance(joint, TorqueDrive):
+            times |= history_breakpoints(joint.torque)
+        else:
+            motion = joint.reference if isinstance(joint, VelocityServo | PositionServo) else joint
+            times |= set(getattr(motion, "breakpoints", ()))
+    if system.base.kind != "fixed":
+        for load in system.base.loads:
+            for h in (load.force_x, load.force_y, load.moment):
+                times |= history_breakpoints(h)
+    return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
+
+
+def accelerations(system: ForwardSystem, t: np.ndarray, p_free: np.ndarray, pd_free: np.ndarray,
+                  z: np.ndarray, zd: np.ndarray, integral: np.ndarray,
+                  data: ForwardData | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ForwardSystem.accelerations through the compiled kernel: p̈_free, z̈, servo integral
+    rates at times t (same shapes)."""
+    from ._forward_numba import rates, workspace
+
+    data = pack(system) if data is None else data
+    work = workspace(data, len(system.servos))
+    u = inputs(system, t)
+    nu, n = len(system.free), system.n
+    y = np.hstack([p_free, pd_free, z, zd, integral])
+    dy = np.empty_like(y)
+    for i in range(t.size):
+        rates(data, work, u[i], y[i], dy[i])
+    return dy[:, nu:2 * nu], dy[:, 2 * nu + n:2 * nu + 2 * n], dy[:, 2 * nu + 2 * n:]

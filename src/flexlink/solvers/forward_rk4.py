@@ -1,0 +1,155 @@
+"""The fast forward-dynamics integrator: compiled classical RK4 on a fixed grid with
+Richardson error control (ARCHITECTURE.md, "Why the solver looks like this").
+
+The grid is the output times plus every breakpoint of the inputs (bang-bang switches, table
+samples, ends of reference moves: `forward_kernel.breakpoints`), each interval cut into
+``substeps`` equal steps, so no step straddles a jump of an input. All inputs are evaluated
+before the loop, vectorised, at every stage time (`forward_kernel.inputs`); the loop
+(`_forward_rk4_numba.rk4_steps`) then calls only the compiled right-hand side.
+
+Error control as in the Lawson integrator of prescribed runs: the run with ``substeps`` is
+compared at the outputs with the run with half as many (Richardson, error ≈ difference / 15
+for a fourth-order method), doubling until each state group (p, ṗ, z, ż, integrals) agrees
+within atol + rtol · its peak. A run whose state grows without bound at the same time for
+every step size is a blow-up of the model, reported as such.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from ..dynamics.forward import ForwardSystem
+from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack
+from ..errors import SimulationError
+from .solution import Progress, Solution
+
+_MAX_DOUBLINGS = 8
+_RICHARDSON = 15.0  # (2⁴ − 1): the coarse-fine difference over the fine run's error
+_STEPS_PER_CALL = 4096  # progress is reported between calls of the compiled loop
+_STABLE_H_OMEGA = 2.0  # h·ω_max of the first coarse run (RK4 is stable up to 2.83)
+
+
+class BlowUp(SimulationError):
+    """The state grew without bound; ``t`` is when (s)."""
+
+    def __init__(self, t: float) -> None:
+        self.t = t
+        super().__init__(f"the state grew without bound at t = {t:.6g} s")
+
+
+def integrate_forward_rk4(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
+                          on_progress: Progress | None = None) -> Solution:
+    """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
+    initial state; the servo integrals as ``extra`` (the contract of solvers.forward)."""
+    from ..dynamics._forward_numba import workspace
+
+    data = pack(system)
+    work = workspace(data, len(system.servos))
+    nodes, record = _nodes(system, t_out)
+    omega = _stiffest_rate(data, work, system)
+    # The coarse run of the first comparison takes steps of ≲ 2/ω_max: inside RK4's
+    # stability region for the stiffest mode of the coupled system at t = 0.
+    widest = float(np.diff(nodes).max()) if nodes.size > 1 else 1.0
+    substeps = 2 * max(1, int(np.ceil(widest * omega / (2 * _STABLE_H_OMEGA))))
+    y0 = system.initial_state()
+    coarse = _run(data, work, system, y0, nodes, record, t_out.size, substeps // 2, None)
+    for _ in range(_MAX_DOUBLINGS):
+        fine = _run(data, work, system, y0, nodes, record, t_out.size, substeps, on_progress)
+        if isinstance(fine, BlowUp) and isinstance(coarse, BlowUp) \
+                and abs(fine.t - coarse.t) <= 0.05 * fine.t:
+            raise fine  # the same time at two step sizes: the model, not the steps
+        if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp) \
+                and _agree(system, fine, coarse, rtol, atol):
+            return _solution(data, work, system, t_out, fine, substeps)
+        coarse = fine
+        substeps *= 2
+    if isinstance(coarse, BlowUp):
+        raise coarse
+    raise SimulationError(
+        f"the forward run did not reach rtol = {rtol:g}, atol = {atol:g} with {substeps // 2} "
+        "steps per output interval; loosen the tolerances or use method = \"Radau\"")
+
+
+def _stiffest_rate(data: ForwardData, work: tuple, system: ForwardSystem) -> float:
+    """Largest |eigenvalue| (1/s) of the Jacobian of the equations at the initial state: the
+    stiffest mode of the coupled system (free rigid coordinates lower the mass a mode sees,
+    so it can exceed the clamped links' frequencies), or a stiff servo loop."""
+    from ._forward_rk4_numba import jacobian
+
+    y0 = system.initial_state()
+    J = np.empty((y0.size, y0.size))
+    jacobian(data, work, inputs(system, np.array([0.0]))[0], y0, J)
+    radius = float(np.abs(np.linalg.eigvals(J)).max()) if np.all(np.isfinite(J)) else 0.0
+    clamped = max(float(2 * np.pi * d.natural_frequencies_hz.max()) for d in system.modal)
+    return max(radius, clamped)
+
+
+def _nodes(system: ForwardSystem, t_out: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Grid nodes (outputs and inner breakpoints) and, per node, its output index or −1."""
+    inner = breakpoints(system)
+    inner = inner[(inner > t_out[0]) & (inner < t_out[-1])]
+    nodes = np.union1d(t_out, inner)
+    record = np.full(nodes.size, -1, dtype=np.int64)
+    record[np.searchsorted(nodes, t_out)] = np.arange(t_out.size)
+    return nodes, record
+
+
+def _run(data: ForwardData, work: tuple, system: ForwardSystem, y0: np.ndarray,
+         nodes: np.ndarray, record: np.ndarray, n_out: int, substeps: int,
+         on_progress: Progress | None) -> np.ndarray | BlowUp:
+    """States at the outputs (n_out, len(y0)) with ``substeps`` steps per node interval, or
+    the BlowUp."""
+    from ._forward_rk4_numba import rk4_steps
+
+    width = np.diff(nodes)
+    h = np.repeat(width / substeps, substeps)
+    starts = (nodes[:-1, None] + width[:, None] * (np.arange(substeps) / substeps)).ravel()
+    # Stage inputs read just inside the step: a jump on a node is taken from the right side.
+    inside = 1e-9 * h
+    times = np.stack([starts + inside, starts + 0.5 * h, starts + h - inside], 1)
+    u = inputs(system, times.ravel()).reshape(times.shape + (-1,))
+    step_record = np.full(h.size, -1, dtype=np.int64)
+    step_record[substeps - 1::substeps] = record[1:]
+    states = np.empty((n_out, y0.size))
+    states[0] = y0
+    y = y0.copy()
+    for first in range(0, h.size, _STEPS_PER_CALL):
+        last = min(first + _STEPS_PER_CALL, h.size)
+        bad = rk4_steps(data, work, y, u, h, step_record, first, last, states)
+        if bad >= 0:
+            return BlowUp(float(starts[bad]))
+        if on_progress is not None:
+            on_progress(float(starts[last - 1] + h[last - 1]))
+    return states
+
+
+def _agree(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray, rtol: float,
+           atol: float) -> bool:
+    """Whether the fine run's estimated error is within atol + rtol · peak of each group."""
+    nu, n = len(system.free), system.n
+    cuts = np.cumsum([0, nu, nu, n, n, fine.shape[1] - 2 * nu - 2 * n])
+    for a, b in itertools.pairwise(cuts):
+        if b == a:
+            continue
+        peak = np.abs(fine[:, a:b]).max()
+        error = np.abs(fine[:, a:b] - coarse[:, a:b]).max() / _RICHARDSON
+        if not error <= atol + rtol * peak:
+            return False
+    return True
+
+
+def _solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
+              states: np.ndarray, substeps: int) -> Solution:
+    from ._forward_rk4_numba import rates_at
+
+    nu, n = len(system.free), system.n
+    rates = np.empty_like(states)
+    rates_at(data, work, inputs(system, t_out), states, rates)
+    p, pd = states[:, :nu], states[:, nu:2 * nu]
+    z, zd = states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n]
+    return Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
+                    np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
+                    "rk4", {"steps_per_output_interval": substeps},
+                    extra=states[:, 2 * nu + 2 * n:])

@@ -1,0 +1,111 @@
+"""The compiled forward-dynamics kernel (dynamics/_forward_numba.py) against the numpy
+ForwardSystem, the reference: the same accelerations to round-off on random states."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flexlink.dynamics import forward_kernel
+from flexlink.dynamics.forward import ForwardSystem
+from flexlink.model import (
+    BangBang,
+    Base,
+    BaseLoad,
+    Chain,
+    Link,
+    PositionServo,
+    Step,
+    Sum,
+    Table,
+    TorqueDrive,
+    VelocityServo,
+)
+from flexlink.motion import Cycloidal, Hold
+from tests.helpers import CubicMotion, paper_links
+
+
+def _free_two_appendages(stiffening: bool) -> ForwardSystem:
+    links = (Link("a", 2.0, 1.0, 50.0, tip_mass=0.3, tip_inertia=0.01, modes=2),
+             Link("b", 1.5, 1.0, 40.0, modes=3),
+             Link("c", 0.8, 0.5, 20.0, modes=2))
+    loads = (BaseLoad(force_x=Step(2.0), moment=BangBang(1.5, 0.0, 2.0), point=(0.1, 0.2)),
+             BaseLoad(force_y=Sum((Step(1.0), Step(-0.5, 0.3))), point=(-0.2, 0.1),
+                      frame="body"))
+    base = Base("free", mass=20.0, inertia=5.0, attachments=((0, (0.5, 0.0)), (1, (-0.5, 0.1))),
+                loads=loads, position=(0.3, 0.2), velocity=(0.1, -0.05), rate=0.2)
+    chain = Chain(links, (TorqueDrive(BangBang(2.0, 0.0, 4.0), initial_angle=0.2,
+                                      motor_inertia=0.02),
+                          Hold(180.0), CubicMotion(0.3, 0.5, -0.2, 0.1)))
+    return ForwardSystem(chain, base, stiffening)
+
+
+def _pinned_hub(stiffening: bool) -> ForwardSystem:
+    links = (Link("beam", 2.0, 1.0, 10.0, modes=4), Link("outer", 1.0, 0.5, 5.0, modes=2))
+    loads = (BaseLoad(moment=Step(0.7), force_x=Step(3.0), point=(0.0, 0.4), frame="body"),)
+    base = Base("pinned", inertia=0.8, attachments=((0, (0.2, 0.0)),), loads=loads, rate=0.4)
+    chain = Chain(links, (CubicMotion(0.1, 0.3, 0.4, -0.1),
+                          TorqueDrive(Table((0.0, 1.0, 2.0), (0.5, -0.2, 0.3)))))
+    return ForwardSystem(chain, base, stiffening)
+
+
+def _paper_servos(stiffening: bool) -> ForwardSystem:
+    servo1 = VelocityServo(Cycloidal(0.0, 90.0, 0.1, 1.0), P=5.0, I=2.0, D=0.005,
+                           saturation=6.0, rate_per_volt=np.pi, loop_gain=50.0,
+                           torque_limit=800.0, motor_inertia=0.05)
+    servo2 = PositionServo(Cycloidal(1.5, 3.0, 0.1, 1.0), bandwidth=30.0, rate_limit=0.5,
+                           loop_gain=0.5, torque_limit=0.4, motor_inertia=0.001)
+    return ForwardSystem(Chain(paper_links(3), (servo1, servo2)), Base(), stiffening)
+
+
+SYSTEMS = {"free": _free_two_appendages, "pinned": _pinned_hub, "servos": _paper_servos}
+
+
+@pytest.mark.parametrize("stiffening", [False, True])
+@pytest.mark.parametrize("name", sorted(SYSTEMS))
+def test_kernel_matches_the_numpy_equations(name: str, stiffening: bool) -> None:
+    """Random rigid states, deflections, rates and servo integrals (saturating and not):
+    p̈_free, z̈ and the integral rates agree with ForwardSystem.accelerations to 1e-11 of
+    their size."""
+    system = SYSTEMS[name](stiffening)
+    rng = np.random.default_rng(7)
+    nt, nu, n, ns = 12, len(system.free), system.n, len(system.servos)
+    t = rng.uniform(0.0, 1.5, nt)
+    p_free = rng.uniform(-2.0, 2.0, (nt, nu))
+    pd_free = rng.normal(size=(nt, nu))
+    z, zd = 1e-2 * rng.normal(size=(nt, n)), 0.3 * rng.normal(size=(nt, n))
+    integral = 0.2 * rng.normal(size=(nt, ns))
+    expected = system.accelerations(t, p_free, pd_free, z, zd, integral)
+    got = forward_kernel.accelerations(system, t, p_free, pd_free, z, zd, integral)
+    for ours, theirs in zip(got, expected):
+        scale = np.abs(theirs).max(initial=0.0)
+        np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-11 * scale)
+
+
+def test_servo_limits_are_exercised() -> None:
+    """The random states of the comparison reach both sides of the servo limits (saturated
+    PID command, rate limit, torque limit), so the comparison covers every branch."""
+    system = _paper_servos(True)
+    rng = np.random.default_rng(7)
+    t = rng.uniform(0.0, 1.5, 12)
+    p = rng.uniform(-2.0, 2.0, (12, 2))
+    pd = rng.normal(size=(12, 2))
+    rng.normal(size=(2, 12, system.n))  # z, ż: the same draws as the comparison
+    integral = 0.2 * rng.normal(size=(12, 1))
+    s1, s2 = system.chain.joints
+    ref1, rate1, _ = s1.reference.evaluate(t)
+    raw = s1.P * (ref1 - p[:, 0]) + s1.I * integral[:, 0] + s1.D * (rate1 - pd[:, 0])
+    assert np.any(np.abs(raw) > s1.saturation) and np.any(np.abs(raw) < s1.saturation)
+    command = s2.bandwidth * (s2.reference.evaluate(t)[0] - p[:, 1])
+    assert np.any(np.abs(command) > s2.rate_limit) and np.any(np.abs(command) < s2.rate_limit)
+    tau1 = s1.loop_gain * (s1.rate_per_volt * np.clip(raw, -s1.saturation, s1.saturation) - pd[:, 0])
+    assert np.any(np.abs(tau1) > s1.torque_limit) and np.any(np.abs(tau1) < s1.torque_limit)
+
+
+def test_breakpoints_of_inputs() -> None:
+    """Jumps of torque and load histories and the ends of motion profiles are breakpoints."""
+    system = _free_two_appendages(True)
+    times = forward_kernel.breakpoints(system)
+    for b in (0.0, 1.0, 2.0, 0.3, 4.0):
+        assert np.any(np.isclose(times, b)), b
+    assert np.all(np.isfinite(times))
