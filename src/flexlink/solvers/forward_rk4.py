@@ -82,7 +82,8 @@ def _stiffest_rate(data: ForwardData, work: tuple, system: ForwardSystem) -> flo
     J = np.empty((y0.size, y0.size))
     jacobian(data, work, inputs(system, np.array([0.0]))[0], y0, J)
     radius = float(np.abs(np.linalg.eigvals(J)).max()) if np.all(np.isfinite(J)) else 0.0
-    clamped = max(float(2 * np.pi * d.natural_frequencies_hz.max()) for d in system.modal)
+    clamped = max((float(2 * np.pi * d.natural_frequencies_hz.max()) for d in system.modal
+                   if d.natural_frequencies_hz.size), default=0.0)  # rigid links have none
     return max(radius, clamped)
 
 
