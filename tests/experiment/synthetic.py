@@ -215,3 +215,19 @@ def single_link_measurement(EI: float, zeta: float, seed: int = 1) -> dict[str, 
         "acc": acc + 0.02 * np.abs(acc).max() * rng.normal(size=t.size),
         "strain": 1e6 * (0.9 * strain + 0.02 * np.abs(strain).max() * rng.normal(size=t.size)),
     }
+
+
+# The [measurement] mapping of the single-link data: joint angle in degrees (filtered as the
+# docs suggest) and the tip accelerometer.
+SINGLE_LINK_MAPPING = """
+[measurement]
+file = "measured.csv"
+[[measurement.columns]]
+column = "angle"
+joint = 1
+unit = "deg"
+lowpass_hz = 30.0
+[[measurement.columns]]
+column = "acc"
+sensor = "acc"
+"""

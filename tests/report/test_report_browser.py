@@ -14,22 +14,11 @@ import pytest
 
 from flexlink.cli import main
 
-from ..experiment.synthetic import single_link_measurement, single_link_text, write_csv
+from ..experiment.synthetic import (SINGLE_LINK_MAPPING, single_link_measurement,
+                                    single_link_text, write_csv)
 
 pytestmark = pytest.mark.slow
 
-MAPPING = """
-[measurement]
-file = "measured.csv"
-[[measurement.columns]]
-column = "angle"
-joint = 1
-unit = "deg"
-lowpass_hz = 30.0
-[[measurement.columns]]
-column = "acc"
-sensor = "acc"
-"""
 NETWORK = ("http", "https", "ws", "wss", "ftp")
 FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
          "--disable-component-update", "--disable-sync", "--no-first-run",
@@ -41,7 +30,7 @@ def folders(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     root = tmp_path_factory.mktemp("reports")
     assert main(["paper", "-o", str(root / "run"), "-q", "--animate"]) == 0
     write_csv(root / "measured.csv", single_link_measurement(262.0, 0.03))
-    (root / "arm.toml").write_text(single_link_text() + MAPPING, encoding="utf-8")
+    (root / "arm.toml").write_text(single_link_text() + SINGLE_LINK_MAPPING, encoding="utf-8")
     assert main(["compare", str(root / "arm.toml"), "-o", str(root / "cmp"), "-q"]) == 0
     assert main(["fit", str(root / "arm.toml"), "-o", str(root / "fit"), "-q",
                  "-p", "links[0].EI=100:1000", "--channel", "acc",
