@@ -3,7 +3,8 @@ assembles the `Results`. One module per path, sharing `common`:
 
 * ``prescribed`` — prescribed joints, first-order model (Lawson, Magnus or scipy);
 * ``nonlinear`` — prescribed joints, geometrically nonlinear model (Gauss collocation);
-* ``forward`` — free/pinned base or driven joints, first-order model (solve_ivp).
+* ``forward`` — free/pinned base or driven joints, first-order model (compiled RK4, or
+  solve_ivp for method = "DOP853", "Radau", …).
 """
 
 from __future__ import annotations
