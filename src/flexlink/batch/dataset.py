@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..channels import Channel
-from ..results.layout import Layout, parameter_variable, sweep_layout
+from ..results.layout import parameter_variable, sweep_layout
+from ..results.variables import Layout
 from ..scenario.fields import parse
 from .parameters import CaseTable
 from .worker import ChunkResult, SharedResults, labels

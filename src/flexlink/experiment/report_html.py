@@ -9,7 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from ..results.plotting import display_scale
-from ..results.report_html import REPORT_NAME, ReportPage, Trace
+from ..results.folder import REPORT_NAME
+from ..results.report_html import ReportPage, Trace
 from ..results.writers import resolved_toml
 from .comparison import Comparison
 from .identification import FitResult

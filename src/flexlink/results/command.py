@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .writers import ANIMATION_GIF
+from .folder import ANIMATION_GIF
 
 
 def add_commands(commands: Any) -> None:

@@ -24,15 +24,12 @@ Conventions (CF-1.8):
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..channels import Channel, ChannelKind, ChannelTable
-
-if TYPE_CHECKING:
-    import xarray as xr
+from .variables import Layout, Variable
 
 CONVENTIONS = "CF-1.8"
 REFERENCES = ("M. S. Choi and M. K. Kwak (2016), Dynamic modeling of planar system consisting "
@@ -42,46 +39,6 @@ BOOLEANS = "boolean_attributes"
 FILE_ATTRIBUTES = ("Conventions", "title", "history", "references", "source", "date_created",
                    BOOLEANS)
 _INT32 = np.iinfo(np.int32)
-
-
-@dataclass(frozen=True)
-class Variable:
-    """One netCDF variable: dimension names, values, attributes; ``missing``: NaN marks values
-    that do not exist (written with ``_FillValue`` NaN)."""
-
-    dims: tuple[str, ...]
-    values: np.ndarray
-    attrs: Mapping[str, Any] = field(default_factory=dict)
-    missing: bool = False
-
-
-@dataclass(frozen=True)
-class Layout:
-    """The content of one netCDF file: coordinates, data variables, global attributes."""
-
-    coords: dict[str, Variable]
-    data: dict[str, Variable]
-    attrs: dict[str, Any]
-
-    @property
-    def variables(self) -> dict[str, Variable]:
-        """Coordinates first, then data variables, in order."""
-        return {**self.coords, **self.data}
-
-    def to_xarray(self) -> xr.Dataset:
-        """The same content as an `xarray.Dataset`; ``encoding`` carries the fill values, so
-        that ``dataset.to_netcdf`` writes what `write_netcdf_atomic` writes."""
-        import xarray as xr
-
-        def variable(v: Variable) -> xr.Variable:
-            out = xr.Variable(v.dims, v.values, dict(v.attrs))
-            if out.dtype.kind == "f":
-                out.encoding["_FillValue"] = np.nan if v.missing else None
-            return out
-
-        return xr.Dataset({n: variable(v) for n, v in self.data.items()},
-                          coords={n: variable(v) for n, v in self.coords.items()},
-                          attrs=dict(self.attrs))
 
 
 def time_variable(time: np.ndarray) -> Variable:

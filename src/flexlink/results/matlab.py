@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .atomic import atomic_file
-from .layout import Layout
+from .variables import Layout
 
 MAX_NAME = 63  # MATLAB's namelengthmax
 # MATLAB keywords (iskeyword): a variable cannot take these names

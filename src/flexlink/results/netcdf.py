@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .atomic import atomic_file
-from .layout import Layout, Variable
+from .variables import Layout, Variable
 
 _INT32 = np.iinfo(np.int32)
 _ENCODING = "utf-8"

@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 
 from ..channels import Channel, ChannelKind
-from .layout import Layout, channel_of, metadata_of
+from .folder import CHANNELS_CSV, RESULTS_CSV, RESULTS_NC
+from .layout import channel_of, metadata_of
 from .netcdf import read_netcdf
 from .results import Results
 from .shapes import shapes_of
-from .writers import CHANNELS_CSV, RESULTS_CSV, RESULTS_NC
+from .variables import Layout
 
 
 class NotARunFolderError(FileNotFoundError):

@@ -22,10 +22,10 @@ import numpy as np
 
 from ..channels import ChannelKind, ChannelTable
 from .atomic import atomic_file
-from .layout import Layout
+from .folder import REPORT_NAME
 from .plotting import display_scale
+from .variables import Layout
 
-REPORT_NAME = "report.html"
 MAX_POINTS = 3000  # per trace: min/max per bucket keeps every peak, the page stays small
 
 
@@ -150,7 +150,7 @@ def write_run_report(folder: Path, results: ChannelTable | None = None,
                      name: str | None = None) -> Path:
     """Write report.html into a run folder (reads the folder's results if not given);
     ``name``: the folder's final name if ``folder`` is a partial one."""
-    from .writers import RESOLVED_NAME
+    from .folder import RESOLVED_NAME
 
     if results is None:
         from .reading import read_run

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..channels.shapes import SHAPE_KIND, LinkShape
-from .layout import Layout, Variable
+from .variables import Layout, Variable
 
 POINT = "point"
 STORED = np.float32

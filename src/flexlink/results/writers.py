@@ -25,17 +25,12 @@ import numpy as np
 
 from ..channels import ChannelKind
 from ..scenario.toml_writer import dump_toml
+from .folder import ANIMATION_GIF, CHANNELS_CSV, RESOLVED_NAME, RESULTS_CSV, RESULTS_MAT, RESULTS_NC
 from .layout import run_layout
 from .matlab import write_mat
 from .netcdf import write_netcdf
 from .results import Results
 
-RESOLVED_NAME = "scenario.resolved.toml"
-RESULTS_CSV = "results.csv"
-CHANNELS_CSV = "channels.csv"
-RESULTS_NC = "results.nc"
-RESULTS_MAT = "results.mat"
-ANIMATION_GIF = "animation.gif"
 CSV_FORMAT = "%.10g"
 CHANNEL_COLUMNS = ("name", "unit", "kind", "quantity", "subject", "description")
 
