@@ -138,6 +138,57 @@ def test_the_stages_import_no_circle() -> None:
             visit(stage)
 
 
+def _module_imports(path: Path) -> set[str]:
+    """Dotted flexlink modules a module imports anywhere in it (type-checking imports too):
+    ``from . import plotting`` names the module ``…plotting``, ``from .x import y`` the
+    module ``…x``, or ``…x.y`` where that is a module itself."""
+    module = ".".join(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    package = module.rsplit(".", 1)[0] if path.name != "__init__.py" else module
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                parts = package.split(".")
+                base = ".".join(parts[: len(parts) - node.level + 1])
+                name = f"{base}.{node.module}" if node.module else base
+            else:
+                name = node.module or ""
+            for alias in node.names:
+                sub = f"{name}.{alias.name}"
+                found.add(sub if _is_module(sub) else name)
+        elif isinstance(node, ast.Import):
+            found |= {a.name for a in node.names}
+    return {f.removesuffix(".__init__") for f in found if f.startswith("flexlink")}
+
+
+def _is_module(dotted: str) -> bool:
+    path = PACKAGE.parent.joinpath(*dotted.split("."))
+    return path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
+
+
+def test_no_module_imports_a_circle() -> None:
+    """No circle between modules either (inside a stage), lazy imports included: a module
+    that a package's ``__init__`` imports may not import that package back."""
+    graph = {}
+    for path in PACKAGE.rglob("*.py"):
+        name = ".".join(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+        graph[name.removesuffix(".__init__")] = _module_imports(path)
+    graph.pop("flexlink", None)  # the package's lazy exports sit on top of everything
+    done: set[str] = set()
+
+    def visit(node: str, trail: list[str]) -> None:
+        if node in done or node not in graph:
+            return
+        assert node not in trail, f"import circle: {' -> '.join(trail[trail.index(node):] + [node])}"
+        for target in sorted(graph[node]):
+            if target != node:
+                visit(target, trail + [node])
+        done.add(node)
+
+    for name in sorted(graph):
+        visit(name, [])
+
+
 def test_the_model_is_free_of_physics() -> None:
     """model/ imports nothing of flexlink but itself: a description, no algorithms."""
     for path in (PACKAGE / "model").glob("*.py"):
