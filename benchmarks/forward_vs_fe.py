@@ -1,0 +1,137 @@
+"""Driven runs: flexlink's forward dynamics against a geometrically exact FE model (Exudyn),
+timed side by side in one run (issue 14, item 4).
+
+    python benchmarks/forward_vs_fe.py                    # all four cases
+    python benchmarks/forward_vs_fe.py --cases hub_beam_small --repeat 1
+
+Cases (tests/validation/forward_fe_cases.py), each at a small (tip ≈ 3% of the length) and a
+large (≥ 30%) deflection, undamped:
+
+- ``hub_beam``: rigid hub (J_h = 1 kg·m²) on a fixed pin, a 1 m beam clamped to it, a
+  bang-bang torque over 2 s, 4 s simulated; flexlink: joint 1 ``drive = "torque"`` with the hub
+  as its motor inertia;
+- ``free_hub``: a 100 kg / 20 kg·m² hub free in the plane, two 3 m appendages, a bang-bang
+  moment on the hub over 4 s, 8 s simulated; flexlink: ``[base] type = "free"`` with a load.
+
+flexlink runs its default forward integrator, first order with geometric stiffening (the
+nonlinear model has no driven joints yet), 4 and 6 modes per link. Exudyn
+(tests/validation/exudyn_forward_reference.py: Simo–Reissner beams, generalized-α without
+numerical damping) runs on 4…64 elements per appendage; the finest mesh is the reference, and
+the coarsest mesh within 1% of it (tip deflection and hub angle, max error / peak) is the one
+flexlink's time is compared with. Wall times: flexlink's whole ``simulate`` call, median of
+``--repeat`` runs after a warm-up (numba's compilation excluded); Exudyn's solver only (model
+building excluded), one run per mesh. Errors: max |signal − finest FE| / peak of the finest FE.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # the Exudyn model lives with the validation tests
+
+from flexlink import simulate
+from tests.validation.forward_fe_cases import (
+    CASES,
+    DrivenCase,
+    error_of_peak,
+    exudyn_signals,
+    flexlink_scenario,
+    flexlink_signals,
+)
+
+# elements per appendage → generalized-α step (s); finer meshes carry faster modes
+MESHES = {4: 2e-3, 8: 1e-3, 16: 1e-3, 32: 5e-4, 64: 2.5e-4}
+MODES = (4, 6)
+CONVERGED = ("tip", "hub_angle")  # the signals the mesh must resolve within 1%
+
+
+def _flexlink(case: DrivenCase, modes: int, repeat: int) -> tuple[float, dict[str, np.ndarray]]:
+    """Median wall time (s) of ``simulate`` and the comparison signals."""
+    scenario = flexlink_scenario(case, modes)
+    simulate(replace(scenario, settings=replace(scenario.settings, t_end=0.1)))  # warm-up
+    walls, results = [], None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        results = simulate(scenario)
+        walls.append(time.perf_counter() - start)
+    return statistics.median(walls), flexlink_signals(case, results)
+
+
+def _fmt(errors: dict[str, float]) -> str:
+    return " ".join(f"{k} {100 * v:.3g}%" for k, v in errors.items())
+
+
+def _case(case: DrivenCase, repeat: int) -> dict[str, Any]:
+    """Every row of one case, printed as it runs; returns the summary numbers."""
+    fe: dict[int, tuple[float, dict[str, np.ndarray], int]] = {}
+    for elements, dt in MESHES.items():
+        try:
+            signals, out = exudyn_signals(case, elements, dt)
+        except RuntimeError as error:  # Newton may fail on a coarse mesh of a violent slew
+            print(f"| {case.name} | Exudyn, {elements} el., dt {dt * 1e3:g} ms | failed: "
+                  f"{error} | | |", flush=True)
+            continue
+        fe[elements] = (out["wall_time_s"], signals, out["coordinates"])
+    finest = max(fe)
+    reference = fe[finest][1]
+    length = 1.0 if case.kind == "hub_beam" else 3.0
+    peak_tip = float(np.abs(reference["tip"]).max()) / length
+    chosen = None
+    for elements in sorted(fe):
+        wall, signals, coords = fe[elements]
+        errors = error_of_peak(signals, reference)
+        within = max(errors[k] for k in CONVERGED) <= 0.01
+        if chosen is None and within:
+            chosen = elements
+        mark = " ← coarsest within 1%" if elements == chosen else ""
+        label = "reference" if elements == finest else _fmt(errors)
+        print(f"| {case.name} | Exudyn, {elements} el. ({coords} coordinates), dt "
+              f"{MESHES[elements] * 1e3:g} ms{mark} | {wall:.3g} | {label} | |", flush=True)
+    summary: dict[str, Any] = {"case": case.name, "peak_tip": peak_tip, "fe_mesh": chosen,
+                               "fe_wall": fe[chosen][0] if chosen else float("nan")}
+    for modes in MODES:
+        try:
+            wall, ours = _flexlink(case, modes, repeat)
+        except Exception as error:  # noqa: BLE001 — a refused run is a result to report
+            print(f"| {case.name} | flexlink first order stiffened, {modes} modes | refused: "
+                  f"{error} | | |", flush=True)
+            continue
+        errors = error_of_peak(ours, reference)
+        ratio = summary["fe_wall"] / wall
+        print(f"| {case.name} | flexlink first order stiffened, {modes} modes | {wall:.3g} | "
+              f"{_fmt(errors)} | {ratio:.2g}× |", flush=True)
+        summary[f"modes{modes}"] = (wall, errors, ratio)
+    return summary
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3, help="timed flexlink runs (median)")
+    parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
+    args = parser.parse_args()
+    print(f"# {platform.machine()} {os.cpu_count()} cores, {platform.processor() or ''} "
+          f"Python {platform.python_version()}, numpy {np.__version__}")
+    print("| case | model | wall [s] | error / peak vs. finest FE | Exudyn (coarsest within 1%)"
+          " / flexlink |")
+    print("|---|---|---|---|---|")
+    summaries = [_case(CASES[name], args.repeat) for name in args.cases]
+    print()
+    for s in summaries:
+        print(f"{s['case']}: peak tip deflection {100 * s['peak_tip']:.3g}% of the length "
+              f"(finest FE); coarsest FE mesh within 1%: {s['fe_mesh']} elements, "
+              f"{s['fe_wall']:.3g} s")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,235 @@
+"""A geometrically exact reference for flexlink's *forward* dynamics (driven hubs), in Exudyn.
+
+The same beams as tests/validation/exudyn_reference.py — each appendage a chain of Exudyn
+``ObjectBeamGeometricallyExact2D`` (Simo–Reissner) elements on ``NodeRigidBody2D`` nodes — but
+nothing is prescribed: a rigid hub (``ObjectRigidBody2D`` on its own ``NodeRigidBody2D`` at the
+hub's centre) carries the appendages and a moment history M(t) turns it.
+
+* hub: pinned (its centre held at the origin by two ``CoordinateConstraint`` on x, y) or free
+  in the plane; the moment is a ``LoadCoordinate`` on the hub's angle coordinate with a user
+  function (the generalised force of the rotation coordinate *is* the moment, exactly);
+* clamp of appendage k at the hub-frame point p_k, pointing along the hub-frame angle α_k:
+  a ``RevoluteJoint2D`` between the hub point p_k (``MarkerBodyPosition``) and the beam's root
+  node (``MarkerNodePosition``) plus a ``CoordinateConstraint`` ψ_root − θ_hub = 0 on the
+  angle displacements: position and slope of the root follow the hub exactly (any rotation).
+
+Signals, from nodal coordinates (``SensorNode``): the hub angle θ, its rate and centre; per
+appendage ``tip_deflection`` = n_root · (r_tip − r_root) (transverse deflection in the clamped
+root frame, as flexlink's ``deflection`` sensor at x = L) and the tip position. Undamped, no
+gravity. ``hub_beam_eigenfrequencies`` gives the linearised frequencies of the same model
+(Exudyn's constrained eigenvalue solver), checked against tests/validation/hub_beam.py.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from flexlink.model import Link
+
+from .exudyn_reference import BeamSection, default_section
+
+
+@dataclass(frozen=True)
+class Appendage:
+    """A flexible link clamped to the hub at ``point`` (m, hub frame) along ``angle`` (rad,
+    hub frame); ``section``: EA, GA, ρI (default: default_section(link) or from ``EA``)."""
+
+    link: Link
+    point: tuple[float, float] = (0.0, 0.0)
+    angle: float = 0.0
+    section: BeamSection | None = None
+
+
+class _Moment:
+    """M (N·m) for Exudyn's load user function: the mean of M(t) over the step ending at t.
+
+    Generalized-α evaluates the load at the step's end: a bang-bang switch on the step grid
+    would then act one step early (an impulse error of 2 M dt per switch, 0.4% of the slew
+    angle at dt = 1 ms); the step mean (midpoint rule on 8 panels) gives the exact impulse of a
+    piecewise-constant history whose switches lie on the grid."""
+
+    def __init__(self, moment: Callable[[float], float], dt: float) -> None:
+        self.moment, self.dt, self.cache = moment, dt, {}
+        self.offsets = (np.arange(8) + 0.5) / 8 * dt - dt
+
+    def __call__(self, mbs: Any, t: float, load: Any) -> float:
+        v = self.cache.get(t)
+        if v is None:
+            if len(self.cache) > 64:
+                self.cache.clear()
+            v = self.cache[t] = float(np.mean([self.moment(t + o) for o in self.offsets]))
+        return v
+
+
+def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float, pinned: bool,
+           elements: int, moment: Callable[[float], float] | None, dt: float = 0.0
+           ) -> dict[str, Any]:
+    """The Exudyn system (not assembled); returns mbs, the container and the node numbers."""
+    import exudyn as exu
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        LoadCoordinate,
+        MarkerBodyPosition,
+        MarkerNodeCoordinate,
+        MarkerNodePosition,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectBeamGeometricallyExact2D,
+        ObjectRigidBody2D,
+        RevoluteJoint2D,
+    )
+
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+
+    def coord(node: int, c: int) -> int:
+        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
+
+    hub_node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0]))
+    # A pinned hub's mass does nothing but must not make the mass matrix singular.
+    hub = mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub_node, mass=hub_mass if hub_mass > 0
+                                          else 1.0, inertia=hub_inertia))
+    m_ground = coord(ground, 0)
+    if pinned:
+        for c in (0, 1):
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(hub_node, c)]))
+    m_hub_angle = coord(hub_node, 2)
+    keep: list[Any] = []
+    if moment is not None:
+        uf = _Moment(moment, dt)
+        keep.append(uf)
+        mbs.AddLoad(LoadCoordinate(markerNumber=m_hub_angle, load=0.0, loadUserFunction=uf))
+    nodes: list[list[int]] = []
+    for app in appendages:
+        link = app.link
+        sec = app.section or default_section(link)
+        e = np.array([math.cos(app.angle), math.sin(app.angle)])
+        x = np.linspace(0.0, link.length, elements + 1)
+        chain = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[
+            app.point[0] + xi * e[0], app.point[1] + xi * e[1], app.angle])) for xi in x]
+        for a, b in itertools.pairwise(chain):
+            mbs.AddObject(ObjectBeamGeometricallyExact2D(
+                nodeNumbers=[a, b], length=float(link.length / elements),
+                massPerLength=link.mass_per_length, crossSectionInertia=sec.rhoI,
+                bendingStiffness=link.EI, axialStiffness=sec.EA, shearStiffness=sec.GA))
+        if link.tip_mass > 0.0 or link.tip_inertia > 0.0:
+            mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[-1], mass=link.tip_mass,
+                                            inertia=link.tip_inertia))
+        # the clamp: root position on the hub point, root section turning with the hub
+        m_point = mbs.AddMarker(MarkerBodyPosition(bodyNumber=hub,
+                                                   localPosition=[*app.point, 0.0]))
+        mbs.AddObject(RevoluteJoint2D(markerNumbers=[
+            m_point, mbs.AddMarker(MarkerNodePosition(nodeNumber=chain[0]))]))
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_hub_angle, coord(chain[0], 2)]))
+        nodes.append(chain)
+    return {"SC": SC, "mbs": mbs, "hub_node": hub_node, "nodes": nodes, "keep": keep}
+
+
+def hub_beam_eigenfrequencies(link: Link, radius: float, hub_inertia: float, elements: int,
+                              count: int, section: BeamSection | None = None) -> np.ndarray:
+    """The first ``count`` non-zero natural frequencies (rad/s) of the pinned hub with one
+    beam clamped at ``radius`` (m), linearised about the undeformed state by Exudyn."""
+    built = _build([Appendage(link, (radius, 0.0), 0.0, section)], 0.0, hub_inertia, True,
+                   elements, None)
+    mbs = built["mbs"]
+    mbs.Assemble()
+    values, _ = mbs.ComputeODE2Eigenvalues()
+    omega = np.sqrt(np.sort(np.abs(np.asarray(values))))
+    flexible = omega[omega > 1e-6 * omega.max()]
+    # the rigid rotation of the hub leaves one (numerically) zero eigenvalue
+    return flexible[:count]
+
+
+def simulate_hub_exudyn(
+    appendages: Sequence[Appendage],
+    hub_inertia: float,
+    moment: Callable[[float], float],
+    t_end: float,
+    dt_out: float,
+    elements: int,
+    *,
+    pinned: bool = True,
+    hub_mass: float = 0.0,
+    dt: float | None = None,
+    spectral_radius: float = 1.0,
+    newton_abs_tol: float = 1e-6,
+    newton_rel_tol: float = 1e-8,
+) -> dict[str, Any]:
+    """A hub turned by the moment M(t) (N·m, about its centre), its appendages free to bend.
+
+    elements: elements per appendage (uniform); dt: generalized-α step (default dt_out, at
+    most 5e-4 s; it must divide dt_out — put bang-bang switches on the step grid);
+    spectral_radius: ρ∞ (1 = no numerical dissipation). Starts at rest, undeformed.
+
+    Returns ``t`` (s); ``hub_angle`` (rad), ``hub_rate`` (rad/s), ``hub_position`` (n×2, m);
+    per appendage (lists) ``tip_deflection`` (m, clamped root frame) and ``tip_position``
+    (n×2, m, inertial); ``wall_time_s`` (solver only), ``coordinates``, ``dt``.
+    """
+    import exudyn as exu
+    from exudyn.itemInterface import SensorNode
+
+    if dt is None:
+        dt = min(dt_out, 5e-4)
+    ratio = dt_out / dt
+    if abs(ratio - round(ratio)) > 1e-6:
+        raise ValueError(f"dt = {dt} must divide dt_out = {dt_out}")
+    dt = dt_out / round(ratio)
+    built = _build(appendages, hub_mass, hub_inertia, pinned, elements, moment, dt)
+    mbs, nodes = built["mbs"], built["nodes"]
+
+    def sensor(node: int, kind: Any) -> int:
+        return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, writeToFile=False,
+                                        outputVariableType=kind))
+
+    hub_pos = sensor(built["hub_node"], exu.OutputVariableType.Coordinates)
+    hub_vel = sensor(built["hub_node"], exu.OutputVariableType.Coordinates_t)
+    ends = [(sensor(c[0], exu.OutputVariableType.Coordinates),
+             sensor(c[-1], exu.OutputVariableType.Coordinates)) for c in nodes]
+    mbs.Assemble()
+    s = exu.SimulationSettings()
+    s.timeIntegration.numberOfSteps = round(t_end / dt)
+    s.timeIntegration.endTime = t_end
+    s.timeIntegration.verboseMode = 0
+    s.timeIntegration.newton.absoluteTolerance = newton_abs_tol
+    s.timeIntegration.newton.relativeTolerance = newton_rel_tol
+    s.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
+    s.solution.file.write = False
+    s.solution.sensors.writePeriod = dt_out
+    s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+    started = time.perf_counter()
+    ok = mbs.SolveDynamic(s)
+    wall = time.perf_counter() - started
+    if not ok:
+        raise RuntimeError("Exudyn dynamic solver failed")
+
+    n_out = int(np.floor(t_end / dt_out + 1e-9)) + 1
+    t_grid = np.arange(n_out) * dt_out
+
+    def series(sensor_number: int, node: int | None = None) -> np.ndarray:
+        """The sensor on the output grid; with ``node``: plus its reference coordinates."""
+        data = np.asarray(mbs.GetSensorStoredData(sensor_number))
+        out = np.stack([np.interp(t_grid, data[:, 0], data[:, c])
+                        for c in range(1, data.shape[1])], axis=1)
+        if node is not None:
+            out = out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
+        return out
+
+    hub = series(hub_pos, built["hub_node"])
+    result: dict[str, Any] = {"t": t_grid, "hub_angle": hub[:, 2],
+                              "hub_rate": series(hub_vel)[:, 2], "hub_position": hub[:, :2],
+                              "tip_deflection": [], "tip_position": []}
+    for chain, (s0, s1) in zip(nodes, ends):
+        r0, r1 = series(s0, chain[0]), series(s1, chain[-1])
+        normal = np.stack([-np.sin(r0[:, 2]), np.cos(r0[:, 2])], axis=1)
+        result["tip_deflection"].append(np.sum(normal * (r1[:, :2] - r0[:, :2]), axis=1))
+        result["tip_position"].append(r1[:, :2])
+    result.update(wall_time_s=wall, coordinates=mbs.systemData.ODE2Size(), dt=dt)
+    return result
