@@ -44,8 +44,8 @@ def expm(A, out):
         norm = max(norm, s)
     squarings = 0
     if norm > _THETA7:
-        squarings = int(math.ceil(math.log2(norm / _THETA7)))
-    X = A * (0.5 ** squarings)
+        squarings = math.ceil(math.log2(norm / _THETA7))
+    X = np.ascontiguousarray(A) * (0.5 ** squarings)
     X2 = X @ X
     power = np.eye(n)
     odd = _PADE[1] * power
@@ -111,7 +111,7 @@ def lawson_steps(d, w, y, u, h, record, first, last, states, nu, dp, dpd, frozen
     E_aug = np.empty((m + 1, m + 1))
     for i in range(first, last):
         hi = h[i]
-        stale = not frozen[0] == frozen[0]  # NaN: never frozen
+        stale = np.isnan(frozen[0])  # never frozen
         for j in range(nu):
             if abs(y[j] - frozen[j]) > dp or abs(y[nu + j] - frozen[nu + j]) > dpd:
                 stale = True
