@@ -11,7 +11,8 @@ Rows, for each of the issue's three cases — ``examples/paper_servo.toml`` (3 s
 - before: scipy ``solve_ivp`` (DOP853) at the scenario's tolerance over the numpy
   ForwardSystem (the path before issue 14);
 - solve_ivp (DOP853) at the scenario's tolerance over the compiled kernel;
-- after: the default, the compiled RK4 loop (``method = "lawson"`` maps to it).
+- after: the default, the compiled loop `solvers.forward.compiled_method` picks (Lawson when
+  every joint is prescribed, RK4 when one is driven).
 
 Wall time is ``simulate`` (the whole run: integration and channel values) in a fresh
 process, the median of ``--repeat`` runs after a warm-up run (numba's compilation, cached on
@@ -127,7 +128,7 @@ def main() -> None:
     print("|---|---|---|---|---|")
     labels = {"before": "before: solve_ivp DOP853, numpy RHS",
               "ivp_compiled": "solve_ivp DOP853, compiled RHS",
-              "after": "after: compiled RK4 (default)"}
+              "after": "after: compiled default (Lawson or RK4)"}
     for case in args.cases:
         reference = _in_child(case, "reference", 1)
         for variant in ("before", "ivp_compiled", "after"):

@@ -398,3 +398,26 @@ def rates(d, w_, u, y, dy):
         dy[2 * nu + n + i] = b[nu + i]
     for s in range(ns):
         dy[2 * nu + 2 * n + s] = srates[s]
+
+
+@njit(cache=True)
+def joint_torques(d, w_, p, pd, pdd, z, zd, zdd, out):
+    """out[t, k] = torque of joint k's motor (N·m) at rigid states p, ṗ, p̈ (nt, n_rigid) and
+    z, ż, z̈ (nt, n): the joint row of M ẍ + C ẋ + K x − f with x = [0; z] (motor inertia
+    included), as ForwardSystem.joint_torques."""
+    N = d.length.shape[0]
+    nb, nr, nx = d.n_base, d.n_rigid, d.n_x
+    x, xd, r, M = w_.x, w_.xd, w_.r0, w_.M
+    x[:] = 0.0
+    xd[:] = 0.0
+    for t in range(p.shape[0]):
+        for i in range(nx - nr):
+            x[nr + i] = z[t, i]
+            xd[nr + i] = zd[t, i]
+        residual(d, w_, p[t], pd[t], pdd[t], x, xd, r, M, True)
+        for k in range(N):
+            row = nb + k
+            acc = r[row]
+            for i in range(nx - nr):
+                acc += M[row, nr + i] * zdd[t, i]
+            out[t, k] = acc

@@ -189,3 +189,19 @@ def accelerations(system: ForwardSystem, t: np.ndarray, p_free: np.ndarray, pd_f
     for i in range(t.size):
         rates(data, work, u[i], y[i], dy[i])
     return dy[:, nu:2 * nu], dy[:, 2 * nu + n:2 * nu + 2 * n], dy[:, 2 * nu + 2 * n:]
+
+
+def joint_torques(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray,
+                  z: np.ndarray, zd: np.ndarray, zdd: np.ndarray,
+                  data: ForwardData | None = None) -> np.ndarray:
+    """ForwardSystem.joint_torques through the compiled kernel: (nt, N) in N·m from the
+    rigid states p, ṗ, p̈ (nt, n_rigid) and z, ż, z̈ (nt, n)."""
+    from ._forward_numba import joint_torques as kernel
+    from ._forward_numba import workspace
+
+    data = pack(system) if data is None else data
+    out = np.empty((p.shape[0], len(system.chain.links)))
+    c = np.ascontiguousarray
+    kernel(data, workspace(data, len(system.servos)), c(p, dtype=float), c(pd, dtype=float),
+           c(pdd, dtype=float), c(z, dtype=float), c(zd, dtype=float), c(zdd, dtype=float), out)
+    return out
