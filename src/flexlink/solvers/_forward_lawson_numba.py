@@ -45,7 +45,11 @@ def expm(A, out):
     squarings = 0
     if norm > _THETA7:
         squarings = math.ceil(math.log2(norm / _THETA7))
-    X = np.ascontiguousarray(A) * (0.5 ** squarings)
+    # Copies into C-ordered arrays: the caller may pass a view, and '@' on views of any
+    # layout is slow (numba warns, and the tests turn warnings into errors).
+    X = np.empty((n, n))
+    X[:, :] = A
+    X *= 0.5 ** squarings
     X2 = X @ X
     power = np.eye(n)
     odd = _PADE[1] * power
@@ -55,7 +59,8 @@ def expm(A, out):
         even += _PADE[2 * i] * power
         odd += _PADE[2 * i + 1] * power
     U = X @ odd
-    E = np.linalg.solve(even - U, even + U)
+    E = np.empty((n, n))
+    E[:, :] = np.linalg.solve(even - U, even + U)
     for _ in range(squarings):
         E = E @ E
     out[:, :] = E
