@@ -116,11 +116,22 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _fail(str(exc))
     except (OutputFolderError, ValueError, OSError) as exc:
         return _fail(f"error: {exc}")
-    return _simulate_and_write(scenario, resolved, out_dir, args)
+    worker = None
+    if not args.no_figures:
+        # matplotlib and the figures in a second process, while this one imports numba and
+        # scipy, simulates and writes (results/figure_worker.py)
+        from .results.figure_worker import FigureWorker
+
+        worker = FigureWorker.start()
+    try:
+        return _simulate_and_write(scenario, resolved, out_dir, args, worker)
+    finally:
+        if worker is not None:
+            worker.close()
 
 
 def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
-                        args: argparse.Namespace) -> int:
+                        args: argparse.Namespace, figure_worker: Any = None) -> int:
     from .errors import RunTooLarge, SimulationError
     from .results.writers import write_run
     from .simulation import simulate
@@ -135,7 +146,8 @@ def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
         return _fail(f"error: {exc}")
     try:
         write_run(results, out_dir, resolved, figures=not args.no_figures,
-                  overwrite=args.overwrite, report=not args.no_report, animation=args.animate)
+                  overwrite=args.overwrite, report=not args.no_report, animation=args.animate,
+                  figure_worker=figure_worker)
     except (ValueError, OSError) as exc:
         return _fail(f"error: could not write {out_dir}: {exc}")
     print(out_dir if args.quiet else summary(results, out_dir, scenario.name))

@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.axes import Axes
-from matplotlib.figure import Figure
 
 from ..channels import Channel, ChannelKind, ChannelTable, Unit
+
+if TYPE_CHECKING:  # matplotlib loads when a figure is drawn: display_scale needs none of it
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 DPI = 150
 # stored unit → (display factor, display unit)
@@ -98,6 +101,8 @@ def _figure(results: ChannelTable, width: float, height: float, panels: int = 1,
 
     Fixed margins instead of matplotlib's constrained layout: the layout solver took half of a
     command-line run's plotting time, and these figures all share one simple structure."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(width, height), dpi=DPI)
     panel = (height - top - bottom - gap * (panels - 1)) / panels
     fig.subplots_adjust(left=0.85 / width, right=1 - 0.15 / width, bottom=bottom / height,

@@ -16,7 +16,7 @@ from numba import njit
 
 
 @njit(cache=True)
-def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):  # noqa: ANN001, ANN202
+def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):
     """outT = (A(τ) − A_ref)ᵀ for one block whose pieces are p0 … p1−1 (Horner in τ)."""
     p = p0
     while p < p1 - 1 and tau > upper[p]:
@@ -32,14 +32,14 @@ def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):  # noqa: ANN001,
 
 
 @njit(cache=True)
-def _add(w, n, scale, k):  # noqa: ANN001, ANN202
+def _add(w, n, scale, k):
     """w[n:2n] += scale · k (the stages act on the velocity rows only)."""
     for i in range(k.shape[0]):
         w[n + i] += scale * k[i]
 
 
 @njit(cache=True)
-def _mv(AT, x, out):  # noqa: ANN001, ANN202
+def _mv(AT, x, out):
     """out = A x from Aᵀ, without allocating (numba's @ allocates a result per call).
 
     Column by column: the inner loop is element-wise and vectorises without fastmath, and
@@ -54,14 +54,14 @@ def _mv(AT, x, out):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True)
-def _copy(a, b):  # noqa: ANN001, ANN202
+def _copy(a, b):
     """b[:] = a."""
     for i in range(a.shape[0]):
         b[i] = a[i]
 
 
 @njit(cache=True)
-def _copy2(a, b):  # noqa: ANN001, ANN202
+def _copy2(a, b):
     """b[:, :] = a."""
     for i in range(a.shape[0]):
         for j in range(a.shape[1]):
@@ -69,7 +69,7 @@ def _copy2(a, b):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True)
-def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,  # noqa: ANN001, ANN201
+def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,
                   ET, substeps, states, accelerations):
     """Advance the augmented state y = [z, ż, 1] through the blocks.
 
