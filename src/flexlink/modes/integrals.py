@@ -7,6 +7,8 @@ damping matrix and natural frequencies).  All quantities are in SI units; Φ is 
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,7 +17,8 @@ from scipy.linalg import eigh
 from flexlink.model import Link
 from flexlink.modes.shapes import ModeShapes, mode_shapes_for
 
-__all__ = ["ModalData", "highest_frequency", "modal_data"]
+__all__ = ["ModalData", "highest_frequency", "modal_data", "modal_data_for_stiffness",
+           "unit_stiffness_modal_data"]
 
 _POINTS_PER_PANEL = 20
 _LAMBDA_PER_PANEL = 3.0  # max β_n · (panel width) — keeps e^{±2βx} resolved to round-off
@@ -137,6 +140,50 @@ def modal_data(
         foreshortening_moment=_weighted_gram(dphi, w * outboard_moment),
         clamped_mass_matrix=_sym(clamped),
         damping_matrix=_sym(damping),
+        natural_frequencies_hz=_ro(omega / (2.0 * np.pi)),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class UnitStiffnessModes:
+    """A link's modal data at EI = 1 N·m² without damping, and what rescaling needs: the mass-
+    normalised mode matrix times the clamped mass matrix, M_c V, and the frequencies (rad/s)."""
+
+    data: ModalData
+    mass_modes: np.ndarray  # (n, n) M_c V, V from K V = ω² M_c V, Vᵀ M_c V = I
+    omega: np.ndarray  # (n,) rad/s at EI = 1
+
+
+@functools.lru_cache(maxsize=64)
+def unit_stiffness_modal_data(link: Link) -> UnitStiffnessModes:
+    """The modal data of ``link`` with EI = 1 and no damping, cached per process by every field
+    that matters (not the name, EI, damping ratio or section thickness).
+
+    For clamped–free and tip-loaded modes the shapes do not depend on EI (it cancels from the
+    dimensionless frequency equation), every integral but the stiffness matrix is independent
+    of it, K scales with EI, the clamped frequencies with √EI, the mode vectors not at all:
+    a sweep over EI, E or the damping ratio rescales this instead of integrating again."""
+    key = dataclasses.replace(link, name="", EI=1.0, damping_ratio=0.0, thickness=None)
+    if key != link:
+        return unit_stiffness_modal_data(key)
+    data = modal_data(link)
+    omega2, vectors = eigh(data.stiffness_matrix, data.clamped_mass_matrix)
+    return UnitStiffnessModes(data, _ro(data.clamped_mass_matrix @ vectors),
+                              _ro(np.sqrt(np.clip(omega2, 0.0, None))))
+
+
+def modal_data_for_stiffness(link: Link) -> ModalData:
+    """`modal_data` of a clamped–free or tip-loaded link from `unit_stiffness_modal_data`:
+    equal to a fresh computation to round-off (tests/unit/test_modes.py)."""
+    if link.mode_shapes not in ("clamped_free", "tip_loaded"):
+        raise ValueError(f"mode shapes {link.mode_shapes!r} depend on more than the link")
+    unit = unit_stiffness_modal_data(link)
+    omega = np.sqrt(link.EI) * unit.omega
+    mv = unit.mass_modes
+    return dataclasses.replace(
+        unit.data,
+        stiffness_matrix=_ro(link.EI * unit.data.stiffness_matrix),
+        damping_matrix=_sym(mv @ np.diag(2.0 * link.damping_ratio * omega) @ mv.T),
         natural_frequencies_hz=_ro(omega / (2.0 * np.pi)),
     )
 

@@ -16,6 +16,7 @@ are in the link frame: x in metres from the joint, derivatives with respect to x
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -187,8 +188,13 @@ def clamped_free_modes(length: float, n: int) -> ModeShapes:
     """
     if n < 0:
         raise ValueError("the number of modes must be >= 0")
-    lam = np.array([_root((i - 1) * math.pi, i * math.pi, 0.0, 0.0) for i in range(1, n + 1)])
-    return _build(length, lam, 0.0, 0.0, "clamped_free")
+    return _build(length, np.array(_clamped_free_roots(n)), 0.0, 0.0, "clamped_free")
+
+
+@functools.lru_cache(maxsize=32)
+def _clamped_free_roots(n: int) -> tuple[float, ...]:
+    """λ_1 … λ_n of the cantilever: numbers, the same for every link (cached per process)."""
+    return tuple(_root((i - 1) * math.pi, i * math.pi, 0.0, 0.0) for i in range(1, n + 1))
 
 
 def tip_loaded_modes(
