@@ -123,11 +123,23 @@ def _cmd_run(args: argparse.Namespace) -> int:
         from .results.figure_worker import FigureWorker
 
         worker = FigureWorker.start()
+    _preload_compiled_code(scenario)  # after the fork: a process with threads must not fork
     try:
         return _simulate_and_write(scenario, resolved, out_dir, args, worker)
     finally:
         if worker is not None:
             worker.close()
+
+
+def _preload_compiled_code(scenario: Any) -> None:
+    """Load (or compile) the step loop of a Lawson run in the background while this process
+    imports the rest and prepares the run (solvers/lawson.py)."""
+    settings = scenario.settings
+    if (not scenario.is_forward and settings.model != "nonlinear"
+            and settings.method == "lawson"):
+        from .solvers.lawson import preload_compiled_loop
+
+        preload_compiled_loop()
 
 
 def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,

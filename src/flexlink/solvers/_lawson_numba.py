@@ -12,7 +12,7 @@ the first compilation (6 s → 2 s of CPU on the development machine; same resul
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import boolean, float64, int64, njit
 
 
 @njit(cache=True)
@@ -138,3 +138,15 @@ def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, polyT, re
             for q in range(n):
                 accelerations[i + 1, q] = r[q] + k1[q]
     return u
+
+
+# The one signature `lawson._solve` calls lawson_blocks with (every array C-contiguous).
+SIGNATURE = (float64[::1], float64[::1], int64[::1], int64[::1], boolean[::1], int64[::1],
+             float64[::1], float64[::1], float64[:, :, :, ::1], float64[:, :, ::1],
+             float64[:, :, ::1], int64, float64[:, ::1], float64[:, ::1])
+
+
+def load() -> None:
+    """Make lawson_blocks ready for `SIGNATURE`: load it from numba's cache, or compile it
+    (and cache it) on a first run (`lawson.preload_compiled_loop`)."""
+    lawson_blocks.compile(SIGNATURE)
