@@ -4,7 +4,9 @@
 
 Each command runs ``--runs`` times in a new Python process (``time.perf_counter`` around
 ``subprocess.run``, the numba cache warm); prints the median, minimum and maximum wall time of
-each. ``--cold`` also times the first run after installing: the numba cache of flexlink's
+each, and the median CPU time (user + system) of the command's processes together: on a
+machine whose cores are busy with other work the wall time of a command that spreads over two
+processes approaches its CPU time. ``--cold`` also times the first run after installing: the numba cache of flexlink's
 compiled loops is pointed at an empty folder (``NUMBA_CACHE_DIR``) for each of those runs, so
 that every kernel the command needs is compiled again.
 """
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -30,10 +33,17 @@ COMMANDS = {
 }
 
 
-def time_command(argv: list[str], env: dict[str, str]) -> float:
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def time_command(argv: list[str], env: dict[str, str]) -> tuple[float, float]:
+    """(wall, CPU) seconds of one run of the command (CPU of all its processes)."""
+    cpu = _children_cpu()
     start = time.perf_counter()
     subprocess.run(argv, check=True, env=env, stdout=subprocess.DEVNULL)
-    return time.perf_counter() - start
+    return time.perf_counter() - start, _children_cpu() - cpu
 
 
 def main() -> None:
@@ -59,10 +69,14 @@ def main() -> None:
                 times.append(time_command(argv, cold_env))
             rows.append(("run --paper, empty numba cache (first run)", times))
     width = max(len(label) for label, _ in rows)
-    print(f"{'command':<{width}}  median [s]  min [s]  max [s]  runs")
-    for label, times in rows:
-        print(f"{label:<{width}}  {statistics.median(times):10.3f}  {min(times):7.3f}  "
-              f"{max(times):7.3f}  {len(times):4d}")
+    print(f"{'command':<{width}}  median [s]  min [s]  max [s]  CPU median [s]  runs")
+    for label, runs in rows:
+        wall = [w for w, _ in runs]
+        cpu = statistics.median(c for _, c in runs)
+        print(f"{label:<{width}}  {statistics.median(wall):10.3f}  {min(wall):7.3f}  "
+              f"{max(wall):7.3f}  {cpu:14.3f}  {len(runs):4d}")
+    print(f"load average before the last run: {os.getloadavg()[0]:.2f} on "
+          f"{os.cpu_count()} cores")
 
 
 if __name__ == "__main__":
