@@ -65,6 +65,15 @@ def build_parser() -> argparse.ArgumentParser:
                                            "redirect it to a file to start your own.")
     show.set_defaults(handler=_cmd_show_paper)
 
+    warmup = commands.add_parser(
+        "warmup", help="compile the numba loops now (once per installation)",
+        description="Compile and cache every compiled loop flexlink runs (prescribed, "
+                    "nonlinear and forward runs) by simulating tiny scenarios, so that no "
+                    "later run waits for the compiler. Compiled code goes to numba's cache: "
+                    "beside the installed modules, or NUMBA_CACHE_DIR for a read-only "
+                    "installation.")
+    warmup.set_defaults(handler=_cmd_warmup)
+
     from .batch.command import add_parser as add_sweep_parser
 
     add_sweep_parser(commands)
@@ -96,6 +105,45 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
     from .scenario import paper_experiment_text
 
     sys.stdout.write(paper_experiment_text())
+    return 0
+
+
+WARMUP_PATHS = ("prescribed", "nonlinear", "forward")
+
+
+def warmup_scenarios() -> dict[str, Any]:
+    """Tiny variants of the paper scenario (20 ms) that run every compiled loop: the Lawson
+    loop (prescribed), Gauss collocation (nonlinear), the forward kernel and its RK4 loop."""
+    import copy
+
+    from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
+
+    base = resolve_scenario_dict(paper_experiment_path())
+    base["simulation"]["t_end"] = 0.02
+    nonlinear = copy.deepcopy(base)
+    nonlinear["simulation"]["model"] = "nonlinear"
+    forward = copy.deepcopy(base)
+    for joint in forward["joints"]:
+        joint.pop("motion")
+        joint.update(drive="torque", torque=[{"profile": "bang_bang", "amplitude": 0.01,
+                                              "start": 0.0, "duration": 0.02}])
+    return {name: scenario_from_dict(d) for name, d in
+            zip(WARMUP_PATHS, (base, nonlinear, forward), strict=True)}
+
+
+def _cmd_warmup(args: argparse.Namespace) -> int:
+    import time
+
+    from .simulation import simulate
+
+    for name, scenario in warmup_scenarios().items():
+        start = time.perf_counter()
+        try:
+            simulate(scenario, shapes=False)
+        except Exception as exc:  # noqa: BLE001 — report it and go on with the others
+            print(f"{name}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+            return 1
+        print(f"{name} runs ready ({time.perf_counter() - start:.1f} s)")
     return 0
 
 

@@ -128,3 +128,14 @@ def test_rescaled_modal_data_equals_a_fresh_computation(mode_shapes: str, EI: fl
         elif field.name != "shapes":
             assert b == a, field.name
     np.testing.assert_array_equal(scaled.shapes.beta_l, fresh.shapes.beta_l)
+
+
+def test_warmup_scenarios_take_every_path() -> None:
+    from flexlink.cli import WARMUP_PATHS, build_parser, warmup_scenarios
+    from flexlink.simulation import model_path
+
+    scenarios = warmup_scenarios()
+    assert {name: model_path(s) for name, s in scenarios.items()} == {
+        name: name for name in WARMUP_PATHS}
+    assert all(s.settings.t_end <= 0.05 for s in scenarios.values())
+    assert build_parser().parse_args(["warmup"]).command == "warmup"
