@@ -4,7 +4,7 @@ figures drawn in a forked process, the mode eigenvalues found without scipy.opti
 from __future__ import annotations
 
 import itertools
-import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -61,7 +61,8 @@ def test_eigenvalues_by_bisection_match_brent() -> None:
         assert value == pytest.approx(ref, rel=4 * eps, abs=0)
 
 
-needs_fork = pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork")
+needs_fork = pytest.mark.skipif(not sys.platform.startswith("linux"),
+                                reason="the figure worker forks on Linux only")
 
 # In a fresh interpreter: the suite's own process runs threads by then (the worker is then not
 # forked, rightly), and a fork of the test process is best avoided anyway.

@@ -7,7 +7,7 @@ matplotlib and the plotting code at once (while the parent works), then waits fo
 `submit(results, folder)` and draws the figures into ``folder``; `wait()` returns when they
 are written. On two cores the two halves overlap.
 
-The worker is an optimisation only: where it cannot run (no ``fork``, other threads running in
+The worker is an optimisation only: where it cannot run (not Linux, other threads running in
 this process, the child failed or died) `wait()` returns False and the caller draws the
 figures itself (`writers.write_figures`), raising whatever error drawing raises. Only the
 command line uses it; `write_run` draws in-process by default.
@@ -38,8 +38,10 @@ class FigureWorker:
 
     @classmethod
     def start(cls) -> FigureWorker | None:
-        """Fork the worker; None where forking is unavailable or unsafe (threads running)."""
-        if not hasattr(os, "fork") or threading.active_count() > 1:
+        """Fork the worker; None where forking is unavailable or unsafe: threads running, or
+        not Linux (macOS's system libraries are not safe to use in a forked child)."""
+        if (not sys.platform.startswith("linux") or not hasattr(os, "fork")
+                or threading.active_count() > 1):
             return None
         job_r, job_w = os.pipe()
         reply_r, reply_w = os.pipe()
