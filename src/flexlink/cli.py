@@ -65,6 +65,15 @@ def build_parser() -> argparse.ArgumentParser:
                                            "redirect it to a file to start your own.")
     show.set_defaults(handler=_cmd_show_paper)
 
+    warmup = commands.add_parser(
+        "warmup", help="compile the numba loops now (once per installation)",
+        description="Compile and cache every compiled loop flexlink runs (prescribed, "
+                    "nonlinear and forward runs) by simulating tiny scenarios, so that no "
+                    "later run waits for the compiler. Compiled code goes to numba's cache: "
+                    "beside the installed modules, or NUMBA_CACHE_DIR for a read-only "
+                    "installation.")
+    warmup.set_defaults(handler=_cmd_warmup)
+
     from .batch.command import add_parser as add_sweep_parser
 
     add_sweep_parser(commands)
@@ -99,6 +108,45 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
     return 0
 
 
+WARMUP_PATHS = ("prescribed", "nonlinear", "forward")
+
+
+def warmup_scenarios() -> dict[str, Any]:
+    """Tiny variants of the paper scenario (20 ms) that run every compiled loop: the Lawson
+    loop (prescribed), Gauss collocation (nonlinear), the forward kernel and its RK4 loop."""
+    import copy
+
+    from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
+
+    base = resolve_scenario_dict(paper_experiment_path())
+    base["simulation"]["t_end"] = 0.02
+    nonlinear = copy.deepcopy(base)
+    nonlinear["simulation"]["model"] = "nonlinear"
+    forward = copy.deepcopy(base)
+    for joint in forward["joints"]:
+        joint.pop("motion")
+        joint.update(drive="torque", torque=[{"profile": "bang_bang", "amplitude": 0.01,
+                                              "start": 0.0, "duration": 0.02}])
+    return {name: scenario_from_dict(d) for name, d in
+            zip(WARMUP_PATHS, (base, nonlinear, forward), strict=True)}
+
+
+def _cmd_warmup(args: argparse.Namespace) -> int:
+    import time
+
+    from .simulation import simulate
+
+    for name, scenario in warmup_scenarios().items():
+        start = time.perf_counter()
+        try:
+            simulate(scenario, shapes=False)
+        except Exception as exc:  # noqa: BLE001 — report it and go on with the others
+            print(f"{name}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+            return 1
+        print(f"{name} runs ready ({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
 def _cmd_paper(args: argparse.Namespace) -> int:
     return _cmd_run(args)
 
@@ -116,11 +164,34 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _fail(str(exc))
     except (OutputFolderError, ValueError, OSError) as exc:
         return _fail(f"error: {exc}")
-    return _simulate_and_write(scenario, resolved, out_dir, args)
+    worker = None
+    if not args.no_figures:
+        # matplotlib and the figures in a second process, while this one imports numba and
+        # scipy, simulates and writes (results/figure_worker.py)
+        from .results.figure_worker import FigureWorker
+
+        worker = FigureWorker.start()
+    _preload_compiled_code(scenario)  # after the fork: a process with threads must not fork
+    try:
+        return _simulate_and_write(scenario, resolved, out_dir, args, worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _preload_compiled_code(scenario: Any) -> None:
+    """Load (or compile) the step loop of a Lawson run in the background while this process
+    imports the rest and prepares the run (solvers/lawson.py)."""
+    settings = scenario.settings
+    if (not scenario.is_forward and settings.model != "nonlinear"
+            and settings.method == "lawson"):
+        from .solvers.lawson import preload_compiled_loop
+
+        preload_compiled_loop()
 
 
 def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
-                        args: argparse.Namespace) -> int:
+                        args: argparse.Namespace, figure_worker: Any = None) -> int:
     from .errors import RunTooLarge, SimulationError
     from .results.writers import write_run
     from .simulation import simulate
@@ -135,7 +206,8 @@ def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
         return _fail(f"error: {exc}")
     try:
         write_run(results, out_dir, resolved, figures=not args.no_figures,
-                  overwrite=args.overwrite, report=not args.no_report, animation=args.animate)
+                  overwrite=args.overwrite, report=not args.no_report, animation=args.animate,
+                  figure_worker=figure_worker)
     except (ValueError, OSError) as exc:
         return _fail(f"error: could not write {out_dir}: {exc}")
     print(out_dir if args.quiet else summary(results, out_dir, scenario.name))

@@ -18,7 +18,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Chain, Link
-from ..modes import ModalData, ModeShapes, highest_frequency, modal_data, tip_loaded_modes
+from ..modes import (
+    ModalData,
+    ModeShapes,
+    highest_frequency,
+    modal_data,
+    modal_data_for_stiffness,
+    tip_loaded_modes,
+)
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
 
 
@@ -80,8 +87,10 @@ def _outboard_loaded_shapes(chain: Chain, k: int) -> ModeShapes:
 @functools.lru_cache(maxsize=64)
 def _link_modal_data(link: Link) -> ModalData:
     """Modal integrals of a link (immutable): computed once per process, reused by every run
-    of the same link (sweeps over manoeuvres, repeated runs)."""
-    return modal_data(link)
+    of the same link (sweeps over manoeuvres, repeated runs). Always rescaled from the link's
+    data at EI = 1 (`modes.modal_data_for_stiffness`, itself cached): a sweep over EI, E or
+    damping integrates the modes once, and a sweep case equals its single run bit for bit."""
+    return modal_data_for_stiffness(link)
 
 
 def chain_modal_data(chain: Chain) -> list[ModalData]:

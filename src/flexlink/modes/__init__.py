@@ -1,6 +1,12 @@
 """Assumed modes of a clamped flexible link and their modal integrals."""
 
-from flexlink.modes.integrals import ModalData, highest_frequency, modal_data
+from flexlink.modes.integrals import (
+    ModalData,
+    highest_frequency,
+    modal_data,
+    modal_data_for_stiffness,
+    unit_stiffness_modal_data,
+)
 from flexlink.modes.shapes import (
     ModeShapes,
     clamped_free_modes,
@@ -14,6 +20,8 @@ __all__ = [
     "clamped_free_modes",
     "highest_frequency",
     "modal_data",
+    "modal_data_for_stiffness",
     "mode_shapes_for",
     "tip_loaded_modes",
+    "unit_stiffness_modal_data",
 ]

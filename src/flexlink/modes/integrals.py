@@ -7,6 +7,8 @@ damping matrix and natural frequencies).  All quantities are in SI units; Φ is 
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,7 +17,8 @@ from scipy.linalg import eigh
 from flexlink.model import Link
 from flexlink.modes.shapes import ModeShapes, mode_shapes_for
 
-__all__ = ["ModalData", "highest_frequency", "modal_data"]
+__all__ = ["ModalData", "highest_frequency", "modal_data", "modal_data_for_stiffness",
+           "unit_stiffness_modal_data"]
 
 _POINTS_PER_PANEL = 20
 _LAMBDA_PER_PANEL = 3.0  # max β_n · (panel width) — keeps e^{±2βx} resolved to round-off
@@ -91,10 +94,20 @@ def _weighted_gram(f: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return _sym(f.T @ (weights[:, None] * f))
 
 
-def modal_data(
-    link: Link, quadrature_points: int | None = None, shapes: ModeShapes | None = None
-) -> ModalData:
-    """Compute all modal integrals of ``link`` by composite Gauss–Legendre quadrature."""
+@dataclass(frozen=True, eq=False)
+class UnitStiffnessModes:
+    """What of a link's modal data does not depend on EI or the damping ratio: ``data`` (its
+    stiffness, damping and frequencies left empty), Φ'' at the quadrature nodes and the
+    weights (for K = EI ∫Φ''ᵀΦ'' dx), and the clamped mass matrix (for the frequencies)."""
+
+    data: ModalData
+    second_derivatives: np.ndarray  # (points, n) 1/m², Φ'' at the quadrature nodes
+    weights: np.ndarray  # (points,) m
+    clamped: np.ndarray  # (n, n) kg
+
+
+def _stiffness_free(link: Link, quadrature_points: int | None,
+                    shapes: ModeShapes | None) -> UnitStiffnessModes:
     shapes = mode_shapes_for(link) if shapes is None else shapes
     L, m, m_t, J_t = link.length, link.mass_per_length, link.tip_mass, link.tip_inertia
     x, w = _gauss_legendre(L, float(shapes.beta_l.max(initial=0.0)), quadrature_points)
@@ -108,17 +121,12 @@ def modal_data(
     wm = w * m
     mass_matrix = _weighted_gram(phi, wm) + m_t * np.outer(tip, tip)
     clamped = mass_matrix + J_t * np.outer(slope, slope)
-    stiffness = _weighted_gram(ddphi, w * link.EI)
     # Mass outboard of s, and its first moment about the joint (tip mass included).
     outboard_mass = m * (L - x) + m_t
     outboard_moment = 0.5 * m * (L**2 - x**2) + m_t * L
+    empty = _ro(np.empty(0))
 
-    omega2, vectors = eigh(stiffness, clamped)  # vectorsᵀ M_c vectors = I
-    omega = np.sqrt(np.clip(omega2, 0.0, None))
-    mv = clamped @ vectors
-    damping = mv @ np.diag(2.0 * link.damping_ratio * omega) @ mv.T
-
-    return ModalData(
+    data = ModalData(
         length=L,
         n=shapes.n,
         shapes=shapes,
@@ -128,7 +136,7 @@ def modal_data(
         phi_bar=_ro(wm @ phi + m_t * tip),
         phi_tilde=_ro((wm * x) @ phi + m_t * L * tip),
         mass_matrix=_sym(mass_matrix),
-        stiffness_matrix=stiffness,
+        stiffness_matrix=empty,
         tip_value=_ro(tip),
         tip_slope=_ro(slope),
         tip_inertia=J_t,
@@ -136,9 +144,55 @@ def modal_data(
         foreshortening_mass=_weighted_gram(dphi, w * outboard_mass),
         foreshortening_moment=_weighted_gram(dphi, w * outboard_moment),
         clamped_mass_matrix=_sym(clamped),
-        damping_matrix=_sym(damping),
-        natural_frequencies_hz=_ro(omega / (2.0 * np.pi)),
+        damping_matrix=empty,
+        natural_frequencies_hz=empty,
     )
+    return UnitStiffnessModes(data, _ro(ddphi), _ro(w), _ro(clamped))
+
+
+def _with_stiffness(unit: UnitStiffnessModes, EI: float, damping_ratio: float) -> ModalData:
+    """The modal data with K = EI ∫Φ''ᵀΦ'' dx, the clamped frequencies and modal damping."""
+    stiffness = _weighted_gram(unit.second_derivatives, unit.weights * EI)
+    clamped = unit.clamped
+    omega2, vectors = eigh(stiffness, clamped)  # vectorsᵀ M_c vectors = I
+    omega = np.sqrt(np.clip(omega2, 0.0, None))
+    mv = clamped @ vectors
+    damping = mv @ np.diag(2.0 * damping_ratio * omega) @ mv.T
+    return dataclasses.replace(unit.data, stiffness_matrix=stiffness,
+                               damping_matrix=_sym(damping),
+                               natural_frequencies_hz=_ro(omega / (2.0 * np.pi)))
+
+
+def modal_data(
+    link: Link, quadrature_points: int | None = None, shapes: ModeShapes | None = None
+) -> ModalData:
+    """Compute all modal integrals of ``link`` by composite Gauss–Legendre quadrature."""
+    return _with_stiffness(_stiffness_free(link, quadrature_points, shapes), link.EI,
+                           link.damping_ratio)
+
+
+@functools.lru_cache(maxsize=64)
+def unit_stiffness_modal_data(link: Link) -> UnitStiffnessModes:
+    """What of ``link``'s modal data does not depend on EI or damping, cached per process by
+    every field that matters (not the name, EI, damping ratio or section thickness).
+
+    The shapes of clamped–free and tip-loaded modes do not depend on EI (it cancels from the
+    dimensionless frequency equation), nor does any modal integral but the stiffness matrix:
+    a sweep over EI, E or the damping ratio evaluates the shapes and integrates once, then per
+    case only forms K (one small product) and solves the 4 × 4 eigenproblem."""
+    key = dataclasses.replace(link, name="", EI=1.0, damping_ratio=0.0, thickness=None)
+    if key != link:
+        return unit_stiffness_modal_data(key)
+    return _stiffness_free(link, None, None)
+
+
+def modal_data_for_stiffness(link: Link) -> ModalData:
+    """`modal_data` of a clamped–free or tip-loaded link from `unit_stiffness_modal_data`: the
+    same operations on the same numbers, so equal to a fresh computation bit for bit
+    (tests/unit/test_startup.py)."""
+    if link.mode_shapes not in ("clamped_free", "tip_loaded"):
+        raise ValueError(f"mode shapes {link.mode_shapes!r} depend on more than the link")
+    return _with_stiffness(unit_stiffness_modal_data(link), link.EI, link.damping_ratio)
 
 
 def highest_frequency(modal: list[ModalData]) -> float:

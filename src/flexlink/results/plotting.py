@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.axes import Axes
-from matplotlib.figure import Figure
 
 from ..channels import Channel, ChannelKind, ChannelTable, Unit
+
+if TYPE_CHECKING:  # matplotlib loads when a figure is drawn: display_scale needs none of it
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 DPI = 150
 # stored unit → (display factor, display unit)
@@ -33,6 +36,13 @@ _QUANTITY = {"piezo": "voltage"}  # axis label of a quantity, where it differs
 # Line styles cycled over curves that share an axis: equal curves (symmetric appendages)
 # would otherwise hide one another.
 _STYLES = ("-", "--", "-.", ":")
+# Subscript digits: β₁ in a plain label renders like mathtext's $\beta_1$ without loading
+# and running matplotlib's mathtext parser (~0.1 s of a command-line run).
+_SUBSCRIPT = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
+
+
+def _sub(symbol: str, k: str) -> str:
+    return symbol + k.translate(_SUBSCRIPT)
 
 
 def display_scale(unit: str) -> tuple[float, str]:
@@ -98,6 +108,8 @@ def _figure(results: ChannelTable, width: float, height: float, panels: int = 1,
 
     Fixed margins instead of matplotlib's constrained layout: the layout solver took half of a
     command-line run's plotting time, and these figures all share one simple structure."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(width, height), dpi=DPI)
     panel = (height - top - bottom - gap * (panels - 1)) / panels
     fig.subplots_adjust(left=0.85 / width, right=1 - 0.15 / width, bottom=bottom / height,
@@ -132,19 +144,19 @@ def plot_joint_angles(results: ChannelTable) -> Figure:
     for i, name in enumerate(names):
         subject = results.channels[name].subject
         k = subject.removeprefix("joint")
-        (line,) = ax.plot(results.time, np.degrees(results[name]), label=rf"$\beta_{{{k}}}$",
+        (line,) = ax.plot(results.time, np.degrees(results[name]), label=_sub("β", k),
                           linestyle=_STYLES[i % len(_STYLES)])
         colours[name] = line.get_color()
         if subject in references:
             ax.plot(results.time, np.degrees(results[references[subject]]), "--",
-                    color=line.get_color(), linewidth=0.8, label=rf"$\beta_{{{k}}}$ reference")
+                    color=line.get_color(), linewidth=0.8, label=f"{_sub('β', k)} reference")
     ax.set_ylabel("joint angle [deg]")
     ax.legend(loc="lower right")  # "best" scans every vertex: ~0.1 s a legend
     for panel, group in zip(axes[1:], groups):
         for i, name in enumerate(group):
             k = results.channels[name].subject.removeprefix("joint")
             angle = f"joint{k}_angle"
-            panel.plot(results.time, results[name], label=rf"$\tau_{{{k}}}$",
+            panel.plot(results.time, results[name], label=_sub("τ", k),
                        color=colours.get(angle), linestyle=_STYLES[i % len(_STYLES)])
         panel.set_ylabel("joint torque [N·m]")
         panel.legend(loc="upper right")

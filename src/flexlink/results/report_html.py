@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import base64
 import html
-import itertools
 import json
 import math
 from collections.abc import Mapping, Sequence
@@ -171,18 +170,22 @@ def _kind_counts(results: ChannelTable) -> dict[str, int]:
 def decimate(t: np.ndarray, ys: Sequence[np.ndarray], points: int = MAX_POINTS
              ) -> tuple[np.ndarray, list[np.ndarray]]:
     """At most ~``points`` samples: each bucket keeps the samples where any series has its
-    minimum or maximum, so no peak is lost."""
+    minimum or maximum (the first such sample, NaN ignored), so no peak is lost."""
     n = t.size
     if n <= points:
         return t, list(ys)
     buckets = np.linspace(0, n, points // 2 + 1).astype(int)
-    keep = {0, n - 1}
+    starts = buckets[:-1][buckets[1:] > buckets[:-1]]  # non-empty buckets
+    bucket = np.repeat(np.arange(starts.size), np.diff(np.append(starts, n)))
+    keep = [np.array([0, n - 1])]
     for y in ys:
-        for a, b in itertools.pairwise(buckets):
-            if b > a:
-                seg = y[a:b]
-                keep.update((a + int(np.nanargmin(seg)), a + int(np.nanargmax(seg))))
-    index = np.array(sorted(keep))
+        y = np.asarray(y, float)
+        for reduce in (np.fmin, np.fmax):  # NaN-ignoring, like nanargmin / nanargmax
+            extreme = reduce.reduceat(y, starts)
+            hit = np.flatnonzero(y == extreme[bucket])
+            first = np.unique(bucket[hit], return_index=True)[1]
+            keep.append(hit[first])
+    index = np.unique(np.concatenate(keep))
     return t[index], [y[index] for y in ys]
 
 

@@ -19,7 +19,7 @@ import uuid
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,6 +30,9 @@ from .layout import run_layout
 from .matlab import write_mat
 from .netcdf import write_netcdf
 from .results import Results
+
+if TYPE_CHECKING:
+    from .figure_worker import FigureWorker
 
 CSV_FORMAT = "%.10g"
 CHANNEL_COLUMNS = ("name", "unit", "kind", "quantity", "subject", "description")
@@ -65,19 +68,30 @@ def write_run(
     overwrite: bool = False,
     report: bool = True,
     animation: bool = False,
+    figure_worker: FigureWorker | None = None,
 ) -> Path:
     """Write ``results`` and the ``resolved`` scenario dict into ``out_dir``; return it.
     ``report``: report.html (`report_html`); ``animation``: animation.gif (`animation`, a few
-    seconds), shown in the report."""
+    seconds), shown in the report. ``figure_worker``: a `FigureWorker` that draws the figures
+    in another process while this one writes the data files (the command line's); drawn here
+    if it fails."""
     with atomic_folder(out_dir, overwrite) as partial:
-        write_results_csv(results, partial / RESULTS_CSV)
-        write_channels_csv(results, partial / CHANNELS_CSV)
-        layout = run_layout(results)
-        write_netcdf(layout, partial / RESULTS_NC)  # the folder is atomic already
-        write_mat(layout, partial / RESULTS_MAT)
-        (partial / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
-        if figures:
-            write_figures(results, partial / "figures")
+        try:
+            if figures and figure_worker is not None:
+                figure_worker.submit(results, partial / "figures")
+            write_results_csv(results, partial / RESULTS_CSV)
+            write_channels_csv(results, partial / CHANNELS_CSV)
+            layout = run_layout(results)
+            write_netcdf(layout, partial / RESULTS_NC)  # the folder is atomic already
+            write_mat(layout, partial / RESULTS_MAT)
+            (partial / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
+            if figures and (figure_worker is None or not figure_worker.wait()):
+                if figure_worker is not None:  # it failed or died: start afresh
+                    shutil.rmtree(partial / "figures", ignore_errors=True)
+                write_figures(results, partial / "figures")
+        finally:
+            if figure_worker is not None:
+                figure_worker.close()  # never remove the folder under a drawing child
         if animation:
             from .animation import animate
 
@@ -156,6 +170,24 @@ def write_figures(results: Results, folder: Path) -> list[Path]:
         paths.append(folder / f"{stem}.png")
         fig.savefig(paths[-1], dpi=plotting.DPI)
     return paths
+
+
+def preload_figures() -> None:
+    """Import matplotlib's Agg backend and the plotting code, and load the fonts by drawing a
+    tiny figure: what the first figure would otherwise spend first (`figure_worker`)."""
+    import io
+
+    from matplotlib.figure import Figure
+
+    from . import plotting
+
+    fig = Figure(figsize=(1, 1), dpi=plotting.DPI)
+    ax = fig.subplots()
+    ax.plot([0.0, 1.0], [0.0, 1.0], label="x")
+    ax.set_title("x", fontsize="medium")
+    ax.legend(fontsize="small")
+    fig.text(0.0, 1.0, "x", fontsize="small")
+    fig.savefig(io.BytesIO(), format="png", dpi=plotting.DPI)
 
 
 def resolved_toml(resolved: Mapping[str, Any]) -> str:

@@ -78,6 +78,25 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
     )
 
 
+def preload_compiled_loop() -> None:
+    """Start loading (or, on a first run, compiling) the compiled step loop in a background
+    thread, for a caller that knows a Lawson run is coming: numba's import, its cache and
+    LLVM's code generation (which releases the interpreter lock) then overlap the caller's
+    other start-up work. The run itself waits for it (numba's compiler lock); an error here
+    is left for the run to raise."""
+    import threading
+
+    def load() -> None:
+        try:
+            from ._lawson_numba import load as load_loop
+
+            load_loop()
+        except Exception:  # noqa: BLE001, S110 — the run reports it
+            pass
+
+    threading.Thread(target=load, name="flexlink-preload-lawson", daemon=True).start()
+
+
 def _solve(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
     on_progress: Progress | None,

@@ -1,0 +1,146 @@
+"""Draw a run's figures in a second process while the first one simulates and writes.
+
+`flexlink run` spends about as long importing matplotlib and drawing the figures as it spends
+importing scipy and numba, simulating and writing the data files, and each is serial Python.
+`FigureWorker.start()` forks a child process before those imports; the child imports
+matplotlib and the plotting code at once (while the parent works), then waits for
+`submit(results, folder)` and draws the figures into ``folder``; `wait()` returns when they
+are written. On two cores the two halves overlap.
+
+The worker is an optimisation only: where it cannot run (not Linux, other threads running in
+this process, the child failed or died) `wait()` returns False and the caller draws the
+figures itself (`writers.write_figures`), raising whatever error drawing raises. Only the
+command line uses it; `write_run` draws in-process by default.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pickle
+import struct
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+_HEADER = struct.Struct("<Q")
+
+
+class FigureWorker:
+    """A forked child that draws figures on request (see the module docstring)."""
+
+    def __init__(self, pid: int, jobs: int, replies: int) -> None:
+        self._pid = pid
+        self._jobs = jobs  # write end: the job (pickled)
+        self._replies = replies  # read end: one status byte
+        self._submitted = False
+
+    @classmethod
+    def start(cls) -> FigureWorker | None:
+        """Fork the worker; None where forking is unavailable or unsafe: threads running, or
+        not Linux (macOS's system libraries are not safe to use in a forked child)."""
+        if (not sys.platform.startswith("linux") or not hasattr(os, "fork")
+                or threading.active_count() > 1):
+            return None
+        job_r, job_w = os.pipe()
+        reply_r, reply_w = os.pipe()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        try:
+            pid = os.fork()
+        except OSError:
+            for fd in (job_r, job_w, reply_r, reply_w):
+                os.close(fd)
+            return None
+        if pid == 0:  # the child: never returns
+            os.close(job_w)
+            os.close(reply_r)
+            _child(job_r, reply_w)
+        os.close(job_r)
+        os.close(reply_w)
+        return cls(pid, job_w, reply_r)
+
+    def submit(self, results: Any, folder: Path) -> None:
+        """Ask the child to draw ``results``' figures into ``folder`` (returns at once)."""
+        payload = pickle.dumps((results, Path(folder)), protocol=pickle.HIGHEST_PROTOCOL)
+        try:
+            _write_all(self._jobs, _HEADER.pack(len(payload)) + payload)
+            self._submitted = True
+        except OSError:  # the child is gone: wait() reports it
+            pass
+        finally:
+            os.close(self._jobs)
+            self._jobs = -1
+
+    def wait(self) -> bool:
+        """True when the child wrote the figures; False otherwise (draw them yourself)."""
+        ok = False
+        if self._submitted:
+            try:
+                ok = os.read(self._replies, 1) == b"1"
+            except OSError:
+                ok = False
+        self.close()
+        return ok
+
+    def close(self) -> None:
+        """Release the child (it exits when its job pipe closes) and reap it."""
+        for attr in ("_jobs", "_replies"):
+            fd = getattr(self, attr)
+            if fd >= 0:
+                os.close(fd)
+                setattr(self, attr, -1)
+        if self._pid:
+            try:
+                os.waitpid(self._pid, 0)
+            except ChildProcessError:
+                pass
+            self._pid = 0
+
+    def __del__(self) -> None:
+        with contextlib.suppress(Exception):  # interpreter shutdown
+            self.close()
+
+
+def _child(jobs: int, replies: int) -> None:
+    status = 1
+    try:
+        import signal
+
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)  # nothing of the child's on the command's output
+        os.dup2(devnull, 2)
+        from . import writers  # matplotlib and the plotting code load while the parent works
+
+        writers.preload_figures()
+        header = _read_exactly(jobs, _HEADER.size)
+        if header is not None:
+            payload = _read_exactly(jobs, _HEADER.unpack(header)[0])
+            if payload is not None:
+                results, folder = pickle.loads(payload)
+                writers.write_figures(results, folder)
+                status = 0
+                os.write(replies, b"1")
+    except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
+        status = 1
+    finally:
+        os._exit(status)
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
+def _read_exactly(fd: int, size: int) -> bytes | None:
+    chunks, remaining = [], size
+    while remaining:
+        chunk = os.read(fd, min(remaining, 1 << 20))
+        if not chunk:
+            return None
+        chunks.append(chunk)
+        remaining -= len(chunk)
+    return b"".join(chunks)

@@ -1,0 +1,145 @@
+"""What the start-up work changed must not change outputs: the report's decimation, the
+figures drawn in a forked process, the mode eigenvalues found without scipy.optimize."""
+
+from __future__ import annotations
+
+import itertools
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from flexlink.modes.shapes import _frequency_function, clamped_free_modes, tip_loaded_modes
+from flexlink.results.report_html import decimate
+
+
+def _decimate_loop(t: np.ndarray, ys: list[np.ndarray], points: int
+                   ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The earlier implementation, bucket by bucket."""
+    n = t.size
+    if n <= points:
+        return t, list(ys)
+    buckets = np.linspace(0, n, points // 2 + 1).astype(int)
+    keep = {0, n - 1}
+    for y in ys:
+        for a, b in itertools.pairwise(buckets):
+            if b > a:
+                seg = y[a:b]
+                keep.update((a + int(np.nanargmin(seg)), a + int(np.nanargmax(seg))))
+    index = np.array(sorted(keep))
+    return t[index], [y[index] for y in ys]
+
+
+@pytest.mark.parametrize("n", [2999, 3001, 5001, 10007])
+@pytest.mark.parametrize("points", [3000, 101, 6])
+def test_vectorised_decimation_keeps_the_same_samples(n: int, points: int) -> None:
+    rng = np.random.default_rng(n + points)
+    t = np.linspace(0.0, 5.0, n)
+    ys = [rng.standard_normal(n), np.round(rng.standard_normal(n), 1), np.zeros(n)]
+    ys[0][3] = np.nan
+    expected_t, expected = _decimate_loop(t, ys, points)
+    got_t, got = decimate(t, ys, points)
+    np.testing.assert_array_equal(got_t, expected_t)
+    for a, b in zip(got, expected, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_eigenvalues_by_bisection_match_brent() -> None:
+    eps = np.finfo(float).eps
+    lam = clamped_free_modes(1.0, 10).beta_l
+    ref = [brentq(_frequency_function, (i - 1) * np.pi, i * np.pi, args=(0.0, 0.0),
+                  xtol=1e-15, rtol=4 * eps) for i in range(1, 11)]
+    np.testing.assert_allclose(lam, ref, rtol=4 * eps, atol=0)
+    loaded = tip_loaded_modes(1.37, 5, 0.53, 300.0, 0.3, 0.01)
+    mu, j = 0.3 / (0.53 * 1.37), 0.01 / (0.53 * 1.37**3)
+    for value in loaded.beta_l:
+        assert abs(_frequency_function(value, mu, j)) < 1e-12
+        ref = brentq(_frequency_function, value - 0.01, value + 0.01, args=(mu, j),
+                     xtol=1e-15, rtol=4 * eps)
+        assert value == pytest.approx(ref, rel=4 * eps, abs=0)
+
+
+needs_fork = pytest.mark.skipif(not sys.platform.startswith("linux"),
+                                reason="the figure worker forks on Linux only")
+
+# In a fresh interpreter: the suite's own process runs threads by then (the worker is then not
+# forked, rightly), and a fork of the test process is best avoided anyway.
+_WORKER_CHECK = """
+import os, signal, sys
+from pathlib import Path
+sys.path[:0] = {paths!r}
+from flexlink.results import writers
+from flexlink.results.figure_worker import FigureWorker
+from flexlink.scenario import resolve_scenario_dict
+from tests.unit.test_writers import fake_results, scenario_dict
+
+tmp = Path({tmp!r})
+worker = FigureWorker.start()
+assert worker is not None, "not forked"
+results = fake_results()
+worker.submit(results, tmp / "worker")
+assert worker.wait(), "the worker did not draw"
+here = writers.write_figures(results, tmp / "here")
+assert [p.name for p in here] == ["joint_angles.png", "sensors.png", "tip_paths.png"]
+for path in here:
+    assert (tmp / "worker" / path.name).read_bytes() == path.read_bytes(), path.name
+dead = FigureWorker.start()
+os.kill(dead._pid, signal.SIGKILL)
+out = writers.write_run(results, tmp / "run", resolve_scenario_dict(scenario_dict()),
+                        figure_worker=dead)
+assert sorted(p.name for p in (out / "figures").iterdir()) == [
+    "joint_angles.png", "sensors.png", "tip_paths.png"]
+assert (out / "report.html").is_file()
+print("ok")
+"""
+
+
+@needs_fork
+def test_figure_worker_draws_what_write_figures_draws_and_falls_back(tmp_path: Path) -> None:
+    """Figures drawn by the forked worker are byte for byte those drawn in-process; a worker
+    that died leaves write_run to draw them itself."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    code = _WORKER_CHECK.format(paths=[str(root), str(root / "src")], tmp=str(tmp_path))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=False)
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]
+
+
+@pytest.mark.parametrize("mode_shapes", ["clamped_free", "tip_loaded"])
+@pytest.mark.parametrize("EI", [308.7, 55.0, 4.2e3])
+def test_modal_data_from_the_cache_equals_a_fresh_computation(mode_shapes: str,
+                                                              EI: float) -> None:
+    import dataclasses
+
+    from flexlink.model import Link
+    from flexlink.modes import modal_data, modal_data_for_stiffness
+
+    other = Link("other", 1.37, 0.5292, 2 * EI, tip_mass=0.129, tip_inertia=2e-4,
+                 damping_ratio=0.05, modes=4, mode_shapes=mode_shapes)
+    modal_data_for_stiffness(other)  # the cache now holds this link's EI-free part
+    link = dataclasses.replace(other, name="arm", EI=EI, damping_ratio=0.02)
+    fresh, cached = modal_data(link), modal_data_for_stiffness(link)
+    for field in dataclasses.fields(fresh):
+        a, b = getattr(fresh, field.name), getattr(cached, field.name)
+        if isinstance(a, np.ndarray):
+            np.testing.assert_array_equal(b, a, err_msg=field.name)  # bit for bit
+            assert not b.flags.writeable
+        elif field.name != "shapes":
+            assert b == a, field.name
+    np.testing.assert_array_equal(cached.shapes.beta_l, fresh.shapes.beta_l)
+
+
+def test_warmup_scenarios_take_every_path() -> None:
+    from flexlink.cli import WARMUP_PATHS, build_parser, warmup_scenarios
+    from flexlink.simulation import model_path
+
+    scenarios = warmup_scenarios()
+    assert {name: model_path(s) for name, s in scenarios.items()} == {
+        name: name for name in WARMUP_PATHS}
+    assert all(s.settings.t_end <= 0.05 for s in scenarios.values())
+    assert build_parser().parse_args(["warmup"]).command == "warmup"
