@@ -9,7 +9,7 @@ are written. On two cores the two halves overlap.
 
 The worker is an optimisation only: where it cannot run (not Linux, other threads running in
 this process, the child failed or died) `wait()` returns False and the caller draws the
-figures itself (`writers.write_figures`), raising whatever error drawing raises. Only the
+figures itself (`figures.write_figures`), raising whatever error drawing raises. Only the
 command line uses it; `write_run` draws in-process by default.
 """
 
@@ -112,15 +112,15 @@ def _child(jobs: int, replies: int) -> None:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, 1)  # nothing of the child's on the command's output
         os.dup2(devnull, 2)
-        from . import writers  # matplotlib and the plotting code load while the parent works
+        from . import figures  # matplotlib and the plotting code load while the parent works
 
-        writers.preload_figures()
+        figures.preload_figures()
         header = _read_exactly(jobs, _HEADER.size)
         if header is not None:
             payload = _read_exactly(jobs, _HEADER.unpack(header)[0])
             if payload is not None:
                 results, folder = pickle.loads(payload)
-                writers.write_figures(results, folder)
+                figures.write_figures(results, folder)
                 status = 0
                 os.write(replies, b"1")
     except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
