@@ -24,14 +24,13 @@ from ..model import Base, Chain, JointMotion, PositionServo, TorqueDrive, Veloci
 from ..modes import ModalData, modal_data
 from .first_order import (
     LinkBody,
-    link_body,
     add_link_terms,
+    link_body,
     rigid_load,
     second_order_stiffness,
     xi_maps,
 )
 from .kinematics import TURN, FrameMotion, block_map, rotation, tip_map
-
 
 
 class ForwardSystem:

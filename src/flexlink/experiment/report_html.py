@@ -8,8 +8,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..results.plotting import display_scale
 from ..results.folder import REPORT_NAME
+from ..results.plotting import display_scale
 from ..results.report_html import ReportPage, Trace
 from ..results.writers import resolved_toml
 from .comparison import Comparison
