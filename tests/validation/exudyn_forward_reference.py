@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -33,7 +32,7 @@ import numpy as np
 
 from flexlink.model import Link
 
-from .exudyn_reference import BeamSection, default_section
+from .exudyn_reference import BeamSection, default_section, solve_dynamic
 
 
 @dataclass(frozen=True)
@@ -193,25 +192,8 @@ def simulate_hub_exudyn(
     hub_vel = sensor(built["hub_node"], exu.OutputVariableType.Coordinates_t)
     ends = [(sensor(c[0], exu.OutputVariableType.Coordinates),
              sensor(c[-1], exu.OutputVariableType.Coordinates)) for c in nodes]
-    mbs.Assemble()
-    s = exu.SimulationSettings()
-    s.timeIntegration.numberOfSteps = round(t_end / dt)
-    s.timeIntegration.endTime = t_end
-    s.timeIntegration.verboseMode = 0
-    s.timeIntegration.newton.absoluteTolerance = newton_abs_tol
-    s.timeIntegration.newton.relativeTolerance = newton_rel_tol
-    s.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
-    s.solution.file.write = False
-    s.solution.sensors.writePeriod = dt_out
-    s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
-    started = time.perf_counter()
-    ok = mbs.SolveDynamic(s)
-    wall = time.perf_counter() - started
-    if not ok:
-        raise RuntimeError("Exudyn dynamic solver failed")
-
-    n_out = int(np.floor(t_end / dt_out + 1e-9)) + 1
-    t_grid = np.arange(n_out) * dt_out
+    wall, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, newton_abs_tol, newton_rel_tol,
+                                 spectral_radius)
 
     def series(sensor_number: int, node: int | None = None) -> np.ndarray:
         """The sensor on the output grid; with ``node``: plus its reference coordinates."""

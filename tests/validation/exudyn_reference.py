@@ -233,26 +233,9 @@ def simulate_chain_exudyn(
             nodeNumber=nodes[-1], storeInternal=True, writeToFile=False,
             outputVariableType=exu.OutputVariableType.Coordinates_tt))
 
-    mbs.Assemble()
-    s = exu.SimulationSettings()
-    s.timeIntegration.numberOfSteps = int(round(t_end / dt))
-    s.timeIntegration.endTime = t_end
-    s.timeIntegration.verboseMode = verbose
-    s.timeIntegration.newton.absoluteTolerance = newton_abs_tol
-    s.timeIntegration.newton.relativeTolerance = newton_rel_tol
-    s.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
-    s.solution.file.write = False
-    s.solution.sensors.writePeriod = dt_out
-    s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
-
-    started = time.perf_counter()
-    ok = mbs.SolveDynamic(s)
-    wall = time.perf_counter() - started
-    if not ok:
-        raise RuntimeError("Exudyn dynamic solver failed")
-
-    n_out = int(np.floor(t_end / dt_out + 1e-9)) + 1
-    t_grid = np.arange(n_out) * dt_out
+    wall, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, newton_abs_tol, newton_rel_tol,
+                                 spectral_radius, verbose)
+    n_out = t_grid.size
 
     def series(sensor: int) -> np.ndarray:
         data = np.asarray(mbs.GetSensorStoredData(sensor))
@@ -298,7 +281,7 @@ def simulate_chain_exudyn(
         result["joint_angle"].append(psi0 - (prev_tip_angle if prev_tip_angle is not None else 0.0))
         prev_tip_angle = psi1
     result["wall_time_s"] = wall
-    result["steps"] = s.timeIntegration.numberOfSteps
+    result["steps"] = round(t_end / dt)
     result["dt"] = dt
     result["coordinates"] = mbs.systemData.ODE2Size()
     result["nodes_per_link"] = [len(n) for n in link_nodes]
@@ -333,3 +316,28 @@ def simulate_krb_exudyn(omega: float, elements: int = 16, t_end: float = 20.0,
     section = default_section(link, EA=KRB_EA)
     return simulate_chain_exudyn([link], [krb_motion(omega)], t_end, dt_out, elements, dt=dt,
                                  sections=[section], **kw)
+
+
+def solve_dynamic(exu: Any, mbs: Any, t_end: float, dt: float, dt_out: float,
+                  newton_abs_tol: float, newton_rel_tol: float, spectral_radius: float,
+                  verbose: int = 0) -> tuple[float, np.ndarray]:
+    """Assemble and run Exudyn's generalized-α solver; its wall time (s, solver only) and the
+    sensors' output times (s)."""
+    mbs.Assemble()
+    s = exu.SimulationSettings()
+    s.timeIntegration.numberOfSteps = round(t_end / dt)
+    s.timeIntegration.endTime = t_end
+    s.timeIntegration.verboseMode = verbose
+    s.timeIntegration.newton.absoluteTolerance = newton_abs_tol
+    s.timeIntegration.newton.relativeTolerance = newton_rel_tol
+    s.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
+    s.solution.file.write = False
+    s.solution.sensors.writePeriod = dt_out
+    s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+    started = time.perf_counter()
+    ok = mbs.SolveDynamic(s)
+    wall = time.perf_counter() - started
+    if not ok:
+        raise RuntimeError("Exudyn dynamic solver failed")
+    n_out = int(np.floor(t_end / dt_out + 1e-9)) + 1
+    return wall, np.arange(n_out) * dt_out
