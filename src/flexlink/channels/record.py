@@ -6,6 +6,7 @@ what plots, writers, sweeps and the experiment code read to know what a column i
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any, Protocol
@@ -59,6 +60,14 @@ class Channel:
     description: str
     quantity: str = ""
     subject: str = ""
+
+
+def kind_summary(channels: Iterable[Channel]) -> str:
+    """How many channels of each kind, in order of first appearance: ``sensor 4, joint 4``."""
+    counts: dict[str, int] = {}
+    for channel in channels:
+        counts[channel.kind.value] = counts.get(channel.kind.value, 0) + 1
+    return ", ".join(f"{kind} {count}" for kind, count in counts.items())
 
 
 class ChannelTable(Protocol):

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..channels import ChannelKind, ChannelTable
+from ..channels import ChannelKind, ChannelTable, kind_summary
 from .atomic import atomic_file
 from .folder import REPORT_NAME
 from .plotting import display_scale
@@ -132,7 +132,7 @@ def run_page(folder: Path, results: ChannelTable, resolved_text: str,
                                             "peak_tip_deflection_per_length",
                                             "validity_warning", "flexlink_version")
                        if k in meta},
-                    "channels": ", ".join(f"{k} {v}" for k, v in _kind_counts(results).items())}
+                    "channels": kind_summary(results.channels.values())}
     page.add_traces("Signals", channel_traces(results, (ChannelKind.SENSOR, ChannelKind.JOINT,
                                                         ChannelKind.BASE)))
     page.add_images("Animation", [folder / "animation.gif"])
@@ -158,13 +158,6 @@ def write_run_report(folder: Path, results: ChannelTable | None = None,
     resolved = folder / RESOLVED_NAME
     text = resolved.read_text(encoding="utf-8") if resolved.is_file() else ""
     return run_page(folder, results, text, name).write(folder / REPORT_NAME)
-
-
-def _kind_counts(results: ChannelTable) -> dict[str, int]:
-    counts: dict[str, int] = {}
-    for channel in results.channels.values():
-        counts[channel.kind.value] = counts.get(channel.kind.value, 0) + 1
-    return counts
 
 
 def decimate(t: np.ndarray, ys: Sequence[np.ndarray], points: int = MAX_POINTS

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -10,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..channels import Channel, ChannelKind
+from ..channels import Channel, ChannelKind, kind_summary
 from ..channels.shapes import LinkShape
 
 if TYPE_CHECKING:
@@ -63,10 +62,6 @@ class Results:
         self.channels[channel.name] = channel
         self._values[channel.name] = values
 
-    def extend(self, items: Iterable[tuple[Channel, np.ndarray]]) -> None:
-        for channel, values in items:
-            self.add(channel, values)
-
     def to_pandas(self) -> pd.DataFrame:
         """A DataFrame indexed by ``t`` (s), one column per channel."""
         import pandas as pd
@@ -103,17 +98,10 @@ class Results:
 
         return animate(self, path, **options).path
 
-    def kind_counts(self) -> dict[str, int]:
-        """How many channels of each kind, in order of first appearance."""
-        counts: dict[str, int] = {}
-        for channel in self.channels.values():
-            counts[channel.kind.value] = counts.get(channel.kind.value, 0) + 1
-        return counts
-
     def __repr__(self) -> str:
         t = self.time
         span = f"t = {t[0]:g} … {t[-1]:g} s, {t.size} samples" if t.size else "no samples"
-        what = ", ".join(f"{k} {v}" for k, v in self.kind_counts().items()) or "no channels"
+        what = kind_summary(self.channels.values()) or "no channels"
         name = " ".join(str(self.metadata[k]) if k == "model" else repr(self.metadata[k])
                         for k in ("scenario", "model") if k in self.metadata)
         return f"<Results {name + ': ' if name else ''}{span}; {what}>"
