@@ -136,15 +136,17 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
 
     from .simulation import simulate
 
+    status = 0
     for name, scenario in warmup_scenarios().items():
         start = time.perf_counter()
         try:
             simulate(scenario, shapes=False)
         except Exception as exc:  # noqa: BLE001 — report it and go on with the others
             print(f"{name}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
-            return 1
+            status = 1
+            continue
         print(f"{name} runs ready ({time.perf_counter() - start:.1f} s)")
-    return 0
+    return status
 
 
 def _cmd_paper(args: argparse.Namespace) -> int:

@@ -143,3 +143,24 @@ def test_warmup_scenarios_take_every_path() -> None:
         name: name for name in WARMUP_PATHS}
     assert all(s.settings.t_end <= 0.05 for s in scenarios.values())
     assert build_parser().parse_args(["warmup"]).command == "warmup"
+
+
+def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPatch,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """Regression: the first failure ended the command although it said it went on."""
+    import flexlink.simulation
+    from flexlink.cli import main
+
+    ran: list[str] = []
+
+    def fake(scenario, progress=False, shapes=True):  # noqa: ANN001, ANN202
+        ran.append(flexlink.simulation.model_path(scenario))
+        if ran[-1] == "prescribed":
+            raise RuntimeError("boom")
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", fake)
+    assert main(["warmup"]) == 1
+    assert ran == ["prescribed", "nonlinear", "forward"]
+    out = capsys.readouterr()
+    assert "prescribed: failed: RuntimeError: boom" in out.err
+    assert "nonlinear runs ready" in out.out and "forward runs ready" in out.out
