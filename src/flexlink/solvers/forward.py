@@ -33,9 +33,8 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
                       compiled: bool = True) -> Solution:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
     initial state; the servo integrals as ``extra``. ``method``: "lawson" or "rk4" (compiled
-    loops) or a
-    solve_ivp method, whose right-hand side is the compiled kernel or (``compiled=False``)
-    the numpy ForwardSystem.
+    loops), FAST_METHOD (the one `compiled_method` picks) or a solve_ivp method, whose
+    right-hand side is the compiled kernel or (``compiled=False``) the numpy ForwardSystem.
 
     solve_ivp's step is limited to MAX_STEP_OUTPUTS output intervals: while nothing moves the
     error estimate is zero and the step would otherwise grow past the start of an input."""
