@@ -5,6 +5,7 @@ histories, and the `Scenario` that holds them. Degrees only appear at the scenar
 which converts them once. Algorithms take a model and never mutate it.
 """
 
+from .actuators import PiezoActuator
 from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad
 from .chain import MODE_SHAPES, Chain, Link, ModeShapes
 from .histories import ZERO, BangBang, History, Step, Sum, Table
@@ -25,7 +26,8 @@ from .settings import METHODS, MODELS, MethodName, ModelName, SimulationSettings
 __all__ = [
     "BASE_KINDS", "LOAD_FRAMES", "METHODS", "MODELS", "MODE_SHAPES", "POINT_SENSOR_KINDS",
     "ZERO", "BangBang", "Base", "BaseKind", "BaseLoad", "Chain", "Drive", "History",
-    "Joint", "JointMotion", "Link", "MethodName", "ModeShapes", "ModelName", "PiezoSensor",
+    "Joint", "JointMotion", "Link", "MethodName", "ModeShapes", "ModelName",
+    "PiezoActuator", "PiezoSensor",
     "PointSensor", "PointSensorKind", "PositionServo", "Scenario", "Sensor", "Servo",
     "SimulationSettings", "Step", "Sum", "Table", "TorqueDrive", "VelocityServo", "is_driven",
 ]

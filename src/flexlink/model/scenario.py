@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from .actuators import PiezoActuator
 from .base import Base
 from .chain import Chain
 from .joints import is_driven
@@ -24,6 +25,8 @@ class Scenario:
     # None: the chain hangs on a fixed hub at the origin. A Base makes the hub free or
     # pinned, carries applied loads and lets several branches start on it.
     base: Base | None = None
+    # piezo patches driven by a voltage (open loop, or by a controller)
+    actuators: tuple[PiezoActuator, ...] = ()
 
     @property
     def is_forward(self) -> bool:

@@ -1,0 +1,2 @@
+"""Control design on top of the simulation stage: linearised plants and the arm's modes along
+a manoeuvre (docs/control.md)."""
