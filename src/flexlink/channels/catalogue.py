@@ -113,6 +113,41 @@ def tip_channels(chain: Chain) -> list[Channel]:
             for link in chain.links for axis in "XY"]
 
 
+def voltage_name(actuator: str) -> str:
+    """Channel name of an actuator's applied voltage: ``pzt_a_voltage``."""
+    return f"{actuator}_voltage"
+
+
+def command_name(controller: str, output: int, outputs: int) -> str:
+    """Channel name of a controller's command (V, held): ``ppf_command``, or with several
+    outputs ``lqg_command1``, ``lqg_command2``, … (counted from 1)."""
+    return f"{controller}_command" if outputs == 1 else f"{controller}_command{output + 1}"
+
+
+def state_name(controller: str, index: int) -> str:
+    """Channel name of a controller's state, counted from 1: ``ppf_state1``."""
+    return f"{controller}_state{index + 1}"
+
+
+def control_channels(scenario: Scenario) -> list[Channel]:
+    """Actuator voltages, then per controller its commands and states (at the outputs: the
+    values held since the last sample)."""
+    from ..dynamics.controllers import controller_outputs, state_count
+
+    out = [Channel(voltage_name(a.name), ChannelKind.CONTROLLER, Unit.VOLT,
+                   f"voltage applied to piezo actuator {a.name} (after saturation)",
+                   "voltage", a.name) for a in scenario.actuators]
+    for c in scenario.controllers:
+        outputs = controller_outputs(c)
+        out += [Channel(command_name(c.name, j, len(outputs)), ChannelKind.CONTROLLER,
+                        Unit.VOLT, f"command of controller {c.name} to {a} (before "
+                        "saturation)", "command", c.name) for j, a in enumerate(outputs)]
+        out += [Channel(state_name(c.name, i), ChannelKind.CONTROLLER, "1",
+                        f"state {i + 1} of controller {c.name} (discrete)", "state", c.name)
+                for i in range(state_count(c))]
+    return out
+
+
 def catalogue(scenario: Scenario) -> list[Channel]:
     """Every channel a run of ``scenario`` produces, in the order of the results."""
     model = scenario.settings.model
@@ -123,4 +158,7 @@ def catalogue(scenario: Scenario) -> list[Channel]:
     out += joint_channels(scenario, model)
     if base is not None and base.kind != "fixed":
         out += momentum_channels(model)
-    return out + tip_channels(scenario.chain)
+    out += tip_channels(scenario.chain)
+    if scenario.actuators or scenario.controllers:
+        out += control_channels(scenario)
+    return out

@@ -13,11 +13,12 @@ All evaluations are vectorised over a leading time axis.
 from __future__ import annotations
 
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Chain, Link
+from ..model import Chain, Link, PiezoActuator
 from ..modes import (
     ModalData,
     ModeShapes,
@@ -26,6 +27,7 @@ from ..modes import (
     modal_data_for_stiffness,
     tip_loaded_modes,
 )
+from .actuators import actuator_matrix
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
 
 
@@ -115,10 +117,14 @@ def _distinct_rows(history: JointHistory) -> tuple[JointHistory, np.ndarray]:
 class FirstOrderSystem:
     """The assembled first-order model of a chain; evaluate its matrices at any times."""
 
-    def __init__(self, chain: Chain, geometric_stiffening: bool = False) -> None:
+    def __init__(self, chain: Chain, geometric_stiffening: bool = False,
+                 actuators: Sequence[PiezoActuator] = ()) -> None:
         self.chain = chain
         self.geometric_stiffening = geometric_stiffening
         self.modal: list[ModalData] = chain_modal_data(chain)
+        # open-loop piezo actuators: f gets B V(t) (dynamics/actuators.py)
+        self.actuators = tuple(actuators)
+        self.actuator_B = actuator_matrix(self.actuators, self.modal)
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
         self.offsets: list[int] = [int(o) for o in offsets[:-1]]
         self.n: int = int(offsets[-1])
@@ -162,15 +168,33 @@ class FirstOrderSystem:
         """Times (s) where a joint's acceleration, and so the coefficients, are not smooth
         (from each motion's ``breakpoints``, where it has them)."""
         times = {b for joint in self.chain.joints for b in getattr(joint, "breakpoints", ())}
-        return np.array(sorted(times), dtype=float)
+        if self.actuators:  # forward_kernel imports this module: import here
+            from .forward_kernel import history_breakpoints
+
+            for actuator in self.actuators:
+                times |= history_breakpoints(actuator.voltage)
+        return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
 
     def coefficient_keys(self, t: np.ndarray) -> np.ndarray:
         """Integer labels of the times t: equal labels ⇒ equal M, C, K, f.
 
         With prescribed joints the coefficients depend on time only through the joint angles,
         rates and accelerations, so every instant of a joint at rest shares one label: the
-        solver then computes one propagator for a whole rest phase."""
-        return _distinct_rows(self.joint_history(t))[1]
+        solver then computes one propagator for a whole rest phase. Open-loop actuator
+        voltages count as part of the state of the inputs."""
+        keys = _distinct_rows(self.joint_history(t))[1]
+        if not self.actuators:
+            return keys
+        rows = np.column_stack([keys, self.voltages(t)])
+        new = np.ones(rows.shape[0], dtype=bool)
+        new[1:] = np.any(rows[1:] != rows[:-1], axis=1)
+        return np.cumsum(new) - 1
+
+    def voltages(self, t: np.ndarray) -> np.ndarray:
+        """Open-loop actuator voltages (nt, n_act), V, clipped to each actuator's limit."""
+        t = np.asarray(t, dtype=float)
+        return np.column_stack([np.clip(a.voltage.value(t), -a.limit, a.limit)
+                                for a in self.actuators]).reshape(t.size, len(self.actuators))
 
     def xi_maps(self, frames: FrameMotion, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """T̂_k = [T_k; E_k] and its time derivatives, each (nt, 3+n_k, n)."""
@@ -187,6 +211,15 @@ class FirstOrderSystem:
         self, t: np.ndarray, frames: FrameMotion | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """M, C, K (nt, n, n) and f (nt, n) of M z̈ + C ż + K z = f at times t (s)."""
+        if self.actuators:
+            M, C, K, f = self._matrices(t, frames)
+            return M, C, K, f + self.voltages(t) @ self.actuator_B.T
+        return self._matrices(t, frames)
+
+    def _matrices(
+        self, t: np.ndarray, frames: FrameMotion | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """matrices without the actuators' forces."""
         if frames is not None:
             return self._assemble(frames)
         # Assemble once per distinct joint state: rest phases repeat one state many times.

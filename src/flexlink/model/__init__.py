@@ -7,6 +7,14 @@ which converts them once. Algorithms take a model and never mutate it.
 
 from .actuators import PiezoActuator
 from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad
+from .controllers import (
+    CONTROLLER_KINDS,
+    Controller,
+    DiscreteLTI,
+    FunctionController,
+    PositivePositionFeedback,
+    StrainRateFeedback,
+)
 from .chain import MODE_SHAPES, Chain, Link, ModeShapes
 from .histories import ZERO, BangBang, History, Step, Sum, Table
 from .joints import (
@@ -30,4 +38,6 @@ __all__ = [
     "PiezoActuator", "PiezoSensor",
     "PointSensor", "PointSensorKind", "PositionServo", "Scenario", "Sensor", "Servo",
     "SimulationSettings", "Step", "Sum", "Table", "TorqueDrive", "VelocityServo", "is_driven",
+    "CONTROLLER_KINDS", "Controller", "DiscreteLTI", "FunctionController",
+    "PositivePositionFeedback", "StrainRateFeedback",
 ]

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from .actuators import PiezoActuator
 from .base import Base
 from .chain import Chain
+from .controllers import Controller
 from .joints import is_driven
 from .sensors import Sensor
 from .settings import SimulationSettings
@@ -27,6 +28,8 @@ class Scenario:
     base: Base | None = None
     # piezo patches driven by a voltage (open loop, or by a controller)
     actuators: tuple[PiezoActuator, ...] = ()
+    # sampled feedback loops from sensors to actuators (model/controllers.py)
+    controllers: tuple[Controller, ...] = ()
 
     @property
     def is_forward(self) -> bool:

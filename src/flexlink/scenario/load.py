@@ -21,9 +21,12 @@ from . import schema
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .errors import Problems, ScenarioError, describe
 from .schema import JOINTS, LINKS, MEASURED_ANGLES, SIMULATION, read_field, read_fields
+from .actuators import build_actuator, read_actuators
+from .controllers import build_controller, read_controllers
 from .sensors import read_sensors
 
-SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_version")
+SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_version",
+            "actuators", "controllers")
 # read by `flexlink compare` / `flexlink fit` (flexlink.experiment); `run` ignores them
 EXPERIMENT_SECTIONS = ("measurement", "fit")
 # the keys of each motion profile (flexlink.batch reads them to recognise sweep paths)
@@ -114,12 +117,27 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     reserved = reserved_names([n for n in link_names if n], len(links))
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
     p.check_names([s.get("name") for s in sensors], "sensors")
+    actuators = read_actuators(p.table_array(raw, "actuators", required=False), links, sensors,
+                               base_dir, p)
+    p.check_names([a.get("name") for a in actuators] + [s.get("name") for s in sensors],
+                  "actuators")
+    controllers = read_controllers(p.table_array(raw, "controllers", required=False), sensors,
+                                   actuators, p)
+    _check_controller_names(controllers, actuators, reserved | {s.get("name") for s in sensors},
+                            p)
+    if (actuators or controllers) and simulation.get("model") == "nonlinear":
+        p.add("simulation.model: [[actuators]] and [[controllers]] run with the first-order "
+              "model only for now; set model = \"first_order\"")
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
                 "links": links, "joints": joints, "sensors": sensors}
     if base is not None:
         resolved["base"] = base
+    if actuators:
+        resolved["actuators"] = actuators
+    if controllers:
+        resolved["controllers"] = controllers
     return resolved, [m for m in motions if m is not None]  # all built: no problems
 
 
@@ -379,5 +397,20 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
             sensors.append(PointSensor(kind=s["kind"], link=index[s["link"]], **fields))
     chain = Chain(links=links, joints=tuple(motions))
     base = build_base(resolved.get("base"), resolved["joints"])
+    actuators = tuple(build_actuator(a, index) for a in resolved.get("actuators", ()))
+    controllers = tuple(build_controller(c) for c in resolved.get("controllers", ()))
     return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"],
-                    base=base)
+                    base=base, actuators=actuators, controllers=controllers)
+
+
+def _check_controller_names(controllers: list[dict[str, Any]], actuators: list[dict[str, Any]],
+                            taken: set[Any], p: Problems) -> None:
+    """Controller names are unique and their channels (`<name>_command`, `<name>_state<i>`)
+    clash with no other channel."""
+    p.check_names([c.get("name") for c in controllers], "controllers")
+    taken = taken | {f"{a.get('name')}_voltage" for a in actuators}
+    for i, c in enumerate(controllers):
+        name = c.get("name")
+        if name is not None and (name in taken or f"{name}_command" in taken):
+            p.add(f"controllers[{i}].name {name!r} clashes with a sensor or channel name; "
+                  "choose another")

@@ -20,7 +20,7 @@ from .errors import REQUIRED, Problems
 
 # scalar kinds are read by `read_fields`; the others (arrays of tables, segments) by code
 Kind = Literal["number", "integer", "string", "boolean", "pair", "numbers", "profiles",
-               "history", "tables"]
+               "history", "tables", "strings", "vector", "matrix"]
 _READERS: dict[str, Callable[..., Any]] = {
     "number": Problems.number, "integer": Problems.integer, "string": Problems.string,
     "boolean": Problems.boolean, "pair": Problems.pair,
@@ -418,3 +418,79 @@ POSITION = _servo("position", 5.0, [
 SECTIONS: dict[str, Section] = {s.name: s for s in (
     SIMULATION, LINKS, JOINTS, *PROFILES.values(), MEASURED_ANGLES, SENSORS, POINT_SENSORS,
     PIEZO, BASE, LOADS, *HISTORIES.values(), HISTORY_CSV, TORQUE, VELOCITY_PID, POSITION)}
+
+
+# --- [[actuators]] --------------------------------------------------------------------------
+
+ACTUATORS = Section("actuators", [
+    Field("name", "string", rule=f"{NAME_RULE}; unique among sensors and actuators",
+          doc="names the actuator (its channel is `<name>_voltage`)"),
+    Field("kind", "string", choices=("piezo",),
+          notes={"piezo": "a bonded PZT patch: a moment pair ±M at its ends, "
+                          "M = w_p E_p d31 (t/2) V (docs/closed_loop.md)"}),
+    Field("link", "string", default=None, default_doc="required, unless `collocated_with`",
+          rule="the `name` of a link", doc="the link the patch is bonded on"),
+    Field("collocated_with", "string", default=None,
+          rule="the `name` of a piezo sensor",
+          doc="copies `link`, `x_start`, `x_end`, `width`, `E_p`, `d31` and `thickness` from "
+              "that sensor (a key given here too must agree)"),
+    Field("x_start", unit="m", ge=0, default=None, default_doc="required, unless "
+          "`collocated_with`", rule="< `x_end`", doc="where the patch starts"),
+    Field("x_end", unit="m", gt=0, default=None, default_doc="required, unless "
+          "`collocated_with`", rule="≤ the link's length", doc="where the patch ends"),
+    Field("width", unit="m", gt=0, default=None, default_doc="required, unless "
+          "`collocated_with`", doc="patch width"),
+    Field("E_p", unit="Pa", gt=0, default=None, default_doc="required, unless "
+          "`collocated_with`", doc="Young's modulus of the patch"),
+    Field("d31", unit="m/V", nonzero=True, default=None, default_doc="required, unless "
+          "`collocated_with`", rule="either sign", doc="piezoelectric strain constant"),
+    Field("thickness", unit="m", gt=0, default=None,
+          default_doc="the link's `thickness`", doc="host beam thickness"),
+    Field("limit", unit="V", gt=0, default=None, default_doc="none (unlimited)",
+          doc="amplifier saturation: the patch never sees more than ±limit"),
+    Field("voltage", "history", unit="V", default=None, default_doc="none (0 V)",
+          doc="open-loop voltage command (segments, as base loads); a controller's output "
+              "adds to it (sampled with the controller's hold)"),
+])
+
+# --- [[controllers]] ------------------------------------------------------------------------
+
+CONTROLLERS = Section("controllers", [
+    Field("name", "string", rule=NAME_RULE,
+          doc="names the controller (channels `<name>_command`, `<name>_state<i>`)"),
+    Field("kind", "string", choices=("ppf", "srf", "lti"), notes={
+        "ppf": "positive position feedback: ξ̈ + 2ζ_f ω_f ξ̇ + ω_f² ξ = ω_f² v, V = gain·ξ",
+        "srf": "strain-rate feedback: V = −gain · dv/dt (backward difference of samples)",
+        "lti": "any discrete x⁺ = A x + B y, V = C x + D y at the samples"},
+        doc="joint PID loops are servo drives of [[joints]], not controllers"),
+    Field("sample_rate", unit="Hz", gt=0, doc="samples per second; output held in between"),
+    Field("noise_std", "vector", default=None, default_doc="none",
+          rule="≥ 0, one per input", doc="Gaussian sensor noise (input units)"),
+    Field("quantization", "vector", default=None, default_doc="none",
+          rule="≥ 0, one per input", doc="readings rounded to multiples of this (0: none)"),
+    Field("noise_seed", "integer", default=0, ge=0, le=2**31 - 1,
+          doc="seed of the noise generator (runs are reproducible)"),
+])
+CONTROLLER_SISO = Section("controller_siso", [
+    Field("sensor", "string", rule="a sensor's `name` (not acceleration)",
+          doc="ppf, srf: the input"),
+    Field("actuator", "string", rule="an actuator's `name`", doc="ppf, srf: the output"),
+    Field("gain", gt=0, unit="V/V (ppf), V·s/V (srf)",
+          doc="ppf, srf: > 0 is positive position feedback / rate damping for a collocated "
+              "pair with d31 of one sign"),
+])
+PPF = Section("ppf", [
+    Field("frequency_hz", unit="Hz", gt=0, doc="ppf: filter frequency (tune to the mode)"),
+    Field("damping", gt=0, lt=10, doc="ppf: filter damping ratio ζ_f"),
+])
+LTI = Section("lti", [
+    Field("inputs", "strings", rule="sensor names", doc="lti: the entries of y, in order"),
+    Field("outputs", "strings", rule="actuator names", doc="lti: the entries of V, in order"),
+    Field("A", "matrix", default=None, default_doc="none (no state)",
+          rule="n × n", doc="lti: state matrix (arrays of rows)"),
+    Field("B", "matrix", default=None, default_doc="none", rule="n × inputs", doc="lti"),
+    Field("C", "matrix", default=None, default_doc="none", rule="outputs × n", doc="lti"),
+    Field("D", "matrix", default=None, default_doc="zeros", rule="outputs × inputs",
+          doc="lti: feed-through"),
+])
+SECTIONS.update({s.name: s for s in (ACTUATORS, CONTROLLERS, CONTROLLER_SISO, PPF, LTI)})

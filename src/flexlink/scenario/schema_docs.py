@@ -14,6 +14,11 @@ from typing import Any
 
 from .errors import REQUIRED, range_text
 from .schema import (
+    ACTUATORS,
+    CONTROLLER_SISO,
+    CONTROLLERS,
+    LTI,
+    PPF,
     BASE,
     HISTORIES,
     HISTORY_CSV,
@@ -37,7 +42,9 @@ BLOCK = re.compile(r"(<!-- generated: (?P<name>[\w.]+) -->\n)(?P<body>.*?)"
                    r"(<!-- end generated -->)", re.DOTALL)
 _KIND_TEXT = {"boolean": "`true` or `false`", "pair": "`[x, y]`",
               "numbers": "array of ≥ 2 numbers", "profiles": "array of profiles",
-              "history": "array of segments", "tables": "array of tables"}
+              "history": "array of segments", "tables": "array of tables",
+              "strings": "array of names", "vector": "array of numbers",
+              "matrix": "array of rows (arrays of numbers)"}
 
 
 def markdown_table(name: str) -> str:
@@ -155,4 +162,9 @@ BLOCKS: dict[str, Callable[[], str]] = {
     "servo": _servo_common,
     "velocity_pid": lambda: key_table(_own(VELOCITY_PID, POSITION)),
     "position": lambda: key_table(_own(POSITION, VELOCITY_PID)),
+    "actuators": lambda: key_table(ACTUATORS.fields),
+    "controllers": lambda: key_table(CONTROLLERS.fields),
+    "controller_siso": lambda: key_table(CONTROLLER_SISO.fields),
+    "ppf": lambda: key_table(PPF.fields),
+    "lti": lambda: key_table(LTI.fields),
 }

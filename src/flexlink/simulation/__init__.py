@@ -26,6 +26,7 @@ from .common import (
     output_times,
     timed,
 )
+from .closed_loop import run_closed_loop
 from .forward import run_forward
 from .nonlinear import run_nonlinear
 from .prescribed import run_prescribed
@@ -35,10 +36,20 @@ from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
 PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run_nonlinear,
                                   "forward": run_forward}
+PATHS["closed_loop"] = run_closed_loop  # controllers, prescribed joints (closed_loop.py)
 
 
 def model_path(scenario: Scenario) -> str:
     """The path that runs ``scenario``: a key of PATHS."""
+    if (scenario.actuators or scenario.controllers) and scenario.settings.model == "nonlinear":
+        raise ValueError("actuators and controllers run with model = 'first_order' only "
+                         "for now")
+    if scenario.controllers:
+        if scenario.is_forward:
+            raise ValueError("controllers run with prescribed joints on a fixed hub for now: "
+                             "a moving base or a driven joint cannot be combined with "
+                             "[[controllers]] yet")
+        return "closed_loop"
     if scenario.is_forward:
         if scenario.settings.model == "nonlinear":
             raise ValueError("model = 'nonlinear' has prescribed joints on a fixed hub only: "

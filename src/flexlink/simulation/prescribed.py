@@ -2,28 +2,48 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 
-from ..channels.catalogue import joint_name
+from ..channels.catalogue import joint_name, voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
+from ..channels.shapes import LinkShape
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.torques import joint_torques
 from ..model import Scenario
-from ..solvers import PRESCRIBED_METHODS, rigid_solution
+from ..solvers import PRESCRIBED_METHODS, Solution, rigid_solution
 from .common import PathRun, Progress, check_tip_deflection
 
 
 def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
+    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening,
+                              scenario.actuators)
     system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
     if system.n:
         integrate = PRESCRIBED_METHODS[settings.method]
         solution = integrate(system, t, settings.rtol, settings.atol, on_progress)
     else:  # every link rigid: the motion is prescribed, nothing to integrate
         solution = rigid_solution(t, settings.method)
-    z = solution.q
+    values, shapes, validity = prescribed_values(scenario, system, solution, with_shapes)
+    if scenario.actuators:  # open loop: the commanded voltages, clipped
+        volts = system.voltages(t)
+        values.update({voltage_name(a.name): volts[:, j]
+                       for j, a in enumerate(scenario.actuators)})
+    return PathRun(solution, values, shapes=shapes, metadata={
+        "path": "prescribed", "geometric_stiffening": settings.geometric_stiffening,
+        "elastic_coordinates": system.n, **validity})
+
+
+def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: Solution,
+                      with_shapes: bool
+                      ) -> tuple[dict[str, np.ndarray], Sequence[LinkShape], dict[str, Any]]:
+    """The channels of a prescribed-joint run (sensors, joint angles and torques, tips), the
+    link shapes and the validity metadata (a SimulationError if the tips ran away)."""
+    t, z = solution.t, solution.q
     validity = check_tip_deflection(scenario.chain.links, t, tip_deflections(system, z),
                                     system.geometric_stiffening)
     frames = system.frames(t)
@@ -35,6 +55,4 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         values[joint_name(k, "torque")] = torque[:, k]
     values.update(tip_values(system, frames, z))
     shapes = shape_values(system, frames, z) if with_shapes else ()
-    return PathRun(solution, values, shapes=shapes, metadata={
-        "path": "prescribed", "geometric_stiffening": settings.geometric_stiffening,
-        "elastic_coordinates": system.n, **validity})
+    return values, shapes, validity

@@ -1,0 +1,163 @@
+"""Closed loops with prescribed joints, first-order model: FirstOrderSystem plus the
+actuators' generalized forces → the closed-loop Lawson integrator with the sampled
+controllers inside (solvers/closed_loop.py) → channels, including the actuator voltages and
+the controllers' commands and states (docs/closed_loop.md).
+
+Why this path and not the forward machinery: with prescribed joints the plant is linear in
+z, and over a sample interval with held voltages it is the prescribed model with a constant
+input. The prescribed Lawson integrator (tabulated coefficients, ~1 µs per step) carries it
+unchanged with the voltages appended to its state, so a closed-loop run costs about an open-
+loop one; the forward kernel would cost 50× more on the paper arm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..channels.catalogue import command_name, state_name, voltage_name
+from ..channels.modal import modal_reading
+from ..dynamics.actuators import actuator_matrix
+from ..dynamics.controllers import (
+    controller_inputs,
+    controller_outputs,
+    draw_noise,
+    pack_controllers,
+    sample_times,
+    state_count,
+)
+from ..dynamics.first_order import FirstOrderSystem
+from ..errors import SimulationError
+from ..model import FunctionController, PointSensor, Scenario
+from ..solvers import Solution
+from ..solvers.closed_loop import PythonLoop, UnstableLoop, integrate_closed_loop
+from .common import PathRun, Progress
+from .prescribed import prescribed_values
+
+
+def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
+                    with_shapes: bool = True) -> PathRun:
+    settings = scenario.settings
+    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
+    system.joint_history(t)
+    n, actuators = system.n, scenario.actuators
+    B = actuator_matrix(actuators, system.modal)
+    if n == 0:
+        raise SimulationError("controllers need an elastic link: every link is rigid")
+
+    def rows(times: np.ndarray) -> np.ndarray:
+        M, C, K, f = system.matrices(times)
+        rhs = np.concatenate([-K, -C, f[:, :, None],
+                              np.broadcast_to(B, (times.size, *B.shape))], axis=2)
+        return np.linalg.solve(M, rhs)
+
+    controllers = scenario.controllers
+    samples = [sample_times(c, t[-1]) for c in controllers]
+    grid = np.union1d(t, np.concatenate(samples))
+    grid = grid[np.concatenate([[True], np.diff(grid) > 1e-9 * max(1.0, t[-1])])]
+    grid[-1] = t[-1]
+    sensor_rows = _sensor_rows(scenario, system)
+    v_open = np.column_stack([np.clip(a.voltage.value(grid), -a.limit, a.limit)
+                              for a in actuators]).reshape(grid.size, len(actuators))
+    control, python_index = pack_controllers(controllers, actuators, sensor_rows, grid,
+                                             2 * n + 1, v_open)
+    python = _python_loop(scenario, [controllers[i] for i in python_index], sensor_rows, grid)
+    try:
+        run = integrate_closed_loop(rows, n, len(actuators), system.coefficient_keys,
+                                    system.breakpoints(), system.max_frequency, t, grid,
+                                    settings.rtol, settings.atol, control, python, on_progress)
+    except UnstableLoop as exc:
+        raise SimulationError(_unstable_message(scenario, exc, sensor_rows, grid)) from None
+    out = np.searchsorted(grid, t - 1e-9 * max(1.0, t[-1]))
+    states = run.states[out]
+    solution = Solution(t, states[:, :n], states[:, n:2 * n], run.acc[out], "lawson",
+                        run.stats)
+    try:
+        values, shapes, validity = prescribed_values(scenario, system, solution, with_shapes)
+    except SimulationError as exc:  # the tips ran away: say it is the loop
+        raise SimulationError(f"closed loop unstable: {exc}") from None
+    values.update(_control_values(scenario, run, out, python_index))
+    return PathRun(solution, values, shapes=shapes, metadata={
+        "path": "closed_loop", "geometric_stiffening": settings.geometric_stiffening,
+        "elastic_coordinates": n, "controllers": len(controllers), **validity})
+
+
+def _sensor_rows(scenario: Scenario, system: FirstOrderSystem) -> dict[str, np.ndarray]:
+    """Each sensor a controller reads as a row over z: reading = row · z (first-order
+    model: every reading but an acceleration is linear in z)."""
+    used = {s for c in scenario.controllers for s in controller_inputs(c)}
+    out = {}
+    for sensor in scenario.sensors:
+        if sensor.name not in used:
+            continue
+        k = sensor.link
+        shapes, sl = system.modal[k].shapes, system.bodies[k].slice
+        eye = np.eye(system.modal[k].n)
+        reading = modal_reading(sensor, shapes, eye, scenario.chain)
+        if reading is None:
+            assert isinstance(sensor, PointSensor)
+            if sensor.kind != "deflection":
+                raise SimulationError(f"sensor {sensor.name!r} ({sensor.kind}) cannot feed a "
+                                      "controller")
+            reading = shapes.evaluate(np.array([sensor.x]), 0)[0]
+        row = np.zeros(system.n)
+        row[sl] = reading
+        out[sensor.name] = row
+    return out
+
+
+def _python_loop(scenario: Scenario, controllers: list, sensor_rows: dict[str, np.ndarray],
+                 grid: np.ndarray) -> PythonLoop:
+    act = {a.name: j for j, a in enumerate(scenario.actuators)}
+    points, rows, noise, outputs = [], [], [], []
+    for c in controllers:
+        assert isinstance(c, FunctionController)
+        times = sample_times(c, grid[-1])
+        points.append(np.searchsorted(grid, times - 1e-9 * max(1.0, grid[-1])))
+        rows.append(np.array([sensor_rows[s] for s in c.inputs]))
+        noise.append(draw_noise(c, times.size))
+        outputs.append(np.array([act[a] for a in c.outputs], dtype=np.int64))
+    return PythonLoop(controllers, points, rows, noise, outputs)
+
+
+def _control_values(scenario: Scenario, run, out: np.ndarray,
+                    python_index: list[int]) -> dict[str, np.ndarray]:
+    values = {}
+    for j, a in enumerate(scenario.actuators):
+        values[voltage_name(a.name)] = run.work.v_rec[out, j]
+    compiled = 0
+    for i, c in enumerate(scenario.controllers):
+        outputs = controller_outputs(c)
+        if i in python_index:
+            commands = run.python_commands[python_index.index(i)][out]
+            states = np.zeros((out.size, 0))
+        else:
+            commands = run.work.held_rec[out, compiled, :len(outputs)]
+            states = run.work.x_rec[out, compiled]
+            compiled += 1
+        for j in range(len(outputs)):
+            values[command_name(c.name, j, len(outputs))] = commands[:, j]
+        for s in range(state_count(c)):
+            values[state_name(c.name, s)] = states[:, s]
+    return values
+
+
+def _unstable_message(scenario: Scenario, exc: UnstableLoop, sensor_rows: dict[str, np.ndarray],
+                      grid: np.ndarray) -> str:
+    """Which reading grew, from what to what, and when."""
+    n = next(iter(sensor_rows.values())).size if sensor_rows else 0
+    z = exc.states[:, :n]
+    worst, growth, text = None, 0.0, ""
+    for name, row in sensor_rows.items():
+        y = np.abs(z @ row)
+        y = np.where(np.isfinite(y), y, np.inf)
+        early = float(y[: max(1, y.size // 4)].max())
+        late = float(y[-1]) if y.size else 0.0
+        ratio = late / max(early, 1e-300)
+        if worst is None or ratio > growth:
+            worst, growth = name, ratio
+            text = (f"sensor {name!r} grows from {early:.3g} to {late:.3g} "
+                    f"(its unit) by t = {exc.t:.4g} s")
+    names = ", ".join(repr(c.name) for c in scenario.controllers)
+    return (f"closed loop unstable: {text or 'the response grows without bound'}; the "
+            f"controller state or response passed its bound at t = {exc.t:.4g} s "
+            f"(controllers {names}): lower the gain or retune")
