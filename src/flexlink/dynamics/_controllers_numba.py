@@ -69,7 +69,10 @@ def sample(d, w, i, y):
 @njit(cache=True)
 def record(d, w, i, y):
     """Controller states, held outputs and voltages at grid point i (after its update)."""
-    w.x_rec[i] = w.x
-    w.held_rec[i] = w.held
+    for c in range(w.x.shape[0]):  # loops, not slice assignments (see _lawson_numba)
+        for q in range(w.x.shape[1]):
+            w.x_rec[i, c, q] = w.x[c, q]
+        for q in range(w.held.shape[1]):
+            w.held_rec[i, c, q] = w.held[c, q]
     for a in range(d.limit.shape[0]):
         w.v_rec[i, a] = y[d.state_at + a]

@@ -93,7 +93,9 @@ class DiscreteLTI:
 class FunctionController:
     """Any Python callable ``V = function(t, y)``: t the sample instant (s), y the readings of
     ``inputs`` (array), V the voltages of ``outputs`` (array of that length). Called once per
-    sample in time order; a stateful callable is deep-copied for every integration pass."""
+    sample in time order, in each integration pass (the error control runs two or more):
+    a stateful callable must be an object whose state copy.deepcopy copies (a class with
+    ``__call__``); a closure's or a global's state would carry over between passes."""
 
     name: str
     inputs: tuple[str, ...]

@@ -143,21 +143,20 @@ def _control_values(scenario: Scenario, run, out: np.ndarray,
 
 def _unstable_message(scenario: Scenario, exc: UnstableLoop, sensor_rows: dict[str, np.ndarray],
                       grid: np.ndarray) -> str:
-    """Which reading grew, from what to what, and when."""
+    """Which controller input grew the most, from what (its peak over the first quarter of
+    the run up to the blow-up) to what, and when."""
     n = next(iter(sensor_rows.values())).size if sensor_rows else 0
     z = exc.states[:, :n]
-    worst, growth, text = None, 0.0, ""
+    quarter = max(1, z.shape[0] // 4)
+    text, growth = "the response grows without bound", 0.0
     for name, row in sensor_rows.items():
-        y = np.abs(z @ row)
-        y = np.where(np.isfinite(y), y, np.inf)
-        early = float(y[: max(1, y.size // 4)].max())
-        late = float(y[-1]) if y.size else 0.0
-        ratio = late / max(early, 1e-300)
-        if worst is None or ratio > growth:
-            worst, growth = name, ratio
-            text = (f"sensor {name!r} grows from {early:.3g} to {late:.3g} "
-                    f"(its unit) by t = {exc.t:.4g} s")
+        y = np.nan_to_num(np.abs(z @ row), nan=np.inf)
+        early, late = float(y[:quarter].max()), float(y.max())
+        if late / max(early, 1e-300) > growth:
+            growth = late / max(early, 1e-300)
+            text = (f"sensor {name!r} grows from {early:.3g} (peak up to t = "
+                    f"{grid[quarter - 1]:.4g} s) to {late:.3g}")
     names = ", ".join(repr(c.name) for c in scenario.controllers)
-    return (f"closed loop unstable: {text or 'the response grows without bound'}; the "
-            f"controller state or response passed its bound at t = {exc.t:.4g} s "
-            f"(controllers {names}): lower the gain or retune")
+    return (f"closed loop unstable: {text} at t = {exc.t:.4g} s, where the response or a "
+            f"controller state passed its bound (controllers {names}); lower the gain or "
+            "retune")

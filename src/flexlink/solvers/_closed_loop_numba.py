@@ -31,7 +31,8 @@ def closed_loop_intervals(u, n, grid, i_start, i_stop, block_of, first, last, st
         if not sample(d, w, i, u):
             return i
         record(d, w, i, u)
-        states[i] = u
+        for q in range(m):
+            states[i, q] = u[q]
         b = block_of[i]
         P = ET[b]
         if static[b]:
@@ -76,6 +77,10 @@ def closed_loop_intervals(u, n, grid, i_start, i_stop, block_of, first, last, st
                 accelerations[i + 1, q] = r[q] + k1[q]
         for q in range(2 * n):
             if not abs(u[q]) < BLOW_UP:
+                for r in range(m):
+                    states[i + 1, r] = u[r]
                 return i + 1
-    states[i_stop] = u
+    for q in range(m):
+        states[i_stop, q] = u[q]
+    record(d, w, i_stop, u)  # held values at the end (the next call's start overwrites it)
     return -1
