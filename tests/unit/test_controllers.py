@@ -60,7 +60,7 @@ def test_ppf_filter_peaks_at_its_frequency() -> None:
 
 
 def test_python_callable_equals_the_compiled_loop() -> None:
-    m, c, k, b, s = first_mode(scenario_from_dict(beam(1, [ppf(2.5, 1.0)])))
+    _, _, k, b, s = first_mode(scenario_from_dict(beam(1, [ppf(2.5, 1.0)])))
     scenario = scenario_from_dict(beam(1, [ppf(2.5, 0.3 * k / (b * s))], t_end=0.5))
     A, B, C, D = discretize(scenario.controllers[0])
 

@@ -56,6 +56,17 @@ JOINT = ("joints", 0)
 SEGMENT = ("base", "loads", 0, "moment", 0)
 
 
+PATCH = {"link": "a", "x_start": 0.1, "x_end": 0.2, "width": 0.01, "E_p": 1e9, "d31": 1e-10}
+ACTUATOR = {"name": "p", "kind": "piezo", **PATCH}
+SISO = {"name": "c", "sensor": "s", "actuator": "p", "gain": 1.0, "sample_rate": 100.0}
+LTI = {"name": "c", "kind": "lti", "inputs": ["s"], "outputs": ["p"], "D": [[1.0]],
+       "sample_rate": 100.0}
+
+
+def _controlled(controller: dict[str, Any]) -> dict[str, Any]:
+    return base_scenario(sensors=[PIEZO], actuators=[ACTUATOR], controllers=[controller])
+
+
 def _loaded(segment: dict[str, Any]) -> dict[str, Any]:
     return base_scenario(base={**BASE, "loads": [{"moment": [segment]}]})
 
@@ -79,6 +90,14 @@ CASES = [
      s.SENSORS.keys + s.POINT_SENSORS.keys),
     ("piezo", base_scenario(sensors=[PIEZO]), ("sensors", 0), s.SENSORS.keys + s.PIEZO.keys),
     ("base", base_scenario(base=BASE), ("base",), s.BASE.keys),
+    ("actuators", base_scenario(actuators=[ACTUATOR]), ("actuators", 0), s.ACTUATORS.keys),
+    ("controllers", _controlled({**SISO, "kind": "srf"}), ("controllers", 0),
+     s.CONTROLLERS.keys + s.CONTROLLER_SISO.keys),
+    ("controller_siso", _controlled({**SISO, "kind": "srf"}), ("controllers", 0),
+     s.CONTROLLERS.keys + s.CONTROLLER_SISO.keys),
+    ("ppf", _controlled({**SISO, "kind": "ppf", "frequency_hz": 2.0, "damping": 0.3}),
+     ("controllers", 0), s.CONTROLLERS.keys + s.CONTROLLER_SISO.keys + s.PPF.keys),
+    ("lti", _controlled(LTI), ("controllers", 0), s.CONTROLLERS.keys + s.LTI.keys),
     ("base.loads", _loaded(STEP), ("base", "loads", 0), s.LOADS.keys),
     *[(name, _loaded({"profile": name}), SEGMENT, ("profile", *section.keys))
       for name, section in s.HISTORIES.items()],

@@ -45,7 +45,7 @@ def test_each_scenario_takes_one_path() -> None:
     assert model_path(_short()) == "prescribed"
     assert model_path(_short(model="nonlinear")) == "nonlinear"
     assert model_path(_driven(_short())) == "forward"
-    assert set(PATHS) == {"prescribed", "nonlinear", "forward"}
+    assert set(PATHS) == {"prescribed", "nonlinear", "forward", "closed_loop"}
     with pytest.raises(ValueError, match="model = 'nonlinear' has prescribed joints"):
         model_path(_driven(_short(model="nonlinear")))
 

@@ -7,6 +7,7 @@ piezo sensor reads the actuator-induced slope difference (the reciprocal pin-for
 from __future__ import annotations
 
 import numpy as np
+
 from flexlink.scenario import scenario_from_dict
 from flexlink.simulation import simulate
 

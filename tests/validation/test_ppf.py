@@ -106,7 +106,7 @@ def test_ppf_damping_matches_single_mode_theory(loop_gain: float) -> None:
 
 def test_unstable_loop_is_reported_with_its_time() -> None:
     one = scenario_from_dict(beam(1, [ppf(1.0, 1.0)]))
-    m, c, k, b, s = first_mode(one)
+    m, _, k, b, s = first_mode(one)
     w = np.sqrt(k / m)
     g = 3.0 * k / (b * s)  # loop gain 3 > 1: PPF's static instability
     with pytest.raises(SimulationError, match=r"closed loop unstable: .*grows from .* t = "):

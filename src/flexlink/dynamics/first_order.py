@@ -28,6 +28,7 @@ from ..modes import (
     tip_loaded_modes,
 )
 from .actuators import actuator_matrix
+from .histories import history_breakpoints
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
 
 
@@ -168,11 +169,8 @@ class FirstOrderSystem:
         """Times (s) where a joint's acceleration, and so the coefficients, are not smooth
         (from each motion's ``breakpoints``, where it has them)."""
         times = {b for joint in self.chain.joints for b in getattr(joint, "breakpoints", ())}
-        if self.actuators:  # forward_kernel imports this module: import here
-            from .forward_kernel import history_breakpoints
-
-            for actuator in self.actuators:
-                times |= history_breakpoints(actuator.voltage)
+        for actuator in self.actuators:
+            times |= history_breakpoints(actuator.voltage)
         return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
 
     def coefficient_keys(self, t: np.ndarray) -> np.ndarray:

@@ -15,17 +15,13 @@ from collections import namedtuple
 import numpy as np
 
 from ..model import (
-    BangBang,
     JointMotion,
     PositionServo,
-    Step,
-    Sum,
-    Table,
     TorqueDrive,
     VelocityServo,
 )
-from ..model.histories import History
 from .forward import ForwardSystem
+from .histories import history_breakpoints
 
 ForwardData = namedtuple("ForwardData", [
     "n_base", "base_kind", "n_rigid", "n_x", "stiffening", "base_mass", "base_inertia",
@@ -139,20 +135,6 @@ def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:
         u[:, 4 * N + nl + j] = load.force_y.value(t)
         u[:, 4 * N + 2 * nl + j] = load.moment.value(t)
     return u
-
-
-def history_breakpoints(history: History) -> set[float]:
-    """Times (s) where an input history jumps or kinks (its samples, for a table)."""
-    if isinstance(history, BangBang):
-        return {history.start, history.start + 0.5 * history.duration,
-                history.start + history.duration}
-    if isinstance(history, Step):
-        return {history.start, history.start + history.duration}
-    if isinstance(history, Table):
-        return set(history.t)
-    if isinstance(history, Sum):
-        return set().union(*(history_breakpoints(p) for p in history.parts))
-    return set(getattr(history, "breakpoints", ()))
 
 
 def breakpoints(system: ForwardSystem) -> np.ndarray:

@@ -7,6 +7,7 @@ which converts them once. Algorithms take a model and never mutate it.
 
 from .actuators import PiezoActuator
 from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad
+from .chain import MODE_SHAPES, Chain, Link, ModeShapes
 from .controllers import (
     CONTROLLER_KINDS,
     Controller,
@@ -15,7 +16,6 @@ from .controllers import (
     PositivePositionFeedback,
     StrainRateFeedback,
 )
-from .chain import MODE_SHAPES, Chain, Link, ModeShapes
 from .histories import ZERO, BangBang, History, Step, Sum, Table
 from .joints import (
                      Drive,

@@ -18,11 +18,11 @@ from .._version import package_version
 from ..channels.catalogue import reserved_names
 from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
 from . import schema
+from .actuators import build_actuator, read_actuators
+from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .errors import Problems, ScenarioError, describe
 from .schema import JOINTS, LINKS, MEASURED_ANGLES, SIMULATION, read_field, read_fields
-from .actuators import build_actuator, read_actuators
-from .controllers import build_controller, read_controllers
 from .sensors import read_sensors
 
 SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_version",
@@ -119,8 +119,11 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     p.check_names([s.get("name") for s in sensors], "sensors")
     actuators = read_actuators(p.table_array(raw, "actuators", required=False), links, sensors,
                                base_dir, p)
-    p.check_names([a.get("name") for a in actuators] + [s.get("name") for s in sensors],
-                  "actuators")
+    p.check_names([a.get("name") for a in actuators], "actuators")
+    sensor_names = {s.get("name") for s in sensors}
+    for i, a in enumerate(actuators):
+        if a.get("name") in sensor_names:
+            p.add(f"actuators[{i}].name {a['name']!r} is a sensor's name; choose another")
     controllers = read_controllers(p.table_array(raw, "controllers", required=False), sensors,
                                    actuators, p)
     _check_controller_names(controllers, actuators, reserved | {s.get("name") for s in sensors},

@@ -17,6 +17,7 @@ import numpy as np
 from ..model import Scenario
 from ..results import Results
 from ..solvers.threads import single_threaded
+from .closed_loop import run_closed_loop
 from .common import (
     PathRun,
     Progress,
@@ -26,7 +27,6 @@ from .common import (
     output_times,
     timed,
 )
-from .closed_loop import run_closed_loop
 from .forward import run_forward
 from .nonlinear import run_nonlinear
 from .prescribed import run_prescribed
@@ -44,11 +44,11 @@ def model_path(scenario: Scenario) -> str:
     if (scenario.actuators or scenario.controllers) and scenario.settings.model == "nonlinear":
         raise ValueError("actuators and controllers run with model = 'first_order' only "
                          "for now")
+    if (scenario.controllers or scenario.actuators) and scenario.is_forward:
+        raise ValueError("actuators and controllers run with prescribed joints on a fixed hub "
+                         "for now: a moving base or a driven joint cannot be combined with "
+                         "[[actuators]] or [[controllers]] yet")
     if scenario.controllers:
-        if scenario.is_forward:
-            raise ValueError("controllers run with prescribed joints on a fixed hub for now: "
-                             "a moving base or a driven joint cannot be combined with "
-                             "[[controllers]] yet")
         return "closed_loop"
     if scenario.is_forward:
         if scenario.settings.model == "nonlinear":

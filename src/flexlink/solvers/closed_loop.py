@@ -15,6 +15,7 @@ the same pre-drawn noise in both runs.
 from __future__ import annotations
 
 import copy
+import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -137,7 +138,7 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
                                       + [np.array([], dtype=np.int64)]),
                        np.arange(0, grid.size - 1, _INTERVALS_PER_CALL))
     stops = np.append(stops[stops < grid.size - 1], grid.size - 1).astype(np.int64)
-    for a, b in zip(stops[:-1], stops[1:]):
+    for a, b in itertools.pairwise(stops):
         for j, c in enumerate(python.controllers):  # callables sampling at grid point a
             if counts[j] < python.points[j].size and python.points[j][counts[j]] == a:
                 y = readings(c, python.rows[j], u[:n], counts[j], python.noise[j])
@@ -167,7 +168,7 @@ def _call(controller: Controller, function: Callable, t: float, y: np.ndarray) -
     name = controller.name
     try:
         out = np.asarray(function(t, y), dtype=float).reshape(-1)
-    except Exception as exc:  # noqa: BLE001 — the user's code: say whose it is
+    except Exception as exc:
         raise SimulationError(f"controller {name!r} raised at t = {t:.6g} s: "
                               f"{type(exc).__name__}: {exc}") from exc
     expected = len(controller.outputs)  # type: ignore[union-attr]
