@@ -11,6 +11,7 @@ shifts the peak by half a sample's phase). The output is held (ZOH) until the ne
 
 from __future__ import annotations
 
+import functools
 from collections import namedtuple
 from collections.abc import Sequence
 
@@ -30,9 +31,11 @@ Discrete = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # Ad, Bd, Cd, 
 CONTROL_BLOW_UP = 1e9
 
 
+@functools.lru_cache(maxsize=64)
 def discretize(controller: Controller) -> Discrete:
     """(Ad, Bd, Cd, Dd) of x_{k+1} = Ad x_k + Bd y_k, V_k = Cd x_k + Dd y_k at the
-    controller's sample period."""
+    controller's sample period (cached: controllers are immutable; do not modify the
+    arrays)."""
     T = 1.0 / controller.sample_rate
     if isinstance(controller, PositivePositionFeedback):
         w = 2.0 * np.pi * controller.frequency_hz
@@ -74,7 +77,11 @@ def controller_outputs(controller: Controller) -> tuple[str, ...]:
 
 def state_count(controller: Controller) -> int:
     """Number of states the controller reports as channels (a callable has none)."""
-    return 0 if isinstance(controller, FunctionController) else discretize(controller)[0].shape[0]
+    if isinstance(controller, PositivePositionFeedback):
+        return 2
+    if isinstance(controller, StrainRateFeedback):
+        return 1
+    return len(controller.A) if isinstance(controller, DiscreteLTI) else 0
 
 
 ControlData = namedtuple("ControlData", [
