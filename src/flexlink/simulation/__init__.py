@@ -4,7 +4,9 @@ assembles the `Results`. One module per path, sharing `common`:
 * ``prescribed`` — prescribed joints, first-order model (Lawson, Magnus or scipy);
 * ``nonlinear`` — prescribed joints, geometrically nonlinear model (Gauss collocation);
 * ``forward`` — free/pinned base or driven joints, first-order model (compiled RK4, or
-  solve_ivp for method = "DOP853", "Radau", …).
+  solve_ivp for method = "DOP853", "Radau", …);
+* ``nonlinear_forward`` — free/pinned base or driven joints, nonlinear model (Gauss
+  collocation with the rigid coordinates as unknowns).
 """
 
 from __future__ import annotations
@@ -28,22 +30,21 @@ from .common import (
 )
 from .forward import run_forward
 from .nonlinear import run_nonlinear
+from .nonlinear_forward import run_nonlinear_forward
 from .prescribed import run_prescribed
 from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
 # (scenario, output times, progress callback, with shapes) → the path's run
 PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
 PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run_nonlinear,
-                                  "forward": run_forward}
+                                  "forward": run_forward,
+                                  "nonlinear_forward": run_nonlinear_forward}
 
 
 def model_path(scenario: Scenario) -> str:
     """The path that runs ``scenario``: a key of PATHS."""
     if scenario.is_forward:
-        if scenario.settings.model == "nonlinear":
-            raise ValueError("model = 'nonlinear' has prescribed joints on a fixed hub only: "
-                             "a moving base or a driven joint needs model = 'first_order'")
-        return "forward"
+        return "nonlinear_forward" if scenario.settings.model == "nonlinear" else "forward"
     return "nonlinear" if scenario.settings.model == "nonlinear" else "prescribed"
 
 
