@@ -23,7 +23,7 @@ NonlinearForwardData.__doc__ = ("Constant arrays of a NonlinearForwardSystem for
 
 
 @njit(cache=True)
-def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):  # noqa: ANN001
+def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
     """Residual (n_y,) of one state into ``out``: inertia + damping + elastic − applied on
     [q, p_free], σ̈ − integral rate on σ (NonlinearForwardSystem.residual)."""
     nodes = nd.Ay.shape[0]
@@ -103,7 +103,7 @@ def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):  # noqa: ANN001
 
 
 @njit(cache=True)
-def accelerations(Y, V, ang, rate, acc, rot_acc, u, nd, d):  # noqa: ANN001
+def accelerations(Y, V, ang, rate, acc, rot_acc, u, nd, d):
     """ÿ (b, n_y) of b states: M's columns from the residual's change under unit
     accelerations (it is affine in ÿ), then M ÿ = −r(ÿ = 0)."""
     b, ny = Y.shape

@@ -14,7 +14,7 @@ from ..dynamics._nonlinear_forward_numba import residual as _residual
 
 
 @njit(cache=True)
-def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,  # noqa: ANN001
+def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
                        nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations,
                        predict_first):
     """Advance y, v (steps+1, n_y) in place from row 0; X (2, n_y) holds the stage

@@ -33,6 +33,11 @@ from .solution import Solution
 from .threads import single_threaded
 
 CHUNK = 400  # steps per compiled call, between progress reports
+# Newton's stopping tolerance (relative to the largest stage acceleration), 10× gauss.py's:
+# the rigid coordinates carry conserved momenta, and the iteration error of each step adds up
+# as a random walk (measured over 10 s of a spinning free base: momentum constant to 4.6e-9
+# at 1e-9, 1.2e-9 at 1e-10, for no measurable cost — one iteration at most).
+NEWTON_TOL_FORWARD = 1e-10
 
 
 class _Rows:
@@ -58,6 +63,7 @@ class _StageResidual:
 def integrate_gauss_forward(
     system: NonlinearForwardSystem, t_end: float, step: float,
     on_progress: Callable[[float], None] | None = None, compiled: bool = True,
+    newton_tol: float = NEWTON_TOL_FORWARD,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Step ends t (m+1,), y and ẏ there (m+1, n_y) from the system's initial state; uniform
     steps ≤ step (s). ``compiled``: the numba loop, or the numpy one it is tested against."""
@@ -71,9 +77,9 @@ def integrate_gauss_forward(
     y[0], v[0] = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y[:1], v[:1], compiled), 2, axis=0)
     if compiled:
-        _compiled_loop(system, y, v, X, h, inp, on_progress, t_ends)
+        _compiled_loop(system, y, v, X, h, inp, on_progress, t_ends, newton_tol)
     else:
-        newton = _Newton(_StageResidual(system), h)  # type: ignore[arg-type]
+        newton = _Newton(_StageResidual(system), h, newton_tol)  # type: ignore[arg-type]
         rows = _Rows(t_stage, inp)
         with single_threaded():
             for i in range(steps):
@@ -91,7 +97,7 @@ def integrate_gauss_forward(
 
 def _compiled_loop(system: NonlinearForwardSystem, y: np.ndarray, v: np.ndarray, X: np.ndarray,
                    h: float, inp: StageInputs, on_progress: Callable[[float], None] | None,
-                   t_ends: np.ndarray) -> None:
+                   t_ends: np.ndarray, newton_tol: float) -> None:
     """Run the numba step loop over y, v in place, in chunks of CHUNK steps."""
     from ._gauss_forward_numba import gauss_forward_loop  # numba: only when used
 
@@ -103,7 +109,7 @@ def _compiled_loop(system: NonlinearForwardSystem, y: np.ndarray, v: np.ndarray,
         failed, _, _ = gauss_forward_loop(
             y[start:end + 1], v[start:end + 1], X, h,
             *(np.ascontiguousarray(a[stage], dtype=float) for a in inp), data, loads,
-            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX, start > 0)
+            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0)
         if failed >= 0:
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
