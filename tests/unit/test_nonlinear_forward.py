@@ -129,8 +129,8 @@ def test_compiled_loop_matches_the_numpy_loop(name: str) -> None:
     """20 steps of the compiled Gauss loop equal the numpy loop (gauss.py's Newton on the
     numpy residual) to 1e-10 of the state's size."""
     system = _system(name)
-    t, y, v = integrate_gauss_forward(system, 0.1, 0.005, compiled=True)
-    t2, y2, v2 = integrate_gauss_forward(system, 0.1, 0.005, compiled=False)
+    _, y, v = integrate_gauss_forward(system, 0.1, 0.005, compiled=True)
+    _, y2, v2 = integrate_gauss_forward(system, 0.1, 0.005, compiled=False)
     np.testing.assert_allclose(y, y2, rtol=0, atol=1e-10 * np.abs(y).max())
     np.testing.assert_allclose(v, v2, rtol=0, atol=1e-10 * np.abs(v).max())
 

@@ -49,7 +49,9 @@ def _work(torque: float, switch: float, end: float, t: np.ndarray,
           angle: np.ndarray) -> np.ndarray:
     """Work (J) of a bang-bang torque (+τ before ``switch``, −τ until ``end``, then 0) on the
     angle history: τ Δangle per constant piece (exact, no quadrature)."""
-    at = lambda s: np.interp(s, t, angle)  # noqa: E731
+    def at(s: float) -> float:
+        return float(np.interp(s, t, angle))
+
     first = torque * (angle - angle[0])
     second = torque * (at(switch) - angle[0]) - torque * (angle - at(switch))
     third = torque * (at(switch) - angle[0]) - torque * (at(end) - at(switch))
