@@ -59,7 +59,7 @@ def test_nonlinear_model_at_large_deflection(name: str) -> None:
     deflections of 30% (hub–beam) and 36% (free hub) of the length, where the first-order
     model is out of its range — within 1% of peak of the 32-element FE model on the tip
     deflection and the hub angle (measured: tip 0.55% and 0.71%, hub angle 0.03%; the hub
-    rate, which carries the appendages' high modes, 0.07% and 1.1%: docs/validation.md)."""
+    rate, which carries the appendages' high modes, 0.07% and 1.1%)."""
     from dataclasses import replace
 
     case = CASES[name]
