@@ -22,7 +22,6 @@ from .gauss import (
     COEFFS,
     COEFFS2,
     NEWTON_MAX,
-    NEWTON_TOL,
     NODES,
     WEIGHTS,
     WEIGHTS2,
