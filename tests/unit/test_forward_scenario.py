@@ -77,8 +77,6 @@ def test_servo_keys() -> None:
      "file not found"),
     ({"joints": [{"motion": [{"profile": "hold", "angle_deg": 0}], "base_point": [1]}]},
      "base_point: expected two numbers"),
-    ({"simulation": {"t_end": 0.2, "dt_out": 0.01, "model": "nonlinear"}},
-     "simulation.model: the nonlinear model has prescribed joints on a fixed hub only"),
 ])
 def test_bad_keys_are_reported_with_the_field(change, message) -> None:
     with pytest.raises(ScenarioError) as info:
@@ -118,15 +116,14 @@ def test_example_resolves_round_trips_and_runs_shortened(name: str) -> None:
         assert frame["base_attitude"].iloc[-1] > 0.0  # the slew has started
 
 
-def test_simulate_refuses_the_nonlinear_model_with_a_driven_joint() -> None:
+def test_simulate_runs_the_nonlinear_model_with_a_driven_joint() -> None:
     """Regression: simulate() used to branch to the first-order forward dynamics and ignore
-    model = "nonlinear" silently."""
-    import dataclasses
-
-    sc = scenario_from_dict(_scenario())
-    sc = dataclasses.replace(sc, settings=dataclasses.replace(sc.settings, model="nonlinear"))
-    with pytest.raises(ValueError, match="nonlinear.*first_order"):
-        flexlink.simulate(sc)
+    model = "nonlinear" silently; it now takes the nonlinear forward path (Gauss)."""
+    d = _scenario()
+    d["simulation"]["model"] = "nonlinear"
+    results = flexlink.simulate(scenario_from_dict(d))
+    assert results.metadata["method"] == "gauss"
+    assert results["joint1_angle"][-1] > 0.0  # the step torque turned the joint
 
 
 def test_a_free_base_of_zero_mass_is_the_first_link_itself() -> None:

@@ -45,14 +45,15 @@ def test_each_scenario_takes_one_path() -> None:
     assert model_path(_short()) == "prescribed"
     assert model_path(_short(model="nonlinear")) == "nonlinear"
     assert model_path(_driven(_short())) == "forward"
-    assert set(PATHS) == {"prescribed", "nonlinear", "forward", "closed_loop"}
-    with pytest.raises(ValueError, match="model = 'nonlinear' has prescribed joints"):
-        model_path(_driven(_short(model="nonlinear")))
+    assert model_path(_driven(_short(model="nonlinear"))) == "nonlinear_forward"
+    assert set(PATHS) == {"prescribed", "nonlinear", "forward", "nonlinear_forward",
+                          "closed_loop"}
 
 
 @pytest.mark.parametrize("make", [lambda: _short(), lambda: _short(model="nonlinear"),
-                                  lambda: _driven(_short(geometric_stiffening=True))],
-                         ids=["prescribed", "nonlinear", "forward"])
+                                  lambda: _driven(_short(geometric_stiffening=True)),
+                                  lambda: _driven(_short(model="nonlinear", step=1e-3))],
+                         ids=["prescribed", "nonlinear", "forward", "nonlinear_forward"])
 def test_every_path_returns_the_catalogue(make) -> None:
     scenario = make()
     results = simulate(scenario)

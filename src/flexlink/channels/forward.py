@@ -45,13 +45,25 @@ def rigid_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.nda
                  integral: np.ndarray) -> dict[str, np.ndarray]:
     """Base pose and rates, joint angles, rates, torques, servo references and commands,
     and (base not fixed) momentum, by channel name."""
+    # The compiled joint rows (tests/unit/test_forward_kernel.py: equal to the numpy
+    # ForwardSystem.joint_torques to round-off), ~1 µs per output time instead of ~13.
+    torque = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd)
+    moving = system.base.kind != "fixed"
+    return pose_and_joint_values(system, t, p, pd, integral, torque,
+                                 momentum(system, p, pd, z, zd) if moving else None)
+
+
+def pose_and_joint_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
+                          integral: np.ndarray, torque: np.ndarray,
+                          momenta: tuple[np.ndarray, np.ndarray] | None
+                          ) -> dict[str, np.ndarray]:
+    """The channels of ``rigid_values`` from the rigid state p, ṗ (nt, n_rigid), the servo
+    integrals, the joint torques (nt, N) and (base not fixed) the linear (nt, 2) and angular
+    (nt,) momentum of whichever model computed them (``system``: the rigid bookkeeping)."""
     out: dict[str, np.ndarray] = {}
     for i, name in enumerate(BASE_COORDINATES[system.base.kind]):
         out[f"base_{name}"] = p[:, i]
         out[f"base_{name}_rate"] = pd[:, i]
-    # The compiled joint rows (tests/unit/test_forward_kernel.py: equal to the numpy
-    # ForwardSystem.joint_torques to round-off), ~1 µs per output time instead of ~13.
-    torque = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd)
     for k, joint in enumerate(system.chain.joints):
         i = system.joint_index(k)
         out[joint_name(k, "angle")] = p[:, i]
@@ -63,8 +75,8 @@ def rigid_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.nda
             s = system.servos.index(k)
             out[joint_name(k, "command")] = command_volts(joint, t, p[:, i], pd[:, i],
                                                           integral[:, s])
-    if system.base.kind != "fixed":
-        linear, angular = momentum(system, p, pd, z, zd)
+    if momenta is not None:
+        linear, angular = momenta
         out["momentum_x"], out["momentum_y"] = linear[:, 0], linear[:, 1]
         out["angular_momentum"] = angular
     return out

@@ -6,9 +6,17 @@ point x sits at (∫₀ˣ cos ψ, ∫₀ˣ sin ψ), ψ = Φ′q_k the section ro
 * deflection w(x) = ∫₀ˣ sin ψ ds (transverse coordinate in the clamped frame) [m];
 * slope, strain and PZT as in channels/modal.py (linear in q in both models);
 * acceleration n(x)·r̈(x), n the normal of the deformed section [m/s²], from q̈ of the equations.
+
+Both nonlinear paths (prescribed joints, dynamics/nonlinear.py; forward,
+dynamics/nonlinear_forward.py) read through an `ArcMotion`: the node angles and their rates,
+the base's reference point R_b (fixed at the origin unless the base is free) and every link's
+clamped-frame angle. Positions are r(x) = R_b + Σ_j W_j(x) e(α_j) in both.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -21,66 +29,106 @@ from .modal import modal_reading
 from .shapes import POINTS, LinkShape, fractions, rigid_chain_frames
 
 
+@dataclass(frozen=True)
+class ArcMotion:
+    """The solved motion on a nonlinear system's node axis: α, α̇, α̈ (nt, nodes) in rad,
+    rad/s, rad/s²; the base's reference point R_b and R̈_b (nt, 2) in m, m/s²; each link's
+    clamped-frame (root section) angle (nt, N), rad; the elastic coordinates q (nt, n)."""
+
+    alpha: np.ndarray
+    alpha_dot: np.ndarray
+    alpha_ddot: np.ndarray
+    origin: np.ndarray
+    origin_ddot: np.ndarray
+    root_angle: np.ndarray
+    q: np.ndarray
+
+
+def prescribed_motion(system: NonlinearSystem, solution: Solution,
+                      hist: JointHistory) -> ArcMotion:
+    """The ArcMotion of a prescribed-joint run (fixed hub at the origin)."""
+    zero = np.zeros((solution.t.size, 2))
+    return ArcMotion(system.node_angles(solution.q, hist.angle),
+                     system.node_angles(solution.q_dot, hist.rate),
+                     system.node_angles(solution.q_ddot, hist.acceleration), zero, zero,
+                     solution.q @ system.root_A.T + np.cumsum(hist.angle, axis=1), solution.q)
+
+
 def sensor_values(system: NonlinearSystem, solution: Solution, sensors: tuple[Sensor, ...],
                   hist: JointHistory) -> dict[str, np.ndarray]:
     """Each sensor's reading at the solution's times (hist: the joints there), by name."""
-    return {s.name: _read(system, solution, hist, s) for s in sensors}
+    return motion_sensor_values(system, prescribed_motion(system, solution, hist), sensors)
 
 
 def tip_values(system: NonlinearSystem, solution: Solution,
                hist: JointHistory) -> dict[str, np.ndarray]:
     """Global X and Y (m) of every link's deformed tip, by channel name."""
-    alpha = system.node_angles(solution.q, hist.angle)
-    out = {}
-    for k, link in enumerate(system.chain.links):
-        row = system.position_rows(k, np.array([link.length]))[0]
-        out[tip_name(link.name, "X")] = np.cos(alpha) @ row
-        out[tip_name(link.name, "Y")] = np.sin(alpha) @ row
-    return out
+    return motion_tip_values(system, prescribed_motion(system, solution, hist))
 
 
 def shape_values(system: NonlinearSystem, solution: Solution, hist: JointHistory,
                  points: int = POINTS) -> list[LinkShape]:
     """Every link's deformed shape on `points` evenly spaced points (exact positions), and its
     rigid frame (the chain at the joint angles with straight links)."""
-    alpha = system.node_angles(solution.q, hist.angle)
-    c, s = np.cos(alpha), np.sin(alpha)
-    links = system.chain.links
-    origins, theta = rigid_chain_frames([link.length for link in links], hist.angle)
-    out = []
-    for k, link in enumerate(links):
-        fraction = fractions(points)
-        rows = system.position_rows(k, fraction * link.length)
-        out.append(LinkShape(link.name, link.length, fraction, c @ rows.T, s @ rows.T,
-                             origins[:, k], theta[:, k]))
+    origins, theta = rigid_chain_frames([link.length for link in system.chain.links],
+                                        hist.angle)
+    return motion_shapes(system, prescribed_motion(system, solution, hist), origins, theta,
+                         points)
+
+
+# -- readings of an ArcMotion (system: NonlinearSystem or NonlinearForwardSystem) ------------
+def motion_sensor_values(system: Any, motion: ArcMotion,
+                         sensors: tuple[Sensor, ...]) -> dict[str, np.ndarray]:
+    """Each sensor's reading, by name."""
+    return {s.name: _read(system, motion, s) for s in sensors}
+
+
+def motion_tip_values(system: Any, motion: ArcMotion) -> dict[str, np.ndarray]:
+    """Global X and Y (m) of every link's deformed tip, by channel name."""
+    out = {}
+    c, s = np.cos(motion.alpha), np.sin(motion.alpha)
+    for k, link in enumerate(system.chain.links):
+        row = system.position_rows(k, np.array([link.length]))[0]
+        out[tip_name(link.name, "X")] = motion.origin[:, 0] + c @ row
+        out[tip_name(link.name, "Y")] = motion.origin[:, 1] + s @ row
     return out
 
 
-def _read(system: NonlinearSystem, solution: Solution, hist: JointHistory,
-          sensor: Sensor) -> np.ndarray:
+def motion_shapes(system: Any, motion: ArcMotion, origins: np.ndarray, theta: np.ndarray,
+                  points: int = POINTS) -> list[LinkShape]:
+    """Every link's deformed shape (exact positions) with the given rigid frames: origins
+    (nt, N, 2), m, angles (nt, N), rad."""
+    c, s = np.cos(motion.alpha), np.sin(motion.alpha)
+    out = []
+    for k, link in enumerate(system.chain.links):
+        fraction = fractions(points)
+        rows = system.position_rows(k, fraction * link.length)
+        out.append(LinkShape(link.name, link.length, fraction,
+                             motion.origin[:, :1] + c @ rows.T,
+                             motion.origin[:, 1:] + s @ rows.T, origins[:, k], theta[:, k]))
+    return out
+
+
+def _read(system: Any, motion: ArcMotion, sensor: Sensor) -> np.ndarray:
     k = sensor.link
     arc = system.arcs[k]
-    q = solution.q[:, arc.coords]
+    q = motion.q[:, arc.coords]
     reading = modal_reading(sensor, system.modal[k].shapes, q, system.chain)
     if reading is not None:
         return reading
     assert isinstance(sensor, PointSensor)
     if sensor.kind == "deflection":
         return np.sin(q @ arc.dphi.T) @ arc.quad.cumulative(np.array([sensor.x]))[0]
-    return normal_acceleration(system, solution, hist, k, sensor.x)
+    return normal_acceleration(system, motion, k, sensor.x)
 
 
-def normal_acceleration(system: NonlinearSystem, solution: Solution, hist: JointHistory, k: int,
-                        x: float) -> np.ndarray:
-    """n(x)·r̈(x) = Σ_l W_l [cos(α_x − α_l) α̈_l + sin(α_x − α_l) α̇_l²] (m/s²)."""
-    alpha = system.node_angles(solution.q, hist.angle)
-    alpha_dot = system.node_angles(solution.q_dot, hist.rate)
-    alpha_ddot = system.node_angles(solution.q_ddot, hist.acceleration)
+def normal_acceleration(system: Any, motion: ArcMotion, k: int, x: float) -> np.ndarray:
+    """n(x)·r̈(x) = n·R̈_b + Σ_l W_l [cos(α_x − α_l) α̈_l + sin(α_x − α_l) α̇_l²] (m/s²)."""
     row = system.position_rows(k, np.array([x]))[0]
     arc = system.arcs[k]
-    a_x = np.zeros(system.n)
-    a_x[:] = system.root_A[k]
-    a_x[arc.coords] = system.modal[k].shapes.evaluate(np.array([x]), 1)[0]
-    angle_x = solution.q @ a_x + hist.angle[:, : k + 1].sum(axis=1)
-    diff = angle_x[:, None] - alpha
-    return (np.cos(diff) * alpha_ddot + np.sin(diff) * alpha_dot**2) @ row
+    slope = system.modal[k].shapes.evaluate(np.array([x]), 1)[0]
+    angle_x = motion.root_angle[:, k] + motion.q[:, arc.coords] @ slope
+    diff = angle_x[:, None] - motion.alpha
+    base = (-np.sin(angle_x) * motion.origin_ddot[:, 0]
+            + np.cos(angle_x) * motion.origin_ddot[:, 1])
+    return base + (np.cos(diff) * motion.alpha_ddot + np.sin(diff) * motion.alpha_dot**2) @ row

@@ -109,11 +109,6 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         joints.append(joint)
         motions.append(motion)
     base = read_base(raw.get("base"), base_dir, p)
-    forward = base is not None or any("drive" in j or "base_point" in j for j in joints)
-    if forward and simulation.get("model") == "nonlinear":
-        p.add("simulation.model: the nonlinear model has prescribed joints on a fixed hub only; "
-              "a [base], a driven joint (drive = ...) or base_point needs "
-              "model = \"first_order\" (with geometric_stiffening = true)")
     reserved = reserved_names([n for n in link_names if n], len(links))
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
     p.check_names([s.get("name") for s in sensors], "sensors")

@@ -4,7 +4,11 @@ assembles the `Results`. One module per path, sharing `common`:
 * ``prescribed`` — prescribed joints, first-order model (Lawson, Magnus or scipy);
 * ``nonlinear`` — prescribed joints, geometrically nonlinear model (Gauss collocation);
 * ``forward`` — free/pinned base or driven joints, first-order model (compiled RK4, or
-  solve_ivp for method = "DOP853", "Radau", …).
+  solve_ivp for method = "DOP853", "Radau", …);
+* ``nonlinear_forward`` — free/pinned base or driven joints, nonlinear model (Gauss
+  collocation with the rigid coordinates as unknowns);
+* ``closed_loop`` — controllers sampled with zero-order hold, prescribed joints, first-order
+  model (the Lawson loop with the held voltages as states).
 """
 
 from __future__ import annotations
@@ -29,14 +33,16 @@ from .common import (
 )
 from .forward import run_forward
 from .nonlinear import run_nonlinear
+from .nonlinear_forward import run_nonlinear_forward
 from .prescribed import run_prescribed
 from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
 # (scenario, output times, progress callback, with shapes) → the path's run
 PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
 PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run_nonlinear,
-                                  "forward": run_forward}
-PATHS["closed_loop"] = run_closed_loop  # controllers, prescribed joints (closed_loop.py)
+                                  "forward": run_forward,
+                                  "nonlinear_forward": run_nonlinear_forward,
+                                  "closed_loop": run_closed_loop}
 
 
 def model_path(scenario: Scenario) -> str:
@@ -51,10 +57,7 @@ def model_path(scenario: Scenario) -> str:
     if scenario.controllers:
         return "closed_loop"
     if scenario.is_forward:
-        if scenario.settings.model == "nonlinear":
-            raise ValueError("model = 'nonlinear' has prescribed joints on a fixed hub only: "
-                             "a moving base or a driven joint needs model = 'first_order'")
-        return "forward"
+        return "nonlinear_forward" if scenario.settings.model == "nonlinear" else "forward"
     return "nonlinear" if scenario.settings.model == "nonlinear" else "prescribed"
 
 

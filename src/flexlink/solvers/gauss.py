@@ -107,8 +107,8 @@ class _Newton:
     """Simplified Newton for the stage accelerations. The iteration matrix (finite differences
     of the stage residuals) is kept across steps and rebuilt only when convergence slows."""
 
-    def __init__(self, system: NonlinearSystem, h: float) -> None:
-        self.system, self.h = system, h
+    def __init__(self, system: NonlinearSystem, h: float, tol: float = NEWTON_TOL) -> None:
+        self.system, self.h, self.tol = system, h, tol
         self.inverse: np.ndarray | None = None
         self.rebuilds = 0
         self.iterations = 0
@@ -136,7 +136,7 @@ class _Newton:
             theta = size / previous
             # (first iteration: no rate yet, the increment itself must be small)
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-            if remaining <= NEWTON_TOL * max(float(np.abs(X).max()), 1e-300):
+            if remaining <= self.tol * max(float(np.abs(X).max()), 1e-300):
                 return X
             if size > 0.1 * previous and not fresh:
                 self.inverse = None  # slow convergence: rebuild the matrix at the next iterate

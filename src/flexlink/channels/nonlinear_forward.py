@@ -1,0 +1,49 @@
+"""Channel values of a nonlinear forward run (dynamics/nonlinear_forward.py): sensors, tips
+and shapes read exactly as in a prescribed nonlinear run (channels/nonlinear.py, through an
+`ArcMotion` with the solved base and joints), base pose, joints and momentum as in a
+first-order forward run (channels/forward.py), with this model's torques and momentum."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..dynamics.nonlinear_forward import NonlinearForwardSystem
+from ..model import Sensor
+from .forward import pose_and_joint_values
+from .nonlinear import ArcMotion, motion_sensor_values, motion_shapes, motion_tip_values
+from .shapes import POINTS, LinkShape
+
+
+def forward_motion(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray,
+                   v: np.ndarray, a: np.ndarray) -> ArcMotion:
+    """The ArcMotion of the solved y, ẏ, ÿ (nt, n_y) at times t (s)."""
+    alpha, alpha_d, alpha_dd, R, _, Rdd = system.node_motion(t, y, v, a)
+    p, _, _ = system.rigid_state(t, y, v, a)
+    q = y[:, :system.n]
+    return ArcMotion(alpha, alpha_d, alpha_dd, R, Rdd, q @ system.root_A.T + p @ system.root_B.T,
+                     q)
+
+
+def forward_values(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray, v: np.ndarray,
+                   a: np.ndarray, sensors: tuple[Sensor, ...]) -> dict[str, np.ndarray]:
+    """Every channel of a forward scenario by name: sensors, base pose and rates, joint
+    angles, rates, torques, servo references and commands, momentum (base not fixed), tips."""
+    motion = forward_motion(system, t, y, v, a)
+    values = motion_sensor_values(system, motion, sensors)
+    p, pd, _ = system.rigid_state(t, y, v, a)
+    moving = system.base.kind != "fixed"
+    momenta = system.momentum(t, y, v) if moving else None
+    values.update(pose_and_joint_values(system.loads, t, p, pd, v[:, system.n + system.nu:],
+                                        system.joint_torques(t, y, v, a), momenta))
+    values.update(motion_tip_values(system, motion))
+    return values
+
+
+def forward_shapes(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray,
+                   points: int = POINTS) -> list[LinkShape]:
+    """Every link's deformed shape (exact) and its rigid frame (straight links at the solved
+    base pose and joint angles)."""
+    zero = np.zeros_like(y)
+    origins, theta = system.root_frames(t, y)
+    return motion_shapes(system, forward_motion(system, t, y, zero, zero), origins, theta,
+                         points)

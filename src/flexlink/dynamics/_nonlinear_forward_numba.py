@@ -1,0 +1,127 @@
+"""Compiled (numba) residual and accelerations of the nonlinear model with rigid coordinates
+— `NonlinearForwardSystem.residual` and `.accelerations` (the numpy reference, docs/nonlinear.md
+§7) written as loops over the tiny arrays. The applied forces are the first-order forward
+kernel's (`_forward_numba.applied`: drive torques, servo laws, base loads), so each law has one
+compiled and one numpy copy, both tested against each other. tests/unit/
+test_nonlinear_forward.py compares this module with the numpy equations to round-off."""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ._forward_numba import _solve
+from ._forward_numba import applied as _applied
+
+NonlinearForwardData = namedtuple("NonlinearForwardData", [
+    "Ay", "At", "G", "s", "m_tot", "translation", "rot_y", "rot_J", "D", "K", "n", "nu",
+    "n_rigid", "free"])
+NonlinearForwardData.__doc__ = ("Constant arrays of a NonlinearForwardSystem for the kernels "
+                                "(SI units; columns on y = [q, p_free, σ]).")
+
+
+@njit(cache=True)
+def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
+    """Residual (n_y,) of one state into ``out``: inertia + damping + elastic − applied on
+    [q, p_free], σ̈ − integral rate on σ (NonlinearForwardSystem.residual)."""
+    nodes = nd.Ay.shape[0]
+    n, nu = nd.n, nd.nu
+    m = n + nu  # columns with node angles
+    c = np.empty(nodes)
+    s = np.empty(nodes)
+    S = np.empty((nodes, 4))
+    for j in range(nodes):
+        alpha = ang[j]
+        alpha_dot = rate[j]
+        alpha_ddot = acc[j]
+        for i in range(m):
+            a = nd.Ay[j, i]
+            if a != 0.0:
+                alpha += a * Y[i]
+                alpha_dot += a * V[i]
+                alpha_ddot += a * X[i]
+        c[j] = np.cos(alpha)
+        s[j] = np.sin(alpha)
+        v2 = alpha_dot * alpha_dot
+        S[j, 0] = c[j] * alpha_ddot
+        S[j, 1] = s[j] * alpha_ddot
+        S[j, 2] = c[j] * v2
+        S[j, 3] = s[j] * v2
+    out[:] = 0.0
+    rx = ry = 0.0
+    if nd.translation:
+        rx, ry = X[n], X[n + 1]
+    fx = fy = 0.0
+    for j in range(nodes):
+        g0 = 0.0
+        g1 = 0.0
+        g2 = 0.0
+        g3 = 0.0
+        for k in range(nodes):
+            w = nd.G[j, k]
+            g0 += w * S[k, 0]
+            g1 += w * S[k, 1]
+            g2 += w * S[k, 2]
+            g3 += w * S[k, 3]
+        uj = c[j] * (g0 - g3) + s[j] * (g1 + g2)
+        if nd.translation:
+            sj = nd.s[j]
+            uj += sj * (-s[j] * rx + c[j] * ry)
+            fx += sj * (-S[j, 1] - S[j, 2])
+            fy += sj * (S[j, 0] - S[j, 3])
+        for i in range(m):
+            out[i] += nd.Ay[j, i] * uj
+    for r in range(nd.rot_J.shape[0]):
+        ar = rot_acc[r]
+        for i in range(m):
+            ar += nd.rot_y[r, i] * X[i]
+        ar *= nd.rot_J[r]
+        for i in range(m):
+            out[i] += nd.rot_y[r, i] * ar
+    for i in range(n):
+        for k in range(n):
+            out[i] += nd.D[i, k] * V[k] + nd.K[i, k] * Y[k]
+    if nd.translation:
+        out[n] += nd.m_tot * rx + fx
+        out[n + 1] += nd.m_tot * ry + fy
+    if nu > 0:
+        p = np.zeros(nd.n_rigid)
+        pd = np.zeros(nd.n_rigid)
+        for i in range(nu):
+            p[nd.free[i]] = Y[n + i]
+            pd[nd.free[i]] = V[n + i]
+        Q = np.empty(d.n_x)
+        ns = Y.shape[0] - m
+        rates = np.zeros(max(ns, 1))
+        _applied(d, u, p, pd, V[m:], Q, rates)
+        for i in range(nu):
+            out[n + i] -= Q[nd.free[i]]
+        for i in range(ns):
+            out[m + i] = X[m + i] - rates[i]
+
+
+@njit(cache=True)
+def accelerations(Y, V, ang, rate, acc, rot_acc, u, nd, d):
+    """ÿ (b, n_y) of b states: M's columns from the residual's change under unit
+    accelerations (it is affine in ÿ), then M ÿ = −r(ÿ = 0)."""
+    b, ny = Y.shape
+    out = np.empty((b, ny))
+    X = np.zeros(ny)
+    r0 = np.empty(ny)
+    r1 = np.empty(ny)
+    M = np.empty((ny, ny))
+    for t in range(b):
+        X[:] = 0.0
+        residual(Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], nd, d, r0)
+        for k in range(ny):
+            X[k] = 1.0
+            residual(Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], nd, d, r1)
+            X[k] = 0.0
+            for i in range(ny):
+                M[i, k] = r1[i] - r0[i]
+        rhs = -r0
+        _solve(M, rhs)
+        out[t] = rhs
+    return out

@@ -1,0 +1,407 @@
+"""Forward dynamics of the geometrically nonlinear model (docs/nonlinear.md §7): a fixed,
+pinned or free base, prescribed and driven joints, branches on the base.
+
+The rigid coordinates are more generalized coordinates of the same Lagrangian. Every section
+angle stays linear in all coordinates with constant coefficients,
+
+    α_j = A_j q + B_j p + α0_j,   p = [base x, y, attitude θ_b (as the base moves), β₁ … β_N],
+
+and every point sits at r_p = R_b + Σ_j W_pj e(α_j), R_b the base's reference point (moving
+only on a free base). The turn of a branch's attachment point c is one more "node" of the
+node axis: its angle θ_b + arg c (B row on θ_b, constant α0), its weight |c| in the W row of
+every point of the branch. With G = Wᵀ diag(m) W, s = Wᵀ m and m_tot = Σ m (the base's mass
+is a point with an empty W row) the generalized inertia forces are
+
+    Aᵀ ũ (on q) and B_freeᵀ ũ (on the free p),   ũ_j = u_j + s_j e⊥(α_j)·R̈_b,
+    u_j = Σ_l G_jl [cos(α_j − α_l) α̈_l + sin(α_j − α_l) α̇_l²],
+    F = m_tot R̈_b + Σ_l s_l [e⊥(α_l) α̈_l − e(α_l) α̇_l²]     (on R_b),
+
+plus J α̈ of the rotary inertias (tip inertias, the base's inertia on θ_b, motor inertias on
+their β_k). Applied forces (drive torques, servo laws, base loads) are the first-order forward
+model's (`ForwardSystem.applied`, dynamics/servos.py): the same rigid coordinates.
+
+The unknowns y = [q, p_free, σ]: σ per servo with an integrator, σ̇ = the integral of its
+error, σ̈ = the integral's rate, so that the second-order collocation of solvers/gauss_forward.py
+integrates it too; its residual row is σ̈ − (servo law's integral rate).
+This module is the numpy reference; `_nonlinear_forward_numba.py` is the same residual
+compiled (tests/unit/test_nonlinear_forward.py compares them).
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..model import Base, Chain, is_driven
+from .arc import ArcQuadrature, arc_quadrature
+from .first_order import chain_modal_data
+from .forward import ForwardSystem
+
+StageInputs = namedtuple("StageInputs", ["angle", "rate", "acceleration", "rot_acceleration",
+                                         "u"])
+StageInputs.__doc__ = (
+    "Prescribed parts at a batch of times: node angles B_pres β + α0 (b, nodes) rad, their "
+    "rates and accelerations, the rotary inertias' prescribed accelerations (b, n_rot), and "
+    "the load input rows u (b, ·) of dynamics/forward_kernel.inputs.")
+
+
+@dataclass(frozen=True, eq=False)
+class ForwardArc:
+    """Quadrature of one link on the node axis."""
+
+    quad: ArcQuadrature
+    nodes: slice  # its Gauss nodes
+    coords: slice  # its q_k in q
+    dphi: np.ndarray  # (p, n_k) Φ′ at the nodes, 1/m
+
+
+class NonlinearForwardSystem:
+    """Constant matrices of the nonlinear model with rigid coordinates; evaluations take a
+    leading batch axis."""
+
+    def __init__(self, chain: Chain, base: Base | None = None) -> None:
+        base = Base() if base is None else base
+        self.chain, self.base = chain, base
+        # Rigid bookkeeping, initial state and applied loads: the first-order forward model's.
+        self.loads = ForwardSystem(chain, base)
+        self.modal = chain_modal_data(chain)
+        N = len(chain.links)
+        offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
+        self.n = n = int(offsets[-1])
+        self.n_base = nb = self.loads.n_base
+        self.n_rigid = nr = self.loads.n_rigid
+        self.free = list(self.loads.free)
+        self.nu = len(self.free)
+        self.servos = list(self.loads.servos)
+        self.integrating = [s for s, k in enumerate(self.servos)
+                            if getattr(chain.joints[k], "integrator", False)]
+        self.ns = len(self.servos)
+        self.n_y = n + self.nu + self.ns
+        attitude = nb - 1 if base.kind != "fixed" else None
+
+        # Node axis: every link's Gauss nodes, then one node per offset attachment point.
+        self.arcs: list[ForwardArc] = []
+        start = 0
+        for k, d in enumerate(self.modal):
+            quad = arc_quadrature(d.length, float(d.shapes.beta_l.max(initial=0.0)))
+            self.arcs.append(ForwardArc(quad, slice(start, start + quad.size),
+                                        slice(int(offsets[k]), int(offsets[k + 1])),
+                                        d.shapes.evaluate(quad.x, 1)))
+            start += quad.size
+        self.attach = [base.attachment(k) for k in range(N)]
+        self.pivot: dict[int, int] = {}  # branch root link → its attachment node
+        for k, c in enumerate(self.attach):
+            if c is not None and np.hypot(*c) > 0.0:
+                self.pivot[k] = start
+                start += 1
+        self.nodes = nodes = start
+        A = np.zeros((nodes, n))
+        B = np.zeros((nodes, nr))
+        self.offset = np.zeros(nodes)
+        self.root_A = np.zeros((N, n))  # clamped-frame angle of each link, on q
+        self.root_B = np.zeros((N, nr))  # … on p
+        self.tip_A = np.zeros((N, n))
+        self.tip_B = np.zeros((N, nr))
+        self.root_W = np.zeros((N, nodes))  # root position − R_b = root_W e(α)
+        for k, (arc, d) in enumerate(zip(self.arcs, self.modal)):
+            c = self.attach[k]
+            if c is not None:
+                if attitude is not None:
+                    self.root_B[k, attitude] = 1.0
+                if k in self.pivot:
+                    j = self.pivot[k]
+                    B[j] = self.root_B[k]
+                    self.offset[j] = np.arctan2(c[1], c[0])
+                    self.root_W[k, j] = np.hypot(*c)
+            else:
+                self.root_A[k], self.root_B[k] = self.tip_A[k - 1], self.tip_B[k - 1]
+                self.root_W[k] = self.root_W[k - 1]
+                self.root_W[k, self.arcs[k - 1].nodes] = self.arcs[k - 1].quad.w
+            self.root_B[k, nb + k] += 1.0
+            A[arc.nodes] = self.root_A[k]
+            A[arc.nodes, arc.coords] = arc.dphi
+            B[arc.nodes] = self.root_B[k]
+            self.tip_A[k] = self.root_A[k]
+            self.tip_A[k, arc.coords] += d.tip_slope
+            self.tip_B[k] = self.root_B[k]
+        self.A, self.B = A, B
+
+        # Point masses (beam quadrature, tip masses, a free base's mass) and rotary inertias
+        # (tip inertias, the base's on θ_b, motors' on their joint angle).
+        rows, masses = [], []
+        rot_A, rot_B, rot_J, absolute = [], [], [], []
+        for k, (arc, link) in enumerate(zip(self.arcs, chain.links)):
+            rows.append(self.position_rows(k, arc.quad.x))
+            masses.append(link.mass_per_length * arc.quad.w)
+            if link.tip_mass > 0.0:
+                rows.append(self.position_rows(k, np.array([link.length])))
+                masses.append(np.array([link.tip_mass]))
+            if link.tip_inertia > 0.0:
+                rot_A.append(self.tip_A[k])
+                rot_B.append(self.tip_B[k])
+                rot_J.append(link.tip_inertia)
+                absolute.append(True)
+        if base.kind == "free" and base.mass > 0.0:
+            rows.append(np.zeros((1, nodes)))
+            masses.append(np.array([base.mass]))
+        if attitude is not None and base.inertia > 0.0:
+            rot_A.append(np.zeros(n))
+            rot_B.append(np.eye(nr)[attitude])
+            rot_J.append(base.inertia)
+            absolute.append(True)
+        for k, joint in enumerate(chain.joints):
+            if is_driven(joint) and joint.motor_inertia > 0.0:  # type: ignore[union-attr]
+                rot_A.append(np.zeros(n))
+                rot_B.append(np.eye(nr)[nb + k])
+                rot_J.append(joint.motor_inertia)  # type: ignore[union-attr]
+                absolute.append(False)  # turns with β_k relative to its parent
+        self.W = np.vstack(rows)
+        self.point_mass = np.concatenate(masses)
+        self.G = self.W.T @ (self.point_mass[:, None] * self.W)
+        self.s = self.W.T @ self.point_mass
+        self.m_tot = float(self.point_mass.sum())
+        self.rot_A = np.array(rot_A).reshape(-1, n)
+        self.rot_B = np.array(rot_B).reshape(-1, nr)
+        self.rot_J = np.array(rot_J, dtype=float)
+        self.rot_absolute = np.array(absolute, dtype=bool)
+        self.K = np.zeros((n, n))
+        self.D = np.zeros((n, n))
+        for arc, d in zip(self.arcs, self.modal):
+            self.K[arc.coords, arc.coords] = d.stiffness_matrix
+            self.D[arc.coords, arc.coords] = d.damping_matrix
+
+        # Columns on y = [q, p_free, σ]; the prescribed joints are inputs.
+        self.prescribed = [nb + k for k, j in enumerate(chain.joints) if not is_driven(j)]
+        self.Ay = np.zeros((nodes, self.n_y))
+        self.Ay[:, :n] = A
+        self.Ay[:, n:n + self.nu] = B[:, self.free]
+        self.rot_y = np.zeros((self.rot_J.size, self.n_y))
+        self.rot_y[:, :n] = self.rot_A
+        self.rot_y[:, n:n + self.nu] = self.rot_B[:, self.free]
+        self.translation = base.kind == "free"  # y[n], y[n + 1] are the base's x, y
+
+    # -- geometry -----------------------------------------------------------------------------
+    def position_rows(self, k: int, x: np.ndarray) -> np.ndarray:
+        """W rows (len(x), nodes): r(x on link k) − R_b = Σ_j W_j e(α_j), global axes (m)."""
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        out = np.repeat(self.root_W[k][None, :], x.size, axis=0)
+        out[:, self.arcs[k].nodes] = self.arcs[k].quad.cumulative(x)
+        return out
+
+    def rigid_state(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Full p, ṗ, p̈ (b, n_rigid) from y, ẏ, ÿ: free coordinates solved, joints prescribed."""
+        n, nu = self.n, self.nu
+        return self.loads.rigid_state(t, y[:, n:n + nu], v[:, n:n + nu], a[:, n:n + nu])
+
+    def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """y and ẏ at t = 0: the rigid coordinates as given (servos on their reference), the
+        links undeformed at rest, the servo integrals zero."""
+        start = self.loads.initial_state()
+        y, v = np.zeros(self.n_y), np.zeros(self.n_y)
+        y[self.n:self.n + self.nu] = start[:self.nu]
+        v[self.n:self.n + self.nu] = start[self.nu:2 * self.nu]
+        return y, v
+
+    def from_solution(self, solution: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """y, ẏ, ÿ (nt, n_y) from a Solution of coordinates [p_free, q] with the servo
+        integrals as ``extra`` (σ itself and σ̈ are not kept: zero)."""
+        n, nu = self.n, self.nu
+        out = []
+        for i, x in enumerate((solution.q, solution.q_dot, solution.q_ddot)):
+            y = np.zeros((x.shape[0], self.n_y))
+            y[:, :n], y[:, n:n + nu] = x[:, nu:], x[:, :nu]
+            if i == 1 and self.ns:
+                y[:, n + nu:] = solution.extra
+            out.append(y)
+        return out[0], out[1], out[2]
+
+    def stage_inputs(self, t: np.ndarray) -> StageInputs:
+        """The prescribed parts of the motion and the load inputs at times t (b,), s."""
+        from .forward_kernel import inputs
+
+        t = np.asarray(t, dtype=float)
+        zero = np.zeros((t.size, self.nu))
+        p, pd, pdd = self.loads.rigid_state(t, zero, zero, zero)
+        Bp = self.B[:, self.prescribed]
+        rot = self.rot_B[:, self.prescribed]
+        pres = [a[:, self.prescribed] for a in (p, pd, pdd)]
+        return StageInputs(pres[0] @ Bp.T + self.offset, pres[1] @ Bp.T, pres[2] @ Bp.T,
+                           pres[2] @ rot.T, inputs(self.loads, t))
+
+    # -- equations ----------------------------------------------------------------------------
+    def _inertia(self, y: np.ndarray, v: np.ndarray, a: np.ndarray, inp: StageInputs
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+        """ũ (b, nodes), the translation force F (b, 2) and the rotary torques J α̈ (b, n_rot)
+        of the motion y, ẏ, ÿ; and the node angles, rates, accelerations."""
+        alpha = y @ self.Ay.T + inp.angle
+        alpha_d = v @ self.Ay.T + inp.rate
+        alpha_dd = a @ self.Ay.T + inp.acceleration
+        c, s = np.cos(alpha), np.sin(alpha)
+        w2 = alpha_d**2
+        g = [(x @ self.G) for x in (c * alpha_dd, s * alpha_dd, c * w2, s * w2)]  # G symmetric
+        u = c * (g[0] - g[3]) + s * (g[1] + g[2])
+        F = np.zeros(y.shape[:-1] + (2,))
+        if self.translation:
+            n = self.n
+            Rdd = a[..., n:n + 2]
+            u = u + self.s * (-s * Rdd[..., :1] + c * Rdd[..., 1:])
+            F = self.m_tot * Rdd + np.stack([(-s * alpha_dd - c * w2) @ self.s,
+                                             (c * alpha_dd - s * w2) @ self.s], -1)
+        rot = (a @ self.rot_y.T + inp.rot_acceleration) * self.rot_J
+        return u, F, rot, (alpha, alpha_d, alpha_dd)
+
+    def applied(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """Applied generalized forces on the free rigid coordinates (b, nu) and the servo
+        integral rates (b, ns): ForwardSystem.applied at the solved rigid state."""
+        p, pd, _ = self.rigid_state(t, y, v, np.zeros_like(y))
+        integral = v[:, self.n + self.nu:]
+        Q, rates = self.loads.applied(t, p, pd, integral)
+        return Q[:, self.free], rates
+
+    def residual(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray,
+                 inp: StageInputs) -> np.ndarray:
+        """Inertia + damping + elastic − applied forces on y (b, n_y), and on σ the
+        difference of σ̈ and the integral rate: zero on a solution."""
+        n, nu = self.n, self.nu
+        u, F, rot, _ = self._inertia(y, v, a, inp)
+        out = u @ self.Ay + rot @ self.rot_y
+        out[:, :n] += v[:, :n] @ self.D + y[:, :n] @ self.K
+        if self.translation:
+            out[:, n:n + 2] += F
+        Q, rates = self.applied(t, y, v)
+        out[:, n:n + nu] -= Q
+        out[:, n + nu:] = a[:, n + nu:] - rates
+        return out
+
+    def accelerations(self, t: np.ndarray, y: np.ndarray, v: np.ndarray,
+                      compiled: bool = True) -> np.ndarray:
+        """ÿ (b, n_y) at times t (b,): the residual is affine in ÿ, so M's columns are its
+        changes under unit accelerations. ``compiled``: the numba kernel, else numpy."""
+        inp = self.stage_inputs(t)
+        if compiled:
+            from ._nonlinear_forward_numba import accelerations
+
+            data, loads = self.packed()
+            return accelerations(np.ascontiguousarray(y, dtype=float),
+                                 np.ascontiguousarray(v, dtype=float), *_rows(inp), data, loads)
+        b, m = y.shape[0], self.n_y
+        trials = np.concatenate([np.zeros((1, m)), np.eye(m)])
+        rep = np.repeat
+        index = rep(np.arange(b), m + 1)
+        R = self.residual(t[index], y[index], v[index], np.tile(trials, (b, 1)),
+                          StageInputs(*(x[index] for x in inp))).reshape(b, m + 1, m)
+        M = np.swapaxes(R[:, 1:] - R[:, :1], 1, 2)
+        return np.linalg.solve(M, -R[:, 0][..., None])[..., 0]
+
+    def packed(self) -> tuple[tuple, tuple]:
+        """The constant arrays for the compiled kernels (NonlinearForwardData) and the
+        first-order model's ForwardData of the applied loads (cached)."""
+        if not hasattr(self, "_packed"):
+            from . import forward_kernel
+            from ._nonlinear_forward_numba import NonlinearForwardData
+
+            c = np.ascontiguousarray
+            data = NonlinearForwardData(
+                c(self.Ay), c(self.Ay.T), c(self.G), c(self.s), self.m_tot,
+                bool(self.translation), c(self.rot_y), c(self.rot_J), c(self.D), c(self.K),
+                self.n, self.nu, self.n_rigid, np.asarray(self.free, dtype=np.int64))
+            self._packed = (data, forward_kernel.pack(self.loads))
+        return self._packed
+
+    # -- readings -----------------------------------------------------------------------------
+    def joint_torques(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
+                      ) -> np.ndarray:
+        """Torque each joint's motor applies (b, N), N·m: the generalized inertia force of β_k
+        (with the motor inertia; for a driven joint equal to its drive torque)."""
+        u, _, rot, _ = self._inertia(y, v, a, self.stage_inputs(t))
+        joints = slice(self.n_base, self.n_rigid)
+        return u @ self.B[:, joints] + rot @ self.rot_B[:, joints]
+
+    def node_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
+                    ) -> tuple[np.ndarray, ...]:
+        """α, α̇, α̈ at the nodes (b, nodes) and R_b, Ṙ_b, R̈_b (b, 2) (zero unless free)."""
+        inp = self.stage_inputs(t)
+        alphas = (y @ self.Ay.T + inp.angle, v @ self.Ay.T + inp.rate,
+                  a @ self.Ay.T + inp.acceleration)
+        n = self.n
+        trans = tuple(x[:, n:n + 2] if self.translation else np.zeros((x.shape[0], 2))
+                      for x in (y, v, a))
+        return alphas + trans
+
+    def point_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities (b, points, 2) of the point masses, global (m, m/s)."""
+        alpha, alpha_d, _, R, Rd, _ = self.node_motion(t, y, v, np.zeros_like(y))
+        c, s = np.cos(alpha), np.sin(alpha)
+        r = np.stack([c @ self.W.T, s @ self.W.T], -1) + R[:, None]
+        rd = np.stack([(-s * alpha_d) @ self.W.T, (c * alpha_d) @ self.W.T], -1) + Rd[:, None]
+        return r, rd
+
+    def rotary_rates(self, t: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Rates (b, n_rot) of the rotary inertias, rad/s."""
+        _, pd, _ = self.loads.rigid_state(t, v[:, self.n:self.n + self.nu],
+                                          v[:, self.n:self.n + self.nu],
+                                          np.zeros((t.size, self.nu)))
+        return v[:, :self.n] @ self.rot_A.T + pd @ self.rot_B.T
+
+    def energy(self, t: np.ndarray, y: np.ndarray, v: np.ndarray) -> tuple[np.ndarray,
+                                                                           np.ndarray]:
+        """Kinetic and elastic energy (b,), J."""
+        _, rd = self.point_motion(t, y, v)
+        kinetic = 0.5 * (np.einsum("bpi,bpi,p->b", rd, rd, self.point_mass)
+                         + self.rotary_rates(t, v)**2 @ self.rot_J)
+        q = y[:, :self.n]
+        return kinetic, 0.5 * np.einsum("bi,ij,bj->b", q, self.K, q)
+
+    def momentum(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Linear momentum (b, 2), N·s, and angular momentum about the origin (b,), N·m·s,
+        exact, from the kinematics: Σ m ṙ, Σ m r × ṙ + J α̇ of the tip and base inertias (a
+        motor's rotor turns with its joint angle relative to its parent: ∂L/∂θ̇_b has no
+        share of it, as in the first-order model)."""
+        r, rd = self.point_motion(t, y, v)
+        linear = np.einsum("bpi,p->bi", rd, self.point_mass)
+        angular = np.einsum("bp,p->b", r[..., 0] * rd[..., 1] - r[..., 1] * rd[..., 0],
+                            self.point_mass)
+        absolute = self.rot_absolute
+        rates = self.rotary_rates(t, v)
+        return linear, angular + rates[:, absolute] @ self.rot_J[absolute]
+
+    def root_frames(self, t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rigid frames (the links straight at the solved base pose and joint angles): origins
+        (b, N, 2), m, and angles (b, N), rad."""
+        zero = np.zeros_like(y)
+        p, _, _ = self.rigid_state(t, y, zero, zero)
+        nb = self.n_base
+        b, N = y.shape[0], len(self.chain.links)
+        R = p[:, :2] if self.base.kind == "free" else np.zeros((b, 2))
+        th_b = p[:, nb - 1] if self.base.kind != "fixed" else np.zeros(b)
+        origin, angle = np.zeros((b, N, 2)), np.zeros((b, N))
+        for k, c in enumerate(self.attach):
+            if c is not None:
+                cb, sb = np.cos(th_b), np.sin(th_b)
+                origin[:, k] = R + np.stack([cb * c[0] - sb * c[1], sb * c[0] + cb * c[1]], -1)
+                angle[:, k] = th_b + p[:, nb + k]
+            else:
+                L = self.modal[k - 1].length
+                origin[:, k] = origin[:, k - 1] + L * np.stack(
+                    [np.cos(angle[:, k - 1]), np.sin(angle[:, k - 1])], -1)
+                angle[:, k] = angle[:, k - 1] + p[:, nb + k]
+        return origin, angle
+
+    @property
+    def max_frequency(self) -> float:
+        """Highest clamped natural frequency of any link, rad/s."""
+        from ..modes import highest_frequency
+
+        return highest_frequency(self.modal)
+
+
+def _rows(inp: StageInputs) -> tuple[np.ndarray, ...]:
+    """The stage inputs as contiguous float arrays for the compiled kernels."""
+    return tuple(np.ascontiguousarray(x, dtype=float) for x in inp)
