@@ -108,12 +108,13 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
     return 0
 
 
-WARMUP_PATHS = ("prescribed", "nonlinear", "forward")
+WARMUP_PATHS = ("prescribed", "nonlinear", "forward", "nonlinear_forward", "closed_loop")
 
 
 def warmup_scenarios() -> dict[str, Any]:
     """Tiny variants of the paper scenario (20 ms) that run every compiled loop: the Lawson
-    loop (prescribed), Gauss collocation (nonlinear), the forward kernel and its RK4 loop."""
+    loop (prescribed), Gauss collocation (nonlinear), the forward kernel and its RK4 loop, the
+    nonlinear model's forward collocation and the closed-loop Lawson loop."""
     import copy
 
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
@@ -127,8 +128,16 @@ def warmup_scenarios() -> dict[str, Any]:
         joint.pop("motion")
         joint.update(drive="torque", torque=[{"profile": "bang_bang", "amplitude": 0.01,
                                               "start": 0.0, "duration": 0.02}])
-    return {name: scenario_from_dict(d) for name, d in
-            zip(WARMUP_PATHS, (base, nonlinear, forward), strict=True)}
+    nonlinear_forward = copy.deepcopy(forward)
+    nonlinear_forward["simulation"].update(model="nonlinear", step=1e-3)
+    closed_loop = copy.deepcopy(base)
+    closed_loop["actuators"] = [{"name": "warmup_patch", "kind": "piezo", "collocated_with": "pzt",
+                                 "limit": 100.0}]
+    closed_loop["controllers"] = [{"name": "warmup_ppf", "kind": "ppf", "sensor": "pzt",
+                                   "actuator": "warmup_patch", "frequency_hz": 2.5,
+                                   "damping": 0.3, "gain": 10.0, "sample_rate": 1000.0}]
+    return {name: scenario_from_dict(d) for name, d in zip(
+        WARMUP_PATHS, (base, nonlinear, forward, nonlinear_forward, closed_loop), strict=True)}
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:

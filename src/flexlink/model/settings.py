@@ -23,7 +23,7 @@ class SimulationSettings:
 
     t_end: float  # s
     dt_out: float  # s
-    geometric_stiffening: bool = False
+    geometric_stiffening: bool = True
     rtol: float = 1e-6  # error relative to the peak of the displacements / velocities
     atol: float = 1e-12
     method: MethodName = "lawson"

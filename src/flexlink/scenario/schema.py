@@ -148,7 +148,7 @@ SIMULATION = Section("simulation", [
     Field("t_end", unit="s", gt=0, doc="end of the simulated time span"),
     Field("dt_out", unit="s", gt=0, rule="≤ `t_end`",
           doc="output samples are 0, dt_out, 2·dt_out, … up to and including t_end"),
-    Field("geometric_stiffening", "boolean", default=False, notes={
+    Field("geometric_stiffening", "boolean", default=True, notes={
         "true": "(**recommended**) the consistent linearisation with the axial (centrifugal) "
                 "stiffening of every link, including the pull of outer links and tip masses",
         "false": "the paper's model, which keeps centrifugal softening only and diverges when "
