@@ -47,14 +47,8 @@ PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run
 
 def model_path(scenario: Scenario) -> str:
     """The path that runs ``scenario``: a key of PATHS."""
-    if (scenario.actuators or scenario.controllers) and scenario.settings.model == "nonlinear":
-        raise ValueError("actuators and controllers run with model = 'first_order' only "
-                         "for now")
-    if (scenario.controllers or scenario.actuators) and scenario.is_forward:
-        raise ValueError("actuators and controllers run with prescribed joints on a fixed hub "
-                         "for now: a moving base or a driven joint cannot be combined with "
-                         "[[actuators]] or [[controllers]] yet")
-    if scenario.controllers:
+    if scenario.controllers and not scenario.is_forward \
+            and scenario.settings.model != "nonlinear":
         return "closed_loop"
     if scenario.is_forward:
         return "nonlinear_forward" if scenario.settings.model == "nonlinear" else "forward"

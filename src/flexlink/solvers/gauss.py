@@ -34,6 +34,9 @@ WEIGHTS = np.array([0.5, 0.5])
 WEIGHTS2 = WEIGHTS @ COEFFS  # q₁ = q₀ + h v₀ + h² Σ (bᵀa)_j X_j
 NEWTON_TOL = 1e-9  # relative to the largest stage acceleration
 NEWTON_MAX = 20
+# Newton's absolute floor, relative to ω_max² |q| (the elastic accelerations): round-off of
+# the elastic forces, what a static equilibrium under a constant load converges to.
+ROUND_OFF = 1e-13
 
 
 def integrate_gauss(
@@ -86,15 +89,17 @@ def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.
 
     arrays = [np.ascontiguousarray(a, dtype=float) for a in (
         system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    w2 = system.max_frequency**2
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
         stage = slice(2 * start, 2 * end)
         failed, _, _ = gauss_loop(
             q[start:end + 1], v[start:end + 1], X, h,
             *(np.ascontiguousarray(a[stage]) for a in (
-                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration)),
+                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration,
+                inputs.load)),
             *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX,
-            start > 0)
+            start > 0, ROUND_OFF * w2)
         if failed >= 0:
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
