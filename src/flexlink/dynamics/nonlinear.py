@@ -199,13 +199,17 @@ class NonlinearSystem:
         return self.mass_matrix(alpha), f
 
     def accelerations(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                      compiled: bool = True) -> np.ndarray:
+                      compiled: bool = True, load: np.ndarray | None = None) -> np.ndarray:
         """q̈ (b, n) from the equations of motion at times t (b,), s. ``compiled``: the numba
-        kernel (numba is a dependency), or the numpy expressions it is tested against."""
+        kernel (numba is a dependency), or the numpy expressions it is tested against.
+        ``load`` (b, n): the applied forces on q (default: the open-loop actuators')."""
         if compiled:
             from . import _nonlinear_numba as compiled_kernels  # numba: only when used
 
             inputs = self.node_inputs(t)
+            if load is not None:
+                inputs = NodeInputs(inputs.angle, inputs.rate, inputs.acceleration,
+                                    inputs.tip_acceleration, load)
             return compiled_kernels.accelerations(
                 *(np.ascontiguousarray(a, dtype=float) for a in (
                     q, qd, inputs.angle, inputs.rate, inputs.acceleration,
@@ -213,7 +217,7 @@ class NonlinearSystem:
                     self.tip_inertia, self.D, self.K)))
         hist = self.joint_history(t)
         M, f = self.forces(q, qd, hist.angle, hist.rate, hist.acceleration)
-        f = f + self.voltages(t) @ self.actuator_B.T
+        f = f + (self.voltages(t) @ self.actuator_B.T if load is None else load)
         return np.linalg.solve(M, f[..., None])[..., 0]
 
     def node_inputs(self, t: np.ndarray, hist: JointHistory | None = None) -> NodeInputs:
