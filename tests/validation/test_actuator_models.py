@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from flexlink.dynamics.nonlinear import NonlinearSystem
-from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
 from flexlink.model import Table
 from flexlink.scenario import scenario_from_dict
 from flexlink.simulation import model_path, simulate

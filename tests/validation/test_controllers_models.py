@@ -28,7 +28,7 @@ def test_ppf_on_the_nonlinear_model_matches_first_order() -> None:
     """2 modes, PPF tuned on mode 1: the decay rate of the collocated sensor agrees within 2%
     (the pulse deflects the tip by ~1 mm: the geometric terms are negligible)."""
     d = beam(2, [], t_end=1.5)
-    m, c, k, b, s = first_mode(scenario_from_dict(d))
+    m, _, k, b, s = first_mode(scenario_from_dict(d))
     f1 = np.sqrt(k / m) / (2 * np.pi)
     d["controllers"] = [ppf(f1, 0.3 * k / (b * s))]  # static loop gain 0.3
     d["simulation"]["rtol"] = 1e-6
@@ -48,7 +48,7 @@ def test_ppf_on_the_nonlinear_model_matches_first_order() -> None:
 
 def test_unstable_loop_on_the_nonlinear_model_is_reported() -> None:
     d = beam(2, [], t_end=1.5)
-    m, c, k, b, s = first_mode(scenario_from_dict(d))
+    m, _, k, b, s = first_mode(scenario_from_dict(d))
     f1 = np.sqrt(k / m) / (2 * np.pi)
     d["controllers"] = [ppf(f1, 3.0 * k / (b * s))]  # PPF is unstable above g·b·s = k
     d["simulation"]["model"] = "nonlinear"

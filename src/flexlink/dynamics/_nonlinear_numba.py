@@ -10,7 +10,7 @@ from numba import njit
 
 
 @njit(cache=True)
-def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):  # noqa
+def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):  # noqa: ANN
     """Generalized inertia + damping + elastic − applied (``load``, n) forces of one state
     (n,) — the numpy
     NonlinearSystem.residual written as loops (small sizes: no BLAS call overhead)."""

@@ -18,9 +18,9 @@ axis over (time, trial acceleration) pairs.
 
 from __future__ import annotations
 
-import numpy as np
-
 from collections.abc import Sequence
+
+import numpy as np
 
 from ..model import (
     Base,

@@ -22,11 +22,10 @@ All evaluations take a leading batch axis (times or states).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-
-from collections.abc import Sequence
 
 from ..model import Chain, PiezoActuator
 from ..modes import highest_frequency

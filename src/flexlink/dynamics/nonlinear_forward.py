@@ -30,12 +30,11 @@ compiled (tests/unit/test_nonlinear_forward.py compares them).
 from __future__ import annotations
 
 from collections import namedtuple
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from collections.abc import Sequence
 
 from ..model import Base, Chain, PiezoActuator, is_driven
 from .arc import ArcQuadrature, arc_quadrature
