@@ -32,5 +32,7 @@ def open_loop_voltages(actuators: Sequence[PiezoActuator], t: np.ndarray) -> np.
     """Open-loop voltages (nt, n_act), V, at times t (s): each actuator's ``voltage``
     history clipped to its ``limit`` (the amplifier's saturation)."""
     t = np.asarray(t, dtype=float)
+    if not actuators:
+        return np.zeros((t.size, 0))
     return np.column_stack([np.clip(a.voltage.value(t), -a.limit, a.limit)
                             for a in actuators]).reshape(t.size, len(actuators))
