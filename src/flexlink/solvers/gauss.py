@@ -211,17 +211,16 @@ def solve_nonlinear(
     error estimate of the finer solution, |difference| / 15 (fourth order), is within rtol of
     the peak |q| and of the peak |q̇| over the run (as the Magnus control; q̈, dominated by the
     high modes, converges more slowly: rtol ≤ 1e-4 for accelerometers). A step at which Newton
-    fails is halved too."""
+    fails is halved too. ``loop``: a gauss_sampled.SampledLoop — sampled controllers,
+    integrated per sample interval; the first step is then at most one interval."""
     t_end = float(t_out[-1])
 
     def run(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if loop is None:
             t_nodes, q, v = integrate_gauss(system, t_end, h, on_progress)
             a = system.accelerations(t_nodes, q, v)
-        else:  # sampled controllers (gauss_sampled.py): the held forces at each step end
-            from .gauss_sampled import integrate_gauss_sampled
-
-            t_nodes, q, v = integrate_gauss_sampled(system, loop, h, on_progress)
+        else:  # sampled controllers (gauss_sampled.SampledLoop): the held forces at the ends
+            t_nodes, q, v = loop.integrate(system, h, on_progress)
             a = system.accelerations(t_nodes, q, v, load=loop.held_voltages(t_nodes)
                                      @ system.actuator_B.T)
         return hermite_quintic(t_nodes, q, v, a, t_out)

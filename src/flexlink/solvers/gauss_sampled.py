@@ -79,6 +79,12 @@ class SampledLoop:
         self.counts = [0] * len(self.python)
         self.buffer = np.zeros(self.n + self.n_act)
 
+    def integrate(self, system: NonlinearSystem, step: float,
+                  on_progress: Callable[[float], None] | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """integrate_gauss_sampled with this loop (what gauss.solve_nonlinear calls)."""
+        return integrate_gauss_sampled(system, self, step, on_progress)
+
     def held_voltages(self, t: np.ndarray) -> np.ndarray:
         """The voltages (nt, n_act) held at times t (s) of the last integration pass (at a
         sample instant: the new value)."""
