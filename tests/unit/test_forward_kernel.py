@@ -14,6 +14,7 @@ from flexlink.model import (
     BaseLoad,
     Chain,
     Link,
+    PiezoActuator,
     PositionServo,
     Step,
     Sum,
@@ -25,7 +26,12 @@ from flexlink.motion import Cycloidal, Hold
 from tests.helpers import CubicMotion, paper_links
 
 
-def _free_two_appendages(stiffening: bool) -> ForwardSystem:
+def _patch(name: str, link: int, x0: float, x1: float, voltage, limit: float = np.inf
+           ) -> PiezoActuator:
+    return PiezoActuator(name, link, x0, x1, 0.025, 30.33e9, 265e-12, 0.002, voltage, limit)
+
+
+def _free_two_appendages(stiffening: bool, actuators: bool = False) -> ForwardSystem:
     links = (Link("a", 2.0, 1.0, 50.0, tip_mass=0.3, tip_inertia=0.01, modes=2),
              Link("b", 1.5, 1.0, 40.0, modes=3),
              Link("c", 0.8, 0.5, 20.0, modes=2))
@@ -37,7 +43,11 @@ def _free_two_appendages(stiffening: bool) -> ForwardSystem:
     chain = Chain(links, (TorqueDrive(BangBang(2.0, 0.0, 4.0), initial_angle=0.2,
                                       motor_inertia=0.02),
                           Hold(180.0), CubicMotion(0.3, 0.5, -0.2, 0.1)))
-    return ForwardSystem(chain, base, stiffening)
+    patches = ((_patch("a1", 0, 0.1, 0.4, Step(150.0, 0.2)),
+                _patch("b1", 1, 0.3, 0.9, BangBang(200.0, 0.1, 1.0), limit=120.0),
+                _patch("c1", 2, 0.0, 0.8, Sum((Step(80.0), Step(-30.0, 0.5)))))
+               if actuators else ())
+    return ForwardSystem(chain, base, stiffening, patches)
 
 
 def _pinned_hub(stiffening: bool) -> ForwardSystem:
@@ -49,16 +59,20 @@ def _pinned_hub(stiffening: bool) -> ForwardSystem:
     return ForwardSystem(chain, base, stiffening)
 
 
-def _paper_servos(stiffening: bool) -> ForwardSystem:
+def _paper_servos(stiffening: bool, actuators: bool = False) -> ForwardSystem:
     servo1 = VelocityServo(Cycloidal(0.0, 90.0, 0.1, 1.0), P=5.0, I=2.0, D=0.005,
                            saturation=6.0, rate_per_volt=np.pi, loop_gain=50.0,
                            torque_limit=800.0, motor_inertia=0.05)
     servo2 = PositionServo(Cycloidal(1.5, 3.0, 0.1, 1.0), bandwidth=30.0, rate_limit=0.5,
                            loop_gain=0.5, torque_limit=0.4, motor_inertia=0.001)
-    return ForwardSystem(Chain(paper_links(3), (servo1, servo2)), Base(), stiffening)
+    patches = ((_patch("p1", 0, 0.05, 0.2, Table((0.0, 0.5, 1.5), (0.0, 100.0, -50.0))),
+                _patch("p2", 1, 0.1, 0.3, Step(300.0), limit=200.0)) if actuators else ())
+    return ForwardSystem(Chain(paper_links(3), (servo1, servo2)), Base(), stiffening, patches)
 
 
-SYSTEMS = {"free": _free_two_appendages, "pinned": _pinned_hub, "servos": _paper_servos}
+SYSTEMS = {"free": _free_two_appendages, "pinned": _pinned_hub, "servos": _paper_servos,
+           "free_actuators": lambda s: _free_two_appendages(s, True),
+           "servos_actuators": lambda s: _paper_servos(s, True)}
 
 
 @pytest.mark.parametrize("stiffening", [False, True])
@@ -109,6 +123,29 @@ def test_breakpoints_of_inputs() -> None:
     for b in (0.0, 1.0, 2.0, 0.3, 4.0):
         assert np.any(np.isclose(times, b)), b
     assert np.all(np.isfinite(times))
+    for b in (0.2, 0.1, 1.1, 0.5):  # the actuators' voltage histories
+        assert np.any(np.isclose(forward_kernel.breakpoints(_free_two_appendages(True, True)),
+                                 b)), b
+
+
+def test_actuators_load_the_elastic_rows_only() -> None:
+    """The actuators' forces are B V on z, B from dynamics/actuators.py, V clipped to the
+    limit; the kernel's input row carries V (so the comparison above covers the forces)."""
+    from flexlink.dynamics.actuators import actuator_matrix
+
+    system = _free_two_appendages(True, True)
+    t = np.array([0.0, 0.3, 0.7])
+    V = system.voltages(t)
+    np.testing.assert_array_equal(V[:, 1], [0.0, 120.0, -120.0])  # ±200 V clipped at 120 V
+    p = np.zeros((3, system.n_rigid))
+    Q, _ = system.applied(t, p, p, np.zeros((3, 0)))
+    without = ForwardSystem(system.chain, system.base, True)
+    Q0, _ = without.applied(t, p, p, np.zeros((3, 0)))
+    np.testing.assert_allclose(Q[:, :system.n_rigid], Q0[:, :system.n_rigid])
+    np.testing.assert_allclose(Q[:, system.n_rigid:] - Q0[:, system.n_rigid:],
+                               V @ actuator_matrix(system.actuators, system.modal).T)
+    u = forward_kernel.inputs(system, t)
+    np.testing.assert_array_equal(u[:, forward_kernel.voltage_columns(system)], V)
 
 
 @pytest.mark.parametrize("stiffening", [False, True])

@@ -274,7 +274,8 @@ def applied(d, u, p, pd, integral, Q, rates):
     """Generalized applied forces Q (n_x,) and servo integral rates at one time
     (ForwardSystem.applied, dynamics/servos.py). u is the input row (forward_kernel.inputs):
     [motion or reference angle, rate, acceleration (N each), torque (N), per base load
-    F_x, F_y (N), moment (N·m)]."""
+    F_x, F_y (N), moment (N·m), per actuator its voltage (V)]: the actuators' forces
+    B V act on z (dynamics/actuators.py)."""
     N = d.length.shape[0]
     nb = d.n_base
     Q[:] = 0.0
@@ -313,6 +314,15 @@ def applied(d, u, p, pd, integral, Q, rates):
             if d.base_kind == FREE:
                 Q[0] += fx
                 Q[1] += fy
+    na = d.actuator_B.shape[1]
+    if na > 0:
+        nr = d.n_rigid
+        at = 4 * N + 3 * d.load_point.shape[0]
+        for i in range(d.actuator_B.shape[0]):
+            acc = 0.0
+            for j in range(na):
+                acc += d.actuator_B[i, j] * u[at + j]
+            Q[nr + i] += acc
 
 
 @njit(cache=True)

@@ -25,7 +25,8 @@ NonlinearForwardData.__doc__ = ("Constant arrays of a NonlinearForwardSystem for
 @njit(cache=True)
 def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
     """Residual (n_y,) of one state into ``out``: inertia + damping + elastic − applied on
-    [q, p_free], σ̈ − integral rate on σ (NonlinearForwardSystem.residual)."""
+    [q, p_free] (the actuators' forces B V on q, V from the input row), σ̈ − integral rate
+    on σ (NonlinearForwardSystem.residual)."""
     nodes = nd.Ay.shape[0]
     n, nu = nd.n, nd.nu
     m = n + nu  # columns with node angles
@@ -86,7 +87,7 @@ def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
     if nd.translation:
         out[n] += nd.m_tot * rx + fx
         out[n + 1] += nd.m_tot * ry + fy
-    if nu > 0:
+    if nu > 0 or d.actuator_B.shape[1] > 0:
         p = np.zeros(nd.n_rigid)
         pd = np.zeros(nd.n_rigid)
         for i in range(nu):
@@ -98,6 +99,8 @@ def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
         _applied(d, u, p, pd, V[m:], Q, rates)
         for i in range(nu):
             out[n + i] -= Q[nd.free[i]]
+        for i in range(n):  # the actuators' forces on q (zero without actuators)
+            out[i] -= Q[nd.n_rigid + i]
         for i in range(ns):
             out[m + i] = X[m + i] - rates[i]
 

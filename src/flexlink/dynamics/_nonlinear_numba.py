@@ -10,8 +10,9 @@ from numba import njit
 
 
 @njit(cache=True)
-def residual(Q, V, X, ang, rate, acc, tip_acc, A, At, G, tip_A, tip_At, J, D, K):  # noqa: ANN
-    """Generalized inertia + damping + elastic forces of one state (n,) — the numpy
+def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):  # noqa: ANN
+    """Generalized inertia + damping + elastic − applied (``load``, n) forces of one state
+    (n,) — the numpy
     NonlinearSystem.residual written as loops (small sizes: no BLAS call overhead)."""
     nodes, n = A.shape
     c = np.empty(nodes)
@@ -55,13 +56,14 @@ def residual(Q, V, X, ang, rate, acc, tip_acc, A, At, G, tip_A, tip_At, J, D, K)
             for i in range(n):
                 out[i] += tip_A[k, i] * J[k] * tip
     for i in range(n):
+        out[i] -= load[i]
         for m in range(n):
             out[i] += D[i, m] * V[m] + K[i, m] * Q[m]
     return out
 
 
 @njit(cache=True)
-def accelerations(q, qd, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K):  # noqa: ANN
+def accelerations(q, qd, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K):  # noqa: ANN
     """q̈ (b, n) of M q̈ = f for b states; M = Aᵀ(G ∘ cos(α_j − α_l))A + Σ J_t a_t a_tᵀ."""
     b, n = q.shape
     nodes = A.shape[0]
@@ -72,7 +74,7 @@ def accelerations(q, qd, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K):  # noqa
     tip_At = np.ascontiguousarray(tip_A.T)
     zero = np.zeros(n)
     for t in range(b):
-        f = -residual(q[t], qd[t], zero, ang[t], rate[t], acc[t], tip_acc[t], A, At, G,
+        f = -residual(q[t], qd[t], zero, ang[t], rate[t], acc[t], tip_acc[t], load[t], A, At, G,
                       tip_A, tip_At, J, D, K)
         c = np.cos(np.dot(A, q[t]) + ang[t])
         s = np.sin(np.dot(A, q[t]) + ang[t])

@@ -26,3 +26,13 @@ def actuator_matrix(actuators: Sequence[PiezoActuator], modal: Sequence[ModalDat
     for j, act in enumerate(actuators):
         B[offsets[act.link]:offsets[act.link + 1], j] = piezo_load(act, modal[act.link])
     return B
+
+
+def open_loop_voltages(actuators: Sequence[PiezoActuator], t: np.ndarray) -> np.ndarray:
+    """Open-loop voltages (nt, n_act), V, at times t (s): each actuator's ``voltage``
+    history clipped to its ``limit`` (the amplifier's saturation)."""
+    t = np.asarray(t, dtype=float)
+    if not actuators:
+        return np.zeros((t.size, 0))
+    return np.column_stack([np.clip(a.voltage.value(t), -a.limit, a.limit)
+                            for a in actuators]).reshape(t.size, len(actuators))

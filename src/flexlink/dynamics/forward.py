@@ -18,10 +18,22 @@ axis over (time, trial acceleration) pairs.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-from ..model import Base, Chain, JointMotion, PositionServo, TorqueDrive, VelocityServo, is_driven
+from ..model import (
+    Base,
+    Chain,
+    JointMotion,
+    PiezoActuator,
+    PositionServo,
+    TorqueDrive,
+    VelocityServo,
+    is_driven,
+)
 from ..modes import ModalData, modal_data
+from .actuators import actuator_matrix, open_loop_voltages
 from .first_order import (
     LinkBody,
     add_link_terms,
@@ -36,7 +48,8 @@ from .kinematics import TURN, FrameMotion, block_map, rotation, tip_map
 class ForwardSystem:
     """A base plus a chain (or tree) of flexible links with prescribed and driven joints."""
 
-    def __init__(self, chain: Chain, base: Base, geometric_stiffening: bool = False) -> None:
+    def __init__(self, chain: Chain, base: Base, geometric_stiffening: bool = False,
+                 actuators: Sequence[PiezoActuator] = ()) -> None:
         self.chain = chain
         self.base = base
         self.geometric_stiffening = geometric_stiffening
@@ -55,6 +68,10 @@ class ForwardSystem:
         self.free = list(range(self.n_base)) + [self.n_base + k for k in self.driven]
         self.servos = [k for k in self.driven
                        if isinstance(chain.joints[k], VelocityServo | PositionServo)]
+        # Piezo actuators: generalized forces B V on z (dynamics/actuators.py), V the
+        # open-loop voltages unless a closed loop holds its own (``applied(voltages=…)``).
+        self.actuators = tuple(actuators)
+        self.actuator_B = actuator_matrix(self.actuators, self.modal)  # (n, n_act), N·m/V
 
     # -- rigid state ------------------------------------------------------------------------
     def initial_state(self) -> np.ndarray:
@@ -247,11 +264,20 @@ class ForwardSystem:
         return second_order_stiffness(body, fr, k, outboard, self.geometric_stiffening)
 
     # -- applied loads ----------------------------------------------------------------------
+    def voltages(self, t: np.ndarray) -> np.ndarray:
+        """Open-loop actuator voltages (nt, n_act), V, clipped to the limits."""
+        return open_loop_voltages(self.actuators, t)
+
     def applied(self, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
-                integral: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                integral: np.ndarray, voltages: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
         """Generalized applied forces Q (nt, n_x) and the servos' integral-state rates
-        (nt, n_servos). ``integral`` (nt, n_servos) is the integral of each servo's error."""
+        (nt, n_servos). ``integral`` (nt, n_servos) is the integral of each servo's error;
+        ``voltages`` (nt, n_act) the actuators' (default: the open-loop ones at t)."""
         Q = np.zeros((t.shape[0], self.n_x))
+        if self.actuators:
+            V = self.voltages(t) if voltages is None else voltages
+            Q[:, self.n_rigid:] += V @ self.actuator_B.T
         from .servos import servo_torque
 
         rates = np.zeros((t.shape[0], len(self.servos)))
@@ -277,9 +303,11 @@ class ForwardSystem:
 
     # -- the coupled equations --------------------------------------------------------------
     def accelerations(self, t: np.ndarray, p_free: np.ndarray, pd_free: np.ndarray,
-                      z: np.ndarray, zd: np.ndarray, integral: np.ndarray
+                      z: np.ndarray, zd: np.ndarray, integral: np.ndarray,
+                      voltages: np.ndarray | None = None
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """p̈ of the free rigid coordinates, z̈, and the servo integral rates at times t.
+        """p̈ of the free rigid coordinates, z̈, and the servo integral rates at times t
+        (``voltages``: the actuators', default the open-loop ones).
 
         K and f are affine in p̈, so the equations are assembled at p̈_free = 0 and at each
         unit p̈_free (a trial axis) and the linear system in (p̈_free, z̈) is solved."""
@@ -291,7 +319,7 @@ class ForwardSystem:
         p, pd, pdd = self.rigid_state(tt, rep(p_free, nu + 1, 0), rep(pd_free, nu + 1, 0),
                                       pdd_try)
         M, C, K, f = (a.reshape((nt, nu + 1) + a.shape[1:]) for a in self.matrices(p, pd, pdd))
-        Q, rates = self.applied(t, p[:: nu + 1], pd[:: nu + 1], integral)
+        Q, rates = self.applied(t, p[:: nu + 1], pd[:: nu + 1], integral, voltages)
         rows = self.free + list(range(rig, self.n_x))
         zcols = slice(rig, self.n_x)
         A = np.zeros((nt, len(rows), nu + n))

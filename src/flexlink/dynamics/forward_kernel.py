@@ -29,9 +29,10 @@ ForwardData = namedtuple("ForwardData", [
     "Mtot", "M0", "G0", "phi_bar", "phi_tilde", "tip_value", "tip_slope", "stiffness",
     "damping", "fore_mass", "fore_moment", "fore_tip", "joint_kind", "motor_inertia",
     "servo_index", "P", "I", "D", "saturation", "rate_per_volt", "loop_gain", "torque_limit",
-    "bandwidth", "rate_limit", "load_point", "load_body"])
+    "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B"])
 ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI units, link "
-                       "arrays padded to the most modes, offsets into x = [δp; z].")
+                       "arrays padded to the most modes, offsets into x = [δp; z]; "
+                       "actuator_B (n, n_act) the actuators' forces on z per volt.")
 
 
 def pack(system: ForwardSystem) -> ForwardData:
@@ -109,18 +110,22 @@ def pack(system: ForwardSystem) -> ForwardData:
         joint_kind=kind, motor_inertia=motor, servo_index=servo_index, torque_limit=torque_limit,
         **params,
         load_point=np.array([ld.point for ld in loads], dtype=float).reshape(len(loads), 2),
-        load_body=np.array([ld.frame == "body" for ld in loads], dtype=bool))
+        load_body=np.array([ld.frame == "body" for ld in loads], dtype=bool),
+        actuator_B=np.ascontiguousarray(system.actuator_B, dtype=float))
 
 
 def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:
-    """Input rows u(t) (nt, 4N + 3·loads): per joint its prescribed motion or servo reference
-    (angle rad, rate rad/s, acceleration rad/s², N columns each), its drive torque (N·m,
-    torque drives), then per base load F_x, F_y (N) and the moment (N·m)."""
+    """Input rows u(t) (nt, 4N + 3·loads + actuators): per joint its prescribed motion or servo
+    reference (angle rad, rate rad/s, acceleration rad/s², N columns each), its drive torque
+    (N·m, torque drives), then per base load F_x, F_y (N) and the moment (N·m), then per
+    actuator its open-loop voltage (V, clipped; a closed loop overwrites these columns with
+    its held voltages: `voltage_columns`)."""
     t = np.asarray(t, dtype=float)
     chain, base = system.chain, system.base
     N = len(chain.links)
     loads = base.loads if base.kind != "fixed" else ()
-    u = np.zeros((t.size, 4 * N + 3 * len(loads)))
+    na = len(system.actuators)
+    u = np.zeros((t.size, 4 * N + 3 * len(loads) + na))
     for k, joint in enumerate(chain.joints):
         if isinstance(joint, TorqueDrive):
             u[:, 3 * N + k] = joint.torque.value(t)
@@ -134,7 +139,16 @@ def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:
         u[:, 4 * N + j] = load.force_x.value(t)
         u[:, 4 * N + nl + j] = load.force_y.value(t)
         u[:, 4 * N + 2 * nl + j] = load.moment.value(t)
+    if na:
+        u[:, voltage_columns(system)] = system.voltages(t)
     return u
+
+
+def voltage_columns(system: ForwardSystem) -> slice:
+    """The actuator voltages' columns of the input rows."""
+    loads = system.base.loads if system.base.kind != "fixed" else ()
+    start = 4 * len(system.chain.links) + 3 * len(loads)
+    return slice(start, start + len(system.actuators))
 
 
 def breakpoints(system: ForwardSystem) -> np.ndarray:
@@ -151,6 +165,8 @@ def breakpoints(system: ForwardSystem) -> np.ndarray:
         for load in system.base.loads:
             for h in (load.force_x, load.force_y, load.moment):
                 times |= history_breakpoints(h)
+    for actuator in system.actuators:
+        times |= history_breakpoints(actuator.voltage)
     return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
 
 

@@ -22,12 +22,14 @@ All evaluations take a leading batch axis (times or states).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Chain
+from ..model import Chain, PiezoActuator
 from ..modes import highest_frequency
+from .actuators import actuator_matrix, open_loop_voltages
 from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .first_order import chain_modal_data
 from .kinematics import JointHistory, joint_history
@@ -36,16 +38,18 @@ from .kinematics import JointHistory, joint_history
 @dataclass(frozen=True)
 class NodeInputs:
     """The prescribed joint motion carried to the nodes (B β, B β̇, B β̈) and to the tip
-    sections (B_t β̈), for a batch of times: (b, nodes) and (b, N), rad, rad/s, rad/s²."""
+    sections (B_t β̈), for a batch of times: (b, nodes) and (b, N), rad, rad/s, rad/s²; and
+    the applied generalized forces on q (b, n): the actuators' B V (N·m)."""
 
     angle: np.ndarray
     rate: np.ndarray
     acceleration: np.ndarray
     tip_acceleration: np.ndarray
+    load: np.ndarray
 
     def __getitem__(self, index: int | slice) -> NodeInputs:
         return NodeInputs(self.angle[index], self.rate[index], self.acceleration[index],
-                          self.tip_acceleration[index])
+                          self.tip_acceleration[index], self.load[index])
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,10 +67,15 @@ class NonlinearSystem:
     """The assembled nonlinear model: constant matrices, evaluated on batches of states."""
 
     def __init__(self, chain: Chain, panels: int | None = None,
-                 points_per_panel: int = POINTS_PER_PANEL) -> None:
+                 points_per_panel: int = POINTS_PER_PANEL,
+                 actuators: Sequence[PiezoActuator] = ()) -> None:
         # The basis (mode shapes, K, modal damping) is the first-order model's.
         self.chain = chain
         self.modal = chain_modal_data(chain)
+        # Piezo actuators: B V on q, the same function as in the first-order model (the moment
+        # pair's virtual work M δ(ψ(x_e) − ψ(x_s)) with ψ = Φ′q exact here).
+        self.actuators = tuple(actuators)
+        self.actuator_B = actuator_matrix(self.actuators, self.modal)  # (n, n_act), N·m/V
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
         self.n = int(offsets[-1])
         n_links = len(chain.links)
@@ -173,9 +182,14 @@ class NonlinearSystem:
         cos_b, _, _, sin_v = self._kernel(c, s, [beta_ddot @ self.B.T, alpha_dot**2])
         return cos_b + sin_v
 
+    def voltages(self, t: np.ndarray) -> np.ndarray:
+        """Open-loop actuator voltages (b, n_act), V, clipped to the limits."""
+        return open_loop_voltages(self.actuators, t)
+
     def forces(self, q: np.ndarray, qd: np.ndarray, beta: np.ndarray, beta_dot: np.ndarray,
                beta_ddot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """M (b, n, n) and f (b, n) of M q̈ = f: f = −Aᵀu₀ − J_t a_t (b_t β̈) − D q̇ − K q."""
+        """M (b, n, n) and f (b, n) of M q̈ = f: f = −Aᵀu₀ − J_t a_t (b_t β̈) − D q̇ − K q
+        (without the applied loads)."""
         alpha = self.node_angles(q, beta)
         alpha_dot = self.node_angles(qd, beta_dot)
         u0 = self.inertia_load(alpha, alpha_dot, beta_ddot)
@@ -184,28 +198,34 @@ class NonlinearSystem:
         return self.mass_matrix(alpha), f
 
     def accelerations(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                      compiled: bool = True) -> np.ndarray:
+                      compiled: bool = True, load: np.ndarray | None = None) -> np.ndarray:
         """q̈ (b, n) from the equations of motion at times t (b,), s. ``compiled``: the numba
-        kernel (numba is a dependency), or the numpy expressions it is tested against."""
+        kernel (numba is a dependency), or the numpy expressions it is tested against.
+        ``load`` (b, n): the applied forces on q (default: the open-loop actuators')."""
         if compiled:
             from . import _nonlinear_numba as compiled_kernels  # numba: only when used
 
             inputs = self.node_inputs(t)
+            if load is not None:
+                inputs = NodeInputs(inputs.angle, inputs.rate, inputs.acceleration,
+                                    inputs.tip_acceleration, load)
             return compiled_kernels.accelerations(
                 *(np.ascontiguousarray(a, dtype=float) for a in (
                     q, qd, inputs.angle, inputs.rate, inputs.acceleration,
-                    inputs.tip_acceleration, self.A, self.G, self.tip_A, self.tip_inertia,
-                    self.D, self.K)))
+                    inputs.tip_acceleration, inputs.load, self.A, self.G, self.tip_A,
+                    self.tip_inertia, self.D, self.K)))
         hist = self.joint_history(t)
         M, f = self.forces(q, qd, hist.angle, hist.rate, hist.acceleration)
+        f = f + (self.voltages(t) @ self.actuator_B.T if load is None else load)
         return np.linalg.solve(M, f[..., None])[..., 0]
 
     def node_inputs(self, t: np.ndarray, hist: JointHistory | None = None) -> NodeInputs:
         """The joint prescriptions at times t (b,) (or their given history) on the nodes and
-        tips."""
+        tips, and the open-loop actuators' forces."""
         hist = self.joint_history(t) if hist is None else hist
         return NodeInputs(hist.angle @ self.B.T, hist.rate @ self.B.T,
-                          hist.acceleration @ self.B.T, hist.acceleration @ self.tip_B.T)
+                          hist.acceleration @ self.B.T, hist.acceleration @ self.tip_B.T,
+                          self.voltages(t) @ self.actuator_B.T)
 
     def _inertia(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                  inputs: NodeInputs) -> tuple[np.ndarray, np.ndarray]:
@@ -225,9 +245,10 @@ class NonlinearSystem:
 
     def residual(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                  inputs: NodeInputs) -> np.ndarray:
-        """Generalized inertia + damping + elastic forces (b, n): zero on a solution."""
+        """Generalized inertia + damping + elastic − applied forces (b, n): zero on a
+        solution."""
         u, tip = self._inertia(q, qd, qdd, inputs)
-        return u @ self.A + tip @ self.tip_A + qd @ self.D + q @ self.K
+        return u @ self.A + tip @ self.tip_A + qd @ self.D + q @ self.K - inputs.load
 
     def joint_torques(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                       hist: JointHistory | None = None) -> np.ndarray:

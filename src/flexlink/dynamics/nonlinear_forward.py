@@ -30,12 +30,13 @@ compiled (tests/unit/test_nonlinear_forward.py compares them).
 from __future__ import annotations
 
 from collections import namedtuple
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ..model import Base, Chain, is_driven
+from ..model import Base, Chain, PiezoActuator, is_driven
 from .arc import ArcQuadrature, arc_quadrature
 from .first_order import chain_modal_data
 from .forward import ForwardSystem
@@ -62,11 +63,15 @@ class NonlinearForwardSystem:
     """Constant matrices of the nonlinear model with rigid coordinates; evaluations take a
     leading batch axis."""
 
-    def __init__(self, chain: Chain, base: Base | None = None) -> None:
+    def __init__(self, chain: Chain, base: Base | None = None,
+                 actuators: Sequence[PiezoActuator] = ()) -> None:
         base = Base() if base is None else base
         self.chain, self.base = chain, base
-        # Rigid bookkeeping, initial state and applied loads: the first-order forward model's.
-        self.loads = ForwardSystem(chain, base)
+        # Rigid bookkeeping, initial state and applied loads (piezo actuators included: their
+        # force B V on q is the same function in both models, ψ = Φ′q being exact): the
+        # first-order forward model's.
+        self.loads = ForwardSystem(chain, base, actuators=actuators)
+        self.actuators = self.loads.actuators
         self.modal = chain_modal_data(chain)
         N = len(chain.links)
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
@@ -275,6 +280,10 @@ class NonlinearForwardSystem:
             out[:, n:n + 2] += F
         Q, rates = self.applied(t, y, v)
         out[:, n:n + nu] -= Q
+        if self.actuators:  # B V on q, V the input rows' voltages (a closed loop's held ones)
+            from .forward_kernel import voltage_columns
+
+            out[:, :n] -= inp.u[:, voltage_columns(self.loads)] @ self.loads.actuator_B.T
         out[:, n + nu:] = a[:, n + nu:] - rates
         return out
 

@@ -123,9 +123,6 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                                    actuators, p)
     _check_controller_names(controllers, actuators, reserved | {s.get("name") for s in sensors},
                             p)
-    if (actuators or controllers) and simulation.get("model") == "nonlinear":
-        p.add("simulation.model: [[actuators]] and [[controllers]] run with the first-order "
-              "model only for now; set model = \"first_order\"")
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,

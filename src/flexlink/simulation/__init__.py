@@ -8,7 +8,9 @@ assembles the `Results`. One module per path, sharing `common`:
 * ``nonlinear_forward`` — free/pinned base or driven joints, nonlinear model (Gauss
   collocation with the rigid coordinates as unknowns);
 * ``closed_loop`` — controllers sampled with zero-order hold, prescribed joints, first-order
-  model (the Lawson loop with the held voltages as states).
+  model (the Lawson loop with the held voltages as states); with the nonlinear model the
+  ``nonlinear`` path runs them (solvers/gauss_sampled.py).
+Open-loop piezo actuators run in every path.
 """
 
 from __future__ import annotations
@@ -47,14 +49,11 @@ PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run
 
 def model_path(scenario: Scenario) -> str:
     """The path that runs ``scenario``: a key of PATHS."""
-    if (scenario.actuators or scenario.controllers) and scenario.settings.model == "nonlinear":
-        raise ValueError("actuators and controllers run with model = 'first_order' only "
-                         "for now")
-    if (scenario.controllers or scenario.actuators) and scenario.is_forward:
-        raise ValueError("actuators and controllers run with prescribed joints on a fixed hub "
-                         "for now: a moving base or a driven joint cannot be combined with "
-                         "[[actuators]] or [[controllers]] yet")
-    if scenario.controllers:
+    if scenario.controllers and scenario.is_forward:
+        raise ValueError("controllers run with prescribed joints on a fixed hub for now (first-"
+                         "order or nonlinear model): a moving base or a driven joint cannot be "
+                         "combined with [[controllers]] yet (open-loop [[actuators]] can)")
+    if scenario.controllers and scenario.settings.model != "nonlinear":
         return "closed_loop"
     if scenario.is_forward:
         return "nonlinear_forward" if scenario.settings.model == "nonlinear" else "forward"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..channels.catalogue import voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.forward import SolvedMotion, rigid_values
 from ..dynamics.forward import ForwardSystem
@@ -17,7 +18,8 @@ from .common import PathRun, Progress, check_tip_deflection
 def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening)
+    system = ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening,
+                           scenario.actuators)
     method = settings.method if settings.method not in ("lawson", "magnus") else FAST_METHOD
     solution = integrate_forward(system, t, settings.rtol, settings.atol, method, on_progress)
     nu = len(system.free)
@@ -31,6 +33,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
     values.update(rigid_values(system, t, p, pd, pdd, z, zd, zdd, solution.extra))
     values.update(tip_values(view, view.frames, z))
+    volts = system.voltages(t)  # open loop: the commanded voltages, clipped
+    values.update({voltage_name(a.name): volts[:, j] for j, a in enumerate(system.actuators)})
     shapes = shape_values(view, view.frames, z) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "geometric_stiffening": settings.geometric_stiffening,

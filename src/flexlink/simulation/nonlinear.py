@@ -2,23 +2,32 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
-from ..channels.catalogue import joint_name
+from ..channels.catalogue import joint_name, voltage_name
+from ..channels.modal import modal_reading
 from ..channels.nonlinear import sensor_values, shape_values, tip_values
+from ..dynamics.controllers import controller_inputs
 from ..dynamics.nonlinear import NonlinearSystem
-from ..model import Scenario
+from ..errors import SimulationError
+from ..model import PointSensor, Scenario
 from ..solvers import rigid_solution
 from ..solvers.gauss import solve_nonlinear
+from ..solvers.gauss_sampled import SampledLoop, sample_grid
+from .closed_loop import _control_values
 from .common import PathRun, Progress
 
 
 def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = NonlinearSystem(scenario.chain)
+    system = NonlinearSystem(scenario.chain, actuators=scenario.actuators)
     hist = system.joint_history(t)  # fails early if a measured motion does not cover t
-    solution = (solve_nonlinear(system, t, settings.rtol, settings.step, on_progress=on_progress)
+    loop = _sampled_loop(scenario, system, t) if scenario.controllers else None
+    solution = (solve_nonlinear(system, t, settings.rtol, settings.step, on_progress=on_progress,
+                                loop=loop)
                 if system.n else rigid_solution(t, "gauss"))
     torque = system.joint_torques(t, solution.q, solution.q_dot, solution.q_ddot, hist)
     values = sensor_values(system, solution, scenario.sensors, hist)
@@ -26,6 +35,54 @@ def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         values[joint_name(k, "angle")] = hist.angle[:, k]
         values[joint_name(k, "torque")] = torque[:, k]
     values.update(tip_values(system, solution, hist))
+    if loop is None:
+        volts = system.voltages(t)  # open loop: the commanded voltages, clipped
+        values.update({voltage_name(a.name): volts[:, j]
+                       for j, a in enumerate(system.actuators)})
+    else:  # the held voltages, commands and controller states at the outputs
+        held = np.searchsorted(loop.grid, t + 1e-9 * max(1.0, t[-1]), side="right") - 1
+        run = SimpleNamespace(work=loop.work, python_commands=loop.commands)
+        values.update(_control_values(scenario, run, np.clip(held, 0, loop.grid.size - 1),
+                                      loop.python_index))
     shapes = shape_values(system, solution, hist) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes,
-                   metadata={"path": "prescribed", "elastic_coordinates": system.n})
+                   metadata={"path": "prescribed", "elastic_coordinates": system.n,
+                             **({"controllers": len(scenario.controllers)} if loop else {})})
+
+
+def _sampled_loop(scenario: Scenario, system: NonlinearSystem, t: np.ndarray) -> SampledLoop:
+    """The scenario's controllers on their sample grid (solvers/gauss_sampled.py)."""
+    if system.n == 0:
+        raise SimulationError("controllers need an elastic link: every link is rigid")
+    grid = sample_grid(scenario.controllers, float(t[-1]))
+    return SampledLoop(scenario.controllers, scenario.actuators,
+                       sensor_rows(scenario, system.modal, [a.coords for a in system.arcs],
+                                   system.n, "nonlinear"),
+                       grid, system.voltages(grid))
+
+
+def sensor_rows(scenario: Scenario, modal: list, coords: list[slice], n: int,
+                model: str) -> dict[str, np.ndarray]:
+    """Each sensor a controller reads as a row over the elastic coordinates: reading = row · q
+    (piezo patches, slopes and strains are linear in q in every model, channels/modal.py; a
+    deflection only in the first-order model)."""
+    used = {s for c in scenario.controllers for s in controller_inputs(c)}
+    out = {}
+    for sensor in scenario.sensors:
+        if sensor.name not in used:
+            continue
+        k = sensor.link
+        shapes = modal[k].shapes
+        reading = modal_reading(sensor, shapes, np.eye(modal[k].n), scenario.chain)
+        if reading is None:
+            assert isinstance(sensor, PointSensor)
+            if sensor.kind != "deflection" or model == "nonlinear":
+                raise SimulationError(f"sensor {sensor.name!r} ({sensor.kind}) cannot feed a "
+                                      f"controller in the {model.replace('_', '-')} model: its "
+                                      "reading is not linear in the elastic coordinates (use a "
+                                      "piezo, strain or slope sensor)")
+            reading = shapes.evaluate(np.array([sensor.x]), 0)[0]
+        row = np.zeros(n)
+        row[coords[k]] = reading
+        out[sensor.name] = row
+    return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..channels.catalogue import voltage_name
 from ..channels.nonlinear_forward import forward_shapes, forward_values
 from ..dynamics.nonlinear_forward import NonlinearForwardSystem
 from ..model import Scenario
@@ -15,12 +16,14 @@ from .common import PathRun, Progress
 def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                           with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = NonlinearForwardSystem(scenario.chain, scenario.base)
+    system = NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators)
     system.stage_inputs(t)  # fails early if a measured motion or table does not cover t
     solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
                                        on_progress=on_progress)
     y, v, a = system.from_solution(solution)
     values = forward_values(system, t, y, v, a, scenario.sensors)
+    volts = system.loads.voltages(t)  # open loop: the commanded voltages, clipped
+    values.update({voltage_name(a.name): volts[:, j] for j, a in enumerate(system.actuators)})
     shapes = forward_shapes(system, t, y) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "elastic_coordinates": system.n,

@@ -16,11 +16,16 @@ from ..dynamics._nonlinear_numba import residual as _residual
 
 
 @njit(cache=True)
-def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K,  # noqa: ANN
-               nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, predict_first):
+def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K,  # noqa: ANN
+               nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, predict_first,
+               floor=0.0):
     """Advance q, v (steps+1, n) in place from row 0; X (2, n) holds the stage accelerations
     of the step before (extrapolated first if ``predict_first``, else the guess itself).
-    Node inputs are per stage: ang, rate, acc (2·steps, nodes), tip_acc (2·steps, N).
+    Node inputs are per stage: ang, rate, acc (2·steps, nodes), tip_acc (2·steps, N), the
+    applied forces load (2·steps, n).
+    ``floor`` (1/s²): the iteration stops when its remaining error is within tol of the
+    largest stage acceleration or within floor · max|q|, the round-off of the elastic forces (at a static equilibrium under a constant load the accelerations vanish
+    and no relative test can be met).
     Returns (failed step or −1, matrix rebuilds, Newton iterations)."""
     n = q.shape[1]
     steps = q.shape[0] - 1
@@ -42,6 +47,9 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K,  # noq
         previous = np.inf
         fresh = False
         converged = False
+        q_size = 0.0
+        for m in range(n):
+            q_size = max(q_size, abs(q[i, m]))
         for _ in range(max_iterations):
             iterations += 1
             for st in range(2):
@@ -53,20 +61,20 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K,  # noq
                 for st in range(2):
                     k = 2 * i + st
                     R0 = _residual(Q[st], V[st], X[st], ang[k], rate[k], acc[k], tip_acc[k],
-                                   A, At, G, tip_A, tip_At, J, D, K)
+                                   load[k], A, At, G, tip_A, tip_At, J, D, K)
                     for m in range(n):
                         Qp = Q[st].copy()
                         Qp[m] += eps
                         dq = (_residual(Qp, V[st], X[st], ang[k], rate[k], acc[k], tip_acc[k],
-                                        A, At, G, tip_A, tip_At, J, D, K) - R0) / eps
+                                   load[k], A, At, G, tip_A, tip_At, J, D, K) - R0) / eps
                         Vp = V[st].copy()
                         Vp[m] += eps
                         dv = (_residual(Q[st], Vp, X[st], ang[k], rate[k], acc[k], tip_acc[k],
-                                        A, At, G, tip_A, tip_At, J, D, K) - R0) / eps
+                                   load[k], A, At, G, tip_A, tip_At, J, D, K) - R0) / eps
                         Xp = X[st].copy()
                         Xp[m] += 1.0
                         dx = _residual(Q[st], V[st], Xp, ang[k], rate[k], acc[k], tip_acc[k],
-                                       A, At, G, tip_A, tip_At, J, D, K) - R0
+                                   load[k], A, At, G, tip_A, tip_At, J, D, K) - R0
                         for j in range(2):
                             Jm[st * n:(st + 1) * n, j * n + m] = (
                                 h * h * coeffs2[st, j] * dq + h * coeffs[st, j] * dv)
@@ -78,7 +86,8 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K,  # noq
             for st in range(2):
                 k = 2 * i + st
                 R[st * n:(st + 1) * n] = _residual(Q[st], V[st], X[st], ang[k], rate[k], acc[k],
-                                                   tip_acc[k], A, At, G, tip_A, tip_At, J, D, K)
+                                                   tip_acc[k], load[k], A, At, G, tip_A, tip_At,
+                                                   J, D, K)
             dX = np.dot(inverse, R)
             size = 0.0
             largest = 0.0
@@ -90,7 +99,7 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, A, G, tip_A, J, D, K,  # noq
             theta = size / previous
             # (first iteration: no rate yet, the increment itself must be small)
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-            if remaining <= tol * max(largest, 1e-300):
+            if remaining <= tol * max(largest, 1e-300) + floor * q_size:
                 converged = True
                 break
             if size > 0.1 * previous and not fresh:

@@ -18,6 +18,7 @@ interpolant of q, q̇, q̈ at the step ends. docs/nonlinear.md §4.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +35,9 @@ WEIGHTS = np.array([0.5, 0.5])
 WEIGHTS2 = WEIGHTS @ COEFFS  # q₁ = q₀ + h v₀ + h² Σ (bᵀa)_j X_j
 NEWTON_TOL = 1e-9  # relative to the largest stage acceleration
 NEWTON_MAX = 20
+# Newton's absolute floor, relative to ω_max² |q| (the elastic accelerations): round-off of
+# the elastic forces, what a static equilibrium under a constant load converges to.
+ROUND_OFF = 1e-13
 
 
 def integrate_gauss(
@@ -86,15 +90,17 @@ def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.
 
     arrays = [np.ascontiguousarray(a, dtype=float) for a in (
         system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    w2 = system.max_frequency**2
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
         stage = slice(2 * start, 2 * end)
         failed, _, _ = gauss_loop(
             q[start:end + 1], v[start:end + 1], X, h,
             *(np.ascontiguousarray(a[stage]) for a in (
-                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration)),
+                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration,
+                inputs.load)),
             *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX,
-            start > 0)
+            start > 0, ROUND_OFF * w2)
         if failed >= 0:
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
@@ -181,11 +187,11 @@ _HERMITE_D = [_HERMITE, _HERMITE @ _DERIVATIVE, _HERMITE @ _DERIVATIVE @ _DERIVA
 
 def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                     t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """q, q̇, q̈ at times t from values, rates and accelerations at uniform nodes t_nodes: the
-    quintic Hermite interpolant and its first two derivatives (exact at the nodes)."""
-    h = t_nodes[1] - t_nodes[0] if t_nodes.size > 1 else 1.0
+    """q, q̇, q̈ at times t from values, rates and accelerations at nodes t_nodes (uniform or
+    not): the quintic Hermite interpolant and its first two derivatives (exact at the nodes)."""
     i = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, t_nodes.size - 2)
-    s = (t - t_nodes[i]) / h
+    h = (t_nodes[i + 1] - t_nodes[i])[:, None] if t_nodes.size > 1 else np.ones((t.size, 1))
+    s = (t - t_nodes[i]) / h[:, 0]
     terms = np.stack([q[i], h * v[i], h**2 * a[i], q[i + 1], h * v[i + 1], h**2 * a[i + 1]])
     powers = s[:, None] ** np.arange(6)[None, :]  # (m, 6)
     return tuple(np.einsum("mj,jmn->mn", powers @ B.T, terms) / h**d  # type: ignore[return-value]
@@ -195,6 +201,7 @@ def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.nda
 def solve_nonlinear(
     system: NonlinearSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
     on_progress: Callable[[float], None] | None = None, max_halvings: int = 6,
+    loop: Any = None,
 ) -> Solution:
     """q, q̇, q̈ at t_out (from rest at t_out[0] = 0), method "gauss", the step used (s) in
     its stats. q̈ interpolates the equations' accelerations at the step ends (the quintic's
@@ -204,12 +211,18 @@ def solve_nonlinear(
     error estimate of the finer solution, |difference| / 15 (fourth order), is within rtol of
     the peak |q| and of the peak |q̇| over the run (as the Magnus control; q̈, dominated by the
     high modes, converges more slowly: rtol ≤ 1e-4 for accelerometers). A step at which Newton
-    fails is halved too."""
+    fails is halved too. ``loop``: a gauss_sampled.SampledLoop — sampled controllers,
+    integrated per sample interval; the first step is then at most one interval."""
     t_end = float(t_out[-1])
 
     def run(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        t_nodes, q, v = integrate_gauss(system, t_end, h, on_progress)
-        a = system.accelerations(t_nodes, q, v)
+        if loop is None:
+            t_nodes, q, v = integrate_gauss(system, t_end, h, on_progress)
+            a = system.accelerations(t_nodes, q, v)
+        else:  # sampled controllers (gauss_sampled.SampledLoop): the held forces at the ends
+            t_nodes, q, v = loop.integrate(system, h, on_progress)
+            a = system.accelerations(t_nodes, q, v, load=loop.held_voltages(t_nodes)
+                                     @ system.actuator_B.T)
         return hermite_quintic(t_nodes, q, v, a, t_out)
 
     def solution(q: np.ndarray, v: np.ndarray, a: np.ndarray, h: float) -> Solution:
@@ -218,12 +231,16 @@ def solve_nonlinear(
     if step is not None:
         return solution(*run(step), step)
     h = min(0.01, t_end)
+    if loop is not None:  # a step that halves the sample intervals from the first comparison
+        h = min(h, float(np.diff(loop.grid).max()))
     previous = None
     err = np.inf
     for _ in range(max_halvings + 1):
         try:
             q, v, a = run(h)
-        except SimulationError:  # Newton failed at this step size: halve
+        except SimulationError as exc:  # Newton failed at this step size: halve
+            if type(exc).__name__ == "LoopUnstable":
+                raise
             previous = None
             h /= 2
             continue
