@@ -26,10 +26,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # for tests.validation.benchmarks
 
 from flexlink.dynamics.first_order import FirstOrderSystem
+from flexlink.errors import SimulationError
 from flexlink.model import Chain
 from flexlink.motion import Spinup
 from flexlink.simulation import output_times, simulate
-from flexlink.errors import SimulationError
 from flexlink.solvers import GivenMatrices, integrate_magnus
 from tests.validation.benchmarks import KANE_RYAN_BANERJEE_1987 as BEAM
 from tests.validation.benchmarks import WRIGHT_1982 as TABLE

@@ -7,8 +7,15 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["__version__", "simulate", "sweep", "load_scenario", "load_paper_experiment", "Results",
-           "Scenario"]
+__all__ = [
+    "Results",
+    "Scenario",
+    "__version__",
+    "load_paper_experiment",
+    "load_scenario",
+    "simulate",
+    "sweep",
+]
 
 
 def __dir__() -> list[str]:

@@ -23,8 +23,7 @@ from flexlink.scenario import scenario_from_dict
 from flexlink.scenario.fields import ScenarioFile
 from flexlink.simulation import simulate
 
-from .synthetic import (SINGLE_LINK_MAPPING, single_link_measurement, single_link_text,
-                        write_csv)
+from .synthetic import SINGLE_LINK_MAPPING, single_link_measurement, single_link_text, write_csv
 
 EI_TRUE, ZETA_TRUE = 262.0, 0.03  # the scenario says 308.7 N·m² and 0.02
 MAPPING = SINGLE_LINK_MAPPING + """[[measurement.columns]]

@@ -14,8 +14,12 @@ import pytest
 
 from flexlink.cli import main
 
-from ..experiment.synthetic import (SINGLE_LINK_MAPPING, single_link_measurement,
-                                    single_link_text, write_csv)
+from ..experiment.synthetic import (
+    SINGLE_LINK_MAPPING,
+    single_link_measurement,
+    single_link_text,
+    write_csv,
+)
 
 pytestmark = pytest.mark.slow
 

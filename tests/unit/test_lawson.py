@@ -128,7 +128,7 @@ def test_rough_coefficients_are_integrated_by_magnus() -> None:
     Cycloidal(0.0, 1.0, 0.5123, 0.03),  # a whole move inside one output interval
     Sequence((Cycloidal(0.0, 1.0, 0.5, 0.02), Cycloidal(1.0, 0.0, 0.52, 0.02))),  # and back
 ])
-def test_a_move_inside_one_output_interval_is_integrated(motion) -> None:  # noqa: ANN001
+def test_a_move_inside_one_output_interval_is_integrated(motion) -> None:
     # Regressions: the move there and back left equal joint states at both ends and in the
     # middle of its interval, which was taken for rest (the move was skipped: 100% error); and
     # a block of one interval had no error estimate in the first comparison (6e-4 of peak).

@@ -136,7 +136,7 @@ def test_quadrature_override_agrees() -> None:
 def test_tip_loaded_modes_satisfy_dynamic_boundary_conditions(m_t: float, J_t: float) -> None:
     shapes = tip_loaded_modes(L, 8, M_PER_L, EI, m_t, J_t)
     omega2 = shapes.beta**4 * EI / M_PER_L
-    at = lambda x, k: shapes.evaluate(np.array([x]), k)[0]  # noqa: E731
+    at = lambda x, k: shapes.evaluate(np.array([x]), k)[0]
     np.testing.assert_allclose(at(0.0, 0), 0, atol=1e-13)
     np.testing.assert_allclose(at(0.0, 1) / shapes.beta, 0, atol=1e-13)
     # Residuals relative to the terms' natural scales (|φ| ~ 1, |φ'| ~ β, |φ''| ~ β², …):

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from flexlink.channels.nonlinear import sensor_values, tip_values
 from flexlink.dynamics.arc import ArcQuadrature
 from flexlink.dynamics.nonlinear import NonlinearSystem
 from flexlink.model import Link, PiezoSensor, PointSensor
-from flexlink.channels.nonlinear import sensor_values, tip_values
 from flexlink.solvers import Solution
 from flexlink.solvers.gauss import hermite_quintic, integrate_gauss
 from tests.helpers import CubicMotion, chain_of, paper_links

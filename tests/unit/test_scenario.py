@@ -10,7 +10,6 @@ from typing import Any
 
 import pytest
 
-from flexlink.scenario.toml_writer import dump_toml
 from flexlink.model import PiezoSensor, PointSensor
 from flexlink.motion import Cycloidal, Hold, MeasuredMotion, Sequence, Spinup
 from flexlink.scenario import (
@@ -21,6 +20,7 @@ from flexlink.scenario import (
     resolve_scenario_dict,
     scenario_from_dict,
 )
+from flexlink.scenario.toml_writer import dump_toml
 
 
 def minimal() -> dict[str, Any]:

@@ -153,7 +153,7 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
 
     ran: list[str] = []
 
-    def fake(scenario, progress=False, shapes=True):  # noqa: ANN001, ANN202
+    def fake(scenario, progress=False, shapes=True):
         ran.append(flexlink.simulation.model_path(scenario))
         if ran[-1] == "prescribed":
             raise RuntimeError("boom")

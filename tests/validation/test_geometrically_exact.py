@@ -9,14 +9,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from flexlink.errors import SimulationError
 from flexlink.model import Chain, PointSensor, Scenario, SimulationSettings
 from flexlink.motion import Cycloidal
 from flexlink.simulation import simulate
-from flexlink.errors import SimulationError
 from tests.helpers import chain_of, paper_links
 
 pytest.importorskip("exudyn")
-from tests.validation.exudyn_reference import (  # noqa: E402
+from tests.validation.exudyn_reference import (
     krb_link,
     krb_motion,
     simulate_chain_exudyn,

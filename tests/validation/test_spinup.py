@@ -20,9 +20,9 @@ from functools import cache
 import numpy as np
 import pytest
 
+from flexlink.errors import SimulationError
 from flexlink.results import Results
 from flexlink.simulation import simulate
-from flexlink.errors import SimulationError
 from tests.validation.benchmarks import KANE_RYAN_BANERJEE_1987, RotatingBeamFE
 
 BEAM = KANE_RYAN_BANERJEE_1987

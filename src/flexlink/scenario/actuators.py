@@ -10,7 +10,7 @@ from .. import model
 from .drives import build_history, read_history
 from .errors import Problems
 from .schema import ACTUATORS, read_field
-from .sensors import _link_of, _position, _thickness
+from .sensors import host_thickness, link_of, position_on_link
 
 # the patch keys a collocated sensor provides
 _PATCH = ("x_start", "x_end", "width", "E_p", "d31", "thickness")
@@ -40,19 +40,19 @@ def read_actuators(
         elif "link" not in table:
             p.add(f"{path}: missing required key 'link' (the `name` of a link), or give "
                   "collocated_with = \"<piezo sensor name>\"")
-        link = _link_of(table, path, by_name, p) if "link" in table else None
+        link = link_of(table, path, by_name, p) if "link" in table else None
         entry: dict[str, Any] = {"name": name, "kind": "piezo", "link": link and link["name"]}
         for key in ("x_start", "x_end"):
             if key not in table:
                 p.add(f"{path}: missing required key '{key}' (m)")
             else:
-                entry[key] = _position(table, ACTUATORS[key], path, link, p)
+                entry[key] = position_on_link(table, ACTUATORS[key], path, link, p)
         for key in ("width", "E_p", "d31"):
             if key not in table:
                 p.add(f"{path}: missing required key '{key}' ({ACTUATORS[key].unit})")
             else:
                 entry[key] = read_field(table, ACTUATORS[key], path, p)
-        entry["thickness"] = _thickness(table, ACTUATORS["thickness"], path, link, p)
+        entry["thickness"] = host_thickness(table, ACTUATORS["thickness"], path, link, p)
         start, end = entry.get("x_start"), entry.get("x_end")
         if start is not None and end is not None and start >= end:
             p.add(f"{path}: x_start must be < x_end, got x_start = {start!r} m, "

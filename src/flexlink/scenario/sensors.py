@@ -31,7 +31,7 @@ def read_sensors(
             p.add(f"{path}.name {name!r} clashes with an automatic output channel "
                   "(t, time, joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another")
         kind = read_field(table, SENSORS["kind"], path, p)
-        link = _link_of(table, path, by_name, p)
+        link = link_of(table, path, by_name, p)
         entry: dict[str, Any] = {"name": name, "kind": kind, "link": link and link["name"]}
         if kind == "piezo":
             p.unknown_keys(table, SENSORS.keys + PIEZO.keys, path)
@@ -44,7 +44,7 @@ def read_sensors(
     return out
 
 
-def _link_of(table: dict[str, Any], path: str, by_name: dict[str, dict[str, Any]],
+def link_of(table: dict[str, Any], path: str, by_name: dict[str, dict[str, Any]],
              p: Problems) -> dict[str, Any] | None:
     name = read_field(table, SENSORS["link"], path, p)
     if name is None:
@@ -56,7 +56,7 @@ def _link_of(table: dict[str, Any], path: str, by_name: dict[str, dict[str, Any]
     return by_name[name]
 
 
-def _position(table: dict[str, Any], field: Field, path: str, link: dict[str, Any] | None,
+def position_on_link(table: dict[str, Any], field: Field, path: str, link: dict[str, Any] | None,
               p: Problems) -> float | None:
     """A position along the link (m), at most the link's length when that is known."""
     value = read_field(table, field, path, p)
@@ -68,7 +68,7 @@ def _position(table: dict[str, Any], field: Field, path: str, link: dict[str, An
     return value
 
 
-def _thickness(table: dict[str, Any], field: Field, path: str, link: dict[str, Any] | None,
+def host_thickness(table: dict[str, Any], field: Field, path: str, link: dict[str, Any] | None,
                p: Problems) -> float | None:
     """The host beam thickness (m): given here, else the link's ``thickness``."""
     if "thickness" in table:
@@ -83,19 +83,19 @@ def _thickness(table: dict[str, Any], field: Field, path: str, link: dict[str, A
 
 def _point(table: dict[str, Any], path: str, kind: str, link: dict[str, Any] | None,
            p: Problems) -> dict[str, Any]:
-    out = {"x": _position(table, POINT_SENSORS["x"], path, link, p)}
+    out = {"x": position_on_link(table, POINT_SENSORS["x"], path, link, p)}
     if kind == "strain":
-        out["thickness"] = _thickness(table, POINT_SENSORS["thickness"], path, link, p)
+        out["thickness"] = host_thickness(table, POINT_SENSORS["thickness"], path, link, p)
     return out
 
 
 def _piezo(table: dict[str, Any], path: str, link: dict[str, Any] | None,
            p: Problems) -> dict[str, Any]:
     out = {
-        "x_start": _position(table, PIEZO["x_start"], path, link, p),
-        "x_end": _position(table, PIEZO["x_end"], path, link, p),
+        "x_start": position_on_link(table, PIEZO["x_start"], path, link, p),
+        "x_end": position_on_link(table, PIEZO["x_end"], path, link, p),
         **read_fields(table, _PIEZO_MIDDLE, path, p),
-        "thickness": _thickness(table, PIEZO["thickness"], path, link, p),
+        "thickness": host_thickness(table, PIEZO["thickness"], path, link, p),
         "capacitance": read_field(table, PIEZO["capacitance"], path, p),
     }
     start, end = out["x_start"], out["x_end"]

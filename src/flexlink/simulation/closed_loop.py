@@ -75,7 +75,7 @@ def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         values, shapes, validity = prescribed_values(scenario, system, solution, with_shapes)
     except SimulationError as exc:  # the tips ran away: say it is the loop
         raise SimulationError(f"closed loop unstable: {exc}") from None
-    values.update(_control_values(scenario, run, out, python_index))
+    values.update(control_values(scenario, run, out, python_index))
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "closed_loop", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": n, "controllers": len(controllers), **validity})
@@ -119,7 +119,7 @@ def _python_loop(scenario: Scenario, controllers: list, sensor_rows: dict[str, n
     return PythonLoop(controllers, points, rows, noise, outputs)
 
 
-def _control_values(scenario: Scenario, run, out: np.ndarray,
+def control_values(scenario: Scenario, run, out: np.ndarray,
                     python_index: list[int]) -> dict[str, np.ndarray]:
     values = {}
     for j, a in enumerate(scenario.actuators):

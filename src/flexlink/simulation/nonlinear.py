@@ -16,7 +16,7 @@ from ..model import PointSensor, Scenario
 from ..solvers import rigid_solution
 from ..solvers.gauss import solve_nonlinear
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
-from .closed_loop import _control_values
+from .closed_loop import control_values
 from .common import PathRun, Progress
 
 
@@ -42,7 +42,7 @@ def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     else:  # the held voltages, commands and controller states at the outputs
         held = np.searchsorted(loop.grid, t + 1e-9 * max(1.0, t[-1]), side="right") - 1
         run = SimpleNamespace(work=loop.work, python_commands=loop.commands)
-        values.update(_control_values(scenario, run, np.clip(held, 0, loop.grid.size - 1),
+        values.update(control_values(scenario, run, np.clip(held, 0, loop.grid.size - 1),
                                       loop.python_index))
     shapes = shape_values(system, solution, hist) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes,

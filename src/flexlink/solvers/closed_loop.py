@@ -142,7 +142,7 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
         for j, c in enumerate(python.controllers):  # callables sampling at grid point a
             if counts[j] < python.points[j].size and python.points[j][counts[j]] == a:
                 y = readings(c, python.rows[j], u[:n], counts[j], python.noise[j])
-                held[j] = _call(c, functions[j], float(grid[a]), y)
+                held[j] = call_controller(c, functions[j], float(grid[a]), y)
                 counts[j] += 1
         work.py_held[:] = 0.0
         for j in range(len(functions)):
@@ -163,7 +163,7 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
     return ClosedLoopRun(states, acc, work, commands, {})
 
 
-def _call(controller: Controller, function: Callable, t: float, y: np.ndarray) -> np.ndarray:
+def call_controller(controller: Controller, function: Callable, t: float, y: np.ndarray) -> np.ndarray:
     """The callable's output at one sample, checked: one finite number per output."""
     name = controller.name
     try:

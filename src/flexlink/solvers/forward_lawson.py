@@ -18,7 +18,7 @@ import numpy as np
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack
 from ..errors import SimulationError
-from .forward_rk4 import BlowUp, _agree, _solution
+from .forward_rk4 import BlowUp, forward_solution, runs_agree
 from .solution import Progress, Solution
 
 _MAX_LEVEL = 8
@@ -58,8 +58,8 @@ def integrate_forward_lawson(system: ForwardSystem, t_out: np.ndarray, rtol: flo
             raise fine  # the same time at two step sizes: the model, not the steps
         if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp):
             both = np.isfinite(coarse[:, 0])
-            if _agree(system, fine[both], coarse[both], rtol, atol):
-                solution = _solution(data, work, system, t_out, fine, 2 ** level)
+            if runs_agree(system, fine[both], coarse[both], rtol, atol):
+                solution = forward_solution(data, work, system, t_out, fine, 2 ** level)
                 solution.stats.update(method_detail="lawson", jacobian_refreshes=refreshes)
                 return solution
         coarse = fine

@@ -61,8 +61,8 @@ def integrate_forward_rk4(system: ForwardSystem, t_out: np.ndarray, rtol: float,
                 and abs(fine.t - coarse.t) <= 0.05 * fine.t:
             raise fine  # the same time at two step sizes: the model, not the steps
         if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp) \
-                and _agree(system, fine, coarse, rtol, atol):
-            return _solution(data, work, system, t_out, fine, substeps)
+                and runs_agree(system, fine, coarse, rtol, atol):
+            return forward_solution(data, work, system, t_out, fine, substeps)
         coarse = fine
         substeps *= 2
     if isinstance(coarse, BlowUp):
@@ -126,7 +126,7 @@ def _run(data: ForwardData, work: tuple, system: ForwardSystem, y0: np.ndarray,
     return states
 
 
-def _agree(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray, rtol: float,
+def runs_agree(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray, rtol: float,
            atol: float) -> bool:
     """Whether the fine run's estimated error is within atol + rtol · peak of each group."""
     nu, n = len(system.free), system.n
@@ -141,7 +141,7 @@ def _agree(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray, rtol: fl
     return True
 
 
-def _solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
+def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
               states: np.ndarray, substeps: int) -> Solution:
     from ._forward_rk4_numba import rates_at
 

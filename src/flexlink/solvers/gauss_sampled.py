@@ -18,7 +18,7 @@ from ..dynamics.controllers import control_work, pack_controllers, readings, sam
 from ..dynamics.nonlinear import NonlinearSystem
 from ..errors import SimulationError
 from ..model import Controller, FunctionController, PiezoActuator
-from .closed_loop import _call
+from .closed_loop import call_controller
 from .gauss import COEFFS, COEFFS2, NEWTON_MAX, NEWTON_TOL, NODES, ROUND_OFF, WEIGHTS, WEIGHTS2
 
 
@@ -99,7 +99,7 @@ class SampledLoop:
         for j, c in enumerate(self.python):
             if self.counts[j] < self.points[j].size and self.points[j][self.counts[j]] == i:
                 y = readings(c, self.rows[j], z, self.counts[j], self.noise[j])
-                self.held[j] = _call(c, self.functions[j], t, y)
+                self.held[j] = call_controller(c, self.functions[j], t, y)
                 self.counts[j] += 1
         self.work.py_held[:] = 0.0
         for j in range(len(self.python)):
