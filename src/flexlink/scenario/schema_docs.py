@@ -37,7 +37,8 @@ BLOCK = re.compile(r"(<!-- generated: (?P<name>[\w.]+) -->\n)(?P<body>.*?)"
                    r"(<!-- end generated -->)", re.DOTALL)
 _KIND_TEXT = {"boolean": "`true` or `false`", "pair": "`[x, y]`",
               "numbers": "array of ≥ 2 numbers", "profiles": "array of profiles",
-              "history": "array of segments", "tables": "array of tables"}
+              "history": "array of segments", "tables": "array of tables",
+              "array": "array of numbers"}
 
 
 def markdown_table(name: str) -> str:
@@ -118,8 +119,8 @@ def _bounds(f: Field) -> str:
 def _brief(f: Field) -> str:
     """``key (unit, bounds, default)`` for a segment table."""
     parts = [f.unit, _bounds(f) if f.kind == "number" else "", f.rule]
-    if f.kind == "numbers":
-        parts.append(_KIND_TEXT["numbers"])
+    if f.kind in ("numbers", "array"):
+        parts.append(_KIND_TEXT[f.kind])
     if f.default is not REQUIRED:
         parts.append(f"default {f.default_doc or f'`{toml_text(f.default)}`'}")
     text = ", ".join(p for p in parts if p)
