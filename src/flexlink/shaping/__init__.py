@@ -13,9 +13,20 @@ The shapers themselves are `flexlink.motion.shapers` (pure functions of frequenc
 and kind). Docs: docs/shaping.md.
 """
 
-from .optimize import Limits, OptimizedMove, optimize_move
-from .plants import arm_modes, scale_frequencies
-from .residual import residual_peak
+from typing import Any
 
-__all__ = ["Limits", "OptimizedMove", "arm_modes", "optimize_move", "residual_peak",
-           "scale_frequencies"]
+# lazy: the command line imports flexlink.shaping.command at start-up, not the optimiser
+_EXPORTS = {"Limits": "optimize", "OptimizedMove": "optimize", "optimize_move": "optimize",
+            "InfeasibleMove": "optimize", "arm_modes": "plants",
+            "scale_frequencies": "plants", "residual_peak": "residual"}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'flexlink.shaping' has no attribute {name!r}")
+    from importlib import import_module
+
+    return getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
+
+
+__all__ = sorted(_EXPORTS)
