@@ -20,11 +20,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-import flexlink  # noqa: E402
-from flexlink.scenario import load_scenario, paper_experiment_path  # noqa: E402
-from flexlink.shaping import optimize_move  # noqa: E402
-from flexlink.shaping.compare import cycloidal_version, run_residual, shaped_version  # noqa: E402
-from flexlink.shaping.paper import DURATION_S, LIMITS, SEED  # noqa: E402
+import flexlink
+from flexlink.scenario import load_scenario, paper_experiment_path
+from flexlink.shaping import optimize_move
+from flexlink.shaping.compare import cycloidal_version, run_residual, shaped_version
+from flexlink.shaping.paper import DURATION_S, LIMITS, SEED
 
 
 def main() -> None:

@@ -20,16 +20,16 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from flexlink.motion.shapers import design, residual_vibration  # noqa: E402
-from flexlink.scenario import load_scenario, paper_experiment_path  # noqa: E402
-from flexlink.shaping import figures, optimize_move  # noqa: E402
-from flexlink.shaping.compare import (  # noqa: E402
+from flexlink.motion.shapers import design, residual_vibration
+from flexlink.scenario import load_scenario, paper_experiment_path
+from flexlink.shaping import figures, optimize_move
+from flexlink.shaping.compare import (
     cycloidal_version,
     residuals,
     run_residual,
     shaped_version,
 )
-from flexlink.shaping.paper import DURATION_S, LIMITS, SEED  # noqa: E402
+from flexlink.shaping.paper import DURATION_S, LIMITS, SEED
 
 OUT = ROOT / "docs" / "figures"
 

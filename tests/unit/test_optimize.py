@@ -17,7 +17,7 @@ from flexlink.shaping.optimize import InfeasibleMove, Problem, fd_gradient, join
 
 
 def _arm(duration: float = 0.6) -> Scenario:
-    """One flexible link (two modes, ≈ 2 Hz and 13 Hz) slewed 30°, plus a held rigid link."""
+    """One flexible link (two assumed modes) slewed 30°, plus a held rigid link."""
     links = (Link("beam", 1.0, 0.5, 40.0, damping_ratio=0.01, modes=2),
              Link("stub", 0.2, 0.3, 1.0, modes=0))
     joints = (Cycloidal(0.0, 30.0, 0.1, duration), Hold(0.0))
@@ -34,11 +34,11 @@ def test_gradient_matches_central_differences() -> None:
 
     r0, plus, _ = fd_gradient(many, x, 1e-5)
     forward = np.stack([(p - r0).ravel() / 1e-5 for p in plus], axis=1)
-    c0, plus, minus = fd_gradient(many, x, 1e-3, central=True)
+    _, plus, minus = fd_gradient(many, x, 1e-3, central=True)
     central = np.stack([(p - m).ravel() / 2e-3 for p, m in zip(plus, minus, strict=True)], axis=1)
     np.testing.assert_allclose(forward, central, rtol=0, atol=1e-3 * np.abs(central).max())
     # and the energy gradient 2 Jᵀ r against central differences of the energy itself
-    energy = lambda y: float(np.sum(problem.evaluate(y)[0] ** 2))  # noqa: E731
+    energy = lambda y: float(np.sum(problem.evaluate(y)[0] ** 2))
     grad = 2.0 * forward.T @ r0.ravel()
     h = 1e-4
     fd = [(energy(x + h * e) - energy(x - h * e)) / (2 * h) for e in np.eye(x.size)]
@@ -67,8 +67,8 @@ def test_optimised_move_is_reproducible_within_limits_and_cancels_vibration() ->
 
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"duration": 0.2, "limits": Limits(rate_deg_s=100.0)},
-     r"joint 1: duration 0.2 s is shorter than its rate limit allows: 30° at ≤ 100°/s takes "
-     r"at least 0.3 s"),
+     (r"joint 1: duration 0.2 s is shorter than its rate limit allows: 30° at ≤ 100°/s "
+      r"takes at least 0.3 s")),
     ({"duration": 0.2, "limits": Limits(acceleration_deg_s2=1000.0)},
      "shorter than its acceleration limit allows"),
     ({"limits": Limits(torque_Nm=0.0)}, "torque_Nm of joint 1 must be > 0"),

@@ -117,7 +117,7 @@ def test_rate_and_acceleration_match_finite_differences(motion: JointMotion) -> 
     for e in _kinks(motion):
         t = t[np.abs(t - e) > 1e-4]
     h = 1e-5
-    angle, rate, acc = motion.evaluate(t)
+    _, rate, acc = motion.evaluate(t)
     ap, rp, _ = motion.evaluate(t + h)
     am, rm, _ = motion.evaluate(t - h)
     np.testing.assert_allclose(rate, (ap - am) / (2 * h), atol=1e-7 * np.abs(rate).max())

@@ -29,7 +29,8 @@ class Shaped:
                                  f"quintic, harmonic or spinup), got "
                                  f"{type(self.profile).__name__}")
         if not isinstance(self.shaper, ImpulseSequence):
-            raise ValueError("Shaped: shaper must be an ImpulseSequence (motion.shapers.design)")
+            raise ValueError(  # noqa: TRY004 — the scenario reader reports ValueErrors
+                "Shaped: shaper must be an ImpulseSequence (motion.shapers.design)")
 
     @property
     def start(self) -> float:

@@ -29,4 +29,5 @@ def __getattr__(name: str) -> Any:
     return getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
 
 
-__all__ = sorted(_EXPORTS)
+__all__ = ["InfeasibleMove", "Limits", "OptimizedMove", "arm_modes", "optimize_move",
+           "residual_peak", "scale_frequencies"]

@@ -216,10 +216,10 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
 
 
 def summary_text(summary: dict[str, Any], out_dir: Path) -> str:
-    lines = [f"flexlink optimize: {summary['scenario']}, "
-             f"{summary['optimiser']['iterations']} iterations, "
-             f"{summary['optimiser']['evaluations']} runs on {summary['optimiser']['workers']} "
-             f"processes, {summary['optimiser']['wall_time_s']:.1f} s"]
+    opt = summary["optimiser"]
+    lines = [(f"flexlink optimize: {summary['scenario']}, {opt['iterations']} iterations, "
+              f"{opt['evaluations']} runs on {opt['workers']} processes, "
+              f"{opt['wall_time_s']:.1f} s")]
     for model, values in summary["residual_tip_deflection_m"].items():
         base = values["cycloidal"]
         lines.append(f"residual tip deflection after the move ({model.replace('_', ' ')}):")
