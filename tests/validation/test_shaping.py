@@ -40,7 +40,7 @@ def _envelope(scenario: Scenario, t_end: float) -> float:
     w = 2 * math.pi * freq[0]
     wd = w * math.sqrt(1 - zeta[0] ** 2)
     t = output_times(t_end, 0.01)
-    settings = dataclasses.replace(scenario.settings, t_end=t_end, rtol=1e-9)
+    settings = dataclasses.replace(scenario.settings, t_end=t_end, rtol=1e-8)
     sol = run_prescribed(dataclasses.replace(scenario, settings=settings), t,
                          lambda _t: None, False).solution
     q, qd = sol.q[-1, 0], sol.q_dot[-1, 0]

@@ -199,7 +199,7 @@ class Problem:
         settings = dataclasses.replace(scenario.settings, t_end=self.t_end,
                                        geometric_stiffening=stiffening,
                                        dt_out=float(self.t[1] - self.t[0]), model="first_order",
-                                       method="lawson", rtol=RUN_RTOL)
+                                       rtol=RUN_RTOL)
         return dataclasses.replace(scenario, settings=settings, sensors=())
 
     def profiles(self, x: np.ndarray) -> dict[int, Harmonic]:
