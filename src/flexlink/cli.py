@@ -85,6 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     from .results.command import add_commands as add_results_commands  # animate, report
 
     add_results_commands(commands)
+
+    from .shaping.command import add_commands as add_shaping_commands  # optimize
+
+    add_shaping_commands(commands)
     return parser
 
 

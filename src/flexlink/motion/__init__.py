@@ -4,7 +4,11 @@ Every class implements ``flexlink.model.JointMotion``: ``evaluate(t)`` → angle
 rate (rad/s), acceleration (rad/s²). Constructors take degrees. See docs/motion.md.
 """
 
+from .harmonic import Harmonic
 from .measured import MeasuredMotion
 from .profiles import Cycloidal, Hold, Quintic, Sequence, Spinup
+from .shaped import Shaped
+from .shapers import ImpulseSequence
 
-__all__ = ["Cycloidal", "Hold", "MeasuredMotion", "Quintic", "Sequence", "Spinup"]
+__all__ = ["Cycloidal", "Harmonic", "Hold", "ImpulseSequence", "MeasuredMotion", "Quintic",
+           "Sequence", "Shaped", "Spinup"]

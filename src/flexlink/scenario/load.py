@@ -322,18 +322,61 @@ def _segment(segment: Any, path: str, motion_module: Any,
     before = len(p.messages)
     section = schema.PROFILES[profile]
     p.unknown_keys(segment, ("profile", *section.keys), path)
-    values = read_fields(segment, section.fields, path, p)
+    values = read_fields(segment, [f for f in section.fields if f.kind != "vector"], path, p)
+    values.update(_number_arrays(segment, section, path, p))
     entry = {"profile": profile, **values}
     if len(p.messages) > before:  # unknown or missing keys, or wrong types
         return entry, None
-    cls = getattr(motion_module, profile.capitalize())
+    cls = (motion_module.shaped.shaped_move if profile == "shaped"
+           else getattr(motion_module, profile.capitalize()))
     try:
         return entry, cls(**values)
     except ValueError as exc:
-        message, label = str(exc), f"{cls.__name__}: "  # "Cycloidal: duration must be …"
+        label = "Shaped: " if profile == "shaped" else f"{cls.__name__}: "
+        message = str(exc)  # "Cycloidal: duration must be …"
         p.add(f"{path}.{message.removeprefix(label)}" if message.startswith(label)
               else f"{path}: {message}")
         return entry, None
+
+
+def _number_arrays(segment: Mapping[str, Any], section: schema.Section, path: str,
+                   p: Problems) -> dict[str, list[float]]:
+    """The array keys of a profile (shaper modes, harmonic coefficients), checked element by
+    element: {key: list of floats}; a default fills a missing key (damping: 0 per mode)."""
+    out: dict[str, list[float]] = {}
+    for f in section.fields:
+        if f.kind != "vector":
+            continue
+        value = segment.get(f.key)
+        if value is None:
+            if f.default is schema.REQUIRED:
+                p.add(f"{path}: missing required key '{f.key}' (an array of numbers, {f.unit})")
+            elif f.default is not None:
+                out[f.key] = [float(x) for x in f.default]
+            continue
+        if not isinstance(value, list) or not all(
+                isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+                for x in value):
+            p.add(f"{path}.{f.key}: expected an array of finite numbers, got {describe(value)}")
+            continue
+        out[f.key] = [float(x) for x in value]
+    freqs, damping = out.get("frequencies_hz"), out.get("damping")
+    if freqs is not None:
+        if not freqs:
+            p.add(f"{path}.frequencies_hz: give at least one target frequency (Hz)")
+        for i, x in enumerate(freqs):
+            if x <= 0.0:
+                p.add(f"{path}.frequencies_hz[{i}] must be > 0 Hz, got {x!r}")
+    if damping is not None:
+        for i, x in enumerate(damping):
+            if not 0.0 <= x < 1.0:
+                p.add(f"{path}.damping[{i}] must be in [0, 1) (a damping ratio), got {x!r}")
+        if freqs and len(damping) not in (1, len(freqs)):
+            p.add(f"{path}.damping: give one damping ratio per frequency ({len(freqs)}) or "
+                  f"one for all, got {len(damping)}")
+    elif freqs and "damping" in section.keys:
+        out["damping"] = [0.0] * len(freqs)
+    return out
 
 
 def _csv_joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,

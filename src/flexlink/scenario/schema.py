@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from ..model import BASE_KINDS, LOAD_FRAMES, METHODS, MODE_SHAPES, MODELS, POINT_SENSOR_KINDS
+from ..motion.shapers import DEFAULT_TOLERABLE_VIBRATION, SHAPERS
 from .errors import REQUIRED, Problems
 
 # scalar kinds are read by `read_fields`; the others (arrays of tables, segments) by code
@@ -254,6 +255,36 @@ PROFILES: dict[str, Section] = {
                                               "Banerjee 1987), then constant rate"),
     "hold": Section("hold", [_profile_key("angle_deg", "deg")], label='`"hold"`',
                     doc="constant angle"),
+    # input shaping and optimised moves (docs/shaping.md)
+    "shaped": Section("shaped", [
+        Field("shaped", "string", choices=("cycloidal", "quintic"),
+              doc="the profile that is shaped, with the move keys below"),
+        *_MOVE,
+        Field("shaper", "string", choices=SHAPERS, notes={
+            "zv": "zero vibration at each target mode (2 impulses per mode, +½ period)",
+            "zvd": "zero vibration and zero slope (3 impulses per mode, +1 period)",
+            "ei": "extra-insensitive: `tolerable_vibration` at the target, zero on either "
+                  "side (3 impulses per mode, ≈ +1 period)"},
+            doc="the input shaper"),
+        Field("frequencies_hz", "vector", unit="Hz", rule="each > 0",
+              doc="natural frequencies of the target modes (one shaper per mode, "
+                  "convolved)"),
+        Field("damping", "vector", default=None, default_doc="0 for every mode",
+              rule="each in [0, 1); one per frequency, or one for all",
+              doc="damping ratios of the target modes"),
+        Field("tolerable_vibration", default=DEFAULT_TOLERABLE_VIBRATION, gt=0, lt=1,
+              doc="EI only: residual vibration allowed at the target frequency (fraction)"),
+    ], label='`"shaped"`', doc="a cycloidal or quintic move convolved with an input shaper; "
+                               "ends the shaper's length after `start + duration`"),
+    "harmonic": Section("harmonic", [
+        *_MOVE,
+        Field("cosine", "vector", default=(), rule="a_2, a_3, …",
+              doc="coefficients of cos 2πτ − cos 2πkτ in the normalised rate"),
+        Field("sine", "vector", default=(), rule="b_2, b_3, …",
+              doc="coefficients of sin 2πkτ − k sin 2πτ in the normalised rate"),
+    ], label='`"harmonic"`', doc="the cycloid plus harmonics that keep zero rate and "
+                                 "acceleration at both ends (what `flexlink optimize` "
+                                 "writes, docs/shaping.md)"),
 }
 PROFILE = Field("profile", "string", choices=tuple(PROFILES))
 

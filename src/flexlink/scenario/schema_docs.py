@@ -125,8 +125,8 @@ def _bounds(f: Field) -> str:
 def _brief(f: Field) -> str:
     """``key (unit, bounds, default)`` for a segment table."""
     parts = [f.unit, _bounds(f) if f.kind == "number" else "", f.rule]
-    if f.kind == "numbers":
-        parts.append(_KIND_TEXT["numbers"])
+    if f.kind in ("numbers", "vector"):
+        parts.append(_KIND_TEXT[f.kind])
     if f.default is not REQUIRED:
         parts.append(f"default {f.default_doc or f'`{toml_text(f.default)}`'}")
     text = ", ".join(p for p in parts if p)

@@ -1,0 +1,234 @@
+"""``flexlink optimize SCENARIO -o DIR``: a manoeuvre without residual vibration.
+
+Writes to DIR: ``optimized.toml`` (the scenario with the optimised joints as
+``profile = "harmonic"``: ``flexlink run DIR/optimized.toml`` reproduces the move),
+``trajectory.csv`` (t in s; angle, rate, acceleration of every joint in deg, deg/s, deg/s²),
+``summary.json`` (limits, peaks, residual energies, residual tip deflection of the
+cycloidal, shaped and optimised moves, run time, gradient method) and the figures
+``residual.png`` and ``robustness.png``. Exit status as `flexlink run`: 2 for bad input or
+an infeasible request (the message names the limit), 1 if a simulation fails.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+from pathlib import Path
+from typing import Any
+
+ERRORS_PCT = tuple(2.5 * i for i in range(-8, 9))  # %, the robustness curve's plants
+
+
+def add_commands(commands: Any) -> None:
+    """Register ``optimize`` on the subparsers ``commands``."""
+    p = commands.add_parser(
+        "optimize", help="joint trajectories without residual vibration",
+        description="Choose the joint trajectories of a scenario's rest-to-rest moves (the "
+                    "cycloid plus harmonics, end angles and duration fixed) that minimise the "
+                    "residual vibration energy after the move, within joint rate, "
+                    "acceleration and torque limits; compare them with the cycloidal and the "
+                    "input-shaped moves. docs/shaping.md.")
+    p.add_argument("scenario", nargs="?", type=Path, metavar="SCENARIO.toml",
+                   help="scenario file (default: the built-in paper experiment with --paper)")
+    p.add_argument("--paper", action="store_true", help="optimise the built-in paper scenario")
+    p.add_argument("-o", "--output", type=Path, metavar="DIR", required=True,
+                   help="folder to create (must not exist or be empty)")
+    p.add_argument("--duration", type=float, metavar="S",
+                   help="duration of every move, s (default: each move's own)")
+    p.add_argument("--rate-limit", metavar="DEG_S[,…]",
+                   help="joint rate limit, deg/s: one value, or one per joint")
+    p.add_argument("--acceleration-limit", metavar="DEG_S2[,…]",
+                   help="joint acceleration limit, deg/s²")
+    p.add_argument("--torque-limit", metavar="NM[,…]", help="joint torque limit, N·m")
+    p.add_argument("--harmonics", type=int, default=4,
+                   help="cosine and sine terms per joint (default 4)")
+    p.add_argument("--robust", type=float, default=0.0, metavar="PCT",
+                   help="also cancel the vibration of plants with every frequency ±PCT %% off")
+    p.add_argument("--stiffening", choices=("both", "scenario"), default="both",
+                   help="plants with and without geometric stiffening (default), or only the "
+                        "scenario's setting")
+    p.add_argument("--seed", type=int, default=0, help="seed of the starting point (0)")
+    p.add_argument("--workers", type=int, help="processes for the gradient (all cores)")
+    p.add_argument("--shaper", choices=("zv", "zvd", "ei"), default="zvd",
+                   help="the input shaper of the comparison (default zvd, lowest 2 modes)")
+    p.add_argument("--model", choices=("first_order", "nonlinear"), action="append",
+                   help="model(s) the comparison runs in (default first_order; repeat for "
+                        "both)")
+    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.set_defaults(handler=run_optimize)
+
+
+def _limits(text: str | None, name: str) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ValueError(f"--{name}: expected numbers separated by commas, got {text!r}") from None
+
+
+def run_optimize(args: argparse.Namespace) -> int:
+    from ..results.writers import OutputFolderError, check_output_dir
+    from ..scenario import (
+        ScenarioError,
+        paper_experiment_path,
+        resolve_scenario_dict,
+        scenario_from_dict,
+    )
+    from .optimize import InfeasibleMove, Limits, optimize_move
+
+    if args.paper == (args.scenario is not None):
+        print("flexlink optimize: give a scenario file or --paper (exactly one)", file=sys.stderr)
+        return 2
+    source = paper_experiment_path() if args.paper else args.scenario
+    try:
+        resolved = resolve_scenario_dict(source)
+        scenario = scenario_from_dict(resolved, source=str(source))
+        check_output_dir(args.output)
+        limits = Limits(_limits(args.rate_limit, "rate-limit"),
+                        _limits(args.acceleration_limit, "acceleration-limit"),
+                        _limits(args.torque_limit, "torque-limit"))
+        result = optimize_move(scenario, args.duration, limits, args.harmonics,
+                               args.robust / 100.0, args.seed, args.workers,
+                               stiffening=args.stiffening)
+    except ScenarioError as exc:
+        print(str(exc), file=sys.stderr)
+        return 2
+    except (InfeasibleMove, OutputFolderError, ValueError, OSError) as exc:
+        print(f"flexlink optimize: {exc}", file=sys.stderr)
+        return 2
+    from ..errors import SimulationError
+
+    try:
+        summary = write_outputs(result, resolved, Path(args.output), limits, args.shaper,
+                                args.model or ["first_order"], not args.no_figures)
+    except SimulationError as exc:
+        print(f"flexlink optimize: a simulation failed: {exc}", file=sys.stderr)
+        return 1
+    print(summary_text(summary, Path(args.output)))
+    return 0
+
+
+def optimized_scenario_dict(result: Any, resolved: dict[str, Any]) -> dict[str, Any]:
+    """The resolved scenario with every optimised joint as a ``harmonic`` profile."""
+    import copy
+
+    out = copy.deepcopy(resolved)
+    out.pop("flexlink_version", None)
+    for m in result.moves:
+        cosine, sine = result.coefficients[m.joint]
+        out["joints"][m.joint] = {"motion": [{
+            "profile": "harmonic", "from_deg": m.from_deg, "to_deg": m.to_deg,
+            "start": m.start, "duration": m.duration, "cosine": list(cosine),
+            "sine": list(sine)}]}
+    out["simulation"]["name"] = f"{out['simulation'].get('name') or 'scenario'}-optimized"
+    end = result.move_end
+    out["simulation"]["t_end"] = max(out["simulation"]["t_end"], end)
+    return out
+
+
+def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: Any,
+                  shaper: str, models: list[str], figures: bool) -> dict[str, Any]:
+    """Write DIR (module docstring); return the summary."""
+    import numpy as np
+
+    from ..scenario import scenario_from_dict
+    from ..scenario.toml_writer import dump_toml
+    from . import compare
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = optimized_scenario_dict(result, resolved)
+    (out_dir / "optimized.toml").write_text(
+        "# written by flexlink optimize: run it with flexlink run optimized.toml\n"
+        + dump_toml(data), encoding="utf-8")
+    optimised = scenario_from_dict(data)  # what the file reproduces
+    t = np.arange(0.0, result.move_end + 0.5 + 1e-9, 1e-3)
+    columns = {"t": t}
+    for k, joint in enumerate(optimised.chain.joints):
+        angle, rate, acc = joint.evaluate(t)
+        columns[f"joint{k + 1}_angle_deg"] = np.degrees(angle)
+        columns[f"joint{k + 1}_rate_deg_s"] = np.degrees(rate)
+        columns[f"joint{k + 1}_acceleration_deg_s2"] = np.degrees(acc)
+    header = ",".join(columns)
+    np.savetxt(out_dir / "trajectory.csv", np.column_stack(list(columns.values())),
+               delimiter=",", header=header, comments="", fmt="%.10g")
+
+    start = min(m.start for m in result.moves)
+    versions = {"cycloidal": compare.cycloidal_version(result.scenario, result.moves)}
+    try:
+        versions[f"shaped ({shaper.upper()})"], sequence = compare.shaped_version(
+            result.scenario, result.moves, shaper)
+    except ValueError as exc:
+        sequence, shaped_note = None, str(exc)
+    else:
+        shaped_note = ""
+    versions["optimised"] = optimised
+    residual: dict[str, dict[str, float]] = {}
+    runs: dict[str, dict[str, Any]] = {}
+    for model in models:
+        runs[model] = {label: compare.run_residual(sc, result.move_end, model)
+                       for label, sc in versions.items()}
+        residual[model] = {label: peak for label, (_, peak) in runs[model].items()}
+    errors = [e / 100.0 for e in ERRORS_PCT]
+    curves = compare.residuals(versions, result.move_end, errors) if figures else {}
+    summary = {
+        "scenario": resolved["simulation"].get("name"),
+        "moves": [vars(m) for m in result.moves],
+        "limits": {"rate_deg_s": limits.rate_deg_s, "acceleration_deg_s2":
+                   limits.acceleration_deg_s2, "torque_Nm": limits.torque_Nm},
+        "peaks": result.peaks,
+        "plants": [{"frequency_factor": f, "geometric_stiffening": s} for f, s in result.plants],
+        "residual_energy_J": {"cycloidal": result.energy_cycloidal.tolist(),
+                              "optimised": result.energy.tolist()},
+        "residual_tip_deflection_m": residual,
+        "residual_window_s": [result.move_end, result.move_end + compare.DEFAULT_WINDOW_S],
+        "shaper": None if sequence is None else {
+            "kind": shaper, "amplitudes": list(sequence.amplitudes),
+            "times_s": list(sequence.times)},
+        "shaper_note": shaped_note,
+        "optimiser": {"method": "SLSQP", "gradient": "forward differences of the energy "
+                      "residual vector, step fd_step, runs in parallel processes",
+                      "iterations": result.iterations, "evaluations": result.evaluations,
+                      "workers": result.workers, "wall_time_s": result.wall_time_s,
+                      "success": result.success, "message": result.message, **result.info,
+                      "coefficients": [list(result.coefficients[m.joint][0])
+                                       + list(result.coefficients[m.joint][1])
+                                       for m in result.moves]},
+        "machine": {"python": platform.python_version(), "processor": platform.processor()
+                    or platform.machine(), "system": platform.platform()},
+    }
+    if figures:
+        from . import figures as fig
+
+        model = models[0]
+        fig.save(fig.residual_figure(runs[model], start, result.move_end,
+                                     f"{summary['scenario']}: residual vibration "
+                                     f"({model.replace('_', ' ')} model)"),
+                 out_dir / "residual.png")
+        summary["robustness"] = {"errors_pct": list(ERRORS_PCT),
+                                 **{k: v.tolist() for k, v in curves.items()}}
+        fig.save(fig.robustness_figure(errors, curves, "cycloidal"), out_dir / "robustness.png")
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float),
+                                          encoding="utf-8")
+    return summary
+
+
+def summary_text(summary: dict[str, Any], out_dir: Path) -> str:
+    opt = summary["optimiser"]
+    lines = [(f"flexlink optimize: {summary['scenario']}, {opt['iterations']} iterations, "
+              f"{opt['evaluations']} runs on {opt['workers']} processes, "
+              f"{opt['wall_time_s']:.1f} s")]
+    for model, values in summary["residual_tip_deflection_m"].items():
+        base = values["cycloidal"]
+        lines.append(f"residual tip deflection after the move ({model.replace('_', ' ')}):")
+        for label, value in values.items():
+            ratio = f"  ({base / value:.3g}× smaller)" if label != "cycloidal" and value else ""
+            lines.append(f"  {label:<16} {1e3 * value:.4g} mm{ratio}")
+    lines.append(f"files in {out_dir}: optimized.toml, trajectory.csv, summary.json"
+                 + (", residual.png, robustness.png" if "robustness" in summary else ""))
+    return "\n".join(lines)
+
+
+__all__ = ["add_commands", "optimized_scenario_dict", "run_optimize", "write_outputs"]
