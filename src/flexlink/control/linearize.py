@@ -112,7 +112,7 @@ def _prescribed_plant(scenario: Scenario, t0: float, point: float | Configuratio
         return {**sensor_values(system, fr, sol, scenario.sensors),
                 **tip_values(system, fr, rows.z)}
 
-    Cm, D, out_names = _outputs(readings, 0, n, A, B, np.zeros(0), 0)
+    Cm, D, out_names = _outputs(readings, 0, n, A, B, 0)
     at_rest = bool(np.all(hist.rate == 0) and np.all(hist.acceleration == 0))
     equilibrium = at_rest and bool(np.abs(f).max(initial=0.0) == 0.0)
     op = _describe(scenario, point, equilibrium)
@@ -166,7 +166,12 @@ def _forward_plant(scenario: Scenario, t0: float, point: float | Configuration) 
                 out[name.replace("_angle", "_rate")] = PD[:, system.free[i]]
         return {**out, **tip_values(view, view.frames, z)}
 
-    Cm, D, out_names = _outputs(readings, nf, n, A, B, np.zeros(0), ns)
+    Cm, D, out_names = _outputs(readings, nf, n, A, B, ns)
+    # Servos without an integrator (position servos, I = 0) carry a constant integral state:
+    # decoupled (zero rows and columns), so it is left out of the plant.
+    kept = [i for i in range(A.shape[0]) if i < 2 * (nf + n)
+            or scenario.chain.joints[system.servos[i - 2 * (nf + n)]].integrator]
+    A, B, Cm = A[np.ix_(kept, kept)], B[kept], Cm[:, kept]
     scale = max(np.abs(M).max(), 1.0)
     still = np.abs(np.concatenate([pdd_free[0], zdd0[0]])).max(initial=0.0) <= 1e-9 * scale
     rates = np.concatenate([pd_free, zd0])
@@ -175,7 +180,8 @@ def _forward_plant(scenario: Scenario, t0: float, point: float | Configuration) 
     op.update({f"{name}": float(v) for name, v in zip(rigid, p_free)})
     return _plant(scenario, A, B, Cm, D, _elastic_names(scenario), rigid, in_names, out_names,
                   op, equilibrium, ns_names=[joint_name(k, "error_integral")
-                                             for k in system.servos])
+                                             for k in system.servos
+                                             if scenario.chain.joints[k].integrator])
 
 
 def _run_state(scenario: Scenario, system: ForwardSystem, t0: float) -> tuple[np.ndarray, ...]:
@@ -213,7 +219,7 @@ def _check_servos(scenario: Scenario, system: ForwardSystem, t0: float, p: np.nd
                              "time or a rest configuration")
 
 
-def _central(fun: Any, base_rows: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+def _central(fun: Any, width: int) -> tuple[np.ndarray, np.ndarray]:
     """Central differences of fun(deltas) (deltas (m, width) → values (m, k)) with respect to
     each of ``width`` variables, and whether the one-sided slopes agree (no kink)."""
     d = np.zeros((1 + 2 * width, width))
@@ -248,7 +254,7 @@ def _load_derivatives(system: ForwardSystem, t0: float, p: np.ndarray, pd: np.nd
             target[:, cols] += d
             return applied(P, PD, S)
 
-        slope, smooth = _central(fun, 1, width) if width else (np.zeros((nk + ns, 0)), True)
+        slope, smooth = _central(fun, width) if width else (np.zeros((nk + ns, 0)), True)
         if not smooth:
             raise ValueError("the applied loads have a kink (a saturation) at the operating "
                              "point: choose another time or a rest configuration")
@@ -398,8 +404,8 @@ class _Rows:
     zdd: np.ndarray
 
 
-def _outputs(readings: Any, nf: int, n: int, A: np.ndarray, B: np.ndarray, _unused: np.ndarray,
-             ns: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def _outputs(readings: Any, nf: int, n: int, A: np.ndarray, B: np.ndarray, ns: int
+             ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Output rows C, D by differencing ``readings`` (a dict of channel values per row):
     exact unit steps in z, ż, z̈ (the readings are affine in them), central differences in
     the rigid coordinates; y = Y_x x + Y_v ẋ + Y_a ẍ with ẍ from the state equations."""
@@ -432,7 +438,6 @@ def _outputs(readings: Any, nf: int, n: int, A: np.ndarray, B: np.ndarray, _unus
     C[:, nx:2 * nx] = Yv
     C += Ya @ A[nx:2 * nx]
     D = Ya @ B[nx:2 * nx]
-    # Round-off of the unit steps (values ~1e-16 of an affine reading's offset): clean zeros.
     return C, D, names
 
 
