@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 __all__ = ["__version__", "simulate", "sweep", "load_scenario", "load_paper_experiment", "Results",
-           "Scenario"]
+           "Scenario", "linearize", "frozen_modes"]
 
 
 def __dir__() -> list[str]:
@@ -41,4 +41,8 @@ def __getattr__(name: str) -> Any:
         from .model import Scenario
 
         return Scenario
+    if name in ("linearize", "frozen_modes"):
+        from . import control
+
+        return getattr(control, name)
     raise AttributeError(f"module 'flexlink' has no attribute {name!r}")

@@ -85,6 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     from .results.command import add_commands as add_results_commands  # animate, report
 
     add_results_commands(commands)
+
+    from .control.command import add_commands as add_control_commands  # linearize, modes
+
+    add_control_commands(commands, output)
     return parser
 
 

@@ -26,7 +26,7 @@ from scipy.linalg import expm
 
 import flexlink
 from flexlink.control import LinearPlant, linearize
-from flexlink.control.linearize import _run_state
+from flexlink.control.linearize import run_state
 from flexlink.dynamics.forward import ForwardSystem
 from flexlink.model import (
     Base,
@@ -198,7 +198,7 @@ def test_plant_at_rest_is_the_jacobian_of_the_run_equations(pinned: bool) -> Non
     plant = linearize(sc, at=0.0)
     assert plant.equilibrium
     system = ForwardSystem(sc.chain, sc.base or Base(), sc.settings.geometric_stiffening)
-    y0 = np.concatenate(_run_state(sc, system, 0.0))
+    y0 = np.concatenate(run_state(sc, system, 0.0))
     nf, n = len(system.free), system.n
 
     def rhs(y: np.ndarray) -> np.ndarray:

@@ -5,5 +5,6 @@ mode shapes over a run or a grid of joint angles."""
 
 from .linear import LinearPlant
 from .linearize import linearize
+from .modes import FrozenModes, frozen_modes
 
-__all__ = ["LinearPlant", "linearize"]
+__all__ = ["FrozenModes", "LinearPlant", "frozen_modes", "linearize"]

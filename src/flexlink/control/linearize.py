@@ -78,7 +78,7 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
     else:
         t0 = point
     if scenario.is_forward:
-        plant = _forward_plant(scenario, t0, point)
+        plant = forward_plant(scenario, t0, point)
     else:
         plant = _prescribed_plant(scenario, t0, point)
     if inputs is not None or outputs is not None:
@@ -121,11 +121,15 @@ def _prescribed_plant(scenario: Scenario, t0: float, point: float | Configuratio
 
 
 # -- a moving base or driven joints: ForwardSystem ----------------------------------------------
-def _forward_plant(scenario: Scenario, t0: float, point: float | Configuration) -> LinearPlant:
-    system = ForwardSystem(scenario.chain, scenario.base or Base(),
-                           scenario.settings.geometric_stiffening)
+def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
+                  state: tuple[np.ndarray, ...] | None = None) -> LinearPlant:
+    """The plant of a forward scenario at time t0 (``point``: t0 or the configuration the
+    scenario is held in); ``state``: (p_free, ṗ_free, z, ż, integrals) at t0 if known (else
+    the run is integrated up to t0)."""
+    system = forward_system(scenario)
     nf, n, ns = len(system.free), system.n, len(system.servos)
-    state = _run_state(scenario, system, t0)
+    if state is None:
+        state = run_state(scenario, system, t0)
     p_free, pd_free, z0, zd0, integral = state
     t = np.array([t0])
     pdd_free, zdd0, _ = system.accelerations(t, p_free[None], pd_free[None], z0[None],
@@ -184,19 +188,40 @@ def _forward_plant(scenario: Scenario, t0: float, point: float | Configuration) 
                                              if scenario.chain.joints[k].integrator])
 
 
-def _run_state(scenario: Scenario, system: ForwardSystem, t0: float) -> tuple[np.ndarray, ...]:
+def forward_system(scenario: Scenario) -> ForwardSystem:
+    return ForwardSystem(scenario.chain, scenario.base or Base(),
+                         scenario.settings.geometric_stiffening)
+
+
+def run_state(scenario: Scenario, system: ForwardSystem, t0: float) -> tuple[np.ndarray, ...]:
     """p_free, ṗ_free, z, ż, servo integrals at t0 of the scenario's run (t0 = 0: the
     initial state, no run)."""
+    return run_states(scenario, system, np.array([t0]))[0]
+
+
+def run_states(scenario: Scenario, system: ForwardSystem, times: np.ndarray
+               ) -> list[tuple[np.ndarray, ...]]:
+    """``run_state`` at each of the increasing times (s), from one run."""
     from ..solvers.forward import FAST_METHOD, integrate_forward, split_state
 
-    if t0 == 0.0:
-        return tuple(a[0] for a in split_state(system, system.initial_state()[None]))
+    times = np.asarray(times, dtype=float)
+    initial = tuple(a[0] for a in split_state(system, system.initial_state()[None]))
+    if times.max(initial=0.0) == 0.0:
+        return [initial for _ in times]
     settings = scenario.settings
-    grid = np.linspace(0.0, t0, max(2, math.ceil(t0 / settings.dt_out) + 1))
+    dt = settings.dt_out
+    grid = np.unique(np.concatenate([np.linspace(0.0, times.max(),
+                                                 max(2, math.ceil(times.max() / dt) + 1)),
+                                     times]))
     sol = integrate_forward(system, grid, settings.rtol, settings.atol, FAST_METHOD)
     nf = len(system.free)
-    return (sol.q[-1, :nf], sol.q_dot[-1, :nf], sol.q[-1, nf:], sol.q_dot[-1, nf:],
-            sol.extra[-1] if sol.extra is not None and sol.extra.size else np.zeros(0))
+    extra = sol.extra if sol.extra is not None else np.zeros((grid.size, 0))
+    out = []
+    for t in times:
+        i = int(np.searchsorted(grid, t))
+        out.append((sol.q[i, :nf], sol.q_dot[i, :nf], sol.q[i, nf:], sol.q_dot[i, nf:],
+                    extra[i]))
+    return out
 
 
 def _check_servos(scenario: Scenario, system: ForwardSystem, t0: float, p: np.ndarray,

@@ -60,6 +60,11 @@ class Configuration:
                    base_attitude_deg=math.degrees(self.base[2]))
         return out
 
+    def describe_at(self) -> dict[str, float]:
+        """This configuration as an ``at`` mapping (degrees, metres)."""
+        out = {f"joint{k + 1}": math.degrees(a) for k, a in enumerate(self.angles)}
+        return out
+
 
 BASE_KEYS = ("base_x", "base_y", "base_attitude")
 
