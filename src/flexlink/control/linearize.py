@@ -70,14 +70,26 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
     point), ``base_moment`` (N·m), ``<actuator>_voltage`` (V). Outputs (deviations, SI): every
     sensor, the base pose and rates, the driven joints' angles and rates, the link tips' X, Y.
     ``inputs``/``outputs``: keep only these, in this order. The first-order equations are
-    used (a nonlinear-model scenario is linearised about the same rigid state)."""
+    used; a ``model = "nonlinear"`` scenario with prescribed joints is linearised at a rest
+    configuration about its static deflection under the actuators' t = 0 voltages
+    (control/nonlinear.py)."""
     point = parse_at(scenario, at)
+    original = scenario
     if isinstance(point, Configuration):
         scenario = held_scenario(scenario, point)
         t0 = 0.0
     else:
         t0 = point
-    if scenario.is_forward:
+    if scenario.settings.model == "nonlinear" and not scenario.is_forward:
+        if not isinstance(point, Configuration):
+            raise ValueError("at: a model = 'nonlinear' scenario is linearised about a rest "
+                             "configuration (joint angles), its static deflection under the "
+                             "actuators' t = 0 voltages; a time of its run is not an "
+                             "equilibrium")
+        from .nonlinear import nonlinear_plant
+
+        plant = nonlinear_plant(original, scenario, point)
+    elif scenario.is_forward:
         plant = forward_plant(scenario, t0, point)
     else:
         plant = _prescribed_plant(scenario, t0, point)
