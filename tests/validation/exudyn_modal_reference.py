@@ -15,6 +15,7 @@ configuration and returns ω² of the constrained system.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -56,7 +57,7 @@ def locked_chain_frequencies(links: Sequence[Link], angles: Sequence[float], ele
         x = np.linspace(0.0, link.length, elements + 1)
         nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(root + xi * e), theta]))
                  for xi in x]
-        for a, b in zip(nodes[:-1], nodes[1:]):
+        for a, b in itertools.pairwise(nodes):
             mbs.AddObject(ObjectBeamGeometricallyExact2D(
                 nodeNumbers=[a, b], length=float(x[1] - x[0]),
                 massPerLength=link.mass_per_length, crossSectionInertia=sec.rhoI,

@@ -235,8 +235,8 @@ def test_piezo_static_gain_is_the_exact_cantilever_deflection() -> None:
 def _deflected(volts: float, a: float, model: str = "nonlinear") -> Scenario:
     """A flexible link held at 17.2°, bent by a patch at V₀ = ``volts`` (tip slope ~0.3 rad
     at 2000 V) plus a sin 2π·3t."""
-    from flexlink.model.histories import Sum
     from flexlink.model.histories import Step as Constant
+    from flexlink.model.histories import Sum
 
     patch = PiezoActuator("patch", 0, 0.0, 0.5, 0.03, 60e9, 2e-10, 0.004,
                           voltage=Sum((Constant(volts), SineLoad(a, 3.0))))

@@ -80,7 +80,7 @@ def parse_at_text(text: str) -> float | dict[str, float]:
             raise ValueError(f"--at {text!r}: a time in s or jointK=DEG,… pairs") from None
     out = {}
     for part in text.split(","):
-        key, sep, value = part.partition("=")
+        key, _sep, value = part.partition("=")
         try:
             out[key.strip()] = float(value)
         except ValueError:
@@ -145,7 +145,7 @@ def run_linearize(args: argparse.Namespace) -> int:
 
             bode_figure(plant, pairs, partial / BODE_PNG)
     if not args.quiet:
-        f, zeta, _ = plant.modes()
+        f, _zeta, _ = plant.modes()
         print(f"{len(plant.state_names)} states, inputs: {', '.join(plant.input_names) or '-'}; "
               f"{len(plant.output_names)} outputs; "
               + ("equilibrium" if plant.equilibrium else "frozen time (not an equilibrium)"))

@@ -29,7 +29,7 @@ from ..channels.forward import SolvedMotion
 from ..dynamics.actuators import actuator_matrix
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.forward import ForwardSystem
-from ..dynamics.kinematics import FrameMotion, JointHistory, frame_motion
+from ..dynamics.kinematics import JointHistory, frame_motion
 from ..dynamics.servos import command_volts, servo_torque
 from ..model import Base, PositionServo, Scenario, TorqueDrive, VelocityServo
 from ..solvers import Solution
