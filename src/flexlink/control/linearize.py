@@ -31,6 +31,7 @@ from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.kinematics import JointHistory, frame_motion
 from ..dynamics.servos import command_volts, servo_torque
+from ..dynamics.torques import joint_torques
 from ..model import Base, PositionServo, Scenario, TorqueDrive, VelocityServo
 from ..solvers import Solution
 from .linear import LinearPlant
@@ -68,7 +69,8 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
     velocity servo with D ≠ 0, ``jointK_reference_rate`` (rad/s; a reference r(t) enters as
     both), ``base_force_x``, ``base_force_y`` (N, inertial axes at the base's reference
     point), ``base_moment`` (N·m), ``<actuator>_voltage`` (V). Outputs (deviations, SI): every
-    sensor, the base pose and rates, the driven joints' angles and rates, the link tips' X, Y.
+    sensor, the base pose and rates, the driven joints' angles and rates, every joint's motor
+    torque, the link tips' X, Y.
     ``inputs``/``outputs``: keep only these, in this order. The first-order equations are
     used; a ``model = "nonlinear"`` scenario with prescribed joints is linearised at a rest
     configuration about its static deflection under the actuators' t = 0 voltages
@@ -119,10 +121,14 @@ def _prescribed_plant(scenario: Scenario, t0: float, point: float | Configuratio
     coords = _elastic_names(scenario)
 
     def readings(rows: _Rows) -> dict[str, np.ndarray]:
-        fr = frames.at_rows(np.zeros(rows.z.shape[0], dtype=int))
-        sol = Solution(np.full(rows.z.shape[0], t0), rows.z, rows.zd, rows.zdd, "linearize")
-        return {**sensor_values(system, fr, sol, scenario.sensors),
-                **tip_values(system, fr, rows.z)}
+        m = rows.z.shape[0]
+        fr = frames.at_rows(np.zeros(m, dtype=int))
+        sol = Solution(np.full(m, t0), rows.z, rows.zd, rows.zdd, "linearize")
+        out = sensor_values(system, fr, sol, scenario.sensors)
+        torque = joint_torques(system, np.full(m, t0), rows.z, rows.zd, rows.zdd)
+        for k in range(torque.shape[1]):  # what the motor holding a prescribed joint feels
+            out[joint_name(k, "torque")] = torque[:, k]
+        return {**out, **tip_values(system, fr, rows.z)}
 
     Cm, D, out_names = _outputs(readings, 0, n, A, B, 0)
     at_rest = bool(np.all(hist.rate == 0) and np.all(hist.acceleration == 0))
@@ -180,6 +186,9 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
         for i, name in enumerate(rigid):
             if name.startswith("joint"):
                 out[name.replace("_angle", "_rate")] = PD[:, system.free[i]]
+        torque = system.joint_torques(P, PD, PDD, z, zd, zdd)
+        for k in range(torque.shape[1]):
+            out[joint_name(k, "torque")] = torque[:, k]
         return {**out, **tip_values(view, view.frames, z)}
 
     Cm, D, out_names = _outputs(readings, nf, n, A, B, ns)

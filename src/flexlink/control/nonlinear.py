@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..channels.catalogue import catalogue
+from ..channels.catalogue import catalogue, joint_name
 from ..channels.nonlinear import sensor_values, tip_values
 from ..dynamics.actuators import actuator_matrix
 from ..dynamics.kinematics import JointHistory
@@ -76,7 +76,7 @@ def held_voltages(scenario: Scenario) -> np.ndarray:
 
 def _readings(held: Scenario, system: NonlinearSystem, q0: np.ndarray, hist: JointHistory
               ) -> tuple[list[str], list[np.ndarray]]:
-    """Y_q, Y_v, Y_a (p, n) of the sensors and tips by central differences."""
+    """Y_q, Y_v, Y_a (p, n) of the sensors, joint torques and tips by central differences."""
     n = system.n
     rows = 1 + 6 * n
     q = np.tile(q0, (rows, 1))
@@ -88,7 +88,11 @@ def _readings(held: Scenario, system: NonlinearSystem, q0: np.ndarray, hist: Joi
     many = JointHistory(*(np.repeat(a, rows, axis=0) for a in
                           (hist.angle, hist.rate, hist.acceleration)))
     sol = Solution(np.zeros(rows), q, qd, qdd, "linearize")
-    values = {**sensor_values(system, sol, held.sensors, many), **tip_values(system, sol, many)}
+    values = sensor_values(system, sol, held.sensors, many)
+    torque = system.joint_torques(np.zeros(rows), q, qd, qdd, many)
+    for k in range(torque.shape[1]):
+        values[joint_name(k, "torque")] = torque[:, k]
+    values.update(tip_values(system, sol, many))
     names = list(values)
     V = np.column_stack([values[k] for k in names])
     out = []
