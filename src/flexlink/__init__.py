@@ -11,6 +11,8 @@ __all__ = [
     "Results",
     "Scenario",
     "__version__",
+    "frozen_modes",
+    "linearize",
     "load_paper_experiment",
     "load_scenario",
     "simulate",
@@ -48,4 +50,8 @@ def __getattr__(name: str) -> Any:
         from .model import Scenario
 
         return Scenario
+    if name in ("linearize", "frozen_modes"):
+        from . import control
+
+        return getattr(control, name)
     raise AttributeError(f"module 'flexlink' has no attribute {name!r}")

@@ -89,6 +89,10 @@ def build_parser() -> argparse.ArgumentParser:
     from .shaping.command import add_commands as add_shaping_commands  # optimize
 
     add_shaping_commands(commands)
+
+    from .control.command import add_commands as add_control_commands  # linearize, modes
+
+    add_control_commands(commands, output)
     return parser
 
 

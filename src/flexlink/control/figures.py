@@ -1,0 +1,102 @@
+"""Figures of a plant and of modes along a manoeuvre: Bode plots of chosen input/output pairs,
+frequency against time or joint angle, mode shapes. matplotlib's object interface (no
+pyplot state, no display needed)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .linear import LinearPlant
+from .modes import FrozenModes
+
+
+def _figure(width: float, height: float):  # type: ignore[no-untyped-def]
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def default_band(plant: LinearPlant) -> np.ndarray:
+    """Frequencies (Hz) from a decade below the lowest to a few times the highest mode."""
+    f = plant.modes()[0]
+    lo = max(f.min() / 10, 1e-2) if f.size else 0.1
+    hi = min(3 * f.max(), 1e4) if f.size else 100.0
+    return np.logspace(np.log10(lo), np.log10(max(hi, 10 * lo)), 600)
+
+
+def bode_figure(plant: LinearPlant, pairs: Sequence[tuple[str, str]], path: Path,
+                f_hz: np.ndarray | None = None) -> Path:
+    """Magnitude (dB of output unit per input unit) and phase (deg) of each (input, output)."""
+    f = default_band(plant) if f_hz is None else np.asarray(f_hz, dtype=float)
+    fig = _figure(7.5, 5.5)
+    mag, phase = fig.subplots(2, 1, sharex=True)
+    for u, y in pairs:
+        sub = plant.select([u], [y])
+        G = sub.frequency_response(f)[0, 0]
+        unit = f"{sub.output_units[0]}/{sub.input_units[0]}"
+        mag.semilogx(f, 20 * np.log10(np.maximum(np.abs(G), 1e-300)), label=f"{u} → {y} [{unit}]")
+        phase.semilogx(f, np.degrees(np.unwrap(np.angle(G))))
+    mag.set_ylabel("magnitude (dB)")
+    phase.set_ylabel("phase (deg)")
+    phase.set_xlabel("frequency (Hz)")
+    mag.legend(fontsize="small")
+    for ax in (mag, phase):
+        ax.grid(True, which="both", alpha=0.3)
+    mag.set_title(_title(plant))
+    fig.savefig(path, dpi=120)
+    return path
+
+
+def _title(plant: LinearPlant) -> str:
+    op = plant.operating_point
+    if "time_s" in op:
+        return f"{op.get('scenario', '')} at t = {op['time_s']:g} s"
+    joints = ", ".join(f"β{k[5:-4]} = {v:g}°" for k, v in op.items()
+                       if k.startswith("joint") and k.endswith("_deg"))
+    return f"{op.get('scenario', '')} at rest, {joints}"
+
+
+def frequency_figure(modes: FrozenModes, path: Path, count: int = 6) -> Path:
+    """Natural frequencies (Hz, log scale) of the lowest ``count`` modes against the time or
+    the swept joint angle."""
+    fig = _figure(7.0, 4.5)
+    ax = fig.subplots()
+    n = min(count, modes.frequency_hz.shape[1])
+    for j in range(n):
+        ax.plot(modes.values, modes.frequency_hz[:, j], marker="." if modes.values.size < 30
+                else None, label=f"mode {j + 1}")
+    ax.set_yscale("log")
+    label = "time (s)" if modes.coordinate == "time" else f"{modes.coordinate} angle (deg)"
+    ax.set_xlabel(label)
+    ax.set_ylabel("natural frequency (Hz)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="small", ncol=2)
+    ax.set_title("frozen-time natural frequencies")
+    fig.savefig(path, dpi=120)
+    return path
+
+
+def shapes_figure(modes: FrozenModes, path: Path, index: int = 0, count: int = 4) -> Path:
+    """The lowest ``count`` mode shapes at point ``index``: each link's deflection (largest 1)
+    against the arc length along the chain (joints marked)."""
+    n = min(count, modes.shapes.shape[1])
+    fig = _figure(7.0, 1.8 * n + 0.6)
+    axes = np.atleast_1d(fig.subplots(n, 1, sharex=True))
+    starts = np.concatenate([[0.0], np.cumsum(modes.x[:, -1])])
+    for j, ax in enumerate(axes):
+        for k, name in enumerate(modes.links):
+            ax.plot(starts[k] + modes.x[k], modes.shapes[index, j, k], label=name)
+        for s in starts[1:-1]:
+            ax.axvline(s, color="0.5", lw=0.8, ls=":")
+        ax.axhline(0.0, color="0.8", lw=0.8)
+        ax.set_ylabel(f"{modes.frequency_hz[index, j]:.3g} Hz")
+    axes[0].legend(fontsize="small")
+    axes[-1].set_xlabel("arc length along the chain (m); each link's deflection in its frame")
+    where = (f"t = {modes.values[index]:g} s" if modes.coordinate == "time"
+             else f"{modes.coordinate} = {modes.values[index]:g}°")
+    axes[0].set_title(f"mode shapes at {where}")
+    fig.savefig(path, dpi=120)
+    return path
