@@ -1,45 +1,37 @@
 """The arm as a plant for shaping: its frequencies at a configuration, and detuned copies.
 
-Frequencies come from the first-order model's own M, C, K (`FirstOrderSystem.matrices`) at
-the arm held still at the given joint angles: ω² are the eigenvalues of K φ = ω² M φ and each
-mode's damping ratio is φᵀ C φ / (2ω) with φ mass-normalised (exact for the modal damping the
-links carry, up to the small coupling of C between modes). No modal physics of its own.
+Frequencies and damping ratios are the frozen-time modes of the linearised plant
+(`flexlink.control.frozen_modes`, what `flexlink modes` prints) of the arm held still at the
+given joint angles: no modal physics of its own.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from ..dynamics.first_order import FirstOrderSystem
+from ..control import frozen_modes
 from ..model import Scenario
-from ..motion import Hold
 
 
 def arm_modes(scenario: Scenario, angles_deg: Sequence[float], count: int | None = None,
               geometric_stiffening: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(frequencies in Hz, damping ratios) of the lowest ``count`` modes (all if None) of the
     arm held at ``angles_deg`` (deg, one per joint), lowest first."""
-    from scipy.linalg import eigh
-
     if len(angles_deg) != len(scenario.chain.joints):
         raise ValueError(f"give one angle per joint ({len(scenario.chain.joints)}), got "
                          f"{len(angles_deg)}")
-    chain = dataclasses.replace(scenario.chain, joints=tuple(Hold(float(a)) for a in angles_deg))
-    stiffening = (scenario.settings.geometric_stiffening if geometric_stiffening is None
-                  else geometric_stiffening)
-    system = FirstOrderSystem(chain, stiffening)
-    if system.n == 0:
+    if all(link.rigid for link in scenario.chain.links):
         return np.zeros(0), np.zeros(0)
-    M, C, K, _ = (a[0] for a in system.matrices(np.zeros(1)))
-    w2, phi = eigh(K, M)  # φᵀ M φ = I
-    w = np.sqrt(np.maximum(w2, 0.0))
-    zeta = np.einsum("ij,ik,kj->j", phi, C, phi) / (2.0 * np.where(w > 0, w, 1.0))
-    n = w.size if count is None else min(count, w.size)
-    return w[:n] / (2.0 * math.pi), zeta[:n]
+    if geometric_stiffening is not None:
+        settings = dataclasses.replace(scenario.settings,
+                                       geometric_stiffening=geometric_stiffening)
+        scenario = dataclasses.replace(scenario, settings=settings)
+    grid = {f"joint{k + 1}": [float(a)] for k, a in enumerate(angles_deg)}
+    modes = frozen_modes(scenario, angles=grid, count=count)
+    return modes.frequency_hz[0], modes.damping_ratio[0]
 
 
 def scale_frequencies(scenario: Scenario, factor: float) -> Scenario:
