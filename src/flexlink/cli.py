@@ -272,8 +272,10 @@ def _model_line(meta: dict[str, Any]) -> str:
     if meta.get("geometric_stiffening") is not None and model == "first-order":
         model += " (geometrically stiffened)" if meta["geometric_stiffening"] else \
             " (the paper's, without geometric stiffening)"
-    path = {"prescribed": "prescribed joints",
-            "forward": "forward dynamics"}.get(str(meta.get("path")), str(meta.get("path")))
+    path = {"prescribed": "prescribed joints", "nonlinear": "prescribed joints",
+            "forward": "forward dynamics", "nonlinear_forward": "forward dynamics",
+            "closed_loop": "prescribed joints in closed loop"}.get(str(meta.get("path")),
+                                                                   str(meta.get("path")))
     line = f"model: {model}, {path}, integrator {meta.get('method', '?')}"
     if "peak_tip_deflection_per_length" in meta:
         from .simulation.common import FIRST_ORDER_LIMIT
