@@ -49,11 +49,12 @@ PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run
 
 def model_path(scenario: Scenario) -> str:
     """The path that runs ``scenario``: a key of PATHS."""
-    if scenario.controllers and scenario.is_forward:
-        raise ValueError("controllers run with prescribed joints on a fixed hub for now (first-"
-                         "order or nonlinear model): a moving base or a driven joint cannot be "
-                         "combined with [[controllers]] yet (open-loop [[actuators]] can)")
-    if scenario.controllers and scenario.settings.model != "nonlinear":
+    if scenario.controllers and scenario.is_forward and scenario.settings.model == "nonlinear":
+        raise ValueError("controllers with a moving base or a driven joint run with the first-"
+                         "order model for now (model = \"first_order\"); the nonlinear model "
+                         "runs them with prescribed joints")
+    if scenario.controllers and scenario.settings.model != "nonlinear" \
+            and not scenario.is_forward:
         return "closed_loop"
     if scenario.is_forward:
         return "nonlinear_forward" if scenario.settings.model == "nonlinear" else "forward"
