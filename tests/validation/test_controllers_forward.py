@@ -94,7 +94,7 @@ def satellite(controllers: list[dict]) -> dict:
 def test_free_base_momentum_stays_zero_under_control() -> None:
     """The piezo pair is internal: with no external load the linear and angular momentum
     of base + appendage stay at their initial zero while PPF damps the appendage."""
-    d, w, unit = plant()
+    _, w, unit = plant()
     results = simulate(scenario_from_dict(satellite([ppf(w / (2 * np.pi), 0.3 * unit)])),
                        shapes=False)
     assert model_path(scenario_from_dict(satellite([]))) == "forward"

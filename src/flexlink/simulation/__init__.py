@@ -9,7 +9,8 @@ assembles the `Results`. One module per path, sharing `common`:
   collocation with the rigid coordinates as unknowns);
 * ``closed_loop`` — controllers sampled with zero-order hold, prescribed joints, first-order
   model (the Lawson loop with the held voltages as states); with the nonlinear model the
-  ``nonlinear`` path runs them (solvers/gauss_sampled.py).
+  ``nonlinear`` path runs them (solvers/gauss_sampled.py), the ``forward`` path with driven
+  joints or a moving base (solvers/forward_sampled.py; not yet ``nonlinear_forward``).
 Open-loop piezo actuators run in every path.
 """
 

@@ -4,6 +4,7 @@ Sampled controllers run inside the compiled loops (solvers/forward_sampled.py)."
 
 from __future__ import annotations
 
+import itertools
 from types import SimpleNamespace
 
 import numpy as np
@@ -67,7 +68,7 @@ def sampled_loop(scenario: Scenario, system, t: np.ndarray, model: str = "first-
     if system.n == 0:
         raise SimulationError("controllers need an elastic link: every link is rigid")
     cuts = np.concatenate([[0], np.cumsum([d.n for d in system.modal])])
-    coords = [slice(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:])]
+    coords = [slice(int(a), int(b)) for a, b in itertools.pairwise(cuts)]
     grid = sample_grid(scenario.controllers, float(t[-1]))
     return SampledLoop(scenario.controllers, scenario.actuators,
                        sensor_rows(scenario, system.modal, coords, system.n, model),
