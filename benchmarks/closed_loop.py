@@ -57,6 +57,24 @@ def python_ppf(scenario):
         "ppf", (ppf.sensor,), (ppf.actuator,), Law(), ppf.sample_rate),))
 
 
+def forward_case():
+    """The clamped strip of tests/validation/test_ppf.py (2 modes, 3 s) on a torque-driven
+    hub (motor inertia 0.01 kg·m², no torque), open loop and with PPF on its first mode: the
+    first-order forward path (compiled RK4 restarted at every sample)."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from flexlink.scenario import scenario_from_dict
+    from tests.validation.test_controllers_forward import hub, plant
+    from tests.validation.test_ppf import ppf
+
+    d, w, unit = plant()
+    d["joints"] = hub(0.01)
+    opened = scenario_from_dict(d)
+    d["controllers"] = [ppf(w / (2 * np.pi), 0.3 * unit)]
+    return opened, scenario_from_dict(d)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--repeat", type=int, default=5)
@@ -70,6 +88,11 @@ def main() -> None:
     print(f"| open loop (prescribed path) | {t_open:.3f} | 1 |")
     print(f"| PPF, compiled in the loop | {t_closed:.3f} | {t_closed / t_open:.2f} |")
     print(f"| PPF as a Python callable | {t_python:.3f} | {t_python / t_open:.2f} |")
+    f_open, f_closed = forward_case()
+    t_f = wall(f_open, args.repeat)
+    print(f"| forward: strip on a torque-driven hub, open loop | {t_f:.3f} | 1 (forward) |")
+    t_fc = wall(f_closed, args.repeat)
+    print(f"| forward: the same with PPF (2 kHz) | {t_fc:.3f} | {t_fc / t_f:.2f} × forward open |")
 
 
 if __name__ == "__main__":

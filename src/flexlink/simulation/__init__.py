@@ -9,7 +9,8 @@ assembles the `Results`. One module per path, sharing `common`:
   collocation with the rigid coordinates as unknowns);
 * ``closed_loop`` — controllers sampled with zero-order hold, prescribed joints, first-order
   model (the Lawson loop with the held voltages as states); with the nonlinear model the
-  ``nonlinear`` path runs them (solvers/gauss_sampled.py).
+  ``nonlinear`` path runs them (solvers/gauss_sampled.py), the ``forward`` path with driven
+  joints or a moving base (solvers/forward_sampled.py; not yet ``nonlinear_forward``).
 Open-loop piezo actuators run in every path.
 """
 
@@ -49,11 +50,12 @@ PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run
 
 def model_path(scenario: Scenario) -> str:
     """The path that runs ``scenario``: a key of PATHS."""
-    if scenario.controllers and scenario.is_forward:
-        raise ValueError("controllers run with prescribed joints on a fixed hub for now (first-"
-                         "order or nonlinear model): a moving base or a driven joint cannot be "
-                         "combined with [[controllers]] yet (open-loop [[actuators]] can)")
-    if scenario.controllers and scenario.settings.model != "nonlinear":
+    if scenario.controllers and scenario.is_forward and scenario.settings.model == "nonlinear":
+        raise ValueError("controllers with a moving base or a driven joint run with the first-"
+                         "order model for now (model = \"first_order\"); the nonlinear model "
+                         "runs them with prescribed joints")
+    if scenario.controllers and scenario.settings.model != "nonlinear" \
+            and not scenario.is_forward:
         return "closed_loop"
     if scenario.is_forward:
         return "nonlinear_forward" if scenario.settings.model == "nonlinear" else "forward"

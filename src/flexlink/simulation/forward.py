@@ -1,7 +1,11 @@
 """Forward dynamics, first-order model (free or pinned base, driven joints):
-ForwardSystem → compiled RK4 loop (or solve_ivp, method = "DOP853", "Radau", …) → channels."""
+ForwardSystem → compiled RK4 loop (or solve_ivp, method = "DOP853", "Radau", …) → channels.
+Sampled controllers run inside the compiled loops (solvers/forward_sampled.py)."""
 
 from __future__ import annotations
+
+import itertools
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -9,10 +13,14 @@ from ..channels.catalogue import voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.forward import SolvedMotion, rigid_values
 from ..dynamics.forward import ForwardSystem
+from ..errors import SimulationError
 from ..model import Base, Scenario
 from ..solvers import Solution
 from ..solvers.forward import FAST_METHOD, integrate_forward
+from ..solvers.gauss_sampled import SampledLoop, sample_grid
+from .closed_loop import control_values
 from .common import PathRun, Progress, check_tip_deflection
+from .nonlinear import sensor_rows
 
 
 def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
@@ -21,22 +29,55 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     system = ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening,
                            scenario.actuators)
     method = settings.method if settings.method not in ("lawson", "magnus") else FAST_METHOD
-    solution = integrate_forward(system, t, settings.rtol, settings.atol, method, on_progress)
+    loop = sampled_loop(scenario, system, t) if scenario.controllers else None
+    solution = integrate_forward(system, t, settings.rtol, settings.atol, method, on_progress,
+                                 loop=loop)
     nu = len(system.free)
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
                                     solution.q_ddot[:, :nu])
     z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
     view = SolvedMotion(system, system.frames(p, pd, pdd))
-    validity = check_tip_deflection(scenario.chain.links, t, tip_deflections(view, z),
-                                    system.geometric_stiffening)
+    try:
+        validity = check_tip_deflection(scenario.chain.links, t, tip_deflections(view, z),
+                                        system.geometric_stiffening)
+    except SimulationError as exc:
+        if loop is None:
+            raise
+        raise SimulationError(f"closed loop unstable: {exc}") from None  # the tips ran away
     elastic = Solution(t, z, zd, zdd, solution.method)
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
     values.update(rigid_values(system, t, p, pd, pdd, z, zd, zdd, solution.extra))
     values.update(tip_values(view, view.frames, z))
-    volts = system.voltages(t)  # open loop: the commanded voltages, clipped
-    values.update({voltage_name(a.name): volts[:, j] for j, a in enumerate(system.actuators)})
+    if loop is None:
+        volts = system.voltages(t)  # open loop: the commanded voltages, clipped
+        values.update({voltage_name(a.name): volts[:, j]
+                       for j, a in enumerate(system.actuators)})
+    else:
+        values.update(loop_values(scenario, loop, t))
     shapes = shape_values(view, view.frames, z) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,
-        **validity})
+        **({"controllers": len(scenario.controllers)} if loop else {}), **validity})
+
+
+def sampled_loop(scenario: Scenario, system, t: np.ndarray, model: str = "first-order"
+                 ) -> SampledLoop:
+    """The scenario's controllers on their sample grid, reading the sensors as rows over
+    the elastic coordinates of ``system`` (a forward system: .modal, .n, .voltages)."""
+    if system.n == 0:
+        raise SimulationError("controllers need an elastic link: every link is rigid")
+    cuts = np.concatenate([[0], np.cumsum([d.n for d in system.modal])])
+    coords = [slice(int(a), int(b)) for a, b in itertools.pairwise(cuts)]
+    grid = sample_grid(scenario.controllers, float(t[-1]))
+    return SampledLoop(scenario.controllers, scenario.actuators,
+                       sensor_rows(scenario, system.modal, coords, system.n, model),
+                       grid, system.voltages(grid))
+
+
+def loop_values(scenario: Scenario, loop: SampledLoop, t: np.ndarray) -> dict[str, np.ndarray]:
+    """The held voltages, commands and controller states at the outputs t (s)."""
+    held = np.searchsorted(loop.grid, t + 1e-9 * max(1.0, t[-1]), side="right") - 1
+    run = SimpleNamespace(work=loop.work, python_commands=loop.commands)
+    return control_values(scenario, run, np.clip(held, 0, loop.grid.size - 1),
+                          loop.python_index)

@@ -19,6 +19,7 @@ from ..dynamics.forward import ForwardSystem
 from ..errors import SimulationError
 from .forward_lawson import integrate_forward_lawson
 from .forward_rk4 import BlowUp, integrate_forward_rk4
+from .gauss_sampled import LoopUnstable, SampledLoop
 from .ode import Stalled, integrate_ivp
 from .solution import Progress, Solution
 
@@ -30,20 +31,28 @@ MAX_STEP_OUTPUTS = 10  # longest step, in output intervals (simulation.dt_out)
 
 def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
                       method: str = DEFAULT_METHOD, on_progress: Progress | None = None,
-                      compiled: bool = True) -> Solution:
+                      compiled: bool = True, loop: SampledLoop | None = None) -> Solution:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
     initial state; the servo integrals as ``extra``. ``method``: "lawson" or "rk4" (compiled
     loops), FAST_METHOD (the one `compiled_method` picks) or a solve_ivp method, whose
     right-hand side is the compiled kernel or (``compiled=False``) the numpy ForwardSystem.
 
     solve_ivp's step is limited to MAX_STEP_OUTPUTS output intervals: while nothing moves the
-    error estimate is zero and the step would otherwise grow past the start of an input."""
+    error estimate is zero and the step would otherwise grow past the start of an input.
+
+    ``loop``: sampled controllers driving the actuators, compiled loops only
+    (`forward_sampled.py`); a blow-up is then reported as an unstable closed loop."""
     if method == FAST_METHOD:
         method = compiled_method(system)
+    if loop is not None and method not in COMPILED:
+        raise ValueError(f"controllers on a forward run need a compiled integrator: method = "
+                         f"{method!r} cannot hold sampled voltages; use \"lawson\" or \"rk4\"")
     if method in COMPILED:
         try:
-            return COMPILED[method](system, t_out, rtol, atol, on_progress)
+            return COMPILED[method](system, t_out, rtol, atol, on_progress, loop)
         except BlowUp as exc:
+            if loop is not None:
+                raise LoopUnstable(exc.t, "the state grew without bound") from None
             raise SimulationError(_stall_message(system, exc.t, "the state grew without "
                                                  "bound")) from None
     nu, n = len(system.free), system.n

@@ -16,13 +16,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..dynamics.forward import ForwardSystem
-from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack
+from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, voltage_columns
 from ..errors import SimulationError
 from .forward_rk4 import BlowUp, forward_solution, runs_agree
+from .forward_sampled import inner_nodes, run_steps
+from .gauss_sampled import SampledLoop
 from .solution import Progress, Solution
 
 _MAX_LEVEL = 8
-_STEPS_PER_CALL = 4096  # progress is reported between calls of the compiled loop
 # The Jacobian is refreshed when a free rigid coordinate has moved by more than _DP (rad or
 # m) or its rate by more than _DPD (rad/s or m/s) since it was taken: the coefficients of
 # the elastic equations depend on the configuration and (centrifugal, Coriolis) the rates.
@@ -31,35 +32,39 @@ _DPD = 0.5
 
 
 def integrate_forward_lawson(system: ForwardSystem, t_out: np.ndarray, rtol: float,
-                             atol: float, on_progress: Progress | None = None) -> Solution:
+                             atol: float, on_progress: Progress | None = None,
+                             loop: SampledLoop | None = None) -> Solution:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
-    initial state; the servo integrals as ``extra`` (the contract of solvers.forward)."""
+    initial state; the servo integrals as ``extra`` (the contract of solvers.forward).
+    ``loop``: sampled controllers driving the actuators (`forward_sampled.py`; their sample
+    instants are nodes no step straddles); each pass of the error control runs them afresh."""
     from ..dynamics._forward_numba import workspace
 
     data = pack(system)
     work = workspace(data, len(system.servos))
-    inner = breakpoints(system)
-    inner = inner[(inner > t_out[0]) & (inner < t_out[-1])]
+    inner = inner_nodes(loop, t_out, breakpoints(system))
     nodes = np.union1d(t_out, inner)
     record = np.full(nodes.size, -1, dtype=np.int64)
     record[np.searchsorted(nodes, t_out)] = np.arange(t_out.size)
     hard = np.zeros(nodes.size, dtype=bool)  # nodes a step may not straddle
     hard[np.searchsorted(nodes, inner)] = True
     hard[[0, -1]] = True
+    if loop is not None:  # the samples that fell on outputs too
+        hard[np.searchsorted(nodes, loop.grid[:-1] - 1e-9 * max(1.0, float(t_out[-1])))] = True
     y0 = system.initial_state()
     level = 0 if _merges(nodes, hard) else 1
     coarse, _ = _run(data, work, y0, system, nodes, record, hard, t_out.size, level - 1,
-                             None)
+                     None, loop)
     while level <= _MAX_LEVEL:
         fine, refreshes = _run(data, work, y0, system, nodes, record, hard, t_out.size, level,
-                               on_progress)
+                               on_progress, loop)
         if isinstance(fine, BlowUp) and isinstance(coarse, BlowUp) \
                 and abs(fine.t - coarse.t) <= 0.05 * fine.t:
             raise fine  # the same time at two step sizes: the model, not the steps
         if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp):
             both = np.isfinite(coarse[:, 0])
             if runs_agree(system, fine[both], coarse[both], rtol, atol):
-                solution = forward_solution(data, work, system, t_out, fine, 2 ** level)
+                solution = forward_solution(data, work, system, t_out, fine, 2 ** level, loop)
                 solution.stats.update(method_detail="lawson", jacobian_refreshes=refreshes)
                 return solution
         coarse = fine
@@ -102,7 +107,8 @@ def grid(nodes: np.ndarray, hard: np.ndarray, level: int) -> tuple[np.ndarray, n
 
 def _run(data: ForwardData, work: tuple, y0: np.ndarray, system: ForwardSystem,
          nodes: np.ndarray, record: np.ndarray, hard: np.ndarray, n_out: int, level: int,
-         on_progress: Progress | None) -> tuple[np.ndarray | BlowUp, int]:
+         on_progress: Progress | None, loop: SampledLoop | None = None
+         ) -> tuple[np.ndarray | BlowUp, int]:
     """States at the outputs (n_out, len(y0); NaN rows at outputs the grid steps over) and
     the number of Jacobian refreshes, or the BlowUp."""
     from ._forward_lawson_numba import lawson_steps
@@ -122,12 +128,8 @@ def _run(data: ForwardData, work: tuple, y0: np.ndarray, system: ForwardSystem,
     L, E = np.empty((m, m)), np.empty((m, m))
     c, g = np.empty(m), np.empty(m)
     counters = np.zeros(3)
-    for first in range(0, h.size, _STEPS_PER_CALL):
-        last = min(first + _STEPS_PER_CALL, h.size)
-        bad = lawson_steps(data, work, y, u, h, step_record, first, last, states, nu, _DP, _DPD,
-                           frozen, L, c, E, g, counters)
-        if bad >= 0:
-            return BlowUp(float(starts[bad])), int(counters[0])
-        if on_progress is not None:
-            on_progress(float(starts[last - 1] + h[last - 1]))
-    return states, int(counters[0])
+    bad = run_steps(lambda a, b: lawson_steps(data, work, y, u, h, step_record, a, b, states,
+                                              nu, _DP, _DPD, frozen, L, c, E, g, counters),
+                    y, starts, h, u, on_progress, loop, voltage_columns(system),
+                    slice(2 * nu, 2 * nu + system.n))
+    return (BlowUp(float(starts[bad])) if bad >= 0 else states), int(counters[0])

@@ -21,13 +21,14 @@ import itertools
 import numpy as np
 
 from ..dynamics.forward import ForwardSystem
-from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack
+from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, voltage_columns
 from ..errors import SimulationError
+from .forward_sampled import held_rows, inner_nodes, run_steps
+from .gauss_sampled import SampledLoop
 from .solution import Progress, Solution
 
 _MAX_DOUBLINGS = 8
 _RICHARDSON = 15.0  # (2⁴ − 1): the coarse-fine difference over the fine run's error
-_STEPS_PER_CALL = 4096  # progress is reported between calls of the compiled loop
 _STABLE_H_OMEGA = 2.0  # h·ω_max of the first coarse run (RK4 is stable up to 2.83)
 
 
@@ -40,29 +41,34 @@ class BlowUp(SimulationError):
 
 
 def integrate_forward_rk4(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
-                          on_progress: Progress | None = None) -> Solution:
+                          on_progress: Progress | None = None,
+                          loop: SampledLoop | None = None) -> Solution:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
-    initial state; the servo integrals as ``extra`` (the contract of solvers.forward)."""
+    initial state; the servo integrals as ``extra`` (the contract of solvers.forward).
+    ``loop``: sampled controllers driving the actuators (`forward_sampled.py`); each pass
+    of the error control runs them afresh."""
     from ..dynamics._forward_numba import workspace
 
     data = pack(system)
     work = workspace(data, len(system.servos))
-    nodes, record = _nodes(system, t_out)
+    nodes, record = _nodes(system, t_out, loop)
     omega = _stiffest_rate(data, work, system)
     # The coarse run of the first comparison takes steps of ≲ 2/ω_max: inside RK4's
     # stability region for the stiffest mode of the coupled system at t = 0.
     widest = float(np.diff(nodes).max()) if nodes.size > 1 else 1.0
     substeps = 2 * max(1, int(np.ceil(widest * omega / (2 * _STABLE_H_OMEGA))))
     y0 = system.initial_state()
-    coarse = _run(data, work, system, y0, nodes, record, t_out.size, substeps // 2, None)
+    coarse = _run(data, work, system, y0, nodes, record, t_out.size, substeps // 2, None,
+                  loop)
     for _ in range(_MAX_DOUBLINGS):
-        fine = _run(data, work, system, y0, nodes, record, t_out.size, substeps, on_progress)
+        fine = _run(data, work, system, y0, nodes, record, t_out.size, substeps, on_progress,
+                    loop)
         if isinstance(fine, BlowUp) and isinstance(coarse, BlowUp) \
                 and abs(fine.t - coarse.t) <= 0.05 * fine.t:
             raise fine  # the same time at two step sizes: the model, not the steps
         if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp) \
                 and runs_agree(system, fine, coarse, rtol, atol):
-            return forward_solution(data, work, system, t_out, fine, substeps)
+            return forward_solution(data, work, system, t_out, fine, substeps, loop)
         coarse = fine
         substeps *= 2
     if isinstance(coarse, BlowUp):
@@ -87,10 +93,11 @@ def _stiffest_rate(data: ForwardData, work: tuple, system: ForwardSystem) -> flo
     return max(radius, clamped)
 
 
-def _nodes(system: ForwardSystem, t_out: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Grid nodes (outputs and inner breakpoints) and, per node, its output index or −1."""
-    inner = breakpoints(system)
-    inner = inner[(inner > t_out[0]) & (inner < t_out[-1])]
+def _nodes(system: ForwardSystem, t_out: np.ndarray, loop: SampledLoop | None
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Grid nodes (outputs, inner breakpoints and controller samples) and, per node, its
+    output index or −1."""
+    inner = inner_nodes(loop, t_out, breakpoints(system))
     nodes = np.union1d(t_out, inner)
     record = np.full(nodes.size, -1, dtype=np.int64)
     record[np.searchsorted(nodes, t_out)] = np.arange(t_out.size)
@@ -99,7 +106,7 @@ def _nodes(system: ForwardSystem, t_out: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def _run(data: ForwardData, work: tuple, system: ForwardSystem, y0: np.ndarray,
          nodes: np.ndarray, record: np.ndarray, n_out: int, substeps: int,
-         on_progress: Progress | None) -> np.ndarray | BlowUp:
+         on_progress: Progress | None, loop: SampledLoop | None = None) -> np.ndarray | BlowUp:
     """States at the outputs (n_out, len(y0)) with ``substeps`` steps per node interval, or
     the BlowUp."""
     from ._forward_rk4_numba import rk4_steps
@@ -116,14 +123,11 @@ def _run(data: ForwardData, work: tuple, system: ForwardSystem, y0: np.ndarray,
     states = np.empty((n_out, y0.size))
     states[0] = y0
     y = y0.copy()
-    for first in range(0, h.size, _STEPS_PER_CALL):
-        last = min(first + _STEPS_PER_CALL, h.size)
-        bad = rk4_steps(data, work, y, u, h, step_record, first, last, states)
-        if bad >= 0:
-            return BlowUp(float(starts[bad]))
-        if on_progress is not None:
-            on_progress(float(starts[last - 1] + h[last - 1]))
-    return states
+    nu, n = len(system.free), system.n
+    bad = run_steps(lambda a, b: rk4_steps(data, work, y, u, h, step_record, a, b, states),
+                    y, starts, h, u, on_progress, loop, voltage_columns(system),
+                    slice(2 * nu, 2 * nu + n))
+    return BlowUp(float(starts[bad])) if bad >= 0 else states
 
 
 def runs_agree(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray, rtol: float,
@@ -142,12 +146,18 @@ def runs_agree(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray, rtol
 
 
 def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
-              states: np.ndarray, substeps: int) -> Solution:
+                     states: np.ndarray, substeps: int, loop: SampledLoop | None = None
+                     ) -> Solution:
+    """The Solution from the states at t_out; accelerations with the inputs there (with a
+    ``loop``: its held voltages)."""
     from ._forward_rk4_numba import rates_at
 
     nu, n = len(system.free), system.n
     rates = np.empty_like(states)
-    rates_at(data, work, inputs(system, t_out), states, rates)
+    u = inputs(system, t_out)
+    if loop is not None:
+        u = held_rows(loop, t_out, u, voltage_columns(system))
+    rates_at(data, work, u, states, rates)
     p, pd = states[:, :nu], states[:, nu:2 * nu]
     z, zd = states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n]
     return Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
