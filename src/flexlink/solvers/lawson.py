@@ -56,7 +56,10 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
     substeps = 2 * max(1, int(np.ceil(np.diff(t_out).max() / (2 * first_step))))
     with single_threaded():
         try:  # more than Magnus' 2 assemblies per step and pass would not pay
-            table = tabulate(lambda times: state_rows(matrices, times), t_out,
+            # A system may bring its own (compiled) state rows M⁻¹[−K, −C, f].
+            rows = getattr(system, "state_rows", None) or (
+                lambda times: state_rows(matrices, times))
+            table = tabulate(rows, t_out,
                              system.coefficient_keys, tolerance=rtol,
                              budget=_ASSEMBLIES_PER_STEP * substeps,
                              breaks=system.breakpoints())

@@ -1,0 +1,227 @@
+"""Compiled (numba) kernels of the prescribed-joint path, built on the forward dynamics'
+kernels (`_forward_numba.frames`: the kinematical synthesis at one joint state), which with a
+fixed base and prescribed joints compute the frames of `kinematics.frame_motion`
+(tests/unit/test_prescribed_kernel.py compares the two to round-off).
+
+`solved_frames`: the frame motion along a solved run and the products of its maps with the
+solution, ξ-heads [ρx, ρy, θ1] = T z and their derivatives, at every output time; the maps are
+recomputed only where the joint state changes (a rest phase keeps them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ._forward_numba import frames
+
+
+@njit(cache=True, error_model="numpy")
+def solved_frames(d, w_, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc,
+                  xi, xi_d, xi_dd):
+    """Fill, per output time i and link k: θ, ω, ω̇ (nt, N); the frame origin (global, m)
+    and its acceleration (frame axes) (nt, N, 2); ξ-heads T z, Ṫ z + T ż, T̈ z + 2Ṫ ż + T z̈
+    (nt, N, 3). angle, rate, acc (nt, N): the joints; z, ż, z̈ (nt, n): the solution.
+    ``d`` is the ForwardData of a fixed base (prescribed_kernel.forward_data), ``w_`` its
+    Workspace."""
+    nt, N = angle.shape
+    nr = d.n_rigid
+    n = z.shape[1]
+    p, pd, pdd = w_.p, w_.pd, w_.pdd
+    T, Td, Tdd = w_.T, w_.Td, w_.Tdd
+    th, om, al, oa = w_.theta, w_.omega, w_.alpha, w_.oacc
+    ox = np.zeros(N)
+    oy = np.zeros(N)
+    for i in range(nt):
+        same = i > 0
+        if same:
+            for k in range(N):
+                if (angle[i, k] != angle[i - 1, k] or rate[i, k] != rate[i - 1, k]
+                        or acc[i, k] != acc[i - 1, k]):
+                    same = False
+                    break
+        if not same:
+            for k in range(N):
+                p[k], pd[k], pdd[k] = angle[i, k], rate[i, k], acc[i, k]
+            frames(d, p, pd, pdd, th, om, al, oa, T, Td, Tdd)
+            x = y = 0.0
+            for k in range(N):  # origin of frame k: the rigid tip of link k − 1
+                ox[k], oy[k] = x, y
+                x += d.length[k] * np.cos(th[k])
+                y += d.length[k] * np.sin(th[k])
+        for k in range(N):
+            theta[i, k], omega[i, k], alpha[i, k] = th[k], om[k], al[k]
+            origin[i, k, 0], origin[i, k, 1] = ox[k], oy[k]
+            oacc[i, k, 0], oacc[i, k, 1] = oa[k, 0], oa[k, 1]
+            for a in range(3):
+                s0 = s1 = s2 = 0.0
+                for c in range(n):
+                    t0, t1, t2 = T[k, a, nr + c], Td[k, a, nr + c], Tdd[k, a, nr + c]
+                    s0 += t0 * z[i, c]
+                    s1 += t0 * zd[i, c] + t1 * z[i, c]
+                    s2 += t0 * zdd[i, c] + 2.0 * t1 * zd[i, c] + t2 * z[i, c]
+                xi[i, k, a], xi_d[i, k, a], xi_dd[i, k, a] = s0, s1, s2
+
+
+@njit(cache=True, error_model="numpy")
+def _link_matrices(d, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd, X, Y, Z,
+                   M, C, K, f):
+    """Add link k's terms to M, C, K, f (n × n, n) of the elastic coordinates, as
+    first_order.add_link_terms with rigid_load and second_order_stiffness (docs/derivation.md
+    §3–4): T̂ᵀ M_t T̂, T̂ᵀ(2M_t Ṫ̂ + 2ω G₀T̂), T̂ᵀ(M_t T̈̂ + 2ω G₀ Ṫ̂ + (ω̇G₀ − ω²M₀)T̂) − S₂ + K_e,
+    −T̂ᵀ load, D."""
+    nk, o = d.n_modes[k], d.offset[k] - nr  # offsets in d are into x = [δβ; z]
+    mk = 3 + nk
+    # T̂ = [T_k; E_k] restricted to z, E_k picking q_k (constant: its derivatives are zero).
+    # Products with T̂ are written out: the three rows of T_k, plus column o + i of E_k.
+    for a in range(3):
+        for c in range(n):
+            Th[a, c], Thd[a, c], Thdd[a, c] = T[k, a, nr + c], Td[k, a, nr + c], \
+                Tdd[k, a, nr + c]
+    w2 = w * w
+    # X = M_t T̂, Y = 2M_t Ṫ̂ + 2ω G₀ T̂, Z = M_t T̈̂ + 2ω G₀ Ṫ̂ + (ω̇ G₀ − ω² M₀) T̂, (3+n_k) × n.
+    for a in range(mk):
+        for c in range(n):
+            x = y = zz = 0.0
+            for b in range(3):
+                mt, g, m0 = d.Mtot[k, a, b], d.G0[k, a, b], d.M0[k, a, b]
+                x += mt * Th[b, c]
+                y += 2.0 * mt * Thd[b, c] + 2.0 * w * g * Th[b, c]
+                zz += mt * Thdd[b, c] + 2.0 * w * g * Thd[b, c] + (wd * g - w2 * m0) * Th[b, c]
+            X[a, c], Y[a, c], Z[a, c] = x, y, zz
+        for i in range(nk):
+            b = 3 + i
+            g = d.G0[k, a, b]
+            X[a, o + i] += d.Mtot[k, a, b]
+            Y[a, o + i] += 2.0 * w * g
+            Z[a, o + i] += wd * g - w2 * d.M0[k, a, b]
+    # M += T̂ᵀ X, C += T̂ᵀ Y, K += T̂ᵀ Z.
+    for c1 in range(n):
+        for c2 in range(n):
+            sm = sc = sk = 0.0
+            for a in range(3):
+                ta = Th[a, c1]
+                sm += ta * X[a, c2]
+                sc += ta * Y[a, c2]
+                sk += ta * Z[a, c2]
+            M[c1, c2] += sm
+            C[c1, c2] += sc
+            K[c1, c2] += sk
+    for i in range(nk):
+        for c2 in range(n):
+            M[o + i, c2] += X[3 + i, c2]
+            C[o + i, c2] += Y[3 + i, c2]
+            K[o + i, c2] += Z[3 + i, c2]
+    # Zero-order inertia load (first_order.rigid_load): f −= T̂ᵀ load.
+    mass, s1, J, Jt = d.mass[k], d.s1[k], d.J[k], d.Jt[k]
+    l0 = mass * ax - w2 * s1
+    l1 = mass * ay + wd * s1
+    l2 = s1 * ay + J * wd + Jt * wd
+    for c in range(n):
+        f[c] -= Th[0, c] * l0 + Th[1, c] * l1 + Th[2, c] * l2
+    for i in range(nk):
+        f[o + i] -= (ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i]
+                     + Jt * wd * d.tip_slope[k, i])
+    # Second-order stiffness (first_order.second_order_stiffness): K −= S₂.
+    scal = ax * s1 - w2 * J + N_out * d.length[k]
+    for c1 in range(n):
+        for c2 in range(n):
+            K[c1, c2] -= scal * Th[2, c1] * Th[2, c2]
+    for i in range(nk):
+        vec = ax * d.phi_bar[k, i] - w2 * d.phi_tilde[k, i] + N_out * d.tip_value[k, i]
+        for c in range(n):
+            K[c, o + i] -= Th[2, c] * vec
+            K[o + i, c] -= Th[2, c] * vec
+    for i in range(nk):
+        for j in range(nk):
+            if d.stiffening:
+                K[o + i, o + j] -= (ax * d.fore_mass[k, i, j] - w2 * d.fore_moment[k, i, j]
+                                    + N_out * d.fore_tip[k, i, j])
+            K[o + i, o + j] += d.stiffness[k, i, j]
+            C[o + i, o + j] += d.damping[k, i, j]
+
+
+@njit(cache=True, error_model="numpy")
+def state_rows(d, w_, angle, rate, acc, out):
+    """out[i] = M⁻¹[−K, −C, f] (n, 2n+1) of the first-order model at joint states angle, rate,
+    acc (nt, N) (magnus.state_rows of FirstOrderSystem.matrices, without actuators)."""
+    nt, N = angle.shape
+    nr = d.n_rigid
+    n = out.shape[1]
+    m = 3 + d.phi_bar.shape[1]
+    p, pd, pdd = w_.p, w_.pd, w_.pdd
+    T, Td, Tdd = w_.T, w_.Td, w_.Tdd
+    th, om, al, oa = w_.theta, w_.omega, w_.alpha, w_.oacc
+    Th, Thd, Thdd = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
+    X, Y, Z = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
+    M, C, K, f = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty(n)
+    outboard = np.empty((N, 2))
+    rhs = np.empty((n, 2 * n + 1))
+    for i in range(nt):
+        for k in range(N):
+            p[k], pd[k], pdd[k] = angle[i, k], rate[i, k], acc[i, k]
+        frames(d, p, pd, pdd, th, om, al, oa, T, Td, Tdd)
+        # Σ_{j>k} ∫ a0 dm in frame k's axes (FirstOrderSystem._outboard_inertia_force).
+        outboard[N - 1, 0] = outboard[N - 1, 1] = 0.0
+        for k in range(N - 2, -1, -1):
+            j = k + 1
+            fx = outboard[j, 0] + d.mass[j] * oa[j, 0] - om[j] * om[j] * d.s1[j]
+            fy = outboard[j, 1] + d.mass[j] * oa[j, 1] + al[j] * d.s1[j]
+            turn = th[j] - th[k]
+            cb, sb = np.cos(turn), np.sin(turn)
+            outboard[k, 0] = cb * fx - sb * fy
+            outboard[k, 1] = sb * fx + cb * fy
+        for a in range(n):
+            f[a] = 0.0
+            for b in range(n):
+                M[a, b] = C[a, b] = K[a, b] = 0.0
+        for k in range(N):
+            _link_matrices(d, k, nr, n, om[k], al[k], oa[k, 0], oa[k, 1], outboard[k, 0],
+                           T, Td, Tdd, Th, Thd, Thdd, X, Y, Z, M, C, K, f)
+        for a in range(n):
+            for b in range(n):
+                rhs[a, b] = -K[a, b]
+                rhs[a, n + b] = -C[a, b]
+            rhs[a, 2 * n] = f[a]
+        _solve_many(M, rhs)
+        for a in range(n):
+            for b in range(2 * n + 1):
+                out[i, a, b] = rhs[a, b]
+
+
+@njit(cache=True, error_model="numpy")
+def _solve_many(A, B):
+    """B ← A⁻¹ B (A destroyed) by Gaussian elimination with partial pivoting; a singular A
+    gives NaN (the table then reports non-finite coefficients)."""
+    n, r = B.shape
+    for c in range(n):
+        piv = c
+        big = abs(A[c, c])
+        for i in range(c + 1, n):
+            if abs(A[i, c]) > big:
+                big, piv = abs(A[i, c]), i
+        if piv != c:
+            for j in range(n):
+                A[c, j], A[piv, j] = A[piv, j], A[c, j]
+            for j in range(r):
+                B[c, j], B[piv, j] = B[piv, j], B[c, j]
+        if A[c, c] == 0.0:
+            for i in range(n):
+                for j in range(r):
+                    B[i, j] = np.nan
+            return
+        inv = 1.0 / A[c, c]
+        for i in range(c + 1, n):
+            fac = A[i, c] * inv
+            if fac != 0.0:
+                for j in range(c, n):
+                    A[i, j] -= fac * A[c, j]
+                for j in range(r):
+                    B[i, j] -= fac * B[c, j]
+    for i in range(n - 1, -1, -1):
+        inv = 1.0 / A[i, i]
+        for j in range(r):
+            acc = B[i, j]
+            for q in range(i + 1, n):
+                acc -= A[i, q] * B[q, j]
+            B[i, j] = acc * inv
