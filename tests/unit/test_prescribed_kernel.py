@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from flexlink.dynamics.first_order import FirstOrderSystem
+from flexlink.dynamics.prescribed_kernel import joint_torques as compiled_torques
 from flexlink.dynamics.prescribed_kernel import solved_frames, state_rows
 from flexlink.dynamics.torques import joint_torques
 from flexlink.model import Chain, Link
@@ -56,7 +57,8 @@ def test_state_rows_match_the_numpy_equations(name: str, stiffening: bool) -> No
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
 def test_solved_frames_match_the_numpy_frames(name: str, stiffening: bool) -> None:
     """Angles, rates, origins, origin accelerations and ξ-heads along a random solution equal
-    those of kinematics.frame_motion and the maps, and so do the joint torques read from them;
+    those of kinematics.frame_motion and the maps, and so do the joint torques read from them
+    (dynamics/torques.py on either frames, and its compiled form);
     times repeat (a rest phase reuses the maps)."""
     system = SYSTEMS[name](stiffening)
     t = np.array([0.0, 0.2, 0.2, 0.2, 0.9, 1.4, 2.0, 2.0])
@@ -73,6 +75,8 @@ def test_solved_frames_match_the_numpy_frames(name: str, stiffening: bool) -> No
         np.testing.assert_array_equal(got.head(k, z), got.heads(k, z, zd, zdd)[0])
     expected = joint_torques(system, t, z, zd, zdd)
     np.testing.assert_allclose(joint_torques(system, t, z, zd, zdd, got), expected, rtol=0,
+                               atol=1e-12 * np.abs(expected).max())
+    np.testing.assert_allclose(compiled_torques(system, got), expected, rtol=0,
                                atol=1e-12 * np.abs(expected).max())
 
 

@@ -225,3 +225,61 @@ def _solve_many(A, B):
             for q in range(i + 1, n):
                 acc -= A[i, q] * B[q, j]
             B[i, j] = acc * inv
+
+
+@njit(cache=True, error_model="numpy")
+def joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, zdd, out):
+    """out[i, k] = motor torque of joint k (N·m) at output time i, dynamics/torques.py's
+    τ_k = Σ_{j≥k} [∫_j (r − P_k) × r̈ dm + J_t,j ϑ̈_j] to first order in z, from the frames
+    along the solution (solved_frames' outputs) and z, ż, z̈ (nt, n). ``d``: ForwardData of
+    a fixed base. Written out per time (torques._link_moment); compared with the numpy
+    function to round-off in tests/unit/test_prescribed_kernel.py."""
+    nt, N = theta.shape
+    nr = d.n_rigid
+    for i in range(nt):
+        for k in range(N):
+            out[i, k] = 0.0
+        for j in range(N):
+            o, nj = d.offset[j] - nr, d.n_modes[j]
+            m, s1, J, Jt = d.mass[j], d.s1[j], d.J[j], d.Jt[j]
+            w, wd = omega[i, j], alpha[i, j]
+            w2 = w * w
+            ax, ay = oacc[i, j, 0], oacc[i, j, 1]
+            Fx, Fy = m * ax - w2 * s1, m * ay + wd * s1  # ∫ a⁰ dm
+            # ξ_j = [ρx, ρy, θ1, q_j]: its products with ny, hy, φ̄, φ̃ and c.
+            r0, r1, r2 = xi[i, j, 0], xi[i, j, 1], xi[i, j, 2]
+            Gy = m * r1 + s1 * r2
+            Gy_d = m * xi_d[i, j, 1] + s1 * xi_d[i, j, 2]
+            Gy_dd = m * xi_dd[i, j, 1] + s1 * xi_dd[i, j, 2]
+            Hy = s1 * r1 + J * r2
+            Hy_dd = s1 * xi_dd[i, j, 1] + J * xi_dd[i, j, 2]
+            qb = qt = 0.0
+            tilt = xi_dd[i, j, 2]
+            for q in range(nj):
+                qb += z[i, o + q] * d.phi_bar[j, q]
+                qt += z[i, o + q] * d.phi_tilde[j, q]
+                Gy += d.phi_bar[j, q] * z[i, o + q]
+                Gy_d += d.phi_bar[j, q] * zd[i, o + q]
+                Gy_dd += d.phi_bar[j, q] * zdd[i, o + q]
+                Hy += d.phi_tilde[j, q] * z[i, o + q]
+                Hy_dd += d.phi_tilde[j, q] * zdd[i, o + q]
+                tilt += d.tip_slope[j, q] * zdd[i, o + q]
+            rx_d, rx_dd = xi_d[i, j, 0], xi_dd[i, j, 0]
+            a1x = m * rx_dd - 2 * w * Gy_d - wd * Gy - w2 * m * r0  # ∫ a¹ dm
+            a1y = Gy_dd + 2 * w * m * rx_d + wd * m * r0 - w2 * Gy
+            x_a1y = Hy_dd + 2 * w * s1 * rx_d + wd * s1 * r0 - w2 * Hy  # ∫ x a¹_y dm
+            g_cross_a0 = (r0 * (m * ay + s1 * wd) - r1 * Fx - r2 * (s1 * ax - w2 * J)
+                          - qb * ax + w2 * qt)
+            own = s1 * ay + (J + Jt) * wd + g_cross_a0 + x_a1y + Jt * tilt
+            cj, sj = np.cos(theta[i, j]), np.sin(theta[i, j])
+            for k in range(j + 1):
+                # d = A(θ_j)ᵀ (origin_j − origin_k); p1 = A(θ_k − θ_j) ρ_k (frame-j axes).
+                vx = origin[i, j, 0] - origin[i, k, 0]
+                vy = origin[i, j, 1] - origin[i, k, 1]
+                dx, dy = cj * vx + sj * vy, -sj * vx + cj * vy
+                turn = theta[i, k] - theta[i, j]
+                ct, st = np.cos(turn), np.sin(turn)
+                px = ct * xi[i, k, 0] - st * xi[i, k, 1]
+                py = st * xi[i, k, 0] + ct * xi[i, k, 1]
+                out[i, k] += (own + (dx * Fy - dy * Fx) - (px * Fy - py * Fx)
+                              + (dx * a1y - dy * a1x))

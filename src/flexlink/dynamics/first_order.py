@@ -131,7 +131,7 @@ class FirstOrderSystem:
         self.n: int = int(offsets[-1])
         self.bodies = [link_body(d, o) for d, o in zip(self.modal, self.offsets)]
         self._frames_cache: tuple[np.ndarray, FrameMotion] | None = None
-        self._history_cache: tuple[np.ndarray, JointHistory] | None = None
+        self._history_cache: list[tuple[np.ndarray, JointHistory]] = []
 
     @property
     def max_frequency(self) -> float:
@@ -141,13 +141,16 @@ class FirstOrderSystem:
     # -- kinematics -------------------------------------------------------------------------
     def joint_history(self, t: np.ndarray) -> JointHistory:
         """Prescribed joint angles, rates, accelerations at times t (s); remembered for the
-        last t asked for (a run asks for its output times several times)."""
+        last three t asked for (a run asks for its output times several times)."""
         t = np.asarray(t, dtype=float)
-        cached = self._history_cache
-        if cached is not None and cached[0].shape == t.shape and np.array_equal(cached[0], t):
-            return cached[1]
+        for i, (times, history) in enumerate(self._history_cache):
+            if times.shape == t.shape and np.array_equal(times, t):
+                if i:  # most recent first
+                    self._history_cache.insert(0, self._history_cache.pop(i))
+                return history
         history = joint_history(self.chain.joints, t)
-        self._history_cache = (t.copy(), history)
+        # A few entries: the output times survive the table's samples in between.
+        self._history_cache = [(t.copy(), history), *self._history_cache[:2]]
         return history
 
     def frames(self, t: np.ndarray) -> FrameMotion:

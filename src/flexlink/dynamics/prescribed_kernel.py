@@ -99,3 +99,15 @@ def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:
     kernel(data, workspace(data, 0), c(unique.angle, dtype=float), c(unique.rate, dtype=float),
            c(unique.acceleration, dtype=float), out)
     return out if out.shape[0] == inverse.size else out[inverse]
+
+
+def joint_torques(system: FirstOrderSystem, frames: SolvedFrames) -> np.ndarray:
+    """Motor torque of every joint (nt, N), N·m, along the solution ``frames`` were built for:
+    dynamics/torques.joint_torques compiled (`_prescribed_numba.joint_torques`)."""
+    from ._prescribed_numba import joint_torques as kernel
+
+    z, zd, zdd = (np.ascontiguousarray(v, dtype=float) for v in frames.solution)
+    out = np.empty(frames.theta.shape)
+    kernel(forward_data(system), frames.theta, frames.omega, frames.alpha, frames.origin,
+           frames.origin_accel, *frames.heads_, z, zd, zdd, out)
+    return out

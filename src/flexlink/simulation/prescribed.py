@@ -11,8 +11,7 @@ from ..channels.catalogue import joint_name, voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.shapes import LinkShape
 from ..dynamics.first_order import FirstOrderSystem
-from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, solved_frames
-from ..dynamics.torques import joint_torques
+from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, joint_torques, solved_frames
 from ..model import Scenario
 from ..solvers import PRESCRIBED_METHODS, Solution, rigid_solution
 from .common import PathRun, Progress, check_tip_deflection
@@ -50,7 +49,7 @@ def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: So
     hist = system.joint_history(t)
     # The frames along the solution, with T z, … per output time from the compiled kernel.
     frames = solved_frames(system, t, z, solution.q_dot, solution.q_ddot)
-    torque = joint_torques(system, t, z, solution.q_dot, solution.q_ddot, frames)
+    torque = joint_torques(system, frames)
     values = sensor_values(system, frames, solution, scenario.sensors)
     for k in range(len(scenario.chain.links)):
         values[joint_name(k, "angle")] = hist.angle[:, k]
