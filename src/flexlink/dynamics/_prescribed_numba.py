@@ -72,16 +72,19 @@ def _link_matrices(d, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd,
     −T̂ᵀ load, D."""
     nk, o = d.n_modes[k], d.offset[k] - nr  # offsets in d are into x = [δβ; z]
     mk = 3 + nk
+    # T_k depends on the coordinates of the links inboard of k only: every column of T̂ past
+    # link k's own is zero, and so are the rows and columns of its terms there.
+    nc = o + nk
     # T̂ = [T_k; E_k] restricted to z, E_k picking q_k (constant: its derivatives are zero).
     # Products with T̂ are written out: the three rows of T_k, plus column o + i of E_k.
     for a in range(3):
-        for c in range(n):
+        for c in range(nc):
             Th[a, c], Thd[a, c], Thdd[a, c] = T[k, a, nr + c], Td[k, a, nr + c], \
                 Tdd[k, a, nr + c]
     w2 = w * w
     # X = M_t T̂, Y = 2M_t Ṫ̂ + 2ω G₀ T̂, Z = M_t T̈̂ + 2ω G₀ Ṫ̂ + (ω̇ G₀ − ω² M₀) T̂, (3+n_k) × n.
     for a in range(mk):
-        for c in range(n):
+        for c in range(nc):
             x = y = zz = 0.0
             for b in range(3):
                 mt, g, m0 = d.Mtot[k, a, b], d.G0[k, a, b], d.M0[k, a, b]
@@ -96,8 +99,8 @@ def _link_matrices(d, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd,
             Y[a, o + i] += 2.0 * w * g
             Z[a, o + i] += wd * g - w2 * d.M0[k, a, b]
     # M += T̂ᵀ X, C += T̂ᵀ Y, K += T̂ᵀ Z.
-    for c1 in range(n):
-        for c2 in range(n):
+    for c1 in range(nc):
+        for c2 in range(nc):
             sm = sc = sk = 0.0
             for a in range(3):
                 ta = Th[a, c1]
@@ -108,7 +111,7 @@ def _link_matrices(d, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd,
             C[c1, c2] += sc
             K[c1, c2] += sk
     for i in range(nk):
-        for c2 in range(n):
+        for c2 in range(nc):
             M[o + i, c2] += X[3 + i, c2]
             C[o + i, c2] += Y[3 + i, c2]
             K[o + i, c2] += Z[3 + i, c2]
@@ -117,19 +120,19 @@ def _link_matrices(d, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd,
     l0 = mass * ax - w2 * s1
     l1 = mass * ay + wd * s1
     l2 = s1 * ay + J * wd + Jt * wd
-    for c in range(n):
+    for c in range(nc):
         f[c] -= Th[0, c] * l0 + Th[1, c] * l1 + Th[2, c] * l2
     for i in range(nk):
         f[o + i] -= (ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i]
                      + Jt * wd * d.tip_slope[k, i])
     # Second-order stiffness (first_order.second_order_stiffness): K −= S₂.
     scal = ax * s1 - w2 * J + N_out * d.length[k]
-    for c1 in range(n):
-        for c2 in range(n):
+    for c1 in range(nc):
+        for c2 in range(nc):
             K[c1, c2] -= scal * Th[2, c1] * Th[2, c2]
     for i in range(nk):
         vec = ax * d.phi_bar[k, i] - w2 * d.phi_tilde[k, i] + N_out * d.tip_value[k, i]
-        for c in range(n):
+        for c in range(nc):
             K[c, o + i] -= Th[2, c] * vec
             K[o + i, c] -= Th[2, c] * vec
     for i in range(nk):
