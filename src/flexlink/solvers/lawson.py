@@ -66,15 +66,24 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
         except RoughCoefficients:
             # Magnus assembles A where it needs it, which then costs less than a table.
             return integrate_magnus(system, t_out, rtol, atol, on_progress)
-        coarse = _solve(table, n, t_out, substeps // 2, on_progress)
+        # exp(h/2 Ã_ref) of the coarse pass is the square of the fine pass's (h doubled), and
+        # a static block's exp(Δt Ã) does not depend on h: one Padé exponential per block and
+        # pass with a new h.
+        ET = _block_propagators(table, n, t_out, substeps)
+        coarse_ET = ET.copy()
+        moving = ~table.static
+        coarse_ET[moving] = ET[moving] @ ET[moving]  # (E²)ᵀ = (Eᵀ)²
+        coarse = _solve(table, n, t_out, substeps // 2, on_progress, coarse_ET)
         for _ in range(_MAX_HALVINGS):
-            fine = _solve(table, n, t_out, substeps, on_progress)
+            fine = _solve(table, n, t_out, substeps, on_progress, ET)
             states, acc = fine
             if agree(states[:, :-1], states[:, :-1], coarse[0][:, :-1], n, rtol, atol):
                 stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
                 return Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats)
             coarse = fine
             substeps *= 2
+            ET = ET.copy()
+            ET[moving] = _block_propagators(table, n, t_out, substeps, moving)
     raise SimulationError(
         f"the integration did not reach rtol = {rtol:g}, atol = {atol:g} with {substeps} steps "
         "per output interval; loosen the tolerances or check the model"
@@ -102,12 +111,14 @@ def preload_compiled_loop() -> None:
 
 def _solve(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
-    on_progress: Progress | None,
+    on_progress: Progress | None, ET: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval."""
+    """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval;
+    ET: the block propagators for these substeps if known (_block_propagators)."""
     from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used
 
-    ET = _block_propagators(table, n, t_out, substeps)
+    if ET is None:
+        ET = _block_propagators(table, n, t_out, substeps)
     polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))  # the loop takes transposes
     referenceT = np.ascontiguousarray(np.swapaxes(table.reference, 1, 2))
     states = np.empty((t_out.size, 2 * n + 1))
@@ -133,14 +144,18 @@ def _solve(
 
 
 def _block_propagators(
-    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
+    blocks: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Per block, transposed for the compiled loop, (blocks, 2n+1, 2n+1): exp(Δt Ã)ᵀ of one
-    output interval Δt for a static block, exp(h/2 Ã_ref)ᵀ for a moving one, h = Δt /
-    substeps."""
+    """Per block (or per selected block: ``blocks``, a mask), transposed for the compiled
+    loop, (blocks, 2n+1, 2n+1): exp(Δt Ã)ᵀ of one output interval Δt for a static block,
+    exp(h/2 Ã_ref)ᵀ for a moving one, h = Δt / substeps."""
     dt = (t_out[table.last] - t_out[table.first]) / (table.last - table.first)
     factor = np.where(table.static, dt, 0.5 * dt / substeps)
     A = augmented(table.reference)
+    # The balancing scale from every block, selected or not: the same exponentials either way.
     scale = np.sqrt(max(np.abs(table.reference[:, :, :n]).max(), 1.0))
+    if blocks is not None:
+        factor, A = factor[blocks], A[blocks]
     return np.ascontiguousarray(np.swapaxes(expm_balanced(A * factor[:, None, None], n, scale),
                                             1, 2))
