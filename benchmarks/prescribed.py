@@ -7,6 +7,9 @@ paper: median wall time of `simulate(load_paper_experiment())` after a warm-up.
 sweep: median CPU time of one variant (EI of link 1 ×0.7–1.3 and both move durations drawn as in
 benchmarks/batch.py, a new E each case: new modal data), run in this process.
 ten: median wall time of the 10-link row of benchmarks/compare.py.
+stiff3: median wall time of the paper arm with geometric stiffening over 3 s (the issue's
+"paper-like manoeuvre" row, whose Exudyn time — coarsest mesh within 1% — is measured by
+benchmarks/nonlinear_vs_fe.py, not here).
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=15)
     parser.add_argument("--cases", type=int, default=40)
     parser.add_argument("--profile", choices=["paper", "sweep", "ten"])
-    parser.add_argument("--only", default="paper,sweep,ten")
+    parser.add_argument("--only", default="paper,stiff3,sweep,ten")
     args = parser.parse_args()
     from compare import _ten_links
 
@@ -77,6 +80,18 @@ def main() -> None:
             walls.append(time.perf_counter() - t0)
             cpus.append(time.process_time() - c0)
         print(f"paper simulate: median {1e3 * statistics.median(walls):.2f} ms, "
+              f"best {1e3 * min(walls):.2f} ms, median CPU {1e3 * statistics.median(cpus):.2f} ms")
+    if "stiff3" in only:
+        stiff = replace(paper, settings=replace(paper.settings, t_end=3.0,
+                                                geometric_stiffening=True))
+        simulate(stiff)
+        walls, cpus = [], []
+        for _ in range(args.repeat):
+            t0, c0 = time.perf_counter(), time.process_time()
+            simulate(stiff)
+            walls.append(time.perf_counter() - t0)
+            cpus.append(time.process_time() - c0)
+        print(f"paper arm 3 s, stiffening: median {1e3 * statistics.median(walls):.2f} ms, "
               f"best {1e3 * min(walls):.2f} ms, median CPU {1e3 * statistics.median(cpus):.2f} ms")
     if "sweep" in only:
         variants = _variants(args.cases)

@@ -3,7 +3,8 @@ kernels (`_forward_numba.frames`: the kinematical synthesis at one joint state),
 fixed base and prescribed joints compute the frames of `kinematics.frame_motion`
 (tests/unit/test_prescribed_kernel.py compares the two to round-off).
 
-`solved_frames`: the frame motion along a solved run and the products of its maps with the
+Entry points from Python: `state_rows`, M⁻¹[−K, −C, f] at joint states, and `channels`:
+`solved_frames`, the frame motion along a solved run and the products of its maps with the
 solution, ξ-heads [ρx, ρy, θ1] = T z and their derivatives, at every output time; the maps are
 recomputed only where the joint state changes (a rest phase keeps them).
 """
@@ -16,20 +17,37 @@ from numba import njit
 from ._forward_numba import frames
 
 
+@njit(cache=True, no_cpython_wrapper=True)
+def _scratch(d):
+    """p, ṗ, p̈, θ, ω, ω̇ (N), origin accelerations (N, 2) and maps T, Ṫ, T̈ (N, 3, n_x) for
+    `_forward_numba.frames`, allocated here: an argument more to unbox per call from Python
+    (a Workspace of 26 arrays) cost ~0.4 s of compilation on a first run."""
+    N, nx = d.length.shape[0], d.n_x
+    return (np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N),
+            np.empty((N, 2)), np.empty((N, 3, nx)), np.empty((N, 3, nx)), np.empty((N, 3, nx)))
+
+
 @njit(cache=True, error_model="numpy")
-def solved_frames(d, w_, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc,
+def channels(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc, xi, xi_d,
+             xi_dd, torque):
+    """solved_frames, then joint_torques from its outputs: one entry point from Python for
+    both (each entry point costs compilation on a first run)."""
+    solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc, xi,
+                  xi_d, xi_dd)
+    joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, zdd, torque)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc,
                   xi, xi_d, xi_dd):
     """Fill, per output time i and link k: θ, ω, ω̇ (nt, N); the frame origin (global, m)
     and its acceleration (frame axes) (nt, N, 2); ξ-heads T z, Ṫ z + T ż, T̈ z + 2Ṫ ż + T z̈
     (nt, N, 3). angle, rate, acc (nt, N): the joints; z, ż, z̈ (nt, n): the solution.
-    ``d`` is the ForwardData of a fixed base (prescribed_kernel.forward_data), ``w_`` its
-    Workspace."""
+    ``d`` is the ForwardData of a fixed base (prescribed_kernel.forward_data)."""
     nt, N = angle.shape
     nr = d.n_rigid
     n = z.shape[1]
-    p, pd, pdd = w_.p, w_.pd, w_.pdd
-    T, Td, Tdd = w_.T, w_.Td, w_.Tdd
-    th, om, al, oa = w_.theta, w_.omega, w_.alpha, w_.oacc
+    p, pd, pdd, th, om, al, oa, T, Td, Tdd = _scratch(d)
     ox = np.zeros(N)
     oy = np.zeros(N)
     for i in range(nt):
@@ -63,14 +81,16 @@ def solved_frames(d, w_, angle, rate, acc, z, zd, zdd, theta, omega, alpha, orig
                 xi[i, k, a], xi_d[i, k, a], xi_dd[i, k, a] = s0, s1, s2
 
 
-@njit(cache=True, error_model="numpy")
-def _link_matrices(d, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd, X, Y, Z,
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _link_matrices(o, nk, mass, s1, J, Jt, length, stiffening, Mtot, M0, G0, phi_bar,
+                   phi_tilde, tip_value, tip_slope, stiffness, damping, fore_mass, fore_moment,
+                   fore_tip, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd, X, Y, Z,
                    M, C, K, f):
     """Add link k's terms to M, C, K, f (n × n, n) of the elastic coordinates, as
     first_order.add_link_terms with rigid_load and second_order_stiffness (docs/derivation.md
     §3–4): T̂ᵀ M_t T̂, T̂ᵀ(2M_t Ṫ̂ + 2ω G₀T̂), T̂ᵀ(M_t T̈̂ + 2ω G₀ Ṫ̂ + (ω̇G₀ − ω²M₀)T̂) − S₂ + K_e,
-    −T̂ᵀ load, D."""
-    nk, o = d.n_modes[k], d.offset[k] - nr  # offsets in d are into x = [δβ; z]
+    −T̂ᵀ load, D. Link k's data (ForwardData's arrays at k; o its first coordinate in z)
+    come as arguments: passing the whole ForwardData down made this slower to compile."""
     mk = 3 + nk
     # T_k depends on the coordinates of the links inboard of k only: every column of T̂ past
     # link k's own is zero, and so are the rows and columns of its terms there.
@@ -87,17 +107,17 @@ def _link_matrices(d, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd,
         for c in range(nc):
             x = y = zz = 0.0
             for b in range(3):
-                mt, g, m0 = d.Mtot[k, a, b], d.G0[k, a, b], d.M0[k, a, b]
+                mt, g, m0 = Mtot[a, b], G0[a, b], M0[a, b]
                 x += mt * Th[b, c]
                 y += 2.0 * mt * Thd[b, c] + 2.0 * w * g * Th[b, c]
                 zz += mt * Thdd[b, c] + 2.0 * w * g * Thd[b, c] + (wd * g - w2 * m0) * Th[b, c]
             X[a, c], Y[a, c], Z[a, c] = x, y, zz
         for i in range(nk):
             b = 3 + i
-            g = d.G0[k, a, b]
-            X[a, o + i] += d.Mtot[k, a, b]
+            g = G0[a, b]
+            X[a, o + i] += Mtot[a, b]
             Y[a, o + i] += 2.0 * w * g
-            Z[a, o + i] += wd * g - w2 * d.M0[k, a, b]
+            Z[a, o + i] += wd * g - w2 * M0[a, b]
     # M += T̂ᵀ X, C += T̂ᵀ Y, K += T̂ᵀ Z.
     for c1 in range(nc):
         for c2 in range(nc):
@@ -116,45 +136,42 @@ def _link_matrices(d, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd,
             C[o + i, c2] += Y[3 + i, c2]
             K[o + i, c2] += Z[3 + i, c2]
     # Zero-order inertia load (first_order.rigid_load): f −= T̂ᵀ load.
-    mass, s1, J, Jt = d.mass[k], d.s1[k], d.J[k], d.Jt[k]
     l0 = mass * ax - w2 * s1
     l1 = mass * ay + wd * s1
     l2 = s1 * ay + J * wd + Jt * wd
     for c in range(nc):
         f[c] -= Th[0, c] * l0 + Th[1, c] * l1 + Th[2, c] * l2
     for i in range(nk):
-        f[o + i] -= (ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i]
-                     + Jt * wd * d.tip_slope[k, i])
+        f[o + i] -= (ay * phi_bar[i] + wd * phi_tilde[i]
+                     + Jt * wd * tip_slope[i])
     # Second-order stiffness (first_order.second_order_stiffness): K −= S₂.
-    scal = ax * s1 - w2 * J + N_out * d.length[k]
+    scal = ax * s1 - w2 * J + N_out * length
     for c1 in range(nc):
         for c2 in range(nc):
             K[c1, c2] -= scal * Th[2, c1] * Th[2, c2]
     for i in range(nk):
-        vec = ax * d.phi_bar[k, i] - w2 * d.phi_tilde[k, i] + N_out * d.tip_value[k, i]
+        vec = ax * phi_bar[i] - w2 * phi_tilde[i] + N_out * tip_value[i]
         for c in range(nc):
             K[c, o + i] -= Th[2, c] * vec
             K[o + i, c] -= Th[2, c] * vec
     for i in range(nk):
         for j in range(nk):
-            if d.stiffening:
-                K[o + i, o + j] -= (ax * d.fore_mass[k, i, j] - w2 * d.fore_moment[k, i, j]
-                                    + N_out * d.fore_tip[k, i, j])
-            K[o + i, o + j] += d.stiffness[k, i, j]
-            C[o + i, o + j] += d.damping[k, i, j]
+            if stiffening:
+                K[o + i, o + j] -= (ax * fore_mass[i, j] - w2 * fore_moment[i, j]
+                                    + N_out * fore_tip[i, j])
+            K[o + i, o + j] += stiffness[i, j]
+            C[o + i, o + j] += damping[i, j]
 
 
 @njit(cache=True, error_model="numpy")
-def state_rows(d, w_, angle, rate, acc, out):
+def state_rows(d, angle, rate, acc, out):
     """out[i] = M⁻¹[−K, −C, f] (n, 2n+1) of the first-order model at joint states angle, rate,
     acc (nt, N) (magnus.state_rows of FirstOrderSystem.matrices, without actuators)."""
     nt, N = angle.shape
     nr = d.n_rigid
     n = out.shape[1]
     m = 3 + d.phi_bar.shape[1]
-    p, pd, pdd = w_.p, w_.pd, w_.pdd
-    T, Td, Tdd = w_.T, w_.Td, w_.Tdd
-    th, om, al, oa = w_.theta, w_.omega, w_.alpha, w_.oacc
+    p, pd, pdd, th, om, al, oa, T, Td, Tdd = _scratch(d)
     Th, Thd, Thdd = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
     X, Y, Z = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
     M, C, K, f = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty(n)
@@ -179,8 +196,12 @@ def state_rows(d, w_, angle, rate, acc, out):
             for b in range(n):
                 M[a, b] = C[a, b] = K[a, b] = 0.0
         for k in range(N):
-            _link_matrices(d, k, nr, n, om[k], al[k], oa[k, 0], oa[k, 1], outboard[k, 0],
-                           T, Td, Tdd, Th, Thd, Thdd, X, Y, Z, M, C, K, f)
+            _link_matrices(d.offset[k] - nr, d.n_modes[k], d.mass[k], d.s1[k], d.J[k],
+                           d.Jt[k], d.length[k], d.stiffening, d.Mtot[k], d.M0[k], d.G0[k],
+                           d.phi_bar[k], d.phi_tilde[k], d.tip_value[k], d.tip_slope[k],
+                           d.stiffness[k], d.damping[k], d.fore_mass[k], d.fore_moment[k],
+                           d.fore_tip[k], k, nr, n, om[k], al[k], oa[k, 0], oa[k, 1],
+                           outboard[k, 0], T, Td, Tdd, Th, Thd, Thdd, X, Y, Z, M, C, K, f)
         for a in range(n):
             for b in range(n):
                 rhs[a, b] = -K[a, b]
@@ -192,7 +213,7 @@ def state_rows(d, w_, angle, rate, acc, out):
                 out[i, a, b] = rhs[a, b]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _solve_many(A, B):
     """B ← A⁻¹ B (A destroyed) by Gaussian elimination with partial pivoting; a singular A
     gives NaN (the table then reports non-finite coefficients)."""
@@ -230,7 +251,7 @@ def _solve_many(A, B):
             B[i, j] = acc * inv
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, zdd, out):
     """out[i, k] = motor torque of joint k (N·m) at output time i, dynamics/torques.py's
     τ_k = Σ_{j≥k} [∫_j (r − P_k) × r̈ dm + J_t,j ϑ̈_j] to first order in z, from the frames

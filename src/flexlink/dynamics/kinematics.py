@@ -134,10 +134,12 @@ class SolvedFrames(FrameMotion):
     (dynamics/prescribed_kernel.py). ``head``/``heads`` answer for those very arrays only.
 
     solution: the (z, ż, z̈) arrays the products belong to; heads: T z, Ṫ z + T ż,
-    T̈ z + 2Ṫ ż + T z̈, each (nt, N, 3)."""
+    T̈ z + 2Ṫ ż + T z̈, each (nt, N, 3); torques: the joint torques along the solution,
+    computed with the frames (dynamics/prescribed_kernel.py)."""
 
     solution: tuple[np.ndarray, np.ndarray, np.ndarray] = field(kw_only=True)
     heads_: tuple[np.ndarray, np.ndarray, np.ndarray] = field(kw_only=True)
+    torques: np.ndarray | None = field(default=None, kw_only=True)  # (nt, N), N·m, if known
 
     def head(self, k: int, z: np.ndarray) -> np.ndarray:
         if z is not self.solution[0]:

@@ -51,9 +51,9 @@ def solved_frames(system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np
                   zdd: np.ndarray) -> SolvedFrames:
     """The frame motion at times t (s) along the solution z, ż, z̈ (nt, n), with the products
     of its maps with the solution (ξ-heads) instead of the maps: what the joint torques,
-    sensors and tip paths of a run read (kinematics.SolvedFrames)."""
-    from ._forward_numba import workspace
-    from ._prescribed_numba import solved_frames as kernel
+    sensors and tip paths of a run read (kinematics.SolvedFrames). The joint torques come
+    along (``torques``: solved_frames(…).torques, see joint_torques)."""
+    from ._prescribed_numba import channels
 
     data = forward_data(system)
     h = system.joint_history(t)
@@ -64,11 +64,12 @@ def solved_frames(system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np
     theta, omega, alpha = np.empty((nt, N)), np.empty((nt, N)), np.empty((nt, N))
     origin, oacc = np.empty((nt, N, 2)), np.empty((nt, N, 2))
     heads = tuple(np.empty((nt, N, 3)) for _ in range(3))
-    kernel(data, workspace(data, 0), c(h.angle, dtype=float), c(h.rate, dtype=float),
-           c(h.acceleration, dtype=float), z, zd, zdd, theta, omega, alpha, origin, oacc,
-           *heads)
+    torques = np.empty((nt, N))
+    channels(data, c(h.angle, dtype=float), c(h.rate, dtype=float),
+             c(h.acceleration, dtype=float), z, zd, zdd, theta, omega, alpha, origin, oacc,
+             *heads, torques)
     return SolvedFrames(theta, omega, alpha, origin, oacc, [], [], [],
-                        solution=given, heads_=heads)
+                        solution=given, heads_=heads, torques=torques)
 
 
 class CompiledFirstOrderSystem(FirstOrderSystem):
@@ -87,7 +88,6 @@ def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:
     """M⁻¹[−K, −C, f] (nt, n, 2n+1) of ``system`` at times t (s), compiled
     (`_prescribed_numba.state_rows`; equal to magnus.state_rows of the numpy
     FirstOrderSystem.matrices to round-off), once per distinct joint state."""
-    from ._forward_numba import workspace
     from ._prescribed_numba import state_rows as kernel
 
     if system.actuators:
@@ -96,18 +96,27 @@ def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:
     unique, inverse = distinct_rows(system.joint_history(t))
     c = np.ascontiguousarray
     out = np.empty((unique.angle.shape[0], system.n, 2 * system.n + 1))
-    kernel(data, workspace(data, 0), c(unique.angle, dtype=float), c(unique.rate, dtype=float),
+    kernel(data, c(unique.angle, dtype=float), c(unique.rate, dtype=float),
            c(unique.acceleration, dtype=float), out)
     return out if out.shape[0] == inverse.size else out[inverse]
 
 
 def joint_torques(system: FirstOrderSystem, frames: SolvedFrames) -> np.ndarray:
     """Motor torque of every joint (nt, N), N·m, along the solution ``frames`` were built for:
-    dynamics/torques.joint_torques compiled (`_prescribed_numba.joint_torques`)."""
-    from ._prescribed_numba import joint_torques as kernel
+    dynamics/torques.joint_torques compiled (`_prescribed_numba.joint_torques`), computed
+    with the frames by solved_frames."""
+    return frames.torques
 
-    z, zd, zdd = (np.ascontiguousarray(v, dtype=float) for v in frames.solution)
-    out = np.empty(frames.theta.shape)
-    kernel(forward_data(system), frames.theta, frames.omega, frames.alpha, frames.origin,
-           frames.origin_accel, *frames.heads_, z, zd, zdd, out)
-    return out
+
+def load() -> None:
+    """Load (or, on a first run, compile) the kernels of this module for every chain: their
+    types do not depend on the chain's size, so a one-link chain at two instants does it
+    (`solvers.lawson.preload_compiled_loop` runs this in a background thread)."""
+    from ..model import Chain, Link
+    from ..motion import Hold
+
+    system = FirstOrderSystem(Chain((Link("preload", 1.0, 1.0, 1.0, modes=1),), (Hold(0.0),)))
+    t = np.array([0.0, 1.0])
+    z = np.zeros((2, system.n))
+    state_rows(system, t)
+    solved_frames(system, t, z, z, z)

@@ -91,7 +91,8 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
 
 
 def preload_compiled_loop() -> None:
-    """Start loading (or, on a first run, compiling) the compiled step loop in a background
+    """Start loading (or, on a first run, compiling) the compiled step loop (and the
+    prescribed path's kernels, dynamics/prescribed_kernel.py) in a background
     thread, for a caller that knows a Lawson run is coming: numba's import, its cache and
     LLVM's code generation (which releases the interpreter lock) then overlap the caller's
     other start-up work. The run itself waits for it (numba's compiler lock); an error here
@@ -103,6 +104,10 @@ def preload_compiled_loop() -> None:
             from ._lawson_numba import load as load_loop
 
             load_loop()
+            # The prescribed path's compiled assembly and channels (a table, then frames).
+            from ..dynamics.prescribed_kernel import load as load_kernels
+
+            load_kernels()
         except Exception:  # noqa: BLE001, S110 — the run reports it
             pass
 
