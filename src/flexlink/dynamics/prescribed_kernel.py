@@ -35,6 +35,9 @@ def forward_view(system: FirstOrderSystem) -> ForwardSystem:
     view.bodies = [link_body(d, n_links + o) for d, o in zip(system.modal, system.offsets)]
     view.attach = [view.base.attachment(k) for k in range(n_links)]
     view.driven, view.free, view.servos = [], [], []
+    # Actuator forces are not part of these kernels (CompiledFirstOrderSystem adds them in
+    # numpy): none, whatever attribute the forward model gives them.
+    view.actuators = ()
     return view
 
 
