@@ -76,7 +76,7 @@ def link_points(model: ElasticModel, frames: FrameMotion, z: np.ndarray, k: int,
     d = model.modal[k]
     if phi is None:
         phi = d.shapes.evaluate(x, 0)
-    rho = frames.apply(frames.T, k, z)
+    rho = frames.head(k, z)
     q = z[:, model.bodies[k].slice]
     c, s = np.cos(frames.theta[:, k]), np.sin(frames.theta[:, k])
     # Linear in per-time factors: one small matrix product per axis instead of elementwise

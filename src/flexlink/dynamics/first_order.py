@@ -103,7 +103,7 @@ def chain_modal_data(chain: Chain) -> list[ModalData]:
             for k, link in enumerate(chain.links)]
 
 
-def _distinct_rows(history: JointHistory) -> tuple[JointHistory, np.ndarray]:
+def distinct_rows(history: JointHistory) -> tuple[JointHistory, np.ndarray]:
     """Runs of equal consecutive joint states: the first state of each run and, per time, the
     index of its run. Linear in the number of times (no sort); a state revisited after a
     different one counts as a new run, which costs only one more assembly."""
@@ -131,7 +131,7 @@ class FirstOrderSystem:
         self.n: int = int(offsets[-1])
         self.bodies = [link_body(d, o) for d, o in zip(self.modal, self.offsets)]
         self._frames_cache: tuple[np.ndarray, FrameMotion] | None = None
-        self._history_cache: tuple[np.ndarray, JointHistory] | None = None
+        self._history_cache: list[tuple[np.ndarray, JointHistory]] = []
 
     @property
     def max_frequency(self) -> float:
@@ -141,13 +141,16 @@ class FirstOrderSystem:
     # -- kinematics -------------------------------------------------------------------------
     def joint_history(self, t: np.ndarray) -> JointHistory:
         """Prescribed joint angles, rates, accelerations at times t (s); remembered for the
-        last t asked for (a run asks for its output times several times)."""
+        last three t asked for (a run asks for its output times several times)."""
         t = np.asarray(t, dtype=float)
-        cached = self._history_cache
-        if cached is not None and cached[0].shape == t.shape and np.array_equal(cached[0], t):
-            return cached[1]
+        for i, (times, history) in enumerate(self._history_cache):
+            if times.shape == t.shape and np.array_equal(times, t):
+                if i:  # most recent first
+                    self._history_cache.insert(0, self._history_cache.pop(i))
+                return history
         history = joint_history(self.chain.joints, t)
-        self._history_cache = (t.copy(), history)
+        # A few entries: the output times survive the table's samples in between.
+        self._history_cache = [(t.copy(), history), *self._history_cache[:2]]
         return history
 
     def frames(self, t: np.ndarray) -> FrameMotion:
@@ -158,7 +161,7 @@ class FirstOrderSystem:
         cached = self._frames_cache
         if cached is not None and cached[0].shape == t.shape and np.array_equal(cached[0], t):
             return cached[1]
-        unique, inverse = _distinct_rows(self.joint_history(t))
+        unique, inverse = distinct_rows(self.joint_history(t))
         fr = frame_motion(unique, self.modal, self.offsets, self.n)
         if unique.angle.shape[0] < inverse.size:
             fr = fr.at_rows(inverse)
@@ -180,7 +183,7 @@ class FirstOrderSystem:
         rates and accelerations, so every instant of a joint at rest shares one label: the
         solver then computes one propagator for a whole rest phase. Open-loop actuator
         voltages count as part of the state of the inputs."""
-        keys = _distinct_rows(self.joint_history(t))[1]
+        keys = distinct_rows(self.joint_history(t))[1]
         if not self.actuators:
             return keys
         rows = np.column_stack([keys, self.voltages(t)])
@@ -221,7 +224,7 @@ class FirstOrderSystem:
         if frames is not None:
             return self._assemble(frames)
         # Assemble once per distinct joint state: rest phases repeat one state many times.
-        unique, inverse = _distinct_rows(self.joint_history(t))
+        unique, inverse = distinct_rows(self.joint_history(t))
         coefficients = self._assemble(frame_motion(unique, self.modal, self.offsets, self.n))
         if unique.angle.shape[0] == inverse.size:
             return coefficients
@@ -295,17 +298,11 @@ def xi_states(frames: FrameMotion, k: int, own: slice, z: np.ndarray, zd: np.nda
               zdd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ξ_k = [ρx, ρy, θ1, q_k], ξ̇_k, ξ̈_k (each (nt, 3+n_k)) from z, ż, z̈ (nt, n); ``own``
     picks link k's modal coordinates q_k out of z."""
-    T, T_d, T_dd = frames.T, frames.T_dot, frames.T_ddot
-
-    def apply(maps: list[np.ndarray], v: np.ndarray) -> np.ndarray:
-        return frames.apply(maps, k, v)
-
     # T̂ = [T; E] with E picking q_k, constant: the rows of its derivatives are zero.
-    xi = np.concatenate([apply(T, z), z[:, own]], axis=1)
-    xi_d = np.concatenate([apply(T, zd) + apply(T_d, z), zd[:, own]], axis=1)
-    xi_dd = np.concatenate([apply(T, zdd) + 2 * apply(T_d, zd) + apply(T_dd, z), zdd[:, own]],
-                           axis=1)
-    return xi, xi_d, xi_dd
+    head, head_d, head_dd = frames.heads(k, z, zd, zdd)
+    return (np.concatenate([head, z[:, own]], axis=1),
+            np.concatenate([head_d, zd[:, own]], axis=1),
+            np.concatenate([head_dd, zdd[:, own]], axis=1))
 
 
 def add_link_terms(

@@ -15,7 +15,7 @@ T_{k+1} = blockdiag(A(−β_{k+1}), 1) P̃_k T̂_k. Time derivatives follow anal
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -107,12 +107,53 @@ class FrameMotion:
             return _per_time(maps[k], v)
         return self.rows.apply(maps[k], v)
 
+    def head(self, k: int, z: np.ndarray) -> np.ndarray:
+        """[ρx, ρy, θ1] of frame k, T_k z, (nt, 3), for the elastic coordinates z (nt, n)."""
+        return self.apply(self.T, k, z)
+
+    def heads(self, k: int, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """T z, Ṫ z + T ż, T̈ z + 2Ṫ ż + T z̈ of frame k, (nt, 3) each: the first three entries
+        of ξ_k, ξ̇_k, ξ̈_k (the rows of T̂'s derivatives under q_k are zero)."""
+        T, T_d, T_dd = self.T, self.T_dot, self.T_ddot
+        return (self.apply(T, k, z), self.apply(T, k, zd) + self.apply(T_d, k, z),
+                self.apply(T, k, zdd) + 2 * self.apply(T_d, k, zd) + self.apply(T_dd, k, z))
+
     def at_rows(self, rows: np.ndarray) -> FrameMotion:
         """This motion, computed once per distinct joint state, at times whose state indices
         are ``rows``: the small arrays are expanded, the maps stay per state (``apply``)."""
         return FrameMotion(self.theta[rows], self.omega[rows], self.alpha[rows],
                            self.origin[rows], self.origin_accel[rows],
                            self.T, self.T_dot, self.T_ddot, RowIndex.from_rows(rows))
+
+
+@dataclass(frozen=True)
+class SolvedFrames(FrameMotion):
+    """The frame motion along one solved run: instead of the maps T, Ṫ, T̈ (left empty) their
+    products with that run's z, ż, z̈, computed at each output time by a compiled kernel
+    (dynamics/prescribed_kernel.py). ``head``/``heads`` answer for those very arrays only.
+
+    solution: the (z, ż, z̈) arrays the products belong to; heads: T z, Ṫ z + T ż,
+    T̈ z + 2Ṫ ż + T z̈, each (nt, N, 3); torques: the joint torques along the solution,
+    computed with the frames (dynamics/prescribed_kernel.py)."""
+
+    solution: tuple[np.ndarray, np.ndarray, np.ndarray] = field(kw_only=True)
+    heads_: tuple[np.ndarray, np.ndarray, np.ndarray] = field(kw_only=True)
+    torques: np.ndarray | None = field(default=None, kw_only=True)  # (nt, N), N·m, if known
+
+    def head(self, k: int, z: np.ndarray) -> np.ndarray:
+        if z is not self.solution[0]:
+            raise ValueError("SolvedFrames know T z only for the solution they were built for")
+        return self.heads_[0][:, k]
+
+    def heads(self, k: int, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if any(a is not b for a, b in zip((z, zd, zdd), self.solution)):
+            raise ValueError("SolvedFrames know ξ only for the solution they were built for")
+        return self.heads_[0][:, k], self.heads_[1][:, k], self.heads_[2][:, k]
+
+    def apply(self, maps: list[np.ndarray], k: int, v: np.ndarray) -> np.ndarray:
+        raise ValueError("SolvedFrames keep no maps: use head or heads")
 
 
 def rotation(angle: np.ndarray) -> np.ndarray:

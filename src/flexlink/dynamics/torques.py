@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .first_order import FirstOrderSystem
-from .kinematics import rotation
+from .kinematics import FrameMotion, rotation
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -23,10 +23,12 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def joint_torques(
-    system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray
+    system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray,
+    frames: FrameMotion | None = None,
 ) -> np.ndarray:
-    """Motor torque of every joint, (nt, N) in N·m, positive counter-clockwise on link k."""
-    fr = system.frames(t)
+    """Motor torque of every joint, (nt, N) in N·m, positive counter-clockwise on link k.
+    ``frames``: the frame motion at t if known (a run's SolvedFrames for this z, ż, z̈)."""
+    fr = system.frames(t) if frames is None else frames
     nt, n_links = fr.theta.shape
     torque = np.zeros((nt, n_links))
     states = [system.xi_states(fr, j, z, zd, zdd) for j in range(n_links)]

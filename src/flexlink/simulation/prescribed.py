@@ -11,7 +11,7 @@ from ..channels.catalogue import joint_name, voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.shapes import LinkShape
 from ..dynamics.first_order import FirstOrderSystem
-from ..dynamics.torques import joint_torques
+from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, joint_torques, solved_frames
 from ..model import Scenario
 from ..solvers import PRESCRIBED_METHODS, Solution, rigid_solution
 from .common import PathRun, Progress, check_tip_deflection
@@ -20,8 +20,8 @@ from .common import PathRun, Progress, check_tip_deflection
 def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening,
-                              scenario.actuators)
+    system = CompiledFirstOrderSystem(scenario.chain, settings.geometric_stiffening,
+                                      scenario.actuators)
     system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
     if system.n:
         integrate = PRESCRIBED_METHODS[settings.method]
@@ -46,9 +46,10 @@ def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: So
     t, z = solution.t, solution.q
     validity = check_tip_deflection(scenario.chain.links, t, tip_deflections(system, z),
                                     system.geometric_stiffening)
-    frames = system.frames(t)
     hist = system.joint_history(t)
-    torque = joint_torques(system, t, z, solution.q_dot, solution.q_ddot)
+    # The frames along the solution, with T z, … per output time from the compiled kernel.
+    frames = solved_frames(system, t, z, solution.q_dot, solution.q_ddot)
+    torque = joint_torques(system, frames)
     values = sensor_values(system, frames, solution, scenario.sensors)
     for k in range(len(scenario.chain.links)):
         values[joint_name(k, "angle")] = hist.angle[:, k]

@@ -26,12 +26,18 @@ def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):
         p += 1
     local = (tau - lower[p]) / (upper[p] - lower[p])
     degree = polyT.shape[1] - 1
+    # Horner with the degree outermost: the inner loops run over contiguous entries and
+    # vectorise; each entry sees the same operations in the same order as entry by entry.
     for j in range(outT.shape[0]):
         for i in range(outT.shape[1]):
-            acc = polyT[p, degree, j, i]
-            for d in range(degree - 1, -1, -1):
-                acc = acc * local + polyT[p, d, j, i]
-            outT[j, i] = acc - referenceT[j, i]
+            outT[j, i] = polyT[p, degree, j, i]
+    for d in range(degree - 1, -1, -1):
+        for j in range(outT.shape[0]):
+            for i in range(outT.shape[1]):
+                outT[j, i] = outT[j, i] * local + polyT[p, d, j, i]
+    for j in range(outT.shape[0]):
+        for i in range(outT.shape[1]):
+            outT[j, i] -= referenceT[j, i]
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")

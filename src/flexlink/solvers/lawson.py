@@ -56,22 +56,34 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
     substeps = 2 * max(1, int(np.ceil(np.diff(t_out).max() / (2 * first_step))))
     with single_threaded():
         try:  # more than Magnus' 2 assemblies per step and pass would not pay
-            table = tabulate(lambda times: state_rows(matrices, times), t_out,
+            # A system may bring its own (compiled) state rows M⁻¹[−K, −C, f].
+            rows = getattr(system, "state_rows", None) or (
+                lambda times: state_rows(matrices, times))
+            table = tabulate(rows, t_out,
                              system.coefficient_keys, tolerance=rtol,
                              budget=_ASSEMBLIES_PER_STEP * substeps,
                              breaks=system.breakpoints())
         except RoughCoefficients:
             # Magnus assembles A where it needs it, which then costs less than a table.
             return integrate_magnus(system, t_out, rtol, atol, on_progress)
-        coarse = _solve(table, n, t_out, substeps // 2, on_progress)
+        # exp(h/2 Ã_ref) of the coarse pass is the square of the fine pass's (h doubled), and
+        # a static block's exp(Δt Ã) does not depend on h: one Padé exponential per block and
+        # pass with a new h.
+        ET = _block_propagators(table, n, t_out, substeps)
+        coarse_ET = ET.copy()
+        moving = ~table.static
+        coarse_ET[moving] = ET[moving] @ ET[moving]  # (E²)ᵀ = (Eᵀ)²
+        coarse = _solve(table, n, t_out, substeps // 2, on_progress, coarse_ET)
         for _ in range(_MAX_HALVINGS):
-            fine = _solve(table, n, t_out, substeps, on_progress)
+            fine = _solve(table, n, t_out, substeps, on_progress, ET)
             states, acc = fine
             if agree(states[:, :-1], states[:, :-1], coarse[0][:, :-1], n, rtol, atol):
                 stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
                 return Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats)
             coarse = fine
             substeps *= 2
+            ET = ET.copy()
+            ET[moving] = _block_propagators(table, n, t_out, substeps, moving)
     raise SimulationError(
         f"the integration did not reach rtol = {rtol:g}, atol = {atol:g} with {substeps} steps "
         "per output interval; loosen the tolerances or check the model"
@@ -79,7 +91,8 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
 
 
 def preload_compiled_loop() -> None:
-    """Start loading (or, on a first run, compiling) the compiled step loop in a background
+    """Start loading (or, on a first run, compiling) the compiled step loop (and the
+    prescribed path's kernels, dynamics/prescribed_kernel.py) in a background
     thread, for a caller that knows a Lawson run is coming: numba's import, its cache and
     LLVM's code generation (which releases the interpreter lock) then overlap the caller's
     other start-up work. The run itself waits for it (numba's compiler lock); an error here
@@ -91,6 +104,10 @@ def preload_compiled_loop() -> None:
             from ._lawson_numba import load as load_loop
 
             load_loop()
+            # The prescribed path's compiled assembly and channels (a table, then frames).
+            from ..dynamics.prescribed_kernel import load as load_kernels
+
+            load_kernels()
         except Exception:  # noqa: BLE001, S110 — the run reports it
             pass
 
@@ -99,12 +116,14 @@ def preload_compiled_loop() -> None:
 
 def _solve(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
-    on_progress: Progress | None,
+    on_progress: Progress | None, ET: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval."""
+    """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval;
+    ET: the block propagators for these substeps if known (_block_propagators)."""
     from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used
 
-    ET = _block_propagators(table, n, t_out, substeps)
+    if ET is None:
+        ET = _block_propagators(table, n, t_out, substeps)
     polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))  # the loop takes transposes
     referenceT = np.ascontiguousarray(np.swapaxes(table.reference, 1, 2))
     states = np.empty((t_out.size, 2 * n + 1))
@@ -130,14 +149,18 @@ def _solve(
 
 
 def _block_propagators(
-    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
+    blocks: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Per block, transposed for the compiled loop, (blocks, 2n+1, 2n+1): exp(Δt Ã)ᵀ of one
-    output interval Δt for a static block, exp(h/2 Ã_ref)ᵀ for a moving one, h = Δt /
-    substeps."""
+    """Per block (or per selected block: ``blocks``, a mask), transposed for the compiled
+    loop, (blocks, 2n+1, 2n+1): exp(Δt Ã)ᵀ of one output interval Δt for a static block,
+    exp(h/2 Ã_ref)ᵀ for a moving one, h = Δt / substeps."""
     dt = (t_out[table.last] - t_out[table.first]) / (table.last - table.first)
     factor = np.where(table.static, dt, 0.5 * dt / substeps)
     A = augmented(table.reference)
+    # The balancing scale from every block, selected or not: the same exponentials either way.
     scale = np.sqrt(max(np.abs(table.reference[:, :, :n]).max(), 1.0))
+    if blocks is not None:
+        factor, A = factor[blocks], A[blocks]
     return np.ascontiguousarray(np.swapaxes(expm_balanced(A * factor[:, None, None], n, scale),
                                             1, 2))

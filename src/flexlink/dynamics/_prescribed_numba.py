@@ -1,0 +1,309 @@
+"""Compiled (numba) kernels of the prescribed-joint path, built on the forward dynamics'
+kernels (`_forward_numba.frames`: the kinematical synthesis at one joint state), which with a
+fixed base and prescribed joints compute the frames of `kinematics.frame_motion`
+(tests/unit/test_prescribed_kernel.py compares the two to round-off).
+
+Entry points from Python: `state_rows`, M⁻¹[−K, −C, f] at joint states, and `channels`:
+`solved_frames`, the frame motion along a solved run and the products of its maps with the
+solution, ξ-heads [ρx, ρy, θ1] = T z and their derivatives, at every output time; the maps are
+recomputed only where the joint state changes (a rest phase keeps them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ._forward_numba import frames
+
+
+@njit(cache=True, no_cpython_wrapper=True)
+def _scratch(d):
+    """p, ṗ, p̈, θ, ω, ω̇ (N), origin accelerations (N, 2) and maps T, Ṫ, T̈ (N, 3, n_x) for
+    `_forward_numba.frames`, allocated here: an argument more to unbox per call from Python
+    (a Workspace of 26 arrays) cost ~0.4 s of compilation on a first run."""
+    N, nx = d.length.shape[0], d.n_x
+    return (np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N),
+            np.empty((N, 2)), np.empty((N, 3, nx)), np.empty((N, 3, nx)), np.empty((N, 3, nx)))
+
+
+@njit(cache=True, error_model="numpy")
+def channels(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc, xi, xi_d,
+             xi_dd, torque):
+    """solved_frames, then joint_torques from its outputs: one entry point from Python for
+    both (each entry point costs compilation on a first run)."""
+    solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc, xi,
+                  xi_d, xi_dd)
+    joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, zdd, torque)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc,
+                  xi, xi_d, xi_dd):
+    """Fill, per output time i and link k: θ, ω, ω̇ (nt, N); the frame origin (global, m)
+    and its acceleration (frame axes) (nt, N, 2); ξ-heads T z, Ṫ z + T ż, T̈ z + 2Ṫ ż + T z̈
+    (nt, N, 3). angle, rate, acc (nt, N): the joints; z, ż, z̈ (nt, n): the solution.
+    ``d`` is the ForwardData of a fixed base (prescribed_kernel.forward_data)."""
+    nt, N = angle.shape
+    nr = d.n_rigid
+    n = z.shape[1]
+    p, pd, pdd, th, om, al, oa, T, Td, Tdd = _scratch(d)
+    ox = np.zeros(N)
+    oy = np.zeros(N)
+    for i in range(nt):
+        same = i > 0
+        if same:
+            for k in range(N):
+                if (angle[i, k] != angle[i - 1, k] or rate[i, k] != rate[i - 1, k]
+                        or acc[i, k] != acc[i - 1, k]):
+                    same = False
+                    break
+        if not same:
+            for k in range(N):
+                p[k], pd[k], pdd[k] = angle[i, k], rate[i, k], acc[i, k]
+            frames(d, p, pd, pdd, th, om, al, oa, T, Td, Tdd)
+            x = y = 0.0
+            for k in range(N):  # origin of frame k: the rigid tip of link k − 1
+                ox[k], oy[k] = x, y
+                x += d.length[k] * np.cos(th[k])
+                y += d.length[k] * np.sin(th[k])
+        for k in range(N):
+            theta[i, k], omega[i, k], alpha[i, k] = th[k], om[k], al[k]
+            origin[i, k, 0], origin[i, k, 1] = ox[k], oy[k]
+            oacc[i, k, 0], oacc[i, k, 1] = oa[k, 0], oa[k, 1]
+            for a in range(3):
+                s0 = s1 = s2 = 0.0
+                for c in range(n):
+                    t0, t1, t2 = T[k, a, nr + c], Td[k, a, nr + c], Tdd[k, a, nr + c]
+                    s0 += t0 * z[i, c]
+                    s1 += t0 * zd[i, c] + t1 * z[i, c]
+                    s2 += t0 * zdd[i, c] + 2.0 * t1 * zd[i, c] + t2 * z[i, c]
+                xi[i, k, a], xi_d[i, k, a], xi_dd[i, k, a] = s0, s1, s2
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _link_matrices(o, nk, mass, s1, J, Jt, length, stiffening, Mtot, M0, G0, phi_bar,
+                   phi_tilde, tip_value, tip_slope, stiffness, damping, fore_mass, fore_moment,
+                   fore_tip, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd, X, Y, Z,
+                   M, C, K, f):
+    """Add link k's terms to M, C, K, f (n × n, n) of the elastic coordinates, as
+    first_order.add_link_terms with rigid_load and second_order_stiffness (docs/derivation.md
+    §3–4): T̂ᵀ M_t T̂, T̂ᵀ(2M_t Ṫ̂ + 2ω G₀T̂), T̂ᵀ(M_t T̈̂ + 2ω G₀ Ṫ̂ + (ω̇G₀ − ω²M₀)T̂) − S₂ + K_e,
+    −T̂ᵀ load, D. Link k's data (ForwardData's arrays at k; o its first coordinate in z)
+    come as arguments: passing the whole ForwardData down made this slower to compile."""
+    mk = 3 + nk
+    # T_k depends on the coordinates of the links inboard of k only: every column of T̂ past
+    # link k's own is zero, and so are the rows and columns of its terms there.
+    nc = o + nk
+    # T̂ = [T_k; E_k] restricted to z, E_k picking q_k (constant: its derivatives are zero).
+    # Products with T̂ are written out: the three rows of T_k, plus column o + i of E_k.
+    for a in range(3):
+        for c in range(nc):
+            Th[a, c], Thd[a, c], Thdd[a, c] = T[k, a, nr + c], Td[k, a, nr + c], \
+                Tdd[k, a, nr + c]
+    w2 = w * w
+    # X = M_t T̂, Y = 2M_t Ṫ̂ + 2ω G₀ T̂, Z = M_t T̈̂ + 2ω G₀ Ṫ̂ + (ω̇ G₀ − ω² M₀) T̂, (3+n_k) × n.
+    for a in range(mk):
+        for c in range(nc):
+            x = y = zz = 0.0
+            for b in range(3):
+                mt, g, m0 = Mtot[a, b], G0[a, b], M0[a, b]
+                x += mt * Th[b, c]
+                y += 2.0 * mt * Thd[b, c] + 2.0 * w * g * Th[b, c]
+                zz += mt * Thdd[b, c] + 2.0 * w * g * Thd[b, c] + (wd * g - w2 * m0) * Th[b, c]
+            X[a, c], Y[a, c], Z[a, c] = x, y, zz
+        for i in range(nk):
+            b = 3 + i
+            g = G0[a, b]
+            X[a, o + i] += Mtot[a, b]
+            Y[a, o + i] += 2.0 * w * g
+            Z[a, o + i] += wd * g - w2 * M0[a, b]
+    # M += T̂ᵀ X, C += T̂ᵀ Y, K += T̂ᵀ Z.
+    for c1 in range(nc):
+        for c2 in range(nc):
+            sm = sc = sk = 0.0
+            for a in range(3):
+                ta = Th[a, c1]
+                sm += ta * X[a, c2]
+                sc += ta * Y[a, c2]
+                sk += ta * Z[a, c2]
+            M[c1, c2] += sm
+            C[c1, c2] += sc
+            K[c1, c2] += sk
+    for i in range(nk):
+        for c2 in range(nc):
+            M[o + i, c2] += X[3 + i, c2]
+            C[o + i, c2] += Y[3 + i, c2]
+            K[o + i, c2] += Z[3 + i, c2]
+    # Zero-order inertia load (first_order.rigid_load): f −= T̂ᵀ load.
+    l0 = mass * ax - w2 * s1
+    l1 = mass * ay + wd * s1
+    l2 = s1 * ay + J * wd + Jt * wd
+    for c in range(nc):
+        f[c] -= Th[0, c] * l0 + Th[1, c] * l1 + Th[2, c] * l2
+    for i in range(nk):
+        f[o + i] -= (ay * phi_bar[i] + wd * phi_tilde[i]
+                     + Jt * wd * tip_slope[i])
+    # Second-order stiffness (first_order.second_order_stiffness): K −= S₂.
+    scal = ax * s1 - w2 * J + N_out * length
+    for c1 in range(nc):
+        for c2 in range(nc):
+            K[c1, c2] -= scal * Th[2, c1] * Th[2, c2]
+    for i in range(nk):
+        vec = ax * phi_bar[i] - w2 * phi_tilde[i] + N_out * tip_value[i]
+        for c in range(nc):
+            K[c, o + i] -= Th[2, c] * vec
+            K[o + i, c] -= Th[2, c] * vec
+    for i in range(nk):
+        for j in range(nk):
+            if stiffening:
+                K[o + i, o + j] -= (ax * fore_mass[i, j] - w2 * fore_moment[i, j]
+                                    + N_out * fore_tip[i, j])
+            K[o + i, o + j] += stiffness[i, j]
+            C[o + i, o + j] += damping[i, j]
+
+
+@njit(cache=True, error_model="numpy")
+def state_rows(d, angle, rate, acc, out):
+    """out[i] = M⁻¹[−K, −C, f] (n, 2n+1) of the first-order model at joint states angle, rate,
+    acc (nt, N) (magnus.state_rows of FirstOrderSystem.matrices, without actuators)."""
+    nt, N = angle.shape
+    nr = d.n_rigid
+    n = out.shape[1]
+    m = 3 + d.phi_bar.shape[1]
+    p, pd, pdd, th, om, al, oa, T, Td, Tdd = _scratch(d)
+    Th, Thd, Thdd = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
+    X, Y, Z = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
+    M, C, K, f = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty(n)
+    outboard = np.empty((N, 2))
+    rhs = np.empty((n, 2 * n + 1))
+    for i in range(nt):
+        for k in range(N):
+            p[k], pd[k], pdd[k] = angle[i, k], rate[i, k], acc[i, k]
+        frames(d, p, pd, pdd, th, om, al, oa, T, Td, Tdd)
+        # Σ_{j>k} ∫ a0 dm in frame k's axes (FirstOrderSystem._outboard_inertia_force).
+        outboard[N - 1, 0] = outboard[N - 1, 1] = 0.0
+        for k in range(N - 2, -1, -1):
+            j = k + 1
+            fx = outboard[j, 0] + d.mass[j] * oa[j, 0] - om[j] * om[j] * d.s1[j]
+            fy = outboard[j, 1] + d.mass[j] * oa[j, 1] + al[j] * d.s1[j]
+            turn = th[j] - th[k]
+            cb, sb = np.cos(turn), np.sin(turn)
+            outboard[k, 0] = cb * fx - sb * fy
+            outboard[k, 1] = sb * fx + cb * fy
+        for a in range(n):
+            f[a] = 0.0
+            for b in range(n):
+                M[a, b] = C[a, b] = K[a, b] = 0.0
+        for k in range(N):
+            _link_matrices(d.offset[k] - nr, d.n_modes[k], d.mass[k], d.s1[k], d.J[k],
+                           d.Jt[k], d.length[k], d.stiffening, d.Mtot[k], d.M0[k], d.G0[k],
+                           d.phi_bar[k], d.phi_tilde[k], d.tip_value[k], d.tip_slope[k],
+                           d.stiffness[k], d.damping[k], d.fore_mass[k], d.fore_moment[k],
+                           d.fore_tip[k], k, nr, n, om[k], al[k], oa[k, 0], oa[k, 1],
+                           outboard[k, 0], T, Td, Tdd, Th, Thd, Thdd, X, Y, Z, M, C, K, f)
+        for a in range(n):
+            for b in range(n):
+                rhs[a, b] = -K[a, b]
+                rhs[a, n + b] = -C[a, b]
+            rhs[a, 2 * n] = f[a]
+        _solve_many(M, rhs)
+        for a in range(n):
+            for b in range(2 * n + 1):
+                out[i, a, b] = rhs[a, b]
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _solve_many(A, B):
+    """B ← A⁻¹ B (A destroyed) by Gaussian elimination with partial pivoting; a singular A
+    gives NaN (the table then reports non-finite coefficients)."""
+    n, r = B.shape
+    for c in range(n):
+        piv = c
+        big = abs(A[c, c])
+        for i in range(c + 1, n):
+            if abs(A[i, c]) > big:
+                big, piv = abs(A[i, c]), i
+        if piv != c:
+            for j in range(n):
+                A[c, j], A[piv, j] = A[piv, j], A[c, j]
+            for j in range(r):
+                B[c, j], B[piv, j] = B[piv, j], B[c, j]
+        if A[c, c] == 0.0:
+            for i in range(n):
+                for j in range(r):
+                    B[i, j] = np.nan
+            return
+        inv = 1.0 / A[c, c]
+        for i in range(c + 1, n):
+            fac = A[i, c] * inv
+            if fac != 0.0:
+                for j in range(c, n):
+                    A[i, j] -= fac * A[c, j]
+                for j in range(r):
+                    B[i, j] -= fac * B[c, j]
+    for i in range(n - 1, -1, -1):
+        inv = 1.0 / A[i, i]
+        for j in range(r):
+            acc = B[i, j]
+            for q in range(i + 1, n):
+                acc -= A[i, q] * B[q, j]
+            B[i, j] = acc * inv
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, zdd, out):
+    """out[i, k] = motor torque of joint k (N·m) at output time i, dynamics/torques.py's
+    τ_k = Σ_{j≥k} [∫_j (r − P_k) × r̈ dm + J_t,j ϑ̈_j] to first order in z, from the frames
+    along the solution (solved_frames' outputs) and z, ż, z̈ (nt, n). ``d``: ForwardData of
+    a fixed base. Written out per time (torques._link_moment); compared with the numpy
+    function to round-off in tests/unit/test_prescribed_kernel.py."""
+    nt, N = theta.shape
+    nr = d.n_rigid
+    for i in range(nt):
+        for k in range(N):
+            out[i, k] = 0.0
+        for j in range(N):
+            o, nj = d.offset[j] - nr, d.n_modes[j]
+            m, s1, J, Jt = d.mass[j], d.s1[j], d.J[j], d.Jt[j]
+            w, wd = omega[i, j], alpha[i, j]
+            w2 = w * w
+            ax, ay = oacc[i, j, 0], oacc[i, j, 1]
+            Fx, Fy = m * ax - w2 * s1, m * ay + wd * s1  # ∫ a⁰ dm
+            # ξ_j = [ρx, ρy, θ1, q_j]: its products with ny, hy, φ̄, φ̃ and c.
+            r0, r1, r2 = xi[i, j, 0], xi[i, j, 1], xi[i, j, 2]
+            Gy = m * r1 + s1 * r2
+            Gy_d = m * xi_d[i, j, 1] + s1 * xi_d[i, j, 2]
+            Gy_dd = m * xi_dd[i, j, 1] + s1 * xi_dd[i, j, 2]
+            Hy = s1 * r1 + J * r2
+            Hy_dd = s1 * xi_dd[i, j, 1] + J * xi_dd[i, j, 2]
+            qb = qt = 0.0
+            tilt = xi_dd[i, j, 2]
+            for q in range(nj):
+                qb += z[i, o + q] * d.phi_bar[j, q]
+                qt += z[i, o + q] * d.phi_tilde[j, q]
+                Gy += d.phi_bar[j, q] * z[i, o + q]
+                Gy_d += d.phi_bar[j, q] * zd[i, o + q]
+                Gy_dd += d.phi_bar[j, q] * zdd[i, o + q]
+                Hy += d.phi_tilde[j, q] * z[i, o + q]
+                Hy_dd += d.phi_tilde[j, q] * zdd[i, o + q]
+                tilt += d.tip_slope[j, q] * zdd[i, o + q]
+            rx_d, rx_dd = xi_d[i, j, 0], xi_dd[i, j, 0]
+            a1x = m * rx_dd - 2 * w * Gy_d - wd * Gy - w2 * m * r0  # ∫ a¹ dm
+            a1y = Gy_dd + 2 * w * m * rx_d + wd * m * r0 - w2 * Gy
+            x_a1y = Hy_dd + 2 * w * s1 * rx_d + wd * s1 * r0 - w2 * Hy  # ∫ x a¹_y dm
+            g_cross_a0 = (r0 * (m * ay + s1 * wd) - r1 * Fx - r2 * (s1 * ax - w2 * J)
+                          - qb * ax + w2 * qt)
+            own = s1 * ay + (J + Jt) * wd + g_cross_a0 + x_a1y + Jt * tilt
+            cj, sj = np.cos(theta[i, j]), np.sin(theta[i, j])
+            for k in range(j + 1):
+                # d = A(θ_j)ᵀ (origin_j − origin_k); p1 = A(θ_k − θ_j) ρ_k (frame-j axes).
+                vx = origin[i, j, 0] - origin[i, k, 0]
+                vy = origin[i, j, 1] - origin[i, k, 1]
+                dx, dy = cj * vx + sj * vy, -sj * vx + cj * vy
+                turn = theta[i, k] - theta[i, j]
+                ct, st = np.cos(turn), np.sin(turn)
+                px = ct * xi[i, k, 0] - st * xi[i, k, 1]
+                py = st * xi[i, k, 0] + ct * xi[i, k, 1]
+                out[i, k] += (own + (dx * Fy - dy * Fx) - (px * Fy - py * Fx)
+                              + (dx * a1y - dy * a1x))

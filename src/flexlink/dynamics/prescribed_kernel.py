@@ -1,0 +1,125 @@
+"""The prescribed-joint model as data for the compiled kernels of the forward dynamics.
+
+With a fixed base and every joint prescribed, the forward equations (`dynamics/forward.py`,
+compiled in `_forward_numba.py`) are the first-order model of `FirstOrderSystem` in their
+elastic rows and the inverse-dynamics joint torques of `dynamics/torques.py` in their joint
+rows (tests/validation/test_forward.py), and their kinematical synthesis is
+`kinematics.frame_motion`. The prescribed path reuses those kernels instead of keeping another
+copy of the equations: `forward_data` packs a `FirstOrderSystem` (its modal basis,
+outboard-loaded modes included) as `ForwardData` of a fixed base.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model import Base
+from .first_order import FirstOrderSystem, distinct_rows, link_body
+from .forward import ForwardSystem
+from .forward_kernel import ForwardData, pack
+from .kinematics import SolvedFrames
+
+
+def forward_view(system: FirstOrderSystem) -> ForwardSystem:
+    """A ForwardSystem of a fixed base with the chain and modal data of ``system``: the
+    attributes ForwardSystem.__init__ sets (coordinates x = [δβ; z]), without recomputing the
+    modes (and with the first-order model's basis, which may be outboard-loaded)."""
+    chain = system.chain
+    view = object.__new__(ForwardSystem)
+    n_links = len(chain.links)
+    view.chain, view.base = chain, Base()
+    view.geometric_stiffening = system.geometric_stiffening
+    view.modal = list(system.modal)
+    view.n_base, view.n_rigid = 0, n_links
+    view.n, view.n_x = system.n, n_links + system.n
+    view.bodies = [link_body(d, n_links + o) for d, o in zip(system.modal, system.offsets)]
+    view.attach = [view.base.attachment(k) for k in range(n_links)]
+    view.driven, view.free, view.servos = [], [], []
+    # Actuator forces are not part of these kernels (CompiledFirstOrderSystem adds them in
+    # numpy): none, whatever attribute the forward model gives them.
+    view.actuators = ()
+    return view
+
+
+def forward_data(system: FirstOrderSystem) -> ForwardData:
+    """ForwardData of ``system`` (see forward_view), made once per system."""
+    data = getattr(system, "_forward_data", None)
+    if data is None:
+        data = pack(forward_view(system))
+        system._forward_data = data  # type: ignore[attr-defined]
+    return data
+
+
+def solved_frames(system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np.ndarray,
+                  zdd: np.ndarray) -> SolvedFrames:
+    """The frame motion at times t (s) along the solution z, ż, z̈ (nt, n), with the products
+    of its maps with the solution (ξ-heads) instead of the maps: what the joint torques,
+    sensors and tip paths of a run read (kinematics.SolvedFrames). The joint torques come
+    along (``torques``: solved_frames(…).torques, see joint_torques)."""
+    from ._prescribed_numba import channels
+
+    data = forward_data(system)
+    h = system.joint_history(t)
+    nt, N = h.angle.shape
+    c = np.ascontiguousarray
+    given = (z, zd, zdd)  # the heads are for these arrays (SolvedFrames compares identity)
+    z, zd, zdd = (c(v, dtype=float) for v in given)
+    theta, omega, alpha = np.empty((nt, N)), np.empty((nt, N)), np.empty((nt, N))
+    origin, oacc = np.empty((nt, N, 2)), np.empty((nt, N, 2))
+    heads = tuple(np.empty((nt, N, 3)) for _ in range(3))
+    torques = np.empty((nt, N))
+    channels(data, c(h.angle, dtype=float), c(h.rate, dtype=float),
+             c(h.acceleration, dtype=float), z, zd, zdd, theta, omega, alpha, origin, oacc,
+             *heads, torques)
+    return SolvedFrames(theta, omega, alpha, origin, oacc, [], [], [],
+                        solution=given, heads_=heads, torques=torques)
+
+
+class CompiledFirstOrderSystem(FirstOrderSystem):
+    """FirstOrderSystem whose state rows M⁻¹[−K, −C, f] (what the Lawson table samples) come
+    from the compiled kernel; ``matrices`` stays the numpy reference."""
+
+    def state_rows(self, t: np.ndarray) -> np.ndarray:
+        """M⁻¹[−K, −C, f + B V] (nt, n, 2n+1) at times t (s)."""
+        if self.actuators:  # their forces: the numpy route (open-loop actuators are rare)
+            M, C, K, f = self.matrices(t)
+            return np.linalg.solve(M, np.concatenate([-K, -C, f[:, :, None]], axis=2))
+        return state_rows(self, t)
+
+
+def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:
+    """M⁻¹[−K, −C, f] (nt, n, 2n+1) of ``system`` at times t (s), compiled
+    (`_prescribed_numba.state_rows`; equal to magnus.state_rows of the numpy
+    FirstOrderSystem.matrices to round-off), once per distinct joint state."""
+    from ._prescribed_numba import state_rows as kernel
+
+    if system.actuators:
+        raise ValueError("the compiled state rows leave out actuator forces")
+    data = forward_data(system)
+    unique, inverse = distinct_rows(system.joint_history(t))
+    c = np.ascontiguousarray
+    out = np.empty((unique.angle.shape[0], system.n, 2 * system.n + 1))
+    kernel(data, c(unique.angle, dtype=float), c(unique.rate, dtype=float),
+           c(unique.acceleration, dtype=float), out)
+    return out if out.shape[0] == inverse.size else out[inverse]
+
+
+def joint_torques(system: FirstOrderSystem, frames: SolvedFrames) -> np.ndarray:
+    """Motor torque of every joint (nt, N), N·m, along the solution ``frames`` were built for:
+    dynamics/torques.joint_torques compiled (`_prescribed_numba.joint_torques`), computed
+    with the frames by solved_frames."""
+    return frames.torques
+
+
+def load() -> None:
+    """Load (or, on a first run, compile) the kernels of this module for every chain: their
+    types do not depend on the chain's size, so a one-link chain at two instants does it
+    (`solvers.lawson.preload_compiled_loop` runs this in a background thread)."""
+    from ..model import Chain, Link
+    from ..motion import Hold
+
+    system = FirstOrderSystem(Chain((Link("preload", 1.0, 1.0, 1.0, modes=1),), (Hold(0.0),)))
+    t = np.array([0.0, 1.0])
+    z = np.zeros((2, system.n))
+    state_rows(system, t)
+    solved_frames(system, t, z, z, z)
