@@ -49,11 +49,15 @@ class ForwardSystem:
     """A base plus a chain (or tree) of flexible links with prescribed and driven joints."""
 
     def __init__(self, chain: Chain, base: Base, geometric_stiffening: bool = False,
-                 actuators: Sequence[PiezoActuator] = ()) -> None:
+                 actuators: Sequence[PiezoActuator] = (),
+                 modal: Sequence[ModalData] | None = None) -> None:
+        """``modal``: the links' modal data when the caller has them already (default: each
+        link's own, `modes.modal_data`)."""
         self.chain = chain
         self.base = base
         self.geometric_stiffening = geometric_stiffening
-        self.modal: list[ModalData] = [modal_data(link) for link in chain.links]
+        self.modal: list[ModalData] = (list(modal) if modal is not None
+                                       else [modal_data(link) for link in chain.links])
         n_links = len(chain.links)
         self.n_base = len(base.coordinates)
         self.n_rigid = self.n_base + n_links

@@ -14,31 +14,19 @@ from __future__ import annotations
 import numpy as np
 
 from ..model import Base
-from .first_order import FirstOrderSystem, distinct_rows, link_body
+from .first_order import FirstOrderSystem, distinct_rows
 from .forward import ForwardSystem
 from .forward_kernel import ForwardData, pack
 from .kinematics import SolvedFrames
 
 
 def forward_view(system: FirstOrderSystem) -> ForwardSystem:
-    """A ForwardSystem of a fixed base with the chain and modal data of ``system``: the
-    attributes ForwardSystem.__init__ sets (coordinates x = [δβ; z]), without recomputing the
-    modes (and with the first-order model's basis, which may be outboard-loaded)."""
-    chain = system.chain
-    view = object.__new__(ForwardSystem)
-    n_links = len(chain.links)
-    view.chain, view.base = chain, Base()
-    view.geometric_stiffening = system.geometric_stiffening
-    view.modal = list(system.modal)
-    view.n_base, view.n_rigid = 0, n_links
-    view.n, view.n_x = system.n, n_links + system.n
-    view.bodies = [link_body(d, n_links + o) for d, o in zip(system.modal, system.offsets)]
-    view.attach = [view.base.attachment(k) for k in range(n_links)]
-    view.driven, view.free, view.servos = [], [], []
-    # Actuator forces are not part of these kernels (CompiledFirstOrderSystem adds them in
-    # numpy): none, whatever attribute the forward model gives them.
-    view.actuators = ()
-    return view
+    """A ForwardSystem of a fixed base with the chain and modal data of ``system``
+    (coordinates x = [δβ; z]), without recomputing the modes (and with the first-order
+    model's basis, which may be outboard-loaded). Actuator forces are not part of the
+    prescribed kernels (CompiledFirstOrderSystem adds them in numpy)."""
+    return ForwardSystem(system.chain, Base(), system.geometric_stiffening,
+                         modal=system.modal)
 
 
 def forward_data(system: FirstOrderSystem) -> ForwardData:
