@@ -249,7 +249,7 @@ def forked_workers(monkeypatch: pytest.MonkeyPatch) -> None:
 
     if "fork" not in multiprocessing.get_all_start_methods():
         pytest.skip("needs the fork start method")
-    monkeypatch.setattr(executors, "_start_context", lambda: multiprocessing.get_context("fork"))
+    monkeypatch.setattr(executors, "start_context", lambda: multiprocessing.get_context("fork"))
 
 
 # Python >= 3.12 warns when forking while threads run (an idle Dask thread may linger from

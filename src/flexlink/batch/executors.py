@@ -59,7 +59,7 @@ def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None, wor
     start and every chunk is queued now; iterate over the result for the chunks' results
     and close it (``contextlib.closing``) to end the pool. Forked workers write their
     results into ``shared``; others send them back."""
-    context = _start_context()
+    context = start_context()
     inherited = shared if context.get_start_method() == "fork" else None
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
                                initializer=init_local_worker, initargs=(inherited,))
@@ -71,7 +71,7 @@ def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None, wor
     return PoolResults(pool, futures)
 
 
-def _start_context() -> multiprocessing.context.BaseContext:
+def start_context() -> multiprocessing.context.BaseContext:
     """fork while this process has a single thread: no start-up cost, and a script need not
     guard its code with ``if __name__ == "__main__":``. Forking a process that runs threads
     can deadlock a child (a lock held by another thread is copied held), so then forkserver

@@ -292,9 +292,9 @@ class Evaluator:
         self.problem, self.workers, self.count = problem, workers, 0
         self._pool: ProcessPoolExecutor | None = None
         if workers > 1:
-            from ..batch.executors import _start_context
+            from ..batch.executors import start_context
 
-            self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=_start_context(),
+            self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=start_context(),
                                              initializer=_init_worker, initargs=(problem,))
 
     def many(self, points: Sequence[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
