@@ -6,10 +6,11 @@ import math
 from dataclasses import dataclass
 
 from .histories import ZERO, History
+from .sensors import PiezoPatch
 
 
 @dataclass(frozen=True)
-class PiezoActuator:
+class PiezoActuator(PiezoPatch):
     """A PZT patch bonded on one link between x_start and x_end (m, from the link's joint).
 
     Pin-force model with the sensor's constants (paper eq. 37 read backwards): a voltage V
@@ -22,18 +23,5 @@ class PiezoActuator:
     ``limit``: the amplifier's saturation |V| ≤ limit (V); the patch never sees more.
     """
 
-    name: str
-    link: int  # index into Chain.links
-    x_start: float  # m
-    x_end: float  # m
-    width: float  # m, patch width w_p
-    E_p: float  # Pa
-    d31: float  # m/V
-    thickness: float  # m, host beam thickness t
     voltage: History = ZERO
     limit: float = math.inf  # V
-
-    @property
-    def moment_per_volt(self) -> float:
-        """Moment of the pair per volt, N·m/V."""
-        return self.width * self.E_p * self.d31 * 0.5 * self.thickness

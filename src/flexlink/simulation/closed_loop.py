@@ -30,6 +30,7 @@ from ..errors import SimulationError
 from ..model import FunctionController, PointSensor, Scenario
 from ..solvers import Solution
 from ..solvers.closed_loop import PythonLoop, UnstableLoop, integrate_closed_loop
+from ..solvers.gauss_sampled import sample_grid
 from .common import PathRun, Progress
 from .prescribed import prescribed_values
 
@@ -51,22 +52,20 @@ def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         return np.linalg.solve(M, rhs)
 
     controllers = scenario.controllers
-    samples = [sample_times(c, t[-1]) for c in controllers]
-    grid = np.union1d(t, np.concatenate(samples))
-    grid = grid[np.concatenate([[True], np.diff(grid) > 1e-9 * max(1.0, t[-1])])]
-    grid[-1] = t[-1]
-    sensor_rows = _sensor_rows(scenario, system)
+    grid = sample_grid(controllers, float(t[-1]), t)
+    readings = sensor_rows(scenario, system.modal, [b.slice for b in system.bodies], system.n,
+                           "first_order")
     v_open = np.column_stack([np.clip(a.voltage.value(grid), -a.limit, a.limit)
                               for a in actuators]).reshape(grid.size, len(actuators))
-    control, python_index = pack_controllers(controllers, actuators, sensor_rows, grid,
+    control, python_index = pack_controllers(controllers, actuators, readings, grid,
                                              2 * n + 1, v_open)
-    python = _python_loop(scenario, [controllers[i] for i in python_index], sensor_rows, grid)
+    python = _python_loop(scenario, [controllers[i] for i in python_index], readings, grid)
     try:
         run = integrate_closed_loop(rows, n, len(actuators), system.coefficient_keys,
                                     system.breakpoints(), system.max_frequency, t, grid,
                                     settings.rtol, settings.atol, control, python, on_progress)
     except UnstableLoop as exc:
-        raise SimulationError(_unstable_message(scenario, exc, sensor_rows, grid)) from None
+        raise SimulationError(_unstable_message(scenario, exc, readings, grid)) from None
     out = np.searchsorted(grid, t - 1e-9 * max(1.0, t[-1]))
     states = run.states[out]
     solution = Solution(t, states[:, :n], states[:, n:2 * n], run.acc[out], "lawson",
@@ -81,31 +80,34 @@ def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         "elastic_coordinates": n, "controllers": len(controllers), **validity})
 
 
-def _sensor_rows(scenario: Scenario, system: FirstOrderSystem) -> dict[str, np.ndarray]:
-    """Each sensor a controller reads as a row over z: reading = row · z (first-order
-    model: every reading but an acceleration is linear in z)."""
+def sensor_rows(scenario: Scenario, modal: list, coords: list[slice], n: int,
+                model: str) -> dict[str, np.ndarray]:
+    """Each sensor a controller reads as a row over the elastic coordinates: reading = row · q
+    (piezo patches, slopes and strains are linear in q in every model, channels/modal.py; a
+    deflection only in the first-order model)."""
     used = {s for c in scenario.controllers for s in controller_inputs(c)}
     out = {}
     for sensor in scenario.sensors:
         if sensor.name not in used:
             continue
         k = sensor.link
-        shapes, sl = system.modal[k].shapes, system.bodies[k].slice
-        eye = np.eye(system.modal[k].n)
-        reading = modal_reading(sensor, shapes, eye, scenario.chain)
+        shapes = modal[k].shapes
+        reading = modal_reading(sensor, shapes, np.eye(modal[k].n), scenario.chain)
         if reading is None:
             assert isinstance(sensor, PointSensor)
-            if sensor.kind != "deflection":
+            if sensor.kind != "deflection" or model == "nonlinear":
                 raise SimulationError(f"sensor {sensor.name!r} ({sensor.kind}) cannot feed a "
-                                      "controller")
+                                      f"controller in the {model.replace('_', '-')} model: its "
+                                      "reading is not linear in the elastic coordinates (use a "
+                                      "piezo, strain or slope sensor)")
             reading = shapes.evaluate(np.array([sensor.x]), 0)[0]
-        row = np.zeros(system.n)
-        row[sl] = reading
+        row = np.zeros(n)
+        row[coords[k]] = reading
         out[sensor.name] = row
     return out
 
 
-def _python_loop(scenario: Scenario, controllers: list, sensor_rows: dict[str, np.ndarray],
+def _python_loop(scenario: Scenario, controllers: list, readings: dict[str, np.ndarray],
                  grid: np.ndarray) -> PythonLoop:
     act = {a.name: j for j, a in enumerate(scenario.actuators)}
     points, rows, noise, outputs = [], [], [], []
@@ -113,7 +115,7 @@ def _python_loop(scenario: Scenario, controllers: list, sensor_rows: dict[str, n
         assert isinstance(c, FunctionController)
         times = sample_times(c, grid[-1])
         points.append(np.searchsorted(grid, times - 1e-9 * max(1.0, grid[-1])))
-        rows.append(np.array([sensor_rows[s] for s in c.inputs]))
+        rows.append(np.array([readings[s] for s in c.inputs]))
         noise.append(draw_noise(c, times.size))
         outputs.append(np.array([act[a] for a in c.outputs], dtype=np.int64))
     return PythonLoop(controllers, points, rows, noise, outputs)
@@ -141,15 +143,15 @@ def control_values(scenario: Scenario, run, out: np.ndarray,
     return values
 
 
-def _unstable_message(scenario: Scenario, exc: UnstableLoop, sensor_rows: dict[str, np.ndarray],
+def _unstable_message(scenario: Scenario, exc: UnstableLoop, readings: dict[str, np.ndarray],
                       grid: np.ndarray) -> str:
     """Which controller input grew the most, from what (its peak over the first quarter of
     the run up to the blow-up) to what, and when."""
-    n = next(iter(sensor_rows.values())).size if sensor_rows else 0
+    n = next(iter(readings.values())).size if readings else 0
     z = exc.states[:, :n]
     quarter = max(1, z.shape[0] // 4)
     text, growth = "the response grows without bound", 0.0
-    for name, row in sensor_rows.items():
+    for name, row in readings.items():
         y = np.nan_to_num(np.abs(z @ row), nan=np.inf)
         early, late = float(y[:quarter].max()), float(y.max())
         if late / max(early, 1e-300) > growth:

@@ -7,16 +7,14 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..channels.catalogue import joint_name, voltage_name
-from ..channels.modal import modal_reading
 from ..channels.nonlinear import sensor_values, shape_values, tip_values
-from ..dynamics.controllers import controller_inputs
 from ..dynamics.nonlinear import NonlinearSystem
 from ..errors import SimulationError
-from ..model import PointSensor, Scenario
+from ..model import Scenario
 from ..solvers import rigid_solution
 from ..solvers.gauss import solve_nonlinear
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
-from .closed_loop import control_values
+from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress
 
 
@@ -61,28 +59,3 @@ def _sampled_loop(scenario: Scenario, system: NonlinearSystem, t: np.ndarray) ->
                        grid, system.voltages(grid))
 
 
-def sensor_rows(scenario: Scenario, modal: list, coords: list[slice], n: int,
-                model: str) -> dict[str, np.ndarray]:
-    """Each sensor a controller reads as a row over the elastic coordinates: reading = row · q
-    (piezo patches, slopes and strains are linear in q in every model, channels/modal.py; a
-    deflection only in the first-order model)."""
-    used = {s for c in scenario.controllers for s in controller_inputs(c)}
-    out = {}
-    for sensor in scenario.sensors:
-        if sensor.name not in used:
-            continue
-        k = sensor.link
-        shapes = modal[k].shapes
-        reading = modal_reading(sensor, shapes, np.eye(modal[k].n), scenario.chain)
-        if reading is None:
-            assert isinstance(sensor, PointSensor)
-            if sensor.kind != "deflection" or model == "nonlinear":
-                raise SimulationError(f"sensor {sensor.name!r} ({sensor.kind}) cannot feed a "
-                                      f"controller in the {model.replace('_', '-')} model: its "
-                                      "reading is not linear in the elastic coordinates (use a "
-                                      "piezo, strain or slope sensor)")
-            reading = shapes.evaluate(np.array([sensor.x]), 0)[0]
-        row = np.zeros(n)
-        row[coords[k]] = reading
-        out[sensor.name] = row
-    return out

@@ -37,9 +37,11 @@ class LoopUnstable(SimulationError):
 BOUND = 2.0 * np.pi
 
 
-def sample_grid(controllers: Sequence[Controller], t_end: float) -> np.ndarray:
-    """Every controller's sample instants and t_end, sorted, distinct (s)."""
-    grid = np.union1d(np.concatenate([sample_times(c, t_end) for c in controllers]), [t_end])
+def sample_grid(controllers: Sequence[Controller], t_end: float,
+                times: np.ndarray | Sequence[float] = ()) -> np.ndarray:
+    """Every controller's sample instants, ``times`` (s) and t_end, sorted, distinct (s)."""
+    grid = np.union1d(np.concatenate([sample_times(c, t_end) for c in controllers]),
+                      np.union1d(times, [t_end]))
     keep = np.concatenate([[True], np.diff(grid) > 1e-9 * max(1.0, t_end)])
     grid = grid[keep]
     grid[-1] = t_end
