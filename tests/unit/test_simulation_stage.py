@@ -232,3 +232,18 @@ def test_settings_built_in_python_are_checked(field: str, value: object, message
 
     with pytest.raises(ValueError, match=message):
         SimulationSettings(**{"t_end": 1.0, "dt_out": 0.01, field: value})
+
+
+def test_shapes_are_computed_on_first_use_and_pickle_as_computed() -> None:
+    import pickle
+
+    from flexlink.channels.shapes import LazyShapes
+
+    results = simulate(_short())
+    assert isinstance(results.shapes, LazyShapes)
+    assert results.shapes._compute is not None  # nothing computed by simulate itself
+    tip = results.shapes[1].X[:, -1]
+    np.testing.assert_allclose(tip, results["b_tip_X"], rtol=0, atol=1e-12)  # the tip
+    copy = pickle.loads(pickle.dumps(results.shapes))
+    assert [s.link for s in copy] == ["a", "b"]
+    np.testing.assert_array_equal(copy[0].Y, results.shapes[0].Y)

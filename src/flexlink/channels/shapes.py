@@ -18,7 +18,9 @@ never in results.csv.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any, overload
 
 import numpy as np
 
@@ -68,3 +70,35 @@ def rigid_chain_frames(lengths: list[float], angles: np.ndarray
     steps = np.stack([np.cos(theta), np.sin(theta)], -1) * np.asarray(lengths)[None, :, None]
     origins = np.concatenate([np.zeros_like(steps[:, :1]), np.cumsum(steps, 1)[:, :-1]], 1)
     return origins, theta
+
+
+class LazyShapes(Sequence[LinkShape]):
+    """Every link's `LinkShape`, computed on first use: a run's shapes (5001 × 21 points a
+    link for the paper, a sixth of its `simulate` time) are only read by the animation and
+    the run folder's netCDF and .mat files. Pickles as the computed list."""
+
+    def __init__(self, compute: Callable[[], Sequence[LinkShape]]) -> None:
+        self._compute: Callable[[], Sequence[LinkShape]] | None = compute
+        self._shapes: list[LinkShape] = []
+
+    def _computed(self) -> list[LinkShape]:
+        if self._compute is not None:
+            self._shapes = list(self._compute())
+            self._compute = None  # drop the solution's arrays the closure holds
+        return self._shapes
+
+    @overload
+    def __getitem__(self, index: int) -> LinkShape: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[LinkShape]: ...
+    def __getitem__(self, index: int | slice) -> LinkShape | list[LinkShape]:
+        return self._computed()[index]
+
+    def __len__(self) -> int:
+        return len(self._computed())
+
+    def __iter__(self) -> Iterator[LinkShape]:
+        return iter(self._computed())
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (list, (self._computed(),))

@@ -72,12 +72,15 @@ class _RestToRest:
         t = np.asarray(t, dtype=float)
         th0, th1 = math.radians(self.from_deg), math.radians(self.to_deg)
         delta, d = th1 - th0, self.duration
-        tau = np.clip((t - self.start) / d, 0.0, 1.0)
-        p, dp, ddp = self._shape(tau)
+        tau = (t - self.start) / d
+        angle = np.where(tau <= 0.0, th0, th1)
+        rate, acc = np.zeros(t.shape), np.zeros(t.shape)
+        # The profile only where the joint moves: most of a run's samples are at rest.
         moving = (tau > 0.0) & (tau < 1.0)
-        angle = np.where(tau <= 0.0, th0, np.where(tau >= 1.0, th1, th0 + delta * p))
-        rate = np.where(moving, (delta / d) * dp, 0.0)
-        acc = np.where(moving, (delta / d**2) * ddp, 0.0)
+        p, dp, ddp = self._shape(tau[moving])
+        angle[moving] = th0 + delta * p
+        rate[moving] = (delta / d) * dp
+        acc[moving] = (delta / d**2) * ddp
         return angle, rate, acc
 
 

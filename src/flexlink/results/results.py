@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -35,7 +36,7 @@ class Results:
     _values: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     created: str = field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"),
                          compare=False)
-    shapes: list[LinkShape] = field(default_factory=list, compare=False, repr=False)
+    shapes: Sequence[LinkShape] = field(default_factory=list, compare=False, repr=False)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self._values[name]

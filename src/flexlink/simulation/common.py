@@ -13,7 +13,7 @@ import numpy as np
 
 from .._version import package_version
 from ..channels.catalogue import catalogue
-from ..channels.shapes import LinkShape
+from ..channels.shapes import LazyShapes, LinkShape
 from ..errors import RunTooLarge, SimulationError
 from ..model import Link, Scenario
 from ..results import Results
@@ -145,7 +145,8 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
         results.add(channel, values.pop(channel.name))
     if values:  # a path computed a channel the catalogue does not list
         raise AssertionError(f"channels outside the catalogue: {', '.join(values)}")
-    results.shapes = list(run.shapes)
+    # LazyShapes stay lazy: most callers of simulate() never read them
+    results.shapes = run.shapes if isinstance(run.shapes, LazyShapes) else list(run.shapes)
     return results
 
 

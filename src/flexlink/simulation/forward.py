@@ -12,6 +12,7 @@ import numpy as np
 from ..channels.catalogue import voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.forward import SolvedMotion, rigid_values
+from ..channels.shapes import LazyShapes
 from ..dynamics.forward import ForwardSystem
 from ..errors import SimulationError
 from ..model import Base, Scenario
@@ -53,7 +54,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                        for j, a in enumerate(system.actuators)})
     else:
         values.update(loop_values(scenario, loop, t))
-    shapes = shape_values(view, view.frames, z) if with_shapes else ()
+    shapes = LazyShapes(lambda: shape_values(view, view.frames, z)) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,

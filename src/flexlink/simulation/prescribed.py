@@ -9,7 +9,7 @@ import numpy as np
 
 from ..channels.catalogue import joint_name, voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
-from ..channels.shapes import LinkShape
+from ..channels.shapes import LazyShapes, LinkShape
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, joint_torques, solved_frames
 from ..model import Scenario
@@ -55,5 +55,5 @@ def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: So
         values[joint_name(k, "angle")] = hist.angle[:, k]
         values[joint_name(k, "torque")] = torque[:, k]
     values.update(tip_values(system, frames, z))
-    shapes = shape_values(system, frames, z) if with_shapes else ()
+    shapes = LazyShapes(lambda: shape_values(system, frames, z)) if with_shapes else ()
     return values, shapes, validity
