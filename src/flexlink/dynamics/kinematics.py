@@ -35,10 +35,11 @@ class JointHistory:
 def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
     """Every joint's prescribed angle, rate and acceleration at times t (s), (nt, N) each."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
-    parts = [joint.evaluate(t) for joint in joints]
-    angle, rate, acc = (np.stack([np.broadcast_to(p[i], t.shape) for p in parts], -1)
-                        for i in range(3))
-    return JointHistory(angle, rate, acc)
+    out = np.empty((3, *t.shape, len(joints)))
+    for j, joint in enumerate(joints):
+        for i, values in enumerate(joint.evaluate(t)):
+            out[i, ..., j] = values
+    return JointHistory(out[0], out[1], out[2])
 
 
 def _per_time(maps: np.ndarray, v: np.ndarray) -> np.ndarray:
