@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -64,3 +65,26 @@ def test_no_motion_no_load() -> None:
     assert np.all(f == 0.0)
     for body in system.bodies:
         np.testing.assert_array_equal(K[:, body.slice, body.slice][0], body.data.stiffness_matrix)
+
+
+def test_joint_histories_are_shared_read_only_and_equal_to_a_fresh_evaluation() -> None:
+    from flexlink.dynamics import kinematics
+    from flexlink.motion import Cycloidal, Hold
+
+    joints = (Cycloidal(0.0, 90.0, 0.5, 1.0), Hold(30.0))
+    t = np.linspace(0.0, 2.0, 2001)
+    first = kinematics.joint_history(joints, t)
+    again = kinematics.joint_history((Cycloidal(0.0, 90.0, 0.5, 1.0), Hold(30.0)), t.copy())
+    assert again is first  # equal motions on equal times: one evaluation per process
+    assert not first.angle.flags.writeable
+    with pytest.raises(ValueError):
+        first.rate[0, 0] = 1.0
+    for j, joint in enumerate(joints):
+        for values, expected in zip((first.angle, first.rate, first.acceleration),
+                                    joint.evaluate(t)):
+            np.testing.assert_array_equal(values[:, j], expected)
+    other = kinematics.joint_history(joints, t + 0.1)  # other times: evaluated anew
+    np.testing.assert_array_equal(other.angle[:, 0], joints[0].evaluate(t + 0.1)[0])
+    unique, index = first.distinct
+    np.testing.assert_array_equal(unique.angle[index], first.angle)
+    assert unique.angle.shape[0] < t.size  # the rest phases collapse to one state each

@@ -53,10 +53,6 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     of range), run the valid ones and record the others as failed with their problems.
     Returns the Dataset described in `flexlink.batch.dataset`.
     """
-    import xarray
-
-    # xarray's first Dataset costs ~1 s of imports: pay it now, not when Ctrl-C is pressed
-    xarray.Dataset({"case": ("case", [0])})
     grids, randoms = _parameters(grid, random)
     table = case_table(grids, randoms, samples, seed, sampler)
     scenario_base = load_base(base, base_dir)
@@ -80,6 +76,7 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     with contextlib.ExitStack() as stack:
         try:  # Ctrl-C while the workers start counts too (a forked worker may be quick)
             results = _executor(stack, indexed, selected, local, scheduler, shared)
+            _import_xarray_meanwhile()  # after the workers forked: a thread forbids fork
             bar = stack.enter_context(_progress(table.count, progress))
             bar.update(len(invalid))
             started = time.perf_counter()
@@ -161,6 +158,24 @@ def _local_workers(workers: int | None, scheduler: Any, cases: int) -> int:
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise SweepError([f"workers must be an integer >= 1, got {workers!r}"])
     return min(count, cases)
+
+
+def _import_xarray_meanwhile() -> None:
+    """Import xarray (and the dask it probes for) and build a first Dataset in a background
+    thread while the cases run: ~1 s of imports the collecting process would otherwise pay
+    before the first case or, worse, when Ctrl-C is pressed. Whoever needs xarray first
+    waits for the import there (Python's import lock)."""
+    import threading
+
+    def warm() -> None:
+        try:
+            import xarray
+
+            xarray.Dataset({"case": ("case", [0])})
+        except Exception:  # noqa: BLE001, S110 — the Dataset's writer reports it
+            pass
+
+    threading.Thread(target=warm, name="flexlink-import-xarray", daemon=True).start()
 
 
 def _probe_channels(scenario: Scenario, channels: list[str] | None) -> tuple[Channel, ...]:

@@ -104,15 +104,8 @@ def chain_modal_data(chain: Chain) -> list[ModalData]:
 
 
 def distinct_rows(history: JointHistory) -> tuple[JointHistory, np.ndarray]:
-    """Runs of equal consecutive joint states: the first state of each run and, per time, the
-    index of its run. Linear in the number of times (no sort); a state revisited after a
-    different one counts as a new run, which costs only one more assembly."""
-    rows = np.concatenate([history.angle, history.rate, history.acceleration], axis=1)
-    new = np.ones(rows.shape[0], dtype=bool)
-    new[1:] = np.any(rows[1:] != rows[:-1], axis=1)
-    kept = np.flatnonzero(new)
-    return (JointHistory(history.angle[kept], history.rate[kept], history.acceleration[kept]),
-            np.cumsum(new) - 1)
+    """Runs of equal consecutive joint states (`JointHistory.distinct`)."""
+    return history.distinct
 
 
 class FirstOrderSystem:

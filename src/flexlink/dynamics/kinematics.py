@@ -14,8 +14,10 @@ T_{k+1} = blockdiag(A(−β_{k+1}), 1) P̃_k T̂_k. Time derivatives follow anal
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -31,15 +33,50 @@ class JointHistory:
     rate: np.ndarray
     acceleration: np.ndarray
 
+    @cached_property
+    def distinct(self) -> tuple[JointHistory, np.ndarray]:
+        """Runs of equal consecutive joint states: the first state of each run and, per time,
+        the index of its run. Linear in the number of times (no sort); a state revisited
+        after a different one counts as a new run, which costs only one more assembly.
+        Computed once per history (histories are shared: `joint_history`)."""
+        rows = np.concatenate([self.angle, self.rate, self.acceleration], axis=1)
+        new = np.ones(rows.shape[0], dtype=bool)
+        new[1:] = np.any(rows[1:] != rows[:-1], axis=1)
+        kept = np.flatnonzero(new)
+        index = np.cumsum(new) - 1
+        index.flags.writeable = False
+        return JointHistory(self.angle[kept], self.rate[kept], self.acceleration[kept]), index
+
 
 def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
-    """Every joint's prescribed angle, rate and acceleration at times t (s), (nt, N) each."""
+    """Every joint's prescribed angle, rate and acceleration at times t (s), (nt, N) each,
+    read-only. Remembered per process for the last few (joints, t): the cases of a sweep over
+    link properties share their motions' histories on the output grid and the table's
+    first samples."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
+    try:
+        key = (tuple(joints), t.shape, t.tobytes())
+        cached = _HISTORIES.get(key)
+    except TypeError:  # a motion that is not hashable (holds arrays): not remembered
+        key, cached = None, None
+    if cached is not None:
+        _HISTORIES.move_to_end(key)
+        return cached
     out = np.empty((3, *t.shape, len(joints)))
     for j, joint in enumerate(joints):
         for i, values in enumerate(joint.evaluate(t)):
             out[i, ..., j] = values
-    return JointHistory(out[0], out[1], out[2])
+    out.flags.writeable = False  # shared between runs
+    history = JointHistory(out[0], out[1], out[2])
+    if key is not None:
+        _HISTORIES[key] = history
+        while len(_HISTORIES) > _HISTORIES_KEPT:
+            _HISTORIES.popitem(last=False)
+    return history
+
+
+_HISTORIES: OrderedDict[tuple[object, ...], JointHistory] = OrderedDict()
+_HISTORIES_KEPT = 8  # a run asks for ~6 time grids
 
 
 def _per_time(maps: np.ndarray, v: np.ndarray) -> np.ndarray:
