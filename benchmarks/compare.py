@@ -286,8 +286,17 @@ def main() -> None:
             run, "-", runs=args.batch)
     target(f"sweep of paper variants on {cores} cores", f"{batch[cores]:.0f} runs/s",
            "≥ 500 runs/s", batch[cores] >= 500)
+    # Amdahl from the two runs: wall = serial + work / workers, both measured here; the
+    # projection assumes 16 cores as fast as these and no other limit (memory bandwidth).
+    projected = ""
+    if cores > 1:
+        t1, tn = args.batch / batch[1], args.batch / batch[cores]
+        work = (t1 - tn) / (1.0 - 1.0 / cores)
+        serial = max(t1 - work, 0.0)
+        projected = (f"; serial part {serial:.2f} s of {t1:.2f} s, so 16 cores would give "
+                     f"{t1 / (serial + work / 16):.1f}×")
     target(f"sweep scaling with cores (here 1 → {cores})",
-           f"{batch[cores] / batch[1]:.2f}× one core on {cores} cores",
+           f"{batch[cores] / batch[1]:.2f}× one core on {cores} cores{projected}",
            "≥ 12× one core on 16 cores (not measurable here)", None)
 
     run = _fresh(_command_row, args.commands, False)
