@@ -176,7 +176,6 @@ def state_rows(d, angle, rate, acc, out):
     X, Y, Z = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
     M, C, K, f = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty(n)
     outboard = np.empty((N, 2))
-    rhs = np.empty((n, 2 * n + 1))
     for i in range(nt):
         for k in range(N):
             p[k], pd[k], pdd[k] = angle[i, k], rate[i, k], acc[i, k]
@@ -202,53 +201,75 @@ def state_rows(d, angle, rate, acc, out):
                            d.stiffness[k], d.damping[k], d.fore_mass[k], d.fore_moment[k],
                            d.fore_tip[k], k, nr, n, om[k], al[k], oa[k, 0], oa[k, 1],
                            outboard[k, 0], T, Td, Tdd, Th, Thd, Thdd, X, Y, Z, M, C, K, f)
+        rhs = out[i]  # solved in place
         for a in range(n):
             for b in range(n):
                 rhs[a, b] = -K[a, b]
                 rhs[a, n + b] = -C[a, b]
             rhs[a, 2 * n] = f[a]
         _solve_many(M, rhs)
-        for a in range(n):
-            for b in range(2 * n + 1):
-                out[i, a, b] = rhs[a, b]
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _subtract_rows(B, i, L, k0, k1, transposed):
+    """B[i, :] −= Σ_{k0 ≤ k < k1} c_k B[k, :], c_k = L[i, k] (transposed: L[k, i]).
+
+    Whole rows of B (vectorised over its 2n+1 columns), four per pass over B[i, :]: a quarter
+    of its loads and stores; each entry sums in a fixed order."""
+    r = B.shape[1]
+    k = k0
+    while k + 4 <= k1:
+        if transposed:
+            a0, a1, a2, a3 = L[k, i], L[k + 1, i], L[k + 2, i], L[k + 3, i]
+        else:
+            a0, a1, a2, a3 = L[i, k], L[i, k + 1], L[i, k + 2], L[i, k + 3]
+        for j in range(r):
+            B[i, j] -= (a0 * B[k, j] + a1 * B[k + 1, j]) + (a2 * B[k + 2, j] + a3 * B[k + 3, j])
+        k += 4
+    while k < k1:
+        a = L[k, i] if transposed else L[i, k]
+        for j in range(r):
+            B[i, j] -= a * B[k, j]
+        k += 1
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _solve_many(A, B):
-    """B ← A⁻¹ B (A destroyed) by Gaussian elimination with partial pivoting; a singular A
-    gives NaN (the table then reports non-finite coefficients)."""
+    """B ← A⁻¹ B for the symmetric positive definite mass matrix A (destroyed: its Cholesky
+    factor L, A = L Lᵀ, in the lower triangle), then L y = B and Lᵀ x = y row by row.
+
+    Half the factorisation of Gaussian elimination and no pivoting; the substitutions run
+    along rows of B (the solve was 65 of the 103 µs of a ten-link sample when it ran down its
+    columns, 19 µs now). A matrix that is not positive definite (a blown-up state) gives NaN:
+    the table then reports non-finite coefficients."""
     n, r = B.shape
     for c in range(n):
-        piv = c
-        big = abs(A[c, c])
-        for i in range(c + 1, n):
-            if abs(A[i, c]) > big:
-                big, piv = abs(A[i, c]), i
-        if piv != c:
-            for j in range(n):
-                A[c, j], A[piv, j] = A[piv, j], A[c, j]
-            for j in range(r):
-                B[c, j], B[piv, j] = B[piv, j], B[c, j]
-        if A[c, c] == 0.0:
+        s = A[c, c]
+        for k in range(c):
+            s -= A[c, k] * A[c, k]
+        if not s > 0.0:
             for i in range(n):
                 for j in range(r):
                     B[i, j] = np.nan
             return
-        inv = 1.0 / A[c, c]
+        d = np.sqrt(s)
+        A[c, c] = d
+        inv = 1.0 / d
         for i in range(c + 1, n):
-            fac = A[i, c] * inv
-            if fac != 0.0:
-                for j in range(c, n):
-                    A[i, j] -= fac * A[c, j]
-                for j in range(r):
-                    B[i, j] -= fac * B[c, j]
-    for i in range(n - 1, -1, -1):
+            s = A[i, c]
+            for k in range(c):
+                s -= A[i, k] * A[c, k]
+            A[i, c] = s * inv
+    for i in range(n):
+        _subtract_rows(B, i, A, 0, i, False)
         inv = 1.0 / A[i, i]
         for j in range(r):
-            acc = B[i, j]
-            for q in range(i + 1, n):
-                acc -= A[i, q] * B[q, j]
-            B[i, j] = acc * inv
+            B[i, j] *= inv
+    for i in range(n - 1, -1, -1):
+        _subtract_rows(B, i, A, i + 1, n, True)
+        inv = 1.0 / A[i, i]
+        for j in range(r):
+            B[i, j] *= inv
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
