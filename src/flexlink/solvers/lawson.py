@@ -191,7 +191,12 @@ def _block_propagators(
     A = augmented(table.reference)
     # The balancing scale from every block, selected or not: the same exponentials either way.
     scale = np.sqrt(max(np.abs(table.reference[:, :, :n]).max(), 1.0))
-    if blocks is not None:
-        factor, A = factor[blocks], A[blocks]
-    return np.ascontiguousarray(np.swapaxes(expm_balanced(A * factor[:, None, None], n, scale),
-                                            1, 2))
+    selected = np.ones(len(table), dtype=bool) if blocks is None else blocks
+    E = np.empty((int(selected.sum()), *A.shape[1:]))
+    # Static and moving blocks apart: the Padé degree and squarings are chosen per stack, and
+    # a static block's full output interval (4 × h/2 at two steps) would raise them for all.
+    for group in (selected & table.static, selected & ~table.static):
+        where = group[selected]
+        if where.any():
+            E[where] = expm_balanced(A[group] * factor[group, None, None], n, scale)
+    return np.ascontiguousarray(np.swapaxes(E, 1, 2))
