@@ -192,20 +192,19 @@ def _step(ET, E2T, Dm, D2, h, u, k1, k2, k3, k4, Ey, E2y, w):
     n = k1.shape[0]
     _gemv(ET, 0, m, u, 1.0, Ey, False)
     _gemv(E2T, 0, m, u, 1.0, E2y, False)
+    _copy(E2y, u)  # u becomes y⁺, summed in the order of the formula above
+    _gemv(E2T, n, n, k1, h / 6.0, u, True)
     _copy(Ey, w)
     _gemv(ET, n, n, k1, 0.5 * h, w, True)  # a
     _gemv(Dm, 0, m, w, 1.0, k2, False)
     _copy(Ey, w)
     _add(w, n, 0.5 * h, k2)  # b
     _gemv(Dm, 0, m, w, 1.0, k3, False)
-    _copy(E2y, w)
-    _gemv(ET, n, n, k3, h, w, True)  # c
-    _gemv(D2, 0, m, w, 1.0, k4, False)
     for q in range(n):
         k2[q] += k3[q]
-    _copy(E2y, u)
-    _gemv(E2T, n, n, k1, h / 6.0, u, True)
-    _gemv(ET, n, n, k2, h / 3.0, u, True)
+    _copy(E2y, w)
+    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃) in the same pass
+    _gemv(D2, 0, m, w, 1.0, k4, False)
     _add(u, n, h / 6.0, k4)
     _gemv(D2, 0, m, u, 1.0, k1, False)
 
@@ -217,7 +216,7 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     calls with (E, E², ΔÃ at D[0], D[1]), (E, E², D[2], D[3]) and one with (E², E⁴, D[1],
     D[3]): the same operations per entry, bit for bit, but the coarse step's products with
     E², E⁴ and ΔÃ share their passes over a matrix with the fine steps' where both operands
-    are known (_gemv2): 23 passes over a matrix instead of 30. k1, c1: ΔÃ(start) y, yc on
+    are known (_gemv2): 21 passes over a matrix instead of 30. k1, c1: ΔÃ(start) y, yc on
     entry, ΔÃ(end) of the new y, yc on exit; the rest is scratch (b2 … b4: coarse stages)."""
     m = y.shape[0]
     n = k1.shape[0]
@@ -236,13 +235,12 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _copy(Ey, w)
     _add(w, n, 0.5 * h, k2)  # b
     _gemv(D[0], 0, m, w, 1.0, k3, False)
-    _copy(E2y, w)
-    _gemv(ET, n, n, k3, h, w, True)  # c
-    _zero2(k4, b2)
-    _gemv2(D[1], 0, m, w, 1.0, k4, wc, 1.0, b2)  # fine k4, coarse k2
     for q in range(n):
         k2[q] += k3[q]
-    _gemv(ET, n, n, k2, h / 3.0, u, True)
+    _copy(E2y, w)
+    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃)
+    _zero2(k4, b2)
+    _gemv2(D[1], 0, m, w, 1.0, k4, wc, 1.0, b2)  # fine k4, coarse k2
     _add(u, n, h / 6.0, k4)
     _copy(u, y)
     _copy(Ecy, wc)
@@ -261,13 +259,12 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _copy(Ey, w)
     _add(w, n, 0.5 * h, k2)  # b
     _gemv(D[2], 0, m, w, 1.0, k3, False)
-    _copy(E2y, w)
-    _gemv(ET, n, n, k3, h, w, True)  # c
-    _zero2(k4, b4)
-    _gemv2(D[3], 0, m, w, 1.0, k4, wc, 1.0, b4)  # fine k4, coarse k4
     for q in range(n):
         k2[q] += k3[q]
-    _gemv(ET, n, n, k2, h / 3.0, u, True)
+    _copy(E2y, w)
+    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃)
+    _zero2(k4, b4)
+    _gemv2(D[3], 0, m, w, 1.0, k4, wc, 1.0, b4)  # fine k4, coarse k4
     _add(u, n, h / 6.0, k4)
     _copy(u, y)
     # The coarse y⁺ = E_c² yc + H/6 E_c² c1 + H/3 E_c (b2 + b3) + H/6 b4.
