@@ -310,15 +310,17 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
         P, P2, P4 = ET[b], E2T[b], E4T[b]
         if static[b]:
             for i in range(i0, i1):
-                _gemv(P, 0, m, y, 1.0, w, False)
+                if coarse:  # both states in one pass over the propagator
+                    _zero2(w, wc)
+                    _gemv2(P, 0, m, y, 1.0, w, yc, 1.0, wc)
+                    _copy(wc, yc)
+                    for q in range(m):
+                        coarse_states[i + 1, q] = yc[q]
+                else:
+                    _gemv(P, 0, m, y, 1.0, w, False)
                 _copy(w, y)
                 for q in range(m):
                     states[i + 1, q] = y[q]
-                if coarse:
-                    _gemv(P, 0, m, yc, 1.0, w, False)
-                    _copy(w, yc)
-                    for q in range(m):
-                        coarse_states[i + 1, q] = yc[q]
             continue
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[b], pieces[b + 1]
