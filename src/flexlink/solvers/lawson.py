@@ -129,6 +129,8 @@ def _solve_pair(
 ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """The states with substeps / 2 steps per output interval (substeps even), and the
     states and z̈ with `substeps` (as _solve), from one pass of the compiled loop."""
+    if substeps % 2:
+        raise ValueError(f"the coarse pass needs an even number of steps, got {substeps}")
     states, acc, coarse = _run(table, n, t_out, substeps, on_progress, ET, coarse=True)
     return coarse, (states, acc)
 
@@ -146,8 +148,9 @@ def _run(
     # exp(h Ã_ref) = E² and (coarse) E⁴, transposed: (E²)ᵀ = (Eᵀ)².
     E2T = ET.copy()
     E2T[moving] = ET[moving] @ ET[moving]
-    E4T = E2T.copy()
+    E4T = E2T  # read by the coarse steps only
     if coarse:
+        E4T = E2T.copy()
         E4T[moving] = E2T[moving] @ E2T[moving]
     polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))  # the loop takes transposes
     referenceT = np.ascontiguousarray(np.swapaxes(table.reference, 1, 2))
