@@ -177,6 +177,22 @@ def _deltas(polyT, lower, upper, p0, p1, referenceT, tau, dtau, out):
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w):
+    """k₂ = ΔÃ a and k₃ = ΔÃ b of a step (Dm: ΔÃᵀ at its middle), a = Ey + h/2 E k₁,
+    b = Ey + h/2 k₂, with one and a half passes over ΔÃ instead of two: ΔÃ Ey and
+    ΔÃ (h/2 E k₁) in one pass, then k₃ = ΔÃ Ey + h/2 ΔÃ k₂ through ΔÃ's n velocity columns
+    (b − Ey has n entries). w: scratch."""
+    m = Ey.shape[0]
+    n = k1.shape[0]
+    _gemv(ET, n, n, k1, 0.5 * h, w, False)  # a − Ey
+    _zero2(k2, k3)
+    _gemv2(Dm, 0, m, Ey, 1.0, k3, w, 1.0, k2)
+    for q in range(n):
+        k2[q] += k3[q]
+    _gemv(Dm, n, n, k2, 0.5 * h, k3, True)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _step(ET, E2T, Dm, D2, h, u, k1, k2, k3, k4, Ey, E2y, w):
     """One Lawson step of h on u (in place), E = exp(h/2 Ã_ref) and E² = exp(h Ã_ref) given
     transposed; Dm, D2: ΔÃᵀ at the step's middle and end. On entry k1 = ΔÃ(start) u, on exit
@@ -194,12 +210,7 @@ def _step(ET, E2T, Dm, D2, h, u, k1, k2, k3, k4, Ey, E2y, w):
     _gemv(E2T, 0, m, u, 1.0, E2y, False)
     _copy(E2y, u)  # u becomes y⁺, summed in the order of the formula above
     _gemv(E2T, n, n, k1, h / 6.0, u, True)
-    _copy(Ey, w)
-    _gemv(ET, n, n, k1, 0.5 * h, w, True)  # a
-    _gemv(Dm, 0, m, w, 1.0, k2, False)
-    _copy(Ey, w)
-    _add(w, n, 0.5 * h, k2)  # b
-    _gemv(Dm, 0, m, w, 1.0, k3, False)
+    _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w)
     for q in range(n):
         k2[q] += k3[q]
     _copy(E2y, w)
@@ -216,8 +227,9 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     calls with (E, E², ΔÃ at D[0], D[1]), (E, E², D[2], D[3]) and one with (E², E⁴, D[1],
     D[3]): the same operations per entry, bit for bit, but the coarse step's products with
     E², E⁴ and ΔÃ share their passes over a matrix with the fine steps' where both operands
-    are known (_gemv2): 21 passes over a matrix instead of 30. k1, c1: ΔÃ(start) y, yc on
-    entry, ΔÃ(end) of the new y, yc on exit; the rest is scratch (b2 … b4: coarse stages)."""
+    are known (_gemv2): 20 passes over a matrix instead of 30 (with _stages_ab's). k1, c1:
+    ΔÃ(start) y, yc on entry, ΔÃ(end) of the new y, yc on exit; the rest is scratch (b2 … b4:
+    coarse stages)."""
     m = y.shape[0]
     n = k1.shape[0]
     H = 2.0 * h  # the coarse step
@@ -229,12 +241,7 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _copy(E2y, u)  # u becomes the fine step's y⁺, wc the coarse stage a
     _copy(Ecy, wc)
     _gemv2(E2T, n, n, k1, h / 6.0, u, c1, 0.5 * H, wc)
-    _copy(Ey, w)
-    _gemv(ET, n, n, k1, 0.5 * h, w, True)  # a
-    _gemv(D[0], 0, m, w, 1.0, k2, False)
-    _copy(Ey, w)
-    _add(w, n, 0.5 * h, k2)  # b
-    _gemv(D[0], 0, m, w, 1.0, k3, False)
+    _stages_ab(D[0], ET, h, Ey, k1, k2, k3, w)
     for q in range(n):
         k2[q] += k3[q]
     _copy(E2y, w)
@@ -253,12 +260,7 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _copy(E2y, u)
     _copy(E4y, wc)
     _gemv2(E2T, n, n, k1, h / 6.0, u, b3, H, wc)
-    _copy(Ey, w)
-    _gemv(ET, n, n, k1, 0.5 * h, w, True)  # a
-    _gemv(D[2], 0, m, w, 1.0, k2, False)
-    _copy(Ey, w)
-    _add(w, n, 0.5 * h, k2)  # b
-    _gemv(D[2], 0, m, w, 1.0, k3, False)
+    _stages_ab(D[2], ET, h, Ey, k1, k2, k3, w)
     for q in range(n):
         k2[q] += k3[q]
     _copy(E2y, w)
