@@ -333,20 +333,22 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
         for i in range(i0, i1):
             h = (t_out[i + 1] - t_out[i]) / substeps
             dtau = h / span
-            for j in range(0, substeps - 1, 2):
+            # Step by step, ΔÃ for two steps at a time; one call site of _step (each inlined
+            # product is vectorised again at every call site: compilation time).
+            for j in range(0, substeps, 2 if coarse else 1):
                 tau = (t_out[i] - t_out[i0] + j * h) / span
-                _deltas(polyT, lower, upper, p0, p1, A_ref, tau, dtau, D)
+                if j % 2 == 0:
+                    if j + 1 < substeps:
+                        _deltas(polyT, lower, upper, p0, p1, A_ref, tau, dtau, D)
+                    else:  # a last single step (fine pass alone, odd substeps)
+                        _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, D[0])
+                        _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, D[1])
                 if coarse:
                     _pair(P, P2, P4, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
                           w, Ecy, E4y, wc)
                 else:
-                    _step(P, P2, D[0], D[1], h, y, k1, k2, k3, k4, Ey, E2y, w)
-                    _step(P, P2, D[2], D[3], h, y, k1, k2, k3, k4, Ey, E2y, w)
-            if substeps % 2 == 1:  # a last single step (fine pass alone)
-                tau = (t_out[i] - t_out[i0] + (substeps - 1) * h) / span
-                _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, D[0])
-                _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, D[1])
-                _step(P, P2, D[0], D[1], h, y, k1, k2, k3, k4, Ey, E2y, w)
+                    r0 = 2 * (j % 2)
+                    _step(P, P2, D[r0], D[r0 + 1], h, y, k1, k2, k3, k4, Ey, E2y, w)
             for q in range(m):
                 states[i + 1, q] = y[q]
             if coarse:
