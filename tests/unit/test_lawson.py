@@ -10,7 +10,7 @@ from flexlink.motion import Cycloidal, MeasuredMotion, Sequence
 from flexlink.simulation import output_times
 from flexlink.solvers import GivenMatrices, Solution, integrate_lawson, integrate_magnus
 from flexlink.solvers.coefficient_table import tabulate
-from flexlink.solvers.lawson import _solve
+from flexlink.solvers.lawson import _solve, _solve_pair
 from flexlink.solvers.magnus import state_rows
 from tests.helpers import chain_of, paper_links
 
@@ -105,6 +105,25 @@ def test_lawson_is_fourth_order() -> None:
     changes = [np.abs(fine - coarse).max() for coarse, fine in zip(runs, runs[1:])]
     orders = np.log2(np.array(changes[:-1]) / np.array(changes[1:]))
     assert np.all((orders > 3.5) & (orders < 4.5)), orders
+
+
+@pytest.mark.parametrize("start2", [0.7, 0.7043])  # with pieces (a kink between outputs)
+def test_the_coarse_pass_alongside_is_a_run_of_its_own(start2: float) -> None:
+    # The compiled loop advances the Richardson pass with half the steps next to the fine
+    # one, reading the fine pass's ΔÃ: both equal separate runs to round-off, an odd number
+    # of steps per output interval (the single-step remainder) included.
+    system = _system(start2)
+    t = np.append(output_times(1.2, 0.005), 1.2037)
+    table = _table(system, t, 1e-8)
+    for substeps in (2, 6):
+        coarse, (fine, acc) = _solve_pair(table, system.n, t, substeps, None)
+        alone, alone_acc = _solve(table, system.n, t, substeps, None)
+        half, _ = _solve(table, system.n, t, substeps // 2, None)
+        scale = np.abs(alone).max(axis=0)
+        assert np.all(np.abs(fine - alone) <= 1e-12 * scale)
+        assert np.all(np.abs(acc - alone_acc) <= 1e-12 * np.abs(alone_acc).max(axis=0))
+        assert np.all(np.abs(coarse - half) <= 1e-12 * scale)
+        assert np.abs(coarse - fine).max() > 0.0  # a run of its own, not a copy
 
 
 def test_rough_coefficients_are_integrated_by_magnus() -> None:

@@ -1,7 +1,9 @@
 """Compiled (numba) step loop of the Lawson integrator (``lawson.py``).
 
-One step is five products with the 17 × 17 block propagator and two evaluations of a
-degree-5 polynomial of 8 × 17 matrices for the paper arm: ~4·10³ flops, ~1 µs compiled against
+One step is two products with the (2n+1)² block propagator, four with n of its columns and
+four with the n-row remainder ΔÃ (_step); ΔÃ is evaluated from the table's polynomials at the
+four instants of two fine steps in one pass (_deltas). The Richardson pass with steps of 2h
+runs alongside (``coarse``) and reads the same ΔÃ. Paper arm: ~1 µs a step compiled against
 ~40 µs as a sequence of numpy calls. Compiled functions are cached on disk (``cache=True``).
 
 Copies are explicit loops (`_copy`, `_copy2`), not slice assignments (``u[:] = w``): numba
@@ -77,82 +79,291 @@ def _copy2(a, b):
             b[i, j] = a[i, j]
 
 
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _gemv(PT, j0, nj, x, scale, out, accumulate):
+    """out (+)= scale · P[:, j0:j0+nj] x[:nj] from Pᵀ (accumulate: add to out, else set it).
+
+    Four columns of P per pass over out: a quarter of the loads and stores of out that one
+    column at a time costs (81 × 81: 1.2 µs instead of 1.5–1.9 µs; 81 × 40: 0.5 instead of
+    1.7 µs). The inner loop is element-wise and vectorises without fastmath; each out[i]
+    sums in a fixed order, whatever the memory alignment (see _mv)."""
+    m = out.shape[0]
+    if not accumulate:
+        for i in range(m):
+            out[i] = 0.0
+    q = 0
+    while q + 4 <= nj:
+        j = j0 + q
+        x0, x1 = scale * x[q], scale * x[q + 1]
+        x2, x3 = scale * x[q + 2], scale * x[q + 3]
+        for i in range(m):
+            out[i] += (PT[j, i] * x0 + PT[j + 1, i] * x1) + (PT[j + 2, i] * x2
+                                                             + PT[j + 3, i] * x3)
+        q += 4
+    while q < nj:
+        xq = scale * x[q]
+        for i in range(m):
+            out[i] += PT[j0 + q, i] * xq
+        q += 1
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _gemv2(PT, j0, nj, x, sx, out, v, sv, out2):
+    """out += sx · P[:, j0:j0+nj] x[:nj] and out2 += sv · P[:, j0:j0+nj] v[:nj] in one pass
+    over Pᵀ: the loop streams its matrices from the L2 cache, so two vectors per pass cost
+    little more than one. Per entry the same operations in the same order as _gemv."""
+    m = out.shape[0]
+    q = 0
+    while q + 4 <= nj:
+        j = j0 + q
+        x0, x1, x2, x3 = sx * x[q], sx * x[q + 1], sx * x[q + 2], sx * x[q + 3]
+        v0, v1, v2, v3 = sv * v[q], sv * v[q + 1], sv * v[q + 2], sv * v[q + 3]
+        for i in range(m):
+            p0, p1, p2, p3 = PT[j, i], PT[j + 1, i], PT[j + 2, i], PT[j + 3, i]
+            out[i] += (p0 * x0 + p1 * x1) + (p2 * x2 + p3 * x3)
+            out2[i] += (p0 * v0 + p1 * v1) + (p2 * v2 + p3 * v3)
+        q += 4
+    while q < nj:
+        xq, vq = sx * x[q], sv * v[q]
+        for i in range(m):
+            out[i] += PT[j0 + q, i] * xq
+            out2[i] += PT[j0 + q, i] * vq
+        q += 1
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _zero2(a, b):
+    """a[:] = b[:] = 0."""
+    for i in range(a.shape[0]):
+        a[i] = 0.0
+        b[i] = 0.0
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _piece(lower, upper, p0, p1, tau):
+    """The piece p0 … p1−1 of a block that holds its local time τ, and τ in that piece."""
+    p = p0
+    while p < p1 - 1 and tau > upper[p]:
+        p += 1
+    return p, (tau - lower[p]) / (upper[p] - lower[p])
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _deltas(polyT, lower, upper, p0, p1, referenceT, tau, dtau, out):
+    """out[r] = (A(τ + (r+1)/2 · dτ) − A_ref)ᵀ, r = 0 … 3: the mid and end points of two
+    steps of dτ from τ, and of one step of 2 dτ (the coarse Richardson pass).
+
+    One pass over the coefficients for the four points when they lie in one piece of degree 5
+    (Horner per entry in registers: six loads for twenty products); the same operations per
+    entry, in the same order, as _delta, which does the other cases."""
+    pa, la = _piece(lower, upper, p0, p1, tau + 0.5 * dtau)
+    pb, lb = _piece(lower, upper, p0, p1, tau + dtau)
+    pc, lc = _piece(lower, upper, p0, p1, tau + 1.5 * dtau)
+    pd, ld = _piece(lower, upper, p0, p1, tau + 2.0 * dtau)
+    if polyT.shape[1] != 6 or pa != pd or pb != pd or pc != pd:
+        for r in range(4):
+            _delta(polyT, lower, upper, p0, p1, referenceT, tau + 0.5 * (r + 1) * dtau, out[r])
+        return
+    P = polyT[pd]
+    for j in range(out.shape[1]):
+        for i in range(out.shape[2]):
+            c0, c1, c2 = P[0, j, i], P[1, j, i], P[2, j, i]
+            c3, c4, c5 = P[3, j, i], P[4, j, i], P[5, j, i]
+            ref = referenceT[j, i]
+            out[0, j, i] = (((((c5 * la + c4) * la + c3) * la + c2) * la + c1) * la + c0) - ref
+            out[1, j, i] = (((((c5 * lb + c4) * lb + c3) * lb + c2) * lb + c1) * lb + c0) - ref
+            out[2, j, i] = (((((c5 * lc + c4) * lc + c3) * lc + c2) * lc + c1) * lc + c0) - ref
+            out[3, j, i] = (((((c5 * ld + c4) * ld + c3) * ld + c2) * ld + c1) * ld + c0) - ref
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w):
+    """k₂ = ΔÃ a and k₃ = ΔÃ b of a step (Dm: ΔÃᵀ at its middle), a = Ey + h/2 E k₁,
+    b = Ey + h/2 k₂, with one and a half passes over ΔÃ instead of two: ΔÃ Ey and
+    ΔÃ (h/2 E k₁) in one pass, then k₃ = ΔÃ Ey + h/2 ΔÃ k₂ through ΔÃ's n velocity columns
+    (b − Ey has n entries). w: scratch."""
+    m = Ey.shape[0]
+    n = k1.shape[0]
+    _gemv(ET, n, n, k1, 0.5 * h, w, False)  # a − Ey
+    _zero2(k2, k3)
+    _gemv2(Dm, 0, m, Ey, 1.0, k3, w, 1.0, k2)
+    for q in range(n):
+        k2[q] += k3[q]
+    _gemv(Dm, n, n, k2, 0.5 * h, k3, True)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _step(ET, E2T, Dm, D2, h, u, k1, k2, k3, k4, Ey, E2y, w):
+    """One Lawson step of h on u (in place), E = exp(h/2 Ã_ref) and E² = exp(h Ã_ref) given
+    transposed; Dm, D2: ΔÃᵀ at the step's middle and end. On entry k1 = ΔÃ(start) u, on exit
+    k1 = ΔÃ(end) u⁺ (the next step's k1 in the same block, and z̈ − Ã_ref u⁺ at an output).
+
+    The stages of the module docstring (lawson.py) with E applied to the k_i by linearity:
+    a k_i has n entries (velocity rows), so E k_i is a product with n columns of E, and
+    E(E y) is E² y. Two products with the whole (2n+1)² propagator per step instead of five:
+
+        a = Ey + h/2 E k₁,  b = Ey + h/2 k₂,  c = E²y + h E k₃,
+        y⁺ = E²y + h/6 E² k₁ + h/3 E (k₂ + k₃) + h/6 k₄."""
+    m = u.shape[0]
+    n = k1.shape[0]
+    _gemv(ET, 0, m, u, 1.0, Ey, False)
+    _gemv(E2T, 0, m, u, 1.0, E2y, False)
+    _copy(E2y, u)  # u becomes y⁺, summed in the order of the formula above
+    _gemv(E2T, n, n, k1, h / 6.0, u, True)
+    _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w)
+    for q in range(n):
+        k2[q] += k3[q]
+    _copy(E2y, w)
+    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃) in the same pass
+    _gemv(D2, 0, m, w, 1.0, k4, False)
+    _add(u, n, h / 6.0, k4)
+    _gemv(D2, 0, m, u, 1.0, k1, False)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u, w, Ecy,
+          E4y, wc):
+    """Two fine steps of h on y and one coarse step of 2h on yc (in place), as two _step
+    calls with (E, E², ΔÃ at D[0], D[1]), (E, E², D[2], D[3]) and one with (E², E⁴, D[1],
+    D[3]): the same operations per entry, bit for bit, but the coarse step's products with
+    E², E⁴ and ΔÃ share their passes over a matrix with the fine steps' where both operands
+    are known (_gemv2): 20 passes over a matrix instead of 30 (with _stages_ab's). k1, c1:
+    ΔÃ(start) y, yc on entry, ΔÃ(end) of the new y, yc on exit; the rest is scratch (b2 … b4:
+    coarse stages)."""
+    m = y.shape[0]
+    n = k1.shape[0]
+    H = 2.0 * h  # the coarse step
+    # Fine step 1 and the coarse step's start: E²y, E_c yc = E² yc, E y, E_c² yc = E⁴ yc.
+    _zero2(E2y, Ecy)
+    _gemv2(E2T, 0, m, y, 1.0, E2y, yc, 1.0, Ecy)
+    _gemv(ET, 0, m, y, 1.0, Ey, False)
+    _gemv(E4T, 0, m, yc, 1.0, E4y, False)
+    _copy(E2y, u)  # u becomes the fine step's y⁺, wc the coarse stage a
+    _copy(Ecy, wc)
+    _gemv2(E2T, n, n, k1, h / 6.0, u, c1, 0.5 * H, wc)
+    _stages_ab(D[0], ET, h, Ey, k1, k2, k3, w)
+    for q in range(n):
+        k2[q] += k3[q]
+    _copy(E2y, w)
+    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃)
+    _zero2(k4, b2)
+    _gemv2(D[1], 0, m, w, 1.0, k4, wc, 1.0, b2)  # fine k4, coarse k2
+    _add(u, n, h / 6.0, k4)
+    _copy(u, y)
+    _copy(Ecy, wc)
+    _add(wc, n, 0.5 * H, b2)  # coarse b
+    _zero2(k1, b3)
+    _gemv2(D[1], 0, m, y, 1.0, k1, wc, 1.0, b3)  # fine k1 of step 2, coarse k3
+    # Fine step 2, and the coarse stage c = E_c² yc + H E_c b3.
+    _gemv(ET, 0, m, y, 1.0, Ey, False)
+    _gemv(E2T, 0, m, y, 1.0, E2y, False)
+    _copy(E2y, u)
+    _copy(E4y, wc)
+    _gemv2(E2T, n, n, k1, h / 6.0, u, b3, H, wc)
+    _stages_ab(D[2], ET, h, Ey, k1, k2, k3, w)
+    for q in range(n):
+        k2[q] += k3[q]
+    _copy(E2y, w)
+    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃)
+    _zero2(k4, b4)
+    _gemv2(D[3], 0, m, w, 1.0, k4, wc, 1.0, b4)  # fine k4, coarse k4
+    _add(u, n, h / 6.0, k4)
+    _copy(u, y)
+    # The coarse y⁺ = E_c² yc + H/6 E_c² c1 + H/3 E_c (b2 + b3) + H/6 b4.
+    for q in range(n):
+        b2[q] += b3[q]
+    _copy(E4y, yc)
+    _gemv(E4T, n, n, c1, H / 6.0, yc, True)
+    _gemv(E2T, n, n, b2, H / 3.0, yc, True)
+    _add(yc, n, H / 6.0, b4)
+    _zero2(k1, c1)
+    _gemv2(D[3], 0, m, y, 1.0, k1, yc, 1.0, c1)
+
+
 @njit(cache=True, error_model="numpy")
-def lawson_blocks(y, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,
-                  ET, substeps, states, accelerations):
-    """Advance the augmented state y = [z, ż, 1] through the blocks.
+def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,
+                  ET, E2T, E4T, substeps, coarse, states, accelerations, coarse_states):
+    """Advance the augmented state y = [z, ż, 1] through the blocks, and with ``coarse`` the
+    state yc of the Richardson pass with half as many steps alongside (in place, both).
 
     Block b spans output indices first[b]..last[b], its polynomials are pieces[b]…pieces[b+1]−1
-    (coefficient_table.CoefficientTable; every matrix here is passed transposed, for _mv). A
-    moving block is crossed in ``substeps`` Lawson steps per output interval, E[b] =
-    exp(h/2 Ã_ref); a static block interval by interval with E[b] = exp(Δt Ã), exact. Writes y
-    at every output index into ``states`` and, on moving blocks, z̈ = A y into
-    ``accelerations``. Returns the last y.
+    (coefficient_table.CoefficientTable; every matrix here is passed transposed, for _gemv). A
+    moving block is crossed in ``substeps`` Lawson steps per output interval (even unless
+    coarse is false), with E[b] = exp(h/2 Ã_ref), E2[b] = E[b]², E4[b] = E2[b]² (the coarse
+    pass's E²); a static block interval by interval with E[b] = exp(Δt Ã), exact. Writes y
+    (yc) at every output index into ``states`` (``coarse_states``) and, on moving blocks,
+    z̈ = A y into ``accelerations``.
+
+    The coarse step of 2h spans two fine steps: its middle and end are their ends, so it reads
+    ΔÃ at instants the fine pass evaluates anyway (one pass over the coefficients, _deltas,
+    for the four instants of a pair of fine steps).
     """
     m = y.shape[0]
     n = (m - 1) // 2
-    D1 = np.empty((m, n))
-    Dm = np.empty((m, n))
-    D2 = np.empty((m, n))
-    k1, k2, k3, k4, r = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    u, w, a, Ey, v = np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m)
-    for q in range(m):
-        u[q] = y[q]
+    D = np.empty((4, m, n))
+    k1, k2, k3, k4 = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    c1, b2, b3, b4 = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    r = np.empty(n)
+    Ey, E2y, w, u = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    Ecy, E4y, wc = np.empty(m), np.empty(m), np.empty(m)
     for b in range(first.size):
         i0, i1 = first[b], last[b]
         A_ref = referenceT[b]
-        P = ET[b]
+        P, P2, P4 = ET[b], E2T[b], E4T[b]
         if static[b]:
             for i in range(i0, i1):
-                _mv(P, u, w)
+                if coarse:  # both states in one pass over the propagator
+                    _zero2(w, wc)
+                    _gemv2(P, 0, m, y, 1.0, w, yc, 1.0, wc)
+                    _copy(wc, yc)
+                    for q in range(m):
+                        coarse_states[i + 1, q] = yc[q]
+                else:
+                    _gemv(P, 0, m, y, 1.0, w, False)
+                _copy(w, y)
                 for q in range(m):
-                    u[q] = w[q]
-                    states[i + 1, q] = w[q]
+                    states[i + 1, q] = y[q]
             continue
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[b], pieces[b + 1]
-        _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, D1)
+        _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, D[3])
+        _gemv(D[3], 0, m, y, 1.0, k1, False)
+        if coarse:
+            _gemv(D[3], 0, m, yc, 1.0, c1, False)
         for i in range(i0, i1):
             h = (t_out[i + 1] - t_out[i]) / substeps
-            for j in range(substeps):
+            dtau = h / span
+            # Step by step, ΔÃ for two steps at a time; one call site of _step (each inlined
+            # product is vectorised again at every call site: compilation time).
+            for j in range(0, substeps, 2 if coarse else 1):
                 tau = (t_out[i] - t_out[i0] + j * h) / span
-                dtau = h / span
-                _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
-                _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, D2)
-                _mv(D1, u, k1)
-                _copy(u, w)
-                _add(w, n, 0.5 * h, k1)
-                _mv(P, w, a)
-                _mv(Dm, a, k2)
-                _mv(P, u, Ey)
-                _copy(Ey, w)
-                _add(w, n, 0.5 * h, k2)
-                _mv(Dm, w, k3)
-                _copy(Ey, w)
-                _add(w, n, h, k3)
-                _mv(P, w, a)  # stage c
-                _mv(D2, a, k4)
-                _copy(u, w)
-                _add(w, n, h / 6.0, k1)
-                _mv(P, w, v)
-                _add(v, n, h / 3.0, k2)
-                _add(v, n, h / 3.0, k3)
-                _mv(P, v, u)
-                _add(u, n, h / 6.0, k4)
-                _copy2(D2, D1)
+                if j % 2 == 0:
+                    if j + 1 < substeps:
+                        _deltas(polyT, lower, upper, p0, p1, A_ref, tau, dtau, D)
+                    else:  # a last single step (fine pass alone, odd substeps)
+                        _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, D[0])
+                        _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, D[1])
+                if coarse:
+                    _pair(P, P2, P4, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
+                          w, Ecy, E4y, wc)
+                else:
+                    r0 = 2 * (j % 2)
+                    _step(P, P2, D[r0], D[r0 + 1], h, y, k1, k2, k3, k4, Ey, E2y, w)
             for q in range(m):
-                states[i + 1, q] = u[q]
-            _mv(A_ref, u, r)
-            _mv(D2, u, k1)
+                states[i + 1, q] = y[q]
+            if coarse:
+                for q in range(m):
+                    coarse_states[i + 1, q] = yc[q]
+            _gemv(A_ref, 0, m, y, 1.0, r, False)
             for q in range(n):
                 accelerations[i + 1, q] = r[q] + k1[q]
-    return u
 
 
 # The one signature `lawson._solve` calls lawson_blocks with (every array C-contiguous).
-SIGNATURE = (float64[::1], float64[::1], int64[::1], int64[::1], boolean[::1], int64[::1],
-             float64[::1], float64[::1], float64[:, :, :, ::1], float64[:, :, ::1],
-             float64[:, :, ::1], int64, float64[:, ::1], float64[:, ::1])
+SIGNATURE = (float64[::1], float64[::1], float64[::1], int64[::1], int64[::1], boolean[::1],
+             int64[::1], float64[::1], float64[::1], float64[:, :, :, ::1], float64[:, :, ::1],
+             float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], int64, boolean,
+             float64[:, ::1], float64[:, ::1], float64[:, ::1])
 
 
 def load() -> None:

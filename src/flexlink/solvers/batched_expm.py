@@ -39,21 +39,41 @@ def expm_stack(A: np.ndarray) -> np.ndarray:
     squarings = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / _THETA[degree])))
     squarings = squarings.astype(int)
     X = A * np.ldexp(1.0, -squarings)[:, None, None]
-    b = _COEFFICIENTS[degree]
-    X2 = X @ X
-    power = np.broadcast_to(np.eye(A.shape[1]), A.shape)
-    odd = b[1] * power
-    even = b[0] * power
-    for i in range(1, degree // 2 + 1):  # X2^i contributes b_{2i} to V and b_{2i+1} to U
-        power = power @ X2
-        even = even + b[2 * i] * power
-        odd = odd + b[2 * i + 1] * power
-    U = X @ odd
-    E = np.linalg.solve(even - U, even + U)
+    U, V = _pade_terms(X, degree)
+    P, Q = V + U, V - U
+    E = np.linalg.solve(Q, P)
     for level in range(1, int(squarings.max()) + 1):
         needs = squarings >= level
         E[needs] = E[needs] @ E[needs]
     return E
+
+
+def _pade_terms(X: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """U (odd part) and V (even part) of the [m/m] Padé approximant at X, exp(X) ≈ (V − U)⁻¹
+    (V + U), with the fewest products (Higham 2005, §2): the even powers X², X⁴, … for m ≤ 9
+    (m/2 + 1 products), X², X⁴, X⁶ and three more for m = 13 (6 instead of 8). The identity
+    terms go on the diagonal only."""
+    b = _COEFFICIENTS[degree]
+    diagonal = np.arange(X.shape[1])
+    X2 = X @ X
+    if degree == 13:
+        X4 = X2 @ X2
+        X6 = X4 @ X2
+        inner = X6 @ (b[13] * X6 + b[11] * X4 + b[9] * X2) + b[7] * X6 + b[5] * X4 + b[3] * X2
+        inner[:, diagonal, diagonal] += b[1]
+        V = X6 @ (b[12] * X6 + b[10] * X4 + b[8] * X2) + b[6] * X6 + b[4] * X4 + b[2] * X2
+        V[:, diagonal, diagonal] += b[0]
+        return X @ inner, V
+    odd = b[3] * X2
+    even = b[2] * X2
+    power = X2
+    for i in range(2, degree // 2 + 1):  # X2^i contributes b_{2i} to V and b_{2i+1} to U
+        power = power @ X2
+        even += b[2 * i] * power
+        odd += b[2 * i + 1] * power
+    odd[:, diagonal, diagonal] += b[1]
+    even[:, diagonal, diagonal] += b[0]
+    return X @ odd, even
 
 
 def expm_balanced(omega: np.ndarray, n: int, scale: float) -> np.ndarray:
@@ -62,5 +82,6 @@ def expm_balanced(omega: np.ndarray, n: int, scale: float) -> np.ndarray:
     scale ~ the highest natural frequency (rad/s). Unbalanced, the ω² entries make ‖Ω‖ ~ h·ω²
     and the exponential needs many squarings; balanced, ‖Ω‖ ~ h·ω."""
     d = np.concatenate([np.full(n, scale), np.ones(omega.shape[-1] - n)])
-    E = expm_stack(omega * d[:, None] / d[None, :])
-    return E * (1.0 / d)[:, None] * d[None, :]
+    ratio = d[:, None] / d[None, :]  # one pass over the stack each way, not two
+    E = expm_stack(omega * ratio)
+    return E * ratio.T

@@ -66,24 +66,23 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
         except RoughCoefficients:
             # Magnus assembles A where it needs it, which then costs less than a table.
             return integrate_magnus(system, t_out, rtol, atol, on_progress)
-        # exp(h/2 Ã_ref) of the coarse pass is the square of the fine pass's (h doubled), and
-        # a static block's exp(Δt Ã) does not depend on h: one Padé exponential per block and
-        # pass with a new h.
-        ET = _block_propagators(table, n, t_out, substeps)
-        coarse_ET = ET.copy()
+        # The coarse pass (h doubled) runs alongside the fine one in the compiled loop: its
+        # exp(h Ã_ref) = E² is what the fine steps use for E(E y) too, its E⁴ the square of
+        # that; a static block's exp(Δt Ã) does not depend on h. One Padé exponential per
+        # block and pass with a new h.
         moving = ~table.static
-        coarse_ET[moving] = ET[moving] @ ET[moving]  # (E²)ᵀ = (Eᵀ)²
-        coarse = _solve(table, n, t_out, substeps // 2, on_progress, coarse_ET)
+        ET = _block_propagators(table, n, t_out, substeps)
+        coarse, fine = _solve_pair(table, n, t_out, substeps, on_progress, ET)
         for _ in range(_MAX_HALVINGS):
-            fine = _solve(table, n, t_out, substeps, on_progress, ET)
             states, acc = fine
-            if agree(states[:, :-1], states[:, :-1], coarse[0][:, :-1], n, rtol, atol):
+            if agree(states[:, :-1], states[:, :-1], coarse[:, :-1], n, rtol, atol):
                 stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
                 return Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats)
-            coarse = fine
+            coarse = states
             substeps *= 2
             ET = ET.copy()
             ET[moving] = _block_propagators(table, n, t_out, substeps, moving)
+            fine = _solve(table, n, t_out, substeps, on_progress, ET)
     raise SimulationError(
         f"the integration did not reach rtol = {rtol:g}, atol = {atol:g} with {substeps} steps "
         "per output interval; loosen the tolerances or check the model"
@@ -120,24 +119,59 @@ def _solve(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval;
     ET: the block propagators for these substeps if known (_block_propagators)."""
+    states, acc, _ = _run(table, n, t_out, substeps, on_progress, ET, coarse=False)
+    return states, acc
+
+
+def _solve_pair(
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
+    on_progress: Progress | None, ET: np.ndarray | None = None,
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """The states with substeps / 2 steps per output interval (substeps even), and the
+    states and z̈ with `substeps` (as _solve), from one pass of the compiled loop."""
+    if substeps % 2:
+        raise ValueError(f"the coarse pass needs an even number of steps, got {substeps}")
+    states, acc, coarse = _run(table, n, t_out, substeps, on_progress, ET, coarse=True)
+    return coarse, (states, acc)
+
+
+def _run(
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
+    on_progress: Progress | None, ET: np.ndarray | None, coarse: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """States, z̈ and (coarse) the states of the pass with half the steps."""
     from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used
 
     if ET is None:
         ET = _block_propagators(table, n, t_out, substeps)
+    moving = ~table.static
+    # exp(h Ã_ref) = E² and (coarse) E⁴, transposed: (E²)ᵀ = (Eᵀ)².
+    E2T = ET.copy()
+    E2T[moving] = ET[moving] @ ET[moving]
+    E4T = E2T  # read by the coarse steps only
+    if coarse:
+        E4T = E2T.copy()
+        E4T[moving] = E2T[moving] @ E2T[moving]
     polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))  # the loop takes transposes
     referenceT = np.ascontiguousarray(np.swapaxes(table.reference, 1, 2))
-    states = np.empty((t_out.size, 2 * n + 1))
+    m = 2 * n + 1
+    states = np.empty((t_out.size, m))
+    coarse_states = np.empty((t_out.size if coarse else 0, m))
     acc = np.empty((t_out.size, n))
-    y = np.zeros(2 * n + 1)
+    y = np.zeros(m)
     y[-1] = 1.0
+    yc = y.copy()
     states[0] = y
+    if coarse:
+        coarse_states[0] = y
     acc[0] = table.poly[0, 0] @ y  # A at τ = 0 of the first block
     for lo in range(0, len(table), _BLOCKS_PER_CALL):
         sl = slice(lo, lo + _BLOCKS_PER_CALL)
-        y = lawson_blocks(y, t_out, table.first[sl], table.last[sl], table.static[sl],
-                          table.pieces[lo:], table.lower, table.upper, polyT,
-                          referenceT[sl], ET[sl], substeps, states, acc)
-        if not np.all(np.isfinite(y)):
+        lawson_blocks(y, yc, t_out, table.first[sl], table.last[sl], table.static[sl],
+                      table.pieces[lo:], table.lower, table.upper, polyT,
+                      referenceT[sl], ET[sl], E2T[sl], E4T[sl], substeps, coarse, states,
+                      acc, coarse_states)
+        if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yc))):
             raise SimulationError(
                 f"the state became non-finite near t = {t_out[table.last[sl][-1]]:.4g} s")
         if on_progress is not None:
@@ -145,7 +179,7 @@ def _solve(
     for a, b, A in zip(table.first[table.static], table.last[table.static],
                        table.reference[table.static]):
         acc[a + 1: b + 1] = states[a + 1: b + 1] @ A.T  # resting: z̈ = A y, A constant
-    return states, acc
+    return states, acc, coarse_states
 
 
 def _block_propagators(
@@ -160,7 +194,12 @@ def _block_propagators(
     A = augmented(table.reference)
     # The balancing scale from every block, selected or not: the same exponentials either way.
     scale = np.sqrt(max(np.abs(table.reference[:, :, :n]).max(), 1.0))
-    if blocks is not None:
-        factor, A = factor[blocks], A[blocks]
-    return np.ascontiguousarray(np.swapaxes(expm_balanced(A * factor[:, None, None], n, scale),
-                                            1, 2))
+    selected = np.ones(len(table), dtype=bool) if blocks is None else blocks
+    E = np.empty((int(selected.sum()), *A.shape[1:]))
+    # Static and moving blocks apart: the Padé degree and squarings are chosen per stack, and
+    # a static block's full output interval (4 × h/2 at two steps) would raise them for all.
+    for group in (selected & table.static, selected & ~table.static):
+        where = group[selected]
+        if where.any():
+            E[where] = expm_balanced(A[group] * factor[group, None, None], n, scale)
+    return np.ascontiguousarray(np.swapaxes(E, 1, 2))
