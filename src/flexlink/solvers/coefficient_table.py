@@ -31,6 +31,7 @@ DEGREE = 5
 _NODES = 0.5 - 0.5 * np.cos(np.pi * np.arange(DEGREE + 1) / DEGREE)  # Chebyshev–Lobatto, [0, 1]
 _CHECKS = 0.5 * (_NODES[1:] + _NODES[:-1])
 _FIT = np.linalg.inv(np.vander(_NODES, increasing=True))  # samples → monomial coefficients
+_AT_CHECKS = np.vander(_CHECKS, DEGREE + 1, increasing=True)  # coefficients → values there
 _MAX_INTERVALS = 64  # output intervals per moving block before refinement
 _MAX_BLOCK = 0.064  # s, the same bound in time
 _MIN_PIECE = 1.0 / 64  # smallest piece of one output interval (around a kink of A)
@@ -70,8 +71,9 @@ class CoefficientTable:
                                                               self.pieces[block + 1], tau)])
         p = np.minimum(p, self.pieces[block + 1] - 1)
         local = (tau - self.lower[p]) / (self.upper[p] - self.lower[p])
-        powers = local[:, None] ** np.arange(DEGREE + 1)
-        return np.einsum("tp,tpkl->tkl", powers, self.poly[p])
+        powers = local[:, None, None] ** np.arange(DEGREE + 1)
+        values = np.matmul(powers, self.poly[p].reshape(p.size, DEGREE + 1, -1))
+        return values.reshape(p.size, *self.poly.shape[2:])
 
 
 class RoughCoefficients(Exception):
@@ -108,13 +110,16 @@ def tabulate(
                                                                        *static_values.shape[1:])
         checks = sampler.at((starts + lengths * _CHECKS).ravel()).reshape(len(moving), DEGREE,
                                                                           *nodes.shape[2:])
-        poly = np.einsum("pj,bjkl->bpkl", _FIT, nodes)
+        # Stacked matrix products over the flattened entries (einsum does not call BLAS).
+        flat = nodes.reshape(len(moving), DEGREE + 1, -1)
+        poly = np.matmul(_FIT, flat).reshape(nodes.shape)
         if scale is None:  # each entry's range over the run: what an error is measured against
-            every = np.concatenate([nodes.reshape(-1, *nodes.shape[2:]), static_values])
-            scale = _entry_scale(every)
-        predicted = np.einsum("cp,bpkl->bckl", np.vander(_CHECKS, DEGREE + 1, increasing=True),
-                              poly)
-        miss = (np.abs(predicted - checks) / scale).max(axis=(1, 2, 3))
+            scale = _entry_scale(nodes.reshape(-1, *nodes.shape[2:]), static_values)
+        miss = np.matmul(_AT_CHECKS, poly.reshape(flat.shape))
+        miss -= checks.reshape(miss.shape)
+        np.abs(miss, out=miss)
+        miss /= scale.reshape(1, 1, -1)
+        miss = miss.max(axis=(1, 2))
         refine = []
         for (a, b, lo, hi), p, m in zip(moving, poly, miss):
             if m <= tolerance or hi - lo <= _MIN_PIECE:
@@ -130,15 +135,18 @@ def tabulate(
     return _assemble_table(done, static, static_values, sampler.count)
 
 
-def _entry_scale(every: np.ndarray) -> np.ndarray:
+def _entry_scale(*samples: np.ndarray) -> np.ndarray:
     """What a table error of each entry of A = [−M⁻¹K, −M⁻¹C, M⁻¹f] (n, 2n+1) is measured
-    against: its range over the samples ``every``, at least 1e-9 of its row's largest entry
-    of the same part — for the damping part (1/s) also of √ of the stiffness part's (1/s²),
-    the row's frequency. The floor keeps entries that are round-off (couplings to a rigid
-    link, zero in exact arithmetic) from being refined down to the smallest piece."""
-    spread = every.max(axis=0) - every.min(axis=0)
-    size = np.abs(every).max(axis=0)
-    n = every.shape[-2]
+    against: its range over all ``samples`` (arrays of A), at least 1e-9 of its row's largest
+    entry of the same part — for the damping part (1/s) also of √ of the stiffness part's
+    (1/s²), the row's frequency. The floor keeps entries that are round-off (couplings to a
+    rigid link, zero in exact arithmetic) from being refined down to the smallest piece."""
+    present = [a for a in samples if a.shape[0]]
+    high = np.max([a.max(axis=0) for a in present], axis=0)
+    low = np.min([a.min(axis=0) for a in present], axis=0)
+    spread = high - low
+    size = np.maximum(high, -low)  # the largest |entry|
+    n = spread.shape[-2]
     stiffness = size[:, :n].max(axis=1, keepdims=True)
     damping = np.maximum(size[:, n:2 * n].max(axis=1, keepdims=True), np.sqrt(stiffness))
     floor = np.concatenate([np.broadcast_to(stiffness, (n, n)), np.broadcast_to(damping, (n, n)),
