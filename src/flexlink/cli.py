@@ -112,7 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-_start_up = {"paused": False}  # the garbage collector paused by main() for the start-up
+_start_up: dict[str, bool] = {"paused": False}  # the collector paused by main() (start-up)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
