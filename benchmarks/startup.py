@@ -1,6 +1,6 @@
 """Start-up of the command line: whole `flexlink` commands timed in fresh processes.
 
-    python benchmarks/startup.py [--runs 7] [--cold]
+    python benchmarks/startup.py [--runs 7] [--cold] [--baseline OTHER/src]
 
 Each command runs ``--runs`` times in a new Python process (``time.perf_counter`` around
 ``subprocess.run``, the numba cache warm); prints the median, minimum and maximum wall time of
@@ -8,7 +8,10 @@ each, and the median CPU time (user + system) of the command's processes togethe
 machine whose cores are busy with other work the wall time of a command that spreads over two
 processes approaches its CPU time. ``--cold`` also times the first run after installing: the numba cache of flexlink's
 compiled loops is pointed at an empty folder (``NUMBA_CACHE_DIR``) for each of those runs, so
-that every kernel the command needs is compiled again.
+that every kernel the command needs is compiled again. ``--baseline`` times the same commands
+of another source tree (its ``src`` folder, e.g. an earlier commit exported with ``git
+archive``) run by run in alternation with this one, so that both see the same load, and
+prints both.
 """
 
 from __future__ import annotations
@@ -51,16 +54,28 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=7)
     parser.add_argument("--cold", action="store_true",
                         help="also time runs with an empty numba cache (compiles everything)")
+    parser.add_argument("--baseline", metavar="SRC",
+                        help="another source tree's src folder, timed in alternation")
     args = parser.parse_args()
-    env = dict(os.environ)
+    here = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "src")
+    trees = {"": os.path.normpath(here)}
+    if args.baseline:
+        trees = {"baseline: ": os.path.abspath(args.baseline), "this tree: ": trees[""]}
+    envs = {name: dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [src, *filter(None, [os.environ.get("PYTHONPATH")])])) for name, src in trees.items()}
+    env = envs[next(reversed(envs))]
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "run")
         rows = []
         for label, argv in COMMANDS.items():
             argv = [a.replace("{out}", out) for a in argv]
-            time_command(argv, env)  # warm the file cache and numba's disk cache
-            times = [time_command(argv, env) for _ in range(args.runs)]
-            rows.append((label, times))
+            times: dict[str, list[tuple[float, float]]] = {name: [] for name in envs}
+            for tree_env in envs.values():
+                time_command(argv, tree_env)  # warm the file cache and numba's disk cache
+            for _ in range(args.runs):
+                for name, tree_env in envs.items():
+                    times[name].append(time_command(argv, tree_env))
+            rows.extend((name + label, times[name]) for name in envs)
         if args.cold:
             argv = [a.replace("{out}", out) for a in COMMANDS["run --paper (figures, report)"]]
             times = []

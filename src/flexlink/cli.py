@@ -10,15 +10,31 @@ traceback, and leave no output folder behind.
 from __future__ import annotations
 
 import argparse
+import gc
 import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ._version import package_version
-
 PAPER_DEFAULT_OUTPUT = "paper_results"
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the installed version, read only when asked (importlib.metadata costs
+    ~10 ms of every command's start-up)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str | None = None) -> None:
+        super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0,
+                         help=help or "show program's version number and exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:
+        from ._version import package_version
+
+        sys.stdout.write(f"flexlink {package_version()}\n")
+        parser.exit()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -30,7 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Start from the built-in experiment: flexlink show-paper > my.toml, edit it, "
                "then flexlink run my.toml -o my_results. Scenario keys: docs/scenario.md.",
     )
-    parser.add_argument("--version", action="version", version=f"flexlink {package_version()}")
+    parser.add_argument("--version", action=_VersionAction)
     output = argparse.ArgumentParser(add_help=False)
     output.add_argument("-o", "--output", metavar="DIR", type=Path,
                         help="results folder to create (must not exist or be empty)")
@@ -96,10 +112,46 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_start_up: dict[str, bool] = {"paused": False}  # the collector paused by main() (start-up)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``flexlink`` command; returns the exit status."""
+    """Entry point of the ``flexlink`` command; returns the exit status. ``argv``: the
+    arguments (default: the command line's, and the process is about to exit).
+
+    The command's own process (no ``argv``) runs its start-up without the garbage collector:
+    importing numpy, scipy, numba and matplotlib makes ~10⁶ objects and no garbage, and the
+    collections the allocations trigger walked them all again and again (~0.1 s of a run).
+    `_collect_from_here` resumes it, skipping the objects made so far. At exit the heap is
+    frozen: Python's final collection would walk every object once more (0.2-0.4 s after a
+    run), objects that die with the process anyway. A caller's own ``argv`` (a test, a
+    script) goes on with its objects and its collector as they were."""
+    command = argv is None
+    if command:
+        gc.disable()
+        _start_up["paused"] = True
+    try:
+        return _main(argv)
+    finally:
+        if command:
+            gc.freeze()
+            _collect_from_here()  # if a failure came first
+
+
+def _collect_from_here() -> None:
+    """Resume the garbage collector paused by main(), leaving the start-up's objects out of
+    its collections (a long run or sweep collects its own garbage as usual)."""
+    if _start_up["paused"]:
+        _start_up["paused"] = False
+        gc.freeze()
+        gc.enable()
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.handler is not _cmd_run and args.handler is not _cmd_paper:
+        _collect_from_here()  # only `run` and `paper` are timed to the last 0.1 s
     if args.command == "run" and (args.paper == (args.scenario is not None)):
         args.subparser.error("give a scenario file or --paper (exactly one)")
     try:
@@ -171,6 +223,23 @@ def _cmd_paper(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    worker = None
+    if not args.no_figures:
+        # matplotlib and the figures in second processes, while this one reads the scenario,
+        # imports numba and scipy, simulates and writes (results/figure_worker.py); forked
+        # first, while this process is small and before anything it alone needs is imported.
+        # A command that fails before its figures stops the child (FigureWorker.close).
+        from .results.figure_worker import FigureWorker
+
+        worker = FigureWorker.start()
+    try:
+        return _load_simulate_and_write(args, worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _load_simulate_and_write(args: argparse.Namespace, worker: Any) -> int:
     from .results.writers import OutputFolderError, check_output_dir
     from .scenario import ScenarioError
 
@@ -183,38 +252,32 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _fail(str(exc))
     except (OutputFolderError, ValueError, OSError) as exc:
         return _fail(f"error: {exc}")
-    worker = None
-    if not args.no_figures:
-        # matplotlib and the figures in a second process, while this one imports numba and
-        # scipy, simulates and writes (results/figure_worker.py)
-        from .results.figure_worker import FigureWorker
-
-        worker = FigureWorker.start()
-    _preload_compiled_code(scenario)  # after the fork: a process with threads must not fork
-    try:
-        return _simulate_and_write(scenario, resolved, out_dir, args, worker)
-    finally:
-        if worker is not None:
-            worker.close()
+    preload = _preload_compiled_code(scenario)  # after the fork: no fork with threads
+    return _simulate_and_write(scenario, resolved, out_dir, args, worker, preload)
 
 
-def _preload_compiled_code(scenario: Any) -> None:
+def _preload_compiled_code(scenario: Any) -> Any:
     """Load (or compile) the step loop of a Lawson run in the background while this process
-    imports the rest and prepares the run (solvers/lawson.py)."""
+    imports the rest (solvers/lawson.py); the loading thread, or None."""
     settings = scenario.settings
     if (not scenario.is_forward and settings.model != "nonlinear"
             and settings.method == "lawson"):
         from .solvers.lawson import preload_compiled_loop
 
-        preload_compiled_loop()
+        return preload_compiled_loop()
+    return None
 
 
 def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
-                        args: argparse.Namespace, figure_worker: Any = None) -> int:
+                        args: argparse.Namespace, figure_worker: Any = None,
+                        preload: Any = None) -> int:
     from .errors import RunTooLarge, SimulationError
     from .results.writers import write_run
     from .simulation import simulate
 
+    if preload is not None:
+        preload.join()  # loaded meanwhile; compiled code must not run while it loads
+    _collect_from_here()  # imports done
     try:
         results = simulate(scenario, progress=not args.quiet)
     except RunTooLarge as exc:  # refused before anything ran: an input error

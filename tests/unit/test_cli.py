@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import tomllib
 from pathlib import Path
 
@@ -242,3 +243,23 @@ def test_a_run_too_large_for_memory_is_an_input_error(
     err = capsys.readouterr().err
     assert err.startswith("error: simulation.dt_out: this run needs") and "coarser fits" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_only_the_command_itself_skips_the_final_garbage_collection(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """main() of the command pauses the collector for its start-up and freezes the heap (its
+    process exits next), and leaves the collector running; main(argv) of a caller that goes
+    on changes neither."""
+    import gc
+
+    gc.unfreeze()
+    assert main(["show-paper"]) == 0
+    assert gc.get_freeze_count() == 0 and gc.isenabled()
+    for args in (["show-paper"], ["run", "no-such-file.toml", "--no-figures"]):
+        monkeypatch.setattr(sys, "argv", ["flexlink", *args])
+        try:
+            assert main() == (0 if args == ["show-paper"] else 2)
+            assert gc.get_freeze_count() > 0 and gc.isenabled()
+        finally:
+            gc.unfreeze()
+    assert "[simulation]" in capsys.readouterr().out

@@ -1,5 +1,6 @@
 """What the start-up work changed must not change outputs: the report's decimation, the
-figures drawn in a forked process, the mode eigenvalues found without scipy.optimize."""
+figures drawn in forked processes, their PNG files and pinned titles, the mode eigenvalues
+found without scipy.optimize."""
 
 from __future__ import annotations
 
@@ -85,6 +86,23 @@ here = writers.write_figures(results, tmp / "here")
 assert [p.name for p in here] == ["joint_angles.png", "sensors.png", "tip_paths.png"]
 for path in here:
     assert (tmp / "worker" / path.name).read_bytes() == path.read_bytes(), path.name
+# the second drawing process fails: the worker's child draws its figures too
+from flexlink.results import figures
+draw = figures.write_figures
+parent = os.getpid()
+
+def failing_in_the_grandchild(results, folder, stems=None):
+    if os.getppid() != parent:
+        raise RuntimeError("grandchild fails")
+    return draw(results, folder, stems)
+
+figures.write_figures = failing_in_the_grandchild
+half = FigureWorker.start()
+figures.write_figures = draw
+half.submit(results, tmp / "half")
+assert half.wait(), "the worker did not draw"
+for path in here:
+    assert (tmp / "half" / path.name).read_bytes() == path.read_bytes(), path.name
 dead = FigureWorker.start()
 os.kill(dead._pid, signal.SIGKILL)
 out = writers.write_run(results, tmp / "run", resolve_scenario_dict(scenario_dict()),
@@ -98,8 +116,9 @@ print("ok")
 
 @needs_fork
 def test_figure_worker_draws_what_write_figures_draws_and_falls_back(tmp_path: Path) -> None:
-    """Figures drawn by the forked worker are byte for byte those drawn in-process; a worker
-    that died leaves write_run to draw them itself."""
+    """Figures drawn by the forked worker (two processes) are byte for byte those drawn
+    in-process; when its second process fails its first draws them all; a worker that died
+    leaves write_run to draw them itself."""
     import subprocess
     import sys
 
@@ -164,3 +183,78 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
     out = capsys.readouterr()
     assert "prescribed: failed: RuntimeError: boom" in out.err
     assert "nonlinear runs ready" in out.out and "forward runs ready" in out.out
+
+
+def test_figures_are_split_in_two_groups_of_about_equal_work() -> None:
+    from flexlink.results.figures import figure_stems, split_figures
+    from tests.unit.test_writers import fake_results
+
+    results = fake_results()
+    mine, theirs = split_figures(results)
+    assert sorted(mine + theirs) == sorted(figure_stems(results))
+    assert mine == ["sensors"] and sorted(theirs) == ["joint_angles", "tip_paths"]
+
+
+def _pixels(path_or_buffer: object) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(path_or_buffer).convert("RGBA"))
+
+
+def test_save_png_stores_the_pixels_savefig_renders(tmp_path: Path) -> None:
+    """RGB at zlib level 1 where the figure is opaque, RGBA otherwise: the pixels of
+    matplotlib's own savefig either way."""
+    import io
+
+    from matplotlib.figure import Figure
+    from PIL import Image
+
+    from flexlink.results.figures import save_png
+
+    for transparent in (False, True):
+        fig = Figure(figsize=(2.0, 1.5), dpi=150)
+        ax = fig.subplots()
+        ax.plot([0.0, 1.0, 2.0], [0.0, 1.0, 0.5], label="β₁")
+        ax.set_title("title", loc="left")
+        ax.legend()
+        if transparent:
+            fig.patch.set_alpha(0.0)
+        reference = io.BytesIO()
+        fig.savefig(reference, format="png", dpi=150)
+        save_png(fig, tmp_path / "figure.png")
+        with Image.open(tmp_path / "figure.png") as image:
+            assert image.mode == ("RGBA" if transparent else "RGB")
+        np.testing.assert_array_equal(_pixels(tmp_path / "figure.png"), _pixels(reference))
+
+
+def test_pinned_panel_titles_are_where_matplotlib_would_place_them(tmp_path: Path) -> None:
+    """Panel titles skip matplotlib's automatic placement unless the y axis shows an offset
+    text: the figure is pixel for pixel the one with automatic placement, with and without
+    offset texts ("1e-14", "+1e3" above the axes)."""
+    from matplotlib.axes import Axes
+
+    from flexlink.results import plotting
+    from flexlink.results.figures import save_png
+    from tests.unit.test_writers import fake_results
+
+    results = fake_results()
+    tiny = fake_results()
+    tiny["tip"][:] = 1e3 + 1e-9 * np.sin(40 * tiny.time)  # offset text "+1e3"
+    tiny["root"][:] = 1e-20 * np.cos(40 * tiny.time)  # "1e-14" (µstrain)
+    for case, data in (("plain", results), ("offsets", tiny)):
+        save_png(plotting.plot_sensors(data), tmp_path / f"{case}-pinned.png")
+    set_title = Axes.set_title
+
+    def automatic(self: Axes, label: str, *args: object, y: float | None = None,
+                  **kwargs: object) -> object:
+        return set_title(self, label, *args, **kwargs)  # y left to matplotlib
+
+    Axes.set_title = automatic
+    try:
+        for case, data in (("plain", results), ("offsets", tiny)):
+            save_png(plotting.plot_sensors(data), tmp_path / f"{case}-auto.png")
+    finally:
+        Axes.set_title = set_title
+    for case in ("plain", "offsets"):
+        np.testing.assert_array_equal(_pixels(tmp_path / f"{case}-pinned.png"),
+                                      _pixels(tmp_path / f"{case}-auto.png"))

@@ -310,3 +310,19 @@ def test_torques_of_different_size_get_panels_of_their_own() -> None:
     axes = alike.plot("joint").axes
     assert len(axes) == 2  # one shared torque panel, the equal curves in different styles
     assert [ln.get_linestyle() for ln in axes[1].get_lines()] == ["-", "--"]
+
+
+def test_results_csv_is_what_savetxt_writes(tmp_path: Path) -> None:
+    """Byte for byte np.savetxt's text, over several chunks, values of many magnitudes."""
+    results = fake_results()
+    t = np.linspace(0.0, 1.0, 2 * writers.CSV_ROWS_PER_CHUNK + 7)
+    wide = Results(time=t)
+    for k, channel in enumerate(results.channels.values()):
+        values = np.sin((k + 1) * 7.0 * t) * 10.0 ** (3 * k - 6)
+        values[k] = (0.0, -0.0, 1e300, -5e-324, 123456789012.0)[k % 5]
+        wide.add(channel, values)
+    writers.write_results_csv(wide, tmp_path / "fast.csv")
+    table = np.column_stack([t, *(wide[n] for n in wide.names)])
+    np.savetxt(tmp_path / "savetxt.csv", table, fmt=writers.CSV_FORMAT, delimiter=",",
+               header=",".join(["t", *wide.names]), comments="")
+    assert (tmp_path / "fast.csv").read_bytes() == (tmp_path / "savetxt.csv").read_bytes()

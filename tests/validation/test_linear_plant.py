@@ -26,7 +26,7 @@ from scipy.linalg import expm
 
 import flexlink
 from flexlink.control import LinearPlant, linearize
-from flexlink.control.linearize import run_state
+from flexlink.control.linearization import run_state
 from flexlink.dynamics.forward import ForwardSystem
 from flexlink.model import (
     Base,

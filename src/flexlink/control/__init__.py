@@ -3,8 +3,21 @@
 or a time of a run; `frozen_modes` the frozen-time natural frequencies, damping ratios and
 mode shapes over a run or a grid of joint angles."""
 
-from .linear import LinearPlant
-from .linearize import linearize
-from .modes import FrozenModes, frozen_modes
+from __future__ import annotations
+
+from typing import Any
 
 __all__ = ["FrozenModes", "LinearPlant", "frozen_modes", "linearize"]
+_HOMES = {"LinearPlant": "linear", "linearize": "linearization", "FrozenModes": "modes",
+          "frozen_modes": "modes"}
+
+
+def __getattr__(name: str) -> Any:
+    # Lazy: the command line registers `flexlink linearize` (.command) at start-up, and the
+    # equations behind these (scipy, the dynamics) must not load before `flexlink run` forks
+    # its figure process.
+    if name in _HOMES:
+        from importlib import import_module
+
+        return getattr(import_module(f".{_HOMES[name]}", __name__), name)
+    raise AttributeError(f"module 'flexlink.control' has no attribute {name!r}")

@@ -121,7 +121,7 @@ def _default_dir(args: argparse.Namespace, suffix: str) -> Path:
 def run_linearize(args: argparse.Namespace) -> int:
     from ..results.writers import OutputFolderError, check_output_dir
     from ..scenario import ScenarioError
-    from .linearize import linearize
+    from .linearization import linearize
 
     try:
         scenario, resolved = _load(args)

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..model import Scenario
 from .linear import LinearPlant
-from .linearize import forward_plant, forward_system, linearize, run_states
+from .linearization import forward_plant, forward_system, linearize, run_states
 from .operating_point import Configuration, held_scenario, parse_at
 
 POINTS = 41  # points per link of the mode shapes

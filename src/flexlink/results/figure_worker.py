@@ -1,23 +1,27 @@
-"""Draw a run's figures in a second process while the first one simulates and writes.
+"""Draw a run's figures in second processes while the first one simulates and writes.
 
 `flexlink run` spends about as long importing matplotlib and drawing the figures as it spends
 importing scipy and numba, simulating and writing the data files, and each is serial Python.
 `FigureWorker.start()` forks a child process before those imports; the child imports
 matplotlib and the plotting code at once (while the parent works), then waits for
-`submit(results, folder)` and draws the figures into ``folder``; `wait()` returns when they
-are written. On two cores the two halves overlap.
+`submit(results, folder)`. With the results in hand it forks once more, so that two processes
+draw the figures (`figures.split_figures`: two groups of about equal work) while the parent
+writes the data files; `wait()` returns when all are written.
 
 The worker is an optimisation only: where it cannot run (not Linux, other threads running in
 this process, the child failed or died) `wait()` returns False and the caller draws the
-figures itself (`figures.write_figures`), raising whatever error drawing raises. Only the
-command line uses it; `write_run` draws in-process by default.
+figures itself (`figures.write_figures`), raising whatever error drawing raises; where the
+second drawing process fails, the child draws its figures. Only the command line uses it;
+`write_run` draws in-process by default.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import pickle
+import signal
 import struct
 import sys
 import threading
@@ -59,10 +63,16 @@ class FigureWorker:
             _child(job_r, reply_w)
         os.close(job_r)
         os.close(reply_w)
+        _widen_pipe(job_w)
         return cls(pid, job_w, reply_r)
 
     def submit(self, results: Any, folder: Path) -> None:
-        """Ask the child to draw ``results``' figures into ``folder`` (returns at once)."""
+        """Ask the child to draw ``results``' figures into ``folder`` (returns at once, unless
+        the job is larger than the pipe and the child is still starting)."""
+        if dataclasses.is_dataclass(results) and hasattr(results, "shapes"):
+            # the links' deformed shapes (animations) are 7/8 of a paper run's results and no
+            # figure draws them
+            results = dataclasses.replace(results, shapes=[])
         payload = pickle.dumps((results, Path(folder)), protocol=pickle.HIGHEST_PROTOCOL)
         try:
             _write_all(self._jobs, _HEADER.pack(len(payload)) + payload)
@@ -85,12 +95,16 @@ class FigureWorker:
         return ok
 
     def close(self) -> None:
-        """Release the child (it exits when its job pipe closes) and reap it."""
+        """Release the child (it exits when its job pipe closes) and reap it; a child that
+        was given no job is stopped at once (the command failed before its figures)."""
         for attr in ("_jobs", "_replies"):
             fd = getattr(self, attr)
             if fd >= 0:
                 os.close(fd)
                 setattr(self, attr, -1)
+        if self._pid and not self._submitted:
+            with contextlib.suppress(OSError):  # it may be importing matplotlib still
+                os.kill(self._pid, signal.SIGKILL)
         if self._pid:
             try:
                 os.waitpid(self._pid, 0)
@@ -106,8 +120,6 @@ class FigureWorker:
 def _child(jobs: int, replies: int) -> None:
     status = 1
     try:
-        import signal
-
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, 1)  # nothing of the child's on the command's output
@@ -120,13 +132,49 @@ def _child(jobs: int, replies: int) -> None:
             payload = _read_exactly(jobs, _HEADER.unpack(header)[0])
             if payload is not None:
                 results, folder = pickle.loads(payload)
-                figures.write_figures(results, folder)
+                _draw_in_two(results, folder)
                 status = 0
                 os.write(replies, b"1")
     except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
         status = 1
     finally:
         os._exit(status)
+
+
+def _draw_in_two(results: Any, folder: Path) -> None:
+    """Draw the figures into ``folder`` in this process and a forked one, half each; draw the
+    other half here too if that process fails."""
+    from . import figures
+
+    folder.mkdir(exist_ok=True)
+    mine, theirs = figures.split_figures(results)
+    pid = 0
+    if theirs:
+        try:
+            pid = os.fork()
+        except OSError:
+            mine, theirs = mine + theirs, []
+        if pid == 0 and theirs:  # the second drawing process: never returns
+            code = 1
+            try:
+                figures.write_figures(results, folder, theirs)
+                code = 0
+            finally:
+                os._exit(code)
+    figures.write_figures(results, folder, mine)
+    if pid and os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) != 0:
+        figures.write_figures(results, folder, theirs)
+
+
+def _widen_pipe(fd: int) -> None:
+    """Let the pipe hold a whole job (~0.5 MB for the paper run), so that `submit` need not
+    wait for a child still importing matplotlib; best effort (Linux, within its limit)."""
+    try:
+        import fcntl
+
+        fcntl.fcntl(fd, fcntl.F_SETPIPE_SZ, 1 << 20)
+    except (ImportError, AttributeError, OSError):
+        pass
 
 
 def _write_all(fd: int, data: bytes) -> None:

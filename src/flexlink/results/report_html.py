@@ -12,7 +12,7 @@ import base64
 import html
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -44,7 +44,8 @@ class ReportPage:
 
     title: str
     summary: dict[str, Any] = field(default_factory=dict)
-    sections: list[str] = field(default_factory=list)
+    # HTML, or a function giving it when the page is rendered (figures drawn meanwhile)
+    sections: list[str | Callable[[], str]] = field(default_factory=list)
 
     def add_table(self, heading: str, rows: Sequence[Mapping[str, Any]],
                   note: str = "") -> None:
@@ -71,13 +72,14 @@ class ReportPage:
 
     def add_images(self, heading: str, paths: Sequence[Path]) -> None:
         """PNG or GIF files, inlined."""
-        images = [p for p in paths if p.is_file()]
-        if not images:
-            return
-        tags = "".join(f"<figure><img alt='{html.escape(p.stem)}' src='{data_uri(p)}'>"
-                       f"<figcaption>{html.escape(p.name)}</figcaption></figure>"
-                       for p in images)
-        self.sections.append(f"<h2>{html.escape(heading)}</h2>{tags}")
+        section = _images_html(heading, paths)
+        if section:
+            self.sections.append(section)
+
+    def add_images_later(self, heading: str, find: Callable[[], Sequence[Path]]) -> None:
+        """PNG or GIF files, found (``find()``) and inlined when the page is rendered: the
+        rest of a run's page is built while its figures are drawn."""
+        self.sections.append(lambda: _images_html(heading, find()))
 
     def add_text(self, heading: str, text: str) -> None:
         """Preformatted text (the scenario)."""
@@ -91,13 +93,25 @@ class ReportPage:
                 f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
                 f"<title>{html.escape(self.title)}</title><style>{_CSS}</style></head><body>"
                 f"<h1>{html.escape(self.title)}</h1><table class='summary'>{rows}</table>"
-                + "".join(self.sections) + f"<script>{_SCRIPT}</script></body></html>")
+                + "".join(s() if callable(s) else s for s in self.sections)
+                + f"<script>{_SCRIPT}</script></body></html>")
 
     def write(self, path: Path) -> Path:
         """Write the page atomically; return its path."""
         with atomic_file(path) as partial:
             partial.write_text(self.html(), encoding="utf-8")
         return Path(path)
+
+
+def _images_html(heading: str, paths: Sequence[Path]) -> str:
+    """A section of the files among ``paths`` that exist, inlined ("" if none)."""
+    images = [p for p in paths if p.is_file()]
+    if not images:
+        return ""
+    tags = "".join(f"<figure><img alt='{html.escape(p.stem)}' src='{data_uri(p)}'>"
+                   f"<figcaption>{html.escape(p.name)}</figcaption></figure>"
+                   for p in images)
+    return f"<h2>{html.escape(heading)}</h2>{tags}"
 
 
 def data_uri(path: Path) -> str:
@@ -121,7 +135,9 @@ def run_page(folder: Path, results: ChannelTable, resolved_text: str,
              name: str | None = None) -> ReportPage:
     """The page of a run folder: summary, zoomable sensor and joint traces, the figures, the
     animation if the folder has one, the resolved scenario. ``name``: the folder's name when
-    ``folder`` is where it is being written (an atomic write's hidden partial folder)."""
+    ``folder`` is where it is being written (an atomic write's hidden partial folder). The
+    figures and the animation are read when the page is rendered (`ReportPage.html`), so the
+    page may be built while they are still being drawn."""
     meta = results.metadata
     t = results.time
     name = name or folder.name
@@ -135,8 +151,8 @@ def run_page(folder: Path, results: ChannelTable, resolved_text: str,
                     "channels": kind_summary(results.channels.values())}
     page.add_traces("Signals", channel_traces(results, (ChannelKind.SENSOR, ChannelKind.JOINT,
                                                         ChannelKind.BASE)))
-    page.add_images("Animation", [folder / "animation.gif"])
-    page.add_images("Figures", sorted((folder / "figures").glob("*.png")))
+    page.add_images_later("Animation", lambda: [folder / "animation.gif"])
+    page.add_images_later("Figures", lambda: sorted((folder / "figures").glob("*.png")))
     page.add_table("Peaks", [{"channel": n, "kind": c.kind.value, "unit": c.unit,
                               "peak |value|": float(np.abs(results[n]).max()),
                               "description": c.description}

