@@ -17,7 +17,7 @@ from flexlink.errors import SimulationError
 from flexlink.model import METHODS, Base, TorqueDrive
 from flexlink.model.histories import Step
 from flexlink.scenario import scenario_from_dict
-from flexlink.simulation import PATHS, model_path, simulate
+from flexlink.simulation import PATHS, model_path, path_function, simulate
 from flexlink.simulation.common import PathRun, assemble_results
 from flexlink.solvers import PRESCRIBED_METHODS, Solution
 from tests.unit.test_scenario import minimal
@@ -48,6 +48,20 @@ def test_each_scenario_takes_one_path() -> None:
     assert model_path(_driven(_short(model="nonlinear"))) == "nonlinear_forward"
     assert set(PATHS) == {"prescribed", "nonlinear", "forward", "nonlinear_forward",
                           "closed_loop"}
+    assert all(callable(path_function(name)) for name in PATHS)
+
+
+def test_a_prescribed_run_imports_no_other_path() -> None:
+    import subprocess
+    import sys
+
+    code = ("import sys; from flexlink import simulate, load_paper_experiment; "
+            "simulate(load_paper_experiment()); "
+            "print(sorted(m for m in sys.modules if m.startswith('flexlink.simulation.')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    for other in ("forward", "nonlinear", "nonlinear_forward", "closed_loop"):
+        assert f"'flexlink.simulation.{other}'" not in out
 
 
 @pytest.mark.parametrize("make", [lambda: _short(), lambda: _short(model="nonlinear"),

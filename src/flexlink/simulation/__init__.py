@@ -18,13 +18,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
+from importlib import import_module
 
 import numpy as np
 
 from ..model import Scenario
 from ..results import Results
 from ..solvers.threads import single_threaded
-from .closed_loop import run_closed_loop
 from .common import (
     PathRun,
     Progress,
@@ -34,18 +34,21 @@ from .common import (
     output_times,
     timed,
 )
-from .forward import run_forward
-from .nonlinear import run_nonlinear
-from .nonlinear_forward import run_nonlinear_forward
-from .prescribed import run_prescribed
 from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
 # (scenario, output times, progress callback, with shapes) → the path's run
 PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
-PATHS: dict[str, PathFunction] = {"prescribed": run_prescribed, "nonlinear": run_nonlinear,
-                                  "forward": run_forward,
-                                  "nonlinear_forward": run_nonlinear_forward,
-                                  "closed_loop": run_closed_loop}
+# Each path's module is imported when a run takes it: a prescribed run from the command
+# line need not import the forward, nonlinear and closed-loop machinery (~30 ms).
+PATHS: dict[str, str] = {"prescribed": "run_prescribed", "nonlinear": "run_nonlinear",
+                         "forward": "run_forward", "nonlinear_forward": "run_nonlinear_forward",
+                         "closed_loop": "run_closed_loop"}
+
+
+def path_function(name: str) -> PathFunction:
+    """The function of the path ``name`` (a key of PATHS): ``run_<name>`` of its module."""
+    module = import_module(f".{name}", __name__)
+    return getattr(module, PATHS[name])
 
 
 def model_path(scenario: Scenario) -> str:
@@ -67,7 +70,7 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) ->
     or (moving base, driven joints) the equations of motion. ``progress``: a progress bar on
     runs longer than a second; ``shapes``: every link's deformed shape on a grid of points
     (what animations draw; sweeps leave it out)."""
-    path = PATHS[model_path(scenario)]
+    path = path_function(model_path(scenario))
     check_run_memory(scenario)
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
@@ -87,4 +90,4 @@ def _run_path(path: PathFunction, scenario: Scenario, t: np.ndarray,
     return replace(run, metadata={**run.metadata, **rigid_metadata(scenario, stiff)})
 
 
-__all__ = ["PATHS", "model_path", "output_times", "simulate"]
+__all__ = ["PATHS", "model_path", "output_times", "path_function", "simulate"]
