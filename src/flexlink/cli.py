@@ -85,9 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
         "warmup", help="compile the numba loops now (once per installation)",
         description="Compile and cache every compiled loop flexlink runs (prescribed, "
                     "nonlinear and forward runs) by simulating tiny scenarios, so that no "
-                    "later run waits for the compiler. Compiled code goes to numba's cache: "
-                    "beside the installed modules, or NUMBA_CACHE_DIR for a read-only "
-                    "installation.")
+                    "later run waits for the compiler (pip install . compiles the prescribed "
+                    "runs' loops already). Compiled code goes to the installed package's "
+                    "folder of loops compiled at installation, or to numba's cache: beside "
+                    "the modules, or NUMBA_CACHE_DIR for a read-only installation.")
     warmup.set_defaults(handler=_cmd_warmup)
 
     from .batch.command import add_parser as add_sweep_parser
@@ -169,12 +170,17 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 
 
 WARMUP_PATHS = ("prescribed", "nonlinear", "forward", "nonlinear_forward", "closed_loop")
+# The warm-up runs: one per path, and a free base moved by its loads with every joint
+# prescribed, which the forward path runs with its other compiled loop (forward_lawson.py).
+WARMUP_RUNS = ("prescribed", "nonlinear", "forward", "free_base", "nonlinear_forward",
+               "closed_loop")
 
 
 def warmup_scenarios() -> dict[str, Any]:
-    """Tiny variants of the paper scenario (20 ms) that run every compiled loop: the Lawson
-    loop (prescribed), Gauss collocation (nonlinear), the forward kernel and its RK4 loop, the
-    nonlinear model's forward collocation and the closed-loop Lawson loop."""
+    """Tiny variants of the paper scenario (20 ms), keyed by `WARMUP_RUNS`, that run every
+    compiled loop: the Lawson loop (prescribed), Gauss collocation (nonlinear), the forward
+    kernel with its RK4 loop (driven joints) and its Lawson loop (a free base), the nonlinear
+    model's forward collocation and the closed-loop Lawson loop."""
     import copy
 
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
@@ -188,6 +194,10 @@ def warmup_scenarios() -> dict[str, Any]:
         joint.pop("motion")
         joint.update(drive="torque", torque=[{"profile": "bang_bang", "amplitude": 0.01,
                                               "start": 0.0, "duration": 0.02}])
+    free_base = copy.deepcopy(base)
+    free_base["base"] = {"type": "free", "mass": 10.0, "inertia": 1.0, "loads": [
+        {"moment": [{"profile": "bang_bang", "amplitude": 0.01, "start": 0.0,
+                     "duration": 0.02}]}]}
     nonlinear_forward = copy.deepcopy(forward)
     nonlinear_forward["simulation"].update(model="nonlinear", step=1e-3)
     closed_loop = copy.deepcopy(base)
@@ -197,7 +207,8 @@ def warmup_scenarios() -> dict[str, Any]:
                                    "actuator": "warmup_patch", "frequency_hz": 2.5,
                                    "damping": 0.3, "gain": 10.0, "sample_rate": 1000.0}]
     return {name: scenario_from_dict(d) for name, d in zip(
-        WARMUP_PATHS, (base, nonlinear, forward, nonlinear_forward, closed_loop), strict=True)}
+        WARMUP_RUNS, (base, nonlinear, forward, free_base, nonlinear_forward, closed_loop),
+        strict=True)}
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:

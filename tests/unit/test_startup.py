@@ -155,11 +155,16 @@ def test_modal_data_from_the_cache_equals_a_fresh_computation(mode_shapes: str,
 
 def test_warmup_scenarios_take_every_path() -> None:
     from flexlink.cli import WARMUP_PATHS, build_parser, warmup_scenarios
+    from flexlink.dynamics.forward import is_driven
     from flexlink.simulation import model_path
 
     scenarios = warmup_scenarios()
     assert {name: model_path(s) for name, s in scenarios.items()} == {
-        name: name for name in WARMUP_PATHS}
+        **{name: name for name in WARMUP_PATHS}, "free_base": "forward"}
+    # the forward path's two compiled loops (solvers.forward.compiled_method): RK4 for driven
+    # joints, Lawson for a base moved by its loads with every joint prescribed
+    assert all(map(is_driven, scenarios["forward"].chain.joints))
+    assert not any(map(is_driven, scenarios["free_base"].chain.joints))
     assert all(s.settings.t_end <= 0.05 for s in scenarios.values())
     assert build_parser().parse_args(["warmup"]).command == "warmup"
 
@@ -168,7 +173,7 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
                                                    capsys: pytest.CaptureFixture[str]) -> None:
     """Regression: the first failure ended the command although it said it went on."""
     import flexlink.simulation
-    from flexlink.cli import WARMUP_PATHS, main
+    from flexlink.cli import WARMUP_RUNS, main
 
     ran: list[str] = []
 
@@ -179,7 +184,7 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
 
     monkeypatch.setattr(flexlink.simulation, "simulate", fake)
     assert main(["warmup"]) == 1
-    assert ran == list(WARMUP_PATHS)
+    assert ran == [name if name != "free_base" else "forward" for name in WARMUP_RUNS]
     out = capsys.readouterr()
     assert "prescribed: failed: RuntimeError: boom" in out.err
     assert "nonlinear runs ready" in out.out and "forward runs ready" in out.out

@@ -22,6 +22,8 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+
 Workspace = namedtuple("Workspace", [
     "theta", "omega", "alpha", "oacc", "T", "Td", "Tdd", "own", "out", "xi", "xi_d", "xi_dd", "v", "TM",
     "p", "pd", "pdd", "x", "xd", "r0", "rj", "M", "Q", "srates", "A", "b"])

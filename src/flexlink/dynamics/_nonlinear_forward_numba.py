@@ -12,6 +12,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ._forward_numba import _solve
 from ._forward_numba import applied as _applied
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+
 
 @njit(cache=True)
 def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):  # noqa: ANN

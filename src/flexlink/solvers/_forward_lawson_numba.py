@@ -21,6 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._forward_numba import rates
 from ._forward_rk4_numba import BLOW_UP, jacobian
 

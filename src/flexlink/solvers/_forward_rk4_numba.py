@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._forward_numba import rates
 
 BLOW_UP = 1e8  # |state| beyond this (SI units) is a blow-up, not a motion of the model

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._nonlinear_forward_numba import residual as _residual
 
 

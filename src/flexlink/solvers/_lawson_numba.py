@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 from numba import boolean, float64, int64, njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):
