@@ -88,3 +88,16 @@ def test_joint_histories_are_shared_read_only_and_equal_to_a_fresh_evaluation() 
     unique, index = first.distinct
     np.testing.assert_array_equal(unique.angle[index], first.angle)
     assert unique.angle.shape[0] < t.size  # the rest phases collapse to one state each
+
+
+def test_long_joint_histories_are_not_kept_beyond_their_run(monkeypatch) -> None:
+    from flexlink.dynamics import kinematics
+    from flexlink.motion import Cycloidal
+
+    monkeypatch.setattr(kinematics, "_HISTORY_BYTES_KEPT", 100_000)
+    joints = (Cycloidal(0.0, 45.0, 0.1, 0.5),)
+    short = kinematics.joint_history(joints, np.linspace(0.0, 1.0, 101))  # 2.4 kB
+    long = kinematics.joint_history(joints, np.linspace(0.0, 1.0, 10_001))  # 240 kB
+    assert kinematics.joint_history(joints, np.linspace(0.0, 1.0, 101)) is short
+    assert kinematics.joint_history(joints, np.linspace(0.0, 1.0, 10_001)) is not long
+    assert sum(h.angle.base.nbytes for h in kinematics._HISTORIES.values()) <= 100_000

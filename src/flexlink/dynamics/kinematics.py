@@ -68,15 +68,19 @@ def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
             out[i, ..., j] = values
     out.flags.writeable = False  # shared between runs
     history = JointHistory(out[0], out[1], out[2])
-    if key is not None:
+    if key is not None and out.nbytes <= _HISTORY_BYTES_KEPT:
         _HISTORIES[key] = history
-        while len(_HISTORIES) > _HISTORIES_KEPT:
+        while (len(_HISTORIES) > _HISTORIES_KEPT
+               or sum(h.angle.base.nbytes for h in _HISTORIES.values()) > _HISTORY_BYTES_KEPT):
             _HISTORIES.popitem(last=False)
     return history
 
 
 _HISTORIES: OrderedDict[tuple[object, ...], JointHistory] = OrderedDict()
 _HISTORIES_KEPT = 8  # a run asks for ~6 time grids
+# What the remembered histories may hold together: a paper run's grids take ~1 MB; a long run's
+# histories (10⁶ samples × 10 joints: 240 MB) are not kept beyond their run.
+_HISTORY_BYTES_KEPT = 32_000_000
 
 
 def _per_time(maps: np.ndarray, v: np.ndarray) -> np.ndarray:
