@@ -103,11 +103,6 @@ def chain_modal_data(chain: Chain) -> list[ModalData]:
             for k, link in enumerate(chain.links)]
 
 
-def distinct_rows(history: JointHistory) -> tuple[JointHistory, np.ndarray]:
-    """Runs of equal consecutive joint states (`JointHistory.distinct`)."""
-    return history.distinct
-
-
 class FirstOrderSystem:
     """The assembled first-order model of a chain; evaluate its matrices at any times."""
 
@@ -154,7 +149,7 @@ class FirstOrderSystem:
         cached = self._frames_cache
         if cached is not None and cached[0].shape == t.shape and np.array_equal(cached[0], t):
             return cached[1]
-        unique, inverse = distinct_rows(self.joint_history(t))
+        unique, inverse = self.joint_history(t).distinct
         fr = frame_motion(unique, self.modal, self.offsets, self.n)
         if unique.angle.shape[0] < inverse.size:
             fr = fr.at_rows(inverse)
@@ -176,7 +171,7 @@ class FirstOrderSystem:
         rates and accelerations, so every instant of a joint at rest shares one label: the
         solver then computes one propagator for a whole rest phase. Open-loop actuator
         voltages count as part of the state of the inputs."""
-        keys = distinct_rows(self.joint_history(t))[1]
+        keys = self.joint_history(t).distinct[1]
         if not self.actuators:
             return keys
         rows = np.column_stack([keys, self.voltages(t)])
@@ -217,7 +212,7 @@ class FirstOrderSystem:
         if frames is not None:
             return self._assemble(frames)
         # Assemble once per distinct joint state: rest phases repeat one state many times.
-        unique, inverse = distinct_rows(self.joint_history(t))
+        unique, inverse = self.joint_history(t).distinct
         coefficients = self._assemble(frame_motion(unique, self.modal, self.offsets, self.n))
         if unique.angle.shape[0] == inverse.size:
             return coefficients

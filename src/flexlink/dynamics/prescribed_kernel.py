@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model import Base
-from .first_order import FirstOrderSystem, distinct_rows
+from .first_order import FirstOrderSystem
 from .forward import ForwardSystem
 from .forward_kernel import ForwardData, pack
 from .kinematics import SolvedFrames
@@ -84,7 +84,7 @@ def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:
     if system.actuators:
         raise ValueError("the compiled state rows leave out actuator forces")
     data = forward_data(system)
-    unique, inverse = distinct_rows(system.joint_history(t))
+    unique, inverse = system.joint_history(t).distinct
     c = np.ascontiguousarray
     out = np.empty((unique.angle.shape[0], system.n, 2 * system.n + 1))
     kernel(data, c(unique.angle, dtype=float), c(unique.rate, dtype=float),
