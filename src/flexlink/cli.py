@@ -169,8 +169,7 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
     return 0
 
 
-WARMUP_PATHS = ("prescribed", "nonlinear", "forward", "nonlinear_forward", "closed_loop")
-# The warm-up runs: one per path, and a free base moved by its loads with every joint
+# The warm-up runs: one per path (simulation.PATHS), and a free base moved by its loads with every joint
 # prescribed, which the forward path runs with its other compiled loop (forward_lawson.py).
 WARMUP_RUNS = ("prescribed", "nonlinear", "forward", "free_base", "nonlinear_forward",
                "closed_loop")

@@ -154,13 +154,13 @@ def test_modal_data_from_the_cache_equals_a_fresh_computation(mode_shapes: str,
 
 
 def test_warmup_scenarios_take_every_path() -> None:
-    from flexlink.cli import WARMUP_PATHS, build_parser, warmup_scenarios
+    from flexlink.cli import build_parser, warmup_scenarios
     from flexlink.dynamics.forward import is_driven
-    from flexlink.simulation import model_path
+    from flexlink.simulation import PATHS, model_path
 
     scenarios = warmup_scenarios()
     assert {name: model_path(s) for name, s in scenarios.items()} == {
-        **{name: name for name in WARMUP_PATHS}, "free_base": "forward"}
+        **{name: name for name in PATHS}, "free_base": "forward"}
     # the forward path's two compiled loops (solvers.forward.compiled_method): RK4 for driven
     # joints, Lawson for a base moved by its loads with every joint prescribed
     assert all(map(is_driven, scenarios["forward"].chain.joints))

@@ -40,19 +40,16 @@ from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
 # Each path's module is imported when a run takes it: a prescribed run from the command
 # line need not import the forward, nonlinear and closed-loop machinery (~30 ms).
-PATHS: dict[str, str] = {"prescribed": "run_prescribed", "nonlinear": "run_nonlinear",
-                         "forward": "run_forward", "nonlinear_forward": "run_nonlinear_forward",
-                         "closed_loop": "run_closed_loop"}
+PATHS = ("prescribed", "nonlinear", "forward", "nonlinear_forward", "closed_loop")
 
 
 def path_function(name: str) -> PathFunction:
-    """The function of the path ``name`` (a key of PATHS): ``run_<name>`` of its module."""
-    module = import_module(f".{name}", __name__)
-    return getattr(module, PATHS[name])
+    """The function of the path ``name`` (one of PATHS): ``run_<name>`` of its module."""
+    return getattr(import_module(f".{name}", __name__), f"run_{name}")
 
 
 def model_path(scenario: Scenario) -> str:
-    """The path that runs ``scenario``: a key of PATHS."""
+    """The path that runs ``scenario``: one of PATHS."""
     if scenario.controllers and scenario.is_forward and scenario.settings.model == "nonlinear":
         raise ValueError("controllers with a moving base or a driven joint run with the first-"
                          "order model for now (model = \"first_order\"); the nonlinear model "
