@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+import flexlink
 import flexlink.simulation
 from flexlink.batch import SweepError, SweepInterrupted, executors, sweep
 from flexlink.cli import main
@@ -436,3 +437,50 @@ def test_rows_of_unfinished_cases_read_as_nan_while_workers_may_write() -> None:
     assert np.all(np.isnan(shared.array[:, 2, :]))
     np.testing.assert_array_equal(collector.dataset().b.values,
                                   [[1.0] * 4, [np.nan] * 4, [np.nan] * 4])
+
+
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
+def test_workers_load_the_compiled_code_while_the_cases_are_checked(
+        tmp_path: Path, forked_workers, monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    from flexlink.batch import cases, worker
+
+    log = tmp_path / "log"
+
+    def loading(scenario) -> None:
+        with log.open("a") as fh:
+            fh.write(f"load {scenario.chain.links[0].name} {os.getpid()}\n")
+
+    checked = cases.valid_cases
+
+    def checking(base, table):
+        with log.open("a") as fh:  # the workers were started before the checks
+            fh.write("check\n")
+        return checked(base, table)
+
+    monkeypatch.setattr(worker, "load_compiled_code", loading)
+    monkeypatch.setattr(cases, "valid_cases", checking)
+    dataset = sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0, 300.0]}, workers=2)
+    assert (dataset.status.values == "ok").all()
+    lines = log.read_text().splitlines()
+    loads = [line for line in lines if line.startswith("load")]
+    assert "check" in lines and len(loads) == 2  # one load per worker, none per case
+    assert {line.split()[1] for line in loads} == {"arm"}
+    assert len({line.split()[2] for line in loads}) == 2 and str(os.getpid()) not in lines[0]
+
+
+def test_a_refused_sweep_ends_the_workers_it_started(tmp_path: Path) -> None:
+    import multiprocessing
+
+    with pytest.raises(SweepError, match="length must be > 0"):
+        sweep(spin_file(tmp_path), grid={"links[0].length": [0.6, -1.0]}, workers=2)
+    assert multiprocessing.active_children() == []
+
+
+def test_load_compiled_code_readies_the_prescribed_kernels() -> None:
+    from flexlink.batch.worker import load_compiled_code
+    from flexlink.solvers import _lawson_numba
+
+    load_compiled_code(flexlink.load_paper_experiment())
+    assert _lawson_numba.SIGNATURE in [tuple(s) for s in _lawson_numba.lawson_blocks.signatures]

@@ -24,6 +24,7 @@ Chunk = list[tuple[int, Scenario]]
 CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
 MAX_CHUNK = 32  # cases per chunk: bounds the result message size and the wait on Ctrl-C
 CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
+STOP_TIMEOUT = 5.0  # s to wait for a terminated worker to exit
 
 
 def available_cores() -> int:
@@ -53,22 +54,28 @@ def in_process(chunks: Sequence[Chunk], channels: Sequence[str] | None) -> Itera
             yield run_chunk([case], channels)
 
 
-def local_processes(chunks: Sequence[Chunk], channels: Sequence[str] | None, workers: int,
-                    shared: SharedResults | None = None) -> PoolResults:
-    """A pool of ``workers`` processes on this machine, one BLAS thread each. The workers
-    start and every chunk is queued now; iterate over the result for the chunks' results
-    and close it (``contextlib.closing``) to end the pool. Forked workers write their
-    results into ``shared``; others send them back."""
+def local_processes(workers: int, shared: SharedResults | None = None,
+                    preload: Scenario | None = None) -> PoolResults:
+    """Start a pool of ``workers`` processes on this machine now, one BLAS thread each; each
+    loads the compiled code a run of ``preload`` needs while this process goes on (checking
+    the cases). `PoolResults.submit` queues the chunks; iterate over it for their results
+    and close it (``contextlib.closing``) to end the pool. Forked workers write their results
+    into ``shared``; others send them back."""
     context = start_context()
     inherited = shared if context.get_start_method() == "fork" else None
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                               initializer=init_local_worker, initargs=(inherited,))
+                               initializer=init_local_worker, initargs=(inherited, preload))
     try:
-        futures = {pool.submit(run_chunk, chunk, channels): chunk for chunk in chunks}
+        for _ in range(workers):  # a pool starts its processes with the first tasks
+            pool.submit(_started)
     except BaseException:
         _stop(pool)
         raise
-    return PoolResults(pool, futures)
+    return PoolResults(pool)
+
+
+def _started() -> None:
+    """The task that starts a worker (its initializer does the work)."""
 
 
 def start_context() -> multiprocessing.context.BaseContext:
@@ -87,11 +94,15 @@ class PoolResults:
     iteration never started) ends the pool: waits for it after a complete iteration, else
     cancels the queued chunks and terminates the workers."""
 
-    def __init__(self, pool: ProcessPoolExecutor,
-                 futures: dict[Future[ChunkResult], Chunk]) -> None:
+    def __init__(self, pool: ProcessPoolExecutor) -> None:
         self.pool = pool
-        self.futures = futures
+        self.futures: dict[Future[ChunkResult], Chunk] = {}
         self.finished = False
+
+    def submit(self, chunks: Sequence[Chunk], channels: Sequence[str] | None) -> None:
+        """Queue every chunk (``channels``: keep only these)."""
+        for chunk in chunks:
+            self.futures[self.pool.submit(run_chunk, chunk, channels)] = chunk
 
     def __iter__(self) -> Iterator[ChunkResult]:
         for future in as_completed(self.futures):
@@ -121,6 +132,8 @@ def _stop(pool: ProcessPoolExecutor) -> None:
     for process in processes:  # clears it
         process.terminate()
     pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:  # gone when the sweep returns or raises (SIGTERM: at once)
+        process.join(STOP_TIMEOUT)
 
 
 def dask_cluster(chunks: Sequence[Chunk], channels: Sequence[str] | None,

@@ -19,7 +19,14 @@ from ..results.netcdf import write_netcdf_atomic
 from ..scenario.toml_writer import dump_toml
 from ..simulation.common import MemoryEstimate, memory_problem, output_times, run_memory
 from . import executors
-from .cases import BaseScenario, case_scenarios, invalid_message, load_base, valid_cases
+from .cases import (
+    BaseScenario,
+    case_scenarios,
+    check_paths,
+    invalid_message,
+    load_base,
+    valid_cases,
+)
 from .dataset import SweepCollector
 from .errors import SweepError, SweepInterrupted
 from .parameters import GridParameter, RandomParameter, case_table, from_mappings
@@ -56,26 +63,34 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     grids, randoms = _parameters(grid, random)
     table = case_table(grids, randoms, samples, seed, sampler)
     scenario_base = load_base(base, base_dir)
-    scenarios, invalid = _cases(scenario_base, table, skip_invalid)
-    first = next(iter(scenarios.values()))
-    selected = _check_channels(first, channels)
-    local = _local_workers(workers, scheduler, len(scenarios))
-    check_sweep_memory(first, table.count, len(selected) if selected else None)
-    time_ = output_times(first.settings.t_end, first.settings.dt_out)
+    check_paths(scenario_base, table)
+    # What every case shares (numeric fields change neither the channels nor the time axis
+    # nor the model path), from the base scenario, so that the workers can start first.
+    template = scenario_base.build()
+    selected = _check_channels(template, channels)
+    local = _local_workers(workers, scheduler, table.count)
+    check_sweep_memory(template, table.count, len(selected) if selected else None)
+    time_ = output_times(template.settings.t_end, template.settings.dt_out)
     shared, probed = None, ()
     if local > 1:  # worker processes: let them write into one shared result array
-        probed = _probe_channels(first, selected)
+        probed = _probe_channels(template, selected)
         if probed:
             shared = SharedResults.allocate(probed, table.count, time_.size)
-    collector = SweepCollector(table, time_, _attributes(scenario_base, table), shared, probed)
-    collector.add(ChunkResult(failed={i: invalid_message(m) for i, m in invalid.items()}))
-    indexed = list(scenarios.items())
-    checkpoint = _Checkpoint(output, checkpoint_interval)
-    if output is not None:
-        checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
     with contextlib.ExitStack() as stack:
+        pool = None
+        if local > 1:  # started now: they load the compiled code while the cases are checked
+            pool = stack.enter_context(contextlib.closing(
+                executors.local_processes(local, shared, preload=template)))
+        scenarios, invalid = _cases(scenario_base, table, skip_invalid)
+        collector = SweepCollector(table, time_, _attributes(scenario_base, table), shared,
+                                   probed)
+        collector.add(ChunkResult(failed={i: invalid_message(m) for i, m in invalid.items()}))
+        indexed = list(scenarios.items())
+        checkpoint = _Checkpoint(output, checkpoint_interval)
+        if output is not None:
+            checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
         try:  # Ctrl-C while the workers start counts too (a forked worker may be quick)
-            results = _executor(stack, indexed, selected, local, scheduler, shared)
+            results = _executor(stack, indexed, selected, local, scheduler, pool)
             _import_xarray_meanwhile()  # after the workers forked: a thread forbids fork
             bar = stack.enter_context(_progress(table.count, progress))
             bar.update(len(invalid))
@@ -186,7 +201,7 @@ def _probe_channels(scenario: Scenario, channels: list[str] | None) -> tuple[Cha
 
 
 def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[str] | None,
-              local: int, scheduler: Any, shared: SharedResults | None
+              local: int, scheduler: Any, pool: executors.PoolResults | None
               ) -> Iterable[ChunkResult]:
     if scheduler is not None:
         client, opened = executors.connect(scheduler)
@@ -194,10 +209,9 @@ def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[st
             stack.callback(client.close)
         chunks = executors.make_chunks(indexed, executors.dask_cores(client))
         generator = executors.dask_cluster(chunks, channels, client)
-    elif local > 1:
-        chunks = executors.make_chunks(indexed, local)
-        return stack.enter_context(contextlib.closing(
-            executors.local_processes(chunks, channels, local, shared)))
+    elif pool is not None:
+        pool.submit(executors.make_chunks(indexed, local), channels)
+        return pool
     else:
         generator = executors.in_process(executors.make_chunks(indexed, 1), channels)
     return stack.enter_context(contextlib.closing(generator))

@@ -93,10 +93,12 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
     return out
 
 
-def init_local_worker(shared: SharedResults | None = None) -> None:
+def init_local_worker(shared: SharedResults | None = None,
+                      preload: Scenario | None = None) -> None:
     """Initializer of a local worker process: one BLAS thread (the cores are already shared
-    out by process), no SIGINT (Ctrl-C is handled once, by the parent), and the shared
-    result array if the worker was forked (a mapping cannot be sent to a spawned one)."""
+    out by process), no SIGINT (Ctrl-C is handled once, by the parent), the shared result
+    array if the worker was forked (a mapping cannot be sent to a spawned one), and the
+    compiled code a run of ``preload`` needs, loaded before the first case arrives."""
     global _SHARED
     _SHARED = shared
     for name in BLAS_THREAD_VARIABLES:
@@ -106,6 +108,25 @@ def init_local_worker(shared: SharedResults | None = None) -> None:
     global _THREAD_LIMIT  # keep the limit alive for the life of the process
     _THREAD_LIMIT = threadpool_limits(limits=1)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if preload is not None:
+        load_compiled_code(preload)
+
+
+def load_compiled_code(scenario: Scenario) -> None:
+    """Import the model path ``scenario`` runs and load its compiled kernels (the prescribed
+    Lawson path's; other paths load theirs on first use). A failure is left for the cases
+    to report."""
+    try:
+        from ..simulation import model_path, path_function
+
+        path = model_path(scenario)
+        path_function(path)
+        if path == "prescribed" and scenario.settings.method == "lawson":
+            from ..solvers.lawson import load_compiled_loop
+
+            load_compiled_loop()
+    except Exception:  # noqa: BLE001, S110 — every case runs the same code and reports it
+        pass
 
 
 _THREAD_LIMIT: object = None

@@ -91,12 +91,24 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
     )
 
 
+def load_compiled_loop() -> None:
+    """Load (or, on a first run, compile) the compiled step loop and the prescribed path's
+    kernels (dynamics/prescribed_kernel.py) now, for a process about to run prescribed
+    Lawson runs (a sweep's worker)."""
+    from ._lawson_numba import load as load_loop
+
+    load_loop()
+    # The prescribed path's compiled assembly and channels (a table, then frames).
+    from ..dynamics.prescribed_kernel import load as load_kernels
+
+    load_kernels()
+
+
 def preload_compiled_loop() -> threading.Thread:
-    """Start loading (or, on a first run, compiling) the compiled step loop (and the
-    prescribed path's kernels, dynamics/prescribed_kernel.py) in a background
-    thread, for a caller that knows a Lawson run is coming: numba's import, its cache and
-    LLVM's code generation (which releases the interpreter lock) then overlap the caller's
-    other start-up work. An error here is left for the run to raise.
+    """`load_compiled_loop` in a background thread, for a caller that knows a Lawson run is
+    coming: numba's import, its cache and LLVM's code generation (which releases the
+    interpreter lock) then overlap the caller's other start-up work. An error here is left
+    for the run to raise.
 
     Join the returned thread before calling compiled code: numba registers argument types
     while it loads, and a call that types its arguments meanwhile can fail ("dictionary
@@ -104,13 +116,7 @@ def preload_compiled_loop() -> threading.Thread:
 
     def load() -> None:
         try:
-            from ._lawson_numba import load as load_loop
-
-            load_loop()
-            # The prescribed path's compiled assembly and channels (a table, then frames).
-            from ..dynamics.prescribed_kernel import load as load_kernels
-
-            load_kernels()
+            load_compiled_loop()
         except Exception:  # noqa: BLE001, S110 — the run reports it
             pass
 
