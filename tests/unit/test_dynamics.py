@@ -52,7 +52,7 @@ def test_single_link_on_hub_is_paper_eq_27() -> None:
     system = FirstOrderSystem(chain_of([link], [CubicMotion(0.2, 1.5, 2.0)]))
     t = np.array([0.3])
     rate, acc = 1.5 + 4.0 * 0.3, 4.0
-    M, C, K, f = (a[0] for a in system.matrices(t))
+    M, _C, K, f = (a[0] for a in system.matrices(t))
     d = system.modal[0]
     np.testing.assert_allclose(M, d.mass_matrix, rtol=1e-13)
     np.testing.assert_allclose(K, d.stiffness_matrix - rate**2 * d.mass_matrix, rtol=1e-12)
@@ -61,7 +61,7 @@ def test_single_link_on_hub_is_paper_eq_27() -> None:
 
 def test_no_motion_no_load() -> None:
     system = FirstOrderSystem(chain_of(LINKS, [CubicMotion(0.3), CubicMotion(-1.0), CubicMotion(2.0)]))
-    M, C, K, f = system.matrices(np.linspace(0, 1, 5))
+    _M, _C, K, f = system.matrices(np.linspace(0, 1, 5))
     assert np.all(f == 0.0)
     for body in system.bodies:
         np.testing.assert_array_equal(K[:, body.slice, body.slice][0], body.data.stiffness_matrix)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -102,7 +104,7 @@ def test_lawson_is_fourth_order() -> None:
     t = output_times(1.5, 0.02)
     table = _table(system, t, 1e-10)
     runs = [_solve(table, system.n, t, substeps, None)[0] for substeps in (4, 8, 16, 32)]
-    changes = [np.abs(fine - coarse).max() for coarse, fine in zip(runs, runs[1:])]
+    changes = [np.abs(fine - coarse).max() for coarse, fine in itertools.pairwise(runs)]
     orders = np.log2(np.array(changes[:-1]) / np.array(changes[1:]))
     assert np.all((orders > 3.5) & (orders < 4.5)), orders
 

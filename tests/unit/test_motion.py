@@ -41,7 +41,7 @@ def _away_from_kinks(motion: JointMotion, t: np.ndarray, gap: float = 1e-4) -> n
 def test_derivatives_match_finite_differences(motion: JointMotion) -> None:
     assert isinstance(motion, JointMotion)
     t = _away_from_kinks(motion, np.linspace(0.0, 3.5, 2001))
-    angle, rate, acc = motion.evaluate(t)
+    _angle, rate, acc = motion.evaluate(t)
     fd_rate, fd_acc = _central(motion, t)
     rate_scale = max(1.0, np.abs(rate).max())
     acc_scale = max(1.0, np.abs(acc).max())
@@ -283,3 +283,10 @@ def test_breakpoints_are_where_the_acceleration_jumps() -> None:
     assert Hold(5.0).breakpoints == ()
     seq = Sequence((Hold(0.0), Cycloidal(0.0, 10.0, 0.5, 1.0), Cycloidal(10.0, 0.0, 1.5, 1.0)))
     assert seq.breakpoints == (0.5, 1.5, 2.5)
+
+
+def test_a_sequence_of_something_else_than_segments_is_a_type_error() -> None:
+    from flexlink.motion import Cycloidal, Sequence
+
+    with pytest.raises(TypeError, match=r"motion\[1\] must be a Cycloidal.*got float"):
+        Sequence((Cycloidal(0.0, 1.0, 0.0, 1.0), 2.0))

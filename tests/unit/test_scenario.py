@@ -110,16 +110,16 @@ def test_all_problems_are_reported_at_once() -> None:
         ("simulation", "t_end", math.nan, "simulation.t_end must be finite, got nan"),
         ("simulation", "geometric_stiffening", "no",
          "simulation.geometric_stiffening: expected true or false, got string 'no'"),
-        ("simulation", "method", "rk4", "simulation.method must be one of 'magnus', 'lawson', 'DOP853', "
-         "'RK45', 'Radau', 'LSODA', got 'rk4'"),
+        ("simulation", "method", "rk4", ("simulation.method must be one of 'magnus', 'lawson', 'DOP853', "
+         "'RK45', 'Radau', 'LSODA', got 'rk4'")),
         ("links", "length", -1, "links[0].length must be > 0 m, got -1.0"),
         ("links", "tip_mass", -0.1, "links[0].tip_mass must be >= 0 kg, got -0.1"),
         ("links", "tip_inertia", -1.0, "links[0].tip_inertia must be >= 0 kg·m², got -1.0"),
         ("links", "damping_ratio", 1.0, "links[0].damping_ratio must be in [0, 1), got 1.0"),
         ("links", "modes", 21, "links[0].modes must be an integer from 1 to 20, got 21"),
         ("links", "modes", 4.0, "links[0].modes: expected an integer, got number 4.0"),
-        ("links", "mode_shapes", "clamped", "links[0].mode_shapes must be one of "
-         "'clamped_free', 'tip_loaded', 'outboard_loaded', got 'clamped' (did you mean 'clamped_free'?)"),
+        ("links", "mode_shapes", "clamped", ("links[0].mode_shapes must be one of "
+         "'clamped_free', 'tip_loaded', 'outboard_loaded', got 'clamped' (did you mean 'clamped_free'?)")),
         ("links", "name", "", "links[0].name must not be empty"),
         ("links", "name", "b", "links[1].name: duplicate name 'b' (names must be unique)"),
         ("links", "name", "has space", "links[0].name must be 1-64 letters"),
@@ -220,14 +220,14 @@ def test_sensor_rules() -> None:
     found = problems(d)
     assert found == [
         "sensors[0].x must be <= 1.0 m (the length of link 'a'), got 1.5",
-        "sensors[1]: missing required key 'thickness' (m, > 0; link 'a' gives no thickness "
-        "to default to)",
-        "sensors[2].kind must be one of 'deflection', 'slope', 'strain', 'acceleration', "
-        "'piezo', got 'velocity'",
-        "sensors[3].name 'joint1_angle' clashes with an automatic output channel (t, time, "
-        "joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another",
-        "sensors[4].name 'b_tip_X' clashes with an automatic output channel (t, time, "
-        "joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another",
+        ("sensors[1]: missing required key 'thickness' (m, > 0; link 'a' gives no thickness "
+        "to default to)"),
+        ("sensors[2].kind must be one of 'deflection', 'slope', 'strain', 'acceleration', "
+        "'piezo', got 'velocity'"),
+        ("sensors[3].name 'joint1_angle' clashes with an automatic output channel (t, time, "
+        "joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another"),
+        ("sensors[4].name 'b_tip_X' clashes with an automatic output channel (t, time, "
+        "joint<k>_angle, joint<k>_torque, <link>_tip_X, <link>_tip_Y); choose another"),
         "sensors[4]: unknown key 'thickness' (allowed: name, kind, link, x)",
         "sensors[5].width must be > 0 m, got 0.0",
         "sensors[5].d31 must be non-zero m/V, got 0.0",

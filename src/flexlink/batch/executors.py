@@ -109,7 +109,7 @@ class PoolResults:
             chunk = self.futures.pop(future)  # drop it: a held future holds its result
             try:
                 result = future.result()
-            except Exception as exc:  # BrokenProcessPool (a worker died), pickling errors
+            except Exception as exc:  # noqa: BLE001 — BrokenProcessPool (a worker died), pickling
                 result = failed_chunk(chunk, exc)
             del future
             yield result
@@ -150,7 +150,7 @@ def dask_cluster(chunks: Sequence[Chunk], channels: Sequence[str] | None,
             _, chunk = pending.pop(future.key)
             try:
                 result = future.result()
-            except Exception as exc:  # a worker lost, or flexlink not importable there
+            except Exception as exc:  # noqa: BLE001 — a worker lost, flexlink not importable there
                 result = failed_chunk(chunk, exc)
             future.release()  # else the cluster keeps every result until the sweep ends
             del future
@@ -165,8 +165,8 @@ def connect(scheduler: Any) -> tuple[Any, bool]:
     try:
         from distributed import Client
     except ImportError:
-        raise SweepError(["running on a Dask cluster needs dask.distributed: "
-                          "pip install 'flexlink[cluster]'"]) from None
+        raise SweepError([("running on a Dask cluster needs dask.distributed: "
+                          "pip install 'flexlink[cluster]'")]) from None
     if isinstance(scheduler, Client):
         return scheduler, False
     try:

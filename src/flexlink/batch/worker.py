@@ -82,7 +82,7 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
                     _SHARED.array[k, index, :] = results[name]
             else:
                 block = np.stack([results[n] for n in names])
-        except Exception as exc:  # any failure of one case is that case's result
+        except Exception as exc:  # noqa: BLE001 — any failure of one case is that case's result
             out.failed[index] = f"{type(exc).__name__}: {exc}"
             continue
         out.channels = found

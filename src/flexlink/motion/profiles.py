@@ -201,7 +201,7 @@ class Sequence:
             raise ValueError("Sequence needs at least one segment")
         for i, seg in enumerate(segments):
             if not isinstance(seg, self._kinds):
-                raise ValueError(f"motion[{i}] must be a Cycloidal, Quintic, Spinup or Hold, "
+                raise TypeError(f"motion[{i}] must be a Cycloidal, Quintic, Spinup or Hold, "
                                  f"got {type(seg).__name__}")
             if isinstance(seg, Hold) and i > 0:
                 raise ValueError(f"motion[{i}] is a Hold; a Hold has no start time and can only "
