@@ -15,6 +15,7 @@ from numba import njit
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ._forward_numba import _solve
 from ._forward_numba import applied as _applied
+from ._nonlinear_numba import node_forces
 
 NonlinearForwardData = namedtuple("NonlinearForwardData", [
     "Ay", "At", "G", "s", "m_tot", "translation", "rot_y", "rot_J", "D", "K", "n", "nu",
@@ -34,40 +35,15 @@ def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
     c = np.empty(nodes)
     s = np.empty(nodes)
     S = np.empty((nodes, 4))
-    for j in range(nodes):
-        alpha = ang[j]
-        alpha_dot = rate[j]
-        alpha_ddot = acc[j]
-        for i in range(m):
-            a = nd.Ay[j, i]
-            if a != 0.0:
-                alpha += a * Y[i]
-                alpha_dot += a * V[i]
-                alpha_ddot += a * X[i]
-        c[j] = np.cos(alpha)
-        s[j] = np.sin(alpha)
-        v2 = alpha_dot * alpha_dot
-        S[j, 0] = c[j] * alpha_ddot
-        S[j, 1] = s[j] * alpha_ddot
-        S[j, 2] = c[j] * v2
-        S[j, 3] = s[j] * v2
+    moments = np.empty(nodes)
+    node_forces(nd.Ay, m, Y, V, X, ang, rate, acc, nd.G, c, s, S, moments)
     out[:] = 0.0
     rx = ry = 0.0
     if nd.translation:
         rx, ry = X[n], X[n + 1]
     fx = fy = 0.0
     for j in range(nodes):
-        g0 = 0.0
-        g1 = 0.0
-        g2 = 0.0
-        g3 = 0.0
-        for k in range(nodes):
-            w = nd.G[j, k]
-            g0 += w * S[k, 0]
-            g1 += w * S[k, 1]
-            g2 += w * S[k, 2]
-            g3 += w * S[k, 3]
-        uj = c[j] * (g0 - g3) + s[j] * (g1 + g2)
+        uj = moments[j]
         if nd.translation:
             sj = nd.s[j]
             uj += sj * (-s[j] * rx + c[j] * ry)

@@ -12,22 +12,24 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 
 
 @njit(cache=True)
-def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):  # noqa: ANN
-    """Generalized inertia + damping + elastic − applied (``load``, n) forces of one state
-    (n,) — the numpy
-    NonlinearSystem.residual written as loops (small sizes: no BLAS call overhead)."""
-    nodes, n = A.shape
-    c = np.empty(nodes)
-    s = np.empty(nodes)
-    S = np.empty((nodes, 4))
+def node_forces(A, cols, Q, V, X, ang, rate, acc, G, c, s, S, u):  # noqa: ANN001, ANN201
+    """The inertia of the nodes of a link's discretisation, shared by the prescribed-joint and
+    the forward nonlinear kernels. Node j turns by α_j = ang_j + Σ_i A[j, i] Q_i (the first
+    ``cols`` coordinates; rates and accelerations alike from V, X); into c, s (nodes,) its cos
+    and sin, into S (nodes, 4) c α̈, s α̈, c α̇², s α̇², and into u (nodes,) the generalized
+    inertia moment of node j on its angle, c_j (G S)_j0 − c_j (G S)_j3 + s_j ((G S)_j1 +
+    (G S)_j2), with G the nodes' coupling weights (docs/nonlinear.md)."""
+    nodes = A.shape[0]
     for j in range(nodes):
         alpha = ang[j]
         alpha_dot = rate[j]
         alpha_ddot = acc[j]
-        for i in range(n):
-            alpha += A[j, i] * Q[i]
-            alpha_dot += A[j, i] * V[i]
-            alpha_ddot += A[j, i] * X[i]
+        for i in range(cols):
+            a = A[j, i]
+            if a != 0.0:
+                alpha += a * Q[i]
+                alpha_dot += a * V[i]
+                alpha_ddot += a * X[i]
         c[j] = np.cos(alpha)
         s[j] = np.sin(alpha)
         v2 = alpha_dot * alpha_dot
@@ -35,7 +37,6 @@ def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J,
         S[j, 1] = s[j] * alpha_ddot
         S[j, 2] = c[j] * v2
         S[j, 3] = s[j] * v2
-    out = np.zeros(n)
     for j in range(nodes):
         g0 = 0.0
         g1 = 0.0
@@ -47,9 +48,24 @@ def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J,
             g1 += w * S[m, 1]
             g2 += w * S[m, 2]
             g3 += w * S[m, 3]
-        u = c[j] * (g0 - g3) + s[j] * (g1 + g2)
+        u[j] = c[j] * (g0 - g3) + s[j] * (g1 + g2)
+
+
+@njit(cache=True)
+def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):  # noqa: ANN
+    """Generalized inertia + damping + elastic − applied (``load``, n) forces of one state
+    (n,) — the numpy
+    NonlinearSystem.residual written as loops (small sizes: no BLAS call overhead)."""
+    nodes, n = A.shape
+    c = np.empty(nodes)
+    s = np.empty(nodes)
+    S = np.empty((nodes, 4))
+    u = np.empty(nodes)
+    node_forces(A, n, Q, V, X, ang, rate, acc, G, c, s, S, u)
+    out = np.zeros(n)
+    for j in range(nodes):
         for i in range(n):
-            out[i] += A[j, i] * u
+            out[i] += A[j, i] * u[j]
     for k in range(tip_A.shape[0]):
         if J[k] != 0.0:
             tip = tip_acc[k]
