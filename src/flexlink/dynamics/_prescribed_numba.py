@@ -30,27 +30,29 @@ def _scratch(d):
 
 @njit(cache=True, error_model="numpy")
 def channels(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc, xi, xi_d,
-             xi_dd, torque):
+             xi_dd, torque, turn):
     """solved_frames, then joint_torques from its outputs: one entry point from Python for
     both (each entry point costs compilation on a first run)."""
     solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc, xi,
-                  xi_d, xi_dd)
+                  xi_d, xi_dd, turn)
     joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, zdd, torque)
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc,
-                  xi, xi_d, xi_dd):
+                  xi, xi_d, xi_dd, turn):
     """Fill, per output time i and link k: θ, ω, ω̇ (nt, N); the frame origin (global, m)
     and its acceleration (frame axes) (nt, N, 2); ξ-heads T z, Ṫ z + T ż, T̈ z + 2Ṫ ż + T z̈
-    (nt, N, 3). angle, rate, acc (nt, N): the joints; z, ż, z̈ (nt, n): the solution.
-    ``d`` is the ForwardData of a fixed base (prescribed_kernel.forward_data)."""
+    (nt, N, 3); cos θ, sin θ (nt, N, 2), computed where the joint state changes only.
+    angle, rate, acc (nt, N): the joints; z, ż, z̈ (nt, n): the solution. ``d`` is the
+    ForwardData of a fixed base (prescribed_kernel.forward_data)."""
     nt, N = angle.shape
     nr = d.n_rigid
-    n = z.shape[1]
     p, pd, pdd, th, om, al, oa, T, Td, Tdd = _scratch(d)
     ox = np.zeros(N)
     oy = np.zeros(N)
+    cth = np.zeros(N)
+    sth = np.zeros(N)
     for i in range(nt):
         same = i > 0
         if same:
@@ -66,10 +68,12 @@ def solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, 
             x = y = 0.0
             for k in range(N):  # origin of frame k: the rigid tip of link k − 1
                 ox[k], oy[k] = x, y
-                x += d.length[k] * np.cos(th[k])
-                y += d.length[k] * np.sin(th[k])
+                cth[k], sth[k] = np.cos(th[k]), np.sin(th[k])
+                x += d.length[k] * cth[k]
+                y += d.length[k] * sth[k]
         for k in range(N):
             theta[i, k], omega[i, k], alpha[i, k] = th[k], om[k], al[k]
+            turn[i, k, 0], turn[i, k, 1] = cth[k], sth[k]
             origin[i, k, 0], origin[i, k, 1] = ox[k], oy[k]
             oacc[i, k, 0], oacc[i, k, 1] = oa[k, 0], oa[k, 1]
             # T_k maps the inboard links' coordinates only: its columns from link k's own on

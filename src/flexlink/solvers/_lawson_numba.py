@@ -292,12 +292,12 @@ def _record(i, y, yc, coarse, states, coarse_states, peak, spread):
         v = y[q]
         states[i, q] = v
         a = abs(v)
-        if a > peak[q] or a != a:  # a NaN stays (the caller refuses non-finite states)
+        if a > peak[q] or np.isnan(a):  # a NaN stays (the caller refuses non-finite states)
             peak[q] = a
     if coarse:
         for q in range(y.shape[0]):
             a = abs(y[q] - yc[q])
-            if a > spread[q] or a != a:
+            if a > spread[q] or np.isnan(a):
                 spread[q] = a
         if coarse_states.shape[0]:
             for q in range(y.shape[0]):
