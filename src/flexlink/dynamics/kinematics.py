@@ -39,9 +39,14 @@ class JointHistory:
         the index of its run. Linear in the number of times (no sort); a state revisited
         after a different one counts as a new run, which costs only one more assembly.
         Computed once per history (histories are shared: `joint_history`)."""
-        rows = np.concatenate([self.angle, self.rate, self.acceleration], axis=1)
-        new = np.ones(rows.shape[0], dtype=bool)
-        new[1:] = np.any(rows[1:] != rows[:-1], axis=1)
+        new = np.ones(self.angle.shape[0], dtype=bool)
+        change = new[1:]
+        change[:] = False
+        # Column by column: numpy's any over axis 1 of an (nt, 3N) array cost 5× more.
+        for values in (self.angle, self.rate, self.acceleration):
+            for k in range(values.shape[1]):
+                column = values[:, k]
+                change |= column[1:] != column[:-1]
         kept = np.flatnonzero(new)
         index = np.cumsum(new) - 1
         index.flags.writeable = False
