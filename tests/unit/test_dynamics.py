@@ -90,6 +90,28 @@ def test_joint_histories_are_shared_read_only_and_equal_to_a_fresh_evaluation() 
     assert unique.angle.shape[0] < t.size  # the rest phases collapse to one state each
 
 
+def test_distinct_joint_states_are_the_runs_of_equal_rows() -> None:
+    """JointHistory.distinct: a new run wherever any angle, rate or acceleration differs
+    from the previous time's (one differing entry of one joint is enough), revisits
+    included; compared with the rows joined and compared whole."""
+    from flexlink.dynamics.kinematics import JointHistory
+
+    rng = np.random.default_rng(5)
+    states = rng.normal(size=(6, 3, 2))
+    states[4] = states[1]  # a state revisited after another one: a new run
+    states[5] = states[4]
+    states[5, 2, 1] += 1e-15  # one acceleration of one joint, in the last bits
+    which = np.repeat(np.arange(6), [3, 1, 4, 2, 5, 2])
+    angle, rate, acc = (np.ascontiguousarray(states[which, i]) for i in range(3))
+    unique, index = JointHistory(angle, rate, acc).distinct
+    rows = np.concatenate([angle, rate, acc], axis=1)
+    new = np.concatenate([[True], np.any(rows[1:] != rows[:-1], axis=1)])
+    np.testing.assert_array_equal(index, np.cumsum(new) - 1)
+    np.testing.assert_array_equal(unique.angle, angle[new])
+    np.testing.assert_array_equal(unique.acceleration, acc[new])
+    assert unique.angle.shape[0] == 6
+
+
 def test_long_joint_histories_are_not_kept_beyond_their_run(monkeypatch) -> None:
     from flexlink.dynamics import kinematics
     from flexlink.motion import Cycloidal

@@ -12,8 +12,8 @@ from flexlink.motion import Cycloidal, MeasuredMotion, Sequence
 from flexlink.simulation import output_times
 from flexlink.solvers import GivenMatrices, Solution, integrate_lawson, integrate_magnus
 from flexlink.solvers.coefficient_table import tabulate
-from flexlink.solvers.lawson import _solve, _solve_pair
-from flexlink.solvers.magnus import state_rows
+from flexlink.solvers.lawson import _run, _solve, _solve_pair
+from flexlink.solvers.magnus import agree, agree_maxima, state_rows
 from tests.helpers import chain_of, paper_links
 
 
@@ -126,6 +126,26 @@ def test_the_coarse_pass_alongside_is_a_run_of_its_own(start2: float) -> None:
         assert np.all(np.abs(acc - alone_acc) <= 1e-12 * np.abs(alone_acc).max(axis=0))
         assert np.all(np.abs(coarse - half) <= 1e-12 * scale)
         assert np.abs(coarse - fine).max() > 0.0  # a run of its own, not a copy
+
+
+def test_the_loops_running_maxima_are_those_of_the_whole_arrays() -> None:
+    # The Richardson check reads maxima the compiled loop keeps per state component instead
+    # of comparing the whole arrays (magnus.agree): the same numbers, bit for bit, and so
+    # the same decision.
+    system = _system(0.7043)
+    t = np.append(output_times(1.2, 0.005), 1.2037)
+    table = _table(system, t, 1e-8)
+    states, _, coarse, peak, spread = _run(table, system.n, t, 2, None, None, coarse=True)
+    kept, _, none, peak2, spread2 = _run(table, system.n, t, 2, None, None, coarse=True,
+                                         keep_coarse=False)
+    assert none.shape[0] == 0 and np.array_equal(kept, states)
+    assert np.array_equal(peak, np.abs(states).max(axis=0))
+    assert np.array_equal(spread, np.abs(states - coarse).max(axis=0))
+    assert np.array_equal(peak2, peak) and np.array_equal(spread2, spread)
+    n = system.n
+    for rtol in (1e-4, 1e-6, 1e-8, 1e-10):
+        assert agree_maxima(peak, spread, n, rtol, 1e-12) == agree(
+            states[:, :-1], states[:, :-1], coarse[:, :-1], n, rtol, 1e-12)
 
 
 def test_rough_coefficients_are_integrated_by_magnus() -> None:

@@ -189,3 +189,15 @@ def test_modal_damping_matrix() -> None:
     np.testing.assert_allclose(2 * np.pi * data.natural_frequencies_hz, omega, rtol=1e-12)
     undamped = modal_data(dataclasses.replace(link, damping_ratio=0.0))
     assert np.all(undamped.damping_matrix == 0.0)
+
+
+def test_a_sensor_point_s_shape_row_is_remembered_as_evaluated() -> None:
+    """channels.modal.shape_row: Φ or a derivative at one point, as evaluate gives it, kept
+    read-only per mode shapes (every run of a link reads the same rows)."""
+    from flexlink.channels.modal import shape_row
+
+    shapes = clamped_free_modes(0.9, 4)
+    for derivative in range(3):
+        row = shape_row(shapes, 0.37, derivative)
+        np.testing.assert_array_equal(row, shapes.evaluate(np.array([0.37]), derivative)[0])
+        assert shape_row(shapes, 0.37, derivative) is row and not row.flags.writeable

@@ -8,8 +8,14 @@ import numpy as np
 import pytest
 
 from flexlink.dynamics.first_order import FirstOrderSystem
+from flexlink.dynamics.forward_kernel import pack
+from flexlink.dynamics.prescribed_kernel import (
+    forward_data,
+    forward_view,
+    solved_frames,
+    state_rows,
+)
 from flexlink.dynamics.prescribed_kernel import joint_torques as compiled_torques
-from flexlink.dynamics.prescribed_kernel import solved_frames, state_rows
 from flexlink.dynamics.torques import joint_torques
 from flexlink.model import Chain, Link
 from flexlink.solvers.magnus import state_rows as numpy_state_rows
@@ -73,6 +79,9 @@ def test_solved_frames_match_the_numpy_frames(name: str, stiffening: bool) -> No
         for a, b in zip(got.heads(k, z, zd, zdd), ref.heads(k, z, zd, zdd)):
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-13 * max(np.abs(b).max(), 1e-3))
         np.testing.assert_array_equal(got.head(k, z), got.heads(k, z, zd, zdd)[0])
+        # cos θ, sin θ from the kernel (once per joint state) as numpy's per time
+        for a, b in zip(got.cos_sin(k), ref.cos_sin(k)):
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
     expected = joint_torques(system, t, z, zd, zdd)
     np.testing.assert_allclose(joint_torques(system, t, z, zd, zdd, got), expected, rtol=0,
                                atol=1e-12 * np.abs(expected).max())
@@ -91,3 +100,16 @@ def test_solved_frames_refuse_other_coordinates() -> None:
         frames.head(0, z.copy())
     with pytest.raises(ValueError, match="maps"):
         frames.apply(frames.T, 0, z)
+
+
+def test_packed_data_are_shared_by_systems_of_one_chain_only() -> None:
+    """forward_data is remembered per (chain, stiffening, modal data): a new system of the
+    same chain reuses it, equal to a fresh pack; another stiffening or chain does not."""
+    first, again = _paper(False), _paper(False)
+    data = forward_data(first)
+    assert forward_data(again) is data
+    fresh = pack(forward_view(again))
+    for name, value in zip(data._fields, data):
+        np.testing.assert_array_equal(value, getattr(fresh, name), err_msg=name)
+    assert forward_data(_paper(True)) is not data
+    assert forward_data(_three_links(False)) is not data

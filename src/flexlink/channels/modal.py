@@ -4,6 +4,8 @@ exact curvature of the inextensible axis, docs/nonlinear.md)."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..model import Chain, PiezoSensor, PointSensor, Sensor
@@ -15,14 +17,23 @@ def modal_reading(sensor: Sensor, shapes: ModeShapes, q: np.ndarray,
     """The reading (nt,) from q (nt, n_k) of the sensor's link, or None for the kinds whose
     reading depends on the model (deflection, acceleration)."""
     if isinstance(sensor, PiezoSensor):
-        slopes = shapes.evaluate(np.array([sensor.x_start, sensor.x_end]), 1)
-        return sensor.gain * (q @ (slopes[1] - slopes[0]))
-    x = np.array([sensor.x])
+        return sensor.gain * (q @ (shape_row(shapes, sensor.x_end, 1)
+                                   - shape_row(shapes, sensor.x_start, 1)))
     if sensor.kind == "slope":
-        return q @ shapes.evaluate(x, 1)[0]
+        return q @ shape_row(shapes, sensor.x, 1)
     if sensor.kind == "strain":
-        return -0.5 * strain_thickness(sensor, chain) * (q @ shapes.evaluate(x, 2)[0])
+        return -0.5 * strain_thickness(sensor, chain) * (q @ shape_row(shapes, sensor.x, 2))
     return None
+
+
+@functools.lru_cache(maxsize=256)
+def shape_row(shapes: ModeShapes, x: float, derivative: int) -> np.ndarray:
+    """Φ or its derivative at one point x (m), (n,), read-only: what a sensor reads its
+    modal coordinates with. Remembered per mode shapes (compared by identity; a link's
+    shapes are shared by its runs), since evaluating them cost more than the reading."""
+    row = shapes.evaluate(np.array([x]), derivative)[0]
+    row.flags.writeable = False
+    return row
 
 
 def strain_thickness(sensor: PointSensor, chain: Chain) -> float:

@@ -30,27 +30,29 @@ def _scratch(d):
 
 @njit(cache=True, error_model="numpy")
 def channels(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc, xi, xi_d,
-             xi_dd, torque):
+             xi_dd, torque, turn):
     """solved_frames, then joint_torques from its outputs: one entry point from Python for
     both (each entry point costs compilation on a first run)."""
     solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc, xi,
-                  xi_d, xi_dd)
+                  xi_d, xi_dd, turn)
     joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, zdd, torque)
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, oacc,
-                  xi, xi_d, xi_dd):
+                  xi, xi_d, xi_dd, turn):
     """Fill, per output time i and link k: θ, ω, ω̇ (nt, N); the frame origin (global, m)
     and its acceleration (frame axes) (nt, N, 2); ξ-heads T z, Ṫ z + T ż, T̈ z + 2Ṫ ż + T z̈
-    (nt, N, 3). angle, rate, acc (nt, N): the joints; z, ż, z̈ (nt, n): the solution.
-    ``d`` is the ForwardData of a fixed base (prescribed_kernel.forward_data)."""
+    (nt, N, 3); cos θ, sin θ (nt, N, 2), computed where the joint state changes only.
+    angle, rate, acc (nt, N): the joints; z, ż, z̈ (nt, n): the solution. ``d`` is the
+    ForwardData of a fixed base (prescribed_kernel.forward_data)."""
     nt, N = angle.shape
     nr = d.n_rigid
-    n = z.shape[1]
     p, pd, pdd, th, om, al, oa, T, Td, Tdd = _scratch(d)
     ox = np.zeros(N)
     oy = np.zeros(N)
+    cth = np.zeros(N)
+    sth = np.zeros(N)
     for i in range(nt):
         same = i > 0
         if same:
@@ -66,15 +68,20 @@ def solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, 
             x = y = 0.0
             for k in range(N):  # origin of frame k: the rigid tip of link k − 1
                 ox[k], oy[k] = x, y
-                x += d.length[k] * np.cos(th[k])
-                y += d.length[k] * np.sin(th[k])
+                cth[k], sth[k] = np.cos(th[k]), np.sin(th[k])
+                x += d.length[k] * cth[k]
+                y += d.length[k] * sth[k]
         for k in range(N):
             theta[i, k], omega[i, k], alpha[i, k] = th[k], om[k], al[k]
+            turn[i, k, 0], turn[i, k, 1] = cth[k], sth[k]
             origin[i, k, 0], origin[i, k, 1] = ox[k], oy[k]
             oacc[i, k, 0], oacc[i, k, 1] = oa[k, 0], oa[k, 1]
+            # T_k maps the inboard links' coordinates only: its columns from link k's own on
+            # are zero (frames zeroes them), and adding their zero products changed no sum.
+            nc = 0 if d.attached[k] else d.offset[k - 1] + d.n_modes[k - 1] - nr
             for a in range(3):
                 s0 = s1 = s2 = 0.0
-                for c in range(n):
+                for c in range(nc):
                     t0, t1, t2 = T[k, a, nr + c], Td[k, a, nr + c], Tdd[k, a, nr + c]
                     s0 += t0 * z[i, c]
                     s1 += t0 * zd[i, c] + t1 * z[i, c]
@@ -291,7 +298,28 @@ def joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, 
     function to round-off in tests/unit/test_prescribed_kernel.py."""
     nt, N = theta.shape
     nr = d.n_rigid
+    # What depends on the frames' angles and origins only (their sines and cosines were most
+    # of this kernel's time), per row of joints: recomputed where the frames change, not in
+    # a rest phase. dx, dy: A(θ_j)ᵀ (origin_j − origin_k); ct, st: cos, sin (θ_k − θ_j).
+    dx_, dy_ = np.empty((N, N)), np.empty((N, N))
+    ct_, st_ = np.empty((N, N)), np.empty((N, N))
     for i in range(nt):
+        same = i > 0
+        if same:
+            for k in range(N):
+                if (theta[i, k] != theta[i - 1, k] or origin[i, k, 0] != origin[i - 1, k, 0]
+                        or origin[i, k, 1] != origin[i - 1, k, 1]):
+                    same = False
+                    break
+        if not same:
+            for j in range(N):
+                cj, sj = np.cos(theta[i, j]), np.sin(theta[i, j])
+                for k in range(j + 1):
+                    vx = origin[i, j, 0] - origin[i, k, 0]
+                    vy = origin[i, j, 1] - origin[i, k, 1]
+                    dx_[j, k], dy_[j, k] = cj * vx + sj * vy, -sj * vx + cj * vy
+                    turn = theta[i, k] - theta[i, j]
+                    ct_[j, k], st_[j, k] = np.cos(turn), np.sin(turn)
         for k in range(N):
             out[i, k] = 0.0
         for j in range(N):
@@ -326,14 +354,10 @@ def joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, 
             g_cross_a0 = (r0 * (m * ay + s1 * wd) - r1 * Fx - r2 * (s1 * ax - w2 * J)
                           - qb * ax + w2 * qt)
             own = s1 * ay + (J + Jt) * wd + g_cross_a0 + x_a1y + Jt * tilt
-            cj, sj = np.cos(theta[i, j]), np.sin(theta[i, j])
             for k in range(j + 1):
                 # d = A(θ_j)ᵀ (origin_j − origin_k); p1 = A(θ_k − θ_j) ρ_k (frame-j axes).
-                vx = origin[i, j, 0] - origin[i, k, 0]
-                vy = origin[i, j, 1] - origin[i, k, 1]
-                dx, dy = cj * vx + sj * vy, -sj * vx + cj * vy
-                turn = theta[i, k] - theta[i, j]
-                ct, st = np.cos(turn), np.sin(turn)
+                dx, dy = dx_[j, k], dy_[j, k]
+                ct, st = ct_[j, k], st_[j, k]
                 px = ct * xi[i, k, 0] - st * xi[i, k, 1]
                 py = st * xi[i, k, 0] + ct * xi[i, k, 1]
                 out[i, k] += (own + (dx * Fy - dy * Fx) - (px * Fy - py * Fx)

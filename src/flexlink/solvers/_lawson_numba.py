@@ -282,9 +282,32 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _gemv2(D[3], 0, m, y, 1.0, k1, yc, 1.0, c1)
 
 
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _record(i, y, yc, coarse, states, coarse_states, peak, spread):
+    """Write y (and yc, if ``coarse_states`` has rows) at output index i, and keep the
+    Richardson check's running maxima: peak[q] = max |y_q|, spread[q] = max |y_q − yc_q|
+    (coarse) over the output times so far. Their maxima decide exactly what the
+    comparison of the whole arrays would (magnus.agree): the maximum of |·| is exact."""
+    for q in range(y.shape[0]):
+        v = y[q]
+        states[i, q] = v
+        a = abs(v)
+        if a > peak[q] or np.isnan(a):  # a NaN stays (the caller refuses non-finite states)
+            peak[q] = a
+    if coarse:
+        for q in range(y.shape[0]):
+            a = abs(y[q] - yc[q])
+            if a > spread[q] or np.isnan(a):
+                spread[q] = a
+        if coarse_states.shape[0]:
+            for q in range(y.shape[0]):
+                coarse_states[i, q] = yc[q]
+
+
 @njit(cache=True, error_model="numpy")
 def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,
-                  ET, E2T, E4T, substeps, coarse, states, accelerations, coarse_states):
+                  ET, E2T, E4T, substeps, coarse, states, accelerations, coarse_states,
+                  peak, spread):
     """Advance the augmented state y = [z, ż, 1] through the blocks, and with ``coarse`` the
     state yc of the Richardson pass with half as many steps alongside (in place, both).
 
@@ -293,8 +316,10 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
     moving block is crossed in ``substeps`` Lawson steps per output interval (even unless
     coarse is false), with E[b] = exp(h/2 Ã_ref), E2[b] = E[b]², E4[b] = E2[b]² (the coarse
     pass's E²); a static block interval by interval with E[b] = exp(Δt Ã), exact. Writes y
-    (yc) at every output index into ``states`` (``coarse_states``) and, on moving blocks,
-    z̈ = A y into ``accelerations``.
+    (yc, unless ``coarse_states`` has no rows) at every output index into ``states``
+    (``coarse_states``) and, on moving blocks, z̈ = A y into ``accelerations``; keeps the
+    running maxima over the output times of |y| per component in ``peak`` and (coarse) of
+    |y − yc| in ``spread`` (m,), the Richardson check's inputs (lawson.py).
 
     The coarse step of 2h spans two fine steps: its middle and end are their ends, so it reads
     ΔÃ at instants the fine pass evaluates anyway (one pass over the coefficients, _deltas,
@@ -318,13 +343,10 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
                     _zero2(w, wc)
                     _gemv2(P, 0, m, y, 1.0, w, yc, 1.0, wc)
                     _copy(wc, yc)
-                    for q in range(m):
-                        coarse_states[i + 1, q] = yc[q]
                 else:
                     _gemv(P, 0, m, y, 1.0, w, False)
                 _copy(w, y)
-                for q in range(m):
-                    states[i + 1, q] = y[q]
+                _record(i + 1, y, yc, coarse, states, coarse_states, peak, spread)
             continue
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[b], pieces[b + 1]
@@ -351,11 +373,7 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
                 else:
                     r0 = 2 * (j % 2)
                     _step(P, P2, D[r0], D[r0 + 1], h, y, k1, k2, k3, k4, Ey, E2y, w)
-            for q in range(m):
-                states[i + 1, q] = y[q]
-            if coarse:
-                for q in range(m):
-                    coarse_states[i + 1, q] = yc[q]
+            _record(i + 1, y, yc, coarse, states, coarse_states, peak, spread)
             _gemv(A_ref, 0, m, y, 1.0, r, False)
             for q in range(n):
                 accelerations[i + 1, q] = r[q] + k1[q]
@@ -365,7 +383,7 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
 SIGNATURE = (float64[::1], float64[::1], float64[::1], int64[::1], int64[::1], boolean[::1],
              int64[::1], float64[::1], float64[::1], float64[:, :, :, ::1], float64[:, :, ::1],
              float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], int64, boolean,
-             float64[:, ::1], float64[:, ::1], float64[:, ::1])
+             float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], float64[::1])
 
 
 def load() -> None:

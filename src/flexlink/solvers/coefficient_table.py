@@ -102,17 +102,27 @@ def tabulate(
     moving = [piece for a, b, static in blocks if not static
               for piece in _pieces_between_breaks(a, b, t_out, breaks)]
     static = [(a, b) for a, b, static in blocks if static]
-    static_values = sampler.at(np.array([t_out[a] for a, _ in static]))
+    static_times = np.array([t_out[a] for a, _ in static], dtype=float)
+    static_values = None
     scale = None
     done: list[tuple[int, int, float, float, np.ndarray]] = []
-    while moving:
-        span = np.array([[t_out[a], t_out[b], lo, hi] for a, b, lo, hi in moving])
+    while moving or static_values is None:
+        span = np.array([[t_out[a], t_out[b], lo, hi] for a, b, lo, hi in moving]).reshape(-1, 4)
         starts = span[:, :1] + (span[:, 1:2] - span[:, :1]) * span[:, 2:3]
         lengths = (span[:, 1:2] - span[:, :1]) * (span[:, 3:4] - span[:, 2:3])
-        nodes = sampler.at((starts + lengths * _NODES).ravel()).reshape(len(moving), DEGREE + 1,
-                                                                       *static_values.shape[1:])
-        checks = sampler.at((starts + lengths * _CHECKS).ravel()).reshape(len(moving), DEGREE,
-                                                                          *nodes.shape[2:])
+        # One call of the (compiled) rows per level, the static blocks' values with the first:
+        # each call costs its Python (joint states of the times, their runs) on top.
+        times = [(starts + lengths * _NODES).ravel(), (starts + lengths * _CHECKS).ravel()]
+        if static_values is None:
+            times.append(static_times)
+        values = sampler.at(np.concatenate(times))
+        if static_values is None:
+            static_values = values[values.shape[0] - static_times.size:]
+        if not moving:
+            break
+        nodes = values[:times[0].size].reshape(len(moving), DEGREE + 1, *values.shape[1:])
+        checks = values[times[0].size: times[0].size + times[1].size].reshape(
+            len(moving), DEGREE, *values.shape[1:])
         # Stacked matrix products over the flattened entries (einsum does not call BLAS).
         flat = nodes.reshape(len(moving), DEGREE + 1, -1)
         poly = np.matmul(_FIT, flat).reshape(nodes.shape)
@@ -135,6 +145,7 @@ def tabulate(
         moving = refine
         if sampler.count > limit:
             raise RoughCoefficients(f"{sampler.count} assemblies and still refining")
+    assert static_values is not None
     return _assemble_table(done, static, static_values, sampler.count)
 
 
