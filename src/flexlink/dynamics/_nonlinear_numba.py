@@ -12,7 +12,7 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 
 
 @njit(cache=True)
-def node_forces(A, cols, Q, V, X, ang, rate, acc, G, c, s, S, u):  # noqa: ANN001, ANN201
+def node_forces(A, cols, Q, V, X, ang, rate, acc, G, c, s, S, u):
     """The inertia of the nodes of a link's discretisation, shared by the prescribed-joint and
     the forward nonlinear kernels. Node j turns by α_j = ang_j + Σ_i A[j, i] Q_i (the first
     ``cols`` coordinates; rates and accelerations alike from V, X); into c, s (nodes,) its cos
@@ -52,7 +52,7 @@ def node_forces(A, cols, Q, V, X, ang, rate, acc, G, c, s, S, u):  # noqa: ANN00
 
 
 @njit(cache=True)
-def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):  # noqa: ANN
+def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):
     """Generalized inertia + damping + elastic − applied (``load``, n) forces of one state
     (n,) — the numpy
     NonlinearSystem.residual written as loops (small sizes: no BLAS call overhead)."""
@@ -81,7 +81,7 @@ def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J,
 
 
 @njit(cache=True)
-def accelerations(q, qd, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K):  # noqa: ANN
+def accelerations(q, qd, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K):
     """q̈ (b, n) of M q̈ = f for b states; M = Aᵀ(G ∘ cos(α_j − α_l))A + Σ J_t a_t a_tᵀ."""
     b, n = q.shape
     nodes = A.shape[0]
