@@ -263,3 +263,30 @@ def test_only_the_command_itself_skips_the_final_garbage_collection(
         finally:
             gc.unfreeze()
     assert "[simulation]" in capsys.readouterr().out
+
+
+def test_the_program_exits_without_teardown_but_flushes_and_runs_exit_functions(
+        tmp_path: Path) -> None:
+    """`command` (python -m flexlink, the installed script) ends the process with os._exit
+    after flushing stdout and stderr and running the atexit functions; its status is main's."""
+    import subprocess
+
+    script = ("import atexit, sys\n"
+              "atexit.register(lambda: print('exit functions ran'))\n"
+              "from flexlink.cli import command\n"
+              "sys.argv = ['flexlink', *sys.argv[1:]]\n"
+              "command()\n"
+              "print('never here')\n")
+    env = {**__import__("os").environ,
+           "PYTHONPATH": str(Path(flexlink.simulation.__file__).parents[2])}
+    shown = subprocess.run([sys.executable, "-c", script, "show-paper"], capture_output=True,
+                           text=True, env=env, check=False)
+    assert shown.returncode == 0
+    assert shown.stdout.endswith(paper_experiment_path().read_text(encoding="utf-8")
+                                 + "exit functions ran\n")
+    assert "never here" not in shown.stdout
+    missing = subprocess.run([sys.executable, "-c", script, "run", str(tmp_path / "no.toml"),
+                              "--no-figures"], capture_output=True, text=True, env=env,
+                             check=False)
+    assert missing.returncode == 2 and missing.stderr and "exit functions ran" in missing.stdout
+
