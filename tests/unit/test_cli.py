@@ -290,3 +290,39 @@ def test_the_program_exits_without_teardown_but_flushes_and_runs_exit_functions(
                              check=False)
     assert missing.returncode == 2 and missing.stderr and "exit functions ran" in missing.stdout
 
+
+def test_withheld_imports_fail_inside_the_block_only(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """withheld_imports makes a module not yet imported unimportable within the block (as an
+    optional import sees a missing package), leaves imported ones alone, and restores both."""
+    from flexlink import cli
+
+    (tmp_path / "flexlink_test_optional.py").write_text("VALUE = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "flexlink_test_optional", raising=False)
+    with cli.withheld_imports(["flexlink_test_optional", "math"]) as held:
+        assert held == ["flexlink_test_optional"]
+        with pytest.raises(ImportError):
+            import flexlink_test_optional  # noqa: F401
+        import math  # already imported: untouched
+
+        assert math.pi > 3
+    import flexlink_test_optional
+
+    assert flexlink_test_optional.VALUE == 1
+    monkeypatch.delitem(sys.modules, "flexlink_test_optional")
+
+
+def test_only_the_command_withholds_optional_imports(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The command's process withholds WITHHELD_IMPORTS, yaml only without a numba config
+    file in the current folder (numba reads it with yaml); main(argv) withholds nothing."""
+    from flexlink import cli
+
+    monkeypatch.chdir(tmp_path)
+    assert cli._optional_imports() == ()
+    monkeypatch.setitem(cli._start_up, "command", True)
+    assert cli._optional_imports() == cli.WITHHELD_IMPORTS
+    (tmp_path / cli.NUMBA_CONFIG_FILE).write_text("")
+    assert "yaml" not in cli._optional_imports()
+    assert set(cli._optional_imports()) == set(cli.WITHHELD_IMPORTS) - {"yaml"}
