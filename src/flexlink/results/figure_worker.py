@@ -3,10 +3,12 @@
 `flexlink run` spends about as long importing matplotlib and drawing the figures as it spends
 importing scipy and numba, simulating and writing the data files, and each is serial Python.
 `FigureWorker.start()` forks a child process before those imports; the child imports
-matplotlib and the plotting code at once (while the parent works), then waits for
-`submit(results, folder)`. With the results in hand it forks once more, so that two processes
+matplotlib and the plotting code at once (while the parent works), forks its partner, and
+both wait for `submit(results, folder)`: the child reads the job and passes it on, and the two
 draw the figures (`figures.split_figures`: two groups of about equal work) while the parent
-writes the data files; `wait()` returns when all are written.
+writes the data files; `wait()` returns when all are written. (The partner is forked before
+the job arrives: forking a process that holds matplotlib took 3-12 ms, then on the command's
+critical path.)
 
 The worker is an optimisation only: where it cannot run (not Linux, other threads running in
 this process, the child failed or died) `wait()` returns False and the caller draws the
@@ -84,14 +86,16 @@ class FigureWorker:
             self._jobs = -1
 
     def wait(self) -> bool:
-        """True when the child wrote the figures; False otherwise (draw them yourself)."""
+        """True when the child wrote the figures; False otherwise (draw them yourself). The
+        child may still be ending: `close` reaps it."""
         ok = False
         if self._submitted:
             try:
                 ok = os.read(self._replies, 1) == b"1"
             except OSError:
                 ok = False
-        self.close()
+        if not ok:
+            self.close()
         return ok
 
     def close(self) -> None:
@@ -127,43 +131,119 @@ def _child(jobs: int, replies: int) -> None:
         from . import figures  # matplotlib and the plotting code load while the parent works
 
         figures.preload_figures()
+        partner = _Partner.start(jobs, replies)
         header = _read_exactly(jobs, _HEADER.size)
-        if header is not None:
-            payload = _read_exactly(jobs, _HEADER.unpack(header)[0])
-            if payload is not None:
-                results, folder = pickle.loads(payload)
-                _draw_in_two(results, folder)
-                status = 0
-                os.write(replies, b"1")
+        payload = None if header is None else _read_exactly(jobs, _HEADER.unpack(header)[0])
+        if partner is not None:
+            partner.send(header, payload)
+        if payload is not None:
+            results, folder = pickle.loads(payload)
+            _draw_mine(results, folder, partner)
+            status = 0
+            os.write(replies, b"1")
+        if partner is not None:
+            partner.reap()  # after the reply: its ending overlaps the parent's report
     except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
         status = 1
     finally:
         os._exit(status)
 
 
-def _draw_in_two(results: Any, folder: Path) -> None:
-    """Draw the figures into ``folder`` in this process and a forked one, half each; draw the
-    other half here too if that process fails."""
+def _draw_mine(results: Any, folder: Path, partner: _Partner | None) -> None:
+    """Draw this process's half of the figures into ``folder`` (`figures.split_figures`),
+    then the partner's half too unless the partner drew it."""
     from . import figures
 
     folder.mkdir(exist_ok=True)
     mine, theirs = figures.split_figures(results)
-    pid = 0
-    if theirs:
+    if partner is None:
+        mine, theirs = mine + theirs, []
+    figures.write_figures(results, folder, mine)
+    if partner is not None and not partner.done() and theirs:
+        figures.write_figures(results, folder, theirs)
+
+
+class _Partner:
+    """The second drawing process, forked by the worker's child before the job arrives; it
+    draws the other half of `figures.split_figures` and reports a status byte."""
+
+    def __init__(self, pid: int, jobs: int, replies: int) -> None:
+        self._pid = pid
+        self._jobs = jobs  # write end: the job, as the child received it
+        self._replies = replies  # read end: b"1" when its figures are written
+
+    @classmethod
+    def start(cls, child_jobs: int, child_replies: int) -> _Partner | None:
+        """Fork the partner; None if forking fails (the child then draws everything)."""
+        job_r, job_w = os.pipe()
+        reply_r, reply_w = os.pipe()
         try:
             pid = os.fork()
         except OSError:
-            mine, theirs = mine + theirs, []
-        if pid == 0 and theirs:  # the second drawing process: never returns
-            code = 1
+            for fd in (job_r, job_w, reply_r, reply_w):
+                os.close(fd)
+            return None
+        if pid == 0:  # the partner: never returns
+            status = 1
             try:
-                figures.write_figures(results, folder, theirs)
-                code = 0
+                # the command's pipes are the child's: the parent must see them close when
+                # the child ends, whatever the partner does
+                for fd in (child_jobs, child_replies, job_w, reply_r):
+                    os.close(fd)
+                status = _partner(job_r, reply_w)
             finally:
-                os._exit(code)
-    figures.write_figures(results, folder, mine)
-    if pid and os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) != 0:
+                os._exit(status)
+        os.close(job_r)
+        os.close(reply_w)
+        _widen_pipe(job_w)
+        return cls(pid, job_w, reply_r)
+
+    def send(self, header: bytes | None, payload: bytes | None) -> None:
+        """Pass the job on (nothing if there is none: the partner then ends)."""
+        try:
+            if header is not None and payload is not None:
+                _write_all(self._jobs, header + payload)
+        except OSError:  # the partner is gone: done() says so
+            pass
+        finally:
+            os.close(self._jobs)
+
+    def done(self) -> bool:
+        """Wait for the partner: True when it wrote its figures (it may still be ending:
+        `reap`)."""
+        try:
+            return os.read(self._replies, 1) == b"1"
+        except OSError:
+            return False
+        finally:
+            os.close(self._replies)
+            self._replies = -1
+
+    def reap(self) -> None:
+        """Wait for the partner's end (it ends when its job pipe closes, job or not)."""
+        if self._replies >= 0:
+            os.close(self._replies)
+            self._replies = -1
+        with contextlib.suppress(ChildProcessError):
+            os.waitpid(self._pid, 0)
+
+
+def _partner(jobs: int, replies: int) -> int:
+    from . import figures
+
+    header = _read_exactly(jobs, _HEADER.size)
+    if header is None:
+        return 0  # no job: the command failed or ended
+    payload = _read_exactly(jobs, _HEADER.unpack(header)[0])
+    if payload is None:
+        return 1
+    results, folder = pickle.loads(payload)
+    folder.mkdir(exist_ok=True)
+    theirs = figures.split_figures(results)[1]
+    if theirs:
         figures.write_figures(results, folder, theirs)
+    os.write(replies, b"1")
+    return 0
 
 
 def _widen_pipe(fd: int) -> None:
