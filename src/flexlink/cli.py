@@ -297,6 +297,10 @@ def _load_simulate_and_write(args: argparse.Namespace, worker: Any) -> int:
         return _fail(str(exc))
     except (OutputFolderError, ValueError, OSError) as exc:
         return _fail(f"error: {exc}")
+    if worker is not None:  # its figures' frames are made while this process simulates
+        from .channels.catalogue import catalogue
+
+        worker.hint(catalogue(scenario))
     with withheld_imports(_optional_imports()):
         preload = _preload_compiled_code(scenario)  # after the fork: no fork with threads
         try:

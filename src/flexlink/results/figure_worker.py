@@ -23,12 +23,17 @@ import contextlib
 import dataclasses
 import os
 import pickle
+import select
 import signal
 import struct
 import sys
 import threading
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..channels import Channel
 
 _HEADER = struct.Struct("<Q")
 
@@ -68,6 +73,14 @@ class FigureWorker:
         _widen_pipe(job_w)
         return cls(pid, job_w, reply_r)
 
+    def hint(self, channels: Iterable[Channel]) -> None:
+        """Tell the child the channel records the run will have (`channels.catalogue`), so
+        that it prepares the figures' frames before the values come (`figures.
+        prepare_figures`). Optional; before `submit`."""
+        if self._jobs >= 0:
+            with contextlib.suppress(OSError):  # the child is gone: wait() reports it
+                _write_all(self._jobs, _message(("hint", list(channels))))
+
     def submit(self, results: Any, folder: Path) -> None:
         """Ask the child to draw ``results``' figures into ``folder`` (returns at once, unless
         the job is larger than the pipe and the child is still starting)."""
@@ -75,9 +88,8 @@ class FigureWorker:
             # the links' deformed shapes (animations) are 7/8 of a paper run's results and no
             # figure draws them
             results = dataclasses.replace(results, shapes=[])
-        payload = pickle.dumps((results, Path(folder)), protocol=pickle.HIGHEST_PROTOCOL)
         try:
-            _write_all(self._jobs, _HEADER.pack(len(payload)) + payload)
+            _write_all(self._jobs, _message(("job", results, Path(folder))))
             self._submitted = True
         except OSError:  # the child is gone: wait() reports it
             pass
@@ -132,13 +144,14 @@ def _child(jobs: int, replies: int) -> None:
 
         figures.preload_figures()
         partner = _Partner.start(jobs, replies)
-        header = _read_exactly(jobs, _HEADER.size)
-        payload = None if header is None else _read_exactly(jobs, _HEADER.unpack(header)[0])
-        if partner is not None:
-            partner.send(header, payload)
-        if payload is not None:
-            results, folder = pickle.loads(payload)
-            _draw_mine(results, folder, partner)
+        try:
+            job = _await_job(jobs, 0 if partner is not None else None,
+                             None if partner is None else partner.send)
+        finally:
+            if partner is not None:
+                partner.close_jobs()  # the partner has its job, or ends
+        if job is not None:
+            _draw_mine(*job, partner)
             status = 0
             os.write(replies, b"1")
         if partner is not None:
@@ -147,6 +160,30 @@ def _child(jobs: int, replies: int) -> None:
         status = 1
     finally:
         os._exit(status)
+
+
+def _await_job(jobs: int, group: int | None,
+               forward: Callable[[bytes], None] | None) -> tuple[Any, Path] | None:
+    """Read messages from ``jobs`` until the job (results, folder); None if it closes
+    first. Each message is passed on to ``forward`` (the partner) first. A hint's figures of
+    ``group`` (`figures.split_figures`; None: all) are prepared while waiting, until the job
+    is there."""
+    from . import figures
+
+    while True:
+        message = _read_message(jobs)
+        if message is None:
+            return None
+        if forward is not None:
+            forward(message)
+        kind, *data = pickle.loads(memoryview(message)[_HEADER.size:])
+        if kind == "job":
+            return data[0], data[1]
+        if kind == "hint":
+            records = figures.ChannelRecords(data[0])
+            groups = figures.split_figures(records)
+            stems = groups[0] + groups[1] if group is None else groups[group]
+            figures.prepare_figures(records, stems, stop=lambda: _readable(jobs))
 
 
 def _draw_mine(results: Any, folder: Path, partner: _Partner | None) -> None:
@@ -169,7 +206,7 @@ class _Partner:
 
     def __init__(self, pid: int, jobs: int, replies: int) -> None:
         self._pid = pid
-        self._jobs = jobs  # write end: the job, as the child received it
+        self._jobs = jobs  # write end: the child's messages, passed on
         self._replies = replies  # read end: b"1" when its figures are written
 
     @classmethod
@@ -198,15 +235,19 @@ class _Partner:
         _widen_pipe(job_w)
         return cls(pid, job_w, reply_r)
 
-    def send(self, header: bytes | None, payload: bytes | None) -> None:
-        """Pass the job on (nothing if there is none: the partner then ends)."""
-        try:
-            if header is not None and payload is not None:
-                _write_all(self._jobs, header + payload)
-        except OSError:  # the partner is gone: done() says so
-            pass
-        finally:
+    def send(self, message: bytes) -> None:
+        """Pass a message on (if the partner is gone, done() says so)."""
+        if self._jobs >= 0:
+            try:
+                _write_all(self._jobs, message)
+            except OSError:
+                self.close_jobs()
+
+    def close_jobs(self) -> None:
+        """No more messages: a partner without its job ends."""
+        if self._jobs >= 0:
             os.close(self._jobs)
+            self._jobs = -1
 
     def done(self) -> bool:
         """Wait for the partner: True when it wrote its figures (it may still be ending:
@@ -221,6 +262,7 @@ class _Partner:
 
     def reap(self) -> None:
         """Wait for the partner's end (it ends when its job pipe closes, job or not)."""
+        self.close_jobs()
         if self._replies >= 0:
             os.close(self._replies)
             self._replies = -1
@@ -231,19 +273,35 @@ class _Partner:
 def _partner(jobs: int, replies: int) -> int:
     from . import figures
 
-    header = _read_exactly(jobs, _HEADER.size)
-    if header is None:
+    job = _await_job(jobs, 1, None)
+    if job is None:
         return 0  # no job: the command failed or ended
-    payload = _read_exactly(jobs, _HEADER.unpack(header)[0])
-    if payload is None:
-        return 1
-    results, folder = pickle.loads(payload)
+    results, folder = job
     folder.mkdir(exist_ok=True)
     theirs = figures.split_figures(results)[1]
     if theirs:
         figures.write_figures(results, folder, theirs)
     os.write(replies, b"1")
     return 0
+
+
+def _message(obj: Any) -> bytes:
+    payload = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+    return _HEADER.pack(len(payload)) + payload
+
+
+def _read_message(fd: int) -> bytes | None:
+    """One message as sent (header and payload); None if the pipe closes first."""
+    header = _read_exactly(fd, _HEADER.size)
+    if header is None:
+        return None
+    payload = _read_exactly(fd, _HEADER.unpack(header)[0])
+    return None if payload is None else header + payload
+
+
+def _readable(fd: int) -> bool:
+    """Whether reading ``fd`` would not block (a message, or the pipe closed)."""
+    return bool(select.select([fd], [], [], 0)[0])
 
 
 def _widen_pipe(fd: int) -> None:
