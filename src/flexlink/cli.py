@@ -136,6 +136,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         gc.disable()
         _start_up["paused"] = True
         _start_up["command"] = True
+        _one_blas_thread(sys.argv[1:])
     try:
         return _main(argv)
     finally:
@@ -143,6 +144,23 @@ def main(argv: Sequence[str] | None = None) -> int:
             gc.freeze()
             _collect_from_here()  # if a failure came first
             _start_up["command"] = False
+
+
+# The commands that run one simulation: its integrators limit BLAS to one thread anyway
+# (solvers/threads.py) and the rest of a run multiplies matrices too small for threads.
+ONE_BLAS_THREAD_COMMANDS = ("run", "paper")
+# OpenBLAS reads the first of these that is set; a user's own setting is kept.
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def _one_blas_thread(args: Sequence[str]) -> None:
+    """Start OpenBLAS (numpy's and scipy's) with one thread in a ``run``/``paper`` command's
+    own process, unless the user chose a number of threads: the thread OpenBLAS starts for
+    the second core spins for work after numpy's and scipy's imports, ~0.15 s of CPU that
+    the figures' processes and the run itself were waiting for (docs/performance.md)."""
+    if (args and args[0] in ONE_BLAS_THREAD_COMMANDS and "numpy" not in sys.modules
+            and not any(name in os.environ for name in BLAS_THREAD_VARIABLES)):
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"
 
 
 def command() -> NoReturn:

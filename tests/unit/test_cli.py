@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import tomllib
 from pathlib import Path
@@ -277,7 +278,7 @@ def test_the_program_exits_without_teardown_but_flushes_and_runs_exit_functions(
               "sys.argv = ['flexlink', *sys.argv[1:]]\n"
               "command()\n"
               "print('never here')\n")
-    env = {**__import__("os").environ,
+    env = {**os.environ,
            "PYTHONPATH": str(Path(flexlink.simulation.__file__).parents[2])}
     shown = subprocess.run([sys.executable, "-c", script, "show-paper"], capture_output=True,
                            text=True, env=env, check=False)
@@ -326,3 +327,26 @@ def test_only_the_command_withholds_optional_imports(
     (tmp_path / cli.NUMBA_CONFIG_FILE).write_text("")
     assert "yaml" not in cli._optional_imports()
     assert set(cli._optional_imports()) == set(cli.WITHHELD_IMPORTS) - {"yaml"}
+
+
+def test_run_commands_start_blas_with_one_thread_unless_the_user_chose(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The command's own process of run/paper sets OPENBLAS_NUM_THREADS=1 before numpy loads,
+    unless a BLAS thread variable is set; other commands, or numpy already loaded: nothing."""
+    from flexlink import cli
+
+    for name in cli.BLAS_THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    cli._one_blas_thread(["run", "--paper"])  # numpy is loaded in this process: too late
+    assert "OPENBLAS_NUM_THREADS" not in os.environ
+    monkeypatch.delitem(sys.modules, "numpy")
+    for args in (["sweep", "x.toml"], ["show-paper"], []):
+        cli._one_blas_thread(args)
+        assert "OPENBLAS_NUM_THREADS" not in os.environ
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    cli._one_blas_thread(["paper"])
+    assert "OPENBLAS_NUM_THREADS" not in os.environ
+    monkeypatch.delenv("OMP_NUM_THREADS")
+    cli._one_blas_thread(["run", "a.toml"])
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS")
