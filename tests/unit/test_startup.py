@@ -317,3 +317,24 @@ def test_prepared_frames_draw_the_same_pixels(tmp_path: Path, torque_ratio: floa
     save_png(plotting.plot_joint_angles(results), tmp_path / "again.png")  # nothing left over
     assert (tmp_path / "again.png").read_bytes() == (tmp_path / "fresh" / "joint_angles.png"
                                                       ).read_bytes()
+
+
+def test_trace_text_is_the_json_of_the_traces() -> None:
+    """report.html's traces formatted all at once: the text json.dumps gave, for values of
+    every size (exponent and positional forms, integral, subnormal, signed zeros, non-finite)
+    and names that need escaping."""
+    import json
+
+    from flexlink.results.report_html import Trace, _trace_json, _trace_text
+
+    rng = np.random.default_rng(16)
+    edge = np.array([0.0, -0.0, 1.0, 1e5, 999999.0, 999999.5, 1e6, 1234567.0, 9.999995e15,
+                     1e16, 1e-4, 9.99999e-5, 1e-5, 5e-324, 2.2e-308, 1e-307,
+                     1.7976931348623157e308, np.nan, np.inf, -np.inf, 0.1, 123456.0])
+    for n in (0, 5, 2999, 7001):
+        t = np.linspace(0.0, 5.0, n)
+        series = {"µ 'tip' \"x\"": rng.standard_normal(n) * 10.0 ** rng.uniform(-320, 300, n),
+                  "β₁": np.round(rng.standard_normal(n) * 10.0 ** rng.integers(-8, 18, n)),
+                  "edges": np.resize(np.concatenate([edge, -edge]), n)}
+        trace = Trace("τ₁ <title> & 'quotes'", "N·m", t, series)
+        assert _trace_text(trace) == json.dumps(_trace_json(trace))
