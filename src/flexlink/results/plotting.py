@@ -8,6 +8,7 @@ radians; the axes show degrees for angles and convenient multiples (mm, µstrain
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
@@ -184,6 +185,8 @@ def prepare_frames(specs: Sequence[FrameSpec], stop: Callable[[], bool] | None =
         for ax in axes:
             ax.xaxis.get_major_ticks(PREPARED_TICKS)
             ax.yaxis.get_major_ticks(PREPARED_TICKS)
+            _style(ax)  # styling the ticks made is as costly as making them
+            _STYLED.add(ax)
         _PREPARED.setdefault(spec, []).append((fig, axes))
 
 
@@ -204,7 +207,13 @@ def _title(ax: Axes, text: str, loc: str = "left") -> None:
     ax.set_title(text, fontsize="medium", loc=loc, y=None if offset else 1.0)
 
 
+# Axes of prepared frames, styled ahead (`prepare_frames`): `_style` leaves them as they are.
+_STYLED: weakref.WeakSet[Axes] = weakref.WeakSet()
+
+
 def _style(ax: Axes) -> None:
+    if ax in _STYLED:
+        return
     ax.grid(True, linewidth=0.5, alpha=0.6)
     ax.tick_params(direction="in", top=True, right=True)
 
