@@ -104,6 +104,21 @@ half.submit(results, tmp / "half")
 assert half.wait(), "the worker did not draw"
 for path in here:
     assert (tmp / "half" / path.name).read_bytes() == path.read_bytes(), path.name
+# the worker's child fails while its partner draws: the partner is stopped and write_run
+# draws every figure itself
+def failing_in_the_child(results, folder, stems=None):
+    if os.getppid() == parent and os.getpid() != parent:
+        raise RuntimeError("child fails")
+    return draw(results, folder, stems)
+
+figures.write_figures = failing_in_the_child
+broken = FigureWorker.start()
+figures.write_figures = draw
+broken.hint(results.channels.values())
+out = writers.write_run(results, tmp / "broken", resolve_scenario_dict(scenario_dict()),
+                        figure_worker=broken)
+for path in here:
+    assert (out / "figures" / path.name).read_bytes() == path.read_bytes(), path.name
 dead = FigureWorker.start()
 os.kill(dead._pid, signal.SIGKILL)
 out = writers.write_run(results, tmp / "run", resolve_scenario_dict(scenario_dict()),
@@ -119,7 +134,7 @@ print("ok")
 def test_figure_worker_draws_what_write_figures_draws_and_falls_back(tmp_path: Path) -> None:
     """Figures drawn by the forked worker (two processes, given the channel records ahead)
     are byte for byte those drawn in-process; when its second process fails its first draws
-    them all; a worker that died leaves write_run to draw them itself."""
+    them all; when its first fails, or the worker died, write_run draws them itself."""
     import subprocess
     import sys
 

@@ -150,10 +150,15 @@ def _child(jobs: int, replies: int) -> None:
         finally:
             if partner is not None:
                 partner.close_jobs()  # the partner has its job, or ends
-        if job is not None:
-            _draw_mine(*job, partner)
-            status = 0
-            os.write(replies, b"1")
+        try:
+            if job is not None:
+                _draw_mine(*job, partner)
+                status = 0
+                os.write(replies, b"1")
+        except BaseException:
+            if partner is not None:  # the parent draws again: nothing else may draw now
+                partner.kill()
+            raise
         if partner is not None:
             partner.reap()  # after the reply: its ending overlaps the parent's report
     except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
@@ -259,6 +264,12 @@ class _Partner:
         finally:
             os.close(self._replies)
             self._replies = -1
+
+    def kill(self) -> None:
+        """Stop the partner at once and reap it."""
+        with contextlib.suppress(OSError):
+            os.kill(self._pid, signal.SIGKILL)
+        self.reap()
 
     def reap(self) -> None:
         """Wait for the partner's end (it ends when its job pipe closes, job or not)."""
