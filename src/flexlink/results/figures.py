@@ -61,7 +61,6 @@ def save_png(fig: Figure, path: Path) -> None:
     the same size in half the encoding time (~0.1 s of CPU → 0.05 s for a run's three
     figures, about a fifth of drawing them)."""
     import matplotlib
-    import numpy as np
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image, PngImagePlugin
 
@@ -69,7 +68,9 @@ def save_png(fig: Figure, path: Path) -> None:
     canvas.draw()
     rgba = np.asarray(canvas.buffer_rgba())
     opaque = bool((rgba[..., 3] == 255).all())
-    image = Image.fromarray(np.ascontiguousarray(rgba[..., :3]) if opaque else rgba)
+    image = Image.fromarray(rgba)
+    if opaque:
+        image = image.convert("RGB")  # PIL drops the alpha in C: 1.5 ms, numpy's copy 7 ms
     info = PngImagePlugin.PngInfo()  # what savefig records
     info.add_text("Software", f"Matplotlib version{matplotlib.__version__}, "
                               "https://matplotlib.org/")
