@@ -64,7 +64,9 @@ def save_png(fig: Figure, path: Path) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image, PngImagePlugin
 
-    canvas = FigureCanvasAgg(fig)
+    canvas = fig.canvas  # an Agg canvas already where the frame was prepared
+    if not isinstance(canvas, FigureCanvasAgg):
+        canvas = FigureCanvasAgg(fig)
     canvas.draw()
     rgba = np.asarray(canvas.buffer_rgba())
     opaque = bool((rgba[..., 3] == 255).all())

@@ -182,6 +182,9 @@ def prepare_frames(specs: Sequence[FrameSpec], stop: Callable[[], bool] | None =
         if stop is not None and stop():
             return
         fig, axes = _build_frame(spec)
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        FigureCanvasAgg(fig).get_renderer()  # its pixel buffer, cleared when drawn
         for ax in axes:
             ax.xaxis.get_major_ticks(PREPARED_TICKS)
             ax.yaxis.get_major_ticks(PREPARED_TICKS)
