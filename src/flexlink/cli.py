@@ -333,8 +333,8 @@ def _load_simulate_and_write(args: argparse.Namespace, worker: Any) -> int:
 # Modules that numba and scipy import when they are installed and that a run never uses:
 # charset_normalizer (numpy.f2py's guess of a Fortran file's encoding, imported through
 # scipy's copy of numpy's namespace; ~30 ms), cffi (numba's typing of cffi functions;
-# ~15-20 ms) and yaml (numba's reading of a .numba_config.yaml in the current folder, so
-# only where there is none; ~15 ms). Each is optional to them (imported inside a try).
+# ~20-40 ms) and yaml (numba's reading of a .numba_config.yaml in the current folder, so
+# only where there is none; ~15-25 ms). Each is optional to them (imported inside a try).
 WITHHELD_IMPORTS = ("charset_normalizer", "cffi", "yaml")
 NUMBA_CONFIG_FILE = ".numba_config.yaml"
 
