@@ -187,7 +187,7 @@ def _exit(status: int) -> NoReturn:
         except (OSError, ValueError):
             pass  # Python's own exit reports it
         else:
-            atexit._run_exitfuncs()  # noqa: SLF001 — the handlers a normal exit runs
+            atexit._run_exitfuncs()  # the handlers a normal exit runs
             os._exit(status)
     raise SystemExit(status)
 
