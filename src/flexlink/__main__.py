@@ -1,5 +1,5 @@
 """``python -m flexlink`` runs the command line (see flexlink.cli)."""
 
-from .cli import main
+from .cli import command
 
-raise SystemExit(main())
+command()

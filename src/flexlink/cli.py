@@ -12,10 +12,12 @@ from __future__ import annotations
 import argparse
 import gc
 import math
+import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 PAPER_DEFAULT_OUTPUT = "paper_results"
 
@@ -113,7 +115,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-_start_up: dict[str, bool] = {"paused": False}  # the collector paused by main() (start-up)
+# paused: the collector paused by main() (start-up); command: main() runs the command's own
+# process (no argv), which exits when it returns
+_start_up: dict[str, bool] = {"paused": False, "command": False}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -131,12 +135,61 @@ def main(argv: Sequence[str] | None = None) -> int:
     if command:
         gc.disable()
         _start_up["paused"] = True
+        _start_up["command"] = True
+        _one_blas_thread(sys.argv[1:])
     try:
         return _main(argv)
     finally:
         if command:
             gc.freeze()
             _collect_from_here()  # if a failure came first
+            _start_up["command"] = False
+
+
+# The commands that run one simulation: its integrators limit BLAS to one thread anyway
+# (solvers/threads.py) and the rest of a run multiplies matrices too small for threads.
+ONE_BLAS_THREAD_COMMANDS = ("run", "paper")
+# OpenBLAS reads the first of these that is set; a user's own setting is kept.
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def _one_blas_thread(args: Sequence[str]) -> None:
+    """Start OpenBLAS (numpy's and scipy's) with one thread in a ``run``/``paper`` command's
+    own process, unless the user chose a number of threads: the thread OpenBLAS starts for
+    the second core spins for work after numpy's and scipy's imports, ~0.15 s of CPU that
+    the figures' processes and the run itself were waiting for (docs/performance.md)."""
+    if (args and args[0] in ONE_BLAS_THREAD_COMMANDS and "numpy" not in sys.modules
+            and not any(name in os.environ for name in BLAS_THREAD_VARIABLES)):
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"
+
+
+def command() -> NoReturn:
+    """The ``flexlink`` program (``python -m flexlink`` and the installed script): `main`,
+    then the end of the process without Python's teardown of its modules.
+
+    After a run the interpreter holds ~10⁶ objects of numpy, scipy and numba; unloading
+    their modules one by one cost 25-50 ms of every command after its last output. The
+    teardown frees nothing a process that ends needs freed: stdout and stderr are flushed and
+    the exit functions (``atexit``) run as in a normal exit. Where other threads are still
+    running, or flushing fails (a closed pipe), Python's usual exit runs instead."""
+    status = main()
+    _exit(status)
+
+
+def _exit(status: int) -> NoReturn:
+    import atexit
+    import threading
+
+    if threading.active_count() == 1:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass  # Python's own exit reports it
+        else:
+            atexit._run_exitfuncs()  # the handlers a normal exit runs
+            os._exit(status)
+    raise SystemExit(status)
 
 
 def _collect_from_here() -> None:
@@ -262,8 +315,57 @@ def _load_simulate_and_write(args: argparse.Namespace, worker: Any) -> int:
         return _fail(str(exc))
     except (OutputFolderError, ValueError, OSError) as exc:
         return _fail(f"error: {exc}")
-    preload = _preload_compiled_code(scenario)  # after the fork: no fork with threads
-    return _simulate_and_write(scenario, resolved, out_dir, args, worker, preload)
+    if worker is not None:  # its figures' frames are made while this process simulates
+        from .channels.catalogue import catalogue
+
+        worker.hint(catalogue(scenario))
+    with withheld_imports(_optional_imports()):
+        preload = _preload_compiled_code(scenario)  # after the fork: no fork with threads
+        try:
+            from .simulation import simulate  # noqa: F401 — imported while numba loads
+        except ImportError:
+            pass  # a library needs a withheld module after all: imported again below
+        if preload is not None:
+            preload.join()  # loaded meanwhile; compiled code must not run while it loads
+    return _simulate_and_write(scenario, resolved, out_dir, args, worker)
+
+
+# Modules that numba and scipy import when they are installed and that a run never uses:
+# charset_normalizer (numpy.f2py's guess of a Fortran file's encoding, imported through
+# scipy's copy of numpy's namespace; ~30 ms), cffi (numba's typing of cffi functions;
+# ~20-40 ms) and yaml (numba's reading of a .numba_config.yaml in the current folder, so
+# only where there is none; ~15-25 ms). Each is optional to them (imported inside a try).
+WITHHELD_IMPORTS = ("charset_normalizer", "cffi", "yaml")
+NUMBA_CONFIG_FILE = ".numba_config.yaml"
+
+
+def _optional_imports() -> tuple[str, ...]:
+    """`WITHHELD_IMPORTS` for the command's own process (whose libraries then go without them
+    until it exits), none for a caller of ``main(argv)`` that goes on."""
+    if not _start_up["command"]:
+        return ()
+    if os.path.exists(NUMBA_CONFIG_FILE):
+        return tuple(n for n in WITHHELD_IMPORTS if n != "yaml")
+    return WITHHELD_IMPORTS
+
+
+@contextmanager
+def withheld_imports(names: Sequence[str]) -> Iterator[list[str]]:
+    """Within the block, ``import name`` raises ImportError for each of ``names`` that is not
+    imported yet (Python's own ``sys.modules[name] = None``); afterwards it imports as usual.
+    Yields the names withheld. For `flexlink run`'s start-up: numba and scipy load meanwhile
+    and go without the optional modules `WITHHELD_IMPORTS` (docs/performance.md). Should a
+    library need one after all, its import fails inside the block and succeeds when
+    retried after it (the run imports the simulation code again on first use)."""
+    held = [name for name in names if name not in sys.modules]
+    for name in held:
+        sys.modules[name] = None  # type: ignore[assignment]
+    try:
+        yield held
+    finally:
+        for name in held:
+            if name in sys.modules and sys.modules[name] is None:
+                del sys.modules[name]
 
 
 def _preload_compiled_code(scenario: Any) -> Any:
@@ -279,14 +381,11 @@ def _preload_compiled_code(scenario: Any) -> Any:
 
 
 def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
-                        args: argparse.Namespace, figure_worker: Any = None,
-                        preload: Any = None) -> int:
+                        args: argparse.Namespace, figure_worker: Any = None) -> int:
     from .errors import RunTooLarge, SimulationError
     from .results.writers import write_run
     from .simulation import simulate
 
-    if preload is not None:
-        preload.join()  # loaded meanwhile; compiled code must not run while it loads
     _collect_from_here()  # imports done
     try:
         results = simulate(scenario, progress=not args.quiet)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import tomllib
 from pathlib import Path
@@ -263,3 +264,89 @@ def test_only_the_command_itself_skips_the_final_garbage_collection(
         finally:
             gc.unfreeze()
     assert "[simulation]" in capsys.readouterr().out
+
+
+def test_the_program_exits_without_teardown_but_flushes_and_runs_exit_functions(
+        tmp_path: Path) -> None:
+    """`command` (python -m flexlink, the installed script) ends the process with os._exit
+    after flushing stdout and stderr and running the atexit functions; its status is main's."""
+    import subprocess
+
+    script = ("import atexit, sys\n"
+              "atexit.register(lambda: print('exit functions ran'))\n"
+              "from flexlink.cli import command\n"
+              "sys.argv = ['flexlink', *sys.argv[1:]]\n"
+              "command()\n"
+              "print('never here')\n")
+    env = {**os.environ,
+           "PYTHONPATH": str(Path(flexlink.simulation.__file__).parents[2])}
+    shown = subprocess.run([sys.executable, "-c", script, "show-paper"], capture_output=True,
+                           text=True, env=env, check=False)
+    assert shown.returncode == 0
+    assert shown.stdout.endswith(paper_experiment_path().read_text(encoding="utf-8")
+                                 + "exit functions ran\n")
+    assert "never here" not in shown.stdout
+    missing = subprocess.run([sys.executable, "-c", script, "run", str(tmp_path / "no.toml"),
+                              "--no-figures"], capture_output=True, text=True, env=env,
+                             check=False)
+    assert missing.returncode == 2 and missing.stderr and "exit functions ran" in missing.stdout
+
+
+def test_withheld_imports_fail_inside_the_block_only(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """withheld_imports makes a module not yet imported unimportable within the block (as an
+    optional import sees a missing package), leaves imported ones alone, and restores both."""
+    from flexlink import cli
+
+    (tmp_path / "flexlink_test_optional.py").write_text("VALUE = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "flexlink_test_optional", raising=False)
+    with cli.withheld_imports(["flexlink_test_optional", "math"]) as held:
+        assert held == ["flexlink_test_optional"]
+        with pytest.raises(ImportError):
+            import flexlink_test_optional
+        import math  # already imported: untouched
+
+        assert math.pi > 3
+    import flexlink_test_optional
+
+    assert flexlink_test_optional.VALUE == 1
+    monkeypatch.delitem(sys.modules, "flexlink_test_optional")
+
+
+def test_only_the_command_withholds_optional_imports(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The command's process withholds WITHHELD_IMPORTS, yaml only without a numba config
+    file in the current folder (numba reads it with yaml); main(argv) withholds nothing."""
+    from flexlink import cli
+
+    monkeypatch.chdir(tmp_path)
+    assert cli._optional_imports() == ()
+    monkeypatch.setitem(cli._start_up, "command", True)
+    assert cli._optional_imports() == cli.WITHHELD_IMPORTS
+    (tmp_path / cli.NUMBA_CONFIG_FILE).write_text("")
+    assert "yaml" not in cli._optional_imports()
+    assert set(cli._optional_imports()) == set(cli.WITHHELD_IMPORTS) - {"yaml"}
+
+
+def test_run_commands_start_blas_with_one_thread_unless_the_user_chose(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The command's own process of run/paper sets OPENBLAS_NUM_THREADS=1 before numpy loads,
+    unless a BLAS thread variable is set; other commands, or numpy already loaded: nothing."""
+    from flexlink import cli
+
+    for name in cli.BLAS_THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    cli._one_blas_thread(["run", "--paper"])  # numpy is loaded in this process: too late
+    assert "OPENBLAS_NUM_THREADS" not in os.environ
+    monkeypatch.delitem(sys.modules, "numpy")
+    for args in (["sweep", "x.toml"], ["show-paper"], []):
+        cli._one_blas_thread(args)
+        assert "OPENBLAS_NUM_THREADS" not in os.environ
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    cli._one_blas_thread(["paper"])
+    assert "OPENBLAS_NUM_THREADS" not in os.environ
+    monkeypatch.delenv("OMP_NUM_THREADS")
+    cli._one_blas_thread(["run", "a.toml"])
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS")

@@ -80,6 +80,7 @@ tmp = Path({tmp!r})
 worker = FigureWorker.start()
 assert worker is not None, "not forked"
 results = fake_results()
+worker.hint(results.channels.values())  # frames prepared before the job
 worker.submit(results, tmp / "worker")
 assert worker.wait(), "the worker did not draw"
 here = writers.write_figures(results, tmp / "here")
@@ -103,6 +104,21 @@ half.submit(results, tmp / "half")
 assert half.wait(), "the worker did not draw"
 for path in here:
     assert (tmp / "half" / path.name).read_bytes() == path.read_bytes(), path.name
+# the worker's child fails while its partner draws: the partner is stopped and write_run
+# draws every figure itself
+def failing_in_the_child(results, folder, stems=None):
+    if os.getppid() == parent and os.getpid() != parent:
+        raise RuntimeError("child fails")
+    return draw(results, folder, stems)
+
+figures.write_figures = failing_in_the_child
+broken = FigureWorker.start()
+figures.write_figures = draw
+broken.hint(results.channels.values())
+out = writers.write_run(results, tmp / "broken", resolve_scenario_dict(scenario_dict()),
+                        figure_worker=broken)
+for path in here:
+    assert (out / "figures" / path.name).read_bytes() == path.read_bytes(), path.name
 dead = FigureWorker.start()
 os.kill(dead._pid, signal.SIGKILL)
 out = writers.write_run(results, tmp / "run", resolve_scenario_dict(scenario_dict()),
@@ -116,9 +132,9 @@ print("ok")
 
 @needs_fork
 def test_figure_worker_draws_what_write_figures_draws_and_falls_back(tmp_path: Path) -> None:
-    """Figures drawn by the forked worker (two processes) are byte for byte those drawn
-    in-process; when its second process fails its first draws them all; a worker that died
-    leaves write_run to draw them itself."""
+    """Figures drawn by the forked worker (two processes, given the channel records ahead)
+    are byte for byte those drawn in-process; when its second process fails its first draws
+    them all; when its first fails, or the worker died, write_run draws them itself."""
     import subprocess
     import sys
 
@@ -263,3 +279,77 @@ def test_pinned_panel_titles_are_where_matplotlib_would_place_them(tmp_path: Pat
     for case in ("plain", "offsets"):
         np.testing.assert_array_equal(_pixels(tmp_path / f"{case}-pinned.png"),
                                       _pixels(tmp_path / f"{case}-auto.png"))
+
+
+def _two_joint_results(torque_ratio: float) -> object:
+    """fake_results with a second joint and both joints' torques (``torque_ratio``: the
+    second's size over the first's; above 5 they get a panel each)."""
+    from flexlink.channels import Channel, ChannelKind
+    from tests.unit.test_writers import fake_results
+
+    results = fake_results()
+    t = results.time
+    joint = ChannelKind.JOINT
+    results.add(Channel("joint2_angle", joint, "rad", "joint 2 angle", "angle", "joint2"),
+                0.2 * t)
+    results.add(Channel("joint1_torque", joint, "N·m", "joint 1 torque", "torque", "joint1"),
+                np.sin(30 * t))
+    results.add(Channel("joint2_torque", joint, "N·m", "joint 2 torque", "torque", "joint2"),
+                torque_ratio * np.cos(30 * t))
+    return results
+
+
+@pytest.mark.parametrize("torque_ratio", [0.5, 20.0])
+def test_prepared_frames_draw_the_same_pixels(tmp_path: Path, torque_ratio: float) -> None:
+    """Figures drawn into frames prepared from the channel records alone (before the values
+    exist: the figure worker's case) are byte for byte those drawn afresh, and take them."""
+    from flexlink.results import plotting
+    from flexlink.results.figures import (
+        ChannelRecords,
+        figure_stems,
+        prepare_figures,
+        save_png,
+        split_figures,
+        write_figures,
+    )
+
+    results = _two_joint_results(torque_ratio)
+    records = ChannelRecords(results.channels.values())
+    stems = figure_stems(results)
+    assert figure_stems(records) == stems and split_figures(records) == split_figures(results)
+    fresh = write_figures(results, tmp_path / "fresh")
+    try:
+        prepare_figures(records, stems)
+        assert sum(map(len, plotting._PREPARED.values())) == len(stems) + 1  # both joint
+        prepared = write_figures(results, tmp_path / "prepared")  # figure layouts
+        assert sum(map(len, plotting._PREPARED.values())) == 1  # the joint one not taken
+        prepare_figures(records, stems, stop=lambda: True)  # the values came: nothing made
+        assert sum(map(len, plotting._PREPARED.values())) == 1
+    finally:
+        plotting._PREPARED.clear()
+    for a, b in zip(fresh, prepared, strict=True):
+        assert a.read_bytes() == b.read_bytes(), a.name
+    save_png(plotting.plot_joint_angles(results), tmp_path / "again.png")  # nothing left over
+    assert (tmp_path / "again.png").read_bytes() == (tmp_path / "fresh" / "joint_angles.png"
+                                                      ).read_bytes()
+
+
+def test_trace_text_is_the_json_of_the_traces() -> None:
+    """report.html's traces formatted all at once: the text json.dumps gave, for values of
+    every size (exponent and positional forms, integral, subnormal, signed zeros, non-finite)
+    and names that need escaping."""
+    import json
+
+    from flexlink.results.report_html import Trace, _trace_json, _trace_text
+
+    rng = np.random.default_rng(16)
+    edge = np.array([0.0, -0.0, 1.0, 1e5, 999999.0, 999999.5, 1e6, 1234567.0, 9.999995e15,
+                     1e16, 1e-4, 9.99999e-5, 1e-5, 5e-324, 2.2e-308, 1e-307,
+                     1.7976931348623157e308, np.nan, np.inf, -np.inf, 0.1, 123456.0])
+    for n in (0, 5, 2999, 7001):
+        t = np.linspace(0.0, 5.0, n)
+        series = {"µ 'tip' \"x\"": rng.standard_normal(n) * 10.0 ** rng.uniform(-320, 300, n),
+                  "β₁": np.round(rng.standard_normal(n) * 10.0 ** rng.integers(-8, 18, n)),
+                  "edges": np.resize(np.concatenate([edge, -edge]), n)}
+        trace = Trace("τ₁ <title> & 'quotes'", "N·m", t, series)
+        assert _trace_text(trace) == json.dumps(_trace_json(trace))

@@ -3,10 +3,12 @@
 `flexlink run` spends about as long importing matplotlib and drawing the figures as it spends
 importing scipy and numba, simulating and writing the data files, and each is serial Python.
 `FigureWorker.start()` forks a child process before those imports; the child imports
-matplotlib and the plotting code at once (while the parent works), then waits for
-`submit(results, folder)`. With the results in hand it forks once more, so that two processes
+matplotlib and the plotting code at once (while the parent works), forks its partner, and
+both wait for `submit(results, folder)`: the child reads the job and passes it on, and the two
 draw the figures (`figures.split_figures`: two groups of about equal work) while the parent
-writes the data files; `wait()` returns when all are written.
+writes the data files; `wait()` returns when all are written. (The partner is forked before
+the job arrives: forking a process that holds matplotlib took 3-12 ms, then on the command's
+critical path.)
 
 The worker is an optimisation only: where it cannot run (not Linux, other threads running in
 this process, the child failed or died) `wait()` returns False and the caller draws the
@@ -21,12 +23,17 @@ import contextlib
 import dataclasses
 import os
 import pickle
+import select
 import signal
 import struct
 import sys
 import threading
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..channels import Channel
 
 _HEADER = struct.Struct("<Q")
 
@@ -66,6 +73,14 @@ class FigureWorker:
         _widen_pipe(job_w)
         return cls(pid, job_w, reply_r)
 
+    def hint(self, channels: Iterable[Channel]) -> None:
+        """Tell the child the channel records the run will have (`channels.catalogue`), so
+        that it prepares the figures' frames before the values come (`figures.
+        prepare_figures`). Optional; before `submit`."""
+        if self._jobs >= 0:
+            with contextlib.suppress(OSError):  # the child is gone: wait() reports it
+                _write_all(self._jobs, _message(("hint", list(channels))))
+
     def submit(self, results: Any, folder: Path) -> None:
         """Ask the child to draw ``results``' figures into ``folder`` (returns at once, unless
         the job is larger than the pipe and the child is still starting)."""
@@ -73,9 +88,8 @@ class FigureWorker:
             # the links' deformed shapes (animations) are 7/8 of a paper run's results and no
             # figure draws them
             results = dataclasses.replace(results, shapes=[])
-        payload = pickle.dumps((results, Path(folder)), protocol=pickle.HIGHEST_PROTOCOL)
         try:
-            _write_all(self._jobs, _HEADER.pack(len(payload)) + payload)
+            _write_all(self._jobs, _message(("job", results, Path(folder))))
             self._submitted = True
         except OSError:  # the child is gone: wait() reports it
             pass
@@ -84,14 +98,16 @@ class FigureWorker:
             self._jobs = -1
 
     def wait(self) -> bool:
-        """True when the child wrote the figures; False otherwise (draw them yourself)."""
+        """True when the child wrote the figures; False otherwise (draw them yourself). The
+        child may still be ending: `close` reaps it."""
         ok = False
         if self._submitted:
             try:
                 ok = os.read(self._replies, 1) == b"1"
             except OSError:
                 ok = False
-        self.close()
+        if not ok:
+            self.close()
         return ok
 
     def close(self) -> None:
@@ -127,43 +143,176 @@ def _child(jobs: int, replies: int) -> None:
         from . import figures  # matplotlib and the plotting code load while the parent works
 
         figures.preload_figures()
-        header = _read_exactly(jobs, _HEADER.size)
-        if header is not None:
-            payload = _read_exactly(jobs, _HEADER.unpack(header)[0])
-            if payload is not None:
-                results, folder = pickle.loads(payload)
-                _draw_in_two(results, folder)
+        partner = _Partner.start(jobs, replies)
+        try:
+            job = _await_job(jobs, 0 if partner is not None else None,
+                             None if partner is None else partner.send)
+        finally:
+            if partner is not None:
+                partner.close_jobs()  # the partner has its job, or ends
+        try:
+            if job is not None:
+                _draw_mine(*job, partner)
                 status = 0
                 os.write(replies, b"1")
+        except BaseException:
+            if partner is not None:  # the parent draws again: nothing else may draw now
+                partner.kill()
+            raise
+        if partner is not None:
+            partner.reap()  # after the reply: its ending overlaps the parent's report
     except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
         status = 1
     finally:
         os._exit(status)
 
 
-def _draw_in_two(results: Any, folder: Path) -> None:
-    """Draw the figures into ``folder`` in this process and a forked one, half each; draw the
-    other half here too if that process fails."""
+def _await_job(jobs: int, group: int | None,
+               forward: Callable[[bytes], None] | None) -> tuple[Any, Path] | None:
+    """Read messages from ``jobs`` until the job (results, folder); None if it closes
+    first. Each message is passed on to ``forward`` (the partner) first. A hint's figures of
+    ``group`` (`figures.split_figures`; None: all) are prepared while waiting, until the job
+    is there."""
+    from . import figures
+
+    while True:
+        message = _read_message(jobs)
+        if message is None:
+            return None
+        if forward is not None:
+            forward(message)
+        kind, *data = pickle.loads(memoryview(message)[_HEADER.size:])
+        if kind == "job":
+            return data[0], data[1]
+        if kind == "hint":
+            records = figures.ChannelRecords(data[0])
+            groups = figures.split_figures(records)
+            stems = groups[0] + groups[1] if group is None else groups[group]
+            figures.prepare_figures(records, stems, stop=lambda: _readable(jobs))
+
+
+def _draw_mine(results: Any, folder: Path, partner: _Partner | None) -> None:
+    """Draw this process's half of the figures into ``folder`` (`figures.split_figures`),
+    then the partner's half too unless the partner drew it."""
     from . import figures
 
     folder.mkdir(exist_ok=True)
     mine, theirs = figures.split_figures(results)
-    pid = 0
-    if theirs:
+    if partner is None:
+        mine, theirs = mine + theirs, []
+    figures.write_figures(results, folder, mine)
+    if partner is not None and not partner.done() and theirs:
+        figures.write_figures(results, folder, theirs)
+
+
+class _Partner:
+    """The second drawing process, forked by the worker's child before the job arrives; it
+    draws the other half of `figures.split_figures` and reports a status byte."""
+
+    def __init__(self, pid: int, jobs: int, replies: int) -> None:
+        self._pid = pid
+        self._jobs = jobs  # write end: the child's messages, passed on
+        self._replies = replies  # read end: b"1" when its figures are written
+
+    @classmethod
+    def start(cls, child_jobs: int, child_replies: int) -> _Partner | None:
+        """Fork the partner; None if forking fails (the child then draws everything)."""
+        job_r, job_w = os.pipe()
+        reply_r, reply_w = os.pipe()
         try:
             pid = os.fork()
         except OSError:
-            mine, theirs = mine + theirs, []
-        if pid == 0 and theirs:  # the second drawing process: never returns
-            code = 1
+            for fd in (job_r, job_w, reply_r, reply_w):
+                os.close(fd)
+            return None
+        if pid == 0:  # the partner: never returns
+            status = 1
             try:
-                figures.write_figures(results, folder, theirs)
-                code = 0
+                # the command's pipes are the child's: the parent must see them close when
+                # the child ends, whatever the partner does
+                for fd in (child_jobs, child_replies, job_w, reply_r):
+                    os.close(fd)
+                status = _partner(job_r, reply_w)
             finally:
-                os._exit(code)
-    figures.write_figures(results, folder, mine)
-    if pid and os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) != 0:
+                os._exit(status)
+        os.close(job_r)
+        os.close(reply_w)
+        _widen_pipe(job_w)
+        return cls(pid, job_w, reply_r)
+
+    def send(self, message: bytes) -> None:
+        """Pass a message on (if the partner is gone, done() says so)."""
+        if self._jobs >= 0:
+            try:
+                _write_all(self._jobs, message)
+            except OSError:
+                self.close_jobs()
+
+    def close_jobs(self) -> None:
+        """No more messages: a partner without its job ends."""
+        if self._jobs >= 0:
+            os.close(self._jobs)
+            self._jobs = -1
+
+    def done(self) -> bool:
+        """Wait for the partner: True when it wrote its figures (it may still be ending:
+        `reap`)."""
+        try:
+            return os.read(self._replies, 1) == b"1"
+        except OSError:
+            return False
+        finally:
+            os.close(self._replies)
+            self._replies = -1
+
+    def kill(self) -> None:
+        """Stop the partner at once and reap it."""
+        with contextlib.suppress(OSError):
+            os.kill(self._pid, signal.SIGKILL)
+        self.reap()
+
+    def reap(self) -> None:
+        """Wait for the partner's end (it ends when its job pipe closes, job or not)."""
+        self.close_jobs()
+        if self._replies >= 0:
+            os.close(self._replies)
+            self._replies = -1
+        with contextlib.suppress(ChildProcessError):
+            os.waitpid(self._pid, 0)
+
+
+def _partner(jobs: int, replies: int) -> int:
+    from . import figures
+
+    job = _await_job(jobs, 1, None)
+    if job is None:
+        return 0  # no job: the command failed or ended
+    results, folder = job
+    folder.mkdir(exist_ok=True)
+    theirs = figures.split_figures(results)[1]
+    if theirs:
         figures.write_figures(results, folder, theirs)
+    os.write(replies, b"1")
+    return 0
+
+
+def _message(obj: Any) -> bytes:
+    payload = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+    return _HEADER.pack(len(payload)) + payload
+
+
+def _read_message(fd: int) -> bytes | None:
+    """One message as sent (header and payload); None if the pipe closes first."""
+    header = _read_exactly(fd, _HEADER.size)
+    if header is None:
+        return None
+    payload = _read_exactly(fd, _HEADER.unpack(header)[0])
+    return None if payload is None else header + payload
+
+
+def _readable(fd: int) -> bool:
+    """Whether reading ``fd`` would not block (a message, or the pipe closed)."""
+    return bool(select.select([fd], [], [], 0)[0])
 
 
 def _widen_pipe(fd: int) -> None:

@@ -8,7 +8,8 @@ radians; the axes show degrees for angles and convenient multiples (mm, µstrain
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import weakref
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -101,24 +102,95 @@ def caption(results: ChannelTable) -> str:
     return " · ".join(p for p in parts if p)
 
 
-def _figure(results: ChannelTable, width: float, height: float, panels: int = 1,
-            top: float = 0.45, bottom: float = 0.5, gap: float = 0.45) -> Figure:
+# A figure's frame: width and height (in), panels, top, bottom and gap margins (in), and
+# whether the panels share the time axis (else one axes); `_frame` builds it.
+FrameSpec = tuple[float, float, int, float, float, float, bool]
+# Frames built ahead of the data (`prepare_frames`), by spec; a figure of that geometry takes
+# one instead of building its own. Empty except in the figure worker's processes.
+_PREPARED: dict[FrameSpec, list[tuple[Figure, list[Axes]]]] = {}
+PREPARED_TICKS = 8  # ticks made ahead per axis: the figures of a run show 5-10
+
+
+def _frame(spec: FrameSpec) -> tuple[Figure, list[Axes]]:
     """A figure with fixed margins in inches (room for the y labels, the time axis, a caption
-    naming scenario and model at the top, and ``gap`` between panels for their titles).
+    naming scenario and model at the top, and ``gap`` between panels for their titles) and
+    its empty axes: a prepared one if there is one of this ``spec``.
 
     Fixed margins instead of matplotlib's constrained layout: the layout solver took half of a
     command-line run's plotting time, and these figures all share one simple structure."""
+    prepared = _PREPARED.get(spec)
+    if prepared:
+        return prepared.pop()
+    return _build_frame(spec)
+
+
+def _build_frame(spec: FrameSpec) -> tuple[Figure, list[Axes]]:
     from matplotlib.figure import Figure
 
+    width, height, panels, top, bottom, gap, shared = spec
     fig = Figure(figsize=(width, height), dpi=DPI)
     panel = (height - top - bottom - gap * (panels - 1)) / panels
     fig.subplots_adjust(left=0.85 / width, right=1 - 0.15 / width, bottom=bottom / height,
                         top=1 - top / height, hspace=gap / panel)
+    if shared:
+        return fig, list(fig.subplots(panels, 1, sharex=True, squeeze=False)[:, 0])
+    return fig, [fig.add_subplot()]
+
+
+def _figure(results: ChannelTable, spec: FrameSpec) -> tuple[Figure, list[Axes]]:
+    """`_frame` with the caption (`caption`) at its top left."""
+    fig, axes = _frame(spec)
     text = caption(results)
     if text:
+        width, height = spec[:2]
         fig.text(0.1 / width, 1 - 0.08 / height, text, fontsize="small", color="0.3",
                  va="top", ha="left")
-    return fig
+    return fig, axes
+
+
+def _channels_spec(panels: int) -> FrameSpec:
+    return (6.4, 1.3 + 2.2 * panels, panels, 0.7, 0.5, 0.45, True)
+
+
+def _joint_spec(torque_groups: int) -> FrameSpec:
+    return (6.4, 3.0 + 1.9 * torque_groups, 1 + torque_groups, 0.45, 0.5, 0.25, True)
+
+
+_TIP_SPEC: FrameSpec = (5.6, 5.8, 1, 0.6, 1.1, 0.45, False)
+
+
+def frame_specs(results: ChannelTable, stem: str) -> list[FrameSpec]:
+    """The frames figure ``stem`` may take, from ``results``' channel records alone (their
+    values may not exist yet): the joint figure's torques share one panel or have one each,
+    as their sizes turn out."""
+    if stem == "sensors":
+        return [_channels_spec(len(sensor_channels(results)))]
+    if stem == "base":
+        return [_channels_spec(len(base_pose_channels(results)))]
+    if stem == "tip_paths":
+        return [_TIP_SPEC]
+    torques = len(joint_channels(results, "torque"))
+    return [_joint_spec(torques)] + ([_joint_spec(1)] if torques > 1 else [])
+
+
+def prepare_frames(specs: Sequence[FrameSpec], stop: Callable[[], bool] | None = None) -> None:
+    """Build the frames of ``specs`` ahead of the data, with `PREPARED_TICKS` ticks on each
+    axis (making tick objects is a fifth of drawing a figure); the next figures of those
+    geometries take them: the same pixels (a test). ``stop()``, asked before each frame,
+    ends the preparation early (the data came)."""
+    for spec in specs:
+        if stop is not None and stop():
+            return
+        fig, axes = _build_frame(spec)
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        FigureCanvasAgg(fig).get_renderer()  # its pixel buffer, cleared when drawn
+        for ax in axes:
+            ax.xaxis.get_major_ticks(PREPARED_TICKS)
+            ax.yaxis.get_major_ticks(PREPARED_TICKS)
+            _style(ax)  # styling the ticks made is as costly as making them
+            _STYLED.add(ax)
+        _PREPARED.setdefault(spec, []).append((fig, axes))
 
 
 def _title(ax: Axes, text: str, loc: str = "left") -> None:
@@ -138,7 +210,13 @@ def _title(ax: Axes, text: str, loc: str = "left") -> None:
     ax.set_title(text, fontsize="medium", loc=loc, y=None if offset else 1.0)
 
 
+# Axes of prepared frames, styled ahead (`prepare_frames`): `_style` leaves them as they are.
+_STYLED: weakref.WeakSet[Axes] = weakref.WeakSet()
+
+
 def _style(ax: Axes) -> None:
+    if ax in _STYLED:
+        return
     ax.grid(True, linewidth=0.5, alpha=0.6)
     ax.tick_params(direction="in", top=True, right=True)
 
@@ -153,9 +231,7 @@ def plot_joint_angles(results: ChannelTable) -> Figure:
     torques = joint_channels(results, "torque")
     groups = torque_panels(results, torques)
     references = {results.channels[n].subject: n for n in joint_channels(results, "reference")}
-    height = 3.0 + 1.9 * len(groups)
-    fig = _figure(results, 6.4, height, panels=1 + len(groups), gap=0.25)
-    axes = fig.subplots(1 + len(groups), 1, sharex=True, squeeze=False)[:, 0]
+    fig, axes = _figure(results, _joint_spec(len(groups)))
     ax = axes[0]
     colours = {}  # a joint's torque in its angle's colour
     for i, name in enumerate(names):
@@ -208,8 +284,7 @@ def plot_channels(results: ChannelTable, names: Sequence[str]) -> Figure:
     """One panel per channel against time (s), in display units."""
     if not names:
         raise ValueError("no channels to plot")
-    fig = _figure(results, 6.4, 1.3 + 2.2 * len(names), panels=len(names), top=0.7)
-    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    fig, axes = _figure(results, _channels_spec(len(names)))
     for ax, name in zip(axes, names, strict=True):
         channel = results.channels[name]
         factor, unit = display_scale(channel.unit)
@@ -251,8 +326,7 @@ def plot_tip_paths(results: ChannelTable) -> Figure:
     links = tip_links(results)
     if not links:
         raise ValueError("no tip position channels in the results")
-    fig = _figure(results, 5.6, 5.8, top=0.6, bottom=1.1)
-    ax = fig.add_subplot()
+    fig, (ax,) = _figure(results, _TIP_SPEC)
     ax.plot([0.0], [0.0], "k+", markersize=10, label="joint 1 (origin)")
     for link in links:
         x, y = _tip(results, link, "X"), _tip(results, link, "Y")

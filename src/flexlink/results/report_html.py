@@ -12,6 +12,7 @@ import base64
 import html
 import json
 import math
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -65,7 +66,7 @@ class ReportPage:
         if not traces:
             return
         panels = "".join(
-            f"<div class='trace' data-trace='{html.escape(json.dumps(_trace_json(tr)))}'>"
+            f"<div class='trace' data-trace='{html.escape(_trace_text(tr))}'>"
             "</div>" for tr in traces)
         self.sections.append(f"<h2>{html.escape(heading)}</h2><p class='note'>Drag across a "
                              "trace to zoom in on time; double-click to zoom out.</p>" + panels)
@@ -208,6 +209,43 @@ def _trace_json(trace: Trace) -> dict[str, Any]:
 
 def _numbers(values: np.ndarray) -> list[float | None]:
     return [float(f"{v:.6g}") if math.isfinite(v) else None for v in values.tolist()]
+
+
+def _trace_text(trace: Trace) -> str:
+    """``json.dumps(_trace_json(trace))``, the same text (a test), in a third of the time:
+    the numbers are formatted all at once (`_numbers_text`)."""
+    t, ys = decimate(np.asarray(trace.t, float), [np.asarray(v, float)
+                                                   for v in trace.series.values()])
+    series = ", ".join(f'{{"name": {json.dumps(n)}, "y": {_numbers_text(y)}}}'
+                       for n, y in zip(trace.series, ys, strict=True))
+    return (f'{{"title": {json.dumps(trace.title)}, "unit": {json.dumps(trace.unit)}, '
+            f'"t": {_numbers_text(t)}, "series": [{series}]}}')
+
+
+# Where the text of %.6g is not repr's (json's) of the value it rounds to: exponent form for
+# 1e6 ≤ |x| < 1e16 (repr: positional), and subnormal numbers (fewer digits than 6 tell them
+# apart, repr writes fewer)
+_NOT_REPR = re.compile(r"e(?:\+(?:0[6-9]|1[0-5])|-3(?:0[89]|[1-9]\d))$")
+
+
+def _numbers_text(values: np.ndarray) -> str:
+    """``json.dumps(_numbers(values))``: each value rounded to 6 significant digits as JSON
+    (non-finite: null). One ``%`` formatting for all values instead of a format, a parse and a
+    repr per value; the text of %.6g is repr's but for integral values (repr adds ".0"), the
+    exponent form between 1e6 and 1e16 (repr writes those positional), subnormal values and
+    non-finite ones."""
+    if values.size == 0:
+        return "[]"
+    tokens = (("%.6g," * values.size) % tuple(values.tolist()))[:-1].split(",")
+    for i, token in enumerate(tokens):
+        if "e" in token:
+            if _NOT_REPR.search(token):
+                tokens[i] = repr(float(token))
+        elif "n" in token:  # nan, inf, -inf
+            tokens[i] = "null"
+        elif "." not in token:  # integral: 12 → 12.0
+            tokens[i] = token + ".0"
+    return "[" + ", ".join(tokens) + "]"
 
 
 def _cell(value: Any) -> str:

@@ -103,15 +103,17 @@ def write_run(
                 if figure_worker is not None:  # it failed or died: start afresh
                     shutil.rmtree(partial / "figures", ignore_errors=True)
                 write_figures(results, partial / "figures")
+            if animation:
+                from .animation import animate
+
+                animate(results, partial / ANIMATION_GIF)
+            if page is not None:
+                page.write(partial / REPORT_NAME)
         finally:
             if figure_worker is not None:
-                figure_worker.close()  # never remove the folder under a drawing child
-        if animation:
-            from .animation import animate
-
-            animate(results, partial / ANIMATION_GIF)
-        if page is not None:
-            page.write(partial / REPORT_NAME)
+                # never remove the folder under a drawing child; a child that is done is
+                # reaped only now, its ending overlapped with the report
+                figure_worker.close()
     return Path(out_dir)
 
 
