@@ -54,24 +54,10 @@ class FigureWorker:
         if (not sys.platform.startswith("linux") or not hasattr(os, "fork")
                 or threading.active_count() > 1):
             return None
-        job_r, job_w = os.pipe()
-        reply_r, reply_w = os.pipe()
         sys.stdout.flush()
         sys.stderr.flush()
-        try:
-            pid = os.fork()
-        except OSError:
-            for fd in (job_r, job_w, reply_r, reply_w):
-                os.close(fd)
-            return None
-        if pid == 0:  # the child: never returns
-            os.close(job_w)
-            os.close(reply_r)
-            _child(job_r, reply_w)
-        os.close(job_r)
-        os.close(reply_w)
-        _widen_pipe(job_w)
-        return cls(pid, job_w, reply_r)
+        forked = _fork_piped(_child)
+        return None if forked is None else cls(*forked)
 
     def hint(self, channels: Iterable[Channel]) -> None:
         """Tell the child the channel records the run will have (`channels.catalogue`), so
@@ -133,7 +119,8 @@ class FigureWorker:
             self.close()
 
 
-def _child(jobs: int, replies: int) -> None:
+def _child(jobs: int, replies: int) -> int:
+    """The worker's child: its exit status (0: the figures are written)."""
     status = 1
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
@@ -163,8 +150,7 @@ def _child(jobs: int, replies: int) -> None:
             partner.reap()  # after the reply: its ending overlaps the parent's report
     except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
         status = 1
-    finally:
-        os._exit(status)
+    return status
 
 
 def _await_job(jobs: int, group: int | None,
@@ -217,28 +203,10 @@ class _Partner:
     @classmethod
     def start(cls, child_jobs: int, child_replies: int) -> _Partner | None:
         """Fork the partner; None if forking fails (the child then draws everything)."""
-        job_r, job_w = os.pipe()
-        reply_r, reply_w = os.pipe()
-        try:
-            pid = os.fork()
-        except OSError:
-            for fd in (job_r, job_w, reply_r, reply_w):
-                os.close(fd)
-            return None
-        if pid == 0:  # the partner: never returns
-            status = 1
-            try:
-                # the command's pipes are the child's: the parent must see them close when
-                # the child ends, whatever the partner does
-                for fd in (child_jobs, child_replies, job_w, reply_r):
-                    os.close(fd)
-                status = _partner(job_r, reply_w)
-            finally:
-                os._exit(status)
-        os.close(job_r)
-        os.close(reply_w)
-        _widen_pipe(job_w)
-        return cls(pid, job_w, reply_r)
+        # the command's pipes are the child's: the parent must see them close when the child
+        # ends, whatever the partner does
+        forked = _fork_piped(_partner, inherited=(child_jobs, child_replies))
+        return None if forked is None else cls(*forked)
 
     def send(self, message: bytes) -> None:
         """Pass a message on (if the partner is gone, done() says so)."""
@@ -294,6 +262,34 @@ def _partner(jobs: int, replies: int) -> int:
         figures.write_figures(results, folder, theirs)
     os.write(replies, b"1")
     return 0
+
+
+def _fork_piped(run: Callable[[int, int], int],
+                inherited: tuple[int, ...] = ()) -> tuple[int, int, int] | None:
+    """Fork a process that runs ``run(jobs, replies)`` on the read end of a new job pipe and
+    the write end of a new reply pipe, after closing ``inherited`` descriptors, and exits
+    with the status it returns (1 if it raises). Here: (its pid, the job pipe's write end,
+    widened, the reply pipe's read end), or None if forking fails."""
+    job_r, job_w = os.pipe()
+    reply_r, reply_w = os.pipe()
+    try:
+        pid = os.fork()
+    except OSError:
+        for fd in (job_r, job_w, reply_r, reply_w):
+            os.close(fd)
+        return None
+    if pid == 0:  # the new process: never returns
+        status = 1
+        try:
+            for fd in (job_w, reply_r, *inherited):
+                os.close(fd)
+            status = run(job_r, reply_w)
+        finally:
+            os._exit(status)
+    os.close(job_r)
+    os.close(reply_w)
+    _widen_pipe(job_w)
+    return pid, job_w, reply_r
 
 
 def _message(obj: Any) -> bytes:
