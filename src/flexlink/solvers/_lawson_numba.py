@@ -223,6 +223,28 @@ def _step(ET, E2T, Dm, D2, h, u, k1, k2, k3, k4, Ey, E2y, w):
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _fine_step(ET, E2T, Da, Db, h, y, k1, Ey, E2y, u, w, k2, k3, k4, cin, cscale, wc, cout):
+    """The rest of one fine step of _pair (y ← y⁺, in place) once Ey = E y and E2y = E² y
+    are known, with a coarse-step product interleaved into two of its passes over a matrix
+    (_gemv2): wc += cscale · E² cin (E2T's velocity rows), then cout = ΔÃ(end) wc. Da, Db:
+    ΔÃᵀ at the step's middle (_stages_ab) and at its end; k1 = ΔÃ(start) y on entry; u, w,
+    k2 … k4 are scratch."""
+    m = y.shape[0]
+    n = k1.shape[0]
+    _copy(E2y, u)  # u becomes the fine step's y⁺
+    _gemv2(E2T, n, n, k1, h / 6.0, u, cin, cscale, wc)
+    _stages_ab(Da, ET, h, Ey, k1, k2, k3, w)
+    for q in range(n):
+        k2[q] += k3[q]
+    _copy(E2y, w)
+    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃)
+    _zero2(k4, cout)
+    _gemv2(Db, 0, m, w, 1.0, k4, wc, 1.0, cout)  # fine k4, and the coarse stage's k
+    _add(u, n, h / 6.0, k4)
+    _copy(u, y)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u, w, Ecy,
           E4y, wc):
     """Two fine steps of h on y and one coarse step of 2h on yc (in place), as two _step
@@ -240,18 +262,8 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _gemv2(E2T, 0, m, y, 1.0, E2y, yc, 1.0, Ecy)
     _gemv(ET, 0, m, y, 1.0, Ey, False)
     _gemv(E4T, 0, m, yc, 1.0, E4y, False)
-    _copy(E2y, u)  # u becomes the fine step's y⁺, wc the coarse stage a
-    _copy(Ecy, wc)
-    _gemv2(E2T, n, n, k1, h / 6.0, u, c1, 0.5 * H, wc)
-    _stages_ab(D[0], ET, h, Ey, k1, k2, k3, w)
-    for q in range(n):
-        k2[q] += k3[q]
-    _copy(E2y, w)
-    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃)
-    _zero2(k4, b2)
-    _gemv2(D[1], 0, m, w, 1.0, k4, wc, 1.0, b2)  # fine k4, coarse k2
-    _add(u, n, h / 6.0, k4)
-    _copy(u, y)
+    _copy(Ecy, wc)  # wc: the coarse stage a = E_c yc + H/2 E_c c1; b2 its coarse k2
+    _fine_step(ET, E2T, D[0], D[1], h, y, k1, Ey, E2y, u, w, k2, k3, k4, c1, 0.5 * H, wc, b2)
     _copy(Ecy, wc)
     _add(wc, n, 0.5 * H, b2)  # coarse b
     _zero2(k1, b3)
@@ -259,18 +271,8 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     # Fine step 2, and the coarse stage c = E_c² yc + H E_c b3.
     _gemv(ET, 0, m, y, 1.0, Ey, False)
     _gemv(E2T, 0, m, y, 1.0, E2y, False)
-    _copy(E2y, u)
-    _copy(E4y, wc)
-    _gemv2(E2T, n, n, k1, h / 6.0, u, b3, H, wc)
-    _stages_ab(D[2], ET, h, Ey, k1, k2, k3, w)
-    for q in range(n):
-        k2[q] += k3[q]
-    _copy(E2y, w)
-    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃)
-    _zero2(k4, b4)
-    _gemv2(D[3], 0, m, w, 1.0, k4, wc, 1.0, b4)  # fine k4, coarse k4
-    _add(u, n, h / 6.0, k4)
-    _copy(u, y)
+    _copy(E4y, wc)  # wc: the coarse stage c; b4 its coarse k4
+    _fine_step(ET, E2T, D[2], D[3], h, y, k1, Ey, E2y, u, w, k2, k3, k4, b3, H, wc, b4)
     # The coarse y⁺ = E_c² yc + H/6 E_c² c1 + H/3 E_c (b2 + b3) + H/6 b4.
     for q in range(n):
         b2[q] += b3[q]
