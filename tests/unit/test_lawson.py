@@ -12,7 +12,7 @@ from flexlink.motion import Cycloidal, MeasuredMotion, Sequence
 from flexlink.simulation import output_times
 from flexlink.solvers import GivenMatrices, Solution, integrate_lawson, integrate_magnus
 from flexlink.solvers.coefficient_table import tabulate
-from flexlink.solvers.lawson import _run, _solve, _solve_pair
+from flexlink.solvers.lawson import _run, _solve
 from flexlink.solvers.magnus import agree, agree_maxima, state_rows
 from tests.helpers import chain_of, paper_links
 
@@ -118,7 +118,7 @@ def test_the_coarse_pass_alongside_is_a_run_of_its_own(start2: float) -> None:
     t = np.append(output_times(1.2, 0.005), 1.2037)
     table = _table(system, t, 1e-8)
     for substeps in (2, 6):
-        coarse, (fine, acc) = _solve_pair(table, system.n, t, substeps, None)
+        fine, acc, coarse, *_ = _run(table, system.n, t, substeps, None, None, coarse=True)
         alone, alone_acc = _solve(table, system.n, t, substeps, None)
         half, _ = _solve(table, system.n, t, substeps // 2, None)
         scale = np.abs(alone).max(axis=0)
@@ -126,6 +126,8 @@ def test_the_coarse_pass_alongside_is_a_run_of_its_own(start2: float) -> None:
         assert np.all(np.abs(acc - alone_acc) <= 1e-12 * np.abs(alone_acc).max(axis=0))
         assert np.all(np.abs(coarse - half) <= 1e-12 * scale)
         assert np.abs(coarse - fine).max() > 0.0  # a run of its own, not a copy
+    with pytest.raises(ValueError, match="even number of steps, got 3"):
+        _run(table, system.n, t, 3, None, None, coarse=True)
 
 
 def test_the_loops_running_maxima_are_those_of_the_whole_arrays() -> None:

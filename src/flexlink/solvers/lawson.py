@@ -138,18 +138,6 @@ def _solve(
     return states, acc
 
 
-def _solve_pair(
-    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
-    on_progress: Progress | None, ET: np.ndarray | None = None,
-) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
-    """The states with substeps / 2 steps per output interval (substeps even), and the
-    states and z̈ with `substeps` (as _solve), from one pass of the compiled loop."""
-    if substeps % 2:
-        raise ValueError(f"the coarse pass needs an even number of steps, got {substeps}")
-    states, acc, coarse, *_ = _run(table, n, t_out, substeps, on_progress, ET, coarse=True)
-    return coarse, (states, acc)
-
-
 def _run(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
     on_progress: Progress | None, ET: np.ndarray | None, coarse: bool,
@@ -160,6 +148,8 @@ def _run(
     the output times (what agree_maxima reads)."""
     from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used
 
+    if coarse and substeps % 2:
+        raise ValueError(f"the coarse pass needs an even number of steps, got {substeps}")
     if ET is None:
         ET = _block_propagators(table, n, t_out, substeps)
     moving = ~table.static
