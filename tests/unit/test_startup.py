@@ -5,6 +5,7 @@ found without scipy.optimize."""
 from __future__ import annotations
 
 import itertools
+import math
 import sys
 from pathlib import Path
 
@@ -340,7 +341,17 @@ def test_trace_text_is_the_json_of_the_traces() -> None:
     and names that need escaping."""
     import json
 
-    from flexlink.results.report_html import Trace, _trace_json, _trace_text
+    from flexlink.results.report_html import Trace, _trace_text, decimate
+
+    def numbers(values: np.ndarray) -> list[float | None]:  # one value at a time, as json
+        return [float(f"{v:.6g}") if math.isfinite(v) else None for v in values.tolist()]
+
+    def trace_json(trace: Trace) -> dict[str, object]:
+        t, ys = decimate(np.asarray(trace.t, float), [np.asarray(v, float)
+                                                       for v in trace.series.values()])
+        return {"title": trace.title, "unit": trace.unit, "t": numbers(t),
+                "series": [{"name": n, "y": numbers(y)}
+                           for n, y in zip(trace.series, ys, strict=True)]}
 
     rng = np.random.default_rng(16)
     edge = np.array([0.0, -0.0, 1.0, 1e5, 999999.0, 999999.5, 1e6, 1234567.0, 9.999995e15,
@@ -352,4 +363,4 @@ def test_trace_text_is_the_json_of_the_traces() -> None:
                   "β₁": np.round(rng.standard_normal(n) * 10.0 ** rng.integers(-8, 18, n)),
                   "edges": np.resize(np.concatenate([edge, -edge]), n)}
         trace = Trace("τ₁ <title> & 'quotes'", "N·m", t, series)
-        assert _trace_text(trace) == json.dumps(_trace_json(trace))
+        assert _trace_text(trace) == json.dumps(trace_json(trace))

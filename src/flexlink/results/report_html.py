@@ -199,21 +199,10 @@ def decimate(t: np.ndarray, ys: Sequence[np.ndarray], points: int = MAX_POINTS
     return t[index], [y[index] for y in ys]
 
 
-def _trace_json(trace: Trace) -> dict[str, Any]:
-    t, ys = decimate(np.asarray(trace.t, float), [np.asarray(v, float)
-                                                   for v in trace.series.values()])
-    return {"title": trace.title, "unit": trace.unit, "t": _numbers(t),
-            "series": [{"name": n, "y": _numbers(y)}
-                       for n, y in zip(trace.series, ys, strict=True)]}
-
-
-def _numbers(values: np.ndarray) -> list[float | None]:
-    return [float(f"{v:.6g}") if math.isfinite(v) else None for v in values.tolist()]
-
-
 def _trace_text(trace: Trace) -> str:
-    """``json.dumps(_trace_json(trace))``, the same text (a test), in a third of the time:
-    the numbers are formatted all at once (`_numbers_text`)."""
+    """The trace as JSON text: title, unit, the decimated times ``t`` and each series' ``y``,
+    every number rounded to 6 significant digits (non-finite: null), the text json.dumps
+    gives for them (a test), formatted all at once (`_numbers_text`)."""
     t, ys = decimate(np.asarray(trace.t, float), [np.asarray(v, float)
                                                    for v in trace.series.values()])
     series = ", ".join(f'{{"name": {json.dumps(n)}, "y": {_numbers_text(y)}}}'
@@ -229,8 +218,8 @@ _NOT_REPR = re.compile(r"e(?:\+(?:0[6-9]|1[0-5])|-3(?:0[89]|[1-9]\d))$")
 
 
 def _numbers_text(values: np.ndarray) -> str:
-    """``json.dumps(_numbers(values))``: each value rounded to 6 significant digits as JSON
-    (non-finite: null). One ``%`` formatting for all values instead of a format, a parse and a
+    """The JSON list of ``values``, each rounded to 6 significant digits (non-finite: null),
+    as json.dumps writes the rounded floats. One ``%`` formatting for all values instead of a format, a parse and a
     repr per value; the text of %.6g is repr's but for integral values (repr adds ".0"), the
     exponent form between 1e6 and 1e16 (repr writes those positional), subnormal values and
     non-finite ones."""
