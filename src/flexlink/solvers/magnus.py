@@ -103,9 +103,7 @@ def agree(
 ) -> bool:
     """Whether the finer solution's estimated error is within atol + rtol · peak."""
     # Whole-array reductions: numpy's per-column max over 5001 × 16 costs 10× more.
-    tolerance = np.empty(2 * n)
-    tolerance[:n] = atol + rtol * np.abs(fine[:, :n]).max()
-    tolerance[n:] = atol + rtol * np.abs(fine[:, n:]).max()
+    tolerance = _tolerance(np.abs(fine[:, :n]).max(), np.abs(fine[:, n:]).max(), n, rtol, atol)
     return bool(np.all(np.abs(fine_common - coarse) <= _RICHARDSON * tolerance))
 
 
@@ -114,10 +112,19 @@ def agree_maxima(peak: np.ndarray, spread: np.ndarray, n: int, rtol: float,
     """agree from maxima over the output times instead of the whole arrays: ``peak`` the
     largest |fine state| and ``spread`` the largest |fine − coarse| of each of the 2n state
     components (the same decision: a maximum of |·| is exact)."""
-    tolerance = np.empty(2 * n)
-    tolerance[:n] = atol + rtol * peak[:n].max(initial=0.0)
-    tolerance[n:] = atol + rtol * peak[n: 2 * n].max(initial=0.0)
+    tolerance = _tolerance(peak[:n].max(initial=0.0), peak[n: 2 * n].max(initial=0.0), n,
+                           rtol, atol)
     return bool(np.all(spread[: 2 * n] <= _RICHARDSON * tolerance))
+
+
+def _tolerance(coordinates: float, rates: float, n: int, rtol: float,
+               atol: float) -> np.ndarray:
+    """The error allowed on each of the 2n state components: atol + rtol · the peak of the
+    coordinates (the first n) or of their rates (the last n)."""
+    tolerance = np.empty(2 * n)
+    tolerance[:n] = atol + rtol * coordinates
+    tolerance[n:] = atol + rtol * rates
+    return tolerance
 
 
 def _solve(
