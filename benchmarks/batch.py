@@ -1,6 +1,7 @@
 """Batch throughput: N variants of the paper experiment through `flexlink.sweep` on all cores.
 
     python benchmarks/batch.py [--cases 1000] [--workers N] [--channels a,b] [--scheduler ADDR]
+                               [--summaries-only]
 
 The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) and both joint
 move durations (0.8-1.2 s) at random (seed 1). Prints one line per quantity: wall time of the
@@ -9,7 +10,9 @@ cases' own run times (their serial cost), the parallel efficiency, the median wa
 time of one case (on a shared machine CPU time shows the work, wall time the wait), and the
 peak resident memory of the sweep process and of its largest worker process.
 ``--machinery-only`` replaces every run by a stored result, which leaves the sweep's own
-cost: the throughput it can reach at best.
+cost: the throughput it can reach at best. ``--summaries-only`` keeps per-case metrics (peak
+and residual link-2 tip deflection, peak joint torques) instead of the histories: the memory
+of a large study.
 """
 
 from __future__ import annotations
@@ -29,6 +32,8 @@ RANDOM = {
     "joints[0].motion[0].duration": "uniform:0.8:1.2",
     "joints[1].motion[0].duration": "uniform:0.8:1.2",
 }
+SUMMARIES = ["peak:link2_tip_deflection", "residual:link2_tip_deflection:after=3",
+             "peak:joint1_torque", "peak:joint2_torque"]
 
 
 def peak_memory_mb() -> tuple[float, float]:
@@ -64,6 +69,8 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=None, help="default: every core")
     parser.add_argument("--channels", default=None, help="comma-separated (default: all)")
     parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
+    parser.add_argument("--summaries-only", action="store_true",
+                        help="keep summary metrics instead of the histories")
     parser.add_argument("--machinery-only", action="store_true",
                         help="replace the runs by a stored result: the sweep's own ceiling")
     args = parser.parse_args()
@@ -75,7 +82,9 @@ def main() -> None:
     started = time.perf_counter()
     dataset = sweep(paper_experiment_path(), random=RANDOM, samples=args.cases, seed=1,
                     channels=channels, workers=None if args.scheduler else workers,
-                    scheduler=args.scheduler, progress=True)
+                    scheduler=args.scheduler, progress=True,
+                    summaries=SUMMARIES if args.summaries_only else (),
+                    histories=not args.summaries_only)
     wall = time.perf_counter() - started
     own, child = peak_memory_mb()
     ok = int(dataset.attrs["cases_ok"])
@@ -83,11 +92,12 @@ def main() -> None:
     where = args.scheduler or f"{workers} local worker processes"
     if args.machinery_only:
         where += " (machinery only: runs replaced by a stored result)"
-    print(f"batch of {args.cases} paper-experiment variants (t_end = "
-          f"{float(dataset.time[-1]):g} s, {dataset.sizes['time']} samples, "
-          f"{sum(1 for v in dataset.data_vars.values() if v.dims == ('case', 'time'))} "
-          f"channels) on {where}; {platform.processor() or platform.machine()}, "
-          f"python {platform.python_version()}")
+    kept = (f"{len(SUMMARIES)} summary metrics" if args.summaries_only else
+            f"{dataset.sizes['time']} samples of "
+            f"{sum(1 for v in dataset.data_vars.values() if v.dims == ('case', 'time'))} "
+            "channels")
+    print(f"batch of {args.cases} paper-experiment variants ({kept} a case) on {where}; "
+          f"{platform.processor() or platform.machine()}, python {platform.python_version()}")
     print(f"{'cases ok / failed':34s} {ok} / {int(dataset.attrs['cases_failed'])}")
     print(f"{'wall time, whole sweep [s]':34s} {wall:.3f}")
     print(f"{'runs per second':34s} {args.cases / wall:.1f}")

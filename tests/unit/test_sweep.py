@@ -454,10 +454,10 @@ def test_workers_load_the_compiled_code_while_the_cases_are_checked(
 
     checked = cases.valid_cases
 
-    def checking(base, table):
+    def checking(base, table, *lazy):
         with log.open("a") as fh:  # the workers were started before the checks
             fh.write("check\n")
-        return checked(base, table)
+        return checked(base, table, *lazy)
 
     monkeypatch.setattr(worker, "load_compiled_code", loading)
     monkeypatch.setattr(cases, "valid_cases", checking)

@@ -14,11 +14,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..model import Scenario
 from ..scenario import ScenarioError
 from ..scenario.fields import FieldPath, FieldPathError, ScenarioFile, is_time_grid
 from .errors import SweepError
 from .parameters import CaseTable, parse_path
+from .worker import Case, LazyCase
 
 MAX_PROBLEMS = 20  # a sweep of 10⁴ bad cases should not print 10⁴ lines
 BaseScenario = ScenarioFile  # the parsed scenario file a sweep varies
@@ -67,25 +67,29 @@ def check_paths(base: ScenarioFile, table: CaseTable) -> dict[str, FieldPath]:
     return paths
 
 
-def case_scenarios(base: ScenarioFile, table: CaseTable) -> list[Scenario]:
-    """The validated `Scenario` of every case, or one SweepError listing every problem."""
-    scenarios, invalid = valid_cases(base, table)
+def case_scenarios(base: ScenarioFile, table: CaseTable, lazy: bool = False) -> list[Case]:
+    """The validated `Scenario` (``lazy``: `LazyCase`) of every case, or one SweepError
+    listing every problem."""
+    scenarios, invalid = valid_cases(base, table, lazy)
     if invalid:
         raise SweepError(_case_problems(_grouped(invalid), table))
     return [scenarios[i] for i in range(table.count)]
 
 
-def valid_cases(base: ScenarioFile, table: CaseTable
-                ) -> tuple[dict[int, Scenario], dict[int, list[str]]]:
-    """The `Scenario` of every valid case and the problems of every invalid one, by case
-    index; a SweepError if a parameter path itself is wrong (no case could run)."""
+def valid_cases(base: ScenarioFile, table: CaseTable, lazy: bool = False
+                ) -> tuple[dict[int, Case], dict[int, list[str]]]:
+    """The `Scenario` of every valid case (``lazy``: a `LazyCase`, built again where it
+    runs, so that the built scenarios are never all held at once) and the problems of every
+    invalid one, by case index; a SweepError if a parameter path itself is wrong (no case
+    could run)."""
     paths = check_paths(base, table)
-    scenarios: dict[int, Scenario] = {}
+    scenarios: dict[int, Case] = {}
     invalid: dict[int, list[str]] = {}
     for index in range(table.count):
         values = {paths[p]: v for p, v in table.case(index).items()}
         try:
-            scenarios[index] = base.build(values)
+            built = base.build(values)
+            scenarios[index] = LazyCase(base, values) if lazy else built
         except ScenarioError as exc:
             invalid[index] = exc.problems
     if not scenarios and invalid:  # nothing to run: refuse as a whole

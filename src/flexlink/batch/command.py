@@ -50,6 +50,13 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
                        help="independent draws (default: random) or a Latin hypercube")
     sweep.add_argument("--channels", metavar="NAME,…",
                        help="keep only these channels (default: all); saves memory")
+    sweep.add_argument("--summary", action="append", default=[], metavar="METRIC:CHANNEL",
+                       help="keep a per-case metric of a channel (repeatable): peak, rms, max, "
+                            "min, mean, final, residual (…:after=T s), settling (…:band=B), "
+                            "e.g. residual:link2_tip_deflection:after=3 (docs/sweep.md)")
+    sweep.add_argument("--no-histories", action="store_true",
+                       help="keep only the --summary metrics, not the channels over time: "
+                            "large studies in little memory and disk")
     sweep.add_argument("-o", "--output", type=Path, metavar="FILE.nc",
                        help="netCDF file to write (default: <scenario name>_sweep.nc)")
     sweep.add_argument("--overwrite", action="store_true", help="replace an existing FILE.nc")
@@ -75,10 +82,11 @@ def run_command(args: argparse.Namespace) -> int:
 
     definition_options = [args.scenario, args.paper or None, args.grid or None,
                           args.random or None, args.samples, args.seed, args.sampler,
-                          args.channels]
+                          args.channels, args.summary or None, args.no_histories or None]
     if args.spec is not None and any(o is not None for o in definition_options):
         args.subparser.error("--spec defines the sweep: give no scenario, --paper, --grid, "
-                             "--random, --samples, --seed, --sampler or --channels with it")
+                             "--random, --samples, --seed, --sampler, --channels, --summary "
+                             "or --no-histories with it")
     if args.spec is None and args.paper == (args.scenario is not None):
         args.subparser.error("give a scenario file or --paper (exactly one), or --spec")
     try:
@@ -122,7 +130,8 @@ def _definition(args: argparse.Namespace) -> dict[str, Any]:
             "grid": _collect(parse_grid_option, args.grid),
             "random": _collect(parse_random_option, args.random),
             "samples": args.samples, "seed": args.seed,
-            "sampler": args.sampler or "random", "channels": channels}
+            "sampler": args.sampler or "random", "channels": channels,
+            "summaries": args.summary, "histories": not args.no_histories}
 
 
 def _spec_errors(spec: Path | None) -> contextlib.AbstractContextManager[None]:
@@ -171,7 +180,10 @@ def _fail(message: str, status: int = 2) -> int:
 
 
 def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str:
-    """What ran, how many cases finished or failed (with the first errors), where it went."""
+    """What ran, how many cases finished or failed (with the first errors), the range of each
+    summary metric, where it went."""
+    import numpy as np
+
     count = dataset.sizes["case"]
     ok, failed = int(dataset.attrs["cases_ok"]), int(dataset.attrs["cases_failed"])
     lines = [(f"flexlink: swept {dataset.attrs['title'].removeprefix('flexlink sweep of ')!r}, "
@@ -183,6 +195,13 @@ def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str
                      "and write")
     parameters = [name for name in dataset.coords if dataset[name].dims == ("case",)
                   and name != "case"]
+    ok_cases = dataset.status.values == "ok"
+    for name, variable in dataset.data_vars.items():
+        if "metric" in variable.attrs and ok_cases.any():
+            values = variable.values[ok_cases]
+            lines.append(f"  {name}: min {np.nanmin(values):.4g}, median "
+                         f"{np.nanmedian(values):.4g}, max {np.nanmax(values):.4g} "
+                         f"{variable.attrs.get('units', '')}")
     for index in [int(i) for i in dataset.case[dataset.status == "failed"].values][:max_errors]:
         values = ", ".join(f"{p} = {dataset[p].values[index]:g}" for p in parameters)
         lines.append(f"  case {index} ({values}): {dataset.error.values[index]}")

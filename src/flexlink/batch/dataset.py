@@ -3,22 +3,26 @@
 Layout (`flexlink.results.layout.sweep_layout`, the same as a run's results.nc): one variable
 per channel with dims (case, time), units, long name and kind in attrs; the parameter values
 as coordinates on ``case``; ``status`` per case (``"ok"``, ``"failed"``, ``"not_run"``),
-``error`` (the failure message, empty otherwise), ``wall_time`` and ``cpu_time`` (s).
+``error`` (the failure message, empty otherwise), ``wall_time`` and ``cpu_time`` (s); one
+variable over ``case`` per summary metric (`flexlink.batch.summaries`), NaN where a case is
+not ``ok``. A sweep that keeps no histories has no ``time`` axis.
 The signals (and times) of cases that did not finish are NaN (``_FillValue``): select
 finished cases with ``ds.sel(case=ds.status == "ok")``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..channels import Channel
 from ..results.layout import parameter_variable, sweep_layout
-from ..results.variables import Layout
+from ..results.variables import Layout, Variable
 from ..scenario.fields import parse
 from .parameters import CaseTable
+from .summaries import Summary
 from .worker import ChunkResult, SharedResults, labels
 
 if TYPE_CHECKING:
@@ -40,11 +44,13 @@ class SweepCollector:
     """Case results as they arrive, in preallocated arrays (channel × case × time): allocated
     at the first result, or given (``shared``, which forked workers write into directly)."""
 
-    def __init__(self, table: CaseTable, time: np.ndarray, attrs: dict[str, Any],
-                 shared: SharedResults | None = None, channels: tuple[Channel, ...] = ()
-                 ) -> None:
+    def __init__(self, table: CaseTable, time: np.ndarray | None, attrs: dict[str, Any],
+                 shared: SharedResults | None = None, channels: tuple[Channel, ...] = (),
+                 summaries: Sequence[tuple[Summary, Channel]] = ()) -> None:
         self.table = table
-        self.time = time
+        self.time = time  # None: the sweep keeps no histories
+        self.summaries = list(summaries)
+        self.summary_values = np.full((len(self.summaries), table.count), np.nan)
         self.attrs = attrs
         self.status = np.full(table.count, "not_run", dtype="<U7")
         self.error = np.full(table.count, "", dtype=object)
@@ -62,17 +68,19 @@ class SweepCollector:
             self.fail(index, message)
         if not chunk.done:
             return
-        if self._values is None:
+        for index, metrics in zip(chunk.done, chunk.summaries):
+            self.summary_values[:, index] = metrics
+        if self._values is None and self.time is not None:
             self.channels = chunk.channels
             self._values = np.full((len(self.channels), self.table.count, self.time.size),
                                    np.nan)
-        if labels(chunk.channels) != labels(self.channels):
+        if self._values is not None and labels(chunk.channels) != labels(self.channels):
             for index in chunk.done:
                 self.fail(index, "ValueError: channels differ from the first finished case's")
             return
         for index, block, wall, cpu in zip(chunk.done, chunk.values, chunk.wall_times,
                                            chunk.cpu_times):
-            if block is not None:  # else the worker wrote it into the shared array
+            if block is not None and self._values is not None:  # else in the shared array
                 self._values[:, index, :] = block
             self.status[index] = "ok"
             self.wall_time[index] = wall
@@ -107,7 +115,13 @@ class SweepCollector:
         values = self._values
         if self._unsettled and values is not None:  # a copy: workers may still write
             values = np.where((self.status == "ok")[None, :, None], values, np.nan)
+        ok = self.status == "ok"
+        summaries = {
+            s.name: Variable(("case",), np.where(ok, self.summary_values[k], np.nan),
+                             {"units": s.unit(c), "long_name": s.long_name(c),
+                              "summary_of": c.name, "metric": s.metric}, missing=True)
+            for k, (s, c) in enumerate(self.summaries)}
         counts = self.counts
         metadata = {**self.attrs, **{f"cases_{s}": counts[s] for s in STATUSES}}
         return sweep_layout(self.time, parameters, self.channels, values, self.status,
-                            self.error, self.wall_time, self.cpu_time, metadata)
+                            self.error, self.wall_time, self.cpu_time, metadata, summaries)

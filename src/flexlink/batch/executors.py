@@ -18,9 +18,9 @@ from typing import Any
 
 from ..model import Scenario
 from .errors import SweepError
-from .worker import ChunkResult, SharedResults, init_local_worker, run_chunk
+from .worker import Case, ChunkResult, Kept, SharedResults, init_local_worker, run_chunk
 
-Chunk = list[tuple[int, Scenario]]
+Chunk = list[tuple[int, Case]]
 CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
 MAX_CHUNK = 32  # cases per chunk: bounds the result message size and the wait on Ctrl-C
 CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
@@ -34,7 +34,7 @@ def available_cores() -> int:
     return os.cpu_count() or 1
 
 
-def make_chunks(indexed: Sequence[tuple[int, Scenario]], workers: int) -> list[Chunk]:
+def make_chunks(indexed: Sequence[tuple[int, Case]], workers: int) -> list[Chunk]:
     """Consecutive cases in chunks of equal size: few enough tasks that the per-task overhead
     (one message each way) is small, enough of them to keep every worker busy to the end."""
     size = max(1, min(MAX_CHUNK, math.ceil(len(indexed) / (workers * CHUNKS_PER_WORKER))))
@@ -46,12 +46,12 @@ def failed_chunk(chunk: Chunk, exc: BaseException) -> ChunkResult:
     return ChunkResult(failed={index: f"{type(exc).__name__}: {exc}" for index, _ in chunk})
 
 
-def in_process(chunks: Sequence[Chunk], channels: Sequence[str] | None) -> Iterator[ChunkResult]:
+def in_process(chunks: Sequence[Chunk], kept: Kept) -> Iterator[ChunkResult]:
     """One worker: run the cases here, in order (no process start-up, same code path); one
     case at a time, as there is no per-task overhead to amortise."""
     for chunk in chunks:
         for case in chunk:
-            yield run_chunk([case], channels)
+            yield run_chunk([case], kept)
 
 
 def local_processes(workers: int, shared: SharedResults | None = None,
@@ -99,10 +99,10 @@ class PoolResults:
         self.futures: dict[Future[ChunkResult], Chunk] = {}
         self.finished = False
 
-    def submit(self, chunks: Sequence[Chunk], channels: Sequence[str] | None) -> None:
-        """Queue every chunk (``channels``: keep only these)."""
+    def submit(self, chunks: Sequence[Chunk], kept: Kept) -> None:
+        """Queue every chunk (``kept``: what to keep of each case)."""
         for chunk in chunks:
-            self.futures[self.pool.submit(run_chunk, chunk, channels)] = chunk
+            self.futures[self.pool.submit(run_chunk, chunk, kept)] = chunk
 
     def __iter__(self) -> Iterator[ChunkResult]:
         for future in as_completed(self.futures):
@@ -136,12 +136,11 @@ def _stop(pool: ProcessPoolExecutor) -> None:
         process.join(STOP_TIMEOUT)
 
 
-def dask_cluster(chunks: Sequence[Chunk], channels: Sequence[str] | None,
-                 client: Any) -> Iterator[ChunkResult]:
+def dask_cluster(chunks: Sequence[Chunk], kept: Kept, client: Any) -> Iterator[ChunkResult]:
     """The chunks as tasks on a `distributed.Client`; results in completion order."""
     from distributed import as_completed as dask_as_completed
 
-    futures = client.map(run_chunk, chunks, channels=channels, pure=False)
+    futures = client.map(run_chunk, chunks, kept=kept, pure=False)
     pending = {future.key: (future, chunk) for future, chunk in zip(futures, chunks)}
     completed = dask_as_completed(futures)
     del futures

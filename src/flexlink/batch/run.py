@@ -30,7 +30,10 @@ from .cases import (
 from .dataset import SweepCollector
 from .errors import SweepError, SweepInterrupted
 from .parameters import GridParameter, RandomParameter, case_table, from_mappings
-from .worker import ChunkResult, SharedResults
+from .summaries import EXAMPLE as SUMMARY_EXAMPLE
+from .summaries import Summary, parse_summaries
+from .summaries import check_channels as check_summary_channels
+from .worker import Case, ChunkResult, Kept, SharedResults
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -41,7 +44,9 @@ RandomSpec = Mapping[str, Any] | Sequence[RandomParameter] | None
 
 def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: RandomSpec = None,
           *, samples: int | None = None, seed: int | None = None, sampler: str = "random",
-          channels: Sequence[str] | None = None, output: str | Path | None = None,
+          channels: Sequence[str] | None = None,
+          summaries: Sequence[str | Summary] = (), histories: bool = True,
+          output: str | Path | None = None,
           workers: int | None = None, scheduler: Any = None, progress: bool = False,
           checkpoint_interval: float = 60.0, base_dir: Path | None = None,
           skip_invalid: bool = False) -> xr.Dataset:
@@ -51,6 +56,9 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     ``grid``: {path: values or 'linspace:a:b:n' / 'geomspace:a:b:n'}; ``random``: {path:
     'uniform:low:high' | 'loguniform:low:high' | 'normal:mean:std'} drawn ``samples`` times
     (``sampler`` 'random' or 'lhs', reproducible with ``seed``). ``channels``: keep only these.
+    ``summaries``: per-case metrics ('peak:link2_tip_deflection', 'residual:CHANNEL:after=3',
+    `flexlink.batch.summaries`), one variable over ``case`` each; ``histories=False`` keeps
+    only them (no time axis: a 10⁵-case study in little memory and disk).
     Runs on ``workers`` local processes (default: every core) or, given ``scheduler`` (an
     address or a ``distributed.Client``), on a Dask cluster. Every case is validated first
     (SweepError). A failing case is recorded and the rest go on; on Ctrl-C the finished cases
@@ -68,11 +76,14 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     # nor the model path), from the base scenario, so that the workers can start first.
     template = scenario_base.build()
     selected = _check_channels(template, channels)
+    metrics = _check_summaries(template, summaries, histories)
+    kept = Kept(None if selected is None else tuple(selected), tuple(metrics), histories)
     local = _local_workers(workers, scheduler, table.count)
-    check_sweep_memory(template, table.count, len(selected) if selected else None)
+    check_sweep_memory(template, table.count,
+                       (len(selected) if selected else None) if histories else 0)
     time_ = output_times(template.settings.t_end, template.settings.dt_out)
     shared, probed = None, ()
-    if local > 1:  # worker processes: let them write into one shared result array
+    if local > 1 and histories:  # worker processes: let them write into one shared array
         probed = _probe_channels(template, selected)
         if probed:
             shared = SharedResults.allocate(probed, table.count, time_.size)
@@ -81,16 +92,17 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
         if local > 1:  # started now: they load the compiled code while the cases are checked
             pool = stack.enter_context(contextlib.closing(
                 executors.local_processes(local, shared, preload=template)))
-        scenarios, invalid = _cases(scenario_base, table, skip_invalid)
-        collector = SweepCollector(table, time_, _attributes(scenario_base, table), shared,
-                                   probed)
+        scenarios, invalid = _cases(scenario_base, table, skip_invalid, lazy=not histories)
+        collector = SweepCollector(table, time_ if histories else None,
+                                   _attributes(scenario_base, table), shared, probed,
+                                   _summary_records(template, metrics))
         collector.add(ChunkResult(failed={i: invalid_message(m) for i, m in invalid.items()}))
         indexed = list(scenarios.items())
         checkpoint = _Checkpoint(output, checkpoint_interval)
         if output is not None:
             checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
         try:  # Ctrl-C while the workers start counts too (a forked worker may be quick)
-            results = _executor(stack, indexed, selected, local, scheduler, pool)
+            results = _executor(stack, indexed, kept, local, scheduler, pool)
             _import_xarray_meanwhile()  # after the workers forked: a thread forbids fork
             bar = stack.enter_context(_progress(table.count, progress))
             bar.update(len(invalid))
@@ -129,13 +141,14 @@ def check_sweep_memory(scenario: Scenario, cases: int, channels: int | None) -> 
         raise SweepError([f"{problem}; or fewer cases or channels (--channels)"])
 
 
-def _cases(base: BaseScenario, table: Any, skip_invalid: bool
-           ) -> tuple[dict[int, Scenario], dict[int, list[str]]]:
-    """The scenario of every case to run and, with ``skip_invalid``, the problems of the
-    invalid cases (without it an invalid case refuses the sweep: SweepError)."""
+def _cases(base: BaseScenario, table: Any, skip_invalid: bool, lazy: bool
+           ) -> tuple[dict[int, Case], dict[int, list[str]]]:
+    """The scenario of every case to run (``lazy``: built where it runs) and, with
+    ``skip_invalid``, the problems of the invalid cases (without it an invalid case refuses
+    the sweep: SweepError)."""
     if skip_invalid:
-        return valid_cases(base, table)
-    return dict(enumerate(case_scenarios(base, table))), {}
+        return valid_cases(base, table, lazy)
+    return dict(enumerate(case_scenarios(base, table, lazy))), {}
 
 
 def _parameters(grid: GridSpec, random: RandomSpec
@@ -160,6 +173,25 @@ def _check_channels(scenario: Scenario, channels: Sequence[str] | None) -> list[
         raise SweepError([f"unknown channel {c!r}; available: {', '.join(known)}"
                           for c in unknown] or ["channels: give at least one channel"])
     return list(dict.fromkeys(channels))
+
+
+def _check_summaries(scenario: Scenario, summaries: Sequence[str | Summary],
+                     histories: bool) -> list[Summary]:
+    """The parsed summaries, each of a channel the scenario produces; a sweep must keep
+    histories or some summary."""
+    parsed = parse_summaries(summaries)
+    check_summary_channels(parsed, [c.name for c in catalogue(scenario)],
+                           scenario.settings.t_end)
+    if not histories and not parsed:
+        raise SweepError([("histories = false keeps nothing of the cases: give summaries "
+                           f"(e.g. {SUMMARY_EXAMPLE}) or keep the histories")])
+    return parsed
+
+
+def _summary_records(scenario: Scenario, summaries: Sequence[Summary]
+                     ) -> list[tuple[Summary, Channel]]:
+    records = {c.name: c for c in catalogue(scenario)}
+    return [(s, records[s.channel]) for s in summaries]
 
 
 def _local_workers(workers: int | None, scheduler: Any, cases: int) -> int:
@@ -200,7 +232,7 @@ def _probe_channels(scenario: Scenario, channels: list[str] | None) -> tuple[Cha
     return tuple(records.values()) if channels is None else tuple(records[n] for n in channels)
 
 
-def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[str] | None,
+def _executor(stack: contextlib.ExitStack, indexed: list[Any], kept: Kept,
               local: int, scheduler: Any, pool: executors.PoolResults | None
               ) -> Iterable[ChunkResult]:
     if scheduler is not None:
@@ -208,12 +240,12 @@ def _executor(stack: contextlib.ExitStack, indexed: list[Any], channels: list[st
         if opened:
             stack.callback(client.close)
         chunks = executors.make_chunks(indexed, executors.dask_cores(client))
-        generator = executors.dask_cluster(chunks, channels, client)
+        generator = executors.dask_cluster(chunks, kept, client)
     elif pool is not None:
-        pool.submit(executors.make_chunks(indexed, local), channels)
+        pool.submit(executors.make_chunks(indexed, local), kept)
         return pool
     else:
-        generator = executors.in_process(executors.make_chunks(indexed, 1), channels)
+        generator = executors.in_process(executors.make_chunks(indexed, 1), kept)
     return stack.enter_context(contextlib.closing(generator))
 
 

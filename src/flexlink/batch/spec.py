@@ -5,6 +5,8 @@
     seed = 1
     sampler = "random"            # or "lhs"
     channels = ["link1_tip_acceleration"]   # optional
+    summaries = ["residual:link2_tip_deflection:after=3"]   # optional per-case metrics
+    histories = true              # optional; false keeps only the summaries
 
     [grid]
     "links[0].EI" = [250.0, 300.0, 350.0]
@@ -29,7 +31,8 @@ from ..scenario.load import read_toml
 from .errors import SweepError
 from .parameters import SAMPLERS, grid_values, random_distribution
 
-KEYS = ("base", "samples", "seed", "sampler", "channels", "grid", "random")
+KEYS = ("base", "samples", "seed", "sampler", "channels", "summaries", "histories", "grid",
+        "random")
 
 
 def read_sweep_file(path: str | Path) -> dict[str, Any]:
@@ -58,6 +61,18 @@ def read_sweep_file(path: str | Path) -> dict[str, Any]:
         else:
             p.add(f"{where}.channels: expected an array of channel names, "
                   f"got {describe(channels)}")
+    summaries = raw.get("summaries")
+    if summaries is not None:
+        if isinstance(summaries, list) and all(isinstance(c, str) for c in summaries):
+            out["summaries"] = summaries
+        else:
+            p.add(f"{where}.summaries: expected an array of texts such as "
+                  f"\"peak:link2_tip_deflection\", got {describe(summaries)}")
+    histories = raw.get("histories", True)
+    if isinstance(histories, bool):
+        out["histories"] = histories
+    else:
+        p.add(f"{where}.histories: expected true or false, got {describe(histories)}")
     out["grid"], out["random"] = [], []
     for section, build in (("grid", grid_values), ("random", random_distribution)):
         table = raw.get(section, {})

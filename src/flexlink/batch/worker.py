@@ -18,6 +18,8 @@ import numpy as np
 
 from ..channels import Channel
 from ..model import Scenario
+from ..scenario.fields import FieldPath, ScenarioFile
+from .summaries import Summary
 
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
                          "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
@@ -49,35 +51,53 @@ class SharedResults:
 @dataclass
 class ChunkResult:
     """Outcome of a chunk. ``values[i]`` (channels × time) belongs to case ``done[i]``; None
-    when the worker wrote it into the `SharedResults` array already."""
+    when the worker wrote it into the `SharedResults` array already, or when the sweep keeps
+    no histories; ``summaries[i]`` holds the case's summary metrics (`summaries.Summary`)."""
 
     channels: tuple[Channel, ...] = ()
     done: list[int] = field(default_factory=list)
     values: list[np.ndarray | None] = field(default_factory=list)
+    summaries: list[np.ndarray] = field(default_factory=list)
     wall_times: list[float] = field(default_factory=list)
     cpu_times: list[float] = field(default_factory=list)
     failed: dict[int, str] = field(default_factory=dict)
 
 
-def run_chunk(cases: Sequence[tuple[int, Scenario]],
-              channels: Sequence[str] | None = None) -> ChunkResult:
-    """Simulate each (case index, scenario); keep ``channels`` (all if None)."""
+@dataclass(frozen=True)
+class Kept:
+    """What a sweep keeps of each case: the histories of ``channels`` (all if None) unless
+    ``histories`` is false, and the ``summaries``."""
+
+    channels: tuple[str, ...] | None = None
+    summaries: tuple[Summary, ...] = ()
+    histories: bool = True
+
+
+def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept()) -> ChunkResult:
+    """Simulate each (case index, case) and keep what ``kept`` says. A case is a `Scenario`
+    or a `LazyCase` built here."""
     from ..simulation import simulate
 
+    channels, summaries = kept.channels, kept.summaries
     out = ChunkResult()
-    for index, scenario in cases:
+    for index, case in cases:
         started, cpu_started = time.perf_counter(), time.thread_time()
         try:
+            scenario = case.build() if isinstance(case, LazyCase) else case
             results = simulate(scenario, shapes=False)  # a sweep keeps no shapes
-            names = list(channels) if channels is not None else results.names
-            missing = [n for n in names if n not in results]
+            names = (list(channels) if channels is not None else results.names) \
+                if kept.histories else []
+            missing = [n for n in [*names, *(s.channel for s in summaries)] if n not in results]
             if missing:
                 raise KeyError(f"no channel {', '.join(missing)} in this case's results")
             found = tuple(results.channels[n] for n in names)
             if out.channels and labels(found) != labels(out.channels):
                 raise ValueError("this case's channels differ from the other cases'")
+            metrics = np.array([s.evaluate(results.time, results[s.channel]) for s in summaries])
             block: np.ndarray | None = None
-            if _SHARED is not None and tuple(labels(found)) == _SHARED.labels:
+            if not names:
+                pass
+            elif _SHARED is not None and tuple(labels(found)) == _SHARED.labels:
                 for k, name in enumerate(names):  # the collector reads it there
                     _SHARED.array[k, index, :] = results[name]
             else:
@@ -88,9 +108,26 @@ def run_chunk(cases: Sequence[tuple[int, Scenario]],
         out.channels = found
         out.done.append(index)
         out.values.append(block)
+        out.summaries.append(metrics)
         out.wall_times.append(time.perf_counter() - started)
         out.cpu_times.append(time.thread_time() - cpu_started)
     return out
+
+
+@dataclass(frozen=True)
+class LazyCase:
+    """A case of a sweep that is built where it runs: the base scenario file with the case's
+    values (field path → value), already validated when the sweep started. Sent to a worker
+    it costs the values, not a whole `Scenario`, and the parent never holds every case."""
+
+    base: ScenarioFile
+    values: dict[FieldPath, float]
+
+    def build(self) -> Scenario:
+        return self.base.build(self.values)
+
+
+Case = Scenario | LazyCase
 
 
 def init_local_worker(shared: SharedResults | None = None,

@@ -76,6 +76,10 @@ def sweep_tracks(path: Path) -> tuple[np.ndarray, list[ArmTrack]]:
         raise AnimationInputError(f"{path} is not a flexlink sweep file: {exc}") from None
     if "case" not in layout.coords or "status" not in layout.data:
         raise AnimationInputError(f"{path} is not a flexlink sweep file (no case coordinate)")
+    if "time" not in layout.coords:
+        raise AnimationInputError(f"{path} keeps summary metrics only (a sweep run without "
+                                  "histories): nothing to animate; sweep again with the "
+                                  "histories of the links' tip channels")
     base = tomllib.loads(str(layout.attrs.get("base_scenario", "")) or "")
     names = [link["name"] for link in base.get("links", [])]
     on_base = "base" in base

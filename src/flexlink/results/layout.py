@@ -141,25 +141,29 @@ STATUS_MEANING = ("ok: finished; failed: see error; not_run: never ran (interrup
                   "The signals of cases that are not ok are NaN")
 
 
-def sweep_layout(time: np.ndarray, parameters: Mapping[str, Variable],
+def sweep_layout(time: np.ndarray | None, parameters: Mapping[str, Variable],
                  channels: Sequence[Channel], values: np.ndarray | None, status: np.ndarray,
                  error: np.ndarray, wall_time: np.ndarray, cpu_time: np.ndarray,
-                 metadata: Mapping[str, Any]) -> Layout:
+                 metadata: Mapping[str, Any], summaries: Mapping[str, Variable] | None = None
+                 ) -> Layout:
     """A sweep: every channel over (case, time), NaN where a case is not ``ok``; the
     parameters as coordinates on ``case``; ``status``, ``error``, ``wall_time`` and
-    ``cpu_time`` (s, NaN where a case did not finish) per case.
+    ``cpu_time`` (s, NaN where a case did not finish) per case; ``summaries``, variables
+    over ``case``.
 
-    ``values``: channel × case × time; ``metadata`` holds ``title`` and ``date_created``."""
+    ``values``: channel × case × time (``time`` None: no histories, no time axis);
+    ``metadata`` holds ``title`` and ``date_created``."""
     cases = status.size
     coords = {
         "case": Variable(("case",), np.arange(cases, dtype=np.int32),
                          {"long_name": "case number (0-based, in the order of the parameter "
                                        "table)", "units": "1"}),
-        "time": time_variable(time),
+        **({} if time is None else {"time": time_variable(time)}),
         **parameters,
     }
     data = {c.name: Variable(("case", "time"), values[k], channel_attributes(c), missing=True)
             for k, c in enumerate(channels) if values is not None}
+    data.update(summaries or {})
     data["status"] = Variable(("case",), status.astype(str), {"long_name": STATUS_MEANING})
     data["error"] = Variable(("case",), error.astype(str),
                              {"long_name": "failure message of a failed case, else empty"})

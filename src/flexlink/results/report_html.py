@@ -307,6 +307,7 @@ Array.prototype.forEach.call(document.querySelectorAll('.trace'),plot);})();
 
 MAX_SWEEP_TRACES = 10  # cases overlaid in a sweep's traces
 MAX_SWEEP_CHANNELS = 8
+MAX_SWEEP_ROWS = 1000  # rows of the page's case table; the file holds every case
 
 
 def sweep_report_path(sweep_file: Path) -> Path:
@@ -340,6 +341,37 @@ def write_sweep_report(sweep_file: Path, animation: bool = False,
         if k in attrs}, "cases": ", ".join(f"{s} {int((status == s).sum())}"
                                           for s in dict.fromkeys(status))}
     ok = np.flatnonzero(status == "ok")
+    if "time" in layout.coords:  # a sweep that kept histories
+        _add_sweep_traces(page, layout, ok, params)
+    if animation:
+        from .animation import animate_sweep
+
+        gif = sweep_file.with_name(f"{sweep_file.stem}_animation.gif")
+        animate_sweep(sweep_file, gif)
+        page.add_images("Animation", [gif])
+    summaries = [(n, v) for n, v in layout.data.items() if "metric" in v.attrs]
+    rows = []
+    for c in range(min(status.size, MAX_SWEEP_ROWS)):
+        row: dict[str, Any] = {"case": c}
+        row.update({p: layout.coords[p].values[c] for p in params})
+        row["status"] = status[c]
+        row.update({f"{n} [{v.attrs.get('units', '')}]": float(v.values[c])
+                    for n, v in summaries})
+        if "wall_time" in layout.data:
+            row["wall time [s]"] = float(layout.data["wall_time"].values[c])
+        if "error" in layout.data:
+            row["error"] = str(layout.data["error"].values[c])
+        rows.append(row)
+    shown_rows = "" if status.size <= MAX_SWEEP_ROWS else \
+        f" (the first {MAX_SWEEP_ROWS} of {status.size}; every case is in {sweep_file.name})"
+    page.add_table(f"Cases{shown_rows}", rows)
+    page.add_text("Base scenario", str(attrs.get("base_scenario", "")))
+    return page.write(sweep_report_path(sweep_file))
+
+
+def _add_sweep_traces(page: ReportPage, layout: Layout, ok: np.ndarray,
+                      params: list[str]) -> None:
+    """The channels of up to `MAX_SWEEP_TRACES` finished cases overlaid."""
     time = np.asarray(layout.coords["time"].values, float)
     shown = ok[:MAX_SWEEP_TRACES]
     label = {c: ", ".join(f"{p} = {layout.coords[p].values[c]:.4g}" for p in params)
@@ -354,22 +386,3 @@ def write_sweep_report(sweep_file: Path, animation: bool = False,
                             {label[c]: np.asarray(variable.values[c], float) * factor
                              for c in shown}))
     page.add_traces(f"Channels of {shown.size} of {ok.size} finished cases", traces)
-    if animation:
-        from .animation import animate_sweep
-
-        gif = sweep_file.with_name(f"{sweep_file.stem}_animation.gif")
-        animate_sweep(sweep_file, gif)
-        page.add_images("Animation", [gif])
-    rows = []
-    for c in range(status.size):
-        row: dict[str, Any] = {"case": c}
-        row.update({p: layout.coords[p].values[c] for p in params})
-        row["status"] = status[c]
-        if "wall_time" in layout.data:
-            row["wall time [s]"] = float(layout.data["wall_time"].values[c])
-        if "error" in layout.data:
-            row["error"] = str(layout.data["error"].values[c])
-        rows.append(row)
-    page.add_table("Cases", rows)
-    page.add_text("Base scenario", str(attrs.get("base_scenario", "")))
-    return page.write(sweep_report_path(sweep_file))
