@@ -449,10 +449,6 @@ def _model_line(meta: dict[str, Any]) -> str:
             "closed_loop": "prescribed joints in closed loop"}.get(str(meta.get("path")),
                                                                    str(meta.get("path")))
     line = f"model: {model}, {path}, integrator {meta.get('method', '?')}"
-    if "peak_tip_deflection_per_length" in meta:
-        from .simulation.common import FIRST_ORDER_LIMIT
-
-        line += (f"; peak tip deflection {100 * meta['peak_tip_deflection_per_length']:.1f}% "
-                 f"of its link's length (first-order theory holds to about "
-                 f"{100 * FIRST_ORDER_LIMIT:.0f}%)")
+    if "accuracy" in meta:  # the statement of simulation/accuracy.py, for the model that ran
+        line += f"\naccuracy: {meta['accuracy']}"
     return line

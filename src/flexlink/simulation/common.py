@@ -18,6 +18,7 @@ from ..errors import RunTooLarge, SimulationError
 from ..model import Link, Scenario
 from ..results import Results
 from ..solvers import Solution
+from .accuracy import accuracy_metadata
 
 _version = functools.lru_cache(maxsize=1)(package_version)  # metadata lookup: ~5 ms per call
 
@@ -157,22 +158,19 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
     return results
 
 
-# Tip deflection per length up to which the first-order model is trusted without a warning.
-# Its error against the nonlinear model grows as the square of the deflection: a stiffened
-# hub-beam 0.3% of peak at 9% deflection, 0.5% at 12%, 1.2% at 18% (benchmarks/model_choice.py).
-FIRST_ORDER_LIMIT = 0.1
-
-
 def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,
-                         geometric_stiffening: bool) -> dict[str, Any]:
+                         geometric_stiffening: bool, axial_load: np.ndarray | None = None
+                         ) -> dict[str, Any]:
     """Metadata on the first-order model's validity: the largest tip deflection relative to
-    its link's length, and a warning text where it passes FIRST_ORDER_LIMIT. A SimulationError
-    where it exceeds the length: the linear model has diverged (e.g. centrifugal softening
+    its link's length and the expected error against the nonlinear model with its statement
+    (`accuracy.accuracy_metadata`; a warning where it is large). A SimulationError where a
+    deflection exceeds the length: the linear model has diverged (e.g. centrifugal softening
     without geometric stiffening above the first frequency).
-    ``deflection``: |w(L)| of every link, (nt, links), m."""
+    ``deflection``: |w(L)| of every link, (nt, links), m; ``axial_load``: each link's
+    `accuracy.axial_load_parameter` (zero if not given)."""
     lengths = np.array([link.length for link in links])
     ratio = deflection / lengths
-    # Column by column: numpy's max over axis 0 of a (nt, few) array costs 20× more.
+    # Column by column: numpy's max over axis 0 of a (nt, few) array is slower.
     peaks = np.array([ratio[:, k].max() for k in range(len(links))]) if ratio.size \
         else np.zeros(len(links))
     for k, link in enumerate(links):
@@ -189,14 +187,9 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
                 f"t = {when:.4g} s: the first-order model is not valid here{hint}; "
                 f"model = \"nonlinear\" handles large deflections")
     worst = int(np.argmax(peaks))
-    out: dict[str, Any] = {"peak_tip_deflection_per_length": float(peaks[worst])}
-    if peaks[worst] > FIRST_ORDER_LIMIT:
-        out["validity_warning"] = (
-            f"the tip of {links[worst].name} deflected {100 * peaks[worst]:.0f}% of its length "
-            f"(first-order theory holds to about {100 * FIRST_ORDER_LIMIT:.0f}%; its error grows "
-            "as the square of the deflection, about 1% of peak at 18%): model = \"nonlinear\" "
-            "is accurate at large deflections")
-    return out
+    load = np.zeros(len(links)) if axial_load is None else axial_load
+    return {"peak_tip_deflection_per_length": float(peaks[worst]),
+            **accuracy_metadata(links, peaks, load, geometric_stiffening)}
 
 
 class ProgressBar:

@@ -1,0 +1,112 @@
+"""How far a first-order run is from the geometrically nonlinear model: the one source of
+every accuracy statement flexlink makes (the run's metadata, the command's summary,
+results.nc, report.html; docs/validation.md, "How far is first order from nonlinear").
+
+The estimate is of the largest difference of a link's tip deflection from the nonlinear
+model's, relative to the nonlinear model's peak tip deflection. Two terms, each measured
+from the run itself:
+
+- every first-order model drops terms of second order in the deflection: an error growing
+  as the square of the peak tip deflection per length δ, and as δ times S, the geometric
+  stiffness of the axial load a spinning, accelerating link carries relative to its bending
+  stiffness (`axial_load_parameter`);
+- the paper's model (``geometric_stiffening = false``) also drops that geometric stiffness
+  itself, an error growing with S alone.
+
+expected error = A δ² + C δ S with stiffening, √((A δ² + C δ S)² + (B S^P)²) without.
+A, C, B, P are calibrated against the nonlinear model by ``scripts/accuracy_calibration.py`` on a set
+of arms and manoeuvres (its table is docs/validation.md's); the held-out cases are in
+``tests/validation/test_accuracy_estimate.py``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..model import Base, Link
+from ..modes import ModalData
+
+# Calibrated by scripts/accuracy_calibration.py (least squares in log error).
+A_DEFLECTION = 0.171
+C_COUPLING = 0.434
+B_AXIAL = 2.23
+P_AXIAL = 1.16
+
+# Expected error (fraction of peak) above which a run carries a warning.
+WARN_ABOVE = 0.02
+
+
+def axial_load_parameter(links: Sequence[Link], modal: Sequence[ModalData],
+                         base: Base | None, omega: np.ndarray, origin_accel: np.ndarray
+                         ) -> np.ndarray:
+    """S_k = max_t |K_g(t)| / K of every link's first assumed mode (0 for a rigid link): the
+    geometric stiffness of the axial load the link carries over its bending stiffness.
+    K_g = Ω_k² ∫N_Ω φ'² dx − a_k ∫N_a φ'² dx with N_Ω = m(L² − x²)/2 + M L and
+    N_a = m(L − x) + M (the modal integrals ``foreshortening_moment``, ``_mass`` and
+    ``_tip``): Ω_k the frame's absolute rate (rad/s, ``omega`` (nt, N)), a_k its origin's
+    acceleration along the link (m/s², ``origin_accel[..., 0]`` (nt, N, 2), frame axes),
+    M the outboard links of its branch as a point mass at its tip (its own tip mass is in
+    the integrals)."""
+    n = len(links)
+    out = np.zeros(n)
+    for k, (link, data) in enumerate(zip(links, modal, strict=True)):
+        if data.n == 0 or omega.size == 0:
+            continue
+        outboard = 0.0
+        for j in range(k + 1, n):
+            if base is not None and base.attachment(j) is not None:
+                break  # link j starts another branch on the base
+            outboard += links[j].mass
+        spin = data.foreshortening_moment[0, 0] + outboard * link.length * \
+            data.foreshortening_tip[0, 0]
+        push = data.foreshortening_mass[0, 0] + outboard * data.foreshortening_tip[0, 0]
+        geometric = omega[:, k] ** 2 * spin - origin_accel[:, k, 0] * push
+        out[k] = float(np.abs(geometric).max()) / data.stiffness_matrix[0, 0]
+    return out
+
+
+def expected_error(deflection_per_length: float, axial_load: float,
+                   geometric_stiffening: bool) -> float:
+    """The expected largest difference of a tip deflection from the nonlinear model's, as a
+    fraction of its peak: δ = peak tip deflection / length, S = `axial_load_parameter`."""
+    d, S = deflection_per_length, axial_load
+    second_order = A_DEFLECTION * d * d + C_COUPLING * d * S
+    if geometric_stiffening:
+        return second_order
+    return float(np.hypot(second_order, B_AXIAL * S ** P_AXIAL))
+
+
+def accuracy_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
+                      axial_load: np.ndarray, geometric_stiffening: bool) -> dict[str, Any]:
+    """The run's accuracy metadata: for the link with the largest peak tip deflection per
+    length (``deflection_per_length``, per link), its expected error and the statement the
+    summary, results.nc and report.html carry; a warning above WARN_ABOVE."""
+    k = int(np.argmax(deflection_per_length))
+    error = expected_error(float(deflection_per_length[k]), float(axial_load[k]),
+                           geometric_stiffening)
+    model = ("the first-order model" if geometric_stiffening
+             else "the first-order model without geometric stiffening (as in the paper)")
+    statement = (f"{links[k].name}'s tip deflection is expected to differ from the nonlinear "
+                 f"model's by about {_percent(error)} of its peak ({model}; peak tip deflection "
+                 f"{100 * deflection_per_length[k]:.1f}% of the link's length)")
+    out: dict[str, Any] = {"expected_error_vs_nonlinear": error,
+                           "expected_error_link": links[k].name,
+                           "axial_load_parameter": float(axial_load[k]), "accuracy": statement}
+    if error > WARN_ABOVE:
+        fix = ("model = \"nonlinear\" is accurate at large deflections" if geometric_stiffening
+               else "geometric_stiffening = true removes most of it, model = \"nonlinear\" "
+                    "all of it")
+        out["validity_warning"] = (
+            f"the tip of {links[k].name} deflected {100 * deflection_per_length[k]:.0f}% of its "
+            f"length and {model} is expected to be {_percent(error)} of peak off the "
+            f"nonlinear model: {fix}")
+    return out
+
+
+def _percent(fraction: float) -> str:
+    """A fraction as a percentage with two significant digits (0.21%, 2.1%, 22%, 140%)."""
+    value = 100 * fraction
+    return f"{value:.0f}%" if value >= 10 else f"{value:.2g}%"
