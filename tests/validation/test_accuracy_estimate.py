@@ -26,7 +26,6 @@ def _paper_arm(EI_scale: float, duration: float) -> Scenario:
     links = tuple(dataclasses.replace(link, EI=link.EI * EI_scale)
                   for link in paper.chain.links)
     joints = tuple(dataclasses.replace(j, duration=duration) for j in paper.chain.joints)
-    settings = dataclasses.replace(paper.settings, t_end=0.5 + duration + 1.5)
     return dataclasses.replace(paper, chain=Chain(links, joints), sensors=())
 
 

@@ -19,8 +19,8 @@ from ..model import Base, Scenario
 from ..solvers import Solution
 from ..solvers.forward import FAST_METHOD, integrate_forward
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
-from .closed_loop import control_values, sensor_rows
 from .accuracy import axial_load_parameter
+from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress, check_tip_deflection
 
 
