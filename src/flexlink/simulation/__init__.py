@@ -74,6 +74,12 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) ->
     # Small matrices and batched products over time: BLAS threads only add overhead.
     with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
         run, wall_time = timed(lambda: _run_path(path, scenario, t, bar.update, shapes))
+    if scenario.controllers:
+        from ..control.loop_check import loop_warnings
+
+        warnings = loop_warnings(scenario, t, run.values)
+        if warnings:
+            run = replace(run, metadata={**run.metadata, "control_warning": "; ".join(warnings)})
     return assemble_results(scenario, run, wall_time)
 
 
