@@ -7,6 +7,7 @@ with every controller's discrete state space, saturation left out)."""
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Mapping
 
@@ -44,7 +45,7 @@ def phases(scenario: Scenario, t_end: float) -> list[tuple[float, float]]:
     if len(cuts) > _MOST_PHASES:
         cuts = []
     edges = [0.0, *cuts, t_end]
-    return [(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)
+    return [(a, b) for a, b in itertools.pairwise(edges)
             if b - a >= _SHORTEST_PHASE * t_end]
 
 

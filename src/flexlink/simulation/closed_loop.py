@@ -26,10 +26,10 @@ from ..dynamics.controllers import (
     state_count,
 )
 from ..dynamics.first_order import FirstOrderSystem
-from ..errors import SimulationError
+from ..errors import SimulationError, UnstableLoop
 from ..model import FunctionController, PointSensor, Scenario
 from ..solvers import Solution
-from ..solvers.closed_loop import PythonLoop, UnstableLoop, integrate_closed_loop
+from ..solvers.closed_loop import PythonLoop, integrate_closed_loop
 from ..solvers.gauss_sampled import sample_grid
 from .common import PathRun, Progress
 from .prescribed import prescribed_values

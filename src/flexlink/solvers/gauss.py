@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
-from ..errors import SimulationError
+from ..errors import SimulationError, UnstableLoop
 from .solution import Solution
 from .threads import single_threaded
 
@@ -238,9 +238,9 @@ def solve_nonlinear(
     for _ in range(max_halvings + 1):
         try:
             q, v, a = run(h)
-        except SimulationError as exc:  # Newton failed at this step size: halve
-            if type(exc).__name__ == "LoopUnstable":
-                raise
+        except UnstableLoop:
+            raise
+        except SimulationError:  # Newton failed at this step size: halve
             previous = None
             h /= 2
             continue
