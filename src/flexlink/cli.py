@@ -43,8 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser (also used by the docs and tests)."""
     parser = argparse.ArgumentParser(
         prog="flexlink",
-        description="Simulate planar chains of flexible links with prescribed joint motion "
-                    "(assumed modes; Choi & Kwak 2016).",
+        description="Simulate planar chains of flexible links (assumed modes; Choi & Kwak "
+                    "2016): joints prescribed, driven by torques or servos, on a fixed or "
+                    "moving base, first-order or geometrically nonlinear, open or closed loop.",
         epilog="Start from the built-in experiment: flexlink show-paper > my.toml, edit it, "
                "then flexlink run my.toml -o my_results. Scenario keys: docs/scenario.md.",
     )
