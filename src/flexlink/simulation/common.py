@@ -20,7 +20,7 @@ from ..results import Results
 from ..solvers import Solution
 from .accuracy import accuracy_metadata
 
-_version = functools.lru_cache(maxsize=1)(package_version)  # metadata lookup: ~5 ms per call
+_version = functools.lru_cache(maxsize=1)(package_version)  # the metadata lookup is slow
 
 Progress = Callable[[float], None]
 
@@ -93,7 +93,7 @@ def check_run_memory(scenario: Scenario) -> None:
     """RunTooLarge, before anything runs, if the run's arrays would not fit in memory."""
     estimate = run_memory(scenario)
     if estimate.total <= ALWAYS_FITS:
-        return  # asking the system how much is free costs 0.3 ms, a tenth of a small run
+        return  # asking the system how much is free costs a noticeable part of a small run
     problem = memory_problem(estimate, scenario.settings.t_end, "this run")
     if problem:
         raise RunTooLarge(problem)

@@ -86,7 +86,7 @@ def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.
                    t_ends: np.ndarray) -> None:
     """Run the numba step loop over q, v in place, in chunks of CHUNK steps."""
     steps = q.shape[0] - 1
-    from ._gauss_numba import gauss_loop  # numba loads in ~0.5 s: only when used
+    from ._gauss_numba import gauss_loop  # numba's import is slow: only when used
 
     arrays = [np.ascontiguousarray(a, dtype=float) for a in (
         system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
