@@ -37,6 +37,8 @@ P_AXIAL = 1.16
 
 # Expected error (fraction of peak) above which a run carries a warning.
 WARN_ABOVE = 0.02
+# Peak tip deflection per length above which a forward run (no estimate) carries a warning.
+FORWARD_WARN_DEFLECTION = 0.1
 
 
 def axial_load_parameter(links: Sequence[Link], modal: Sequence[ModalData],
@@ -103,6 +105,26 @@ def accuracy_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
             f"the tip of {links[k].name} deflected {100 * deflection_per_length[k]:.0f}% of its "
             f"length and {model} is expected to be {_percent(error)} of peak off the "
             f"nonlinear model: {fix}")
+    return out
+
+
+def unestimated_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
+                         axial_load: np.ndarray) -> dict[str, Any]:
+    """The accuracy metadata of a forward run (driven joints or a moving base), for which the
+    estimate is not calibrated (its measured error against the nonlinear forward model
+    scatters beyond a factor 1.5 of it: docs/validation.md, Case 12b): the peak deflection
+    and a pointer to the nonlinear model (S recorded too), a warning past
+    FORWARD_WARN_DEFLECTION."""
+    k = int(np.argmax(deflection_per_length))
+    peak = 100 * float(deflection_per_length[k])
+    out: dict[str, Any] = {"axial_load_parameter": float(axial_load[k]), "accuracy": (
+        f"not estimated for driven joints or a moving base (peak tip deflection {peak:.1f}% "
+        f"of {links[k].name}'s length): run it with model = \"nonlinear\" to compare")}
+    if deflection_per_length[k] > FORWARD_WARN_DEFLECTION:
+        out["validity_warning"] = (
+            f"the tip of {links[k].name} deflected {peak:.0f}% of its length; the first-order "
+            "model's error grows with the deflection and is not estimated for forward runs: "
+            "model = \"nonlinear\" is accurate at large deflections")
     return out
 
 

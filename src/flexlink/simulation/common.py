@@ -18,7 +18,7 @@ from ..errors import RunTooLarge, SimulationError
 from ..model import Link, Scenario
 from ..results import Results
 from ..solvers import Solution
-from .accuracy import accuracy_metadata
+from .accuracy import accuracy_metadata, unestimated_metadata
 
 _version = functools.lru_cache(maxsize=1)(package_version)  # the metadata lookup is slow
 
@@ -159,15 +159,16 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
 
 
 def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,
-                         geometric_stiffening: bool, axial_load: np.ndarray | None = None
-                         ) -> dict[str, Any]:
+                         geometric_stiffening: bool, axial_load: np.ndarray | None = None,
+                         estimate: bool = True) -> dict[str, Any]:
     """Metadata on the first-order model's validity: the largest tip deflection relative to
     its link's length and the expected error against the nonlinear model with its statement
     (`accuracy.accuracy_metadata`; a warning where it is large). A SimulationError where a
     deflection exceeds the length: the linear model has diverged (e.g. centrifugal softening
     without geometric stiffening above the first frequency).
     ``deflection``: |w(L)| of every link, (nt, links), m; ``axial_load``: each link's
-    `accuracy.axial_load_parameter` (zero if not given)."""
+    `accuracy.axial_load_parameter` (zero if not given); ``estimate``: False for a forward
+    run, where the estimate is not calibrated (`accuracy.unestimated_metadata`)."""
     lengths = np.array([link.length for link in links])
     ratio = deflection / lengths
     # Column by column: numpy's max over axis 0 of a (nt, few) array is slower.
@@ -187,9 +188,11 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
                 f"t = {when:.4g} s: the first-order model is not valid here{hint}; "
                 f"model = \"nonlinear\" handles large deflections")
     worst = int(np.argmax(peaks))
+    out = {"peak_tip_deflection_per_length": float(peaks[worst])}
     load = np.zeros(len(links)) if axial_load is None else axial_load
-    return {"peak_tip_deflection_per_length": float(peaks[worst]),
-            **accuracy_metadata(links, peaks, load, geometric_stiffening)}
+    if not estimate:
+        return {**out, **unestimated_metadata(links, peaks, load)}
+    return {**out, **accuracy_metadata(links, peaks, load, geometric_stiffening)}
 
 
 class ProgressBar:
