@@ -29,11 +29,21 @@ def _paper_arm(EI_scale: float, duration: float) -> Scenario:
     return dataclasses.replace(paper, chain=Chain(links, joints), sensors=())
 
 
+def _two_links(EI: float, duration: float) -> Scenario:
+    links = tuple(Link(f"link{k + 1}", 0.8, 0.5, EI, tip_mass=0.1, modes=4,
+                       damping_ratio=0.01) for k in range(2))
+    joints = (Cycloidal(0.0, 90.0, 0.0, duration), Cycloidal(0.0, 60.0, 0.0, duration))
+    return Scenario(Chain(links, joints), (),
+                    SimulationSettings(t_end=duration + 2.0, dt_out=1e-3))
+
+
 HELD_OUT = {
     "hub-beam EI 6, tip 0.1 kg, 1.0 s": _hub_beam(6.0, 0.1, 1.0),
     "hub-beam EI 12, tip 0.05 kg, 1.6 s": _hub_beam(12.0, 0.05, 1.6),
     "paper arm EI ×0.85, 1.2 s": _paper_arm(0.85, 1.2),
     "paper arm EI ×1.2, 0.9 s": _paper_arm(1.2, 0.9),
+    "paper arm EI ×1.2, 1.7 s": _paper_arm(1.2, 1.7),
+    "two equal links EI 20, 1.2 s": _two_links(20.0, 1.2),
 }
 
 

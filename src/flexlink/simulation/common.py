@@ -160,7 +160,8 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
 
 def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,
                          geometric_stiffening: bool, axial_load: np.ndarray | None = None,
-                         estimate: bool = True) -> dict[str, Any]:
+                         estimate: bool = True, inboard: np.ndarray | None = None
+                         ) -> dict[str, Any]:
     """Metadata on the first-order model's validity: the largest tip deflection relative to
     its link's length and the expected error against the nonlinear model with its statement
     (`accuracy.accuracy_metadata`; a warning where it is large). A SimulationError where a
@@ -168,7 +169,8 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
     without geometric stiffening above the first frequency).
     ``deflection``: |w(L)| of every link, (nt, links), m; ``axial_load``: each link's
     `accuracy.axial_load_parameter` (zero if not given); ``estimate``: False for a forward
-    run, where the estimate is not calibrated (`accuracy.unestimated_metadata`)."""
+    run, where the estimate is not calibrated (`accuracy.unestimated_metadata`);
+    ``inboard``: `accuracy.hangs_on_elastic` of each link (none if not given)."""
     lengths = np.array([link.length for link in links])
     ratio = deflection / lengths
     # Column by column: numpy's max over axis 0 of a (nt, few) array is slower.
@@ -192,7 +194,7 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
     load = np.zeros(len(links)) if axial_load is None else axial_load
     if not estimate:
         return {**out, **unestimated_metadata(links, peaks, load)}
-    return {**out, **accuracy_metadata(links, peaks, load, geometric_stiffening)}
+    return {**out, **accuracy_metadata(links, peaks, load, geometric_stiffening, inboard)}
 
 
 class ProgressBar:

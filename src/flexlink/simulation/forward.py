@@ -42,7 +42,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         validity = check_tip_deflection(
             scenario.chain.links, t, tip_deflections(view, z), system.geometric_stiffening,
             axial_load_parameter(scenario.chain.links, system.modal, scenario.base,
-                                 view.frames.omega, view.frames.origin_accel), estimate=False)
+                                 view.frames.theta, view.frames.omega, view.frames.alpha,
+                                 view.frames.origin_accel), estimate=False)
     except SimulationError as exc:
         if loop is None:
             raise

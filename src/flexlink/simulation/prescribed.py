@@ -14,7 +14,7 @@ from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, joint_torques, solved_frames
 from ..model import Scenario
 from ..solvers import PRESCRIBED_METHODS, Solution, rigid_solution
-from .accuracy import axial_load_parameter
+from .accuracy import axial_load_parameter, hangs_on_elastic
 from .common import PathRun, Progress, check_tip_deflection
 
 
@@ -52,7 +52,9 @@ def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: So
     links = scenario.chain.links
     validity = check_tip_deflection(
         links, t, deflection, system.geometric_stiffening,
-        axial_load_parameter(links, system.modal, scenario.base, frames.omega, frames.origin_accel))
+        axial_load_parameter(links, system.modal, scenario.base, frames.theta, frames.omega,
+                             frames.alpha, frames.origin_accel),
+        inboard=hangs_on_elastic(links, scenario.base))
     torque = joint_torques(system, frames)
     values = sensor_values(system, frames, solution, scenario.sensors)
     for k in range(len(scenario.chain.links)):
