@@ -79,13 +79,18 @@ def final_loop_instability(scenario: Scenario) -> str | None:
             or any(isinstance(c, FunctionController) for c in controllers)
             or len({c.sample_rate for c in controllers}) != 1):
         return None
-    radius, frequency = closed_loop_radius(scenario)
-    if radius <= UNSTABLE_RADIUS:
+    try:
+        radius, frequency = closed_loop_radius(scenario)
+    except (ValueError, np.linalg.LinAlgError):  # a plant the check cannot linearise: the
+        return None                               # run stands, its own blow-up checks apply
+    if not radius > UNSTABLE_RADIUS:
         return None
     rate = controllers[0].sample_rate
     growth = math.log(radius) * rate
-    return (f"the closed loop is unstable about the final configuration: a mode near "
-            f"{frequency:.3g} Hz grows by e every {1 / growth:.3g} s (sampled closed-loop "
+    mode = (f"a mode near {frequency:.3g} Hz" if frequency >= 0.01
+            else "a non-oscillating mode (a static loop gain above 1)")
+    return (f"the closed loop is unstable about the final configuration: {mode} grows by e "
+            f"every {1 / growth:.3g} s (sampled closed-loop "
             f"eigenvalue |λ| = {radius:.6g} at {rate:g} Hz); lower the controllers' gain")
 
 
