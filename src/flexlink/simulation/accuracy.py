@@ -113,7 +113,7 @@ def accuracy_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
     error = expected_error(float(deflection_per_length[k]), float(axial_load[k]),
                            geometric_stiffening, on_elastic)
     model = ("the first-order model" if geometric_stiffening
-             else "the first-order model without geometric stiffening (as in the paper)")
+             else "the paper's first-order model without geometric stiffening")
     statement = (f"{links[k].name}'s tip deflection is expected to differ from the nonlinear "
                  f"model's by about {_percent(error)} of its peak ({model}; peak tip deflection "
                  f"{100 * deflection_per_length[k]:.1f}% of the link's length)")
