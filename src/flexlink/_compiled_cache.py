@@ -2,7 +2,7 @@
 installation").
 
 numba caches a compiled function (``cache=True``) beside its module or in
-``NUMBA_CACHE_DIR``, so the first run on a machine waits ~10 s for LLVM. ``pip install .``
+``NUMBA_CACHE_DIR``, so the first run on a machine waits for LLVM. ``pip install .``
 builds a wheel whose build step (setup.py) compiles the kernels into the package's folder
 ``_compiled/`` on the machine that installs it; `PackageCacheLocator`, put first in numba's
 list of cache locators when a kernel module is imported, finds them there.

@@ -4,7 +4,7 @@ from functools import cache
 from importlib.metadata import PackageNotFoundError, version
 
 
-@cache  # reading the package metadata costs ~2 ms; a sweep resolves thousands of scenarios
+@cache  # reading the package metadata is slow; a sweep resolves thousands of scenarios
 def package_version() -> str:
     try:
         return version("flexlink")

@@ -23,8 +23,8 @@ PAPER_DEFAULT_OUTPUT = "paper_results"
 
 
 class _VersionAction(argparse.Action):
-    """``--version``: the installed version, read only when asked (importlib.metadata costs
-    ~10 ms of every command's start-up)."""
+    """``--version``: the installed version, read only when asked (importlib.metadata would
+    otherwise be part of every command's start-up)."""
 
     def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
                  default: str = argparse.SUPPRESS, help: str | None = None) -> None:
@@ -43,8 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser (also used by the docs and tests)."""
     parser = argparse.ArgumentParser(
         prog="flexlink",
-        description="Simulate planar chains of flexible links with prescribed joint motion "
-                    "(assumed modes; Choi & Kwak 2016).",
+        description="Simulate planar chains of flexible links (assumed modes; Choi & Kwak "
+                    "2016): joints prescribed, driven by torques or servos, on a fixed or "
+                    "moving base, first-order or geometrically nonlinear, open or closed loop.",
         epilog="Start from the built-in experiment: flexlink show-paper > my.toml, edit it, "
                "then flexlink run my.toml -o my_results. Scenario keys: docs/scenario.md.",
     )
@@ -124,13 +125,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``flexlink`` command; returns the exit status. ``argv``: the
     arguments (default: the command line's, and the process is about to exit).
 
-    The command's own process (no ``argv``) runs its start-up without the garbage collector:
-    importing numpy, scipy, numba and matplotlib makes ~10⁶ objects and no garbage, and the
-    collections the allocations trigger walked them all again and again (~0.1 s of a run).
-    `_collect_from_here` resumes it, skipping the objects made so far. At exit the heap is
-    frozen: Python's final collection would walk every object once more (0.2-0.4 s after a
-    run), objects that die with the process anyway. A caller's own ``argv`` (a test, a
-    script) goes on with its objects and its collector as they were."""
+    The command's own process (no ``argv``) runs its start-up without the garbage collector
+    and freezes the heap at exit (ARCHITECTURE.md, "Start-up of `flexlink run`");
+    `_collect_from_here` resumes the collector, skipping the objects made so far. A caller's
+    own ``argv`` (a test, a script) goes on with its objects and its collector as they
+    were."""
     command = argv is None
     if command:
         gc.disable()
@@ -156,8 +155,8 @@ BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_TH
 def _one_blas_thread(args: Sequence[str]) -> None:
     """Start OpenBLAS (numpy's and scipy's) with one thread in a ``run``/``paper`` command's
     own process, unless the user chose a number of threads: the thread OpenBLAS starts for
-    the second core spins for work after numpy's and scipy's imports, ~0.15 s of CPU that
-    the figures' processes and the run itself were waiting for (docs/performance.md)."""
+    the second core spins for work after numpy's and scipy's imports, CPU that the figures'
+    processes and the run itself wait for (ARCHITECTURE.md, "Start-up of `flexlink run`")."""
     if (args and args[0] in ONE_BLAS_THREAD_COMMANDS and "numpy" not in sys.modules
             and not any(name in os.environ for name in BLAS_THREAD_VARIABLES)):
         os.environ["OPENBLAS_NUM_THREADS"] = "1"
@@ -167,10 +166,10 @@ def command() -> NoReturn:
     """The ``flexlink`` program (``python -m flexlink`` and the installed script): `main`,
     then the end of the process without Python's teardown of its modules.
 
-    After a run the interpreter holds ~10⁶ objects of numpy, scipy and numba; unloading
-    their modules one by one cost 25-50 ms of every command after its last output. The
-    teardown frees nothing a process that ends needs freed: stdout and stderr are flushed and
-    the exit functions (``atexit``) run as in a normal exit. Where other threads are still
+    After a run the interpreter holds ~10⁶ objects of numpy, scipy and numba, and unloading
+    their modules one by one frees nothing a process that ends needs freed
+    (ARCHITECTURE.md, "Start-up of `flexlink run`"): stdout and stderr are flushed and the
+    exit functions (``atexit``) run as in a normal exit. Where other threads are still
     running, or flushing fails (a closed pipe), Python's usual exit runs instead."""
     status = main()
     _exit(status)
@@ -205,7 +204,7 @@ def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.handler is not _cmd_run and args.handler is not _cmd_paper:
-        _collect_from_here()  # only `run` and `paper` are timed to the last 0.1 s
+        _collect_from_here()  # only `run` and `paper` keep it paused through their imports
     if args.command == "run" and (args.paper == (args.scenario is not None)):
         args.subparser.error("give a scenario file or --paper (exactly one)")
     try:
@@ -229,7 +228,7 @@ WARMUP_RUNS = ("prescribed", "nonlinear", "forward", "free_base", "nonlinear_for
 
 
 def warmup_scenarios() -> dict[str, Any]:
-    """Tiny variants of the paper scenario (20 ms), keyed by `WARMUP_RUNS`, that run every
+    """Tiny variants of the paper scenario (20 ms simulated), keyed by `WARMUP_RUNS`, that run every
     compiled loop: the Lawson loop (prescribed), Gauss collocation (nonlinear), the forward
     kernel with its RK4 loop (driven joints) and its Lawson loop (a free base), the nonlinear
     model's forward collocation and the closed-loop Lawson loop."""
@@ -332,9 +331,9 @@ def _load_simulate_and_write(args: argparse.Namespace, worker: Any) -> int:
 
 # Modules that numba and scipy import when they are installed and that a run never uses:
 # charset_normalizer (numpy.f2py's guess of a Fortran file's encoding, imported through
-# scipy's copy of numpy's namespace; ~30 ms), cffi (numba's typing of cffi functions;
-# ~20-40 ms) and yaml (numba's reading of a .numba_config.yaml in the current folder, so
-# only where there is none; ~15-25 ms). Each is optional to them (imported inside a try).
+# scipy's copy of numpy's namespace), cffi (numba's typing of cffi functions) and yaml
+# (numba's reading of a .numba_config.yaml in the current folder, so only where there is
+# none). Each is optional to them (imported inside a try).
 WITHHELD_IMPORTS = ("charset_normalizer", "cffi", "yaml")
 NUMBA_CONFIG_FILE = ".numba_config.yaml"
 
@@ -354,7 +353,8 @@ def withheld_imports(names: Sequence[str]) -> Iterator[list[str]]:
     """Within the block, ``import name`` raises ImportError for each of ``names`` that is not
     imported yet (Python's own ``sys.modules[name] = None``); afterwards it imports as usual.
     Yields the names withheld. For `flexlink run`'s start-up: numba and scipy load meanwhile
-    and go without the optional modules `WITHHELD_IMPORTS` (docs/performance.md). Should a
+    and go without the optional modules `WITHHELD_IMPORTS` (ARCHITECTURE.md, "Start-up of
+    `flexlink run`"). Should a
     library need one after all, its import fails inside the block and succeeds when
     retried after it (the run imports the simulation code again on first use)."""
     held = [name for name in names if name not in sys.modules]
@@ -430,8 +430,9 @@ def summary(results: Any, out_dir: Path, name: str) -> str:
         peak = float(abs(values).max()) if values.size else 0.0
         extra = f"  ({math.degrees(peak):.4g} deg)" if channel.unit == "rad" else ""
         lines.append(f"  {name_:<{width}}  {peak:.4g} {channel.unit}{extra}")
-    if "validity_warning" in results.metadata:
-        lines.append(f"warning: {results.metadata['validity_warning']}")
+    for key in ("validity_warning", "control_warning"):
+        if key in results.metadata:
+            lines.append(f"warning: {results.metadata[key]}")
     files = sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*") if p.is_file())
     lines.append(f"wrote {out_dir}{'/' if not str(out_dir).endswith('/') else ''}: "
                  + ", ".join(files))
@@ -449,10 +450,6 @@ def _model_line(meta: dict[str, Any]) -> str:
             "closed_loop": "prescribed joints in closed loop"}.get(str(meta.get("path")),
                                                                    str(meta.get("path")))
     line = f"model: {model}, {path}, integrator {meta.get('method', '?')}"
-    if "peak_tip_deflection_per_length" in meta:
-        from .simulation.common import FIRST_ORDER_LIMIT
-
-        line += (f"; peak tip deflection {100 * meta['peak_tip_deflection_per_length']:.1f}% "
-                 f"of its link's length (first-order theory holds to about "
-                 f"{100 * FIRST_ORDER_LIMIT:.0f}%)")
+    if "accuracy" in meta:  # the statement of simulation/accuracy.py, for the model that ran
+        line += f"\naccuracy: {meta['accuracy']}"
     return line

@@ -217,7 +217,8 @@ def test_the_first_order_validity_is_reported() -> None:
     links = (Link("a", 1.0, 1.0, 1.0), Link("b", 0.5, 1.0, 1.0))
     t = np.linspace(0.0, 1.0, 3)
     fine = check_tip_deflection(links, t, np.array([[0.0, 0.0], [0.1, 0.05], [0.0, 0.0]]), True)
-    assert fine == {"peak_tip_deflection_per_length": pytest.approx(0.1)}
+    assert fine["peak_tip_deflection_per_length"] == pytest.approx(0.1)
+    assert "validity_warning" not in fine
     bent = check_tip_deflection(links, t, np.array([[0.0, 0.0], [0.1, 0.2], [0.0, 0.0]]), True)
     assert bent["peak_tip_deflection_per_length"] == pytest.approx(0.4)
     assert "the tip of b deflected 40% of its length" in bent["validity_warning"]

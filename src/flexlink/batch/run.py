@@ -209,7 +209,7 @@ def _local_workers(workers: int | None, scheduler: Any, cases: int) -> int:
 
 def _import_xarray_meanwhile() -> None:
     """Import xarray (and the dask it probes for) and build a first Dataset in a background
-    thread while the cases run: ~1 s of imports the collecting process would otherwise pay
+    thread while the cases run: imports the collecting process would otherwise pay
     before the first case or, worse, when Ctrl-C is pressed. Whoever needs xarray first
     waits for the import there (Python's import lock)."""
     import threading

@@ -46,7 +46,7 @@ def rigid_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.nda
     """Base pose and rates, joint angles, rates, torques, servo references and commands,
     and (base not fixed) momentum, by channel name."""
     # The compiled joint rows (tests/unit/test_forward_kernel.py: equal to the numpy
-    # ForwardSystem.joint_torques to round-off), ~1 µs per output time instead of ~13.
+    # ForwardSystem.joint_torques to round-off), an order of magnitude cheaper.
     torque = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd)
     moving = system.base.kind != "fixed"
     return pose_and_joint_values(system, t, p, pd, integral, torque,

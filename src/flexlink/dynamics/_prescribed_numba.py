@@ -22,7 +22,7 @@ from ._forward_numba import frames
 def _scratch(d):
     """p, ṗ, p̈, θ, ω, ω̇ (N), origin accelerations (N, 2) and maps T, Ṫ, T̈ (N, 3, n_x) for
     `_forward_numba.frames`, allocated here: an argument more to unbox per call from Python
-    (a Workspace of 26 arrays) cost ~0.4 s of compilation on a first run."""
+    (a Workspace of 26 arrays) lengthened the first run's compilation."""
     N, nx = d.length.shape[0], d.n_x
     return (np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N),
             np.empty((N, 2)), np.empty((N, 3, nx)), np.empty((N, 3, nx)), np.empty((N, 3, nx)))
@@ -256,8 +256,8 @@ def _solve_many(A, B):
     factor L, A = L Lᵀ, in the lower triangle), then L y = B and Lᵀ x = y row by row.
 
     Half the factorisation of Gaussian elimination and no pivoting; the substitutions run
-    along rows of B (the solve was 65 of the 103 µs of a ten-link sample when it ran down its
-    columns, 19 µs now). A matrix that is not positive definite (a blown-up state) gives NaN:
+    along rows of B (contiguous in memory; down its columns the solve was most of a ten-link
+    sample's cost). A matrix that is not positive definite (a blown-up state) gives NaN:
     the table then reports non-finite coefficients."""
     n, r = B.shape
     for c in range(n):

@@ -42,7 +42,7 @@ class JointHistory:
         new = np.ones(self.angle.shape[0], dtype=bool)
         change = new[1:]
         change[:] = False
-        # Column by column: numpy's any over axis 1 of an (nt, 3N) array cost 5× more.
+        # Column by column: numpy's any over axis 1 of an (nt, 3N) array is slower.
         for values in (self.angle, self.rate, self.acceleration):
             for k in range(values.shape[1]):
                 column = values[:, k]

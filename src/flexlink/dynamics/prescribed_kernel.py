@@ -34,7 +34,7 @@ def forward_view(system: FirstOrderSystem) -> ForwardSystem:
 def forward_data(system: FirstOrderSystem) -> ForwardData:
     """ForwardData of ``system`` (see forward_view), made once per system, and remembered
     per process for the last few (chain, stiffening, modal data): repeated runs of a
-    scenario build a new system each (packing took ~0.15 ms of a 8 ms paper run)."""
+    scenario build a new system each, and packing is a noticeable part of a short run."""
     data = getattr(system, "_forward_data", None)
     if data is not None:
         return data

@@ -160,7 +160,7 @@ def _frequency_scalar(lam: float, mu: float, j: float) -> float:
 def _root(a: float, b: float, mu: float, j: float) -> float:
     """The root of `_frequency_scalar` in [a, b] (a sign change), by bisection down to
     adjacent floating-point numbers: as exact as the function's evaluation allows, without
-    importing scipy.optimize (0.15–0.2 s of a command's start-up)."""
+    importing scipy.optimize (a noticeable part of a command's start-up)."""
     fa = _frequency_scalar(a, mu, j)
     fb = _frequency_scalar(b, mu, j)
     if fa == 0.0:

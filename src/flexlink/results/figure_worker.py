@@ -7,8 +7,8 @@ matplotlib and the plotting code at once (while the parent works), forks its par
 both wait for `submit(results, folder)`: the child reads the job and passes it on, and the two
 draw the figures (`figures.split_figures`: two groups of about equal work) while the parent
 writes the data files; `wait()` returns when all are written. (The partner is forked before
-the job arrives: forking a process that holds matplotlib took 3-12 ms, then on the command's
-critical path.)
+the job arrives: forking a process that holds matplotlib is slow, and would then be on the
+command's critical path.)
 
 The worker is an optimisation only: where it cannot run (not Linux, other threads running in
 this process, the child failed or died) `wait()` returns False and the caller draws the

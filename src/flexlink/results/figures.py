@@ -58,8 +58,7 @@ def save_png(fig: Figure, path: Path) -> None:
     ``fig.savefig(path)``, stored as RGB where the figure is opaque (it always is here).
 
     savefig writes RGBA at zlib level 6; the opaque pixels as RGB at level 1 give files of
-    the same size in half the encoding time (~0.1 s of CPU → 0.05 s for a run's three
-    figures, about a fifth of drawing them)."""
+    the same size in half the encoding time."""
     import matplotlib
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image, PngImagePlugin
@@ -72,7 +71,7 @@ def save_png(fig: Figure, path: Path) -> None:
     opaque = bool((rgba[..., 3] == 255).all())
     image = Image.fromarray(rgba)
     if opaque:
-        image = image.convert("RGB")  # PIL drops the alpha in C: 1.5 ms, numpy's copy 7 ms
+        image = image.convert("RGB")  # PIL drops the alpha in C, faster than numpy's copy
     info = PngImagePlugin.PngInfo()  # what savefig records
     info.add_text("Software", f"Matplotlib version{matplotlib.__version__}, "
                               "https://matplotlib.org/")
@@ -84,8 +83,7 @@ def split_figures(results: ChannelTable) -> tuple[list[str], list[str]]:
     """The figures in two groups of about equal drawing time, for two processes.
 
     A figure costs about one panel's worth of fixed work (figure, text, PNG encoding) plus its
-    panels (ticks, labels, lines): measured on the paper run, sensors (4 panels) 0.23 s,
-    joint_angles (3) 0.15 s, tip_paths (1, markers, equal axes) 0.10 s. Largest first, each
+    panels (ticks, labels, lines), as measured on the paper run's figures. Largest first, each
     to the lighter group. Only the channel records count: the same groups before the
     values exist (a `ChannelRecords`) as after."""
     from . import plotting

@@ -1,7 +1,7 @@
 """The one netCDF layout of runs and sweeps: what results.nc and a sweep's file hold.
 
 A `Layout` is plain numpy arrays and attribute dicts, no xarray: `flexlink run` writes
-results.nc without importing xarray, which would add about 1 s to a 2 s command.
+results.nc without importing xarray, whose import would be a large part of the command.
 `Layout.to_xarray()` is the same content as an `xarray.Dataset` (what `Results.to_xarray()`
 and `flexlink.sweep` return); `netcdf.write_netcdf_atomic` and `matlab.write_mat_atomic`
 write it, `netcdf.read_netcdf` reads it back.

@@ -38,7 +38,7 @@ _QUANTITY = {"piezo": "voltage"}  # axis label of a quantity, where it differs
 # would otherwise hide one another.
 _STYLES = ("-", "--", "-.", ":")
 # Subscript digits: β₁ in a plain label renders like mathtext's $\beta_1$ without loading
-# and running matplotlib's mathtext parser (~0.1 s of a command-line run).
+# and running matplotlib's mathtext parser (a visible part of a command-line run).
 _SUBSCRIPT = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
 
 
@@ -244,7 +244,7 @@ def plot_joint_angles(results: ChannelTable) -> Figure:
             ax.plot(results.time, np.degrees(results[references[subject]]), "--",
                     color=line.get_color(), linewidth=0.8, label=f"{_sub('β', k)} reference")
     ax.set_ylabel("joint angle [deg]")
-    ax.legend(loc="lower right")  # "best" scans every vertex: ~0.1 s a legend
+    ax.legend(loc="lower right")  # "best" scans every vertex of every line
     for panel, group in zip(axes[1:], groups):
         for i, name in enumerate(group):
             k = results.channels[name].subject.removeprefix("joint")

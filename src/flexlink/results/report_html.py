@@ -144,12 +144,7 @@ def run_page(folder: Path, results: ChannelTable, resolved_text: str,
     name = name or folder.name
     page = ReportPage(f"flexlink run: {meta.get('scenario', name)}")
     page.summary = {"folder": name, "time": f"{t[0]:g} … {t[-1]:g} s, {t.size} samples",
-                    **{k: meta[k] for k in ("model", "path", "method", "geometric_stiffening",
-                                            "elastic_coordinates", "wall_time_s",
-                                            "peak_tip_deflection_per_length",
-                                            "validity_warning", "flexlink_version")
-                       if k in meta},
-                    "channels": kind_summary(results.channels.values())}
+                    **run_summary(meta), "channels": kind_summary(results.channels.values())}
     page.add_traces("Signals", channel_traces(results, (ChannelKind.SENSOR, ChannelKind.JOINT,
                                                         ChannelKind.BASE)))
     page.add_images_later("Animation", lambda: [folder / "animation.gif"])
@@ -160,6 +155,34 @@ def run_page(folder: Path, results: ChannelTable, resolved_text: str,
                              for n, c in results.channels.items()])
     page.add_text("Scenario (scenario.resolved.toml)", resolved_text)
     return page
+
+
+# The run metadata the summary shows, under readable names, with how each value is shown.
+SUMMARY_FIELDS: dict[str, tuple[str, Callable[[Any], str]]] = {
+    "model": ("model", lambda v: str(v).replace("_", "-")),
+    "path": ("joints", lambda v: {"prescribed": "prescribed", "nonlinear": "prescribed",
+                                  "closed_loop": "prescribed, in closed loop",
+                                  "forward": "forward dynamics (driven joints or moving base)",
+                                  "nonlinear_forward": "forward dynamics (driven joints or "
+                                                       "moving base)"}.get(str(v), str(v))),
+    "method": ("integrator", str),
+    "geometric_stiffening": ("geometric stiffening", lambda v: "yes" if v else
+                             "no (the paper's model)"),
+    "elastic_coordinates": ("elastic coordinates", str),
+    "wall_time_s": ("simulation time (wall clock)", lambda v: f"{float(v):.3g} s"),
+    "peak_tip_deflection_per_length": ("largest tip deflection",
+                                       lambda v: f"{100 * float(v):.1f}% of its link's length"),
+    "accuracy": ("accuracy against the nonlinear model", str),
+    "validity_warning": ("warning", str),
+    "control_warning": ("closed-loop warning", str),
+    "flexlink_version": ("flexlink version", str),
+}
+
+
+def run_summary(meta: Mapping[str, Any]) -> dict[str, str]:
+    """The summary rows of a run's metadata: readable names and values (SUMMARY_FIELDS)."""
+    return {label: show(meta[key]) for key, (label, show) in SUMMARY_FIELDS.items()
+            if key in meta}
 
 
 def write_run_report(folder: Path, results: ChannelTable | None = None,

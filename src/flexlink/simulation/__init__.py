@@ -39,7 +39,7 @@ from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 # (scenario, output times, progress callback, with shapes) → the path's run
 PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
 # Each path's module is imported when a run takes it: a prescribed run from the command
-# line need not import the forward, nonlinear and closed-loop machinery (~30 ms).
+# line need not import the forward, nonlinear and closed-loop machinery.
 PATHS = ("prescribed", "nonlinear", "forward", "nonlinear_forward", "closed_loop")
 
 
@@ -74,7 +74,19 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) ->
     # Small matrices and batched products over time: BLAS threads only add overhead.
     with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
         run, wall_time = timed(lambda: _run_path(path, scenario, t, bar.update, shapes))
+        if scenario.controllers:
+            run = _with_loop_warnings(scenario, t, run)
     return assemble_results(scenario, run, wall_time)
+
+
+def _with_loop_warnings(scenario: Scenario, t: np.ndarray, run: PathRun) -> PathRun:
+    """The run with its closed loops' warnings (control/loop_check.py) in the metadata."""
+    from ..control.loop_check import loop_warnings
+
+    warnings = loop_warnings(scenario, t, run.values)
+    if not warnings:
+        return run
+    return replace(run, metadata={**run.metadata, "control_warning": "; ".join(warnings)})
 
 
 def _run_path(path: PathFunction, scenario: Scenario, t: np.ndarray,

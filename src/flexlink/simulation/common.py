@@ -18,8 +18,9 @@ from ..errors import RunTooLarge, SimulationError
 from ..model import Link, Scenario
 from ..results import Results
 from ..solvers import Solution
+from .accuracy import accuracy_metadata, unestimated_metadata
 
-_version = functools.lru_cache(maxsize=1)(package_version)  # metadata lookup: ~5 ms per call
+_version = functools.lru_cache(maxsize=1)(package_version)  # the metadata lookup is slow
 
 Progress = Callable[[float], None]
 
@@ -92,7 +93,7 @@ def check_run_memory(scenario: Scenario) -> None:
     """RunTooLarge, before anything runs, if the run's arrays would not fit in memory."""
     estimate = run_memory(scenario)
     if estimate.total <= ALWAYS_FITS:
-        return  # asking the system how much is free costs 0.3 ms, a tenth of a small run
+        return  # asking the system how much is free costs a noticeable part of a small run
     problem = memory_problem(estimate, scenario.settings.t_end, "this run")
     if problem:
         raise RunTooLarge(problem)
@@ -157,22 +158,22 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
     return results
 
 
-# Tip deflection per length up to which the first-order model is trusted without a warning.
-# Its error against the nonlinear model grows as the square of the deflection: a stiffened
-# hub-beam 0.3% of peak at 9% deflection, 0.5% at 12%, 1.2% at 18% (benchmarks/model_choice.py).
-FIRST_ORDER_LIMIT = 0.1
-
-
 def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,
-                         geometric_stiffening: bool) -> dict[str, Any]:
+                         geometric_stiffening: bool, axial_load: np.ndarray | None = None,
+                         estimate: bool = True, inboard: np.ndarray | None = None
+                         ) -> dict[str, Any]:
     """Metadata on the first-order model's validity: the largest tip deflection relative to
-    its link's length, and a warning text where it passes FIRST_ORDER_LIMIT. A SimulationError
-    where it exceeds the length: the linear model has diverged (e.g. centrifugal softening
+    its link's length and the expected error against the nonlinear model with its statement
+    (`accuracy.accuracy_metadata`; a warning where it is large). A SimulationError where a
+    deflection exceeds the length: the linear model has diverged (e.g. centrifugal softening
     without geometric stiffening above the first frequency).
-    ``deflection``: |w(L)| of every link, (nt, links), m."""
+    ``deflection``: |w(L)| of every link, (nt, links), m; ``axial_load``: each link's
+    `accuracy.axial_load_parameter` (zero if not given); ``estimate``: False for a forward
+    run, where the estimate is not calibrated (`accuracy.unestimated_metadata`);
+    ``inboard``: `accuracy.hangs_on_elastic` of each link (none if not given)."""
     lengths = np.array([link.length for link in links])
     ratio = deflection / lengths
-    # Column by column: numpy's max over axis 0 of a (nt, few) array costs 20× more.
+    # Column by column: numpy's max over axis 0 of a (nt, few) array is slower.
     peaks = np.array([ratio[:, k].max() for k in range(len(links))]) if ratio.size \
         else np.zeros(len(links))
     for k, link in enumerate(links):
@@ -189,14 +190,11 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
                 f"t = {when:.4g} s: the first-order model is not valid here{hint}; "
                 f"model = \"nonlinear\" handles large deflections")
     worst = int(np.argmax(peaks))
-    out: dict[str, Any] = {"peak_tip_deflection_per_length": float(peaks[worst])}
-    if peaks[worst] > FIRST_ORDER_LIMIT:
-        out["validity_warning"] = (
-            f"the tip of {links[worst].name} deflected {100 * peaks[worst]:.0f}% of its length "
-            f"(first-order theory holds to about {100 * FIRST_ORDER_LIMIT:.0f}%; its error grows "
-            "as the square of the deflection, about 1% of peak at 18%): model = \"nonlinear\" "
-            "is accurate at large deflections")
-    return out
+    out = {"peak_tip_deflection_per_length": float(peaks[worst])}
+    load = np.zeros(len(links)) if axial_load is None else axial_load
+    if not estimate:
+        return {**out, **unestimated_metadata(links, peaks, load)}
+    return {**out, **accuracy_metadata(links, peaks, load, geometric_stiffening, inboard)}
 
 
 class ProgressBar:

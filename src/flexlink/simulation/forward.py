@@ -19,6 +19,7 @@ from ..model import Base, Scenario
 from ..solvers import Solution
 from ..solvers.forward import FAST_METHOD, integrate_forward
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
+from .accuracy import axial_load_parameter
 from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress, check_tip_deflection
 
@@ -38,8 +39,11 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
     view = SolvedMotion(system, system.frames(p, pd, pdd))
     try:
-        validity = check_tip_deflection(scenario.chain.links, t, tip_deflections(view, z),
-                                        system.geometric_stiffening)
+        validity = check_tip_deflection(
+            scenario.chain.links, t, tip_deflections(view, z), system.geometric_stiffening,
+            axial_load_parameter(scenario.chain.links, system.modal, scenario.base,
+                                 view.frames.theta, view.frames.omega, view.frames.alpha,
+                                 view.frames.origin_accel), estimate=False)
     except SimulationError as exc:
         if loop is None:
             raise

@@ -14,6 +14,7 @@ from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, joint_torques, solved_frames
 from ..model import Scenario
 from ..solvers import PRESCRIBED_METHODS, Solution, rigid_solution
+from .accuracy import axial_load_parameter, hangs_on_elastic
 from .common import PathRun, Progress, check_tip_deflection
 
 
@@ -44,11 +45,16 @@ def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: So
     """The channels of a prescribed-joint run (sensors, joint angles and torques, tips), the
     link shapes and the validity metadata (a SimulationError if the tips ran away)."""
     t, z = solution.t, solution.q
-    validity = check_tip_deflection(scenario.chain.links, t, tip_deflections(system, z),
-                                    system.geometric_stiffening)
+    deflection = tip_deflections(system, z)
     hist = system.joint_history(t)
     # The frames along the solution, with T z, … per output time from the compiled kernel.
     frames = solved_frames(system, t, z, solution.q_dot, solution.q_ddot)
+    links = scenario.chain.links
+    validity = check_tip_deflection(
+        links, t, deflection, system.geometric_stiffening,
+        axial_load_parameter(links, system.modal, scenario.base, frames.theta, frames.omega,
+                             frames.alpha, frames.origin_accel),
+        inboard=hangs_on_elastic(links, scenario.base))
     torque = joint_torques(system, frames)
     values = sensor_values(system, frames, solution, scenario.sensors)
     for k in range(len(scenario.chain.links)):

@@ -2,8 +2,8 @@
 loop in ``gauss.py`` (which the tests compare it with), without Python overhead per step.
 
 Why numba: one step costs a few small matrix–vector products (~10⁴ flops); in numpy each call
-costs more in dispatch than in arithmetic (~100 µs per Newton iteration against ~10 µs
-compiled), which made the nonlinear model only ~5× faster than the finite-element reference.
+costs more in dispatch than in arithmetic, an order of magnitude more per Newton iteration
+than the compiled loop (benchmarks/nonlinear_vs_fe.py).
 Compiled functions are cached on disk (``cache=True``), so only the first run ever compiles.
 """
 

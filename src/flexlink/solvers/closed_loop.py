@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dynamics.controllers import ControlData, ControlWork, control_work, readings
-from ..errors import SimulationError
+from ..errors import SimulationError, UnstableLoop
 from ..model import Controller, FunctionController
 from .batched_expm import expm_balanced
 from .coefficient_table import CoefficientTable, RoughCoefficients, tabulate
@@ -32,15 +32,6 @@ from .solution import Progress
 _MAX_HALVINGS = 10
 _ASSEMBLIES_PER_STEP = 4
 _INTERVALS_PER_CALL = 4096  # progress is reported between calls of the compiled loop
-
-
-class UnstableLoop(SimulationError):
-    """The closed loop blew up at grid point ``index`` (time ``t``, s)."""
-
-    def __init__(self, index: int, t: float, states: np.ndarray, work: ControlWork) -> None:
-        self.index, self.t, self.states, self.work = index, t, states, work
-        super().__init__(f"closed loop unstable: the response grows without bound at "
-                         f"t = {t:.4g} s")
 
 
 @dataclass(frozen=True)
@@ -153,7 +144,8 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
                                     table.upper, polyT, referenceT, ET, substeps, states, acc,
                                     control, work)
         if bad >= 0:
-            raise UnstableLoop(int(bad), float(grid[bad]), states[:bad + 1], work)
+            raise UnstableLoop(float(grid[bad]), "the response grows without bound", int(bad),
+                               states[:bad + 1], work)
         if on_progress is not None:
             on_progress(float(grid[b]))
     acc[0] = table.poly[0, 0] @ states[0]

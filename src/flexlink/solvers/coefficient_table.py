@@ -2,7 +2,7 @@
 
 With prescribed joints the equations ż = A(t)[z; ż; 1] (A = M⁻¹[−K, −C, f], shape (n, 2n+1))
 change only as fast as the manoeuvre, far slower than the vibration they describe. Assembling
-A costs ~10 µs per instant in numpy, more than a whole step of a compiled integrator, so the
+A at one instant in numpy costs more than a whole step of a compiled integrator, so the
 integrator reads A from this table instead: per block of output intervals a polynomial of
 degree 5 in τ ∈ [0, 1] through six Chebyshev–Lobatto samples.
 
@@ -34,7 +34,7 @@ _FIT = np.linalg.inv(np.vander(_NODES, increasing=True))  # samples → monomial
 _AT_CHECKS = np.vander(_CHECKS, DEGREE + 1, increasing=True)  # coefficients → values there
 # Output intervals per moving block before refinement. Longer blocks mean fewer block
 # exponentials ((2n+1)³ each) against more refinement samples: 128 was fastest from 2 to
-# 10 links (64: ten links 97 → 74 ms, the paper equal; 256 slower for all).
+# 10 links (measured against 64 and 256 with benchmarks/compare.py).
 _MAX_INTERVALS = 128
 _MAX_BLOCK = 0.128  # s, the same bound in time
 _MIN_PIECE = 1.0 / 64  # smallest piece of one output interval (around a kink of A)

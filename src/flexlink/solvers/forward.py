@@ -16,10 +16,10 @@ import numpy as np
 
 from ..dynamics import forward_kernel
 from ..dynamics.forward import ForwardSystem
-from ..errors import SimulationError
+from ..errors import SimulationError, UnstableLoop
 from .forward_lawson import integrate_forward_lawson
 from .forward_rk4 import BlowUp, integrate_forward_rk4
-from .gauss_sampled import LoopUnstable, SampledLoop
+from .gauss_sampled import SampledLoop
 from .ode import Stalled, integrate_ivp
 from .solution import Progress, Solution
 
@@ -52,7 +52,7 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
             return COMPILED[method](system, t_out, rtol, atol, on_progress, loop)
         except BlowUp as exc:
             if loop is not None:
-                raise LoopUnstable(exc.t, "the state grew without bound") from None
+                raise UnstableLoop(exc.t, "the state grew without bound") from None
             raise SimulationError(_stall_message(system, exc.t, "the state grew without "
                                                  "bound")) from None
     nu, n = len(system.free), system.n

@@ -64,8 +64,9 @@ def integrate_forward_lawson(system: ForwardSystem, t_out: np.ndarray, rtol: flo
         if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp):
             both = np.isfinite(coarse[:, 0])
             if runs_agree(system, fine[both], coarse[both], rtol, atol):
-                solution = forward_solution(data, work, system, t_out, fine, 2 ** level, loop)
-                solution.stats.update(method_detail="lawson", jacobian_refreshes=refreshes)
+                solution = forward_solution(data, work, system, t_out, fine, 2 ** level, loop,
+                                            method="lawson")
+                solution.stats.update(jacobian_refreshes=refreshes)
                 return solution
         coarse = fine
         level += 1

@@ -146,10 +146,10 @@ def runs_agree(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray, rtol
 
 
 def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
-                     states: np.ndarray, substeps: int, loop: SampledLoop | None = None
-                     ) -> Solution:
+                     states: np.ndarray, substeps: int, loop: SampledLoop | None = None,
+                     method: str = "rk4") -> Solution:
     """The Solution from the states at t_out; accelerations with the inputs there (with a
-    ``loop``: its held voltages)."""
+    ``loop``: its held voltages); ``method``: the loop that computed the states."""
     from ._forward_rk4_numba import rates_at
 
     nu, n = len(system.free), system.n
@@ -162,5 +162,5 @@ def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_ou
     z, zd = states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n]
     return Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
                     np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
-                    "rk4", {"steps_per_output_interval": substeps},
+                    method, {"steps_per_output_interval": substeps},
                     extra=states[:, 2 * nu + 2 * n:])

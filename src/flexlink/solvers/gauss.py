@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
-from ..errors import SimulationError
+from ..errors import SimulationError, UnstableLoop
 from .solution import Solution
 from .threads import single_threaded
 
@@ -86,7 +86,7 @@ def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.
                    t_ends: np.ndarray) -> None:
     """Run the numba step loop over q, v in place, in chunks of CHUNK steps."""
     steps = q.shape[0] - 1
-    from ._gauss_numba import gauss_loop  # numba loads in ~0.5 s: only when used
+    from ._gauss_numba import gauss_loop  # numba's import is slow: only when used
 
     arrays = [np.ascontiguousarray(a, dtype=float) for a in (
         system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
@@ -238,9 +238,9 @@ def solve_nonlinear(
     for _ in range(max_halvings + 1):
         try:
             q, v, a = run(h)
-        except SimulationError as exc:  # Newton failed at this step size: halve
-            if type(exc).__name__ == "LoopUnstable":
-                raise
+        except UnstableLoop:
+            raise
+        except SimulationError:  # Newton failed at this step size: halve
             previous = None
             h /= 2
             continue

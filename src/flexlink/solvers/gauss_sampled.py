@@ -16,21 +16,10 @@ import numpy as np
 
 from ..dynamics.controllers import control_work, pack_controllers, readings, sample_times
 from ..dynamics.nonlinear import NonlinearSystem
-from ..errors import SimulationError
+from ..errors import SimulationError, UnstableLoop
 from ..model import Controller, FunctionController, PiezoActuator
 from .closed_loop import call_controller
 from .gauss import COEFFS, COEFFS2, NEWTON_MAX, NEWTON_TOL, NODES, ROUND_OFF, WEIGHTS, WEIGHTS2
-
-
-class LoopUnstable(SimulationError):
-    """The closed loop blew up (a controller state or output beyond its bound, or the
-    response beyond BOUND) at time ``t`` (s)."""
-
-    def __init__(self, t: float, why: str) -> None:
-        self.t = t
-        super().__init__(f"closed loop unstable: {why} at t = {t:.4g} s; lower the gain or "
-                         "retune")
-
 
 # |node angle| (rad) beyond which the response of a closed loop counts as unbounded: the link
 # curled more than a full turn
@@ -111,7 +100,7 @@ class SampledLoop:
         ok = sample(self.data, self.work, i, self.buffer)
         record(self.data, self.work, i, self.buffer)
         if not ok:
-            raise LoopUnstable(t, "a controller state or output passed its bound")
+            raise UnstableLoop(t, "a controller state or output passed its bound")
         return self.buffer[self.n:].copy()
 
 
@@ -158,7 +147,7 @@ def integrate_gauss_sampled(system: NonlinearSystem, loop: SampledLoop, step: fl
                                   f"did not converge in {NEWTON_MAX} Newton iterations "
                                   f"(h = {h_of[i]:.3g} s): reduce the step")
         if np.abs(system.A @ q[b]).max() > BOUND:
-            raise LoopUnstable(float(grid[i + 1]), "the links curled beyond a full turn")
+            raise UnstableLoop(float(grid[i + 1]), "the links curled beyond a full turn")
         if on_progress is not None and i % 50 == 0:
             on_progress(float(grid[i + 1]))
     loop.update(grid.size - 1, q[-1])  # the records at t_end

@@ -146,7 +146,7 @@ def _run(
     """States, z̈, (coarse and keep_coarse) the states of the pass with half the steps, and
     per state component the largest |fine state| and (coarse) |fine − coarse state| over
     the output times (what agree_maxima reads)."""
-    from ._lawson_numba import lawson_blocks  # numba loads in ~0.5 s: only when used
+    from ._lawson_numba import lawson_blocks  # numba's import is slow: only when used
 
     if coarse and substeps % 2:
         raise ValueError(f"the coarse pass needs an even number of steps, got {substeps}")

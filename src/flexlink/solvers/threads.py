@@ -1,9 +1,9 @@
 """One BLAS thread for the solvers' tiny matrices.
 
 Matrices of a few dozen rows gain nothing from BLAS threads, which only add contention (under
-load they slowed a paper run twelvefold); batch runs parallelise over cases instead. The loaded
+load they slowed a paper run many times over); batch runs parallelise over cases instead. The loaded
 BLAS libraries are scanned once per process: ``threadpool_limits`` rescans them on every call,
-which cost ~2 ms per run.
+a cost comparable to a short run.
 """
 
 from __future__ import annotations

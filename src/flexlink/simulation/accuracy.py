@@ -1,0 +1,158 @@
+"""How far a first-order run is from the geometrically nonlinear model: the one source of
+every accuracy statement flexlink makes (the run's metadata, the command's summary,
+results.nc, report.html; docs/validation.md, "How far is first order from nonlinear").
+
+The estimate is of the largest difference of a link's tip deflection from the nonlinear
+model's, relative to the nonlinear model's peak tip deflection. Two terms, each measured
+from the run itself:
+
+- every first-order model drops terms of second order in the deflection: an error growing
+  as the square of the peak tip deflection per length δ, and as δ times S, the geometric
+  stiffness of the axial load a spinning, accelerating link carries relative to its bending
+  stiffness (`axial_load_parameter`); a link joined to another elastic link (I = 1, else
+  0) carries an error growing as δ itself (measured on two-link arms);
+- the paper's model (``geometric_stiffening = false``) also drops that geometric stiffness
+  itself, an error growing with S alone.
+
+expected error = E with stiffening, √(E² + (B S^P)²) without, E = A δ² + C δ S + D δ I.
+A, C, D, B, P are calibrated against the nonlinear model by ``scripts/accuracy_calibration.py`` on a set
+of arms and manoeuvres (its table is docs/validation.md's); the held-out cases are in
+``tests/validation/test_accuracy_estimate.py``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..model import Base, Link
+from ..modes import ModalData
+
+# Calibrated by scripts/accuracy_calibration.py (least squares in log error).
+A_DEFLECTION = 0.294
+C_COUPLING = 0.0922
+D_INBOARD = 0.0551
+B_AXIAL = 2.23
+P_AXIAL = 1.16
+
+# Expected error (fraction of peak) above which a run carries a warning.
+WARN_ABOVE = 0.02
+# Peak tip deflection per length above which a forward run (no estimate) carries a warning.
+FORWARD_WARN_DEFLECTION = 0.1
+
+
+def axial_load_parameter(links: Sequence[Link], modal: Sequence[ModalData],
+                         base: Base | None, theta: np.ndarray, omega: np.ndarray,
+                         alpha: np.ndarray, origin_accel: np.ndarray) -> np.ndarray:
+    """S_k = max_t |K_g(t)| / K of every link's first assumed mode (0 for a rigid link): the
+    geometric stiffness of the axial load the link carries over its bending stiffness.
+    K_g = Ω_k² ∫N_Ω φ'² dx − a_k ∫N_a φ'² dx + P_k ∫φ'² dx with N_Ω = m(L² − x²)/2 + m_t L,
+    N_a = m(L − x) + m_t (the modal integrals ``foreshortening_moment``, ``_mass``,
+    ``_tip``) and P_k the pull of the outboard links of its branch on its tip, from their
+    rigid centres' accelerations. ``theta``, ``omega``, ``alpha`` (nt, N): each frame's
+    absolute angle (rad), rate, acceleration; ``origin_accel`` (nt, N, 2): its origin's
+    acceleration in its own axes (m/s²)."""
+    n = len(links)
+    out = np.zeros(n)
+    for k, data in enumerate(modal):
+        if data.n == 0 or omega.size == 0:
+            continue
+        pull = np.zeros(omega.shape[0])
+        for j in range(k + 1, n):
+            if base is not None and base.attachment(j) is not None:
+                break  # link j starts another branch on the base
+            mass = modal[j].mass
+            if mass == 0.0:
+                continue
+            centre = modal[j].first_moment / mass
+            # the rigid centre's acceleration in frame j, turned into frame k's x axis
+            ax = origin_accel[:, j, 0] - omega[:, j] ** 2 * centre
+            ay = origin_accel[:, j, 1] + alpha[:, j] * centre
+            turn = theta[:, j] - theta[:, k]
+            pull -= mass * (ax * np.cos(turn) - ay * np.sin(turn))
+        geometric = (omega[:, k] ** 2 * data.foreshortening_moment[0, 0]
+                     - origin_accel[:, k, 0] * data.foreshortening_mass[0, 0]
+                     + pull * data.foreshortening_tip[0, 0])
+        out[k] = float(np.abs(geometric).max()) / data.stiffness_matrix[0, 0]
+    return out
+
+
+def hangs_on_elastic(links: Sequence[Link], base: Base | None) -> np.ndarray:
+    """Whether each link is joined to another elastic link of its branch (it hangs on one,
+    or one hangs on it)."""
+    def joined(k: int, j: int) -> bool:  # link j hangs on link k
+        return 0 <= k < j < len(links) and (base is None or base.attachment(j) is None)
+
+    return np.array([(joined(k - 1, k) and not links[k - 1].rigid)
+                     or (joined(k, k + 1) and not links[k + 1].rigid)
+                     for k in range(len(links))], dtype=bool)
+
+
+def expected_error(deflection_per_length: float, axial_load: float,
+                   geometric_stiffening: bool, inboard: bool = False) -> float:
+    """The expected largest difference of a tip deflection from the nonlinear model's, as a
+    fraction of its peak: δ = peak tip deflection / length, S = `axial_load_parameter`,
+    ``inboard``: the link hangs on an elastic link (`hangs_on_elastic`)."""
+    d, S = deflection_per_length, axial_load
+    second_order = A_DEFLECTION * d * d + C_COUPLING * d * S + D_INBOARD * d * float(inboard)
+    if geometric_stiffening:
+        return second_order
+    return float(np.hypot(second_order, B_AXIAL * S ** P_AXIAL))
+
+
+def accuracy_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
+                      axial_load: np.ndarray, geometric_stiffening: bool,
+                      inboard: np.ndarray | None = None) -> dict[str, Any]:
+    """The run's accuracy metadata: for the link with the largest peak tip deflection per
+    length (``deflection_per_length``, per link), its expected error and the statement the
+    summary, results.nc and report.html carry; a warning above WARN_ABOVE."""
+    k = int(np.argmax(deflection_per_length))
+    on_elastic = bool(inboard[k]) if inboard is not None else False
+    error = expected_error(float(deflection_per_length[k]), float(axial_load[k]),
+                           geometric_stiffening, on_elastic)
+    model = ("the first-order model" if geometric_stiffening
+             else "the paper's first-order model without geometric stiffening")
+    statement = (f"{links[k].name}'s tip deflection is expected to differ from the nonlinear "
+                 f"model's by about {_percent(error)} of its peak ({model}; peak tip deflection "
+                 f"{100 * deflection_per_length[k]:.1f}% of the link's length)")
+    out: dict[str, Any] = {"expected_error_vs_nonlinear": error,
+                           "expected_error_link": links[k].name,
+                           "axial_load_parameter": float(axial_load[k]),
+                           "hangs_on_elastic_link": on_elastic, "accuracy": statement}
+    if error > WARN_ABOVE:
+        fix = ("model = \"nonlinear\" is accurate at large deflections" if geometric_stiffening
+               else "geometric_stiffening = true removes most of it, model = \"nonlinear\" "
+                    "all of it")
+        out["validity_warning"] = (
+            f"the tip of {links[k].name} deflected {100 * deflection_per_length[k]:.0f}% of its "
+            f"length and {model} is expected to be {_percent(error)} of peak off the "
+            f"nonlinear model: {fix}")
+    return out
+
+
+def unestimated_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
+                         axial_load: np.ndarray) -> dict[str, Any]:
+    """The accuracy metadata of a forward run (driven joints or a moving base), for which the
+    estimate is not calibrated (its measured error against the nonlinear forward model
+    scatters beyond a factor 1.5 of it: docs/validation.md, Case 12b): the peak deflection
+    and a pointer to the nonlinear model (S recorded too), a warning past
+    FORWARD_WARN_DEFLECTION."""
+    k = int(np.argmax(deflection_per_length))
+    peak = 100 * float(deflection_per_length[k])
+    out: dict[str, Any] = {"axial_load_parameter": float(axial_load[k]), "accuracy": (
+        f"not estimated for driven joints or a moving base (peak tip deflection {peak:.1f}% "
+        f"of {links[k].name}'s length): run it with model = \"nonlinear\" to compare")}
+    if deflection_per_length[k] > FORWARD_WARN_DEFLECTION:
+        out["validity_warning"] = (
+            f"the tip of {links[k].name} deflected {peak:.0f}% of its length; the first-order "
+            "model's error grows with the deflection and is not estimated for forward runs: "
+            "model = \"nonlinear\" is accurate at large deflections")
+    return out
+
+
+def _percent(fraction: float) -> str:
+    """A fraction as a percentage with two significant digits (0.21%, 2.1%, 22%, 140%)."""
+    value = 100 * fraction
+    return f"{value:.0f}%" if value >= 10 else f"{value:.2g}%"
