@@ -147,7 +147,8 @@ def run_page(folder: Path, results: ChannelTable, resolved_text: str,
                     **{k: meta[k] for k in ("model", "path", "method", "geometric_stiffening",
                                             "elastic_coordinates", "wall_time_s",
                                             "peak_tip_deflection_per_length",
-                                            "validity_warning", "flexlink_version")
+                                            "validity_warning", "mode_bases",
+                                            "mode_convergence_warning", "flexlink_version")
                        if k in meta},
                     "channels": kind_summary(results.channels.values())}
     page.add_traces("Signals", channel_traces(results, (ChannelKind.SENSOR, ChannelKind.JOINT,

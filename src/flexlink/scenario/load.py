@@ -17,6 +17,7 @@ from typing import Any
 from .._version import package_version
 from ..channels.catalogue import reserved_names
 from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
+from ..model.chain import default_mode_shapes
 from . import schema
 from .actuators import build_actuator, read_actuators
 from .controllers import build_controller, read_controllers
@@ -125,6 +126,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                             p)
     if p:
         raise ScenarioError(p.messages, source)
+    _choose_mode_shapes(links, joints)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
                 "links": links, "joints": joints, "sensors": sensors}
     if base is not None:
@@ -134,6 +136,16 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     if controllers:
         resolved["controllers"] = controllers
     return resolved, [m for m in motions if m is not None]  # all built: no problems
+
+
+def _choose_mode_shapes(links: list[dict[str, Any]], joints: list[dict[str, Any]]) -> None:
+    """Replace ``mode_shapes = "auto"`` by the basis it stands for (model.chain.default_mode_shapes),
+    so that the resolved scenario states the basis that runs."""
+    for k, link in enumerate(links):
+        if link.get("mode_shapes") == "auto":
+            carries = k + 1 < len(joints) and "base_point" not in joints[k + 1]
+            link["mode_shapes"] = default_mode_shapes(
+                bool(link.get("tip_mass") or link.get("tip_inertia")), carries)
 
 
 def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[str, Any]:
