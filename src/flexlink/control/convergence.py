@@ -2,11 +2,11 @@
 
 The assumed modes are a Ritz basis: each frequency converges from above as modes are added, and
 the highest kept frequency is the least converged. The estimate linearises the first-order
-plant (`linearize`, at t = 0 unless told otherwise) with n, 2n and 4n modes per link and
-matches the frequencies by rank. With d₁ = f(n) − f(2n), d₂ = f(2n) − f(4n) and the ratio
-r = d₂/d₁ (2^−p for an error ∝ n^−p; held within [0, ½], i.e. p ≥ 1, the slowest a Ritz
-frequency of these bases converges), the error left with n modes is d₁/(1 − r), Richardson's
-extrapolation (docs/modes.md, "Mode convergence").
+plant (`linearize`, at t = 0 unless told otherwise) with m₁ = n, m₂ = n + k and m₃ = n + 2k
+modes per link, k = min(n, 8) (`levels`), and matches the frequencies by rank. With
+d₁ = f(m₁) − f(m₂), d₂ = f(m₂) − f(m₃) and an error ∝ m^−p, d₂/d₁ gives p (held ≥ 1, the
+slowest a Ritz frequency of these bases converges) and the error left with n modes is
+d₁/(1 − (m₁/m₂)^p): Richardson's extrapolation (docs/modes.md, "Mode convergence").
 """
 
 from __future__ import annotations
@@ -24,18 +24,41 @@ from .operating_point import At
 
 # Estimated relative error of a kept frequency above which a run warns.
 THRESHOLD = 0.01
-LEVELS = (1, 2, 4)  # the mode counts compared, in multiples of each link's
+
+
+def levels(n: int) -> tuple[int, int, int]:
+    """The mode counts compared for a link with n modes: n, n + k, n + 2k, k = min(n, 8)."""
+    k = min(n, 8)
+    return n, n + k, n + 2 * k
+
+
+def _order(ratio: float, m: tuple[int, int, int]) -> float:
+    """p with (m₂^−p − m₃^−p)/(m₁^−p − m₂^−p) = ``ratio``, at least 1 (inf for ratio ≤ 0)."""
+    def rho(p: float) -> float:
+        return (m[1] ** -p - m[2] ** -p) / (m[0] ** -p - m[1] ** -p)
+
+    if not ratio > 0:
+        return math.inf
+    if ratio >= rho(1.0):
+        return 1.0
+    low, high = 1.0, 200.0  # rho decreases with p
+    if ratio <= rho(high):
+        return high
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if rho(mid) > ratio else (low, mid)
+    return 0.5 * (low + high)
 
 
 @dataclass(frozen=True)
 class ModeConvergence:
-    """The plant's frequencies (Hz) with each link's modes and with 2 and 4 times as many."""
+    """The plant's frequencies (Hz) with each link's modes and with more (`levels`)."""
 
     bases: tuple[str, ...]  # each link's basis ("rigid": no modes)
     links: tuple[str, ...]
     modes: tuple[int, ...]
     frequency_hz: np.ndarray  # (N,) every oscillatory mode kept, ascending
-    refined_hz: np.ndarray  # (2, N): the N lowest with 2n and 4n modes
+    refined_hz: np.ndarray  # (2, N): the N lowest with the 2nd and 3rd of `levels`
     where: str = "t = 0"  # the operating point, in words
 
     @property
@@ -44,9 +67,12 @@ class ModeConvergence:
         (≥ 0: a Ritz frequency is an upper bound)."""
         f, (g, h) = self.frequency_hz, self.refined_hz
         d1, d2 = f - g, g - h
-        ratio = np.clip(np.divide(d2, d1, out=np.zeros_like(d1), where=d1 > 0), 0.0, 0.5)
-        excess = np.maximum(d1, 0.0) / (1.0 - ratio)
-        # the converged value taken no lower than half the 4n one (a bound, never reached)
+        m = levels(max(self.modes, default=0))
+        excess = np.zeros_like(f)
+        for i in np.flatnonzero(d1 > 0):
+            p = _order(d2[i] / d1[i], m)
+            excess[i] = d1[i] / (1.0 - (m[0] / m[1]) ** p)
+        # the converged value taken no lower than half the finest one (a bound, never reached)
         return excess / np.maximum(f - excess, 0.5 * h)
 
     @property
@@ -81,7 +107,7 @@ class ModeConvergence:
                 else f"none is within {100 * THRESHOLD:g}%")
         return (f"mode basis ({self.basis_text()}): {which}, {self.frequency_hz[worst]:.4g} Hz, "
                 f"is an estimated {100 * error[worst]:.3g}% above its converged value "
-                f"(from {_counts(self.modes, LEVELS)} modes per link); {band}. Raise `modes` "
+                f"(from {_counts(self.modes)} modes per link); {band}. Raise `modes` "
                 "(or choose `mode_shapes`) for the higher frequencies (docs/modes.md)")
 
     def metadata(self) -> dict[str, Any]:
@@ -89,7 +115,7 @@ class ModeConvergence:
         out: dict[str, Any] = {
             "mode_bases": self.basis_text(),
             "mode_convergence_at": self.where,
-            "mode_convergence_modes": _counts(self.modes, LEVELS),
+            "mode_convergence_modes": _counts(self.modes),
             "mode_convergence_highest_hz": float(self.frequency_hz[-1])
             if self.frequency_hz.size else 0.0,
             "mode_convergence_highest_error": self.highest_error,
@@ -110,10 +136,10 @@ def modes_line(meta: Mapping[str, Any]) -> str:
             f"value (from {meta['mode_convergence_modes']} modes per link)")
 
 
-def _counts(modes: tuple[int, ...], levels: tuple[int, ...]) -> str:
-    """``4, 8, 16`` (or ``4/3, 8/6, 16/12`` for links with different counts)."""
+def _counts(modes: tuple[int, ...]) -> str:
+    """``4, 8, 12`` (or ``3/4, 6/8, 9/12`` for links with different counts)."""
     flexible = sorted({n for n in modes if n}) or [0]
-    return ", ".join("/".join(str(level * n) for n in flexible) for level in levels)
+    return ", ".join("/".join(str(levels(n)[i]) for n in flexible) for i in range(3))
 
 
 def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
@@ -122,9 +148,11 @@ def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
     linearised, e.g. a servo saturated there). The first-order equations, open loop
     (controllers left out)."""
     from ..dynamics.first_order import chosen_mode_shapes
+    from ..solvers.threads import single_threaded
 
     settings = replace(scenario.settings, model="first_order")
-    base = replace(scenario, settings=settings, controllers=())
+    # no sensors: the plant's output rows are not needed
+    base = replace(scenario, settings=settings, controllers=(), sensors=())
     chain = base.chain
     kinds = chosen_mode_shapes(chain, base.base)
     bases = tuple("rigid" if link.rigid else kind for link, kind in zip(chain.links, kinds))
@@ -132,10 +160,11 @@ def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
     links = tuple(link if link.rigid else replace(link, mode_shapes=kind)
                   for link, kind in zip(chain.links, kinds))
     found = []
-    for level in LEVELS:
-        scaled = tuple(link if link.rigid else replace(link, modes=level * link.modes)
+    for i in range(3):
+        scaled = tuple(link if link.rigid else replace(link, modes=levels(link.modes)[i])
                        for link in links)
-        found.append(_frequencies(replace(base, chain=replace(chain, links=scaled)), at))
+        with single_threaded():  # small eigenproblems: BLAS threads only contend
+            found.append(_frequencies(replace(base, chain=replace(chain, links=scaled)), at))
     count = min(f.size for f, _ in found)
     return ModeConvergence(bases, tuple(link.name for link in links),
                            tuple(link.modes for link in links), found[0][0][:count],

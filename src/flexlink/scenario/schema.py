@@ -214,8 +214,8 @@ LINKS = Section("links", [
                            "rest of the chain, rigid, as at t = 0"},
         doc="cantilever modes have no curvature at the tip, so a link with a tip inertia or "
             "carrying a heavy outer link converges slowly (~1/N) with them; the loaded modes "
-            "converge fast there. Every run reports how far its frequencies move with twice "
-            "the modes (docs/modes.md)"),
+            "converge fast there. Every run reports the estimated error of its frequencies in "
+            "the assumed modes (docs/modes.md)"),
     Field("rigid", "boolean", default=False, notes={
         "true": "no assumed modes: the link keeps its mass, tip mass and tip inertia and does "
                 "not bend (its sensors read zero deflection, slope and strain); `EI`/`E` may "
