@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from flexlink.control.convergence import ModeConvergence, _order, levels, mode_convergence
-from flexlink.dynamics.first_order import chain_modal_data, chosen_mode_shapes, outboard_body
+from flexlink.dynamics.first_order import chain_modal_data, outboard_body
 from flexlink.dynamics.forward import ForwardSystem
 from flexlink.model import Base, Chain, Link, TorqueDrive
+from flexlink.model.basis import chosen_mode_shapes
 from flexlink.model.histories import ZERO
 from flexlink.scenario import resolve_scenario_dict, scenario_from_dict
 from tests.helpers import SmoothStep
@@ -44,6 +45,20 @@ def test_auto_basis_rule_and_the_resolved_scenario_states_it() -> None:
     given = scenario_from_dict(tomllib.loads(_text(("a", 'mode_shapes = "clamped_free"\n'),
                                                    ("b", ""))))
     assert given.chain.links[0].mode_shapes == "clamped_free"
+
+
+def test_a_link_on_a_free_hub_gets_hub_loaded_modes() -> None:
+    torque = '[[joints]]\ndrive = "torque"\ntorque = [{ profile = "step", amplitude = 0.0 }]\n'
+    text = _text(("a", "")).replace(JOINT.format(""), torque)
+    assert scenario_from_dict(tomllib.loads(text)).chain.links[0].mode_shapes == "hub_loaded"
+    pinned = '[base]\ntype = "pinned"\ninertia = 0.3\n' + _text(("a", ""), ("b", ""))
+    kinds = [k.mode_shapes for k in scenario_from_dict(tomllib.loads(pinned)).chain.links]
+    assert kinds == ["hub_loaded", "clamped_free"]
+    # two branches on the pinned base: neither link is alone on its hub
+    two = '[base]\ntype = "pinned"\ninertia = 0.3\n' + _text(
+        ("a", ""), ("b", ""), joints=("", 'base_point = [0.0, 0.0]\n'))
+    kinds = [k.mode_shapes for k in scenario_from_dict(tomllib.loads(two)).chain.links]
+    assert kinds == ["clamped_free", "clamped_free"]
 
 
 def test_python_auto_resolves_like_the_scenario_file() -> None:
@@ -111,3 +126,35 @@ def test_warning_names_basis_frequency_and_error() -> None:
     worst = int(np.argmax(estimate.error))
     assert f"{100 * estimate.error[worst]:.3g}%" in text
     assert estimate.metadata()["mode_convergence_warning"] == text
+
+
+@pytest.mark.parametrize("tip_mass, tip_inertia, hub, radius",
+                         [(0.0, 0.0, 0.0, 0.0), (2.0, 0.1, 0.05, 0.0), (0.5, 0.0, 1.0, 0.3)])
+def test_hub_loaded_modes(tip_mass: float, tip_inertia: float, hub: float, radius: float) -> None:
+    """Clamped in the link frame, the hub–beam's roots (the independent determinant of
+    tests/validation/hub_beam.py), normalised like the other kinds, finite for 20 modes."""
+    from flexlink.modes import hub_loaded_modes
+    from tests.validation.hub_beam import hub_beam_frequencies
+
+    L, m, EI = 1.3, 2.7, 45.0
+    shapes = hub_loaded_modes(L, 20, m, EI, tip_mass, tip_inertia, hub, radius)
+    x = np.linspace(0.0, L, 2001)
+    phi = shapes.evaluate(x)
+    assert np.isfinite(phi).all() and np.all(shapes.evaluate(np.array([L]))[0] > 0)
+    scale = np.abs(phi).max(axis=0)
+    assert np.abs(shapes.evaluate(np.array([0.0]))[0]).max() < 1e-11 * scale.max()
+    assert np.abs(shapes.evaluate(np.array([0.0]), 1)[0] * L).max() < \
+        1e-12 * scale.max() * shapes.beta_l.max()
+    exact = hub_beam_frequencies(6, EI, m, L, radius, hub, tip_mass, tip_inertia)
+    np.testing.assert_allclose(shapes.beta_l[:6] ** 2 * np.sqrt(EI / (m * L**4)), exact,
+                               rtol=1e-8)
+    # ∫φ²/L + μφ(L)² + jL²φ'(L)² = 1 (trapezoid on a fine grid)
+    tip, slope = shapes.evaluate(np.array([L]))[0], shapes.evaluate(np.array([L]), 1)[0]
+    norm = (np.trapezoid(phi[:, :4] ** 2, x, axis=0) / L + tip_mass / (m * L) * tip[:4] ** 2
+            + tip_inertia / (m * L**3) * L**2 * slope[:4] ** 2)
+    np.testing.assert_allclose(norm, 1.0, rtol=1e-5)
+    # derivatives agree with finite differences of the values
+    for k in (1, 2, 3):
+        d = np.gradient(shapes.evaluate(x, k - 1)[:, :3], x, axis=0)
+        np.testing.assert_allclose(d[5:-5], shapes.evaluate(x, k)[5:-5, :3],
+                                   atol=1e-3 * np.abs(d).max())

@@ -147,7 +147,7 @@ def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
     state at t = 0, or a rest configuration of the t = 0 angles where that state cannot be
     linearised, e.g. a servo saturated there). The first-order equations, open loop
     (controllers left out)."""
-    from ..dynamics.first_order import chosen_mode_shapes
+    from ..model.basis import chosen_mode_shapes
     from ..solvers.threads import single_threaded
 
     settings = replace(scenario.settings, model="first_order")

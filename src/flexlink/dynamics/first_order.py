@@ -20,12 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Base, Chain, Link, PiezoActuator, TorqueDrive, is_driven
-from ..model.chain import default_mode_shapes
+from ..model.basis import carries_links, chosen_mode_shapes, free_hub
 from ..model.joints import initial_angle
 from ..modes import (
     ModalData,
     ModeShapes,
     highest_frequency,
+    hub_loaded_modes,
     modal_data,
     modal_data_for_stiffness,
     tip_loaded_modes,
@@ -107,6 +108,19 @@ def _outboard_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShap
     return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
 
 
+def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShapes:
+    """Modes of link k on its free hub (`model.basis.free_hub`) with its tip body, or with
+    what its tip carries (`outboard_body`)."""
+    link, hub = chain.links[k], free_hub(chain, k, base)
+    if hub is None:
+        raise ValueError(f"{link.name}: mode_shapes = \"hub_loaded\" needs a torque-driven "
+                         "joint or a pinned base that carries this link alone, radially")
+    mass, inertia = (outboard_body(chain, k, base) if carries_links(chain, k, base)
+                     else (link.tip_mass, link.tip_inertia))
+    return hub_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass,
+                            inertia, *hub)
+
+
 @functools.lru_cache(maxsize=64)
 def _link_modal_data(link: Link) -> ModalData:
     """Modal integrals of a link (immutable): computed once per process, reused by every run
@@ -116,19 +130,6 @@ def _link_modal_data(link: Link) -> ModalData:
     return modal_data_for_stiffness(link)
 
 
-def carries_links(chain: Chain, k: int, base: Base | None = None) -> bool:
-    """Whether link k's tip carries the next link (its joint does not start a branch)."""
-    return k + 1 < len(chain.links) and (base is None or base.attachment(k + 1) is None)
-
-
-def chosen_mode_shapes(chain: Chain, base: Base | None = None) -> tuple[str, ...]:
-    """Each link's basis: its own ``mode_shapes``, or for "auto" `model.chain.default_mode_shapes`."""
-    return tuple(
-        default_mode_shapes(bool(link.tip_mass or link.tip_inertia), carries_links(chain, k, base))
-        if link.mode_shapes == "auto" else link.mode_shapes
-        for k, link in enumerate(chain.links))
-
-
 def chain_modal_data(chain: Chain, base: Base | None = None) -> list[ModalData]:
     """The modal basis of every link (outboard-loaded modes depend on the whole chain and on
     where its branches start on the ``base``)."""
@@ -136,8 +137,12 @@ def chain_modal_data(chain: Chain, base: Base | None = None) -> list[ModalData]:
     for k, (link, kind) in enumerate(zip(chain.links, chosen_mode_shapes(chain, base))):
         if kind != link.mode_shapes:
             link = dataclasses.replace(link, mode_shapes=kind)
-        out.append(modal_data(link, shapes=_outboard_loaded_shapes(chain, k, base))
-                   if kind == "outboard_loaded" else _link_modal_data(link))
+        if kind == "outboard_loaded":
+            out.append(modal_data(link, shapes=_outboard_loaded_shapes(chain, k, base)))
+        elif kind == "hub_loaded":
+            out.append(modal_data(link, shapes=_hub_loaded_shapes(chain, k, base)))
+        else:
+            out.append(_link_modal_data(link))
     return out
 
 

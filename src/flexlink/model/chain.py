@@ -10,20 +10,8 @@ from typing import Literal, get_args
 
 from .joints import Joint
 
-ModeShapes = Literal["auto", "clamped_free", "tip_loaded", "outboard_loaded"]
+ModeShapes = Literal["auto", "clamped_free", "tip_loaded", "outboard_loaded", "hub_loaded"]
 MODE_SHAPES: tuple[str, ...] = get_args(ModeShapes)
-
-
-def default_mode_shapes(tip_body: bool, carries_links: bool) -> str:
-    """The basis `mode_shapes = "auto"` stands for (docs/modes.md, "The default basis"): the
-    exact modes of the clamped link with what its tip carries. ``tip_body``: the link has a
-    tip mass or tip inertia; ``carries_links``: the next link's joint sits on its tip.
-    Clamped–free modes converge like N⁻³ on a tip mass and only like N⁻¹ on a tip inertia
-    (the moment EI φ''(L) = J_t ω² φ'(L) they cannot carry); the loaded modes are exact for
-    the clamped link with a rigid tip body."""
-    if carries_links:
-        return "outboard_loaded"
-    return "tip_loaded" if tip_body else "clamped_free"
 
 
 @dataclass(frozen=True)
@@ -44,8 +32,10 @@ class Link:
     modes: int = 4  # number of assumed modes; 0: a rigid link (EI is then not used)
     # clamped_free: classical cantilever modes; tip_loaded: modes of the cantilever with this
     # link's tip mass and inertia; outboard_loaded: the tip body also holds the rest of the chain
-    # (rigid, as at t = 0) — lets an inner link carry the outer links' tip moment; auto: chosen
-    # from the chain (default_mode_shapes, docs/modes.md), the scenario files' default.
+    # (rigid, as at t = 0) — lets an inner link carry the outer links' tip moment; hub_loaded:
+    # the modes of the link on its free joint or pinned hub, with its tip body or what its tip
+    # carries; auto: chosen from the chain (model.basis, docs/modes.md), the scenario files'
+    # default.
     mode_shapes: ModeShapes = "clamped_free"
     thickness: float | None = None  # m, section depth in the bending plane (strain sensors)
 

@@ -205,13 +205,16 @@ LINKS = Section("links", [
     Field("damping_ratio", ge=0, lt=1, default=0.0, doc="modal damping ratio of every mode"),
     Field("modes", "integer", ge=1, le=20, default=4, doc="number of assumed modes"),
     Field("mode_shapes", "string", choices=MODE_SHAPES, default="auto", notes={
-        "auto": "chosen from the chain: `outboard_loaded` for a link whose tip carries the "
-                "next link, else `tip_loaded` for a link with a tip mass or tip inertia, else "
-                "`clamped_free`; the resolved scenario states the choice",
+        "auto": "chosen from the chain: `hub_loaded` for a link on a torque-driven joint or "
+                "alone on a pinned base, else `outboard_loaded` for a link whose tip carries "
+                "the next link, else `tip_loaded` for a link with a tip mass or tip inertia, "
+                "else `clamped_free`; the resolved scenario states the choice",
         "clamped_free": "cantilever modes",
         "tip_loaded": "exact modes of a cantilever carrying the tip mass and tip inertia",
         "outboard_loaded": "modes of the cantilever whose tip body is its tip mass plus the "
-                           "rest of the chain, rigid, as at t = 0"},
+                           "rest of the chain, rigid, as at t = 0",
+        "hub_loaded": "the natural modes of the link on its free hub (motor or base inertia) "
+                      "with its tip body or what its tip carries, less their rigid rotation"},
         doc="cantilever modes have no curvature at the tip, so a link with a tip inertia or "
             "carrying a heavy outer link converges slowly (~1/N) with them; the loaded modes "
             "converge fast there. Every run reports the estimated error of its frequencies in "
