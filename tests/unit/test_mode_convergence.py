@@ -158,3 +158,11 @@ def test_hub_loaded_modes(tip_mass: float, tip_inertia: float, hub: float, radiu
         d = np.gradient(shapes.evaluate(x, k - 1)[:, :3], x, axis=0)
         np.testing.assert_allclose(d[5:-5], shapes.evaluate(x, k)[5:-5, :3],
                                    atol=1e-3 * np.abs(d).max())
+
+
+def test_hub_loaded_on_a_clamped_link_is_refused_naming_the_field() -> None:
+    from flexlink.scenario import ScenarioError
+
+    text = _text(("a", 'mode_shapes = "hub_loaded"\n'))
+    with pytest.raises(ScenarioError, match=r"links\[0\]\.mode_shapes = \"hub_loaded\" needs"):
+        scenario_from_dict(tomllib.loads(text))
