@@ -160,9 +160,13 @@ def test_hub_loaded_modes(tip_mass: float, tip_inertia: float, hub: float, radiu
                                    atol=1e-3 * np.abs(d).max())
 
 
-def test_hub_loaded_on_a_clamped_link_is_refused_naming_the_field() -> None:
-    from flexlink.scenario import ScenarioError
-
-    text = _text(("a", 'mode_shapes = "hub_loaded"\n'))
-    with pytest.raises(ScenarioError, match=r"links\[0\]\.mode_shapes = \"hub_loaded\" needs"):
-        scenario_from_dict(tomllib.loads(text))
+def test_hub_loaded_on_a_clamped_link_is_its_infinite_hub_limit() -> None:
+    """On a prescribed joint (an infinitely heavy hub) hub_loaded modes are the clamped
+    link's loaded ones."""
+    links = (Link("a", 1.0, 0.5, 20.0, tip_mass=0.2, mode_shapes="hub_loaded"),
+             Link("b", 1.0, 0.5, 20.0, tip_mass=0.3, mode_shapes="hub_loaded"))
+    same = (dataclasses.replace(links[0], mode_shapes="outboard_loaded"),
+            dataclasses.replace(links[1], mode_shapes="tip_loaded"))
+    for got, want in zip(chain_modal_data(Chain(links, (HOLD, HOLD))),
+                         chain_modal_data(Chain(same, (HOLD, HOLD)))):
+        np.testing.assert_array_equal(got.stiffness_matrix, want.stiffness_matrix)

@@ -110,13 +110,14 @@ def _outboard_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShap
 
 def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShapes:
     """Modes of link k on its free hub (`model.basis.free_hub`) with its tip body, or with
-    what its tip carries (`outboard_body`)."""
+    what its tip carries (`outboard_body`). A link clamped to a prescribed joint is the limit
+    of an infinite hub inertia: its tip- or outboard-loaded modes."""
     link, hub = chain.links[k], free_hub(chain, k, base)
-    if hub is None:
-        raise ValueError(f"{link.name}: mode_shapes = \"hub_loaded\" needs a torque-driven "
-                         "joint or a pinned base that carries this link alone, radially")
     mass, inertia = (outboard_body(chain, k, base) if carries_links(chain, k, base)
                      else (link.tip_mass, link.tip_inertia))
+    if hub is None:
+        return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass,
+                                inertia)
     return hub_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass,
                             inertia, *hub)
 

@@ -18,7 +18,7 @@ from typing import Any
 from .._version import package_version
 from ..channels.catalogue import reserved_names
 from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
-from ..model.basis import chosen_mode_shapes, free_hub
+from ..model.basis import chosen_mode_shapes
 from . import schema
 from .actuators import build_actuator, read_actuators
 from .controllers import build_controller, read_controllers
@@ -449,13 +449,6 @@ def _with_chosen_bases(chain: Chain, base: Any, entries: list[dict[str, Any]]) -
     """``chain`` with "auto" replaced by the basis it stands for (model.basis), which the
     resolved ``entries`` then state too (the resolved scenario names the basis that ran)."""
     kinds = chosen_mode_shapes(chain, base)
-    wrong = [f"links[{k}].mode_shapes = \"hub_loaded\" needs a torque-driven joint, or the "
-             "link alone on a pinned base pointing away from its centre; choose another "
-             "basis or leave mode_shapes out (\"auto\")"
-             for k, link in enumerate(chain.links)
-             if link.mode_shapes == "hub_loaded" and free_hub(chain, k, base) is None]
-    if wrong:
-        raise ScenarioError(wrong)
     for entry, kind in zip(entries, kinds):
         if entry.get("mode_shapes") == "auto":
             entry["mode_shapes"] = kind

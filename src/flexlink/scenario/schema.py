@@ -214,7 +214,8 @@ LINKS = Section("links", [
         "outboard_loaded": "modes of the cantilever whose tip body is its tip mass plus the "
                            "rest of the chain, rigid, as at t = 0",
         "hub_loaded": "the natural modes of the link on its free hub (motor or base inertia) "
-                      "with its tip body or what its tip carries, less their rigid rotation"},
+                      "with its tip body or what its tip carries, less their rigid rotation; "
+                      "on a prescribed joint the loaded modes above"},
         doc="cantilever modes have no curvature at the tip, so a link with a tip inertia or "
             "carrying a heavy outer link converges slowly (~1/N) with them; the loaded modes "
             "converge fast there. Every run reports the estimated error of its frequencies in "
