@@ -15,6 +15,7 @@ __all__ = [
     "linearize",
     "load_paper_experiment",
     "load_scenario",
+    "mode_convergence",
     "simulate",
     "sweep",
 ]
@@ -50,7 +51,7 @@ def __getattr__(name: str) -> Any:
         from .model import Scenario
 
         return Scenario
-    if name in ("linearize", "frozen_modes"):
+    if name in ("linearize", "frozen_modes", "mode_convergence"):
         from . import control
 
         return getattr(control, name)

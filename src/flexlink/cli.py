@@ -395,6 +395,7 @@ def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
         return _fail(f"simulation failed: {exc}", status=1)
     except ValueError as exc:
         return _fail(f"error: {exc}")
+    results.metadata.update(_mode_convergence(scenario))
     try:
         write_run(results, out_dir, resolved, figures=not args.no_figures,
                   overwrite=args.overwrite, report=not args.no_report, animation=args.animate,
@@ -403,6 +404,17 @@ def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
         return _fail(f"error: could not write {out_dir}: {exc}")
     print(out_dir if args.quiet else summary(results, out_dir, scenario.name))
     return 0
+
+
+def _mode_convergence(scenario: Any) -> dict[str, Any]:
+    """The run attributes of the mode-convergence estimate (control/convergence.py); none
+    where the scenario cannot be linearised at t = 0, which the run itself did not need."""
+    from .control.convergence import mode_convergence
+
+    try:
+        return mode_convergence(scenario).metadata()
+    except Exception:  # noqa: BLE001 — an estimate beside the run, never its failure
+        return {}
 
 
 def _load(path: Path | None) -> tuple[Any, dict[str, Any]]:
@@ -430,7 +442,11 @@ def summary(results: Any, out_dir: Path, name: str) -> str:
         peak = float(abs(values).max()) if values.size else 0.0
         extra = f"  ({math.degrees(peak):.4g} deg)" if channel.unit == "rad" else ""
         lines.append(f"  {name_:<{width}}  {peak:.4g} {channel.unit}{extra}")
-    for key in ("validity_warning", "control_warning"):
+    if "mode_bases" in results.metadata:
+        from .control.convergence import modes_line
+
+        lines.append(modes_line(results.metadata))
+    for key in ("validity_warning", "control_warning", "mode_convergence_warning"):
         if key in results.metadata:
             lines.append(f"warning: {results.metadata[key]}")
     files = sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*") if p.is_file())

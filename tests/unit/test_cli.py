@@ -350,3 +350,24 @@ def test_run_commands_start_blas_with_one_thread_unless_the_user_chose(
     cli._one_blas_thread(["run", "a.toml"])
     assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
     monkeypatch.delenv("OPENBLAS_NUM_THREADS")
+
+
+def test_summary_names_the_mode_basis_and_warns_when_it_is_far_from_converged(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    loaded = SHORT.replace("modes = 1", "modes = 4\ntip_inertia = 0.002")
+    assert main(["run", str(write(tmp_path, loaded)), "-o", str(tmp_path / "a"),
+                 "--no-figures", "--no-report"]) == 0
+    out = capsys.readouterr().out
+    assert "modes: arm tip_loaded ×4; the highest frequency at t = 0" in out
+    assert "warning: mode basis" not in out
+    resolved = tomllib.loads((tmp_path / "a" / "scenario.resolved.toml").read_text())
+    assert resolved["links"][0]["mode_shapes"] == "tip_loaded"
+    cantilever = loaded.replace("modes = 4", 'modes = 4\nmode_shapes = "clamped_free"')
+    assert main(["run", str(write(tmp_path, cantilever, "c.toml")), "-o", str(tmp_path / "b"),
+                 "--no-figures", "--no-report"]) == 0
+    out = capsys.readouterr().out
+    assert "warning: mode basis (arm clamped_free ×4):" in out and "estimated" in out
+    from flexlink.results.reading import read_run
+
+    assert "mode basis (arm clamped_free ×4)" in \
+        read_run(tmp_path / "b").metadata["mode_convergence_warning"]

@@ -56,7 +56,9 @@ def test_minimal_scenario_fills_defaults() -> None:
     scenario = scenario_from_dict(minimal())
     a, b = scenario.chain.links
     assert (a.tip_mass, a.tip_inertia, a.damping_ratio, a.modes) == (0.0, 0.0, 0.0, 4)
-    assert a.mode_shapes == "clamped_free" and a.thickness is None and b.thickness == 0.002
+    # mode_shapes "auto": a carries b, b carries nothing (docs/modes.md, "The default basis")
+    assert (a.mode_shapes, b.mode_shapes) == ("outboard_loaded", "clamped_free")
+    assert a.thickness is None and b.thickness == 0.002
     assert scenario.settings.rtol == 1e-6 and scenario.settings.atol == 1e-12
     assert scenario.settings.method == "lawson"
     assert scenario.settings.geometric_stiffening is True  # the consistent linearisation
@@ -118,8 +120,9 @@ def test_all_problems_are_reported_at_once() -> None:
         ("links", "damping_ratio", 1.0, "links[0].damping_ratio must be in [0, 1), got 1.0"),
         ("links", "modes", 21, "links[0].modes must be an integer from 1 to 20, got 21"),
         ("links", "modes", 4.0, "links[0].modes: expected an integer, got number 4.0"),
-        ("links", "mode_shapes", "clamped", ("links[0].mode_shapes must be one of "
-         "'clamped_free', 'tip_loaded', 'outboard_loaded', got 'clamped' (did you mean 'clamped_free'?)")),
+        ("links", "mode_shapes", "clamped", ("links[0].mode_shapes must be one of 'auto', "
+         "'clamped_free', 'tip_loaded', 'outboard_loaded', 'hub_loaded', got 'clamped' "
+         "(did you mean 'clamped_free'?)")),
         ("links", "name", "", "links[0].name must not be empty"),
         ("links", "name", "b", "links[1].name: duplicate name 'b' (names must be unique)"),
         ("links", "name", "has space", "links[0].name must be 1-64 letters"),

@@ -13,6 +13,9 @@ Contents
     Wright, Smith, Thresher & Wang (1982).
 ``KANE_RYAN_BANERJEE_1987``
     The spin-up beam of Kane, Ryan & Banerjee (1987).
+``DE_LUCA_SICILIANO_1991``
+    The two-link arm of De Luca & Siciliano (1991) and the published clamped-mass frequencies
+    of its links.
 ``RotatingBeamFE``
     An independent reference solver for both: cubic Hermite finite elements of the linear
     rotating-beam equation, and a Newmark integration of its spin-up response.
@@ -170,6 +173,49 @@ KANE_RYAN_BANERJEE_1987 = SpinupBeam(
         "T. R. Kane, R. R. Ryan, A. K. Banerjee, 'Dynamics of a cantilever beam attached to a "
         "moving base', J. Guidance, Control, and Dynamics 10(2):139-151, 1987"
     ),
+)
+
+
+# --------------------------------------------------------------------------------------------
+# De Luca & Siciliano (1991): two-link arm whose first link carries the second joint's hub
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TwoLinkArm:
+    """Two equal uniform links; link 1's tip carries the hub of joint 2 (mass, rotary inertia),
+    link 2's tip a payload. The published frequencies are each link's clamped-mass
+    eigenfrequencies: link 2 with the payload at its tip, link 1 with everything outboard
+    lumped at its tip (the straight arm: ``lumped_tip_body``)."""
+
+    citation: str
+    length: float  # m, each link
+    mass_per_length: float  # kg/m
+    EI: float  # N·m²
+    joint2_mass: float  # kg, hub of joint 2 at link 1's tip
+    joint2_inertia: float  # kg·m²
+    payload_mass: float  # kg, at link 2's tip
+    payload_inertia: float  # kg·m²
+    published_hz: tuple[tuple[float, ...], ...]  # per link, its first two, Hz (2 decimals)
+
+    def lumped_tip_body(self) -> tuple[float, float]:
+        """(kg, kg·m² about link 1's tip) of the hub, link 2 and the payload, straight arm."""
+        m2 = self.mass_per_length * self.length
+        mass = self.joint2_mass + m2 + self.payload_mass
+        inertia = (self.joint2_inertia + m2 * self.length**2 / 3 + self.payload_inertia
+                   + self.payload_mass * self.length**2)
+        return mass, inertia
+
+
+DE_LUCA_SICILIANO_1991 = TwoLinkArm(
+    citation=(
+        "A. De Luca, B. Siciliano, 'Closed-form dynamic model of planar multilink lightweight "
+        "robots', IEEE Trans. Systems, Man, and Cybernetics 21(4):826-839, 1991 (two-link "
+        "example: f11 = 0.48, f12 = 1.80, f21 = 2.18, f22 = 15.91 Hz)"
+    ),
+    length=0.5, mass_per_length=0.2, EI=1.0, joint2_mass=1.0, joint2_inertia=0.1,
+    payload_mass=0.1, payload_inertia=0.0005,
+    published_hz=((0.48, 1.80), (2.18, 15.91)),
 )
 
 

@@ -23,28 +23,39 @@ import numpy as np
 from scipy.optimize import brentq
 
 
-def _det(mu: float, rho: float, eta: float) -> float:
+def _det(mu: float, rho: float, eta: float, tip_mass: float = 0.0,
+         tip_inertia: float = 0.0) -> float:
+    """The frequency determinant; η = inf clamps the beam (Θ = 0, the hub's row left out)."""
     ch, sh, c, s = np.cosh(mu), np.sinh(mu), np.cos(mu), np.sin(mu)
-    scale = 1.0 / ch  # keeps the tip rows O(1)
-    a = np.array([
-        [1.0, 0.0, 1.0, 0.0, -rho],
-        [0.0, mu, 0.0, mu, -1.0],
-        [1.0, sh * scale, -c * scale, -s * scale, 0.0],
-        [sh * scale, 1.0, s * scale, -c * scale, 0.0],
-        [mu**2, -rho * mu**3, -mu**2, rho * mu**3, eta * mu**4],
-    ])
-    a[2, 0] = 1.0  # ch·scale
+    t, sech = sh / ch, 1.0 / ch  # the tip rows divided by cosh μ stay O(1)
+    moment = np.array([1.0, t, -c * sech, -s * sech])  # y''(L) L²/μ² per (A, B, C, D)
+    slope = np.array([t, 1.0, -s * sech, c * sech])  # y'(L) L/μ
+    shear = np.array([t, 1.0, s * sech, -c * sech])  # y'''(L) L³/μ³
+    value = np.array([1.0, t, c * sech, s * sech])  # y(L)
+    a = np.zeros((5, 5))
+    a[0] = [1.0, 0.0, 1.0, 0.0, -rho]
+    a[1] = [0.0, mu, 0.0, mu, -1.0]
+    a[2, :4] = moment - tip_inertia * mu**3 * slope
+    a[3, :4] = shear + tip_mass * mu * value
+    if np.isinf(eta):
+        return float(np.linalg.det(a[:4, :4]))
+    a[4] = [mu**2, -rho * mu**3, -mu**2, rho * mu**3, eta * mu**4]
     return float(np.linalg.det(a)) / mu**4
 
 
 def hub_beam_frequencies(count: int, EI: float, mass_per_length: float, length: float,
-                         radius: float, hub_inertia: float) -> np.ndarray:
-    """The first ``count`` non-zero natural frequencies (rad/s), ascending."""
+                         radius: float, hub_inertia: float, tip_mass: float = 0.0,
+                         tip_inertia: float = 0.0) -> np.ndarray:
+    """The first ``count`` non-zero natural frequencies (rad/s), ascending, of the hub–beam
+    with a tip mass (kg) and a rotary tip inertia (kg·m²); ``hub_inertia = math.inf``
+    clamps the beam."""
     rho = radius / length
     eta = hub_inertia / (mass_per_length * length**3)
+    args = (rho, eta, tip_mass / (mass_per_length * length),
+            tip_inertia / (mass_per_length * length**3))
     grid = np.linspace(0.3, 4.0 * (count + 2), 4000 * (count + 2))
-    values = np.array([_det(m, rho, eta) for m in grid])
-    roots = [brentq(_det, grid[i], grid[i + 1], args=(rho, eta), xtol=1e-14)
+    values = np.array([_det(m, *args) for m in grid])
+    roots = [brentq(_det, grid[i], grid[i + 1], args=args, xtol=1e-14)
              for i in np.nonzero(np.sign(values[:-1]) != np.sign(values[1:]))[0]]
     mu = np.array(roots[:count])
     if mu.size < count:

@@ -121,15 +121,18 @@ def _default_dir(args: argparse.Namespace, suffix: str) -> Path:
 def run_linearize(args: argparse.Namespace) -> int:
     from ..results.writers import OutputFolderError, check_output_dir
     from ..scenario import ScenarioError
+    from .convergence import estimate_for_command
     from .linearization import linearize
 
     try:
         scenario, resolved = _load(args)
         out = _default_dir(args, "plant")
         check_output_dir(out, args.overwrite)
-        plant = linearize(scenario, at=parse_at_text(args.at), inputs=_names(args.inputs),
+        at = parse_at_text(args.at)
+        plant = linearize(scenario, at=at, inputs=_names(args.inputs),
                           outputs=_names(args.outputs))
         pairs = _pairs(args.bode, plant)
+        estimate = estimate_for_command(scenario, at)
     except ScenarioError as exc:
         return _fail(str(exc))
     except (OutputFolderError, ValueError, TypeError, OSError) as exc:
@@ -139,7 +142,7 @@ def run_linearize(args: argparse.Namespace) -> int:
     with _folder(out, args, resolved) as partial:
         plant.to_npz(partial / PLANT_NPZ)
         plant.to_mat(partial / PLANT_MAT)
-        _write_poles(plant, partial / POLES_CSV)
+        _write_poles(plant, partial / POLES_CSV, estimate)
         if not args.no_figures and pairs:
             from .figures import bode_figure
 
@@ -150,6 +153,7 @@ def run_linearize(args: argparse.Namespace) -> int:
               f"{len(plant.output_names)} outputs; "
               + ("equilibrium" if plant.equilibrium else "frozen time (not an equilibrium)"))
         print("modes (Hz): " + ", ".join(f"{v:.4g}" for v in f[:8]))
+        _print_estimate(estimate)
     print(out)
     return 0
 
@@ -169,12 +173,29 @@ def _pairs(text: str | None, plant: Any) -> list[tuple[str, str]]:
     return pairs
 
 
-def _write_poles(plant: Any, path: Path) -> None:
+def _write_poles(plant: Any, path: Path, estimate: Any) -> None:
+    """mode, frequency, damping ratio and the estimated relative error of the frequency in
+    the assumed modes (control/convergence.py; nan where there is no estimate)."""
     import numpy as np
 
     f, zeta, _ = plant.modes()
-    np.savetxt(path, np.column_stack([np.arange(1, f.size + 1), f, zeta]), delimiter=",",
-               header="mode,frequency_Hz,damping_ratio", comments="", fmt=["%d", "%.10g", "%.6g"])
+    error = np.full(f.size, np.nan)
+    if estimate is not None and estimate.error.size == f.size:
+        error = estimate.error
+    np.savetxt(path, np.column_stack([np.arange(1, f.size + 1), f, zeta, error]),
+               delimiter=",", header="mode,frequency_Hz,damping_ratio,estimated_error",
+               comments="", fmt=["%d", "%.10g", "%.6g", "%.3g"])
+
+
+def _print_estimate(estimate: Any) -> None:
+    """The mode-convergence line and, where a frequency moves by 1% or more, its warning."""
+    if estimate is None:
+        return
+    from .convergence import modes_line
+
+    print(modes_line(estimate.metadata()))
+    if estimate.warning():
+        print(f"warning: {estimate.warning()}")
 
 
 def _folder(out: Path, args: argparse.Namespace, resolved: dict[str, Any]) -> Any:
@@ -195,6 +216,7 @@ def _folder(out: Path, args: argparse.Namespace, resolved: dict[str, Any]) -> An
 def run_modes(args: argparse.Namespace) -> int:
     from ..results.writers import OutputFolderError, check_output_dir
     from ..scenario import ScenarioError
+    from .convergence import estimate_for_command
     from .modes import frozen_modes
 
     try:
@@ -213,6 +235,8 @@ def run_modes(args: argparse.Namespace) -> int:
                     raise ValueError(f"--grid: {part!r} is not jointK=START:STOP:STEP")
                 angles[key.strip()] = parse_range(text, "--grid")
         modes = frozen_modes(scenario, times=times, angles=angles, count=args.count)
+        estimate = estimate_for_command(
+            scenario, {k: v[0] for k, v in angles.items()} if angles else 0.0)
     except ScenarioError as exc:
         return _fail(str(exc))
     except (OutputFolderError, ValueError, TypeError, OSError) as exc:
@@ -239,5 +263,6 @@ def run_modes(args: argparse.Namespace) -> int:
         print(f"{modes.values.size} points of {modes.coordinate}, "
               f"{modes.frequency_hz.shape[1]} modes; lowest: "
               f"{modes.frequency_hz[:, 0].min():.4g}–{modes.frequency_hz[:, 0].max():.4g} Hz")
+        _print_estimate(estimate)
     print(out)
     return 0

@@ -150,11 +150,8 @@ def _collect(scenario: Scenario, coordinate: str, values: np.ndarray,
 def _basis(scenario: Scenario, x: np.ndarray) -> list[np.ndarray]:
     """Φ_k(x) (POINTS, n_k) of each link in the basis the plant's coordinates use."""
     from ..dynamics.first_order import chain_modal_data
-    from ..modes import modal_data
 
-    chain = scenario.chain
-    data = ([modal_data(link) for link in chain.links] if scenario.is_forward
-            else chain_modal_data(chain))
+    data = chain_modal_data(scenario.chain, scenario.base)
     return [d.shapes.evaluate(x[k], 0) if d.n else np.zeros((x.shape[1], 0))
             for k, d in enumerate(data)]
 

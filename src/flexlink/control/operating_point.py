@@ -18,6 +18,7 @@ import numpy as np
 
 from ..model import Base, JointMotion, Scenario, TorqueDrive, is_driven
 from ..model.histories import ZERO
+from ..model.joints import initial_angle
 
 At = float | int | Sequence[float] | Mapping[str, float]
 
@@ -67,15 +68,6 @@ class Configuration:
 
 
 BASE_KEYS = ("base_x", "base_y", "base_attitude")
-
-
-def initial_angle(joint: object) -> float:
-    """A joint's angle at t = 0 (rad): its motion's, a torque drive's initial angle, a servo's
-    reference."""
-    if isinstance(joint, TorqueDrive):
-        return float(joint.initial_angle)
-    motion = getattr(joint, "reference", joint)
-    return float(np.ravel(motion.evaluate(np.array([0.0]))[0])[0])
 
 
 def parse_at(scenario: Scenario, at: At) -> float | Configuration:

@@ -12,17 +12,21 @@ All evaluations are vectorised over a leading time axis.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Chain, Link, PiezoActuator
+from ..model import Base, Chain, Link, PiezoActuator, TorqueDrive, is_driven
+from ..model.basis import carries_links, chosen_mode_shapes, free_hub
+from ..model.joints import initial_angle
 from ..modes import (
     ModalData,
     ModeShapes,
     highest_frequency,
+    hub_loaded_modes,
     modal_data,
     modal_data_for_stiffness,
     tip_loaded_modes,
@@ -65,26 +69,57 @@ def link_body(data: ModalData, offset: int) -> LinkBody:
     return LinkBody(data, offset, M0, data.tip_inertia * np.outer(c, c), N - N.T)
 
 
-def _outboard_loaded_shapes(chain: Chain, k: int) -> ModeShapes:
-    """Cantilever modes of link k carrying its tip body plus the rigid outboard chain.
-
-    The outboard links are taken rigid and straight in their t = 0 joint angles; their mass and
-    their rotary inertia about link k's tip make the tip body (the offset of their centre of
-    mass is ignored: this only chooses a basis, the dynamics keep every coupling)."""
+def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float, float]:
+    """(mass kg, rotary inertia kg·m² about link k's tip) of link k's tip body plus the links
+    its tip carries, rigid and straight in their t = 0 joint angles (a joint with a drive:
+    its initial angle). The carried links are those after k up to the next that starts a
+    branch on the base. A torque-driven joint turns freely: the links beyond it add their
+    mass and the motor's inertia but not their own rotary inertia. The offset of their centre
+    of mass is not part of the body: this only chooses a basis, the dynamics keep every
+    coupling."""
     link = chain.links[k]
     mass, inertia = link.tip_mass, link.tip_inertia
-    position, angle = np.zeros(2), 0.0
+    position, angle, turning = np.zeros(2), 0.0, True
     for j in range(k + 1, len(chain.links)):
-        outer = chain.links[j]
-        angle += float(np.asarray(chain.joints[j].evaluate(np.array([0.0]))[0]).ravel()[0])
+        if base is not None and base.attachment(j) is not None:
+            break
+        outer, joint = chain.links[j], chain.joints[j]
+        angle += initial_angle(joint)
+        if is_driven(joint):
+            inertia += joint.motor_inertia if turning else 0.0
+            turning = turning and not isinstance(joint, TorqueDrive)
         axis = np.array([np.cos(angle), np.sin(angle)])
         m, L = outer.mass_per_length * outer.length, outer.length
-        d = float(position @ axis)  # rigid link from `position` along `axis`, ∫|r|² dm:
-        inertia += m * (position @ position + d * L + L**2 / 3) + outer.tip_inertia
-        position = position + L * axis
         mass += m + outer.tip_mass
-        inertia += outer.tip_mass * float(position @ position)
+        if turning:
+            d = float(position @ axis)  # rigid link from `position` along `axis`, ∫|r|² dm:
+            inertia += m * (position @ position + d * L + L**2 / 3) + outer.tip_inertia
+        position = position + L * axis
+        if turning:
+            inertia += outer.tip_mass * float(position @ position)
+    return mass, inertia
+
+
+def _outboard_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShapes:
+    """Cantilever modes of link k carrying its tip body plus the links its tip carries
+    (`outboard_body`)."""
+    link = chain.links[k]
+    mass, inertia = outboard_body(chain, k, base)
     return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
+
+
+def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShapes:
+    """Modes of link k on its free hub (`model.basis.free_hub`) with its tip body, or with
+    what its tip carries (`outboard_body`). A link clamped to a prescribed joint is the limit
+    of an infinite hub inertia: its tip- or outboard-loaded modes."""
+    link, hub = chain.links[k], free_hub(chain, k, base)
+    mass, inertia = (outboard_body(chain, k, base) if carries_links(chain, k, base)
+                     else (link.tip_mass, link.tip_inertia))
+    if hub is None:
+        return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass,
+                                inertia)
+    return hub_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass,
+                            inertia, *hub)
 
 
 @functools.lru_cache(maxsize=64)
@@ -96,11 +131,20 @@ def _link_modal_data(link: Link) -> ModalData:
     return modal_data_for_stiffness(link)
 
 
-def chain_modal_data(chain: Chain) -> list[ModalData]:
-    """The modal basis of every link (outboard-loaded modes depend on the whole chain)."""
-    return [modal_data(link, shapes=_outboard_loaded_shapes(chain, k))
-            if link.mode_shapes == "outboard_loaded" else _link_modal_data(link)
-            for k, link in enumerate(chain.links)]
+def chain_modal_data(chain: Chain, base: Base | None = None) -> list[ModalData]:
+    """The modal basis of every link (outboard-loaded modes depend on the whole chain and on
+    where its branches start on the ``base``)."""
+    out = []
+    for k, (link, kind) in enumerate(zip(chain.links, chosen_mode_shapes(chain, base))):
+        if kind != link.mode_shapes:
+            link = dataclasses.replace(link, mode_shapes=kind)
+        if kind == "outboard_loaded":
+            out.append(modal_data(link, shapes=_outboard_loaded_shapes(chain, k, base)))
+        elif kind == "hub_loaded":
+            out.append(modal_data(link, shapes=_hub_loaded_shapes(chain, k, base)))
+        else:
+            out.append(_link_modal_data(link))
+    return out
 
 
 class FirstOrderSystem:

@@ -32,11 +32,12 @@ from ..model import (
     VelocityServo,
     is_driven,
 )
-from ..modes import ModalData, modal_data
+from ..modes import ModalData
 from .actuators import actuator_matrix, open_loop_voltages
 from .first_order import (
     LinkBody,
     add_link_terms,
+    chain_modal_data,
     link_body,
     rigid_load,
     second_order_stiffness,
@@ -51,13 +52,13 @@ class ForwardSystem:
     def __init__(self, chain: Chain, base: Base, geometric_stiffening: bool = False,
                  actuators: Sequence[PiezoActuator] = (),
                  modal: Sequence[ModalData] | None = None) -> None:
-        """``modal``: the links' modal data when the caller has them already (default: each
-        link's own, `modes.modal_data`)."""
+        """``modal``: the links' modal data when the caller has them already (default:
+        `first_order.chain_modal_data`)."""
         self.chain = chain
         self.base = base
         self.geometric_stiffening = geometric_stiffening
         self.modal: list[ModalData] = (list(modal) if modal is not None
-                                       else [modal_data(link) for link in chain.links])
+                                       else chain_modal_data(chain, base))
         n_links = len(chain.links)
         self.n_base = len(base.coordinates)
         self.n_rigid = self.n_base + n_links

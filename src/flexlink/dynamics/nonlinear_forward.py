@@ -38,7 +38,6 @@ import numpy as np
 
 from ..model import Base, Chain, PiezoActuator, is_driven
 from .arc import ArcQuadrature, arc_quadrature
-from .first_order import chain_modal_data
 from .forward import ForwardSystem
 
 StageInputs = namedtuple("StageInputs", ["angle", "rate", "acceleration", "rot_acceleration",
@@ -72,7 +71,7 @@ class NonlinearForwardSystem:
         # first-order forward model's.
         self.loads = ForwardSystem(chain, base, actuators=actuators)
         self.actuators = self.loads.actuators
-        self.modal = chain_modal_data(chain)
+        self.modal = self.loads.modal
         N = len(chain.links)
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
         self.n = n = int(offsets[-1])

@@ -10,7 +10,7 @@ from typing import Literal, get_args
 
 from .joints import Joint
 
-ModeShapes = Literal["clamped_free", "tip_loaded", "outboard_loaded"]
+ModeShapes = Literal["auto", "clamped_free", "tip_loaded", "outboard_loaded", "hub_loaded"]
 MODE_SHAPES: tuple[str, ...] = get_args(ModeShapes)
 
 
@@ -32,7 +32,10 @@ class Link:
     modes: int = 4  # number of assumed modes; 0: a rigid link (EI is then not used)
     # clamped_free: classical cantilever modes; tip_loaded: modes of the cantilever with this
     # link's tip mass and inertia; outboard_loaded: the tip body also holds the rest of the chain
-    # (rigid, as at t = 0) — lets an inner link carry the outer links' tip moment.
+    # (rigid, as at t = 0) — lets an inner link carry the outer links' tip moment; hub_loaded:
+    # the modes of the link on its free joint or pinned hub, with its tip body or what its tip
+    # carries; auto: chosen from the chain (model.basis, docs/modes.md), the scenario files'
+    # default.
     mode_shapes: ModeShapes = "clamped_free"
     thickness: float | None = None  # m, section depth in the bending plane (strain sensors)
 

@@ -82,5 +82,14 @@ def is_driven(joint: object) -> bool:
     return isinstance(joint, TorqueDrive | VelocityServo | PositionServo)
 
 
+def initial_angle(joint: object) -> float:
+    """A joint's angle at t = 0 (rad): its motion's, a torque drive's initial angle, a servo's
+    reference."""
+    if isinstance(joint, TorqueDrive):
+        return float(joint.initial_angle)
+    motion = getattr(joint, "reference", joint)
+    return float(np.ravel(motion.evaluate(np.array([0.0]))[0])[0])
+
+
 # A joint is prescribed (its motion is given) or driven (its angle follows from the dynamics).
 Joint = JointMotion | Drive

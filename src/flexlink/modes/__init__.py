@@ -10,6 +10,7 @@ from flexlink.modes.integrals import (
 from flexlink.modes.shapes import (
     ModeShapes,
     clamped_free_modes,
+    hub_loaded_modes,
     mode_shapes_for,
     tip_loaded_modes,
 )
@@ -19,6 +20,7 @@ __all__ = [
     "ModeShapes",
     "clamped_free_modes",
     "highest_frequency",
+    "hub_loaded_modes",
     "modal_data",
     "modal_data_for_stiffness",
     "mode_shapes_for",

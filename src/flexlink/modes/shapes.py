@@ -24,7 +24,8 @@ import numpy as np
 
 from flexlink.model import Link
 
-__all__ = ["ModeShapes", "clamped_free_modes", "mode_shapes_for", "tip_loaded_modes"]
+__all__ = ["ModeShapes", "clamped_free_modes", "hub_loaded_modes", "mode_shapes_for",
+           "tip_loaded_modes"]
 
 _NORM_PANELS_PER_LAMBDA = 0.5  # quadrature panels per unit of λ for the normalisation integral
 _GAUSS_POINTS = 20  # Gauss–Legendre points per panel
@@ -43,7 +44,9 @@ class ModeShapes:
     ``beta_l`` holds the eigenvalues λ_i = β_i L.  Mode i is normalised so that
     m∫φ_i² dx + m_t φ_i(L)² + J_t φ_i'(L)² = m L (bare beam: ∫φ_i² dx = L, φ_i(L) = 2),
     and signed so that φ_i(L) > 0.  φ_i = scale_i [growing_i e^{β(x−L)} + ½(1 − c_i) e^{−βx}
-    − cos βx − c_i sin βx].  Build with the factories below, not the constructor.
+    − cos βx − c_i sin βx + extra_i], where ``extra`` (hub-loaded modes only, else None) holds
+    the coefficients of e^{−βx}, cos βx, sin βx, 1 and βx added to the bracket.  Build with the
+    factories below, not the constructor.
     """
 
     length: float  # m
@@ -53,6 +56,7 @@ class ModeShapes:
     growing: np.ndarray = field(repr=False)  # (n,) ½(1 + c) e^{βL}, bounded
     scale: np.ndarray = field(repr=False)  # (n,) normalisation factor with sign
     kind: str = "clamped_free"
+    extra: np.ndarray | None = field(default=None, repr=False)  # (5, n) or None
 
     def __post_init__(self) -> None:
         for name in ("beta_l", "c", "growing", "scale"):
@@ -60,6 +64,11 @@ class ModeShapes:
             if arr.shape != (self.n,):
                 raise ValueError(f"{name} must have shape ({self.n},), got {arr.shape}")
             object.__setattr__(self, name, arr)
+        if self.extra is not None:
+            extra = _readonly(self.extra)
+            if extra.shape != (5, self.n):
+                raise ValueError(f"extra must have shape (5, {self.n}), got {extra.shape}")
+            object.__setattr__(self, "extra", extra)
 
     @property
     def beta(self) -> np.ndarray:
@@ -85,6 +94,11 @@ class ModeShapes:
             + cos_part
             + c * sin_part
         )
+        if self.extra is not None:
+            e = self.extra[:, None, :]
+            value = value + (e[0] * (-1.0) ** k * np.exp(-z) - e[1] * cos_part
+                             - e[2] * sin_part + (e[3] if k == 0 else 0.0)
+                             + e[4] * ((z, 1.0, 0.0, 0.0)[k]))
         return value * (self.scale * self.beta**k)[None, :]
 
 
@@ -113,7 +127,13 @@ def _build(length: float, lam: np.ndarray, mu: float, j: float, kind: str) -> Mo
         return ModeShapes(length, 0, lam, lam, lam, lam, kind)
     c, growing = _coefficients(lam, mu)
     raw = ModeShapes(length, lam.size, lam, c, growing, np.ones_like(lam), kind)
-    # Normalisation: ∫φ²dx/L + μ φ(L)² + j L² φ'(L)² = 1, by composite Gauss–Legendre.
+    return ModeShapes(length, lam.size, lam, c, growing, _scale(raw, mu, j), kind)
+
+
+def _scale(raw: ModeShapes, mu: float, j: float) -> np.ndarray:
+    """Normalisation factors with sign of ``raw`` (scale 1): ∫φ²dx/L + μ φ(L)² + j L² φ'(L)²
+    = 1 by composite Gauss–Legendre, φ(L) > 0."""
+    length, lam = raw.length, raw.beta_l
     panels = max(2, int(np.ceil(_NORM_PANELS_PER_LAMBDA * lam.max())))
     g, w = np.polynomial.legendre.leggauss(_GAUSS_POINTS)
     edges = np.linspace(0.0, length, panels + 1)
@@ -125,8 +145,7 @@ def _build(length: float, lam: np.ndarray, mu: float, j: float, kind: str) -> Mo
     slope = raw.evaluate(np.array([length]), 1)[0]
     norm = wx @ phi**2 / length + mu * tip**2 + j * length**2 * slope**2
     sign = np.where(tip != 0.0, np.sign(tip), np.sign(slope))
-    scale = sign / np.sqrt(norm)
-    return ModeShapes(length, lam.size, lam, c, growing, scale, kind)
+    return sign / np.sqrt(norm)
 
 
 def _frequency_function(lam: np.ndarray | float, mu: float, j: float) -> np.ndarray:
@@ -237,6 +256,87 @@ def tip_loaded_modes(
         for i in idx
     ])
     return _build(length, lam, mu, j, "tip_loaded")
+
+
+def _hub_matrix(lam: float, mu: float, j: float, eta: float, rho: float) -> np.ndarray:
+    """The hub–beam conditions on (G, H, C, D, ΘL) of y = G e^{β(x−L)} + H e^{−βx} + C cos βx
+    + D sin βx at λ = βL (every entry bounded): the clamp to the hub, y(0) = ρ ΘL and
+    y'(0) L/λ = ΘL/λ; the tip body, EI y''(L) = J_t ω² y'(L) and EI y'''(L) = −m_t ω² y(L);
+    the hub, η λ⁴ ΘL + λ²(y''(0) − ρλ y'''(0)) (scaled) = 0, ρ = r/L, η = J_h/(mL³)."""
+    e, co, si = math.exp(-lam), math.cos(lam), math.sin(lam)
+    value, slope = np.array([1.0, e, co, si]), np.array([1.0, -e, -si, co])
+    curvature, shear = np.array([1.0, e, -co, -si]), np.array([1.0, -e, si, -co])
+    a = np.zeros((5, 5))
+    a[0] = [e, 1.0, 1.0, 0.0, -rho]
+    a[1] = [e, -1.0, 0.0, 1.0, -1.0 / lam]
+    a[2, :4] = curvature - j * lam**3 * slope
+    a[3, :4] = shear + mu * lam * value
+    a[4] = [e - rho * lam * e, 1.0 + rho * lam, -1.0, rho * lam, eta * lam**2]
+    return a
+
+
+def _hub_determinant(lam: float, mu: float, j: float, eta: float, rho: float) -> float:
+    return float(np.linalg.det(_hub_matrix(lam, mu, j, eta, rho)))
+
+
+def hub_loaded_modes(
+    length: float,
+    n: int,
+    mass_per_length: float,
+    EI: float,
+    tip_mass: float,
+    tip_inertia: float,
+    hub_inertia: float,
+    radius: float = 0.0,
+) -> ModeShapes:
+    """Modes of a link on a free hub, in the link's clamped frame: for each of the first n
+    natural modes y_i of the hub–beam system (the beam clamped at ``radius`` (m) to a hub of
+    inertia ``hub_inertia`` (kg·m²) turning freely about its fixed centre, tip mass (kg) and
+    rotary inertia (kg·m²) at its tip), φ_i = y_i − Θ_i (r + x), which has φ(0) = φ'(0) = 0.
+    With the joint angle beside them these span y_1 … y_n: the first n frequencies of a
+    single link on a free joint are exact, where clamped modes miss the n-th by tens of
+    percent when the hub is light (docs/modes.md). Roots by a sign scan and bisection, each
+    mode from the null vector of `_hub_matrix`; normalised as the other kinds."""
+    if n < 0:
+        raise ValueError("the number of modes must be >= 0")
+    if mass_per_length <= 0 or EI <= 0 or length <= 0:
+        raise ValueError("length, mass_per_length and EI must be positive")
+    if min(tip_mass, tip_inertia, hub_inertia, radius) < 0:
+        raise ValueError("tip body, hub inertia and radius must be non-negative")
+    if n == 0:
+        return _build(length, np.empty(0), 0.0, 0.0, "hub_loaded")
+    args = (tip_mass / (mass_per_length * length), tip_inertia / (mass_per_length * length**3),
+            hub_inertia / (mass_per_length * length**3), radius / length)
+    grid = np.unique(np.concatenate([
+        np.geomspace(1e-3, 1.0, 100),
+        np.arange(1.0, (n + 2) * np.pi, np.pi / 64),
+    ]))
+    f = np.array([_hub_determinant(x, *args) for x in grid])
+    idx = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)[:n]
+    if idx.size < n:
+        raise RuntimeError(f"found only {idx.size} of {n} hub-loaded eigenvalues")
+    lam, extra, growing = np.empty(n), np.empty((5, n)), np.empty(n)
+    for i, k in enumerate(idx):
+        a, b = float(grid[k]), float(grid[k + 1])
+        fa = f[k]
+        for _ in range(200):  # bisection to adjacent floating-point numbers
+            m = 0.5 * (a + b)
+            if not a < m < b:
+                break
+            fm = _hub_determinant(m, *args)
+            if (fm < 0.0) == (fa < 0.0):
+                a, fa = m, fm
+            else:
+                b = m
+        lam[i] = 0.5 * (a + b)
+        G, H, C, D, T = np.linalg.svd(_hub_matrix(lam[i], *args))[2][-1]
+        # in the bracket of ModeShapes with c = 0: growing e^{β(x−L)} + ½e^{−βx} − cos βx + extra
+        growing[i] = G
+        extra[:, i] = [H - 0.5, C + 1.0, D, -args[3] * T, -T / lam[i]]
+    zero = np.zeros(n)
+    raw = ModeShapes(length, n, lam, zero, growing, np.ones(n), "hub_loaded", extra)
+    return ModeShapes(length, n, lam, zero, growing, _scale(raw, args[0], args[1]),
+                      "hub_loaded", extra)
 
 
 def mode_shapes_for(link: Link) -> ModeShapes:

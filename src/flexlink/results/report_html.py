@@ -175,6 +175,8 @@ SUMMARY_FIELDS: dict[str, tuple[str, Callable[[Any], str]]] = {
     "accuracy": ("accuracy against the nonlinear model", str),
     "validity_warning": ("warning", str),
     "control_warning": ("closed-loop warning", str),
+    "mode_bases": ("mode shapes", str),
+    "mode_convergence_warning": ("mode-convergence warning", str),
     "flexlink_version": ("flexlink version", str),
 }
 

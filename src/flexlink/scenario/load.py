@@ -11,12 +11,14 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from .._version import package_version
 from ..channels.catalogue import reserved_names
 from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
+from ..model.basis import chosen_mode_shapes
 from . import schema
 from .actuators import build_actuator, read_actuators
 from .controllers import build_controller, read_controllers
@@ -62,10 +64,11 @@ def resolve_scenario_dict(path_or_dict: str | Path | Mapping[str, Any],
                           base_dir: Path = Path(".")) -> dict[str, Any]:
     """The fully resolved scenario (defaults filled in, flexlink version added) as a dict."""
     if isinstance(path_or_dict, Mapping):
-        resolved, _ = _resolve(path_or_dict, Path(base_dir), "scenario", None)
+        resolved, motions = _resolve(path_or_dict, Path(base_dir), "scenario", None)
     else:
         path = Path(path_or_dict)
-        resolved, _ = _resolve(read_toml(path), path.parent, path.stem, str(path))
+        resolved, motions = _resolve(read_toml(path), path.parent, path.stem, str(path))
+    _build(resolved, motions)  # states each link's basis (mode_shapes "auto") in `resolved`
     return resolved
 
 
@@ -435,10 +438,22 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
             sensors.append(PointSensor(kind=s["kind"], link=index[s["link"]], **fields))
     chain = Chain(links=links, joints=tuple(motions))
     base = build_base(resolved.get("base"), resolved["joints"])
+    chain = _with_chosen_bases(chain, base, resolved["links"])
     actuators = tuple(build_actuator(a, index) for a in resolved.get("actuators", ()))
     controllers = tuple(build_controller(c) for c in resolved.get("controllers", ()))
     return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"],
                     base=base, actuators=actuators, controllers=controllers)
+
+
+def _with_chosen_bases(chain: Chain, base: Any, entries: list[dict[str, Any]]) -> Chain:
+    """``chain`` with "auto" replaced by the basis it stands for (model.basis), which the
+    resolved ``entries`` then state too (the resolved scenario names the basis that ran)."""
+    kinds = chosen_mode_shapes(chain, base)
+    for entry, kind in zip(entries, kinds):
+        if entry.get("mode_shapes") == "auto":
+            entry["mode_shapes"] = kind
+    return Chain(tuple(replace(link, mode_shapes=kind) if link.mode_shapes == "auto" else link
+                       for link, kind in zip(chain.links, kinds)), chain.joints)
 
 
 def _check_controller_names(controllers: list[dict[str, Any]], actuators: list[dict[str, Any]],

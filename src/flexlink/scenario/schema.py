@@ -204,14 +204,23 @@ LINKS = Section("links", [
           doc="rotary inertia of the tip body about the tip"),
     Field("damping_ratio", ge=0, lt=1, default=0.0, doc="modal damping ratio of every mode"),
     Field("modes", "integer", ge=1, le=20, default=4, doc="number of assumed modes"),
-    Field("mode_shapes", "string", choices=MODE_SHAPES, default="clamped_free", notes={
+    Field("mode_shapes", "string", choices=MODE_SHAPES, default="auto", notes={
+        "auto": "chosen from the chain: `hub_loaded` for a link on a torque-driven joint or "
+                "alone on a pinned base, else `outboard_loaded` for a link whose tip carries "
+                "the next link, else `tip_loaded` for a link with a tip mass or tip inertia, "
+                "else `clamped_free`; the resolved scenario states the choice",
         "clamped_free": "cantilever modes",
         "tip_loaded": "exact modes of a cantilever carrying the tip mass and tip inertia",
         "outboard_loaded": "modes of the cantilever whose tip body is its tip mass plus the "
-                           "rest of the chain, rigid, as at t = 0"},
-        doc="cantilever modes have no curvature at the tip, so an inner link that carries a "
-            "heavy outer link converges slowly (~1/N) with them; `outboard_loaded` converges "
-            "fast there (docs/validation.md, tests/validation/test_physics.py)"),    Field("rigid", "boolean", default=False, notes={
+                           "rest of the chain, rigid, as at t = 0",
+        "hub_loaded": "the natural modes of the link on its free hub (motor or base inertia) "
+                      "with its tip body or what its tip carries, less their rigid rotation; "
+                      "on a prescribed joint the loaded modes above"},
+        doc="cantilever modes have no curvature at the tip, so a link with a tip inertia or "
+            "carrying a heavy outer link converges slowly (~1/N) with them; the loaded modes "
+            "converge fast there. Every run reports the estimated error of its frequencies in "
+            "the assumed modes (docs/modes.md)"),
+    Field("rigid", "boolean", default=False, notes={
         "true": "no assumed modes: the link keeps its mass, tip mass and tip inertia and does "
                 "not bend (its sensors read zero deflection, slope and strain); `EI`/`E` may "
                 "be left out, `modes`, `damping_ratio` and `mode_shapes` must be",

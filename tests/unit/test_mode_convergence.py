@@ -1,0 +1,172 @@
+"""The default mode basis (mode_shapes = "auto") and the mode-convergence estimate
+(control/convergence.py); their physics is checked in tests/validation/test_default_basis.py."""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+
+import numpy as np
+import pytest
+
+from flexlink.control.convergence import ModeConvergence, _order, levels, mode_convergence
+from flexlink.dynamics.first_order import chain_modal_data, outboard_body
+from flexlink.dynamics.forward import ForwardSystem
+from flexlink.model import Base, Chain, Link, TorqueDrive
+from flexlink.model.basis import chosen_mode_shapes
+from flexlink.model.histories import ZERO
+from flexlink.scenario import resolve_scenario_dict, scenario_from_dict
+from tests.helpers import SmoothStep
+
+HOLD = SmoothStep(0.0, 0.0, 0.0, 1.0)
+LINK = '[[links]]\nname = "{}"\nlength = 1.0\nmass_per_length = 0.5\nEI = 20.0\n{}'
+JOINT = '[[joints]]\nmotion = [{{ profile = "hold", angle_deg = 0.0 }}]\n{}'
+
+
+def _text(*links: tuple[str, str], joints: tuple[str, ...] = ()) -> str:
+    head = "[simulation]\nt_end = 0.5\ndt_out = 0.01\n"
+    joints = joints or ("",) * len(links)
+    return head + "".join(LINK.format(n, extra) for n, extra in links) + \
+        "".join(JOINT.format(j) for j in joints)
+
+
+def test_auto_basis_rule_and_the_resolved_scenario_states_it() -> None:
+    text = _text(("a", ""), ("b", "tip_inertia = 0.01\n"), ("c", ""), ("d", "tip_mass = 0.2\n"),
+                 joints=("", "", 'base_point = [0.0, 0.0]\n', ""))
+    scenario = scenario_from_dict(tomllib.loads(text))
+    # a carries b; b has a tip body and c starts a branch on the base; c carries d
+    assert [k.mode_shapes for k in scenario.chain.links] == [
+        "outboard_loaded", "tip_loaded", "outboard_loaded", "tip_loaded"]
+    resolved = resolve_scenario_dict(tomllib.loads(text))
+    assert [k["mode_shapes"] for k in resolved["links"]] == [
+        "outboard_loaded", "tip_loaded", "outboard_loaded", "tip_loaded"]
+    bare = scenario_from_dict(tomllib.loads(_text(("a", ""))))
+    assert bare.chain.links[0].mode_shapes == "clamped_free"
+    given = scenario_from_dict(tomllib.loads(_text(("a", 'mode_shapes = "clamped_free"\n'),
+                                                   ("b", ""))))
+    assert given.chain.links[0].mode_shapes == "clamped_free"
+
+
+def test_a_link_on_a_free_hub_gets_hub_loaded_modes() -> None:
+    torque = '[[joints]]\ndrive = "torque"\ntorque = [{ profile = "step", amplitude = 0.0 }]\n'
+    text = _text(("a", "")).replace(JOINT.format(""), torque)
+    assert scenario_from_dict(tomllib.loads(text)).chain.links[0].mode_shapes == "hub_loaded"
+    pinned = '[base]\ntype = "pinned"\ninertia = 0.3\n' + _text(("a", ""), ("b", ""))
+    kinds = [k.mode_shapes for k in scenario_from_dict(tomllib.loads(pinned)).chain.links]
+    assert kinds == ["hub_loaded", "clamped_free"]
+    # two branches on the pinned base: neither link is alone on its hub
+    two = '[base]\ntype = "pinned"\ninertia = 0.3\n' + _text(
+        ("a", ""), ("b", ""), joints=("", 'base_point = [0.0, 0.0]\n'))
+    kinds = [k.mode_shapes for k in scenario_from_dict(tomllib.loads(two)).chain.links]
+    assert kinds == ["clamped_free", "clamped_free"]
+
+
+def test_python_auto_resolves_like_the_scenario_file() -> None:
+    links = (Link("a", 1.0, 0.5, 20.0, mode_shapes="auto"),
+             Link("b", 1.0, 0.5, 20.0, tip_mass=0.3, mode_shapes="auto"))
+    chain = Chain(links, (HOLD, HOLD))
+    assert chosen_mode_shapes(chain) == ("outboard_loaded", "tip_loaded")
+    explicit = Chain(tuple(dataclasses.replace(k, mode_shapes=s)
+                           for k, s in zip(links, ("outboard_loaded", "tip_loaded"))),
+                     (HOLD, HOLD))
+    for got, want in zip(chain_modal_data(chain), chain_modal_data(explicit)):
+        np.testing.assert_array_equal(got.stiffness_matrix, want.stiffness_matrix)
+
+
+def test_outboard_body_stops_at_a_branch_on_the_base() -> None:
+    """Link 0's tip carries nothing when link 1 starts on the base (it took link 1's mass)."""
+    links = (Link("a", 1.0, 0.5, 20.0, tip_mass=0.1), Link("b", 2.0, 0.5, 20.0))
+    chain = Chain(links, (HOLD, HOLD))
+    assert outboard_body(chain, 0) == pytest.approx((1.1, 2.0**3 * 0.5 / 3))
+    branched = Base("fixed", attachments=((1, (0.0, 0.5)),))
+    assert outboard_body(chain, 0, branched) == (0.1, 0.0)
+
+
+def test_outboard_body_beyond_a_free_joint_adds_mass_and_motor_inertia_only() -> None:
+    links = (Link("a", 1.0, 0.5, 20.0), Link("b", 2.0, 0.5, 20.0, tip_mass=0.3))
+    chain = Chain(links, (HOLD, TorqueDrive(ZERO, motor_inertia=0.02)))
+    assert outboard_body(chain, 0) == pytest.approx((1.3, 0.02))
+
+
+def test_forward_system_builds_outboard_loaded_bases() -> None:
+    """A driven outer joint with an outboard-loaded inner link (modal_data(link) refused it)."""
+    links = (Link("a", 1.0, 0.5, 20.0, tip_mass=0.1, mode_shapes="auto"),
+             Link("b", 1.0, 0.5, 20.0))
+    chain = Chain(links, (HOLD, TorqueDrive(ZERO, motor_inertia=0.01)))
+    system = ForwardSystem(chain, Base())
+    assert system.modal[0].shapes.kind == "tip_loaded"  # outboard: tip-loaded shapes
+    np.testing.assert_array_equal(system.modal[0].stiffness_matrix,
+                                  chain_modal_data(chain, Base())[0].stiffness_matrix)
+
+
+@pytest.mark.parametrize("p", [1.0, 2.0, 3.0, 6.0])
+def test_richardson_recovers_an_algebraic_error(p: float) -> None:
+    m = levels(4)
+    f = 10.0 + 3.0 * np.array(m, dtype=float) ** -p  # converged value 10
+    estimate = ModeConvergence(("clamped_free",), ("a",), (4,), f[:1], f[1:, None])
+    assert _order((f[1] - f[2]) / (f[0] - f[1]), m) == pytest.approx(p, rel=1e-9)
+    assert estimate.error[0] == pytest.approx((f[0] - 10.0) / 10.0, rel=1e-9)
+
+
+def test_a_converged_frequency_has_no_error_and_no_warning() -> None:
+    f = np.array([[1.0, 5.0]]).T
+    estimate = ModeConvergence(("tip_loaded",), ("a",), (4,), f[:, 0],
+                               np.array([[1.0, 5.0], [1.0, 5.0]]))
+    assert np.all(estimate.error == 0) and estimate.warning() is None
+    assert estimate.converged_below_hz == 5.0
+
+
+def test_warning_names_basis_frequency_and_error() -> None:
+    links = (Link("a", 1.0, 0.5, 20.0, tip_inertia=0.2, modes=4),)  # clamped_free: ~N⁻¹
+    from flexlink.model import Scenario
+
+    estimate = mode_convergence(Scenario(Chain(links, (HOLD,))))
+    text = estimate.warning()
+    assert text is not None and "a clamped_free ×4" in text and "4, 8, 12" in text
+    worst = int(np.argmax(estimate.error))
+    assert f"{100 * estimate.error[worst]:.3g}%" in text
+    assert estimate.metadata()["mode_convergence_warning"] == text
+
+
+@pytest.mark.parametrize("tip_mass, tip_inertia, hub, radius",
+                         [(0.0, 0.0, 0.0, 0.0), (2.0, 0.1, 0.05, 0.0), (0.5, 0.0, 1.0, 0.3)])
+def test_hub_loaded_modes(tip_mass: float, tip_inertia: float, hub: float, radius: float) -> None:
+    """Clamped in the link frame, the hub–beam's roots (the independent determinant of
+    tests/validation/hub_beam.py), normalised like the other kinds, finite for 20 modes."""
+    from flexlink.modes import hub_loaded_modes
+    from tests.validation.hub_beam import hub_beam_frequencies
+
+    L, m, EI = 1.3, 2.7, 45.0
+    shapes = hub_loaded_modes(L, 20, m, EI, tip_mass, tip_inertia, hub, radius)
+    x = np.linspace(0.0, L, 2001)
+    phi = shapes.evaluate(x)
+    assert np.isfinite(phi).all() and np.all(shapes.evaluate(np.array([L]))[0] > 0)
+    scale = np.abs(phi).max(axis=0)
+    assert np.abs(shapes.evaluate(np.array([0.0]))[0]).max() < 1e-11 * scale.max()
+    assert np.abs(shapes.evaluate(np.array([0.0]), 1)[0] * L).max() < \
+        1e-12 * scale.max() * shapes.beta_l.max()
+    exact = hub_beam_frequencies(6, EI, m, L, radius, hub, tip_mass, tip_inertia)
+    np.testing.assert_allclose(shapes.beta_l[:6] ** 2 * np.sqrt(EI / (m * L**4)), exact,
+                               rtol=1e-8)
+    # ∫φ²/L + μφ(L)² + jL²φ'(L)² = 1 (trapezoid on a fine grid)
+    tip, slope = shapes.evaluate(np.array([L]))[0], shapes.evaluate(np.array([L]), 1)[0]
+    norm = (np.trapezoid(phi[:, :4] ** 2, x, axis=0) / L + tip_mass / (m * L) * tip[:4] ** 2
+            + tip_inertia / (m * L**3) * L**2 * slope[:4] ** 2)
+    np.testing.assert_allclose(norm, 1.0, rtol=1e-5)
+    # derivatives agree with finite differences of the values
+    for k in (1, 2, 3):
+        d = np.gradient(shapes.evaluate(x, k - 1)[:, :3], x, axis=0)
+        np.testing.assert_allclose(d[5:-5], shapes.evaluate(x, k)[5:-5, :3],
+                                   atol=1e-3 * np.abs(d).max())
+
+
+def test_hub_loaded_on_a_clamped_link_is_its_infinite_hub_limit() -> None:
+    """On a prescribed joint (an infinitely heavy hub) hub_loaded modes are the clamped
+    link's loaded ones."""
+    links = (Link("a", 1.0, 0.5, 20.0, tip_mass=0.2, mode_shapes="hub_loaded"),
+             Link("b", 1.0, 0.5, 20.0, tip_mass=0.3, mode_shapes="hub_loaded"))
+    same = (dataclasses.replace(links[0], mode_shapes="outboard_loaded"),
+            dataclasses.replace(links[1], mode_shapes="tip_loaded"))
+    for got, want in zip(chain_modal_data(Chain(links, (HOLD, HOLD))),
+                         chain_modal_data(Chain(same, (HOLD, HOLD)))):
+        np.testing.assert_array_equal(got.stiffness_matrix, want.stiffness_matrix)
