@@ -24,15 +24,10 @@ import numpy as np
 
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
 from ..errors import SimulationError
+from .gauss_steps import COEFFS, COEFFS2, NODES, WEIGHTS, WEIGHTS2
 from .solution import Solution
 from .threads import single_threaded
 
-_R3 = np.sqrt(3.0) / 6.0
-NODES = np.array([0.5 - _R3, 0.5 + _R3])
-COEFFS = np.array([[0.25, 0.25 - _R3], [0.25 + _R3, 0.25]])
-COEFFS2 = COEFFS @ COEFFS
-WEIGHTS = np.array([0.5, 0.5])
-WEIGHTS2 = WEIGHTS @ COEFFS  # q₁ = q₀ + h v₀ + h² Σ (bᵀa)_j X_j
 NEWTON_TOL = 1e-9  # relative to the largest stage acceleration
 NEWTON_MAX = 20
 # Newton's absolute floor, relative to ω_max² |q| (the elastic accelerations): round-off of
@@ -201,59 +196,124 @@ def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.nda
 def solve_nonlinear(
     system: NonlinearSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
     on_progress: Callable[[float], None] | None = None, max_halvings: int = 6,
-    loop: Any = None,
+    loop: Any = None, atol: float = 0.0,
 ) -> Solution:
-    """q, q̇, q̈ at t_out (from rest at t_out[0] = 0), method "gauss", the step used (s) in
-    its stats. q̈ interpolates the equations' accelerations at the step ends (the quintic's
-    second derivative).
+    """q, q̇, q̈ at t_out (from rest at t_out[0] = 0), method "gauss", with its step
+    statistics, the tolerance asked for and the error estimate reached. q̈ interpolates the
+    equations' accelerations at the step ends (the quintic's second derivative).
 
-    With ``step`` given: one run at that step. Otherwise the step is halved from 10 ms until the
-    error estimate of the finer solution, |difference| / 15 (fourth order), is within rtol of
-    the peak |q| and of the peak |q̇| over the run (as the Magnus control; q̈, dominated by the
-    high modes, converges more slowly: rtol ≤ 1e-4 for accelerometers). A step at which Newton
-    fails is halved too. ``loop``: a gauss_sampled.SampledLoop — sampled controllers,
-    integrated per sample interval; the first step is then at most one interval."""
+    With ``step`` given: uniform steps of at most that (s), no estimate. Otherwise adaptive
+    steps (gauss_steps.py): each step's local error, estimated by step doubling, within
+    atol + rtol · the peak |q| (and |q̇|) so far; steps end at the inputs' breakpoints.
+    ``loop``: a gauss_sampled.SampledLoop — sampled controllers, integrated per sample
+    interval with uniform steps halved from 10 ms until runs with h and 2h agree within rtol
+    of the peaks (|difference| / 15); a step at which Newton fails is halved too."""
     t_end = float(t_out[-1])
+
+    def finish(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray,
+               stats: dict[str, float]) -> Solution:
+        if loop is None:
+            a = system.accelerations(t_nodes, q, v)
+        else:  # sampled controllers (gauss_sampled.SampledLoop): the held forces at the ends
+            a = system.accelerations(t_nodes, q, v, load=loop.held_voltages(t_nodes)
+                                     @ system.actuator_B.T)
+        return Solution(t_out, *hermite_quintic(t_nodes, q, v, a, t_out), "gauss", stats)
 
     def run(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if loop is None:
-            t_nodes, q, v = integrate_gauss(system, t_end, h, on_progress)
-            a = system.accelerations(t_nodes, q, v)
-        else:  # sampled controllers (gauss_sampled.SampledLoop): the held forces at the ends
-            t_nodes, q, v = loop.integrate(system, h, on_progress)
-            a = system.accelerations(t_nodes, q, v, load=loop.held_voltages(t_nodes)
-                                     @ system.actuator_B.T)
-        return hermite_quintic(t_nodes, q, v, a, t_out)
-
-    def solution(q: np.ndarray, v: np.ndarray, a: np.ndarray, h: float) -> Solution:
-        return Solution(t_out, q, v, a, "gauss", {"time_step_s": h})
+            return integrate_gauss(system, t_end, h, on_progress)
+        return loop.integrate(system, h, on_progress)
 
     if step is not None:
-        return solution(*run(step), step)
-    h = min(0.01, t_end)
-    if loop is not None:  # a step that halves the sample intervals from the first comparison
-        h = min(h, float(np.diff(loop.grid).max()))
+        return finish(*run(step), {"time_step_s": t_end / max(1, int(np.ceil(
+            t_end / step - 1e-9)))})
+    if loop is None:
+        record = integrate_adaptive(system, t_end, rtol, atol, on_progress)
+        return finish(record.t, record.y, record.v, {**record.stats(rtol), "rtol": rtol})
+    h = min(0.01, t_end, float(np.diff(loop.grid).max()))
     previous = None
     err = np.inf
     for _ in range(max_halvings + 1):
         try:
-            q, v, a = run(h)
+            nodes = run(h)
         except SimulationError as exc:  # Newton failed at this step size: halve
             if type(exc).__name__ == "LoopUnstable":
                 raise
             previous = None
             h /= 2
             continue
+        solution = finish(*nodes, {"time_step_s": h, "rtol": rtol})
         if previous is not None:
-            err = max(_relative_change(previous[0], q), _relative_change(previous[1], v)) / 15.0
+            err = max(_relative_change(previous.q, solution.q),
+                      _relative_change(previous.q_dot, solution.q_dot)) / 15.0
             if err <= rtol:
-                return solution(q, v, a, h)
-        previous = (q, v)
+                return Solution(t_out, solution.q, solution.q_dot, solution.q_ddot, "gauss",
+                                {**solution.stats, "error_estimate": err})
+        previous = solution
         h /= 2
     raise SimulationError(
         f"the nonlinear solution did not converge to rtol = {rtol:g} with steps down to "
         f"{2 * h:.3g} s (last change {err:.2g} of the peak): loosen simulation.rtol or set "
         f"simulation.step")
+
+
+FIRST_STEP = 0.01  # s, the adaptive control's first try
+
+
+def breakpoints(chain: Any, actuators: Any = ()) -> np.ndarray:
+    """Times (s) where a joint's motion or an actuator's voltage is not smooth (their
+    ``breakpoints``), where adaptive steps end."""
+    from ..dynamics.histories import history_breakpoints
+
+    times = {b for joint in chain.joints for b in getattr(joint, "breakpoints", ())}
+    for actuator in actuators:
+        times |= history_breakpoints(actuator.voltage)
+    return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
+
+
+def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol: float = 0.0,
+                       on_progress: Callable[[float], None] | None = None) -> Any:
+    """Step ends from rest at t = 0 to t_end (s) with error-controlled steps
+    (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord."""
+    from ._gauss_numba import gauss_doubling
+    from .gauss_steps import DOUBLING_STAGES, Batch, step_doubling
+
+    n = system.n
+    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
+        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    floor = ROUND_OFF * system.max_frequency**2
+    group = np.zeros(n, dtype=np.int64)
+    peak_q, peak_v = np.zeros(1), np.zeros(1)
+    inverse = np.zeros((2, 2 * n, 2 * n))
+    have = np.zeros(2, dtype=np.int64)
+    counts = np.zeros(2, dtype=np.int64)
+
+    def advance(t0: float, H: float, count: int, q0: np.ndarray, v0: np.ndarray,
+                X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
+        inputs = system.node_inputs(
+            (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel())
+        q = np.empty((count + 1, n))
+        v = np.empty((count + 1, n))
+        q[0], v[0] = q0, v0
+        errors = np.zeros(count)
+        if new_step:
+            have[:] = 0
+        status, k = gauss_doubling(
+            q, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in (
+                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration,
+                inputs.load)),
+            *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX, floor,
+            group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts)
+        return Batch(int(status), q[:k + 1], v[:k + 1], errors)
+
+    q0, v0 = np.zeros(n), np.zeros(n)
+    X = np.repeat(system.accelerations(np.zeros(1), q0[None], v0[None]), 2, axis=0)
+    record = step_doubling(advance, q0, v0, X, t_end,
+                           breakpoints(system.chain, system.actuators), FIRST_STEP,
+                           on_progress)
+    if not (np.all(np.isfinite(record.y)) and np.all(np.isfinite(record.v))):
+        raise SimulationError("the nonlinear integration produced non-finite values")
+    return record
 
 
 def _relative_change(coarse: np.ndarray, fine: np.ndarray) -> float:
