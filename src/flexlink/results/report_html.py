@@ -145,7 +145,8 @@ def run_page(folder: Path, results: ChannelTable, resolved_text: str,
     page = ReportPage(f"flexlink run: {meta.get('scenario', name)}")
     page.summary = {"folder": name, "time": f"{t[0]:g} … {t[-1]:g} s, {t.size} samples",
                     **{k: meta[k] for k in ("model", "path", "method", "geometric_stiffening",
-                                            "elastic_coordinates", "wall_time_s",
+                                            "elastic_coordinates", "rtol", "error_estimate",
+                                            "error_estimate_measure", "wall_time_s",
                                             "peak_tip_deflection_per_length",
                                             "validity_warning", "flexlink_version")
                        if k in meta},

@@ -25,7 +25,7 @@ import numpy as np
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
 from ..errors import SimulationError
 from .gauss_steps import COEFFS, COEFFS2, NODES, WEIGHTS, WEIGHTS2
-from .solution import Solution
+from .solution import FIXED_STEP, RICHARDSON, Accuracy, Solution
 from .threads import single_threaded
 
 NEWTON_TOL = 1e-9  # relative to the largest stage acceleration
@@ -210,14 +210,15 @@ def solve_nonlinear(
     of the peaks (|difference| / 15); a step at which Newton fails is halved too."""
     t_end = float(t_out[-1])
 
-    def finish(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray,
-               stats: dict[str, float]) -> Solution:
+    def finish(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, stats: dict[str, float],
+               accuracy: Accuracy) -> Solution:
         if loop is None:
             a = system.accelerations(t_nodes, q, v)
         else:  # sampled controllers (gauss_sampled.SampledLoop): the held forces at the ends
             a = system.accelerations(t_nodes, q, v, load=loop.held_voltages(t_nodes)
                                      @ system.actuator_B.T)
-        return Solution(t_out, *hermite_quintic(t_nodes, q, v, a, t_out), "gauss", stats)
+        return Solution(t_out, *hermite_quintic(t_nodes, q, v, a, t_out), "gauss", stats,
+                        accuracy=accuracy)
 
     def run(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if loop is None:
@@ -226,10 +227,10 @@ def solve_nonlinear(
 
     if step is not None:
         return finish(*run(step), {"time_step_s": t_end / max(1, int(np.ceil(
-            t_end / step - 1e-9)))})
+            t_end / step - 1e-9)))}, Accuracy(rtol, None, FIXED_STEP))
     if loop is None:
         record = integrate_adaptive(system, t_end, rtol, atol, on_progress)
-        return finish(record.t, record.y, record.v, {**record.stats(rtol), "rtol": rtol})
+        return finish(record.t, record.y, record.v, record.stats(), record.accuracy(rtol))
     h = min(0.01, t_end, float(np.diff(loop.grid).max()))
     previous = None
     err = np.inf
@@ -242,13 +243,13 @@ def solve_nonlinear(
             previous = None
             h /= 2
             continue
-        solution = finish(*nodes, {"time_step_s": h, "rtol": rtol})
+        solution = finish(*nodes, {"time_step_s": h}, Accuracy(rtol, None, RICHARDSON))
         if previous is not None:
             err = max(_relative_change(previous.q, solution.q),
                       _relative_change(previous.q_dot, solution.q_dot)) / 15.0
             if err <= rtol:
                 return Solution(t_out, solution.q, solution.q_dot, solution.q_ddot, "gauss",
-                                {**solution.stats, "error_estimate": err})
+                                solution.stats, accuracy=Accuracy(rtol, err, RICHARDSON))
         previous = solution
         h /= 2
     raise SimulationError(

@@ -30,7 +30,7 @@ from .gauss import (
     _Newton,
     hermite_quintic,
 )
-from .solution import Solution
+from .solution import FIXED_STEP, Accuracy, Solution
 from .threads import single_threaded
 
 CHUNK = 400  # steps per compiled call, between progress reports
@@ -134,18 +134,19 @@ def solve_nonlinear_forward(
     t_end = float(t_out[-1])
     n, nu = system.n, system.nu
 
-    def solution(t_nodes: np.ndarray, y: np.ndarray, v: np.ndarray,
-                 stats: dict[str, float]) -> Solution:
+    def solution(t_nodes: np.ndarray, y: np.ndarray, v: np.ndarray, stats: dict[str, float],
+                 accuracy: Accuracy) -> Solution:
         y, v, a = hermite_quintic(t_nodes, y, v, system.accelerations(t_nodes, y, v), t_out)
         order = np.r_[n:n + nu, 0:n]
         return Solution(t_out, y[:, order], v[:, order], a[:, order], "gauss", stats,
-                        extra=v[:, n + nu:])
+                        extra=v[:, n + nu:], accuracy=accuracy)
 
     if step is not None:
         t_nodes, y, v = integrate_gauss_forward(system, t_end, step, on_progress)
-        return solution(t_nodes, y, v, {"time_step_s": float(t_nodes[1] - t_nodes[0])})
+        return solution(t_nodes, y, v, {"time_step_s": float(t_nodes[1] - t_nodes[0])},
+                        Accuracy(rtol, None, FIXED_STEP))
     record = integrate_forward_adaptive(system, t_end, rtol, atol, on_progress)
-    return solution(record.t, record.y, record.v, {**record.stats(rtol), "rtol": rtol})
+    return solution(record.t, record.y, record.v, record.stats(), record.accuracy(rtol))
 
 
 def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rtol: float,

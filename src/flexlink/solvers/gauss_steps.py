@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SimulationError
+from .solution import STEP_DOUBLING, Accuracy
 
 # The two-stage Gauss–Legendre tableau: nodes c, coefficients a, weights b; for positions
 # a² and bᵀa (q₁ = q₀ + h v₀ + h² Σ (bᵀa)_j X_j).
@@ -73,12 +74,16 @@ class StepRecord:
     rejected: int  # steps taken again with a shorter step (error or Newton)
     largest_error: float  # largest accepted step's estimate, as a fraction of its tolerance
 
-    def stats(self, rtol: float) -> dict[str, float]:
+    def stats(self) -> dict[str, float]:
         """The step statistics a Solution carries."""
         h = np.diff(self.t)
         return {"steps": int(h.size), "rejected_steps": self.rejected,
-                "min_step_s": float(h.min()), "max_step_s": float(h.max()),
-                "error_estimate": self.largest_error * rtol}
+                "min_step_s": float(h.min()), "max_step_s": float(h.max())}
+
+    def accuracy(self, rtol: float) -> Accuracy:
+        """The tolerance and the largest local error estimate of an accepted step, as a
+        fraction of the peak (the norm of rtol)."""
+        return Accuracy(rtol, self.largest_error * rtol, STEP_DOUBLING)
 
 
 def step_doubling(advance: Advance, y0: np.ndarray, v0: np.ndarray, X: np.ndarray,
