@@ -195,9 +195,17 @@ def doubling_error(q_big, v_big, q_fine, v_fine, group, peak_q, peak_v, rtol, at
     for m in range(q_fine.size):
         g = group[m]
         if g >= 0:
-            err = max(err, abs(q_fine[m] - q_big[m]) / (atol + rtol * peak_q[g]),
-                      abs(v_fine[m] - v_big[m]) / (atol + rtol * peak_v[g]))
+            err = max(err, _ratio(abs(q_fine[m] - q_big[m]), atol + rtol * peak_q[g]),
+                      _ratio(abs(v_fine[m] - v_big[m]), atol + rtol * peak_v[g]))
     return err / 15.0
+
+
+@njit(cache=True)
+def _ratio(difference, tolerance):
+    """difference / tolerance, 0 where both vanish (a state still at rest)."""
+    if difference == 0.0:
+        return 0.0
+    return difference / tolerance if tolerance > 0.0 else np.inf
 
 
 @njit(cache=True)

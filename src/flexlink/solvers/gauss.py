@@ -305,7 +305,7 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
                 inputs.load)),
             *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX, floor,
             group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts)
-        return Batch(int(status), q[:k + 1], v[:k + 1], errors)
+        return Batch(int(status), q[:k + 1], v[:k + 1], errors, counts)
 
     q0, v0 = np.zeros(n), np.zeros(n)
     X = np.repeat(system.accelerations(np.zeros(1), q0[None], v0[None]), 2, axis=0)

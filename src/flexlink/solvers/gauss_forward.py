@@ -182,7 +182,7 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
             y, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in inp), data,
             loads, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL_FORWARD, NEWTON_MAX,
             group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts)
-        return Batch(int(status), y[:k + 1], v[:k + 1], errors)
+        return Batch(int(status), y[:k + 1], v[:k + 1], errors, counts)
 
     y0, v0 = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y0[None], v0[None]), 2, axis=0)

@@ -56,6 +56,7 @@ class Batch:
     y: np.ndarray
     v: np.ndarray
     errors: np.ndarray
+    counts: np.ndarray  # Newton's matrix rebuilds and iterations so far (the run's totals)
 
 
 # advance(t0, H, count, y0, v0, X, h_prev, new_step) → Batch; X (2, n) the stage
@@ -73,12 +74,14 @@ class StepRecord:
     v: np.ndarray  # (m+1, n)
     rejected: int  # steps taken again with a shorter step (error or Newton)
     largest_error: float  # largest accepted step's estimate, as a fraction of its tolerance
+    newton: tuple[int, int]  # Newton's matrix rebuilds and iterations
 
     def stats(self) -> dict[str, float]:
         """The step statistics a Solution carries."""
         h = np.diff(self.t)
         return {"steps": int(h.size), "rejected_steps": self.rejected,
-                "min_step_s": float(h.min()), "max_step_s": float(h.max())}
+                "min_step_s": float(h.min()), "max_step_s": float(h.max()),
+                "newton_matrices": self.newton[0], "newton_iterations": self.newton[1]}
 
     def accuracy(self, rtol: float) -> Accuracy:
         """The tolerance and the largest local error estimate of an accepted step, as a
@@ -141,4 +144,4 @@ def step_doubling(advance: Advance, y0: np.ndarray, v0: np.ndarray, X: np.ndarra
         if on_progress is not None:
             on_progress(t)
     return StepRecord(np.concatenate(ts), np.concatenate(ys), np.concatenate(vs), rejected,
-                      largest)
+                      largest, (int(batch.counts[0]), int(batch.counts[1])))
