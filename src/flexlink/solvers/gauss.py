@@ -26,7 +26,7 @@ import numpy as np
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
 from ..errors import SimulationError
 from .gauss_steps import COEFFS, COEFFS2, NODES, WEIGHTS, WEIGHTS2
-from .solution import FIXED_STEP, RICHARDSON, Accuracy, Solution
+from .solution import FIXED_STEP, Accuracy, Solution
 from .threads import single_threaded
 
 NEWTON_TOL = 1e-9  # relative to the largest stage acceleration
@@ -196,8 +196,7 @@ def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.nda
 
 def solve_nonlinear(
     system: NonlinearSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
-    on_progress: Callable[[float], None] | None = None, max_halvings: int = 6,
-    loop: Any = None, atol: float = 0.0,
+    on_progress: Callable[[float], None] | None = None, loop: Any = None, atol: float = 0.0,
 ) -> Solution:
     """q, q̇, q̈ at t_out (from rest at t_out[0] = 0), method "gauss", with its step
     statistics, the tolerance asked for and the error estimate reached. q̈ interpolates the
@@ -206,9 +205,8 @@ def solve_nonlinear(
     With ``step`` given: uniform steps of at most that (s), no estimate. Otherwise adaptive
     steps (gauss_steps.py): each step's local error, estimated by step doubling, within
     atol + rtol · the peak |q| (and |q̇|) so far; steps end at the inputs' breakpoints.
-    ``loop``: a gauss_sampled.SampledLoop — sampled controllers, integrated per sample
-    interval with uniform steps halved from 10 ms until runs with h and 2h agree within rtol
-    of the peaks (|difference| / 15); a step at which Newton fails is halved too."""
+    ``loop``: a gauss_sampled.SampledLoop — sampled controllers, updated at their sample
+    instants (where steps end too), the actuators' forces held in between."""
     t_end = float(t_out[-1])
 
     def finish(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, stats: dict[str, float],
@@ -221,42 +219,13 @@ def solve_nonlinear(
         return Solution(t_out, *hermite_quintic(t_nodes, q, v, a, t_out), "gauss", stats,
                         accuracy=accuracy)
 
-    def run(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if loop is None:
-            return integrate_gauss(system, t_end, h, on_progress)
-        return loop.integrate(system, h, on_progress)
-
     if step is not None:
-        return finish(*run(step), {"time_step_s": t_end / max(1, int(np.ceil(
+        nodes = (integrate_gauss(system, t_end, step, on_progress) if loop is None
+                 else loop.integrate(system, step, on_progress))
+        return finish(*nodes, {"time_step_s": t_end / max(1, int(np.ceil(
             t_end / step - 1e-9)))}, Accuracy(rtol, None, FIXED_STEP))
-    if loop is None:
-        record = integrate_adaptive(system, t_end, rtol, atol, on_progress)
-        return finish(record.t, record.y, record.v, record.stats(), record.accuracy(rtol))
-    h = min(0.01, t_end, float(np.diff(loop.grid).max()))
-    previous = None
-    err = np.inf
-    for _ in range(max_halvings + 1):
-        try:
-            nodes = run(h)
-        except SimulationError as exc:  # Newton failed at this step size: halve
-            if type(exc).__name__ == "LoopUnstable":
-                raise
-            previous = None
-            h /= 2
-            continue
-        solution = finish(*nodes, {"time_step_s": h}, Accuracy(rtol, None, RICHARDSON))
-        if previous is not None:
-            err = max(_relative_change(previous.q, solution.q),
-                      _relative_change(previous.q_dot, solution.q_dot)) / 15.0
-            if err <= rtol:
-                return Solution(t_out, solution.q, solution.q_dot, solution.q_ddot, "gauss",
-                                solution.stats, accuracy=Accuracy(rtol, err, RICHARDSON))
-        previous = solution
-        h /= 2
-    raise SimulationError(
-        f"the nonlinear solution did not converge to rtol = {rtol:g} with steps down to "
-        f"{2 * h:.3g} s (last change {err:.2g} of the peak): loosen simulation.rtol or set "
-        f"simulation.step")
+    record = integrate_adaptive(system, t_end, rtol, atol, on_progress, loop)
+    return finish(record.t, record.y, record.v, record.stats(), record.accuracy(rtol))
 
 
 FIRST_STEP = 0.01  # s, the adaptive control's first try
@@ -274,9 +243,12 @@ def breakpoints(chain: Any, actuators: Any = ()) -> np.ndarray:
 
 
 def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol: float = 0.0,
-                       on_progress: Callable[[float], None] | None = None) -> Any:
+                       on_progress: Callable[[float], None] | None = None,
+                       loop: Any = None) -> Any:
     """Step ends from rest at t = 0 to t_end (s) with error-controlled steps
-    (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord."""
+    (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord. ``loop``: a
+    gauss_sampled.SampledLoop, whose controllers are updated from the state at each of their
+    sample instants (every one a step end), their voltages held until the next."""
     from ._gauss_numba import gauss_doubling
     from .gauss_steps import DOUBLING_STAGES, Batch, step_doubling
 
@@ -294,10 +266,25 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
     have = np.zeros(2, dtype=np.int64)
     counts = np.zeros(2, dtype=np.int64)
 
+    breaks = breakpoints(system.chain, system.actuators)
+    if loop is not None:
+        loop.start()
+        breaks = np.union1d(breaks, loop.grid)
+    held = np.zeros(n)  # the actuators' forces B V of the held voltages
+    sample = [0]  # the next sample instant of the loop's grid
+    eps = 1e-12 * max(1.0, t_end)
+
     def advance(t0: float, H: float, count: int, q0: np.ndarray, v0: np.ndarray,
                 X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
         inputs = system.node_inputs(
             (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel())
+        load = inputs.load
+        if loop is not None:
+            while sample[0] < loop.grid.size - 1 and loop.grid[sample[0]] <= t0 + eps:
+                loop.check_bounded(system, t0, q0)
+                held[:] = system.actuator_B @ loop.update(sample[0], q0)
+                sample[0] += 1
+            load = np.repeat(held[None, :], load.shape[0], axis=0)
         q = np.empty((count + 1, n))
         v = np.empty((count + 1, n))
         q[0], v[0] = q0, v0
@@ -307,22 +294,22 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
         status, k = gauss_doubling(
             q, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in (
                 inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration,
-                inputs.load)),
+                load)),
             *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, floor,
             group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts)
         return Batch(int(status), q[:k + 1], v[:k + 1], errors, counts)
 
     q0, v0 = np.zeros(n), np.zeros(n)
     X = np.repeat(system.accelerations(np.zeros(1), q0[None], v0[None]), 2, axis=0)
-    record = step_doubling(advance, q0, v0, X, t_end,
-                           breakpoints(system.chain, system.actuators), FIRST_STEP,
-                           on_progress)
+    try:
+        record = step_doubling(advance, q0, v0, X, t_end, breaks, FIRST_STEP, on_progress)
+    except SimulationError as exc:
+        if loop is None or type(exc).__name__ == "LoopUnstable":
+            raise
+        raise SimulationError(f"closed loop unstable: {exc}") from None  # the steps collapsed
     if not (np.all(np.isfinite(record.y)) and np.all(np.isfinite(record.v))):
         raise SimulationError("the nonlinear integration produced non-finite values")
+    if loop is not None:
+        loop.check_bounded(system, t_end, record.y[-1])
+        loop.update(loop.grid.size - 1, record.y[-1])  # the records at t_end
     return record
-
-
-def _relative_change(coarse: np.ndarray, fine: np.ndarray) -> float:
-    """Largest |fine − coarse| relative to the peak |fine| of all coordinates (as the Magnus
-    control: a tolerance on the physical signals, not on tiny high-mode amplitudes)."""
-    return float(np.abs(fine - coarse).max() / max(float(np.abs(fine).max()), 1e-300))

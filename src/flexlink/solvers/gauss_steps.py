@@ -106,7 +106,7 @@ def step_doubling(advance: Advance, y0: np.ndarray, v0: np.ndarray, X: np.ndarra
         while ends[window] <= t + eps:
             window += 1
         remain = ends[window] - t
-        count = min(count_max, int(np.ceil(remain / H - 1e-9)))
+        count = min(count_max, max(1, int(np.ceil(remain / H - 1e-9))))
         landed = count * H >= remain - eps
         Hb = remain / count if landed else H  # the batch ends on the window's end
         batch = advance(t, Hb, count, y, v, X, h_prev, Hb != last_H)
