@@ -152,3 +152,13 @@ def test_a_fixed_step_or_scipy_makes_no_estimate() -> None:
         meta = simulate(scenario).metadata
         assert "error_estimate" not in meta and meta["error_estimate_measure"].startswith("none")
 
+
+
+def test_the_cli_summary_says_what_was_asked_for_and_reached(tmp_path) -> None:
+    from flexlink.cli import summary
+
+    text = summary(simulate(_scenario("nonlinear")), tmp_path, "beam")
+    line = next(x for x in text.splitlines() if x.startswith("accuracy:"))
+    assert "rtol 1e-05 asked for" in line and "(step doubling)" in line
+    fixed = summary(simulate(_scenario("nonlinear", step=0.01)), tmp_path, "beam")
+    assert "rtol 1e-05 asked for, no error estimate" in fixed
