@@ -435,7 +435,8 @@ def summary(results: Any, out_dir: Path, name: str) -> str:
     """A few lines: what ran, the peak of each channel, and where the files are."""
     t = results.time
     lines = [f"flexlink: simulated '{name}', t = {t[0]:g} to {t[-1]:g} s ({t.size} samples)",
-             _model_line(results.metadata), "peak |value| of each channel:"]
+             _model_line(results.metadata), *_accuracy_line(results.metadata),
+             "peak |value| of each channel:"]
     width = max(len(n) for n in results.names) if results.names else 0
     for name_, channel in results.channels.items():
         values = results[name_]
@@ -453,6 +454,18 @@ def summary(results: Any, out_dir: Path, name: str) -> str:
     lines.append(f"wrote {out_dir}{'/' if not str(out_dir).endswith('/') else ''}: "
                  + ", ".join(files))
     return "\n".join(lines)
+
+
+def _accuracy_line(meta: dict[str, Any]) -> list[str]:
+    """The tolerance the integrator was asked for and the error estimate it reached (none
+    for a run without integration)."""
+    if "rtol" not in meta:
+        return []
+    reached = (f"error estimate reached {meta['error_estimate']:.2g} of the peak"
+               if "error_estimate" in meta else "no error estimate")
+    measure = str(meta.get("error_estimate_measure", "")).split(":")[0]
+    return [f"accuracy: rtol {meta['rtol']:g} asked for, {reached}"
+            + (f" ({measure})" if measure and "error_estimate" in meta else "")]
 
 
 def _model_line(meta: dict[str, Any]) -> str:

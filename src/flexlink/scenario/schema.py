@@ -155,9 +155,13 @@ SIMULATION = Section("simulation", [
         "false": "the paper's model, which keeps centrifugal softening only and diverges when "
                  "a link spins faster than its first frequency (docs/derivation.md §4, "
                  "docs/validation.md)"}),
-    Field("rtol", default=1e-6, gt=0, le=1e-2,
+    Field("rtol", default=None, gt=0, le=1e-2,
+          default_doc="1e-6 (`first_order`), 1e-5 (`nonlinear`)",
           doc="error of the time integration relative to the peak displacements and "
-              "velocities"),
+              "velocities (the nonlinear model: of each step); each model's default keeps it "
+              "at about a tenth of the model's own error or less (docs/nonlinear.md §4). "
+              "The run's `rtol` and `error_estimate` attributes say what was asked for and "
+              "what the integrator's estimate reached"),
     Field("atol", default=1e-12, gt=0, doc="absolute error floor of the time integration"),
     Field("method", "string", default="lawson", choices=METHODS, notes={
         "lawson": "fourth-order Lawson–Runge–Kutta on a tabulated state matrix, compiled; "
@@ -173,11 +177,9 @@ SIMULATION = Section("simulation", [
                      "the same assumed modes (docs/nonlinear.md); `geometric_stiffening` and "
                      "`method` are then ignored"}),
     Field("step", unit="s", default=None, gt=0,
-          doc="nonlinear model only: fixed time step of its Gauss collocation solver (10 ms "
-              "suits slow manoeuvres with 4 modes, 2.5 ms the fast ones, docs/validation.md). "
-              "Without it the step is halved from 10 ms until the estimated error is below "
-              "`rtol` of the peak coordinates — set `rtol = 1e-4` then, the default 1e-6 "
-              "costs several halvings"),
+          doc="nonlinear model only: fixed time step of its Gauss collocation solver, "
+              "without error control. Without it each step is chosen so that its estimated "
+              "error is within `rtol` of the peak coordinates and rates (docs/nonlinear.md §4)"),
 ])
 
 # --- [[links]] ------------------------------------------------------------------------------

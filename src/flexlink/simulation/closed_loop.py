@@ -29,9 +29,10 @@ from ..dynamics.controllers import (
 from ..dynamics.first_order import FirstOrderSystem
 from ..errors import SimulationError, UnstableLoop
 from ..model import FunctionController, PointSensor, Scenario
-from ..solvers import Solution
+from ..solvers import Accuracy, Solution
 from ..solvers.closed_loop import PythonLoop, integrate_closed_loop
 from ..solvers.gauss_sampled import sample_grid
+from ..solvers.solution import RICHARDSON
 from .common import PathRun, Progress
 from .prescribed import prescribed_values
 
@@ -70,7 +71,7 @@ def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     out = np.searchsorted(grid, t - 1e-9 * max(1.0, t[-1]))
     states = run.states[out]
     solution = Solution(t, states[:, :n], states[:, n:2 * n], run.acc[out], "lawson",
-                        run.stats)
+                        run.stats, accuracy=Accuracy(settings.rtol, run.estimate, RICHARDSON))
     try:
         values, shapes, validity = prescribed_values(scenario, system, solution, with_shapes)
     except SimulationError as exc:  # the tips ran away: say it is the loop

@@ -146,6 +146,7 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
         "method": solution.method,
         **run.metadata,
         **solution.stats,
+        **accuracy_metadata(solution),
         "wall_time_s": wall_time,
     })
     values = dict(run.values)
@@ -156,6 +157,20 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
     # LazyShapes stay lazy: most callers of simulate() never read them
     results.shapes = run.shapes if isinstance(run.shapes, LazyShapes) else list(run.shapes)
     return results
+
+
+def accuracy_metadata(solution: Solution) -> dict[str, Any]:
+    """The tolerance the integrator was asked for (``rtol``) and the error estimate it reached
+    (``error_estimate``, a fraction of the peak as rtol; absent where it makes none) with what
+    that estimate measures (``error_estimate_measure``)."""
+    accuracy = solution.accuracy
+    if accuracy is None:
+        return {}
+    out: dict[str, Any] = {"rtol": accuracy.rtol}
+    if accuracy.estimate is not None:
+        out["error_estimate"] = accuracy.estimate
+    out["error_estimate_measure"] = accuracy.measure
+    return out
 
 
 def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,

@@ -25,7 +25,7 @@ def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     hist = system.joint_history(t)  # fails early if a measured motion does not cover t
     loop = _sampled_loop(scenario, system, t) if scenario.controllers else None
     solution = (solve_nonlinear(system, t, settings.rtol, settings.step, on_progress=on_progress,
-                                loop=loop)
+                                loop=loop, atol=settings.atol)
                 if system.n else rigid_solution(t, "gauss"))
     torque = system.joint_torques(t, solution.q, solution.q_dot, solution.q_ddot, hist)
     values = sensor_values(system, solution, scenario.sensors, hist)

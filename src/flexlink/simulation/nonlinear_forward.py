@@ -19,7 +19,7 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
     system = NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators)
     system.stage_inputs(t)  # fails early if a measured motion or table does not cover t
     solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
-                                       on_progress=on_progress)
+                                       on_progress=on_progress, atol=settings.atol)
     y, v, a = system.from_solution(solution)
     values = forward_values(system, t, y, v, a, scenario.sensors)
     volts = system.loads.voltages(t)  # open loop: the commanded voltages, clipped

@@ -14,7 +14,7 @@ import numpy as np
 from .lawson import integrate_lawson
 from .magnus import integrate_magnus
 from .ode import integrate_scipy
-from .solution import GivenMatrices, LinearSystem, Progress, Solution, rigid_solution
+from .solution import Accuracy, GivenMatrices, LinearSystem, Progress, Solution, rigid_solution
 
 LinearIntegrator = Callable[[LinearSystem, np.ndarray, float, float, Progress | None], Solution]
 
@@ -26,6 +26,7 @@ PRESCRIBED_METHODS: dict[str, LinearIntegrator] = {
 
 __all__ = [
     "PRESCRIBED_METHODS",
+    "Accuracy",
     "GivenMatrices",
     "LinearIntegrator",
     "LinearSystem",

@@ -17,7 +17,7 @@ from __future__ import annotations
 import copy
 import itertools
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -26,7 +26,7 @@ from ..errors import SimulationError, UnstableLoop
 from ..model import Controller, FunctionController
 from .batched_expm import expm_balanced
 from .coefficient_table import CoefficientTable, RoughCoefficients, tabulate
-from .magnus import agree, initial_step
+from .magnus import agree, initial_step, richardson_error
 from .solution import Progress
 
 _MAX_HALVINGS = 10
@@ -56,6 +56,7 @@ class ClosedLoopRun:
     work: ControlWork
     python_commands: list[np.ndarray]
     stats: dict
+    estimate: float = float("nan")  # the accepted run's Richardson error estimate
 
 
 def integrate_closed_loop(rows: Callable[[np.ndarray], np.ndarray], n: int, n_act: int,
@@ -83,7 +84,7 @@ def integrate_closed_loop(rows: Callable[[np.ndarray], np.ndarray], n: int, n_ac
         if agree(s_f, s_f, s_c, n, rtol, atol):
             fine.stats.update(steps_per_grid_interval=substeps, table_blocks=len(table),
                               grid_points=int(grid.size))
-            return fine
+            return replace(fine, estimate=richardson_error(s_f, s_c, n))
         coarse = fine
         substeps *= 2
     raise SimulationError(

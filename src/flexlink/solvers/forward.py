@@ -21,7 +21,7 @@ from .forward_lawson import integrate_forward_lawson
 from .forward_rk4 import BlowUp, integrate_forward_rk4
 from .gauss_sampled import SampledLoop
 from .ode import Stalled, integrate_ivp
-from .solution import Progress, Solution
+from .solution import SCIPY, Accuracy, Progress, Solution
 
 DEFAULT_METHOD = "DOP853"  # of integrate_forward: the reference
 FAST_METHOD = "compiled"  # what a run's "lawson" or "magnus" maps to: see compiled_method
@@ -85,7 +85,7 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
     pdd_free, zdd, _ = system.accelerations(t_out, p_free, pd_free, z, zd, integral)
     return Solution(t_out, np.hstack([p_free, z]), np.hstack([pd_free, zd]),
                     np.hstack([pdd_free, zdd]), method, {"rhs_evaluations": evaluations},
-                    extra=integral)
+                    extra=integral, accuracy=Accuracy(rtol, None, SCIPY))
 
 
 def compiled_method(system: ForwardSystem) -> str:

@@ -18,10 +18,10 @@ import numpy as np
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, voltage_columns
 from ..errors import SimulationError
-from .forward_rk4 import BlowUp, forward_solution, runs_agree
+from .forward_rk4 import BlowUp, forward_solution, runs_agree, runs_error
 from .forward_sampled import inner_nodes, run_steps
 from .gauss_sampled import SampledLoop
-from .solution import Progress, Solution
+from .solution import RICHARDSON, Accuracy, Progress, Solution
 
 _MAX_LEVEL = 8
 # The Jacobian is refreshed when a free rigid coordinate has moved by more than _DP (rad or
@@ -64,8 +64,10 @@ def integrate_forward_lawson(system: ForwardSystem, t_out: np.ndarray, rtol: flo
         if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp):
             both = np.isfinite(coarse[:, 0])
             if runs_agree(system, fine[both], coarse[both], rtol, atol):
-                solution = forward_solution(data, work, system, t_out, fine, 2 ** level, loop,
-                                            method="lawson")
+                solution = forward_solution(
+                    data, work, system, t_out, fine, 2 ** level, loop, method="lawson",
+                    accuracy=Accuracy(rtol, runs_error(system, fine[both], coarse[both]),
+                                      RICHARDSON))
                 solution.stats.update(jacobian_refreshes=refreshes)
                 return solution
         coarse = fine

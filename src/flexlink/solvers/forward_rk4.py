@@ -25,7 +25,7 @@ from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, vo
 from ..errors import SimulationError
 from .forward_sampled import held_rows, inner_nodes, run_steps
 from .gauss_sampled import SampledLoop
-from .solution import Progress, Solution
+from .solution import RICHARDSON, Accuracy, Progress, Solution
 
 _MAX_DOUBLINGS = 8
 _RICHARDSON = 15.0  # (2⁴ − 1): the coarse-fine difference over the fine run's error
@@ -68,7 +68,8 @@ def integrate_forward_rk4(system: ForwardSystem, t_out: np.ndarray, rtol: float,
             raise fine  # the same time at two step sizes: the model, not the steps
         if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp) \
                 and runs_agree(system, fine, coarse, rtol, atol):
-            return forward_solution(data, work, system, t_out, fine, substeps, loop)
+            return forward_solution(data, work, system, t_out, fine, substeps, loop,
+                                    Accuracy(rtol, runs_error(system, fine, coarse), RICHARDSON))
         coarse = fine
         substeps *= 2
     if isinstance(coarse, BlowUp):
@@ -130,26 +131,36 @@ def _run(data: ForwardData, work: tuple, system: ForwardSystem, y0: np.ndarray,
     return BlowUp(float(starts[bad])) if bad >= 0 else states
 
 
+def _group_errors(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray
+                  ) -> list[tuple[float, float]]:
+    """(estimated error |fine − coarse| / 15, peak |fine|) of each state group (p, ṗ, z, ż,
+    integrals) that has columns."""
+    nu, n = len(system.free), system.n
+    cuts = np.cumsum([0, nu, nu, n, n, fine.shape[1] - 2 * nu - 2 * n])
+    return [(float(np.abs(fine[:, a:b] - coarse[:, a:b]).max() / _RICHARDSON),
+             float(np.abs(fine[:, a:b]).max())) for a, b in itertools.pairwise(cuts) if b > a]
+
+
 def runs_agree(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray, rtol: float,
            atol: float) -> bool:
     """Whether the fine run's estimated error is within atol + rtol · peak of each group."""
-    nu, n = len(system.free), system.n
-    cuts = np.cumsum([0, nu, nu, n, n, fine.shape[1] - 2 * nu - 2 * n])
-    for a, b in itertools.pairwise(cuts):
-        if b == a:
-            continue
-        peak = np.abs(fine[:, a:b]).max()
-        error = np.abs(fine[:, a:b] - coarse[:, a:b]).max() / _RICHARDSON
-        if not error <= atol + rtol * peak:
-            return False
-    return True
+    return all(error <= atol + rtol * peak
+               for error, peak in _group_errors(system, fine, coarse))
+
+
+def runs_error(system: ForwardSystem, fine: np.ndarray, coarse: np.ndarray) -> float:
+    """The fine run's estimated error relative to its group's peak, the largest over the
+    groups that move (an Accuracy's estimate)."""
+    return max((error / peak for error, peak in _group_errors(system, fine, coarse)
+                if peak > 0.0), default=0.0)
 
 
 def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
                      states: np.ndarray, substeps: int, loop: SampledLoop | None = None,
-                     method: str = "rk4") -> Solution:
+                     method: str = "rk4", accuracy: Accuracy | None = None) -> Solution:
     """The Solution from the states at t_out; accelerations with the inputs there (with a
-    ``loop``: its held voltages); ``method``: the loop that computed the states."""
+    ``loop``: its held voltages); ``method``: the loop that computed the states;
+    ``accuracy``: what the error control reached."""
     from ._forward_rk4_numba import rates_at
 
     nu, n = len(system.free), system.n
@@ -163,4 +174,4 @@ def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_ou
     return Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
                     np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
                     method, {"steps_per_output_interval": substeps},
-                    extra=states[:, 2 * nu + 2 * n:])
+                    extra=states[:, 2 * nu + 2 * n:], accuracy=accuracy)

@@ -3,8 +3,9 @@
 Why this method: the highest modal frequencies (thousands of rad/s with 8 modes) make explicit
 schemes take tiny steps, while the motion that matters is slow. Gauss collocation is A-stable,
 of order 4, symmetric and symplectic: without damping and with the joints held, the energy
-error stays bounded at O(h⁴) instead of drifting. Steps are uniform, so every joint angle the
-run needs is evaluated in one vectorised call before the loop.
+error stays bounded at O(h⁴) instead of drifting. Steps are error-controlled
+(`gauss_steps.py`: step doubling, batches of equal steps whose joint angles are evaluated in
+one vectorised call), or uniform with a fixed ``simulation.step``.
 
 One step, with stage accelerations X_i (unknowns), stage velocities V_i = v₀ + h Σ a_ij X_j and
 positions Q_i = q₀ + c_i h v₀ + h² Σ (a²)_ij X_j, solves the stage residuals
@@ -23,16 +24,11 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
-from ..errors import SimulationError, UnstableLoop
-from .solution import Solution
+from ..errors import SimulationError
+from .gauss_steps import COEFFS, COEFFS2, NODES, WEIGHTS, WEIGHTS2
+from .solution import FIXED_STEP, Accuracy, Solution
 from .threads import single_threaded
 
-_R3 = np.sqrt(3.0) / 6.0
-NODES = np.array([0.5 - _R3, 0.5 + _R3])
-COEFFS = np.array([[0.25, 0.25 - _R3], [0.25 + _R3, 0.25]])
-COEFFS2 = COEFFS @ COEFFS
-WEIGHTS = np.array([0.5, 0.5])
-WEIGHTS2 = WEIGHTS @ COEFFS  # q₁ = q₀ + h v₀ + h² Σ (bᵀa)_j X_j
 NEWTON_TOL = 1e-9  # relative to the largest stage acceleration
 NEWTON_MAX = 20
 # Newton's absolute floor, relative to ω_max² |q| (the elastic accelerations): round-off of
@@ -200,63 +196,120 @@ def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.nda
 
 def solve_nonlinear(
     system: NonlinearSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
-    on_progress: Callable[[float], None] | None = None, max_halvings: int = 6,
-    loop: Any = None,
+    on_progress: Callable[[float], None] | None = None, loop: Any = None, atol: float = 0.0,
 ) -> Solution:
-    """q, q̇, q̈ at t_out (from rest at t_out[0] = 0), method "gauss", the step used (s) in
-    its stats. q̈ interpolates the equations' accelerations at the step ends (the quintic's
-    second derivative).
+    """q, q̇, q̈ at t_out (from rest at t_out[0] = 0), method "gauss", with its step
+    statistics, the tolerance asked for and the error estimate reached. q̈ interpolates the
+    equations' accelerations at the step ends (the quintic's second derivative).
 
-    With ``step`` given: one run at that step. Otherwise the step is halved from 10 ms until the
-    error estimate of the finer solution, |difference| / 15 (fourth order), is within rtol of
-    the peak |q| and of the peak |q̇| over the run (as the Magnus control; q̈, dominated by the
-    high modes, converges more slowly: rtol ≤ 1e-4 for accelerometers). A step at which Newton
-    fails is halved too. ``loop``: a gauss_sampled.SampledLoop — sampled controllers,
-    integrated per sample interval; the first step is then at most one interval."""
+    With ``step`` given: uniform steps of at most that (s), no estimate. Otherwise adaptive
+    steps (gauss_steps.py): each step's local error, estimated by step doubling, within
+    atol + rtol · the peak |q| (and |q̇|) so far; steps end at the inputs' breakpoints.
+    ``loop``: a gauss_sampled.SampledLoop — sampled controllers, updated at their sample
+    instants (where steps end too), the actuators' forces held in between."""
     t_end = float(t_out[-1])
 
-    def run(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def finish(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, stats: dict[str, float],
+               accuracy: Accuracy) -> Solution:
         if loop is None:
-            t_nodes, q, v = integrate_gauss(system, t_end, h, on_progress)
             a = system.accelerations(t_nodes, q, v)
         else:  # sampled controllers (gauss_sampled.SampledLoop): the held forces at the ends
-            t_nodes, q, v = loop.integrate(system, h, on_progress)
             a = system.accelerations(t_nodes, q, v, load=loop.held_voltages(t_nodes)
                                      @ system.actuator_B.T)
-        return hermite_quintic(t_nodes, q, v, a, t_out)
-
-    def solution(q: np.ndarray, v: np.ndarray, a: np.ndarray, h: float) -> Solution:
-        return Solution(t_out, q, v, a, "gauss", {"time_step_s": h})
+        return Solution(t_out, *hermite_quintic(t_nodes, q, v, a, t_out), "gauss", stats,
+                        accuracy=accuracy)
 
     if step is not None:
-        return solution(*run(step), step)
-    h = min(0.01, t_end)
-    if loop is not None:  # a step that halves the sample intervals from the first comparison
-        h = min(h, float(np.diff(loop.grid).max()))
-    previous = None
-    err = np.inf
-    for _ in range(max_halvings + 1):
-        try:
-            q, v, a = run(h)
-        except UnstableLoop:
+        nodes = (integrate_gauss(system, t_end, step, on_progress) if loop is None
+                 else loop.integrate(system, step, on_progress))
+        return finish(*nodes, {"time_step_s": t_end / max(1, int(np.ceil(
+            t_end / step - 1e-9)))}, Accuracy(rtol, None, FIXED_STEP))
+    record = integrate_adaptive(system, t_end, rtol, atol, on_progress, loop)
+    return finish(record.t, record.y, record.v, record.stats(), record.accuracy(rtol))
+
+
+FIRST_STEP = 0.01  # s, the adaptive control's first try
+
+
+def breakpoints(chain: Any, actuators: Any = ()) -> np.ndarray:
+    """Times (s) where a joint's motion or an actuator's voltage is not smooth (their
+    ``breakpoints``), where adaptive steps end."""
+    from ..dynamics.histories import history_breakpoints
+
+    times = {b for joint in chain.joints for b in getattr(joint, "breakpoints", ())}
+    for actuator in actuators:
+        times |= history_breakpoints(actuator.voltage)
+    return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
+
+
+def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol: float = 0.0,
+                       on_progress: Callable[[float], None] | None = None,
+                       loop: Any = None) -> Any:
+    """Step ends from rest at t = 0 to t_end (s) with error-controlled steps
+    (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord. ``loop``: a
+    gauss_sampled.SampledLoop, whose controllers are updated from the state at each of their
+    sample instants (every one a step end), their voltages held until the next."""
+    from ._gauss_numba import gauss_doubling
+    from .gauss_steps import DOUBLING_STAGES, Batch, step_doubling
+
+    n = system.n
+    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
+        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    floor = ROUND_OFF * system.max_frequency**2
+    # Newton's error a thousandth of the step's tolerance: tighter buys nothing (the
+    # prescribed model conserves no momentum whose drift would add up), looser would bias the
+    # estimate
+    newton_tol = max(NEWTON_TOL, 1e-3 * rtol)
+    group = np.zeros(n, dtype=np.int64)
+    peak_q, peak_v = np.zeros(1), np.zeros(1)
+    inverse = np.zeros((2, 2 * n, 2 * n))
+    have = np.zeros(2, dtype=np.int64)
+    counts = np.zeros(2, dtype=np.int64)
+
+    breaks = breakpoints(system.chain, system.actuators)
+    if loop is not None:
+        loop.start()
+        breaks = np.union1d(breaks, loop.grid)
+    held = np.zeros(n)  # the actuators' forces B V of the held voltages
+    sample = [0]  # the next sample instant of the loop's grid
+    eps = 1e-12 * max(1.0, t_end)
+
+    def advance(t0: float, H: float, count: int, q0: np.ndarray, v0: np.ndarray,
+                X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
+        inputs = system.node_inputs(
+            (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel())
+        load = inputs.load
+        if loop is not None:
+            while sample[0] < loop.grid.size - 1 and loop.grid[sample[0]] <= t0 + eps:
+                loop.check_bounded(system, t0, q0)
+                held[:] = system.actuator_B @ loop.update(sample[0], q0)
+                sample[0] += 1
+            load = np.repeat(held[None, :], load.shape[0], axis=0)
+        q = np.empty((count + 1, n))
+        v = np.empty((count + 1, n))
+        q[0], v[0] = q0, v0
+        errors = np.zeros(count)
+        if new_step:
+            have[:] = 0
+        status, k = gauss_doubling(
+            q, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in (
+                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration,
+                load)),
+            *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, floor,
+            group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts)
+        return Batch(int(status), q[:k + 1], v[:k + 1], errors, counts)
+
+    q0, v0 = np.zeros(n), np.zeros(n)
+    X = np.repeat(system.accelerations(np.zeros(1), q0[None], v0[None]), 2, axis=0)
+    try:
+        record = step_doubling(advance, q0, v0, X, t_end, breaks, FIRST_STEP, on_progress)
+    except SimulationError as exc:
+        if loop is None or type(exc).__name__ == "LoopUnstable":
             raise
-        except SimulationError:  # Newton failed at this step size: halve
-            previous = None
-            h /= 2
-            continue
-        if previous is not None:
-            err = max(_relative_change(previous[0], q), _relative_change(previous[1], v)) / 15.0
-            if err <= rtol:
-                return solution(q, v, a, h)
-        previous = (q, v)
-        h /= 2
-    raise SimulationError(
-        f"the nonlinear solution did not converge to rtol = {rtol:g} with steps down to "
-        f"{2 * h:.3g} s (last change {err:.2g} of the peak): loosen simulation.rtol or set "
-        f"simulation.step")
-
-
-def _relative_change(coarse: np.ndarray, fine: np.ndarray) -> float:
-    """Largest |fine − coarse| relative to the peak |fine| of all coordinates (as the Magnus
-    control: a tolerance on the physical signals, not on tiny high-mode amplitudes)."""
-    return float(np.abs(fine - coarse).max() / max(float(np.abs(fine).max()), 1e-300))
+        raise SimulationError(f"closed loop unstable: {exc}") from None  # the steps collapsed
+    if not (np.all(np.isfinite(record.y)) and np.all(np.isfinite(record.v))):
+        raise SimulationError("the nonlinear integration produced non-finite values")
+    if loop is not None:
+        loop.check_bounded(system, t_end, record.y[-1])
+        loop.update(loop.grid.size - 1, record.y[-1])  # the records at t_end
+    return record

@@ -13,6 +13,7 @@ reference the tests compare it with.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from ..errors import SimulationError
 from .gauss import (
     COEFFS,
     COEFFS2,
+    FIRST_STEP,
     NEWTON_MAX,
     NODES,
     WEIGHTS,
@@ -28,7 +30,7 @@ from .gauss import (
     _Newton,
     hermite_quintic,
 )
-from .solution import Solution
+from .solution import FIXED_STEP, Accuracy, Solution
 from .threads import single_threaded
 
 CHUNK = 400  # steps per compiled call, between progress reports
@@ -119,53 +121,73 @@ def _compiled_loop(system: NonlinearForwardSystem, y: np.ndarray, v: np.ndarray,
 
 def solve_nonlinear_forward(
     system: NonlinearForwardSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
-    on_progress: Callable[[float], None] | None = None, max_halvings: int = 6,
+    on_progress: Callable[[float], None] | None = None, atol: float = 0.0,
 ) -> Solution:
     """Coordinates [p_free, q], rates and accelerations at t_out (the first-order forward
-    path's order), the servo integrals as ``extra``, method "gauss", the step (s) in stats.
+    path's order), the servo integrals as ``extra``, method "gauss", with its step
+    statistics, the tolerance asked for and the error estimate reached.
 
-    Step control as solve_nonlinear's, the error of the finer run |difference| / 15 measured
-    against the peak of each group (elastic q, free rigid p) and of its rates."""
+    With ``step`` given: uniform steps of at most that (s). Otherwise adaptive steps
+    (gauss_steps.py) as solve_nonlinear's, the local error measured against the peak so far
+    of each group (elastic q, free rigid p) and of its rates; steps end at the inputs'
+    breakpoints (bang-bang switches, table samples, ends of reference moves)."""
     t_end = float(t_out[-1])
     n, nu = system.n, system.nu
 
-    def run(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        t_nodes, y, v = integrate_gauss_forward(system, t_end, h, on_progress)
-        a = system.accelerations(t_nodes, y, v)
-        return hermite_quintic(t_nodes, y, v, a, t_out)
-
-    def solution(y: np.ndarray, v: np.ndarray, a: np.ndarray, h: float) -> Solution:
+    def solution(t_nodes: np.ndarray, y: np.ndarray, v: np.ndarray, stats: dict[str, float],
+                 accuracy: Accuracy) -> Solution:
+        y, v, a = hermite_quintic(t_nodes, y, v, system.accelerations(t_nodes, y, v), t_out)
         order = np.r_[n:n + nu, 0:n]
-        return Solution(t_out, y[:, order], v[:, order], a[:, order], "gauss",
-                        {"time_step_s": h}, extra=v[:, n + nu:])
+        return Solution(t_out, y[:, order], v[:, order], a[:, order], "gauss", stats,
+                        extra=v[:, n + nu:], accuracy=accuracy)
 
     if step is not None:
-        return solution(*run(step), step)
-    h = min(0.01, t_end)
-    previous = None
-    err = np.inf
-    groups = [g for g in (slice(0, n), slice(n, n + nu)) if g.stop > g.start]
-    for _ in range(max_halvings + 1):
-        try:
-            y, v, a = run(h)
-        except SimulationError:
-            previous = None
-            h /= 2
-            continue
-        if previous is not None:
-            err = max(_change(previous[i][:, g], x[:, g])
-                      for i, x in enumerate((y, v)) for g in groups) / 15.0
-            if err <= rtol:
-                return solution(y, v, a, h)
-        previous = (y, v)
-        h /= 2
-    raise SimulationError(
-        f"the nonlinear solution did not converge to rtol = {rtol:g} with steps down to "
-        f"{2 * h:.3g} s (last change {err:.2g} of the peak): loosen simulation.rtol or set "
-        f"simulation.step")
+        t_nodes, y, v = integrate_gauss_forward(system, t_end, step, on_progress)
+        return solution(t_nodes, y, v, {"time_step_s": float(t_nodes[1] - t_nodes[0])},
+                        Accuracy(rtol, None, FIXED_STEP))
+    record = integrate_forward_adaptive(system, t_end, rtol, atol, on_progress)
+    return solution(record.t, record.y, record.v, record.stats(), record.accuracy(rtol))
 
 
-def _change(coarse: np.ndarray, fine: np.ndarray) -> float:
-    """Largest |fine − coarse| relative to the peak |fine| (0 where nothing moves)."""
-    peak = float(np.abs(fine).max())
-    return float(np.abs(fine - coarse).max() / peak) if peak > 0.0 else 0.0
+def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rtol: float,
+                               atol: float = 0.0,
+                               on_progress: Callable[[float], None] | None = None) -> Any:
+    """Step ends from the system's initial state to t_end (s) with error-controlled steps
+    (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord."""
+    from ..dynamics.forward_kernel import breakpoints
+    from ._gauss_forward_numba import gauss_forward_doubling
+    from .gauss_steps import DOUBLING_STAGES, Batch, step_doubling
+
+    n_y, n, nu = system.n_y, system.n, system.nu
+    data, loads = system.packed()
+    group = np.full(n_y, -1, dtype=np.int64)  # the servo integrals set no step
+    group[:n] = 0
+    group[n:n + nu] = 1
+    peak_q, peak_v = np.zeros(2), np.zeros(2)
+    inverse = np.zeros((2, 2 * n_y, 2 * n_y))
+    have = np.zeros(2, dtype=np.int64)
+    counts = np.zeros(2, dtype=np.int64)
+
+    def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,
+                X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
+        inp = system.stage_inputs(
+            (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel())
+        y = np.empty((count + 1, n_y))
+        v = np.empty((count + 1, n_y))
+        y[0], v[0] = y0, v0
+        errors = np.zeros(count)
+        if new_step:
+            have[:] = 0
+        status, k = gauss_forward_doubling(
+            y, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in inp), data,
+            loads, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL_FORWARD, NEWTON_MAX,
+            group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts)
+        return Batch(int(status), y[:k + 1], v[:k + 1], errors, counts)
+
+    y0, v0 = system.initial_state()
+    X = np.repeat(system.accelerations(np.zeros(1), y0[None], v0[None]), 2, axis=0)
+    record = step_doubling(advance, y0, v0, X, t_end, breakpoints(system.loads), FIRST_STEP,
+                           on_progress)
+    if not (np.all(np.isfinite(record.y)) and np.all(np.isfinite(record.v))):
+        raise SimulationError("the nonlinear forward integration produced non-finite values")
+    return record

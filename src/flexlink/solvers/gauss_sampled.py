@@ -3,8 +3,9 @@
 reads the sensors from the elastic coordinates, updates the controllers (the compiled update
 of `dynamics/_controllers_numba.py` on the discretisation of `dynamics/controllers.py`, the
 Python callables as in `closed_loop.py`), and integrates one interval with the held voltages
-constant. Here the integrator is the nonlinear model's Gauss collocation (`gauss.py`), which
-restarts cheaply: its state is q, q̇ and the stage accelerations, carried across calls.
+constant. Here the integrator is the nonlinear model's Gauss collocation (`gauss.py`): its
+error-controlled steps end at every sample instant, where `gauss.integrate_adaptive` updates
+the loop, or, with a fixed step, `integrate_gauss_sampled` below.
 """
 
 from __future__ import annotations
@@ -75,6 +76,11 @@ class SampledLoop:
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """integrate_gauss_sampled with this loop (what gauss.solve_nonlinear calls)."""
         return integrate_gauss_sampled(system, self, step, on_progress)
+
+    def check_bounded(self, system: NonlinearSystem, t: float, q: np.ndarray) -> None:
+        """LoopUnstable at t (s) if the links curled beyond BOUND at q."""
+        if np.abs(system.A @ q).max() > BOUND:
+            raise LoopUnstable(t, "the links curled beyond a full turn")
 
     def held_voltages(self, t: np.ndarray) -> np.ndarray:
         """The voltages (nt, n_act) held at times t (s) of the last integration pass (at a

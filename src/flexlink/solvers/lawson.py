@@ -31,8 +31,17 @@ import numpy as np
 from ..errors import SimulationError
 from .batched_expm import expm_balanced
 from .coefficient_table import CoefficientTable, RoughCoefficients, tabulate
-from .magnus import agree, agree_maxima, augmented, initial_step, integrate_magnus, state_rows
-from .solution import LinearSystem, Progress, Solution
+from .magnus import (
+    agree,
+    agree_maxima,
+    augmented,
+    initial_step,
+    integrate_magnus,
+    richardson_error,
+    richardson_error_maxima,
+    state_rows,
+)
+from .solution import RICHARDSON, Accuracy, LinearSystem, Progress, Solution
 from .threads import single_threaded
 
 _MAX_HALVINGS = 10
@@ -78,16 +87,19 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
         states, acc, _, peak, spread = _run(table, n, t_out, substeps, on_progress, ET,
                                             coarse=True, keep_coarse=False)
         accepted = agree_maxima(peak[:-1], spread[:-1], n, rtol, atol)
+        estimate = richardson_error_maxima(peak[:-1], spread[:-1], n)
         for _ in range(_MAX_HALVINGS):
             if accepted:
                 stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
-                return Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats)
+                return Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats,
+                                accuracy=Accuracy(rtol, estimate, RICHARDSON))
             coarse = states
             substeps *= 2
             ET = ET.copy()
             ET[moving] = _block_propagators(table, n, t_out, substeps, moving)
             states, acc = _solve(table, n, t_out, substeps, on_progress, ET)
             accepted = agree(states[:, :-1], states[:, :-1], coarse[:, :-1], n, rtol, atol)
+            estimate = richardson_error(states[:, :-1], coarse[:, :-1], n)
     raise SimulationError(
         f"the integration did not reach rtol = {rtol:g}, atol = {atol:g} with {substeps} steps "
         "per output interval; loosen the tolerances or check the model"

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from .magnus import accelerations
-from .solution import LinearSystem, Progress, Solution
+from .solution import SCIPY, Accuracy, LinearSystem, Progress, Solution
 from .threads import single_threaded
 
 # A run whose right-hand side is called STALL_CALLS times while time advances by less than
@@ -45,7 +45,8 @@ def integrate_scipy(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: 
     z, zd = y[:, :n], y[:, n:]
     with single_threaded():
         zdd = accelerations(system.matrices, t_out, z, zd)
-    return Solution(t_out, z, zd, zdd, method, {"rhs_evaluations": evaluations})
+    return Solution(t_out, z, zd, zdd, method, {"rhs_evaluations": evaluations},
+                    accuracy=Accuracy(rtol, None, SCIPY))
 
 
 def integrate_ivp(rhs: Callable[[float, np.ndarray], np.ndarray], y0: np.ndarray,

@@ -17,12 +17,35 @@ Matrices = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 Progress = Callable[[float], None]
 
 
+# What an Accuracy's estimate measures (its ``measure``), by integrator family.
+RICHARDSON = ("Richardson: the largest |y_h − y_2h| / 15 of two runs with steps h and 2h at "
+              "the output times, relative to the peak of the coordinates and of their rates")
+STEP_DOUBLING = ("step doubling: the largest local error of one step, |two steps h/2 − one "
+                 "step h| / 15, relative to the peak of the coordinates and of their rates "
+                 "so far")
+FIXED_STEP = "none: a fixed step (simulation.step), no error estimate"
+SCIPY = "none: scipy solve_ivp controls its local error by rtol and atol, without a reported estimate"
+
+
+@dataclass(frozen=True)
+class Accuracy:
+    """What an integrator was asked for and what its own error estimate reached: ``rtol``
+    the tolerance requested, ``estimate`` the estimate of the run it returned (a fraction of
+    the peak, as rtol; None where the integrator makes none), ``measure`` what the estimate
+    is (one of this module's texts)."""
+
+    rtol: float
+    estimate: float | None
+    measure: str
+
+
 @dataclass(frozen=True)
 class Solution:
     """Coordinates q, rates q̇ and accelerations q̈ (each (nt, n)) at times t (s); the
     integrator that ran (``method``, which may differ from the one asked for after a
-    fallback), its step statistics, and ``extra`` states of the run ((nt, m), e.g. servo
-    integrals) when it has any."""
+    fallback), its step statistics, ``extra`` states of the run ((nt, m), e.g. servo
+    integrals) when it has any, and its ``accuracy`` (the tolerance asked for and the error
+    estimate reached) when it integrated anything."""
 
     t: np.ndarray
     q: np.ndarray
@@ -31,6 +54,7 @@ class Solution:
     method: str
     stats: Mapping[str, float] = field(default_factory=dict)
     extra: np.ndarray | None = None
+    accuracy: Accuracy | None = None
 
     def __post_init__(self) -> None:
         for name in ("q", "q_dot", "q_ddot"):

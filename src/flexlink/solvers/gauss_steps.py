@@ -1,0 +1,147 @@
+"""Error-controlled step sizes of the Gauss collocation, shared by both nonlinear paths
+(prescribed joints, `gauss.py`; rigid coordinates, `gauss_forward.py`).
+
+Error estimate: step doubling. Each step H is also taken as two steps H/2 from the same
+state; the two H/2 steps are kept and |y_{H/2,H/2} − y_H| / 15 (fourth order) estimates
+their local error. An embedded lower-order formula would cost less, but it multiplies the
+stage accelerations by h², and the stiff high modes (ω h ≫ 1, integrated stably but not
+resolved) would dominate it by (ω h)²; the doubling difference of a stiff mode stays of the
+order of its (small) amplitude. The estimate is measured against atol + rtol · the largest
+|y| (and |ẏ|) of its group so far — elastic coordinates, free rigid coordinates — the
+norm of the uniform-step control before it (docs/nonlinear.md §4).
+
+Control: a step is accepted when its estimate is within the tolerance; the next step size is
+H · 0.9 · err^(−1/5), between 0.2× and 4×. The compiled loops (`_gauss_numba.gauss_doubling`,
+`_gauss_forward_numba.gauss_forward_doubling`) take batches of equal steps, whose inputs are
+evaluated in one vectorised call; a batch stops at the first rejected step, and the step size
+changes between batches. Batches end exactly at every input breakpoint (the switch of a
+bang-bang torque, the end of a move), so no step straddles a jump.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SimulationError
+from .solution import STEP_DOUBLING, Accuracy
+
+# The two-stage Gauss–Legendre tableau: nodes c, coefficients a, weights b; for positions
+# a² and bᵀa (q₁ = q₀ + h v₀ + h² Σ (bᵀa)_j X_j).
+_R3 = np.sqrt(3.0) / 6.0
+NODES = np.array([0.5 - _R3, 0.5 + _R3])
+COEFFS = np.array([[0.25, 0.25 - _R3], [0.25 + _R3, 0.25]])
+COEFFS2 = COEFFS @ COEFFS
+WEIGHTS = np.array([0.5, 0.5])
+WEIGHTS2 = WEIGHTS @ COEFFS
+# Stage times of one doubled step, as fractions of H: the H step's two stages, then those of
+# the first and the second H/2 step.
+DOUBLING_STAGES = np.concatenate([NODES, 0.5 * NODES, 0.5 + 0.5 * NODES])
+SAFETY = 0.9
+SHRINK, GROW = 0.2, 4.0
+BATCH = 64  # steps per compiled call while the step size is steady
+BATCH_GROWING = 4  # … while it is still growing (the controller may take the next one 4× longer)
+MAX_STEPS = 2_000_000
+
+
+@dataclass
+class Batch:
+    """What a model's compiled loop returns for one batch: status (0 all accepted, 1 a step
+    rejected by its error, 2 Newton failed), the accepted steps' ends y, ẏ ((k+1, n), row 0
+    the start), each step's error as a fraction of its tolerance (the rejected one included)."""
+
+    status: int
+    y: np.ndarray
+    v: np.ndarray
+    errors: np.ndarray
+    counts: np.ndarray  # Newton's matrix rebuilds and iterations so far (the run's totals)
+
+
+# advance(t0, H, count, y0, v0, X, h_prev, new_step) → Batch; X (2, n) the stage
+# accelerations of the last accepted step (of length h_prev), updated in place; new_step: H
+# differs from the previous call's (the Newton matrices must be rebuilt).
+Advance = Callable[[float, float, int, np.ndarray, np.ndarray, np.ndarray, float, bool], Batch]
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """The step ends of an adaptive run and what its control saw."""
+
+    t: np.ndarray  # (m+1,) s
+    y: np.ndarray  # (m+1, n)
+    v: np.ndarray  # (m+1, n)
+    rejected: int  # steps taken again with a shorter step (error or Newton)
+    largest_error: float  # largest accepted step's estimate, as a fraction of its tolerance
+    newton: tuple[int, int]  # Newton's matrix rebuilds and iterations
+
+    def stats(self) -> dict[str, float]:
+        """The step statistics a Solution carries."""
+        h = np.diff(self.t)
+        return {"steps": int(h.size), "rejected_steps": self.rejected,
+                "min_step_s": float(h.min()), "max_step_s": float(h.max()),
+                "newton_matrices": self.newton[0], "newton_iterations": self.newton[1]}
+
+    def accuracy(self, rtol: float) -> Accuracy:
+        """The tolerance and the largest local error estimate of an accepted step, as a
+        fraction of the peak (the norm of rtol)."""
+        return Accuracy(rtol, self.largest_error * rtol, STEP_DOUBLING)
+
+
+def step_doubling(advance: Advance, y0: np.ndarray, v0: np.ndarray, X: np.ndarray,
+                  t_end: float, breakpoints: np.ndarray, first_step: float,
+                  on_progress: Callable[[float], None] | None = None) -> StepRecord:
+    """Step ends from y0, v0 at t = 0 to t_end (s), each step accepted by its step-doubling
+    estimate (``advance``: the model's compiled batch), batches ending at every breakpoint
+    (s) inside (0, t_end)."""
+    inner = np.asarray(breakpoints, dtype=float)
+    eps = 1e-12 * max(1.0, t_end)
+    ends = np.append(np.unique(inner[(inner > eps) & (inner < t_end - eps)]), t_end)
+    ts, ys, vs = [np.array([0.0])], [y0[None, :]], [v0[None, :]]
+    t, y, v = 0.0, y0.copy(), v0.copy()
+    H, h_prev, last_H = min(first_step, t_end), min(first_step, t_end), -1.0
+    count_max, rejected, largest, window, steps = BATCH_GROWING, 0, 0.0, 0, 0
+    while t < t_end - eps:
+        while ends[window] <= t + eps:
+            window += 1
+        remain = ends[window] - t
+        count = min(count_max, max(1, int(np.ceil(remain / H - 1e-9))))
+        landed = count * H >= remain - eps
+        Hb = remain / count if landed else H  # the batch ends on the window's end
+        batch = advance(t, Hb, count, y, v, X, h_prev, Hb != last_H)
+        last_H = Hb
+        k = batch.y.shape[0] - 1
+        if k:
+            times = t + Hb * np.arange(1, k + 1)
+            if landed and k == count:
+                times[-1] = ends[window]
+            t = float(times[-1])
+            ts.append(times)
+            ys.append(batch.y[1:])
+            vs.append(batch.v[1:])
+            y, v = batch.y[-1].copy(), batch.v[-1].copy()
+            h_prev = 0.5 * Hb
+            largest = max(largest, float(batch.errors[:k].max()))
+            steps += k
+        if batch.status == 2:  # Newton did not converge: a shorter step
+            rejected += 1
+            H = 0.5 * Hb
+        else:
+            err = float(batch.errors[:k + (batch.status == 1)].max(initial=0.0))
+            factor = SAFETY * err ** -0.2 if err > 0.0 else GROW
+            if batch.status == 1:
+                rejected += 1
+                factor = min(factor, SAFETY)
+            factor = min(GROW, max(SHRINK, factor))
+            # a steady step keeps its Newton matrices: change it only when it pays
+            H = Hb * factor if factor < 1.0 or factor > 1.25 else Hb
+            count_max = BATCH_GROWING if factor > 2.0 else BATCH
+        if H < 1e-12 * max(1.0, t_end) or steps > MAX_STEPS:
+            raise SimulationError(
+                f"the nonlinear step size collapsed to {H:.3g} s at t = {t:.4g} s: the "
+                "tolerance cannot be met (loosen simulation.rtol or set simulation.step)")
+        if on_progress is not None:
+            on_progress(t)
+    return StepRecord(np.concatenate(ts), np.concatenate(ys), np.concatenate(vs), rejected,
+                      largest, (int(batch.counts[0]), int(batch.counts[1])))

@@ -1,0 +1,164 @@
+"""Error-controlled steps of the Gauss collocation (solvers/gauss_steps.py) and the accuracy
+every integrator reports (solvers/solution.py Accuracy)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flexlink import simulate
+from flexlink.dynamics.nonlinear import NonlinearSystem
+from flexlink.model import (
+    BangBang,
+    Chain,
+    Link,
+    PointSensor,
+    Scenario,
+    SimulationSettings,
+    TorqueDrive,
+)
+from flexlink.model.settings import DEFAULT_RTOL
+from flexlink.motion import Cycloidal
+from flexlink.solvers.gauss import (
+    COEFFS,
+    COEFFS2,
+    NEWTON_MAX,
+    NEWTON_TOL,
+    NODES,
+    ROUND_OFF,
+    WEIGHTS,
+    WEIGHTS2,
+    integrate_adaptive,
+    solve_nonlinear,
+)
+from flexlink.solvers.gauss_steps import DOUBLING_STAGES
+
+BEAM = Link("beam", 1.0, 0.5, 8.0, modes=3, damping_ratio=0.0, thickness=0.005)
+
+
+def _swing(duration: float = 0.3, start: float = 0.1) -> Chain:
+    """A light beam swung 90° (large deflection): breakpoints at start and start + duration."""
+    return Chain((BEAM,), (Cycloidal(0.0, 90.0, start, duration),))
+
+
+def test_the_doubling_kernel_keeps_the_two_half_steps() -> None:
+    """One doubled step H from a state ends where two plain steps of H/2 end (the uniform
+    loop, the same Newton tolerance): the half steps are the solution, the H step only
+    the estimate."""
+    from flexlink.solvers._gauss_numba import gauss_doubling, gauss_loop
+
+    system = NonlinearSystem(_swing())
+    n, H, t0 = system.n, 0.02, 0.15
+    q0, v0 = np.linspace(0.01, -0.02, n), np.linspace(-0.3, 0.2, n)
+    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
+        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    floor = ROUND_OFF * system.max_frequency**2
+    X0 = np.repeat(system.accelerations(np.array([t0]), q0[None], v0[None]), 2, axis=0)
+
+    def rows(times: np.ndarray) -> list[np.ndarray]:
+        inp = system.node_inputs(times)
+        return [np.ascontiguousarray(a) for a in (inp.angle, inp.rate, inp.acceleration,
+                                                  inp.tip_acceleration, inp.load)]
+
+    q, v = np.array([q0, q0]), np.array([v0, v0])
+    errors = np.zeros(1)
+    status, accepted = gauss_doubling(
+        q, v, X0.copy(), H, H, *rows(t0 + H * DOUBLING_STAGES), *arrays, NODES, COEFFS,
+        COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX, floor, np.zeros(n, np.int64),
+        np.zeros(1), np.zeros(1), 1.0, 1.0, errors, np.zeros((2, 2 * n, 2 * n)),
+        np.zeros(2, np.int64), np.zeros(2, np.int64))
+    assert (status, accepted) == (0, 1)
+    qh, vh = np.array([q0, q0, q0]), np.array([v0, v0, v0])
+    half = t0 + 0.5 * H * (np.arange(2)[:, None] + NODES[None, :]).ravel()
+    failed, _, _ = gauss_loop(qh, vh, X0.copy(), 0.5 * H, *rows(half), *arrays, NODES, COEFFS,
+                              COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX, False, floor)
+    assert failed == -1
+    scale = np.abs(qh).max()
+    assert np.abs(q[1] - qh[2]).max() <= 1e-8 * scale  # within Newton's tolerance
+    assert np.abs(v[1] - vh[2]).max() <= 1e-8 * np.abs(vh).max()
+    assert 0.0 < errors[0] < 1.0
+
+
+def test_adaptive_steps_end_on_the_breakpoints_and_grow_at_rest() -> None:
+    system = NonlinearSystem(_swing(0.3, 0.1))
+    record = integrate_adaptive(system, 1.0, 1e-5)
+    for b in (0.1, 0.4, 1.0):
+        assert np.min(np.abs(record.t - b)) == 0.0
+    h = np.diff(record.t)
+    assert np.all(h > 0)
+    # before the move the beam rests: nothing to resolve, the steps grow to the limit 4× per batch
+    assert h[record.t[:-1] < 0.1].size <= 8
+    assert record.largest_error <= 1.0
+
+
+def test_the_error_follows_the_tolerance() -> None:
+    """Against a run at rtol 1e-10, the tip path's error shrinks with rtol and stays within
+    a small multiple of it (the control bounds each step's error; measured ×1–30 on the
+    validation cases' deflections, docs/nonlinear.md §4); the estimate reported is within rtol."""
+    system = NonlinearSystem(_swing())
+    t = np.linspace(0.0, 1.0, 501)
+    exact = solve_nonlinear(system, t, 1e-10)
+    peak = np.abs(exact.q).max()
+    errors = {}
+    for rtol in (1e-4, 1e-6):
+        run = solve_nonlinear(system, t, rtol)
+        errors[rtol] = np.abs(run.q - exact.q).max() / peak
+        assert run.accuracy is not None and run.accuracy.rtol == rtol
+        assert 0.0 < run.accuracy.estimate <= rtol
+        assert errors[rtol] <= 20 * rtol
+    assert errors[1e-6] < errors[1e-4] / 10
+
+
+def test_forward_steps_end_on_the_bang_bang_switches() -> None:
+    """A torque-driven hub–beam (nonlinear forward model): adaptive steps land on the
+    torque's switch times, and the run says what it reached."""
+    from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
+    from flexlink.solvers.gauss_forward import integrate_forward_adaptive
+
+    chain = Chain((BEAM,), (TorqueDrive(BangBang(1.0, 0.2, 0.5), motor_inertia=0.5),))
+    record = integrate_forward_adaptive(NonlinearForwardSystem(chain), 1.0, 1e-5)
+    for b in (0.2, 0.45, 0.7, 1.0):
+        assert np.min(np.abs(record.t - b)) == 0.0
+    assert record.largest_error <= 1.0
+
+
+def test_each_model_has_its_default_tolerance() -> None:
+    assert SimulationSettings(1.0, 0.01).rtol == DEFAULT_RTOL["first_order"] == 1e-6
+    assert SimulationSettings(1.0, 0.01, model="nonlinear").rtol == DEFAULT_RTOL["nonlinear"]
+    assert SimulationSettings(1.0, 0.01, model="nonlinear", rtol=1e-7).rtol == 1e-7
+
+
+def _scenario(model: str, driven: bool = False, **settings: object) -> Scenario:
+    joint = (TorqueDrive(BangBang(0.5, 0.0, 0.4), motor_inertia=0.5) if driven
+             else Cycloidal(0.0, 30.0, 0.0, 0.4))
+    return Scenario(Chain((BEAM,), (joint,)), (PointSensor("tip", "deflection", 0, 1.0),),
+                    SimulationSettings(0.6, 0.01, model=model, **settings))  # type: ignore
+
+
+@pytest.mark.parametrize(("model", "driven", "measure"), [
+    ("first_order", False, "Richardson"), ("first_order", True, "Richardson"),
+    ("nonlinear", False, "step doubling"), ("nonlinear", True, "step doubling")])
+def test_every_path_says_what_accuracy_it_reached(model: str, driven: bool,
+                                                  measure: str) -> None:
+    results = simulate(_scenario(model, driven))
+    meta = results.metadata
+    assert meta["rtol"] == DEFAULT_RTOL[model]
+    assert 0.0 < meta["error_estimate"] <= meta["rtol"]
+    assert meta["error_estimate_measure"].startswith(measure)
+
+
+def test_a_fixed_step_or_scipy_makes_no_estimate() -> None:
+    for scenario in (_scenario("nonlinear", step=0.01), _scenario("first_order", method="RK45")):
+        meta = simulate(scenario).metadata
+        assert "error_estimate" not in meta and meta["error_estimate_measure"].startswith("none")
+
+
+
+def test_the_cli_summary_says_what_was_asked_for_and_reached(tmp_path) -> None:
+    from flexlink.cli import summary
+
+    text = summary(simulate(_scenario("nonlinear")), tmp_path, "beam")
+    line = next(x for x in text.splitlines() if x.startswith("accuracy:"))
+    assert "rtol 1e-05 asked for" in line and "(step doubling)" in line
+    fixed = summary(simulate(_scenario("nonlinear", step=0.01)), tmp_path, "beam")
+    assert "rtol 1e-05 asked for, no error estimate" in fixed
