@@ -146,7 +146,7 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
         "method": solution.method,
         **run.metadata,
         **solution.stats,
-        **accuracy_metadata(solution),
+        **integration_metadata(solution),
         "wall_time_s": wall_time,
     })
     values = dict(run.values)
@@ -159,7 +159,7 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
     return results
 
 
-def accuracy_metadata(solution: Solution) -> dict[str, Any]:
+def integration_metadata(solution: Solution) -> dict[str, Any]:
     """The tolerance the integrator was asked for (``rtol``) and the error estimate it reached
     (``error_estimate``, a fraction of the peak as rtol; absent where it makes none) with what
     that estimate measures (``error_estimate_measure``)."""

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
-from ..errors import SimulationError
+from ..errors import SimulationError, UnstableLoop
 from .gauss_steps import COEFFS, COEFFS2, NODES, WEIGHTS, WEIGHTS2
 from .solution import FIXED_STEP, Accuracy, Solution
 from .threads import single_threaded
@@ -304,7 +304,7 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
     try:
         record = step_doubling(advance, q0, v0, X, t_end, breaks, FIRST_STEP, on_progress)
     except SimulationError as exc:
-        if loop is None or type(exc).__name__ == "LoopUnstable":
+        if loop is None or isinstance(exc, UnstableLoop):
             raise
         raise SimulationError(f"closed loop unstable: {exc}") from None  # the steps collapsed
     if not (np.all(np.isfinite(record.y)) and np.all(np.isfinite(record.v))):

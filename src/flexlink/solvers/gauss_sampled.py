@@ -78,9 +78,9 @@ class SampledLoop:
         return integrate_gauss_sampled(system, self, step, on_progress)
 
     def check_bounded(self, system: NonlinearSystem, t: float, q: np.ndarray) -> None:
-        """LoopUnstable at t (s) if the links curled beyond BOUND at q."""
+        """UnstableLoop at t (s) if the links curled beyond BOUND at q."""
         if np.abs(system.A @ q).max() > BOUND:
-            raise LoopUnstable(t, "the links curled beyond a full turn")
+            raise UnstableLoop(t, "the links curled beyond a full turn")
 
     def held_voltages(self, t: np.ndarray) -> np.ndarray:
         """The voltages (nt, n_act) held at times t (s) of the last integration pass (at a
