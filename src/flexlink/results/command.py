@@ -11,7 +11,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .folder import ANIMATION_GIF
+from ..options import check_unique, check_writable
+from .folder import ANIMATION_GIF, REPORT_NAME
 
 
 def add_commands(commands: Any) -> None:
@@ -70,14 +71,18 @@ def run_animate(args: argparse.Namespace) -> int:
     try:
         if source.is_file():
             out = args.output or source.with_name(f"{source.stem}_animation.gif")
+            check_writable(out)
             animate_sweep(source, out, fps=args.fps, speed=args.speed, trail=args.trail)
         else:
             from .reading import read_run
 
-            results = read_run(source)
             channels = None if args.channels is None else [
                 c.strip() for c in args.channels.split(",") if c.strip()]
+            check_unique("--channels", channels or [])
             out = args.output or source / ANIMATION_GIF
+            if source.is_dir():
+                check_writable(out)
+            results = read_run(source)
             animate(results, out, channels=channels, magnification=args.magnify,
                     fps=args.fps, speed=args.speed, trail=args.trail)
     except _input_errors() as exc:
@@ -92,12 +97,16 @@ def run_report(args: argparse.Namespace) -> int:
         if source.is_file():
             from .report_html import write_sweep_report
 
+            check_writable(source.with_suffix(".html"))
             out = write_sweep_report(source, animation=args.animate)
         else:
             from .reading import read_run
             from .report_html import write_run_report
 
-            results = read_run(source)
+            if source.is_dir():
+                check_writable(source / REPORT_NAME)
+
+            results = read_run(source, shapes=args.animate)  # the page draws no shapes
             if args.animate:
                 from .animation import animate
 

@@ -320,17 +320,10 @@ def write_sweep_report(sweep_file: Path, animation: bool = False,
     the channels of up to `MAX_SWEEP_TRACES` finished cases overlaid (zoomable), the base
     scenario; with ``animation`` also ``<stem>_animation.gif`` (cases overlaid; netCDF only).
     ``layout``: the file's content if at hand (read from the netCDF file otherwise)."""
-    from .arm_tracks import AnimationInputError
-    from .netcdf import read_netcdf
+    from .reading import read_sweep_layout
 
     sweep_file = Path(sweep_file)
-    try:
-        layout = layout or read_netcdf(sweep_file)
-    except (OSError, ValueError, TypeError) as exc:
-        raise AnimationInputError(f"{sweep_file} is not a flexlink sweep file: {exc}") from None
-    if "case" not in layout.coords or "status" not in layout.data:
-        raise AnimationInputError(f"{sweep_file} is not a flexlink sweep file (no case "
-                                  "coordinate)")
+    layout = layout or read_sweep_layout(sweep_file)
     attrs = layout.attrs
     status = np.asarray(layout.data["status"].values).astype(str)
     params = [n for n, v in layout.coords.items() if v.dims == ("case",) and n != "case"]
