@@ -430,8 +430,9 @@ def summary(results: Any, out_dir: Path, name: str) -> str:
         peak = float(abs(values).max()) if values.size else 0.0
         extra = f"  ({math.degrees(peak):.4g} deg)" if channel.unit == "rad" else ""
         lines.append(f"  {name_:<{width}}  {peak:.4g} {channel.unit}{extra}")
-    if "validity_warning" in results.metadata:
-        lines.append(f"warning: {results.metadata['validity_warning']}")
+    for key in ("validity_warning", "stiff_links_warning"):
+        if key in results.metadata:
+            lines.append(f"warning: {results.metadata[key]}")
     files = sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*") if p.is_file())
     lines.append(f"wrote {out_dir}{'/' if not str(out_dir).endswith('/') else ''}: "
                  + ", ".join(files))

@@ -109,6 +109,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         joints.append(joint)
         motions.append(motion)
     base = read_base(raw.get("base"), base_dir, p)
+    _check_massless_base(base, joints, simulation.get("model"), p)
     reserved = reserved_names([n for n in link_names if n], len(links))
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
     p.check_names([s.get("name") for s in sensors], "sensors")
@@ -123,6 +124,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                                    actuators, p)
     _check_controller_names(controllers, actuators, reserved | {s.get("name") for s in sensors},
                             p)
+    _check_controller_samples(controllers, simulation.get("t_end"), p)
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
@@ -439,6 +441,47 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     controllers = tuple(build_controller(c) for c in resolved.get("controllers", ()))
     return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"],
                     base=base, actuators=actuators, controllers=controllers)
+
+
+def _check_massless_base(base: dict[str, Any] | None, joints: list[dict[str, Any]],
+                         model: str | None, p: Problems) -> None:
+    """A free base of zero mass and inertia makes the first link the free body itself. A
+    driven joint on it has no inertia to turn against (the base's attitude and the joint's
+    angle turn the same bodies: a singular mass matrix), and the nonlinear model's step
+    control does not converge on loads applied to it: refused, naming the fields."""
+    if (base is None or base.get("type") != "free" or base.get("mass") != 0.0
+            or base.get("inertia") != 0.0):
+        return
+    what = "base.mass = 0 and base.inertia = 0"
+    for i, joint in enumerate(joints):
+        if (i == 0 or "base_point" in joint) and "drive" in joint:
+            p.add(f"{what} with joints[{i}] driven (drive = {joint['drive']!r}) on the base: "
+                  "the joint's torque has no base inertia to act against; give base.mass "
+                  f"and base.inertia > 0, or prescribe joints[{i}] (motion)")
+    if model == "nonlinear" and base.get("loads"):
+        p.add(f"{what} with base.loads: the nonlinear model does not converge on loads "
+              "applied to a base without mass; give base.mass and base.inertia > 0, or "
+              "model = \"first_order\"")
+
+
+# Samples of one controller over a run: the closed loop steps at each (the held voltage
+# changes there) and keeps its states per sample, about a kilobyte each.
+MAX_CONTROL_SAMPLES = 1e6
+
+
+def _check_controller_samples(controllers: list[dict[str, Any]], t_end: float | None,
+                              p: Problems) -> None:
+    """Each controller's samples over the run, t_end × sample_rate, at most
+    MAX_CONTROL_SAMPLES (checked before any array is made)."""
+    if t_end is None:
+        return
+    for i, c in enumerate(controllers):
+        rate = c.get("sample_rate")
+        if rate is not None and t_end * rate > MAX_CONTROL_SAMPLES:
+            p.add(f"controllers[{i}].sample_rate = {rate:g} Hz: {t_end * rate:.3g} samples "
+                  f"over simulation.t_end = {t_end:g} s, more than the "
+                  f"{MAX_CONTROL_SAMPLES:.0e} allowed; sample_rate = "
+                  f"{MAX_CONTROL_SAMPLES / t_end:.3g} Hz or lower fits (or a shorter t_end)")
 
 
 def _check_controller_names(controllers: list[dict[str, Any]], actuators: list[dict[str, Any]],

@@ -34,7 +34,7 @@ from .common import (
     output_times,
     timed,
 )
-from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
+from .rigid import quasi_rigid_links, rigid_metadata, stiff_forward_links, with_rigid_links
 
 # (scenario, output times, progress callback, with shapes) → the path's run
 PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
@@ -79,7 +79,12 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) ->
 
 def _run_path(path: PathFunction, scenario: Scenario, t: np.ndarray,
               on_progress: Progress, shapes: bool) -> PathRun:
-    """Run ``path``, with the links too stiff to matter made rigid (simulation/rigid.py)."""
+    """Run ``path``, with the links too stiff to matter made rigid (simulation/rigid.py); a
+    forward run's stiff links named in a warning (or refused)."""
+    warning = stiff_forward_links(scenario)
+    if warning:
+        run = path(scenario, t, on_progress, shapes)
+        return replace(run, metadata={**run.metadata, **warning})
     stiff = quasi_rigid_links(scenario, t)
     if not stiff:
         return path(scenario, t, on_progress, shapes)

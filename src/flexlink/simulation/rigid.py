@@ -5,8 +5,11 @@ a link a million times stiffer than the rest costs a million times more steps â€
 far above anything the output grid shows and a deflection far below the run's tolerance. Such
 a link is run rigid (no modes, its mass, tip mass and inertia kept), which changes the results
 by less than ``rtol`` of its length; the run's ``rigid_links`` attribute names it. Forward
-runs are left alone: their joint accelerations, which set the deflection, are not known
-before the run.
+runs are not changed: their joint accelerations, which set the deflection, are not known
+before the run. There a link whose first mode is above the output grid's Nyquist frequency
+is named in a warning (its highest mode sets the step of a vibration the output cannot show),
+and the nonlinear model, whose step control does not converge on a link UNRESOLVED_FACTOR
+times beyond, refuses it with the fix (`stiff_forward_links`).
 """
 
 from __future__ import annotations
@@ -65,6 +68,37 @@ def quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
         if deflection <= settings.rtol * scenario.chain.links[k].length:
             out.append(k)
     return out
+
+
+def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
+    """A forward run's flexible links whose first frequency is above the output grid's
+    Nyquist frequency: ``stiff_links_warning`` naming them, with the frequency that sets the
+    step and the fix (none: {}). ValueError, before the run, for the nonlinear model when
+    one is UNRESOLVED_FACTOR times beyond."""
+    if not scenario.is_forward:
+        return {}
+    nyquist = 0.5 / scenario.settings.dt_out  # Hz
+    nonlinear = scenario.settings.model == "nonlinear"
+    found = []
+    for k, link in enumerate(scenario.chain.links):
+        if not link.modes:
+            continue
+        f = modal_data(link).natural_frequencies_hz
+        if f[0] <= nyquist:
+            continue
+        text = (f"links[{k}] ({link.name}): its first mode, {f[0]:.3g} Hz, is above the output "
+                f"grid's Nyquist frequency ({nyquist:.3g} Hz), so its vibration cannot show in "
+                f"the output, yet its highest mode ({f[-1]:.3g} Hz) sets the integration step")
+        if nonlinear and f[0] > UNRESOLVED_FACTOR * nyquist:
+            raise ValueError(f"{text} of the nonlinear model, whose step control does not "
+                             f"converge on it: set rigid = true on links[{k}] (a link this "
+                             "stiff does not bend visibly), or give it a lower EI or fewer "
+                             "modes")
+        found.append(text)
+    if not found:
+        return {}
+    return {"stiff_links_warning": "; ".join(found) + ": set rigid = true on a link that need "
+            "not bend (it then costs no more than a rigid one)"}
 
 
 def with_rigid_links(scenario: Scenario, indices: list[int]) -> Scenario:

@@ -17,10 +17,13 @@ from ..dynamics._nonlinear_forward_numba import residual as _residual
 @njit(cache=True)
 def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
                        nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations,
-                       predict_first):
+                       predict_first, peak):
     """Advance y, v (steps+1, n_y) in place from row 0; X (2, n_y) holds the stage
     accelerations of the step before (extrapolated first if ``predict_first``). Stage inputs
-    are per stage row (2·steps, ·). Returns (failed step or −1, rebuilds, iterations)."""
+    are per stage row (2·steps, ·). ``peak`` (1,): the largest stage acceleration of the run
+    so far, updated in place; Newton stops within tol of it, so that accelerations that
+    vanish (a rigid arm coasting: no elastic term keeps them finite) meet the test.
+    Returns (failed step or −1, rebuilds, iterations)."""
     n = y.shape[1]
     steps = y.shape[0] - 1
     inverse = np.zeros((2 * n, 2 * n))
@@ -93,7 +96,8 @@ def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
             theta = size / previous
             # (first iteration: no rate yet, the increment itself must be small)
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-            if remaining <= tol * max(largest, 1e-300):
+            if remaining <= tol * max(largest, peak[0], 1e-300):
+                peak[0] = max(peak[0], largest)
                 converged = True
                 break
             if size > 0.1 * previous and not fresh:

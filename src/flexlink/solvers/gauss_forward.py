@@ -78,7 +78,8 @@ def integrate_gauss_forward(
     if compiled:
         _compiled_loop(system, y, v, X, h, inp, on_progress, t_ends, newton_tol)
     else:
-        newton = _Newton(_StageResidual(system), h, newton_tol)  # type: ignore[arg-type]
+        newton = _Newton(_StageResidual(system), h, newton_tol,  # type: ignore[arg-type]
+                         running_peak=True)
         rows = _Rows(t_stage, inp)
         with single_threaded():
             for i in range(steps):
@@ -102,13 +103,14 @@ def _compiled_loop(system: NonlinearForwardSystem, y: np.ndarray, v: np.ndarray,
 
     data, loads = system.packed()
     steps = y.shape[0] - 1
+    peak = np.zeros(1)  # the run's largest stage acceleration, across chunks
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
         stage = slice(2 * start, 2 * end)
         failed, _, _ = gauss_forward_loop(
             y[start:end + 1], v[start:end + 1], X, h,
             *(np.ascontiguousarray(a[stage], dtype=float) for a in inp), data, loads,
-            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0)
+            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0, peak)
         if failed >= 0:
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
