@@ -68,7 +68,7 @@ def _base(results: ChannelTable) -> np.ndarray | None:
 
 def sweep_tracks(path: Path) -> tuple[np.ndarray, list[ArmTrack]]:
     """Time (s) and one track per finished case of a sweep file (netCDF)."""
-    from .reading import DamagedRunFileError, read_sweep_layout
+    from .file_checks import DamagedRunFileError, read_sweep_layout
 
     layout = read_sweep_layout(path)
     try:

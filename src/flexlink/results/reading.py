@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import csv
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
 from ..channels import Channel, ChannelKind
+from .file_checks import DamagedRunFileError, checked_time, reading_file
 from .folder import CHANNELS_CSV, RESULTS_CSV, RESULTS_NC
 from .layout import channel_of, metadata_of
 from .netcdf import read_netcdf
@@ -22,11 +21,6 @@ class NotARunFolderError(FileNotFoundError):
     """The folder is missing, or holds neither results.nc nor results.csv with channels.csv."""
 
 
-class DamagedRunFileError(ValueError):
-    """A file of a run folder cannot be read back (damaged, truncated, edited): the message
-    names the file and what is wrong with it."""
-
-
 def read_run(folder: str | Path, shapes: bool = True) -> Results:
     """The `Results` of a flexlink run folder: from results.nc (channels, kinds, metadata),
     else from results.csv and channels.csv (no metadata). ``shapes``: also the links' shapes
@@ -37,9 +31,9 @@ def read_run(folder: str | Path, shapes: bool = True) -> Results:
         raise NotARunFolderError(f"{folder} is not a flexlink run folder: no such folder")
     path = folder / RESULTS_NC
     if path.is_file():
-        with _reading(path):
+        with reading_file(path):
             layout = read_netcdf(path)
-        with _reading(path):
+        with reading_file(path):
             return results_of(layout, shapes=shapes)
     missing = [n for n in (RESULTS_CSV, CHANNELS_CSV) if not (folder / n).is_file()]
     if missing:
@@ -49,54 +43,12 @@ def read_run(folder: str | Path, shapes: bool = True) -> Results:
     return read_csv_run(folder / RESULTS_CSV, folder / CHANNELS_CSV)
 
 
-@contextmanager
-def _reading(path: Path) -> Iterator[None]:
-    """Any failure to parse ``path`` as a DamagedRunFileError naming it: a damaged file
-    fails in the parser in ways as many as its bytes (scipy's reader raises TypeError,
-    ValueError, KeyError, IndexError, struct.error, MemoryError, …)."""
-    try:
-        yield
-    except DamagedRunFileError as exc:
-        if str(path) in str(exc):
-            raise
-        raise DamagedRunFileError(f"{path}: {exc}") from None
-    except OSError as exc:
-        raise DamagedRunFileError(f"cannot read {path}: {exc.strerror or exc}") from None
-    except Exception as exc:  # noqa: BLE001 — see the docstring
-        detail = f"{type(exc).__name__}: {exc}"[:200]
-        raise DamagedRunFileError(
-            f"{path} is damaged or not written by flexlink ({detail}); write it again "
-            "(flexlink run, flexlink sweep)") from None
-
-
-def read_sweep_layout(path: Path) -> Layout:
-    """The layout of a sweep file; DamagedRunFileError naming it if it cannot be parsed, is
-    not a sweep file (no case coordinate or status) or its time is damaged."""
-    with _reading(path):
-        layout = read_netcdf(path)
-    if "case" not in layout.coords or "status" not in layout.data:
-        raise DamagedRunFileError(f"{path} is not a flexlink sweep file (no case coordinate)")
-    with _reading(path):
-        _check_time(layout)
-    return layout
-
-
-def _check_time(layout: Layout) -> np.ndarray:
-    """The layout's time (s); DamagedRunFileError if missing, not finite or not increasing."""
-    if "time" not in layout.coords:
-        raise DamagedRunFileError("no time coordinate")
-    time = np.asarray(layout.coords["time"].values, dtype=float)
-    if time.ndim != 1 or not np.all(np.isfinite(time)) or np.any(np.diff(time) <= 0):
-        raise DamagedRunFileError("its time is not a finite, increasing sequence")
-    return time
-
-
 def results_of(layout: Layout, shapes: bool = True) -> Results:
     """The `Results` a run's layout holds (inverse of `layout.run_layout`): every variable over
     ``time`` with a channel's ``kind`` is a channel; the shape variables are its ``shapes``
     (left out without ``shapes``). DamagedRunFileError if the time is missing, not finite or
     not increasing, or the shapes are incomplete."""
-    time = _check_time(layout)
+    time = checked_time(layout)
     results = Results(time=time, metadata=metadata_of(layout.attrs),
                       created=str(layout.attrs.get("date_created", "")),
                       shapes=shapes_of(layout) if shapes else [])
@@ -109,9 +61,9 @@ def results_of(layout: Layout, shapes: bool = True) -> Results:
 
 def read_csv_run(results_csv: Path, channels_csv: Path) -> Results:
     """`Results` from results.csv (``t``, then one column per channel) and channels.csv."""
-    with _reading(channels_csv):
+    with reading_file(channels_csv):
         channels = _read_channels(channels_csv)
-    with _reading(results_csv):
+    with reading_file(results_csv):
         with results_csv.open(encoding="utf-8") as fh:
             header = fh.readline().strip().split(",")
         table = np.loadtxt(results_csv, delimiter=",", skiprows=1, ndmin=2)

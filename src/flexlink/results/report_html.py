@@ -320,7 +320,7 @@ def write_sweep_report(sweep_file: Path, animation: bool = False,
     the channels of up to `MAX_SWEEP_TRACES` finished cases overlaid (zoomable), the base
     scenario; with ``animation`` also ``<stem>_animation.gif`` (cases overlaid; netCDF only).
     ``layout``: the file's content if at hand (read from the netCDF file otherwise)."""
-    from .reading import read_sweep_layout
+    from .file_checks import read_sweep_layout
 
     sweep_file = Path(sweep_file)
     layout = layout or read_sweep_layout(sweep_file)

@@ -22,7 +22,15 @@ from .actuators import build_actuator, read_actuators
 from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .errors import Problems, ScenarioError, describe
-from .schema import JOINTS, LINKS, MEASURED_ANGLES, SIMULATION, read_field, read_fields
+from .schema import (
+    JOINTS,
+    LINKS,
+    MAX_CONTROL_SAMPLES,
+    MEASURED_ANGLES,
+    SIMULATION,
+    read_field,
+    read_fields,
+)
 from .sensors import read_sensors
 
 SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_version",
@@ -462,11 +470,6 @@ def _check_massless_base(base: dict[str, Any] | None, joints: list[dict[str, Any
         p.add(f"{what} with base.loads: the nonlinear model does not converge on loads "
               "applied to a base without mass; give base.mass and base.inertia > 0, or "
               "model = \"first_order\"")
-
-
-# Samples of one controller over a run: the closed loop steps at each (the held voltage
-# changes there) and keeps its states per sample, about a kilobyte each.
-MAX_CONTROL_SAMPLES = 1e6
 
 
 def _check_controller_samples(controllers: list[dict[str, Any]], t_end: float | None,
