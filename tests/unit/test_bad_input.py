@@ -109,6 +109,8 @@ def _damage(folder: Path, how: str) -> None:
         else:
             layout.coords["time"].values[3] = np.nan
         write_netcdf(layout, nc)
+    elif how == "csv only":
+        nc.unlink()
     elif how == "csv only, truncated":
         nc.unlink()
         text = (folder / "results.csv").read_text()
@@ -210,6 +212,8 @@ CASES = {
     "linearize a driven arm at 5e4 s": (["linearize", "{in}/long_driven.toml", "--at", "5e4", "-o", "{out}"], 2, "simulation.dt_out: the run up to t = 50000 s needs"),
     "modes over a driven arm's 1e5 s": (["modes", "{in}/long_driven.toml", "-o", "{out}"], 2, "simulation.dt_out: the run up to t = 100000 s needs"),
 }
+CASES["animate: csv only"] = (["animate", "{run}", "-o", "{out}/a.gif"], 2,
+                              "holds no link shapes")
 DAMAGES = ("random bytes", "truncated", "bad header", "no shapes", "half a shape",
            "time not increasing", "csv only, truncated", "csv only, unknown kind")
 for _how in DAMAGES:
@@ -290,3 +294,14 @@ def test_a_folder_that_cannot_be_written_is_refused_before_any_work(
 def test_check_writable_accepts_new_nested_folders(tmp_path: Path) -> None:
     check_writable(tmp_path / "a" / "b" / "c")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_documented_limits_are_the_enforced_ones() -> None:
+    from flexlink.control.modes import MAX_POINTS
+    from flexlink.results.animation import MAX_FRAMES
+    from flexlink.shaping.command import MAX_TRIAL_SAMPLES
+
+    docs = Path(__file__).resolve().parents[2] / "docs"
+    assert f"at most {MAX_POINTS:,} points" in (docs / "control.md").read_text()
+    assert f"at most {MAX_FRAMES:,} frames" in (docs / "animation.md").read_text()
+    assert f"within {MAX_TRIAL_SAMPLES:,} output samples" in (docs / "shaping.md").read_text()

@@ -141,6 +141,9 @@ def _collect(scenario: Scenario, coordinate: str, values: np.ndarray,
     available = min(f[0].size for f in found)
     n = available if count is None else min(count, available)
     if n == 0:
+        if not any(link.modes for link in links):
+            raise ValueError("no elastic mode to report: every link is rigid (links[k].rigid "
+                             "= true)")
         raise ValueError("no oscillatory mode at some point (rigid links?)")
     freq = np.stack([f[0][:n] for f in found])
     zeta = np.stack([f[1][:n] for f in found])

@@ -66,6 +66,7 @@ def _input_errors() -> tuple[type[BaseException], ...]:
 
 def run_animate(args: argparse.Namespace) -> int:
     from .animation import animate, animate_sweep
+    from .arm_tracks import AnimationInputError
 
     source: Path = args.source
     try:
@@ -83,6 +84,10 @@ def run_animate(args: argparse.Namespace) -> int:
             if source.is_dir():
                 check_writable(out)
             results = read_run(source)
+            if not results.shapes:
+                raise AnimationInputError(
+                    f"{source} holds no link shapes (the shape variables of results.nc, "
+                    "which flexlink run writes): run the scenario again to animate it")
             animate(results, out, channels=channels, magnification=args.magnify,
                     fps=args.fps, speed=args.speed, trail=args.trail)
     except _input_errors() as exc:
