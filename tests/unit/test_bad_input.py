@@ -298,10 +298,13 @@ def test_check_writable_accepts_new_nested_folders(tmp_path: Path) -> None:
 
 def test_the_documented_limits_are_the_enforced_ones() -> None:
     from flexlink.control.modes import MAX_POINTS
-    from flexlink.results.animation import MAX_FRAMES
+    from flexlink.results.animation import MAX_FRAMES, PAGE_SECONDS, page_speed
     from flexlink.shaping.command import MAX_TRIAL_SAMPLES
 
     docs = Path(__file__).resolve().parents[2] / "docs"
     assert f"at most {MAX_POINTS:,} points" in (docs / "control.md").read_text()
     assert f"at most {MAX_FRAMES:,} frames" in (docs / "animation.md").read_text()
+    assert f"lasts {PAGE_SECONDS:g} s" in (docs / "animation.md").read_text()
+    assert page_speed(np.array([0.0, 5.0])) == 1.0
+    assert page_speed(np.array([0.0, 1000.0])) * PAGE_SECONDS == pytest.approx(1000.0)
     assert f"within {MAX_TRIAL_SAMPLES:,} output samples" in (docs / "shaping.md").read_text()

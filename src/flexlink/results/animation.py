@@ -38,6 +38,7 @@ ARM_PX = 480  # height of the arm panel
 PANEL_PX = 110  # height of each channel panel
 MAX_PANELS = 4
 MAX_FRAMES = 10_000  # frames of one file: ~8 minutes at 20 fps
+PAGE_SECONDS = 30.0  # longest animation a run's page gets (longer runs play faster)
 _MARGIN = (60, 16, 34, 40)  # left, right, top, bottom of the arm panel (px)
 
 
@@ -82,6 +83,13 @@ def animate(results: ChannelTable, path: str | Path, *, channels: Sequence[str] 
     name = title or f"flexlink: {results.metadata.get('scenario', 'run')}"
     return _write(np.asarray(results.time, float), [track], traces, Path(path), magnification,
                   fps, speed, trail, name, run=True)
+
+
+def page_speed(time: np.ndarray) -> float:
+    """The speed of the animation that ``flexlink run --animate`` and ``report --animate``
+    write: real time, or faster so that it lasts PAGE_SECONDS (stated on the frame)."""
+    span = float(time[-1] - time[0]) if len(time) else 0.0
+    return max(1.0, span / PAGE_SECONDS)
 
 
 def animate_sweep(sweep_file: str | Path, path: str | Path, *, fps: float = 20.0,

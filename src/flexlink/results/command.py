@@ -113,9 +113,9 @@ def run_report(args: argparse.Namespace) -> int:
 
             results = read_run(source, shapes=args.animate)  # the page draws no shapes
             if args.animate:
-                from .animation import animate
+                from .animation import animate, page_speed
 
-                animate(results, source / ANIMATION_GIF)
+                animate(results, source / ANIMATION_GIF, speed=page_speed(results.time))
             out = write_run_report(source, results)
     except _input_errors() as exc:
         return _fail(f"error: {exc}")

@@ -348,10 +348,11 @@ def write_sweep_report(sweep_file: Path, animation: bool = False,
                              for c in shown}))
     page.add_traces(f"Channels of {shown.size} of {ok.size} finished cases", traces)
     if animation:
-        from .animation import animate_sweep
+        from .animation import animate_sweep, page_speed
 
         gif = sweep_file.with_name(f"{sweep_file.stem}_animation.gif")
-        animate_sweep(sweep_file, gif)
+        animate_sweep(sweep_file, gif,
+                      speed=page_speed(np.asarray(layout.coords["time"].values, float)))
         page.add_images("Animation", [gif])
     rows = []
     for c in range(status.size):

@@ -110,9 +110,9 @@ def write_run(
                     shutil.rmtree(partial / "figures", ignore_errors=True)
                 write_figures(results, partial / "figures")
             if animation:
-                from .animation import animate
+                from .animation import animate, page_speed
 
-                animate(results, partial / ANIMATION_GIF)
+                animate(results, partial / ANIMATION_GIF, speed=page_speed(results.time))
             if page is not None:
                 page.write(partial / REPORT_NAME)
         finally:
