@@ -133,6 +133,7 @@ CASES = {
     "run -o under a file": (["run", "{in}/scenario.toml", "-o", "{in}/run/results.csv/x"], 2, "results.csv is a file"),
     "compare -o under a file": (["compare", "{in}/measured.toml", "-o", "{in}/run/results.csv/x"], 2, "results.csv is a file"),
     "fit -o under a file": (["fit", "{in}/measured.toml", "-o", "{in}/run/results.csv/x"], 2, "results.csv is a file"),
+    "sweep -o under a file": (["sweep", "{in}/scenario.toml", "--grid", "links[0].EI=250", "-o", "{in}/run/results.csv/x.nc"], 2, "results.csv"),
     "animate -o under a file": (["animate", "{run}", "-o", "{in}/run/results.csv/a.gif"], 2, "results.csv is a file"),
     # sizes
     "modes --grid step 1e-6": (["modes", "{in}/scenario.toml", "--grid", "joint2=0:90:1e-6", "-o", "{out}"], 2, "--grid joint2 0:90:1e-6: 9e+07 points, more than the 2,000"),
