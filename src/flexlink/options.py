@@ -8,8 +8,9 @@ message that names the option or file, the value and what is allowed.
   points, 10⁹ animation frames) is refused before anything runs, with the size it would need
   and the limit;
 * `check_unique`: the same name given twice;
-* `check_writable`: an output path under a regular file, or in a folder that cannot be
-  written, is refused before any work;
+* `check_writable`, `check_output_file`: an output path under a regular file, or in a folder
+  that cannot be written (or a folder where a file is to be written), is refused before any
+  work;
 * `check_finite`: no result with NaN or infinity is written.
 """
 
@@ -138,6 +139,14 @@ def check_writable(path: str | Path, what: str = "output") -> None:
         raise OptionError(f"{what} {path}: cannot write in {parent} "
                           f"({exc.strerror or exc}); choose another place") from None
     os.rmdir(probe)
+
+
+def check_output_file(path: str | Path, what: str = "output") -> None:
+    """OptionError unless the file ``path`` can be written: `check_writable`, and not an
+    existing folder."""
+    if Path(path).is_dir():
+        raise OptionError(f"{what} {path} is a folder; give a file name")
+    check_writable(path, what)
 
 
 def check_finite(values: Mapping[str, Any], what: str) -> None:

@@ -177,6 +177,7 @@ CASES = {
     "animate --trail inf": (["animate", "{run}", "--trail", "inf", "-o", "{out}/a.gif"], 2, "trail must be a finite number"),
     "animate --magnify -1": (["animate", "{run}", "--magnify", "-1", "-o", "{out}/a.gif"], 2, "magnification"),
     "animate --channels unknown": (["animate", "{run}", "--channels", "nosuch", "-o", "{out}/a.gif"], 2, "nosuch"),
+    "animate -o a folder": (["animate", "{run}", "-o", "{out}"], 2, "is a folder; give a file name"),
     "animate -o unknown format": (["animate", "{run}", "-o", "{out}/a.avi"], 2, "unknown format 'avi'"),
     "fit --window nan": (["fit", "{in}/measured.toml", "--window", "nan:1", "-o", "{out}"], 2, "--window"),
     "fit --window reversed": (["fit", "{in}/measured.toml", "--window", "0.4:0.1", "-o", "{out}"], 2, "--window: the start must be before the end"),

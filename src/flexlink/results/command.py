@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..options import check_unique, check_writable
+from ..options import check_output_file, check_unique, check_writable
 from .folder import ANIMATION_GIF, REPORT_NAME
 
 
@@ -72,7 +72,7 @@ def run_animate(args: argparse.Namespace) -> int:
     try:
         if source.is_file():
             out = args.output or source.with_name(f"{source.stem}_animation.gif")
-            check_writable(out)
+            check_output_file(out)
             animate_sweep(source, out, fps=args.fps, speed=args.speed, trail=args.trail)
         else:
             from .reading import read_run
@@ -82,7 +82,7 @@ def run_animate(args: argparse.Namespace) -> int:
             check_unique("--channels", channels or [])
             out = args.output or source / ANIMATION_GIF
             if source.is_dir():
-                check_writable(out)
+                check_output_file(out)
             results = read_run(source)
             if not results.shapes:
                 raise AnimationInputError(
