@@ -2,8 +2,9 @@
 kind of check, each raising `OptionError` (or argparse's own error, exit status 2) with a
 message that names the option or file, the value and what is allowed.
 
-* argparse types (`finite_float`, `positive_float`, `nonnegative_float`,
-  `nonnegative_finite_float`, `positive_int`, `nonnegative_int`): a value of the wrong kind or range is a usage error naming the option;
+* argparse types (`finite_float`, `positive_float`, `nonnegative_finite_float`,
+  `positive_int`, `nonnegative_int`): a value of the wrong kind or range is a usage error
+  naming the option;
 * `check_size`: a request whose arrays or work would be out of proportion (a grid of 10⁸
   points, 10⁹ animation frames) is refused before anything runs, with the size it would need
   and the limit;
@@ -55,14 +56,6 @@ def positive_float(text: str) -> float:
     value = finite_float(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
-    return value
-
-
-def nonnegative_float(text: str) -> float:
-    """argparse type: a number >= 0 (infinity allowed: 'no limit')."""
-    value = _number(text)
-    if not value >= 0:  # also NaN
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
     return value
 
 

@@ -24,6 +24,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
 
 from ..channels import ChannelKind, ChannelTable
+from ..options import check_size
 from .arm_tracks import AnimationInputError, ArmTrack, check_channels, run_track, sweep_tracks
 from .atomic import atomic_file
 from .plotting import display_scale
@@ -136,15 +137,12 @@ def _trace(results: ChannelTable, name: str) -> _Trace:
 
 def frame_indices(time: np.ndarray, fps: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
     """Frame times (s, every speed/fps of simulated time) and the nearest output sample;
-    AnimationInputError beyond MAX_FRAMES."""
+    OptionError beyond MAX_FRAMES."""
     step = speed / fps
     span = float(time[-1] - time[0])
-    frames = span / step + 1
-    if not frames <= MAX_FRAMES:
-        raise AnimationInputError(
-            f"fps = {fps:g} at speed = {speed:g}: {frames:.3g} frames for {span:g} s of run, "
-            f"more than the {MAX_FRAMES:,} allowed; fps = {_fitting_fps(span, speed):.3g} "
-            "or fewer fits (or a larger speed)")
+    check_size(f"fps = {fps:g} at speed = {speed:g}", span / step + 1, MAX_FRAMES,
+               f"frames for {span:g} s of run",
+               f"fps = {_fitting_fps(span, speed):.3g} or fewer fits (or a larger speed)")
     count = math.floor(span / step + 1e-9) + 1
     times = time[0] + step * np.arange(count)
     indices = np.clip(np.searchsorted(time, times), 1, time.size - 1)
