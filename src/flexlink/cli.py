@@ -447,7 +447,8 @@ def summary(results: Any, out_dir: Path, name: str) -> str:
         from .control.convergence import modes_line
 
         lines.append(modes_line(results.metadata))
-    for key in ("validity_warning", "control_warning", "mode_convergence_warning"):
+    for key in ("validity_warning", "control_warning", "mode_convergence_warning",
+                "stiff_links_warning"):
         if key in results.metadata:
             lines.append(f"warning: {results.metadata[key]}")
     files = sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*") if p.is_file())

@@ -11,6 +11,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..options import (
+    NonFiniteResult,
+    OptionError,
+    check_finite,
+    check_size,
+    check_unique,
+    positive_int,
+)
+
 PLANT_NPZ, PLANT_MAT, BODE_PNG, POLES_CSV = "plant.npz", "plant.mat", "bode.png", "modes.csv"
 MODES_CSV, MODES_NPZ = "frequencies.csv", "modes.npz"
 FREQUENCY_PNG, SHAPES_PNG = "frequencies.png", "shapes.png"
@@ -51,8 +60,8 @@ def add_commands(commands: Any, output: argparse.ArgumentParser) -> None:
                        help="times in s (default: 101 over the run)")
     modes.add_argument("--grid", metavar="jointK=A0:A1:DA|A,…",
                        help="joint angles in degrees (ends included); other joints at t = 0")
-    modes.add_argument("--count", type=int, default=None, help="lowest modes kept (default "
-                                                              "all)")
+    modes.add_argument("--count", type=positive_int, default=None,
+                       help="lowest modes kept (default all)")
     modes.set_defaults(handler=run_modes)
 
 
@@ -66,8 +75,12 @@ def _fail(message: str, status: int = 2) -> int:
     return status
 
 
-def _names(text: str | None) -> list[str] | None:
-    return None if text is None else [s.strip() for s in text.split(",") if s.strip()]
+def _names(text: str | None, option: str) -> list[str] | None:
+    if text is None:
+        return None
+    names = [s.strip() for s in text.split(",") if s.strip()]
+    check_unique(option, names)
+    return names
 
 
 def parse_at_text(text: str) -> float | dict[str, float]:
@@ -85,24 +98,37 @@ def parse_at_text(text: str) -> float | dict[str, float]:
             out[key.strip()] = float(value)
         except ValueError:
             raise ValueError(f"--at: {part!r} is not NAME=NUMBER") from None
+    check_unique("--at", [part.partition("=")[0].strip() for part in text.split(",")])
     return out
 
 
 def parse_range(text: str, what: str) -> list[float]:
-    """``0:90:10`` (ends included) or ``0,45,90``."""
-    import numpy as np
+    """``0:90:10`` (ends included) or ``0,45,90``: finite numbers, at most
+    `modes.MAX_POINTS` of them."""
+    import math
+
+    from .modes import MAX_POINTS
 
     try:
         if ":" in text:
             a, b, step = (float(v) for v in text.split(":"))
-            if not step > 0 or b < a:
+            if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(step)
+                    and step > 0 and b >= a):
                 raise ValueError
-            n = int(np.floor((b - a) / step + 1e-9)) + 1
+            n = math.floor((b - a) / step + 1e-9) + 1
+            check_size(f"{what} {text}", n, MAX_POINTS, "points",
+                       f"a step of {(b - a) / max(MAX_POINTS - 1, 1):.3g} or coarser fits")
             return [a + i * step for i in range(n)]
-        return [float(v) for v in text.split(",") if v.strip()]
+        values = [float(v) for v in text.split(",") if v.strip()]
+        if not values or not all(math.isfinite(v) for v in values):
+            raise ValueError
+        check_size(f"{what} {text[:40]}", len(values), MAX_POINTS, "points")
+        return values
+    except OptionError:
+        raise
     except ValueError:
-        raise ValueError(f"{what} {text!r}: give START:STOP:STEP (STOP ≥ START, STEP > 0) or a "
-                         "list A,B,C") from None
+        raise ValueError(f"{what} {text!r}: give START:STOP:STEP (finite numbers, STOP ≥ START, "
+                         "STEP > 0) or a list A,B,C") from None
 
 
 def _load(args: argparse.Namespace) -> tuple[Any, dict[str, Any]]:
@@ -129,12 +155,16 @@ def run_linearize(args: argparse.Namespace) -> int:
         out = _default_dir(args, "plant")
         check_output_dir(out, args.overwrite)
         at = parse_at_text(args.at)
-        plant = linearize(scenario, at=at, inputs=_names(args.inputs),
-                          outputs=_names(args.outputs))
+        inputs, outputs = _names(args.inputs, "--inputs"), _names(args.outputs, "--outputs")
+        plant = linearize(scenario, at=at, inputs=inputs, outputs=outputs)
+        check_finite({"A": plant.A, "B": plant.B, "C": plant.C, "D": plant.D},
+                     f"the plant at {args.at}")
         pairs = _pairs(args.bode, plant)
         estimate = estimate_for_command(scenario, at)
     except ScenarioError as exc:
         return _fail(str(exc))
+    except NonFiniteResult as exc:
+        return _fail(f"linearisation failed: {exc}", status=1)
     except (OutputFolderError, ValueError, TypeError, OSError) as exc:
         return _fail(f"error: {exc}")
     except Exception as exc:  # noqa: BLE001 — a failed run up to --at
@@ -229,16 +259,22 @@ def run_modes(args: argparse.Namespace) -> int:
         angles = None
         if args.grid:
             angles = {}
-            for part in args.grid.split(";"):
+            parts = args.grid.split(";")
+            check_unique("--grid", [part.partition("=")[0].strip() for part in parts])
+            for part in parts:
                 key, sep, text = part.partition("=")
                 if not sep:
                     raise ValueError(f"--grid: {part!r} is not jointK=START:STOP:STEP")
-                angles[key.strip()] = parse_range(text, "--grid")
+                angles[key.strip()] = parse_range(text, f"--grid {key.strip()}")
         modes = frozen_modes(scenario, times=times, angles=angles, count=args.count)
+        check_finite({"frequency": modes.frequency_hz, "damping ratio": modes.damping_ratio,
+                      "mode shapes": modes.shapes}, "the frozen-time modes")
         estimate = estimate_for_command(
             scenario, {k: v[0] for k, v in angles.items()} if angles else 0.0)
     except ScenarioError as exc:
         return _fail(str(exc))
+    except NonFiniteResult as exc:
+        return _fail(f"modes failed: {exc}", status=1)
     except (OutputFolderError, ValueError, TypeError, OSError) as exc:
         return _fail(f"error: {exc}")
     except Exception as exc:  # noqa: BLE001 — a failed run

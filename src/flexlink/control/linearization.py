@@ -231,6 +231,7 @@ def run_states(scenario: Scenario, system: ForwardSystem, times: np.ndarray
         return [initial for _ in times]
     settings = scenario.settings
     dt = settings.dt_out
+    _check_run_size(scenario, float(times.max()))
     grid = np.unique(np.concatenate([np.linspace(0.0, times.max(),
                                                  max(2, math.ceil(times.max() / dt) + 1)),
                                      times]))
@@ -243,6 +244,26 @@ def run_states(scenario: Scenario, system: ForwardSystem, times: np.ndarray
         out.append((sol.q[i, :nf], sol.q_dot[i, :nf], sol.q[i, nf:], sol.q_dot[i, nf:],
                     extra[i]))
     return out
+
+
+def _check_run_size(scenario: Scenario, t_end: float) -> None:
+    """RunTooLarge, before the run to ``t_end`` (s), if its arrays would not fit in memory
+    (the check `flexlink run` makes, for this shorter or equal run)."""
+    from ..errors import RunTooLarge
+    from ..simulation.common import (
+        ALWAYS_FITS,
+        MemoryEstimate,
+        memory_problem,
+        run_memory,
+        sample_count,
+    )
+
+    estimate = MemoryEstimate(sample_count(t_end, scenario.settings.dt_out),
+                              run_memory(scenario).per_sample)
+    if estimate.total > ALWAYS_FITS:
+        problem = memory_problem(estimate, t_end, f"the run up to t = {t_end:g} s")
+        if problem:
+            raise RunTooLarge(problem)
 
 
 def _check_servos(scenario: Scenario, system: ForwardSystem, t0: float, p: np.ndarray,

@@ -19,11 +19,15 @@ from typing import Any
 import numpy as np
 
 from ..model import Scenario
+from ..options import check_size
 from .linear import LinearPlant
 from .linearization import forward_plant, forward_system, linearize, run_states
 from .operating_point import Configuration, held_scenario, parse_at
 
 POINTS = 41  # points per link of the mode shapes
+# Frozen-time points of one call: each is a linearisation and an eigen-decomposition, so more
+# points than a figure can show cost minutes for nothing.
+MAX_POINTS = 2000
 
 
 @dataclass(frozen=True)
@@ -79,6 +83,8 @@ def frozen_modes(scenario: Scenario, times: Sequence[float] | np.ndarray | None 
     lowest modes kept (default: as many as every point has)."""
     if times is not None and angles is not None:
         raise ValueError("give times or angles, not both")
+    if count is not None and count < 1:
+        raise ValueError(f"count: the number of modes kept must be >= 1, got {count}")
     plants: list[tuple[LinearPlant, Scenario]]
     if angles is not None:
         coordinate, values, plants = _over_angles(scenario, angles)
@@ -88,6 +94,7 @@ def frozen_modes(scenario: Scenario, times: Sequence[float] | np.ndarray | None 
         values = np.asarray(times, dtype=float)
         if values.ndim != 1 or values.size == 0:
             raise ValueError("times: give a non-empty list of times in s")
+        check_size("times", values.size, MAX_POINTS, "points (one linearisation each)")
         for t in values:
             parse_at(scenario, float(t))  # the range check, before any run
         coordinate, plants = "time", _over_times(scenario, values)
@@ -103,6 +110,7 @@ def _over_angles(scenario: Scenario, angles: Mapping[str, Sequence[float]]
     if len(sizes) != 1 or 0 in sizes:
         raise ValueError("angles: every joint's grid needs the same, non-zero length")
     n = sizes.pop()
+    check_size("angles", n, MAX_POINTS, "points (one linearisation each)")
     plants = []
     for i in range(n):
         point = parse_at(scenario, {k: float(g[i]) for k, g in grids.items()})
@@ -133,6 +141,9 @@ def _collect(scenario: Scenario, coordinate: str, values: np.ndarray,
     available = min(f[0].size for f in found)
     n = available if count is None else min(count, available)
     if n == 0:
+        if not any(link.modes for link in links):
+            raise ValueError("no elastic mode to report: every link is rigid (links[k].rigid "
+                             "= true)")
         raise ValueError("no oscillatory mode at some point (rigid links?)")
     freq = np.stack([f[0][:n] for f in found])
     zeta = np.stack([f[1][:n] for f in found])

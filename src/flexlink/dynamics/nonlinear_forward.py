@@ -167,8 +167,9 @@ class NonlinearForwardSystem:
         self.G = self.W.T @ (self.point_mass[:, None] * self.W)
         self.s = self.W.T @ self.point_mass
         self.m_tot = float(self.point_mass.sum())
-        self.rot_A = np.array(rot_A).reshape(-1, n)
-        self.rot_B = np.array(rot_B).reshape(-1, nr)
+        # explicit row counts: with every link rigid (n = 0) the -1 of reshape is undefined
+        self.rot_A = np.array(rot_A, dtype=float).reshape(len(rot_A), n)
+        self.rot_B = np.array(rot_B, dtype=float).reshape(len(rot_B), nr)
         self.rot_J = np.array(rot_J, dtype=float)
         self.rot_absolute = np.array(absolute, dtype=bool)
         self.K = np.zeros((n, n))

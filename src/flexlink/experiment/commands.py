@@ -5,11 +5,13 @@ input (scenario, measurement file, mapping, options, output folder)."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import warnings
 from pathlib import Path
 from typing import Any
 
+from ..options import check_unique, finite_float
 from .files import MeasurementError
 
 
@@ -26,9 +28,9 @@ def add_commands(commands: Any, output: argparse.ArgumentParser) -> None:
                            "beta1=joint1,unit=deg or pzt_v=pzt,lowpass_hz=100 (repeatable; "
                            "replaces the [measurement] columns)")
     data.add_argument("--time-column", metavar="NAME", help="time column (default t)")
-    data.add_argument("--time-offset", type=float, metavar="S",
+    data.add_argument("--time-offset", type=finite_float, metavar="S",
                       help="seconds added to the file's times (simulation starts at 0)")
-    data.add_argument("--free-from", type=float, metavar="S",
+    data.add_argument("--free-from", type=finite_float, metavar="S",
                       help="start of the free vibration (default: detected from the angles)")
     data.add_argument("--no-hold", action="store_true",
                       help="drive the joints with the measured angles also after the "
@@ -125,6 +127,7 @@ def run_fit(args: argparse.Namespace) -> int:
                 isinstance(c, str) for c in channel_list)):
             raise MeasurementError(f"[fit] channels: expected an array of channel names, got "
                                    f"{channel_list!r}")
+        check_unique("--channel" if args.channel else "[fit] channels", channel_list or [])
         channels = measurement.units
         if args.param:
             params = [parse_parameter_option(p, file, channels) for p in args.param]
@@ -134,13 +137,23 @@ def run_fit(args: argparse.Namespace) -> int:
                 raise MeasurementError("[fit] parameters: expected an array of tables")
             params = [parse_parameter_table(e, f"fit.parameters[{i}]", file, channels)
                       for i, e in enumerate(entries)]
+        check_unique("--param" if args.param else "[fit] parameters",
+                     [p.path for p in params])
         if not params:
             raise MeasurementError("no parameters to fit: give -p links[0].EI (repeatable) or "
                                    "[[fit.parameters]] path = \"links[0].EI\" in the scenario")
         window = _window(args.window, table.get("window"))
-        budget = args.max_simulations or table.get("max_simulations") or 60
+        span = measurement.time[0], measurement.time[-1]
+        if ((window[0] is not None and window[0] >= span[1])
+                or (window[1] is not None and window[1] <= span[0])):
+            raise MeasurementError(f"fit window {window[0]}:{window[1]} s lies outside the "
+                                   f"measured data, {span[0]:g} to {span[1]:g} s")
+        budget = (args.max_simulations if args.max_simulations is not None
+                  else table.get("max_simulations", 60))
         if isinstance(budget, bool) or not isinstance(budget, int) or budget < 3:
-            raise MeasurementError(f"max_simulations must be an integer >= 3, got {budget!r}")
+            field = ("--max-simulations" if args.max_simulations is not None
+                     else "[fit] max_simulations")
+            raise MeasurementError(f"{field} must be an integer >= 3, got {budget!r}")
         progress = None if args.quiet else (lambda m: print(m, file=sys.stderr))
         result = fit(file, measurement, params, channel_list, window,
                      max_simulations=budget, progress=progress, objective=objective)
@@ -162,6 +175,7 @@ def run_fit(args: argparse.Namespace) -> int:
 def _load(args: argparse.Namespace) -> Any:
     from .loading import load_experiment
 
+    check_unique("--map", [m.partition("=")[0].strip() for m in args.map])
     return load_experiment(args.scenario, args.measured, args.map,
                            time_column=args.time_column, time_offset=args.time_offset,
                            free_vibration_start=args.free_from,
@@ -172,14 +186,28 @@ def _window(option: str | None, table_value: Any) -> tuple[float | None, float |
     if option is not None:
         start, sep, end = option.partition(":")
         try:
-            return (float(start) if start.strip() else None,
-                    float(end) if sep and end.strip() else None)
+            window = (float(start) if start.strip() else None,
+                      float(end) if sep and end.strip() else None)
         except ValueError:
             raise MeasurementError(f"--window {option!r}: expected START:END in s") from None
+        return _checked_window(window, "--window")
     if table_value is None:
         return None, None
     if (not isinstance(table_value, list) or len(table_value) != 2
             or not all(isinstance(v, int | float) and not isinstance(v, bool)
                        for v in table_value)):
         raise MeasurementError(f"[fit] window: expected [START, END] in s, got {table_value!r}")
-    return float(table_value[0]), float(table_value[1])
+    return _checked_window((float(table_value[0]), float(table_value[1])), "[fit] window")
+
+
+def _checked_window(window: tuple[float | None, float | None], field: str
+                    ) -> tuple[float | None, float | None]:
+    """The window if its ends are finite and in order; MeasurementError naming ``field``."""
+    start, end = window
+    if any(v is not None and not math.isfinite(v) for v in window):
+        raise MeasurementError(f"{field}: the ends must be finite numbers (s), got "
+                               f"{start}:{end}")
+    if start is not None and end is not None and not start < end:
+        raise MeasurementError(f"{field}: the start must be before the end, got {start:g} to "
+                               f"{end:g} s")
+    return window

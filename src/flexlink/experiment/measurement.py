@@ -282,6 +282,11 @@ def condition(columns: Mapping[str, np.ndarray], spec: MeasurementSpec, scenario
             f"{source}: the data start at t = {t[0]:g} s on the simulation clock, but the "
             f"simulation starts at 0 s; set time_offset = {-t[0]:g} (s) in [measurement] or "
             "--time-offset to shift them")
+    free = spec.free_vibration_start
+    if free is not None and not t[0] <= free < t[-1]:
+        raise MeasurementError(
+            f"{source}: free_vibration_start (--free-from) = {free:g} s is outside the data, "
+            f"{t[0]:g} to {t[-1]:g} s on the simulation clock")
     angles: dict[int, np.ndarray] = {}
     signals: dict[str, np.ndarray] = {}
     units: dict[str, str] = {}

@@ -24,6 +24,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
 
 from ..channels import ChannelKind, ChannelTable
+from ..options import check_size
 from .arm_tracks import AnimationInputError, ArmTrack, check_channels, run_track, sweep_tracks
 from .atomic import atomic_file
 from .plotting import display_scale
@@ -37,6 +38,8 @@ WIDTH_PX = 640
 ARM_PX = 480  # height of the arm panel
 PANEL_PX = 110  # height of each channel panel
 MAX_PANELS = 4
+MAX_FRAMES = 10_000  # frames of one file: ~8 minutes at 20 fps
+PAGE_SECONDS = 30.0  # longest animation a run's page gets (longer runs play faster)
 _MARGIN = (60, 16, 34, 40)  # left, right, top, bottom of the arm panel (px)
 
 
@@ -83,6 +86,13 @@ def animate(results: ChannelTable, path: str | Path, *, channels: Sequence[str] 
                   fps, speed, trail, name, run=True)
 
 
+def page_speed(time: np.ndarray) -> float:
+    """The speed of the animation that ``flexlink run --animate`` and ``report --animate``
+    write: real time, or faster so that it lasts PAGE_SECONDS (stated on the frame)."""
+    span = float(time[-1] - time[0]) if len(time) else 0.0
+    return max(1.0, span / PAGE_SECONDS)
+
+
 def animate_sweep(sweep_file: str | Path, path: str | Path, *, fps: float = 20.0,
                   speed: float = 1.0, trail: float = 1.0,
                   max_cases: int = len(CASE_COLOURS)) -> AnimationInfo:
@@ -104,8 +114,8 @@ def _check_options(path: str | Path, magnification: float, fps: float, speed: fl
     for label, value in (("magnification", magnification), ("fps", fps), ("speed", speed)):
         if not (math.isfinite(value) and value > 0):
             problems.append(f"{label} must be a positive number, got {value!r}")
-    if not (trail >= 0):
-        problems.append(f"trail must be >= 0 s, got {trail!r}")
+    if not (math.isfinite(trail) and trail >= 0):
+        problems.append(f"trail must be a finite number >= 0 s, got {trail!r}")
     if panels > MAX_PANELS:
         problems.append(f"at most {MAX_PANELS} channels under the arm, got {panels}")
     if problems:
@@ -126,13 +136,23 @@ def _trace(results: ChannelTable, name: str) -> _Trace:
 
 
 def frame_indices(time: np.ndarray, fps: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
-    """Frame times (s, every speed/fps of simulated time) and the nearest output sample."""
+    """Frame times (s, every speed/fps of simulated time) and the nearest output sample;
+    OptionError beyond MAX_FRAMES."""
     step = speed / fps
-    count = math.floor((time[-1] - time[0]) / step + 1e-9) + 1
+    span = float(time[-1] - time[0])
+    check_size(f"fps = {fps:g} at speed = {speed:g}", span / step + 1, MAX_FRAMES,
+               f"frames for {span:g} s of run",
+               f"fps = {_fitting_fps(span, speed):.3g} or fewer fits (or a larger speed)")
+    count = math.floor(span / step + 1e-9) + 1
     times = time[0] + step * np.arange(count)
     indices = np.clip(np.searchsorted(time, times), 1, time.size - 1)
     nearer = np.abs(time[indices - 1] - times) <= np.abs(time[indices] - times)
     return times, np.where(nearer, indices - 1, indices)
+
+
+def _fitting_fps(span: float, speed: float) -> float:
+    """The largest frame rate that keeps a run of ``span`` s within MAX_FRAMES frames."""
+    return (MAX_FRAMES - 1) * speed / span if span > 0 else math.inf
 
 
 def _write(time: np.ndarray, tracks: list[ArmTrack], traces: list[_Trace], path: Path,

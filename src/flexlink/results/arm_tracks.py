@@ -68,20 +68,19 @@ def _base(results: ChannelTable) -> np.ndarray | None:
 
 def sweep_tracks(path: Path) -> tuple[np.ndarray, list[ArmTrack]]:
     """Time (s) and one track per finished case of a sweep file (netCDF)."""
-    from .netcdf import read_netcdf
+    from .file_checks import DamagedRunFileError, read_sweep_layout
 
-    try:
-        layout = read_netcdf(path)
-    except (OSError, ValueError, TypeError) as exc:
-        raise AnimationInputError(f"{path} is not a flexlink sweep file: {exc}") from None
-    if "case" not in layout.coords or "status" not in layout.data:
-        raise AnimationInputError(f"{path} is not a flexlink sweep file (no case coordinate)")
+    layout = read_sweep_layout(path)
     if "time" not in layout.coords:
         raise AnimationInputError(f"{path} keeps summary metrics only (a sweep run without "
                                   "histories): nothing to animate; sweep again with the "
                                   "histories of the links' tip channels")
-    base = tomllib.loads(str(layout.attrs.get("base_scenario", "")) or "")
-    names = [link["name"] for link in base.get("links", [])]
+    try:
+        base = tomllib.loads(str(layout.attrs.get("base_scenario", "")) or "")
+        names = [str(link["name"]) for link in base.get("links", [])]
+    except (ValueError, KeyError, TypeError) as exc:
+        raise DamagedRunFileError(f"{path}: its attribute base_scenario is damaged "
+                                  f"({type(exc).__name__}: {exc})") from None
     on_base = "base" in base
     tips = {}
     for name in names:

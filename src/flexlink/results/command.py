@@ -11,7 +11,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .folder import ANIMATION_GIF
+from ..options import check_output_file, check_unique, check_writable
+from .folder import ANIMATION_GIF, REPORT_NAME
 
 
 def add_commands(commands: Any) -> None:
@@ -65,19 +66,28 @@ def _input_errors() -> tuple[type[BaseException], ...]:
 
 def run_animate(args: argparse.Namespace) -> int:
     from .animation import animate, animate_sweep
+    from .arm_tracks import AnimationInputError
 
     source: Path = args.source
     try:
         if source.is_file():
             out = args.output or source.with_name(f"{source.stem}_animation.gif")
+            check_output_file(out)
             animate_sweep(source, out, fps=args.fps, speed=args.speed, trail=args.trail)
         else:
             from .reading import read_run
 
-            results = read_run(source)
             channels = None if args.channels is None else [
                 c.strip() for c in args.channels.split(",") if c.strip()]
+            check_unique("--channels", channels or [])
             out = args.output or source / ANIMATION_GIF
+            if source.is_dir():
+                check_output_file(out)
+            results = read_run(source)
+            if not results.shapes:
+                raise AnimationInputError(
+                    f"{source} holds no link shapes (the shape variables of results.nc, "
+                    "which flexlink run writes): run the scenario again to animate it")
             animate(results, out, channels=channels, magnification=args.magnify,
                     fps=args.fps, speed=args.speed, trail=args.trail)
     except _input_errors() as exc:
@@ -92,16 +102,20 @@ def run_report(args: argparse.Namespace) -> int:
         if source.is_file():
             from .report_html import write_sweep_report
 
+            check_writable(source.with_suffix(".html"))
             out = write_sweep_report(source, animation=args.animate)
         else:
             from .reading import read_run
             from .report_html import write_run_report
 
-            results = read_run(source)
-            if args.animate:
-                from .animation import animate
+            if source.is_dir():
+                check_writable(source / REPORT_NAME)
 
-                animate(results, source / ANIMATION_GIF)
+            results = read_run(source, shapes=args.animate)  # the page draws no shapes
+            if args.animate:
+                from .animation import animate, page_speed
+
+                animate(results, source / ANIMATION_GIF, speed=page_speed(results.time))
             out = write_run_report(source, results)
     except _input_errors() as exc:
         return _fail(f"error: {exc}")

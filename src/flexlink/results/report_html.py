@@ -350,17 +350,10 @@ def write_sweep_report(sweep_file: Path, animation: bool = False,
     the channels of up to `MAX_SWEEP_TRACES` finished cases overlaid (zoomable), the base
     scenario; with ``animation`` also ``<stem>_animation.gif`` (cases overlaid; netCDF only).
     ``layout``: the file's content if at hand (read from the netCDF file otherwise)."""
-    from .arm_tracks import AnimationInputError
-    from .netcdf import read_netcdf
+    from .file_checks import read_sweep_layout
 
     sweep_file = Path(sweep_file)
-    try:
-        layout = layout or read_netcdf(sweep_file)
-    except (OSError, ValueError, TypeError) as exc:
-        raise AnimationInputError(f"{sweep_file} is not a flexlink sweep file: {exc}") from None
-    if "case" not in layout.coords or "status" not in layout.data:
-        raise AnimationInputError(f"{sweep_file} is not a flexlink sweep file (no case "
-                                  "coordinate)")
+    layout = layout or read_sweep_layout(sweep_file)
     attrs = layout.attrs
     status = np.asarray(layout.data["status"].values).astype(str)
     params = [n for n, v in layout.coords.items() if v.dims == ("case",) and n != "case"]
@@ -373,10 +366,11 @@ def write_sweep_report(sweep_file: Path, animation: bool = False,
     if "time" in layout.coords:  # a sweep that kept histories
         _add_sweep_traces(page, layout, ok, params)
     if animation:
-        from .animation import animate_sweep
+        from .animation import animate_sweep, page_speed
 
         gif = sweep_file.with_name(f"{sweep_file.stem}_animation.gif")
-        animate_sweep(sweep_file, gif)
+        animate_sweep(sweep_file, gif,
+                      speed=page_speed(np.asarray(layout.coords["time"].values, float)))
         page.add_images("Animation", [gif])
     summaries = [(n, v) for n, v in layout.data.items() if "metric" in v.attrs]
     rows = []

@@ -52,6 +52,9 @@ def shape_variables(shapes: Sequence[LinkShape]) -> tuple[dict[str, Variable],
     return coords, data
 
 
+SHAPE_QUANTITIES = ("shape_X", "shape_Y", "frame_X", "frame_Y", "frame_angle")
+
+
 def shapes_of(layout: Layout) -> list[LinkShape]:
     """The shapes a layout holds (inverse of `shape_variables`), in the links' order."""
     if POINT not in layout.coords:
@@ -64,6 +67,10 @@ def shapes_of(layout: Layout) -> list[LinkShape]:
                 str(variable.attrs["quantity"])] = variable
     out = []
     for link, parts in by_link.items():
+        missing = [f"{link}_{q}" for q in SHAPE_QUANTITIES if q not in parts]
+        if missing:
+            raise ValueError(f"the shape variables of {link} are incomplete: no "
+                             f"{', '.join(missing)}")
         x = parts["shape_X"]
         out.append(LinkShape(
             link, float(x.attrs["link_length"]), fraction, np.asarray(x.values, dtype=float),

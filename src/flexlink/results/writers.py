@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..options import OptionError, check_writable
 from ..scenario.toml_writer import dump_toml
 from .figures import write_figures
 from .folder import (
@@ -51,9 +52,14 @@ class OutputFolderError(FileExistsError):
 
 
 def check_output_dir(out_dir: Path, overwrite: bool = False) -> None:
-    """Raise OutputFolderError unless ``out_dir`` is absent, empty, or (with ``overwrite``)
-    an earlier flexlink results folder. Call it before a long simulation to fail early."""
+    """Raise OutputFolderError unless ``out_dir`` can be created beside its siblings (its
+    parent a writable folder) and is absent, empty, or (with ``overwrite``) an earlier flexlink
+    results folder. Call it before a long simulation to fail early."""
     out_dir = Path(out_dir)
+    try:
+        check_writable(out_dir, "output folder")
+    except OptionError as exc:
+        raise OutputFolderError(str(exc)) from None
     if not out_dir.exists():
         return
     if not out_dir.is_dir():
@@ -104,9 +110,9 @@ def write_run(
                     shutil.rmtree(partial / "figures", ignore_errors=True)
                 write_figures(results, partial / "figures")
             if animation:
-                from .animation import animate
+                from .animation import animate, page_speed
 
-                animate(results, partial / ANIMATION_GIF)
+                animate(results, partial / ANIMATION_GIF, speed=page_speed(results.time))
             if page is not None:
                 page.write(partial / REPORT_NAME)
         finally:

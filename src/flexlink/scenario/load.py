@@ -24,7 +24,15 @@ from .actuators import build_actuator, read_actuators
 from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .errors import Problems, ScenarioError, describe
-from .schema import JOINTS, LINKS, MEASURED_ANGLES, SIMULATION, read_field, read_fields
+from .schema import (
+    JOINTS,
+    LINKS,
+    MAX_CONTROL_SAMPLES,
+    MEASURED_ANGLES,
+    SIMULATION,
+    read_field,
+    read_fields,
+)
 from .sensors import read_sensors
 
 SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_version",
@@ -112,6 +120,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         joints.append(joint)
         motions.append(motion)
     base = read_base(raw.get("base"), base_dir, p)
+    _check_massless_base(base, joints, simulation.get("model"), p)
     reserved = reserved_names([n for n in link_names if n], len(links))
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
     p.check_names([s.get("name") for s in sensors], "sensors")
@@ -126,6 +135,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                                    actuators, p)
     _check_controller_names(controllers, actuators, reserved | {s.get("name") for s in sensors},
                             p)
+    _check_controller_samples(controllers, simulation.get("t_end"), p)
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
@@ -454,6 +464,42 @@ def _with_chosen_bases(chain: Chain, base: Any, entries: list[dict[str, Any]]) -
             entry["mode_shapes"] = kind
     return Chain(tuple(replace(link, mode_shapes=kind) if link.mode_shapes == "auto" else link
                        for link, kind in zip(chain.links, kinds)), chain.joints)
+
+
+def _check_massless_base(base: dict[str, Any] | None, joints: list[dict[str, Any]],
+                         model: str | None, p: Problems) -> None:
+    """A free base of zero mass and inertia makes the first link the free body itself. A
+    driven joint on it has no inertia to turn against (the base's attitude and the joint's
+    angle turn the same bodies: a singular mass matrix), and the nonlinear model's step
+    control does not converge on loads applied to it: refused, naming the fields."""
+    if (base is None or base.get("type") != "free" or base.get("mass") != 0.0
+            or base.get("inertia") != 0.0):
+        return
+    what = "base.mass = 0 and base.inertia = 0"
+    for i, joint in enumerate(joints):
+        if (i == 0 or "base_point" in joint) and "drive" in joint:
+            p.add(f"{what} with joints[{i}] driven (drive = {joint['drive']!r}) on the base: "
+                  "the joint's torque has no base inertia to act against; give base.mass "
+                  f"and base.inertia > 0, or prescribe joints[{i}] (motion)")
+    if model == "nonlinear" and base.get("loads"):
+        p.add(f"{what} with base.loads: the nonlinear model does not converge on loads "
+              "applied to a base without mass; give base.mass and base.inertia > 0, or "
+              "model = \"first_order\"")
+
+
+def _check_controller_samples(controllers: list[dict[str, Any]], t_end: float | None,
+                              p: Problems) -> None:
+    """Each controller's samples over the run, t_end × sample_rate, at most
+    MAX_CONTROL_SAMPLES (checked before any array is made)."""
+    if t_end is None:
+        return
+    for i, c in enumerate(controllers):
+        rate = c.get("sample_rate")
+        if rate is not None and t_end * rate > MAX_CONTROL_SAMPLES:
+            p.add(f"controllers[{i}].sample_rate = {rate:g} Hz: {t_end * rate:.3g} samples "
+                  f"over simulation.t_end = {t_end:g} s, more than the "
+                  f"{MAX_CONTROL_SAMPLES:.0e} allowed; sample_rate = "
+                  f"{MAX_CONTROL_SAMPLES / t_end:.3g} Hz or lower fits (or a shorter t_end)")
 
 
 def _check_controller_names(controllers: list[dict[str, Any]], actuators: list[dict[str, Any]],

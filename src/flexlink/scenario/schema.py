@@ -349,7 +349,8 @@ BASE = Section("base", [
     # 0 is allowed: the first link is then the free body itself (a flexible beam in flight)
     Field("mass", unit="kg", ge=0, default=None, default_doc="required for free",
           doc="mass of the rigid base; 0 (with `inertia = 0`) makes the first link itself "
-              "the free body, its root the reference point"),
+              "the free body, its root the reference point (then no driven joint on the "
+              "base, and no `loads` with the nonlinear model)"),
     Field("inertia", unit="kg·m² (about the reference point)", ge=0, default=None,
           default_doc="required for free/pinned",
           doc="the centre of mass of a free base is its reference point"),
@@ -497,6 +498,9 @@ ACTUATORS = Section("actuators", [
 
 # --- [[controllers]] ------------------------------------------------------------------------
 
+# Samples of one controller over a run: the closed loop steps at each (the held voltage
+# changes there) and keeps its states per sample, about a kilobyte each.
+MAX_CONTROL_SAMPLES = 1e6
 CONTROLLERS = Section("controllers", [
     Field("name", "string", rule=NAME_RULE,
           doc="names the controller (channels `<name>_command`, `<name>_state<i>`)"),
@@ -505,7 +509,8 @@ CONTROLLERS = Section("controllers", [
         "srf": "strain-rate feedback: V = −gain · dv/dt (backward difference of samples)",
         "lti": "any discrete x⁺ = A x + B y, V = C x + D y at the samples"},
         doc="joint PID loops are servo drives of [[joints]], not controllers"),
-    Field("sample_rate", unit="Hz", gt=0, doc="samples per second; output held in between"),
+    Field("sample_rate", unit="Hz", gt=0, doc="samples per second; output held in between "
+          f"(at most {MAX_CONTROL_SAMPLES:.0e} samples over `t_end`)"),
     Field("noise_std", "vector", default=None, default_doc="none",
           rule="≥ 0, one per input", doc="Gaussian sensor noise (input units)"),
     Field("quantization", "vector", default=None, default_doc="none",

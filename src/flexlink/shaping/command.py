@@ -18,6 +18,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..options import (
+    check_size,
+    nonnegative_finite_float,
+    nonnegative_int,
+    positive_float,
+    positive_int,
+)
+
 ERRORS_PCT = tuple(2.5 * i for i in range(-8, 9))  # %, the robustness curve's plants
 
 
@@ -35,22 +43,24 @@ def add_commands(commands: Any) -> None:
     p.add_argument("--paper", action="store_true", help="optimise the built-in paper scenario")
     p.add_argument("-o", "--output", type=Path, metavar="DIR", required=True,
                    help="folder to create (must not exist or be empty)")
-    p.add_argument("--duration", type=float, metavar="S",
+    p.add_argument("--duration", type=positive_float, metavar="S",
                    help="duration of every move, s (default: each move's own)")
     p.add_argument("--rate-limit", metavar="DEG_S[,…]",
                    help="joint rate limit, deg/s: one value, or one per joint")
     p.add_argument("--acceleration-limit", metavar="DEG_S2[,…]",
                    help="joint acceleration limit, deg/s²")
     p.add_argument("--torque-limit", metavar="NM[,…]", help="joint torque limit, N·m")
-    p.add_argument("--harmonics", type=int, default=4,
+    p.add_argument("--harmonics", type=positive_int, default=4,
                    help="cosine and sine terms per joint (default 4)")
-    p.add_argument("--robust", type=float, default=0.0, metavar="PCT",
+    p.add_argument("--robust", type=nonnegative_finite_float, default=0.0, metavar="PCT",
                    help="also cancel the vibration of plants with every frequency ±PCT %% off")
     p.add_argument("--stiffening", choices=("both", "scenario"), default="both",
                    help="plants with and without geometric stiffening (default), or only the "
                         "scenario's setting")
-    p.add_argument("--seed", type=int, default=0, help="seed of the starting point (0)")
-    p.add_argument("--workers", type=int, help="processes for the gradient (all cores)")
+    p.add_argument("--seed", type=nonnegative_int, default=0,
+                   help="seed of the starting point (0)")
+    p.add_argument("--workers", type=positive_int,
+                   help="processes for the gradient (all cores)")
     p.add_argument("--shaper", choices=("zv", "zvd", "ei"), default="zvd",
                    help="the input shaper of the comparison (default zvd, lowest 2 modes)")
     p.add_argument("--model", choices=("first_order", "nonlinear"), action="append",
@@ -84,9 +94,10 @@ def run_optimize(args: argparse.Namespace) -> int:
         return 2
     source = paper_experiment_path() if args.paper else args.scenario
     try:
+        check_output_dir(args.output)
         resolved = resolve_scenario_dict(source)
         scenario = scenario_from_dict(resolved, source=str(source))
-        check_output_dir(args.output)
+        check_run_length(scenario, args.duration)
         limits = Limits(_limits(args.rate_limit, "rate-limit"),
                         _limits(args.acceleration_limit, "acceleration-limit"),
                         _limits(args.torque_limit, "torque-limit"))
@@ -100,15 +111,41 @@ def run_optimize(args: argparse.Namespace) -> int:
         print(f"flexlink optimize: {exc}", file=sys.stderr)
         return 2
     from ..errors import SimulationError
+    from ..results.writers import atomic_folder
 
     try:
-        summary = write_outputs(result, resolved, Path(args.output), limits, args.shaper,
-                                args.model or ["first_order"], not args.no_figures)
+        with atomic_folder(args.output) as partial:  # nothing left behind by a failure
+            summary = write_outputs(result, resolved, partial, limits, args.shaper,
+                                    args.model or ["first_order"], not args.no_figures)
     except SimulationError as exc:
         print(f"flexlink optimize: a simulation failed: {exc}", file=sys.stderr)
         return 1
+    except (ValueError, OSError) as exc:
+        print(f"flexlink optimize: could not write {args.output}: {exc}", file=sys.stderr)
+        return 1
     print(summary_text(summary, Path(args.output)))
     return 0
+
+
+# Output samples of one trial run (the moves' end over simulation.dt_out): the optimiser runs
+# each trial hundreds of times, so a longer move is refused before it starts.
+MAX_TRIAL_SAMPLES = 100_000
+
+
+def check_run_length(scenario: Any, duration: float | None) -> None:
+    """OptionError, before any run, when the moves (of ``duration`` s, or their own) end
+    too late for the trial runs the optimiser makes."""
+    from .optimize import joint_moves
+
+    if scenario.is_forward:
+        return  # refused by optimize_move, which says why
+    dt_out = scenario.settings.dt_out
+    end = max((m.start + m.duration for m in joint_moves(scenario, duration)), default=0.0)
+    check_size("--duration" if duration is not None else "the moves' duration",
+               end / dt_out, MAX_TRIAL_SAMPLES,
+               f"output samples per trial run (moves ending at {end:g} s, "
+               f"simulation.dt_out = {dt_out:g} s)",
+               f"moves ending by {MAX_TRIAL_SAMPLES * dt_out:g} s fit at this dt_out")
 
 
 def optimized_scenario_dict(result: Any, resolved: dict[str, Any]) -> dict[str, Any]:

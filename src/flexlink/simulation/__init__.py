@@ -34,7 +34,7 @@ from .common import (
     output_times,
     timed,
 )
-from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
+from .rigid import quasi_rigid_links, rigid_metadata, stiff_forward_links, with_rigid_links
 
 # (scenario, output times, progress callback, with shapes) → the path's run
 PathFunction = Callable[[Scenario, np.ndarray, Progress, bool], PathRun]
@@ -67,13 +67,15 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) ->
     or (moving base, driven joints) the equations of motion. ``progress``: a progress bar on
     runs longer than a second; ``shapes``: every link's deformed shape on a grid of points
     (what animations draw; sweeps leave it out)."""
-    path = path_function(model_path(scenario))
     check_run_memory(scenario)
+    warning = stiff_forward_links(scenario)  # may refuse: before anything runs
+    path = path_function(model_path(scenario))
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
     # Small matrices and batched products over time: BLAS threads only add overhead.
     with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
-        run, wall_time = timed(lambda: _run_path(path, scenario, t, bar.update, shapes))
+        run, wall_time = timed(lambda: _run_path(path, scenario, t, bar.update, shapes,
+                                                 warning))
         if scenario.controllers:
             run = _with_loop_warnings(scenario, t, run)
     return assemble_results(scenario, run, wall_time)
@@ -90,8 +92,12 @@ def _with_loop_warnings(scenario: Scenario, t: np.ndarray, run: PathRun) -> Path
 
 
 def _run_path(path: PathFunction, scenario: Scenario, t: np.ndarray,
-              on_progress: Progress, shapes: bool) -> PathRun:
-    """Run ``path``, with the links too stiff to matter made rigid (simulation/rigid.py)."""
+              on_progress: Progress, shapes: bool, warning: dict[str, str]) -> PathRun:
+    """Run ``path``, with the links too stiff to matter made rigid (simulation/rigid.py); a
+    forward run's stiff links named in its ``warning`` metadata (`stiff_forward_links`)."""
+    if warning:
+        run = path(scenario, t, on_progress, shapes)
+        return replace(run, metadata={**run.metadata, **warning})
     stiff = quasi_rigid_links(scenario, t)
     if not stiff:
         return path(scenario, t, on_progress, shapes)

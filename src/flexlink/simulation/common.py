@@ -136,6 +136,19 @@ class PathRun:
     shapes: Sequence[LinkShape] = ()
 
 
+def _check_finite(name: str, values: np.ndarray, t: np.ndarray) -> None:
+    """NonFiniteResult naming the channel and the first time it is NaN or infinite: no run
+    writes such values."""
+    bad = ~np.isfinite(values)
+    if bad.any():
+        from ..options import NonFiniteResult
+
+        first = int(np.argmax(bad.reshape(bad.shape[0], -1).any(axis=1))) if bad.ndim else 0
+        when = f" from t = {t[first]:.6g} s" if bad.ndim and first < t.size else ""
+        raise NonFiniteResult(f"channel {name} is not finite (NaN or infinity){when}: the "
+                              "model diverged there; nothing was written")
+
+
 def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Results:
     """`Results` with the catalogue's channels in its order and the common metadata."""
     solution = run.solution
@@ -151,7 +164,9 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
     })
     values = dict(run.values)
     for channel in catalogue(scenario):
-        results.add(channel, values.pop(channel.name))
+        value = values.pop(channel.name)
+        _check_finite(channel.name, value, solution.t)
+        results.add(channel, value)
     if values:  # a path computed a channel the catalogue does not list
         raise AssertionError(f"channels outside the catalogue: {', '.join(values)}")
     # LazyShapes stay lazy: most callers of simulate() never read them

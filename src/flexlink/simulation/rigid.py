@@ -5,8 +5,11 @@ a link a million times stiffer than the rest costs a million times more steps â€
 far above anything the output grid shows and a deflection far below the run's tolerance. Such
 a link is run rigid (no modes, its mass, tip mass and inertia kept), which changes the results
 by less than ``rtol`` of its length; the run's ``rigid_links`` attribute names it. Forward
-runs are left alone: their joint accelerations, which set the deflection, are not known
-before the run.
+runs are not changed: their joint accelerations, which set the deflection, are not known
+before the run. There a link whose first mode is above the output grid's Nyquist frequency,
+or whose highest mode alone sets the step, is named in a warning with the fix, and the
+nonlinear model, whose step control does not converge on a link UNRESOLVED_FACTOR times
+beyond the Nyquist frequency, refuses it (`stiff_forward_links`).
 """
 
 from __future__ import annotations
@@ -65,6 +68,47 @@ def quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
         if deflection <= settings.rtol * scenario.chain.links[k].length:
             out.append(k)
     return out
+
+
+# A link whose highest mode is this many times every other link's sets a forward run's step
+# alone: with it rigid the run takes about that many times fewer steps.
+STEP_SETTING_FACTOR = 10.0
+
+
+def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
+    """A forward run's flexible links that cost it most for what the output can show: a
+    first frequency above the output grid's Nyquist frequency, or a highest mode
+    STEP_SETTING_FACTOR times every other link's (it alone sets the step). Returns
+    ``stiff_links_warning`` naming them with the frequency that sets the step and the fix
+    (none: {}). ValueError, before the run, for the nonlinear model when a first frequency is
+    UNRESOLVED_FACTOR times the Nyquist frequency."""
+    if not scenario.is_forward:
+        return {}
+    nyquist = 0.5 / scenario.settings.dt_out  # Hz
+    nonlinear = scenario.settings.model == "nonlinear"
+    frequencies = {k: modal_data(link).natural_frequencies_hz
+                   for k, link in enumerate(scenario.chain.links) if link.modes}
+    found = []
+    for k, f in frequencies.items():
+        name = scenario.chain.links[k].name
+        others = [g[-1] for j, g in frequencies.items() if j != k]
+        ratio = f[-1] / max(others) if others else 1.0
+        if f[0] <= nyquist and ratio < STEP_SETTING_FACTOR:
+            continue
+        text = (f"links[{k}] ({name}): its highest mode, {f[-1]:.3g} Hz, sets the integration "
+                "step" + (f" ({ratio:.0f}Ã— the other links' highest)" if ratio > 1 else ""))
+        if f[0] > nyquist:
+            text += (f", yet its first mode, {f[0]:.3g} Hz, is above the output grid's Nyquist "
+                     f"frequency ({nyquist:.3g} Hz), so its vibration cannot show in the output")
+        if nonlinear and f[0] > UNRESOLVED_FACTOR * nyquist:
+            raise ValueError(f"{text}; the nonlinear model's step control does not converge "
+                             f"on it: set rigid = true on links[{k}] (a link this stiff does "
+                             "not bend visibly), or give it a lower EI or fewer modes")
+        found.append(text)
+    if not found:
+        return {}
+    return {"stiff_links_warning": "; ".join(found) + ": set rigid = true on a link that need "
+            "not bend (it then costs no more than a rigid one)"}
 
 
 def with_rigid_links(scenario: Scenario, indices: list[int]) -> Scenario:

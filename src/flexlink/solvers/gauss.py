@@ -109,8 +109,14 @@ class _Newton:
     """Simplified Newton for the stage accelerations. The iteration matrix (finite differences
     of the stage residuals) is kept across steps and rebuilt only when convergence slows."""
 
-    def __init__(self, system: NonlinearSystem, h: float, tol: float = NEWTON_TOL) -> None:
+    def __init__(self, system: NonlinearSystem, h: float, tol: float = NEWTON_TOL,
+                 running_peak: bool = False) -> None:
+        """``running_peak``: the test is relative to the largest stage acceleration of the
+        run so far, not only of this step (forward runs: a rigid arm's accelerations vanish
+        while it coasts, `_gauss_forward_numba.gauss_forward_loop`)."""
         self.system, self.h, self.tol = system, h, tol
+        self.running_peak = running_peak
+        self.peak = 0.0
         self.inverse: np.ndarray | None = None
         self.rebuilds = 0
         self.iterations = 0
@@ -138,7 +144,10 @@ class _Newton:
             theta = size / previous
             # (first iteration: no rate yet, the increment itself must be small)
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-            if remaining <= self.tol * max(float(np.abs(X).max()), 1e-300):
+            largest = float(np.abs(X).max())
+            if remaining <= self.tol * max(largest, self.peak, 1e-300):
+                if self.running_peak:
+                    self.peak = max(self.peak, largest)
                 return X
             if size > 0.1 * previous and not fresh:
                 self.inverse = None  # slow convergence: rebuild the matrix at the next iterate

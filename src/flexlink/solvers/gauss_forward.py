@@ -80,7 +80,8 @@ def integrate_gauss_forward(
     if compiled:
         _compiled_loop(system, y, v, X, h, inp, on_progress, t_ends, newton_tol)
     else:
-        newton = _Newton(_StageResidual(system), h, newton_tol)  # type: ignore[arg-type]
+        newton = _Newton(_StageResidual(system), h, newton_tol,  # type: ignore[arg-type]
+                         running_peak=True)
         rows = _Rows(t_stage, inp)
         with single_threaded():
             for i in range(steps):
@@ -104,13 +105,14 @@ def _compiled_loop(system: NonlinearForwardSystem, y: np.ndarray, v: np.ndarray,
 
     data, loads = system.packed()
     steps = y.shape[0] - 1
+    peak = np.zeros(1)  # the run's largest stage acceleration, across chunks
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
         stage = slice(2 * start, 2 * end)
         failed, _, _ = gauss_forward_loop(
             y[start:end + 1], v[start:end + 1], X, h,
             *(np.ascontiguousarray(a[stage], dtype=float) for a in inp), data, loads,
-            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0)
+            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0, peak)
         if failed >= 0:
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
@@ -167,6 +169,7 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     inverse = np.zeros((2, 2 * n_y, 2 * n_y))
     have = np.zeros(2, dtype=np.int64)
     counts = np.zeros(2, dtype=np.int64)
+    peak_a = np.zeros(1)  # the run's largest stage acceleration (solve_stages)
 
     def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,
                 X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
@@ -181,7 +184,7 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
         status, k = gauss_forward_doubling(
             y, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in inp), data,
             loads, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL_FORWARD, NEWTON_MAX,
-            group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts)
+            group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts, peak_a)
         return Batch(int(status), y[:k + 1], v[:k + 1], errors, counts)
 
     y0, v0 = system.initial_state()
