@@ -205,13 +205,33 @@ def test_infeasible_kinematics_name_the_binding_limit() -> None:
     """30° in 0.33 s: rate ≥ 90.9°/s for any profile, so 95°/s passes the bang-bang bound,
     but the cycloid-plus-harmonics profiles need more: the rate limit is named, with the
     shortest duration it allows; the acceleration limit alone (2000°/s²) would allow it."""
-    with pytest.raises(InfeasibleMove, match=r"joint 1: 30° in 0.33 s .* need a peak rate of "
-                                             r"at least .*°/s > rate limit 95°/s: the rate "
-                                             r"limit binds; the shortest such move within it "
-                                             r"takes 0\.3\d+ s"):
+    with pytest.raises(InfeasibleMove, match=r"joint 1: 30° in 0.33 s needs, with the "
+                                             r"optimiser's profiles \(cycloid plus 4 "
+                                             r"harmonics\), a peak rate of at least 109.1°/s > "
+                                             r"rate limit 95°/s: the rate limit binds; the "
+                                             r"shortest such move within it takes 0.3793 s"):
         optimize_move(_arm(), duration=0.33, limits=Limits(rate_deg_s=[95.0, 10.0],
                                                            acceleration_deg_s2=2000.0),
                       workers=1)
+
+
+def test_rate_and_acceleration_binding_together_are_named() -> None:
+    """30° in 0.5 s: rate ≤ 80°/s alone and acceleration ≤ 600°/s² alone each allow the
+    move, together they do not; the message says so with the shortest duration, which is
+    feasible (and 1 % shorter is not)."""
+    limits = Limits(rate_deg_s=[80.0, 10.0], acceleration_deg_s2=600.0)
+    for alone in (Limits(rate_deg_s=[80.0, 10.0]), Limits(acceleration_deg_s2=600.0)):
+        optimize_move(_arm(), duration=0.5, limits=alone, workers=1, max_iterations=1,
+                      robust=0.0, stiffening="scenario")
+    with pytest.raises(InfeasibleMove, match="the rate and acceleration limits bind together; "
+                                             "the shortest move within both takes 0.5508 s"
+                       ) as info:
+        optimize_move(_arm(), duration=0.5, limits=limits, workers=1)
+    shortest = float(str(info.value).split("takes ")[1].split(" s")[0])
+    optimize_move(_arm(), duration=shortest * 1.0001, limits=limits, workers=1,
+                  max_iterations=1, robust=0.0, stiffening="scenario")
+    with pytest.raises(InfeasibleMove, match="bind together"):
+        optimize_move(_arm(), duration=shortest * 0.99, limits=limits, workers=1)
 
 
 SOFT_TOML = """

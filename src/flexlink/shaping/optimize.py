@@ -609,8 +609,8 @@ def _check_kinematics(m: Move, blocks: list[tuple[np.ndarray, np.ndarray, float]
     if not blocks or _jointly_feasible(blocks, [1.0] * len(blocks)):
         return
     delta, d = abs(m.to_deg - m.from_deg), m.duration
-    what = (f"joint {m.joint + 1}: {delta:g}° in {d:g} s with the optimiser's profiles "
-            f"(cycloid plus {n - 1} harmonics)")
+    what = (f"joint {m.joint + 1}: {delta:g}° in {d:g} s needs, with the optimiser's "
+            f"profiles (cycloid plus {n} harmonics),")
     kinds = [("rate", rate, "°/s", 1), ("acceleration", acc, "°/s²", 2)]
     kinds = [k for k in kinds if k[1] is not None]
     shortest = []
@@ -620,7 +620,7 @@ def _check_kinematics(m: Move, blocks: list[tuple[np.ndarray, np.ndarray, float]
         shortest.append(need)
         if peak > lim:
             raise InfeasibleMove(
-                f"{what} need a peak {name} of at least {peak:.4g}{unit} > {name} limit "
+                f"{what} a peak {name} of at least {peak:.4g}{unit} > {name} limit "
                 f"{limit[m.joint]:g}{unit}: the {name} limit binds; the shortest such move "
                 f"within it takes {need:.4g} s (--duration), or raise the limit")
     lo, hi = max(shortest), max(shortest)
@@ -635,9 +635,9 @@ def _check_kinematics(m: Move, blocks: list[tuple[np.ndarray, np.ndarray, float]
     limits = " and ".join(f"{name} ≤ {limit[m.joint]:g}{unit}"
                           for name, limit, unit, _ in kinds)
     raise InfeasibleMove(
-        f"{what}: the rate and acceleration limits bind together ({limits}; each alone "
-        f"allows the move): the shortest move within both takes {hi:.4g} s (--duration), or "
-        "raise a limit")
+        f"{what} more than {limits} allow together (each alone would allow it): the rate "
+        f"and acceleration limits bind together; the shortest move within both takes "
+        f"{hi:.4g} s (--duration), or raise a limit")
 
 
 def _feasible_start(x0: np.ndarray, kinematic: tuple[np.ndarray, np.ndarray] | None
