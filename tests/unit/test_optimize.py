@@ -391,3 +391,17 @@ def test_paper_requests_end_with_an_answer_or_a_message(
     table = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
     for k in range(2):
         assert np.abs(table[f"joint{k + 1}_rate_deg_s"]).max() <= limits[min(k, len(limits) - 1)]
+
+
+def test_an_output_path_under_a_file_is_a_message(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    from flexlink.cli import main
+
+    path = tmp_path / "arm.toml"
+    path.write_text(ARM_TOML)
+    (tmp_path / "file").write_text("")
+    status = main(["optimize", str(path), "-o", str(tmp_path / "file" / "opt"), "--workers",
+                   "1", "--harmonics", "1", "--max-iterations", "1", "--no-figures"])
+    captured = capsys.readouterr()
+    assert status == 2 and "Traceback" not in captured.out + captured.err
+    assert "flexlink optimize:" in captured.err and "file" in captured.err

@@ -132,6 +132,10 @@ def run_optimize(args: argparse.Namespace) -> int:
     except SimulationError as exc:
         print(f"flexlink optimize: a simulation failed: {exc}", file=sys.stderr)
         return 1
+    except OSError as exc:
+        print(f"flexlink optimize: cannot write the output folder {args.output}: {exc}",
+              file=sys.stderr)
+        return 2
     print(summary_text(summary, Path(args.output)))
     return 0
 
@@ -317,18 +321,18 @@ def summary_text(summary: dict[str, Any], out_dir: Path) -> str:
             lines.append(f"  {label:<16} {1e3 * value:.4g} mm{ratio}")
     for model, band in summary["robustness_band"].items():
         errors = band["errors_pct"]
-        opt_mm = [1e3 * v for v in band["optimised_m"]]
+        opt_mm = [1e3 * v for v in band["optimised_m"] if v == v]
         head = (f"robustness ({_model_text(model, summary['geometric_stiffening'])}), every "
-                f"frequency "
-                f"{errors[0]:+g} … {errors[-1]:+g} %: optimised ")
-        if band["worst_ratio"] is None:
-            lines.append(head + "diverges or leaves no residual to compare")
+                f"frequency {errors[0]:+g} … {errors[-1]:+g} %: ")
+        if band["worst_ratio"] is None or not opt_mm:
+            lines.append(head + "no residual to compare (the runs diverge)")
             continue
-        lines.append(head + f"{min(opt_mm):.3g} … {max(opt_mm):.3g} mm, at least "
-                     f"{band['worst_ratio']:.3g}× smaller than the cycloid (least at "
+        lines.append(head + f"optimised {min(opt_mm):.3g} … {max(opt_mm):.3g} mm; cycloid ÷ "
+                     f"optimised ≥ {band['worst_ratio']:.3g}× (least at "
                      f"{band['worst_at_pct']:+g} %)")
-        lines.append("  " + ", ".join(f"{e:+g} %: {r:.3g}×" for e, r in
-                                      zip(errors, band["ratio"], strict=True)))
+        lines.append("  " + ", ".join(
+            f"{e:+g} %: " + ("diverges" if r != r else f"{r:.3g}×")
+            for e, r in zip(errors, band["ratio"], strict=True)))
     lines.append(f"files in {out_dir}: optimized.toml, trajectory.csv, summary.json"
                  + (", residual.png, robustness.png" if "robustness" in summary else ""))
     return "\n".join(lines)
