@@ -1,6 +1,6 @@
 """Trajectory optimisation of the paper arm's 90° / 80° manoeuvre in 1.2 s (issues 18, 27).
 
-    python benchmarks/optimize.py [--robust PCT[,PCT…]] [--workers N]
+    python benchmarks/optimize.py [--robust PCT[,PCT…]] [--workers N] [--fe]
 
 For each design (default: the nominal one, --robust 0, and the default, --robust 10) runs
 `flexlink.shaping.optimize_move` with the fixed seed and limits of `flexlink.shaping.paper`
@@ -9,7 +9,10 @@ iterations and runs, how it stopped, the continuous-time peaks, and the residual
 deflection (peak over 2 s after the move) of the cycloidal, ZVD-shaped (same total duration)
 and optimised moves with every frequency off by −10 … +10 % (EI scaled by (1 + error)²) in the
 first-order model without stiffening (the paper's), with stiffening, and the nonlinear model,
-with the machine.
+with the machine. ``--fe`` adds the same residuals in an independent geometrically exact
+finite-element model (Exudyn, 8 beam elements per link, undamped:
+tests/validation/exudyn_reference.py; `pip install 'flexlink[reference]'`) with every EI
+scaled by 0.81, 0.9, 1, 1.1 and 1.21.
 """
 
 from __future__ import annotations
@@ -22,7 +25,8 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
 
 import flexlink
 from flexlink.scenario import load_scenario, paper_experiment_path
@@ -31,12 +35,38 @@ from flexlink.shaping.compare import cycloidal_version, residuals, shaped_versio
 from flexlink.shaping.paper import DURATION_S, LIMITS, SEED
 
 ERRORS = (-0.10, -0.05, 0.0, 0.05, 0.10)
+FE_EI_SCALES = (0.81, 0.9, 1.0, 1.1, 1.21)
+
+
+def fe_residuals(versions: dict, move_end: float) -> None:
+    """Peak |link-2 tip deflection| over 2 s after the move in the Exudyn reference."""
+    import numpy as np
+
+    sys.path.insert(0, str(ROOT))
+    from tests.validation.exudyn_reference import simulate_chain_exudyn
+
+    print("finite elements (Exudyn, 8 elements per link, undamped), EI scaled by:")
+    base = {}
+    for label, scenario in versions.items():
+        values = []
+        for scale in FE_EI_SCALES:
+            links = [dataclasses.replace(link, EI=link.EI * scale)
+                     for link in scenario.chain.links]
+            run = simulate_chain_exudyn(links, list(scenario.chain.joints), move_end + 2.0,
+                                        0.002, 8)
+            after = run["t"] >= move_end - 1e-9
+            values.append(float(np.abs(run["tip_deflection"][-1][after]).max()))
+        base.setdefault("cycloidal", values)
+        print(f"  {label:<13} " + ", ".join(
+            f"×{s:g}: {1e3 * v:.3g} mm ({b / v:.3g}×)"
+            for s, v, b in zip(FE_EI_SCALES, values, base["cycloidal"], strict=True)))
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robust", default="0,10", metavar="PCT[,PCT…]")
     parser.add_argument("--workers", type=int)
+    parser.add_argument("--fe", action="store_true", help="also the Exudyn reference")
     args = parser.parse_args()
     scenario = load_scenario(paper_experiment_path())
     flexlink.simulate(scenario, shapes=False)  # load the compiled loop
@@ -67,6 +97,8 @@ def main() -> None:
                 print(f"  {k:<13} " + ", ".join(
                     f"{100 * e:+.0f} %: {1e3 * v:.3g} mm ({b / v:.3g}×)"
                     for e, v, b in zip(ERRORS, values, base, strict=True)))
+        if args.fe:
+            fe_residuals({k: versions[k] for k in ("cycloidal", "optimised")}, result.move_end)
 
 
 if __name__ == "__main__":

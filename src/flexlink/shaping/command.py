@@ -301,8 +301,8 @@ def _design_text(summary: dict[str, Any]) -> str:
 def summary_text(summary: dict[str, Any], out_dir: Path) -> str:
     opt = summary["optimiser"]
     lines = [(f"flexlink optimize: {summary['scenario']}, {opt['iterations']} iterations, "
-              f"{opt['evaluations']} runs on {opt['workers']} processes, "
-              f"{opt['wall_time_s']:.1f} s"),
+              f"{opt['evaluations']} evaluations of {len(summary['plants'])} plants on "
+              f"{opt['workers']} processes, {opt['wall_time_s']:.1f} s"),
              f"designed for {_design_text(summary)}"]
     if opt.get("stopped_at_iteration_limit"):
         lines.append(f"warning: the optimiser {opt['message']}; more iterations "
