@@ -30,8 +30,9 @@ Solver. The weighted energy residual vector r(x) (|r|² = J) is nearly linear in
 Gauss–Newton step on a trust region converges in a few iterations: each solves the quadratic
 model min |r + J_r d|² + μ s under the linear rate and acceleration constraints, the
 linearised torque constraints relaxed by s ≥ 0 (the largest relative torque excess, weighted
-by μ = 1000 per plant), and |d|∞ ≤ Δ; a trial whose merit J + μ·excess does not fall, or
-whose run fails (the model diverges), is a rejected step and shrinks Δ.
+by μ = 1000 per plant), and |d|∞ ≤ Δ — exactly: s from a linear programme, then d by least
+squares with inequality constraints (`_lsi`); a trial whose merit J + μ·excess does not fall,
+or whose run fails (the model diverges), is a rejected step and shrinks Δ.
 
 Gradient. Forward differences of r and the torques, one run per coordinate (step
 ``fd_step``, runs at rtol 1e-7 so that the integrator's error is far below the step's
@@ -482,8 +483,9 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
                          {"seed": seed, "harmonics": harmonics, "robust": robust,
                           "fd_step": fd_step, "stiffening": stiffening,
                           "max_iterations": max_iterations, "objective": float(result["fun"]),
-                          "method": "Gauss-Newton trust region (quadratic subproblems by "
-                                    "SLSQP)",
+                          "method": "Gauss-Newton trust region (subproblems: a linear "
+                                    "programme, then least squares with inequality "
+                                    "constraints by NNLS)",
                           "grid_points": grid_size(harmonics),
                           "grid_margin": grid_margin(harmonics)})
 
@@ -643,19 +645,19 @@ def _check_kinematics(m: Move, blocks: list[tuple[np.ndarray, np.ndarray, float]
 def _feasible_start(x0: np.ndarray, kinematic: tuple[np.ndarray, np.ndarray] | None
                     ) -> np.ndarray:
     """The point nearest x0 within the rate and acceleration constraints and the bounds."""
+    x0 = np.clip(x0, -COEFFICIENT_BOUND, COEFFICIENT_BOUND)
     if kinematic is None:
-        return np.clip(x0, -COEFFICIENT_BOUND, COEFFICIENT_BOUND)
-    from scipy.optimize import minimize
-
-    G, h = kinematic
-    if np.all(G @ x0 <= h) and np.all(np.abs(x0) <= COEFFICIENT_BOUND):
         return x0
-    res = minimize(lambda y: float((y - x0) @ (y - x0)), x0, jac=lambda y: 2.0 * (y - x0),
-                   method="SLSQP", bounds=[(-COEFFICIENT_BOUND, COEFFICIENT_BOUND)] * x0.size,
-                   constraints=[{"type": "ineq", "fun": lambda y: h - G @ y,
-                                 "jac": lambda y: -G}],
-                   options={"maxiter": 200, "ftol": 1e-14})
-    return np.asarray(res.x, float)
+    G, h = kinematic
+    if np.all(G @ x0 <= h - 1e-6):
+        return x0
+    size = x0.size
+    rows = np.vstack([-G, np.eye(size), -np.eye(size)])
+    bounds = np.concatenate([-(h - 1e-6), -np.full(2 * size, COEFFICIENT_BOUND)])
+    y = _lsi(np.eye(size), x0, rows, bounds)
+    if y is None:  # (the linear programmes before found these constraints feasible)
+        raise InfeasibleMove("the rate and acceleration limits leave no profile")
+    return y
 
 
 def _solve(problem: Problem, evaluator: Evaluator,
