@@ -3,6 +3,7 @@ central differences, reproducibility, limits, infeasible requests."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -13,7 +14,16 @@ import pytest
 from flexlink.model import Chain, Link, Scenario, SimulationSettings
 from flexlink.motion import Cycloidal, Harmonic, Hold
 from flexlink.shaping import Limits, optimize_move
-from flexlink.shaping.optimize import InfeasibleMove, Problem, fd_gradient, joint_moves
+from flexlink.errors import SimulationError
+from flexlink.shaping.optimize import (
+    InfeasibleMove,
+    Problem,
+    continuous_peaks,
+    fd_gradient,
+    grid_margin,
+    grid_size,
+    joint_moves,
+)
 
 
 def _arm(duration: float = 0.6) -> Scenario:
@@ -51,7 +61,7 @@ def test_optimised_move_is_reproducible_within_limits_and_cancels_vibration() ->
     scenario = _arm()
     limits = Limits(rate_deg_s=[110.0, 10.0], acceleration_deg_s2=600.0, torque_Nm=5.0)
     runs = [optimize_move(scenario, limits=limits, harmonics=2, seed=3, workers=w,
-                          stiffening="scenario") for w in (1, 2)]
+                          stiffening="scenario", robust=0.0) for w in (1, 2)]
     a, b = runs  # same seed, one process or two: the same answer
     np.testing.assert_allclose(np.ravel(list(a.coefficients.values())),
                                np.ravel(list(b.coefficients.values())), atol=1e-9)
@@ -86,7 +96,8 @@ def test_infeasible_requests_name_the_limit(kwargs: dict, message: str) -> None:
 
 
 def test_an_unreachable_torque_limit_is_reported() -> None:
-    with pytest.raises(InfeasibleMove, match="joint 1 needs torque_Nm .* > limit 0.01"):
+    with pytest.raises(InfeasibleMove, match="the torque limit binds: joint 1 needs a torque "
+                                             r"of .* N·m > torque limit 0.01 N·m"):
         optimize_move(_arm(), limits=Limits(torque_Nm=0.01), harmonics=1, workers=1,
                       max_iterations=5, stiffening="scenario")
 
@@ -139,3 +150,258 @@ def test_optimize_command_refuses_an_infeasible_duration(tmp_path: Path,
     assert status == 2
     assert "shorter than its rate limit allows" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_rate_and_acceleration_limits_hold_in_continuous_time() -> None:
+    """The acceleration limit binds (the cycloid's peak is 524°/s²): the answer's maxima,
+    evaluated on 200 001 instants, are within every limit without tolerance."""
+    limits = Limits(rate_deg_s=[105.0, 10.0], acceleration_deg_s2=500.0)
+    result = optimize_move(_arm(), limits=limits, harmonics=3, workers=1, robust=0.0,
+                           stiffening="scenario")
+    motion = result.scenario.chain.joints[0]
+    _, rate, acc = motion.evaluate(np.linspace(0.1, 0.7, 200001))
+    assert math.degrees(np.abs(rate).max()) <= 105.0
+    assert math.degrees(np.abs(acc).max()) <= 500.0
+    assert math.degrees(np.abs(acc).max()) >= 0.98 * 500.0  # the limit is active
+    assert result.peaks["acceleration_deg_s2"][0] == pytest.approx(
+        math.degrees(np.abs(acc).max()), rel=1e-5)
+
+
+def test_grid_margin_bounds_the_maximum_between_instants() -> None:
+    """A trigonometric polynomial of degree n exceeds its largest value on the check instants
+    by at most the margin: checked on random coefficients (densely evaluated)."""
+    scenario = _arm()
+    problem = Problem(scenario, joint_moves(scenario), 4, [(1.0, False)], 0.005)
+    rng = np.random.default_rng(1)
+    worst = 0.0
+    for _ in range(200):
+        x = rng.uniform(-1.0, 1.0, problem.size)
+        R, r0, A, a0 = problem.kinematic_rows()
+        coarse = max(np.abs(R @ x + r0).max(), 1e-300), max(np.abs(A @ x + a0).max(), 1e-300)
+        dense = continuous_peaks(problem, x, refine=50)
+        worst = max(worst, dense[0][0] / coarse[0] - 1.0, dense[1][0] / coarse[1] - 1.0)
+    assert grid_size(4) == 375
+    assert 0.0 <= worst <= grid_margin(4) / (1.0 - grid_margin(4))
+
+
+def test_a_failed_trial_is_a_rejected_step(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Trials beyond |x| = 0.02 'diverge': the search goes on inside that region and ends
+    without an exception, with a lower residual than the cycloid's."""
+    evaluate = Problem.evaluate
+
+    def diverging(self: Problem, x: np.ndarray):
+        if np.abs(x).max() > 0.02:
+            raise SimulationError("the tip deflection of beam exceeds its length")
+        return evaluate(self, x)
+
+    monkeypatch.setattr(Problem, "evaluate", diverging)
+    result = optimize_move(_arm(), limits=Limits(rate_deg_s=120.0), harmonics=2, workers=1,
+                           robust=0.0, stiffening="scenario")
+    assert max(abs(v) for c in result.coefficients.values() for v in (*c[0], *c[1])) <= 0.02
+    assert result.energy[0] < 0.9 * result.energy_cycloidal[0]
+
+
+def test_infeasible_kinematics_name_the_binding_limit() -> None:
+    """30° in 0.33 s: rate ≥ 90.9°/s for any profile, so 95°/s passes the bang-bang bound,
+    but the cycloid-plus-harmonics profiles need more: the rate limit is named, with the
+    shortest duration it allows; the acceleration limit alone (2000°/s²) would allow it."""
+    with pytest.raises(InfeasibleMove, match=r"joint 1: 30° in 0.33 s needs, with the "
+                                             r"optimiser's profiles \(cycloid plus 4 "
+                                             r"harmonics\), a peak rate of at least 109.1°/s > "
+                                             r"rate limit 95°/s: the rate limit binds; the "
+                                             r"shortest such move within it takes 0.3793 s"):
+        optimize_move(_arm(), duration=0.33, limits=Limits(rate_deg_s=[95.0, 10.0],
+                                                           acceleration_deg_s2=2000.0),
+                      workers=1)
+
+
+def test_rate_and_acceleration_binding_together_are_named() -> None:
+    """30° in 0.5 s: rate ≤ 80°/s alone and acceleration ≤ 600°/s² alone each allow the
+    move, together they do not; the message says so with the shortest duration, which is
+    feasible (and 1 % shorter is not)."""
+    limits = Limits(rate_deg_s=[80.0, 10.0], acceleration_deg_s2=600.0)
+    for alone in (Limits(rate_deg_s=[80.0, 10.0]), Limits(acceleration_deg_s2=600.0)):
+        optimize_move(_arm(), duration=0.5, limits=alone, workers=1, max_iterations=1,
+                      robust=0.0, stiffening="scenario")
+    with pytest.raises(InfeasibleMove, match="the rate and acceleration limits bind together; "
+                                             "the shortest move within both takes 0.5508 s"
+                       ) as info:
+        optimize_move(_arm(), duration=0.5, limits=limits, workers=1)
+    shortest = float(str(info.value).split("takes ")[1].split(" s")[0])
+    optimize_move(_arm(), duration=shortest * 1.0001, limits=limits, workers=1,
+                  max_iterations=1, robust=0.0, stiffening="scenario")
+    with pytest.raises(InfeasibleMove, match="bind together"):
+        optimize_move(_arm(), duration=shortest * 0.99, limits=limits, workers=1)
+
+
+SOFT_TOML = """
+[simulation]
+t_end = 1.5
+dt_out = 0.01
+geometric_stiffening = {stiffening}
+[[links]]
+name = "beam"
+length = 1.0
+mass_per_length = 0.5
+EI = 0.5
+damping_ratio = 0.01
+modes = 2
+[[joints]]
+motion = [{{ profile = "cycloidal", from_deg = 0, to_deg = 60, start = 0.1, duration = 0.5 }}]
+"""
+
+
+def _cli(tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, *options: str
+         ) -> tuple[int, str, str, Path]:
+    from flexlink.cli import main
+
+    path = tmp_path / "arm.toml"
+    path.write_text(text)
+    out = tmp_path / "opt"
+    status = main(["optimize", str(path), "-o", str(out), "--workers", "1", "--no-figures",
+                   *options])
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.out + captured.err
+    return status, captured.out, captured.err, out
+
+
+def test_a_plant_that_diverges_on_the_cycloid_is_left_out(monkeypatch: pytest.MonkeyPatch
+                                                           ) -> None:
+    """The second plant of --stiffening both diverging on the cycloid is left out and the
+    result says so; the other plants are optimised as usual."""
+    rows = Problem.plant_rows
+
+    def paper_model_diverges(self: Problem, i: int, x: np.ndarray):
+        if not self.plant_scenarios[i].settings.geometric_stiffening:
+            raise SimulationError("the tip deflection of beam exceeds its length")
+        return rows(self, i, x)
+
+    monkeypatch.setattr(Problem, "plant_rows", paper_model_diverges)
+    scenario = _arm()
+    stiff = dataclasses.replace(scenario, settings=dataclasses.replace(
+        scenario.settings, geometric_stiffening=True))
+    result = optimize_move(stiff, limits=Limits(rate_deg_s=120.0), harmonics=1, workers=1)
+    assert result.plants == [(1.0, True), (0.9, True), (1.1, True)]
+    assert len(result.notes) == 3
+    assert result.notes[0].startswith("left out the first-order model without geometric "
+                                      "stiffening: it diverges on the cycloidal move")
+
+
+def test_the_scenario_model_diverging_on_the_cycloid_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A soft link spun faster than its first frequency in the paper's model: exit 2, the
+    message names the model and the fix, no folder."""
+    status, out, err, folder = _cli(tmp_path, capsys, SOFT_TOML.format(stiffening="false"),
+                                    "--harmonics", "2")
+    assert status == 2
+    assert "already fails in the scenario's model (first-order model without geometric " \
+           "stiffening)" in err
+    assert "geometric_stiffening = true" in err
+    assert not folder.exists()
+
+
+def test_robustness_band_is_reported_in_the_scenario_model(tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]
+                                                           ) -> None:
+    """The band is computed in the model the scenario chose (here stiffened): its +10 %
+    entry equals an independent run of the optimised scenario on that plant; the iteration
+    limit is stated."""
+    from flexlink.scenario import load_scenario
+    from flexlink.shaping.compare import run_residual
+    from flexlink.shaping.plants import scale_frequencies
+
+    text = ARM_TOML.replace("dt_out = 0.01", "dt_out = 0.01\ngeometric_stiffening = true")
+    status, out, err, folder = _cli(tmp_path, capsys, text, "--harmonics", "1",
+                                    "--max-iterations", "1")
+    assert status == 0, err
+    assert "robustness (first-order model with geometric stiffening), every frequency " \
+           "-10 … +10 %" in out
+    assert "stopped at the iteration limit (1)" in out
+    summary = json.loads((folder / "summary.json").read_text())
+    band = summary["robustness_band"]["first_order"]
+    assert band["errors_pct"] == [-10.0, -5.0, 0.0, 5.0, 10.0]
+    assert summary["optimiser"]["stopped_at_iteration_limit"] is True
+    optimised = load_scenario(folder / "optimized.toml")
+    assert optimised.settings.geometric_stiffening
+    end = summary["residual_window_s"][0]
+    _, peak = run_residual(scale_frequencies(optimised, 1.1), end)
+    assert band["optimised_m"][-1] == pytest.approx(peak, rel=1e-9)
+    assert band["ratio"][2] == pytest.approx(
+        band["cycloidal_m"][2] / band["optimised_m"][2], rel=1e-12)
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--workers", "-3"], "--workers must be ≥ 1"),
+    (["--workers", "0"], "--workers must be ≥ 1"),
+    (["--duration", "1e5"], "sample them every 0.005 s"),
+    (["--duration", "nan"], "--duration must be a number of seconds > 0"),
+    (["--robust", "60"], "--robust must be a percentage in [0, 50)"),
+    (["--max-iterations", "0"], "--max-iterations must be ≥ 1"),
+    (["--torque-limit", "0.01"], "the torque limit binds: joint 1 needs a torque of"),
+])
+def test_optimize_command_refuses_bad_requests_with_a_message(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], options: list[str],
+        message: str) -> None:
+    status, _, err, folder = _cli(tmp_path, capsys, ARM_TOML, "--harmonics", "1",
+                                  "--max-iterations", "3", *options)
+    assert status == 2
+    assert message in err
+    assert not folder.exists()
+
+
+PAPER_CASES = [  # the requests that ended in a traceback: the README's command without a
+    # torque limit, a stiffened arm with rate and acceleration limits only, a feasible
+    # per-joint rate limit, an unreachable torque limit
+    ([], ["--rate-limit", "200", "--acceleration-limit", "1000"], 0, ""),
+    (["geometric_stiffening"], ["--rate-limit", "200", "--acceleration-limit", "1000"], 0, ""),
+    ([], ["--rate-limit", "200,120"], 0, ""),
+    ([], ["--rate-limit", "200", "--acceleration-limit", "1000", "--torque-limit", "2,0.05"], 2,
+     "the torque limit binds: joint 1 needs a torque of"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("edits", "options", "status", "message"), PAPER_CASES)
+def test_paper_requests_end_with_an_answer_or_a_message(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], edits: list[str],
+        options: list[str], status: int, message: str) -> None:
+    from flexlink.cli import main
+    from flexlink.scenario import paper_experiment_path
+
+    text = paper_experiment_path().read_text()
+    if "geometric_stiffening" in edits:
+        text = text.replace("geometric_stiffening = false", "geometric_stiffening = true")
+        assert "geometric_stiffening = true" in text
+    path = tmp_path / "arm.toml"
+    path.write_text(text)
+    out = tmp_path / "opt"
+    code = main(["optimize", str(path), "-o", str(out), "--duration", "1.2", "--no-figures",
+                 *options])
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.out + captured.err
+    assert code == status, captured.err
+    if status:
+        assert message in captured.err and not out.exists()
+        return
+    summary = json.loads((out / "summary.json").read_text())
+    assert "robustness (first-order model" in captured.out
+    residual = summary["residual_tip_deflection_m"]["first_order"]
+    assert residual["optimised"] < 0.2 * residual["cycloidal"]
+    limits = [float(v) for v in options[1].split(",")]
+    table = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
+    for k in range(2):
+        assert np.abs(table[f"joint{k + 1}_rate_deg_s"]).max() <= limits[min(k, len(limits) - 1)]
+
+
+def test_an_output_path_under_a_file_is_a_message(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    from flexlink.cli import main
+
+    path = tmp_path / "arm.toml"
+    path.write_text(ARM_TOML)
+    (tmp_path / "file").write_text("")
+    status = main(["optimize", str(path), "-o", str(tmp_path / "file" / "opt"), "--workers",
+                   "1", "--harmonics", "1", "--max-iterations", "1", "--no-figures"])
+    captured = capsys.readouterr()
+    assert status == 2 and "Traceback" not in captured.out + captured.err
+    assert "flexlink optimize:" in captured.err and "file" in captured.err

@@ -3,10 +3,12 @@
 Writes to DIR: ``optimized.toml`` (the scenario with the optimised joints as
 ``profile = "harmonic"``: ``flexlink run DIR/optimized.toml`` reproduces the move),
 ``trajectory.csv`` (t in s; angle, rate, acceleration of every joint in deg, deg/s, deg/s²),
-``summary.json`` (limits, peaks, residual energies, residual tip deflection of the
-cycloidal, shaped and optimised moves, run time, gradient method) and the figures
-``residual.png`` and ``robustness.png``. Exit status as `flexlink run`: 2 for bad input or
-an infeasible request (the message names the limit), 1 if a simulation fails.
+``summary.json`` (limits, continuous-time peaks, residual energies, residual tip
+deflection of the cycloidal, shaped and optimised moves, their robustness over a band of
+frequency errors in every model compared, run time, how the optimiser stopped) and the
+figures ``residual.png`` and ``robustness.png``. Exit status as `flexlink run`: 2 for bad
+input or an infeasible request (the message names the binding limit), 1 if a simulation
+fails.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from ..options import (
 )
 
 ERRORS_PCT = tuple(2.5 * i for i in range(-8, 9))  # %, the robustness curve's plants
+BAND_PCT = (-10.0, -5.0, 0.0, 5.0, 10.0)  # %, the frequency errors of the robustness report
 
 
 def add_commands(commands: Any) -> None:
@@ -52,8 +55,9 @@ def add_commands(commands: Any) -> None:
     p.add_argument("--torque-limit", metavar="NM[,…]", help="joint torque limit, N·m")
     p.add_argument("--harmonics", type=positive_int, default=4,
                    help="cosine and sine terms per joint (default 4)")
-    p.add_argument("--robust", type=nonnegative_finite_float, default=0.0, metavar="PCT",
-                   help="also cancel the vibration of plants with every frequency ±PCT %% off")
+    p.add_argument("--robust", type=nonnegative_finite_float, default=10.0, metavar="PCT",
+                   help="also cancel the vibration of plants with every frequency ±PCT %% off "
+                        "(default 10; 0: the nominal plant only, a deeper but narrow notch)")
     p.add_argument("--stiffening", choices=("both", "scenario"), default="both",
                    help="plants with and without geometric stiffening (default), or only the "
                         "scenario's setting")
@@ -64,10 +68,28 @@ def add_commands(commands: Any) -> None:
     p.add_argument("--shaper", choices=("zv", "zvd", "ei"), default="zvd",
                    help="the input shaper of the comparison (default zvd, lowest 2 modes)")
     p.add_argument("--model", choices=("first_order", "nonlinear"), action="append",
-                   help="model(s) the comparison runs in (default first_order; repeat for "
-                        "both)")
+                   help="model(s) the comparison and the robustness report run in (default "
+                        "the scenario's model; repeat for both)")
+    p.add_argument("--max-iterations", type=int, default=30, metavar="N",
+                   help="iteration limit of the optimiser (default 30)")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.set_defaults(handler=run_optimize)
+
+
+def _check_arguments(args: argparse.Namespace) -> None:
+    """ValueError naming the option when a number is out of range (before anything runs)."""
+    import math
+
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        raise ValueError(f"--duration must be a number of seconds > 0, got {args.duration:g}")
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be ≥ 1 (processes), got {args.workers}")
+    if not (math.isfinite(args.robust) and 0.0 <= args.robust < 50.0):
+        raise ValueError(f"--robust must be a percentage in [0, 50), got {args.robust:g}")
+    if not 1 <= args.harmonics <= 20:
+        raise ValueError(f"--harmonics must be from 1 to 20, got {args.harmonics}")
+    if args.max_iterations < 1:
+        raise ValueError(f"--max-iterations must be ≥ 1, got {args.max_iterations}")
 
 
 def _limits(text: str | None, name: str) -> list[float] | None:
@@ -87,7 +109,7 @@ def run_optimize(args: argparse.Namespace) -> int:
         resolve_scenario_dict,
         scenario_from_dict,
     )
-    from .optimize import InfeasibleMove, Limits, optimize_move
+    from .optimize import InfeasibleMove, Limits, check_request, optimize_move
 
     if args.paper == (args.scenario is not None):
         print("flexlink optimize: give a scenario file or --paper (exactly one)", file=sys.stderr)
@@ -95,15 +117,18 @@ def run_optimize(args: argparse.Namespace) -> int:
     source = paper_experiment_path() if args.paper else args.scenario
     try:
         check_output_dir(args.output)
-        resolved = resolve_scenario_dict(source)
-        scenario = scenario_from_dict(resolved, source=str(source))
-        check_run_length(scenario, args.duration)
+        _check_arguments(args)
+        check_request(args.duration, args.harmonics, args.robust / 100.0, args.workers,
+                      args.max_iterations)
         limits = Limits(_limits(args.rate_limit, "rate-limit"),
                         _limits(args.acceleration_limit, "acceleration-limit"),
                         _limits(args.torque_limit, "torque-limit"))
+        resolved = resolve_scenario_dict(source)
+        scenario = scenario_from_dict(resolved, source=str(source))
+        check_run_length(scenario, args.duration)
         result = optimize_move(scenario, args.duration, limits, args.harmonics,
                                args.robust / 100.0, args.seed, args.workers,
-                               stiffening=args.stiffening)
+                               max_iterations=args.max_iterations, stiffening=args.stiffening)
     except ScenarioError as exc:
         print(str(exc), file=sys.stderr)
         return 2
@@ -116,13 +141,13 @@ def run_optimize(args: argparse.Namespace) -> int:
     try:
         with atomic_folder(args.output) as partial:  # nothing left behind by a failure
             summary = write_outputs(result, resolved, partial, limits, args.shaper,
-                                    args.model or ["first_order"], not args.no_figures)
+                                    args.model or [scenario.settings.model], not args.no_figures)
     except SimulationError as exc:
         print(f"flexlink optimize: a simulation failed: {exc}", file=sys.stderr)
         return 1
     except (ValueError, OSError) as exc:
         print(f"flexlink optimize: could not write {args.output}: {exc}", file=sys.stderr)
-        return 1
+        return 2
     print(summary_text(summary, Path(args.output)))
     return 0
 
@@ -168,18 +193,15 @@ def optimized_scenario_dict(result: Any, resolved: dict[str, Any]) -> dict[str, 
 
 def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: Any,
                   shaper: str, models: list[str], figures: bool) -> dict[str, Any]:
-    """Write DIR (module docstring); return the summary."""
+    """Run the comparisons, then write DIR (module docstring); return the summary."""
     import numpy as np
 
+    from ..errors import SimulationError
     from ..scenario import scenario_from_dict
     from ..scenario.toml_writer import dump_toml
     from . import compare
 
-    out_dir.mkdir(parents=True, exist_ok=True)
     data = optimized_scenario_dict(result, resolved)
-    (out_dir / "optimized.toml").write_text(
-        "# written by flexlink optimize: run it with flexlink run optimized.toml\n"
-        + dump_toml(data), encoding="utf-8")
     optimised = scenario_from_dict(data)  # what the file reproduces
     t = np.arange(0.0, result.move_end + 0.5 + 1e-9, 1e-3)
     columns = {"t": t}
@@ -188,9 +210,6 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
         columns[f"joint{k + 1}_angle_deg"] = np.degrees(angle)
         columns[f"joint{k + 1}_rate_deg_s"] = np.degrees(rate)
         columns[f"joint{k + 1}_acceleration_deg_s2"] = np.degrees(acc)
-    header = ",".join(columns)
-    np.savetxt(out_dir / "trajectory.csv", np.column_stack(list(columns.values())),
-               delimiter=",", header=header, comments="", fmt="%.10g")
 
     start = min(m.start for m in result.moves)
     versions = {"cycloidal": compare.cycloidal_version(result.scenario, result.moves)}
@@ -205,64 +224,148 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
     residual: dict[str, dict[str, float]] = {}
     runs: dict[str, dict[str, Any]] = {}
     for model in models:
-        runs[model] = {label: compare.run_residual(sc, result.move_end, model)
-                       for label, sc in versions.items()}
-        residual[model] = {label: peak for label, (_, peak) in runs[model].items()}
-    errors = [e / 100.0 for e in ERRORS_PCT]
-    curves = compare.residuals(versions, result.move_end, errors) if figures else {}
+        runs[model] = {}
+        for label, sc in versions.items():
+            try:
+                runs[model][label] = compare.run_residual(sc, result.move_end, model)
+            except SimulationError:
+                if label == "optimised":
+                    raise
+                runs[model][label] = None  # this move diverges in this model
+        residual[model] = {label: (float("nan") if run is None else run[1])
+                           for label, run in runs[model].items()}
+    # the robustness of the answer in every model compared (the first: the figure's curve)
+    band: dict[str, Any] = {}
+    curves: dict[str, Any] = {}
+    pair = {"cycloidal": versions["cycloidal"], "optimised": optimised}
+    for i, model in enumerate(models):
+        if figures and i == 0:
+            curves = compare.residuals(versions, result.move_end,
+                                       [e / 100.0 for e in ERRORS_PCT], model)
+            picked = [ERRORS_PCT.index(e) for e in BAND_PCT]
+            values = {k: curves[k][picked] for k in pair}
+        else:
+            values = compare.residuals(pair, result.move_end, [e / 100.0 for e in BAND_PCT],
+                                       model)
+        band[model] = compare.band_summary(BAND_PCT, values["cycloidal"], values["optimised"])
     summary = {
         "scenario": resolved["simulation"].get("name"),
+        "model": _model_label(optimised),
+        "geometric_stiffening": optimised.settings.geometric_stiffening,
         "moves": [vars(m) for m in result.moves],
         "limits": {"rate_deg_s": limits.rate_deg_s, "acceleration_deg_s2":
                    limits.acceleration_deg_s2, "torque_Nm": limits.torque_Nm},
         "peaks": result.peaks,
+        "peaks_note": "rate and acceleration: continuous-time maxima of the profiles; torque: "
+                      "at the optimiser's torque instants",
         "plants": [{"frequency_factor": f, "geometric_stiffening": s} for f, s in result.plants],
+        "plants_left_out": list(result.notes),
         "residual_energy_J": {"cycloidal": result.energy_cycloidal.tolist(),
                               "optimised": result.energy.tolist()},
         "residual_tip_deflection_m": residual,
         "residual_window_s": [result.move_end, result.move_end + compare.DEFAULT_WINDOW_S],
+        "robustness_band": band,
+        "robustness_band_note": "residual tip deflection (m) of the cycloidal and optimised "
+                                "moves on plants with every frequency off by errors_pct "
+                                "(every EI scaled by (1 + error)²), in each model, with the "
+                                "scenario's geometric stiffening setting",
         "shaper": None if sequence is None else {
             "kind": shaper, "amplitudes": list(sequence.amplitudes),
             "times_s": list(sequence.times)},
         "shaper_note": shaped_note,
-        "optimiser": {"method": "SLSQP", "gradient": "forward differences of the energy "
-                      "residual vector, step fd_step, runs in parallel processes",
+        "optimiser": {"gradient": "forward differences of the energy residual vector, step "
+                      "fd_step, runs in parallel processes",
                       "iterations": result.iterations, "evaluations": result.evaluations,
                       "workers": result.workers, "wall_time_s": result.wall_time_s,
-                      "success": result.success, "message": result.message, **result.info,
+                      "success": result.success, "message": result.message,
+                      "stopped_at_iteration_limit": result.stopped_at_limit, **result.info,
                       "coefficients": [list(result.coefficients[m.joint][0])
                                        + list(result.coefficients[m.joint][1])
                                        for m in result.moves]},
         "machine": {"python": platform.python_version(), "processor": platform.processor()
                     or platform.machine(), "system": platform.platform()},
     }
+    pictures = {}
     if figures:
         from . import figures as fig
 
         model = models[0]
-        fig.save(fig.residual_figure(runs[model], start, result.move_end,
-                                     f"{summary['scenario']}: residual vibration "
-                                     f"({model.replace('_', ' ')} model)"),
-                 out_dir / "residual.png")
-        summary["robustness"] = {"errors_pct": list(ERRORS_PCT),
+        shown = {k: v for k, v in runs[model].items() if v is not None}
+        pictures["residual.png"] = fig.residual_figure(
+            shown, start, result.move_end, f"{summary['scenario']}: residual vibration "
+            f"({_model_text(model, optimised.settings.geometric_stiffening)})")
+        summary["robustness"] = {"model": model, "errors_pct": list(ERRORS_PCT),
                                  **{k: v.tolist() for k, v in curves.items()}}
-        fig.save(fig.robustness_figure(errors, curves, "cycloidal"), out_dir / "robustness.png")
+        pictures["robustness.png"] = fig.robustness_figure(
+            [e / 100.0 for e in ERRORS_PCT], curves, "cycloidal",
+            title=_model_text(model, optimised.settings.geometric_stiffening))
+    # everything computed: write the folder
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "optimized.toml").write_text(
+        "# written by flexlink optimize: run it with flexlink run optimized.toml\n"
+        + dump_toml(data), encoding="utf-8")
+    np.savetxt(out_dir / "trajectory.csv", np.column_stack(list(columns.values())),
+               delimiter=",", header=",".join(columns), comments="", fmt="%.10g")
+    for name, picture in pictures.items():
+        fig.save(picture, out_dir / name)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float),
                                           encoding="utf-8")
     return summary
 
 
+def _model_label(scenario: Any) -> str:
+    return _model_text(scenario.settings.model, scenario.settings.geometric_stiffening)
+
+
+def _model_text(model: str, stiffening: bool) -> str:
+    if model == "nonlinear":
+        return "nonlinear model"
+    return f"first-order model {'with' if stiffening else 'without'} geometric stiffening"
+
+
+def _design_text(summary: dict[str, Any]) -> str:
+    factors = sorted({p["frequency_factor"] for p in summary["plants"]})
+    stiff = {p["geometric_stiffening"] for p in summary["plants"]}
+    spread = ("the nominal plant only" if factors == [1.0] else
+              "plants at " + ", ".join(f"{f:g}" for f in factors) + " × every frequency")
+    return spread + (", each with and without geometric stiffening" if len(stiff) == 2 else "")
+
+
 def summary_text(summary: dict[str, Any], out_dir: Path) -> str:
     opt = summary["optimiser"]
     lines = [(f"flexlink optimize: {summary['scenario']}, {opt['iterations']} iterations, "
-              f"{opt['evaluations']} runs on {opt['workers']} processes, "
-              f"{opt['wall_time_s']:.1f} s")]
+              f"{opt['evaluations']} evaluations of {len(summary['plants'])} plants on "
+              f"{opt['workers']} processes, {opt['wall_time_s']:.1f} s"),
+             f"designed for {_design_text(summary)}"]
+    if opt.get("stopped_at_iteration_limit"):
+        lines.append(f"warning: the optimiser {opt['message']}; more iterations "
+                     "(--max-iterations) may lower the residual")
+    for note in summary.get("plants_left_out", []):
+        lines.append(f"note: {note}")
     for model, values in summary["residual_tip_deflection_m"].items():
         base = values["cycloidal"]
-        lines.append(f"residual tip deflection after the move ({model.replace('_', ' ')}):")
+        name = _model_text(model, summary["geometric_stiffening"])
+        lines.append(f"residual tip deflection after the move ({name}):")
         for label, value in values.items():
+            if value != value:  # NaN
+                lines.append(f"  {label:<16} diverges in this model")
+                continue
             ratio = f"  ({base / value:.3g}× smaller)" if label != "cycloidal" and value else ""
             lines.append(f"  {label:<16} {1e3 * value:.4g} mm{ratio}")
+    for model, band in summary["robustness_band"].items():
+        errors = band["errors_pct"]
+        opt_mm = [1e3 * v for v in band["optimised_m"] if v == v]
+        head = (f"robustness ({_model_text(model, summary['geometric_stiffening'])}), every "
+                f"frequency {errors[0]:+g} … {errors[-1]:+g} %: ")
+        if band["worst_ratio"] is None or not opt_mm:
+            lines.append(head + "no residual to compare (the runs diverge)")
+            continue
+        lines.append(head + f"optimised {min(opt_mm):.3g} … {max(opt_mm):.3g} mm; cycloid ÷ "
+                     f"optimised ≥ {band['worst_ratio']:.3g}× (least at "
+                     f"{band['worst_at_pct']:+g} %)")
+        lines.append("  " + ", ".join(
+            f"{e:+g} %: " + ("diverges" if r != r else f"{r:.3g}×")
+            for e, r in zip(errors, band["ratio"], strict=True)))
     lines.append(f"files in {out_dir}: optimized.toml, trajectory.csv, summary.json"
                  + (", residual.png, robustness.png" if "robustness" in summary else ""))
     return "\n".join(lines)

@@ -9,10 +9,12 @@ takes the residual peak of one channel after each move (`residual.residual_peak`
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..errors import SimulationError
 from ..model import PointSensor, Scenario
 from ..motion import Cycloidal, Shaped
 from ..motion.shapers import ImpulseSequence, design
@@ -79,13 +81,39 @@ def residuals(scenarios: Mapping[str, Scenario], move_end: float, errors: Sequen
               model: str = "first_order", window: float = DEFAULT_WINDOW_S
               ) -> dict[str, np.ndarray]:
     """Residual peak (m) of each scenario on the plants of relative frequency error
-    ``errors`` (0.1: every frequency 10 % higher than the design's)."""
+    ``errors`` (0.1: every frequency 10 % higher than the design's); NaN where the run fails
+    (the model diverges on that plant)."""
     out = {}
     for label, scenario in scenarios.items():
-        out[label] = np.array([run_residual(scale_frequencies(scenario, 1.0 + e), move_end,
-                                            model, window)[1] for e in errors])
+        out[label] = np.array([residual_or_nan(scale_frequencies(scenario, 1.0 + e), move_end,
+                                               model, window) for e in errors])
     return out
 
 
-__all__ = ["TIP_SENSOR", "cycloidal_version", "residuals", "run_residual", "shaped_version",
-           "with_moves", "with_tip_sensor"]
+def residual_or_nan(scenario: Scenario, move_end: float, model: str = "first_order",
+                    window: float = DEFAULT_WINDOW_S) -> float:
+    """`run_residual`'s peak (m), or NaN where the run fails (the model diverges)."""
+    try:
+        return run_residual(scenario, move_end, model, window)[1]
+    except SimulationError:
+        return math.nan
+
+
+def band_summary(errors_pct: Sequence[float], cycloidal: np.ndarray, optimised: np.ndarray
+                 ) -> dict[str, object]:
+    """The robustness of a move over a band of frequency errors: residual peaks (m) of the
+    cycloidal and optimised moves, their ratio per error, and the worst ratio (where the
+    optimised move gains least; a NaN residual is a diverged run)."""
+    ratio = np.asarray(cycloidal) / np.asarray(optimised)
+    finite = np.isfinite(ratio)
+    worst = int(np.flatnonzero(finite)[np.argmin(ratio[finite])]) if finite.any() else None
+    return {"errors_pct": [float(e) for e in errors_pct],
+            "cycloidal_m": [float(v) for v in cycloidal],
+            "optimised_m": [float(v) for v in optimised],
+            "ratio": [float(v) for v in ratio],
+            "worst_ratio": None if worst is None else float(ratio[worst]),
+            "worst_at_pct": None if worst is None else float(errors_pct[worst])}
+
+
+__all__ = ["TIP_SENSOR", "band_summary", "cycloidal_version", "residual_or_nan", "residuals",
+           "run_residual", "shaped_version", "with_moves", "with_tip_sensor"]
