@@ -68,8 +68,9 @@ def integrate_forward_rk4(system: ForwardSystem, t_out: np.ndarray, rtol: float,
             raise fine  # the same time at two step sizes: the model, not the steps
         if not isinstance(fine, BlowUp) and not isinstance(coarse, BlowUp) \
                 and runs_agree(system, fine, coarse, rtol, atol):
-            return forward_solution(data, work, system, t_out, fine, substeps, loop,
-                                    Accuracy(rtol, runs_error(system, fine, coarse), RICHARDSON))
+            return forward_solution(
+                data, work, system, t_out, fine, substeps, loop,
+                accuracy=Accuracy(rtol, runs_error(system, fine, coarse), RICHARDSON))
         coarse = fine
         substeps *= 2
     if isinstance(coarse, BlowUp):
