@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from flexlink.errors import SimulationError
 from flexlink.model import Chain, Link, Scenario, SimulationSettings
 from flexlink.motion import Cycloidal, Harmonic, Hold
 from flexlink.shaping import Limits, optimize_move
-from flexlink.errors import SimulationError
 from flexlink.shaping.optimize import (
     InfeasibleMove,
     Problem,
@@ -291,7 +291,7 @@ def test_the_scenario_model_diverging_on_the_cycloid_is_refused(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A soft link spun faster than its first frequency in the paper's model: exit 2, the
     message names the model and the fix, no folder."""
-    status, out, err, folder = _cli(tmp_path, capsys, SOFT_TOML.format(stiffening="false"),
+    status, _, err, folder = _cli(tmp_path, capsys, SOFT_TOML.format(stiffening="false"),
                                     "--harmonics", "2")
     assert status == 2
     assert "already fails in the scenario's model (first-order model without geometric " \

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import platform
 import sys
 from pathlib import Path
@@ -78,7 +79,6 @@ def add_commands(commands: Any) -> None:
 
 def _check_arguments(args: argparse.Namespace) -> None:
     """ValueError naming the option when a number is out of range (before anything runs)."""
-    import math
 
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise ValueError(f"--duration must be a number of seconds > 0, got {args.duration:g}")
@@ -347,14 +347,14 @@ def summary_text(summary: dict[str, Any], out_dir: Path) -> str:
         name = _model_text(model, summary["geometric_stiffening"])
         lines.append(f"residual tip deflection after the move ({name}):")
         for label, value in values.items():
-            if value != value:  # NaN
+            if math.isnan(value):
                 lines.append(f"  {label:<16} diverges in this model")
                 continue
             ratio = f"  ({base / value:.3g}× smaller)" if label != "cycloidal" and value else ""
             lines.append(f"  {label:<16} {1e3 * value:.4g} mm{ratio}")
     for model, band in summary["robustness_band"].items():
         errors = band["errors_pct"]
-        opt_mm = [1e3 * v for v in band["optimised_m"] if v == v]
+        opt_mm = [1e3 * v for v in band["optimised_m"] if not math.isnan(v)]
         head = (f"robustness ({_model_text(model, summary['geometric_stiffening'])}), every "
                 f"frequency {errors[0]:+g} … {errors[-1]:+g} %: ")
         if band["worst_ratio"] is None or not opt_mm:
@@ -364,7 +364,7 @@ def summary_text(summary: dict[str, Any], out_dir: Path) -> str:
                      f"optimised ≥ {band['worst_ratio']:.3g}× (least at "
                      f"{band['worst_at_pct']:+g} %)")
         lines.append("  " + ", ".join(
-            f"{e:+g} %: " + ("diverges" if r != r else f"{r:.3g}×")
+            f"{e:+g} %: " + ("diverges" if math.isnan(r) else f"{r:.3g}×")
             for e, r in zip(errors, band["ratio"], strict=True)))
     lines.append(f"files in {out_dir}: optimized.toml, trajectory.csv, summary.json"
                  + (", residual.png, robustness.png" if "robustness" in summary else ""))

@@ -727,7 +727,7 @@ def _solve(problem: Problem, evaluator: Evaluator,
             message = (f"converged: the residual energy is below {RESOLVED:g} of the "
                        "cycloid's in every plant")
             break
-        y, s, predicted = _subproblem(current, kinematic, radius, mu)
+        y, _, predicted = _subproblem(current, kinematic, radius, mu)
         if predicted <= CONVERGED * current.merit:
             message = (f"converged: the model predicts a decrease of less than "
                        f"{100 * CONVERGED:g} % of the merit from a further step")
