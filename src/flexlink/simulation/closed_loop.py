@@ -38,7 +38,8 @@ from .prescribed import prescribed_values
 def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                     with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
+    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening,
+                              gravity=settings.gravity)
     system.joint_history(t)
     n, actuators = system.n, scenario.actuators
     B = actuator_matrix(actuators, system.modal)
