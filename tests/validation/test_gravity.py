@@ -1,0 +1,167 @@
+"""Gravity against independent values (docs/validation.md, "Gravity").
+
+The field enters each model once, as the base's extra acceleration −g of the kinematical
+synthesis (docs/derivation.md, "Gravity"); these checks compare every path that should pick
+it up with values that owe nothing to flexlink:
+
+* the static tip deflection of a horizontal cantilever under its weight and a tip mass,
+  q L⁴/8EI + P L³/3EI, started in equilibrium (the run stays there) and at rest (it
+  oscillates about it and, damped, settles on it);
+* the natural frequencies of hanging and standing cantilevers under their own weight (and
+  a tip mass) against a Chebyshev solution of EI w'''' − ((T w')' = ρω²w
+  (tests/validation/gravity_beam.py), and Greenhill's buckling load ρgL³/EI = 7.837;
+* the joint torque that holds an arm horizontal: the static moment (ρL²/2 + P L) g, on the
+  prescribed path and on a servo (forward path);
+* a free base in free fall: the links stay undeformed and the linear momentum grows by
+  m g t;
+* the nonlinear model: the small-amplitude period of a rigid pendulum, 2π√(J/(m g d)), the
+  conservation of kinetic + elastic + gravitational energy, and the large static deflection
+  of a cantilever under its weight against a converged elastica.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from flexlink import simulate
+from flexlink.control import frozen_modes, linearize
+from flexlink.dynamics.first_order import FirstOrderSystem
+from flexlink.model import Chain, Link, Scenario, SimulationSettings
+from flexlink.motion import Hold
+from flexlink.scenario.load import scenario_from_dict
+from tests.validation.gravity_beam import (
+    greenhill_load,
+    loaded_beam_frequencies,
+    static_tip_deflection,
+)
+
+G = 9.81
+L, RHO, EI, TIP = 1.3, 2.7, 1000.0, 0.4  # m, kg/m, N·m², kg: ~1% static deflection
+
+
+def _scenario(initial: str = "rest", joint: dict | None = None, t_end: float = 0.5,
+              zeta: float = 0.0, base: dict | None = None, method: str = "lawson",
+              gravity: tuple[float, float] = (0.0, -G), modes: int = 4,
+              model: str = "first_order", EI: float = EI, tip: float = TIP) -> Scenario:
+    data = {"simulation": {"t_end": t_end, "dt_out": 0.01, "gravity": list(gravity),
+                           "initial": initial, "method": method, "model": model},
+            "links": [{"name": "beam", "length": L, "mass_per_length": RHO, "EI": EI,
+                       "tip_mass": tip, "modes": modes, "damping_ratio": zeta}],
+            "joints": [joint or {"motion": [{"profile": "hold", "angle_deg": 0.0}]}]}
+    if base is not None:
+        data["base"] = base
+    return scenario_from_dict(data)
+
+
+EXACT_DEFLECTION = -static_tip_deflection(RHO * G, TIP * G, L, EI)
+HOLDING_MOMENT = (RHO * L**2 / 2 + TIP * L) * G
+
+
+# -- first-order model ------------------------------------------------------------------------
+@pytest.mark.parametrize("method", ["lawson", "magnus", "DOP853"])
+def test_horizontal_cantilever_starts_and_stays_in_its_static_deflection(method: str) -> None:
+    r = simulate(_scenario("equilibrium", method=method), shapes=False)
+    tip = np.asarray(r["beam_tip_Y"])
+    # 4 clamped-free modes: the static deflection's truncation error is ~1e-4
+    np.testing.assert_allclose(tip, EXACT_DEFLECTION, rtol=2e-4)
+    assert np.ptp(tip) <= 1e-9 * abs(EXACT_DEFLECTION)  # at rest: no motion at all
+    np.testing.assert_allclose(np.asarray(r["joint1_torque"]), HOLDING_MOMENT, rtol=1e-9)
+
+
+def test_cantilever_released_from_rest_oscillates_about_the_static_deflection() -> None:
+    undamped = np.asarray(simulate(_scenario("rest", t_end=2.0), shapes=False)["beam_tip_Y"])
+    assert undamped[0] == 0.0
+    # w(t) = Σ w_i (1 − cos ω_i t): the mean over many periods is the static deflection
+    # (the first mode carries 97% of it), and the first swing reaches about twice it
+    assert np.mean(undamped) == pytest.approx(EXACT_DEFLECTION, rel=0.02)
+    assert undamped.min() == pytest.approx(2 * EXACT_DEFLECTION, rel=0.05)
+    damped = np.asarray(simulate(_scenario("rest", t_end=3.0, zeta=0.1),
+                                 shapes=False)["beam_tip_Y"])
+    assert damped[-1] == pytest.approx(EXACT_DEFLECTION, rel=1e-3)
+
+
+@pytest.mark.parametrize(("gamma", "ratio"), [(5.0, 0.0), (7.0, 0.0), (3.0, 0.5)])
+def test_hanging_and_standing_cantilever_frequencies(gamma: float, ratio: float) -> None:
+    """Frozen modes about the gravity-loaded configuration: a hanging beam stiffens, a
+    standing one softens, as the exact continuous beam (12 modes: within 0.1%)."""
+    L_, rho, EI_ = 1.3, 2.7, 45.0
+    g = gamma * EI_ / (rho * L_**3)
+    scale = math.sqrt(rho * L_**4 / EI_)
+    link = Link("beam", L_, rho, EI_, tip_mass=ratio * rho * L_, modes=12)
+    settings = SimulationSettings(1.0, 0.01, gravity=(0.0, -g))
+    scenario = Scenario(Chain((link,), (Hold(0.0),)), settings=settings)
+    free = loaded_beam_frequencies(0.0, 3, tip_ratio=ratio)
+    for sign, angle in ((1.0, -90.0), (-1.0, 90.0)):
+        exact = loaded_beam_frequencies(gamma, 3, sign, ratio)
+        got = 2 * np.pi * linearize(scenario, at=[angle]).modes()[0][:3] * scale
+        np.testing.assert_allclose(got, exact, rtol=1e-3)
+        assert (got[0] > free[0]) == (sign > 0)
+    modes = frozen_modes(scenario, angles={"joint1": [-90.0, 0.0, 90.0]}, count=1)
+    hanging, level, standing = modes.frequency_hz[:, 0] * 2 * np.pi * scale
+    assert standing < level < hanging
+    np.testing.assert_allclose(level, free[0], rtol=2e-3)  # gravity across: no axial load
+
+
+def test_greenhill_buckling_load() -> None:
+    """The first-order stiffness of a standing cantilever under self-weight turns singular at
+    Greenhill's load ρgL³/EI = 7.837 (the reference's own value, and the textbook's)."""
+    exact = greenhill_load()
+    assert exact == pytest.approx(7.837, abs=1e-3)
+    L_, rho, EI_ = 1.0, 1.0, 1.0
+    link = Link("beam", L_, rho, EI_, modes=10)
+    chain = Chain((link,), (Hold(90.0),))
+
+    def lowest(gamma: float) -> float:
+        system = FirstOrderSystem(chain, True, gravity=(0.0, -gamma * EI_ / (rho * L_**3)))
+        _, _, K, _ = system.matrices(np.array([0.0]))
+        return float(np.linalg.eigvalsh(0.5 * (K[0] + K[0].T)).min())
+
+    assert brentq(lowest, 5.0, 10.0, xtol=1e-10) == pytest.approx(exact, rel=1e-3)
+
+
+def test_servo_holds_the_arm_against_gravity() -> None:
+    """A velocity PID servo with an integrator, started in equilibrium: on its reference, its
+    torque the static moment, the arm at rest (forward path, compiled RK4)."""
+    pid = {"drive": "servo", "servo": "velocity_pid", "P": 20.0, "I": 40.0, "D": 0.5,
+           "rate_per_volt_deg_s": 30.0, "reference": [{"profile": "hold", "angle_deg": 0.0}]}
+    r = simulate(_scenario("equilibrium", joint=pid, t_end=0.2), shapes=False)
+    np.testing.assert_allclose(np.asarray(r["joint1_torque"]), HOLDING_MOMENT, rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(r["beam_tip_Y"]), EXACT_DEFLECTION, rtol=2e-4)
+    assert np.abs(np.asarray(r["joint1_angle"])).max() < 1e-12
+
+
+def test_position_servo_droops_until_its_torque_balances_the_load() -> None:
+    """A position servo (no integrator) holds the angle where K_v ω_b e equals the moment
+    of the weight about the joint, by statics of the drooped (and bent) arm."""
+    pos = {"drive": "servo", "servo": "position", "bandwidth": 20.0,
+           "rate_limit_deg_s": 2000.0, "reference": [{"profile": "hold", "angle_deg": 0.0}]}
+    r = simulate(_scenario("equilibrium", joint=pos, t_end=0.1), shapes=False)
+    angle = np.asarray(r["joint1_angle"])
+    torque = np.asarray(r["joint1_torque"])
+    assert np.ptp(angle) < 1e-12 and angle[0] < 0
+    assert torque[0] == pytest.approx(5.0 * 20.0 * -angle[0], rel=1e-9)
+    # the weights' moment about the joint at the drooped angle (the tip mass at the tip,
+    # the beam's weight at the middle of its chord: first order in the deflection)
+    tip_x = float(np.asarray(r["beam_tip_X"])[0])
+    assert torque[0] == pytest.approx((RHO * L * tip_x / 2 + TIP * tip_x) * G, rel=2e-3)
+
+
+def test_free_base_falls_with_its_links_undeformed() -> None:
+    """Free fall: the relative motion is that without gravity (the links stay straight) and
+    the linear momentum grows by m g t."""
+    base = {"type": "free", "mass": 3.0, "inertia": 0.5}
+    joint = {"motion": [{"profile": "hold", "angle_deg": 30.0}]}
+    r = simulate(_scenario("rest", joint=joint, base=base, t_end=1.0), shapes=False)
+    t = np.asarray(r.time)
+    total = 3.0 + RHO * L + TIP
+    np.testing.assert_allclose(np.asarray(r["momentum_y"]), -total * G * t, atol=1e-9 * total)
+    np.testing.assert_allclose(np.asarray(r["momentum_x"]), 0.0, atol=1e-9 * total)
+    np.testing.assert_allclose(np.asarray(r["base_y"]), -G * t**2 / 2, atol=1e-9)
+    tip = np.column_stack([np.asarray(r["beam_tip_X"]) - np.asarray(r["base_x"]),
+                           np.asarray(r["beam_tip_Y"]) - np.asarray(r["base_y"])])
+    np.testing.assert_allclose(tip, [[L * math.cos(math.pi / 6), L * math.sin(math.pi / 6)]]
+                               * np.ones((t.size, 1)), atol=1e-9)
