@@ -91,3 +91,30 @@ def static_tip_deflection(q: float, P: float, L: float, EI: float) -> float:
     """Tip deflection (m) of a horizontal cantilever under a distributed load q (N/m) and a
     tip load P (N): q L⁴/8EI + P L³/3EI."""
     return q * L**4 / (8 * EI) + P * L**3 / (3 * EI)
+
+
+def heavy_elastica_tip(q: float, P: float, L: float, EI: float,
+                       points: int = 2001) -> tuple[float, float]:
+    """Tip position (x, y) (m) of an inextensible cantilever clamped horizontally at the
+    origin under its weight q (N/m) and a tip load P (N), both along −y, at any deflection:
+    the heavy elastica EI θ''(s) = (q (L − s) + P) cos θ(s), θ(0) = 0, θ'(L) = 0, solved by
+    collocation (scipy's solve_bvp) from the small-deflection solution, then integrated for
+    the tip, x = ∫cos θ ds, y = ∫sin θ ds."""
+    from scipy.integrate import solve_bvp, trapezoid
+
+    s = np.linspace(0.0, L, points)
+
+    def rhs(s: np.ndarray, u: np.ndarray) -> np.ndarray:
+        return np.vstack([u[1], (q * (L - s) + P) * np.cos(u[0]) / EI])
+
+    def bc(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.array([a[0], b[1]])
+
+    # small deflection: θ' = −M/EI with M the moment of the loads outboard (hogging)
+    slope = -(q * (L**3 - (L - s) ** 3) / 6 + P * (L**2 - (L - s) ** 2) / 2) / EI
+    guess = np.vstack([slope, -(q * (L - s) ** 2 / 2 + P * (L - s)) / EI])
+    sol = solve_bvp(rhs, bc, s, guess, tol=1e-10, max_nodes=100000)
+    if not sol.success:
+        raise RuntimeError(sol.message)
+    theta = sol.sol(s)[0]
+    return float(trapezoid(np.cos(theta), s)), float(trapezoid(np.sin(theta), s))

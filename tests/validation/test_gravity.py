@@ -34,6 +34,7 @@ from flexlink.model import Chain, Link, Scenario, SimulationSettings
 from flexlink.motion import Hold
 from flexlink.scenario.load import scenario_from_dict
 from tests.validation.gravity_beam import (
+    heavy_elastica_tip,
     greenhill_load,
     loaded_beam_frequencies,
     static_tip_deflection,
@@ -165,3 +166,87 @@ def test_free_base_falls_with_its_links_undeformed() -> None:
                            np.asarray(r["beam_tip_Y"]) - np.asarray(r["base_y"])])
     np.testing.assert_allclose(tip, [[L * math.cos(math.pi / 6), L * math.sin(math.pi / 6)]]
                                * np.ones((t.size, 1)), atol=1e-9)
+
+
+def _pendulum(model: str, link: dict, theta0_deg: float, t_end: float) -> Scenario:
+    """A link hanging from a free joint (a torque drive with no torque), released at rest
+    θ0 from the downward vertical."""
+    return scenario_from_dict({
+        "simulation": {"t_end": t_end, "dt_out": 0.005, "gravity": [0.0, -G], "model": model,
+                       "rtol": 1e-6},
+        "links": [{"name": "arm", **link}],
+        "joints": [{"drive": "torque", "torque": [{"profile": "step", "amplitude": 0.0}],
+                    "initial_angle_deg": -90.0 + theta0_deg}]})
+
+
+def _peak_times(t: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Times of the interior maxima of a sampled signal (parabola through three samples)."""
+    i = np.flatnonzero((a[1:-1] > a[:-2]) & (a[1:-1] >= a[2:])) + 1
+    dt = t[1] - t[0]
+    return t[i] + 0.5 * dt * (a[i - 1] - a[i + 1]) / (a[i - 1] - 2 * a[i] + a[i + 1])
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_rigid_pendulum_period_at_large_amplitude(model: str) -> None:
+    """A rigid physical pendulum released at 60°: T = 4 √(J/(m g d)) K(sin²(θ0/2))."""
+    from scipy.special import ellipk
+
+    L_, rho, tip, theta0 = 1.0, 2.0, 0.5, 60.0
+    r = simulate(_pendulum(model, {"length": L_, "mass_per_length": rho, "tip_mass": tip,
+                                   "rigid": True}, theta0, 4.0), shapes=False)
+    J = rho * L_**3 / 3 + tip * L_**2
+    mgd = (rho * L_**2 / 2 + tip * L_) * G
+    exact = 4 * math.sqrt(J / mgd) * ellipk(math.sin(math.radians(theta0) / 2) ** 2)
+    angle = np.asarray(r["joint1_angle"]) + math.pi / 2
+    peaks = _peak_times(np.asarray(r.time), angle)
+    assert peaks.size == 2  # starts at a maximum: next ones at T and 2T
+    np.testing.assert_allclose(peaks, [exact, 2 * exact], rtol=1e-6)
+    assert angle.max() == pytest.approx(math.radians(theta0), rel=1e-6)
+
+
+def test_nonlinear_flexible_pendulum_conserves_energy_with_gravity() -> None:
+    """Kinetic + elastic + gravitational energy of an undamped flexible pendulum (nonlinear
+    forward model) stays constant: gravity does work only through its potential."""
+    from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
+    from flexlink.solvers.gauss_forward import solve_nonlinear_forward
+
+    scenario = _pendulum("nonlinear", {"length": 1.0, "mass_per_length": 1.0, "EI": 5.0,
+                                       "tip_mass": 0.3, "modes": 3}, 70.0, 1.5)
+    system = NonlinearForwardSystem(scenario.chain, scenario.base,
+                                    gravity=scenario.settings.gravity)
+    t = np.linspace(0.0, 1.5, 301)
+    y, v, _ = system.from_solution(solve_nonlinear_forward(system, t, 1e-5))
+    kinetic, elastic = system.energy(t, y, v)
+    potential = system.potential(t, y)
+    total = kinetic + elastic + potential
+    assert np.abs(elastic).max() > 1e-3 * np.abs(kinetic).max()  # it bends
+    assert np.ptp(potential) > 1.0  # and swings: J of energy exchanged
+    assert np.ptp(total) < 1e-6 * np.ptp(potential)
+
+
+@pytest.mark.parametrize("EI_", [10.0, 3.0])
+def test_nonlinear_static_deflection_matches_the_heavy_elastica(EI_: float) -> None:
+    """A light cantilever bent 12% and 37% of its length by its weight and a tip mass, started
+    in equilibrium (nonlinear model): its tip where the elastica puts it, within 5e-5 of L
+    with 8 modes, and at rest."""
+    L_, rho, tip = 1.0, 0.5, 0.2
+    exact = heavy_elastica_tip(rho * G, tip * G, L_, EI_)
+    scenario = scenario_from_dict({
+        "simulation": {"t_end": 0.05, "dt_out": 0.01, "gravity": [0.0, -G],
+                       "initial": "equilibrium", "model": "nonlinear", "rtol": 1e-4},
+        "links": [{"name": "beam", "length": L_, "mass_per_length": rho, "EI": EI_,
+                   "tip_mass": tip, "modes": 8}],
+        "joints": [{"motion": [{"profile": "hold", "angle_deg": 0.0}]}]})
+    r = simulate(scenario, shapes=False)
+    x, y = np.asarray(r["beam_tip_X"]), np.asarray(r["beam_tip_Y"])
+    assert np.ptp(x) + np.ptp(y) < 1e-12
+    np.testing.assert_allclose([x[0], y[0]], exact, atol=5e-5 * L_)
+
+
+def test_nonlinear_horizontal_cantilever_small_deflection_and_holding_torque() -> None:
+    """The nonlinear model at 1% deflection: the beam formula (to (w/L)²), and the
+    holding torque the static moment of the bent arm."""
+    r = simulate(_scenario("equilibrium", model="nonlinear"), shapes=False)
+    tip = np.asarray(r["beam_tip_Y"])
+    np.testing.assert_allclose(tip, EXACT_DEFLECTION, rtol=5e-4)
+    np.testing.assert_allclose(np.asarray(r["joint1_torque"]), HOLDING_MOMENT, rtol=1e-4)

@@ -46,9 +46,6 @@ from .first_order import (
 from .kinematics import TURN, FrameMotion, block_map, inertial_acceleration, rotation, tip_map
 
 
-_EQUILIBRIUM_ITERATIONS = 50
-
-
 class ForwardSystem:
     """A base plus a chain (or tree) of flexible links with prescribed and driven joints."""
 
@@ -107,46 +104,28 @@ class ForwardSystem:
         ż = 0. A servo with an integrator holds its reference and its integral takes the load;
         one without holds the angle where its torque balances it. The base and torque-driven
         joints keep their given state (a falling base: equilibrium relative to it).
-        Newton's method on the numpy equations (a finite-difference Jacobian)."""
-        from ..errors import SimulationError
+        Newton's method on the numpy equations (`equilibrium.solve`)."""
+        from . import equilibrium
 
         nu, n = len(self.free), self.n
-        y = start.copy()
         unknowns = list(range(2 * nu, 2 * nu + n))  # z
         rows = list(range(nu, nu + n))  # z̈ in the accelerations [p̈_free, z̈]
         for k in self.servos:
             joint, j = self.chain.joints[k], self.free.index(self.joint_index(k))
             rows.append(j)
             unknowns.append(2 * nu + 2 * n + self.servos.index(k) if joint.integrator else j)
-        unknowns_ = np.array(unknowns)
-        if not unknowns:
-            return y
 
-        def residuals(states: np.ndarray) -> np.ndarray:
-            t = np.full(states.shape[0], float(t0))
+        def residuals(x: np.ndarray) -> np.ndarray:
+            states = np.repeat(start[None], x.shape[0], 0)
+            states[:, unknowns] = x
             pdd, zdd, _ = self.accelerations(
-                t, states[:, :nu], states[:, nu:2 * nu], states[:, 2 * nu:2 * nu + n],
-                states[:, 2 * nu + n:2 * nu + 2 * n], states[:, 2 * nu + 2 * n:])
+                np.full(x.shape[0], float(t0)), states[:, :nu], states[:, nu:2 * nu],
+                states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n],
+                states[:, 2 * nu + 2 * n:])
             return np.concatenate([pdd, zdd], 1)[:, rows]
 
-        scale = 1.0
-        for _ in range(_EQUILIBRIUM_ITERATIONS):
-            steps = 1e-7 * np.maximum(1.0, np.abs(y[unknowns_]))
-            trial = np.repeat(y[None], len(unknowns) + 1, 0)
-            trial[np.arange(1, len(unknowns) + 1), unknowns_] += steps
-            r = residuals(trial)
-            jacobian = (r[1:] - r[0]).T / steps
-            step = np.linalg.lstsq(jacobian, r[0], rcond=None)[0]
-            y[unknowns_] -= step
-            scale = max(scale, float(np.abs(y[unknowns_]).max()))
-            if np.abs(step).max() <= 1e-12 * scale:
-                break
-        r = residuals(y[None])[0]
-        if not np.all(np.isfinite(y)) or np.abs(step).max() > 1e-8 * scale:
-            raise SimulationError(
-                "simulation.initial = \"equilibrium\": no static equilibrium found at t = 0 "
-                f"(residual accelerations up to {np.abs(r).max():.3g}); a servo may be too weak "
-                "(torque_limit, saturation) for the load; use initial = \"rest\"")
+        y = start.copy()
+        y[unknowns] = equilibrium.solve(residuals, start[unknowns])
         return y
 
     def _rest_state(self) -> np.ndarray:

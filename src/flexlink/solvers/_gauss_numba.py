@@ -17,7 +17,8 @@ from ..dynamics._nonlinear_numba import residual as _residual
 
 
 @njit(cache=True)
-def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K,  # noqa: ANN
+def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, lift,  # noqa
+               gravity,
                nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, predict_first,
                floor=0.0):
     """Advance q, v (steps+1, n) in place from row 0; X (2, n) holds the stage accelerations
@@ -62,20 +63,20 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, 
                 for st in range(2):
                     k = 2 * i + st
                     R0 = _residual(Q[st], V[st], X[st], ang[k], rate[k], acc[k], tip_acc[k],
-                                   load[k], A, At, G, tip_A, tip_At, J, D, K)
+                                   load[k], A, At, G, tip_A, tip_At, J, D, K, lift, gravity)
                     for m in range(n):
                         Qp = Q[st].copy()
                         Qp[m] += eps
                         dq = (_residual(Qp, V[st], X[st], ang[k], rate[k], acc[k], tip_acc[k],
-                                   load[k], A, At, G, tip_A, tip_At, J, D, K) - R0) / eps
+                                   load[k], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0) / eps
                         Vp = V[st].copy()
                         Vp[m] += eps
                         dv = (_residual(Q[st], Vp, X[st], ang[k], rate[k], acc[k], tip_acc[k],
-                                   load[k], A, At, G, tip_A, tip_At, J, D, K) - R0) / eps
+                                   load[k], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0) / eps
                         Xp = X[st].copy()
                         Xp[m] += 1.0
                         dx = _residual(Q[st], V[st], Xp, ang[k], rate[k], acc[k], tip_acc[k],
-                                   load[k], A, At, G, tip_A, tip_At, J, D, K) - R0
+                                   load[k], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0
                         for j in range(2):
                             Jm[st * n:(st + 1) * n, j * n + m] = (
                                 h * h * coeffs2[st, j] * dq + h * coeffs[st, j] * dv)
@@ -88,7 +89,7 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, 
                 k = 2 * i + st
                 R[st * n:(st + 1) * n] = _residual(Q[st], V[st], X[st], ang[k], rate[k], acc[k],
                                                    tip_acc[k], load[k], A, At, G, tip_A, tip_At,
-                                                   J, D, K)
+                                                   J, D, K, lift, gravity)
             dX = np.dot(inverse, R)
             size = 0.0
             largest = 0.0

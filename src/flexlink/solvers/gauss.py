@@ -38,6 +38,9 @@ NEWTON_MAX = 20
 # Newton's absolute floor, relative to ω_max² |q| (the elastic accelerations): round-off of
 # the elastic forces, what a static equilibrium under a constant load converges to.
 ROUND_OFF = 1e-13
+# The step control's floor on the peak rate, relative to ω_max |q|: far below any motion's
+# rates (ω |q|), far above the round-off rates of a run at rest in static equilibrium.
+RATE_FLOOR = 1e-8
 
 
 def integrate_gauss(
@@ -45,7 +48,8 @@ def integrate_gauss(
     on_progress: Callable[[float], None] | None = None,
     q0: np.ndarray | None = None, v0: np.ndarray | None = None, compiled: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Step ends t (m+1,), q and q̇ there (m+1, n), from q0, v0 (default rest) at t = 0;
+    """Step ends t (m+1,), q and q̇ there (m+1, n), from q0, v0 (default: the system's
+    initial coordinates, at rest) at t = 0;
     uniform steps ≤ step (s). ``compiled``: the numba loop (numba is a dependency), or the
     numpy one that it is tested against."""
     steps = max(1, int(np.ceil(t_end / step - 1e-9)))
@@ -55,8 +59,7 @@ def integrate_gauss(
     inputs = system.node_inputs((t_ends[:-1, None] + NODES[None, :] * h).ravel())
     q = np.zeros((steps + 1, n))
     v = np.zeros((steps + 1, n))
-    if q0 is not None:
-        q[0] = q0
+    q[0] = system.initial_coordinates() if q0 is None else q0
     if v0 is not None:
         v[0] = v0
     X = np.repeat(system.accelerations(np.zeros(1), q[:1], v[:1]), 2, axis=0)
@@ -88,8 +91,7 @@ def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.
     steps = q.shape[0] - 1
     from ._gauss_numba import gauss_loop  # numba loads in ~0.5 s: only when used
 
-    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
-        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    arrays = system.kernel_arrays()
     w2 = system.max_frequency**2
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
@@ -245,7 +247,11 @@ def solve_nonlinear(
             h /= 2
             continue
         if previous is not None:
-            err = max(_relative_change(previous[0], q), _relative_change(previous[1], v)) / 15.0
+            # rates relative to their peak, or (a run at rest in equilibrium, whose rates
+            # are round-off) to a rate floor RATE_FLOOR ω_max |q|
+            floor = RATE_FLOOR * system.max_frequency * float(np.abs(q).max())
+            err = max(_relative_change(previous[0], q),
+                      _relative_change(previous[1], v, floor)) / 15.0
             if err <= rtol:
                 return solution(q, v, a, h)
         previous = (q, v)
@@ -256,7 +262,8 @@ def solve_nonlinear(
         f"simulation.step")
 
 
-def _relative_change(coarse: np.ndarray, fine: np.ndarray) -> float:
+def _relative_change(coarse: np.ndarray, fine: np.ndarray, floor: float = 0.0) -> float:
     """Largest |fine − coarse| relative to the peak |fine| of all coordinates (as the Magnus
-    control: a tolerance on the physical signals, not on tiny high-mode amplitudes)."""
-    return float(np.abs(fine - coarse).max() / max(float(np.abs(fine).max()), 1e-300))
+    control: a tolerance on the physical signals, not on tiny high-mode amplitudes), or to
+    ``floor`` if larger."""
+    return float(np.abs(fine - coarse).max() / max(float(np.abs(fine).max()), floor, 1e-300))

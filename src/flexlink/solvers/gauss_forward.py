@@ -23,6 +23,7 @@ from .gauss import (
     COEFFS2,
     NEWTON_MAX,
     NODES,
+    RATE_FLOOR,
     WEIGHTS,
     WEIGHTS2,
     _Newton,
@@ -153,7 +154,10 @@ def solve_nonlinear_forward(
             h /= 2
             continue
         if previous is not None:
-            err = max(_change(previous[i][:, g], x[:, g])
+            # rates against their peak or, at rest in static equilibrium (round-off rates),
+            # against RATE_FLOOR ω_max |y| (solvers.gauss.solve_nonlinear)
+            err = max(_change(previous[i][:, g], x[:, g],
+                              i * RATE_FLOOR * system.max_frequency * float(np.abs(y[:, g]).max()))
                       for i, x in enumerate((y, v)) for g in groups) / 15.0
             if err <= rtol:
                 return solution(y, v, a, h)
@@ -165,7 +169,8 @@ def solve_nonlinear_forward(
         f"simulation.step")
 
 
-def _change(coarse: np.ndarray, fine: np.ndarray) -> float:
-    """Largest |fine − coarse| relative to the peak |fine| (0 where nothing moves)."""
-    peak = float(np.abs(fine).max())
+def _change(coarse: np.ndarray, fine: np.ndarray, floor: float = 0.0) -> float:
+    """Largest |fine − coarse| relative to the peak |fine| or ``floor`` if larger (0 where
+    nothing moves)."""
+    peak = max(float(np.abs(fine).max()), floor)
     return float(np.abs(fine - coarse).max() / peak) if peak > 0.0 else 0.0
