@@ -47,7 +47,8 @@ L, RHO, EI, TIP = 1.3, 2.7, 1000.0, 0.4  # m, kg/m, N·m², kg: ~1% static defle
 def _scenario(initial: str = "rest", joint: dict | None = None, t_end: float = 0.5,
               zeta: float = 0.0, base: dict | None = None, method: str = "lawson",
               gravity: tuple[float, float] = (0.0, -G), modes: int = 4,
-              model: str = "first_order", EI: float = EI, tip: float = TIP) -> Scenario:
+              model: str = "first_order", EI: float = EI, tip: float = TIP,
+              sensors: list | None = None) -> Scenario:
     data = {"simulation": {"t_end": t_end, "dt_out": 0.01, "gravity": list(gravity),
                            "initial": initial, "method": method, "model": model},
             "links": [{"name": "beam", "length": L, "mass_per_length": RHO, "EI": EI,
@@ -55,6 +56,8 @@ def _scenario(initial: str = "rest", joint: dict | None = None, t_end: float = 0
             "joints": [joint or {"motion": [{"profile": "hold", "angle_deg": 0.0}]}]}
     if base is not None:
         data["base"] = base
+    if sensors is not None:
+        data["sensors"] = sensors
     return scenario_from_dict(data)
 
 
@@ -250,3 +253,29 @@ def test_nonlinear_horizontal_cantilever_small_deflection_and_holding_torque() -
     tip = np.asarray(r["beam_tip_Y"])
     np.testing.assert_allclose(tip, EXACT_DEFLECTION, rtol=5e-4)
     np.testing.assert_allclose(np.asarray(r["joint1_torque"]), HOLDING_MOMENT, rtol=1e-4)
+
+
+def test_nonlinear_plant_of_hanging_and_standing_cantilevers() -> None:
+    """The nonlinear model's plant about its gravity-loaded equilibrium (control/nonlinear.py:
+    the weights' geometric stiffness by differences of the exact residual) gives the same
+    exact frequencies as the first-order one."""
+    L_, rho, EI_, gamma = 1.3, 2.7, 45.0, 5.0
+    g = gamma * EI_ / (rho * L_**3)
+    settings = SimulationSettings(1.0, 0.01, gravity=(0.0, -g), model="nonlinear")
+    scenario = Scenario(Chain((Link("beam", L_, rho, EI_, modes=10),), (Hold(0.0),)),
+                        settings=settings)
+    for sign, angle in ((1.0, -90.0), (-1.0, 90.0)):
+        plant = linearize(scenario, at=[angle])
+        got = 2 * np.pi * plant.modes()[0][:3] * math.sqrt(rho * L_**4 / EI_)
+        np.testing.assert_allclose(got, loaded_beam_frequencies(gamma, 3, sign), rtol=1e-4)
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_accelerometer_at_rest_reads_the_specific_force(model: str) -> None:
+    """An accelerometer on an arm at rest in equilibrium reads n·(r̈ − g) = +g cos(slope):
+    what a real one reads, its proof mass held up against gravity."""
+    sensors = [{"name": "acc", "link": "beam", "kind": "acceleration", "x": 0.7}]
+    r = simulate(_scenario("equilibrium", model=model, sensors=sensors), shapes=False)
+    reading = np.asarray(r["acc"])
+    np.testing.assert_allclose(reading, G, rtol=2e-4)  # the section is turned by ~0.01 rad
+    assert np.ptp(reading) < 1e-9

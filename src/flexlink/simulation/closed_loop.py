@@ -38,6 +38,13 @@ from .prescribed import prescribed_values
 def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                     with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
+    if settings.initial == "equilibrium":
+        # The compiled loop's controllers read the sensors as rows over the integrated
+        # coordinates: started from a deflection they would read it shifted.
+        raise SimulationError(
+            'simulation.initial = "equilibrium" is not available for controllers on prescribed '
+            'joints with the first-order model; use initial = "rest", model = "nonlinear", or '
+            "drive a joint (the forward path starts in equilibrium)")
     system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening,
                               gravity=settings.gravity)
     system.joint_history(t)
