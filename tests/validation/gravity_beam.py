@@ -2,7 +2,7 @@
 test_gravity.py): nothing here uses flexlink.
 
 * `loaded_beam_frequencies`: natural frequencies of a uniform cantilever carrying an axial
-  load from gravity, EI w'''' − ((T(x) w')' = ρ ω² w with T(x) = s (ρ g (L − x) + P g),
+  load from gravity, EI w'''' − (T(x) w')' = ρ ω² w with T(x) = s (ρ g (L − x) + P g),
   s = +1 hanging (tension), −1 inverted (compression), P a tip mass, clamped at x = 0, free
   at x = L (w'' = 0, EI w''' − T w' = 0: the tip mass's weight follows the tip section). Solved by
   Chebyshev collocation (Trefethen, *Spectral Methods in MATLAB*, ch. 6–7) with the boundary

@@ -1,14 +1,14 @@
-"""Gravity against independent values (docs/validation.md, "Gravity").
+"""Gravity against independent values (docs/validation.md, Case 15).
 
 The field enters each model once, as the base's extra acceleration −g of the kinematical
-synthesis (docs/derivation.md, "Gravity"); these checks compare every path that should pick
+synthesis (docs/derivation.md §11); these checks compare every path that should pick
 it up with values that owe nothing to flexlink:
 
 * the static tip deflection of a horizontal cantilever under its weight and a tip mass,
   q L⁴/8EI + P L³/3EI, started in equilibrium (the run stays there) and at rest (it
   oscillates about it and, damped, settles on it);
 * the natural frequencies of hanging and standing cantilevers under their own weight (and
-  a tip mass) against a Chebyshev solution of EI w'''' − ((T w')' = ρω²w
+  a tip mass) against a Chebyshev solution of EI w'''' − (T w')' = ρω²w
   (tests/validation/gravity_beam.py), and Greenhill's buckling load ρgL³/EI = 7.837;
 * the joint torque that holds an arm horizontal: the static moment (ρL²/2 + P L) g, on the
   prescribed path and on a servo (forward path);

@@ -253,7 +253,7 @@ def inertial_acceleration(acceleration: np.ndarray, gravity: Sequence[float]) ->
     every mass element as an acceleration −g of the reference frame: every inertia term —
     link, tip body, outboard load, second-order (geometric) stiffness, joint torque, the free
     base's own m p̈ — is built from the synthesised frame accelerations, so giving the base
-    a − g in place of a adds every gravity load once (docs/derivation.md, "Gravity")."""
+    a − g in place of a adds every gravity load once (docs/derivation.md §11)."""
     return np.asarray(acceleration, dtype=float) - np.asarray(gravity, dtype=float)
 
 

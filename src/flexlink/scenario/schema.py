@@ -190,7 +190,7 @@ SIMULATION = Section("simulation", [
           doc="uniform gravity field [gx, gy] in the plane of motion, in the global (base "
               "plane) axes: `[0, -9.81]` for a vertical plane with y up; zero for the paper's "
               "horizontal arm. It acts on every link, tip mass, hub and base (docs/derivation.md "
-              "§ Gravity); accelerometers read specific force (acceleration − g), as real ones "
+              "§11); accelerometers read specific force (acceleration − g), as real ones "
               "do"),
     Field("initial", "string", default="rest", choices=INITIAL_STATES, notes={
         "rest": "every link undeformed and at rest at t = 0",

@@ -17,10 +17,14 @@ from ..dynamics._nonlinear_forward_numba import residual as _residual
 @njit(cache=True)
 def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
                        nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations,
-                       predict_first):
+                       predict_first, floor=0.0):
     """Advance y, v (steps+1, n_y) in place from row 0; X (2, n_y) holds the stage
     accelerations of the step before (extrapolated first if ``predict_first``). Stage inputs
-    are per stage row (2·steps, ·). Returns (failed step or −1, rebuilds, iterations)."""
+    are per stage row (2·steps, ·). ``floor`` (1/s²): the iteration also stops when its
+    remaining error is within floor · max|q| (the elastic coordinates' share of y), the
+    round-off of the elastic forces — at a static equilibrium the accelerations vanish and
+    no relative test can be met (as `_gauss_numba.gauss_loop`).
+    Returns (failed step or −1, rebuilds, iterations)."""
     n = y.shape[1]
     steps = y.shape[0] - 1
     inverse = np.zeros((2 * n, 2 * n))
@@ -41,6 +45,9 @@ def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
         previous = np.inf
         fresh = False
         converged = False
+        q_size = 0.0
+        for m in range(nd.n):
+            q_size = max(q_size, abs(y[i, m]))
         for _ in range(max_iterations):
             iterations += 1
             for st in range(2):
@@ -93,7 +100,7 @@ def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
             theta = size / previous
             # (first iteration: no rate yet, the increment itself must be small)
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-            if remaining <= tol * max(largest, 1e-300):
+            if remaining <= tol * max(largest, 1e-300) + floor * q_size:
                 converged = True
                 break
             if size > 0.1 * previous and not fresh:

@@ -66,7 +66,7 @@ def integrate_gauss(
     if compiled:
         _compiled_loop(system, q, v, X, h, inputs, on_progress, t_ends)
         return t_ends, q, v
-    newton = _Newton(system, h)
+    newton = _Newton(system, h, floor=ROUND_OFF * system.max_frequency**2)
     with single_threaded():  # (the compiled path needs no limit: no BLAS calls)
         for i in range(steps):
             if i > 0:  # predictor: last step's stage accelerations, extrapolated linearly
@@ -115,8 +115,12 @@ class _Newton:
     """Simplified Newton for the stage accelerations. The iteration matrix (finite differences
     of the stage residuals) is kept across steps and rebuilt only when convergence slows."""
 
-    def __init__(self, system: NonlinearSystem, h: float, tol: float = NEWTON_TOL) -> None:
+    def __init__(self, system: NonlinearSystem, h: float, tol: float = NEWTON_TOL,
+                 floor: float = 0.0, elastic: int | None = None) -> None:
+        """``floor`` (1/s²) · max|q| (the first ``elastic`` unknowns, default all): the
+        absolute part of the stopping test, as the compiled loops' ``floor``."""
         self.system, self.h, self.tol = system, h, tol
+        self.floor, self.elastic = floor, elastic
         self.inverse: np.ndarray | None = None
         self.rebuilds = 0
         self.iterations = 0
@@ -144,7 +148,8 @@ class _Newton:
             theta = size / previous
             # (first iteration: no rate yet, the increment itself must be small)
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-            if remaining <= self.tol * max(float(np.abs(X).max()), 1e-300):
+            q_size = float(np.abs(q0[:self.elastic]).max(initial=0.0))
+            if remaining <= self.tol * max(float(np.abs(X).max()), 1e-300) + self.floor * q_size:
                 return X
             if size > 0.1 * previous and not fresh:
                 self.inverse = None  # slow convergence: rebuild the matrix at the next iterate

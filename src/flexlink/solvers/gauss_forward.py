@@ -24,6 +24,7 @@ from .gauss import (
     NEWTON_MAX,
     NODES,
     RATE_FLOOR,
+    ROUND_OFF,
     WEIGHTS,
     WEIGHTS2,
     _Newton,
@@ -79,7 +80,8 @@ def integrate_gauss_forward(
     if compiled:
         _compiled_loop(system, y, v, X, h, inp, on_progress, t_ends, newton_tol)
     else:
-        newton = _Newton(_StageResidual(system), h, newton_tol)  # type: ignore[arg-type]
+        newton = _Newton(_StageResidual(system), h, newton_tol,  # type: ignore[arg-type]
+                         ROUND_OFF * system.max_frequency**2, system.n)
         rows = _Rows(t_stage, inp)
         with single_threaded():
             for i in range(steps):
@@ -109,7 +111,8 @@ def _compiled_loop(system: NonlinearForwardSystem, y: np.ndarray, v: np.ndarray,
         failed, _, _ = gauss_forward_loop(
             y[start:end + 1], v[start:end + 1], X, h,
             *(np.ascontiguousarray(a[stage], dtype=float) for a in inp), data, loads,
-            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0)
+            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0,
+            ROUND_OFF * system.max_frequency**2)
         if failed >= 0:
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
@@ -154,10 +157,12 @@ def solve_nonlinear_forward(
             h /= 2
             continue
         if previous is not None:
-            # rates against their peak or, at rest in static equilibrium (round-off rates),
-            # against RATE_FLOOR ω_max |y| (solvers.gauss.solve_nonlinear)
-            err = max(_change(previous[i][:, g], x[:, g],
-                              i * RATE_FLOOR * system.max_frequency * float(np.abs(y[:, g]).max()))
+            # each group against its peak or, where a group stays at rest (a run in static
+            # equilibrium: round-off), against RATE_FLOOR × the largest coordinate (times
+            # ω_max for the rates; solvers.gauss.solve_nonlinear)
+            big = RATE_FLOOR * max(float(np.abs(y[:, g]).max()) for g in groups)
+            floors = (big, big * system.max_frequency)
+            err = max(_change(previous[i][:, g], x[:, g], floors[i])
                       for i, x in enumerate((y, v)) for g in groups) / 15.0
             if err <= rtol:
                 return solution(y, v, a, h)
