@@ -34,8 +34,8 @@ from flexlink.model import Chain, Link, Scenario, SimulationSettings
 from flexlink.motion import Hold
 from flexlink.scenario.load import scenario_from_dict
 from tests.validation.gravity_beam import (
-    heavy_elastica_tip,
     greenhill_load,
+    heavy_elastica_tip,
     loaded_beam_frequencies,
     static_tip_deflection,
 )
@@ -154,12 +154,17 @@ def test_position_servo_droops_until_its_torque_balances_the_load() -> None:
     assert torque[0] == pytest.approx((RHO * L * tip_x / 2 + TIP * tip_x) * G, rel=2e-3)
 
 
-def test_free_base_falls_with_its_links_undeformed() -> None:
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_free_base_falls_with_its_links_undeformed(model: str) -> None:
     """Free fall: the relative motion is that without gravity (the links stay straight) and
-    the linear momentum grows by m g t."""
+    the linear momentum grows by m g t (first order: the compiled Lawson loop, every joint
+    prescribed; nonlinear: the forward Gauss collocation)."""
     base = {"type": "free", "mass": 3.0, "inertia": 0.5}
     joint = {"motion": [{"profile": "hold", "angle_deg": 30.0}]}
-    r = simulate(_scenario("rest", joint=joint, base=base, t_end=1.0), shapes=False)
+    r = simulate(_scenario("rest", joint=joint, base=base, t_end=1.0, model=model),
+                 shapes=False)
+    assert (r.metadata.get("method_detail", r.metadata["method"])
+            == ("lawson" if model == "first_order" else "gauss"))
     t = np.asarray(r.time)
     total = 3.0 + RHO * L + TIP
     np.testing.assert_allclose(np.asarray(r["momentum_y"]), -total * G * t, atol=1e-9 * total)
@@ -279,3 +284,25 @@ def test_accelerometer_at_rest_reads_the_specific_force(model: str) -> None:
     reading = np.asarray(r["acc"])
     np.testing.assert_allclose(reading, G, rtol=2e-4)  # the section is turned by ~0.01 rad
     assert np.ptp(reading) < 1e-9
+
+
+def test_closed_loop_on_prescribed_joints_refuses_the_equilibrium_start() -> None:
+    """The first-order closed loop (controllers on prescribed joints) cannot start deflected:
+    a clear error that names the key and the ways out."""
+    from flexlink.errors import SimulationError
+
+    data = _scenario_dict_with_controller()
+    data["simulation"]["initial"] = "equilibrium"
+    with pytest.raises(SimulationError, match='initial = "equilibrium".*initial = "rest"'):
+        simulate(scenario_from_dict(data), shapes=False)
+
+
+def _scenario_dict_with_controller() -> dict:
+    """The shipped active-damping example (controllers on the paper's arm) in gravity."""
+    import tomllib
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "active_damping.toml"
+    data = tomllib.loads(path.read_text())
+    data["simulation"].update(gravity=[0.0, -G], t_end=0.05)
+    return data

@@ -12,9 +12,11 @@ All evaluations are vectorised over a leading time axis.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -30,6 +32,8 @@ from ..modes import (
 from .actuators import actuator_matrix
 from .histories import history_breakpoints
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
+
+_Solution = TypeVar("_Solution")  # a solvers.Solution (solvers import dynamics, not back)
 
 
 @dataclass(frozen=True)
@@ -144,13 +148,12 @@ class FirstOrderSystem:
         (`shift_solution`)."""
         self.z_start = None if z_start is None else np.asarray(z_start, dtype=float).copy()
 
-    def shift_solution(self, solution):  # noqa: ANN001, ANN201 — a solvers.Solution
-        """The solution in z of one integrated in w = z − z_start."""
+    def shift_solution(self, solution: _Solution) -> _Solution:
+        """The solution (a frozen dataclass with coordinates ``q``) in z of one integrated in
+        w = z − z_start."""
         if self.z_start is None:
             return solution
-        import dataclasses
-
-        return dataclasses.replace(solution, q=solution.q + self.z_start)
+        return dataclasses.replace(solution, q=solution.q + self.z_start)  # type: ignore
 
     @property
     def max_frequency(self) -> float:

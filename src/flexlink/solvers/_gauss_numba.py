@@ -17,7 +17,7 @@ from ..dynamics._nonlinear_numba import residual as _residual
 
 
 @njit(cache=True)
-def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, lift,  # noqa
+def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, lift,
                gravity,
                nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, predict_first,
                floor=0.0):
