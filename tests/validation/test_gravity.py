@@ -306,3 +306,35 @@ def _scenario_dict_with_controller() -> dict:
     data = tomllib.loads(path.read_text())
     data["simulation"].update(gravity=[0.0, -G], t_end=0.05)
     return data
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_flexible_pendulum_against_a_geometrically_exact_model(model: str) -> None:
+    """A flexible arm (L = 1 m, 1 kg/m, EI = 100 N·m², tip mass 0.2 kg) on a free hub of
+    inertia 1 kg·m², released level and undeformed: it falls through 170° in 2 s, bending 2.4%
+    of its length. Against Exudyn's geometrically exact beams (32 elements, the weights
+    lumped at the nodes; 64 change the peak by 1e-4): the hub angle within 1e-4, the tip
+    deflection within 1% of its peak with 6 modes (measured 0.42% first order, 0.59%
+    nonlinear; 4 modes: 1.2–1.3%, mode truncation)."""
+    import dataclasses
+
+    from flexlink.model import PointSensor, TorqueDrive
+    from flexlink.model.histories import ZERO
+    from tests.validation.exudyn_forward_reference import Appendage, simulate_hub_exudyn
+
+    pytest.importorskip("exudyn")
+    beam = Link("beam", 1.0, 1.0, 100.0, thickness=0.02, tip_mass=0.2)
+    t_end, dt_out, hub = 2.0, 0.002, 1.0
+    exact = simulate_hub_exudyn([Appendage(beam)], hub, lambda t: 0.0, t_end, dt_out, 32,
+                                gravity=(0.0, -G))
+    link = dataclasses.replace(beam, modes=6)
+    settings = SimulationSettings(t_end, dt_out, gravity=(0.0, -G), model=model,
+                                  rtol=1e-6 if model == "first_order" else 1e-3)
+    scenario = Scenario(Chain((link,), (TorqueDrive(ZERO, motor_inertia=hub),)),
+                        (PointSensor("tip", "deflection", 0, 1.0),), settings)
+    r = simulate(scenario, shapes=False)
+    tip, ref_tip = np.asarray(r["tip"]), np.asarray(exact["tip_deflection"][0])
+    assert np.abs(exact["hub_angle"]).max() > 2.9  # it fell and swung through
+    assert np.abs(np.asarray(r["joint1_angle"]) - exact["hub_angle"]).max() < 1e-4 * math.pi
+    assert np.abs(tip - ref_tip).max() < 0.01 * np.abs(ref_tip).max()
