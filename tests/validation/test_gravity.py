@@ -286,15 +286,22 @@ def test_accelerometer_at_rest_reads_the_specific_force(model: str) -> None:
     assert np.ptp(reading) < 1e-9
 
 
-def test_closed_loop_on_prescribed_joints_refuses_the_equilibrium_start() -> None:
-    """The first-order closed loop (controllers on prescribed joints) cannot start deflected:
-    a clear error that names the key and the ways out."""
-    from flexlink.errors import SimulationError
-
+def test_closed_loop_on_prescribed_joints_starts_in_equilibrium() -> None:
+    """The first-order closed loop (controllers on prescribed joints, the compiled Lawson
+    loop) starts in the static deflection under gravity: at t = 0 its tips are where the
+    open-loop run (no controllers, prescribed path) puts them, and the runs part once the
+    controllers act."""
     data = _scenario_dict_with_controller()
     data["simulation"]["initial"] = "equilibrium"
-    with pytest.raises(SimulationError, match='initial = "equilibrium".*initial = "rest"'):
-        simulate(scenario_from_dict(data), shapes=False)
+    closed = simulate(scenario_from_dict(data), shapes=False)
+    assert closed.metadata["path"] == "closed_loop"
+    open_loop = dict(data, controllers=[])
+    del open_loop["controllers"]
+    opened = simulate(scenario_from_dict(open_loop), shapes=False)
+    for name in ("link1_tip_Y", "link2_tip_Y"):
+        a, b = np.asarray(closed[name]), np.asarray(opened[name])
+        assert abs(a[0]) > 1e-3  # deflected by its weight
+        assert a[0] == pytest.approx(b[0], rel=1e-12)
 
 
 def _scenario_dict_with_controller() -> dict:
