@@ -4,9 +4,9 @@ table from one run (issue 14).
     python benchmarks/forward.py              # every row (the "before" rows take minutes)
     python benchmarks/forward.py --quick      # skip the "before" row of the torque replay
 
-Rows, for each of the issue's three cases — ``examples/paper_servo.toml`` (3 s),
-``examples/satellite_slew.toml`` (30 s) and the torque replay of the paper arm
-(tests/validation/test_forward.py, 1.6 s, output every 0.5 ms):
+Rows, for each case — ``examples/paper_servo.toml`` (3 s), ``examples/satellite_slew.toml``
+(30 s), the torque replay of the paper arm (tests/validation/test_forward.py, 1.6 s, output
+every 0.5 ms) and ``examples/vertical_arm.toml`` (3 s in gravity, started in equilibrium):
 
 - before: scipy ``solve_ivp`` (DOP853) at the scenario's tolerance over the numpy
   ForwardSystem (the path before issue 14);
@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-CASES = ("paper_servo", "satellite_slew", "torque_replay")
+CASES = ("paper_servo", "satellite_slew", "torque_replay", "vertical_arm")
 
 
 def _scenario(case: str) -> Any:

@@ -70,9 +70,18 @@ def _paper_servos(stiffening: bool, actuators: bool = False) -> ForwardSystem:
     return ForwardSystem(Chain(paper_links(3), (servo1, servo2)), Base(), stiffening, patches)
 
 
+def _in_gravity(system: ForwardSystem) -> ForwardSystem:
+    """The same system in a uniform field with both components (m/s², global axes)."""
+    return ForwardSystem(system.chain, system.base, system.geometric_stiffening,
+                         system.actuators, gravity=(2.5, -9.81))
+
+
 SYSTEMS = {"free": _free_two_appendages, "pinned": _pinned_hub, "servos": _paper_servos,
            "free_actuators": lambda s: _free_two_appendages(s, True),
-           "servos_actuators": lambda s: _paper_servos(s, True)}
+           "servos_actuators": lambda s: _paper_servos(s, True),
+           "free_gravity": lambda s: _in_gravity(_free_two_appendages(s)),
+           "pinned_gravity": lambda s: _in_gravity(_pinned_hub(s)),
+           "servos_gravity": lambda s: _in_gravity(_paper_servos(s))}
 
 
 @pytest.mark.parametrize("stiffening", [False, True])

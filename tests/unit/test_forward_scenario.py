@@ -93,7 +93,8 @@ def test_torque_history_from_a_results_csv(tmp_path: Path) -> None:
     np.testing.assert_allclose(joint.torque.value(np.array([0.5, 3.0])), [1.0, 2.0])
 
 
-@pytest.mark.parametrize("name", ["satellite_slew.toml", "paper_servo.toml"])
+@pytest.mark.parametrize("name", ["satellite_slew.toml", "paper_servo.toml",
+                                  "vertical_arm.toml"])
 def test_example_resolves_round_trips_and_runs_shortened(name: str) -> None:
     """The shipped examples load, their resolved form loads to the same model, and a
     shortened run gives finite output with the forward channels."""
@@ -104,11 +105,16 @@ def test_example_resolves_round_trips_and_runs_shortened(name: str) -> None:
     scenario = flexlink.load_scenario(EXAMPLES / name)
     assert again.base == scenario.base
     raw = tomllib.loads((EXAMPLES / name).read_text())
-    raw["simulation"].update(t_end=0.6 if "servo" in name else 2.0)
+    raw["simulation"].update(t_end=2.0 if "slew" in name else 0.6)
     results = flexlink.simulate(scenario_from_dict(raw, base_dir=EXAMPLES))
     frame = results.to_pandas()
     assert np.isfinite(frame.to_numpy()).all()
-    if "servo" in name:
+    if "vertical" in name:  # starts in equilibrium: at rest, its weight's moment held
+        link = scenario.chain.links[0]
+        moment = (link.mass_per_length * link.length**2 / 2 + link.tip_mass * link.length) * 9.81
+        assert frame["joint1_torque"].iloc[0] == pytest.approx(moment, rel=1e-9)
+        assert frame["arm_tip_Y"].iloc[0] < 0.0 and frame["joint1_angle"].iloc[-1] > 0.0
+    elif "servo" in name:
         assert {"joint1_command", "joint1_reference", "joint2_rate"} <= set(frame.columns)
         assert frame["joint1_angle"].iloc[-1] > 0.0  # the arm has started to move
     else:

@@ -50,8 +50,7 @@ def test_the_doubling_kernel_keeps_the_two_half_steps() -> None:
     system = NonlinearSystem(_swing())
     n, H, t0 = system.n, 0.02, 0.15
     q0, v0 = np.linspace(0.01, -0.02, n), np.linspace(-0.3, 0.2, n)
-    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
-        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    arrays = system.kernel_arrays()
     floor = ROUND_OFF * system.max_frequency**2
     X0 = np.repeat(system.accelerations(np.array([t0]), q0[None], v0[None]), 2, axis=0)
 
@@ -65,7 +64,7 @@ def test_the_doubling_kernel_keeps_the_two_half_steps() -> None:
     status, accepted = gauss_doubling(
         q, v, X0.copy(), H, H, *rows(t0 + H * DOUBLING_STAGES), *arrays, NODES, COEFFS,
         COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX, floor, np.zeros(n, np.int64),
-        np.zeros(1), np.zeros(1), 1.0, 1.0, errors, np.zeros((2, 2 * n, 2 * n)),
+        np.zeros(1), np.zeros(1), 1.0, 1.0, 0.0, errors, np.zeros((2, 2 * n, 2 * n)),
         np.zeros(2, np.int64), np.zeros(2, np.int64))
     assert (status, accepted) == (0, 1)
     qh, vh = np.array([q0, q0, q0]), np.array([v0, v0, v0])

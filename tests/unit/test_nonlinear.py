@@ -16,12 +16,13 @@ from tests.helpers import CubicMotion, chain_of, paper_links
 T0 = 0.37
 
 
-def _system(modes: int = 3, tip_inertia: float = 0.0) -> NonlinearSystem:
+def _system(modes: int = 3, tip_inertia: float = 0.0,
+            gravity: tuple[float, float] = (0.0, 0.0)) -> NonlinearSystem:
     link1, link2 = paper_links(modes=modes, damping=False)
     link1 = Link(**{**link1.__dict__, "tip_inertia": 2e-4}) if tip_inertia else link1
     link2 = Link(**{**link2.__dict__, "tip_mass": 0.02, "tip_inertia": tip_inertia})
     motions = [CubicMotion(0.1, 0.5, 0.3, -0.2), CubicMotion(1.0, -0.4, 0.7, 0.1)]
-    return NonlinearSystem(chain_of([link1, link2], motions))
+    return NonlinearSystem(chain_of([link1, link2], motions), gravity=gravity)
 
 
 def _state(system: NonlinearSystem, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -39,10 +40,14 @@ def test_cumulative_quadrature_is_exact_for_polynomials() -> None:
     assert np.allclose(quad.cumulative(s) @ f, exact, rtol=0, atol=1e-14)
 
 
-@pytest.mark.parametrize("tip_inertia", [0.0, 3e-5])
-def test_equations_of_motion_match_the_lagrangian(tip_inertia: float) -> None:
-    """d/dt ∂T/∂q̇ − ∂T/∂q (central differences of the kinetic energy) = −K q at q̈ of the model."""
-    system = _system(tip_inertia=tip_inertia)
+@pytest.mark.parametrize(("tip_inertia", "gravity"),
+                         [(0.0, (0.0, 0.0)), (3e-5, (0.0, 0.0)), (3e-5, (3.0, -9.81))])
+def test_equations_of_motion_match_the_lagrangian(tip_inertia: float,
+                                                  gravity: tuple[float, float]) -> None:
+    """d/dt ∂T/∂q̇ − ∂T/∂q (central differences of the kinetic energy) = −K q − ∂V/∂q at q̈ of
+    the model, V = −Σ m g·r the weights' potential (from the point positions, not the
+    equations' gravity term)."""
+    system = _system(tip_inertia=tip_inertia, gravity=gravity)
     q, qd = _state(system)
     qdd = system.accelerations(np.array([T0]), q[None], qd[None])[0]
     n, h, dt = system.n, 1e-6, 1e-5
@@ -61,7 +66,10 @@ def test_equations_of_motion_match_the_lagrangian(tip_inertia: float) -> None:
     later = gradient(T0 + dt, q + dt * qd + 0.5 * dt**2 * qdd, qd + dt * qdd, True)
     earlier = gradient(T0 - dt, q - dt * qd + 0.5 * dt**2 * qdd, qd - dt * qdd, True)
     inertia = (later - earlier) / (2 * dt) - gradient(T0, q, qd, False)
-    elastic = system.K @ q
+    weight = np.array([(system.potential(np.array([T0]), (q + e)[None])
+                        - system.potential(np.array([T0]), (q - e)[None]))[0] / (2 * h)
+                       for e in np.eye(n) * h])
+    elastic = system.K @ q + weight
     assert np.abs(inertia + elastic).max() < 1e-4 * np.abs(elastic).max()
 
 
@@ -148,7 +156,8 @@ def test_quintic_hermite_reproduces_a_quintic() -> None:
     assert np.allclose(a, p(s, 2), atol=1e-11)
 
 
-def test_compiled_and_numpy_loops_agree() -> None:
+@pytest.mark.parametrize("gravity", [(0.0, 0.0), (2.0, -9.81)])
+def test_compiled_and_numpy_loops_agree(gravity: tuple[float, float]) -> None:
     """The numba kernels (step loop, batched accelerations) are the numpy algorithm compiled."""
     pytest.importorskip("numba")
     from tests.helpers import SmoothStep
@@ -156,7 +165,8 @@ def test_compiled_and_numpy_loops_agree() -> None:
     link1, link2 = paper_links(modes=3, damping=True)
     motions = [SmoothStep(0.0, 1.5, 0.0, 0.6), SmoothStep(1.5, 2.9, 0.0, 0.6)]
     system = NonlinearSystem(chain_of([link1, Link(**{**link2.__dict__, "tip_mass": 0.01,
-                                                       "tip_inertia": 1e-6})], motions))
+                                                       "tip_inertia": 1e-6})], motions),
+                             gravity=gravity)
     runs = [integrate_gauss(system, 0.8, 4e-3, compiled=c) for c in (True, False)]
     for a, b in zip(runs[0][1:], runs[1][1:]):
         assert np.abs(a - b).max() <= 1e-8 * np.abs(b).max()

@@ -19,7 +19,8 @@ from tests.unit.test_forward_kernel import SYSTEMS
 
 def _system(name: str) -> NonlinearForwardSystem:
     first_order = SYSTEMS[name](True)
-    return NonlinearForwardSystem(first_order.chain, first_order.base)
+    return NonlinearForwardSystem(first_order.chain, first_order.base,
+                                  gravity=first_order.gravity)
 
 
 def _random_state(system: NonlinearForwardSystem, nt: int, seed: int = 3
@@ -54,10 +55,11 @@ def test_compiled_kernels_match_the_numpy_equations(name: str) -> None:
                                    atol=1e-11 * np.abs(reference[i]).max())
 
 
-@pytest.mark.parametrize("name", ["free", "pinned"])
+@pytest.mark.parametrize("name", ["free", "pinned", "free_gravity", "pinned_gravity"])
 def test_equations_are_the_lagrangian_of_the_kinematics(name: str) -> None:
-    """Inertia and elastic rows equal d/dt ∂T/∂ẏ − ∂T/∂y + K q, T = ½Σ m|ṙ|² + ½Σ J α̇² from the
-    point positions (energy(), not the G, s form of the residual), by central differences
+    """Inertia and elastic rows equal d/dt ∂T/∂ẏ − ∂T/∂y + K q + ∂V/∂y, T = ½Σ m|ṙ|² + ½Σ J α̇²
+    and V = −Σ m g·r from the point positions (energy(), potential(), not the G, s form of the
+    residual nor its gravity term), by central differences
     along y(t) = y + ẏ τ + ½ ÿ τ² (prescribed joints move with t). The applied forces and the
     σ rows are left out (the servo-free systems: drive torques are the applied forces)."""
     system = _system(name)
@@ -87,6 +89,8 @@ def test_equations_are_the_lagrangian_of_the_kinematics(name: str) -> None:
             d = np.zeros(system.n_y)
             d[i] = e
             dTdy[i] = (kinetic(t[b], y[b] + d, v[b]) - kinetic(t[b], y[b] - d, v[b])) / (2 * e)
+            dTdy[i] -= (system.potential(t[b:b + 1], (y[b] + d)[None])[0]
+                        - system.potential(t[b:b + 1], (y[b] - d)[None])[0]) / (2 * e)
         lagrange = dpdt - dTdy
         lagrange[:n] += system.K @ y[b, :n] + system.D @ v[b, :n]
         inp = system.stage_inputs(t[b:b + 1])

@@ -40,8 +40,15 @@ def _paper(stiffening: bool) -> FirstOrderSystem:
                             stiffening)
 
 
+def _in_gravity(system: FirstOrderSystem) -> FirstOrderSystem:
+    """The same system in a uniform field with both components (m/s², global axes)."""
+    return FirstOrderSystem(system.chain, system.geometric_stiffening, gravity=(2.5, -9.81))
+
+
 SYSTEMS = {"three links": _three_links, "paper": _paper,
-           "outboard loaded": lambda s: _three_links(s, "outboard_loaded")}
+           "outboard loaded": lambda s: _three_links(s, "outboard_loaded"),
+           "three links, gravity": lambda s: _in_gravity(_three_links(s)),
+           "paper, gravity": lambda s: _in_gravity(_paper(s))}
 
 
 @pytest.mark.parametrize("stiffening", [False, True])

@@ -68,13 +68,16 @@ class _Moment:
 
 
 def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float, pinned: bool,
-           elements: int, moment: Callable[[float], float] | None, dt: float = 0.0
-           ) -> dict[str, Any]:
-    """The Exudyn system (not assembled); returns mbs, the container and the node numbers."""
+           elements: int, moment: Callable[[float], float] | None, dt: float = 0.0,
+           gravity: tuple[float, float] = (0.0, 0.0)) -> dict[str, Any]:
+    """The Exudyn system (not assembled); returns mbs, the container and the node numbers.
+    ``gravity`` (m/s²): the weights as nodal forces, each element's half on each of its
+    nodes, the tip masses' on the tip node and (free hub) the hub's on the hub."""
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
         LoadCoordinate,
+        LoadForceVector,
         MarkerBodyPosition,
         MarkerNodeCoordinate,
         MarkerNodePosition,
@@ -96,6 +99,10 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
     # A pinned hub's mass does nothing but must not make the mass matrix singular.
     hub = mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub_node, mass=hub_mass if hub_mass > 0
                                           else 1.0, inertia=hub_inertia))
+    if any(gravity) and not pinned and hub_mass > 0.0:
+        mbs.AddLoad(LoadForceVector(
+            markerNumber=mbs.AddMarker(MarkerNodePosition(nodeNumber=hub_node)),
+            loadVector=[hub_mass * gravity[0], hub_mass * gravity[1], 0.0]))
     m_ground = coord(ground, 0)
     if pinned:
         for c in (0, 1):
@@ -122,6 +129,14 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
         if link.tip_mass > 0.0 or link.tip_inertia > 0.0:
             mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[-1], mass=link.tip_mass,
                                             inertia=link.tip_inertia))
+        if any(gravity):
+            element = link.mass_per_length * link.length / elements
+            for i, node in enumerate(chain):
+                mass = element * (0.5 if i in (0, elements) else 1.0)
+                mass += link.tip_mass if i == elements else 0.0
+                mbs.AddLoad(LoadForceVector(
+                    markerNumber=mbs.AddMarker(MarkerNodePosition(nodeNumber=node)),
+                    loadVector=[mass * gravity[0], mass * gravity[1], 0.0]))
         # the clamp: root position on the hub point, root section turning with the hub
         m_point = mbs.AddMarker(MarkerBodyPosition(bodyNumber=hub,
                                                    localPosition=[*app.point, 0.0]))
@@ -161,12 +176,14 @@ def simulate_hub_exudyn(
     spectral_radius: float = 1.0,
     newton_abs_tol: float = 1e-6,
     newton_rel_tol: float = 1e-8,
+    gravity: tuple[float, float] = (0.0, 0.0),
 ) -> dict[str, Any]:
     """A hub turned by the moment M(t) (N·m, about its centre), its appendages free to bend.
 
     elements: elements per appendage (uniform); dt: generalized-α step (default dt_out, at
     most 5e-4 s; it must divide dt_out — put bang-bang switches on the step grid);
-    spectral_radius: ρ∞ (1 = no numerical dissipation). Starts at rest, undeformed.
+    spectral_radius: ρ∞ (1 = no numerical dissipation); gravity: uniform field (m/s²,
+    lumped nodal weights). Starts at rest, undeformed.
 
     Returns ``t`` (s); ``hub_angle`` (rad), ``hub_rate`` (rad/s), ``hub_position`` (n×2, m);
     per appendage (lists) ``tip_deflection`` (m, clamped root frame) and ``tip_position``
@@ -181,7 +198,7 @@ def simulate_hub_exudyn(
     if abs(ratio - round(ratio)) > 1e-6:
         raise ValueError(f"dt = {dt} must divide dt_out = {dt_out}")
     dt = dt_out / round(ratio)
-    built = _build(appendages, hub_mass, hub_inertia, pinned, elements, moment, dt)
+    built = _build(appendages, hub_mass, hub_inertia, pinned, elements, moment, dt, gravity)
     mbs, nodes = built["mbs"], built["nodes"]
 
     def sensor(node: int, kind: Any) -> int:

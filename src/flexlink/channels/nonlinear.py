@@ -123,12 +123,14 @@ def _read(system: Any, motion: ArcMotion, sensor: Sensor) -> np.ndarray:
 
 
 def normal_acceleration(system: Any, motion: ArcMotion, k: int, x: float) -> np.ndarray:
-    """n(x)·r̈(x) = n·R̈_b + Σ_l W_l [cos(α_x − α_l) α̈_l + sin(α_x − α_l) α̇_l²] (m/s²)."""
+    """n(x)·(r̈(x) − g) = n·(R̈_b − g) + Σ_l W_l [cos(α_x − α_l) α̈_l + sin(α_x − α_l) α̇_l²]
+    (m/s²): the specific force an accelerometer reads (its proof mass feels no gravity)."""
     row = system.position_rows(k, np.array([x]))[0]
     arc = system.arcs[k]
     slope = system.modal[k].shapes.evaluate(np.array([x]), 1)[0]
     angle_x = motion.root_angle[:, k] + motion.q[:, arc.coords] @ slope
     diff = angle_x[:, None] - motion.alpha
-    base = (-np.sin(angle_x) * motion.origin_ddot[:, 0]
-            + np.cos(angle_x) * motion.origin_ddot[:, 1])
+    gx, gy = system.gravity
+    base = (-np.sin(angle_x) * (motion.origin_ddot[:, 0] - gx)
+            + np.cos(angle_x) * (motion.origin_ddot[:, 1] - gy))
     return base + (np.cos(diff) * motion.alpha_ddot + np.sin(diff) * motion.alpha_dot**2) @ row

@@ -102,12 +102,13 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
 
 # -- every joint prescribed, fixed hub: FirstOrderSystem -----------------------------------------
 def _prescribed_plant(scenario: Scenario, t0: float, point: float | Configuration) -> LinearPlant:
-    system = FirstOrderSystem(scenario.chain, scenario.settings.geometric_stiffening)
+    system = FirstOrderSystem(scenario.chain, scenario.settings.geometric_stiffening,
+                              gravity=scenario.settings.gravity)
     t = np.array([t0])
     if isinstance(point, Configuration):
         zeros = np.zeros((1, len(point.angles)))
         hist = JointHistory(np.array([point.angles]), zeros, zeros)
-        frames = frame_motion(hist, system.modal, system.offsets, system.n)
+        frames = frame_motion(hist, system.modal, system.offsets, system.n, system.gravity)
     else:
         frames = system.frames(t)
         hist = system.joint_history(t)
@@ -132,8 +133,15 @@ def _prescribed_plant(scenario: Scenario, t0: float, point: float | Configuratio
 
     Cm, D, out_names = _outputs(readings, 0, n, A, B, 0)
     at_rest = bool(np.all(hist.rate == 0) and np.all(hist.acceleration == 0))
-    equilibrium = at_rest and bool(np.abs(f).max(initial=0.0) == 0.0)
+    # At rest the equations are affine in z with constant coefficients: the plant is that of
+    # the deviations from the static deflection K⁻¹f (gravity, the t0 voltages), an
+    # equilibrium; f = 0 makes it the undeformed configuration.
+    equilibrium = at_rest
     op = _describe(scenario, point, equilibrium)
+    if at_rest and np.abs(f).max(initial=0.0) > 0.0:
+        z_static = np.linalg.solve(K, f)
+        op["static_tip_deflection_m"] = [float(b.data.tip_value @ z_static[b.slice])
+                                         for b in system.bodies]
     return _plant(scenario, A, B, Cm, D, coords, [], _input_names(scenario, []),
                   out_names, op, equilibrium)
 
@@ -211,7 +219,8 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
 
 def forward_system(scenario: Scenario) -> ForwardSystem:
     return ForwardSystem(scenario.chain, scenario.base or Base(),
-                         scenario.settings.geometric_stiffening, scenario.actuators)
+                         scenario.settings.geometric_stiffening, scenario.actuators,
+                         gravity=scenario.settings.gravity, initial=scenario.settings.initial)
 
 
 def run_state(scenario: Scenario, system: ForwardSystem, t0: float) -> tuple[np.ndarray, ...]:

@@ -49,6 +49,17 @@ FIXED, PINNED, FREE = 0, 1, 2
 
 
 @njit(cache=True)
+def base_acceleration(d, pdd):
+    """The base reference point's acceleration minus gravity, global axes (m/s²): where
+    gravity enters the compiled first-order model (kinematics.inertial_acceleration: by the
+    equivalence principle, the field g is the base's extra acceleration −g in the synthesis
+    and in the free base's own inertia)."""
+    if d.base_kind == FREE:
+        return pdd[0] - d.gravity[0], pdd[1] - d.gravity[1]
+    return -d.gravity[0], -d.gravity[1]
+
+
+@njit(cache=True)
 def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
     """Fill the zero-order frame angles, rates, accelerations, origin accelerations (frame
     axes) and the maps x → [ρx, ρy, θ1] of every link with their time derivatives
@@ -59,10 +70,8 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
     T[:] = 0.0
     Td[:] = 0.0
     Tdd[:] = 0.0
-    bax = bay = 0.0  # the base's acceleration (its position does not enter)
+    bax, bay = base_acceleration(d, pdd)  # its position does not enter
     th_b = w_b = a_b = 0.0
-    if d.base_kind == FREE:
-        bax, bay = pdd[0], pdd[1]
     if d.base_kind != FIXED:
         th_b, w_b, a_b = p[nb - 1], pd[nb - 1], pdd[nb - 1]
     for k in range(N):
@@ -255,8 +264,9 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     # The rigid base's mass and inertia and their zero-order load (ForwardSystem._base_inertia).
     nb = d.n_base
     if d.base_kind == FREE:
-        r[0] += d.base_mass * pdd[0]
-        r[1] += d.base_mass * pdd[1]
+        bax, bay = base_acceleration(d, pdd)
+        r[0] += d.base_mass * bax
+        r[1] += d.base_mass * bay
         if want_M:
             M[0, 0] += d.base_mass
             M[1, 1] += d.base_mass

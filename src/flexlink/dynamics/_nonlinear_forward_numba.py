@@ -36,17 +36,18 @@ def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
     s = np.empty(nodes)
     S = np.empty((nodes, 4))
     moments = np.empty(nodes)
-    node_forces(nd.Ay, m, Y, V, X, ang, rate, acc, nd.G, c, s, S, moments)
-    out[:] = 0.0
-    rx = ry = 0.0
+    # The base point's acceleration minus gravity (R̈_b − g, global axes): the field enters
+    # the node moments and the translation rows through it (NonlinearForwardSystem._inertia).
+    rx, ry = -d.gravity[0], -d.gravity[1]
     if nd.translation:
-        rx, ry = X[n], X[n + 1]
+        rx, ry = X[n] + rx, X[n + 1] + ry
+    node_forces(nd.Ay, m, Y, V, X, ang, rate, acc, nd.G, nd.s, rx, ry, c, s, S, moments)
+    out[:] = 0.0
     fx = fy = 0.0
     for j in range(nodes):
         uj = moments[j]
         if nd.translation:
             sj = nd.s[j]
-            uj += sj * (-s[j] * rx + c[j] * ry)
             fx += sj * (-S[j, 1] - S[j, 2])
             fy += sj * (S[j, 0] - S[j, 3])
         for i in range(m):

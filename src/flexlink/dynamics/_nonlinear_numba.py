@@ -12,13 +12,16 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 
 
 @njit(cache=True)
-def node_forces(A, cols, Q, V, X, ang, rate, acc, G, c, s, S, u):
+def node_forces(A, cols, Q, V, X, ang, rate, acc, G, lift, ax, ay, c, s, S, u):
     """The inertia of the nodes of a link's discretisation, shared by the prescribed-joint and
     the forward nonlinear kernels. Node j turns by α_j = ang_j + Σ_i A[j, i] Q_i (the first
     ``cols`` coordinates; rates and accelerations alike from V, X); into c, s (nodes,) its cos
     and sin, into S (nodes, 4) c α̈, s α̈, c α̇², s α̇², and into u (nodes,) the generalized
     inertia moment of node j on its angle, c_j (G S)_j0 − c_j (G S)_j3 + s_j ((G S)_j1 +
-    (G S)_j2), with G the nodes' coupling weights (docs/nonlinear.md)."""
+    (G S)_j2), with G the nodes' coupling weights (docs/nonlinear.md), plus
+    lift_j e⊥(α_j)·(a_x, a_y): the base point's acceleration minus gravity (a − g, global
+    axes) acting on the masses the node carries (lift = Wᵀm). This is where gravity enters
+    the nonlinear model (equivalence principle: the field is the base's acceleration −g)."""
     nodes = A.shape[0]
     for j in range(nodes):
         alpha = ang[j]
@@ -49,19 +52,23 @@ def node_forces(A, cols, Q, V, X, ang, rate, acc, G, c, s, S, u):
             g2 += w * S[m, 2]
             g3 += w * S[m, 3]
         u[j] = c[j] * (g0 - g3) + s[j] * (g1 + g2)
+    if ax != 0.0 or ay != 0.0:
+        for j in range(nodes):
+            u[j] += lift[j] * (c[j] * ay - s[j] * ax)
 
 
 @njit(cache=True)
-def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K):
+def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K, lift,
+             gravity):
     """Generalized inertia + damping + elastic − applied (``load``, n) forces of one state
-    (n,) — the numpy
-    NonlinearSystem.residual written as loops (small sizes: no BLAS call overhead)."""
+    (n,) in the uniform field ``gravity`` (2,) — the numpy NonlinearSystem.residual written as
+    loops (small sizes: no BLAS call overhead)."""
     nodes, n = A.shape
     c = np.empty(nodes)
     s = np.empty(nodes)
     S = np.empty((nodes, 4))
     u = np.empty(nodes)
-    node_forces(A, n, Q, V, X, ang, rate, acc, G, c, s, S, u)
+    node_forces(A, n, Q, V, X, ang, rate, acc, G, lift, -gravity[0], -gravity[1], c, s, S, u)
     out = np.zeros(n)
     for j in range(nodes):
         for i in range(n):
@@ -81,7 +88,7 @@ def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J,
 
 
 @njit(cache=True)
-def accelerations(q, qd, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K):
+def accelerations(q, qd, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, lift, gravity):
     """q̈ (b, n) of M q̈ = f for b states; M = Aᵀ(G ∘ cos(α_j − α_l))A + Σ J_t a_t a_tᵀ."""
     b, n = q.shape
     nodes = A.shape[0]
@@ -93,7 +100,7 @@ def accelerations(q, qd, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K):
     zero = np.zeros(n)
     for t in range(b):
         f = -residual(q[t], qd[t], zero, ang[t], rate[t], acc[t], tip_acc[t], load[t], A, At, G,
-                      tip_A, tip_At, J, D, K)
+                      tip_A, tip_At, J, D, K, lift, gravity)
         c = np.cos(np.dot(A, q[t]) + ang[t])
         s = np.sin(np.dot(A, q[t]) + ang[t])
         for j in range(nodes):

@@ -16,6 +16,7 @@ import dataclasses
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -34,6 +35,8 @@ from ..modes import (
 from .actuators import actuator_matrix
 from .histories import history_breakpoints
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
+
+_Solution = TypeVar("_Solution")  # a solvers.Solution (solvers import dynamics, not back)
 
 
 @dataclass(frozen=True)
@@ -151,9 +154,13 @@ class FirstOrderSystem:
     """The assembled first-order model of a chain; evaluate its matrices at any times."""
 
     def __init__(self, chain: Chain, geometric_stiffening: bool = False,
-                 actuators: Sequence[PiezoActuator] = ()) -> None:
+                 actuators: Sequence[PiezoActuator] = (),
+                 gravity: Sequence[float] = (0.0, 0.0)) -> None:
+        """``gravity``: uniform field [gx, gy] (m/s², global axes), entering only through the
+        hub's acceleration in the kinematical synthesis (`kinematics.inertial_acceleration`)."""
         self.chain = chain
         self.geometric_stiffening = geometric_stiffening
+        self.gravity: tuple[float, float] = (float(gravity[0]), float(gravity[1]))
         self.modal: list[ModalData] = chain_modal_data(chain)
         # open-loop piezo actuators: f gets B V(t) (dynamics/actuators.py)
         self.actuators = tuple(actuators)
@@ -164,6 +171,32 @@ class FirstOrderSystem:
         self.bodies = [link_body(d, o) for d, o in zip(self.modal, self.offsets)]
         self._frames_cache: tuple[np.ndarray, FrameMotion] | None = None
         self._history_cache: list[tuple[np.ndarray, JointHistory]] = []
+        # The equations are written for w = z − z_start (so every integrator starts at rest
+        # at w = 0): f becomes f − K z_start. None: z_start = 0 (`start_from`).
+        self.z_start: np.ndarray | None = None
+
+    def equilibrium(self, t0: float = 0.0) -> np.ndarray:
+        """The elastic coordinates z (n,) in static equilibrium with the loads at time t0 (s):
+        K(t0) z = f(t0) with ż = z̈ = 0 (gravity, and the joints' state at t0)."""
+        saved, self.z_start = self.z_start, None
+        try:
+            _, _, K, f = self.matrices(np.array([float(t0)]))
+        finally:
+            self.z_start = saved
+        return np.linalg.solve(K[0], f[0])
+
+    def start_from(self, z_start: np.ndarray | None) -> None:
+        """Integrate w = z − z_start (the solvers start at rest at w = 0): the run starts at
+        rest at z = z_start; add z_start back to the solution's coordinates
+        (`shift_solution`)."""
+        self.z_start = None if z_start is None else np.asarray(z_start, dtype=float).copy()
+
+    def shift_solution(self, solution: _Solution) -> _Solution:
+        """The solution (a frozen dataclass with coordinates ``q``) in z of one integrated in
+        w = z − z_start."""
+        if self.z_start is None:
+            return solution
+        return dataclasses.replace(solution, q=solution.q + self.z_start)  # type: ignore
 
     @property
     def max_frequency(self) -> float:
@@ -194,7 +227,7 @@ class FirstOrderSystem:
         if cached is not None and cached[0].shape == t.shape and np.array_equal(cached[0], t):
             return cached[1]
         unique, inverse = self.joint_history(t).distinct
-        fr = frame_motion(unique, self.modal, self.offsets, self.n)
+        fr = frame_motion(unique, self.modal, self.offsets, self.n, self.gravity)
         if unique.angle.shape[0] < inverse.size:
             fr = fr.at_rows(inverse)
         self._frames_cache = (t.copy(), fr)
@@ -243,11 +276,14 @@ class FirstOrderSystem:
     def matrices(
         self, t: np.ndarray, frames: FrameMotion | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """M, C, K (nt, n, n) and f (nt, n) of M z̈ + C ż + K z = f at times t (s)."""
+        """M, C, K (nt, n, n) and f (nt, n) of M z̈ + C ż + K z = f at times t (s); in
+        w = z − z_start when a start is set (f − K z_start: `start_from`)."""
+        M, C, K, f = self._matrices(t, frames)
         if self.actuators:
-            M, C, K, f = self._matrices(t, frames)
-            return M, C, K, f + self.voltages(t) @ self.actuator_B.T
-        return self._matrices(t, frames)
+            f = f + self.voltages(t) @ self.actuator_B.T
+        if self.z_start is not None:
+            f = f - K @ self.z_start
+        return M, C, K, f
 
     def _matrices(
         self, t: np.ndarray, frames: FrameMotion | None = None
@@ -257,7 +293,8 @@ class FirstOrderSystem:
             return self._assemble(frames)
         # Assemble once per distinct joint state: rest phases repeat one state many times.
         unique, inverse = self.joint_history(t).distinct
-        coefficients = self._assemble(frame_motion(unique, self.modal, self.offsets, self.n))
+        coefficients = self._assemble(
+            frame_motion(unique, self.modal, self.offsets, self.n, self.gravity))
         if unique.angle.shape[0] == inverse.size:
             return coefficients
         M, C, K, f = (a[inverse] for a in coefficients)

@@ -32,6 +32,7 @@ from ..model import (
     VelocityServo,
     is_driven,
 )
+from ..model.settings import InitialName
 from ..modes import ModalData
 from .actuators import actuator_matrix, open_loop_voltages
 from .first_order import (
@@ -43,7 +44,7 @@ from .first_order import (
     second_order_stiffness,
     xi_maps,
 )
-from .kinematics import TURN, FrameMotion, block_map, rotation, tip_map
+from .kinematics import TURN, FrameMotion, block_map, inertial_acceleration, rotation, tip_map
 
 
 class ForwardSystem:
@@ -51,12 +52,20 @@ class ForwardSystem:
 
     def __init__(self, chain: Chain, base: Base, geometric_stiffening: bool = False,
                  actuators: Sequence[PiezoActuator] = (),
-                 modal: Sequence[ModalData] | None = None) -> None:
+                 modal: Sequence[ModalData] | None = None,
+                 gravity: Sequence[float] = (0.0, 0.0),
+                 initial: InitialName = "rest") -> None:
         """``modal``: the links' modal data when the caller has them already (default:
-        `first_order.chain_modal_data`)."""
+        `first_order.chain_modal_data`). ``gravity``: uniform field [gx, gy] (m/s², global
+        axes), entering only as the base's acceleration a − g of the kinematical synthesis
+        and of the free base's own inertia (`kinematics.inertial_acceleration`).
+        ``initial``: "rest" (links undeformed) or "equilibrium" (`equilibrium_state`)."""
         self.chain = chain
         self.base = base
         self.geometric_stiffening = geometric_stiffening
+        self.gravity: tuple[float, float] = (float(gravity[0]), float(gravity[1]))
+        self.initial = initial
+        self._start: np.ndarray | None = None
         self.modal: list[ModalData] = (list(modal) if modal is not None
                                        else chain_modal_data(chain, base))
         n_links = len(chain.links)
@@ -81,7 +90,47 @@ class ForwardSystem:
     # -- rigid state ------------------------------------------------------------------------
     def initial_state(self) -> np.ndarray:
         """[p_free, ṗ_free, z, ż, integrals] at t = 0: base and driven joints as given
-        (servos start on their reference), elastic coordinates at rest."""
+        (servos start on their reference), elastic coordinates at rest, undeformed or (with
+        ``initial = "equilibrium"``) in static equilibrium (`equilibrium_state`)."""
+        if self._start is None:
+            start = self._rest_state()
+            if self.initial == "equilibrium":
+                start = self.equilibrium_state(start)
+            self._start = start
+        return self._start.copy()
+
+    def equilibrium_state(self, start: np.ndarray, t0: float = 0.0) -> np.ndarray:
+        """``start`` with the elastic coordinates, and the joints held by servos, at rest in
+        static equilibrium with the loads at t0 (s): z̈ = 0 and each servo joint's β̈ = 0 with
+        ż = 0. A servo with an integrator holds its reference and its integral takes the load;
+        one without holds the angle where its torque balances it. The base and torque-driven
+        joints keep their given state (a falling base: equilibrium relative to it).
+        Newton's method on the numpy equations (`equilibrium.solve`)."""
+        from . import equilibrium
+
+        nu, n = len(self.free), self.n
+        unknowns = list(range(2 * nu, 2 * nu + n))  # z
+        rows = list(range(nu, nu + n))  # z̈ in the accelerations [p̈_free, z̈]
+        for k in self.servos:
+            joint, j = self.chain.joints[k], self.free.index(self.joint_index(k))
+            rows.append(j)
+            unknowns.append(2 * nu + 2 * n + self.servos.index(k) if joint.integrator else j)
+
+        def residuals(x: np.ndarray) -> np.ndarray:
+            states = np.repeat(start[None], x.shape[0], 0)
+            states[:, unknowns] = x
+            pdd, zdd, _ = self.accelerations(
+                np.full(x.shape[0], float(t0)), states[:, :nu], states[:, nu:2 * nu],
+                states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n],
+                states[:, 2 * nu + 2 * n:])
+            return np.concatenate([pdd, zdd], 1)[:, rows]
+
+        y = start.copy()
+        y[unknowns] = equilibrium.solve(residuals, start[unknowns])
+        return y
+
+    def _rest_state(self) -> np.ndarray:
+        """initial_state with the links undeformed at rest."""
         b = self.base
         p0, v0 = {"free": ([*b.position, b.attitude], [*b.velocity, b.rate]),
                   "pinned": ([b.attitude], [b.rate]), "fixed": ([], [])}[b.kind]
@@ -121,10 +170,10 @@ class ForwardSystem:
         n_links = len(self.chain.links)
         beta, beta_d, beta_dd = (a[:, nb:] for a in (p, pd, pdd))
         base_pos = np.zeros((nt, 2))
-        base_acc = np.zeros((nt, 2))
+        base_acc = self._base_acceleration(pdd)
         th_b, w_b, a_b = (np.zeros(nt) for _ in range(3))
         if self.base.kind == "free":
-            base_pos, base_acc = p[:, :2], pdd[:, :2]
+            base_pos = p[:, :2]
         if self.base.kind != "fixed":
             th_b, w_b, a_b = p[:, nb - 1], pd[:, nb - 1], pdd[:, nb - 1]
         theta = np.zeros((nt, n_links))
@@ -211,6 +260,12 @@ class ForwardSystem:
             f[:, i] -= self.chain.joints[k].motor_inertia * pdd[:, i]  # type: ignore[union-attr]
         return M, C, K, f
 
+    def _base_acceleration(self, pdd: np.ndarray) -> np.ndarray:
+        """The base reference point's acceleration minus gravity (nt, 2), global axes: what
+        the synthesis and the base's own inertia take (kinematics.inertial_acceleration)."""
+        moving = pdd[:, :2] if self.base.kind == "free" else np.zeros((pdd.shape[0], 2))
+        return inertial_acceleration(moving, self.gravity)
+
     def _base_inertia(self, pdd: np.ndarray, M: np.ndarray, f: np.ndarray) -> None:
         """The rigid base's own mass and inertia and their zero-order inertia load."""
         b, nb = self.base, self.n_base
@@ -219,7 +274,7 @@ class ForwardSystem:
         if b.kind == "free":
             M[:, 0, 0] += b.mass
             M[:, 1, 1] += b.mass
-            f[:, :2] -= b.mass * pdd[:, :2]
+            f[:, :2] -= b.mass * self._base_acceleration(pdd)
         M[:, nb - 1, nb - 1] += b.inertia
         f[:, nb - 1] -= b.inertia * pdd[:, nb - 1]
 

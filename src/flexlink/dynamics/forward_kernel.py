@@ -29,10 +29,11 @@ ForwardData = namedtuple("ForwardData", [
     "Mtot", "M0", "G0", "phi_bar", "phi_tilde", "tip_value", "tip_slope", "stiffness",
     "damping", "fore_mass", "fore_moment", "fore_tip", "joint_kind", "motor_inertia",
     "servo_index", "P", "I", "D", "saturation", "rate_per_volt", "loop_gain", "torque_limit",
-    "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B"])
+    "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B", "gravity"])
 ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI units, link "
                        "arrays padded to the most modes, offsets into x = [δp; z]; "
-                       "actuator_B (n, n_act) the actuators' forces on z per volt.")
+                       "actuator_B (n, n_act) the actuators' forces on z per volt; gravity "
+                       "(2,) the uniform field [gx, gy], m/s², global axes.")
 
 
 def pack(system: ForwardSystem) -> ForwardData:
@@ -111,7 +112,8 @@ def pack(system: ForwardSystem) -> ForwardData:
         **params,
         load_point=np.array([ld.point for ld in loads], dtype=float).reshape(len(loads), 2),
         load_body=np.array([ld.frame == "body" for ld in loads], dtype=bool),
-        actuator_B=np.ascontiguousarray(system.actuator_B, dtype=float))
+        actuator_B=np.ascontiguousarray(system.actuator_B, dtype=float),
+        gravity=np.array(system.gravity, dtype=float))
 
 
 def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:

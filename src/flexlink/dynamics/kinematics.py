@@ -244,10 +244,25 @@ def tip_map(data: ModalData) -> np.ndarray:
     return P
 
 
+def inertial_acceleration(acceleration: np.ndarray, gravity: Sequence[float]) -> np.ndarray:
+    """The base's linear acceleration as the kinematical synthesis takes it: a − g, global
+    axes (m/s²), for its acceleration a (…, 2) and the uniform field g = [gx, gy].
+
+    This is where gravity enters the first-order model (numpy; `_forward_numba.
+    base_acceleration` compiled). By the equivalence principle a uniform field g acts on
+    every mass element as an acceleration −g of the reference frame: every inertia term —
+    link, tip body, outboard load, second-order (geometric) stiffness, joint torque, the free
+    base's own m p̈ — is built from the synthesised frame accelerations, so giving the base
+    a − g in place of a adds every gravity load once (docs/derivation.md §11)."""
+    return np.asarray(acceleration, dtype=float) - np.asarray(gravity, dtype=float)
+
+
 def frame_motion(
-    joints: JointHistory, modal: list[ModalData], offsets: list[int], n_total: int
+    joints: JointHistory, modal: list[ModalData], offsets: list[int], n_total: int,
+    gravity: Sequence[float] = (0.0, 0.0),
 ) -> FrameMotion:
-    """Zero-order frame kinematics and first-order perturbation maps for all links."""
+    """Zero-order frame kinematics and first-order perturbation maps for all links; the hub
+    is fixed at the origin in a uniform field ``gravity`` (m/s², global axes)."""
     beta, beta_d, beta_dd = joints.angle, joints.rate, joints.acceleration
     nt, n_links = beta.shape
     theta = np.cumsum(beta, axis=1)
@@ -256,6 +271,9 @@ def frame_motion(
 
     origin = np.zeros((nt, n_links, 2))
     origin_accel = np.zeros((nt, n_links, 2))
+    if any(gravity):  # the fixed hub's acceleration −g, in frame 1's axes
+        base = inertial_acceleration(np.zeros(2), gravity)
+        origin_accel[:, 0] = np.einsum("tji,j->ti", rotation(theta[:, 0]), base)
     T = [np.zeros((nt, 3, n_total))]
     T_dot = [np.zeros((nt, 3, n_total))]
     T_ddot = [np.zeros((nt, 3, n_total))]

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Chain, PiezoActuator
+from ..model.settings import InitialName
 from ..modes import highest_frequency
 from .actuators import actuator_matrix, open_loop_voltages
 from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
@@ -68,9 +69,15 @@ class NonlinearSystem:
 
     def __init__(self, chain: Chain, panels: int | None = None,
                  points_per_panel: int = POINTS_PER_PANEL,
-                 actuators: Sequence[PiezoActuator] = ()) -> None:
+                 actuators: Sequence[PiezoActuator] = (),
+                 gravity: Sequence[float] = (0.0, 0.0), initial: InitialName = "rest") -> None:
+        """``gravity``: uniform field [gx, gy] (m/s², global axes), the hub's acceleration
+        −g in the inertia forces of every point mass (`base_moments`); ``initial``: the
+        links at t = 0 undeformed ("rest") or in static equilibrium (`initial_coordinates`)."""
         # The basis (mode shapes, K, modal damping) is the first-order model's.
         self.chain = chain
+        self.gravity = np.array([float(gravity[0]), float(gravity[1])])
+        self.initial = initial
         self.modal = chain_modal_data(chain)
         # Piezo actuators: B V on q, the same function as in the first-order model (the moment
         # pair's virtual work M δ(ψ(x_e) − ψ(x_s)) with ψ = Φ′q exact here).
@@ -118,6 +125,7 @@ class NonlinearSystem:
         self.point_mass = np.concatenate(masses)
         self.R = np.sqrt(self.point_mass)[:, None] * self.W
         self.G = self.R.T @ self.R
+        self.lift = self.W.T @ self.point_mass  # the mass each node's direction carries, kg
         self.tip_inertia = np.array([link.tip_inertia for link in chain.links])
         self._At = np.ascontiguousarray(self.A.T)
         self._tip_At = np.ascontiguousarray(self.tip_A.T)
@@ -180,7 +188,40 @@ class NonlinearSystem:
         """u_j with α̈ = Bβ̈ (the part of the inertia forces not proportional to q̈), (b, nodes)."""
         c, s = np.cos(alpha), np.sin(alpha)
         cos_b, _, _, sin_v = self._kernel(c, s, [beta_ddot @ self.B.T, alpha_dot**2])
-        return cos_b + sin_v
+        return cos_b + sin_v + self.base_moments(c, s)
+
+    def base_moments(self, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """The nodes' share of the inertia forces of the hub's acceleration a = −g (the fixed
+        hub in the field g: equivalence principle), lift_j e⊥(α_j)·a, (b, nodes), from cos α,
+        sin α of the nodes: where gravity enters the nonlinear model (numpy; compiled:
+        `_nonlinear_numba.node_forces`)."""
+        ax, ay = -self.gravity
+        if ax == 0.0 and ay == 0.0:
+            return np.zeros(c.shape)
+        return self.lift * (c * ay - s * ax)
+
+    def initial_coordinates(self) -> np.ndarray:
+        """q at t = 0 (n,): zero, or with ``initial = "equilibrium"`` the static deflection
+        under the loads at t = 0 (the residual at rest vanishes: Newton, `equilibrium.solve`)."""
+        if self.initial != "equilibrium" or self.n == 0:
+            return np.zeros(self.n)
+        from . import equilibrium
+
+        inputs = self.node_inputs(np.zeros(1))
+
+        def residuals(q: np.ndarray) -> np.ndarray:
+            index = np.zeros(q.shape[0], dtype=int)
+            rest = np.zeros_like(q)
+            return self.residual(q, rest, rest, inputs[index])
+
+        return equilibrium.solve(residuals, np.zeros(self.n))
+
+    def kernel_arrays(self) -> list[np.ndarray]:
+        """The constant arrays the compiled kernels take after the inputs: A, G, tip_A, J_t,
+        D, K, lift, gravity."""
+        return [np.ascontiguousarray(a, dtype=float) for a in (
+            self.A, self.G, self.tip_A, self.tip_inertia, self.D, self.K, self.lift,
+            self.gravity)]
 
     def voltages(self, t: np.ndarray) -> np.ndarray:
         """Open-loop actuator voltages (b, n_act), V, clipped to the limits."""
@@ -212,8 +253,7 @@ class NonlinearSystem:
             return compiled_kernels.accelerations(
                 *(np.ascontiguousarray(a, dtype=float) for a in (
                     q, qd, inputs.angle, inputs.rate, inputs.acceleration,
-                    inputs.tip_acceleration, inputs.load, self.A, self.G, self.tip_A,
-                    self.tip_inertia, self.D, self.K)))
+                    inputs.tip_acceleration, inputs.load)), *self.kernel_arrays())
         hist = self.joint_history(t)
         M, f = self.forces(q, qd, hist.angle, hist.rate, hist.acceleration)
         f = f + (self.voltages(t) @ self.actuator_B.T if load is None else load)
@@ -239,7 +279,7 @@ class NonlinearSystem:
         g = (stacked.reshape(-1, self.nodes) @ self.G).reshape(stacked.shape)  # G symmetric
         g = np.moveaxis(g, 0, -1)
         # u = c∘G(c∘α̈) + s∘G(s∘α̈) + s∘G(c∘α̇²) − c∘G(s∘α̇²)
-        u = c * (g[..., 0] - g[..., 3]) + s * (g[..., 1] + g[..., 2])
+        u = c * (g[..., 0] - g[..., 3]) + s * (g[..., 1] + g[..., 2]) + self.base_moments(c, s)
         tip = (qdd @ self._tip_At + inputs.tip_acceleration) * self.tip_inertia
         return u, tip
 
@@ -267,6 +307,13 @@ class NonlinearSystem:
         tip_rate = qd @ self.tip_A.T + hist.rate @ self.tip_B.T
         kinetic = 0.5 * (np.sum(vx**2 + vy**2, -1) + tip_rate**2 @ self.tip_inertia)
         return kinetic, 0.5 * np.einsum("bi,ij,bj->b", q, self.K, q)
+
+    def potential(self, t: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Gravitational potential energy −Σ m_p g·r_p (b,), J (zero with the hub's point at
+        the origin's height)."""
+        alpha = self.node_angles(q, self.joint_history(t).angle)
+        r = np.stack([np.cos(alpha) @ self.W.T, np.sin(alpha) @ self.W.T], -1)
+        return -np.einsum("bpi,p,i->b", r, self.point_mass, self.gravity)
 
     @property
     def max_frequency(self) -> float:

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from ..model import Base, Chain, PiezoActuator, is_driven
+from ..model.settings import InitialName
 from .arc import ArcQuadrature, arc_quadrature
 from .forward import ForwardSystem
 
@@ -63,13 +64,19 @@ class NonlinearForwardSystem:
     leading batch axis."""
 
     def __init__(self, chain: Chain, base: Base | None = None,
-                 actuators: Sequence[PiezoActuator] = ()) -> None:
+                 actuators: Sequence[PiezoActuator] = (),
+                 gravity: Sequence[float] = (0.0, 0.0), initial: InitialName = "rest") -> None:
+        """``gravity``: uniform field [gx, gy] (m/s², global axes), entering as the base
+        point's acceleration R̈_b − g (`_inertia`); ``initial``: "rest" or "equilibrium"
+        (`initial_state`)."""
         base = Base() if base is None else base
         self.chain, self.base = chain, base
+        self.gravity = np.array([float(gravity[0]), float(gravity[1])])
+        self.initial = initial
         # Rigid bookkeeping, initial state and applied loads (piezo actuators included: their
         # force B V on q is the same function in both models, ψ = Φ′q being exact): the
-        # first-order forward model's.
-        self.loads = ForwardSystem(chain, base, actuators=actuators)
+        # first-order forward model's (its gravity: the kernels read it from its data).
+        self.loads = ForwardSystem(chain, base, actuators=actuators, gravity=gravity)
         self.actuators = self.loads.actuators
         self.modal = self.loads.modal
         N = len(chain.links)
@@ -209,6 +216,35 @@ class NonlinearForwardSystem:
         y, v = np.zeros(self.n_y), np.zeros(self.n_y)
         y[self.n:self.n + self.nu] = start[:self.nu]
         v[self.n:self.n + self.nu] = start[self.nu:2 * self.nu]
+        if self.initial == "equilibrium":
+            y, v = self._equilibrium(y, v)
+        return y, v
+
+    def _equilibrium(self, y: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """y, ẏ with q, and each servo-held joint (its angle, or its integral σ̇ if it has
+        an integrator), at rest in static equilibrium at t = 0: q̈ and those joints' β̈
+        vanish (as ForwardSystem.equilibrium_state; `equilibrium.solve`)."""
+        from . import equilibrium
+
+        n, nu = self.n, self.nu
+        in_y, in_v, rows = list(range(n)), [], list(range(n))
+        for s, k in enumerate(self.servos):
+            j = n + self.free.index(self.n_base + k)
+            rows.append(j)
+            if self.chain.joints[k].integrator:
+                in_v.append(n + nu + s)
+            else:
+                in_y.append(j)
+        cut = len(in_y)
+
+        def residuals(x: np.ndarray) -> np.ndarray:
+            Y, V = np.repeat(y[None], x.shape[0], 0), np.repeat(v[None], x.shape[0], 0)
+            Y[:, in_y], V[:, in_v] = x[:, :cut], x[:, cut:]
+            return self.accelerations(np.zeros(x.shape[0]), Y, V)[:, rows]
+
+        x = equilibrium.solve(residuals, np.concatenate([y[in_y], v[in_v]]))
+        y, v = y.copy(), v.copy()
+        y[in_y], v[in_v] = x[:cut], x[cut:]
         return y, v
 
     def from_solution(self, solution: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -250,10 +286,15 @@ class NonlinearForwardSystem:
         g = [(x @ self.G) for x in (c * alpha_dd, s * alpha_dd, c * w2, s * w2)]  # G symmetric
         u = c * (g[0] - g[3]) + s * (g[1] + g[2])
         F = np.zeros(y.shape[:-1] + (2,))
+        # The base point's acceleration minus gravity (global axes): where the field enters
+        # this model (equivalence principle), as −g on a base that does not translate.
+        Rdd = np.broadcast_to(-self.gravity, y.shape[:-1] + (2,))
         if self.translation:
             n = self.n
-            Rdd = a[..., n:n + 2]
+            Rdd = a[..., n:n + 2] + Rdd
+        if self.translation or self.gravity.any():
             u = u + self.s * (-s * Rdd[..., :1] + c * Rdd[..., 1:])
+        if self.translation:
             F = self.m_tot * Rdd + np.stack([(-s * alpha_dd - c * w2) @ self.s,
                                              (c * alpha_dd - s * w2) @ self.s], -1)
         rot = (a @ self.rot_y.T + inp.rot_acceleration) * self.rot_J
@@ -366,6 +407,12 @@ class NonlinearForwardSystem:
                          + self.rotary_rates(t, v)**2 @ self.rot_J)
         q = y[:, :self.n]
         return kinetic, 0.5 * np.einsum("bi,ij,bj->b", q, self.K, q)
+
+    def potential(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Gravitational potential energy −Σ m_p g·r_p (b,), J (zero at the origin's
+        height)."""
+        r, _ = self.point_motion(t, y, np.zeros_like(y))
+        return -np.einsum("bpi,p,i->b", r, self.point_mass, self.gravity)
 
     def momentum(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,7 @@ def forward_view(system: FirstOrderSystem) -> ForwardSystem:
     model's basis, which may be outboard-loaded). Actuator forces are not part of the
     prescribed kernels (CompiledFirstOrderSystem adds them in numpy)."""
     return ForwardSystem(system.chain, Base(), system.geometric_stiffening,
-                         modal=system.modal)
+                         modal=system.modal, gravity=system.gravity)
 
 
 def forward_data(system: FirstOrderSystem) -> ForwardData:
@@ -40,7 +40,7 @@ def forward_data(system: FirstOrderSystem) -> ForwardData:
         return data
     try:  # the modal data by identity (they are cached per link), the chain by value
         key: tuple[object, ...] | None = (system.chain, system.geometric_stiffening,
-                                          tuple(id(m) for m in system.modal))
+                                          system.gravity, tuple(id(m) for m in system.modal))
         kept = _PACKED.get(key)
     except TypeError:  # a motion that is not hashable (holds arrays): not remembered
         key, kept = None, None
@@ -96,7 +96,10 @@ class CompiledFirstOrderSystem(FirstOrderSystem):
         if self.actuators:  # their forces: the numpy route (open-loop actuators are rare)
             M, C, K, f = self.matrices(t)
             return np.linalg.solve(M, np.concatenate([-K, -C, f[:, :, None]], axis=2))
-        return state_rows(self, t)
+        rows = state_rows(self, t)
+        if self.z_start is not None:  # in w = z − z_start: M⁻¹(f − K z_start)
+            rows[:, :, -1] += rows[:, :, :self.n] @ self.z_start
+        return rows
 
 
 def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:

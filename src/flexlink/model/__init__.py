@@ -29,11 +29,20 @@ from .joints import (
 )
 from .scenario import Scenario
 from .sensors import POINT_SENSOR_KINDS, PiezoSensor, PointSensor, PointSensorKind, Sensor
-from .settings import METHODS, MODELS, MethodName, ModelName, SimulationSettings
+from .settings import (
+    INITIAL_STATES,
+    METHODS,
+    MODELS,
+    InitialName,
+    MethodName,
+    ModelName,
+    SimulationSettings,
+)
 
 __all__ = [
     "BASE_KINDS",
     "CONTROLLER_KINDS",
+    "INITIAL_STATES",
     "LOAD_FRAMES",
     "METHODS",
     "MODELS",
@@ -50,6 +59,7 @@ __all__ = [
     "Drive",
     "FunctionController",
     "History",
+    "InitialName",
     "Joint",
     "JointMotion",
     "Link",

@@ -6,6 +6,7 @@ and the generated docs read them from here.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal, get_args
 
@@ -13,7 +14,12 @@ ModelName = Literal["first_order", "nonlinear"]
 # "lawson" and "magnus" integrate prescribed-joint runs; the others are scipy solve_ivp methods
 MethodName = Literal["magnus", "lawson", "DOP853", "RK45", "Radau", "LSODA"]
 
+# "rest": every link undeformed at rest at t = 0; "equilibrium": in static equilibrium with
+# the loads at t = 0 (gravity, held joints)
+InitialName = Literal["rest", "equilibrium"]
+
 MODELS: tuple[str, ...] = get_args(ModelName)
+INITIAL_STATES: tuple[str, ...] = get_args(InitialName)
 METHODS: tuple[str, ...] = get_args(MethodName)
 
 # The default simulation.rtol of each model: its time-integration error about a tenth of the
@@ -36,6 +42,8 @@ class SimulationSettings:
     method: MethodName = "lawson"
     model: ModelName = "first_order"  # "nonlinear": large deflections (docs/nonlinear.md)
     step: float | None = None  # s, fixed step of the nonlinear model (None: step halving)
+    gravity: tuple[float, float] = (0.0, 0.0)  # m/s², uniform field in the base plane's axes
+    initial: InitialName = "rest"
 
     def __post_init__(self) -> None:
         # The scenario loader reports these with every other problem; a model built in
@@ -58,5 +66,12 @@ class SimulationSettings:
         if self.model not in MODELS:
             raise ValueError(f"simulation.model must be one of {', '.join(map(repr, MODELS))}, "
                              f"got {self.model!r}")
+        if len(self.gravity) != 2 or not all(math.isfinite(g) for g in self.gravity):
+            raise ValueError("simulation.gravity must be two finite numbers [gx, gy] (m/s²), "
+                             f"got {self.gravity!r}")
+        object.__setattr__(self, "gravity", (float(self.gravity[0]), float(self.gravity[1])))
+        if self.initial not in INITIAL_STATES:
+            raise ValueError("simulation.initial must be one of "
+                             f"{', '.join(map(repr, INITIAL_STATES))}, got {self.initial!r}")
         if self.step is not None and not self.step > 0:
             raise ValueError(f"simulation.step must be > 0 s, got {self.step!r}")

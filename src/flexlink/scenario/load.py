@@ -436,7 +436,8 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
                                   geometric_stiffening=sim["geometric_stiffening"],
                                   rtol=sim.get("rtol"), atol=sim["atol"], method=sim["method"],
-                                  model=sim["model"], step=sim.get("step"))
+                                  model=sim["model"], step=sim.get("step"),
+                                  gravity=tuple(sim["gravity"]), initial=sim["initial"])
     links = tuple(_link_model(lk) for lk in resolved["links"])
     index = {link.name: i for i, link in enumerate(links)}
     sensors: list[PointSensor | PiezoSensor] = []

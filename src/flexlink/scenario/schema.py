@@ -15,7 +15,15 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from ..model import BASE_KINDS, LOAD_FRAMES, METHODS, MODE_SHAPES, MODELS, POINT_SENSOR_KINDS
+from ..model import (
+    BASE_KINDS,
+    INITIAL_STATES,
+    LOAD_FRAMES,
+    METHODS,
+    MODE_SHAPES,
+    MODELS,
+    POINT_SENSOR_KINDS,
+)
 from ..motion.shapers import DEFAULT_TOLERABLE_VIBRATION, SHAPERS
 from .errors import REQUIRED, Problems
 
@@ -180,6 +188,18 @@ SIMULATION = Section("simulation", [
           doc="nonlinear model only: fixed time step of its Gauss collocation solver, "
               "without error control. Without it each step is chosen so that its estimated "
               "error is within `rtol` of the peak coordinates and rates (docs/nonlinear.md §4)"),
+    Field("gravity", "pair", unit="m/s²", default=(0.0, 0.0),
+          doc="uniform gravity field [gx, gy] in the plane of motion, in the global (base "
+              "plane) axes: `[0, -9.81]` for a vertical plane with y up; zero for the paper's "
+              "horizontal arm. It acts on every link, tip mass, hub and base (docs/derivation.md "
+              "§11); accelerometers read specific force (acceleration − g), as real ones "
+              "do"),
+    Field("initial", "string", default="rest", choices=INITIAL_STATES, notes={
+        "rest": "every link undeformed and at rest at t = 0",
+        "equilibrium": "the elastic coordinates, and the joints held by servos, start at rest "
+                       "in static equilibrium with the loads at t = 0 (gravity, held joints): "
+                       "a run without motion then stays at rest"},
+        doc="the state at t = 0"),
 ])
 
 # --- [[links]] ------------------------------------------------------------------------------

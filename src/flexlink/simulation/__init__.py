@@ -63,7 +63,8 @@ def model_path(scenario: Scenario) -> str:
 
 
 def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) -> Results:
-    """Run one scenario: elastic coordinates start at rest; joints follow their prescriptions,
+    """Run one scenario: elastic coordinates start at rest, undeformed or (``initial =
+    "equilibrium"``) in static equilibrium; joints follow their prescriptions,
     or (moving base, driven joints) the equations of motion. ``progress``: a progress bar on
     runs longer than a second; ``shapes``: every link's deformed shape on a grid of points
     (what animations draw; sweeps leave it out)."""

@@ -40,7 +40,8 @@ from .prescribed import prescribed_values
 def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                     with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening)
+    system = FirstOrderSystem(scenario.chain, settings.geometric_stiffening,
+                              gravity=settings.gravity)
     system.joint_history(t)
     n, actuators = system.n, scenario.actuators
     B = actuator_matrix(actuators, system.modal)
@@ -62,10 +63,15 @@ def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     control, python_index = pack_controllers(controllers, actuators, readings, grid,
                                              2 * n + 1, v_open)
     python = _python_loop(scenario, [controllers[i] for i in python_index], readings, grid)
+    start = None
+    if settings.initial == "equilibrium":  # under gravity and the open-loop voltages at t = 0
+        _, _, K, f = system.matrices(grid[:1])
+        start = np.linalg.solve(K[0], f[0] + B @ v_open[0])
     try:
         run = integrate_closed_loop(rows, n, len(actuators), system.coefficient_keys,
                                     system.breakpoints(), system.max_frequency, t, grid,
-                                    settings.rtol, settings.atol, control, python, on_progress)
+                                    settings.rtol, settings.atol, control, python, on_progress,
+                                    start)
     except UnstableLoop as exc:
         raise SimulationError(_unstable_message(scenario, exc, readings, grid)) from None
     out = np.searchsorted(grid, t - 1e-9 * max(1.0, t[-1]))

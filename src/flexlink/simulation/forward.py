@@ -28,7 +28,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
     system = ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening,
-                           scenario.actuators)
+                           scenario.actuators, gravity=settings.gravity,
+                           initial=settings.initial)
     method = settings.method if settings.method not in ("lawson", "magnus") else FAST_METHOD
     loop = sampled_loop(scenario, system, t) if scenario.controllers else None
     solution = integrate_forward(system, t, settings.rtol, settings.atol, method, on_progress,

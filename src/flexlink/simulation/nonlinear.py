@@ -21,7 +21,8 @@ from .common import PathRun, Progress
 def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = NonlinearSystem(scenario.chain, actuators=scenario.actuators)
+    system = NonlinearSystem(scenario.chain, actuators=scenario.actuators,
+                             gravity=settings.gravity, initial=settings.initial)
     hist = system.joint_history(t)  # fails early if a measured motion does not cover t
     loop = _sampled_loop(scenario, system, t) if scenario.controllers else None
     solution = (solve_nonlinear(system, t, settings.rtol, settings.step, on_progress=on_progress,

@@ -16,7 +16,8 @@ from .common import PathRun, Progress
 def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                           with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
-    system = NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators)
+    system = NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators,
+                                    gravity=settings.gravity, initial=settings.initial)
     system.stage_inputs(t)  # fails early if a measured motion or table does not cover t
     solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
                                        on_progress=on_progress, atol=settings.atol)

@@ -22,11 +22,14 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True) -> PathRun:
     settings = scenario.settings
     system = CompiledFirstOrderSystem(scenario.chain, settings.geometric_stiffening,
-                                      scenario.actuators)
+                                      scenario.actuators, settings.gravity)
     system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
     if system.n:
+        if settings.initial == "equilibrium":
+            system.start_from(system.equilibrium(float(t[0])))
         integrate = PRESCRIBED_METHODS[settings.method]
-        solution = integrate(system, t, settings.rtol, settings.atol, on_progress)
+        solution = system.shift_solution(
+            integrate(system, t, settings.rtol, settings.atol, on_progress))
     else:  # every link rigid: the motion is prescribed, nothing to integrate
         solution = rigid_solution(t, settings.method)
     values, shapes, validity = prescribed_values(scenario, system, solution, with_shapes)

@@ -37,11 +37,12 @@ def rigid_body(link: Link) -> Link:
 
 
 def peak_accelerations(scenario: Scenario, t: np.ndarray) -> np.ndarray:
-    """Per link, a bound of the largest rigid-body acceleration of any of its points (m/s²)
-    over the prescribed motion at times t (s): |origin| + L·√(ω⁴ + ω̇²)."""
+    """Per link, a bound of the largest rigid-body acceleration of any of its points (m/s²),
+    gravity's −g included, over the prescribed motion at times t (s): |origin| + L·√(ω⁴ + ω̇²)."""
     links = scenario.chain.links
     rigid = [modal_data(rigid_body(link)) for link in links]
-    fr = frame_motion(joint_history(scenario.chain.joints, t), rigid, [0] * len(links), 0)
+    fr = frame_motion(joint_history(scenario.chain.joints, t), rigid, [0] * len(links), 0,
+                      scenario.settings.gravity)
     lengths = np.array([link.length for link in links])
     spin = np.sqrt(fr.omega**4 + fr.alpha**2) * lengths
     return (np.linalg.norm(fr.origin_accel, axis=-1) + spin).max(axis=0)

@@ -17,14 +17,19 @@ from ._gauss_numba import doubling_error, predict
 
 @njit(cache=True)
 def solve_stages(y0, v0, X, h, k, ang, rate, acc, rot_acc, u, nd, d, nodes, coeffs, coeffs2,
-                 tol, max_iterations, inverse, have, counts, peak):
+                 tol, max_iterations, floor, inverse, have, counts, peak):
     """_gauss_numba.solve_stages on this model's residual: the stage accelerations X (2, n_y)
     of one step of h (s) from y0, v0, in place; stage inputs in rows k, k + 1; ``inverse``
     the iteration matrix for h (rebuilt when ``have[0]`` is 0 or convergence slows).
     ``peak`` (1,): the largest stage acceleration of the run so far, updated in place; Newton
     stops within tol of it, so that accelerations that vanish (a rigid arm coasting: no
-    elastic term keeps them finite) meet the test. Returns whether Newton converged."""
+    elastic term keeps them finite) meet the test, or within ``floor`` (1/s²) · max|q| (the
+    elastic coordinates' share of y): the round-off of the elastic forces, at a static
+    equilibrium (as `_gauss_numba.solve_stages`). Returns whether Newton converged."""
     n = y0.size
+    q_size = 0.0
+    for m in range(nd.n):
+        q_size = max(q_size, abs(y0[m]))
     Q = np.empty((2, n))
     V = np.empty((2, n))
     R = np.empty(2 * n)
@@ -85,7 +90,7 @@ def solve_stages(y0, v0, X, h, k, ang, rate, acc, rot_acc, u, nd, d, nodes, coef
         theta = size / previous
         # (first iteration: no rate yet, the increment itself must be small)
         remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-        if remaining <= tol * max(largest, peak[0], 1e-300):
+        if remaining <= tol * max(largest, peak[0], 1e-300) + floor * q_size:
             peak[0] = max(peak[0], largest)
             return True
         if size > 0.1 * previous and not fresh:
@@ -98,10 +103,10 @@ def solve_stages(y0, v0, X, h, k, ang, rate, acc, rot_acc, u, nd, d, nodes, coef
 @njit(cache=True)
 def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
                        nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations,
-                       predict_first, peak):
+                       predict_first, peak, floor=0.0):
     """Advance y, v (steps+1, n_y) in place from row 0 by uniform steps h; X (2, n_y) holds
     the stage accelerations of the step before (extrapolated first if ``predict_first``).
-    Stage inputs are per stage row (2·steps, ·); ``peak`` as in `solve_stages`. Returns
+    Stage inputs are per stage row (2·steps, ·); ``peak``, ``floor`` as in `solve_stages`. Returns
     (failed step or −1, rebuilds, iterations)."""
     n = y.shape[1]
     steps = y.shape[0] - 1
@@ -114,7 +119,8 @@ def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
             X[0] += slope
             X[1] += slope
         if not solve_stages(y[i], v[i], X, h, 2 * i, ang, rate, acc, rot_acc, u, nd, d, nodes,
-                            coeffs, coeffs2, tol, max_iterations, inverse, have, counts, peak):
+                            coeffs, coeffs2, tol, max_iterations, floor, inverse, have, counts,
+                            peak):
             return i, counts[0], counts[1]
         v[i + 1] = v[i] + h * (weights[0] * X[0] + weights[1] * X[1])
         y[i + 1] = y[i] + h * v[i] + h * h * (weights2[0] * X[0] + weights2[1] * X[1])
@@ -123,8 +129,9 @@ def gauss_forward_loop(y, v, X, h, ang, rate, acc, rot_acc, u, nd, d,
 
 @njit(cache=True)
 def gauss_forward_doubling(y, v, X, h_prev, H, ang, rate, acc, rot_acc, u, nd, d, nodes,
-                           coeffs, coeffs2, weights, weights2, tol, max_iterations, group,
-                           peak_q, peak_v, rtol, atol, errors, inverse, have, counts, peak_a):
+                           coeffs, coeffs2, weights, weights2, tol, max_iterations, floor, group,
+                           peak_q, peak_v, rtol, atol, rate_floor, errors, inverse, have, counts,
+                           peak_a):
     """_gauss_numba.gauss_doubling on this model's residual (the same arguments, with the
     forward model's stage inputs and packed data nd, d; ``peak_a`` as `solve_stages`'s
     ``peak``)."""
@@ -140,27 +147,27 @@ def gauss_forward_doubling(y, v, X, h_prev, H, ang, rate, acc, rot_acc, u, nd, d
     for i in range(count):
         predict(big, X, h_prev, h_prev, H, nodes)
         if not solve_stages(y[i], v[i], big, H, 6 * i, ang, rate, acc, rot_acc, u, nd, d,
-                            nodes, coeffs, coeffs2, tol, max_iterations, inverse[0],
+                            nodes, coeffs, coeffs2, tol, max_iterations, floor, inverse[0],
                             have[0:1], counts, peak_a):
             return 2, i
         v_big[:] = v[i] + H * (weights[0] * big[0] + weights[1] * big[1])
         y_big[:] = y[i] + H * v[i] + H * H * (weights2[0] * big[0] + weights2[1] * big[1])
         predict(fine, big, H, 0.0, h, nodes)
         if not solve_stages(y[i], v[i], fine, h, 6 * i + 2, ang, rate, acc, rot_acc, u, nd, d,
-                            nodes, coeffs, coeffs2, tol, max_iterations, inverse[1],
+                            nodes, coeffs, coeffs2, tol, max_iterations, floor, inverse[1],
                             have[1:2], counts, peak_a):
             return 2, i
         v_mid[:] = v[i] + h * (weights[0] * fine[0] + weights[1] * fine[1])
         y_mid[:] = y[i] + h * v[i] + h * h * (weights2[0] * fine[0] + weights2[1] * fine[1])
         predict(fine, big, H, h, h, nodes)
         if not solve_stages(y_mid, v_mid, fine, h, 6 * i + 4, ang, rate, acc, rot_acc, u, nd,
-                            d, nodes, coeffs, coeffs2, tol, max_iterations, inverse[1],
+                            d, nodes, coeffs, coeffs2, tol, max_iterations, floor, inverse[1],
                             have[1:2], counts, peak_a):
             return 2, i
         v[i + 1] = v_mid + h * (weights[0] * fine[0] + weights[1] * fine[1])
         y[i + 1] = y_mid + h * v_mid + h * h * (weights2[0] * fine[0] + weights2[1] * fine[1])
         errors[i] = doubling_error(y_big, v_big, y[i + 1], v[i + 1], group, peak_q, peak_v,
-                                   rtol, atol)
+                                   rtol, atol, rate_floor)
         if errors[i] > 1.0:
             return 1, i
         X[:, :] = fine

@@ -18,7 +18,7 @@ from ..dynamics._nonlinear_numba import residual as _residual
 
 @njit(cache=True)
 def solve_stages(q0, v0, X, h, k, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J,
-                 D, K, nodes, coeffs, coeffs2, tol, max_iterations, floor, inverse, have, counts):
+                 D, K, lift, gravity, nodes, coeffs, coeffs2, tol, max_iterations, floor, inverse, have, counts):
     """The stage accelerations X (2, n) of one step of h (s) from q0, v0, solved in place by
     simplified Newton from the guess in X; stage inputs in rows k, k + 1. ``inverse`` (2n, 2n)
     is the iteration matrix for h, rebuilt when ``have[0]`` is 0 or when an iteration
@@ -48,20 +48,20 @@ def solve_stages(q0, v0, X, h, k, ang, rate, acc, tip_acc, load, A, At, G, tip_A
             for st in range(2):
                 r = k + st
                 R0 = _residual(Q[st], V[st], X[st], ang[r], rate[r], acc[r], tip_acc[r],
-                               load[r], A, At, G, tip_A, tip_At, J, D, K)
+                               load[r], A, At, G, tip_A, tip_At, J, D, K, lift, gravity)
                 for m in range(n):
                     Qp = Q[st].copy()
                     Qp[m] += eps
                     dq = (_residual(Qp, V[st], X[st], ang[r], rate[r], acc[r], tip_acc[r],
-                                    load[r], A, At, G, tip_A, tip_At, J, D, K) - R0) / eps
+                                    load[r], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0) / eps
                     Vp = V[st].copy()
                     Vp[m] += eps
                     dv = (_residual(Q[st], Vp, X[st], ang[r], rate[r], acc[r], tip_acc[r],
-                                    load[r], A, At, G, tip_A, tip_At, J, D, K) - R0) / eps
+                                    load[r], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0) / eps
                     Xp = X[st].copy()
                     Xp[m] += 1.0
                     dx = _residual(Q[st], V[st], Xp, ang[r], rate[r], acc[r], tip_acc[r],
-                                   load[r], A, At, G, tip_A, tip_At, J, D, K) - R0
+                                   load[r], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0
                     for j in range(2):
                         Jm[st * n:(st + 1) * n, j * n + m] = (
                             h * h * coeffs2[st, j] * dq + h * coeffs[st, j] * dv)
@@ -74,7 +74,7 @@ def solve_stages(q0, v0, X, h, k, ang, rate, acc, tip_acc, load, A, At, G, tip_A
             r = k + st
             R[st * n:(st + 1) * n] = _residual(Q[st], V[st], X[st], ang[r], rate[r], acc[r],
                                                tip_acc[r], load[r], A, At, G, tip_A, tip_At,
-                                               J, D, K)
+                                               J, D, K, lift, gravity)
         dX = np.dot(inverse, R)
         size = 0.0
         largest = 0.0
@@ -96,8 +96,8 @@ def solve_stages(q0, v0, X, h, k, ang, rate, acc, tip_acc, load, A, At, G, tip_A
 
 
 @njit(cache=True)
-def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K,
-               nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, predict_first,
+def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, lift,
+               gravity, nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, predict_first,
                floor=0.0):
     """Advance q, v (steps+1, n) in place from row 0 by uniform steps h; X (2, n) holds the
     stage accelerations of the step before (extrapolated first if ``predict_first``, else the
@@ -117,7 +117,7 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K,
             X[0] += slope
             X[1] += slope
         if not solve_stages(q[i], v[i], X, h, 2 * i, ang, rate, acc, tip_acc, load, A, At, G,
-                            tip_A, tip_At, J, D, K, nodes, coeffs, coeffs2, tol,
+                            tip_A, tip_At, J, D, K, lift, gravity, nodes, coeffs, coeffs2, tol,
                             max_iterations, floor, inverse, have, counts):
             return i, counts[0], counts[1]
         v[i + 1] = v[i] + h * (weights[0] * X[0] + weights[1] * X[1])
@@ -127,8 +127,9 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K,
 
 @njit(cache=True)
 def gauss_doubling(q, v, X, h_prev, H, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K,
-                   nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, floor,
-                   group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts):
+                   lift, gravity, nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, floor,
+                   group, peak_q, peak_v, rtol, atol, rate_floor, errors, inverse, have,
+                   counts):
     """Advance q, v (count+1, n) in place from row 0 by steps H, each checked by step
     doubling: one step H and two steps H/2 from the same state, the two H/2 steps kept
     (``step_doubling`` in gauss_steps.py). Stage inputs: six rows per step (the H step's two
@@ -152,27 +153,27 @@ def gauss_doubling(q, v, X, h_prev, H, ang, rate, acc, tip_acc, load, A, G, tip_
     for i in range(count):
         predict(big, X, h_prev, h_prev, H, nodes)
         if not solve_stages(q[i], v[i], big, H, 6 * i, ang, rate, acc, tip_acc, load, A, At,
-                            G, tip_A, tip_At, J, D, K, nodes, coeffs, coeffs2, tol,
+                            G, tip_A, tip_At, J, D, K, lift, gravity, nodes, coeffs, coeffs2, tol,
                             max_iterations, floor, inverse[0], have[0:1], counts):
             return 2, i
         v_big[:] = v[i] + H * (weights[0] * big[0] + weights[1] * big[1])
         q_big[:] = q[i] + H * v[i] + H * H * (weights2[0] * big[0] + weights2[1] * big[1])
         predict(fine, big, H, 0.0, h, nodes)
         if not solve_stages(q[i], v[i], fine, h, 6 * i + 2, ang, rate, acc, tip_acc, load, A,
-                            At, G, tip_A, tip_At, J, D, K, nodes, coeffs, coeffs2, tol,
+                            At, G, tip_A, tip_At, J, D, K, lift, gravity, nodes, coeffs, coeffs2, tol,
                             max_iterations, floor, inverse[1], have[1:2], counts):
             return 2, i
         v_mid[:] = v[i] + h * (weights[0] * fine[0] + weights[1] * fine[1])
         q_mid[:] = q[i] + h * v[i] + h * h * (weights2[0] * fine[0] + weights2[1] * fine[1])
         predict(fine, big, H, h, h, nodes)
         if not solve_stages(q_mid, v_mid, fine, h, 6 * i + 4, ang, rate, acc, tip_acc, load,
-                            A, At, G, tip_A, tip_At, J, D, K, nodes, coeffs, coeffs2, tol,
+                            A, At, G, tip_A, tip_At, J, D, K, lift, gravity, nodes, coeffs, coeffs2, tol,
                             max_iterations, floor, inverse[1], have[1:2], counts):
             return 2, i
         v[i + 1] = v_mid + h * (weights[0] * fine[0] + weights[1] * fine[1])
         q[i + 1] = q_mid + h * v_mid + h * h * (weights2[0] * fine[0] + weights2[1] * fine[1])
         errors[i] = doubling_error(q_big, v_big, q[i + 1], v[i + 1], group, peak_q, peak_v,
-                                   rtol, atol)
+                                   rtol, atol, rate_floor)
         if errors[i] > 1.0:
             return 1, i
         X[:, :] = fine
@@ -181,11 +182,14 @@ def gauss_doubling(q, v, X, h_prev, H, ang, rate, acc, tip_acc, load, A, G, tip_
 
 
 @njit(cache=True)
-def doubling_error(q_big, v_big, q_fine, v_fine, group, peak_q, peak_v, rtol, atol):
+def doubling_error(q_big, v_big, q_fine, v_fine, group, peak_q, peak_v, rtol, atol,
+                   rate_floor):
     """The step-doubling estimate of one step's local error, |fine − big| / 15 (fourth
     order), as a fraction of the tolerance atol + rtol · peak of its group (``group``: the
     component's group, −1 for none; ``peak_q``, ``peak_v``: each group's largest |q|, |q̇|
-    so far, updated here with the fine state). Shared by both nonlinear step loops."""
+    so far, updated here with the fine state). The rates' peak is at least ``rate_floor``
+    (1/s) times the coordinates' (a run at rest in static equilibrium, whose rates are
+    round-off). Shared by both nonlinear step loops."""
     for m in range(q_fine.size):
         g = group[m]
         if g >= 0:
@@ -196,7 +200,8 @@ def doubling_error(q_big, v_big, q_fine, v_fine, group, peak_q, peak_v, rtol, at
         g = group[m]
         if g >= 0:
             err = max(err, _ratio(abs(q_fine[m] - q_big[m]), atol + rtol * peak_q[g]),
-                      _ratio(abs(v_fine[m] - v_big[m]), atol + rtol * peak_v[g]))
+                      _ratio(abs(v_fine[m] - v_big[m]),
+                             atol + rtol * max(peak_v[g], rate_floor * peak_q[g])))
     return err / 15.0
 
 

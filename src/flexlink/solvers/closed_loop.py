@@ -63,10 +63,11 @@ def integrate_closed_loop(rows: Callable[[np.ndarray], np.ndarray], n: int, n_ac
                           keys: Callable[[np.ndarray], np.ndarray] | None, breaks: np.ndarray,
                           max_frequency: float, t_out: np.ndarray, grid: np.ndarray,
                           rtol: float, atol: float, control: ControlData,
-                          python: PythonLoop, on_progress: Progress | None = None
-                          ) -> ClosedLoopRun:
+                          python: PythonLoop, on_progress: Progress | None = None,
+                          start: np.ndarray | None = None) -> ClosedLoopRun:
     """Integrate from rest over ``grid`` (output times ∪ sample instants) and check the
-    error at the outputs ``t_out``. ``rows(times)``: M⁻¹[−K, −C, f, B] (nt, n, 2n+1+n_act)."""
+    error at the outputs ``t_out``. ``rows(times)``: M⁻¹[−K, −C, f, B] (nt, n, 2n+1+n_act).
+    ``start``: z at t = 0 (n,), default undeformed."""
     first_step = initial_step(max_frequency) * min(1.0, (rtol / 1e-4) ** 0.25)
     substeps = 2 * max(1, int(np.ceil(np.diff(grid).max() / (2 * first_step))))
     try:
@@ -77,9 +78,9 @@ def integrate_closed_loop(rows: Callable[[np.ndarray], np.ndarray], n: int, n_ac
                               "coefficients of this motion are too rough to tabulate "
                               "(measured angles?)") from None
     out = np.searchsorted(grid, t_out - 1e-12 * max(1.0, t_out[-1]))
-    coarse = _solve(table, n, n_act, grid, substeps // 2, control, python, None)
+    coarse = _solve(table, n, n_act, grid, substeps // 2, control, python, None, start)
     for _ in range(_MAX_HALVINGS):
-        fine = _solve(table, n, n_act, grid, substeps, control, python, on_progress)
+        fine = _solve(table, n, n_act, grid, substeps, control, python, on_progress, start)
         s_f, s_c = fine.states[out, :2 * n], coarse.states[out, :2 * n]
         if agree(s_f, s_f, s_c, n, rtol, atol):
             fine.stats.update(steps_per_grid_interval=substeps, table_blocks=len(table),
@@ -108,8 +109,8 @@ def _propagators(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray,
 
 
 def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, substeps: int,
-           control: ControlData, python: PythonLoop, on_progress: Progress | None
-           ) -> ClosedLoopRun:
+           control: ControlData, python: PythonLoop, on_progress: Progress | None,
+           start: np.ndarray | None = None) -> ClosedLoopRun:
     from ._closed_loop_numba import closed_loop_intervals
 
     ET = _propagators(table, n, n_act, grid, substeps)
@@ -121,6 +122,8 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
     acc = np.zeros((grid.size, n))
     u = np.zeros(m)
     u[2 * n] = 1.0
+    if start is not None:
+        u[:n] = start
     work = control_work(control)
     functions = [copy.deepcopy(c.function) for c in python.controllers]  # stateful callables
     held = [np.zeros(len(c.outputs)) for c in python.controllers]

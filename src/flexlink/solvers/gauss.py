@@ -34,6 +34,9 @@ NEWTON_MAX = 20
 # Newton's absolute floor, relative to ω_max² |q| (the elastic accelerations): round-off of
 # the elastic forces, what a static equilibrium under a constant load converges to.
 ROUND_OFF = 1e-13
+# The step control's floor on the peak rate, relative to ω_max |q|: far below any motion's
+# rates (ω |q|), far above the round-off rates of a run at rest in static equilibrium.
+RATE_FLOOR = 1e-8
 
 
 def integrate_gauss(
@@ -41,7 +44,8 @@ def integrate_gauss(
     on_progress: Callable[[float], None] | None = None,
     q0: np.ndarray | None = None, v0: np.ndarray | None = None, compiled: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Step ends t (m+1,), q and q̇ there (m+1, n), from q0, v0 (default rest) at t = 0;
+    """Step ends t (m+1,), q and q̇ there (m+1, n), from q0, v0 (default: the system's
+    initial coordinates, at rest) at t = 0;
     uniform steps ≤ step (s). ``compiled``: the numba loop (numba is a dependency), or the
     numpy one that it is tested against."""
     steps = max(1, int(np.ceil(t_end / step - 1e-9)))
@@ -51,15 +55,14 @@ def integrate_gauss(
     inputs = system.node_inputs((t_ends[:-1, None] + NODES[None, :] * h).ravel())
     q = np.zeros((steps + 1, n))
     v = np.zeros((steps + 1, n))
-    if q0 is not None:
-        q[0] = q0
+    q[0] = system.initial_coordinates() if q0 is None else q0
     if v0 is not None:
         v[0] = v0
     X = np.repeat(system.accelerations(np.zeros(1), q[:1], v[:1]), 2, axis=0)
     if compiled:
         _compiled_loop(system, q, v, X, h, inputs, on_progress, t_ends)
         return t_ends, q, v
-    newton = _Newton(system, h)
+    newton = _Newton(system, h, floor=ROUND_OFF * system.max_frequency**2)
     with single_threaded():  # (the compiled path needs no limit: no BLAS calls)
         for i in range(steps):
             if i > 0:  # predictor: last step's stage accelerations, extrapolated linearly
@@ -84,8 +87,7 @@ def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.
     steps = q.shape[0] - 1
     from ._gauss_numba import gauss_loop  # numba's import is slow: only when used
 
-    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
-        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    arrays = system.kernel_arrays()
     w2 = system.max_frequency**2
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
@@ -110,13 +112,17 @@ class _Newton:
     of the stage residuals) is kept across steps and rebuilt only when convergence slows."""
 
     def __init__(self, system: NonlinearSystem, h: float, tol: float = NEWTON_TOL,
-                 running_peak: bool = False) -> None:
+                 running_peak: bool = False, floor: float = 0.0,
+                 elastic: int | None = None) -> None:
         """``running_peak``: the test is relative to the largest stage acceleration of the
         run so far, not only of this step (forward runs: a rigid arm's accelerations vanish
-        while it coasts, `_gauss_forward_numba.gauss_forward_loop`)."""
+        while it coasts, `_gauss_forward_numba.solve_stages`). ``floor`` (1/s²) · max|q|
+        (the first ``elastic`` unknowns, default all): the absolute part of the stopping
+        test, as the compiled loops' ``floor``."""
         self.system, self.h, self.tol = system, h, tol
         self.running_peak = running_peak
         self.peak = 0.0
+        self.floor, self.elastic = floor, elastic
         self.inverse: np.ndarray | None = None
         self.rebuilds = 0
         self.iterations = 0
@@ -145,7 +151,8 @@ class _Newton:
             # (first iteration: no rate yet, the increment itself must be small)
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
             largest = float(np.abs(X).max())
-            if remaining <= self.tol * max(largest, self.peak, 1e-300):
+            q_size = float(np.abs(q0[:self.elastic]).max(initial=0.0))
+            if remaining <= self.tol * max(largest, self.peak, 1e-300) + self.floor * q_size:
                 if self.running_peak:
                     self.peak = max(self.peak, largest)
                 return X
@@ -262,8 +269,7 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
     from .gauss_steps import DOUBLING_STAGES, Batch, step_doubling
 
     n = system.n
-    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
-        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    arrays = system.kernel_arrays()
     floor = ROUND_OFF * system.max_frequency**2
     # Newton's error a thousandth of the step's tolerance: tighter buys nothing (the
     # prescribed model conserves no momentum whose drift would add up), looser would bias the
@@ -305,10 +311,11 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
                 inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration,
                 load)),
             *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, floor,
-            group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts)
+            group, peak_q, peak_v, rtol, atol, RATE_FLOOR * system.max_frequency, errors,
+            inverse, have, counts)
         return Batch(int(status), q[:k + 1], v[:k + 1], errors, counts)
 
-    q0, v0 = np.zeros(n), np.zeros(n)
+    q0, v0 = system.initial_coordinates(), np.zeros(n)
     X = np.repeat(system.accelerations(np.zeros(1), q0[None], v0[None]), 2, axis=0)
     try:
         record = step_doubling(advance, q0, v0, X, t_end, breaks, FIRST_STEP, on_progress)

@@ -25,6 +25,8 @@ from .gauss import (
     FIRST_STEP,
     NEWTON_MAX,
     NODES,
+    RATE_FLOOR,
+    ROUND_OFF,
     WEIGHTS,
     WEIGHTS2,
     _Newton,
@@ -81,7 +83,8 @@ def integrate_gauss_forward(
         _compiled_loop(system, y, v, X, h, inp, on_progress, t_ends, newton_tol)
     else:
         newton = _Newton(_StageResidual(system), h, newton_tol,  # type: ignore[arg-type]
-                         running_peak=True)
+                         running_peak=True, floor=ROUND_OFF * system.max_frequency**2,
+                         elastic=system.n)
         rows = _Rows(t_stage, inp)
         with single_threaded():
             for i in range(steps):
@@ -112,7 +115,8 @@ def _compiled_loop(system: NonlinearForwardSystem, y: np.ndarray, v: np.ndarray,
         failed, _, _ = gauss_forward_loop(
             y[start:end + 1], v[start:end + 1], X, h,
             *(np.ascontiguousarray(a[stage], dtype=float) for a in inp), data, loads,
-            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0, peak)
+            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0, peak,
+            ROUND_OFF * system.max_frequency**2)
         if failed >= 0:
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
@@ -184,7 +188,8 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
         status, k = gauss_forward_doubling(
             y, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in inp), data,
             loads, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL_FORWARD, NEWTON_MAX,
-            group, peak_q, peak_v, rtol, atol, errors, inverse, have, counts, peak_a)
+            ROUND_OFF * system.max_frequency**2, group, peak_q, peak_v, rtol, atol,
+            RATE_FLOOR * system.max_frequency, errors, inverse, have, counts, peak_a)
         return Batch(int(status), y[:k + 1], v[:k + 1], errors, counts)
 
     y0, v0 = system.initial_state()

@@ -128,10 +128,10 @@ def integrate_gauss_sampled(system: NonlinearSystem, loop: SampledLoop, step: fl
     inputs = system.node_inputs(stage_t)
     n = system.n
     q = np.zeros((t_ends.size, n))
+    q[0] = system.initial_coordinates()
     v = np.zeros_like(q)
     load = np.zeros((stage_t.size, n))
-    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
-        system.A, system.G, system.tip_A, system.tip_inertia, system.D, system.K)]
+    arrays = system.kernel_arrays()
     stage = [np.ascontiguousarray(a) for a in (inputs.angle, inputs.rate, inputs.acceleration,
                                                inputs.tip_acceleration)]
     B = system.actuator_B
