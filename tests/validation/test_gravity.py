@@ -52,7 +52,9 @@ def _scenario(initial: str = "rest", joint: dict | None = None, t_end: float = 0
     data = {"simulation": {"t_end": t_end, "dt_out": 0.01, "gravity": list(gravity),
                            "initial": initial, "method": method, "model": model},
             "links": [{"name": "beam", "length": L, "mass_per_length": RHO, "EI": EI,
-                       "tip_mass": tip, "modes": modes, "damping_ratio": zeta}],
+                       "tip_mass": tip, "modes": modes, "damping_ratio": zeta,
+                       # the truncation bounds below are those of this basis
+                       "mode_shapes": "clamped_free"}],
             "joints": [joint or {"motion": [{"profile": "hold", "angle_deg": 0.0}]}]}
     if base is not None:
         data["base"] = base
