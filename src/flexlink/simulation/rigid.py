@@ -87,8 +87,10 @@ def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
         return {}
     nyquist = 0.5 / scenario.settings.dt_out  # Hz
     nonlinear = scenario.settings.model == "nonlinear"
-    frequencies = {k: modal_data(link).natural_frequencies_hz
-                   for k, link in enumerate(scenario.chain.links) if link.modes}
+    modal = chain_modal_data(scenario.chain, scenario.base)
+    frequencies = {k: data.natural_frequencies_hz
+                   for k, (link, data) in enumerate(zip(scenario.chain.links, modal, strict=True))
+                   if link.modes}
     found = []
     for k, f in frequencies.items():
         name = scenario.chain.links[k].name
