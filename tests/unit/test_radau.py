@@ -24,15 +24,15 @@ def _no_input(t: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("rtol", [1e-4, 1e-6, 1e-8])
 def test_global_error_follows_the_tolerance(rtol: float) -> None:
     """A lightly damped oscillator over ten periods: the error at the outputs (dense output
-    included) is within 10 rtol of the peak and not below it by orders of magnitude (the
-    tolerance means the global error, RADAU5's conversion of it into the local one)."""
+    included) is within 2 rtol of the peak and not below a tenth of it: the tolerance means
+    the global error (measured 0.76, 0.65, 0.86 rtol; radau.local_tolerances)."""
     t = np.linspace(0.0, 2.0, 201)
     y0 = np.array([1.0, 0.0])
     exact = np.array([expm(A_OSC * ti) @ y0 for ti in t])
     states, stats = integrate_radau(LinearData(A_OSC, B_OSC), (), y0, t, _no_input,
                                     np.zeros(0), rtol, 1e-14, np.array([0, 1]))
     error = (np.abs(states - exact).max(axis=0) / np.abs(exact).max(axis=0)).max()
-    assert 0.01 * rtol < error < 10 * rtol
+    assert 0.1 * rtol < error < 2 * rtol
     assert stats["jacobians"] == 1  # linear: Newton converges with the first one
 
 

@@ -422,7 +422,7 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     sim = resolved["simulation"]
     settings = SimulationSettings(t_end=sim["t_end"], dt_out=sim["dt_out"],
                                   geometric_stiffening=sim["geometric_stiffening"],
-                                  rtol=sim["rtol"], atol=sim["atol"], method=sim["method"],
+                                  rtol=sim.get("rtol"), atol=sim["atol"], method=sim["method"],
                                   model=sim["model"], step=sim.get("step"))
     links = tuple(_link_model(lk) for lk in resolved["links"])
     index = {link.name: i for i, link in enumerate(links)}

@@ -155,9 +155,10 @@ SIMULATION = Section("simulation", [
         "false": "the paper's model, which keeps centrifugal softening only and diverges when "
                  "a link spins faster than its first frequency (docs/derivation.md §4, "
                  "docs/validation.md)"}),
-    Field("rtol", default=1e-6, gt=0, le=1e-2,
+    Field("rtol", default=None, gt=0, le=1e-2,
+          default_doc="1e-6; 1e-4 for first-order forward runs (driven joints, moving base)",
           doc="error of the time integration relative to the peak displacements and "
-              "velocities"),
+              "velocities (docs/performance.md, \"Tolerances of forward runs\")"),
     Field("atol", default=1e-12, gt=0, doc="absolute error floor of the time integration"),
     Field("method", "string", default="lawson", choices=METHODS, notes={
         "lawson": "fourth-order Lawson–Runge–Kutta on a tabulated state matrix, compiled; "

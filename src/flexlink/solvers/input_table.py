@@ -8,7 +8,10 @@ inputs are smooth, so each segment between two nodes is cut into pieces on which
 polynomial of degree DEGREE interpolates every input column at Chebyshev points of the
 first kind (interior points: a jump on a node is never sampled, each side belongs to its
 own segment); a piece is halved until the interpolant agrees with the inputs at the
-points between its nodes within TOL of each column's peak.
+points between its nodes within TOL of each column's range (its largest value minus its
+smallest: a small input on a large offset, say a reference a little around 45°, is resolved
+as well as the offset; a floor of a few units of round-off of the column's largest
+magnitude).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from collections.abc import Callable
 import numpy as np
 
 DEGREE = 8
-TOL = 1e-11  # interpolation error relative to each column's peak
+TOL = 1e-11  # interpolation error relative to each column's range
 MAX_PIECE = 0.25  # s, the longest piece tried first
 MAX_HALVINGS = 16
 
@@ -50,17 +53,18 @@ def tabulate(evaluate: Callable[[np.ndarray], np.ndarray], nodes: np.ndarray
     b = nodes[seg] + width[seg] * (k + 1) / count[seg]
     b[np.cumsum(count) - 1] = nodes[1:]  # the segment's end exactly
     done_a, done_b, done_coef, done_seg = [], [], [], []
-    scale = None
+    bound = None
     for halving in range(MAX_HALVINGS + 1):
         mid, half = 0.5 * (a + b), 0.5 * (b - a)
         x = np.concatenate([NODES, CHECK])
         times = mid[:, None] + half[:, None] * x[None, :]
         values = evaluate(times.ravel()).reshape(times.shape + (-1,))
-        if scale is None:
-            scale = np.abs(values).max(axis=(0, 1))
+        if bound is None:
+            span = values.max(axis=(0, 1)) - values.min(axis=(0, 1))
+            bound = TOL * span + 1e3 * np.finfo(float).eps * np.abs(values).max(axis=(0, 1))
         coef = np.einsum("kj,pjc->pkc", _TO_COEF, values[:, :NODES.size])
         error = np.abs(_chebyshev(coef, CHECK) - values[:, NODES.size:]).max(axis=1)
-        good = np.all(error <= TOL * scale + 1e-300, axis=1) | (halving == MAX_HALVINGS)
+        good = np.all(error <= bound, axis=1) | (halving == MAX_HALVINGS)
         done_a.append(a[good])
         done_b.append(b[good])
         done_coef.append(coef[good])

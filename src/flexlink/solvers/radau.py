@@ -12,8 +12,8 @@ columns ``held``.
 
 Tolerances: component i's local error is kept below atol + rtol · its group's peak |y|
 (the running maximum over the run so far of every component in the group: displacements,
-velocities, …), with RADAU5's conversion of the requested tolerance into the local one
-(rtol_local = 0.1 · rtol^(2/3)), so that the global error is about rtol.
+velocities, …), with a conversion of the requested tolerance into the local one (`local_tolerances`) so
+that the global error of the coordinates and rates is about rtol.
 """
 
 from __future__ import annotations
@@ -40,9 +40,13 @@ class RadauStop(Exception):
 
 
 def local_tolerances(rtol: float, atol: float) -> tuple[float, float]:
-    """RADAU5's local tolerances for a requested (global) rtol, atol."""
-    local = 0.1 * rtol ** (2.0 / 3.0)
-    return local, atol * local / rtol
+    """The local tolerances for a requested (global) rtol, atol. RADAU5 converts rtol into
+    0.1 rtol^(2/3); measured, that lets the global error grow to ~10 rtol at rtol 1e-8
+    (an oscillator over ten periods, tests/unit/test_radau.py; a servo arm's small response
+    alike). rtol_local = 0.7 rtol^0.875 equals RADAU5's at rtol 1e-4 and keeps the global
+    error near rtol from 1e-3 to 1e-10. atol stays an absolute floor, a tenth of the one
+    asked for (RADAU5 scales it with rtol, which at rtol 1e-9 loosens it a hundredfold)."""
+    return 0.7 * rtol ** 0.875, 0.1 * atol
 
 
 def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
