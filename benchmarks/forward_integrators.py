@@ -13,8 +13,10 @@ whose error is below 1e-3 and below 1e-5 of peak. Cases: examples/paper_servo.to
 satellite_slew.toml, and the driven cases of tests/validation/forward_fe_cases.py
 (benchmarks/forward_vs_fe.py times Exudyn on them), 4 modes per link.
 
-Integrators: ``radau5`` (the compiled Radau IIA, the default) and, where the package still has
-them, the compiled RK4 and Lawson loops it replaced (``--methods``).
+Integrators (``--methods``): ``radau5``, the compiled Radau IIA (the default), and any
+solve_ivp method ("DOP853", "Radau": over the compiled kernel). The compiled RK4 and Lawson
+loops that Radau IIA replaced were measured by this script in the same run as it before they
+were removed (docs/performance.md, "Forward runs: one implicit integrator").
 """
 
 from __future__ import annotations
@@ -101,7 +103,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="timed runs per row (median)")
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=CASES)
-    parser.add_argument("--methods", nargs="*", default=["radau5", "lawson", "rk4"])
+    parser.add_argument("--methods", nargs="*", default=["radau5"])
     args = parser.parse_args()
     print(f"# {platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, "
           f"numpy {np.__version__}")

@@ -30,8 +30,7 @@ from numba.extending import overload
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._forward_numba import rates as forward_rates
 from ..dynamics.forward_kernel import ForwardData
-
-BLOW_UP = 1e8  # |state| beyond this (SI units) is a blow-up, not a motion of the model
+from .solution import BLOW_UP
 
 LinearData = namedtuple("LinearData", ["A", "B"])
 LinearData.__doc__ = ("The linear model f = A y + B u (A (m, m), B (m, columns)): the "

@@ -51,12 +51,6 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
     max_step = MAX_STEP_OUTPUTS * float(np.min(np.diff(t_out))) if t_out.size > 1 else np.inf
     if method == FAST_METHOD:
         return _integrate_compiled(system, t_out, rtol, atol, np.inf, on_progress, loop)
-    if method in ("rk4", "lawson"):
-        from .forward_lawson import integrate_forward_lawson
-        from .forward_rk4 import integrate_forward_rk4
-
-        run = integrate_forward_rk4 if method == "rk4" else integrate_forward_lawson
-        return run(system, t_out, rtol, atol, on_progress, loop)
     nu, n = len(system.free), system.n
     if compiled:
         from ..dynamics._forward_numba import rates as kernel

@@ -15,6 +15,7 @@ import numpy as np
 
 Matrices = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 Progress = Callable[[float], None]
+BLOW_UP = 1e8  # |state| beyond this (SI units) is a blow-up, not a motion of the model
 
 
 @dataclass(frozen=True)
