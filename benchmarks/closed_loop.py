@@ -60,7 +60,7 @@ def python_ppf(scenario):
 def forward_case():
     """The clamped strip of tests/validation/test_ppf.py (2 modes, 3 s) on a torque-driven
     hub (motor inertia 0.01 kg·m², no torque), open loop and with PPF on its first mode: the
-    first-order forward path (compiled RK4 restarted at every sample)."""
+    first-order forward path (compiled Radau IIA, stopping at every sample)."""
     import sys
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))

@@ -222,7 +222,7 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 
 
 # The warm-up runs: one per path (simulation.PATHS), and a free base moved by its loads with every joint
-# prescribed, which the forward path runs with its other compiled loop (forward_lawson.py).
+# prescribed (the forward path's inputs then come from the base loads only).
 WARMUP_RUNS = ("prescribed", "nonlinear", "forward", "free_base", "nonlinear_forward",
                "closed_loop")
 
@@ -230,7 +230,7 @@ WARMUP_RUNS = ("prescribed", "nonlinear", "forward", "free_base", "nonlinear_for
 def warmup_scenarios() -> dict[str, Any]:
     """Tiny variants of the paper scenario (20 ms simulated), keyed by `WARMUP_RUNS`, that run every
     compiled loop: the Lawson loop (prescribed), Gauss collocation (nonlinear), the forward
-    kernel with its RK4 loop (driven joints) and its Lawson loop (a free base), the nonlinear
+    kernel with its Radau IIA integrator (driven joints; a free base), the nonlinear
     model's forward collocation and the closed-loop Lawson loop."""
     import copy
 

@@ -56,18 +56,3 @@ def test_shared_propagators_and_powers_equal_the_step_by_step_product(substeps: 
     plain = _solve(system.matrices, system.n, t, substeps, None)
     shared = _solve(system.matrices, system.n, t, substeps, None, system.coefficient_keys)
     assert np.abs(shared - plain).max() <= 1e-11 * np.abs(plain).max()
-
-
-@pytest.mark.parametrize("scale", [0.1, 3.0, 40.0])
-def test_compiled_expm_of_the_forward_lawson_loop(scale: float) -> None:
-    """The forward Lawson loop's exponential equals scipy's, also for a strided view (which
-    numba compiles separately: a view once made it warn, and the tests fail on warnings)."""
-    from flexlink.solvers._forward_lawson_numba import expm
-
-    rng = np.random.default_rng(7)
-    big = scale * rng.normal(size=(14, 14)) / 7.0
-    for A in (np.ascontiguousarray(big[:7, :7]), big[::2, ::2]):
-        out = np.empty((7, 7))
-        expm(A, out)
-        reference = scipy.linalg.expm(A)
-        assert np.abs(out - reference).max() <= 1e-12 * np.abs(reference).max()

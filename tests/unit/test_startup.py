@@ -178,8 +178,8 @@ def test_warmup_scenarios_take_every_path() -> None:
     scenarios = warmup_scenarios()
     assert {name: model_path(s) for name, s in scenarios.items()} == {
         **{name: name for name in PATHS}, "free_base": "forward"}
-    # the forward path's two compiled loops (solvers.forward.compiled_method): RK4 for driven
-    # joints, Lawson for a base moved by its loads with every joint prescribed
+    # the forward path with driven joints, and with a base moved by its loads and every
+    # joint prescribed (inputs from the base loads only)
     assert all(map(is_driven, scenarios["forward"].chain.joints))
     assert not any(map(is_driven, scenarios["free_base"].chain.joints))
     assert all(s.settings.t_end <= 0.05 for s in scenarios.values())

@@ -29,7 +29,7 @@ from flexlink.model import (
     TorqueDrive,
 )
 from flexlink.motion import Cycloidal, Hold
-from flexlink.solvers.forward import compiled_method, integrate_forward
+from flexlink.solvers.forward import FAST_METHOD, integrate_forward
 from tests.helpers import CubicMotion, paper_links
 from tests.validation.hub_beam import hub_beam_frequencies
 
@@ -215,39 +215,41 @@ def test_servo_tracking_of_the_paper_manoeuvre() -> None:
 
 
 def test_a_blow_up_ends_in_a_clear_error_in_the_compiled_integrator() -> None:
-    """The same blow-up through the compiled RK4 loop (a run's default): the state grows past
-    any bound at t ≈ 0.46 s for every step size, which is reported as the model's blow-up
-    with the hint to geometric_stiffening, not as NaN or a tolerance failure."""
+    """The same blow-up through the compiled Radau IIA integrator (a run's default): the
+    run stops at t ≈ 0.46 s, reported as the model's blow-up with the hint to
+    geometric_stiffening, not as NaN or a tolerance failure."""
     links = (Link("a", 2.0, 1.0, 50.0, modes=2),)
     base = Base("free", mass=20.0, inertia=5.0, attachments=((0, (0.5, 0.0)),), rate=0.5)
     system = ForwardSystem(Chain(links, (TorqueDrive(BangBang(2.0, 0.0, 1.0)),)), base)
     with pytest.raises(SimulationError, match="stalled at t = 0.46.*geometric_stiffening"):
         integrate_forward(system, np.linspace(0.0, 0.55, 11), rtol=1e-6, atol=1e-12,
-                          method="rk4")
+                          method=FAST_METHOD)
 
 
-def test_lawson_loop_agrees_with_the_reference_and_keeps_momentum() -> None:
-    """The compiled Lawson loop (a run's default when every joint is prescribed) on a free
-    hub with two appendages under a bang-bang base moment: within 1e-5 of peak of the
-    tight-tolerance solve_ivp run, and (the moment removed afterwards) momentum constant to
-    1e-8 of its size once the load is off."""
+@pytest.mark.parametrize("rtol, drift", [(1e-8, 1e-8), (1e-6, 1e-6)])
+def test_compiled_integrator_agrees_with_the_reference_and_keeps_momentum(
+        rtol: float, drift: float) -> None:
+    """The compiled Radau IIA integrator (a run's default) on a free hub with two appendages
+    under a bang-bang base moment: within 1e3 rtol of peak of the tight-tolerance solve_ivp
+    run (1e-5 at rtol 1e-8), and (the moment removed afterwards) momentum constant to
+    ``drift`` of its size once the load is off (measured over 10 s: 1e-10 at rtol 1e-8,
+    6e-8 at 1e-6: Radau IIA does not conserve momentum, its drift follows the tolerance)."""
     links = (Link("a", 2.0, 1.0, 50.0, tip_mass=0.3, tip_inertia=0.01, modes=2),
              Link("b", 1.5, 1.0, 40.0, modes=2))
     base = Base("free", mass=20.0, inertia=5.0, attachments=((0, (0.5, 0.0)), (1, (-0.5, 0.1))),
                 loads=(BaseLoad(moment=BangBang(1.0, 0.0, 1.0)),), position=(0.3, 0.2),
                 velocity=(0.1, -0.05), rate=0.2)
     system = ForwardSystem(Chain(links, (Hold(0.0), Hold(180.0))), base, True)
-    assert compiled_method(system) == "lawson"
     t = np.linspace(0.0, 3.0, 151)
-    fast = integrate_forward(system, t, rtol=1e-8, atol=1e-12, method="lawson")
+    fast = integrate_forward(system, t, rtol=rtol, atol=1e-12, method=FAST_METHOD)
     reference = integrate_forward(system, t, rtol=1e-11, atol=1e-13)
     for a, b in ((fast.q, reference.q), (fast.q_dot, reference.q_dot)):
-        assert np.abs(a - b).max() < 1e-5 * np.abs(b).max()
+        assert np.abs(a - b).max() < 1e3 * rtol * np.abs(b).max()
     nu = len(system.free)
     after = t >= 1.0
     p, pd, _ = system.rigid_state(t, fast.q[:, :nu], fast.q_dot[:, :nu], fast.q_ddot[:, :nu])
     linear, angular = momentum(system, p[after], pd[after], fast.q[after, nu:],
                                fast.q_dot[after, nu:])
     assert np.abs(fast.q[:, nu:]).max() > 1e-3  # the appendages do vibrate
-    assert np.abs(linear - linear[0]).max() < 1e-8 * np.linalg.norm(linear[0])
-    assert np.abs(angular - angular[0]).max() < 1e-8 * abs(angular[0])
+    assert np.abs(linear - linear[0]).max() < drift * np.linalg.norm(linear[0])
+    assert np.abs(angular - angular[0]).max() < drift * abs(angular[0])

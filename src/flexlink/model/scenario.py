@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from .actuators import PiezoActuator
 from .base import Base
@@ -10,7 +10,7 @@ from .chain import Chain
 from .controllers import Controller
 from .joints import is_driven
 from .sensors import Sensor
-from .settings import SimulationSettings
+from .settings import SimulationSettings, default_rtol
 
 
 @dataclass(frozen=True)
@@ -30,6 +30,11 @@ class Scenario:
     actuators: tuple[PiezoActuator, ...] = ()
     # sampled feedback loops from sensors to actuators (model/controllers.py)
     controllers: tuple[Controller, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.settings.rtol is None:  # the default of the run's model and path
+            object.__setattr__(self, "settings", replace(
+                self.settings, rtol=default_rtol(self.settings.model, self.is_forward)))
 
     @property
     def is_forward(self) -> bool:

@@ -164,12 +164,14 @@ SIMULATION = Section("simulation", [
                  "a link spins faster than its first frequency (docs/derivation.md §4, "
                  "docs/validation.md)"}),
     Field("rtol", default=None, gt=0, le=1e-2,
-          default_doc="1e-6 (`first_order`), 1e-5 (`nonlinear`)",
+          default_doc="1e-6 (`first_order`), 1e-4 (`first_order` forward runs: driven joints, "
+                      "moving base), 1e-5 (`nonlinear`)",
           doc="error of the time integration relative to the peak displacements and "
-              "velocities (the nonlinear model: of each step); each model's default keeps it "
-              "at about a tenth of the model's own error or less (docs/nonlinear.md §4). "
-              "The run's `rtol` and `error_estimate` attributes say what was asked for and "
-              "what the integrator's estimate reached"),
+              "velocities (the nonlinear model: of each step); each default keeps it at about "
+              "a tenth of the model's own error or less (docs/nonlinear.md §4, "
+              "docs/performance.md \"Tolerances of forward runs\"). The run's `rtol` and "
+              "`error_estimate` attributes say what was asked for and what the integrator's "
+              "estimate reached"),
     Field("atol", default=1e-12, gt=0, doc="absolute error floor of the time integration"),
     Field("method", "string", default="lawson", choices=METHODS, notes={
         "lawson": "fourth-order Lawson–Runge–Kutta on a tabulated state matrix, compiled; "

@@ -3,14 +3,14 @@ assembles the `Results`. One module per path, sharing `common`:
 
 * ``prescribed`` — prescribed joints, first-order model (Lawson, Magnus or scipy);
 * ``nonlinear`` — prescribed joints, geometrically nonlinear model (Gauss collocation);
-* ``forward`` — free/pinned base or driven joints, first-order model (compiled RK4, or
-  solve_ivp for method = "DOP853", "Radau", …);
+* ``forward`` — free/pinned base or driven joints, first-order model (compiled Radau IIA,
+  or solve_ivp for method = "DOP853", "Radau", …);
 * ``nonlinear_forward`` — free/pinned base or driven joints, nonlinear model (Gauss
   collocation with the rigid coordinates as unknowns);
 * ``closed_loop`` — controllers sampled with zero-order hold, prescribed joints, first-order
   model (the Lawson loop with the held voltages as states); with the nonlinear model the
   ``nonlinear`` path runs them (solvers/gauss_sampled.py), the ``forward`` path with driven
-  joints or a moving base (solvers/forward_sampled.py; not yet ``nonlinear_forward``).
+  joints or a moving base (solvers/radau.py; not yet ``nonlinear_forward``).
 Open-loop piezo actuators run in every path.
 """
 

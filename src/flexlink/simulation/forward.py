@@ -1,6 +1,6 @@
 """Forward dynamics, first-order model (free or pinned base, driven joints):
-ForwardSystem → compiled RK4 loop (or solve_ivp, method = "DOP853", "Radau", …) → channels.
-Sampled controllers run inside the compiled loops (solvers/forward_sampled.py)."""
+ForwardSystem → compiled Radau IIA (solvers/radau.py; or solve_ivp, method = "DOP853",
+"Radau", …) → channels. Sampled controllers run with the compiled integrator."""
 
 from __future__ import annotations
 

@@ -10,8 +10,8 @@ from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._controllers_numba import record, sample
-from ._forward_rk4_numba import BLOW_UP
 from ._lawson_numba import _add, _copy, _copy2, _delta, _mv
+from .solution import BLOW_UP
 
 
 @njit(cache=True, error_model="numpy")

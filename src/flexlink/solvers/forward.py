@@ -1,13 +1,16 @@
-"""Forward-dynamics runs (free or pinned base, driven joints): the compiled Lawson loop
-(``method = "lawson"``, `forward_lawson.py`) or classical RK4 loop (``"rk4"``,
-`forward_rk4.py`) — a run's "lawson" or "magnus" maps to the one `compiled_method` picks —
-or scipy's ``solve_ivp`` (DOP853, Radau, …: the tight-tolerance reference).
+"""Forward-dynamics runs (free or pinned base, driven joints): the compiled implicit
+integrator (``method = "radau5"``, `radau.py`: Radau IIA of order 5, error-controlled
+adaptive steps; a run's "lawson" or "magnus" maps to it) or scipy's ``solve_ivp`` (DOP853,
+Radau, …: the tight-tolerance reference).
 
 The state is [p_free, ṗ_free, z, ż, servo integrals]; the coupled equations of
 `dynamics.forward.ForwardSystem` (nonlinear in the rigid coordinates, first order in z) give
 its rate — through the compiled kernel (`dynamics/_forward_numba.py`, tested against the
 numpy equations to round-off) unless ``compiled=False``. The `Solution`'s coordinates are
-[p_free, z], its ``extra`` the servo integrals.
+[p_free, z], its ``extra`` the servo integrals. Sampled controllers (docs/closed_loop.md)
+run with the compiled integrator: their sample instants are nodes no step straddles, and
+their held voltages overwrite the actuator voltage columns of the input rows
+(`forward_kernel.voltage_columns`).
 """
 
 from __future__ import annotations
@@ -16,45 +19,38 @@ import numpy as np
 
 from ..dynamics import forward_kernel
 from ..dynamics.forward import ForwardSystem
+from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, voltage_columns
 from ..errors import SimulationError, UnstableLoop
-from .forward_lawson import integrate_forward_lawson
-from .forward_rk4 import BlowUp, integrate_forward_rk4
 from .gauss_sampled import SampledLoop
 from .ode import Stalled, integrate_ivp
-from .solution import SCIPY, Accuracy, Progress, Solution
+from .radau import RadauStop, integrate_radau
+from .solution import LOCAL_CONTROL, SCIPY, Accuracy, Progress, Solution
 
 DEFAULT_METHOD = "DOP853"  # of integrate_forward: the reference
-FAST_METHOD = "compiled"  # what a run's "lawson" or "magnus" maps to: see compiled_method
-COMPILED = {"lawson": integrate_forward_lawson, "rk4": integrate_forward_rk4}
-MAX_STEP_OUTPUTS = 10  # longest step, in output intervals (simulation.dt_out)
+FAST_METHOD = "radau5"  # what a run's "lawson" or "magnus" maps to
+MAX_STEP_OUTPUTS = 10  # longest solve_ivp step, in output intervals (simulation.dt_out)
 
 
 def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
                       method: str = DEFAULT_METHOD, on_progress: Progress | None = None,
                       compiled: bool = True, loop: SampledLoop | None = None) -> Solution:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
-    initial state; the servo integrals as ``extra``. ``method``: "lawson" or "rk4" (compiled
-    loops), FAST_METHOD (the one `compiled_method` picks) or a solve_ivp method, whose
-    right-hand side is the compiled kernel or (``compiled=False``) the numpy ForwardSystem.
+    initial state; the servo integrals as ``extra``. ``method``: FAST_METHOD (the compiled
+    Radau IIA integrator) or a solve_ivp method, whose right-hand side is the compiled
+    kernel or (``compiled=False``) the numpy ForwardSystem.
 
-    solve_ivp's step is limited to MAX_STEP_OUTPUTS output intervals: while nothing moves the
-    error estimate is zero and the step would otherwise grow past the start of an input.
+    solve_ivp's step is limited to MAX_STEP_OUTPUTS output intervals: while nothing moves
+    the error estimate is zero and the step would otherwise grow past the start of an
+    input (the compiled integrator ends steps on every breakpoint of the inputs instead).
 
-    ``loop``: sampled controllers driving the actuators, compiled loops only
-    (`forward_sampled.py`); a blow-up is then reported as an unstable closed loop."""
+    ``loop``: sampled controllers driving the actuators, compiled integrator only; a
+    blow-up is then reported as an unstable closed loop."""
+    if loop is not None and method != FAST_METHOD:
+        raise ValueError(f"controllers on a forward run need the compiled integrator: method "
+                         f"= {method!r} cannot hold sampled voltages; use \"lawson\"")
+    max_step = MAX_STEP_OUTPUTS * float(np.min(np.diff(t_out))) if t_out.size > 1 else np.inf
     if method == FAST_METHOD:
-        method = compiled_method(system)
-    if loop is not None and method not in COMPILED:
-        raise ValueError(f"controllers on a forward run need a compiled integrator: method = "
-                         f"{method!r} cannot hold sampled voltages; use \"lawson\" or \"rk4\"")
-    if method in COMPILED:
-        try:
-            return COMPILED[method](system, t_out, rtol, atol, on_progress, loop)
-        except BlowUp as exc:
-            if loop is not None:
-                raise UnstableLoop(exc.t, "the state grew without bound") from None
-            raise SimulationError(_stall_message(system, exc.t, "the state grew without "
-                                                 "bound")) from None
+        return _integrate_compiled(system, t_out, rtol, atol, np.inf, on_progress, loop)
     nu, n = len(system.free), system.n
     if compiled:
         from ..dynamics._forward_numba import rates as kernel
@@ -75,7 +71,6 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
         return np.concatenate([y[nu:2 * nu], pdd[0], y[2 * nu + n:2 * nu + 2 * n], zdd[0],
                                rates[0]])
 
-    max_step = MAX_STEP_OUTPUTS * float(np.min(np.diff(t_out))) if t_out.size > 1 else np.inf
     try:
         y, evaluations = integrate_ivp(rhs, system.initial_state(), t_out, rtol, atol, method,
                                        max_step)
@@ -88,14 +83,57 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
                     extra=integral, accuracy=Accuracy(rtol, None, SCIPY))
 
 
-def compiled_method(system: ForwardSystem) -> str:
-    """The compiled loop for a run (ARCHITECTURE.md): "lawson" when every joint is prescribed
-    (a free or pinned base moved by its loads: slow inputs, the appendages' top modes followed
-    over many periods, 8 steps per output where RK4 needs 32 on the satellite slew), "rk4"
-    when a joint is driven (servo torques and references change within the interval the
-    Jacobian is frozen for, and the Lawson remainder, seen through the oscillating factor,
-    costs it 40× in error constant against RK4 on the servo-driven paper arm)."""
-    return "lawson" if not system.driven else "rk4"
+def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
+                        max_step: float, on_progress: Progress | None,
+                        loop: SampledLoop | None) -> Solution:
+    """integrate_forward with the compiled Radau IIA integrator."""
+    from ..dynamics._forward_numba import workspace
+
+    data = pack(system)
+    work = workspace(data, len(system.servos))
+    y0 = system.initial_state()
+    nu, n = len(system.free), system.n
+    # The error of each rigid coordinate and rate is relative to its own peak (metres and
+    # radians differ), of the elastic ones to the peak of their link's coordinates.
+    links = np.repeat(np.arange(len(system.modal)), [d.n for d in system.modal])
+    ns = y0.size - 2 * nu - 2 * n
+    groups = np.concatenate([np.arange(2 * nu), 2 * nu + links,
+                             2 * nu + len(system.modal) + links,
+                             2 * nu + 2 * len(system.modal) + np.arange(ns)])
+    try:
+        states, stats = integrate_radau(
+            data, work, y0, t_out, lambda t: inputs(system, t), breakpoints(system), rtol,
+            atol, groups, max_step, on_progress=on_progress, loop=loop,
+            held=voltage_columns(system) if loop is not None else slice(0, 0),
+            z=slice(2 * nu, 2 * nu + n))
+    except RadauStop as exc:
+        why = ("the state grew without bound" if exc.why == "blow-up"
+               else "the time step collapsed")
+        if loop is not None:
+            raise UnstableLoop(exc.t, why) from None
+        raise SimulationError(_stall_message(system, exc.t, why)) from None
+    return forward_solution(data, work, system, t_out, states, stats, loop,
+                            Accuracy(rtol, None, LOCAL_CONTROL))
+
+
+def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
+                     states: np.ndarray, stats: dict, loop: SampledLoop | None = None,
+                     accuracy: Accuracy | None = None) -> Solution:
+    """The Solution from the states at t_out; accelerations with the inputs there (with a
+    ``loop``: its held voltages); ``accuracy``: what the integrator was asked for."""
+    from ._radau_numba import rates_at
+
+    nu, n = len(system.free), system.n
+    rates = np.empty_like(states)
+    u = inputs(system, t_out)
+    if loop is not None:
+        u[:, voltage_columns(system)] = loop.held_voltages(t_out)
+    rates_at(data, work, u, states, rates)
+    p, pd = states[:, :nu], states[:, nu:2 * nu]
+    z, zd = states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n]
+    return Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
+                    np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
+                    FAST_METHOD, stats, extra=states[:, 2 * nu + 2 * n:], accuracy=accuracy)
 
 
 def split_state(system: ForwardSystem, y: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -1,0 +1,472 @@
+"""Compiled (numba) Radau IIA integrator of order 5 for M y' = f(t, y) (``radau.py``): Hairer
+and Wanner's RADAU5 (Solving ODEs II, §IV.8) — three-stage collocation, simplified Newton on
+the transformed stage system (one real and one complex linear system per iteration, the
+Jacobian and its factorisations reused across steps while Newton converges fast), the
+embedded error estimate filtered by (γ₀/h M − J)⁻¹, Gustafsson's predictive step control,
+and the collocation polynomial as dense output.
+
+The model is reached through `model_rates(d, w, u, y, dy)`: dy = f(t, y) for the model whose
+kernel data ``d`` is, ``w`` its workspace, ``u`` the input row at t. Which kernel runs is
+decided at compile time by the type of ``d`` (`_KERNELS`: kernel-data record class →
+compiled rates function), so one compiled integrator serves every model and stays
+cacheable. A model adds its record class and rates function to `_KERNELS`.
+
+Inputs are piecewise polynomials between breakpoints (`input_table.py`): u(t) is read in
+the compiled loop from Chebyshev coefficients, and the columns ``held[0]:held[1]`` are
+overwritten by ``held_values`` (a sampled controller's held voltages). The run is cut into
+segments at every breakpoint: no step straddles one, and after one the Newton iteration
+restarts from zero stage values (the extrapolated collocation polynomial would carry the
+input's jump).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+from numba import njit
+from numba.extending import overload
+
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from ..dynamics._forward_numba import rates as forward_rates
+from ..dynamics.forward_kernel import ForwardData
+from .solution import BLOW_UP
+
+LinearData = namedtuple("LinearData", ["A", "B"])
+LinearData.__doc__ = ("The linear model f = A y + B u (A (m, m), B (m, columns)): the "
+                      "integrator's own test model, against exact solutions.")
+
+
+@njit(cache=True)
+def linear_rates(d, w, u, y, dy):
+    """dy = A y + B u (w unused)."""
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for j in range(y.shape[0]):
+            acc += d.A[i, j] * y[j]
+        for j in range(u.shape[0]):
+            acc += d.B[i, j] * u[j]
+        dy[i] = acc
+
+
+# kernel-data record class → its compiled rates(d, w, u, y, dy)
+_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates}
+
+
+def model_rates(d, w, u, y, dy):
+    """dy = f(t, y) of the model whose kernel data ``d`` is (input row u at t)."""
+    _KERNELS[type(d)](d, w, u, y, dy)
+
+
+@overload(model_rates)
+def _model_rates(d, w, u, y, dy):
+    kernel = _KERNELS.get(getattr(d, "instance_class", None))
+    if kernel is None:
+        return None
+
+    def impl(d, w, u, y, dy):
+        kernel(d, w, u, y, dy)
+    return impl
+
+
+# Radau IIA (s = 3) and its transformation T⁻¹ A⁻¹ T = diag(γ, [[α, −β], [β, α]]).
+_SQ6 = math.sqrt(6.0)
+C1, C2 = (4.0 - _SQ6) / 10.0, (4.0 + _SQ6) / 10.0
+C1M1, C2M1, C1MC2 = C1 - 1.0, C2 - 1.0, C1 - C2
+DD1, DD2, DD3 = -(13.0 + 7.0 * _SQ6) / 3.0, (-13.0 + 7.0 * _SQ6) / 3.0, -1.0 / 3.0
+_U1 = (6.0 + 81.0 ** (1 / 3) - 9.0 ** (1 / 3)) / 30.0
+_AL = (12.0 - 81.0 ** (1 / 3) + 9.0 ** (1 / 3)) / 60.0
+_BE = (81.0 ** (1 / 3) + 9.0 ** (1 / 3)) * math.sqrt(3.0) / 60.0
+_CNO = _AL * _AL + _BE * _BE
+GAMMA, ALPHA, BETA = 1.0 / _U1, _AL / _CNO, _BE / _CNO
+T11, T12, T13 = 9.1232394870892942792e-02, -0.14125529502095420843, -3.0029194105147424492e-02
+T21, T22, T23 = 0.24171793270710701896, 0.20412935229379993199, 0.38294211275726193779
+T31 = 0.96604818261509293619  # T32 = 1, T33 = 0
+TI11, TI12, TI13 = 4.3255798900631553510, 0.33919925181580986954, 0.54177053993587487119
+TI21, TI22, TI23 = -4.1787185915519047273, -0.32768282076106238708, 0.47662355450055045196
+TI31, TI32, TI33 = -0.50287263494578687595, 2.5719269498556054292, -0.59603920482822492497
+
+NEWTON_MAX = 7  # iterations per step
+SAFE = 0.9
+FAC_MIN, FAC_MAX = 0.2, 8.0  # bounds of h_new / h
+KEEP_LOW, KEEP_HIGH = 1.0, 1.2  # h_new / h in this range: keep h and the factorisations
+# Newton contraction θ below which the Jacobian is kept for the next step. Hairer's default
+# is 0.001 for cheap Jacobians; ours costs one rate evaluation per state component.
+THETA_KEEP = 0.1
+UROUND = 2.2e-16
+
+# Persistent scalars of a run (``st``), so that the loop can stop and resume (progress,
+# sample instants of controllers) without losing its step size or factorisations.
+X, H, H_OLD, H_ACC, ERR_ACC, FACCON, THETA, SEG, NEXT_OUT = 0, 1, 2, 3, 4, 5, 6, 7, 8
+FIRST, REJECT, JAC_OK, LU_OK, FRESH, F0_OK, H_LU = 9, 10, 11, 12, 13, 14, 15
+STEPS, ACCEPTED, REJECTED, RATES, JACOBIANS, LUS = 16, 17, 18, 19, 20, 21
+N_ST = 22
+
+
+@njit(cache=True)
+def input_row(tab, held_values, held, seg, t, u):
+    """u = the input row at time t (s) inside segment ``seg`` (closed at both ends: its
+    polynomial pieces are continued up to the segment's breakpoints), the columns
+    held[0]:held[1] replaced by held_values."""
+    t0s, t1s, coef, seg_piece = tab
+    lo, hi = seg_piece[seg], seg_piece[seg + 1] - 1
+    while lo < hi:  # the first piece of the segment that ends at or after t
+        mid = (lo + hi) // 2
+        if t1s[mid] < t:
+            lo = mid + 1
+        else:
+            hi = mid
+    a, b = t0s[lo], t1s[lo]
+    x = (2.0 * t - (a + b)) / (b - a)
+    deg = coef.shape[1] - 1
+    for c in range(coef.shape[2]):  # Clenshaw
+        b1 = 0.0
+        b2 = 0.0
+        for k in range(deg, 0, -1):
+            b1, b2 = 2.0 * x * b1 - b2 + coef[lo, k, c], b1
+        u[c] = x * b1 - b2 + coef[lo, 0, c]
+    for c in range(held[0], held[1]):
+        u[c] = held_values[c - held[0]]
+
+
+@njit(cache=True)
+def _lu(A, piv):
+    """LU decomposition with partial pivoting in place (real or complex A); False if
+    singular."""
+    n = A.shape[0]
+    for c in range(n):
+        p = c
+        big = abs(A[c, c])
+        for i in range(c + 1, n):
+            if abs(A[i, c]) > big:
+                big, p = abs(A[i, c]), i
+        piv[c] = p
+        if big == 0.0:
+            return False
+        if p != c:
+            for j in range(n):
+                A[c, j], A[p, j] = A[p, j], A[c, j]
+        inv = 1.0 / A[c, c]
+        for i in range(c + 1, n):
+            f = A[i, c] * inv
+            A[i, c] = f
+            if f != 0.0:
+                for j in range(c + 1, n):
+                    A[i, j] -= f * A[c, j]
+    return True
+
+
+@njit(cache=True)
+def _lu_solve(LU, piv, b):
+    """b ← A⁻¹ b from `_lu`'s factors."""
+    n = b.shape[0]
+    for c in range(n):  # the rows were swapped whole: every interchange first
+        p = piv[c]
+        if p != c:
+            b[c], b[p] = b[p], b[c]
+    for c in range(n):
+        for i in range(c + 1, n):
+            b[i] -= LU[i, c] * b[c]
+    for i in range(n - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, n):
+            acc -= LU[i, j] * b[j]
+        b[i] = acc / LU[i, i]
+
+
+@njit(cache=True)
+def _jacobian(d, w, u, y, f0, J, yp, f1):
+    """J = ∂f/∂y at y by one-sided differences (f0 = f(y) given)."""
+    m = y.shape[0]
+    yp[:] = y
+    for j in range(m):
+        step = 1e-7 * max(1.0, abs(y[j]))
+        yp[j] = y[j] + step
+        model_rates(d, w, u, yp, f1)
+        yp[j] = y[j]
+        for i in range(m):
+            J[i, j] = (f1[i] - f0[i]) / step
+
+
+@njit(cache=True)
+def _mass_times(mass, identity, x, out):
+    """out = M x."""
+    if identity:
+        out[:] = x
+        return
+    for i in range(x.shape[0]):
+        acc = 0.0
+        for j in range(x.shape[0]):
+            acc += mass[i, j] * x[j]
+        out[i] = acc
+
+
+@njit(cache=True)
+def _norm(e, scal):
+    """max |e_i| / scal_i: the largest error of any component against its own weight
+    (RADAU5's root mean square would let the many components that hardly move dilute
+    the error of the few that do)."""
+    acc = 0.0
+    for i in range(e.shape[0]):
+        acc = max(acc, abs(e[i]) / scal[i])
+    return acc
+
+
+@njit(cache=True)
+def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, rtol,
+                  atol, group, peak, t_out, states, y, st, ws, cont):
+    """Advance y (in place) from st[X] until st[X] ≥ t_stop (s), storing the state at each
+    output time t_out[k] (k from st[NEXT_OUT]) into states[k] from the dense output.
+
+    mass (m, m) is M unless ``identity``; tab, seg_t: the input table (`input_row`) and the
+    segment boundaries (breakpoints, s); rtol, atol: the (transformed) tolerances, the error
+    of component i weighed by atol + rtol · max(|y_i|, peak[group[i]]), peak the running
+    maximum of |y| over each group of components; hmax the longest step (s); st the
+    persistent scalars (X, H, …), ws the work arrays and cont (m, 4) the collocation
+    polynomial of the last step. Returns 0 (reached t_stop), 1 (blow-up: |y| > BLOW_UP),
+    2 (step size collapsed), 3 (singular iteration matrix)."""
+    J, E1, E2, piv1, piv2, y0, z1, z2, z3, f1, f2, f3, scal, tmp, yp, fp, cw, u = ws
+    m = y.shape[0]
+    n_seg = seg_t.shape[0] - 1
+    # Newton's stopping tolerance (Hairer's default)
+    fnewt = max(10.0 * UROUND / rtol, min(0.03, math.sqrt(rtol)))
+    while st[X] < t_stop:
+        seg = int(st[SEG])
+        x = st[X]
+        end = seg_t[seg + 1]
+        h = st[H]
+        if st[F0_OK] == 0.0:  # f at the step's start (new segment: the inputs' right side)
+            input_row(tab, held_values, held, seg, x, u)
+            model_rates(d, w, u, y, y0)
+            st[RATES] += 1
+            st[F0_OK] = 1.0
+        for i in range(m):
+            scal[i] = atol + rtol * max(abs(y[i]), peak[group[i]])
+        h = min(h, hmax)
+        h_natural = h
+        last = False
+        if x + 1.0001 * h >= end:  # land on the breakpoint
+            h = end - x
+            last = True
+        if h <= 1e-14 * max(1.0, abs(x)):
+            return 2
+        caljac = st[JAC_OK] == 0.0
+        if caljac:
+            input_row(tab, held_values, held, seg, x, u)
+            _jacobian(d, w, u, y, y0, J, yp, fp)
+            st[RATES] += m
+            st[JACOBIANS] += 1
+            st[JAC_OK] = 1.0
+            st[LU_OK] = 0.0
+        if st[LU_OK] == 0.0 or h != st[H_LU]:
+            fac1 = GAMMA / h
+            alphn, betan = ALPHA / h, BETA / h
+            for i in range(m):
+                for j in range(m):
+                    mij = (1.0 if i == j else 0.0) if identity else mass[i, j]
+                    E1[i, j] = fac1 * mij - J[i, j]
+                    E2[i, j] = complex(alphn * mij - J[i, j], betan * mij)
+            if not (_lu(E1, piv1) and _lu(E2, piv2)):
+                return 3
+            st[LUS] += 1
+            st[LU_OK] = 1.0
+            st[H_LU] = h
+        st[H] = h
+        fac1 = GAMMA / h
+        alphn, betan = ALPHA / h, BETA / h
+        # Starting values: the last step's collocation polynomial, extrapolated.
+        if st[FRESH] != 0.0 or st[FIRST] != 0.0:
+            z1[:] = 0.0
+            z2[:] = 0.0
+            z3[:] = 0.0
+            f1[:] = 0.0
+            f2[:] = 0.0
+            f3[:] = 0.0
+        else:
+            c3q = h / st[H_OLD]
+            c1q, c2q = C1 * c3q, C2 * c3q
+            for i in range(m):
+                a1, a2, a3 = cont[i, 1], cont[i, 2], cont[i, 3]
+                z1[i] = c1q * (a1 + (c1q - C2M1) * (a2 + (c1q - C1M1) * a3))
+                z2[i] = c2q * (a1 + (c2q - C2M1) * (a2 + (c2q - C1M1) * a3))
+                z3[i] = c3q * (a1 + (c3q - C2M1) * (a2 + (c3q - C1M1) * a3))
+                f1[i] = TI11 * z1[i] + TI12 * z2[i] + TI13 * z3[i]
+                f2[i] = TI21 * z1[i] + TI22 * z2[i] + TI23 * z3[i]
+                f3[i] = TI31 * z1[i] + TI32 * z2[i] + TI33 * z3[i]
+        # Simplified Newton iteration on the transformed stages.
+        st[FACCON] = max(st[FACCON], UROUND) ** 0.8
+        theta = abs(THETA_KEEP)
+        newt = 0
+        dynold = 1.0
+        thqold = 1.0
+        converged = False
+        retry = 0.0  # > 0: the step is redone with h · retry
+        while True:
+            if newt >= NEWTON_MAX:
+                retry = 0.5
+                break
+            for i in range(m):
+                tmp[i] = y[i] + z1[i]
+            input_row(tab, held_values, held, seg, x + C1 * h, u)
+            model_rates(d, w, u, tmp, z1)
+            for i in range(m):
+                tmp[i] = y[i] + z2[i]
+            input_row(tab, held_values, held, seg, x + C2 * h, u)
+            model_rates(d, w, u, tmp, z2)
+            for i in range(m):
+                tmp[i] = y[i] + z3[i]
+            input_row(tab, held_values, held, seg, x + h, u)
+            model_rates(d, w, u, tmp, z3)
+            st[RATES] += 3
+            for i in range(m):
+                a1, a2, a3 = z1[i], z2[i], z3[i]
+                z1[i] = TI11 * a1 + TI12 * a2 + TI13 * a3
+                z2[i] = TI21 * a1 + TI22 * a2 + TI23 * a3
+                z3[i] = TI31 * a1 + TI32 * a2 + TI33 * a3
+            # right-hand sides of the real and the complex system
+            _mass_times(mass, identity, f1, tmp)
+            _mass_times(mass, identity, f2, fp)
+            _mass_times(mass, identity, f3, yp)
+            for i in range(m):
+                s2, s3 = -fp[i], -yp[i]
+                z1[i] -= tmp[i] * fac1
+                z2[i] += s2 * alphn - s3 * betan
+                z3[i] += s3 * alphn + s2 * betan
+                cw[i] = complex(z2[i], z3[i])
+            _lu_solve(E1, piv1, z1)
+            _lu_solve(E2, piv2, cw)
+            for i in range(m):
+                z2[i] = cw[i].real
+                z3[i] = cw[i].imag
+            newt += 1
+            acc = 0.0
+            for i in range(m):
+                acc += (z1[i] / scal[i]) ** 2 + (z2[i] / scal[i]) ** 2 + (z3[i] / scal[i]) ** 2
+            dyno = math.sqrt(acc / (3 * m))
+            if not math.isfinite(dyno):
+                retry = 0.5
+                break
+            if 1 < newt < NEWTON_MAX:
+                thq = dyno / dynold
+                theta = thq if newt == 2 else math.sqrt(thq * thqold)
+                thqold = thq
+                if theta < 0.99:
+                    st[FACCON] = theta / (1.0 - theta)
+                    dyth = st[FACCON] * dyno * theta ** (NEWTON_MAX - 1 - newt) / fnewt
+                    if dyth >= 1.0:  # would not converge in time: a smaller step
+                        qnewt = max(1e-4, min(20.0, dyth))
+                        retry = 0.8 * qnewt ** (-1.0 / (4.0 + NEWTON_MAX - 1 - newt))
+                        break
+                else:
+                    retry = 0.5
+                    break
+            dynold = max(dyno, UROUND)
+            for i in range(m):
+                f1[i] += z1[i]
+                f2[i] += z2[i]
+                f3[i] += z3[i]
+                z1[i] = T11 * f1[i] + T12 * f2[i] + T13 * f3[i]
+                z2[i] = T21 * f1[i] + T22 * f2[i] + T23 * f3[i]
+                z3[i] = T31 * f1[i] + f2[i]
+            if st[FACCON] * dyno <= fnewt:
+                converged = True
+                break
+        st[STEPS] += 1
+        if not converged:
+            st[REJECTED] += 1
+            st[H] = h * retry
+            st[REJECT] = 1.0
+            if not caljac:
+                st[JAC_OK] = 0.0  # a Jacobian from an earlier step: take a fresh one
+            continue
+        # Error estimate.
+        for i in range(m):
+            f1[i] = (DD1 * z1[i] + DD2 * z2[i] + DD3 * z3[i]) / h
+        _mass_times(mass, identity, f1, f2)
+        for i in range(m):
+            tmp[i] = f2[i] + y0[i]
+        _lu_solve(E1, piv1, tmp)
+        err = max(_norm(tmp, scal), 1e-10)
+        if err >= 1.0 and (st[FIRST] != 0.0 or st[REJECT] != 0.0):
+            for i in range(m):
+                yp[i] = y[i] + tmp[i]
+            input_row(tab, held_values, held, seg, x, u)
+            model_rates(d, w, u, yp, f1)
+            st[RATES] += 1
+            for i in range(m):
+                tmp[i] = f1[i] + f2[i]
+            _lu_solve(E1, piv1, tmp)
+            err = max(_norm(tmp, scal), 1e-10)
+        fac = min(SAFE, SAFE * (1 + 2 * NEWTON_MAX) / (newt + 2 * NEWTON_MAX))
+        quot = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err ** 0.25 / fac))
+        hnew = h / quot
+        if err < 1.0:
+            st[ACCEPTED] += 1
+            if st[FIRST] == 0.0 and st[FRESH] == 0.0:  # Gustafsson's predictive controller
+                facgus = (st[H_ACC] / h) * (err * err / st[ERR_ACC]) ** 0.25 / SAFE
+                facgus = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, facgus))
+                quot = max(quot, facgus)
+                hnew = h / quot
+            st[H_ACC] = h
+            st[ERR_ACC] = max(1e-2, err)
+            st[FIRST] = 0.0
+            st[FRESH] = 0.0
+            x = x + h if not last else end
+            bad = False
+            for i in range(m):
+                y[i] += z3[i]
+                if not abs(y[i]) < BLOW_UP:  # also catches NaN
+                    bad = True
+                z2i, z1i = z2[i], z1[i]
+                cont[i, 0] = y[i]
+                cont[i, 1] = (z2i - z3[i]) / C2M1
+                ak = (z1i - z2i) / C1MC2
+                acont3 = (ak - z1i / C1) / C2
+                cont[i, 2] = (ak - cont[i, 1]) / C1M1
+                cont[i, 3] = cont[i, 2] - acont3
+                g = group[i]
+                peak[g] = max(peak[g], abs(y[i]))
+            st[X] = x
+            st[H_OLD] = h
+            if bad:
+                return 1
+            k = int(st[NEXT_OUT])
+            while k < t_out.shape[0] and t_out[k] <= x + 1e-12 * max(1.0, abs(x)):
+                s = (t_out[k] - x) / h
+                for i in range(m):
+                    states[k, i] = cont[i, 0] + s * (cont[i, 1] + (s - C2M1)
+                                                      * (cont[i, 2] + (s - C1M1) * cont[i, 3]))
+                k += 1
+            st[NEXT_OUT] = k
+            if st[REJECT] != 0.0:
+                hnew = min(hnew, h)
+            st[REJECT] = 0.0
+            if last:
+                if seg + 1 < n_seg:
+                    st[SEG] = seg + 1
+                st[FRESH] = 1.0
+                st[F0_OK] = 0.0
+            else:
+                input_row(tab, held_values, held, seg, x, u)
+                model_rates(d, w, u, y, y0)
+                st[RATES] += 1
+            if theta > THETA_KEEP:
+                st[JAC_OK] = 0.0
+            if last:
+                st[H] = max(hnew, h_natural)
+            elif not (theta <= THETA_KEEP and KEEP_LOW <= hnew / h <= KEEP_HIGH):
+                st[H] = hnew  # otherwise the same h: the same factorisations
+        else:
+            st[REJECTED] += 1
+            st[REJECT] = 1.0
+            st[H] = 0.1 * h if st[FIRST] != 0.0 else hnew
+            # Newton converged: the Jacobian is good enough for the smaller step (RADAU5
+            # takes a fresh one here; ours costs a rate evaluation per state component).
+    return 0
+
+
+@njit(cache=True)
+def rates_at(d, w, u, states, out):
+    """out[i] = f at states[i] with input row u[i] (the accelerations at the outputs)."""
+    for i in range(states.shape[0]):
+        model_rates(d, w, u[i], states[i], out[i])

@@ -1,0 +1,132 @@
+"""The implicit integrator of the stiff paths: Radau IIA of order 5 (RADAU5), compiled, with
+error-controlled adaptive steps, for M y' = f(t, y) (`_radau_numba.py`; ARCHITECTURE.md,
+"Why the solver looks like this").
+
+Model-independent: the model is its kernel data ``d`` and workspace ``w`` (the compiled
+rates are chosen by the type of ``d``), its inputs a vectorised function of time tabulated
+as piecewise polynomials between the breakpoints (`input_table.py`). Every breakpoint and
+controller sample instant is a node no step straddles. Sampled controllers (``loop``, as
+`gauss_sampled.SampledLoop`) are updated between calls of the compiled loop at each sample
+instant from the state's elastic coordinates, their held voltages overwriting the input
+columns ``held``.
+
+Tolerances: component i's local error is kept below atol + rtol · its group's peak |y|
+(the running maximum over the run so far of every component in the group: displacements,
+velocities, …), with a conversion of the requested tolerance into the local one (`local_tolerances`) so
+that the global error of the coordinates and rates is about rtol.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .gauss_sampled import SampledLoop
+from .input_table import tabulate
+from .solution import Progress
+
+CHUNKS = 20  # calls of the compiled loop without controllers: progress between them
+
+
+@dataclass
+class RadauStop(Exception):
+    """The run stopped at ``t`` (s): ``why`` is "blow-up" (|y| beyond BLOW_UP) or "stalled"
+    (the step collapsed)."""
+
+    t: float
+    why: str
+
+
+def local_tolerances(rtol: float, atol: float) -> tuple[float, float]:
+    """The local tolerances for a requested (global) rtol, atol. RADAU5 converts rtol into
+    0.1 rtol^(2/3); measured, that lets the global error grow to ~10 rtol at rtol 1e-8
+    (an oscillator over ten periods, tests/unit/test_radau.py; a servo arm's small response
+    alike). rtol_local = 0.7 rtol^0.875 equals RADAU5's at rtol 1e-4 and keeps the global
+    error near rtol from 1e-3 to 1e-10. atol stays an absolute floor, a tenth of the one
+    asked for (RADAU5 scales it with rtol, which at rtol 1e-9 loosens it a hundredfold)."""
+    return 0.7 * rtol ** 0.875, 0.1 * atol
+
+
+def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
+                    inputs: Callable[[np.ndarray], np.ndarray], breaks: np.ndarray,
+                    rtol: float, atol: float, groups: np.ndarray, hmax: float = np.inf,
+                    mass: np.ndarray | None = None, on_progress: Progress | None = None,
+                    loop: SampledLoop | None = None, held: slice = slice(0, 0),
+                    z: slice = slice(0, 0)) -> tuple[np.ndarray, dict[str, int]]:
+    """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
+
+    inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
+    smooth; groups (len(y0),) the group index of each component (its error is relative to
+    the group's peak); mass: M (None: the identity); hmax: the longest step (s). Raises
+    RadauStop."""
+    from ._radau_numba import (
+        F0_OK,
+        FACCON,
+        FIRST,
+        N_ST,
+        NEXT_OUT,
+        H,
+        X,
+        radau_advance,
+    )
+
+    t0, t1 = float(t_out[0]), float(t_out[-1])
+    scale = 1e-9 * max(1.0, abs(t1))
+    inner = breaks[(breaks > t0 + scale) & (breaks < t1 - scale)]
+    samples = np.zeros(0)
+    if loop is not None:
+        samples = loop.grid[:-1]
+        samples = samples[(samples > t0 + scale) & (samples < t1 - scale)]
+    nodes = np.union1d(np.union1d([t0, t1], inner), samples)
+    nodes = nodes[np.concatenate([[True], np.diff(nodes) > scale])]
+    nodes[-1] = t1
+    tab = tabulate(inputs, nodes)
+    m = y0.size
+    groups = np.ascontiguousarray(groups, dtype=np.int64)
+    peak = np.zeros(int(groups.max(initial=0)) + 1)
+    np.maximum.at(peak, groups, np.abs(y0))
+    rtol_local, atol_local = local_tolerances(rtol, atol)
+    st = np.zeros(N_ST)
+    st[X], st[H], st[FACCON], st[FIRST], st[NEXT_OUT] = t0, min(1e-5, hmax), 1.0, 1.0, 1.0
+    st[F0_OK] = 0.0
+    ws = (np.empty((m, m)), np.empty((m, m)), np.empty((m, m), dtype=np.complex128),
+          np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
+          *(np.empty(m) for _ in range(11)), np.empty(m, dtype=np.complex128),
+          np.empty(tab[2].shape[2]))
+    cont = np.zeros((m, 4))
+    identity = mass is None
+    M = np.eye(1) if mass is None else np.ascontiguousarray(mass, dtype=float)
+    states = np.full((t_out.size, m), np.nan)
+    states[0] = y0
+    y = np.array(y0, dtype=float)
+    if loop is not None:
+        loop.start()
+        at = np.searchsorted(nodes, loop.grid[:-1] - scale)  # sample k starts at nodes[at[k]]
+        stops = [(nodes[at[k + 1]] if k + 1 < at.size else t1) for k in range(at.size)]
+    else:
+        stops = list(np.linspace(t0, t1, CHUNKS + 1)[1:])
+    held_columns = np.array([held.start or 0, held.stop or 0] if loop is not None else [0, 0],
+                            dtype=np.int64)
+    held_values = np.zeros(max(1, held_columns[1] - held_columns[0]))
+    for k, stop in enumerate(stops):
+        if loop is not None:
+            held_values[:] = loop.update(k, y[z])
+            st[F0_OK] = 0.0  # the held voltages changed: f at the step's start too
+        status = radau_advance(d, w, M, identity, tab, nodes, held_values, held_columns,
+                               float(stop) - (0.0 if stop == t1 else 0.5 * scale), hmax,
+                               rtol_local, atol_local, groups, peak, t_out, states, y, st, ws,
+                               cont)
+        if status != 0:
+            raise RadauStop(float(st[X]), "blow-up" if status == 1 else "stalled")
+        if on_progress is not None:
+            on_progress(float(st[X]))
+    if loop is not None:
+        loop.update(loop.grid.size - 1, y[z])  # the records at t_end
+    from ._radau_numba import ACCEPTED, JACOBIANS, LUS, RATES, REJECTED
+
+    stats = {"steps": int(st[ACCEPTED]), "rejected_steps": int(st[REJECTED]),
+             "rhs_evaluations": int(st[RATES]), "jacobians": int(st[JACOBIANS]),
+             "factorisations": int(st[LUS])}
+    return states, stats
