@@ -33,6 +33,7 @@ from flexlink.dynamics.first_order import FirstOrderSystem
 from flexlink.model import Chain, Link, Scenario, SimulationSettings
 from flexlink.motion import Hold
 from flexlink.scenario.load import scenario_from_dict
+from flexlink.solvers.forward import FAST_METHOD
 from tests.validation.gravity_beam import (
     greenhill_load,
     heavy_elastica_tip,
@@ -159,14 +160,14 @@ def test_position_servo_droops_until_its_torque_balances_the_load() -> None:
 @pytest.mark.parametrize("model", ["first_order", "nonlinear"])
 def test_free_base_falls_with_its_links_undeformed(model: str) -> None:
     """Free fall: the relative motion is that without gravity (the links stay straight) and
-    the linear momentum grows by m g t (first order: the compiled Lawson loop, every joint
-    prescribed; nonlinear: the forward Gauss collocation)."""
+    the linear momentum grows by m g t (first order: the compiled Radau IIA integrator;
+    nonlinear: the forward Gauss collocation)."""
     base = {"type": "free", "mass": 3.0, "inertia": 0.5}
     joint = {"motion": [{"profile": "hold", "angle_deg": 30.0}]}
     r = simulate(_scenario("rest", joint=joint, base=base, t_end=1.0, model=model),
                  shapes=False)
     assert (r.metadata.get("method_detail", r.metadata["method"])
-            == ("lawson" if model == "first_order" else "gauss"))
+            == (FAST_METHOD if model == "first_order" else "gauss"))
     t = np.asarray(r.time)
     total = 3.0 + RHO * L + TIP
     np.testing.assert_allclose(np.asarray(r["momentum_y"]), -total * G * t, atol=1e-9 * total)
@@ -367,7 +368,7 @@ def test_first_order_pendulum_energy_falls_as_the_deflection_squared() -> None:
                                              "tip_mass": 0.3, "modes": 3}, 70.0, 1.5)
         system = ForwardSystem(scenario.chain, Base(), True, gravity=scenario.settings.gravity)
         t = np.linspace(0.0, 1.5, 301)
-        solution = integrate_forward(system, t, 1e-7, 1e-12, "compiled")
+        solution = integrate_forward(system, t, 1e-7, 1e-12, FAST_METHOD)
         exact = NonlinearForwardSystem(scenario.chain, gravity=scenario.settings.gravity)
         y, v = np.zeros((t.size, exact.n_y)), np.zeros((t.size, exact.n_y))
         y[:, :exact.n], y[:, exact.n] = solution.q[:, 1:], solution.q[:, 0]
