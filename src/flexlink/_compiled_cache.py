@@ -12,8 +12,11 @@ holds the signature, the target CPU (name and features) and a hash of the functi
 bytecode; the source stamp here is a hash of every ``.py`` file of the package with the
 numba, llvmlite and numpy versions, so any change of any source (a kernel calls kernels and
 constants of other modules) or of those libraries makes numba compile again, as without
-this cache. Where ``_compiled/`` is missing (a source tree, an editable install) or not
-writable, the locator declines and numba's own locators apply, unchanged. The locator list is
+this cache. The marker records the stamp of the sources it was compiled from: where
+``_compiled/`` is missing (a source tree), holds another stamp (a source edited since, or
+another numba, llvmlite or numpy) or is not writable, the locator declines and numba's own
+locators apply, unchanged (in an editable install, whose build compiles into the source tree's
+``_compiled/``, editing a source returns to numba's per-file caches beside the modules). The locator list is
 private numba API: without it (a future numba), `install_locator` does nothing and
 ``cache=True`` behaves as it always did.
 """
@@ -22,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import json
 import os
 import tempfile
 from pathlib import Path
@@ -67,10 +71,23 @@ def _package_stamp(package_dir: Path) -> str:
     return source_stamp(package_dir)
 
 
+def read_record(root: Path) -> dict[str, Any] | None:
+    """The build's record in cache folder `root` (its marker), None when missing or unreadable."""
+    try:
+        record = json.loads((root / MARKER).read_text())
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) else None
+
+
 def cache_root(package_dir: Path = PACKAGE_DIR) -> Path | None:
-    """The package's cache folder if the build made one (its marker exists), else None."""
+    """The package's cache folder if the build made one for these sources (its marker
+    records their stamp), else None."""
     root = package_dir / CACHE_FOLDER
-    return root if (root / MARKER).is_file() else None
+    record = read_record(root)
+    if record is None or record.get("stamp") != _package_stamp(package_dir):
+        return None
+    return root
 
 
 @functools.cache
