@@ -149,9 +149,10 @@ def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
     for wanted in ([n for n in queue if family[n] == working.get(worker)],
                    [n for n in queue if family[n] not in others], queue):
         if wanted:
-            queue.remove(wanted[0])
-            working[worker] = family[wanted[0]]
-            return wanted[0]
+            name = wanted[0]
+            queue.remove(name)
+            working[worker] = family[name]
+            return name
     working.pop(worker, None)
     return None
 

@@ -279,3 +279,7 @@ def test_a_worker_keeps_to_its_path_and_two_workers_to_different_ones() -> None:
     assert take(queue, family, working, 1) == "c"
     assert take(queue, family, working, 0) is None and take(queue, family, working, 1) is None
     assert working == {}
+    # regression: the last run, of a path another worker is on, ended the worker's thread
+    queue, working = ["f", "fb"], {}
+    assert take(queue, family, working, 1) == "f"
+    assert take(queue, family, working, 0) == "fb" and queue == []
