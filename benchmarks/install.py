@@ -5,16 +5,17 @@ then the first run of each example and each model path there, all timed.
 
 Prints the wall and CPU time (user + system of all processes) of ``pip install SOURCE``
 (FLEXLINK_BUILD_KERNELS=--kernels, setup.py) with the build's own record of its compilation
-(``_compiled/build.json``: seconds per warm-up run), then of the first run of every path in
-that environment — ``flexlink run --paper``, every ``examples/*.toml``, the paper arm with the
-nonlinear model, paper_servo with the nonlinear model (nonlinear forward), active_damping with
-the nonlinear model and on servo-driven joints (closed loop on those paths), a free base under
-torque-driven joints, ``flexlink linearize`` and ``flexlink modes`` — each with how many
-functions numba compiled in it (``NUMBA_DEBUG_CACHE``'s "data saved" lines; 0 when the wheel
-carried every kernel it needs: then the order of the rows does not matter), and the median of
-``--runs`` later ``flexlink run --paper``. Packages come from pip's configured index and cache
-(``--system-site-packages``: the running Python's packages serve the dependencies, so the
-installation time is flexlink's build alone). The last line records the machine.
+(``_compiled/build.json``: seconds per warm-up run), then of the first and the second run of
+every path in that environment — ``flexlink run --paper``, every ``examples/*.toml``, the
+paper arm with the nonlinear model, paper_servo with the nonlinear model (nonlinear forward),
+active_damping with the nonlinear model and on servo-driven joints (closed loop on those
+paths), a free base under torque-driven joints, ``flexlink linearize`` and ``flexlink
+modes`` — each with how many functions numba compiled in its first run (``NUMBA_DEBUG_CACHE``'s
+"data saved" lines; 0 when the wheel carried every kernel it needs: then the order of the rows
+does not matter), and the median of ``--runs`` later ``flexlink run --paper``. Packages come
+from pip's configured index and cache (``--system-site-packages``: the running Python's
+packages serve the dependencies, so the installation time is flexlink's build alone). The
+last line records the machine.
 """
 
 from __future__ import annotations
@@ -100,12 +101,15 @@ def timed(argv: list[str], env: dict[str, str], cwd: str) -> tuple[float, float,
 
 
 def _first_run(label: str, argv: list[str], env: dict[str, str], cwd: str,
-               ) -> tuple[str, float, float]:
+               ) -> tuple[str, float, float, float, float]:
+    """(label with how many functions numba compiled, wall s and CPU s of the first run,
+    of the second)."""
     # unbuffered: numba prints its cache events to standard output, and `flexlink run`
     # leaves through os._exit, which flushes nothing
     wall, cpu, log = timed(argv, dict(env, NUMBA_DEBUG_CACHE="1", PYTHONUNBUFFERED="1"), cwd)
     compiled = sum("data saved" in line for line in log.splitlines())
-    return f"first run: {label} ({compiled} functions compiled)", wall, cpu
+    again, again_cpu, _ = timed(argv, env, cwd)
+    return f"{label} ({compiled} functions compiled)", wall, cpu, again, again_cpu
 
 
 def measure(source: Path, kernels: str | None = None, runs: int = 3,
@@ -169,10 +173,12 @@ def main() -> None:
     args = parser.parse_args()
     load = os.getloadavg()[0]
     rows, record = measure(args.source, args.kernels, args.runs, args.system_site_packages)
-    width = max(len(label) for label, _, _ in rows)
-    print(f"{'what':<{width}}  wall [s]  CPU [s]")
-    for label, wall, cpu in rows:
-        print(f"{label:<{width}}  {wall:8.2f}  {cpu:7.2f}")
+    width = max(len(row[0]) for row in rows)
+    print(f"{'what (first run, then the second)':<{width}}  wall [s]  CPU [s]  "
+          "2nd wall  2nd CPU")
+    for label, wall, cpu, *second in rows:
+        tail = "".join(f"  {value:8.2f}" for value in second)
+        print(f"{label:<{width}}  {wall:8.2f}  {cpu:7.2f}{tail}")
     kept = ("seconds", "workers", "kernels", "runs", "failed", "uncompiled")
     print(f"build record: {json.dumps({k: record[k] for k in kept if k in record})}")
     print(f"source {args.source}, kernels {args.kernels or 'default'!r}; "
