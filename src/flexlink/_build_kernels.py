@@ -142,12 +142,13 @@ def worker() -> None:
 def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
              worker: int) -> str | None:
     """Take from `queue` the next run for `worker`: the next of the family (model path) it is
-    on, since runs of one path share most kernels and one worker then compiles them; else the
-    first whose family no other worker is on; else the first left. `working` (worker →
-    family) is updated; None when the queue is empty."""
+    on, else the first whose family no other worker is on. Runs of one path share most
+    kernels, so one worker compiles them: None when every run left is of a path another
+    worker is on (it takes them next) or none is left. `working` (worker → family) is
+    updated."""
     others = {f for k, f in working.items() if k != worker}
     for wanted in ([n for n in queue if family[n] == working.get(worker)],
-                   [n for n in queue if family[n] not in others], queue):
+                   [n for n in queue if family[n] not in others]):
         if wanted:
             name = wanted[0]
             queue.remove(name)
@@ -170,10 +171,11 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
     from .cli import warmup_scenarios
     from .simulation import model_path
 
-    queue = list(names)
-    lock = threading.Lock()
     scenarios = warmup_scenarios()
     family = {name: model_path(scenarios[name]) for name in names}
+    # the paths with most runs first: they take longest
+    queue = sorted(names, key=lambda n: -list(family.values()).count(family[n]))
+    lock = threading.Lock()
     working: dict[int, str] = {}  # worker → the family (model path) of its current run
 
     root = PACKAGE_DIR / CACHE_FOLDER

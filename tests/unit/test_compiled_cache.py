@@ -275,11 +275,7 @@ def test_a_worker_keeps_to_its_path_and_two_workers_to_different_ones() -> None:
     assert take(queue, family, working, 0) == "p" and take(queue, family, working, 1) == "n"
     assert take(queue, family, working, 1) == "f"  # nothing more of n's path
     assert take(queue, family, working, 0) == "nf"  # not fb: worker 1 is on the forward path
-    assert take(queue, family, working, 1) == "fb"  # its own path first
-    assert take(queue, family, working, 1) == "c"
-    assert take(queue, family, working, 0) is None and take(queue, family, working, 1) is None
-    assert working == {}
-    # regression: the last run, of a path another worker is on, ended the worker's thread
-    queue, working = ["f", "fb"], {}
-    assert take(queue, family, working, 1) == "f"
-    assert take(queue, family, working, 0) == "fb" and queue == []
+    assert take(queue, family, working, 0) == "c"
+    assert take(queue, family, working, 0) is None  # fb is worker 1's next
+    assert take(queue, family, working, 1) == "fb" and queue == []
+    assert take(queue, family, working, 1) is None and working == {}
