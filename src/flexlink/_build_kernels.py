@@ -33,7 +33,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._compiled_cache import CACHE_FOLDER, MARKER, PACKAGE_DIR, read_record, source_stamp
+from ._compiled_cache import (
+    CACHE_FOLDER,
+    MARKER,
+    PACKAGE_DIR,
+    complete,
+    host_target,
+    read_record,
+    source_stamp,
+)
 
 _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
 _CACHED_KERNEL = re.compile(r"jit\([^)]*\bcache\s*=\s*True")
@@ -68,14 +76,6 @@ def kernels(package_dir: Path = PACKAGE_DIR) -> dict[str, Any]:
                     and not isinstance(value._cache, NullCache)):
                 found[f"{name}.{attribute}"] = value
     return found
-
-
-def host_target() -> list[str]:
-    """numba's code generation target here (triple, CPU name, CPU features): part of the key
-    of every cached kernel, so a cache made for another target is compiled again."""
-    from numba.core.registry import cpu_target
-
-    return list(cpu_target.target_context.codegen().magic_tuple())
 
 
 def run_warmup(name: str, scenario: Any) -> dict[str, Any]:
@@ -241,16 +241,6 @@ def _merge(source: Path, target: Path) -> None:
         shutil.move(index, destination / index.name)  # last: an index names its data
 
 
-def complete(record: dict[str, Any] | None) -> bool:
-    """Whether a build record says every kernel is compiled for this machine: every current
-    warm-up run passed, every kernel was reached, for this numba target."""
-    from .cli import WARMUP_RUNS
-
-    return (record is not None and set(WARMUP_RUNS) <= set(record.get("runs", {}))
-            and not record.get("failed") and not record.get("uncompiled")
-            and record.get("target") == host_target())
-
-
 def _seed(root: Path, stamp: str, seed: Path | None) -> None:
     """Make `root` hold no cache files but this source's: kept when its record has the same
     stamp, else replaced by `seed`'s (another build of the same sources, e.g. the wheel's
@@ -274,16 +264,17 @@ def build(runs: list[str] | None = None, workers: int | None = None,
     root = PACKAGE_DIR / CACHE_FOLDER
     stamp = source_stamp(PACKAGE_DIR)
     _seed(root, stamp, seed)
+    from .cli import WARMUP_RUNS
+
     previous = read_record(root)
-    if previous is not None and previous.get("stamp") == stamp and complete(previous):
+    if (previous is not None and previous.get("stamp") == stamp
+            and complete(previous, WARMUP_RUNS)):
         return previous
     root.mkdir(exist_ok=True)
     info: dict[str, Any] = {"stamp": stamp, "python": sys.version.split()[0], "runs": {},
                             "failed": {}, "uncompiled": []}
     (root / MARKER).write_text(json.dumps(info))  # before any kernel module is imported
     import numba
-
-    from .cli import WARMUP_RUNS
 
     names = runs or list(WARMUP_RUNS)
     if workers is None:

@@ -28,6 +28,7 @@ import hashlib
 import json
 import os
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -88,6 +89,22 @@ def cache_root(package_dir: Path = PACKAGE_DIR) -> Path | None:
     if record is None or record.get("stamp") != _package_stamp(package_dir):
         return None
     return root
+
+
+def host_target() -> list[str]:
+    """numba's code generation target here (triple, CPU name, CPU features): part of the key
+    of every cached kernel, so a cache made for another target is compiled again."""
+    from numba.core.registry import cpu_target
+
+    return list(cpu_target.target_context.codegen().magic_tuple())
+
+
+def complete(record: dict[str, Any] | None, runs: Sequence[str]) -> bool:
+    """Whether a build record says every kernel is compiled for this machine: each of the
+    warm-up runs `runs` passed, every kernel was reached, for this numba target."""
+    return (record is not None and set(runs) <= set(record.get("runs", {}))
+            and not record.get("failed") and not record.get("uncompiled")
+            and record.get("target") == host_target())
 
 
 @functools.cache

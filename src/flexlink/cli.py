@@ -268,12 +268,11 @@ def warmup_scenarios() -> dict[str, Any]:
 def _cmd_warmup(args: argparse.Namespace) -> int:
     import time
 
-    from ._build_kernels import complete
-    from ._compiled_cache import cache_root, read_record
+    from ._compiled_cache import cache_root, complete, read_record
     from .simulation import simulate
 
     root = cache_root()
-    if root is not None and complete(read_record(root)):
+    if root is not None and complete(read_record(root), WARMUP_RUNS):
         print(f"every compiled loop was compiled when flexlink was installed ({root}): "
               "nothing to do")
         return 0

@@ -213,14 +213,14 @@ def test_complete_needs_every_run_no_failure_every_kernel_and_this_target(
         monkeypatch: pytest.MonkeyPatch) -> None:
     from flexlink.cli import WARMUP_RUNS
 
-    monkeypatch.setattr(_build_kernels, "host_target", lambda: ["triple", "cpu", "+f"])
+    monkeypatch.setattr(_compiled_cache, "host_target", lambda: ["triple", "cpu", "+f"])
     good = {"runs": {name: {} for name in WARMUP_RUNS}, "failed": {}, "uncompiled": [],
             "target": ["triple", "cpu", "+f"]}
-    assert _build_kernels.complete(good)
-    assert not _build_kernels.complete(None)
+    assert _compiled_cache.complete(good, WARMUP_RUNS)
+    assert not _compiled_cache.complete(None, WARMUP_RUNS)
     for change in ({"runs": {WARMUP_RUNS[0]: {}}}, {"failed": {"forward": "boom"}},
                    {"uncompiled": ["flexlink.x.k"]}, {"target": ["triple", "other", "+f"]}):
-        assert not _build_kernels.complete({**good, **change}), change
+        assert not _compiled_cache.complete({**good, **change}, WARMUP_RUNS), change
 
 
 def test_every_module_with_cached_kernels_is_found_and_caches_into_the_package() -> None:

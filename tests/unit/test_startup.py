@@ -212,7 +212,6 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
 def test_warmup_does_nothing_where_the_installation_compiled_every_loop(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
         tmp_path: Path) -> None:
-    import flexlink._build_kernels
     import flexlink._compiled_cache
     import flexlink.simulation
     from flexlink.cli import WARMUP_RUNS, main
@@ -220,7 +219,8 @@ def test_warmup_does_nothing_where_the_installation_compiled_every_loop(
     record = {"complete": True}
     monkeypatch.setattr(flexlink._compiled_cache, "cache_root", lambda: tmp_path)
     monkeypatch.setattr(flexlink._compiled_cache, "read_record", lambda root: record)
-    monkeypatch.setattr(flexlink._build_kernels, "complete", lambda r: r["complete"])
+    monkeypatch.setattr(flexlink._compiled_cache, "complete",
+                        lambda r, runs: r["complete"] and runs == WARMUP_RUNS)
 
     def ran(scenario, progress=False, shapes=True):
         print("ran")
