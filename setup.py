@@ -1,11 +1,16 @@
-"""Build step of flexlink (everything else is in pyproject.toml): a wheel built on the machine
-that installs it (``pip install .``) carries the compiled numba kernels, so that the first run
-does not wait ~10 s for LLVM (src/flexlink/_compiled_cache.py, docs/performance.md).
+"""Build step of flexlink (everything else is in pyproject.toml): the numba kernels of every
+path are compiled while flexlink installs, on the machine that installs it, so that no first
+run waits for LLVM (src/flexlink/_compiled_cache.py, _build_kernels.py, ARCHITECTURE.md).
 
-FLEXLINK_BUILD_KERNELS: ``prescribed`` (the default) compiles the kernels of prescribed runs
-(the paper's), ``all`` those of every path, a comma-separated list of warm-up runs
-(flexlink.cli.WARMUP_RUNS) those, ``none`` nothing. A failure never fails the build: the
-kernels left out compile at first use.
+A wheel (``pip install .``) carries them in its package folder ``_compiled/``; an editable
+install (``pip install -e .``) puts them into the source tree's ``src/flexlink/_compiled/``,
+copied from the wheel's ``build/lib`` when an earlier ``pip install .`` compiled the same
+sources, so the README's second command does not compile again.
+
+FLEXLINK_BUILD_KERNELS: ``all`` (the default) compiles the kernels of every warm-up run
+(flexlink.cli.WARMUP_RUNS: one per path and compiled loop), a comma-separated list of warm-up
+runs those, ``none`` nothing. A failure never fails the build: the kernels left out compile
+at first use.
 """
 
 from __future__ import annotations
@@ -20,49 +25,59 @@ from pathlib import Path
 from setuptools import setup
 from setuptools.command.build_py import build_py
 
-DEFAULT_PATHS = "prescribed"  # the paper and every prescribed run; "all" adds ~1 min (docs)
+HERE = Path(__file__).resolve().parent
 TIMEOUT = 1800  # s; on a slow machine compiling every path takes a few minutes
 
 
+def compile_kernels(package_dir: Path, seed: Path | None, choice: str) -> None:
+    """Compile the kernels into `package_dir`'s cache folder in a subprocess whose
+    ``flexlink`` is `package_dir` (flexlink._build_kernels), starting from `seed`'s cache
+    when that holds the same sources'; a note instead of a failure."""
+    runs = "" if choice == "all" else choice
+    cache = package_dir / "_compiled"
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("NUMBA_CACHE_LOCATOR_CLASSES", "NUMBA_DISABLE_JIT")}
+    # the flexlink being installed first; pip's isolated build environment (numba …) reaches
+    # the process through PYTHONPATH too
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(package_dir.parent)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep)
+                                     if p])
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c",
+             "import sys; from flexlink._build_kernels import main; sys.exit(main())",
+             runs, str(seed or "")], check=False, cwd=package_dir.parent, env=env,
+            capture_output=True, text=True, timeout=TIMEOUT)
+        ok = done.returncode == 0
+        detail = (done.stdout.strip().splitlines() or [""])[-1]  # the record: what compiled
+        if not ok:
+            detail = f"{done.stderr.strip()} {detail}"
+    except (OSError, subprocess.SubprocessError) as exc:
+        ok, detail = False, str(exc)
+    if not ok or not any(cache.rglob("*.nbi")):
+        shutil.rmtree(cache, ignore_errors=True)
+        print("flexlink: note: the numba kernels were not compiled at installation; they "
+              f"compile at first use instead ({detail.strip()[-2000:]})", file=sys.stderr)
+        return
+    print(f"flexlink: numba kernels compiled into {cache} in "
+          f"{time.perf_counter() - start:.0f} s: {detail}")
+
+
 class BuildPyWithKernels(build_py):
-    """build_py, then the kernels compiled into build_lib/flexlink/_compiled (not for an
-    editable install: its kernels compile and cache at first use, as numba does by default)."""
+    """build_py, then the kernels compiled into the package that is installed: build_lib's
+    for a wheel, the source tree's for an editable install."""
 
     def run(self) -> None:
         super().run()
-        choice = os.environ.get("FLEXLINK_BUILD_KERNELS", DEFAULT_PATHS).strip()
-        if getattr(self, "editable_mode", False) or choice == "none":
+        choice = os.environ.get("FLEXLINK_BUILD_KERNELS", "all").strip()
+        if choice == "none":
             return
-        runs = "" if choice == "all" else choice
-        build_lib = Path(self.build_lib).resolve()
-        cache = build_lib / "flexlink" / "_compiled"
-        shutil.rmtree(cache, ignore_errors=True)  # never ship a cache of an earlier build
-        env = {k: v for k, v in os.environ.items()
-               if k not in ("NUMBA_CACHE_LOCATOR_CLASSES", "NUMBA_DISABLE_JIT")}
-        # the flexlink being built first; pip's isolated build environment (numba …) reaches
-        # the process through PYTHONPATH too
-        env["PYTHONPATH"] = os.pathsep.join(
-            [str(build_lib)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
-        start = time.perf_counter()
-        try:
-            done = subprocess.run(
-                [sys.executable, "-c",
-                 "import sys; from flexlink._build_kernels import main; sys.exit(main())",
-                 runs], check=False, cwd=build_lib, env=env, capture_output=True, text=True,
-                timeout=TIMEOUT)
-            ok = done.returncode == 0
-            detail = (done.stdout.strip().splitlines() or [""])[-1]  # the record: what compiled
-            if not ok:
-                detail = f"{done.stderr.strip()} {detail}"
-        except (OSError, subprocess.SubprocessError) as exc:
-            ok, detail = False, str(exc)
-        if not ok or not any(cache.rglob("*.nbi")):
-            shutil.rmtree(cache, ignore_errors=True)
-            print("flexlink: note: the numba kernels were not compiled at installation; they "
-                  f"compile at first use instead ({detail.strip()[-2000:]})", file=sys.stderr)
-            return
-        print(f"flexlink: numba kernels compiled into the package in "
-              f"{time.perf_counter() - start:.0f} s: {detail}")
+        if getattr(self, "editable_mode", False):
+            compile_kernels(HERE / "src" / "flexlink", HERE / "build" / "lib" / "flexlink"
+                            / "_compiled", choice)
+        else:
+            compile_kernels(Path(self.build_lib).resolve() / "flexlink", None, choice)
 
 
 setup(cmdclass={"build_py": BuildPyWithKernels})

@@ -1,6 +1,6 @@
 """flexlink's build backend: setuptools', with numba and what the build's warm-up runs import
-requested for a wheel only (setup.py compiles the kernels into it), not for an editable
-install or a source distribution, which compile nothing."""
+requested for a wheel and an editable install (setup.py compiles the kernels into the
+package they install), not for a source distribution, which compiles nothing."""
 
 from __future__ import annotations
 
@@ -13,9 +13,19 @@ from setuptools.build_meta import *  # every hook not redefined here
 KERNEL_REQUIRES = ["numpy>=1.26", "scipy>=1.11", "numba>=0.59", "threadpoolctl>=3.1"]
 
 
-def get_requires_for_build_wheel(config_settings: dict[str, Any] | None = None) -> list[str]:
-    """setuptools' requirements, and the kernels' unless FLEXLINK_BUILD_KERNELS is none."""
-    requires = _setuptools.get_requires_for_build_wheel(config_settings)
+def _with_kernels(requires: list[str]) -> list[str]:
+    """`requires` and the kernels' requirements unless FLEXLINK_BUILD_KERNELS is none."""
     if os.environ.get("FLEXLINK_BUILD_KERNELS", "").strip() == "none":
         return requires
     return requires + KERNEL_REQUIRES
+
+
+def get_requires_for_build_wheel(config_settings: dict[str, Any] | None = None) -> list[str]:
+    """setuptools' requirements for a wheel, and the kernels'."""
+    return _with_kernels(_setuptools.get_requires_for_build_wheel(config_settings))
+
+
+def get_requires_for_build_editable(config_settings: dict[str, Any] | None = None,
+                                    ) -> list[str]:
+    """setuptools' requirements for an editable install, and the kernels'."""
+    return _with_kernels(_setuptools.get_requires_for_build_editable(config_settings))

@@ -1,57 +1,313 @@
-"""Compile the kernels into an installed package's cache folder (`_compiled_cache`): run by
-setup.py's build step in a process whose ``flexlink`` is the one being built."""
+"""Compile every path's kernels into a package's cache folder (`_compiled_cache`): run by
+setup.py's build step in a process whose ``flexlink`` is the one being installed (the wheel's
+``build/lib``, or the source tree of an editable install).
+
+What gets compiled is found, not listed: every warm-up run of `flexlink warmup`
+(`cli.WARMUP_RUNS`, one tiny scenario per path and compiled loop) runs, with the kernels
+`flexlink run` preloads for it; then every cached kernel of the package — each numba
+function decorated with ``cache=True`` in any of its modules (`kernel_modules`) — is checked
+to have been compiled, and one that no warm-up run reached is named in the record
+(``uncompiled``; a test keeps that list empty). A new kernel called on an existing path is
+therefore compiled without editing anything here; a new path or compiled loop needs its
+warm-up run in `cli.warmup_scenarios`.
+
+The runs are shared among worker processes (one per core), each on its own copy of the
+package so that no two processes write one cache file; their cache files are then moved into
+the package's folder (a kernel two workers both compiled keeps the first copy), and a last
+pass in one process runs every warm-up again: it loads every kernel, compiles whatever the
+merge left out and checks the coverage above.
+"""
 
 from __future__ import annotations
 
+import importlib
 import json
+import os
+import re
+import shutil
+import subprocess
 import sys
+import tempfile
+import threading
 import time
+from pathlib import Path
 from typing import Any
 
-from ._compiled_cache import CACHE_FOLDER, MARKER, PACKAGE_DIR
+from ._compiled_cache import (
+    CACHE_FOLDER,
+    MARKER,
+    PACKAGE_DIR,
+    complete,
+    host_target,
+    read_record,
+    source_stamp,
+)
+
+_RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
+_CACHED_KERNEL = re.compile(r"jit\([^)]*\bcache\s*=\s*True")
+_INDEX_DATA = r"\.\d+\.nbc"  # numba's data files beside an index <stem>.nbi: <stem>.<n>.nbc
 
 
-def build(runs: list[str] | None = None) -> dict[str, Any]:
-    """Compile the kernels of the given warm-up runs (`cli.WARMUP_RUNS`; all by default) into
-    this package's cache folder, and those `flexlink run` preloads with their explicit
-    signatures; called by setup.py's build step in a process whose ``flexlink`` is the one
-    being built. Returns (and writes into the marker) what was compiled, with the seconds each
-    run took; a run that fails is recorded and the others go on."""
-    from . import cli
+def kernel_modules(package_dir: Path = PACKAGE_DIR) -> list[str]:
+    """Dotted names of the package's modules that define cached numba kernels (a decorator
+    ``…jit(…, cache=True, …)`` in their source), in sorted order."""
+    names = []
+    for path in sorted(package_dir.rglob("*.py")):
+        relative = path.relative_to(package_dir)
+        if relative.parts[0] == CACHE_FOLDER or path.name in ("_compiled_cache.py",
+                                                                "_build_kernels.py"):
+            continue
+        if _CACHED_KERNEL.search(path.read_text(encoding="utf-8")):
+            parts = [package_dir.name, *relative.with_suffix("").parts]
+            names.append(".".join(p for p in parts if p != "__init__"))
+    return names
+
+
+def kernels(package_dir: Path = PACKAGE_DIR) -> dict[str, Any]:
+    """Every cached numba kernel of the package, by dotted name (importing its modules)."""
+    from numba.core.caching import NullCache
+    from numba.core.dispatcher import Dispatcher
+
+    found = {}
+    for name in kernel_modules(package_dir):
+        module = importlib.import_module(name)
+        for attribute, value in vars(module).items():
+            if (isinstance(value, Dispatcher) and value.py_func.__module__ == name
+                    and not isinstance(value._cache, NullCache)):
+                found[f"{name}.{attribute}"] = value
+    return found
+
+
+def run_warmup(name: str, scenario: Any) -> dict[str, Any]:
+    """Run one warm-up: the kernels `flexlink run` preloads for `scenario`, then the run
+    itself. Its wall and CPU seconds, or the error."""
+    from .cli import _preload_compiled_code
+    from .simulation import simulate
+
+    wall, cpu = time.perf_counter(), time.process_time()
+    try:
+        thread = _preload_compiled_code(scenario)
+        if thread is not None:
+            thread.join()
+        simulate(scenario, shapes=False)
+    except Exception as exc:  # noqa: BLE001 — a kernel left out compiles at first use
+        return {"error": f"{type(exc).__name__}: {exc}"}
+    return {"seconds": round(time.perf_counter() - wall, 1),
+            "cpu": round(time.process_time() - cpu, 1)}
+
+
+def run_warmups(names: list[str] | None = None) -> dict[str, dict[str, Any]]:
+    """`run_warmup` of each warm-up run named (all by default), in this process."""
+    from .cli import WARMUP_RUNS, warmup_scenarios
+
+    scenarios = warmup_scenarios()
+    return {name: run_warmup(name, scenarios[name]) for name in names or WARMUP_RUNS}
+
+
+def index_file(kernel: Any) -> Path:
+    """The index file of a cached kernel's compiled versions (numba names their data files)."""
+    return Path(kernel._cache._cache_file._index_path)
+
+
+def uncached(found: dict[str, Any]) -> list[str]:
+    """The kernels of `found` that have no index file in their cache folder: none of their
+    versions was compiled there. (A kernel that only other kernels call gets its own files
+    when they compile it, but stays untouched when they load from the cache: its files, not
+    its signatures in this process, tell.)"""
+    return sorted(name for name, kernel in found.items() if not index_file(kernel).is_file())
+
+
+def unreached_kernels() -> list[str]:
+    """The package's cached kernels that no warm-up run compiles: every warm-up run in this
+    process, then each kernel without cache files. Meaningful with an empty cache only (a
+    fresh NUMBA_CACHE_DIR, the package's cache folder off)."""
+    failed = {name: r["error"] for name, r in run_warmups().items() if "error" in r}
+    if failed:
+        raise RuntimeError(f"warm-up runs failed: {failed}")
+    return uncached(kernels())
+
+
+def worker() -> None:
+    """A build worker: reads warm-up run names from standard input, one a line, runs each and
+    answers with one line ``_RESULT <json>``; ends at the end of its input."""
+    from .cli import warmup_scenarios
+
+    scenarios = warmup_scenarios()
+    for line in sys.stdin:
+        name = line.strip()
+        result = run_warmup(name, scenarios[name])
+        print(_RESULT + json.dumps({name: result}), flush=True)
+
+
+def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
+             worker: int) -> str | None:
+    """Take from `queue` the next run for `worker`: the next of the family (model path) it is
+    on, else the first whose family no other worker is on. Runs of one path share most
+    kernels, so one worker compiles them: None when every run left is of a path another
+    worker is on (it takes them next) or none is left. `working` (worker → family) is
+    updated."""
+    others = {f for k, f in working.items() if k != worker}
+    for wanted in ([n for n in queue if family[n] == working.get(worker)],
+                   [n for n in queue if family[n] not in others]):
+        if wanted:
+            name = wanted[0]
+            queue.remove(name)
+            working[worker] = family[name]
+            return name
+    working.pop(worker, None)
+    return None
+
+
+def _copy_package(source: Path, target: Path) -> None:
+    shutil.copytree(source, target, ignore=shutil.ignore_patterns("__pycache__"))
+
+
+def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str, Any]:
+    """Share the warm-up runs `names` among `count` worker processes, each on its own copy of
+    this package, the next run going to the first worker free (`next_run`); then move the
+    cache files they made into this package's folder. The result of each run, with the
+    worker that ran it."""
+    results: dict[str, Any] = {}
+    from .cli import warmup_scenarios
+    from .simulation import model_path
+
+    scenarios = warmup_scenarios()
+    family = {name: model_path(scenarios[name]) for name in names}
+    # the paths with most runs first: they take longest
+    queue = sorted(names, key=lambda n: -list(family.values()).count(family[n]))
+    lock = threading.Lock()
+    working: dict[int, str] = {}  # worker → the family (model path) of its current run
 
     root = PACKAGE_DIR / CACHE_FOLDER
+    with tempfile.TemporaryDirectory(prefix="flexlink-build-") as tmp:
+        copies = [Path(tmp) / str(k) / PACKAGE_DIR.name for k in range(count)]
+        for copy in copies:
+            _copy_package(PACKAGE_DIR, copy)
+
+        def serve(worker: int, copy: Path) -> None:
+            worker_env = dict(env, PYTHONPATH=os.pathsep.join(
+                [str(copy.parent)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep)
+                                      if p]))
+            process = subprocess.Popen(
+                [sys.executable, "-c", "from flexlink._build_kernels import worker; worker()"],
+                cwd=copy.parent, env=worker_env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                text=True)
+            assert process.stdin is not None and process.stdout is not None
+            try:
+                while True:
+                    with lock:
+                        name = next_run(queue, family, working, worker)
+                    if name is None:
+                        break
+                    process.stdin.write(name + "\n")
+                    process.stdin.flush()
+                    for line in process.stdout:
+                        if line.startswith(_RESULT):
+                            result = json.loads(line[len(_RESULT):])
+                            results[name] = dict(result[name], worker=worker)
+                            break
+                    else:  # the worker died: its run (and the rest) go to the last pass
+                        results[name] = {"error": f"worker ended ({process.wait()})"}
+                        break
+            finally:
+                process.stdin.close()
+                process.wait()
+
+        threads = [threading.Thread(target=serve, args=(k, copy))
+                   for k, copy in enumerate(copies)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        for copy in copies:
+            _merge(copy / CACHE_FOLDER, root)
+    return results
+
+
+def _merge(source: Path, target: Path) -> None:
+    """Move each kernel's cache files (its index ``<stem>.nbi`` and data ``<stem>.<n>.nbc``)
+    from `source` to `target` where `target` has no index of that kernel yet: files of one
+    kernel never come from two processes."""
+    for index in sorted(source.rglob("*.nbi")):
+        relative = index.parent.relative_to(source)
+        destination = target / relative
+        if (destination / index.name).exists():
+            continue
+        destination.mkdir(parents=True, exist_ok=True)
+        data = re.compile(re.escape(index.name[:-len(".nbi")]) + _INDEX_DATA + "$")
+        for path in index.parent.iterdir():
+            if data.match(path.name):
+                shutil.move(path, destination / path.name)
+        shutil.move(index, destination / index.name)  # last: an index names its data
+
+
+def _seed(root: Path, stamp: str, seed: Path | None) -> None:
+    """Make `root` hold no cache files but this source's: kept when its record has the same
+    stamp, else replaced by `seed`'s (another build of the same sources, e.g. the wheel's
+    ``build/lib`` for an editable install) when that has the same stamp, else emptied."""
+    if (read_record(root) or {}).get("stamp") == stamp:
+        return
+    shutil.rmtree(root, ignore_errors=True)
+    if seed is not None and (read_record(seed) or {}).get("stamp") == stamp:
+        shutil.copytree(seed, root)
+
+
+def build(runs: list[str] | None = None, workers: int | None = None,
+          seed: Path | None = None) -> dict[str, Any]:
+    """Compile the kernels of the given warm-up runs (`cli.WARMUP_RUNS`, all by default) into
+    this package's cache folder, shared among `workers` processes (default: one per core
+    available), starting from `seed` when that is a cache of the same sources. Returns (and
+    writes into the marker) the record: the source stamp, the numba target, each run's
+    seconds (compiling, then loading in the last pass), the runs that failed and the kernels
+    none reached."""
+    start = time.perf_counter()
+    root = PACKAGE_DIR / CACHE_FOLDER
+    stamp = source_stamp(PACKAGE_DIR)
+    _seed(root, stamp, seed)
+    previous = read_record(root)
+    if previous is not None and previous.get("stamp") == stamp:
+        from .cli import WARMUP_RUNS  # the marker is this source's: the locator is on
+
+        if complete(previous, WARMUP_RUNS):
+            return previous
     root.mkdir(exist_ok=True)
-    info: dict[str, Any] = {"python": sys.version.split()[0], "runs": {}, "failed": {}}
-    marker = root / MARKER
-    marker.write_text(json.dumps(info))  # before any kernel module is imported: it activates
+    info: dict[str, Any] = {"stamp": stamp, "python": sys.version.split()[0], "runs": {},
+                            "failed": {}, "uncompiled": []}
+    (root / MARKER).write_text(json.dumps(info))  # before any kernel module is imported
     import numba
 
-    info["numba"] = numba.__version__
-    from .simulation import simulate
-    from .solvers._lawson_numba import load as load_loop
+    from .cli import WARMUP_RUNS
 
-    scenarios = cli.warmup_scenarios()
-    for name in runs or list(cli.WARMUP_RUNS):
-        start = time.perf_counter()
-        try:
-            simulate(scenarios[name], shapes=False)
-            if name == "prescribed":  # the explicit signatures of `flexlink run`'s preload
-                from .dynamics.prescribed_kernel import load as load_kernels
-
-                load_loop()
-                load_kernels()
-        except Exception as exc:  # noqa: BLE001 — a kernel left out compiles at first use
-            info["failed"][name] = f"{type(exc).__name__}: {exc}"
-            continue
-        info["runs"][name] = round(time.perf_counter() - start, 1)
-    marker.write_text(json.dumps(info, indent=1))
+    names = runs or list(WARMUP_RUNS)
+    if workers is None:
+        workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
+            os.cpu_count() or 1)
+    compiled: dict[str, Any] = {}
+    if min(workers, len(names)) > 1:
+        compiled = _run_workers(names, min(workers, len(names)), dict(os.environ))
+    # the last pass: loads what the workers compiled, compiles the rest
+    for name, result in run_warmups(names).items():
+        if "error" in result:
+            info["failed"][name] = result["error"]
+        else:
+            info["runs"][name] = {"compile": compiled.get(name), "last_pass": result}
+    found = kernels()
+    info["uncompiled"] = uncached(found)
+    info["outside"] = sorted(  # cached elsewhere: a kernel module that does not import
+        name for name, kernel in found.items()  # _compiled_cache before its decorators
+        if not index_file(kernel).resolve().is_relative_to(root.resolve()))
+    info.update(numba=numba.__version__, target=host_target(), kernels=len(found),
+                workers=workers, seconds=round(time.perf_counter() - start, 1))
+    (root / MARKER).write_text(json.dumps(info, indent=1))
     return info
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -c "from flexlink._build_kernels import main; main()" [runs]``: `build`,
-    its record printed as JSON; status 1 when no run compiled."""
+    """``python -c "from flexlink._build_kernels import main; main()" [runs] [seed]``:
+    `build`, its record printed as JSON; status 1 when no run compiled."""
     argv = sys.argv[1:] if argv is None else argv
-    result = build(argv[0].split(",") if argv and argv[0] else None)
+    runs = argv[0].split(",") if argv and argv[0] else None
+    seed = Path(argv[1]) if len(argv) > 1 and argv[1] else None
+    result = build(runs, seed=seed)
     print(json.dumps(result))
     return 1 if result["failed"] and not result["runs"] else 0

@@ -12,8 +12,11 @@ holds the signature, the target CPU (name and features) and a hash of the functi
 bytecode; the source stamp here is a hash of every ``.py`` file of the package with the
 numba, llvmlite and numpy versions, so any change of any source (a kernel calls kernels and
 constants of other modules) or of those libraries makes numba compile again, as without
-this cache. Where ``_compiled/`` is missing (a source tree, an editable install) or not
-writable, the locator declines and numba's own locators apply, unchanged. The locator list is
+this cache. The marker records the stamp of the sources it was compiled from: where
+``_compiled/`` is missing (a source tree), holds another stamp (a source edited since, or
+another numba, llvmlite or numpy) or is not writable, the locator declines and numba's own
+locators apply, unchanged (in an editable install, whose build compiles into the source tree's
+``_compiled/``, editing a source returns to numba's per-file caches beside the modules). The locator list is
 private numba API: without it (a future numba), `install_locator` does nothing and
 ``cache=True`` behaves as it always did.
 """
@@ -22,8 +25,10 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import json
 import os
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -67,10 +72,39 @@ def _package_stamp(package_dir: Path) -> str:
     return source_stamp(package_dir)
 
 
+def read_record(root: Path) -> dict[str, Any] | None:
+    """The build's record in cache folder `root` (its marker), None when missing or unreadable."""
+    try:
+        record = json.loads((root / MARKER).read_text())
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) else None
+
+
 def cache_root(package_dir: Path = PACKAGE_DIR) -> Path | None:
-    """The package's cache folder if the build made one (its marker exists), else None."""
+    """The package's cache folder if the build made one for these sources (its marker
+    records their stamp), else None."""
     root = package_dir / CACHE_FOLDER
-    return root if (root / MARKER).is_file() else None
+    record = read_record(root)
+    if record is None or record.get("stamp") != _package_stamp(package_dir):
+        return None
+    return root
+
+
+def host_target() -> list[str]:
+    """numba's code generation target here (triple, CPU name, CPU features): part of the key
+    of every cached kernel, so a cache made for another target is compiled again."""
+    from numba.core.registry import cpu_target
+
+    return list(cpu_target.target_context.codegen().magic_tuple())
+
+
+def complete(record: dict[str, Any] | None, runs: Sequence[str]) -> bool:
+    """Whether a build record says every kernel is compiled for this machine: each of the
+    warm-up runs `runs` passed, every kernel was reached, for this numba target."""
+    return (record is not None and set(runs) <= set(record.get("runs", {}))
+            and not record.get("failed") and not record.get("uncompiled")
+            and record.get("target") == host_target())
 
 
 @functools.cache

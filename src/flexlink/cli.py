@@ -85,13 +85,15 @@ def build_parser() -> argparse.ArgumentParser:
     show.set_defaults(handler=_cmd_show_paper)
 
     warmup = commands.add_parser(
-        "warmup", help="compile the numba loops now (once per installation)",
-        description="Compile and cache every compiled loop flexlink runs (prescribed, "
-                    "nonlinear and forward runs) by simulating tiny scenarios, so that no "
-                    "later run waits for the compiler (pip install . compiles the prescribed "
-                    "runs' loops already). Compiled code goes to the installed package's "
-                    "folder of loops compiled at installation, or to numba's cache: beside "
-                    "the modules, or NUMBA_CACHE_DIR for a read-only installation.")
+        "warmup", help="compile the numba loops now (pip install does it already)",
+        description="Compile and cache every compiled loop flexlink runs (every path) by "
+                    "simulating tiny scenarios, so that no later run waits for the compiler. "
+                    "Installing flexlink (pip install ., pip install -e .) does this already: "
+                    "then the command says so and does nothing. It is for installations "
+                    "whose loops were not compiled or no longer match (built with "
+                    "FLEXLINK_BUILD_KERNELS=none, edited sources, another numba): compiled "
+                    "code goes to numba's cache, beside the modules, or NUMBA_CACHE_DIR for a "
+                    "read-only installation.")
     warmup.set_defaults(handler=_cmd_warmup)
 
     from .batch.command import add_parser as add_sweep_parser
@@ -265,8 +267,14 @@ def warmup_scenarios() -> dict[str, Any]:
 def _cmd_warmup(args: argparse.Namespace) -> int:
     import time
 
+    from ._compiled_cache import cache_root, complete, read_record
     from .simulation import simulate
 
+    root = cache_root()
+    if root is not None and complete(read_record(root), WARMUP_RUNS):
+        print(f"every compiled loop was compiled when flexlink was installed ({root}): "
+              "nothing to do")
+        return 0
     status = 0
     for name, scenario in warmup_scenarios().items():
         start = time.perf_counter()

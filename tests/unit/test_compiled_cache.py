@@ -1,9 +1,12 @@
-"""The cache of kernels compiled at installation (flexlink/_compiled_cache.py): the source
-stamp, where the locator puts a function's cache and when it declines, and a real numba
-cache written in one copy of a package and loaded, without compiling, from another."""
+"""The cache of kernels compiled at installation (flexlink/_compiled_cache.py,
+flexlink/_build_kernels.py): the source stamp, where the locator puts a function's cache and
+when it declines, a real numba cache written in one copy of a package and loaded, without
+compiling, from another, the build's merge of its workers' caches, and that the warm-up runs
+reach every kernel of the package."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -12,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from flexlink import _compiled_cache
-from flexlink._compiled_cache import CACHE_FOLDER, MARKER, cache_root, source_stamp
+from flexlink import _build_kernels, _compiled_cache
+from flexlink._compiled_cache import CACHE_FOLDER, MARKER, cache_root, read_record, source_stamp
 
 pytestmark = pytest.mark.skipif(not hasattr(_compiled_cache, "PackageCacheLocator"),
                                 reason="this numba has no cache locator class to extend")
@@ -26,7 +29,13 @@ def _package(root: Path) -> Path:
     (package / "__init__.py").write_text("")
     (package / "sub" / "kernels.py").write_text("def f():\n    return 1\n")
     (package / CACHE_FOLDER).mkdir()
-    (package / CACHE_FOLDER / MARKER).write_text("{}")
+    return _mark(package)
+
+
+def _mark(package: Path) -> Path:
+    """Mark the package's cache folder as the build does: its record holds the stamp of the
+    sources it is compiled from."""
+    (package / CACHE_FOLDER / MARKER).write_text(json.dumps({"stamp": source_stamp(package)}))
     return package
 
 
@@ -81,6 +90,21 @@ def test_locator_declines_without_marker_outside_the_package_or_unwritable(
     assert locate(_kernel, str(package / "__init__.py"), package) is None
 
 
+def test_locator_declines_a_cache_of_other_sources(tmp_path: Path) -> None:
+    """An installation whose sources changed after its build (an editable install's tree
+    edited): numba's own per-module caches apply, not the package's."""
+    package = _package(tmp_path)
+    assert cache_root(package) == package / CACHE_FOLDER
+    record = read_record(package / CACHE_FOLDER)
+    (package / CACHE_FOLDER / MARKER).write_text(json.dumps(dict(record, stamp="other")))
+    _compiled_cache._package_stamp.cache_clear()
+    assert cache_root(package) is None
+    assert _compiled_cache.PackageCacheLocator.from_function(
+        _kernel, str(package / "sub" / "kernels.py"), package) is None
+    (package / CACHE_FOLDER / MARKER).write_text("not json")
+    assert read_record(package / CACHE_FOLDER) is None and cache_root(package) is None
+
+
 def test_installed_first_and_once() -> None:
     from numba.core import caching
 
@@ -129,6 +153,7 @@ def test_a_cache_built_in_one_copy_loads_in_another_and_a_change_recompiles(
     built = _package(tmp_path / "build")
     shutil.copy(_compiled_cache.__file__, built / "_compiled_cache.py")
     (built / "kernels.py").write_text(_KERNEL_MODULE)
+    _mark(built)
     assert "data saved" in _run(built)
     assert any((built / CACHE_FOLDER).glob("kernels.twice-*.nbi"))
     installed = tmp_path / "site" / "pkg"
@@ -137,4 +162,120 @@ def test_a_cache_built_in_one_copy_loads_in_another_and_a_change_recompiles(
     log = _run(installed)
     assert "data loaded" in log and "data saved" not in log
     (installed / "sub" / "kernels.py").write_text("def f():\n    return 2\n")
+    before = sorted((installed / CACHE_FOLDER).iterdir())
     assert "data saved" in _run(installed)
+    # compiled into numba's own cache beside the module, the package's left as built
+    assert any((installed / "__pycache__").glob("kernels.twice-*.nbi"))
+    assert sorted((installed / CACHE_FOLDER).iterdir()) == before
+
+
+def _kernel_files(root: Path, stem: str, count: int, text: str) -> None:
+    (root / "sub").mkdir(parents=True, exist_ok=True)
+    (root / "sub" / f"{stem}.nbi").write_text(text)
+    for k in range(1, count + 1):
+        (root / "sub" / f"{stem}.{k}.nbc").write_text(text)
+
+
+def test_merge_takes_each_kernels_files_from_one_worker_only(tmp_path: Path) -> None:
+    """The build's workers each compile into their own copy; a kernel both compiled keeps the
+    first copy's files whole (its index names its data files by number)."""
+    main, other = tmp_path / "main", tmp_path / "other"
+    _kernel_files(main, "m.f-10.py311", 1, "main")
+    _kernel_files(other, "m.f-10.py311", 2, "other")  # compiled by both
+    _kernel_files(other, "m.f-1.py311", 1, "other")  # a name that begins the one above
+    _kernel_files(other, "m.g-5.py311", 2, "other")
+    _build_kernels._merge(other, main)
+    assert sorted(p.name for p in (main / "sub").iterdir()) == [
+        "m.f-1.py311.1.nbc", "m.f-1.py311.nbi", "m.f-10.py311.1.nbc", "m.f-10.py311.nbi",
+        "m.g-5.py311.1.nbc", "m.g-5.py311.2.nbc", "m.g-5.py311.nbi"]
+    assert {p.read_text() for p in (main / "sub").glob("m.f-10.*")} == {"main"}
+    assert sorted(p.name for p in (other / "sub").iterdir()) == [
+        "m.f-10.py311.1.nbc", "m.f-10.py311.2.nbc", "m.f-10.py311.nbi"]
+
+
+def test_seed_keeps_a_cache_of_these_sources_else_copies_one_or_empties(tmp_path: Path) -> None:
+    """An editable install starts from the wheel build's cache of the same sources."""
+    root, seed = tmp_path / "root", tmp_path / "seed"
+    for folder, stamp in ((root, "old"), (seed, "new")):
+        folder.mkdir()
+        (folder / MARKER).write_text(json.dumps({"stamp": stamp}))
+        (folder / "k.nbi").write_text(stamp)
+    _build_kernels._seed(root, "new", seed)
+    assert (root / "k.nbi").read_text() == "new"
+    (root / "extra.nbi").write_text("")
+    _build_kernels._seed(root, "new", None)  # already this source's: kept
+    assert (root / "extra.nbi").exists()
+    _build_kernels._seed(root, "newer", seed)  # neither matches: nothing kept
+    assert not root.exists()
+
+
+def test_complete_needs_every_run_no_failure_every_kernel_and_this_target(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from flexlink.cli import WARMUP_RUNS
+
+    monkeypatch.setattr(_compiled_cache, "host_target", lambda: ["triple", "cpu", "+f"])
+    good = {"runs": {name: {} for name in WARMUP_RUNS}, "failed": {}, "uncompiled": [],
+            "target": ["triple", "cpu", "+f"]}
+    assert _compiled_cache.complete(good, WARMUP_RUNS)
+    assert not _compiled_cache.complete(None, WARMUP_RUNS)
+    for change in ({"runs": {WARMUP_RUNS[0]: {}}}, {"failed": {"forward": "boom"}},
+                   {"uncompiled": ["flexlink.x.k"]}, {"target": ["triple", "other", "+f"]}):
+        assert not _compiled_cache.complete({**good, **change}, WARMUP_RUNS), change
+
+
+def test_every_module_with_cached_kernels_is_found_and_caches_into_the_package() -> None:
+    """`kernel_modules` finds them by their decorators; each imports `_compiled_cache` (which
+    puts the package's locator first) and defines at least one cached kernel."""
+    package = Path(_compiled_cache.__file__).parent
+    importing = {
+        ".".join(("flexlink", *path.relative_to(package).with_suffix("").parts))
+        for path in package.rglob("*.py")
+        if CACHE_FOLDER not in path.relative_to(package).parts
+        and "import _compiled_cache" in path.read_text(encoding="utf-8")}
+    modules = _build_kernels.kernel_modules()
+    assert set(modules) == importing and len(modules) >= 10
+    defined = {name.rsplit(".", 1)[0] for name in _build_kernels.kernels()}
+    assert defined == set(modules)
+
+
+def test_the_installation_compiled_every_kernel() -> None:
+    """The record of the build that compiled this installation (pip install ., or -e .):
+    every warm-up run passed and every cached kernel of the package is in its folder."""
+    root = cache_root()
+    if root is None:
+        pytest.skip("flexlink runs from a tree that no installation compiled (the slow "
+                    "test_the_warmup_runs_reach_every_kernel checks the warm-up runs)")
+    record = read_record(root)
+    assert record["failed"] == {} and record["uncompiled"] == [] and record["outside"] == []
+    assert record["kernels"] == len(_build_kernels.kernels())
+
+
+@pytest.mark.slow
+def test_the_warmup_runs_reach_every_kernel(tmp_path: Path) -> None:
+    """What `pip install` compiles is every kernel: a kernel that no warm-up run
+    (cli.warmup_scenarios) calls would compile at its first use. Every warm-up run in a new
+    process whose numba cache is empty (a new NUMBA_CACHE_DIR, the package's folder off)."""
+    code = ("import json; import flexlink._compiled_cache as c; "
+            "c.cache_root = lambda package_dir=None: None; "
+            "from flexlink._build_kernels import unreached_kernels; "
+            "print(json.dumps(unreached_kernels()))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, timeout=3600,
+                          env=dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path)))
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == []
+    assert any(tmp_path.rglob("*.nbi"))
+
+
+def test_a_worker_keeps_to_its_path_and_two_workers_to_different_ones() -> None:
+    """Runs of one path share most kernels: the build's workers each compile them once."""
+    family = {"p": "prescribed", "n": "nonlinear", "f": "forward", "fb": "forward",
+              "nf": "nonlinear_forward", "c": "closed_loop"}
+    queue, working = ["p", "n", "f", "fb", "nf", "c"], {}
+    take = _build_kernels.next_run
+    assert take(queue, family, working, 0) == "p" and take(queue, family, working, 1) == "n"
+    assert take(queue, family, working, 1) == "f"  # nothing more of n's path
+    assert take(queue, family, working, 0) == "nf"  # not fb: worker 1 is on the forward path
+    assert take(queue, family, working, 0) == "c"
+    assert take(queue, family, working, 0) is None  # fb is worker 1's next
+    assert take(queue, family, working, 1) == "fb" and queue == []
+    assert take(queue, family, working, 1) is None and working == {}

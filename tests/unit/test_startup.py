@@ -189,9 +189,11 @@ def test_warmup_scenarios_take_every_path() -> None:
 def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPatch,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
     """Regression: the first failure ended the command although it said it went on."""
+    import flexlink._compiled_cache
     import flexlink.simulation
     from flexlink.cli import WARMUP_RUNS, main
 
+    monkeypatch.setattr(flexlink._compiled_cache, "cache_root", lambda: None)  # none installed
     ran: list[str] = []
 
     def fake(scenario, progress=False, shapes=True):
@@ -205,6 +207,31 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
     out = capsys.readouterr()
     assert "prescribed: failed: RuntimeError: boom" in out.err
     assert "nonlinear runs ready" in out.out and "forward runs ready" in out.out
+
+
+def test_warmup_does_nothing_where_the_installation_compiled_every_loop(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        tmp_path: Path) -> None:
+    import flexlink._compiled_cache
+    import flexlink.simulation
+    from flexlink.cli import WARMUP_RUNS, main
+
+    record = {"complete": True}
+    monkeypatch.setattr(flexlink._compiled_cache, "cache_root", lambda: tmp_path)
+    monkeypatch.setattr(flexlink._compiled_cache, "read_record", lambda root: record)
+    monkeypatch.setattr(flexlink._compiled_cache, "complete",
+                        lambda r, runs: r["complete"] and runs == WARMUP_RUNS)
+
+    def ran(scenario, progress=False, shapes=True):
+        print("ran")
+
+    monkeypatch.setattr(flexlink.simulation, "simulate", ran)
+    assert main(["warmup"]) == 0
+    out = capsys.readouterr().out
+    assert "nothing to do" in out and "ran" not in out.split()
+    record["complete"] = False  # a run or kernel missing: every warm-up runs
+    assert main(["warmup"]) == 0
+    assert capsys.readouterr().out.split().count("ran") == len(WARMUP_RUNS)
 
 
 def test_figures_are_split_in_two_groups_of_about_equal_work() -> None:
