@@ -225,15 +225,16 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 
 # The warm-up runs: one per path (simulation.PATHS), and a free base moved by its loads with every joint
 # prescribed (the forward path's inputs then come from the base loads only).
-WARMUP_RUNS = ("prescribed", "nonlinear", "forward", "free_base", "nonlinear_forward",
-               "closed_loop")
+WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_base",
+               "nonlinear_forward", "nonlinear_forward_step", "closed_loop")
 
 
 def warmup_scenarios() -> dict[str, Any]:
     """Tiny variants of the paper scenario (20 ms simulated), keyed by `WARMUP_RUNS`, that run every
-    compiled loop: the Lawson loop (prescribed), Gauss collocation (nonlinear), the forward
-    kernel with its Radau IIA integrator (driven joints; a free base), the nonlinear
-    model's forward collocation and the closed-loop Lawson loop."""
+    compiled loop: the Lawson loop (prescribed), Gauss collocation (nonlinear: adaptive, and
+    with a fixed `step`), the forward kernel with its Radau IIA integrator (driven joints; a
+    free base), the nonlinear model's forward collocation (adaptive, and with a fixed `step`)
+    and the closed-loop Lawson loop."""
     import copy
 
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
@@ -242,6 +243,8 @@ def warmup_scenarios() -> dict[str, Any]:
     base["simulation"]["t_end"] = 0.02
     nonlinear = copy.deepcopy(base)
     nonlinear["simulation"]["model"] = "nonlinear"
+    nonlinear_step = copy.deepcopy(nonlinear)
+    nonlinear_step["simulation"]["step"] = 1e-3
     forward = copy.deepcopy(base)
     for joint in forward["joints"]:
         joint.pop("motion")
@@ -252,7 +255,9 @@ def warmup_scenarios() -> dict[str, Any]:
         {"moment": [{"profile": "bang_bang", "amplitude": 0.01, "start": 0.0,
                      "duration": 0.02}]}]}
     nonlinear_forward = copy.deepcopy(forward)
-    nonlinear_forward["simulation"].update(model="nonlinear", step=1e-3)
+    nonlinear_forward["simulation"]["model"] = "nonlinear"
+    nonlinear_forward_step = copy.deepcopy(nonlinear_forward)
+    nonlinear_forward_step["simulation"]["step"] = 1e-3
     closed_loop = copy.deepcopy(base)
     closed_loop["actuators"] = [{"name": "warmup_patch", "kind": "piezo", "collocated_with": "pzt",
                                  "limit": 100.0}]
@@ -260,8 +265,8 @@ def warmup_scenarios() -> dict[str, Any]:
                                    "actuator": "warmup_patch", "frequency_hz": 2.5,
                                    "damping": 0.3, "gain": 10.0, "sample_rate": 1000.0}]
     return {name: scenario_from_dict(d) for name, d in zip(
-        WARMUP_RUNS, (base, nonlinear, forward, free_base, nonlinear_forward, closed_loop),
-        strict=True)}
+        WARMUP_RUNS, (base, nonlinear, nonlinear_step, forward, free_base, nonlinear_forward,
+                      nonlinear_forward_step, closed_loop), strict=True)}
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:

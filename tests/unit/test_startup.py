@@ -177,7 +177,13 @@ def test_warmup_scenarios_take_every_path() -> None:
 
     scenarios = warmup_scenarios()
     assert {name: model_path(s) for name, s in scenarios.items()} == {
-        **{name: name for name in PATHS}, "free_base": "forward"}
+        **{name: name for name in PATHS}, "free_base": "forward",
+        "nonlinear_step": "nonlinear", "nonlinear_forward_step": "nonlinear_forward"}
+    # the nonlinear paths with adaptive steps and with a fixed step (their two loops)
+    assert scenarios["nonlinear"].settings.step is None
+    assert scenarios["nonlinear_forward"].settings.step is None
+    assert scenarios["nonlinear_step"].settings.step == 1e-3
+    assert scenarios["nonlinear_forward_step"].settings.step == 1e-3
     # the forward path with driven joints, and with a base moved by its loads and every
     # joint prescribed (inputs from the base loads only)
     assert all(map(is_driven, scenarios["forward"].chain.joints))
@@ -191,8 +197,9 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
     """Regression: the first failure ended the command although it said it went on."""
     import flexlink._compiled_cache
     import flexlink.simulation
-    from flexlink.cli import WARMUP_RUNS, main
+    from flexlink.cli import main, warmup_scenarios
 
+    paths = [flexlink.simulation.model_path(s) for s in warmup_scenarios().values()]
     monkeypatch.setattr(flexlink._compiled_cache, "cache_root", lambda: None)  # none installed
     ran: list[str] = []
 
@@ -203,7 +210,7 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
 
     monkeypatch.setattr(flexlink.simulation, "simulate", fake)
     assert main(["warmup"]) == 1
-    assert ran == [name if name != "free_base" else "forward" for name in WARMUP_RUNS]
+    assert ran == paths
     out = capsys.readouterr()
     assert "prescribed: failed: RuntimeError: boom" in out.err
     assert "nonlinear runs ready" in out.out and "forward runs ready" in out.out

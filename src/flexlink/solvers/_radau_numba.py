@@ -37,7 +37,7 @@ LinearData.__doc__ = ("The linear model f = A y + B u (A (m, m), B (m, columns))
                       "integrator's own test model, against exact solutions.")
 
 
-@njit(cache=True)
+@njit  # the tests' model only: no run of flexlink calls it, so nothing compiles it at install
 def linear_rates(d, w, u, y, dy):
     """dy = A y + B u (w unused)."""
     for i in range(y.shape[0]):
