@@ -33,7 +33,7 @@ from ..modes import (
     tip_loaded_modes,
 )
 from .actuators import actuator_matrix
-from .histories import history_breakpoints
+from .histories import input_breakpoints
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
 
 _Solution = TypeVar("_Solution")  # a solvers.Solution (solvers import dynamics, not back)
@@ -236,10 +236,7 @@ class FirstOrderSystem:
     def breakpoints(self) -> np.ndarray:
         """Times (s) where a joint's acceleration, and so the coefficients, are not smooth
         (from each motion's ``breakpoints``, where it has them)."""
-        times = {b for joint in self.chain.joints for b in getattr(joint, "breakpoints", ())}
-        for actuator in self.actuators:
-            times |= history_breakpoints(actuator.voltage)
-        return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
+        return input_breakpoints(self.chain.joints, self.actuators)
 
     def coefficient_keys(self, t: np.ndarray) -> np.ndarray:
         """Integer labels of the times t: equal labels ⇒ equal M, C, K, f.

@@ -21,7 +21,7 @@ from ..model import (
     VelocityServo,
 )
 from .forward import ForwardSystem
-from .histories import history_breakpoints
+from .histories import input_breakpoints
 
 ForwardData = namedtuple("ForwardData", [
     "n_base", "base_kind", "n_rigid", "n_x", "stiffening", "base_mass", "base_inertia",
@@ -154,22 +154,12 @@ def voltage_columns(system: ForwardSystem) -> slice:
 
 
 def breakpoints(system: ForwardSystem) -> np.ndarray:
-    """Sorted times (s) where an input (motion, reference, torque, base load) is not smooth:
-    the compiled integrator ends steps there."""
-    times: set[float] = set()
-    for joint in system.chain.joints:
-        if isinstance(joint, TorqueDrive):
-            times |= history_breakpoints(joint.torque)
-        else:
-            motion = joint.reference if isinstance(joint, VelocityServo | PositionServo) else joint
-            times |= set(getattr(motion, "breakpoints", ()))
-    if system.base.kind != "fixed":
-        for load in system.base.loads:
-            for h in (load.force_x, load.force_y, load.moment):
-                times |= history_breakpoints(h)
-    for actuator in system.actuators:
-        times |= history_breakpoints(actuator.voltage)
-    return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
+    """Sorted times (s) where an input (motion, reference, torque, base load, voltage) is not
+    smooth: the compiled integrator ends steps there."""
+    loads = system.base.loads if system.base.kind != "fixed" else ()
+    return input_breakpoints(system.chain.joints, system.actuators,
+                             (h for load in loads for h in (load.force_x, load.force_y,
+                                                            load.moment)))
 
 
 def accelerations(system: ForwardSystem, t: np.ndarray, p_free: np.ndarray, pd_free: np.ndarray,

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..dynamics.histories import input_breakpoints
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
 from ..errors import SimulationError, UnstableLoop
 from .gauss_steps import COEFFS, COEFFS2, NODES, WEIGHTS, WEIGHTS2
@@ -247,17 +248,6 @@ def solve_nonlinear(
 FIRST_STEP = 0.01  # s, the adaptive control's first try
 
 
-def breakpoints(chain: Any, actuators: Any = ()) -> np.ndarray:
-    """Times (s) where a joint's motion or an actuator's voltage is not smooth (their
-    ``breakpoints``), where adaptive steps end."""
-    from ..dynamics.histories import history_breakpoints
-
-    times = {b for joint in chain.joints for b in getattr(joint, "breakpoints", ())}
-    for actuator in actuators:
-        times |= history_breakpoints(actuator.voltage)
-    return np.array(sorted(b for b in times if np.isfinite(b)), dtype=float)
-
-
 def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol: float = 0.0,
                        on_progress: Callable[[float], None] | None = None,
                        loop: Any = None) -> Any:
@@ -281,7 +271,7 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
     have = np.zeros(2, dtype=np.int64)
     counts = np.zeros(2, dtype=np.int64)
 
-    breaks = breakpoints(system.chain, system.actuators)
+    breaks = input_breakpoints(system.chain.joints, system.actuators)
     if loop is not None:
         loop.start()
         breaks = np.union1d(breaks, loop.grid)
