@@ -95,12 +95,10 @@ def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept()) -> ChunkRe
                 raise ValueError("this case's channels differ from the other cases'")
             metrics = np.array([s.evaluate(results.time, results[s.channel]) for s in summaries])
             block: np.ndarray | None = None
-            if not names:
-                pass
-            elif _SHARED is not None and tuple(labels(found)) == _SHARED.labels:
+            if names and _SHARED is not None and tuple(labels(found)) == _SHARED.labels:
                 for k, name in enumerate(names):  # the collector reads it there
                     _SHARED.array[k, index, :] = results[name]
-            else:
+            elif names:
                 block = np.stack([results[n] for n in names])
         except Exception as exc:  # noqa: BLE001 — any failure of one case is that case's result
             out.failed[index] = f"{type(exc).__name__}: {exc}"

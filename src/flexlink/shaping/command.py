@@ -78,12 +78,9 @@ def add_commands(commands: Any) -> None:
 
 
 def _check_arguments(args: argparse.Namespace) -> None:
-    """ValueError naming the option when a number is out of range (before anything runs)."""
-
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        raise ValueError(f"--duration must be a number of seconds > 0, got {args.duration:g}")
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers must be ≥ 1 (processes), got {args.workers}")
+    """ValueError naming the option when a number is out of its range (before anything
+    runs); the parser's types (flexlink.options) have refused non-numbers, non-finite
+    durations and worker counts below 1 already."""
     if not (math.isfinite(args.robust) and 0.0 <= args.robust < 50.0):
         raise ValueError(f"--robust must be a percentage in [0, 50), got {args.robust:g}")
     if not 1 <= args.harmonics <= 20:
