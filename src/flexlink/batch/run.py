@@ -14,6 +14,7 @@ from .._version import package_version
 from ..channels import Channel
 from ..channels.catalogue import catalogue
 from ..model import Scenario
+from ..results.atomic import check_writable
 from ..results.matlab import write_mat_atomic
 from ..results.netcdf import write_netcdf_atomic
 from ..scenario.toml_writer import dump_toml
@@ -99,8 +100,8 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
         collector.add(ChunkResult(failed={i: invalid_message(m) for i, m in invalid.items()}))
         indexed = list(scenarios.items())
         checkpoint = _Checkpoint(output, checkpoint_interval)
-        if output is not None:
-            checkpoint.write(collector)  # all not_run: fail now if the output is unwritable
+        if output is not None:  # fail now, not after the cases ran
+            check_writable(output)
         try:  # Ctrl-C while the workers start counts too (a forked worker may be quick)
             results = _executor(stack, indexed, kept, local, scheduler, pool)
             _import_xarray_meanwhile()  # after the workers forked: a thread forbids fork

@@ -26,3 +26,13 @@ def atomic_file(path: str | Path) -> Iterator[Path]:
     except BaseException:
         partial.unlink(missing_ok=True)
         raise
+
+
+def check_writable(path: str | Path) -> None:
+    """OSError now if ``path`` could not be written (its folder cannot be made, or holds no
+    new file), without touching ``path`` itself: a cheap check before a long job."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    probe = path.parent / f".{path.name}.probe-{uuid.uuid4().hex[:8]}"
+    probe.touch(exist_ok=False)
+    probe.unlink()

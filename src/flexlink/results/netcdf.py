@@ -11,6 +11,7 @@ NaN on variables whose NaN marks missing values.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,7 @@ from .variables import Layout, Variable
 
 _INT32 = np.iinfo(np.int32)
 _ENCODING = "utf-8"
+_WRITE_SLICE = 1 << 22  # bytes converted to big-endian at a time
 
 
 def write_netcdf_atomic(layout: Layout, path: str | Path) -> Path:
@@ -32,19 +34,16 @@ def write_netcdf_atomic(layout: Layout, path: str | Path) -> Path:
 
 def write_netcdf(layout: Layout, path: Path) -> None:
     """Write ``layout`` to ``path`` (netCDF-3, 64-bit offsets)."""
-    from scipy.io import netcdf_file
-
     variables = {name: _stored(v) for name, v in layout.variables.items()}
     coordinates = _coordinates_attribute(layout)
-    with netcdf_file(path, "w", version=2) as nc:
+    with _streaming_file()(path, "w", version=2) as nc:
         for key, value in layout.attrs.items():
             setattr(nc, key, _attribute(value))
         for name, (dims, values) in variables.items():
             _create_dimensions(nc, name, dims, values.shape)
         for name, (dims, values) in variables.items():
             variable = layout.variables[name]
-            var = nc.createVariable(name, values.dtype, dims)
-            var[...] = values
+            var = nc.add_variable(name, values, dims)
             attrs = dict(variable.attrs)
             if variable.missing:
                 attrs["_FillValue"] = np.float64(np.nan)
@@ -70,7 +69,44 @@ def _stored(variable: Variable) -> tuple[tuple[str, ...], np.ndarray]:
         return variable.dims, values.astype(np.int32)
     if values.dtype == np.float32:  # stored single on purpose (the links' shapes)
         return variable.dims, values
-    return variable.dims, values.astype(np.float64)
+    return variable.dims, np.asarray(values, dtype=np.float64)  # no copy of float64 data
+
+
+@cache
+def _streaming_file() -> type:
+    """scipy's `netcdf_file` that writes each variable's data from the caller's array, in
+    big-endian slices of a few MB, instead of a big-endian copy of every variable held until
+    the file is closed: a sweep's channels (hundreds of MB) are written without a second and
+    third copy in memory. The bytes written are the same."""
+    from scipy.io import netcdf_file
+    from scipy.io._netcdf import netcdf_variable
+
+    class StreamingFile(netcdf_file):  # type: ignore[misc]
+        def add_variable(self, name: str, values: np.ndarray, dims: tuple[str, ...]) -> Any:
+            """A variable holding ``values`` (native byte order) as they are."""
+            values = np.ascontiguousarray(values)
+            shape = tuple(self.dimensions[d] for d in dims)
+            self.variables[name] = netcdf_variable(values, values.dtype.char,
+                                                   values.dtype.itemsize, shape, dims)
+            return self.variables[name]
+
+        def _write_var_data(self, name: str) -> None:
+            var = self.variables[name]
+            if var.isrec:  # no record (unlimited) dimension in flexlink's layouts
+                super()._write_var_data(name)
+                return
+            begin = self.fp.tell()  # as scipy: the variable's offset, in its header entry
+            self.fp.seek(var._begin)
+            self._pack_begin(begin)
+            self.fp.seek(begin)
+            flat = var.data.reshape(-1)
+            big = flat.dtype.newbyteorder(">")
+            step = max(1, _WRITE_SLICE // flat.dtype.itemsize)
+            for start in range(0, flat.size, step):
+                self.fp.write(np.asarray(flat[start:start + step], dtype=big).tobytes())
+            self._write_var_padding(var, var._vsize - flat.size * flat.dtype.itemsize)
+
+    return StreamingFile
 
 
 def _create_dimensions(nc: Any, name: str, dims: tuple[str, ...], shape: tuple[int, ...]) -> None:
