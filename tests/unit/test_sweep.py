@@ -484,3 +484,47 @@ def test_load_compiled_code_readies_the_prescribed_kernels() -> None:
 
     load_compiled_code(flexlink.load_paper_experiment())
     assert _lawson_numba.SIGNATURE in [tuple(s) for s in _lawson_numba.lawson_blocks.signatures]
+
+
+def test_a_sweep_without_histories_holds_case_indices_and_a_few_chunks_at_a_time(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """10⁵ cases in bounded memory: the valid cases are kept as indices (each `LazyCase`
+    made when its chunk is sent) and only a few chunks per worker are queued at once."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from flexlink.batch.cases import LazyCases, load_base, valid_cases
+    from flexlink.batch.parameters import case_table, grid_values
+    from flexlink.batch.worker import ChunkResult, Kept, LazyCase
+
+    base = load_base(paper_experiment_path())
+    table = case_table([grid_values("sensors[0].x", [1.0, 1.5, 1.2, 0.5])])  # 1.5 > 1.37 m
+    cases, invalid = valid_cases(base, table, lazy=True)
+    assert isinstance(cases, LazyCases) and list(cases) == [0, 2, 3] and list(invalid) == [1]
+    assert cases.indexed()[1] == (2, LazyCase(base, {("sensors", 0, "x"): 1.2}))
+    assert cases[2].build().sensors[0].x == 1.2
+    with pytest.raises(KeyError):
+        cases[1]
+
+    def counting(chunk, kept):
+        return ChunkResult(done=[i for i, _ in chunk])
+
+    monkeypatch.setattr(executors, "run_chunk", counting)
+    made: list[int] = []
+
+    def chunks():
+        for k in range(50):
+            made.append(k)
+            yield [(k, None)]
+
+    pool = ThreadPoolExecutor(max_workers=2)
+    results = executors.PoolResults(pool, workers=2)
+    results.submit(chunks(), Kept())
+    assert len(made) == results.window < 50  # not every chunk queued up front
+    done = []
+    for result in results:
+        assert len(results.futures) <= results.window
+        done += result.done
+    pool.shutdown()
+    assert sorted(done) == list(range(50))
+    chunked = executors.make_chunks(cases.indexed(), workers=1)
+    assert [[i for i, _ in chunk] for chunk in chunked] == [[0], [2], [3]]

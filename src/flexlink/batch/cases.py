@@ -10,9 +10,11 @@ is validated before any case runs; problems name the path, the value and the cas
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from ..scenario import ScenarioError
 from ..scenario.fields import FieldPath, FieldPathError, ScenarioFile, is_time_grid
@@ -72,12 +74,12 @@ def case_scenarios(base: ScenarioFile, table: CaseTable, lazy: bool = False) -> 
     listing every problem."""
     scenarios, invalid = valid_cases(base, table, lazy)
     if invalid:
-        raise SweepError(_case_problems(_grouped(invalid), table))
+        raise SweepError(case_problems(invalid, table))
     return [scenarios[i] for i in range(table.count)]
 
 
 def valid_cases(base: ScenarioFile, table: CaseTable, lazy: bool = False
-                ) -> tuple[dict[int, Case], dict[int, list[str]]]:
+                ) -> tuple[Mapping[int, Case], dict[int, list[str]]]:
     """The `Scenario` of every valid case (``lazy``: a `LazyCase`, built again where it
     runs, so that the built scenarios are never all held at once) and the problems of every
     invalid one, by case index; a SweepError if a parameter path itself is wrong (no case
@@ -89,12 +91,62 @@ def valid_cases(base: ScenarioFile, table: CaseTable, lazy: bool = False
         values = {paths[p]: v for p, v in table.case(index).items()}
         try:
             built = base.build(values)
-            scenarios[index] = LazyCase(base, values) if lazy else built
+            if not lazy:
+                scenarios[index] = built
         except ScenarioError as exc:
             invalid[index] = exc.problems
-    if not scenarios and invalid:  # nothing to run: refuse as a whole
+    if invalid and len(invalid) == table.count:  # nothing to run: refuse as a whole
         raise SweepError(_case_problems(_grouped(invalid), table))
+    if lazy:
+        valid = np.setdiff1d(np.arange(table.count), np.fromiter(invalid, int, len(invalid)))
+        return LazyCases(base, table, paths, valid), invalid
     return scenarios, invalid
+
+
+class LazyCases(Mapping[int, LazyCase]):
+    """The valid cases of a sweep by index, each `LazyCase` made when it is read: the sweep
+    holds their indices only, so that 10⁵ cases cost the parameter table and no more."""
+
+    def __init__(self, base: ScenarioFile, table: CaseTable, paths: Mapping[str, FieldPath],
+                 indices: np.ndarray) -> None:
+        self.base, self.table, self.paths = base, table, dict(paths)
+        self.indices = indices
+        self._valid = np.zeros(table.count, dtype=bool)
+        self._valid[indices] = True
+
+    def __getitem__(self, index: int) -> LazyCase:
+        if not 0 <= index < self._valid.size or not self._valid[index]:
+            raise KeyError(index)
+        return LazyCase(self.base, {self.paths[p]: v for p, v in self.table.case(index).items()})
+
+    def __iter__(self) -> Iterator[int]:
+        return (int(i) for i in self.indices)
+
+    def __len__(self) -> int:
+        return int(self.indices.size)
+
+    def indexed(self) -> Sequence[tuple[int, Case]]:
+        """(index, case) of every valid case in order, made when read (sliceable)."""
+        return _Indexed(self)
+
+
+class _Indexed(Sequence[tuple[int, Case]]):
+    def __init__(self, cases: LazyCases) -> None:
+        self.cases = cases
+
+    def __len__(self) -> int:
+        return len(self.cases)
+
+    def __getitem__(self, k: Any) -> Any:
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        index = int(self.cases.indices[k])
+        return index, self.cases[index]
+
+
+def case_problems(invalid: dict[int, list[str]], table: CaseTable) -> list[str]:
+    """The lines of a SweepError for the ``invalid`` cases: one per kind of problem."""
+    return _case_problems(_grouped(invalid), table)
 
 
 def invalid_message(problems: list[str]) -> str:

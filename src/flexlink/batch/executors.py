@@ -12,8 +12,8 @@ import math
 import multiprocessing
 import os
 import threading
-from collections.abc import Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from collections.abc import Iterable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
 
 from ..model import Scenario
@@ -23,6 +23,7 @@ from .worker import Case, ChunkResult, Kept, SharedResults, init_local_worker, r
 Chunk = list[tuple[int, Case]]
 CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
 MAX_CHUNK = 32  # cases per chunk: bounds the result message size and the wait on Ctrl-C
+IN_FLIGHT_PER_WORKER = 3  # chunks queued or running per worker: none idles between chunks
 CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
 STOP_TIMEOUT = 5.0  # s to wait for a terminated worker to exit
 
@@ -34,11 +35,28 @@ def available_cores() -> int:
     return os.cpu_count() or 1
 
 
-def make_chunks(indexed: Sequence[tuple[int, Case]], workers: int) -> list[Chunk]:
+def make_chunks(indexed: Sequence[tuple[int, Case]], workers: int) -> Sequence[Chunk]:
     """Consecutive cases in chunks of equal size: few enough tasks that the per-task overhead
-    (one message each way) is small, enough of them to keep every worker busy to the end."""
+    (one message each way) is small, enough of them to keep every worker busy to the end.
+    Each chunk is sliced from ``indexed`` when it is read (cases made on demand stay so)."""
     size = max(1, min(MAX_CHUNK, math.ceil(len(indexed) / (workers * CHUNKS_PER_WORKER))))
-    return [list(indexed[i:i + size]) for i in range(0, len(indexed), size)]
+    return _Chunks(indexed, size)
+
+
+class _Chunks(Sequence[Chunk]):
+    def __init__(self, indexed: Sequence[tuple[int, Case]], size: int) -> None:
+        self.indexed, self.size = indexed, size
+
+    def __len__(self) -> int:
+        return math.ceil(len(self.indexed) / self.size)
+
+    def __getitem__(self, k: Any) -> Any:
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        if not -len(self) <= k < len(self):
+            raise IndexError(k)
+        start = (k % len(self)) * self.size
+        return list(self.indexed[start:start + self.size])
 
 
 def failed_chunk(chunk: Chunk, exc: BaseException) -> ChunkResult:
@@ -71,7 +89,7 @@ def local_processes(workers: int, shared: SharedResults | None = None,
     except BaseException:
         _stop(pool)
         raise
-    return PoolResults(pool)
+    return PoolResults(pool, workers)
 
 
 def _started() -> None:
@@ -94,25 +112,39 @@ class PoolResults:
     iteration never started) ends the pool: waits for it after a complete iteration, else
     cancels the queued chunks and terminates the workers."""
 
-    def __init__(self, pool: ProcessPoolExecutor) -> None:
+    def __init__(self, pool: ProcessPoolExecutor, workers: int = 1) -> None:
         self.pool = pool
         self.futures: dict[Future[ChunkResult], Chunk] = {}
         self.finished = False
+        self.window = IN_FLIGHT_PER_WORKER * workers
+        self._pending: Iterator[Chunk] = iter(())
+        self._kept = Kept()
 
-    def submit(self, chunks: Sequence[Chunk], kept: Kept) -> None:
-        """Queue every chunk (``kept``: what to keep of each case)."""
-        for chunk in chunks:
-            self.futures[self.pool.submit(run_chunk, chunk, kept)] = chunk
+    def submit(self, chunks: Iterable[Chunk], kept: Kept) -> None:
+        """Queue the chunks (``kept``: what to keep of each case): a few per worker at a time,
+        the next as each finishes, so that a sweep of 10⁵ cases never holds them all."""
+        self._pending, self._kept = iter(chunks), kept
+        self._top_up()
+
+    def _top_up(self) -> None:
+        while len(self.futures) < self.window:
+            chunk = next(self._pending, None)
+            if chunk is None:
+                return
+            self.futures[self.pool.submit(run_chunk, chunk, self._kept)] = chunk
 
     def __iter__(self) -> Iterator[ChunkResult]:
-        for future in as_completed(self.futures):
-            chunk = self.futures.pop(future)  # drop it: a held future holds its result
-            try:
-                result = future.result()
-            except Exception as exc:  # noqa: BLE001 — BrokenProcessPool (a worker died), pickling
-                result = failed_chunk(chunk, exc)
-            del future
-            yield result
+        while self.futures:
+            done, _ = wait(self.futures, return_when=FIRST_COMPLETED)
+            for future in done:
+                chunk = self.futures.pop(future)  # drop it: a held future holds its result
+                try:
+                    result = future.result()
+                except Exception as exc:  # noqa: BLE001 — BrokenProcessPool (a worker died), pickling
+                    result = failed_chunk(chunk, exc)
+                del future
+                self._top_up()  # before the consumer's work on this result: no worker idles
+                yield result
         self.finished = True
 
     def close(self) -> None:
@@ -140,6 +172,7 @@ def dask_cluster(chunks: Sequence[Chunk], kept: Kept, client: Any) -> Iterator[C
     """The chunks as tasks on a `distributed.Client`; results in completion order."""
     from distributed import as_completed as dask_as_completed
 
+    chunks = list(chunks)
     futures = client.map(run_chunk, chunks, kept=kept, pure=False)
     pending = {future.key: (future, chunk) for future, chunk in zip(futures, chunks)}
     completed = dask_as_completed(futures)

@@ -22,6 +22,8 @@ from ..simulation.common import MemoryEstimate, memory_problem, output_times, ru
 from . import executors
 from .cases import (
     BaseScenario,
+    LazyCases,
+    case_problems,
     case_scenarios,
     check_paths,
     invalid_message,
@@ -98,7 +100,8 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
                                    _attributes(scenario_base, table), shared, probed,
                                    _summary_records(template, metrics))
         collector.add(ChunkResult(failed={i: invalid_message(m) for i, m in invalid.items()}))
-        indexed = list(scenarios.items())
+        indexed = scenarios.indexed() if isinstance(scenarios, LazyCases) \
+            else list(scenarios.items())
         checkpoint = _Checkpoint(output, checkpoint_interval)
         if output is not None:  # fail now, not after the cases ran
             check_writable(output)
@@ -143,13 +146,16 @@ def check_sweep_memory(scenario: Scenario, cases: int, channels: int | None) -> 
 
 
 def _cases(base: BaseScenario, table: Any, skip_invalid: bool, lazy: bool
-           ) -> tuple[dict[int, Case], dict[int, list[str]]]:
+           ) -> tuple[Mapping[int, Case], dict[int, list[str]]]:
     """The scenario of every case to run (``lazy``: built where it runs) and, with
     ``skip_invalid``, the problems of the invalid cases (without it an invalid case refuses
     the sweep: SweepError)."""
-    if skip_invalid:
-        return valid_cases(base, table, lazy)
-    return dict(enumerate(case_scenarios(base, table, lazy))), {}
+    if skip_invalid or lazy:
+        scenarios, invalid = valid_cases(base, table, lazy)
+        if invalid and not skip_invalid:
+            raise SweepError(case_problems(invalid, table))
+        return scenarios, invalid
+    return dict(enumerate(case_scenarios(base, table))), {}
 
 
 def _parameters(grid: GridSpec, random: RandomSpec
