@@ -1,7 +1,7 @@
 """Batch throughput: N variants of the paper experiment through `flexlink.sweep` on all cores.
 
     python benchmarks/batch.py [--cases 1000] [--workers N] [--channels a,b] [--scheduler ADDR]
-                               [--summaries-only]
+                               [--summaries-only] [--output FILE] [--before SRC]
 
 The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) and both joint
 move durations (0.8-1.2 s) at random (seed 1). Prints one line per quantity: wall time of the
@@ -12,7 +12,9 @@ peak resident memory of the sweep process and of its largest worker process.
 ``--machinery-only`` replaces every run by a stored result, which leaves the sweep's own
 cost: the throughput it can reach at best. ``--summaries-only`` keeps per-case metrics (peak
 and residual link-2 tip deflection, peak joint torques) instead of the histories: the memory
-of a large study.
+of a large study. ``--output FILE`` writes the sweep's file too (end to end, as the command
+does). ``--before SRC`` runs the same benchmark first with the flexlink found in the source
+folder SRC (another checkout's ``src``), then this one, and prints the two side by side.
 """
 
 from __future__ import annotations
@@ -48,6 +50,16 @@ def peak_memory_mb() -> tuple[float, float]:
     return own, child
 
 
+def cpu_seconds() -> float:
+    """CPU time (user + system, s) of this process and its finished children: on a shared
+    machine, the work a sweep did whatever the wait for a core."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def machinery_only() -> None:
     """Replace every run by a stored result of the paper experiment: what is left is the
     sweep's own cost (validation, transfer, collection) — its throughput ceiling. Local
@@ -63,6 +75,27 @@ def machinery_only() -> None:
     executors._start_context = lambda: multiprocessing.get_context("fork")
 
 
+def side_by_side(before_src: str, argv: list[str]) -> None:
+    """This benchmark run twice in fresh processes, with ``before_src`` and then this
+    checkout's flexlink on the path; their reports in two columns."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    here = str(Path(__file__).resolve().parents[1] / "src")
+    reports = []
+    for src in (before_src, here):
+        env = {**os.environ, "PYTHONPATH": src}
+        done = subprocess.run([sys.executable, __file__, *argv], env=env, check=True,
+                              capture_output=True, text=True)
+        reports.append(done.stdout.splitlines())
+    print(reports[1][0])
+    print(f"{'':34s} {'before':>12s} {'after':>12s}   (before: {before_src})")
+    for old, new in zip(reports[0][1:], reports[1][1:], strict=True):
+        print(f"{new[:34]} {old[35:].strip():>12s} {new[35:].strip():>12s}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=1000)
@@ -73,7 +106,17 @@ def main() -> None:
                         help="keep summary metrics instead of the histories")
     parser.add_argument("--machinery-only", action="store_true",
                         help="replace the runs by a stored result: the sweep's own ceiling")
+    parser.add_argument("--output", default=None, help="write the sweep's file (netCDF)")
+    parser.add_argument("--before", default=None, metavar="SRC",
+                        help="also run with the flexlink in SRC and print both")
     args = parser.parse_args()
+    if args.before:
+        import sys
+
+        argv = sys.argv[1:]
+        at = argv.index("--before")
+        side_by_side(args.before, argv[:at] + argv[at + 2:])
+        return
     if args.machinery_only:
         machinery_only()
     channels = args.channels.split(",") if args.channels else None
@@ -84,7 +127,7 @@ def main() -> None:
                     channels=channels, workers=None if args.scheduler else workers,
                     scheduler=args.scheduler, progress=True,
                     summaries=SUMMARIES if args.summaries_only else (),
-                    histories=not args.summaries_only)
+                    histories=not args.summaries_only, output=args.output)
     wall = time.perf_counter() - started
     own, child = peak_memory_mb()
     ok = int(dataset.attrs["cases_ok"])
@@ -105,6 +148,7 @@ def main() -> None:
     print(f"{'parallel efficiency':34s} {serial / (wall * workers):.2f}")
     print(f"{'median case run time [ms]':34s} {1e3 * float(np.median(dataset.wall_time)):.1f}")
     print(f"{'median case CPU time [ms]':34s} {1e3 * float(np.median(dataset.cpu_time)):.1f}")
+    print(f"{'CPU time, sweep + workers [s]':34s} {cpu_seconds():.3f}")
     print(f"{'peak memory, sweep process [MB]':34s} {own:.0f}")
     print(f"{'peak memory, largest worker [MB]':34s} {child:.0f}")
 
