@@ -168,15 +168,31 @@ def _stop(pool: ProcessPoolExecutor) -> None:
         process.join(STOP_TIMEOUT)
 
 
-def dask_cluster(chunks: Sequence[Chunk], kept: Kept, client: Any) -> Iterator[ChunkResult]:
-    """The chunks as tasks on a `distributed.Client`; results in completion order."""
+def dask_cluster(chunks: Iterable[Chunk], kept: Kept, client: Any, cores: int = 1
+                 ) -> Iterator[ChunkResult]:
+    """The chunks as tasks on a `distributed.Client`, ``IN_FLIGHT_PER_WORKER`` per worker
+    thread (``cores``) at a time, the next as each finishes; results in completion order."""
     from distributed import as_completed as dask_as_completed
 
-    chunks = list(chunks)
-    futures = client.map(run_chunk, chunks, kept=kept, pure=False)
-    pending = {future.key: (future, chunk) for future, chunk in zip(futures, chunks)}
-    completed = dask_as_completed(futures)
-    del futures
+    remaining = iter(chunks)
+    pending: dict[Any, tuple[Any, Chunk]] = {}
+
+    def submit_next() -> Any:
+        chunk = next(remaining, None)
+        if chunk is None:
+            return None
+        future = client.submit(run_chunk, chunk, kept=kept, pure=False)
+        pending[future.key] = (future, chunk)
+        return future
+
+    first = []
+    for _ in range(IN_FLIGHT_PER_WORKER * max(1, cores)):
+        future = submit_next()
+        if future is None:
+            break
+        first.append(future)
+    completed = dask_as_completed(first)
+    del first
     try:
         for future in completed:
             _, chunk = pending.pop(future.key)
@@ -186,6 +202,10 @@ def dask_cluster(chunks: Sequence[Chunk], kept: Kept, client: Any) -> Iterator[C
                 result = failed_chunk(chunk, exc)
             future.release()  # else the cluster keeps every result until the sweep ends
             del future
+            following = submit_next()
+            if following is not None:
+                completed.add(following)
+            del following
             yield result
     finally:
         if pending:  # left early: cancel what has not run

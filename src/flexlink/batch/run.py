@@ -246,8 +246,9 @@ def _executor(stack: contextlib.ExitStack, indexed: list[Any], kept: Kept,
         client, opened = executors.connect(scheduler)
         if opened:
             stack.callback(client.close)
-        chunks = executors.make_chunks(indexed, executors.dask_cores(client))
-        generator = executors.dask_cluster(chunks, kept, client)
+        cores = executors.dask_cores(client)
+        generator = executors.dask_cluster(executors.make_chunks(indexed, cores), kept, client,
+                                           cores)
     elif pool is not None:
         pool.submit(executors.make_chunks(indexed, local), kept)
         return pool
