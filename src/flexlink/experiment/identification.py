@@ -32,6 +32,7 @@ from ..motion.measured import zero_phase_lowpass
 from ..results import Results
 from ..scenario import ScenarioError
 from ..scenario.fields import ScenarioFile
+from ..solvers.threads import single_threaded
 from .comparison import (
     Comparison,
     evaluate,
@@ -172,6 +173,16 @@ def fit(scenario: ScenarioFile, measurement: Measurement, params: list[Parameter
         objective: str = "modal") -> FitResult:
     """Estimate ``params`` of the scenario file ``scenario`` from ``measurement`` (see module
     doc)."""
+    # small dense least squares and short runs throughout: BLAS threads only contend
+    with single_threaded():
+        return _fit(scenario, measurement, params, channels, window, max_simulations, progress,
+                    objective)
+
+
+def _fit(scenario: ScenarioFile, measurement: Measurement, params: list[Parameter],
+         channels: list[str] | None, window: tuple[float | None, float | None],
+         max_simulations: int, progress: Callable[[str], None] | None,
+         objective: str) -> FitResult:
     if objective not in OBJECTIVES:
         raise MeasurementError(f"objective must be one of {', '.join(OBJECTIVES)}, got "
                                f"{objective!r}")

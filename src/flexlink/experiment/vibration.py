@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..solvers.threads import single_threaded
+
 MIN_CYCLES = 2.0  # the window must hold this many periods of a component
 PEAK_FRACTION = 0.05  # spectral peaks below this fraction of the highest are ignored
 
@@ -227,11 +229,13 @@ def damped_modes(t: np.ndarray, y: np.ndarray, max_modes: int = 3,
     lower = np.concatenate([np.full(len(guesses), -0.5 / s[-1]), 0.5 * omega0])
     upper = np.concatenate([np.full(len(guesses), np.inf), 1.5 * omega0])
     x0 = np.clip(x0, lower + 1e-12, upper - 1e-12)
-    fit = least_squares(residual, x0, bounds=(lower, upper), x_scale=np.abs(x0) + 1e-3,
-                        method="trf", xtol=1e-12, ftol=1e-12, max_nfev=200)
-    a = basis(fit.x)
-    coef, *_ = np.linalg.lstsq(a, yn, rcond=None)
-    std = _standard_errors(fit.jac, fit.fun, a.shape[1])
+    # hundreds of least-squares solves of a few columns: BLAS threads only contend there
+    with single_threaded():
+        fit = least_squares(residual, x0, bounds=(lower, upper), x_scale=np.abs(x0) + 1e-3,
+                            method="trf", xtol=1e-12, ftol=1e-12, max_nfev=200)
+        a = basis(fit.x)
+        coef, *_ = np.linalg.lstsq(a, yn, rcond=None)
+        std = _standard_errors(fit.jac, fit.fun, a.shape[1])
     modes = []
     for k in range(len(guesses)):
         sigma, omega = float(fit.x[k]), float(fit.x[len(guesses) + k])
