@@ -832,7 +832,8 @@ def _subproblem(p: _Point, kinematic: tuple[np.ndarray, np.ndarray] | None, radi
         S_parts.append(-np.ones(p.margins.size))
     A, a, S = np.vstack(A_parts), np.concatenate(a_parts), np.concatenate(S_parts)
     s = 0.0
-    if p.margins.size:
+    # s = 0 where the point itself meets every row (the usual case): no linear programme
+    if p.margins.size and not np.all(A @ x + a >= 0.0):
         s = _least_relaxation(A, a, S)
         if s is None:
             return x, p.excess, 0.0
