@@ -25,7 +25,7 @@ sample) are integrated by Magnus instead, which assembles them where it needs th
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -59,12 +59,17 @@ _BLOCKS_PER_CALL = 64  # progress is reported between calls of the compiled loop
 
 @dataclass(frozen=True)
 class Discretisation:
-    """What an adaptive Lawson run settled on: its table's layout and the steps per output
-    interval. `integrate_lawson_on` runs another system on it."""
+    """What an adaptive Lawson run settled on: its table's layout, the steps per output
+    interval, and each block's reference Ã_ref with its propagators exp(h/2 Ã_ref)ᵀ (static
+    blocks: exp(Δt Ã)ᵀ). `integrate_lawson_on` runs another system on it: the split
+    Ã = Ã_ref + ΔÃ(t) of a nearby system about the same Ã_ref is as accurate, and keeps
+    its exponentials."""
 
     layout: TableLayout
     substeps: int
     rtol: float  # what the adaptive run was asked for
+    reference: np.ndarray  # (blocks, n, 2n+1)
+    propagators: np.ndarray  # (blocks, 2n+1, 2n+1), transposed as the compiled loop takes them
 
 
 def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
@@ -89,7 +94,15 @@ def integrate_lawson_on(system: LinearSystem, t_out: np.ndarray,
         lambda times: state_rows(system.matrices, times))
     with single_threaded():
         table = tabulate_on(rows, t_out, discretisation.layout)
-        ET = _block_propagators(table, n, t_out, discretisation.substeps)
+        # a static block's A is this system's own (joints at rest; its exact propagator
+        # anew), a moving one's split about the settled reference
+        static = table.static[:, None, None]
+        table = replace(table, reference=np.ascontiguousarray(
+            np.where(static, table.reference, discretisation.reference)))
+        ET = discretisation.propagators.copy()
+        if table.static.any():
+            ET[table.static] = _block_propagators(table, n, t_out, discretisation.substeps,
+                                                  table.static)
         states, acc = _solve(table, n, t_out, discretisation.substeps, None, ET)
     if not np.all(np.isfinite(states)):
         raise SimulationError("the state became non-finite")
@@ -139,7 +152,8 @@ def integrate_lawson_discretised(system: LinearSystem, t_out: np.ndarray, rtol: 
                 stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
                 return (Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson",
                                  stats, accuracy=Accuracy(rtol, estimate, RICHARDSON)),
-                        Discretisation(layout(table, t_out.size), substeps, rtol))
+                        Discretisation(layout(table, t_out.size), substeps, rtol,
+                                       table.reference, ET))
             coarse = states
             substeps *= 2
             ET = ET.copy()
