@@ -148,15 +148,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 # The commands that run one simulation: its integrators limit BLAS to one thread anyway
-# (solvers/threads.py) and the rest of a run multiplies matrices too small for threads.
-ONE_BLAS_THREAD_COMMANDS = ("run", "paper")
+# (solvers/threads.py) and the rest of a run multiplies matrices too small for threads; and
+# those whose runs, fits and least squares are as small (their process pools inherit it).
+ONE_BLAS_THREAD_COMMANDS = ("run", "paper", "compare", "fit", "optimize")
 # OpenBLAS reads the first of these that is set; a user's own setting is kept.
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
 
 
 def _one_blas_thread(args: Sequence[str]) -> None:
-    """Start OpenBLAS (numpy's and scipy's) with one thread in a ``run``/``paper`` command's
-    own process, unless the user chose a number of threads: the thread OpenBLAS starts for
+    """Start OpenBLAS (numpy's and scipy's) with one thread in the own process of a command
+    of ONE_BLAS_THREAD_COMMANDS, unless the user chose a number of threads: the thread OpenBLAS starts for
     the second core spins for work after numpy's and scipy's imports, CPU that the figures'
     processes and the run itself wait for (ARCHITECTURE.md, "Start-up of `flexlink run`")."""
     if (args and args[0] in ONE_BLAS_THREAD_COMMANDS and "numpy" not in sys.modules

@@ -228,3 +228,45 @@ def test_run_ignores_the_experiment_sections(files) -> None:
     (files / "arm.toml").write_text(text.replace("t_end = 2.0", "t_end = 0.2"))
     assert main(["run", str(files / "arm.toml"), "-o", str(files / "run"), "-q",
                  "--no-figures"]) == 0
+
+
+def test_the_fit_jacobian_is_scipys_two_point_one_and_is_reused_after_a_tiny_step() -> None:
+    """identification._solve on a cheap nonlinear residual: the answer and Jacobian of
+    scipy's "2-point" differences with the same relative step, with no more residuals (its
+    last Jacobian is reused after a step below a hundredth of its difference steps)."""
+    from scipy.optimize import least_squares
+
+    from flexlink.experiment import identification as ident
+    from flexlink.experiment.parameters import Parameter
+
+    params = [Parameter("a", "EI", target=("links", 0, "EI"), lower=0.1, upper=10.0, log=True,
+                        value=1.0),
+              Parameter("b", "damping_ratio", target=("links", 0, "damping_ratio"),
+                        lower=-5.0, upper=1.0 + 1e-4, value=1.0)]
+    t = np.linspace(0.0, 1.0, 40)
+    data = 2.0 * np.exp(-0.7 * t) + 0.3 * t
+
+    calls = []
+
+    def residual(values: list[float]) -> np.ndarray:
+        calls.append(tuple(values))
+        a, b = values
+        return a * np.exp(-b * t) + 0.3 * t - data
+
+    solution, values = ident._solve(residual, params, [0, 1], [1.0, 1.0], [1.0, 1.0], 100)
+    assert values == pytest.approx([2.0, 0.7], rel=1e-6)
+    ours = len(set(calls))
+
+    def scaled(u: np.ndarray) -> np.ndarray:
+        return residual([math.exp(u[0] - 1.0), 1.0 + (u[1] - 1.0)])
+
+    calls.clear()
+    lower, upper = np.array([1.0 + math.log(0.1), -5.0]), np.array([1.0 + math.log(10.0),
+                                                                     1.0 + 1e-4])
+    reference = least_squares(scaled, np.array([1.0, 1.0 - 1e-9]), bounds=(lower, upper),
+                              method="trf", diff_step=ident.DIFF_STEP, x_scale=1.0, xtol=1e-5,
+                              ftol=1e-8, gtol=1e-8, max_nfev=100)
+    assert solution.x == pytest.approx(reference.x, rel=1e-9)
+    # equal but where the last Jacobian was reused: then within the differences' own error
+    np.testing.assert_allclose(solution.jac, reference.jac, rtol=1e-3)
+    assert ours <= len(set(calls))

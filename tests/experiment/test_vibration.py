@@ -102,3 +102,32 @@ def test_window_refusal_names_the_moving_joint() -> None:
     found = detect_manoeuvre(t, {"joint1_angle": np.zeros_like(t), "joint2_angle": 0.3 * t})
     assert found.free_start is None
     assert "joint2_angle still moves" in found.reason and "deg" in found.reason
+
+
+def test_the_exact_projection_jacobian_reaches_the_optimum_of_differences() -> None:
+    """The estimator's exact variable-projection Jacobian leads to the optimum that a fit of
+    the same model with difference Jacobians (scipy's 2-point, amplitudes by lstsq) finds."""
+    from scipy.optimize import least_squares
+
+    rng = np.random.default_rng(4)
+    t = np.arange(1.6, 4.0, 1e-3)
+    y = damped(t, 2.48, 0.013, 1.0, 0.3) + damped(t, 5.02, 0.025, 0.6, 1.0) + 0.05
+    y = y + 0.05 * rng.normal(size=t.size)
+    modes = damped_modes(t, y, guesses=[2.5, 5.0])
+    s = t - t[0]
+    yn = y / np.std(y)
+
+    def residual(p: np.ndarray) -> np.ndarray:
+        cols = [np.ones_like(s), s / s[-1]]
+        for sg, om in zip(p[:2], p[2:], strict=True):
+            cols += [np.exp(-sg * s) * np.cos(om * s), np.exp(-sg * s) * np.sin(om * s)]
+        a = np.column_stack(cols)
+        return a @ np.linalg.lstsq(a, yn, rcond=None)[0] - yn
+
+    omega0 = 2 * math.pi * np.array([2.5, 5.0])
+    x0 = np.concatenate([0.01 * omega0, omega0])
+    reference = least_squares(residual, x0, x_scale=np.abs(x0) + 1e-3, xtol=1e-12, ftol=1e-12)
+    for k, m in enumerate(modes):
+        sigma, omega = reference.x[k], reference.x[2 + k]
+        assert m.frequency_hz == pytest.approx(omega / (2 * math.pi), rel=1e-8)
+        assert m.damping_ratio == pytest.approx(sigma / math.hypot(sigma, omega), rel=1e-6)

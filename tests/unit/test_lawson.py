@@ -184,3 +184,47 @@ def test_a_move_inside_one_output_interval_is_integrated(motion) -> None:
     assert solution.method == "lawson" and np.abs(zm).max() > 0
     assert np.abs(z - zm).max() < 2e-5 * np.abs(zm).max()
     assert np.abs(zd - zdm).max() < 2e-5 * np.abs(zdm).max()
+
+
+def test_a_run_on_a_given_discretisation_repeats_the_adaptive_one_and_varies_smoothly() -> None:
+    """integrate_lawson_on with the discretisation of an adaptive run of the same system gives
+    that run's states exactly; for a perturbed motion, differences on it are those of one
+    smooth map (the same at steps 1e-4 … 1e-6), and converge to the derivative that adaptive
+    runs at a tight tolerance give."""
+    from flexlink.solvers.coefficient_table import layout as table_layout
+    from flexlink.solvers.coefficient_table import tabulate_on
+    from flexlink.solvers.lawson import integrate_lawson_discretised, integrate_lawson_on
+
+    def system(delta: float) -> FirstOrderSystem:
+        motions = [Cycloidal(0.0, 60.0 + delta, 0.2, 0.3), Cycloidal(20.0, -40.0, 0.7, 0.2)]
+        return FirstOrderSystem(chain_of(paper_links(2), motions), True)
+
+    t = output_times(1.0, 0.005)
+    adaptive, settled = integrate_lawson_discretised(system(0.0), t, 1e-5, 1e-14)
+    assert settled is not None and adaptive.method == "lawson"
+    again = integrate_lawson_on(system(0.0), t, settled)
+    assert np.array_equal(again.q, adaptive.q) and np.array_equal(again.q_dot, adaptive.q_dot)
+    assert again.stats["steps_per_output_interval"] == settled.substeps
+
+    def end(delta: float) -> np.ndarray:
+        return integrate_lawson_on(system(delta), t, settled).q[-1]
+
+    def end_tight(delta: float) -> np.ndarray:
+        return integrate_lawson(system(delta), t, 1e-10, 1e-16).q[-1]
+
+    slopes = [(end(h) - end(-h)) / (2 * h) for h in (1e-4, 1e-5, 1e-6)]
+    scale = np.abs(slopes[0]).max()
+    for s in slopes[1:]:
+        assert np.abs(s - slopes[0]).max() < 1e-5 * scale  # round-off / h at h = 1e-6
+    reference = (end_tight(1e-3) - end_tight(-1e-3)) / 2e-3
+    assert np.abs(slopes[0] - reference).max() < 1e-3 * np.abs(reference).max()
+    # the layout belongs to its output times
+    with pytest.raises(ValueError, match="output times"):
+        tabulate_on(lambda times: state_rows(system(0.0).matrices, times), t[:-1],
+                    settled.layout)
+    # and a table's layout sampled again is that table
+    table = _table(system(0.0), t, 1e-5, breaks=True)
+    same = tabulate_on(lambda times: state_rows(system(0.0).matrices, times), t,
+                       table_layout(table, t.size))
+    for name in ("first", "last", "static", "pieces", "lower", "upper", "poly", "reference"):
+        assert np.array_equal(getattr(same, name), getattr(table, name)), name

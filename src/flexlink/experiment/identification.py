@@ -32,6 +32,7 @@ from ..motion.measured import zero_phase_lowpass
 from ..results import Results
 from ..scenario import ScenarioError
 from ..scenario.fields import ScenarioFile
+from ..solvers.threads import single_threaded
 from .comparison import (
     Comparison,
     evaluate,
@@ -172,6 +173,16 @@ def fit(scenario: ScenarioFile, measurement: Measurement, params: list[Parameter
         objective: str = "modal") -> FitResult:
     """Estimate ``params`` of the scenario file ``scenario`` from ``measurement`` (see module
     doc)."""
+    # small dense least squares and short runs throughout: BLAS threads only contend
+    with single_threaded():
+        return _fit(scenario, measurement, params, channels, window, max_simulations, progress,
+                    objective)
+
+
+def _fit(scenario: ScenarioFile, measurement: Measurement, params: list[Parameter],
+         channels: list[str] | None, window: tuple[float | None, float | None],
+         max_simulations: int, progress: Callable[[str], None] | None,
+         objective: str) -> FitResult:
     if objective not in OBJECTIVES:
         raise MeasurementError(f"objective must be one of {', '.join(OBJECTIVES)}, got "
                                f"{objective!r}")
@@ -273,8 +284,8 @@ def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter
     """Bounded least squares over params[chosen] in scaled variables (log or linear)."""
     from scipy.optimize import least_squares
 
-    # u = 1 + log(v/scale) or 1 + (v − start)/scale: scipy's relative finite-difference
-    # step (diff_step·max(1, |u|)) then changes every parameter by about 0.1 %, far above the
+    # u = 1 + log(v/scale) or 1 + (v − start)/scale: a relative finite-difference
+    # step (DIFF_STEP·max(1, |u|)) then changes every parameter by about 0.1 %, far above the
     # integrator's error, and never degenerates at u = 0.
     def physical(u: np.ndarray) -> list[float]:
         values = list(start)
@@ -292,10 +303,42 @@ def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter
     upper = np.array([scaled(i, params[i].upper) if params[i].upper < math.inf else np.inf
                       for i in chosen])
     u0 = np.clip(u0, lower + 1e-9, upper - 1e-9)
-    solution = least_squares(lambda u: residual(physical(u)), u0, bounds=(lower, upper),
-                             method="trf", diff_step=1e-3, x_scale=1.0, xtol=1e-5, ftol=1e-8,
-                             gtol=1e-8, max_nfev=budget)
+    values: dict[bytes, np.ndarray] = {}
+
+    def fun(u: np.ndarray) -> np.ndarray:
+        key = u.tobytes()  # a few dozen points at most: every one kept
+        if key not in values:
+            values[key] = residual(physical(u))
+        return values[key]
+
+    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (u, steps, Jacobian)
+
+    def jac(u: np.ndarray) -> np.ndarray:
+        """Forward differences as scipy's "2-point" with diff_step (a backward one where a
+        bound is in the way); the last Jacobian again after a step below a hundredth of its
+        difference steps, which changes it less than those steps' own error (a last accepted
+        step of round-off size would otherwise cost a simulation per parameter)."""
+        if last and np.all(np.abs(u - last[0][0]) <= 1e-2 * np.abs(last[0][1])):
+            return last[0][2]
+        f0 = fun(u)
+        steps = DIFF_STEP * np.where(u >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(u))
+        steps = np.where(u + steps > upper, -steps, steps)
+        columns = []
+        for i, h in enumerate(steps):
+            shifted = u.copy()
+            shifted[i] += h
+            h = shifted[i] - u[i]  # the step as represented
+            columns.append((fun(shifted) - f0) / h)
+        jacobian = np.column_stack(columns) if columns else np.zeros((f0.size, 0))
+        last[:] = [(u.copy(), steps, jacobian)]
+        return jacobian
+
+    solution = least_squares(fun, u0, jac=jac, bounds=(lower, upper), method="trf",
+                             x_scale=1.0, xtol=1e-5, ftol=1e-8, gtol=1e-8, max_nfev=budget)
     return solution, physical(solution.x)
+
+
+DIFF_STEP = 1e-3  # relative difference step of the fit's Jacobian, in the scaled variables
 
 
 MAX_FEATURES = 2  # components per channel whose frequency and damping are matched

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..solvers.threads import single_threaded
+
 MIN_CYCLES = 2.0  # the window must hold this many periods of a component
 PEAK_FRACTION = 0.05  # spectral peaks below this fraction of the highest are ignored
 
@@ -210,28 +212,62 @@ def damped_modes(t: np.ndarray, y: np.ndarray, max_modes: int = 3,
     yn = y / scale
     omega0 = np.array([2 * math.pi * f for f in guesses])
 
-    def basis(params: np.ndarray) -> np.ndarray:
-        sigma, omega = params[: len(guesses)], params[len(guesses):]
-        cols = [np.ones_like(s), s / s[-1]]
-        for sg, om in zip(sigma, omega, strict=True):
-            decay = np.exp(-sg * s)
-            cols += [decay * np.cos(om * s), decay * np.sin(om * s)]
-        return np.column_stack(cols)
+    k_modes = len(guesses)
 
-    def residual(params: np.ndarray) -> np.ndarray:
-        a = basis(params)
-        coef, *_ = np.linalg.lstsq(a, yn, rcond=None)
-        return a @ coef - yn
+    def basis(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The columns [1, s/s_end, e^(−σs) cos ωs, e^(−σs) sin ωs, …] and, per component,
+        s e^(−σs) cos ωs and s e^(−σs) sin ωs (of which their derivatives are made)."""
+        sigma, omega = params[:k_modes], params[k_modes:]
+        decay = np.exp(-np.outer(s, sigma))
+        cos, sin = decay * np.cos(np.outer(s, omega)), decay * np.sin(np.outer(s, omega))
+        a = np.empty((s.size, 2 + 2 * k_modes))
+        a[:, 0], a[:, 1] = 1.0, s / s[-1]
+        a[:, 2::2], a[:, 3::2] = cos, sin
+        return a, s[:, None] * cos, s[:, None] * sin
+
+    last: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def projected(params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Residual a·c − y of the least-squares amplitudes c and its exact Jacobian in the
+        nonlinear parameters θ (Golub & Pereyra: ∂r/∂θ = (I − AA⁺) ∂A c − A⁺ᵀ ∂Aᵀ r), from
+        the SVD a = U S Vᵀ with lstsq's cut-off of small singular values."""
+        key = params.tobytes()
+        if key not in last:
+            a, s_cos, s_sin = basis(params)
+            u, sv, vt = np.linalg.svd(a, full_matrices=False)
+            keep = sv > np.finfo(float).eps * max(a.shape) * sv[0]
+            u, sv, vt = u[:, keep], sv[keep], vt[keep]
+            coef = vt.T @ ((u.T @ yn) / sv)
+            r = a @ coef - yn
+            # ∂A/∂σ_k: −s times the component's two columns; ∂A/∂ω_k: (−s sin, s cos)
+            d = np.empty((s.size, 2 * k_modes))
+            c_cos, c_sin = coef[2::2], coef[3::2]
+            d[:, :k_modes] = -(s_cos * c_cos + s_sin * c_sin)
+            d[:, k_modes:] = -s_sin * c_cos + s_cos * c_sin
+            d -= u @ (u.T @ d)
+            dtr = np.empty((2 + 2 * k_modes, 2 * k_modes))  # ∂Aᵀ r, column per parameter
+            dtr[:] = 0.0
+            r_cos, r_sin = s_cos.T @ r, s_sin.T @ r
+            for k in range(k_modes):
+                dtr[2 + 2 * k, k], dtr[3 + 2 * k, k] = -r_cos[k], -r_sin[k]
+                dtr[2 + 2 * k, k_modes + k], dtr[3 + 2 * k, k_modes + k] = -r_sin[k], r_cos[k]
+            d -= u @ ((vt @ dtr) / sv[:, None])
+            last.clear()
+            last[key] = (r, d)
+        return last[key]
 
     x0 = np.concatenate([0.01 * omega0, omega0])
     lower = np.concatenate([np.full(len(guesses), -0.5 / s[-1]), 0.5 * omega0])
     upper = np.concatenate([np.full(len(guesses), np.inf), 1.5 * omega0])
     x0 = np.clip(x0, lower + 1e-12, upper - 1e-12)
-    fit = least_squares(residual, x0, bounds=(lower, upper), x_scale=np.abs(x0) + 1e-3,
-                        method="trf", xtol=1e-12, ftol=1e-12, max_nfev=200)
-    a = basis(fit.x)
-    coef, *_ = np.linalg.lstsq(a, yn, rcond=None)
-    std = _standard_errors(fit.jac, fit.fun, a.shape[1])
+    # hundreds of least-squares solves of a few columns: BLAS threads only contend there
+    with single_threaded():
+        fit = least_squares(lambda p: projected(p)[0], x0, jac=lambda p: projected(p)[1],
+                            bounds=(lower, upper), x_scale=np.abs(x0) + 1e-3, method="trf",
+                            xtol=1e-12, ftol=1e-12, max_nfev=200)
+        a = basis(fit.x)[0]
+        coef, *_ = np.linalg.lstsq(a, yn, rcond=None)
+        std = _standard_errors(fit.jac, fit.fun, a.shape[1])
     modes = []
     for k in range(len(guesses)):
         sigma, omega = float(fit.x[k]), float(fit.x[len(guesses) + k])

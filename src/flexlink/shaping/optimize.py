@@ -35,10 +35,14 @@ squares with inequality constraints (`_lsi`); a trial whose merit J + μ·excess
 or whose run fails (the model diverges), is a rejected step and shrinks Δ.
 
 Gradient. Forward differences of r and the torques, one run per coordinate (step
-``fd_step``, runs at rtol 1e-7 so that the integrator's error is far below the step's
-effect; a backward difference where the forward point fails), the runs spread over every
-core by a process pool; `fd_gradient` is checked in the tests against central differences
-with a different step.
+``fd_step``; a backward difference where the forward point fails), the runs spread over every
+core by a process pool. A point is evaluated with error control (the Lawson integrator at
+rtol 1e-5, `RUN_RTOL`); the runs of its differences reuse that run's discretisation — its
+coefficient table's layout and its steps (`solvers.lawson.integrate_lawson_on`) — so that no
+refinement or step decision changes between them, and the differences are those of one
+smooth map, the one the integrator computes, at any step: its error (rtol of the peaks,
+far below the residual left at the optimum) does not enter them as noise. `fd_gradient` is
+checked in the tests against central differences with a different step.
 """
 
 from __future__ import annotations
@@ -60,6 +64,8 @@ from ..model import Scenario
 from ..motion import Harmonic, Shaped
 from ..simulation.common import output_times
 from ..simulation.prescribed import run_prescribed
+from ..solvers import Solution
+from ..solvers.lawson import Discretisation, integrate_lawson_discretised, integrate_lawson_on
 from ..solvers.threads import single_threaded
 from .plants import scale_frequencies
 
@@ -68,8 +74,8 @@ GRID_PER_DEGREE = 75  # check instants per move, per unit of the profile's trigo
 DEFAULT_HARMONICS = 4
 DEFAULT_ROBUST = 0.10  # relative frequency error the default design tolerates
 DEFAULT_MAX_ITERATIONS = 30
-RUN_RTOL = 1e-7  # integration tolerance of the optimiser's runs: finite differences with
-# steps down to 1e-6 agree with central ones to 1e-4 at this tolerance
+RUN_RTOL = 1e-5  # integration tolerance of the optimiser's runs (module docstring, Gradient)
+_SETTLED_KEPT = 4  # points whose discretisations Problem keeps
 COEFFICIENT_BOUND = 1.0  # |coefficient| ≤ this: keeps the first steps on sensible moves
 MAX_SAMPLES = 100_000  # torque instants per optimiser run (a longer move is refused)
 PENALTY = 1e3  # μ per plant: weight of the relative torque excess against J (J(0) = plants)
@@ -259,6 +265,8 @@ class Problem:
             self.t = np.append(self.t[self.t < self.t_end], self.t_end)
         self.plant_scenarios = [self._short(scale_frequencies(scenario, f), stiff)
                                 for f, stiff in plants]
+        # each plant's discretisation at the last few points evaluated with error control
+        self._settled: dict[bytes, list[Discretisation | None]] = {}
         self.final = []  # Cholesky factors of M, K at rest in the final configuration
         for sc in self.plant_scenarios:
             chain = self.with_coefficients(sc, np.zeros(self.size)).chain
@@ -304,24 +312,56 @@ class Problem:
 
     def plant_rows(self, i: int, x: np.ndarray) -> tuple[np.ndarray, Any]:
         """(energy residual of plant i, its run) at coefficients x (module docstring)."""
+        row, run, _ = self.plant_run(i, x)
+        return row, run
+
+    def plant_run(self, i: int, x: np.ndarray, on: Discretisation | None = None
+                  ) -> tuple[np.ndarray, Any, Discretisation | None]:
+        """`plant_rows`, and the discretisation of its run: the one given (``on``, a run
+        without error control) or the one the adaptive Lawson run settled on (None for
+        another integrator)."""
         sc = self.plant_scenarios[i]
-        run = run_prescribed(self.with_coefficients(sc, x), self.t, _quiet, False)
+        settled: list[Discretisation | None] = [on]
+
+        def adaptive(system: Any, t: np.ndarray, rtol: float, atol: float,
+                     progress: Any) -> Solution:
+            solution, settled[0] = integrate_lawson_discretised(system, t, rtol, atol, progress)
+            return solution
+
+        def fixed(system: Any, t: np.ndarray, rtol: float, atol: float,
+                  progress: Any) -> Solution:
+            assert on is not None
+            return integrate_lawson_on(system, t, on)
+
+        integrate = (None if sc.settings.method != "lawson"
+                     else adaptive if on is None else fixed)
+        run = run_prescribed(self.with_coefficients(sc, x), self.t, _quiet, False, integrate)
         LM, LK = self.final[i]
         z, z_dot = run.solution.q[-1], run.solution.q_dot[-1]
-        return np.concatenate([LM.T @ z_dot, LK.T @ z]) / np.sqrt(2.0), run
+        return np.concatenate([LM.T @ z_dot, LK.T @ z]) / np.sqrt(2.0), run, settled[0]
 
-    def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def discretisations(self, x: np.ndarray) -> list[Discretisation | None] | None:
+        """Every plant's discretisation of the last adaptive evaluations at x (None if x was
+        not among them)."""
+        return self._settled.get(np.asarray(x, dtype=float).tobytes())
+
+    def evaluate(self, x: np.ndarray, on: Sequence[Discretisation | None] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
         """(energy residuals (plants, 2n), joint torques of the nominal plant (nt, joints)).
 
         Row p holds r_p = [L_Mᵀ ż; L_Kᵀ z]/√2 at the move's end (M = L_M L_Mᵀ, K = L_K L_Kᵀ),
         so that |r_p|² is plant p's residual elastic energy (J). Nearly linear in x, so
         forward differences of r give an accurate gradient 2 Jᵀ r of the energy even where the
         energy itself is almost zero (its forward differences would be biased there).
-        SimulationError when a run fails (the model diverged on this trajectory)."""
-        rows, torques = [], None
+        SimulationError when a run fails (the model diverged on this trajectory).
+
+        ``on``: each plant's discretisation (`discretisations`) to run on without error
+        control, for the finite differences around a point evaluated without it."""
+        rows, torques, settled = [], None, []
         with single_threaded():
             for i, sc in enumerate(self.plant_scenarios):
-                row, run = self.plant_rows(i, x)
+                row, run, used = self.plant_run(i, x, None if on is None else on[i])
+                settled.append(used)
                 rows.append(row)
                 if i == 0:
                     torques = np.stack([run.values[f"joint{k + 1}_torque"]
@@ -330,12 +370,17 @@ class Problem:
         out = np.array(rows)
         if not (np.all(np.isfinite(out)) and np.all(np.isfinite(torques))):
             raise SimulationError("a trial trajectory gave a non-finite state")
+        if on is None and all(d is not None for d in settled):
+            self._settled[np.asarray(x, dtype=float).tobytes()] = settled
+            while len(self._settled) > _SETTLED_KEPT:
+                self._settled.pop(next(iter(self._settled)))
         return out, torques
 
-    def trial(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    def trial(self, x: np.ndarray, on: Sequence[Discretisation | None] | None = None
+              ) -> tuple[np.ndarray, np.ndarray] | None:
         """`evaluate`, or None where a run fails: a failed trial is a bad point."""
         try:
-            return self.evaluate(x)
+            return self.evaluate(x) if on is None else self.evaluate(x, on)
         except (SimulationError, ArithmeticError, np.linalg.LinAlgError):
             return None
 
@@ -376,9 +421,10 @@ def _init_worker(problem: Problem) -> None:
     _WORKER_PROBLEM = problem
 
 
-def _trial_in_worker(x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def _trial_in_worker(x: np.ndarray, on: Sequence[Discretisation | None] | None
+                     ) -> tuple[np.ndarray, np.ndarray] | None:
     assert _WORKER_PROBLEM is not None
-    return _WORKER_PROBLEM.trial(x)
+    return _WORKER_PROBLEM.trial(x, on)
 
 
 class Evaluator:
@@ -394,11 +440,14 @@ class Evaluator:
             self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=start_context(),
                                              initializer=_init_worker, initargs=(problem,))
 
-    def many(self, points: Sequence[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray] | None]:
+    def many(self, points: Sequence[np.ndarray],
+             on: Sequence[Discretisation | None] | None = None
+             ) -> list[tuple[np.ndarray, np.ndarray] | None]:
+        """`Problem.trial` at every point (on the discretisations ``on`` if given)."""
         self.count += len(points)
         if self._pool is None or len(points) == 1:
-            return [self.problem.trial(x) for x in points]
-        return list(self._pool.map(_trial_in_worker, points))
+            return [self.problem.trial(x, on) for x in points]
+        return list(self._pool.map(_trial_in_worker, points, [on] * len(points)))
 
     def close(self) -> None:
         if self._pool is not None:
@@ -686,12 +735,13 @@ def _solve(problem: Problem, evaluator: Evaluator,
 
     def linearise(p: _Point) -> None:
         """Forward differences of r and the torque margins at p (backward where a forward
-        point fails; a zero column where both do)."""
+        point fails; a zero column where both do), on p's discretisation."""
         steps = [fd_step] * p.x.size
-        values = evaluator.many([p.x + fd_step * e for e in np.eye(p.x.size)])
+        on = problem.discretisations(p.x)
+        values = evaluator.many([p.x + fd_step * e for e in np.eye(p.x.size)], on)
         failed = [i for i, v in enumerate(values) if v is None]
         if failed:
-            back = evaluator.many([p.x - fd_step * np.eye(p.x.size)[i] for i in failed])
+            back = evaluator.many([p.x - fd_step * np.eye(p.x.size)[i] for i in failed], on)
             for i, v in zip(failed, back, strict=True):
                 values[i], steps[i] = v, -fd_step
         jac = np.zeros((p.r.size, p.x.size))
@@ -782,7 +832,8 @@ def _subproblem(p: _Point, kinematic: tuple[np.ndarray, np.ndarray] | None, radi
         S_parts.append(-np.ones(p.margins.size))
     A, a, S = np.vstack(A_parts), np.concatenate(a_parts), np.concatenate(S_parts)
     s = 0.0
-    if p.margins.size:
+    # s = 0 where the point itself meets every row (the usual case): no linear programme
+    if p.margins.size and not np.all(A @ x + a >= 0.0):
         s = _least_relaxation(A, a, S)
         if s is None:
             return x, p.excess, 0.0

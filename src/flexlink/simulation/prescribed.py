@@ -13,13 +13,16 @@ from ..channels.shapes import LazyShapes, LinkShape
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, joint_torques, solved_frames
 from ..model import Scenario
-from ..solvers import PRESCRIBED_METHODS, Solution, rigid_solution
+from ..solvers import PRESCRIBED_METHODS, LinearIntegrator, Solution, rigid_solution
 from .accuracy import axial_load_parameter, hangs_on_elastic
 from .common import PathRun, Progress, check_tip_deflection
 
 
 def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
-                  with_shapes: bool = True) -> PathRun:
+                  with_shapes: bool = True, integrate: LinearIntegrator | None = None
+                  ) -> PathRun:
+    """``integrate``: the integrator instead of the one ``simulation.method`` names (the
+    optimiser's runs on a fixed discretisation)."""
     settings = scenario.settings
     system = CompiledFirstOrderSystem(scenario.chain, settings.geometric_stiffening,
                                       scenario.actuators, settings.gravity)
@@ -27,7 +30,7 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     if system.n:
         if settings.initial == "equilibrium":
             system.start_from(system.equilibrium(float(t[0])))
-        integrate = PRESCRIBED_METHODS[settings.method]
+        integrate = integrate or PRESCRIBED_METHODS[settings.method]
         solution = system.shift_solution(
             integrate(system, t, settings.rtol, settings.atol, on_progress))
     else:  # every link rigid: the motion is prescribed, nothing to integrate

@@ -79,6 +79,52 @@ class CoefficientTable:
         return values.reshape(p.size, *self.poly.shape[2:])
 
 
+@dataclass(frozen=True)
+class TableLayout:
+    """Where a table's polynomials lie, without their values: the moving pieces (first,
+    last, τ lower, τ upper) and the static blocks (first, last) of `CoefficientTable`.
+    `tabulate_on` samples another system's A on it: with the same layout and steps, runs
+    that differ in a parameter differ smoothly in it (no refinement decision flips)."""
+
+    moving: tuple[tuple[int, int, float, float], ...]
+    static: tuple[tuple[int, int], ...]
+    size: int  # output times of the table
+
+
+def layout(table: CoefficientTable, size: int) -> TableLayout:
+    """The layout of ``table`` (built on ``size`` output times)."""
+    moving, static = [], []
+    for b in range(len(table)):
+        a, e = int(table.first[b]), int(table.last[b])
+        if table.static[b]:
+            static.append((a, e))
+            continue
+        for p in range(int(table.pieces[b]), int(table.pieces[b + 1])):
+            moving.append((a, e, float(table.lower[p]), float(table.upper[p])))
+    return TableLayout(tuple(moving), tuple(static), size)
+
+
+def tabulate_on(rows: RowsFunction, t_out: np.ndarray, where: TableLayout) -> CoefficientTable:
+    """The table of A(t) on a given layout (`TableLayout`), from one call of ``rows`` at its
+    nodes, without checking it against A between them: the layout of a table `tabulate`
+    built for a system close to this one."""
+    if t_out.size != where.size:
+        raise ValueError(f"the layout is for {where.size} output times, got {t_out.size}")
+    span = np.array([[t_out[a], t_out[b], lo, hi] for a, b, lo, hi in where.moving],
+                    dtype=float).reshape(-1, 4)
+    starts = span[:, :1] + (span[:, 1:2] - span[:, :1]) * span[:, 2:3]
+    lengths = (span[:, 1:2] - span[:, :1]) * (span[:, 3:4] - span[:, 2:3])
+    nodes = (starts + lengths * _NODES).ravel()
+    static_times = np.array([t_out[a] for a, _ in where.static], dtype=float)
+    sampler = _Sampler(rows)
+    values = sampler.at(np.concatenate([nodes, static_times]))
+    samples = values[:nodes.size].reshape(len(where.moving), DEGREE + 1, *values.shape[1:])
+    poly = np.matmul(_FIT, samples.reshape(len(where.moving), DEGREE + 1, -1)).reshape(
+        samples.shape)
+    done = [(*piece, p) for piece, p in zip(where.moving, poly, strict=True)]
+    return _assemble_table(done, list(where.static), values[nodes.size:], sampler.count)
+
+
 class RoughCoefficients(Exception):
     """A(t) is not smooth between output times (say a measured motion's spline with a knot at
     every sample): tabulating it would cost more assemblies than integrating with them."""

@@ -25,12 +25,20 @@ sample) are integrated by Magnus instead, which assembles them where it needs th
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..errors import SimulationError
 from .batched_expm import expm_balanced
-from .coefficient_table import CoefficientTable, RoughCoefficients, tabulate
+from .coefficient_table import (
+    CoefficientTable,
+    RoughCoefficients,
+    TableLayout,
+    layout,
+    tabulate,
+    tabulate_on,
+)
 from .magnus import (
     agree,
     agree_maxima,
@@ -41,12 +49,27 @@ from .magnus import (
     richardson_error_maxima,
     state_rows,
 )
-from .solution import RICHARDSON, Accuracy, LinearSystem, Progress, Solution
+from .solution import FIXED_STEP, RICHARDSON, Accuracy, LinearSystem, Progress, Solution
 from .threads import single_threaded
 
 _MAX_HALVINGS = 10
 _ASSEMBLIES_PER_STEP = 4
 _BLOCKS_PER_CALL = 64  # progress is reported between calls of the compiled loop
+
+
+@dataclass(frozen=True)
+class Discretisation:
+    """What an adaptive Lawson run settled on: its table's layout, the steps per output
+    interval, and each block's reference Ã_ref with its propagators exp(h/2 Ã_ref)ᵀ (static
+    blocks: exp(Δt Ã)ᵀ). `integrate_lawson_on` runs another system on it: the split
+    Ã = Ã_ref + ΔÃ(t) of a nearby system about the same Ã_ref is as accurate, and keeps
+    its exponentials."""
+
+    layout: TableLayout
+    substeps: int
+    rtol: float  # what the adaptive run was asked for
+    reference: np.ndarray  # (blocks, n, 2n+1)
+    propagators: np.ndarray  # (blocks, 2n+1, 2n+1), transposed as the compiled loop takes them
 
 
 def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
@@ -57,6 +80,42 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
     The system's max_frequency (rad/s) sets the first step, as for Magnus; its
     coefficient_keys label instants with equal coefficients (rest phases), its breakpoints
     are times where they are not smooth (see coefficient_table)."""
+    return integrate_lawson_discretised(system, t_out, rtol, atol, on_progress)[0]
+
+
+def integrate_lawson_on(system: LinearSystem, t_out: np.ndarray,
+                        discretisation: Discretisation) -> Solution:
+    """The system's q, q̇, q̈ at t_out from rest at t_out[0] on a given discretisation (the
+    table's layout and steps of an adaptive run of a nearby system), without error control:
+    the runs of finite differences, which then differentiate what the integrator computes
+    (no step or refinement decision changes between them)."""
+    n = system.n
+    rows = getattr(system, "state_rows", None) or (
+        lambda times: state_rows(system.matrices, times))
+    with single_threaded():
+        table = tabulate_on(rows, t_out, discretisation.layout)
+        # a static block's A is this system's own (joints at rest; its exact propagator
+        # anew), a moving one's split about the settled reference
+        static = table.static[:, None, None]
+        table = replace(table, reference=np.ascontiguousarray(
+            np.where(static, table.reference, discretisation.reference)))
+        ET = discretisation.propagators.copy()
+        if table.static.any():
+            ET[table.static] = _block_propagators(table, n, t_out, discretisation.substeps,
+                                                  table.static)
+        states, acc = _solve(table, n, t_out, discretisation.substeps, None, ET)
+    if not np.all(np.isfinite(states)):
+        raise SimulationError("the state became non-finite")
+    stats = {"steps_per_output_interval": discretisation.substeps, "table_blocks": len(table)}
+    return Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats,
+                    accuracy=Accuracy(discretisation.rtol, None, FIXED_STEP))
+
+
+def integrate_lawson_discretised(system: LinearSystem, t_out: np.ndarray, rtol: float,
+                                 atol: float, on_progress: Progress | None = None
+                                 ) -> tuple[Solution, Discretisation | None]:
+    """`integrate_lawson`, and the discretisation it settled on (None when it handed the
+    run to Magnus)."""
     n, matrices = system.n, system.matrices
     first_step = initial_step(system.max_frequency)
     # A fourth-order error goes as h⁴: tighter tolerances start with shorter steps (the paper
@@ -76,7 +135,7 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
                              breaks=system.breakpoints())
         except RoughCoefficients:
             # Magnus assembles A where it needs it, which then costs less than a table.
-            return integrate_magnus(system, t_out, rtol, atol, on_progress)
+            return integrate_magnus(system, t_out, rtol, atol, on_progress), None
         # The coarse pass (h doubled) runs alongside the fine one in the compiled loop: its
         # exp(h Ã_ref) = E² is what the fine steps use for E(E y) too, its E⁴ the square of
         # that; a static block's exp(Δt Ã) does not depend on h. One Padé exponential per
@@ -91,8 +150,10 @@ def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
         for _ in range(_MAX_HALVINGS):
             if accepted:
                 stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
-                return Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats,
-                                accuracy=Accuracy(rtol, estimate, RICHARDSON))
+                return (Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson",
+                                 stats, accuracy=Accuracy(rtol, estimate, RICHARDSON)),
+                        Discretisation(layout(table, t_out.size), substeps, rtol,
+                                       table.reference, ET))
             coarse = states
             substeps *= 2
             ET = ET.copy()

@@ -1,0 +1,268 @@
+"""`flexlink fit` and `flexlink optimize` (issue 28's rows), before and after, side by side.
+
+    python benchmarks/fit_optimize.py                    # this tree only
+    python benchmarks/fit_optimize.py --before 497667b   # and the code of that commit
+    python benchmarks/fit_optimize.py --only fit         # or --only optimize
+
+Rows, each measured in fresh processes for each version of the code (``--before REV``: the
+sources of REV unpacked next to the system's temporary files, numba's caches warmed there by
+one untimed run of each kind first):
+
+- ``fit command``: `flexlink fit examples/lab_arm.toml examples/lab_run3.csv` with the README's
+  six parameters (figures and report written), wall time and CPU time (user + system) of the
+  whole process: start-up, loading, fit and writing;
+- ``fit <case>``: `flexlink.experiment.fit` alone, in process, of the lab record and of the
+  synthetic lab manoeuvres of tests/experiment/synthetic.py (seven parameters each, with the
+  truth known): wall and CPU time, simulations, and each estimate's error against the truth
+  with whether its 95 % interval covers it (the judged tolerances: EI 3 %, damping 20 %, gains
+  3 %);
+- ``optimize``: `flexlink.shaping.optimize_move` of the paper manoeuvre (90° / 80° in 1.2 s,
+  `--robust 10`, the seed and limits of `flexlink.shaping.paper`) on every core: wall time,
+  iterations, evaluations (each runs every plant) and runs; the residual energy of each plant
+  relative to the cycloid's; and the peak link-2 tip deflection over 2 s after the move
+  (independent runs of the first-order model with and without stiffening, every frequency
+  off by −10, 0, +10 %).
+
+The machine is shared: CPU time is the figure that load moves least; the load average is
+printed with every row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+FIT_PARAMS = ("links[0].EI", "links[0].damping_ratio", "links[1].damping_ratio", "pzt:gain",
+              "pzt:offset", "link1_tip_acceleration:gain")
+MANOEUVRE_PARAMS = ("links[0].EI", "links[0].damping_ratio", "links[1].damping_ratio",
+                    "pzt:gain", "pzt:offset", "pzt:drift", "link1_tip_acceleration:gain")
+TOLERANCE = {"links[0].EI": 0.03, "links[0].damping_ratio": 0.2,
+             "links[1].damping_ratio": 0.2, "pzt:gain": 0.03,
+             "link1_tip_acceleration:gain": 0.03}
+ERRORS = (-0.10, 0.0, 0.10)
+
+
+# -- children ----------------------------------------------------------------------------
+def _cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def child_fit() -> dict[str, Any]:
+    """fit() of the lab record and of every synthetic manoeuvre, timed in this process."""
+    sys.path.insert(0, str(ROOT))
+    from flexlink.experiment.identification import fit
+    from flexlink.experiment.loading import load_experiment
+    from flexlink.experiment.parameters import parse_parameter_option
+    from tests.experiment.synthetic import (
+        MANOEUVRES,
+        MAPPING,
+        measured_columns,
+        scenario_text,
+        write_csv,
+    )
+
+    out: dict[str, Any] = {}
+    cases: list[tuple[str, Path, tuple[str, ...], dict[str, float] | None]] = [
+        ("lab_run3", ROOT / "examples" / "lab_arm.toml", FIT_PARAMS, None)]
+    folder = Path(tempfile.mkdtemp(prefix="flexlink-fit-bench-"))
+    for name, truth in MANOEUVRES.items():
+        columns, _ = measured_columns(truth)
+        write_csv(folder / f"{name}.csv", columns)
+        text = scenario_text(truth) + MAPPING.replace("measured.csv", f"{name}.csv")
+        (folder / f"{name}.toml").write_text(text, encoding="utf-8")
+        true = {"links[0].EI": truth.EI1, "links[0].damping_ratio": truth.zeta1,
+                "links[1].damping_ratio": truth.zeta2, "pzt:gain": truth.pzt_gain,
+                "pzt:offset": truth.pzt_offset, "pzt:drift": truth.pzt_drift,
+                "link1_tip_acceleration:gain": truth.acc_gain}
+        cases.append((name, folder / f"{name}.toml", MANOEUVRE_PARAMS, true))
+    for name, toml, paths, true in cases:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            experiment = load_experiment(toml)
+            params = [parse_parameter_option(p, experiment.file, experiment.measurement.units)
+                      for p in paths]
+            wall, cpu = time.perf_counter(), _cpu()
+            result = fit(experiment.file, experiment.measurement, params)
+            wall, cpu = time.perf_counter() - wall, _cpu() - cpu
+        estimates = {}
+        for e in result.estimates:
+            row: dict[str, Any] = {"value": e.value, "low": e.ci_low, "high": e.ci_high}
+            if true is not None:
+                row["error"] = e.value / true[e.path] - 1.0 if true[e.path] else None
+                row["covers"] = bool(e.ci_low <= true[e.path] <= e.ci_high)
+                row["within"] = (abs(row["error"]) <= TOLERANCE[e.path]
+                                 if e.path in TOLERANCE else None)
+            estimates[e.path] = row
+        out[name] = {"wall": wall, "cpu": cpu, "simulations": result.simulations,
+                     "estimates": estimates, "load": os.getloadavg()[0]}
+    return out
+
+
+def child_optimize() -> dict[str, Any]:
+    """optimize_move of the paper manoeuvre and the residual vibration it leaves."""
+    import numpy as np
+
+    import flexlink
+    from flexlink.scenario import load_scenario, paper_experiment_path
+    from flexlink.shaping import optimize_move
+    from flexlink.shaping.compare import cycloidal_version, residuals
+    from flexlink.shaping.paper import DURATION_S, LIMITS, SEED
+
+    scenario = load_scenario(paper_experiment_path())
+    flexlink.simulate(scenario, shapes=False)  # numba's cache loaded before the clock
+    wall, cpu = time.perf_counter(), _cpu()
+    result = optimize_move(scenario, DURATION_S, LIMITS, seed=SEED, robust=0.1)
+    wall, cpu = time.perf_counter() - wall, _cpu() - cpu
+    import dataclasses
+
+    peaks = {}
+    for label, stiff in (("paper's model", False), ("stiffened", True)):
+        versions = {k: dataclasses.replace(v, settings=dataclasses.replace(
+            v.settings, geometric_stiffening=stiff)) for k, v in (
+            ("cycloidal", cycloidal_version(result.scenario, result.moves)),
+            ("optimised", result.scenario))}
+        peaks[label] = {k: list(v) for k, v in
+                        residuals(versions, result.move_end, ERRORS, "first_order").items()}
+    return {"wall": wall, "cpu_main": cpu, "iterations": result.iterations,
+            "evaluations": result.evaluations, "plants": len(result.plants),
+            "workers": result.workers,
+            "energy_ratio": list(np.asarray(result.energy) /
+                                 np.asarray(result.energy_cycloidal)),
+            "peaks": peaks, "message": result.message, "load": os.getloadavg()[0]}
+
+
+def child_command(src: Path) -> dict[str, Any]:
+    """The whole `flexlink fit` command in a fresh process: wall and CPU time."""
+    out = Path(tempfile.mkdtemp(prefix="flexlink-fit-cmd-")) / "fitted"
+    args = [sys.executable, "-m", "flexlink", "fit", str(ROOT / "examples" / "lab_arm.toml"),
+            str(ROOT / "examples" / "lab_run3.csv"), "-o", str(out), "-q"]
+    for p in FIT_PARAMS:
+        args += ["-p", p]
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    wall = time.perf_counter()
+    subprocess.run(args, env=env, check=True, capture_output=True)
+    wall = time.perf_counter() - wall
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"wall": wall, "cpu": cpu, "load": os.getloadavg()[0]}
+
+
+# -- parent ------------------------------------------------------------------------------
+def source_of(rev: str) -> Path:
+    """The src/ folder of commit ``rev``, unpacked once into the temporary folder (its numba
+    caches stay with it between runs of this benchmark)."""
+    full = subprocess.run(["git", "-C", str(ROOT), "rev-parse", rev], check=True,
+                          capture_output=True, text=True).stdout.strip()
+    folder = Path(tempfile.gettempdir()) / f"flexlink-src-{full[:12]}"
+    if not (folder / "src" / "flexlink").is_dir():
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", full, "src"], check=True,
+                                 capture_output=True).stdout
+        folder.mkdir(parents=True, exist_ok=True)
+        tar = folder / "src.tar"
+        tar.write_bytes(archive)
+        with tarfile.open(tar) as t:
+            t.extractall(folder, filter="data")
+        tar.unlink()
+    return folder / "src"
+
+
+def run_child(kind: str, src: Path) -> dict[str, Any]:
+    if kind == "command":
+        return child_command(src)
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    done = subprocess.run([sys.executable, __file__, "--child", kind], env=env, check=True,
+                          capture_output=True, text=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _estimates(row: dict[str, Any]) -> str:
+    parts = []
+    for path, e in row["estimates"].items():
+        text = f"{path.split('.')[-1] if path.startswith('links') else path}={e['value']:.4g}"
+        if "error" in e and e["error"] is not None:
+            text += (f" ({100 * e['error']:+.1f} %{'' if e['covers'] else ', NOT covered'}"
+                     f"{', OUT of tolerance' if e['within'] is False else ''})")
+        parts.append(text)
+    return "; ".join(parts)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--before", metavar="REV", help="also measure the code of commit REV")
+    parser.add_argument("--only", choices=("fit", "optimize"))
+    parser.add_argument("--child", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        print(json.dumps({"fit": child_fit, "optimize": child_optimize}[args.child]()))
+        return
+    versions = {"after": ROOT / "src"}
+    if args.before:
+        versions = {f"before ({args.before})": source_of(args.before), **versions}
+    print(f"Python {platform.python_version()}, {os.cpu_count()} cores, "
+          f"{platform.platform()}; load average {os.getloadavg()[0]:.1f}")
+    kinds = [k for k in ("fit", "optimize") if args.only in (None, k)]
+    for label, src in versions.items():  # numba's caches of each version, untimed
+        for kind in (["command"] if "fit" in kinds else []) + (
+                ["optimize"] if "optimize" in kinds else []):
+            if kind == "command":
+                child_command(src)
+            else:
+                env = {**os.environ, "PYTHONPATH": str(src)}
+                warm = ("import flexlink; "
+                        "flexlink.simulate(flexlink.load_paper_experiment(), shapes=False)")
+                subprocess.run([sys.executable, "-c", warm], env=env, check=True,
+                               capture_output=True)
+    results = {label: {} for label in versions}
+    for label, src in versions.items():
+        if "fit" in kinds:
+            results[label]["command"] = run_child("command", src)
+            results[label]["fit"] = run_child("fit", src)
+        if "optimize" in kinds:
+            results[label]["optimize"] = run_child("optimize", src)
+    if "fit" in kinds:
+        print("\nflexlink fit (target: at most 2 s, the same estimates)")
+        for label, res in results.items():
+            c = res["command"]
+            print(f"  {label:<22} command, lab_run3, 6 parameters: {c['wall']:.2f} s wall, "
+                  f"{c['cpu']:.2f} s CPU (load {c['load']:.1f})")
+        for case in results["after"]["fit"]:
+            for label, res in results.items():
+                row = res["fit"][case]
+                print(f"  {label:<22} fit() {case}: {row['wall']:.2f} s wall, {row['cpu']:.2f} s "
+                      f"CPU, {row['simulations']} simulations (load {row['load']:.1f})\n"
+                      f"  {'':<22}   {_estimates(row)}")
+    if "optimize" in kinds:
+        print("\nflexlink optimize, paper manoeuvre, --robust 10 (target: at most 5 s, residual "
+              "vibration at least as small)")
+        for label, res in results.items():
+            o = res["optimize"]
+            print(f"  {label:<22} {o['wall']:.2f} s wall on {o['workers']} processes "
+                  f"({o['cpu_main']:.2f} s CPU in the main one; load {o['load']:.1f}), "
+                  f"{o['iterations']} iterations, {o['evaluations']} evaluations × "
+                  f"{o['plants']} plants = {o['evaluations'] * o['plants']} runs; "
+                  f"{o['message']}")
+            print(f"  {'':<22}   residual energy / cycloid's per plant: "
+                  + ", ".join(f"{v:.3g}" for v in o["energy_ratio"]))
+            for model, peaks in o["peaks"].items():
+                print(f"  {'':<22}   peak link-2 tip deflection after the move, {model}: "
+                      + ", ".join(f"{100 * e:+.0f} %: {1e3 * a:.3g} mm (cycloid {1e3 * c:.3g})"
+                                  for e, a, c in zip(ERRORS, peaks["optimised"],
+                                                     peaks["cycloidal"], strict=True)))
+
+
+if __name__ == "__main__":
+    main()
