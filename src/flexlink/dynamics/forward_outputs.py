@@ -15,6 +15,7 @@ import numpy as np
 from .forward import ForwardSystem
 from .forward_kernel import ForwardData
 from .kinematics import FrameMotion
+from .momentum_projection import Projection, projection
 
 
 @dataclass(frozen=True)
@@ -30,11 +31,11 @@ class ForwardOutputs:
 
 
 def forward_outputs(system: ForwardSystem, data: ForwardData, work: tuple, u: np.ndarray,
-                    states: np.ndarray) -> ForwardOutputs:
-    """The outputs at states (nt, len(y)) with input rows u (nt, columns)."""
+                    states: np.ndarray, scratch: Projection | None = None) -> ForwardOutputs:
+    """The outputs at states (nt, len(y)) with input rows u (nt, columns); ``scratch``: a
+    projection record of the system (`momentum_projection.projection`) to work in."""
     from ._forward_numba import FIXED
     from ._forward_outputs_numba import outputs
-    from .momentum_projection import projection
 
     nt = states.shape[0]
     N, nx = len(system.chain.links), system.n_x
@@ -45,7 +46,8 @@ def forward_outputs(system: ForwardSystem, data: ForwardData, work: tuple, u: np
     torques = np.empty((nt, N))
     moving = data.base_kind != FIXED
     momenta = np.empty((nt, 3) if moving else (0, 3))
-    scratch = projection(system, data, 0.0, u.shape[1])
+    if scratch is None:
+        scratch = projection(system, data, 0.0, u.shape[1])
     outputs(data, work, np.ascontiguousarray(u, dtype=float),
             np.ascontiguousarray(states, dtype=float), rates, theta, omega, alpha, origin,
             oacc, T, Td, Tdd, torques, momenta, scratch)

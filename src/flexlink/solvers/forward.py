@@ -21,7 +21,7 @@ from ..dynamics import forward_kernel
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, voltage_columns
 from ..dynamics.forward_outputs import ForwardOutputs, forward_outputs
-from ..dynamics.momentum_projection import projection, start_values
+from ..dynamics.momentum_projection import Projection, projection, start_values
 from ..errors import SimulationError, UnstableLoop
 from .gauss_sampled import SampledLoop
 from .ode import Stalled, integrate_ivp
@@ -115,10 +115,9 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
     groups = np.concatenate([np.arange(2 * nu), 2 * nu + links,
                              2 * nu + len(system.modal) + links,
                              2 * nu + 2 * len(system.modal) + np.arange(ns)])
-    u0 = inputs(system, t_out[:1])  # the projection's start; u(t0) again below, cheap
-    known = projection(system, data, float(t_out[0]), u0.shape[1])
+    known = projection(system, data, float(t_out[0]), voltage_columns(system).stop)
     if known.active.size:
-        start_values(known, data, work, u0[0], y0, float(t_out[-1]))
+        start_values(known, data, work, inputs(system, t_out[:1])[0], y0, float(t_out[-1]))
     try:
         states, stats = integrate_radau(
             data, work, y0, t_out, lambda t: inputs(system, t), breakpoints(system), rtol,
@@ -132,20 +131,22 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
             raise UnstableLoop(exc.t, why) from None
         raise SimulationError(_stall_message(system, exc.t, why)) from None
     return forward_solution(data, work, system, t_out, states, stats, loop,
-                            Accuracy(rtol, None, LOCAL_CONTROL))
+                            Accuracy(rtol, None, LOCAL_CONTROL), known)
 
 
 def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
                      states: np.ndarray, stats: dict, loop: SampledLoop | None = None,
-                     accuracy: Accuracy | None = None) -> tuple[Solution, ForwardOutputs]:
+                     accuracy: Accuracy | None = None, scratch: Projection | None = None
+                     ) -> tuple[Solution, ForwardOutputs]:
     """The Solution from the states at t_out, and the outputs there (accelerations, frames,
     joint torques, momentum: one compiled pass) with the inputs there (with a ``loop``: its
-    held voltages); ``accuracy``: what the integrator was asked for."""
+    held voltages); ``accuracy``: what the integrator was asked for; ``scratch``: the run's
+    projection record (its scratch arrays), if there is one."""
     nu, n = len(system.free), system.n
     u = inputs(system, t_out)
     if loop is not None:
         u[:, voltage_columns(system)] = loop.held_voltages(t_out)
-    outputs = forward_outputs(system, data, work, u, states)
+    outputs = forward_outputs(system, data, work, u, states, scratch)
     rates = outputs.rates
     p, pd = states[:, :nu], states[:, nu:2 * nu]
     z, zd = states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n]
