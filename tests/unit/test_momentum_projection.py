@@ -66,3 +66,37 @@ def test_only_components_with_a_known_change_are_projected(kind, loads, gravity,
     pj = projection(system, pack(system), 0.0, inputs(system, np.zeros(1)).shape[1])
     assert list(pj.active) == active
     assert pj.about_cm == (kind == "free" and any(gravity))
+
+
+@pytest.mark.parametrize("kind", ["free", "pinned"])
+def test_first_moment_changes_at_the_linear_momentum(kind: str) -> None:
+    """S = ∫r dm (the centre of mass of the gravity projection) against the numpy linear
+    momentum: dS/dt along the motion (central differences of the compiled S) equals L."""
+    system = _system(kind)
+    d = pack(system)
+    w = workspace(d, 0)
+    rng = np.random.default_rng(4)
+    nu, n = len(system.free), system.n
+    y = system.initial_state() + 0.1 * rng.normal(size=system.initial_state().size)
+    rates = np.empty_like(y)
+    from flexlink.dynamics._forward_numba import rates as kernel
+
+    t, eps = 0.4, 1e-6
+    kernel(d, w, inputs(system, np.array([t]))[0], y, rates)
+    pj = projection(system, d, 0.0, inputs(system, np.zeros(1)).shape[1])
+    out = np.zeros(5)
+    moments = []
+    for sign in (1.0, -1.0):
+        ys = y.copy()
+        ys[:nu] += sign * eps * rates[:nu]  # positions move with their rates
+        ys[2 * nu:2 * nu + n] += sign * eps * rates[2 * nu:2 * nu + n]
+        u = inputs(system, np.array([t + sign * eps]))[0]
+        _state(d, w, u, ys)
+        components(d, w, pj, w.pd, out)
+        moments.append(out[3:5].copy())
+    p, pd, _ = system.rigid_state(np.array([t]), y[None, :nu], y[None, nu:2 * nu],
+                                  np.zeros((1, nu)))
+    linear = momentum(system, p, pd, y[None, 2 * nu:2 * nu + n],
+                      y[None, 2 * nu + n:2 * nu + 2 * n])[0][0]
+    np.testing.assert_allclose((moments[0] - moments[1]) / (2 * eps), linear, rtol=1e-6,
+                               atol=1e-6 * np.abs(linear).max())

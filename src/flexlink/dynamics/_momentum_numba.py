@@ -184,6 +184,8 @@ def project(d, w_, pj, u, U, t, y):
         for r in range(col + 1, na):
             if abs(A[r, col]) > abs(A[piv, col]):
                 piv = r
+        if A[piv, col] == 0.0:  # no mass to carry the momentum: nothing to correct
+            return
         if piv != col:
             for j in range(na):
                 A[col, j], A[piv, j] = A[piv, j], A[col, j]
