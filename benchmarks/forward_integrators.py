@@ -83,8 +83,15 @@ def _run(case: str, method: str, rtol: float, repeat: int) -> dict[str, Any]:
             "signals": {n: np.asarray(results[n]) for n in results.names}}
 
 
+SOURCE: list[str] = []  # --src: the flexlink source folder the children import
+
+
+def _use(src: list[str]) -> None:
+    sys.path[:0] = src
+
+
 def _in_child(*args: Any) -> dict[str, Any]:
-    with ProcessPoolExecutor(1) as pool:
+    with ProcessPoolExecutor(1, initializer=_use, initargs=(SOURCE,)) as pool:
         return pool.submit(_run, *args).result()
 
 
@@ -104,7 +111,10 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3, help="timed runs per row (median)")
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=CASES)
     parser.add_argument("--methods", nargs="*", default=["radau5"])
+    parser.add_argument("--src", help="import flexlink from this src folder (another tree: "
+                        "before and after a change in one run, one invocation each)")
     args = parser.parse_args()
+    SOURCE[:] = [args.src] if args.src else []
     print(f"# {platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, "
           f"numpy {np.__version__}")
     print("| case | integrator | rtol | CPU [s] | error / peak |")

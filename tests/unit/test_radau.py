@@ -107,3 +107,26 @@ def test_the_input_table_reproduces_the_inputs_on_each_side_of_a_jump() -> None:
         input_row(tab, np.zeros(1), held, seg, t, u)
         side = inputs(np.array([t - 1e-12 if seg == 0 else t + 1e-12]))[0]
         assert np.abs(u - side).max() < 1e-10 * 16, (seg, t)
+
+
+def test_the_inputs_integrals_follow_the_table() -> None:
+    """`input_table.integrals`: ∫ u dt from the table's start, across pieces and a jump,
+    equal to the exact integrals of the inputs (within the table's accuracy)."""
+    from flexlink.solvers._radau_numba import input_integral
+    from flexlink.solvers.input_table import integrals
+
+    def inputs(t: np.ndarray) -> np.ndarray:
+        return np.stack([np.sin(7 * t), np.where(t < 1.0, 2.0, -3.0), t**3], axis=1)
+
+    def exact(t: float) -> np.ndarray:
+        return np.array([(1 - np.cos(7 * t)) / 7, 2 * min(t, 1.0) - 3 * max(t - 1.0, 0.0),
+                         t**4 / 4])
+
+    nodes = np.array([0.0, 1.0, 2.5])
+    tab = tabulate(inputs, nodes)
+    assert tab[0].size > 2  # several pieces per segment
+    itab = integrals(tab)
+    U = np.empty(3)
+    for seg, t in [(0, 0.0), (0, 0.37), (0, 1.0), (1, 1.0), (1, 1.9), (1, 2.5)]:
+        input_integral(tab, itab, seg, t, U)
+        np.testing.assert_allclose(U, exact(t), rtol=0, atol=1e-10)

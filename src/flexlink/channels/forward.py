@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..dynamics import forward_kernel
 from ..dynamics.first_order import LinkBody, link_body, xi_states
-from ..dynamics.forward import ForwardSystem, momentum
+from ..dynamics.forward import ForwardSystem
 from ..dynamics.kinematics import FrameMotion
 from ..dynamics.servos import command_volts
 from ..model import PositionServo, VelocityServo
@@ -40,26 +39,15 @@ class SolvedMotion:
         return xi_states(frames, k, self.bodies[k].slice, z, zd, zdd)
 
 
-def rigid_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
-                 pdd: np.ndarray, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray,
-                 integral: np.ndarray) -> dict[str, np.ndarray]:
-    """Base pose and rates, joint angles, rates, torques, servo references and commands,
-    and (base not fixed) momentum, by channel name."""
-    # The compiled joint rows (tests/unit/test_forward_kernel.py: equal to the numpy
-    # ForwardSystem.joint_torques to round-off), an order of magnitude cheaper.
-    torque = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd)
-    moving = system.base.kind != "fixed"
-    return pose_and_joint_values(system, t, p, pd, integral, torque,
-                                 momentum(system, p, pd, z, zd) if moving else None)
-
-
 def pose_and_joint_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
                           integral: np.ndarray, torque: np.ndarray,
                           momenta: tuple[np.ndarray, np.ndarray] | None
                           ) -> dict[str, np.ndarray]:
-    """The channels of ``rigid_values`` from the rigid state p, ṗ (nt, n_rigid), the servo
-    integrals, the joint torques (nt, N) and (base not fixed) the linear (nt, 2) and angular
-    (nt,) momentum of whichever model computed them (``system``: the rigid bookkeeping)."""
+    """Base pose and rates, joint angles, rates, torques, servo references and commands,
+    and (base not fixed) momentum, by channel name, from the rigid state p, ṗ (nt, n_rigid),
+    the servo integrals, the joint torques (nt, N) and (base not fixed) the linear (nt, 2)
+    and angular (nt,) momentum of whichever model computed them (``system``: the rigid
+    bookkeeping; the first-order model's: `dynamics.forward_outputs`)."""
     out: dict[str, np.ndarray] = {}
     for i, name in enumerate(BASE_COORDINATES[system.base.kind]):
         out[f"base_{name}"] = p[:, i]

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..channels.catalogue import voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
-from ..channels.forward import SolvedMotion, rigid_values
+from ..channels.forward import SolvedMotion, pose_and_joint_values
 from ..channels.shapes import LazyShapes
 from ..dynamics.forward import ForwardSystem
 from ..errors import SimulationError
@@ -32,13 +32,13 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                            initial=settings.initial)
     method = settings.method if settings.method not in ("lawson", "magnus") else FAST_METHOD
     loop = sampled_loop(scenario, system, t) if scenario.controllers else None
-    solution = integrate_forward(system, t, settings.rtol, settings.atol, method, on_progress,
-                                 loop=loop)
+    solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol, method,
+                                          on_progress, loop=loop, with_outputs=True)
     nu = len(system.free)
-    p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
-                                    solution.q_ddot[:, :nu])
+    p, pd, _ = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
+                                  solution.q_ddot[:, :nu])
     z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
-    view = SolvedMotion(system, system.frames(p, pd, pdd))
+    view = SolvedMotion(system, outputs.frames)
     try:
         validity = check_tip_deflection(
             scenario.chain.links, t, tip_deflections(view, z), system.geometric_stiffening,
@@ -51,7 +51,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         raise SimulationError(f"closed loop unstable: {exc}") from None  # the tips ran away
     elastic = Solution(t, z, zd, zdd, solution.method)
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
-    values.update(rigid_values(system, t, p, pd, pdd, z, zd, zdd, solution.extra))
+    values.update(pose_and_joint_values(system, t, p, pd, solution.extra, outputs.torques,
+                                        outputs.momenta))
     values.update(tip_values(view, view.frames, z))
     if loop is None:
         volts = system.voltages(t)  # open loop: the commanded voltages, clipped

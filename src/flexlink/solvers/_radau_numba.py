@@ -29,6 +29,7 @@ from numba.extending import overload
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._forward_numba import rates as forward_rates
+from ..dynamics._momentum_numba import project as forward_project
 from ..dynamics.forward_kernel import ForwardData
 from .solution import BLOW_UP
 
@@ -69,6 +70,30 @@ def _model_rates(d, w, u, y, dy):
     return impl
 
 
+# kernel-data record class → its compiled projection onto known invariants
+# project(d, w, pj, u, U, t, y) (a model without one is not projected)
+_PROJECTIONS = {ForwardData: forward_project}
+
+
+def model_project(d, w, pj, u, U, t, y):
+    """Correct y (in place) onto the model's known invariants at time t (s): pj the
+    model's projection record, u the input row and U the inputs' integrals from the start."""
+    _PROJECTIONS[type(d)](d, w, pj, u, U, t, y)
+
+
+@overload(model_project)
+def _model_project(d, w, pj, u, U, t, y):
+    project = _PROJECTIONS.get(getattr(d, "instance_class", None))
+    if project is None:
+        def none(d, w, pj, u, U, t, y):
+            return None
+        return none
+
+    def impl(d, w, pj, u, U, t, y):
+        project(d, w, pj, u, U, t, y)
+    return impl
+
+
 # Radau IIA (s = 3) and its transformation T⁻¹ A⁻¹ T = diag(γ, [[α, −β], [β, α]]).
 _SQ6 = math.sqrt(6.0)
 C1, C2 = (4.0 - _SQ6) / 10.0, (4.0 + _SQ6) / 10.0
@@ -104,18 +129,44 @@ N_ST = 22
 
 
 @njit(cache=True)
-def input_row(tab, held_values, held, seg, t, u):
-    """u = the input row at time t (s) inside segment ``seg`` (closed at both ends: its
-    polynomial pieces are continued up to the segment's breakpoints), the columns
-    held[0]:held[1] replaced by held_values."""
-    t0s, t1s, coef, seg_piece = tab
+def _piece(tab, seg, t):
+    """The first piece of segment ``seg`` of the input table that ends at or after t (s)."""
+    t1s, seg_piece = tab[1], tab[3]
     lo, hi = seg_piece[seg], seg_piece[seg + 1] - 1
-    while lo < hi:  # the first piece of the segment that ends at or after t
+    while lo < hi:
         mid = (lo + hi) // 2
         if t1s[mid] < t:
             lo = mid + 1
         else:
             hi = mid
+    return lo
+
+
+@njit(cache=True)
+def input_integral(tab, itab, seg, t, U):
+    """U = the inputs' integrals from the run's start to time t (s) inside segment ``seg``
+    (itab: `input_table.integrals` of tab)."""
+    t0s, t1s = tab[0], tab[1]
+    icoef, offset = itab
+    lo = _piece(tab, seg, t)
+    a, b = t0s[lo], t1s[lo]
+    x = (2.0 * t - (a + b)) / (b - a)
+    deg = icoef.shape[1] - 1
+    for c in range(icoef.shape[2]):  # Clenshaw
+        b1 = 0.0
+        b2 = 0.0
+        for k in range(deg, 0, -1):
+            b1, b2 = 2.0 * x * b1 - b2 + icoef[lo, k, c], b1
+        U[c] = offset[lo, c] + x * b1 - b2 + icoef[lo, 0, c]
+
+
+@njit(cache=True)
+def input_row(tab, held_values, held, seg, t, u):
+    """u = the input row at time t (s) inside segment ``seg`` (closed at both ends: its
+    polynomial pieces are continued up to the segment's breakpoints), the columns
+    held[0]:held[1] replaced by held_values."""
+    t0s, t1s, coef = tab[0], tab[1], tab[2]
+    lo = _piece(tab, seg, t)
     a, b = t0s[lo], t1s[lo]
     x = (2.0 * t - (a + b)) / (b - a)
     deg = coef.shape[1] - 1
@@ -214,7 +265,7 @@ def _norm(e, scal):
 
 @njit(cache=True)
 def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, rtol,
-                  atol, group, peak, t_out, states, y, st, ws, cont):
+                  atol, group, peak, t_out, states, y, st, ws, cont, projection):
     """Advance y (in place) from st[X] until st[X] ≥ t_stop (s), storing the state at each
     output time t_out[k] (k from st[NEXT_OUT]) into states[k] from the dense output.
 
@@ -223,9 +274,12 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
     of component i weighed by atol + rtol · max(|y_i|, peak[group[i]]), peak the running
     maximum of |y| over each group of components; hmax the longest step (s); st the
     persistent scalars (X, H, …), ws the work arrays and cont (m, 4) the collocation
-    polynomial of the last step. Returns 0 (reached t_stop), 1 (blow-up: |y| > BLOW_UP),
+    polynomial of the last step. projection = (on, pj, itab, U): when ``on``, each accepted
+    step's end and each output state are put onto the model's known invariants
+    (`model_project`; itab the inputs' integral table, U its scratch row). Returns 0 (reached t_stop), 1 (blow-up: |y| > BLOW_UP),
     2 (step size collapsed), 3 (singular iteration matrix)."""
     J, E1, E2, piv1, piv2, y0, z1, z2, z3, f1, f2, f3, scal, tmp, yp, fp, cw, u = ws
+    on, pj, itab, U = projection
     m = y.shape[0]
     n_seg = seg_t.shape[0] - 1
     # Newton's stopping tolerance (Hairer's default)
@@ -430,12 +484,26 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
             st[H_OLD] = h
             if bad:
                 return 1
+            if on:  # onto the invariants; the dense output moved by (1 + s) Δ: continuous
+                for i in range(m):
+                    yp[i] = y[i]
+                input_row(tab, held_values, held, seg, x, u)
+                input_integral(tab, itab, seg, x, U)
+                model_project(d, w, pj, u, U, x, y)
+                for i in range(m):
+                    delta = y[i] - yp[i]
+                    cont[i, 0] = y[i]
+                    cont[i, 1] += delta
             k = int(st[NEXT_OUT])
             while k < t_out.shape[0] and t_out[k] <= x + 1e-12 * max(1.0, abs(x)):
                 s = (t_out[k] - x) / h
                 for i in range(m):
                     states[k, i] = cont[i, 0] + s * (cont[i, 1] + (s - C2M1)
                                                       * (cont[i, 2] + (s - C1M1) * cont[i, 3]))
+                if on:
+                    input_row(tab, held_values, held, seg, t_out[k], u)
+                    input_integral(tab, itab, seg, t_out[k], U)
+                    model_project(d, w, pj, u, U, t_out[k], states[k])
                 k += 1
             st[NEXT_OUT] = k
             if st[REJECT] != 0.0:
@@ -463,10 +531,3 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
             # Newton converged: the Jacobian is good enough for the smaller step (RADAU5
             # takes a fresh one here; ours costs a rate evaluation per state component).
     return 0
-
-
-@njit(cache=True)
-def rates_at(d, w, u, states, out):
-    """out[i] = f at states[i] with input row u[i] (the accelerations at the outputs)."""
-    for i in range(states.shape[0]):
-        model_rates(d, w, u[i], states[i], out[i])

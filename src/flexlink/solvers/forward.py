@@ -20,6 +20,8 @@ import numpy as np
 from ..dynamics import forward_kernel
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, voltage_columns
+from ..dynamics.forward_outputs import ForwardOutputs, forward_outputs
+from ..dynamics.momentum_projection import Projection, projection, start_values
 from ..errors import SimulationError, UnstableLoop
 from .gauss_sampled import SampledLoop
 from .ode import Stalled, integrate_ivp
@@ -33,11 +35,15 @@ MAX_STEP_OUTPUTS = 10  # longest solve_ivp step, in output intervals (simulation
 
 def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
                       method: str = DEFAULT_METHOD, on_progress: Progress | None = None,
-                      compiled: bool = True, loop: SampledLoop | None = None) -> Solution:
+                      compiled: bool = True, loop: SampledLoop | None = None,
+                      with_outputs: bool = False
+                      ) -> Solution | tuple[Solution, ForwardOutputs]:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
     initial state; the servo integrals as ``extra``. ``method``: FAST_METHOD (the compiled
     Radau IIA integrator) or a solve_ivp method, whose right-hand side is the compiled
-    kernel or (``compiled=False``) the numpy ForwardSystem.
+    kernel or (``compiled=False``) the numpy ForwardSystem. ``with_outputs``: also the
+    frames, joint torques and momentum at t_out (`forward_outputs`), as (Solution,
+    ForwardOutputs).
 
     solve_ivp's step is limited to MAX_STEP_OUTPUTS output intervals: while nothing moves
     the error estimate is zero and the step would otherwise grow past the start of an
@@ -50,7 +56,9 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
                          f"= {method!r} cannot hold sampled voltages; use \"lawson\"")
     max_step = MAX_STEP_OUTPUTS * float(np.min(np.diff(t_out))) if t_out.size > 1 else np.inf
     if method == FAST_METHOD:
-        return _integrate_compiled(system, t_out, rtol, atol, np.inf, on_progress, loop)
+        solution, outputs = _integrate_compiled(system, t_out, rtol, atol, np.inf, on_progress,
+                                                loop)
+        return (solution, outputs) if with_outputs else solution
     nu, n = len(system.free), system.n
     if compiled:
         from ..dynamics._forward_numba import rates as kernel
@@ -78,14 +86,21 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
         raise SimulationError(_stall_message(system, exc.t, "the time step collapsed")) from None
     p_free, pd_free, z, zd, integral = split_state(system, y)
     pdd_free, zdd, _ = system.accelerations(t_out, p_free, pd_free, z, zd, integral)
-    return Solution(t_out, np.hstack([p_free, z]), np.hstack([pd_free, zd]),
-                    np.hstack([pdd_free, zdd]), method, {"rhs_evaluations": evaluations},
-                    extra=integral, accuracy=Accuracy(rtol, None, SCIPY))
+    solution = Solution(t_out, np.hstack([p_free, z]), np.hstack([pd_free, zd]),
+                        np.hstack([pdd_free, zdd]), method, {"rhs_evaluations": evaluations},
+                        extra=integral, accuracy=Accuracy(rtol, None, SCIPY))
+    if not with_outputs:
+        return solution
+    data = forward_kernel.pack(system)
+    from ..dynamics._forward_numba import workspace
+
+    return solution, forward_outputs(system, data, workspace(data, len(system.servos)),
+                                     inputs(system, t_out), y)
 
 
 def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
                         max_step: float, on_progress: Progress | None,
-                        loop: SampledLoop | None) -> Solution:
+                        loop: SampledLoop | None) -> tuple[Solution, ForwardOutputs]:
     """integrate_forward with the compiled Radau IIA integrator."""
     from ..dynamics._forward_numba import workspace
 
@@ -100,12 +115,15 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
     groups = np.concatenate([np.arange(2 * nu), 2 * nu + links,
                              2 * nu + len(system.modal) + links,
                              2 * nu + 2 * len(system.modal) + np.arange(ns)])
+    known = projection(system, data, float(t_out[0]), voltage_columns(system).stop)
+    if known.active.size:
+        start_values(known, data, work, inputs(system, t_out[:1])[0], y0, float(t_out[-1]))
     try:
         states, stats = integrate_radau(
             data, work, y0, t_out, lambda t: inputs(system, t), breakpoints(system), rtol,
             atol, groups, max_step, on_progress=on_progress, loop=loop,
             held=voltage_columns(system) if loop is not None else slice(0, 0),
-            z=slice(2 * nu, 2 * nu + n))
+            z=slice(2 * nu, 2 * nu + n), projection=known)
     except RadauStop as exc:
         why = ("the state grew without bound" if exc.why == "blow-up"
                else "the time step collapsed")
@@ -113,27 +131,29 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
             raise UnstableLoop(exc.t, why) from None
         raise SimulationError(_stall_message(system, exc.t, why)) from None
     return forward_solution(data, work, system, t_out, states, stats, loop,
-                            Accuracy(rtol, None, LOCAL_CONTROL))
+                            Accuracy(rtol, None, LOCAL_CONTROL), known)
 
 
 def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
                      states: np.ndarray, stats: dict, loop: SampledLoop | None = None,
-                     accuracy: Accuracy | None = None) -> Solution:
-    """The Solution from the states at t_out; accelerations with the inputs there (with a
-    ``loop``: its held voltages); ``accuracy``: what the integrator was asked for."""
-    from ._radau_numba import rates_at
-
+                     accuracy: Accuracy | None = None, scratch: Projection | None = None
+                     ) -> tuple[Solution, ForwardOutputs]:
+    """The Solution from the states at t_out, and the outputs there (accelerations, frames,
+    joint torques, momentum: one compiled pass) with the inputs there (with a ``loop``: its
+    held voltages); ``accuracy``: what the integrator was asked for; ``scratch``: the run's
+    projection record (its scratch arrays), if there is one."""
     nu, n = len(system.free), system.n
-    rates = np.empty_like(states)
     u = inputs(system, t_out)
     if loop is not None:
         u[:, voltage_columns(system)] = loop.held_voltages(t_out)
-    rates_at(data, work, u, states, rates)
+    outputs = forward_outputs(system, data, work, u, states, scratch)
+    rates = outputs.rates
     p, pd = states[:, :nu], states[:, nu:2 * nu]
     z, zd = states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n]
     return Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
                     np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
-                    FAST_METHOD, stats, extra=states[:, 2 * nu + 2 * n:], accuracy=accuracy)
+                    FAST_METHOD, stats, extra=states[:, 2 * nu + 2 * n:],
+                    accuracy=accuracy), outputs
 
 
 def split_state(system: ForwardSystem, y: np.ndarray) -> tuple[np.ndarray, ...]:

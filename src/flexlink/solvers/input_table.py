@@ -80,3 +80,18 @@ def tabulate(evaluate: Callable[[np.ndarray], np.ndarray], nodes: np.ndarray
     a, b, coef, seg = a[order], b[order], np.ascontiguousarray(coef[order]), seg[order]
     first = np.searchsorted(seg, np.arange(width.size + 1)).astype(np.int64)
     return a, b, coef, first
+
+
+def integrals(table: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The inputs' integrals from the table's start, ∫ u dt (s · unit of each column), as a
+    table over the same pieces: coefficients (pieces, DEGREE + 2, columns) of each piece's
+    antiderivative in its own variable x ∈ [−1, 1], zero at x = −1 and scaled by the half
+    width, and the integral up to each piece's start (pieces, columns). Read by
+    `_radau_numba.input_integral`; exact for the tabulated polynomials."""
+    a, b, coef, _first = table
+    anti = np.polynomial.chebyshev.chebint(coef, lbnd=-1.0, axis=1)
+    anti *= (0.5 * (b - a))[:, None, None]
+    whole = anti.sum(axis=1)  # T_k(1) = 1: each piece's integral over itself
+    offset = np.concatenate([np.zeros((1, coef.shape[2])), np.cumsum(whole, axis=0)[:-1]])
+    return np.ascontiguousarray(anti), np.ascontiguousarray(offset)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .gauss_sampled import SampledLoop
-from .input_table import tabulate
+from .input_table import integrals, tabulate
 from .solution import Progress
 
 CHUNKS = 20  # calls of the compiled loop without controllers: progress between them
@@ -54,13 +54,16 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     rtol: float, atol: float, groups: np.ndarray, hmax: float = np.inf,
                     mass: np.ndarray | None = None, on_progress: Progress | None = None,
                     loop: SampledLoop | None = None, held: slice = slice(0, 0),
-                    z: slice = slice(0, 0)) -> tuple[np.ndarray, dict[str, int]]:
+                    z: slice = slice(0, 0), projection: object | None = None
+                    ) -> tuple[np.ndarray, dict[str, int]]:
     """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
 
     inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
     smooth; groups (len(y0),) the group index of each component (its error is relative to
-    the group's peak); mass: M (None: the identity); hmax: the longest step (s). Raises
-    RadauStop."""
+    the group's peak); mass: M (None: the identity); hmax: the longest step (s);
+    projection: the model's record of known invariants (`_radau_numba.model_project`; its
+    ``active`` components empty: none), onto which every accepted step and output state is
+    put. Raises RadauStop."""
     from ._radau_numba import (
         F0_OK,
         FACCON,
@@ -83,6 +86,10 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     nodes = nodes[np.concatenate([[True], np.diff(nodes) > scale])]
     nodes[-1] = t1
     tab = tabulate(inputs, nodes)
+    on = projection is not None and projection.active.size > 0  # type: ignore[attr-defined]
+    itab = integrals(tab) if on else (np.zeros((1, 1, 1)), np.zeros((1, 1)))
+    project = (on, () if projection is None else projection, itab,
+               np.empty(tab[2].shape[2]))
     m = y0.size
     groups = np.ascontiguousarray(groups, dtype=np.int64)
     peak = np.zeros(int(groups.max(initial=0)) + 1)
@@ -117,7 +124,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         status = radau_advance(d, w, M, identity, tab, nodes, held_values, held_columns,
                                float(stop) - (0.0 if stop == t1 else 0.5 * scale), hmax,
                                rtol_local, atol_local, groups, peak, t_out, states, y, st, ws,
-                               cont)
+                               cont, project)
         if status != 0:
             raise RadauStop(float(st[X]), "blow-up" if status == 1 else "stalled")
         if on_progress is not None:

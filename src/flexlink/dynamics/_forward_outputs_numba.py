@@ -1,0 +1,83 @@
+"""Compiled (numba) pass over a forward run's output states (`forward_outputs.py`): per
+state one evaluation of the rates, the frames at the solved accelerations (with a
+prescribed joint: one more residual there, for its joint row), and the momentum."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from ._forward_numba import FIXED, FREE, PRESCRIBED, frames, rates, residual
+from ._momentum_numba import momentum
+
+
+@njit(cache=True)
+def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd, torques,
+            momenta, pj):
+    """Fill, per output i: dy[i] = the rates at states[i] (input row u[i]); the frames at
+    the solved rigid state (angles, rates, accelerations (nt, N), origins (global) and their
+    accelerations (frame axes) (nt, N, 2), maps (nt, N, 3, n_x)); torques[i, k] = joint k's
+    row of M ẍ + C ẋ + K x − f with x = [0; z] (ForwardSystem.joint_torques: for a driven
+    joint, the applied torque its row was solved for); momenta[i] =
+    L_x, L_y, H about the origin (when momenta has rows). pj: a momentum-projection record
+    (its scratch arrays)."""
+    N = d.length.shape[0]
+    nb, nr, nx = d.n_base, d.n_rigid, d.n_x
+    free = d.free
+    nu = free.shape[0]
+    n = nx - nr
+    out = pj.c0
+    prescribed = False
+    for k in range(N):
+        if d.joint_kind[k] == PRESCRIBED:
+            prescribed = True
+    for i in range(states.shape[0]):
+        y = states[i]
+        rates(d, w_, u[i], y, dy[i])
+        # rates left p, ṗ, x, ẋ and M at this state in the workspace, p̈_free = 0
+        for j in range(nu):
+            w_.pdd[free[j]] = dy[i, nu + j]
+        if prescribed:  # their rows are not solved for: the residual at the solved p̈
+            residual(d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.rj, w_.M, False)
+        else:  # every joint row is an equation solved for: it equals the applied torque Q
+            frames(d, w_.p, w_.pd, w_.pdd, w_.theta, w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td,
+                   w_.Tdd)
+        for k in range(N):
+            row = nb + k
+            if d.joint_kind[k] != PRESCRIBED:
+                torques[i, k] = w_.Q[row]
+                continue
+            acc = w_.rj[row]
+            for c in range(n):
+                acc += w_.M[row, nr + c] * dy[i, 2 * nu + n + c]
+            torques[i, k] = acc
+        th_b = 0.0
+        bx = by = 0.0
+        if d.base_kind != FIXED:
+            th_b = w_.p[nb - 1]
+        if d.base_kind == FREE:
+            bx, by = w_.p[0], w_.p[1]
+        for k in range(N):
+            theta[i, k] = w_.theta[k]
+            omega[i, k] = w_.omega[k]
+            alpha[i, k] = w_.alpha[k]
+            oacc[i, k, 0] = w_.oacc[k, 0]
+            oacc[i, k, 1] = w_.oacc[k, 1]
+            if d.attached[k]:
+                ct, st = np.cos(th_b), np.sin(th_b)
+                px, py = d.point[k, 0], d.point[k, 1]
+                origin[i, k, 0] = bx + ct * px - st * py
+                origin[i, k, 1] = by + st * px + ct * py
+            else:
+                L = d.length[k - 1]
+                origin[i, k, 0] = origin[i, k - 1, 0] + L * np.cos(w_.theta[k - 1])
+                origin[i, k, 1] = origin[i, k - 1, 1] + L * np.sin(w_.theta[k - 1])
+            for a in range(3):
+                for c in range(nx):
+                    T[i, k, a, c] = w_.T[k, a, c]
+                    Td[i, k, a, c] = w_.Td[k, a, c]
+                    Tdd[i, k, a, c] = w_.Tdd[k, a, c]
+        if momenta.shape[0] > 0:
+            momentum(d, w_, w_.p, w_.pd, w_.x, w_.xd, pj, out)
+            momenta[i, 0], momenta[i, 1], momenta[i, 2] = out[0], out[1], out[2]
