@@ -64,6 +64,15 @@ class LinkArc:
     ddphi: np.ndarray  # (p, n_k) Φ″ at the nodes, 1/m²
 
 
+def refuse_bodies(chain: Chain) -> None:
+    """The nonlinear model takes a link's tip mass and tip inertia, not its ``bodies``."""
+    for link in chain.links:
+        if link.bodies:
+            raise ValueError(f"link {link.name!r}: the nonlinear model does not take rigid "
+                             "bodies (Link.bodies); give the tip body as tip_mass and "
+                             "tip_inertia, or use the first-order model")
+
+
 class NonlinearSystem:
     """The assembled nonlinear model: constant matrices, evaluated on batches of states."""
 
@@ -76,6 +85,7 @@ class NonlinearSystem:
         links at t = 0 undeformed ("rest") or in static equilibrium (`initial_coordinates`)."""
         # The basis (mode shapes, K, modal damping) is the first-order model's.
         self.chain = chain
+        refuse_bodies(chain)
         self.gravity = np.array([float(gravity[0]), float(gravity[1])])
         self.initial = initial
         self.modal = chain_modal_data(chain)

@@ -40,6 +40,7 @@ from ..model import Base, Chain, PiezoActuator, is_driven
 from ..model.settings import InitialName
 from .arc import ArcQuadrature, arc_quadrature
 from .forward import ForwardSystem
+from .nonlinear import refuse_bodies
 
 StageInputs = namedtuple("StageInputs", ["angle", "rate", "acceleration", "rot_acceleration",
                                          "u"])
@@ -71,6 +72,7 @@ class NonlinearForwardSystem:
         (`initial_state`)."""
         base = Base() if base is None else base
         self.chain, self.base = chain, base
+        refuse_bodies(chain)
         self.gravity = np.array([float(gravity[0]), float(gravity[1])])
         self.initial = initial
         # Rigid bookkeeping, initial state and applied loads (piezo actuators included: their
