@@ -121,12 +121,6 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     links = [_link(t, path, p) for path, t in p.table_array(raw, "links", required=True)]
     link_names = [lk.get("name") for lk in links]
     p.check_names(link_names, "links")
-    if simulation.get("model") == "nonlinear":
-        for i, link in enumerate(links):
-            if link.get("bodies"):
-                p.add(f"links[{i}].bodies: the nonlinear model does not take [[links.bodies]]; "
-                      "give the tip body as tip_mass and tip_inertia, or set "
-                      "simulation.model = \"first_order\"")
     joint_tables = p.table_array(raw, "joints", required=True)
     if links and joint_tables and len(joint_tables) != len(links):
         p.add(f"joints: expected one [[joints]] table per link ({len(links)}), "
