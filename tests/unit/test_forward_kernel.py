@@ -12,6 +12,7 @@ from flexlink.model import (
     BangBang,
     Base,
     BaseLoad,
+    Body,
     Chain,
     Link,
     PiezoActuator,
@@ -76,7 +77,21 @@ def _in_gravity(system: ForwardSystem) -> ForwardSystem:
                          system.actuators, gravity=(2.5, -9.81))
 
 
-SYSTEMS = {"free": _free_two_appendages, "pinned": _pinned_hub, "servos": _paper_servos,
+def _bodies(stiffening: bool) -> ForwardSystem:
+    """A torque-driven link and a servo-driven one carrying rigid bodies (an offset tip body,
+    bodies inside the span) on a pinned base, in gravity."""
+    links = (Link("a", 1.2, 0.8, 30.0, modes=3, mode_shapes="tip_loaded",
+                  bodies=(Body(1.2, 0.3, (0.1, 0.0), 0.01), Body(0.5, 0.2, (-0.05, 0.0), 0.003))),
+             Link("b", 0.9, 0.5, 12.0, tip_mass=0.05, modes=2,
+                  bodies=(Body(0.4, 0.1, (0.2, 0.0), 0.0), Body(0.9, 0.0, (0.0, 0.0), 0.002))))
+    base = Base("pinned", inertia=0.8, attachments=((0, (0.2, 0.0)),), rate=0.4)
+    servo = PositionServo(Cycloidal(1.5, 3.0, 0.1, 1.0), bandwidth=30.0, rate_limit=0.5,
+                          loop_gain=0.5, torque_limit=0.4, motor_inertia=0.001)
+    chain = Chain(links, (TorqueDrive(Table((0.0, 1.0, 2.0), (0.5, -0.2, 0.3))), servo))
+    return ForwardSystem(chain, base, stiffening, gravity=(1.5, -9.81))
+
+
+SYSTEMS = {"free": _free_two_appendages, "bodies_gravity": _bodies, "pinned": _pinned_hub, "servos": _paper_servos,
            "free_actuators": lambda s: _free_two_appendages(s, True),
            "servos_actuators": lambda s: _paper_servos(s, True),
            "free_gravity": lambda s: _in_gravity(_free_two_appendages(s)),

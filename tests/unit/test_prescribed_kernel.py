@@ -17,7 +17,7 @@ from flexlink.dynamics.prescribed_kernel import (
 )
 from flexlink.dynamics.prescribed_kernel import joint_torques as compiled_torques
 from flexlink.dynamics.torques import joint_torques
-from flexlink.model import Chain, Link
+from flexlink.model import Body, Chain, Link
 from flexlink.solvers.magnus import state_rows as numpy_state_rows
 from tests.helpers import CubicMotion, paper_links
 
@@ -45,7 +45,17 @@ def _in_gravity(system: FirstOrderSystem) -> FirstOrderSystem:
     return FirstOrderSystem(system.chain, system.geometric_stiffening, gravity=(2.5, -9.81))
 
 
-SYSTEMS = {"three links": _three_links, "paper": _paper,
+def _bodies(stiffening: bool) -> FirstOrderSystem:
+    """Two links carrying rigid bodies: an offset tip body, bodies inside the span."""
+    links = (Link("a", 1.2, 0.8, 30.0, modes=3, mode_shapes="tip_loaded",
+                  bodies=(Body(1.2, 0.3, (0.1, 0.0), 0.01), Body(0.5, 0.2, (-0.05, 0.0), 0.003))),
+             Link("b", 0.9, 0.5, 12.0, tip_mass=0.05, modes=2,
+                  bodies=(Body(0.4, 0.1, (0.2, 0.0), 0.0), Body(0.9, 0.0, (0.0, 0.0), 0.002))))
+    motions = (CubicMotion(0.3, 0.7, -0.4, 0.2), CubicMotion(1.2, -0.5, 0.8, -0.3))
+    return FirstOrderSystem(Chain(links, motions), stiffening, gravity=(1.5, -9.81))
+
+
+SYSTEMS = {"three links": _three_links, "paper": _paper, "bodies, gravity": _bodies,
            "outboard loaded": lambda s: _three_links(s, "outboard_loaded"),
            "three links, gravity": lambda s: _in_gravity(_three_links(s)),
            "paper, gravity": lambda s: _in_gravity(_paper(s))}

@@ -75,6 +75,9 @@ def _loaded(segment: dict[str, Any]) -> dict[str, Any]:
 CASES = [
     ("simulation", base_scenario(), ("simulation",), s.SIMULATION.keys),
     ("links", base_scenario(), ("links", 0), s.LINKS.keys),
+    ("links.bodies", base_scenario(links=[{"name": "a", "length": 1.0, "mass_per_length": 0.5,
+                                           "EI": 3.0, "bodies": [{"mass": 0.1}]}]),
+     ("links", 0, "bodies", 0), s.BODIES.keys),
     # base_point is taken out before the rest of a prescribed joint is checked
     ("joints", base_scenario(), JOINT, ("motion",)),
     *[(name, base_scenario(joints=[{"motion": [

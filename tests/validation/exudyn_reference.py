@@ -14,7 +14,9 @@ measures, no small-deflection assumption anywhere). The joint angles are prescri
   (negligible, ~1e-7) shear angle, so link k is clamped to link k−1's deformed tip turned by β_k,
   exactly the flexlink convention.
 
-Tip point masses and rotary inertias are ``ObjectRigidBody2D`` objects sharing the tip node.
+Tip point masses and rotary inertias, and every body of ``Link.bodies`` without offset, are
+``ObjectRigidBody2D`` objects sharing their section's node; a body with an offset centre is an
+``ObjectRigidBody2D`` on a node of its own, held rigidly to the section (`_add_body`).
 There is no gravity and no damping (flexlink must be run with damping_ratio = 0).
 
 How the signals are extracted (all from nodal coordinates and accelerations, ``SensorNode``):
@@ -101,6 +103,43 @@ class _Memo:
         return v
 
 
+def _add_body(mbs: Any, body: Any, node: int, point: np.ndarray, theta: float,
+              velocity: np.ndarray, omega: float) -> None:
+    """A rigid body (flexlink.model.Body) on the section node ``node`` at reference ``point``
+    (m), angle ``theta`` (rad), moving rigidly with ``velocity`` (m/s) and ``omega`` (rad/s) at
+    t = 0. Without offset an ``ObjectRigidBody2D`` sharing the node; with one, its own node at
+    the centre, held by a ``RevoluteJoint2D`` at the section point and an angle constraint
+    ψ_body = ψ_section (a rigid connection, exact for any rotation)."""
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        MarkerBodyPosition,
+        MarkerNodeCoordinate,
+        MarkerNodePosition,
+        NodeRigidBody2D,
+        ObjectRigidBody2D,
+        RevoluteJoint2D,
+    )
+
+    c = np.asarray(body.offset, dtype=float)
+    if not c.any():
+        mbs.AddObject(ObjectRigidBody2D(nodeNumber=node, mass=body.mass, inertia=body.inertia))
+        return
+    turn = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+    arm = turn @ c
+    centre = point + arm
+    v = velocity + omega * np.array([-arm[1], arm[0]])
+    own = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[centre[0], centre[1], theta],
+                                      initialVelocities=[v[0], v[1], omega]))
+    rigid = mbs.AddObject(ObjectRigidBody2D(nodeNumber=own, mass=body.mass,
+                                            inertia=body.inertia))
+    mbs.AddObject(RevoluteJoint2D(markerNumbers=[
+        mbs.AddMarker(MarkerBodyPosition(bodyNumber=rigid, localPosition=[-c[0], -c[1], 0.0])),
+        mbs.AddMarker(MarkerNodePosition(nodeNumber=node))]))
+    mbs.AddObject(CoordinateConstraint(markerNumbers=[
+        mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=2)),
+        mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=own, coordinate=2))]))
+
+
 def simulate_chain_exudyn(
     links: Sequence[Link],
     joints: Sequence[JointMotion],
@@ -138,7 +177,6 @@ def simulate_chain_exudyn(
         NodePointGround,
         NodeRigidBody2D,
         ObjectBeamGeometricallyExact2D,
-        ObjectRigidBody2D,
         SensorNode,
     )
 
@@ -180,7 +218,8 @@ def simulate_chain_exudyn(
         theta += beta0[k]
         omega += rate0[k]
         e = np.array([math.cos(theta), math.sin(theta)])
-        x = _mesh(link.length, elements_per_link[k], list(slope_positions.get(k, ())))
+        x = _mesh(link.length, elements_per_link[k], list(slope_positions.get(k, ()))
+                  + [b.at for b in link.all_bodies()])
         nodes = []
         for xi in x:
             p = root + xi * e
@@ -193,9 +232,9 @@ def simulate_chain_exudyn(
                 nodeNumbers=[a, b], length=float(la), massPerLength=link.mass_per_length,
                 crossSectionInertia=sec.rhoI, bendingStiffness=link.EI, axialStiffness=sec.EA,
                 shearStiffness=sec.GA))
-        if link.tip_mass > 0.0 or link.tip_inertia > 0.0:
-            mbs.AddObject(ObjectRigidBody2D(nodeNumber=nodes[-1], mass=link.tip_mass,
-                                            inertia=link.tip_inertia))
+        for body in link.all_bodies():
+            _add_body(mbs, body, nodes[int(np.argmin(np.abs(x - body.at)))], root + body.at * e,
+                      theta, v_root + omega * body.at * np.array([-e[1], e[0]]), omega)
         # joint k: position and angle constraints on the root node
         uf = _Memo(joints[k], 0, beta0[k])
         uf_t = _Memo(joints[k], 1, 0.0)

@@ -206,7 +206,7 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
         v[1] = mass * ay + wd * s1k
         v[2] = s1k * ay + J * wd + Jt * wd
         for i in range(nk):
-            v[3 + i] = ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i] + Jt * wd * d.tip_slope[k, i]
+            v[3 + i] = ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i] + wd * d.rot_slope[k, i]
         for a in range(mk):
             acc = 0.0
             for b in range(mk):

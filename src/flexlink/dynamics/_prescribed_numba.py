@@ -91,7 +91,7 @@ def solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _link_matrices(o, nk, mass, s1, J, Jt, length, stiffening, Mtot, M0, G0, phi_bar,
-                   phi_tilde, tip_value, tip_slope, stiffness, damping, fore_mass, fore_moment,
+                   phi_tilde, tip_value, rot_slope, stiffness, damping, fore_mass, fore_moment,
                    fore_tip, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd, X, Y, Z,
                    M, C, K, f):
     """Add link k's terms to M, C, K, f (n × n, n) of the elastic coordinates, as
@@ -160,7 +160,7 @@ def _link_matrices(o, nk, mass, s1, J, Jt, length, stiffening, Mtot, M0, G0, phi
         f[c] -= Th[0, c] * l0 + Th[1, c] * l1 + Th[2, c] * l2
     for i in range(nk):
         f[o + i] -= (ay * phi_bar[i] + wd * phi_tilde[i]
-                     + Jt * wd * tip_slope[i])
+                     + wd * rot_slope[i])
     # Second-order stiffness (first_order.second_order_stiffness): K −= S₂.
     scal = ax * s1 - w2 * J + N_out * length
     for c1 in range(nc):
@@ -214,7 +214,7 @@ def state_rows(d, angle, rate, acc, out):
         for k in range(N):
             _link_matrices(d.offset[k] - nr, d.n_modes[k], d.mass[k], d.s1[k], d.J[k],
                            d.Jt[k], d.length[k], d.stiffening, d.Mtot[k], d.M0[k], d.G0[k],
-                           d.phi_bar[k], d.phi_tilde[k], d.tip_value[k], d.tip_slope[k],
+                           d.phi_bar[k], d.phi_tilde[k], d.tip_value[k], d.rot_slope[k],
                            d.stiffness[k], d.damping[k], d.fore_mass[k], d.fore_moment[k],
                            d.fore_tip[k], k, nr, n, om[k], al[k], oa[k, 0], oa[k, 1],
                            outboard[k, 0], T, Td, Tdd, Th, Thd, Thdd, X, Y, Z, M, C, K, f)
@@ -337,7 +337,7 @@ def joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, 
             Hy = s1 * r1 + J * r2
             Hy_dd = s1 * xi_dd[i, j, 1] + J * xi_dd[i, j, 2]
             qb = qt = 0.0
-            tilt = xi_dd[i, j, 2]
+            tilt = Jt * xi_dd[i, j, 2]  # Σ J_b ϑ̈_b
             for q in range(nj):
                 qb += z[i, o + q] * d.phi_bar[j, q]
                 qt += z[i, o + q] * d.phi_tilde[j, q]
@@ -346,14 +346,14 @@ def joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, 
                 Gy_dd += d.phi_bar[j, q] * zdd[i, o + q]
                 Hy += d.phi_tilde[j, q] * z[i, o + q]
                 Hy_dd += d.phi_tilde[j, q] * zdd[i, o + q]
-                tilt += d.tip_slope[j, q] * zdd[i, o + q]
+                tilt += d.rot_slope[j, q] * zdd[i, o + q]
             rx_d, rx_dd = xi_d[i, j, 0], xi_dd[i, j, 0]
             a1x = m * rx_dd - 2 * w * Gy_d - wd * Gy - w2 * m * r0  # ∫ a¹ dm
             a1y = Gy_dd + 2 * w * m * rx_d + wd * m * r0 - w2 * Gy
             x_a1y = Hy_dd + 2 * w * s1 * rx_d + wd * s1 * r0 - w2 * Hy  # ∫ x a¹_y dm
             g_cross_a0 = (r0 * (m * ay + s1 * wd) - r1 * Fx - r2 * (s1 * ax - w2 * J)
                           - qb * ax + w2 * qt)
-            own = s1 * ay + (J + Jt) * wd + g_cross_a0 + x_a1y + Jt * tilt
+            own = s1 * ay + (J + Jt) * wd + g_cross_a0 + x_a1y + tilt
             for k in range(j + 1):
                 # d = A(θ_j)ᵀ (origin_j − origin_k); p1 = A(θ_k − θ_j) ρ_k (frame-j axes).
                 dx, dy = dx_[j, k], dy_[j, k]

@@ -46,7 +46,7 @@ class LinkBody:
     data: ModalData
     offset: int  # index of q_k[0] in z
     M0: np.ndarray  # translational mass matrix (paper eq. 14a), (3+n, 3+n)
-    M_rot: np.ndarray  # tip rotary inertia J_t c cᵀ, c = [0, 0, 1, Φ'(L)]
+    M_rot: np.ndarray  # the bodies' rotary inertias Σ J_b c_b c_bᵀ, c_b = [0, 0, 1, Φ'(x_b)]
     G0: np.ndarray  # ∫ P̂ᵀ S P̂ dm, skew, (3+n, 3+n)
 
     @property
@@ -62,18 +62,20 @@ def link_body(data: ModalData, offset: int) -> LinkBody:
     M0[1, 3:] = M0[3:, 1] = data.phi_bar
     M0[2, 3:] = M0[3:, 2] = data.phi_tilde
     M0[3:, 3:] = data.mass_matrix
-    c = np.zeros(3 + n)
-    c[2] = 1.0
-    c[3:] = data.tip_slope
+    # Σ J_b c_b c_bᵀ of the bodies' rotary inertias, c_b = [0, 0, 1, Φ'(x_b)]
+    M_rot = np.zeros((3 + n, 3 + n))
+    M_rot[2, 2] = data.rotary_inertia
+    M_rot[2, 3:] = M_rot[3:, 2] = data.rotary_slope
+    M_rot[3:, 3:] = data.rotary_matrix
     # ∫ p_y dm with p_y = [0, 1, x, Φ(x)]: the only non-zero column of N in G0 = N − Nᵀ.
     py = np.concatenate([[0.0, m, s1], data.phi_bar])
     N = np.zeros((3 + n, 3 + n))
     N[:, 0] = py
-    return LinkBody(data, offset, M0, data.tip_inertia * np.outer(c, c), N - N.T)
+    return LinkBody(data, offset, M0, M_rot, N - N.T)
 
 
 def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float, float]:
-    """(mass kg, rotary inertia kg·m² about link k's tip) of link k's tip body plus the links
+    """(mass kg, rotary inertia kg·m² about link k's tip) of link k's tip bodies plus the links
     its tip carries, rigid and straight in their t = 0 joint angles (a joint with a drive:
     its initial angle). The carried links are those after k up to the next that starts a
     branch on the base. A torque-driven joint turns freely: the links beyond it add their
@@ -81,7 +83,7 @@ def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float
     of mass is not part of the body: this only chooses a basis, the dynamics keep every
     coupling."""
     link = chain.links[k]
-    mass, inertia = link.tip_mass, link.tip_inertia
+    mass, inertia, _ = link.tip_body()
     position, angle, turning = np.zeros(2), 0.0, True
     for j in range(k + 1, len(chain.links)):
         if base is not None and base.attachment(j) is not None:
@@ -93,13 +95,14 @@ def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float
             turning = turning and not isinstance(joint, TorqueDrive)
         axis = np.array([np.cos(angle), np.sin(angle)])
         m, L = outer.mass_per_length * outer.length, outer.length
-        mass += m + outer.tip_mass
+        mass += m + sum(b.mass for b in outer.all_bodies())
         if turning:
             d = float(position @ axis)  # rigid link from `position` along `axis`, ∫|r|² dm:
-            inertia += m * (position @ position + d * L + L**2 / 3) + outer.tip_inertia
+            inertia += m * (position @ position + d * L + L**2 / 3)
+            for b in outer.all_bodies():  # centres taken on the axis: a basis, not dynamics
+                centre = position + (b.at + b.offset[0]) * axis
+                inertia += b.mass * float(centre @ centre) + b.inertia
         position = position + L * axis
-        if turning:
-            inertia += outer.tip_mass * float(position @ position)
     return mass, inertia
 
 
@@ -117,7 +120,7 @@ def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShapes:
     of an infinite hub inertia: its tip- or outboard-loaded modes."""
     link, hub = chain.links[k], free_hub(chain, k, base)
     mass, inertia = (outboard_body(chain, k, base) if carries_links(chain, k, base)
-                     else (link.tip_mass, link.tip_inertia))
+                     else link.tip_body()[:2])
     if hub is None:
         return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass,
                                 inertia)
@@ -398,7 +401,7 @@ def add_link_terms(
 
 
 def rigid_load(body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
-    """∫ P̂ᵀ a0 dm + J_t c ω̇: zero-order inertia load of link k in ξ space, (nt, 3+n)."""
+    """∫ P̂ᵀ a0 dm + Σ J_b c_b ω̇: zero-order inertia load of link k in ξ space, (nt, 3+n)."""
     d = body.data
     ax, ay = fr.origin_accel[:, k, 0], fr.origin_accel[:, k, 1]
     w, wd = fr.omega[:, k], fr.alpha[:, k]
@@ -406,8 +409,8 @@ def rigid_load(body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
     head = np.stack([m * ax - w**2 * s1, m * ay + wd * s1, s1 * ay + J * wd], -1)
     elastic = ay[:, None] * d.phi_bar + wd[:, None] * d.phi_tilde
     load = np.concatenate([head, elastic], -1)
-    load[:, 2] += d.tip_inertia * wd
-    load[:, 3:] += d.tip_inertia * wd[:, None] * d.tip_slope
+    load[:, 2] += d.rotary_inertia * wd
+    load[:, 3:] += wd[:, None] * d.rotary_slope
     return load
 
 

@@ -443,7 +443,6 @@ def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray
         xi_d = np.einsum("tai,ti->ta", Th, xd) + np.einsum("tai,ti->ta", Th_d, x)
         ny = np.concatenate([[0.0, d.mass, d.first_moment], d.phi_bar])
         hy = np.concatenate([[0.0, d.first_moment, d.second_moment], d.phi_tilde])
-        c_tip = np.concatenate([[0.0, 0.0, 1.0], d.tip_slope])
         w = fr.omega[:, k]
         int_g = np.stack([d.mass * xi[:, 0], xi @ ny], -1)
         int_gd = np.stack([d.mass * xi_d[:, 0], xi_d @ ny], -1)
@@ -455,7 +454,7 @@ def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray
         lin += d.mass * velocity[:, k] + np.einsum("tij,tj->ti", e, inner)
         ang += (d.mass * _cross(R, V) + _cross(R, inner) + _cross(int_X + int_g, V)
                 + xi_d @ hy + w * (d.second_moment + 2 * d.first_moment * xi[:, 0])
-                + d.tip_inertia * (w + xi_d @ c_tip))
+                + d.rotary_inertia * (w + xi_d[:, 2]) + xi_d[:, 3:] @ d.rotary_slope)
     return lin, ang
 
 

@@ -29,11 +29,12 @@ ForwardData = namedtuple("ForwardData", [
     "Mtot", "M0", "G0", "phi_bar", "phi_tilde", "tip_value", "tip_slope", "stiffness",
     "damping", "fore_mass", "fore_moment", "fore_tip", "joint_kind", "motor_inertia",
     "servo_index", "P", "I", "D", "saturation", "rate_per_volt", "loop_gain", "torque_limit",
-    "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B", "gravity"])
+    "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B", "gravity", "rot_slope"])
 ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI units, link "
                        "arrays padded to the most modes, offsets into x = [δp; z]; "
                        "actuator_B (n, n_act) the actuators' forces on z per volt; gravity "
-                       "(2,) the uniform field [gx, gy], m/s², global axes.")
+                       "(2,) the uniform field [gx, gy], m/s², global axes; Jt, rot_slope the "
+                       "bodies' rotary inertia Σ J_b (kg·m²) and Σ J_b Φ'(x_b) of each link.")
 
 
 def pack(system: ForwardSystem) -> ForwardData:
@@ -94,7 +95,7 @@ def pack(system: ForwardSystem) -> ForwardData:
         point=np.array([a if a is not None else (0.0, 0.0) for a in system.attach], dtype=float),
         length=np.array([d.length for d in modal]), mass=np.array([d.mass for d in modal]),
         s1=np.array([d.first_moment for d in modal]), J=np.array([d.second_moment for d in modal]),
-        Jt=np.array([d.tip_inertia for d in modal]),
+        Jt=np.array([d.rotary_inertia for d in modal]),
         n_modes=np.array([d.n for d in modal], dtype=np.int64),
         offset=np.array([b.offset for b in bodies], dtype=np.int64),
         Mtot=pad([b.M0 + b.M_rot for b in bodies], (m, m)), M0=pad([b.M0 for b in bodies], (m, m)),
@@ -113,7 +114,8 @@ def pack(system: ForwardSystem) -> ForwardData:
         load_point=np.array([ld.point for ld in loads], dtype=float).reshape(len(loads), 2),
         load_body=np.array([ld.frame == "body" for ld in loads], dtype=bool),
         actuator_B=np.ascontiguousarray(system.actuator_B, dtype=float),
-        gravity=np.array(system.gravity, dtype=float))
+        gravity=np.array(system.gravity, dtype=float),
+        rot_slope=pad([d.rotary_slope for d in modal], (nm,)))
 
 
 def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:

@@ -34,6 +34,7 @@ from .actuators import actuator_matrix, open_loop_voltages
 from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .first_order import chain_modal_data
 from .kinematics import JointHistory, joint_history
+from .nonlinear_bodies import body_nodes, body_rows
 
 
 @dataclass(frozen=True)
@@ -95,7 +96,7 @@ class NonlinearSystem:
             self.arcs.append(LinkArc(quad, slice(start, start + quad.size), coords,
                                      d.shapes.evaluate(quad.x, 1), d.shapes.evaluate(quad.x, 2)))
             start += quad.size
-        self.nodes = start
+        self.nodes = start + body_nodes(chain)  # the beams' nodes, then the bodies'
 
         # Section angles: rows of A (on q) and B (on β) for every node and every link tip.
         self.A = np.zeros((self.nodes, self.n))
@@ -113,20 +114,28 @@ class NonlinearSystem:
             self.tip_B[k, : k + 1] = 1.0
         self.root_A = np.vstack([np.zeros(self.n), self.tip_A[:-1]])  # clamped-frame angles
 
-        # Point masses: beam quadrature masses and tip masses.
-        rows, masses = [], []
-        for k, (arc, link) in enumerate(zip(self.arcs, chain.links)):
+        # Point masses (beam quadrature masses, the bodies' centres) and the bodies' rotary
+        # inertias: from here on tip_A, tip_B, tip_inertia are the rotary rows.
+        rows, masses, rotary = [], [], []
+        node = start
+        for k, (arc, link, d) in enumerate(zip(self.arcs, chain.links, self.modal)):
             rows.append(self.position_rows(k, arc.quad.x))
             masses.append(link.mass_per_length * arc.quad.w)
-            if link.tip_mass > 0.0:
-                rows.append(self.position_rows(k, np.array([link.length])))
-                masses.append(np.array([link.tip_mass]))
+            body = body_rows(link, d, arc.coords, self.root_A[k], self.tip_B[k],
+                             lambda x, k=k: self.position_rows(k, x), node)
+            rows.append(body.W)
+            masses.append(body.mass)
+            self.A[body.nodes], self.B[body.nodes] = body.node_A, body.node_B
+            node += len(body.nodes)
+            rotary.append(body)
+        self.tip_A = np.vstack([b.rot_A for b in rotary])
+        self.tip_B = np.vstack([b.rot_B for b in rotary])
         self.W = np.vstack(rows)
         self.point_mass = np.concatenate(masses)
         self.R = np.sqrt(self.point_mass)[:, None] * self.W
         self.G = self.R.T @ self.R
         self.lift = self.W.T @ self.point_mass  # the mass each node's direction carries, kg
-        self.tip_inertia = np.array([link.tip_inertia for link in chain.links])
+        self.tip_inertia = np.concatenate([b.rot_J for b in rotary])
         self._At = np.ascontiguousarray(self.A.T)
         self._tip_At = np.ascontiguousarray(self.tip_A.T)
 

@@ -40,6 +40,7 @@ from ..model import Base, Chain, PiezoActuator, is_driven
 from ..model.settings import InitialName
 from .arc import ArcQuadrature, arc_quadrature
 from .forward import ForwardSystem
+from .nonlinear_bodies import body_nodes, body_rows
 
 StageInputs = namedtuple("StageInputs", ["angle", "rate", "acceleration", "rot_acceleration",
                                          "u"])
@@ -108,7 +109,8 @@ class NonlinearForwardSystem:
             if c is not None and np.hypot(*c) > 0.0:
                 self.pivot[k] = start
                 start += 1
-        self.nodes = nodes = start
+        bodies = start  # then one node per body offset along its section
+        self.nodes = nodes = start + body_nodes(chain)
         A = np.zeros((nodes, n))
         B = np.zeros((nodes, nr))
         self.offset = np.zeros(nodes)
@@ -140,21 +142,23 @@ class NonlinearForwardSystem:
             self.tip_B[k] = self.root_B[k]
         self.A, self.B = A, B
 
-        # Point masses (beam quadrature, tip masses, a free base's mass) and rotary inertias
-        # (tip inertias, the base's on θ_b, motors' on their joint angle).
+        # Point masses (beam quadrature, the bodies' centres, a free base's mass) and rotary
+        # inertias (the bodies', the base's on θ_b, motors' on their joint angle).
         rows, masses = [], []
         rot_A, rot_B, rot_J, absolute = [], [], [], []
-        for k, (arc, link) in enumerate(zip(self.arcs, chain.links)):
+        for k, (arc, link, d) in enumerate(zip(self.arcs, chain.links, self.modal)):
             rows.append(self.position_rows(k, arc.quad.x))
             masses.append(link.mass_per_length * arc.quad.w)
-            if link.tip_mass > 0.0:
-                rows.append(self.position_rows(k, np.array([link.length])))
-                masses.append(np.array([link.tip_mass]))
-            if link.tip_inertia > 0.0:
-                rot_A.append(self.tip_A[k])
-                rot_B.append(self.tip_B[k])
-                rot_J.append(link.tip_inertia)
-                absolute.append(True)
+            body = body_rows(link, d, arc.coords, self.root_A[k], self.root_B[k],
+                             lambda x, k=k: self.position_rows(k, x), bodies)
+            rows.append(body.W)
+            masses.append(body.mass)
+            A[body.nodes], B[body.nodes] = body.node_A, body.node_B
+            bodies += len(body.nodes)
+            rot_A.extend(body.rot_A)
+            rot_B.extend(body.rot_B)
+            rot_J.extend(body.rot_J)
+            absolute.extend([True] * body.rot_J.size)  # they turn with their section
         if base.kind == "free" and base.mass > 0.0:
             rows.append(np.zeros((1, nodes)))
             masses.append(np.array([base.mass]))

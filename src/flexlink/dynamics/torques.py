@@ -1,10 +1,10 @@
 """Joint torques of a prescribed motion (inverse dynamics of the first-order model).
 
-The motor of joint k carries everything outboard of it (links k…N with their tip bodies); the
+The motor of joint k carries everything outboard of it (links k…N with their bodies); the
 joint force passes through the joint, so its torque is the moment of the outboard inertia
 forces about the (moving) joint point P_k:
 
-    τ_k = Σ_{j≥k} [ ∫_j (r − P_k) × r̈ dm + J_t,j ϑ̈_j ],
+    τ_k = Σ_{j≥k} [ ∫_j (r − P_k) × r̈ dm + Σ_b J_b ϑ̈_b ],
 
 expanded to first order in z like the equations of motion (docs/derivation.md, "Joint torques").
 Every quantity of link j is taken in its zero-order frame; a × b = a_x b_y − a_y b_x.
@@ -50,7 +50,7 @@ def _link_moment(system, fr, j, d, p1, xi, xi_d, xi_dd) -> np.ndarray:
     w, wd = fr.omega[:, j], fr.alpha[:, j]
     ax, ay = fr.origin_accel[:, j, 0], fr.origin_accel[:, j, 1]
     force = np.stack([m * ax - w**2 * s1, m * ay + wd * s1], -1)  # ∫ a⁰ dm
-    moment0 = _cross(d, force) + s1 * ay + (J + data.tip_inertia) * wd
+    moment0 = _cross(d, force) + s1 * ay + (J + data.rotary_inertia) * wd
 
     ny = np.concatenate([[0.0, m, s1], data.phi_bar])  # ∫ g_y dm = ny·ξ
     hy = np.concatenate([[0.0, s1, J], data.phi_tilde])  # ∫ x g_y dm = hy·ξ
@@ -67,7 +67,6 @@ def _link_moment(system, fr, j, d, p1, xi, xi_d, xi_dd) -> np.ndarray:
                   - xi[:, 1] * (m * ax - w**2 * s1)
                   - xi[:, 2] * (s1 * ax - w**2 * J)
                   - xi[:, 3:] @ data.phi_bar * ax + w**2 * (xi[:, 3:] @ data.phi_tilde))
-    c = np.concatenate([[0.0, 0.0, 1.0], data.tip_slope])
     moment1 = (g_cross_a0 - _cross(p1, force) + _cross(d, accel1) + x_accel1_y
-               + data.tip_inertia * (xi_dd @ c))
+               + data.rotary_inertia * xi_dd[:, 2] + xi_dd[:, 3:] @ data.rotary_slope)
     return moment0 + moment1

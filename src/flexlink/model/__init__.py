@@ -7,7 +7,7 @@ which converts them once. Algorithms take a model and never mutate it.
 
 from .actuators import PiezoActuator
 from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad
-from .chain import MODE_SHAPES, Chain, Link, ModeShapes
+from .chain import MODE_SHAPES, Body, Chain, Link, ModeShapes
 from .controllers import (
     CONTROLLER_KINDS,
     Controller,
@@ -53,6 +53,7 @@ __all__ = [
     "Base",
     "BaseKind",
     "BaseLoad",
+    "Body",
     "Chain",
     "Controller",
     "DiscreteLTI",

@@ -55,7 +55,7 @@ def free_hub(chain: Chain, k: int, base: Base | None = None) -> tuple[float, flo
 def chosen_mode_shapes(chain: Chain, base: Base | None = None) -> tuple[str, ...]:
     """Each link's basis: its own ``mode_shapes``, or for "auto" `default_mode_shapes`."""
     return tuple(
-        default_mode_shapes(bool(link.tip_mass or link.tip_inertia),
+        default_mode_shapes(any(link.tip_body()[:2]),
                             carries_links(chain, k, base), free_hub(chain, k, base) is not None)
         if link.mode_shapes == "auto" else link.mode_shapes
         for k, link in enumerate(chain.links))

@@ -10,6 +10,28 @@ from typing import Literal, get_args
 
 from .joints import Joint
 
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body fixed to a link's section at ``at`` (m from the joint, 0 ≤ at ≤ length).
+
+    It turns with the section (the link's angle plus the slope w'(at)); its centre of mass sits
+    at the deformed section point plus ``offset`` (m) in the section's frame (x along the
+    tangent, y along the normal); ``inertia`` is about that centre (kg·m²). A link's
+    ``tip_mass``/``tip_inertia`` is the body at the tip with zero offset."""
+
+    at: float  # m, along the undeformed link
+    mass: float = 0.0  # kg
+    offset: tuple[float, float] = (0.0, 0.0)  # m, centre of mass in the section's frame
+    inertia: float = 0.0  # kg·m², about the centre of mass
+    name: str = ""
+
+    def inertia_about_section(self) -> float:
+        """Rotary inertia about the section point, kg·m²: J_c + m|c|²."""
+        dx, dy = self.offset
+        return self.inertia + self.mass * (dx * dx + dy * dy)
+
+
 ModeShapes = Literal["auto", "clamped_free", "tip_loaded", "outboard_loaded", "hub_loaded"]
 MODE_SHAPES: tuple[str, ...] = get_args(ModeShapes)
 
@@ -38,6 +60,26 @@ class Link:
     # default.
     mode_shapes: ModeShapes = "clamped_free"
     thickness: float | None = None  # m, section depth in the bending plane (strain sensors)
+    bodies: tuple[Body, ...] = ()  # rigid bodies on the link besides the tip mass (`Body`)
+
+    def all_bodies(self) -> tuple[Body, ...]:
+        """Every rigid body on the link: the tip mass and inertia as the body at x = length
+        with zero offset (when either is non-zero), then ``bodies``."""
+        tip = ((Body(self.length, self.tip_mass, (0.0, 0.0), self.tip_inertia, "tip"),)
+               if self.tip_mass or self.tip_inertia else ())
+        return tip + tuple(self.bodies)
+
+    def tip_body(self) -> tuple[float, float, float]:
+        """What the bodies at the tip (at = length) hold there, for the tip-loaded bases:
+        (mass kg, rotary inertia about the tip section point kg·m², first moment along the
+        tip's tangent m·offset_x kg·m)."""
+        mass = inertia = moment = 0.0
+        for body in self.all_bodies():
+            if body.at == self.length:
+                mass += body.mass
+                inertia += body.inertia_about_section()
+                moment += body.mass * body.offset[0]
+        return mass, inertia, moment
 
     @property
     def rigid(self) -> bool:
@@ -46,8 +88,9 @@ class Link:
 
     @property
     def mass(self) -> float:
-        """Beam mass plus tip mass, kg."""
-        return self.mass_per_length * self.length + self.tip_mass
+        """Beam mass plus the bodies' masses (tip mass included), kg."""
+        return (self.mass_per_length * self.length + self.tip_mass
+                + sum(b.mass for b in self.bodies))
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,11 @@
 """Modal integrals of one flexible link, in the link frame (x along the undeformed link, m).
 
-The measure dm is the beam's mass per length m dx on [0, L] plus the tip mass m_t as a point
-mass at x = L.  The tip's rotary inertia J_t only enters ``clamped_mass_matrix`` (and so the
-damping matrix and natural frequencies).  All quantities are in SI units; Φ is dimensionless.
+The measure dm is the beam's mass per length m dx on [0, L] plus each rigid body's mass
+(`model.Body`; the tip mass is the body at x = L without offset) as a point mass at its centre:
+a body at section x_b with centre offset c = [c_x, 0] along the section's tangent sits at
+x = x_b + c_x and moves across the link with Φ(x_b) + c_x Φ'(x_b) (to first order: the section
+turns by Φ'(x_b)q). The bodies' rotary inertias J_b about their centres turn with their
+sections: ``rotary_*``. All quantities are in SI units; Φ is dimensionless.
 """
 
 from __future__ import annotations
@@ -30,7 +33,8 @@ class ModalData:
 
     With S(x) = ∫₀ˣ Φ'ᵀΦ' ds (the foreshortening of the link's axis is −½ qᵀS(x)q):
     ``foreshortening_tip`` = S(L), ``foreshortening_mass`` = ∫S dm [kg],
-    ``foreshortening_moment`` = ∫x S dm [kg·m].
+    ``foreshortening_moment`` = ∫x S dm [kg·m]; a body adds the second-order shortening of
+    its offset, ½ c_x (Φ'(x_b)q)², to its S (docs/derivation.md §12).
     """
 
     length: float  # m
@@ -45,11 +49,13 @@ class ModalData:
     stiffness_matrix: np.ndarray  # (n, n) N/m, ∫EI Φ''ᵀΦ'' dx
     tip_value: np.ndarray  # (n,) Φ(L)
     tip_slope: np.ndarray  # (n,) 1/m, Φ'(L)
-    tip_inertia: float  # kg·m², J_t
+    rotary_inertia: float  # kg·m², Σ J_b of the bodies about their centres
+    rotary_slope: np.ndarray  # (n,) kg·m²/m, Σ J_b Φ'(x_b)
+    rotary_matrix: np.ndarray  # (n, n) kg, Σ J_b Φ'(x_b)ᵀΦ'(x_b)
     foreshortening_tip: np.ndarray  # (n, n) 1/m
     foreshortening_mass: np.ndarray  # (n, n) kg/m
     foreshortening_moment: np.ndarray  # (n, n) kg
-    clamped_mass_matrix: np.ndarray  # (n, n) kg, mass_matrix + J_t Φ'(L)ᵀΦ'(L)
+    clamped_mass_matrix: np.ndarray  # (n, n) kg, mass_matrix + rotary_matrix
     damping_matrix: np.ndarray  # (n, n) N·s/m, modal damping of the clamped link
     natural_frequencies_hz: np.ndarray  # (n,) Hz, clamped link, ascending
 
@@ -109,7 +115,7 @@ class UnitStiffnessModes:
 def _stiffness_free(link: Link, quadrature_points: int | None,
                     shapes: ModeShapes | None) -> UnitStiffnessModes:
     shapes = mode_shapes_for(link) if shapes is None else shapes
-    L, m, m_t, J_t = link.length, link.mass_per_length, link.tip_mass, link.tip_inertia
+    L, m = link.length, link.mass_per_length
     x, w = _gauss_legendre(L, float(shapes.beta_l.max(initial=0.0)), quadrature_points)
     phi = shapes.evaluate(x)
     dphi = shapes.evaluate(x, 1)
@@ -119,35 +125,101 @@ def _stiffness_free(link: Link, quadrature_points: int | None,
     slope = shapes.evaluate(end, 1)[0]
 
     wm = w * m
-    mass_matrix = _weighted_gram(phi, wm) + m_t * np.outer(tip, tip)
-    clamped = mass_matrix + J_t * np.outer(slope, slope)
-    # Mass outboard of s, and its first moment about the joint (tip mass included).
-    outboard_mass = m * (L - x) + m_t
-    outboard_moment = 0.5 * m * (L**2 - x**2) + m_t * L
+    fore = _weighted_gram(dphi, w)
+    b = body_integrals(link, shapes, lambda at: fore if at == L else _shortening(shapes, at))
+    mass_matrix = _weighted_gram(phi, wm) + b.mass_matrix
+    clamped = mass_matrix + b.rotary_matrix
     empty = _ro(np.empty(0))
 
     data = ModalData(
         length=L,
         n=shapes.n,
         shapes=shapes,
-        mass=m * L + m_t,
-        first_moment=0.5 * m * L**2 + m_t * L,
-        second_moment=m * L**3 / 3.0 + m_t * L**2,
-        phi_bar=_ro(wm @ phi + m_t * tip),
-        phi_tilde=_ro((wm * x) @ phi + m_t * L * tip),
+        mass=m * L + b.mass,
+        first_moment=0.5 * m * L**2 + b.first_moment,
+        second_moment=m * L**3 / 3.0 + b.second_moment,
+        phi_bar=_ro(wm @ phi + b.phi_bar),
+        phi_tilde=_ro((wm * x) @ phi + b.phi_tilde),
         mass_matrix=_sym(mass_matrix),
         stiffness_matrix=empty,
         tip_value=_ro(tip),
         tip_slope=_ro(slope),
-        tip_inertia=J_t,
-        foreshortening_tip=_weighted_gram(dphi, w),
-        foreshortening_mass=_weighted_gram(dphi, w * outboard_mass),
-        foreshortening_moment=_weighted_gram(dphi, w * outboard_moment),
+        rotary_inertia=b.rotary_inertia,
+        rotary_slope=_ro(b.rotary_slope),
+        rotary_matrix=_sym(b.rotary_matrix),
+        foreshortening_tip=fore,
+        # ∫S dm = ∫ Φ'ᵀΦ'(s) (beam mass outboard of s) ds, and ∫xS dm alike, plus the bodies'
+        foreshortening_mass=_sym(_weighted_gram(dphi, w * (m * (L - x))) + b.shortening_mass),
+        foreshortening_moment=_sym(_weighted_gram(dphi, w * (0.5 * m * (L**2 - x**2)))
+                                   + b.shortening_moment),
         clamped_mass_matrix=_sym(clamped),
         damping_matrix=empty,
         natural_frequencies_hz=empty,
     )
     return UnitStiffnessModes(data, _ro(ddphi), _ro(w), _ro(clamped))
+
+
+def _shortening(shapes: ModeShapes, at: float) -> np.ndarray:
+    """S(at) = ∫₀^at Φ'ᵀΦ' ds (1/m), (n, n)."""
+    if at <= 0.0:
+        return np.zeros((shapes.n, shapes.n))
+    x, w = _gauss_legendre(at, float(shapes.beta_l.max(initial=0.0)) * at / shapes.length, None)
+    return _weighted_gram(shapes.evaluate(x, 1), w)
+
+
+@dataclass(frozen=True)
+class BodyIntegrals:
+    """The rigid bodies' share of a link's modal integrals (`ModalData`'s fields of the same
+    names; ``shortening_*`` the bodies' parts of ``foreshortening_*``)."""
+
+    mass: float
+    first_moment: float
+    second_moment: float
+    phi_bar: np.ndarray
+    phi_tilde: np.ndarray
+    mass_matrix: np.ndarray
+    rotary_inertia: float
+    rotary_slope: np.ndarray
+    rotary_matrix: np.ndarray
+    shortening_mass: np.ndarray
+    shortening_moment: np.ndarray
+
+
+def body_integrals(link: Link, shapes: ModeShapes, shortening) -> BodyIntegrals:
+    """Every rigid body's contribution (`Link.all_bodies`) to the modal integrals: the one
+    place a body's mass, offset and inertia enter the first-order model. ``shortening(at)``:
+    S(at) (n, n) of the link's modes."""
+    n = shapes.n
+    mass = first = second = rot = 0.0
+    phi_bar, phi_tilde, rot_slope = np.zeros(n), np.zeros(n), np.zeros(n)
+    mm, rot_mm, s_mass, s_moment = (np.zeros((n, n)) for _ in range(4))
+    for body in link.all_bodies():
+        cx, cy = body.offset
+        if cy != 0.0:
+            raise ValueError(f"link {link.name!r}: a body's offset across the link (offset[1] "
+                             f"= {cy} m) is not modelled; put its centre on the section's "
+                             "tangent (offset = [dx, 0])")
+        at = np.array([body.at])
+        value, slope = shapes.evaluate(at)[0], shapes.evaluate(at, 1)[0]
+        u = value + cx * slope  # the centre's transverse displacement per q
+        px, mb = body.at + cx, body.mass
+        if mb:
+            S = shortening(body.at)
+            ss = np.outer(slope, slope)
+            mass += mb
+            first += mb * px
+            second += mb * px * px
+            phi_bar += mb * u
+            phi_tilde += mb * px * u
+            mm += mb * np.outer(u, u)
+            s_mass += mb * (S + cx * ss)
+            s_moment += mb * (px * S + cx * px * ss)
+        if body.inertia:
+            rot += body.inertia
+            rot_slope += body.inertia * slope
+            rot_mm += body.inertia * np.outer(slope, slope)
+    return BodyIntegrals(mass, first, second, phi_bar, phi_tilde, mm, rot, rot_slope, rot_mm,
+                         s_mass, s_moment)
 
 
 def _with_stiffness(unit: UnitStiffnessModes, EI: float, damping_ratio: float) -> ModalData:

@@ -25,7 +25,7 @@ import numpy as np
 from flexlink.model import Link
 
 __all__ = ["ModeShapes", "clamped_free_modes", "hub_loaded_modes", "mode_shapes_for",
-           "tip_loaded_modes"]
+           "offset_tip_modes", "tip_loaded_modes"]
 
 _NORM_PANELS_PER_LAMBDA = 0.5  # quadrature panels per unit of λ for the normalisation integral
 _GAUSS_POINTS = 20  # Gauss–Legendre points per panel
@@ -258,6 +258,75 @@ def tip_loaded_modes(
     return _build(length, lam, mu, j, "tip_loaded")
 
 
+def _offset_tip_matrix(lam: float, mu: float, j: float, s: float) -> np.ndarray:
+    """The conditions on (G, H, C, D) of y = G e^{β(x−L)} + H e^{−βx} + C cos βx + D sin βx at
+    λ = βL for a cantilever carrying a rigid body at its tip with mass μ = m_b/(mL), rotary
+    inertia about the tip section point j = J/(mL³) and first moment along the tip's tangent
+    s = m_b c_x/(mL²): y(0) = y'(0) = 0, EI y''(L) = ω²(m_b c_x y + J y') and
+    EI y‴(L) = −ω²(m_b y + m_b c_x y') (every entry bounded)."""
+    e, co, si = math.exp(-lam), math.cos(lam), math.sin(lam)
+    value, slope = np.array([1.0, e, co, si]), np.array([1.0, -e, -si, co])
+    curvature, shear = np.array([1.0, e, -co, -si]), np.array([1.0, -e, si, -co])
+    a = np.zeros((4, 4))
+    a[0] = [e, 1.0, 1.0, 0.0]
+    a[1] = [e, -1.0, 0.0, 1.0]
+    a[2] = curvature - s * lam**2 * value - j * lam**3 * slope
+    a[3] = shear + mu * lam * value + s * lam**2 * slope
+    return a
+
+
+def _offset_tip_determinant(lam: float, mu: float, j: float, s: float) -> float:
+    return float(np.linalg.det(_offset_tip_matrix(lam, mu, j, s)))
+
+
+def offset_tip_modes(length: float, n: int, mass_per_length: float, tip_mass: float,
+                     tip_inertia: float, tip_moment: float) -> ModeShapes:
+    """Exact modes of a clamped beam carrying a rigid body at its tip whose centre of mass is
+    offset along the tip's tangent: ``tip_mass`` (kg), ``tip_inertia`` about the tip section
+    point (kg·m², J_c + m c²) and ``tip_moment`` = m c_x (kg·m). The body's inertia couples the
+    shear and moment conditions (`_offset_tip_matrix`); with ``tip_moment`` = 0 these are the
+    `tip_loaded_modes`. Roots by a sign scan and bisection, each mode from the null vector."""
+    if n < 0:
+        raise ValueError("the number of modes must be >= 0")
+    if mass_per_length <= 0 or length <= 0:
+        raise ValueError("length and mass_per_length must be positive")
+    if tip_mass < 0 or tip_inertia < 0 or tip_moment**2 > tip_mass * tip_inertia * (1 + 1e-12):
+        raise ValueError("the tip body's mass matrix must be positive semi-definite")
+    mu = tip_mass / (mass_per_length * length)
+    j = tip_inertia / (mass_per_length * length**3)
+    s = tip_moment / (mass_per_length * length**2)
+    if n == 0:
+        return _build(length, np.empty(0), mu, j, "tip_loaded")
+    grid = np.unique(np.concatenate([
+        np.geomspace(1e-3, 1.0, 100),
+        np.arange(1.0, (n + 1) * np.pi, np.pi / 64),
+    ]))
+    f = np.array([_offset_tip_determinant(x, mu, j, s) for x in grid])
+    idx = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)[:n]
+    if idx.size < n:
+        raise RuntimeError(f"found only {idx.size} of {n} offset-tip eigenvalues")
+    lam, extra, growing = np.empty(n), np.zeros((5, n)), np.empty(n)
+    for i, k in enumerate(idx):
+        a, b = float(grid[k]), float(grid[k + 1])
+        fa = f[k]
+        for _ in range(200):  # bisection to adjacent floating-point numbers
+            m = 0.5 * (a + b)
+            if not a < m < b:
+                break
+            fm = _offset_tip_determinant(m, mu, j, s)
+            if (fm < 0.0) == (fa < 0.0):
+                a, fa = m, fm
+            else:
+                b = m
+        lam[i] = 0.5 * (a + b)
+        G, H, C, D = np.linalg.svd(_offset_tip_matrix(lam[i], mu, j, s))[2][-1]
+        growing[i] = G
+        extra[:3, i] = [H - 0.5, C + 1.0, D]
+    zero = np.zeros(n)
+    raw = ModeShapes(length, n, lam, zero, growing, np.ones(n), "tip_loaded", extra)
+    return ModeShapes(length, n, lam, zero, growing, _scale(raw, mu, j), "tip_loaded", extra)
+
+
 def _hub_matrix(lam: float, mu: float, j: float, eta: float, rho: float) -> np.ndarray:
     """The hub–beam conditions on (G, H, C, D, ΘL) of y = G e^{β(x−L)} + H e^{−βx} + C cos βx
     + D sin βx at λ = βL (every entry bounded): the clamp to the hub, y(0) = ρ ΘL and
@@ -344,6 +413,10 @@ def mode_shapes_for(link: Link) -> ModeShapes:
     if link.mode_shapes == "clamped_free":
         return clamped_free_modes(link.length, link.modes)
     if link.mode_shapes == "tip_loaded":
+        mass, inertia, moment = link.tip_body()
+        if moment:
+            return offset_tip_modes(link.length, link.modes, link.mass_per_length, mass,
+                                    inertia, moment)
         return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI,
-                                link.tip_mass, link.tip_inertia)
+                                mass, inertia)
     raise ValueError(f"unknown mode_shapes {link.mode_shapes!r} for link {link.name!r}")

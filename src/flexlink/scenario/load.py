@@ -17,7 +17,16 @@ from typing import Any
 
 from .._version import package_version
 from ..channels.catalogue import reserved_names
-from ..model import Chain, JointMotion, Link, PiezoSensor, PointSensor, Scenario, SimulationSettings
+from ..model import (
+    Body,
+    Chain,
+    JointMotion,
+    Link,
+    PiezoSensor,
+    PointSensor,
+    Scenario,
+    SimulationSettings,
+)
 from ..model.basis import chosen_mode_shapes
 from . import schema
 from .actuators import build_actuator, read_actuators
@@ -25,6 +34,7 @@ from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .errors import Problems, ScenarioError, describe
 from .schema import (
+    BODIES,
     JOINTS,
     LINKS,
     MAX_CONTROL_SAMPLES,
@@ -45,6 +55,7 @@ PROFILES: dict[str, tuple[str, ...]] = {name: s.keys for name, s in schema.PROFI
 _LINK_HEAD = LINKS.pick("name", "length", "mass_per_length", "width", "thickness")
 _LINK_TAIL = LINKS.pick("tip_mass", "tip_inertia", "damping_ratio", "modes", "mode_shapes")
 _RIGID_TAIL = LINKS.pick("tip_mass", "tip_inertia")
+_BODY_KEYS = BODIES.pick("mass", "offset", "inertia")
 _ELASTIC_ONLY = ("damping_ratio", "modes", "mode_shapes")
 
 
@@ -175,6 +186,9 @@ def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any]:
         out.update(read_fields(table, _LINK_TAIL, path, p))
         _check_frequencies(out, table, path, p)
     _check_inertia(out, path, p)
+    bodies = _bodies(table, path, out.get("length"), p)
+    if bodies:
+        out["bodies"] = bodies
     # in the schema's key order (the resolved file's), without E and unusable values
     return {k: out[k] for k in LINKS.keys if out.get(k) is not None}
 
@@ -191,6 +205,37 @@ def _rigid_link(table: dict[str, Any], path: str, head: dict[str, Any],
     if "EI" in table or "E" in table:
         out["EI"] = _bending_stiffness(table, path, head["width"], head["thickness"], p)
     return {**out, "rigid": True}
+
+
+def _bodies(table: Mapping[str, Any], path: str, length: float | None,
+            p: Problems) -> list[dict[str, Any]]:
+    """The link's [[links.bodies]] (`model.Body`), each read and checked by its keys."""
+    raw = table.get("bodies", [])
+    if not isinstance(raw, list):
+        p.add(f"{path}.bodies: expected an array of tables [[links.bodies]], got "
+              f"{describe(raw)}")
+        return []
+    out = []
+    for i, entry in enumerate(raw):
+        where = f"{path}.bodies[{i}]"
+        if not isinstance(entry, Mapping):
+            p.add(f"{where}: expected a table, got {describe(entry)}")
+            continue
+        p.unknown_keys(entry, BODIES.keys, where)
+        at = read_field(entry, BODIES["at"], where, p, default=length)
+        body = {"at": at, **read_fields(entry, _BODY_KEYS, where, p)}
+        if at is not None and length is not None and at > length:
+            p.add(f"{where}.at = {at!r} m is beyond the link's tip (length = {length!r} m); "
+                  "give 0 <= at <= length")
+        offset = body["offset"]
+        if offset is not None and offset[1] != 0.0:
+            p.add(f"{where}.offset = {offset!r}: a centre of mass across the link "
+                  "(offset[1] != 0) is not modelled; give offset = [dx, 0]")
+        if body["mass"] == 0.0 and body["inertia"] == 0.0:
+            p.add(f"{where}: a body needs a mass or an inertia (both are 0); give mass (kg) "
+                  "or inertia (kg·m²), or leave the table out")
+        out.append(body)
+    return out
 
 
 MAX_FREQUENCY = 1e12  # rad/s: far above any beam's modes, far below a float's overflow
@@ -426,6 +471,9 @@ def _link_model(entry: dict[str, Any]) -> Link:
     """The `Link` of a resolved [[links]] entry; a rigid link has no modes (and, if no EI
     was given, an infinite one)."""
     fields = {k: v for k, v in entry.items() if k not in ("width", "rigid")}
+    if "bodies" in fields:
+        fields["bodies"] = tuple(Body(b["at"], b["mass"], tuple(b["offset"]), b["inertia"])
+                                 for b in fields["bodies"])
     if entry.get("rigid"):
         fields.update(modes=0, EI=fields.get("EI", math.inf))
     return Link(**fields)

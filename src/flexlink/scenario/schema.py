@@ -226,6 +226,9 @@ LINKS = Section("links", [
     Field("tip_mass", unit="kg", ge=0, default=0.0, doc="point mass at x = length"),
     Field("tip_inertia", unit="kg·m²", ge=0, default=0.0,
           doc="rotary inertia of the tip body about the tip"),
+    Field("bodies", "tables", default=None, default_doc="none",
+          doc="rigid bodies fixed to sections of the link, `[[links.bodies]]` tables "
+              "(below); a tip body with an offset centre of mass is one at `at = length`"),
     Field("damping_ratio", ge=0, lt=1, default=0.0, doc="modal damping ratio of every mode"),
     Field("modes", "integer", ge=1, le=20, default=4, doc="number of assumed modes"),
     Field("mode_shapes", "string", choices=MODE_SHAPES, default="auto", notes={
@@ -253,6 +256,18 @@ LINKS = Section("links", [
             "prescribed joints, a link whose first frequency is far above what `dt_out` "
             "resolves and whose quasi-static deflection is below `rtol` of its length runs "
             "as rigid (the run's `rigid_links` attribute says which)"),
+])
+
+BODIES = Section("links.bodies", [
+    Field("at", unit="m", ge=0, default=None, default_doc="the link's `length` (its tip)",
+          rule="≤ the link's length", doc="the section the body is fixed to, from the joint"),
+    Field("mass", unit="kg", ge=0, default=0.0, doc="the body's mass"),
+    Field("offset", "pair", unit="m, the section's frame", default=(0.0, 0.0),
+          rule="`[dx, 0]`: a centre across the link is not modelled",
+          doc="its centre of mass from the section point, x along the section's tangent (it "
+              "turns with the link's slope there)"),
+    Field("inertia", unit="kg·m²", ge=0, default=0.0,
+          doc="rotary inertia about its centre of mass"),
 ])
 
 # --- [[joints]]: prescribed motion ----------------------------------------------------------
@@ -481,7 +496,7 @@ POSITION = _servo("position", 5.0, [
 
 # every table kind, by the name of its generated docs block
 SECTIONS: dict[str, Section] = {s.name: s for s in (
-    SIMULATION, LINKS, JOINTS, *PROFILES.values(), MEASURED_ANGLES, SENSORS, POINT_SENSORS,
+    SIMULATION, LINKS, BODIES, JOINTS, *PROFILES.values(), MEASURED_ANGLES, SENSORS, POINT_SENSORS,
     PIEZO, BASE, LOADS, *HISTORIES.values(), HISTORY_CSV, TORQUE, VELOCITY_PID, POSITION)}
 
 

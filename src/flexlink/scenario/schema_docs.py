@@ -16,6 +16,7 @@ from .errors import REQUIRED, range_text
 from .schema import (
     ACTUATORS,
     BASE,
+    BODIES,
     CONTROLLER_SISO,
     CONTROLLERS,
     HISTORIES,
@@ -149,6 +150,7 @@ def _servo_common() -> str:
 BLOCKS: dict[str, Callable[[], str]] = {
     "simulation": lambda: key_table(SIMULATION.fields),
     "links": lambda: key_table(LINKS.fields),
+    "links.bodies": lambda: key_table(BODIES.fields),
     "joints": lambda: key_table(JOINTS.fields),
     "profiles": lambda: segment_table(PROFILES.values(), "`profile`", "motion"),
     "measured_angles": lambda: key_table(MEASURED_ANGLES.fields),
