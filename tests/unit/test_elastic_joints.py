@@ -262,3 +262,29 @@ def test_the_animation_marks_elastic_joints() -> None:
     d["joints"].append({"motion": [{"profile": "hold", "angle_deg": 10.0}]})
     track = run_track(simulate(scenario_from_dict(d)))
     assert track.springs == (0,)
+
+
+def test_frozen_time_plant_of_a_moving_arm_keeps_gravity() -> None:
+    """The plant at a moving state (the Jacobian of the equations the run integrates) has the
+    gravity stiffness: a rigid pendulum (m, L) released level, at t = 0.3 s its angle β gives
+    ∂β̈/∂β = m g (L/2) sin β / (m L²/3); the motor angle of an elastic joint hanging the same
+    pendulum on a spring has its row too."""
+    from flexlink.control.linearization import linearize
+    from flexlink.scenario import scenario_from_dict
+
+    g = 9.81
+    d = {"simulation": {"t_end": 1.0, "dt_out": 0.01, "gravity": [0.0, -g], "rtol": 1e-9},
+         "links": [{"name": "a", "length": 1.0, "mass_per_length": 1.0, "rigid": True}],
+         "joints": [{"drive": "torque", "torque": [{"profile": "step", "amplitude": 0.0}]}]}
+    plant = linearize(scenario_from_dict(d), at=0.3)
+    beta = plant.operating_point["joint1_angle"]
+    assert beta < -0.2  # falling
+    np.testing.assert_allclose(plant.A[1, 0], g * 0.5 * np.sin(beta) / (1.0 / 3.0), rtol=1e-5)
+    d["joints"][0].update(spring_stiffness=30.0, gear_ratio=2.0, motor_inertia=0.01)
+    plant = linearize(scenario_from_dict(d), at=0.3)
+    assert plant.state_names[:2] == ("joint1_angle", "joint1_motor_angle")
+    beta = plant.operating_point["joint1_angle"]
+    np.testing.assert_allclose(plant.A[2, :2], [(g * 0.5 * np.sin(beta) - 30.0) * 3.0,
+                                                30.0 / 2.0 * 3.0], rtol=1e-5)
+    np.testing.assert_allclose(plant.A[3, :2], [30.0 / 2.0 / 0.01, -30.0 / 4.0 / 0.01],
+                               rtol=1e-5)

@@ -425,7 +425,8 @@ def _jacobian(system: ForwardSystem, t0: float, state: tuple[np.ndarray, ...], B
     """A, B of the state [δp_free; z; δṗ_free; ż; s] by central differences of
     `ForwardSystem.accelerations` at a moving state (rigid and elastic coordinates of the run):
     there the rigid rows are nonlinear and the mass matrix depends on z."""
-    loaded = _Loaded(system.chain, system.base, system.geometric_stiffening, system.actuators)
+    loaded = _Loaded(system.chain, system.base, system.geometric_stiffening, system.actuators,
+                     gravity=system.gravity)
     nf, n, ns = len(system.free), system.n, len(system.servos)
     y0 = np.concatenate(state)  # [p, ṗ, z, ż, s]
     t = np.array([t0])

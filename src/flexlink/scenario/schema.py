@@ -198,9 +198,10 @@ SIMULATION = Section("simulation", [
               "do"),
     Field("initial", "string", default="rest", choices=INITIAL_STATES, notes={
         "rest": "every link undeformed and at rest at t = 0",
-        "equilibrium": "the elastic coordinates, and the joints held by servos, start at rest "
-                       "in static equilibrium with the loads at t = 0 (gravity, held joints): "
-                       "a run without motion then stays at rest"},
+        "equilibrium": "the elastic coordinates, the joints held by servos and the links "
+                       "on elastic joints start at rest in static equilibrium with the loads "
+                       "at t = 0 (gravity, held joints): a run without motion then stays at "
+                       "rest"},
         doc="the state at t = 0"),
 ])
 
