@@ -15,7 +15,8 @@ Each at two deflection levels: ``small`` (peak tip deflection ≈ 3% of the leng
 ``large`` (≥ 30%). Both models are undamped. Signals (SI, per case): ``tip`` — tip deflection
 of the (first) appendage in its clamped root frame (m); ``hub_angle`` (rad); ``hub_rate``
 (rad/s); the free case adds ``hub_momentum`` = J_h × hub rate (N·m·s, the hub's own angular
-momentum about its centre), the elastic joint ``motor_angle`` (rad, motor shaft).
+momentum about its centre), the elastic joint ``motor_angle`` (rad, motor shaft) and
+``spring_torque`` (N·m).
 """
 
 from __future__ import annotations
@@ -115,6 +116,7 @@ def flexlink_signals(case: DrivenCase, results: Any) -> dict[str, np.ndarray]:
                "hub_rate": np.asarray(results["joint1_rate"])}
         if case.kind == "elastic_joint":
             out["motor_angle"] = np.asarray(results["joint1_motor_angle"])
+            out["spring_torque"] = np.asarray(results["joint1_spring_torque"])
         return out
     rate = np.asarray(results["base_attitude_rate"])
     return {"tip": np.asarray(results["tip"]), "hub_angle": np.asarray(results["base_attitude"]),
@@ -148,6 +150,7 @@ def exudyn_signals(case: DrivenCase, elements: int, dt: float) -> tuple[dict[str
         signals["hub_momentum"] = SAT_INERTIA * out["hub_rate"]
     if case.kind == "elastic_joint":
         signals["motor_angle"] = GEAR * out["rotor_angle"]
+        signals["spring_torque"] = SPRING * (out["rotor_angle"] - out["hub_angle"])
     return signals, out
 
 
