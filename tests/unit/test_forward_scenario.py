@@ -94,7 +94,7 @@ def test_torque_history_from_a_results_csv(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("name", ["satellite_slew.toml", "paper_servo.toml",
-                                  "vertical_arm.toml"])
+                                  "vertical_arm.toml", "flexible_joint_arm.toml"])
 def test_example_resolves_round_trips_and_runs_shortened(name: str) -> None:
     """The shipped examples load, their resolved form loads to the same model, and a
     shortened run gives finite output with the forward channels."""
@@ -114,6 +114,10 @@ def test_example_resolves_round_trips_and_runs_shortened(name: str) -> None:
         moment = (link.mass_per_length * link.length**2 / 2 + link.tip_mass * link.length) * 9.81
         assert frame["joint1_torque"].iloc[0] == pytest.approx(moment, rel=1e-9)
         assert frame["arm_tip_Y"].iloc[0] < 0.0 and frame["joint1_angle"].iloc[-1] > 0.0
+    elif "flexible_joint" in name:  # the servo turns the motor, the spring the link
+        assert {"joint1_motor_angle", "joint1_motor_rate", "joint1_spring_torque",
+                "joint1_command"} <= set(frame.columns)
+        assert frame["joint1_motor_angle"].iloc[-1] > 0.0 and frame["joint1_angle"].iloc[-1] > 0.0
     elif "servo" in name:
         assert {"joint1_command", "joint1_reference", "joint2_rate"} <= set(frame.columns)
         assert frame["joint1_angle"].iloc[-1] > 0.0  # the arm has started to move

@@ -111,6 +111,9 @@ CASES = [
      s.VELOCITY_PID.keys),
     ("position", base_scenario(joints=[{**SERVO, "servo": "position"}]), JOINT,
      s.POSITION.keys),
+    # an elastic joint's keys are taken out before the rest (its motor) is checked
+    ("elastic", base_scenario(joints=[{"motion": HOLD, "spring_stiffness": 10.0}]), JOINT,
+     ("motion",)),
 ]
 
 

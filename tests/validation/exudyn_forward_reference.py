@@ -13,6 +13,10 @@ hub's centre) carries the appendages and a moment history M(t) turns it.
   node (``MarkerNodePosition``) plus a ``CoordinateConstraint`` ψ_root − θ_hub = 0 on the
   angle displacements: position and slope of the root follow the hub exactly (any rotation).
 
+* elastic joint (``rotor``): a second pinned rigid body on its own node, the motor's rotor
+  reflected through the gear (angle θ_m/N, inertia N² J_m), coupled to the hub's angle by a
+  ``CoordinateSpringDamper`` (k, c); the moment then turns the rotor (N τ_m), not the hub.
+
 Signals, from nodal coordinates (``SensorNode``): the hub angle θ, its rate and centre; per
 appendage ``tip_deflection`` = n_root · (r_tip − r_root) (transverse deflection in the clamped
 root frame, as flexlink's ``deflection`` sensor at x = L) and the tip position. Undamped, no
@@ -69,13 +73,17 @@ class _Moment:
 
 def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float, pinned: bool,
            elements: int, moment: Callable[[float], float] | None, dt: float = 0.0,
-           gravity: tuple[float, float] = (0.0, 0.0)) -> dict[str, Any]:
+           gravity: tuple[float, float] = (0.0, 0.0),
+           rotor: tuple[float, float, float] | None = None) -> dict[str, Any]:
     """The Exudyn system (not assembled); returns mbs, the container and the node numbers.
     ``gravity`` (m/s²): the weights as nodal forces, each element's half on each of its
-    nodes, the tip masses' on the tip node and (free hub) the hub's on the hub."""
+    nodes, the tip masses' on the tip node and (free hub) the hub's on the hub. ``rotor``:
+    (reflected inertia N² J_m kg·m², stiffness N·m/rad, damping N·m·s/rad) of an elastic
+    joint between a pinned rotor, which the moment turns, and the hub."""
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
+        CoordinateSpringDamper,
         LoadCoordinate,
         LoadForceVector,
         MarkerBodyPosition,
@@ -108,11 +116,20 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
         for c in (0, 1):
             mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(hub_node, c)]))
     m_hub_angle = coord(hub_node, 2)
+    m_driven, rotor_node = m_hub_angle, None
+    if rotor is not None:
+        rotor_node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0]))
+        mbs.AddObject(ObjectRigidBody2D(nodeNumber=rotor_node, mass=1.0, inertia=rotor[0]))
+        for c in (0, 1):
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(rotor_node, c)]))
+        m_driven = coord(rotor_node, 2)
+        mbs.AddObject(CoordinateSpringDamper(markerNumbers=[m_hub_angle, m_driven],
+                                             stiffness=rotor[1], damping=rotor[2]))
     keep: list[Any] = []
     if moment is not None:
         uf = _Moment(moment, dt)
         keep.append(uf)
-        mbs.AddLoad(LoadCoordinate(markerNumber=m_hub_angle, load=0.0, loadUserFunction=uf))
+        mbs.AddLoad(LoadCoordinate(markerNumber=m_driven, load=0.0, loadUserFunction=uf))
     nodes: list[list[int]] = []
     for app in appendages:
         link = app.link
@@ -144,7 +161,8 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
             m_point, mbs.AddMarker(MarkerNodePosition(nodeNumber=chain[0]))]))
         mbs.AddObject(CoordinateConstraint(markerNumbers=[m_hub_angle, coord(chain[0], 2)]))
         nodes.append(chain)
-    return {"SC": SC, "mbs": mbs, "hub_node": hub_node, "nodes": nodes, "keep": keep}
+    return {"SC": SC, "mbs": mbs, "hub_node": hub_node, "nodes": nodes, "keep": keep,
+            "rotor_node": rotor_node}
 
 
 def hub_beam_eigenfrequencies(link: Link, radius: float, hub_inertia: float, elements: int,
@@ -177,13 +195,15 @@ def simulate_hub_exudyn(
     newton_abs_tol: float = 1e-6,
     newton_rel_tol: float = 1e-8,
     gravity: tuple[float, float] = (0.0, 0.0),
+    rotor: tuple[float, float, float] | None = None,
 ) -> dict[str, Any]:
     """A hub turned by the moment M(t) (N·m, about its centre), its appendages free to bend.
 
     elements: elements per appendage (uniform); dt: generalized-α step (default dt_out, at
     most 5e-4 s; it must divide dt_out — put bang-bang switches on the step grid);
     spectral_radius: ρ∞ (1 = no numerical dissipation); gravity: uniform field (m/s²,
-    lumped nodal weights). Starts at rest, undeformed.
+    lumped nodal weights); rotor: an elastic joint's reflected rotor, spring and damper
+    (`_build`; adds ``rotor_angle``, rad, θ_m/N). Starts at rest, undeformed.
 
     Returns ``t`` (s); ``hub_angle`` (rad), ``hub_rate`` (rad/s), ``hub_position`` (n×2, m);
     per appendage (lists) ``tip_deflection`` (m, clamped root frame) and ``tip_position``
@@ -198,7 +218,8 @@ def simulate_hub_exudyn(
     if abs(ratio - round(ratio)) > 1e-6:
         raise ValueError(f"dt = {dt} must divide dt_out = {dt_out}")
     dt = dt_out / round(ratio)
-    built = _build(appendages, hub_mass, hub_inertia, pinned, elements, moment, dt, gravity)
+    built = _build(appendages, hub_mass, hub_inertia, pinned, elements, moment, dt, gravity,
+                   rotor)
     mbs, nodes = built["mbs"], built["nodes"]
 
     def sensor(node: int, kind: Any) -> int:
@@ -207,6 +228,9 @@ def simulate_hub_exudyn(
 
     hub_pos = sensor(built["hub_node"], exu.OutputVariableType.Coordinates)
     hub_vel = sensor(built["hub_node"], exu.OutputVariableType.Coordinates_t)
+    rotor_node = built["rotor_node"]
+    rotor_pos = (sensor(rotor_node, exu.OutputVariableType.Coordinates)
+                 if rotor_node is not None else None)
     ends = [(sensor(c[0], exu.OutputVariableType.Coordinates),
              sensor(c[-1], exu.OutputVariableType.Coordinates)) for c in nodes]
     wall, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, newton_abs_tol, newton_rel_tol,
@@ -230,5 +254,7 @@ def simulate_hub_exudyn(
         normal = np.stack([-np.sin(r0[:, 2]), np.cos(r0[:, 2])], axis=1)
         result["tip_deflection"].append(np.sum(normal * (r1[:, :2] - r0[:, :2]), axis=1))
         result["tip_position"].append(r1[:, :2])
+    if rotor_pos is not None:
+        result["rotor_angle"] = series(rotor_pos, rotor_node)[:, 2]
     result.update(wall_time_s=wall, coordinates=mbs.systemData.ODE2Size(), dt=dt)
     return result

@@ -7,12 +7,16 @@ geometrically exact Exudyn model (tests/validation/exudyn_forward_reference.py).
 * ``free_hub``: a satellite-like hub free in the plane (``[base] type = "free"``) with two
   appendages at ±0.5 m, slewed by a bang-bang moment on the hub (``[[base.loads]]``), as
   examples/satellite_slew.toml but faster and harder.
+* ``elastic_joint``: the hub–beam's beam on an elastic joint (no hub inertia), its motor
+  turned by a bang-bang torque through a gear (docs/elastic_joints.md); in Exudyn a pinned
+  rotor body of the reflected inertia coupled to the hub by a coordinate spring.
 
 Each at two deflection levels: ``small`` (peak tip deflection ≈ 3% of the length) and
 ``large`` (≥ 30%). Both models are undamped. Signals (SI, per case): ``tip`` — tip deflection
 of the (first) appendage in its clamped root frame (m); ``hub_angle`` (rad); ``hub_rate``
 (rad/s); the free case adds ``hub_momentum`` = J_h × hub rate (N·m·s, the hub's own angular
-momentum about its centre).
+momentum about its centre), the elastic joint ``motor_angle`` (rad, motor shaft) and
+``spring_torque`` (N·m).
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from flexlink.model import (
     Base,
     BaseLoad,
     Chain,
+    ElasticJoint,
     Link,
     PointSensor,
     Scenario,
@@ -44,7 +49,7 @@ class DrivenCase:
     ``t_end`` (s) simulated, output every ``dt_out`` (s)."""
 
     name: str
-    kind: str  # "hub_beam" or "free_hub"
+    kind: str  # "hub_beam", "free_hub" or "elastic_joint" (amplitude: the motor's torque)
     amplitude: float
     slew: float
     t_end: float
@@ -63,21 +68,28 @@ BEAM = Link("beam", 1.0, 1.0, 10.0, thickness=0.02)
 # free hub: 100 kg, 20 kg·m²; two 3 m arrays, 2 kg/m, EI = 200 N·m² (0.62 Hz), at ±0.5 m
 SAT_MASS, SAT_INERTIA, SAT_OFFSET = 100.0, 20.0, 0.5
 ARRAY = Link("array_right", 3.0, 2.0, 200.0, thickness=0.02)
+# elastic joint: BEAM on a spring k = 50 N·m/rad to a rotor J_m = 2·10⁻³ kg·m² through N = 10
+# (reflected 0.2 kg·m²); ±0.1 N·m on the motor over 2 s slews the link 108°, tip 4.4% of L
+GEAR, ROTOR, SPRING = 10.0, 2e-3, 50.0
 
 CASES = {c.name: c for c in (
     DrivenCase("hub_beam_small", "hub_beam", 2.0, 2.0, 4.0, 0.002),
     DrivenCase("hub_beam_large", "hub_beam", 20.0, 2.0, 4.0, 0.002),
     DrivenCase("free_hub_small", "free_hub", 8.0, 4.0, 8.0, 0.004),
     DrivenCase("free_hub_large", "free_hub", 100.0, 4.0, 8.0, 0.004),
+    DrivenCase("elastic_joint", "elastic_joint", 0.1, 2.0, 4.0, 0.002),
 )}
 
 
 def flexlink_scenario(case: DrivenCase, modes: int = 6, rtol: float = 1e-6) -> Scenario:
     """The case as a flexlink scenario (first order, stiffened, undamped)."""
     settings = SimulationSettings(case.t_end, case.dt_out, geometric_stiffening=True, rtol=rtol)
-    if case.kind == "hub_beam":
+    if case.kind in ("hub_beam", "elastic_joint"):
         link = _with_modes(BEAM, modes)
-        chain = Chain((link,), (TorqueDrive(case.moment, motor_inertia=HUB_INERTIA),))
+        joint = (TorqueDrive(case.moment, motor_inertia=HUB_INERTIA) if case.kind == "hub_beam"
+                 else ElasticJoint(TorqueDrive(case.moment, motor_inertia=ROTOR), SPRING,
+                                   gear_ratio=GEAR))
+        chain = Chain((link,), (joint,))
         sensors = (PointSensor("tip", "deflection", 0, link.length),)
         return Scenario(chain, sensors, settings, name=case.name)
     right = _with_modes(ARRAY, modes)
@@ -99,9 +111,13 @@ def _with_modes(link: Link, modes: int) -> Link:
 
 def flexlink_signals(case: DrivenCase, results: Any) -> dict[str, np.ndarray]:
     """The comparison signals of a flexlink run (see the module docstring)."""
-    if case.kind == "hub_beam":
-        return {"tip": np.asarray(results["tip"]), "hub_angle": np.asarray(results["joint1_angle"]),
-                "hub_rate": np.asarray(results["joint1_rate"])}
+    if case.kind != "free_hub":
+        out = {"tip": np.asarray(results["tip"]), "hub_angle": np.asarray(results["joint1_angle"]),
+               "hub_rate": np.asarray(results["joint1_rate"])}
+        if case.kind == "elastic_joint":
+            out["motor_angle"] = np.asarray(results["joint1_motor_angle"])
+            out["spring_torque"] = np.asarray(results["joint1_spring_torque"])
+        return out
     rate = np.asarray(results["base_attitude_rate"])
     return {"tip": np.asarray(results["tip"]), "hub_angle": np.asarray(results["base_attitude"]),
             "hub_rate": rate, "hub_momentum": SAT_INERTIA * rate}
@@ -119,6 +135,10 @@ def exudyn_signals(case: DrivenCase, elements: int, dt: float) -> tuple[dict[str
     if case.kind == "hub_beam":
         out = simulate_hub_exudyn([Appendage(BEAM)], HUB_INERTIA, m, case.t_end, case.dt_out,
                                   elements, dt=dt)
+    elif case.kind == "elastic_joint":  # N τ_m on the reflected rotor
+        out = simulate_hub_exudyn([Appendage(BEAM)], 0.0, lambda t: GEAR * m(t), case.t_end,
+                                  case.dt_out, elements, dt=dt,
+                                  rotor=(GEAR**2 * ROTOR, SPRING, 0.0))
     else:
         arrays = [Appendage(ARRAY, (SAT_OFFSET, 0.0), 0.0),
                   Appendage(ARRAY, (-SAT_OFFSET, 0.0), np.pi)]
@@ -128,6 +148,9 @@ def exudyn_signals(case: DrivenCase, elements: int, dt: float) -> tuple[dict[str
                "hub_rate": out["hub_rate"]}
     if case.kind == "free_hub":
         signals["hub_momentum"] = SAT_INERTIA * out["hub_rate"]
+    if case.kind == "elastic_joint":
+        signals["motor_angle"] = GEAR * out["rotor_angle"]
+        signals["spring_torque"] = SPRING * (out["rotor_angle"] - out["hub_angle"])
     return signals, out
 
 

@@ -5,15 +5,27 @@ take their records from here and add only the values; the scenario loader (names
 must not take), the measurement mapping and sweeps read the same records.
 
 Order: sensors, base pose and rates, joint quantities (all angles, then rates, torques,
-servo references and commands), momentum, tip positions.
+servo references and commands, elastic joints' motor angles, motor rates and spring torques),
+momentum, tip positions.
 """
 
 from __future__ import annotations
 
-from ..model import Chain, PiezoSensor, PositionServo, Scenario, Sensor, TorqueDrive, VelocityServo
+from ..model import (
+    Chain,
+    ElasticJoint,
+    PiezoSensor,
+    PositionServo,
+    Scenario,
+    Sensor,
+    TorqueDrive,
+    VelocityServo,
+)
+from ..model.joints import drive_side
 from .record import SENSOR_UNITS, Channel, ChannelKind, Unit
 
-JOINT_QUANTITIES = ("angle", "rate", "torque", "reference", "command")
+JOINT_QUANTITIES = ("angle", "rate", "torque", "reference", "command", "motor_angle",
+                    "motor_rate", "spring_torque")
 BASE_COORDINATES = {"free": ("x", "y", "attitude"), "pinned": ("attitude",), "fixed": ()}
 _BASE_UNITS = {"x": (Unit.METRE, Unit.METRE_PER_SECOND), "y": (Unit.METRE, Unit.METRE_PER_SECOND),
                "attitude": (Unit.RADIAN, Unit.RADIAN_PER_SECOND)}
@@ -72,10 +84,13 @@ def joint_channels(scenario: Scenario, model: str) -> list[Channel]:
     forward = scenario.is_forward
     torque_source = "equations of motion" if forward else "inverse dynamics"
     out: dict[str, list[Channel]] = {q: [] for q in JOINT_QUANTITIES}
-    for k, joint in enumerate(joints):
+    for k, elastic in enumerate(joints):
         subject = f"joint{k + 1}"
+        joint = drive_side(elastic)  # an elastic joint's servo is its motor's
         how = {TorqueDrive: "torque-driven", VelocityServo: "velocity servo",
                PositionServo: "position servo"}.get(type(joint), "prescribed")
+        if isinstance(elastic, ElasticJoint):
+            how = f"elastic, its motor {how}"
         out["angle"].append(Channel(joint_name(k, "angle"), ChannelKind.JOINT, Unit.RADIAN,
                                     f"angle of joint {k + 1} ({how})", "angle", subject))
         if forward:
@@ -94,6 +109,18 @@ def joint_channels(scenario: Scenario, model: str) -> list[Channel]:
             out["command"].append(Channel(joint_name(k, "command"), ChannelKind.JOINT,
                                           Unit.VOLT, f"servo command of joint {k + 1}",
                                           "command", subject))
+        if isinstance(elastic, ElasticJoint):
+            out["motor_angle"].append(Channel(
+                joint_name(k, "motor_angle"), ChannelKind.JOINT, Unit.RADIAN,
+                f"motor angle of joint {k + 1} (motor shaft, relative to the parent)",
+                "motor_angle", subject))
+            out["motor_rate"].append(Channel(
+                joint_name(k, "motor_rate"), ChannelKind.JOINT, Unit.RADIAN_PER_SECOND,
+                f"motor rate of joint {k + 1}", "motor_rate", subject))
+            out["spring_torque"].append(Channel(
+                joint_name(k, "spring_torque"), ChannelKind.JOINT, Unit.NEWTON_METRE,
+                f"spring torque of joint {k + 1} on its link, k (θ_m/N − β) + c (θ̇_m/N − β̇)",
+                "spring_torque", subject))
     return [c for q in JOINT_QUANTITIES for c in out[q]]
 
 

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..dynamics.elastic_joints import spring_torques
 from ..dynamics.first_order import LinkBody, link_body, xi_states
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.kinematics import FrameMotion
 from ..dynamics.servos import command_volts
 from ..model import PositionServo, VelocityServo
+from ..model.joints import drive_side
 from .catalogue import BASE_COORDINATES, joint_name
 
 
@@ -57,14 +59,28 @@ def pose_and_joint_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, p
         out[joint_name(k, "angle")] = p[:, i]
         out[joint_name(k, "rate")] = pd[:, i]
         out[joint_name(k, "torque")] = torque[:, k]
+        joint, i = drive_side(joint), system.drive_index(k)  # a servo on an elastic motor
         if isinstance(joint, VelocityServo | PositionServo):
             out[joint_name(k, "reference")] = joint.reference.evaluate(t)[0] + 0 * t
         if isinstance(joint, VelocityServo):
             s = system.servos.index(k)
             out[joint_name(k, "command")] = command_volts(joint, t, p[:, i], pd[:, i],
                                                           integral[:, s])
+    out.update(elastic_joint_values(system, p, pd))
     if momenta is not None:
         linear, angular = momenta
         out["momentum_x"], out["momentum_y"] = linear[:, 0], linear[:, 1]
         out["angular_momentum"] = angular
+    return out
+
+
+def elastic_joint_values(system: ForwardSystem, p: np.ndarray, pd: np.ndarray
+                         ) -> dict[str, np.ndarray]:
+    """Motor angle and rate and spring torque of each elastic joint, by channel name."""
+    out: dict[str, np.ndarray] = {}
+    tau = spring_torques(system, p, pd)
+    for e, k in enumerate(system.elastic):
+        out[joint_name(k, "motor_angle")] = p[:, system.motor_index(k)]
+        out[joint_name(k, "motor_rate")] = pd[:, system.motor_index(k)]
+        out[joint_name(k, "spring_torque")] = tau[:, e]
     return out

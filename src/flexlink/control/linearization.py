@@ -25,14 +25,16 @@ import numpy as np
 
 from ..channels.catalogue import catalogue, joint_name
 from ..channels.first_order import sensor_values, tip_values
-from ..channels.forward import SolvedMotion
+from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics.actuators import actuator_matrix
+from ..dynamics.elastic_joints import driven_motors
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.kinematics import JointHistory, frame_motion
 from ..dynamics.servos import command_volts, servo_torque
 from ..dynamics.torques import joint_torques
-from ..model import Base, PositionServo, Scenario, TorqueDrive, VelocityServo
+from ..model import Base, PositionServo, Scenario, TorqueDrive, VelocityServo, is_driven
+from ..model.joints import drive_side
 from ..solvers import Solution
 from .linear import LinearPlant
 from .operating_point import At, Configuration, Shifted, held_scenario, parse_at
@@ -174,7 +176,8 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
     if moving:  # frozen time: the Jacobian of the equations the run integrates, at its state
         A, B = _jacobian(system, t0, state, Bu, Ru, keep)
     rigid = [f"base_{c}" for c in system.base.coordinates] + [
-        joint_name(k, "angle") for k in system.driven]
+        joint_name(k, "angle") for k in system.driven] + [
+        joint_name(k, "motor_angle") for k in driven_motors(system.chain.joints)]
 
     def readings(rows: _Rows) -> dict[str, np.ndarray]:
         m = rows.z.shape[0]
@@ -185,6 +188,7 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
         z, zd, zdd = z0 + rows.z, zd0 + rows.zd, zdd0[0] + rows.zdd
         out = sensor_values(view, view.frames, Solution(tt, z, zd, zdd, "linearize"),
                             scenario.sensors)
+        out.update(elastic_joint_values(system, P, PD))
         for i, name in enumerate(rigid):  # catalogue order: base, joint angles, joint rates
             if name.startswith("base_"):
                 out[name], out[f"{name}_rate"] = P[:, system.free[i]], PD[:, system.free[i]]
@@ -280,7 +284,7 @@ def _check_servos(scenario: Scenario, system: ForwardSystem, t0: float, p: np.nd
     """Refuse an operating point where a servo saturates: the plant is the unsaturated law."""
     t = np.array([t0])
     for s, k in enumerate(system.servos):
-        joint, i = scenario.chain.joints[k], system.joint_index(k)
+        joint, i = drive_side(scenario.chain.joints[k]), system.drive_index(k)
         args = (t, p[i:i + 1], pd[i:i + 1], integral[s:s + 1])
         torque, _ = servo_torque(joint, *args)  # type: ignore[arg-type]
         saturated = abs(float(torque[0])) >= joint.torque_limit  # type: ignore[union-attr]
@@ -358,7 +362,9 @@ def _input_columns(scenario: Scenario, system: ForwardSystem, t0: float, p: np.n
         return col
 
     for k in system.driven:
-        joint, i = scenario.chain.joints[k], system.joint_index(k)
+        joint, i = drive_side(scenario.chain.joints[k]), system.drive_index(k)
+        if not is_driven(joint):  # an elastic joint's prescribed motor
+            continue
         if isinstance(joint, TorqueDrive):
             names.append(joint_name(k, "torque"))
             cols.append(unit(i))
@@ -419,7 +425,8 @@ def _jacobian(system: ForwardSystem, t0: float, state: tuple[np.ndarray, ...], B
     """A, B of the state [δp_free; z; δṗ_free; ż; s] by central differences of
     `ForwardSystem.accelerations` at a moving state (rigid and elastic coordinates of the run):
     there the rigid rows are nonlinear and the mass matrix depends on z."""
-    loaded = _Loaded(system.chain, system.base, system.geometric_stiffening, system.actuators)
+    loaded = _Loaded(system.chain, system.base, system.geometric_stiffening, system.actuators,
+                     gravity=system.gravity)
     nf, n, ns = len(system.free), system.n, len(system.servos)
     y0 = np.concatenate(state)  # [p, ṗ, z, ż, s]
     t = np.array([t0])

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Base, JointMotion, Scenario, TorqueDrive, is_driven
+from ..model import Base, ElasticJoint, JointMotion, Scenario, TorqueDrive, is_driven
 from ..model.histories import ZERO
 from ..model.joints import initial_angle
 
@@ -120,14 +120,8 @@ def held_scenario(scenario: Scenario, config: Configuration) -> Scenario:
     """The scenario at rest in ``config``: prescribed joints and servo references constant at
     the configuration's angles, torques, base loads and actuator voltages zero, the base at
     rest in the given pose."""
-    joints = []
-    for joint, angle in zip(scenario.chain.joints, config.angles):
-        if isinstance(joint, TorqueDrive):
-            joints.append(replace(joint, torque=ZERO, initial_angle=angle, initial_rate=0.0))
-        elif is_driven(joint):
-            joints.append(replace(joint, reference=Constant(angle)))  # type: ignore[type-var]
-        else:
-            joints.append(Constant(angle))
+    joints = [_held_joint(joint, angle) for joint, angle in zip(scenario.chain.joints,
+                                                                 config.angles)]
     base = scenario.base
     if base is not None:
         base = replace(base, loads=(), position=config.base[:2], attitude=config.base[2],
@@ -135,3 +129,15 @@ def held_scenario(scenario: Scenario, config: Configuration) -> Scenario:
     actuators = tuple(replace(a, voltage=ZERO) for a in scenario.actuators)
     chain = replace(scenario.chain, joints=tuple(joints))
     return replace(scenario, chain=chain, base=base, actuators=actuators)
+
+
+def _held_joint(joint: Any, angle: float) -> Any:
+    """``joint`` at rest at ``angle`` (rad): torque zero, reference or motion constant; an
+    elastic joint's motor at N·angle (the spring relaxed)."""
+    if isinstance(joint, ElasticJoint):
+        return replace(joint, motor=_held_joint(joint.motor, joint.gear_ratio * angle))
+    if isinstance(joint, TorqueDrive):
+        return replace(joint, torque=ZERO, initial_angle=angle, initial_rate=0.0)
+    if is_driven(joint):
+        return replace(joint, reference=Constant(angle))
+    return Constant(angle)

@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from . import _elastic_numba as elastic
 
 Workspace = namedtuple("Workspace", [
     "theta", "omega", "alpha", "oacc", "T", "Td", "Tdd", "own", "out", "xi", "xi_d", "xi_dd", "v", "TM",
@@ -43,7 +44,7 @@ def workspace(d, n_servos: int) -> Workspace:
                      e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr))
 
 # Joint kinds in ForwardData.joint_kind.
-PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO = 0, 1, 2, 3
+PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO, ELASTIC = 0, 1, 2, 3, 4
 # Base kinds in ForwardData.base_kind.
 FIXED, PINNED, FREE = 0, 1, 2
 
@@ -279,6 +280,7 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
         r[i] += d.motor_inertia[k] * pdd[i]
         if want_M:
             M[i, i] += d.motor_inertia[k]
+    elastic.rotor_inertia(d, pdd, r, M, want_M)
 
 
 @njit(cache=True)
@@ -294,6 +296,8 @@ def applied(d, u, p, pd, integral, Q, rates):
     for k in range(N):
         kind = d.joint_kind[k]
         i = nb + k
+        if kind == ELASTIC:  # its drive turns the motor angle
+            kind, i = d.motor_kind[k], d.motor_row[k]
         if kind == TORQUE:
             Q[i] = u[3 * N + k]
             continue
@@ -311,6 +315,7 @@ def applied(d, u, p, pd, integral, Q, rates):
             command = min(max(d.bandwidth[k] * error, -d.rate_limit[k]), d.rate_limit[k])
         tau = d.loop_gain[k] * (command - pd[i])
         Q[i] = min(max(tau, -d.torque_limit[k]), d.torque_limit[k])
+    elastic.spring_torques(d, u, p, pd, Q)
     if d.base_kind != FIXED:
         th = p[nb - 1]
         ct, st = np.cos(th), np.sin(th)
@@ -384,6 +389,7 @@ def rates(d, w_, u, y, dy):
     p, pd, pdd, x, xd = w_.p, w_.pd, w_.pdd, w_.x, w_.xd
     for k in range(N):  # prescribed joints from the input row, driven ones from the state
         p[nb + k], pd[nb + k], pdd[nb + k] = u[k], u[N + k], u[2 * N + k]
+    elastic.prescribed_motors(d, u, p, pd, pdd)
     for j in range(nu):
         p[free[j]] = y[j]
         pd[free[j]] = y[nu + j]

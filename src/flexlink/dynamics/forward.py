@@ -1,7 +1,8 @@
 """Forward dynamics: rigid coordinates (base pose, joint angles) and elastic coordinates together.
 
 Coordinates u = [p; z]: p the rigid coordinates (the base's x, y, attitude if it moves, then
-one angle β_k per joint), z the elastic coordinates. At any rigid state (p, ṗ, p̈) the
+one angle β_k per joint, then each elastic joint's motor angle: dynamics/elastic_joints.py),
+z the elastic coordinates. At any rigid state (p, ṗ, p̈) the
 first-order equations of docs/derivation.md are assembled in the perturbation coordinates
 x = [δp; z]: a joint or base perturbation is a rigid displacement/rotation of a frame, so it
 enters the kinematical synthesis as extra columns of the maps T_k, and every term of the
@@ -32,8 +33,10 @@ from ..model import (
     VelocityServo,
     is_driven,
 )
+from ..model.joints import drive_side
 from ..model.settings import InitialName
 from ..modes import ModalData
+from . import elastic_joints
 from .actuators import actuator_matrix, open_loop_voltages
 from .first_order import (
     LinkBody,
@@ -70,7 +73,9 @@ class ForwardSystem:
                                        else chain_modal_data(chain, base))
         n_links = len(chain.links)
         self.n_base = len(base.coordinates)
-        self.n_rigid = self.n_base + n_links
+        # Elastic joints' motor angles follow the joint angles (dynamics/elastic_joints.py).
+        self.elastic = elastic_joints.elastic_joints(chain.joints)
+        self.n_rigid = self.n_base + n_links + len(self.elastic)
         offsets = np.concatenate([[0], np.cumsum([d.n for d in self.modal])]).astype(int)
         self.n = int(offsets[-1])  # elastic coordinates
         self.n_x = self.n_rigid + self.n
@@ -79,9 +84,10 @@ class ForwardSystem:
         self.attach = [base.attachment(k) for k in range(n_links)]
         self.driven = [k for k, j in enumerate(chain.joints) if is_driven(j)]
         # Free rigid coordinates: the base's, then the driven joints'.
-        self.free = list(range(self.n_base)) + [self.n_base + k for k in self.driven]
+        self.free = (list(range(self.n_base)) + [self.n_base + k for k in self.driven]
+                     + [self.motor_index(k) for k in elastic_joints.driven_motors(chain.joints)])
         self.servos = [k for k in self.driven
-                       if isinstance(chain.joints[k], VelocityServo | PositionServo)]
+                       if isinstance(drive_side(chain.joints[k]), VelocityServo | PositionServo)]
         # Piezo actuators: generalized forces B V on z (dynamics/actuators.py), V the
         # open-loop voltages unless a closed loop holds its own (``applied(voltages=…)``).
         self.actuators = tuple(actuators)
@@ -112,9 +118,12 @@ class ForwardSystem:
         unknowns = list(range(2 * nu, 2 * nu + n))  # z
         rows = list(range(nu, nu + n))  # z̈ in the accelerations [p̈_free, z̈]
         for k in self.servos:
-            joint, j = self.chain.joints[k], self.free.index(self.joint_index(k))
+            joint, j = self.chain.joints[k], self.free.index(self.drive_index(k))
             rows.append(j)
             unknowns.append(2 * nu + 2 * n + self.servos.index(k) if joint.integrator else j)
+        for k in self.elastic:  # the link held by its spring
+            rows.append(self.free.index(self.joint_index(k)))
+            unknowns.append(rows[-1])
 
         def residuals(x: np.ndarray) -> np.ndarray:
             states = np.repeat(start[None], x.shape[0], 0)
@@ -136,18 +145,25 @@ class ForwardSystem:
                   "pinned": ([b.attitude], [b.rate]), "fixed": ([], [])}[b.kind]
         p, v = list(p0), list(v0)
         for k in self.driven:
-            joint = self.chain.joints[k]
-            if isinstance(joint, TorqueDrive):
-                p.append(joint.initial_angle)
-                v.append(joint.initial_rate)
-            else:
-                angle, rate, _ = joint.reference.evaluate(np.array([0.0]))
-                p.append(float(np.ravel(angle)[0]))
-                v.append(float(np.ravel(rate)[0]))
+            angle, rate = elastic_joints.start(self.chain.joints[k])
+            p.append(angle)
+            v.append(rate)
+        for k in elastic_joints.driven_motors(self.chain.joints):
+            angle, rate = elastic_joints.start(self.chain.joints[k].motor)  # type: ignore
+            p.append(angle)
+            v.append(rate)
         return np.concatenate([p, v, np.zeros(2 * self.n + len(self.servos))])
 
     def joint_index(self, k: int) -> int:
         return self.n_base + k
+
+    def motor_index(self, k: int) -> int:
+        """The rigid coordinate of elastic joint k's motor angle."""
+        return self.n_base + len(self.chain.links) + self.elastic.index(k)
+
+    def drive_index(self, k: int) -> int:
+        """The rigid coordinate joint k's drive turns: its motor's if elastic."""
+        return self.motor_index(k) if k in self.elastic else self.joint_index(k)
 
     def rigid_state(self, t: np.ndarray, p_free: np.ndarray, pd_free: np.ndarray,
                     pdd_free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -159,6 +175,7 @@ class ForwardSystem:
                 assert isinstance(joint, JointMotion)
                 for arr, v in zip(out, joint.evaluate(t)):
                     arr[:, self.joint_index(k)] = np.broadcast_to(v, t.shape)
+        elastic_joints.prescribed_motors(self, t, out)
         for arr, v in zip(out, (p_free, pd_free, pdd_free)):
             arr[:, self.free] = v
         return out[0], out[1], out[2]
@@ -258,6 +275,7 @@ class ForwardSystem:
             i = self.joint_index(k)
             M[:, i, i] += self.chain.joints[k].motor_inertia  # type: ignore[union-attr]
             f[:, i] -= self.chain.joints[k].motor_inertia * pdd[:, i]  # type: ignore[union-attr]
+        elastic_joints.add_rotor_inertia(self, pdd, M, f)
         return M, C, K, f
 
     def _base_acceleration(self, pdd: np.ndarray) -> np.ndarray:
@@ -342,12 +360,15 @@ class ForwardSystem:
 
         rates = np.zeros((t.shape[0], len(self.servos)))
         for k in self.driven:
-            joint, i = self.chain.joints[k], self.joint_index(k)
+            joint, i = drive_side(self.chain.joints[k]), self.drive_index(k)
+            if not is_driven(joint):  # an elastic joint's prescribed motor
+                continue
             if isinstance(joint, TorqueDrive):
                 Q[:, i] = joint.torque.value(t)
             else:
                 s = self.servos.index(k)
                 Q[:, i], rates[:, s] = servo_torque(joint, t, p[:, i], pd[:, i], integral[:, s])
+        elastic_joints.add_spring_torques(self, p, pd, Q)
         b, nb = self.base, self.n_base
         if b.kind != "fixed":
             th = p[:, nb - 1]
@@ -400,7 +421,7 @@ class ForwardSystem:
         zc = slice(self.n_rigid, self.n_x)
         res = (np.einsum("taz,tz->ta", M[:, :, zc], zdd) + np.einsum("taz,tz->ta", C[:, :, zc], zd)
                + np.einsum("taz,tz->ta", K[:, :, zc], z) - f)
-        return res[:, self.n_base:self.n_rigid]
+        return res[:, self.n_base:self.n_base + len(self.chain.links)]
 
 
 def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray,

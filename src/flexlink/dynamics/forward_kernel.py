@@ -15,11 +15,13 @@ from collections import namedtuple
 import numpy as np
 
 from ..model import (
+    ElasticJoint,
     JointMotion,
     PositionServo,
     TorqueDrive,
     VelocityServo,
 )
+from ..model.joints import drive_side
 from .forward import ForwardSystem
 from .histories import input_breakpoints
 
@@ -29,17 +31,20 @@ ForwardData = namedtuple("ForwardData", [
     "Mtot", "M0", "G0", "phi_bar", "phi_tilde", "tip_value", "tip_slope", "stiffness",
     "damping", "fore_mass", "fore_moment", "fore_tip", "joint_kind", "motor_inertia",
     "servo_index", "P", "I", "D", "saturation", "rate_per_volt", "loop_gain", "torque_limit",
-    "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B", "gravity", "rot_slope"])
+    "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B", "gravity", "rot_slope",
+    "motor_row", "motor_kind", "spring_k", "spring_c", "gear", "rotor_inertia"])
 ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI units, link "
                        "arrays padded to the most modes, offsets into x = [δp; z]; "
                        "actuator_B (n, n_act) the actuators' forces on z per volt; gravity "
                        "(2,) the uniform field [gx, gy], m/s², global axes; Jt, rot_slope the "
-                       "bodies' rotary inertia Σ J_b (kg·m²) and Σ J_b Φ'(x_b) of each link.")
+                       "bodies' rotary inertia Σ J_b (kg·m²) and Σ J_b Φ'(x_b) of each link; "
+                       "the elastic joints' arrays: dynamics/_elastic_numba.py.")
 
 
 def pack(system: ForwardSystem) -> ForwardData:
     """The constant data of ``system`` (see ForwardData)."""
     from ._forward_numba import (
+        ELASTIC,
         FIXED,
         FREE,
         PINNED,
@@ -67,7 +72,15 @@ def pack(system: ForwardSystem) -> ForwardData:
                                              "loop_gain", "bandwidth", "rate_limit")}
     torque_limit = np.full(N, np.inf)
     motor = np.zeros(N)
-    for k, joint in enumerate(chain.joints):
+    motor_row, motor_kind = np.full(N, -1, dtype=np.int64), np.zeros(N, dtype=np.int64)
+    spring = {name: np.zeros(N) for name in ("spring_k", "spring_c", "rotor_inertia")}
+    gear = np.ones(N)
+    for k, elastic in enumerate(chain.joints):
+        if isinstance(elastic, ElasticJoint):
+            motor_row[k] = system.motor_index(k)
+            spring["spring_k"][k], spring["spring_c"][k] = elastic.stiffness, elastic.damping
+            spring["rotor_inertia"][k], gear[k] = elastic.rotor_inertia, elastic.gear_ratio
+    for k, joint in enumerate(map(drive_side, chain.joints)):
         if isinstance(joint, TorqueDrive):
             kind[k] = TORQUE
         elif isinstance(joint, VelocityServo):
@@ -83,7 +96,9 @@ def pack(system: ForwardSystem) -> ForwardData:
             servo_index[k] = system.servos.index(k)
             params["loop_gain"][k] = joint.loop_gain
             torque_limit[k] = joint.torque_limit
-        if kind[k] != PRESCRIBED:
+        if motor_row[k] >= 0:  # the drive's kind is the motor's
+            motor_kind[k], kind[k] = kind[k], ELASTIC
+        elif kind[k] != PRESCRIBED:
             motor[k] = joint.motor_inertia  # type: ignore[union-attr]
     loads = base.loads if base.kind != "fixed" else ()
     return ForwardData(
@@ -115,7 +130,8 @@ def pack(system: ForwardSystem) -> ForwardData:
         load_body=np.array([ld.frame == "body" for ld in loads], dtype=bool),
         actuator_B=np.ascontiguousarray(system.actuator_B, dtype=float),
         gravity=np.array(system.gravity, dtype=float),
-        rot_slope=pad([d.rotary_slope for d in modal], (nm,)))
+        rot_slope=pad([d.rotary_slope for d in modal], (nm,)), motor_row=motor_row,
+        motor_kind=motor_kind, gear=gear, **spring)
 
 
 def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:
@@ -130,7 +146,7 @@ def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:
     loads = base.loads if base.kind != "fixed" else ()
     na = len(system.actuators)
     u = np.zeros((t.size, 4 * N + 3 * len(loads) + na))
-    for k, joint in enumerate(chain.joints):
+    for k, joint in enumerate(map(drive_side, chain.joints)):  # an elastic joint's: its motor's
         if isinstance(joint, TorqueDrive):
             u[:, 3 * N + k] = joint.torque.value(t)
             continue

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..model import BangBang, PositionServo, Step, Sum, Table, TorqueDrive, VelocityServo
 from ..model.histories import History
+from ..model.joints import drive_side
 
 
 def history_breakpoints(history: History) -> set[float]:
@@ -30,7 +31,7 @@ def input_breakpoints(joints: Sequence[Any], actuators: Sequence[Any] = (),
     """Sorted finite times (s) where an input is not smooth: a prescribed joint's motion, a
     servo's reference, a driven joint's torque, an actuator's voltage, the ``loads``."""
     times: set[float] = set()
-    for joint in joints:
+    for joint in map(drive_side, joints):
         if isinstance(joint, TorqueDrive):
             times |= history_breakpoints(joint.torque)
         else:

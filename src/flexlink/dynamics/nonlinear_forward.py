@@ -39,6 +39,7 @@ import numpy as np
 from ..model import Base, Chain, PiezoActuator, is_driven
 from ..model.settings import InitialName
 from .arc import ArcQuadrature, arc_quadrature
+from .elastic_joints import spring_energy, spring_frequency
 from .forward import ForwardSystem
 from .nonlinear_bodies import body_nodes, body_rows
 
@@ -173,6 +174,11 @@ class NonlinearForwardSystem:
                 rot_B.append(np.eye(nr)[nb + k])
                 rot_J.append(joint.motor_inertia)  # type: ignore[union-attr]
                 absolute.append(False)  # turns with β_k relative to its parent
+        for k in self.loads.elastic:  # an elastic joint's rotor: ½ J_m θ̇_m² (Spong)
+            rot_A.append(np.zeros(n))
+            rot_B.append(np.eye(nr)[self.loads.motor_index(k)])
+            rot_J.append(chain.joints[k].rotor_inertia)  # type: ignore[union-attr]
+            absolute.append(False)
         self.W = np.vstack(rows)
         self.point_mass = np.concatenate(masses)
         self.G = self.W.T @ (self.point_mass[:, None] * self.W)
@@ -190,7 +196,7 @@ class NonlinearForwardSystem:
             self.D[arc.coords, arc.coords] = d.damping_matrix
 
         # Columns on y = [q, p_free, σ]; the prescribed joints are inputs.
-        self.prescribed = [nb + k for k, j in enumerate(chain.joints) if not is_driven(j)]
+        self.prescribed = [i for i in range(nb, nr) if i not in self.free]
         self.Ay = np.zeros((nodes, self.n_y))
         self.Ay[:, :n] = A
         self.Ay[:, n:n + self.nu] = B[:, self.free]
@@ -233,12 +239,15 @@ class NonlinearForwardSystem:
         n, nu = self.n, self.nu
         in_y, in_v, rows = list(range(n)), [], list(range(n))
         for s, k in enumerate(self.servos):
-            j = n + self.free.index(self.n_base + k)
+            j = n + self.free.index(self.loads.drive_index(k))
             rows.append(j)
             if self.chain.joints[k].integrator:
                 in_v.append(n + nu + s)
             else:
                 in_y.append(j)
+        for k in self.loads.elastic:  # the link held by its spring
+            rows.append(n + self.free.index(self.n_base + k))
+            in_y.append(rows[-1])
         cut = len(in_y)
 
         def residuals(x: np.ndarray) -> np.ndarray:
@@ -373,7 +382,7 @@ class NonlinearForwardSystem:
         """Torque each joint's motor applies (b, N), N·m: the generalized inertia force of β_k
         (with the motor inertia; for a driven joint equal to its drive torque)."""
         u, _, rot, _ = self._inertia(y, v, a, self.stage_inputs(t))
-        joints = slice(self.n_base, self.n_rigid)
+        joints = slice(self.n_base, self.n_base + len(self.chain.links))
         return u @ self.B[:, joints] + rot @ self.rot_B[:, joints]
 
     def node_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
@@ -405,12 +414,17 @@ class NonlinearForwardSystem:
 
     def energy(self, t: np.ndarray, y: np.ndarray, v: np.ndarray) -> tuple[np.ndarray,
                                                                            np.ndarray]:
-        """Kinetic and elastic energy (b,), J."""
+        """Kinetic (rotors included) and elastic energy (b,), J: the links' strain energy
+        and the elastic joints' springs."""
         _, rd = self.point_motion(t, y, v)
         kinetic = 0.5 * (np.einsum("bpi,bpi,p->b", rd, rd, self.point_mass)
                          + self.rotary_rates(t, v)**2 @ self.rot_J)
         q = y[:, :self.n]
-        return kinetic, 0.5 * np.einsum("bi,ij,bj->b", q, self.K, q)
+        strain = 0.5 * np.einsum("bi,ij,bj->b", q, self.K, q)
+        if self.loads.elastic:
+            p, _, _ = self.rigid_state(t, y, v, np.zeros_like(y))
+            strain = strain + spring_energy(self.loads, p)
+        return kinetic, strain
 
     def potential(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Gravitational potential energy −Σ m_p g·r_p (b,), J (zero at the origin's
@@ -456,10 +470,11 @@ class NonlinearForwardSystem:
 
     @property
     def max_frequency(self) -> float:
-        """Highest clamped natural frequency of any link, rad/s."""
+        """Highest clamped natural frequency of any link, or of an elastic joint's spring
+        (`elastic_joints.spring_frequency`), rad/s."""
         from ..modes import highest_frequency
 
-        return highest_frequency(self.modal)
+        return max(highest_frequency(self.modal), spring_frequency(self.loads))
 
 
 def _rows(inp: StageInputs) -> tuple[np.ndarray, ...]:

@@ -19,6 +19,7 @@ from .controllers import (
 from .histories import ZERO, BangBang, History, Step, Sum, Table
 from .joints import (
                      Drive,
+                     ElasticJoint,
                      Joint,
                      JointMotion,
                      PositionServo,
@@ -58,6 +59,7 @@ __all__ = [
     "Controller",
     "DiscreteLTI",
     "Drive",
+    "ElasticJoint",
     "FunctionController",
     "History",
     "InitialName",

@@ -77,14 +77,60 @@ Drive = TorqueDrive | VelocityServo | PositionServo
 Servo = VelocityServo | PositionServo
 
 
+@dataclass(frozen=True)
+class ElasticJoint:
+    """A joint whose link is driven through a torsional spring and damper by a motor rotor
+    (the flexible-joint robot, Spong 1987; docs/elastic_joints.md).
+
+    ``motor`` drives the motor angle θ_m (rad, motor shaft, relative to the parent link): a
+    prescribed motion, a `TorqueDrive` or a servo, whose angles, rates, references and
+    torques are the motor shaft's and whose ``motor_inertia`` is the rotor's inertia J_m about
+    its axis (kg·m², not reflected). Through a gear of ratio N (motor turns per link turn,
+    N ≠ 0) the spring torque on the link is
+
+        τ_s = k (θ_m/N − β) + c (θ̇_m/N − β̇)     (N·m; reaction −τ_s on the parent),
+
+    and the motor feels −τ_s/N: J_m θ̈_m = τ_m − τ_s/N. The rotor's kinetic energy is
+    ½ J_m θ̇_m² (Spong's assumption: the rotor's share of the parent's rotation is neglected).
+    At t = 0 the spring is relaxed: β = θ_m/N, β̇ = θ̇_m/N."""
+
+    motor: JointMotion | TorqueDrive | VelocityServo | PositionServo
+    stiffness: float  # N·m/rad, k > 0
+    damping: float = 0.0  # N·m·s/rad, c ≥ 0
+    gear_ratio: float = 1.0  # N, motor turns per link turn
+
+    @property
+    def motor_inertia(self) -> float:
+        """The link side carries no rotor (the rotor is the motor coordinate's): 0."""
+        return 0.0
+
+    @property
+    def rotor_inertia(self) -> float:
+        """J_m (kg·m²): the motor drive's inertia; 0 for a prescribed motor angle."""
+        return float(getattr(self.motor, "motor_inertia", 0.0))
+
+    @property
+    def integrator(self) -> bool:
+        """Whether the motor's servo has an integral state."""
+        return bool(getattr(self.motor, "integrator", False))
+
+
+def drive_side(joint: object) -> object:
+    """What drives a joint's coordinate: an elastic joint's motor, else the joint itself."""
+    return joint.motor if isinstance(joint, ElasticJoint) else joint
+
+
 def is_driven(joint: object) -> bool:
-    """True for a drive, False for a prescribed joint motion."""
-    return isinstance(joint, TorqueDrive | VelocityServo | PositionServo)
+    """True for a drive or an elastic joint (the link angle follows from the dynamics),
+    False for a prescribed joint motion."""
+    return isinstance(joint, TorqueDrive | VelocityServo | PositionServo | ElasticJoint)
 
 
 def initial_angle(joint: object) -> float:
     """A joint's angle at t = 0 (rad): its motion's, a torque drive's initial angle, a servo's
-    reference."""
+    reference; an elastic joint's motor angle over the gear ratio (the spring relaxed)."""
+    if isinstance(joint, ElasticJoint):
+        return initial_angle(joint.motor) / joint.gear_ratio
     if isinstance(joint, TorqueDrive):
         return float(joint.initial_angle)
     motion = getattr(joint, "reference", joint)
@@ -92,4 +138,4 @@ def initial_angle(joint: object) -> float:
 
 
 # A joint is prescribed (its motion is given) or driven (its angle follows from the dynamics).
-Joint = JointMotion | Drive
+Joint = JointMotion | Drive | ElasticJoint

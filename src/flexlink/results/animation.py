@@ -262,6 +262,12 @@ class _Scene:
             ax.legend(loc="lower right", fontsize="x-small")  # type: ignore[attr-defined]
         ax.plot([0], [0], marker="^", color="0.3", markersize=8,  # type: ignore[attr-defined]
                 linestyle="none")
+        # elastic joints: an open ring at the link's root (one artist per case)
+        self.spring_marks = [add(Line2D([], [], marker="o", markersize=12, linestyle="none",
+                                        markerfacecolor="none", markeredgecolor="#7030a0",
+                                        markeredgewidth=1.8, zorder=4, animated=True))
+                             for _ in self.tracks]
+        self.moving.extend(self.spring_marks)
         # joint frames of a run: x (red) along the link at its joint, y (green) across
         self.frame_x = add(Line2D([], [], color="#d00000", linewidth=1.2, animated=True))
         self.frame_y = add(Line2D([], [], color="#00a000", linewidth=1.2, animated=True))
@@ -330,6 +336,9 @@ class _Scene:
             for line, dot, tip in zip(trails, dots, track.tips, strict=True):
                 line.set_data(tip[first:index + 1, 0], tip[first:index + 1, 1])
                 dot.set_data(tip[index:index + 1, 0], tip[index:index + 1, 1])
+        for mark, track in zip(self.spring_marks, self.tracks, strict=True):
+            mark.set_data([track.links[k][0][index, 0] for k in track.springs],
+                          [track.links[k][1][index, 0] for k in track.springs])
         if fx:
             self.frame_x.set_data(fx[0::2], fx[1::2])
             self.frame_y.set_data(fy[0::2], fy[1::2])

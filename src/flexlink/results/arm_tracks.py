@@ -25,12 +25,14 @@ class AnimationInputError(ValueError):
 class ArmTrack:
     """One case to draw: ``links`` (X, Y) polylines (nt, points) each, m, global;
     ``tips`` (nt, 2) per link at the stated magnification; ``base`` (nt, 3): x, y (m) and
-    attitude (rad) of a moving base, else None; ``label`` for the legend."""
+    attitude (rad) of a moving base, else None; ``label`` for the legend; ``springs``: the
+    links whose joint is elastic (marked at the link's root)."""
 
     links: list[tuple[np.ndarray, np.ndarray]]
     tips: list[np.ndarray]
     base: np.ndarray | None
     label: str
+    springs: tuple[int, ...] = ()
 
 
 def run_track(results: ChannelTable, magnification: float = 1.0) -> ArmTrack:
@@ -45,7 +47,15 @@ def run_track(results: ChannelTable, magnification: float = 1.0) -> ArmTrack:
         tips = [_tip_xy(results, s.link) for s in shapes]
     else:
         tips = [np.column_stack([X[:, -1], Y[:, -1]]) for X, Y in links]
-    return ArmTrack(links, tips, _base(results), str(results.metadata.get("scenario", "")))
+    return ArmTrack(links, tips, _base(results), str(results.metadata.get("scenario", "")),
+                    _springs(results))
+
+
+def _springs(results: ChannelTable) -> tuple[int, ...]:
+    """Indices of the links on elastic joints: those with a spring-torque channel."""
+    subjects = {results.channels[n].subject for n in results.names_of(ChannelKind.JOINT)
+                if results.channels[n].quantity == "spring_torque"}
+    return tuple(sorted(int(s.removeprefix("joint")) - 1 for s in subjects))
 
 
 def _tip_xy(results: ChannelTable, link: str) -> np.ndarray:

@@ -230,7 +230,10 @@ def plot_joint_angles(results: ChannelTable) -> Figure:
         raise ValueError("no joint angle channels in the results")
     torques = joint_channels(results, "torque")
     groups = torque_panels(results, torques)
-    references = {results.channels[n].subject: n for n in joint_channels(results, "reference")}
+    # (an elastic joint's servo reference is its motor's, motor-shaft angles: not β's)
+    motors = {results.channels[n].subject for n in joint_channels(results, "motor_angle")}
+    references = {results.channels[n].subject: n for n in joint_channels(results, "reference")
+                  if results.channels[n].subject not in motors}
     fig, axes = _figure(results, _joint_spec(len(groups)))
     ax = axes[0]
     colours = {}  # a joint's torque in its angle's colour

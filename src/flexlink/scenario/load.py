@@ -32,9 +32,11 @@ from . import schema
 from .actuators import build_actuator, read_actuators
 from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
+from .elastic import read_elastic_joint
 from .errors import Problems, ScenarioError, describe
 from .schema import (
     BODIES,
+    ELASTIC,
     JOINTS,
     LINKS,
     MAX_CONTROL_SAMPLES,
@@ -303,6 +305,9 @@ def _bending_stiffness(table: dict[str, Any], path: str, width: float | None,
 
 def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,
            p: Problems) -> tuple[dict[str, Any], Any]:
+    if any(key in table for key in ELASTIC.keys):  # the rest of the table drives the motor
+        return read_elastic_joint(table, path, p, lambda rest: _joint(rest, path, base_dir,
+                                                                      t_end, p))
     if "drive" in table:
         return _driven_joint(table, path, base_dir, p)
     if "base_point" in table:  # a prescribed joint may start a branch on the base too
@@ -526,8 +531,9 @@ def _check_massless_base(base: dict[str, Any] | None, joints: list[dict[str, Any
         return
     what = "base.mass = 0 and base.inertia = 0"
     for i, joint in enumerate(joints):
-        if (i == 0 or "base_point" in joint) and "drive" in joint:
-            p.add(f"{what} with joints[{i}] driven (drive = {joint['drive']!r}) on the base: "
+        if (i == 0 or "base_point" in joint) and ("drive" in joint or "spring_stiffness" in joint):
+            p.add(f"{what} with joints[{i}] driven (drive = {joint.get('drive', 'spring')!r}) "
+                  "on the base: "
                   "the joint's torque has no base inertia to act against; give base.mass "
                   f"and base.inertia > 0, or prescribe joints[{i}] (motion)")
     if model == "nonlinear" and base.get("loads"):

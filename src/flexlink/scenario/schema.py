@@ -198,9 +198,10 @@ SIMULATION = Section("simulation", [
               "do"),
     Field("initial", "string", default="rest", choices=INITIAL_STATES, notes={
         "rest": "every link undeformed and at rest at t = 0",
-        "equilibrium": "the elastic coordinates, and the joints held by servos, start at rest "
-                       "in static equilibrium with the loads at t = 0 (gravity, held joints): "
-                       "a run without motion then stays at rest"},
+        "equilibrium": "the elastic coordinates, the joints held by servos and the links "
+                       "on elastic joints start at rest in static equilibrium with the loads "
+                       "at t = 0 (gravity, held joints): a run without motion then stays at "
+                       "rest"},
         doc="the state at t = 0"),
 ])
 
@@ -494,10 +495,24 @@ POSITION = _servo("position", 5.0, [
     Field("rate_limit_deg_s", unit="deg/s", gt=0, doc="Ω_max"),
 ])
 
+# --- elastic [[joints]]: a motor rotor on a torsional spring (scenario/elastic.py) ----------
+
+ELASTIC = Section("elastic", [
+    Field("spring_stiffness", unit="N·m/rad", gt=0,
+          doc="k: makes the joint elastic; the joint's motion, torque or servo then turns "
+              "the motor (its angles, rates and torques are the motor shaft's, "
+              "`motor_inertia` the rotor's about its axis) and the spring turns the link"),
+    Field("spring_damping", unit="N·m·s/rad", ge=0, default=0.0,
+          doc="c: τ_s = k (θ_m/N − β) + c (θ̇_m/N − β̇) on the link, −τ_s/N on the motor"),
+    Field("gear_ratio", nonzero=True, default=1.0,
+          doc="N, motor turns per link turn (the link starts on θ_m/N, the spring relaxed)"),
+])
+
 # every table kind, by the name of its generated docs block
 SECTIONS: dict[str, Section] = {s.name: s for s in (
-    SIMULATION, LINKS, BODIES, JOINTS, *PROFILES.values(), MEASURED_ANGLES, SENSORS, POINT_SENSORS,
-    PIEZO, BASE, LOADS, *HISTORIES.values(), HISTORY_CSV, TORQUE, VELOCITY_PID, POSITION)}
+    SIMULATION, LINKS, BODIES, JOINTS, *PROFILES.values(), MEASURED_ANGLES, SENSORS,
+    POINT_SENSORS, PIEZO, BASE, LOADS, *HISTORIES.values(), HISTORY_CSV, TORQUE, VELOCITY_PID,
+    POSITION, ELASTIC)}
 
 
 # --- [[actuators]] --------------------------------------------------------------------------
