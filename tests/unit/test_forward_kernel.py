@@ -81,13 +81,15 @@ def _bodies(stiffening: bool) -> ForwardSystem:
     """A torque-driven link and a servo-driven one carrying rigid bodies (an offset tip body,
     bodies inside the span) on a pinned base, in gravity."""
     links = (Link("a", 1.2, 0.8, 30.0, modes=3, mode_shapes="tip_loaded",
-                  bodies=(Body(1.2, 0.3, (0.1, 0.0), 0.01), Body(0.5, 0.2, (-0.05, 0.0), 0.003))),
+                  bodies=(Body(1.2, 0.3, (0.1, 0.06), 0.01), Body(0.5, 0.2, (-0.05, -0.08), 0.003))),
              Link("b", 0.9, 0.5, 12.0, tip_mass=0.05, modes=2,
-                  bodies=(Body(0.4, 0.1, (0.2, 0.0), 0.0), Body(0.9, 0.0, (0.0, 0.0), 0.002))))
+                  bodies=(Body(0.4, 0.1, (0.2, 0.0), 0.0), Body(0.9, 0.0, (0.0, 0.0), 0.002),
+                          Body(0.2, 0.15, (0.0, 0.1), 0.001))))
     base = Base("pinned", inertia=0.8, attachments=((0, (0.2, 0.0)),), rate=0.4)
     servo = PositionServo(Cycloidal(1.5, 3.0, 0.1, 1.0), bandwidth=30.0, rate_limit=0.5,
-                          loop_gain=0.5, torque_limit=0.4, motor_inertia=0.001)
-    chain = Chain(links, (TorqueDrive(Table((0.0, 1.0, 2.0), (0.5, -0.2, 0.3))), servo))
+                          loop_gain=0.5, torque_limit=0.4, motor_inertia=0.02)
+    chain = Chain(links, (TorqueDrive(Table((0.0, 1.0, 2.0), (0.5, -0.2, 0.3)), motor_inertia=0.05),
+                          servo))
     return ForwardSystem(chain, base, stiffening, gravity=(1.5, -9.81))
 
 

@@ -46,11 +46,13 @@ def _in_gravity(system: FirstOrderSystem) -> FirstOrderSystem:
 
 
 def _bodies(stiffening: bool) -> FirstOrderSystem:
-    """Two links carrying rigid bodies: an offset tip body, bodies inside the span."""
+    """Two links carrying rigid bodies: a tip body offset along and across the link, bodies
+    inside the span (one across the link)."""
     links = (Link("a", 1.2, 0.8, 30.0, modes=3, mode_shapes="tip_loaded",
-                  bodies=(Body(1.2, 0.3, (0.1, 0.0), 0.01), Body(0.5, 0.2, (-0.05, 0.0), 0.003))),
+                  bodies=(Body(1.2, 0.3, (0.1, 0.06), 0.01), Body(0.5, 0.2, (-0.05, -0.08), 0.003))),
              Link("b", 0.9, 0.5, 12.0, tip_mass=0.05, modes=2,
-                  bodies=(Body(0.4, 0.1, (0.2, 0.0), 0.0), Body(0.9, 0.0, (0.0, 0.0), 0.002))))
+                  bodies=(Body(0.4, 0.1, (0.2, 0.0), 0.0), Body(0.9, 0.0, (0.0, 0.0), 0.002),
+                          Body(0.2, 0.15, (0.0, 0.1), 0.001))))
     motions = (CubicMotion(0.3, 0.7, -0.4, 0.2), CubicMotion(1.2, -0.5, 0.8, -0.3))
     return FirstOrderSystem(Chain(links, motions), stiffening, gravity=(1.5, -9.81))
 

@@ -77,9 +77,9 @@ def generalized_inertia(links, modal, beta_fn, t0, z, zd, zdd, stiffening, h=1e-
             Q[i] += simpson(integrand, x=x)
             if links[k].tip_mass:
                 Q[i] += links[k].tip_mass * np.dot(dr[:, -1], acc[:, -1])
-            if data.tip_inertia:
+            if links[k].tip_inertia:
                 th_acc = _second_derivative([smp[k][2] for smp in samples], h)
-                Q[i] += data.tip_inertia * (plus[k][2] - minus[k][2]) / (2 * dz) * th_acc
+                Q[i] += links[k].tip_inertia * (plus[k][2] - minus[k][2]) / (2 * dz) * th_acc
     return Q
 
 

@@ -49,8 +49,8 @@ def prescribed_motion(system: NonlinearSystem, solution: Solution,
     """The ArcMotion of a prescribed-joint run (fixed hub at the origin)."""
     zero = np.zeros((solution.t.size, 2))
     return ArcMotion(system.node_angles(solution.q, hist.angle),
-                     system.node_angles(solution.q_dot, hist.rate),
-                     system.node_angles(solution.q_ddot, hist.acceleration), zero, zero,
+                     system.node_rates(solution.q_dot, hist.rate),
+                     system.node_rates(solution.q_ddot, hist.acceleration), zero, zero,
                      solution.q @ system.root_A.T + np.cumsum(hist.angle, axis=1), solution.q)
 
 

@@ -167,8 +167,8 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     out[:] = 0.0
     for k in range(N):
         w, wd = omega[k], alpha[k]
-        own[k, 0] = d.mass[k] * oacc[k, 0] - w * w * d.s1[k]
-        own[k, 1] = d.mass[k] * oacc[k, 1] + wd * d.s1[k]
+        own[k, 0] = d.mass[k] * oacc[k, 0] - w * w * d.s1[k] - wd * d.sy[k]
+        own[k, 1] = d.mass[k] * oacc[k, 1] + wd * d.s1[k] - w * w * d.sy[k]
     for k in range(N - 2, -1, -1):
         if d.attached[k + 1]:
             continue
@@ -208,6 +208,13 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
         v[2] = s1k * ay + J * wd + Jt * wd
         for i in range(nk):
             v[3 + i] = ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i] + wd * d.rot_slope[k, i]
+        sy, lateral = d.sy[k], d.lateral[k]
+        if lateral:  # bodies' centres across the link (first_order.rigid_load)
+            v[0] -= wd * sy
+            v[1] -= w * w * sy
+            v[2] -= ax * sy
+            for i in range(nk):
+                v[3 + i] += w * w * d.lat_tilde[k, i] - ax * d.lat_slope[k, i]
         for a in range(mk):
             acc = 0.0
             for b in range(mk):
@@ -225,13 +232,15 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
         # Second-order stiffness (first_order.second_order_stiffness) times x.
         N_out = out[k, 0]
         w2 = w * w
-        scal = ax * s1k - w2 * J + N_out * d.length[k]
+        scal = ax * s1k - w2 * J + N_out * d.length[k] + ay * sy
         t1x = 0.0
         for c in range(nx):
             t1x += T[k, 2, c] * x[c]
         vq = 0.0
         for i in range(nk):
             vec_i = ax * d.phi_bar[k, i] - w2 * d.phi_tilde[k, i] + N_out * d.tip_value[k, i]
+            if lateral:
+                vec_i += ay * d.lat_slope[k, i] + wd * d.lat_tilde[k, i]
             vq += vec_i * x[o + i]
             r[o + i] -= vec_i * t1x
         for c in range(nx):
@@ -242,6 +251,9 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
                 if d.stiffening:
                     acc -= (ax * d.fore_mass[k, i, j] - w2 * d.fore_moment[k, i, j]
                             + N_out * d.fore_tip[k, i, j]) * x[o + j]
+                    if lateral:
+                        acc -= (ay * d.lat_fore[k, i, j]
+                                + wd * d.lat_fore_moment[k, i, j]) * x[o + j]
                 acc += d.stiffness[k, i, j] * x[o + j] + d.damping[k, i, j] * xd[o + j]
             r[o + i] += acc
         if want_M:  # M += T̂ᵀ M_t T̂

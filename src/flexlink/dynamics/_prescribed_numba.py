@@ -93,7 +93,7 @@ def solved_frames(d, angle, rate, acc, z, zd, zdd, theta, omega, alpha, origin, 
 def _link_matrices(o, nk, mass, s1, J, Jt, length, stiffening, Mtot, M0, G0, phi_bar,
                    phi_tilde, tip_value, rot_slope, stiffness, damping, fore_mass, fore_moment,
                    fore_tip, k, nr, n, w, wd, ax, ay, N_out, T, Td, Tdd, Th, Thd, Thdd, X, Y, Z,
-                   M, C, K, f):
+                   M, C, K, f, lateral, sy, lat_slope, lat_tilde, lat_fore, lat_fore_moment):
     """Add link k's terms to M, C, K, f (n × n, n) of the elastic coordinates, as
     first_order.add_link_terms with rigid_load and second_order_stiffness (docs/derivation.md
     §3–4): T̂ᵀ M_t T̂, T̂ᵀ(2M_t Ṫ̂ + 2ω G₀T̂), T̂ᵀ(M_t T̈̂ + 2ω G₀ Ṫ̂ + (ω̇G₀ − ω²M₀)T̂) − S₂ + K_e,
@@ -156,18 +156,26 @@ def _link_matrices(o, nk, mass, s1, J, Jt, length, stiffening, Mtot, M0, G0, phi
     l0 = mass * ax - w2 * s1
     l1 = mass * ay + wd * s1
     l2 = s1 * ay + J * wd + Jt * wd
+    if lateral:  # bodies' centres across the link
+        l0 -= wd * sy
+        l1 -= w2 * sy
+        l2 -= ax * sy
     for c in range(nc):
         f[c] -= Th[0, c] * l0 + Th[1, c] * l1 + Th[2, c] * l2
     for i in range(nk):
         f[o + i] -= (ay * phi_bar[i] + wd * phi_tilde[i]
                      + wd * rot_slope[i])
+        if lateral:
+            f[o + i] -= w2 * lat_tilde[i] - ax * lat_slope[i]
     # Second-order stiffness (first_order.second_order_stiffness): K −= S₂.
-    scal = ax * s1 - w2 * J + N_out * length
+    scal = ax * s1 - w2 * J + N_out * length + ay * sy
     for c1 in range(nc):
         for c2 in range(nc):
             K[c1, c2] -= scal * Th[2, c1] * Th[2, c2]
     for i in range(nk):
         vec = ax * phi_bar[i] - w2 * phi_tilde[i] + N_out * tip_value[i]
+        if lateral:
+            vec += ay * lat_slope[i] + wd * lat_tilde[i]
         for c in range(nc):
             K[c, o + i] -= Th[2, c] * vec
             K[o + i, c] -= Th[2, c] * vec
@@ -176,6 +184,8 @@ def _link_matrices(o, nk, mass, s1, J, Jt, length, stiffening, Mtot, M0, G0, phi
             if stiffening:
                 K[o + i, o + j] -= (ax * fore_mass[i, j] - w2 * fore_moment[i, j]
                                     + N_out * fore_tip[i, j])
+                if lateral:
+                    K[o + i, o + j] -= ay * lat_fore[i, j] + wd * lat_fore_moment[i, j]
             K[o + i, o + j] += stiffness[i, j]
             C[o + i, o + j] += damping[i, j]
 
@@ -201,8 +211,10 @@ def state_rows(d, angle, rate, acc, out):
         outboard[N - 1, 0] = outboard[N - 1, 1] = 0.0
         for k in range(N - 2, -1, -1):
             j = k + 1
-            fx = outboard[j, 0] + d.mass[j] * oa[j, 0] - om[j] * om[j] * d.s1[j]
-            fy = outboard[j, 1] + d.mass[j] * oa[j, 1] + al[j] * d.s1[j]
+            fx = (outboard[j, 0] + d.mass[j] * oa[j, 0] - om[j] * om[j] * d.s1[j]
+                  - al[j] * d.sy[j])
+            fy = (outboard[j, 1] + d.mass[j] * oa[j, 1] + al[j] * d.s1[j]
+                  - om[j] * om[j] * d.sy[j])
             turn = th[j] - th[k]
             cb, sb = np.cos(turn), np.sin(turn)
             outboard[k, 0] = cb * fx - sb * fy
@@ -217,7 +229,9 @@ def state_rows(d, angle, rate, acc, out):
                            d.phi_bar[k], d.phi_tilde[k], d.tip_value[k], d.rot_slope[k],
                            d.stiffness[k], d.damping[k], d.fore_mass[k], d.fore_moment[k],
                            d.fore_tip[k], k, nr, n, om[k], al[k], oa[k, 0], oa[k, 1],
-                           outboard[k, 0], T, Td, Tdd, Th, Thd, Thdd, X, Y, Z, M, C, K, f)
+                           outboard[k, 0], T, Td, Tdd, Th, Thd, Thdd, X, Y, Z, M, C, K, f,
+                           d.lateral[k], d.sy[k], d.lat_slope[k], d.lat_tilde[k], d.lat_fore[k],
+                           d.lat_fore_moment[k])
         rhs = out[i]  # solved in place
         for a in range(n):
             for b in range(n):
@@ -354,6 +368,23 @@ def joint_torques(d, theta, omega, alpha, origin, oacc, xi, xi_d, xi_dd, z, zd, 
             g_cross_a0 = (r0 * (m * ay + s1 * wd) - r1 * Fx - r2 * (s1 * ax - w2 * J)
                           - qb * ax + w2 * qt)
             own = s1 * ay + (J + Jt) * wd + g_cross_a0 + x_a1y + tilt
+            sy = d.sy[j]
+            if d.lateral[j]:  # bodies' centres across the link (torques._link_moment)
+                gx, gx_d, gx_dd = -sy * r2, -sy * xi_d[i, j, 2], -sy * xi_dd[i, j, 2]
+                dot, dot_d = sy * r1, sy * xi_d[i, j, 1]
+                for q in range(nj):
+                    gx -= d.lat_slope[j, q] * z[i, o + q]
+                    gx_d -= d.lat_slope[j, q] * zd[i, o + q]
+                    gx_dd -= d.lat_slope[j, q] * zdd[i, o + q]
+                    dot -= d.lat_tilde[j, q] * z[i, o + q]
+                    dot_d -= d.lat_tilde[j, q] * zd[i, o + q]
+                hy, hy_dd = -sy * r0, -sy * rx_dd
+                a1x += gx_dd - w2 * gx
+                a1y += 2 * w * gx_d + wd * gx
+                own += (-sy * ax + (hy_dd + 2 * w * dot_d + wd * dot - w2 * hy)
+                        + (ay * gx + wd * dot + w2 * hy))
+                Fx -= wd * sy
+                Fy -= w2 * sy
             for k in range(j + 1):
                 # d = A(θ_j)ᵀ (origin_j − origin_k); p1 = A(θ_k − θ_j) ρ_k (frame-j axes).
                 dx, dy = dx_[j, k], dy_[j, k]

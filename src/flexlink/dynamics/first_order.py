@@ -62,6 +62,9 @@ def link_body(data: ModalData, offset: int) -> LinkBody:
     M0[1, 3:] = M0[3:, 1] = data.phi_bar
     M0[2, 3:] = M0[3:, 2] = data.phi_tilde
     M0[3:, 3:] = data.mass_matrix
+    # a body's centre across the link (c_y): P̂_x = [1, 0, −c_y, −c_y Φ'(x_b)]
+    M0[0, 2] = M0[2, 0] = -data.lateral_moment
+    M0[0, 3:] = M0[3:, 0] = -data.lateral_slope
     # Σ J_b c_b c_bᵀ of the bodies' rotary inertias, c_b = [0, 0, 1, Φ'(x_b)]
     M_rot = np.zeros((3 + n, 3 + n))
     M_rot[2, 2] = data.rotary_inertia
@@ -71,7 +74,7 @@ def link_body(data: ModalData, offset: int) -> LinkBody:
     py = np.concatenate([[0.0, m, s1], data.phi_bar])
     N = np.zeros((3 + n, 3 + n))
     N[:, 0] = py
-    return LinkBody(data, offset, M0, M_rot, N - N.T)
+    return LinkBody(data, offset, M0, M_rot, N - N.T + data.lateral_gyroscopic)
 
 
 def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float, float]:
@@ -333,8 +336,8 @@ class FirstOrderSystem:
             d = self.modal[k + 1]
             ax, ay = fr.origin_accel[:, k + 1, 0], fr.origin_accel[:, k + 1, 1]
             w, wd = fr.omega[:, k + 1], fr.alpha[:, k + 1]
-            own = np.stack([d.mass * ax - w**2 * d.first_moment,
-                            d.mass * ay + wd * d.first_moment], -1)
+            own = np.stack([d.mass * ax - w**2 * d.first_moment - wd * d.lateral_moment,
+                            d.mass * ay + wd * d.first_moment - w**2 * d.lateral_moment], -1)
             turn = rotation(fr.theta[:, k + 1] - fr.theta[:, k])
             out[:, k] = np.einsum("tij,tj->ti", turn, out[:, k + 1] + own)
         return out
@@ -411,6 +414,12 @@ def rigid_load(body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
     load = np.concatenate([head, elastic], -1)
     load[:, 2] += d.rotary_inertia * wd
     load[:, 3:] += wd[:, None] * d.rotary_slope
+    if d.lateral:  # bodies' centres across the link, a0 = [−ω̇c_y, −ω²c_y] more
+        sy = d.lateral_moment
+        load[:, 0] -= wd * sy
+        load[:, 1] -= w**2 * sy
+        load[:, 2] -= ax * sy
+        load[:, 3:] += (w**2)[:, None] * d.lateral_tilde - ax[:, None] * d.lateral_slope
     return load
 
 
@@ -426,8 +435,12 @@ def second_order_stiffness(
     ax = fr.origin_accel[:, k, 0]
     w2 = fr.omega[:, k] ** 2
     N = outboard[:, 0]
+    ay, wd = fr.origin_accel[:, k, 1], fr.alpha[:, k]
     vec = ax[:, None] * d.phi_bar - w2[:, None] * d.phi_tilde + N[:, None] * d.tip_value
     scal = ax * d.first_moment - w2 * d.second_moment + N * d.length
+    if d.lateral:  # bodies' centres across the link: r₂ ∋ −½(θ1 + ψ)² c
+        vec = vec + ay[:, None] * d.lateral_slope + wd[:, None] * d.lateral_tilde
+        scal = scal + ay * d.lateral_moment
     theta1 = fr.T[k][:, 2, :]  # (nt, n)
     sl = body.slice
     out = scal[:, None, None] * theta1[:, :, None] * theta1[:, None, :]
@@ -440,4 +453,7 @@ def second_order_stiffness(
             - w2[:, None, None] * d.foreshortening_moment
             + N[:, None, None] * d.foreshortening_tip
         )
+        if d.lateral:
+            out[:, sl, sl] += (ay[:, None, None] * d.lateral_shortening
+                               + wd[:, None, None] * d.lateral_shortening_moment)
     return out

@@ -326,8 +326,9 @@ class ForwardSystem:
         for k, d in enumerate(self.modal):
             ax, ay = fr.origin_accel[:, k, 0], fr.origin_accel[:, k, 1]
             w, wd = fr.omega[:, k], fr.alpha[:, k]
-            own[:, k] = np.stack([d.mass * ax - w**2 * d.first_moment,
-                                  d.mass * ay + wd * d.first_moment], -1)
+            own[:, k] = np.stack([d.mass * ax - w**2 * d.first_moment - wd * d.lateral_moment,
+                                  d.mass * ay + wd * d.first_moment - w**2 * d.lateral_moment],
+                                 -1)
         out = np.zeros((nt, n_links, 2))
         for k in range(n_links - 2, -1, -1):
             if self.attach[k + 1] is not None:  # link k + 1 starts a new branch
@@ -463,18 +464,21 @@ def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray
         xi = np.einsum("tai,ti->ta", Th, x)
         xi_d = np.einsum("tai,ti->ta", Th, xd) + np.einsum("tai,ti->ta", Th_d, x)
         ny = np.concatenate([[0.0, d.mass, d.first_moment], d.phi_bar])
-        hy = np.concatenate([[0.0, d.first_moment, d.second_moment], d.phi_tilde])
+        # ∫ X × ġ dm = hy·ξ̇, X = [x, y] (a body's centre across the link has y = c_y)
+        hy = np.concatenate([[-d.lateral_moment, d.first_moment, d.second_moment], d.phi_tilde])
+        nx = body.M0[0]  # ∫ g_x dm = nx·ξ
         w = fr.omega[:, k]
-        int_g = np.stack([d.mass * xi[:, 0], xi @ ny], -1)
-        int_gd = np.stack([d.mass * xi_d[:, 0], xi_d @ ny], -1)
-        int_X = np.stack([np.full(nt, d.first_moment), np.zeros(nt)], -1)
+        int_g = np.stack([xi @ nx, xi @ ny], -1)
+        int_gd = np.stack([xi_d @ nx, xi_d @ ny], -1)
+        int_X = np.stack([np.full(nt, d.first_moment), np.full(nt, d.lateral_moment)], -1)
         inner = int_gd + w[:, None] * ((int_X + int_g) @ TURN.T)  # ∫ġ + ωS(X+g) dm, frame axes
         e = rotation(fr.theta[:, k])
         R = np.einsum("tji,tj->ti", e, fr.origin[:, k])
         V = np.einsum("tji,tj->ti", e, velocity[:, k])
         lin += d.mass * velocity[:, k] + np.einsum("tij,tj->ti", e, inner)
         ang += (d.mass * _cross(R, V) + _cross(R, inner) + _cross(int_X + int_g, V)
-                + xi_d @ hy + w * (d.second_moment + 2 * d.first_moment * xi[:, 0])
+                + xi_d @ hy + w * (d.second_moment + 2 * d.first_moment * xi[:, 0]
+                                   + 2 * (d.lateral_moment * xi[:, 1] - xi[:, 3:] @ d.lateral_tilde))
                 + d.rotary_inertia * (w + xi_d[:, 2]) + xi_d[:, 3:] @ d.rotary_slope)
     return lin, ang
 

@@ -32,13 +32,16 @@ ForwardData = namedtuple("ForwardData", [
     "damping", "fore_mass", "fore_moment", "fore_tip", "joint_kind", "motor_inertia",
     "servo_index", "P", "I", "D", "saturation", "rate_per_volt", "loop_gain", "torque_limit",
     "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B", "gravity", "rot_slope",
+    "lateral", "sy", "lat_slope", "lat_tilde", "lat_fore", "lat_fore_moment",
     "motor_row", "motor_kind", "spring_k", "spring_c", "gear", "rotor_inertia"])
 ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI units, link "
                        "arrays padded to the most modes, offsets into x = [δp; z]; "
                        "actuator_B (n, n_act) the actuators' forces on z per volt; gravity "
                        "(2,) the uniform field [gx, gy], m/s², global axes; Jt, rot_slope the "
                        "bodies' rotary inertia Σ J_b (kg·m²) and Σ J_b Φ'(x_b) of each link; "
-                       "the elastic joints' arrays: dynamics/_elastic_numba.py.")
+                       "lateral, sy, lat_*: the modal data's lateral_* (bodies' centres "
+                       "across the link); the elastic joints' arrays: "
+                       "dynamics/_elastic_numba.py.")
 
 
 def pack(system: ForwardSystem) -> ForwardData:
@@ -130,8 +133,14 @@ def pack(system: ForwardSystem) -> ForwardData:
         load_body=np.array([ld.frame == "body" for ld in loads], dtype=bool),
         actuator_B=np.ascontiguousarray(system.actuator_B, dtype=float),
         gravity=np.array(system.gravity, dtype=float),
-        rot_slope=pad([d.rotary_slope for d in modal], (nm,)), motor_row=motor_row,
-        motor_kind=motor_kind, gear=gear, **spring)
+        rot_slope=pad([d.rotary_slope for d in modal], (nm,)),
+        lateral=np.array([d.lateral for d in modal], dtype=bool),
+        sy=np.array([d.lateral_moment for d in modal]),
+        lat_slope=pad([d.lateral_slope for d in modal], (nm,)),
+        lat_tilde=pad([d.lateral_tilde for d in modal], (nm,)),
+        lat_fore=pad([d.lateral_shortening for d in modal], (nm, nm)),
+        lat_fore_moment=pad([d.lateral_shortening_moment for d in modal], (nm, nm)),
+        motor_row=motor_row, motor_kind=motor_kind, gear=gear, **spring)
 
 
 def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:

@@ -101,6 +101,7 @@ class NonlinearSystem:
         # Section angles: rows of A (on q) and B (on β) for every node and every link tip.
         self.A = np.zeros((self.nodes, self.n))
         self.B = np.zeros((self.nodes, n_links))
+        self.angle0 = np.zeros(self.nodes)  # constant angle offsets (bodies' nodes), rad
         self.tip_A = np.zeros((n_links, self.n))
         self.tip_B = np.zeros((n_links, n_links))
         base = np.zeros(self.n)  # angle of link k's clamped frame, on q
@@ -126,6 +127,7 @@ class NonlinearSystem:
             rows.append(body.W)
             masses.append(body.mass)
             self.A[body.nodes], self.B[body.nodes] = body.node_A, body.node_B
+            self.angle0[body.nodes] = body.node_offset
             node += len(body.nodes)
             rotary.append(body)
         self.tip_A = np.vstack([b.rot_A for b in rotary])
@@ -168,8 +170,13 @@ class NonlinearSystem:
         return joint_history(self.chain.joints, t)
 
     def node_angles(self, q: np.ndarray, beta: np.ndarray) -> np.ndarray:
-        """α at every node, (b, nodes), rad."""
-        return q @ self.A.T + beta @ self.B.T
+        """α at every node, (b, nodes), rad (a body's node: its section's angle turned to
+        the body's centre, `angle0`)."""
+        return q @ self.A.T + beta @ self.B.T + self.angle0
+
+    def node_rates(self, qd: np.ndarray, beta_dot: np.ndarray) -> np.ndarray:
+        """α̇ (or α̈ from q̈, β̈) at every node, (b, nodes)."""
+        return qd @ self.A.T + beta_dot @ self.B.T
 
     # -- equations ----------------------------------------------------------------------------
     def _kernel(self, c: np.ndarray, s: np.ndarray, vectors: list[np.ndarray]) -> list[np.ndarray]:
@@ -241,7 +248,7 @@ class NonlinearSystem:
         """M (b, n, n) and f (b, n) of M q̈ = f: f = −Aᵀu₀ − J_t a_t (b_t β̈) − D q̇ − K q
         (without the applied loads)."""
         alpha = self.node_angles(q, beta)
-        alpha_dot = self.node_angles(qd, beta_dot)
+        alpha_dot = self.node_rates(qd, beta_dot)
         u0 = self.inertia_load(alpha, alpha_dot, beta_ddot)
         rot = (beta_ddot @ self.tip_B.T) * self.tip_inertia
         f = -(u0 @ self.A + rot @ self.tip_A + qd @ self.D + q @ self.K)
@@ -272,7 +279,7 @@ class NonlinearSystem:
         """The joint prescriptions at times t (b,) (or their given history) on the nodes and
         tips, and the open-loop actuators' forces."""
         hist = self.joint_history(t) if hist is None else hist
-        return NodeInputs(hist.angle @ self.B.T, hist.rate @ self.B.T,
+        return NodeInputs(hist.angle @ self.B.T + self.angle0, hist.rate @ self.B.T,
                           hist.acceleration @ self.B.T, hist.acceleration @ self.tip_B.T,
                           self.voltages(t) @ self.actuator_B.T)
 
@@ -310,7 +317,7 @@ class NonlinearSystem:
         """Kinetic and elastic energy (b,), J."""
         hist = self.joint_history(t)
         alpha = self.node_angles(q, hist.angle)
-        alpha_dot = self.node_angles(qd, hist.rate)
+        alpha_dot = self.node_rates(qd, hist.rate)
         vx = -np.sin(alpha) * alpha_dot @ self.R.T
         vy = np.cos(alpha) * alpha_dot @ self.R.T
         tip_rate = qd @ self.tip_A.T + hist.rate @ self.tip_B.T

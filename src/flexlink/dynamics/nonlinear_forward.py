@@ -155,6 +155,7 @@ class NonlinearForwardSystem:
             rows.append(body.W)
             masses.append(body.mass)
             A[body.nodes], B[body.nodes] = body.node_A, body.node_B
+            self.offset[body.nodes] = body.node_offset
             bodies += len(body.nodes)
             rot_A.extend(body.rot_A)
             rot_B.extend(body.rot_B)

@@ -44,29 +44,33 @@ def joint_torques(
 
 
 def _link_moment(system, fr, j, d, p1, xi, xi_d, xi_dd) -> np.ndarray:
-    """Zero- plus first-order moment of link j's inertia forces about P (frame-j axes)."""
+    """Zero- plus first-order moment of link j's inertia forces about P (frame-j axes).
+
+    X = [x, y] the zero-order position of a mass point in frame j (y = c_y for a body's
+    centre across the link), g = P̂ξ its first-order displacement."""
     data = system.modal[j]
     m, s1, J = data.mass, data.first_moment, data.second_moment
+    sy = data.lateral_moment  # ∫ y dm
     w, wd = fr.omega[:, j], fr.alpha[:, j]
     ax, ay = fr.origin_accel[:, j, 0], fr.origin_accel[:, j, 1]
-    force = np.stack([m * ax - w**2 * s1, m * ay + wd * s1], -1)  # ∫ a⁰ dm
-    moment0 = _cross(d, force) + s1 * ay + (J + data.rotary_inertia) * wd
+    force = np.stack([m * ax - w**2 * s1 - wd * sy, m * ay + wd * s1 - w**2 * sy], -1)  # ∫ a⁰ dm
+    moment0 = _cross(d, force) + s1 * ay - sy * ax + (J + data.rotary_inertia) * wd
 
+    nx = system.bodies[j].M0[0]  # ∫ g_x dm = nx·ξ
     ny = np.concatenate([[0.0, m, s1], data.phi_bar])  # ∫ g_y dm = ny·ξ
-    hy = np.concatenate([[0.0, s1, J], data.phi_tilde])  # ∫ x g_y dm = hy·ξ
+    hy = np.concatenate([[-sy, s1, J], data.phi_tilde])  # ∫ X × g dm = hy·ξ
+    Gx, Gx_d, Gx_dd = xi @ nx, xi_d @ nx, xi_dd @ nx
     Gy, Gy_d, Gy_dd = xi @ ny, xi_d @ ny, xi_dd @ ny
     Hy, Hy_dd = xi @ hy, xi_dd @ hy
-    rx, rx_d, rx_dd = xi[:, 0], xi_d[:, 0], xi_dd[:, 0]
+    # ∫ X·g dm = s1 ρx + (∫ y dm) ρy − lateral_tilde·q
+    dot = s1 * xi[:, 0] + sy * xi[:, 1] - xi[:, 3:] @ data.lateral_tilde
+    dot_d = s1 * xi_d[:, 0] + sy * xi_d[:, 1] - xi_d[:, 3:] @ data.lateral_tilde
     accel1 = np.stack([  # ∫ a¹ dm
-        m * rx_dd - 2 * w * Gy_d - wd * Gy - w**2 * m * rx,
-        Gy_dd + 2 * w * m * rx_d + wd * m * rx - w**2 * Gy,
+        Gx_dd - 2 * w * Gy_d - wd * Gy - w**2 * Gx,
+        Gy_dd + 2 * w * Gx_d + wd * Gx - w**2 * Gy,
     ], -1)
-    x_accel1_y = Hy_dd + 2 * w * s1 * rx_d + wd * s1 * rx - w**2 * Hy  # ∫ x a¹_y dm
-    # ∫ g × a⁰ dm with g = [ρx, ρy + xθ1 + Φq]
-    g_cross_a0 = (rx * (m * ay + s1 * wd)
-                  - xi[:, 1] * (m * ax - w**2 * s1)
-                  - xi[:, 2] * (s1 * ax - w**2 * J)
-                  - xi[:, 3:] @ data.phi_bar * ax + w**2 * (xi[:, 3:] @ data.phi_tilde))
+    x_accel1_y = Hy_dd + 2 * w * dot_d + wd * dot - w**2 * Hy  # ∫ X × a¹ dm
+    g_cross_a0 = ay * Gx - ax * Gy + wd * dot + w**2 * Hy  # ∫ g × a⁰ dm
     moment1 = (g_cross_a0 - _cross(p1, force) + _cross(d, accel1) + x_accel1_y
                + data.rotary_inertia * xi_dd[:, 2] + xi_dd[:, 3:] @ data.rotary_slope)
     return moment0 + moment1

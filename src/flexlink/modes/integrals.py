@@ -2,9 +2,10 @@
 
 The measure dm is the beam's mass per length m dx on [0, L] plus each rigid body's mass
 (`model.Body`; the tip mass is the body at x = L without offset) as a point mass at its centre:
-a body at section x_b with centre offset c = [c_x, 0] along the section's tangent sits at
-x = x_b + c_x and moves across the link with Φ(x_b) + c_x Φ'(x_b) (to first order: the section
-turns by Φ'(x_b)q). The bodies' rotary inertias J_b about their centres turn with their
+a body at section x_b with centre offset c = [c_x, c_y] in the section's frame sits at
+(x_b + c_x, c_y) and moves across the link with Φ(x_b) + c_x Φ'(x_b) and along it with
+−c_y Φ'(x_b) (to first order: the section turns by Φ'(x_b)q); ``lateral_*`` hold what c_y adds
+beyond the integrals of a measure on the link's axis. The bodies' rotary inertias J_b about their centres turn with their
 sections: ``rotary_*``. All quantities are in SI units; Φ is dimensionless.
 """
 
@@ -55,6 +56,14 @@ class ModalData:
     foreshortening_tip: np.ndarray  # (n, n) 1/m
     foreshortening_mass: np.ndarray  # (n, n) kg/m
     foreshortening_moment: np.ndarray  # (n, n) kg
+    # A body's centre across the link (offset c_y) moves along it by −c_y Φ'(x_b)q:
+    lateral: bool  # whether any body with mass has c_y ≠ 0 (the lateral_* terms count)
+    lateral_moment: float  # kg·m, ∫y dm = Σ m_b c_y
+    lateral_slope: np.ndarray  # (n,) kg, Σ m_b c_y Φ'(x_b) (−∫ of the axial motion per q)
+    lateral_tilde: np.ndarray  # (n,) kg·m, Σ m_b c_y (x_b Φ'(x_b) − Φ(x_b))
+    lateral_shortening: np.ndarray  # (n, n) kg/m, Σ m_b c_y Φ'ᵀΦ'(x_b)
+    lateral_shortening_moment: np.ndarray  # (n, n) kg, Σ m_b c_y (x_b Φ'ᵀΦ' − S(x_b))
+    lateral_gyroscopic: np.ndarray  # (3+n, 3+n) kg·m^k, the bodies' part of G₀ past ∫p_y dm
     clamped_mass_matrix: np.ndarray  # (n, n) kg, mass_matrix + rotary_matrix
     damping_matrix: np.ndarray  # (n, n) N·s/m, modal damping of the clamped link
     natural_frequencies_hz: np.ndarray  # (n,) Hz, clamped link, ascending
@@ -152,6 +161,13 @@ def _stiffness_free(link: Link, quadrature_points: int | None,
         foreshortening_mass=_sym(_weighted_gram(dphi, w * (m * (L - x))) + b.shortening_mass),
         foreshortening_moment=_sym(_weighted_gram(dphi, w * (0.5 * m * (L**2 - x**2)))
                                    + b.shortening_moment),
+        lateral=any(body.mass and body.offset[1] for body in link.all_bodies()),
+        lateral_moment=b.lateral_moment,
+        lateral_slope=_ro(b.lateral_slope),
+        lateral_tilde=_ro(b.lateral_tilde),
+        lateral_shortening=_sym(b.lateral_shortening),
+        lateral_shortening_moment=_sym(b.lateral_shortening_moment),
+        lateral_gyroscopic=_ro(b.lateral_gyroscopic),
         clamped_mass_matrix=_sym(clamped),
         damping_matrix=empty,
         natural_frequencies_hz=empty,
@@ -183,25 +199,29 @@ class BodyIntegrals:
     rotary_matrix: np.ndarray
     shortening_mass: np.ndarray
     shortening_moment: np.ndarray
+    lateral_moment: float
+    lateral_slope: np.ndarray
+    lateral_tilde: np.ndarray
+    lateral_shortening: np.ndarray
+    lateral_shortening_moment: np.ndarray
+    lateral_gyroscopic: np.ndarray
 
 
 def body_integrals(link: Link, shapes: ModeShapes, shortening) -> BodyIntegrals:
     """Every rigid body's contribution (`Link.all_bodies`) to the modal integrals: the one
-    place a body's mass, offset and inertia enter the first-order model. ``shortening(at)``:
-    S(at) (n, n) of the link's modes."""
+    place a body's mass, offset and inertia enter the first-order model (docs/derivation.md
+    §12). ``shortening(at)``: S(at) (n, n) of the link's modes."""
     n = shapes.n
-    mass = first = second = rot = 0.0
+    mass = first = second = rot = lateral = 0.0
     phi_bar, phi_tilde, rot_slope = np.zeros(n), np.zeros(n), np.zeros(n)
-    mm, rot_mm, s_mass, s_moment = (np.zeros((n, n)) for _ in range(4))
+    lat_slope, lat_tilde = np.zeros(n), np.zeros(n)
+    mm, rot_mm, s_mass, s_moment, lat_s, lat_s_moment = (np.zeros((n, n)) for _ in range(6))
+    lat_N = np.zeros((3 + n, 3 + n))
     for body in link.all_bodies():
         cx, cy = body.offset
-        if cy != 0.0:
-            raise ValueError(f"link {link.name!r}: a body's offset across the link (offset[1] "
-                             f"= {cy} m) is not modelled; put its centre on the section's "
-                             "tangent (offset = [dx, 0])")
         at = np.array([body.at])
         value, slope = shapes.evaluate(at)[0], shapes.evaluate(at, 1)[0]
-        u = value + cx * slope  # the centre's transverse displacement per q
+        u = value + cx * slope  # the centre's displacement across the link per q
         px, mb = body.at + cx, body.mass
         if mb:
             S = shortening(body.at)
@@ -214,12 +234,28 @@ def body_integrals(link: Link, shapes: ModeShapes, shortening) -> BodyIntegrals:
             mm += mb * np.outer(u, u)
             s_mass += mb * (S + cx * ss)
             s_moment += mb * (px * S + cx * px * ss)
+            if cy:
+                # along the link the centre moves by −c_y Φ'(x_b) q (the section's turn)
+                second += mb * cy * cy
+                phi_tilde += mb * cy * cy * slope
+                mm += mb * cy * cy * ss
+                s_moment += mb * cy * cy * ss
+                lateral += mb * cy
+                lat_slope += mb * cy * slope
+                lat_tilde += mb * cy * (body.at * slope - value)
+                lat_s += mb * cy * ss
+                lat_s_moment += mb * cy * (body.at * ss - S)
+                # ∫ P̂_yᵀ P̂_x dm past its first column, P̂_x = [1, 0, −c_y, −c_y Φ'(x_b)]
+                py = np.concatenate([[0.0, 1.0, px], u])
+                lat_N[:, 2] -= mb * cy * py
+                lat_N[:, 3:] -= mb * cy * np.outer(py, slope)
         if body.inertia:
             rot += body.inertia
             rot_slope += body.inertia * slope
             rot_mm += body.inertia * np.outer(slope, slope)
     return BodyIntegrals(mass, first, second, phi_bar, phi_tilde, mm, rot, rot_slope, rot_mm,
-                         s_mass, s_moment)
+                         s_mass, s_moment, lateral, lat_slope, lat_tilde, lat_s, lat_s_moment,
+                         lat_N - lat_N.T)
 
 
 def _with_stiffness(unit: UnitStiffnessModes, EI: float, damping_ratio: float) -> ModalData:

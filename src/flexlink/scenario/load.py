@@ -229,10 +229,6 @@ def _bodies(table: Mapping[str, Any], path: str, length: float | None,
         if at is not None and length is not None and at > length:
             p.add(f"{where}.at = {at!r} m is beyond the link's tip (length = {length!r} m); "
                   "give 0 <= at <= length")
-        offset = body["offset"]
-        if offset is not None and offset[1] != 0.0:
-            p.add(f"{where}.offset = {offset!r}: a centre of mass across the link "
-                  "(offset[1] != 0) is not modelled; give offset = [dx, 0]")
         if body["mass"] == 0.0 and body["inertia"] == 0.0:
             p.add(f"{where}: a body needs a mass or an inertia (both are 0); give mass (kg) "
                   "or inertia (kg·m²), or leave the table out")

@@ -264,9 +264,8 @@ BODIES = Section("links.bodies", [
           rule="≤ the link's length", doc="the section the body is fixed to, from the joint"),
     Field("mass", unit="kg", ge=0, default=0.0, doc="the body's mass"),
     Field("offset", "pair", unit="m, the section's frame", default=(0.0, 0.0),
-          rule="`[dx, 0]`: a centre across the link is not modelled",
-          doc="its centre of mass from the section point, x along the section's tangent (it "
-              "turns with the link's slope there)"),
+          doc="its centre of mass from the section point, `[dx, dy]`: dx along the section's "
+              "tangent, dy along its normal (it turns with the link's slope there)"),
     Field("inertia", unit="kg·m²", ge=0, default=0.0,
           doc="rotary inertia about its centre of mass"),
 ])
