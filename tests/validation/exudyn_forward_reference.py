@@ -166,11 +166,13 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
 
 
 def hub_beam_eigenfrequencies(link: Link, radius: float, hub_inertia: float, elements: int,
-                              count: int, section: BeamSection | None = None) -> np.ndarray:
+                              count: int, section: BeamSection | None = None,
+                              rotor: tuple[float, float, float] | None = None) -> np.ndarray:
     """The first ``count`` non-zero natural frequencies (rad/s) of the pinned hub with one
-    beam clamped at ``radius`` (m), linearised about the undeformed state by Exudyn."""
+    beam clamped at ``radius`` (m), linearised about the undeformed state by Exudyn;
+    ``rotor``: the hub on an elastic joint (`_build`)."""
     built = _build([Appendage(link, (radius, 0.0), 0.0, section)], 0.0, hub_inertia, True,
-                   elements, None)
+                   elements, None, rotor=rotor)
     mbs = built["mbs"]
     mbs.Assemble()
     values, _ = mbs.ComputeODE2Eigenvalues()
