@@ -9,7 +9,8 @@ The model is reached through `model_rates(d, w, u, y, dy)`: dy = f(t, y) for the
 kernel data ``d`` is, ``w`` its workspace, ``u`` the input row at t. Which kernel runs is
 decided at compile time by the type of ``d`` (`_KERNELS`: kernel-data record class →
 compiled rates function), so one compiled integrator serves every model and stays
-cacheable. A model adds its record class and rates function to `_KERNELS`.
+cacheable. A model adds its record class and rates function to `_KERNELS`, and, if it has
+invariants to keep (a forward system's momentum), its projection to `_PROJECTIONS`.
 
 Inputs are piecewise polynomials between breakpoints (`input_table.py`): u(t) is read in
 the compiled loop from Chebyshev coefficients, and the columns ``held[0]:held[1]`` are

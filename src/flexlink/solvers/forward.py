@@ -10,7 +10,9 @@ numpy equations to round-off) unless ``compiled=False``. The `Solution`'s coordi
 [p_free, z], its ``extra`` the servo integrals. Sampled controllers (docs/closed_loop.md)
 run with the compiled integrator: their sample instants are nodes no step straddles, and
 their held voltages overwrite the actuator voltage columns of the input rows
-(`forward_kernel.voltage_columns`).
+(`forward_kernel.voltage_columns`). The compiled integrator keeps the momentum that the
+inputs determine (`dynamics.momentum_projection`); the outputs at t_out (accelerations,
+frames, joint torques, momentum) come from one compiled pass (`dynamics.forward_outputs`).
 """
 
 from __future__ import annotations

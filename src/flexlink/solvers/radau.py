@@ -8,7 +8,10 @@ as piecewise polynomials between the breakpoints (`input_table.py`). Every break
 controller sample instant is a node no step straddles. Sampled controllers (``loop``, as
 `gauss_sampled.SampledLoop`) are updated between calls of the compiled loop at each sample
 instant from the state's elastic coordinates, their held voltages overwriting the input
-columns ``held``.
+columns ``held``. A model with known invariants (a forward system's momentum) passes its
+``projection`` record: every accepted step's end and every output state is put back onto
+them (`_radau_numba.model_project`), with the inputs' integrals from the table
+(`input_table.integrals`) for the impulse of the loads.
 
 Tolerances: component i's local error is kept below atol + rtol · its group's peak |y|
 (the running maximum over the run so far of every component in the group: displacements,
