@@ -129,10 +129,10 @@ def test_nonlinear_kernels_match_the_numpy_equations(name: str) -> None:
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
     inp = system.stage_inputs(t)
     reference = system.residual(t, y, v, a, inp)
-    data, loads = system.packed()
+    data = system.kernel_data()
     out = np.empty(system.n_y)
     for i in range(t.size):
-        residual(y[i], v[i], a[i], *(np.ascontiguousarray(x[i]) for x in inp), data, loads, out)
+        residual(data, y[i], v[i], a[i], *(np.ascontiguousarray(x[i]) for x in inp), out)
         np.testing.assert_allclose(out, reference[i], rtol=0,
                                    atol=1e-11 * np.abs(reference[i]).max())
 

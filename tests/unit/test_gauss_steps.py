@@ -20,14 +20,10 @@ from flexlink.model import (
 from flexlink.model.settings import DEFAULT_RTOL, FORWARD_RTOL, default_rtol
 from flexlink.motion import Cycloidal
 from flexlink.solvers.gauss import (
-    COEFFS,
-    COEFFS2,
     NEWTON_MAX,
     NEWTON_TOL,
     NODES,
     ROUND_OFF,
-    WEIGHTS,
-    WEIGHTS2,
     integrate_adaptive,
     solve_nonlinear,
 )
@@ -46,31 +42,29 @@ def test_the_doubling_kernel_keeps_the_two_half_steps() -> None:
     loop, the same Newton tolerance): the half steps are the solution, the H step only
     the estimate."""
     from flexlink.solvers._gauss_numba import gauss_doubling, gauss_loop
+    from flexlink.solvers.gauss_steps import GAUSS2, newton_settings, step_control
 
     system = NonlinearSystem(_swing())
     n, H, t0 = system.n, 0.02, 0.15
     q0, v0 = np.linspace(0.01, -0.02, n), np.linspace(-0.3, 0.2, n)
-    arrays = system.kernel_arrays()
-    floor = ROUND_OFF * system.max_frequency**2
+    data = system.kernel_data()
+    newton = newton_settings(NEWTON_TOL, NEWTON_MAX, ROUND_OFF * system.max_frequency**2, False)
     X0 = np.repeat(system.accelerations(np.array([t0]), q0[None], v0[None]), 2, axis=0)
 
-    def rows(times: np.ndarray) -> list[np.ndarray]:
-        inp = system.node_inputs(times)
-        return [np.ascontiguousarray(a) for a in (inp.angle, inp.rate, inp.acceleration,
-                                                  inp.tip_acceleration, inp.load)]
+    def rows(times: np.ndarray):
+        return system.node_inputs(times).stage_inputs()
 
     q, v = np.array([q0, q0]), np.array([v0, v0])
     errors = np.zeros(1)
     status, accepted = gauss_doubling(
-        q, v, X0.copy(), H, H, *rows(t0 + H * DOUBLING_STAGES), *arrays, NODES, COEFFS,
-        COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX, floor, np.zeros(n, np.int64),
-        np.zeros(1), np.zeros(1), 1.0, 1.0, 0.0, errors, np.zeros((2, 2 * n, 2 * n)),
-        np.zeros(2, np.int64), np.zeros(2, np.int64))
+        data, rows(t0 + H * DOUBLING_STAGES), q, v, X0.copy(), H, H, GAUSS2, newton,
+        step_control(np.zeros(n), 1.0, 1.0, 0.0), errors, np.zeros((2, 2 * n, 2 * n)),
+        np.zeros(2, np.int64), np.zeros(2, np.int64), np.zeros(1))
     assert (status, accepted) == (0, 1)
     qh, vh = np.array([q0, q0, q0]), np.array([v0, v0, v0])
     half = t0 + 0.5 * H * (np.arange(2)[:, None] + NODES[None, :]).ravel()
-    failed, _, _ = gauss_loop(qh, vh, X0.copy(), 0.5 * H, *rows(half), *arrays, NODES, COEFFS,
-                              COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX, False, floor)
+    failed, _, _ = gauss_loop(data, rows(half), qh, vh, X0.copy(), 0.5 * H, GAUSS2, newton,
+                              False, np.zeros(1))
     assert failed == -1
     scale = np.abs(qh).max()
     assert np.abs(q[1] - qh[2]).max() <= 1e-8 * scale  # within Newton's tolerance

@@ -1,13 +1,13 @@
 """Compiled (numba) residual and accelerations of the nonlinear model with rigid coordinates
-— `NonlinearForwardSystem.residual` and `.accelerations` (the numpy reference, docs/nonlinear.md
-§7) written as loops over the tiny arrays. The applied forces are the first-order forward
-kernel's (`_forward_numba.applied`: drive torques, servo laws, base loads), so each law has one
-compiled and one numpy copy, both tested against each other. tests/unit/
+(d: `nonlinear_kernel.NonlinearForwardData`) — `NonlinearForwardSystem.residual` and
+`.accelerations` (the numpy reference, docs/nonlinear.md §7) written as loops over the tiny
+arrays. The inertia and elastic forces are the prescribed model's
+(`_nonlinear_numba.inertia_elastic`, the same code); the applied forces are the first-order
+forward kernel's (`_forward_numba.applied`: drive torques, servo laws, base loads), so each
+law has one compiled and one numpy copy, both tested against each other. tests/unit/
 test_nonlinear_forward.py compares this module with the numpy equations to round-off."""
 
 from __future__ import annotations
-
-from collections import namedtuple
 
 import numpy as np
 from numba import njit
@@ -15,76 +15,38 @@ from numba import njit
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ._forward_numba import _solve
 from ._forward_numba import applied as _applied
-from ._nonlinear_numba import node_forces
-
-NonlinearForwardData = namedtuple("NonlinearForwardData", [
-    "Ay", "At", "G", "s", "m_tot", "translation", "rot_y", "rot_J", "D", "K", "n", "nu",
-    "n_rigid", "free"])
-NonlinearForwardData.__doc__ = ("Constant arrays of a NonlinearForwardSystem for the kernels "
-                                "(SI units; columns on y = [q, p_free, σ]).")
+from ._nonlinear_numba import inertia_elastic
 
 
 @njit(cache=True)
-def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
+def residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
     """Residual (n_y,) of one state into ``out``: inertia + damping + elastic − applied on
-    [q, p_free] (the actuators' forces B V on q, V from the input row), σ̈ − integral rate
+    [q, p_free] (the actuators' forces B V on q, V from the input row u), σ̈ − integral rate
     on σ (NonlinearForwardSystem.residual)."""
-    nodes = nd.Ay.shape[0]
-    n, nu = nd.n, nd.nu
-    m = n + nu  # columns with node angles
-    c = np.empty(nodes)
-    s = np.empty(nodes)
-    S = np.empty((nodes, 4))
-    moments = np.empty(nodes)
-    # The base point's acceleration minus gravity (R̈_b − g, global axes): the field enters
-    # the node moments and the translation rows through it (NonlinearForwardSystem._inertia).
-    rx, ry = -d.gravity[0], -d.gravity[1]
-    if nd.translation:
-        rx, ry = X[n] + rx, X[n + 1] + ry
-    node_forces(nd.Ay, m, Y, V, X, ang, rate, acc, nd.G, nd.s, rx, ry, c, s, S, moments)
-    out[:] = 0.0
-    fx = fy = 0.0
-    for j in range(nodes):
-        uj = moments[j]
-        if nd.translation:
-            sj = nd.s[j]
-            fx += sj * (-S[j, 1] - S[j, 2])
-            fy += sj * (S[j, 0] - S[j, 3])
-        for i in range(m):
-            out[i] += nd.Ay[j, i] * uj
-    for r in range(nd.rot_J.shape[0]):
-        ar = rot_acc[r]
-        for i in range(m):
-            ar += nd.rot_y[r, i] * X[i]
-        ar *= nd.rot_J[r]
-        for i in range(m):
-            out[i] += nd.rot_y[r, i] * ar
-    for i in range(n):
-        for k in range(n):
-            out[i] += nd.D[i, k] * V[k] + nd.K[i, k] * Y[k]
-    if nd.translation:
-        out[n] += nd.m_tot * rx + fx
-        out[n + 1] += nd.m_tot * ry + fy
+    n, nu = d.n, d.nu
+    m = n + nu
+    inertia_elastic(d.Ay, d.G, d.s, d.m_tot, d.translation, d.rot_y, d.rot_J, d.Dq, d.Kq, n, nu,
+                    d.gravity, Y, V, X, ang, rate, acc, rot_acc, out)
     if nu > 0 or d.actuator_B.shape[1] > 0:
-        p = np.zeros(nd.n_rigid)
-        pd = np.zeros(nd.n_rigid)
+        p = np.zeros(d.n_rigid)
+        pd = np.zeros(d.n_rigid)
         for i in range(nu):
-            p[nd.free[i]] = Y[n + i]
-            pd[nd.free[i]] = V[n + i]
+            p[d.free[i]] = Y[n + i]
+            pd[d.free[i]] = V[n + i]
         Q = np.empty(d.n_x)
         ns = Y.shape[0] - m
         rates = np.zeros(max(ns, 1))
         _applied(d, u, p, pd, V[m:], Q, rates)
         for i in range(nu):
-            out[n + i] -= Q[nd.free[i]]
+            out[n + i] -= Q[d.free[i]]
         for i in range(n):  # the actuators' forces on q (zero without actuators)
-            out[i] -= Q[nd.n_rigid + i]
+            out[i] -= Q[d.n_rigid + i]
         for i in range(ns):
             out[m + i] = X[m + i] - rates[i]
 
 
 @njit(cache=True)
-def accelerations(Y, V, ang, rate, acc, rot_acc, u, nd, d):
+def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
     """ÿ (b, n_y) of b states: M's columns from the residual's change under unit
     accelerations (it is affine in ÿ), then M ÿ = −r(ÿ = 0)."""
     b, ny = Y.shape
@@ -95,10 +57,10 @@ def accelerations(Y, V, ang, rate, acc, rot_acc, u, nd, d):
     M = np.empty((ny, ny))
     for t in range(b):
         X[:] = 0.0
-        residual(Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], nd, d, r0)
+        residual(d, Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], r0)
         for k in range(ny):
             X[k] = 1.0
-            residual(Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], nd, d, r1)
+            residual(d, Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], r1)
             X[k] = 0.0
             for i in range(ny):
                 M[i, k] = r1[i] - r0[i]

@@ -1,7 +1,10 @@
-"""Compiled (numba) kernels of the nonlinear model: the residual of one state and the
-accelerations of a batch of states — the numpy expressions of ``NonlinearSystem`` written as
-loops (tiny sizes: BLAS calls and temporary arrays cost more than the arithmetic). The tests
-compare both implementations."""
+"""Compiled (numba) kernels of the nonlinear model (records: `nonlinear_kernel.py`): the
+inertia and elastic forces of one state, shared by both nonlinear paths
+(`inertia_elastic`); the residual of the model with every rigid coordinate prescribed
+(`NonlinearData`: those forces minus the given loads on q) and the accelerations of a
+batch of its states. The numpy expressions of ``NonlinearSystem`` and
+``NonlinearForwardSystem`` written as loops (tiny sizes: BLAS calls and temporary arrays
+cost more than the arithmetic); the tests compare both implementations."""
 
 from __future__ import annotations
 
@@ -12,25 +15,39 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 
 
 @njit(cache=True)
-def node_forces(A, cols, Q, V, X, ang, rate, acc, G, lift, ax, ay, c, s, S, u):
-    """The inertia of the nodes of a link's discretisation, shared by the prescribed-joint and
-    the forward nonlinear kernels. Node j turns by α_j = ang_j + Σ_i A[j, i] Q_i (the first
-    ``cols`` coordinates; rates and accelerations alike from V, X); into c, s (nodes,) its cos
-    and sin, into S (nodes, 4) c α̈, s α̈, c α̇², s α̇², and into u (nodes,) the generalized
-    inertia moment of node j on its angle, c_j (G S)_j0 − c_j (G S)_j3 + s_j ((G S)_j1 +
-    (G S)_j2), with G the nodes' coupling weights (docs/nonlinear.md), plus
-    lift_j e⊥(α_j)·(a_x, a_y): the base point's acceleration minus gravity (a − g, global
-    axes) acting on the masses the node carries (lift = Wᵀm). This is where gravity enters
-    the nonlinear model (equivalence principle: the field is the base's acceleration −g)."""
-    nodes = A.shape[0]
+def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, gravity, Y, V, X,
+                    ang, rate, acc, rot_acc, out):
+    """Generalized inertia + damping + elastic forces of one state into ``out`` (rows
+    [q, p_free] of y; rows beyond them zeroed) — NonlinearSystem.residual and
+    NonlinearForwardSystem._inertia written as loops, for either record of
+    `nonlinear_kernel.py`, whose fields (Ay … gravity) it takes one by one: each call of a
+    compiled function takes a record's arrays one by one, so the residuals unpack theirs
+    once. Y, V, X: the unknowns' values, rates and accelerations; ang, rate, acc (nodes,),
+    rot_acc (n_rot,): the prescribed parts.
+
+    Node j turns by α_j = ang_j + Ay_j·y (rates and accelerations alike); its generalized
+    inertia moment on its angle is u_j = c_j (G S)_j0 − c_j (G S)_j3 + s_j ((G S)_j1 +
+    (G S)_j2), S = [c α̈, s α̈, c α̇², s α̇²] per node, G the nodes' coupling weights
+    (docs/nonlinear.md), plus lift_j e⊥(α_j)·(R̈_b − g): the base point's acceleration
+    minus gravity (global axes) acting on the masses the node carries (lift = Wᵀm). This is
+    where gravity enters the nonlinear model (equivalence principle: the field is the base's
+    acceleration −g); on a free base the same R̈_b − g drives the translation rows."""
+    nodes = Ay.shape[0]
+    m = n + nu  # columns with node angles
+    c = np.empty(nodes)
+    s = np.empty(nodes)
+    S = np.empty((nodes, 4))
+    rx, ry = -gravity[0], -gravity[1]
+    if translation:
+        rx, ry = X[n] + rx, X[n + 1] + ry
     for j in range(nodes):
         alpha = ang[j]
         alpha_dot = rate[j]
         alpha_ddot = acc[j]
-        for i in range(cols):
-            a = A[j, i]
+        for i in range(m):
+            a = Ay[j, i]
             if a != 0.0:
-                alpha += a * Q[i]
+                alpha += a * Y[i]
                 alpha_dot += a * V[i]
                 alpha_ddot += a * X[i]
         c[j] = np.cos(alpha)
@@ -40,77 +57,80 @@ def node_forces(A, cols, Q, V, X, ang, rate, acc, G, lift, ax, ay, c, s, S, u):
         S[j, 1] = s[j] * alpha_ddot
         S[j, 2] = c[j] * v2
         S[j, 3] = s[j] * v2
+    out[:] = 0.0
+    fx = fy = 0.0
     for j in range(nodes):
         g0 = 0.0
         g1 = 0.0
         g2 = 0.0
         g3 = 0.0
-        for m in range(nodes):
-            w = G[j, m]
-            g0 += w * S[m, 0]
-            g1 += w * S[m, 1]
-            g2 += w * S[m, 2]
-            g3 += w * S[m, 3]
-        u[j] = c[j] * (g0 - g3) + s[j] * (g1 + g2)
-    if ax != 0.0 or ay != 0.0:
-        for j in range(nodes):
-            u[j] += lift[j] * (c[j] * ay - s[j] * ax)
-
-
-@njit(cache=True)
-def residual(Q, V, X, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J, D, K, lift,
-             gravity):
-    """Generalized inertia + damping + elastic − applied (``load``, n) forces of one state
-    (n,) in the uniform field ``gravity`` (2,) — the numpy NonlinearSystem.residual written as
-    loops (small sizes: no BLAS call overhead)."""
-    nodes, n = A.shape
-    c = np.empty(nodes)
-    s = np.empty(nodes)
-    S = np.empty((nodes, 4))
-    u = np.empty(nodes)
-    node_forces(A, n, Q, V, X, ang, rate, acc, G, lift, -gravity[0], -gravity[1], c, s, S, u)
-    out = np.zeros(n)
-    for j in range(nodes):
-        for i in range(n):
-            out[i] += A[j, i] * u[j]
-    for k in range(tip_A.shape[0]):
-        if J[k] != 0.0:
-            tip = tip_acc[k]
-            for i in range(n):
-                tip += tip_A[k, i] * X[i]
-            for i in range(n):
-                out[i] += tip_A[k, i] * J[k] * tip
+        for k in range(nodes):
+            w = G[j, k]
+            g0 += w * S[k, 0]
+            g1 += w * S[k, 1]
+            g2 += w * S[k, 2]
+            g3 += w * S[k, 3]
+        uj = c[j] * (g0 - g3) + s[j] * (g1 + g2)
+        if rx != 0.0 or ry != 0.0:
+            uj += lift[j] * (c[j] * ry - s[j] * rx)
+        if translation:
+            fx += lift[j] * (-S[j, 1] - S[j, 2])
+            fy += lift[j] * (S[j, 0] - S[j, 3])
+        for i in range(m):
+            out[i] += Ay[j, i] * uj
+    for r in range(rot_J.shape[0]):
+        if rot_J[r] == 0.0:
+            continue
+        ar = rot_acc[r]
+        for i in range(m):
+            ar += rot_y[r, i] * X[i]
+        ar *= rot_J[r]
+        for i in range(m):
+            out[i] += rot_y[r, i] * ar
     for i in range(n):
-        out[i] -= load[i]
-        for m in range(n):
-            out[i] += D[i, m] * V[m] + K[i, m] * Q[m]
-    return out
+        for k in range(n):
+            out[i] += D[i, k] * V[k] + K[i, k] * Y[k]
+    if translation:
+        out[n] += m_tot * rx + fx
+        out[n + 1] += m_tot * ry + fy
 
 
 @njit(cache=True)
-def accelerations(q, qd, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, lift, gravity):
-    """q̈ (b, n) of M q̈ = f for b states; M = Aᵀ(G ∘ cos(α_j − α_l))A + Σ J_t a_t a_tᵀ."""
+def residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
+    """Inertia + damping + elastic − applied (u, n) forces of one state (n,) of the model
+    with prescribed joints (d: NonlinearData) into ``out`` — NonlinearSystem.residual
+    (rot_acc: the tips' prescribed angular accelerations)."""
+    inertia_elastic(d.Ay, d.G, d.s, d.m_tot, d.translation, d.rot_y, d.rot_J, d.Dq, d.Kq, d.n,
+                    d.nu, d.gravity, Y, V, X, ang, rate, acc, rot_acc, out)
+    for i in range(d.n):
+        out[i] -= u[i]
+
+
+@njit(cache=True)
+def accelerations(d, q, qd, ang, rate, acc, rot_acc, load):
+    """q̈ (b, n) of M q̈ = f for b states (d: NonlinearData); M = Aᵀ(G ∘ cos(α_j − α_l))A +
+    Σ J_t a_t a_tᵀ."""
     b, n = q.shape
+    A = d.Ay
     nodes = A.shape[0]
     out = np.empty((b, n))
     H = np.empty((nodes, nodes))
     HA = np.empty((nodes, n))
     At = np.ascontiguousarray(A.T)
-    tip_At = np.ascontiguousarray(tip_A.T)
     zero = np.zeros(n)
+    f = np.empty(n)
     for t in range(b):
-        f = -residual(q[t], qd[t], zero, ang[t], rate[t], acc[t], tip_acc[t], load[t], A, At, G,
-                      tip_A, tip_At, J, D, K, lift, gravity)
+        residual(d, q[t], qd[t], zero, ang[t], rate[t], acc[t], rot_acc[t], load[t], f)
         c = np.cos(np.dot(A, q[t]) + ang[t])
         s = np.sin(np.dot(A, q[t]) + ang[t])
         for j in range(nodes):
             for m in range(nodes):
-                H[j, m] = G[j, m] * (c[j] * c[m] + s[j] * s[m])
+                H[j, m] = d.G[j, m] * (c[j] * c[m] + s[j] * s[m])
         HA[:, :] = np.dot(H, A)
         M = np.dot(At, HA)
-        for k in range(tip_A.shape[0]):
+        for k in range(d.rot_J.shape[0]):
             for i in range(n):
                 for m in range(n):
-                    M[i, m] += J[k] * tip_A[k, i] * tip_A[k, m]
-        out[t] = np.linalg.solve(M, f)
+                    M[i, m] += d.rot_J[k] * d.rot_y[k, i] * d.rot_y[k, m]
+        out[t] = np.linalg.solve(M, -f)
     return out

@@ -35,6 +35,7 @@ from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .first_order import chain_modal_data
 from .kinematics import JointHistory, joint_history
 from .nonlinear_bodies import body_nodes, body_rows
+from .nonlinear_kernel import NonlinearData, StageInputs, stage_rows
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,12 @@ class NodeInputs:
     def __getitem__(self, index: int | slice) -> NodeInputs:
         return NodeInputs(self.angle[index], self.rate[index], self.acceleration[index],
                           self.tip_acceleration[index], self.load[index])
+
+    def stage_inputs(self, load: np.ndarray | None = None) -> StageInputs:
+        """The rows as the compiled kernels take them (`NonlinearData`: the tips are the
+        rotary inertias, u the loads on q); ``load`` in place of the open-loop one."""
+        return stage_rows(self.angle, self.rate, self.acceleration, self.tip_acceleration,
+                          self.load if load is None else load)
 
 
 @dataclass(frozen=True, eq=False)
@@ -210,7 +217,7 @@ class NonlinearSystem:
         """The nodes' share of the inertia forces of the hub's acceleration a = −g (the fixed
         hub in the field g: equivalence principle), lift_j e⊥(α_j)·a, (b, nodes), from cos α,
         sin α of the nodes: where gravity enters the nonlinear model (numpy; compiled:
-        `_nonlinear_numba.node_forces`)."""
+        `_nonlinear_numba.inertia_elastic`)."""
         ax, ay = -self.gravity
         if ax == 0.0 and ay == 0.0:
             return np.zeros(c.shape)
@@ -232,12 +239,18 @@ class NonlinearSystem:
 
         return equilibrium.solve(residuals, np.zeros(self.n))
 
-    def kernel_arrays(self) -> list[np.ndarray]:
-        """The constant arrays the compiled kernels take after the inputs: A, G, tip_A, J_t,
-        D, K, lift, gravity."""
-        return [np.ascontiguousarray(a, dtype=float) for a in (
-            self.A, self.G, self.tip_A, self.tip_inertia, self.D, self.K, self.lift,
-            self.gravity)]
+    def kernel_data(self) -> NonlinearData:
+        """The constant arrays for the compiled kernels: every rigid coordinate prescribed,
+        the tips' inertias the rotary ones (cached)."""
+        if not hasattr(self, "_kernel_data"):
+            c = np.ascontiguousarray
+            self._kernel_data = NonlinearData(
+                Ay=c(self.A, dtype=float), G=c(self.G, dtype=float), s=c(self.lift, dtype=float),
+                m_tot=float(self.point_mass.sum()), translation=False,
+                rot_y=c(self.tip_A, dtype=float), rot_J=c(self.tip_inertia, dtype=float),
+                Dq=c(self.D, dtype=float), Kq=c(self.K, dtype=float), n=self.n, nu=0,
+                gravity=c(self.gravity, dtype=float))
+        return self._kernel_data
 
     def voltages(self, t: np.ndarray) -> np.ndarray:
         """Open-loop actuator voltages (b, n_act), V, clipped to the limits."""
@@ -267,9 +280,9 @@ class NonlinearSystem:
                 inputs = NodeInputs(inputs.angle, inputs.rate, inputs.acceleration,
                                     inputs.tip_acceleration, load)
             return compiled_kernels.accelerations(
-                *(np.ascontiguousarray(a, dtype=float) for a in (
+                self.kernel_data(), *(np.ascontiguousarray(a, dtype=float) for a in (
                     q, qd, inputs.angle, inputs.rate, inputs.acceleration,
-                    inputs.tip_acceleration, inputs.load)), *self.kernel_arrays())
+                    inputs.tip_acceleration, inputs.load)))
         hist = self.joint_history(t)
         M, f = self.forces(q, qd, hist.angle, hist.rate, hist.acceleration)
         f = f + (self.voltages(t) @ self.actuator_B.T if load is None else load)

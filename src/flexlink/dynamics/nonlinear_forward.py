@@ -29,7 +29,6 @@ compiled (tests/unit/test_nonlinear_forward.py compares them).
 
 from __future__ import annotations
 
-from collections import namedtuple
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -42,13 +41,7 @@ from .arc import ArcQuadrature, arc_quadrature
 from .elastic_joints import spring_energy, spring_frequency
 from .forward import ForwardSystem
 from .nonlinear_bodies import body_nodes, body_rows
-
-StageInputs = namedtuple("StageInputs", ["angle", "rate", "acceleration", "rot_acceleration",
-                                         "u"])
-StageInputs.__doc__ = (
-    "Prescribed parts at a batch of times: node angles B_pres β + α0 (b, nodes) rad, their "
-    "rates and accelerations, the rotary inertias' prescribed accelerations (b, n_rot), and "
-    "the load input rows u (b, ·) of dynamics/forward_kernel.inputs.")
+from .nonlinear_kernel import NonlinearForwardData, StageInputs, forward_data, stage_rows
 
 
 @dataclass(frozen=True, eq=False)
@@ -350,9 +343,8 @@ class NonlinearForwardSystem:
         if compiled:
             from ._nonlinear_forward_numba import accelerations
 
-            data, loads = self.packed()
-            return accelerations(np.ascontiguousarray(y, dtype=float),
-                                 np.ascontiguousarray(v, dtype=float), *_rows(inp), data, loads)
+            return accelerations(self.kernel_data(), np.ascontiguousarray(y, dtype=float),
+                                 np.ascontiguousarray(v, dtype=float), *stage_rows(*inp))
         b, m = y.shape[0], self.n_y
         trials = np.concatenate([np.zeros((1, m)), np.eye(m)])
         rep = np.repeat
@@ -362,20 +354,20 @@ class NonlinearForwardSystem:
         M = np.swapaxes(R[:, 1:] - R[:, :1], 1, 2)
         return np.linalg.solve(M, -R[:, 0][..., None])[..., 0]
 
-    def packed(self) -> tuple[tuple, tuple]:
-        """The constant arrays for the compiled kernels (NonlinearForwardData) and the
-        first-order model's ForwardData of the applied loads (cached)."""
-        if not hasattr(self, "_packed"):
+    def kernel_data(self) -> NonlinearForwardData:
+        """The constant arrays for the compiled kernels, with the first-order model's
+        ForwardData of the applied loads (cached)."""
+        if not hasattr(self, "_kernel_data"):
             from . import forward_kernel
-            from ._nonlinear_forward_numba import NonlinearForwardData
 
             c = np.ascontiguousarray
-            data = NonlinearForwardData(
-                c(self.Ay), c(self.Ay.T), c(self.G), c(self.s), self.m_tot,
-                bool(self.translation), c(self.rot_y), c(self.rot_J), c(self.D), c(self.K),
-                self.n, self.nu, self.n_rigid, np.asarray(self.free, dtype=np.int64))
-            self._packed = (data, forward_kernel.pack(self.loads))
-        return self._packed
+            self._kernel_data = forward_data({
+                "Ay": c(self.Ay), "G": c(self.G), "s": c(self.s), "m_tot": self.m_tot,
+                "translation": bool(self.translation), "rot_y": c(self.rot_y),
+                "rot_J": c(self.rot_J), "Dq": c(self.D), "Kq": c(self.K), "n": self.n,
+                "nu": self.nu, "gravity": c(self.gravity, dtype=float)},
+                forward_kernel.pack(self.loads))
+        return self._kernel_data
 
     # -- readings -----------------------------------------------------------------------------
     def joint_torques(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
@@ -477,7 +469,3 @@ class NonlinearForwardSystem:
 
         return max(highest_frequency(self.modal), spring_frequency(self.loads))
 
-
-def _rows(inp: StageInputs) -> tuple[np.ndarray, ...]:
-    """The stage inputs as contiguous float arrays for the compiled kernels."""
-    return tuple(np.ascontiguousarray(x, dtype=float) for x in inp)

@@ -1,67 +1,104 @@
-"""Compiled (numba) step loop of the Gauss collocation solver — the same algorithm as the numpy
-loop in ``gauss.py`` (which the tests compare it with), without Python overhead per step.
+"""Compiled (numba) step loops of the Gauss collocation for both nonlinear models — the same
+algorithm as the numpy loop in ``gauss.py`` (which the tests compare them with), without
+Python overhead per step: the Newton stage solver (`solve_stages`), the uniform-step loop
+(`gauss_loop`) and the step-doubling loop (`gauss_doubling`), each written once.
+
+The model is its kernel-data record ``d`` (`dynamics/nonlinear_kernel.py`), reached through
+`model_residual`, which dispatches at compile time on the record's type (`_RESIDUALS`:
+NonlinearData → the prescribed-joint residual, NonlinearForwardData → the residual with
+rigid coordinates): one compiled loop per model, each cacheable on disk (a residual passed
+as an argument is not). Stage inputs are a `StageInputs` record of rows, two per step (six
+per doubled step); the tableau, Newton's settings and the step control are records of
+`gauss_steps.py`.
 
 Why numba: one step costs a few small matrix–vector products (~10⁴ flops); in numpy each call
 costs more in dispatch than in arithmetic, an order of magnitude more per Newton iteration
 than the compiled loop (benchmarks/nonlinear_vs_fe.py).
-Compiled functions are cached on disk (``cache=True``), so only the first run ever compiles.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ..dynamics._nonlinear_numba import residual as _residual
+from ..dynamics._nonlinear_forward_numba import residual as forward_residual
+from ..dynamics._nonlinear_numba import residual as prescribed_residual
+from ..dynamics.nonlinear_kernel import NonlinearData, NonlinearForwardData
+
+# kernel-data record class → its compiled residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out)
+_RESIDUALS = {NonlinearData: prescribed_residual, NonlinearForwardData: forward_residual}
+
+
+def model_residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
+    """The residual of one state into ``out`` for the model whose kernel data ``d`` is."""
+    _RESIDUALS[type(d)](d, Y, V, X, ang, rate, acc, rot_acc, u, out)
+
+
+@overload(model_residual)
+def _model_residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
+    kernel = _RESIDUALS.get(getattr(d, "instance_class", None))
+    # the kernel's own Python function as the implementation: no forwarding call between
+    # the loop and the residual (each call takes the record's arrays one by one)
+    return None if kernel is None else kernel.py_func
 
 
 @njit(cache=True)
-def solve_stages(q0, v0, X, h, k, ang, rate, acc, tip_acc, load, A, At, G, tip_A, tip_At, J,
-                 D, K, lift, gravity, nodes, coeffs, coeffs2, tol, max_iterations, floor, inverse, have, counts):
-    """The stage accelerations X (2, n) of one step of h (s) from q0, v0, solved in place by
+def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, peak):
+    """The stage accelerations X (2, n) of one step of h (s) from y0, v0, solved in place by
     simplified Newton from the guess in X; stage inputs in rows k, k + 1. ``inverse`` (2n, 2n)
     is the iteration matrix for h, rebuilt when ``have[0]`` is 0 or when an iteration
-    contracts by less than 10×. ``floor`` (1/s²): the iteration stops when its remaining
-    error is within tol of the largest stage acceleration or within floor · max|q|, the
-    round-off of the elastic forces (at a static equilibrium under a constant load the
-    accelerations vanish and no relative test can be met). counts[0] += matrix rebuilds,
-    counts[1] += iterations. Returns whether it converged."""
-    n = q0.size
+    contracts by less than 10×. Newton stops when its remaining error is within
+    newton.tol of the largest stage acceleration (and of ``peak[0]``, the largest of the run
+    so far, kept up to date when newton.running_peak: a rigid arm coasting has vanishing
+    accelerations that no elastic term keeps finite) or within newton.floor (1/s²) ·
+    max|q| (the first d.n unknowns): the round-off of the elastic forces (at a static
+    equilibrium under a constant load the accelerations vanish and no relative test can be
+    met). counts[0] += matrix rebuilds, counts[1] += iterations. Returns whether it
+    converged."""
+    n = y0.size
+    nodes, coeffs, coeffs2 = tab.nodes, tab.coeffs, tab.coeffs2
+    angle, rate, acc, rot, u = rows
     Q = np.empty((2, n))
     V = np.empty((2, n))
     R = np.empty(2 * n)
+    r0 = np.empty(n)
+    r1 = np.empty(n)
     eps = 1e-7
     previous = np.inf
     fresh = False
     q_size = 0.0
-    for m in range(n):
-        q_size = max(q_size, abs(q0[m]))
-    for _ in range(max_iterations):
+    for m in range(d.n):
+        q_size = max(q_size, abs(y0[m]))
+    for _ in range(newton.max_iterations):
         counts[1] += 1
         for st in range(2):
             V[st] = v0 + h * (coeffs[st, 0] * X[0] + coeffs[st, 1] * X[1])
-            Q[st] = q0 + nodes[st] * h * v0 + h * h * (coeffs2[st, 0] * X[0]
+            Q[st] = y0 + nodes[st] * h * v0 + h * h * (coeffs2[st, 0] * X[0]
                                                           + coeffs2[st, 1] * X[1])
         if have[0] == 0:
             Jm = np.zeros((2 * n, 2 * n))
             for st in range(2):
                 r = k + st
-                R0 = _residual(Q[st], V[st], X[st], ang[r], rate[r], acc[r], tip_acc[r],
-                               load[r], A, At, G, tip_A, tip_At, J, D, K, lift, gravity)
+                model_residual(d, Q[st], V[st], X[st], angle[r], rate[r], acc[r], rot[r], u[r],
+                               r0)
                 for m in range(n):
                     Qp = Q[st].copy()
                     Qp[m] += eps
-                    dq = (_residual(Qp, V[st], X[st], ang[r], rate[r], acc[r], tip_acc[r],
-                                    load[r], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0) / eps
+                    model_residual(d, Qp, V[st], X[st], angle[r], rate[r], acc[r], rot[r], u[r],
+                               r1)
+                    dq = (r1 - r0) / eps
                     Vp = V[st].copy()
                     Vp[m] += eps
-                    dv = (_residual(Q[st], Vp, X[st], ang[r], rate[r], acc[r], tip_acc[r],
-                                    load[r], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0) / eps
+                    model_residual(d, Q[st], Vp, X[st], angle[r], rate[r], acc[r], rot[r], u[r],
+                               r1)
+                    dv = (r1 - r0) / eps
                     Xp = X[st].copy()
                     Xp[m] += 1.0
-                    dx = _residual(Q[st], V[st], Xp, ang[r], rate[r], acc[r], tip_acc[r],
-                                   load[r], A, At, G, tip_A, tip_At, J, D, K, lift, gravity) - R0
+                    model_residual(d, Q[st], V[st], Xp, angle[r], rate[r], acc[r], rot[r], u[r],
+                               r1)
+                    dx = r1 - r0
                     for j in range(2):
                         Jm[st * n:(st + 1) * n, j * n + m] = (
                             h * h * coeffs2[st, j] * dq + h * coeffs[st, j] * dv)
@@ -72,9 +109,8 @@ def solve_stages(q0, v0, X, h, k, ang, rate, acc, tip_acc, load, A, At, G, tip_A
             counts[0] += 1
         for st in range(2):
             r = k + st
-            R[st * n:(st + 1) * n] = _residual(Q[st], V[st], X[st], ang[r], rate[r], acc[r],
-                                               tip_acc[r], load[r], A, At, G, tip_A, tip_At,
-                                               J, D, K, lift, gravity)
+            model_residual(d, Q[st], V[st], X[st], angle[r], rate[r], acc[r], rot[r], u[r], r0)
+            R[st * n:(st + 1) * n] = r0
         dX = np.dot(inverse, R)
         size = 0.0
         largest = 0.0
@@ -86,7 +122,9 @@ def solve_stages(q0, v0, X, h, k, ang, rate, acc, tip_acc, load, A, At, G, tip_A
         theta = size / previous
         # (first iteration: no rate yet, the increment itself must be small)
         remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-        if remaining <= tol * max(largest, 1e-300) + floor * q_size:
+        if remaining <= newton.tol * max(largest, peak[0], 1e-300) + newton.floor * q_size:
+            if newton.running_peak:
+                peak[0] = max(peak[0], largest)
             return True
         if size > 0.1 * previous and not fresh:
             have[0] = 0
@@ -96,18 +134,22 @@ def solve_stages(q0, v0, X, h, k, ang, rate, acc, tip_acc, load, A, At, G, tip_A
 
 
 @njit(cache=True)
-def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, lift,
-               gravity, nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, predict_first,
-               floor=0.0):
-    """Advance q, v (steps+1, n) in place from row 0 by uniform steps h; X (2, n) holds the
-    stage accelerations of the step before (extrapolated first if ``predict_first``, else the
-    guess itself). Node inputs are per stage: ang, rate, acc (2·steps, nodes), tip_acc
-    (2·steps, N), the applied forces load (2·steps, n); ``floor`` as in solve_stages.
-    Returns (failed step or −1, matrix rebuilds, Newton iterations)."""
-    n = q.shape[1]
-    steps = q.shape[0] - 1
-    At = np.ascontiguousarray(A.T)
-    tip_At = np.ascontiguousarray(tip_A.T)
+def _advance(y0, v0, X, h, tab, y1, v1):
+    """The step's end y1, v1 from its start y0, v0 and stage accelerations X (2, n)."""
+    w, w2 = tab.weights, tab.weights2
+    v1[:] = v0 + h * (w[0] * X[0] + w[1] * X[1])
+    y1[:] = y0 + h * v0 + h * h * (w2[0] * X[0] + w2[1] * X[1])
+
+
+@njit(cache=True)
+def gauss_loop(d, rows, y, v, X, h, tab, newton, predict_first, peak):
+    """Advance y, v (steps+1, n) in place from row 0 by uniform steps h (s); X (2, n) holds
+    the stage accelerations of the step before (extrapolated first if ``predict_first``,
+    else the guess itself). Stage inputs: two rows per step; ``peak`` as in
+    `solve_stages`. Returns (failed step or −1, matrix rebuilds, Newton iterations)."""
+    n = y.shape[1]
+    steps = y.shape[0] - 1
+    nodes = tab.nodes
     inverse = np.zeros((2 * n, 2 * n))
     have = np.zeros(1, np.int64)
     counts = np.zeros(2, np.int64)
@@ -116,64 +158,55 @@ def gauss_loop(q, v, X, h, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K, 
             slope = (X[1] - X[0]) / (nodes[1] - nodes[0])
             X[0] += slope
             X[1] += slope
-        if not solve_stages(q[i], v[i], X, h, 2 * i, ang, rate, acc, tip_acc, load, A, At, G,
-                            tip_A, tip_At, J, D, K, lift, gravity, nodes, coeffs, coeffs2, tol,
-                            max_iterations, floor, inverse, have, counts):
+        if not solve_stages(d, rows, 2 * i, y[i], v[i], X, h, tab, newton, inverse, have,
+                            counts, peak):
             return i, counts[0], counts[1]
-        v[i + 1] = v[i] + h * (weights[0] * X[0] + weights[1] * X[1])
-        q[i + 1] = q[i] + h * v[i] + h * h * (weights2[0] * X[0] + weights2[1] * X[1])
+        _advance(y[i], v[i], X, h, tab, y[i + 1], v[i + 1])
     return -1, counts[0], counts[1]
 
 
 @njit(cache=True)
-def gauss_doubling(q, v, X, h_prev, H, ang, rate, acc, tip_acc, load, A, G, tip_A, J, D, K,
-                   lift, gravity, nodes, coeffs, coeffs2, weights, weights2, tol, max_iterations, floor,
-                   group, peak_q, peak_v, rtol, atol, rate_floor, errors, inverse, have,
-                   counts):
-    """Advance q, v (count+1, n) in place from row 0 by steps H, each checked by step
+def gauss_doubling(d, rows, y, v, X, h_prev, H, tab, newton, control, errors, inverse, have,
+                   counts, peak):
+    """Advance y, v (count+1, n) in place from row 0 by steps H, each checked by step
     doubling: one step H and two steps H/2 from the same state, the two H/2 steps kept
     (``step_doubling`` in gauss_steps.py). Stage inputs: six rows per step (the H step's two
     stages, then the two H/2 steps'). X (2, n): the stage accelerations of the last step,
-    of length h_prev (s), on return those of the last accepted step. ``errors`` (count,):
-    each step's error as a fraction of its tolerance (doubling_error). ``inverse`` (2, 2n,
-    2n) and ``have`` (2,): the iteration matrices for H and H/2, kept across calls while H
-    is unchanged. Returns (status, accepted steps): status 0 all accepted, 1 a step's error
+    of length h_prev (s), on return those of the last accepted step. ``control``: a
+    gauss_steps.StepControl; ``errors`` (count,): each step's error as a fraction of its
+    tolerance (doubling_error). ``inverse`` (2, 2n, 2n) and ``have`` (2,): the iteration
+    matrices for H and H/2, kept across calls while H is unchanged; ``peak`` as in
+    `solve_stages`. Returns (status, accepted steps): status 0 all accepted, 1 a step's error
     above its tolerance, 2 a step whose Newton iteration did not converge."""
-    n = q.shape[1]
-    count = q.shape[0] - 1
-    At = np.ascontiguousarray(A.T)
-    tip_At = np.ascontiguousarray(tip_A.T)
+    n = y.shape[1]
+    count = y.shape[0] - 1
+    nodes = tab.nodes
     big = np.empty((2, n))
     fine = np.empty((2, n))
-    q_big = np.empty(n)
+    y_big = np.empty(n)
     v_big = np.empty(n)
-    q_mid = np.empty(n)
+    y_mid = np.empty(n)
     v_mid = np.empty(n)
     h = 0.5 * H
     for i in range(count):
         predict(big, X, h_prev, h_prev, H, nodes)
-        if not solve_stages(q[i], v[i], big, H, 6 * i, ang, rate, acc, tip_acc, load, A, At,
-                            G, tip_A, tip_At, J, D, K, lift, gravity, nodes, coeffs, coeffs2, tol,
-                            max_iterations, floor, inverse[0], have[0:1], counts):
+        if not solve_stages(d, rows, 6 * i, y[i], v[i], big, H, tab, newton, inverse[0],
+                            have[0:1], counts, peak):
             return 2, i
-        v_big[:] = v[i] + H * (weights[0] * big[0] + weights[1] * big[1])
-        q_big[:] = q[i] + H * v[i] + H * H * (weights2[0] * big[0] + weights2[1] * big[1])
+        _advance(y[i], v[i], big, H, tab, y_big, v_big)
         predict(fine, big, H, 0.0, h, nodes)
-        if not solve_stages(q[i], v[i], fine, h, 6 * i + 2, ang, rate, acc, tip_acc, load, A,
-                            At, G, tip_A, tip_At, J, D, K, lift, gravity, nodes, coeffs, coeffs2, tol,
-                            max_iterations, floor, inverse[1], have[1:2], counts):
+        if not solve_stages(d, rows, 6 * i + 2, y[i], v[i], fine, h, tab, newton, inverse[1],
+                            have[1:2], counts, peak):
             return 2, i
-        v_mid[:] = v[i] + h * (weights[0] * fine[0] + weights[1] * fine[1])
-        q_mid[:] = q[i] + h * v[i] + h * h * (weights2[0] * fine[0] + weights2[1] * fine[1])
+        _advance(y[i], v[i], fine, h, tab, y_mid, v_mid)
         predict(fine, big, H, h, h, nodes)
-        if not solve_stages(q_mid, v_mid, fine, h, 6 * i + 4, ang, rate, acc, tip_acc, load,
-                            A, At, G, tip_A, tip_At, J, D, K, lift, gravity, nodes, coeffs, coeffs2, tol,
-                            max_iterations, floor, inverse[1], have[1:2], counts):
+        if not solve_stages(d, rows, 6 * i + 4, y_mid, v_mid, fine, h, tab, newton, inverse[1],
+                            have[1:2], counts, peak):
             return 2, i
-        v[i + 1] = v_mid + h * (weights[0] * fine[0] + weights[1] * fine[1])
-        q[i + 1] = q_mid + h * v_mid + h * h * (weights2[0] * fine[0] + weights2[1] * fine[1])
-        errors[i] = doubling_error(q_big, v_big, q[i + 1], v[i + 1], group, peak_q, peak_v,
-                                   rtol, atol, rate_floor)
+        _advance(y_mid, v_mid, fine, h, tab, y[i + 1], v[i + 1])
+        errors[i] = doubling_error(y_big, v_big, y[i + 1], v[i + 1], control.group,
+                                   control.peak_q, control.peak_v, control.rtol, control.atol,
+                                   control.rate_floor)
         if errors[i] > 1.0:
             return 1, i
         X[:, :] = fine
@@ -189,7 +222,7 @@ def doubling_error(q_big, v_big, q_fine, v_fine, group, peak_q, peak_v, rtol, at
     component's group, −1 for none; ``peak_q``, ``peak_v``: each group's largest |q|, |q̇|
     so far, updated here with the fine state). The rates' peak is at least ``rate_floor``
     (1/s) times the coordinates' (a run at rest in static equilibrium, whose rates are
-    round-off). Shared by both nonlinear step loops."""
+    round-off)."""
     for m in range(q_fine.size):
         g = group[m]
         if g >= 0:

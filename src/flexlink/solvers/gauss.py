@@ -25,8 +25,18 @@ import numpy as np
 
 from ..dynamics.histories import input_breakpoints
 from ..dynamics.nonlinear import NodeInputs, NonlinearSystem
+from ..dynamics.nonlinear_kernel import StageInputs
 from ..errors import SimulationError, UnstableLoop
-from .gauss_steps import COEFFS, COEFFS2, NODES, WEIGHTS, WEIGHTS2
+from .gauss_steps import (
+    COEFFS,
+    COEFFS2,
+    GAUSS2,
+    NODES,
+    WEIGHTS,
+    WEIGHTS2,
+    NewtonSettings,
+    newton_settings,
+)
 from .solution import FIXED_STEP, Accuracy, Solution
 from .threads import single_threaded
 
@@ -61,18 +71,12 @@ def integrate_gauss(
         v[0] = v0
     X = np.repeat(system.accelerations(np.zeros(1), q[:1], v[:1]), 2, axis=0)
     if compiled:
-        _compiled_loop(system, q, v, X, h, inputs, on_progress, t_ends)
+        fixed_steps(system.kernel_data(), inputs.stage_inputs(), q, v, X, h,
+                    newton_settings(NEWTON_TOL, NEWTON_MAX, ROUND_OFF * system.max_frequency**2,
+                                    False), t_ends, on_progress)
         return t_ends, q, v
     newton = _Newton(system, h, floor=ROUND_OFF * system.max_frequency**2)
-    with single_threaded():  # (the compiled path needs no limit: no BLAS calls)
-        for i in range(steps):
-            if i > 0:  # predictor: last step's stage accelerations, extrapolated linearly
-                X = X + (X[1] - X[0]) / (NODES[1] - NODES[0])
-            X = newton.solve(q[i], v[i], X, inputs[2 * i:2 * i + 2])
-            v[i + 1] = v[i] + h * (WEIGHTS @ X)
-            q[i + 1] = q[i] + h * v[i] + h**2 * (WEIGHTS2 @ X)
-            if on_progress is not None and i % 50 == 0:
-                on_progress(float(t_ends[i + 1]))
+    numpy_fixed_steps(newton, q, v, X, h, inputs, t_ends, on_progress)
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
         raise SimulationError("the nonlinear integration produced non-finite values")
     return t_ends, q, v
@@ -81,31 +85,45 @@ def integrate_gauss(
 CHUNK = 400  # steps per compiled call, between progress reports
 
 
-def _compiled_loop(system: NonlinearSystem, q: np.ndarray, v: np.ndarray, X: np.ndarray,
-                   h: float, inputs: NodeInputs, on_progress: Callable[[float], None] | None,
-                   t_ends: np.ndarray) -> None:
-    """Run the numba step loop over q, v in place, in chunks of CHUNK steps."""
-    steps = q.shape[0] - 1
+def fixed_steps(data: Any, rows: StageInputs, y: np.ndarray, v: np.ndarray, X: np.ndarray,
+                h: float, newton: NewtonSettings, t_ends: np.ndarray,
+                on_progress: Callable[[float], None] | None) -> None:
+    """Advance y, v (steps+1, n) in place from row 0 by uniform steps h (s) in the compiled
+    loop of the model whose kernel data ``data`` is (`_gauss_numba.gauss_loop`), in chunks
+    of CHUNK steps; rows: two stage rows per step; X (2, n): the stage accelerations' guess
+    for the first step. Raises SimulationError at a step whose Newton iteration fails."""
     from ._gauss_numba import gauss_loop  # numba's import is slow: only when used
 
-    arrays = system.kernel_arrays()
-    w2 = system.max_frequency**2
+    steps = y.shape[0] - 1
+    peak = np.zeros(1)  # the run's largest stage acceleration, across chunks
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
         stage = slice(2 * start, 2 * end)
-        failed, _, _ = gauss_loop(
-            q[start:end + 1], v[start:end + 1], X, h,
-            *(np.ascontiguousarray(a[stage]) for a in (
-                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration,
-                inputs.load)),
-            *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL, NEWTON_MAX,
-            start > 0, ROUND_OFF * w2)
+        failed, _, _ = gauss_loop(data, StageInputs(*(a[stage] for a in rows)),
+                                  y[start:end + 1], v[start:end + 1], X, h, GAUSS2, newton,
+                                  start > 0, peak)
         if failed >= 0:
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
-                f"{NEWTON_MAX} Newton iterations (h = {h:.3g} s): reduce the step")
+                f"{newton.max_iterations} Newton iterations (h = {h:.3g} s): reduce the step")
         if on_progress is not None:
             on_progress(float(t_ends[end]))
+
+
+def numpy_fixed_steps(newton: _Newton, y: np.ndarray, v: np.ndarray, X: np.ndarray, h: float,
+                      rows: Any, t_ends: np.ndarray,
+                      on_progress: Callable[[float], None] | None) -> None:
+    """`fixed_steps` in numpy (the reference of the compiled loop): ``rows`` indexable by
+    stage rows as the model's residual takes them."""
+    with single_threaded():  # (the compiled path needs no limit: no BLAS calls)
+        for i in range(y.shape[0] - 1):
+            if i > 0:  # predictor: last step's stage accelerations, extrapolated linearly
+                X = X + (X[1] - X[0]) / (NODES[1] - NODES[0])
+            X = newton.solve(y[i], v[i], X, rows[2 * i:2 * i + 2])
+            v[i + 1] = v[i] + h * (WEIGHTS @ X)
+            y[i + 1] = y[i] + h * v[i] + h**2 * (WEIGHTS2 @ X)
+            if on_progress is not None and i % 50 == 0:
+                on_progress(float(t_ends[i + 1]))
 
 
 class _Newton:
@@ -117,7 +135,7 @@ class _Newton:
                  elastic: int | None = None) -> None:
         """``running_peak``: the test is relative to the largest stage acceleration of the
         run so far, not only of this step (forward runs: a rigid arm's accelerations vanish
-        while it coasts, `_gauss_forward_numba.solve_stages`). ``floor`` (1/s²) · max|q|
+        while it coasts, `_gauss_numba.solve_stages`). ``floor`` (1/s²) · max|q|
         (the first ``elastic`` unknowns, default all): the absolute part of the stopping
         test, as the compiled loops' ``floor``."""
         self.system, self.h, self.tol = system, h, tol
@@ -255,21 +273,17 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
     (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord. ``loop``: a
     gauss_sampled.SampledLoop, whose controllers are updated from the state at each of their
     sample instants (every one a step end), their voltages held until the next."""
-    from ._gauss_numba import gauss_doubling
-    from .gauss_steps import DOUBLING_STAGES, Batch, step_doubling
+    from .gauss_steps import DOUBLING_STAGES, Batch, DoublingLoop, step_control, step_doubling
 
     n = system.n
-    arrays = system.kernel_arrays()
-    floor = ROUND_OFF * system.max_frequency**2
     # Newton's error a thousandth of the step's tolerance: tighter buys nothing (the
     # prescribed model conserves no momentum whose drift would add up), looser would bias the
     # estimate
-    newton_tol = max(NEWTON_TOL, 1e-3 * rtol)
-    group = np.zeros(n, dtype=np.int64)
-    peak_q, peak_v = np.zeros(1), np.zeros(1)
-    inverse = np.zeros((2, 2 * n, 2 * n))
-    have = np.zeros(2, dtype=np.int64)
-    counts = np.zeros(2, dtype=np.int64)
+    doubling = DoublingLoop(
+        system.kernel_data(), n,
+        newton_settings(max(NEWTON_TOL, 1e-3 * rtol), NEWTON_MAX,
+                        ROUND_OFF * system.max_frequency**2, False),
+        step_control(np.zeros(n), rtol, atol, RATE_FLOOR * system.max_frequency))
 
     breaks = input_breakpoints(system.chain.joints, system.actuators)
     if loop is not None:
@@ -290,20 +304,8 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
                 held[:] = system.actuator_B @ loop.update(sample[0], q0)
                 sample[0] += 1
             load = np.repeat(held[None, :], load.shape[0], axis=0)
-        q = np.empty((count + 1, n))
-        v = np.empty((count + 1, n))
-        q[0], v[0] = q0, v0
-        errors = np.zeros(count)
-        if new_step:
-            have[:] = 0
-        status, k = gauss_doubling(
-            q, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in (
-                inputs.angle, inputs.rate, inputs.acceleration, inputs.tip_acceleration,
-                load)),
-            *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, floor,
-            group, peak_q, peak_v, rtol, atol, RATE_FLOOR * system.max_frequency, errors,
-            inverse, have, counts)
-        return Batch(int(status), q[:k + 1], v[:k + 1], errors, counts)
+        return doubling.batch(inputs.stage_inputs(load), q0, v0, X, h_prev, H, count,
+                              new_step)
 
     q0, v0 = system.initial_coordinates(), np.zeros(n)
     X = np.repeat(system.accelerations(np.zeros(1), q0[None], v0[None]), 2, axis=0)

@@ -5,9 +5,9 @@ free rigid coordinates and the servo integrals (σ̇ the integral) to the elasti
 
 The stage residuals now include the applied forces (drive torques, servo laws, base loads),
 which depend on the stage's rigid state; the finite-difference iteration matrix carries
-their derivatives (the servo's stiffness) as it carries K. The compiled loop
-(`_gauss_forward_numba.py`) is the default; the numpy loop reuses gauss.py's Newton and is the
-reference the tests compare it with.
+their derivatives (the servo's stiffness) as it carries K. The compiled loops are gauss.py's
+(`_gauss_numba.py`, reached with this model's `NonlinearForwardData`) and the default; the
+numpy loop reuses gauss.py's Newton and is the reference the tests compare them with.
 """
 
 from __future__ import annotations
@@ -17,25 +17,23 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics.nonlinear_forward import NonlinearForwardSystem, StageInputs
+from ..dynamics.nonlinear_forward import NonlinearForwardSystem
+from ..dynamics.nonlinear_kernel import StageInputs, stage_rows
 from ..errors import SimulationError
 from .gauss import (
-    COEFFS,
-    COEFFS2,
     FIRST_STEP,
     NEWTON_MAX,
     NODES,
     RATE_FLOOR,
     ROUND_OFF,
-    WEIGHTS,
-    WEIGHTS2,
     _Newton,
+    fixed_steps,
     hermite_quintic,
+    numpy_fixed_steps,
 )
+from .gauss_steps import newton_settings
 from .solution import FIXED_STEP, Accuracy, Solution
-from .threads import single_threaded
 
-CHUNK = 400  # steps per compiled call, between progress reports
 # Newton's stopping tolerance (relative to the largest stage acceleration), 10× gauss.py's:
 # the rigid coordinates carry conserved momenta, and the iteration error of each step adds up
 # as a random walk (measured over 10 s of a spinning free base: momentum constant to 4.6e-9
@@ -80,49 +78,18 @@ def integrate_gauss_forward(
     y[0], v[0] = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y[:1], v[:1], compiled), 2, axis=0)
     if compiled:
-        _compiled_loop(system, y, v, X, h, inp, on_progress, t_ends, newton_tol)
+        fixed_steps(system.kernel_data(), stage_rows(*inp), y, v, X, h,
+                    newton_settings(newton_tol, NEWTON_MAX,
+                                    ROUND_OFF * system.max_frequency**2, True),
+                    t_ends, on_progress)
     else:
         newton = _Newton(_StageResidual(system), h, newton_tol,  # type: ignore[arg-type]
                          running_peak=True, floor=ROUND_OFF * system.max_frequency**2,
                          elastic=system.n)
-        rows = _Rows(t_stage, inp)
-        with single_threaded():
-            for i in range(steps):
-                if i > 0:
-                    X = X + (X[1] - X[0]) / (NODES[1] - NODES[0])
-                X = newton.solve(y[i], v[i], X, rows[2 * i:2 * i + 2])  # type: ignore[arg-type]
-                v[i + 1] = v[i] + h * (WEIGHTS @ X)
-                y[i + 1] = y[i] + h * v[i] + h**2 * (WEIGHTS2 @ X)
-                if on_progress is not None and i % 50 == 0:
-                    on_progress(float(t_ends[i + 1]))
+        numpy_fixed_steps(newton, y, v, X, h, _Rows(t_stage, inp), t_ends, on_progress)
     if not (np.all(np.isfinite(y)) and np.all(np.isfinite(v))):
         raise SimulationError("the nonlinear forward integration produced non-finite values")
     return t_ends, y, v
-
-
-def _compiled_loop(system: NonlinearForwardSystem, y: np.ndarray, v: np.ndarray, X: np.ndarray,
-                   h: float, inp: StageInputs, on_progress: Callable[[float], None] | None,
-                   t_ends: np.ndarray, newton_tol: float) -> None:
-    """Run the numba step loop over y, v in place, in chunks of CHUNK steps."""
-    from ._gauss_forward_numba import gauss_forward_loop  # numba: only when used
-
-    data, loads = system.packed()
-    steps = y.shape[0] - 1
-    peak = np.zeros(1)  # the run's largest stage acceleration, across chunks
-    for start in range(0, steps, CHUNK):
-        end = min(start + CHUNK, steps)
-        stage = slice(2 * start, 2 * end)
-        failed, _, _ = gauss_forward_loop(
-            y[start:end + 1], v[start:end + 1], X, h,
-            *(np.ascontiguousarray(a[stage], dtype=float) for a in inp), data, loads,
-            NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, newton_tol, NEWTON_MAX, start > 0, peak,
-            ROUND_OFF * system.max_frequency**2)
-        if failed >= 0:
-            raise SimulationError(
-                f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
-                f"{NEWTON_MAX} Newton iterations (h = {h:.3g} s): reduce the step")
-        if on_progress is not None:
-            on_progress(float(t_ends[end]))
 
 
 def solve_nonlinear_forward(
@@ -161,36 +128,23 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     """Step ends from the system's initial state to t_end (s) with error-controlled steps
     (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord."""
     from ..dynamics.forward_kernel import breakpoints
-    from ._gauss_forward_numba import gauss_forward_doubling
-    from .gauss_steps import DOUBLING_STAGES, Batch, step_doubling
+    from .gauss_steps import DOUBLING_STAGES, Batch, DoublingLoop, step_control, step_doubling
 
     n_y, n, nu = system.n_y, system.n, system.nu
-    data, loads = system.packed()
     group = np.full(n_y, -1, dtype=np.int64)  # the servo integrals set no step
     group[:n] = 0
     group[n:n + nu] = 1
-    peak_q, peak_v = np.zeros(2), np.zeros(2)
-    inverse = np.zeros((2, 2 * n_y, 2 * n_y))
-    have = np.zeros(2, dtype=np.int64)
-    counts = np.zeros(2, dtype=np.int64)
-    peak_a = np.zeros(1)  # the run's largest stage acceleration (solve_stages)
+    doubling = DoublingLoop(
+        system.kernel_data(), n_y,
+        newton_settings(NEWTON_TOL_FORWARD, NEWTON_MAX, ROUND_OFF * system.max_frequency**2,
+                        True),
+        step_control(group, rtol, atol, RATE_FLOOR * system.max_frequency))
 
     def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,
                 X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
         inp = system.stage_inputs(
             (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel())
-        y = np.empty((count + 1, n_y))
-        v = np.empty((count + 1, n_y))
-        y[0], v[0] = y0, v0
-        errors = np.zeros(count)
-        if new_step:
-            have[:] = 0
-        status, k = gauss_forward_doubling(
-            y, v, X, h_prev, H, *(np.ascontiguousarray(a, dtype=float) for a in inp), data,
-            loads, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2, NEWTON_TOL_FORWARD, NEWTON_MAX,
-            ROUND_OFF * system.max_frequency**2, group, peak_q, peak_v, rtol, atol,
-            RATE_FLOOR * system.max_frequency, errors, inverse, have, counts, peak_a)
-        return Batch(int(status), y[:k + 1], v[:k + 1], errors, counts)
+        return doubling.batch(stage_rows(*inp), y0, v0, X, h_prev, H, count, new_step)
 
     y0, v0 = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y0[None], v0[None]), 2, axis=0)

@@ -17,10 +17,12 @@ import numpy as np
 
 from ..dynamics.controllers import control_work, pack_controllers, readings, sample_times
 from ..dynamics.nonlinear import NonlinearSystem
+from ..dynamics.nonlinear_kernel import StageInputs
 from ..errors import SimulationError, UnstableLoop
 from ..model import Controller, FunctionController, PiezoActuator
 from .closed_loop import call_controller
-from .gauss import COEFFS, COEFFS2, NEWTON_MAX, NEWTON_TOL, NODES, ROUND_OFF, WEIGHTS, WEIGHTS2
+from .gauss import NEWTON_MAX, NEWTON_TOL, NODES, ROUND_OFF
+from .gauss_steps import GAUSS2, newton_settings
 
 # |node angle| (rad) beyond which the response of a closed loop counts as unbounded: the link
 # curled more than a full turn
@@ -131,23 +133,23 @@ def integrate_gauss_sampled(system: NonlinearSystem, loop: SampledLoop, step: fl
     q[0] = system.initial_coordinates()
     v = np.zeros_like(q)
     load = np.zeros((stage_t.size, n))
-    arrays = system.kernel_arrays()
-    stage = [np.ascontiguousarray(a) for a in (inputs.angle, inputs.rate, inputs.acceleration,
-                                               inputs.tip_acceleration)]
+    data = system.kernel_data()
+    rows = inputs.stage_inputs(load)
     B = system.actuator_B
-    floor = ROUND_OFF * system.max_frequency**2
+    newton = newton_settings(NEWTON_TOL, NEWTON_MAX, ROUND_OFF * system.max_frequency**2,
+                             False)
+    peak = np.zeros(1)
     loop.start()
     X = np.zeros((2, n))
     for i in range(grid.size - 1):
         a, b = int(first[i]), int(first[i + 1])
         V = loop.update(i, q[a])
-        load[2 * a:2 * b] = B @ V
+        rows.u[2 * a:2 * b] = B @ V
         if i == 0:
             X[:] = system.accelerations(np.zeros(1), q[:1], v[:1])  # (open-loop load: V(0))
-        failed, _, _ = gauss_loop(q[a:b + 1], v[a:b + 1], X, float(h_of[i]),
-                                  *(s[2 * a:2 * b] for s in stage), load[2 * a:2 * b],
-                                  *arrays, NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2,
-                                  NEWTON_TOL, NEWTON_MAX, i > 0, floor)
+        failed, _, _ = gauss_loop(data, StageInputs(*(r[2 * a:2 * b] for r in rows)),
+                                  q[a:b + 1], v[a:b + 1], X, float(h_of[i]), GAUSS2, newton,
+                                  i > 0, peak)
         if failed >= 0 or not np.all(np.isfinite(q[b])):
             raise SimulationError(f"the nonlinear step at t = {t_ends[a + max(failed, 0)]:.4g} s "
                                   f"did not converge in {NEWTON_MAX} Newton iterations "

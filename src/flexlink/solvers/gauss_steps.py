@@ -11,17 +11,18 @@ order of its (small) amplitude. The estimate is measured against atol + rtol · 
 norm of the uniform-step control before it (docs/nonlinear.md §4).
 
 Control: a step is accepted when its estimate is within the tolerance; the next step size is
-H · 0.9 · err^(−1/5), between 0.2× and 4×. The compiled loops (`_gauss_numba.gauss_doubling`,
-`_gauss_forward_numba.gauss_forward_doubling`) take batches of equal steps, whose inputs are
-evaluated in one vectorised call; a batch stops at the first rejected step, and the step size
+H · 0.9 · err^(−1/5), between 0.2× and 4×. The compiled loop (`_gauss_numba.gauss_doubling`,
+either model) takes batches of equal steps, whose inputs are evaluated in one vectorised call; a batch stops at the first rejected step, and the step size
 changes between batches. Batches end exactly at every input breakpoint (the switch of a
 bang-bang torque, the end of a move), so no step straddles a jump.
 """
 
 from __future__ import annotations
 
+from collections import namedtuple
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -36,6 +37,42 @@ COEFFS = np.array([[0.25, 0.25 - _R3], [0.25 + _R3, 0.25]])
 COEFFS2 = COEFFS @ COEFFS
 WEIGHTS = np.array([0.5, 0.5])
 WEIGHTS2 = WEIGHTS @ COEFFS
+
+Tableau = namedtuple("Tableau", ["nodes", "coeffs", "coeffs2", "weights", "weights2"])
+Tableau.__doc__ = ("A collocation method for q̈ = f as the compiled loops take it: nodes c (s,), "
+                   "coefficients a (s, s) and a² (s, s), weights b (s,) and bᵀa (s,).")
+GAUSS2 = Tableau(NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2)
+
+NewtonSettings = namedtuple("NewtonSettings", ["tol", "max_iterations", "floor",
+                                               "running_peak"])
+NewtonSettings.__doc__ = (
+    "Newton's stopping test in the compiled loops (`_gauss_numba.solve_stages`): tol relative "
+    "to the largest stage acceleration (of the run so far if running_peak), at most "
+    "max_iterations, the absolute floor (1/s²) times max|q|.")
+
+
+def newton_settings(tol: float, max_iterations: int, floor: float,
+                    running_peak: bool) -> NewtonSettings:
+    """A NewtonSettings of fixed field types (one compiled signature)."""
+    return NewtonSettings(float(tol), int(max_iterations), float(floor), bool(running_peak))
+
+
+StepControl = namedtuple("StepControl", ["group", "peak_q", "peak_v", "rtol", "atol",
+                                         "rate_floor"])
+StepControl.__doc__ = (
+    "The step-doubling test of the compiled loop (`_gauss_numba.doubling_error`): each "
+    "unknown's group (int64, −1: none), each group's running peak |y| and |ẏ| (updated in "
+    "place), rtol, atol, and the rates' floor relative to the coordinates' peak, 1/s.")
+
+
+def step_control(group: np.ndarray, rtol: float, atol: float, rate_floor: float
+                 ) -> StepControl:
+    """A StepControl with zero peaks for ``group`` (n,) (one compiled signature)."""
+    group = np.ascontiguousarray(group, dtype=np.int64)
+    groups = int(group.max(initial=-1)) + 1
+    return StepControl(group, np.zeros(max(groups, 1)), np.zeros(max(groups, 1)), float(rtol),
+                       float(atol), float(rate_floor))
+
 # Stage times of one doubled step, as fractions of H: the H step's two stages, then those of
 # the first and the second H/2 step.
 DOUBLING_STAGES = np.concatenate([NODES, 0.5 * NODES, 0.5 + 0.5 * NODES])
@@ -57,6 +94,38 @@ class Batch:
     v: np.ndarray
     errors: np.ndarray
     counts: np.ndarray  # Newton's matrix rebuilds and iterations so far (the run's totals)
+
+
+class DoublingLoop:
+    """The compiled step-doubling loop of one run (`_gauss_numba.gauss_doubling`), for the
+    model whose kernel data ``data`` is (n unknowns): Newton's settings, the step control,
+    and what the loop keeps across batches (the iteration matrices for H and H/2, Newton's
+    counts, the run's largest stage acceleration)."""
+
+    def __init__(self, data: Any, n: int, newton: NewtonSettings, control: StepControl) -> None:
+        self.data, self.n, self.newton, self.control = data, n, newton, control
+        self.inverse = np.zeros((2, 2 * n, 2 * n))
+        self.have = np.zeros(2, dtype=np.int64)
+        self.counts = np.zeros(2, dtype=np.int64)
+        self.peak = np.zeros(1)
+
+    def batch(self, rows: Any, y0: np.ndarray, v0: np.ndarray, X: np.ndarray, h_prev: float,
+              H: float, count: int, new_step: bool) -> Batch:
+        """``count`` steps H from y0, v0 (a batch of `step_doubling`'s ``advance``); rows:
+        a StageInputs of six stage rows per step (DOUBLING_STAGES); new_step: H differs
+        from the last batch's."""
+        from ._gauss_numba import gauss_doubling  # numba's import is slow: only when used
+
+        y = np.empty((count + 1, self.n))
+        v = np.empty((count + 1, self.n))
+        y[0], v[0] = y0, v0
+        errors = np.zeros(count)
+        if new_step:
+            self.have[:] = 0
+        status, k = gauss_doubling(self.data, rows, y, v, X, h_prev, H, GAUSS2, self.newton,
+                                   self.control, errors, self.inverse, self.have, self.counts,
+                                   self.peak)
+        return Batch(int(status), y[:k + 1], v[:k + 1], errors, self.counts)
 
 
 # advance(t0, H, count, y0, v0, X, h_prev, new_step) → Batch; X (2, n) the stage
