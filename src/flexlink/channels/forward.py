@@ -15,7 +15,7 @@ from ..dynamics.forward import ForwardSystem, momentum
 from ..dynamics.kinematics import FrameMotion
 from ..dynamics.servos import command_volts
 from ..model import PositionServo, VelocityServo
-from .catalogue import BASE_COORDINATES, joint_name
+from .catalogue import BASE_COORDINATES, cart_name, joint_name
 
 
 class SolvedMotion:
@@ -49,8 +49,11 @@ def rigid_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.nda
     # ForwardSystem.joint_torques to round-off), an order of magnitude cheaper.
     torque = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd)
     moving = system.base.kind != "fixed"
-    return pose_and_joint_values(system, t, p, pd, integral, torque,
-                                 momentum(system, p, pd, z, zd) if moving else None)
+    out = pose_and_joint_values(system, t, p, pd, integral, torque,
+                                momentum(system, p, pd, z, zd) if moving else None)
+    if system.base.cart is not None:
+        out[cart_name("force")] = system.cart_force(t, p, pd, pdd, z, zd, zdd)
+    return out
 
 
 def pose_and_joint_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
@@ -64,6 +67,8 @@ def pose_and_joint_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, p
     for i, name in enumerate(BASE_COORDINATES[system.base.kind]):
         out[f"base_{name}"] = p[:, i]
         out[f"base_{name}_rate"] = pd[:, i]
+    if system.base.cart is not None:  # its force: the model's own equations (the callers)
+        out[cart_name("position")], out[cart_name("velocity")] = p[:, 0], pd[:, 0]
     for k, joint in enumerate(system.chain.joints):
         i = system.joint_index(k)
         out[joint_name(k, "angle")] = p[:, i]

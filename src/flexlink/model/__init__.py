@@ -6,7 +6,7 @@ which converts them once. Algorithms take a model and never mutate it.
 """
 
 from .actuators import PiezoActuator
-from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad
+from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad, Cart
 from .chain import MODE_SHAPES, Chain, Link, ModeShapes
 from .controllers import (
     CONTROLLER_KINDS,
@@ -41,6 +41,7 @@ from .settings import (
 
 __all__ = [
     "BASE_KINDS",
+    "Cart",
     "CONTROLLER_KINDS",
     "INITIAL_STATES",
     "LOAD_FRAMES",
