@@ -41,7 +41,6 @@ from .settings import (
 
 __all__ = [
     "BASE_KINDS",
-    "Cart",
     "CONTROLLER_KINDS",
     "INITIAL_STATES",
     "LOAD_FRAMES",
@@ -54,6 +53,7 @@ __all__ = [
     "Base",
     "BaseKind",
     "BaseLoad",
+    "Cart",
     "Chain",
     "Controller",
     "DiscreteLTI",

@@ -4,7 +4,7 @@ loads applied to it (SI units, radians)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal, get_args
 
 import numpy as np
@@ -95,7 +95,7 @@ class Cart:
     ends with an error.
     """
 
-    drive: Joint = TorqueDrive(ZERO)
+    drive: Joint = field(default_factory=lambda: TorqueDrive(ZERO))
     rail_angle: float = 0.0  # rad, direction of the rail from global X
     travel: tuple[float, float] = (-math.inf, math.inf)  # m, allowed range of s
 
