@@ -124,3 +124,61 @@ def test_momentum_of_a_rigid_cart_and_link() -> None:
     e = np.array([np.cos(phi), np.sin(phi)])
     expected = (M + m) * 0.5 * e + m * L / 2 * -1.2 * np.array([-np.sin(0.7), np.cos(0.7)])
     np.testing.assert_allclose(lin[0], expected, atol=1e-12)
+
+
+def _nonlinear(name: str):
+    from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
+
+    system = SYSTEMS[name](True)
+    return NonlinearForwardSystem(system.chain, system.base, gravity=system.gravity)
+
+
+@pytest.mark.parametrize("name", sorted(SYSTEMS))
+def test_nonlinear_kernel_matches_its_numpy_equations(name: str) -> None:
+    """The compiled nonlinear forward accelerations with a cart equal the numpy residual's
+    to 1e-9 of their size on random states."""
+    system = _nonlinear(name)
+    rng = np.random.default_rng(9)
+    b, m, n = 5, system.n_y, system.n
+    t = rng.uniform(0.0, 1.5, b)
+    y, v = rng.normal(size=(b, m)), rng.normal(size=(b, m))
+    y[:, :n] *= 0.05
+    expected = system.accelerations(t, y, v, compiled=False)
+    got = system.accelerations(t, y, v)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
+def test_nonlinear_cart_force_is_the_drive_force() -> None:
+    """On a solution of the nonlinear equations a force-driven cart's force is its force
+    history."""
+    system = _nonlinear("force")
+    rng = np.random.default_rng(2)
+    b, m, n = 4, system.n_y, system.n
+    t = rng.uniform(0.0, 1.5, b)
+    y, v = rng.normal(size=(b, m)), rng.normal(size=(b, m))
+    y[:, :n] *= 0.05
+    a = system.accelerations(t, y, v, compiled=False)
+    np.testing.assert_allclose(system.cart_force(t, y, v, a), BangBang(5.0, 0.0, 1.0).value(t),
+                               atol=1e-8)
+
+
+def test_both_models_need_the_same_force_for_a_prescribed_cart_with_rigid_links() -> None:
+    """Rigid links: both models' rigid equations are exact, so the force a prescribed travel
+    takes (gravity, loads, a torque-driven joint) is the same to round-off."""
+    from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
+
+    flexible = SYSTEMS["prescribed"](True)
+    links = tuple(Link(k.name, k.length, k.mass_per_length, 1.0, tip_mass=k.tip_mass,
+                       tip_inertia=k.tip_inertia, modes=0) for k in flexible.chain.links)
+    chain = Chain(links, flexible.chain.joints)
+    first = ForwardSystem(chain, flexible.base, gravity=flexible.gravity)
+    nonlinear = NonlinearForwardSystem(chain, flexible.base, gravity=flexible.gravity)
+    rng = np.random.default_rng(4)
+    t = rng.uniform(0.0, 1.5, 5)
+    y, v = rng.normal(size=(5, 1)), rng.normal(size=(5, 1))
+    a = nonlinear.accelerations(t, y, v, compiled=False)
+    p, pd, pdd = first.rigid_state(t, y, v, a)
+    empty = np.zeros((5, 0))
+    expected = first.cart_force(t, p, pd, pdd, empty, empty, empty)
+    np.testing.assert_allclose(nonlinear.cart_force(t, y, v, a), expected,
+                               atol=1e-10 * np.abs(expected).max())

@@ -349,7 +349,7 @@ class ForwardSystem:
         """Open-loop actuator voltages (nt, n_act), V, clipped to the limits."""
         return open_loop_voltages(self.actuators, t)
 
-    def _rail_loads(self, t: np.ndarray) -> np.ndarray:
+    def rail_loads(self, t: np.ndarray) -> np.ndarray:
         """The base loads' component along a cart's rail (nt,), N; the rail takes the rest."""
         b, rail = self.base, self._rail()
         assert rail is not None
@@ -386,7 +386,7 @@ class ForwardSystem:
         if b.cart is not None:  # the rail takes the loads across it and their moment
             if not b.cart.prescribed:
                 Q[:, 0] += _cart_force(b.cart.drive, t, p[:, 0], pd[:, 0])
-            Q[:, 0] += self._rail_loads(t)
+            Q[:, 0] += self.rail_loads(t)
         elif b.kind != "fixed":
             th = p[:, nb - 1]
             for load in b.loads:
@@ -450,7 +450,7 @@ class ForwardSystem:
         zc = slice(self.n_rigid, self.n_x)
         res = (np.einsum("tz,tz->t", M[:, 0, zc], zdd) + np.einsum("tz,tz->t", C[:, 0, zc], zd)
                + np.einsum("tz,tz->t", K[:, 0, zc], z) - f[:, 0])
-        return res - self._rail_loads(t)
+        return res - self.rail_loads(t)
 
 
 def _drive_start(joint: object) -> tuple[list[float], list[float]]:

@@ -141,8 +141,10 @@ class Cart:
         # Dense samples and every breakpoint: the profiles' extremes are at their ends.
         breaks = [b for b in getattr(self.drive, "breakpoints", ()) if 0.0 <= b <= t_end]
         t = np.union1d(np.linspace(0.0, t_end, 4001), breaks)
-        exit_ = self.first_exit(t, np.ravel(self.drive.evaluate(t)[0]) + 0 * t)  # type: ignore[union-attr]
+        s = np.ravel(self.drive.evaluate(t)[0]) + 0 * t  # type: ignore[union-attr]
+        exit_ = self.first_exit(t, s)
         if exit_ is not None:
-            raise ValueError(f"base.motion: the prescribed cart travel reaches s = "
-                             f"{exit_[1]:g} m at t = {exit_[0]:g} s, outside its travel "
-                             f"[{lo:g}, {hi:g}] m (base.travel)")
+            far = s.max() if s.max() > hi else s.min()
+            raise ValueError(f"base.motion: the prescribed cart travel leaves its travel "
+                             f"[{lo:g}, {hi:g}] m (base.travel) at t = {exit_[0]:g} s and "
+                             f"reaches s = {far:g} m")

@@ -1,0 +1,234 @@
+"""A cart on a rail carrying a rigid or flexible link, both models, against independent
+references: the cart-pendulum's exact small-oscillation frequency, the frequencies of a beam
+clamped to a sliding cart (horizontal, hanging, standing: tests/validation/cart_beam.py),
+momentum along the rail with no force along it, and the energy balance of a force-driven
+cart in gravity (docs/validation.md, "Carts")."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from flexlink import simulate
+from flexlink.dynamics.forward import ForwardSystem
+from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
+from flexlink.errors import SimulationError
+from flexlink.model import (
+    ZERO,
+    BangBang,
+    Base,
+    Cart,
+    Chain,
+    Link,
+    Scenario,
+    SimulationSettings,
+    Step,
+    TorqueDrive,
+)
+from flexlink.motion import Cycloidal, Hold
+
+from .cart_beam import cart_beam_frequencies, cart_pendulum_frequency
+
+G = 9.81
+
+
+def _first_order_squared(system: ForwardSystem) -> np.ndarray:
+    """ω² of the first-order model linearised at rest at t = 0 (rigid state as given): the
+    eigenvalues of −∂(p̈_free, z̈)/∂(p_free, z) by central differences."""
+    nu, n = len(system.free), system.n
+    start = system.initial_state()
+    x0 = np.concatenate([start[:nu], start[2 * nu:2 * nu + n]])
+    h = 1e-6
+    cols = []
+    for j in range(nu + n):
+        states = np.repeat(x0[None], 2, 0)
+        states[0, j] += h
+        states[1, j] -= h
+        pdd, zdd, _ = system.accelerations(np.zeros(2), states[:, :nu], np.zeros((2, nu)),
+                                           states[:, nu:], np.zeros((2, n)),
+                                           np.zeros((2, len(system.servos))))
+        acc = np.concatenate([pdd, zdd], 1)
+        cols.append((acc[0] - acc[1]) / (2 * h))
+    return np.sort(np.linalg.eigvals(-np.array(cols).T).real)
+
+
+def _nonlinear_squared(system: NonlinearForwardSystem) -> np.ndarray:
+    """ω² of the nonlinear model linearised about its initial state (at rest)."""
+    y0, v0 = system.initial_state()
+    m = system.n_y
+    h = 1e-6
+    Y = np.repeat(y0[None], 2 * m, 0)
+    for j in range(m):
+        Y[2 * j, j] += h
+        Y[2 * j + 1, j] -= h
+    acc = system.accelerations(np.zeros(2 * m), Y, np.repeat(v0[None], 2 * m, 0))
+    J = (acc[0::2] - acc[1::2]).T / (2 * h)
+    return np.sort(np.linalg.eigvals(-J).real)
+
+
+# --- the cart-pendulum ---------------------------------------------------------------------
+
+def _pendulum(angle: float, rail_angle: float = 0.0) -> tuple[Chain, Base, float]:
+    """A rigid bar (0.5 kg, 0.6 m) with a 0.3 kg tip mass and tip inertia on a pin of a
+    2 kg cart; its exact ω on a level rail."""
+    M, mb, mt, Jt, L = 2.0, 0.5, 0.3, 0.002, 0.6
+    link = Link("bar", L, mb / L, 1.0, tip_mass=mt, tip_inertia=Jt, modes=0)
+    chain = Chain((link,), (TorqueDrive(ZERO, initial_angle=angle),))
+    base = Base("cart", mass=M, cart=Cart(TorqueDrive(ZERO), rail_angle=rail_angle))
+    omega = cart_pendulum_frequency(M, mb + mt, mb * L / 2 + mt * L,
+                                    mb * L**2 / 3 + mt * L**2 + Jt, G)
+    return chain, base, omega
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_cart_pendulum_frequency_is_exact(model: str) -> None:
+    """Both models linearised at the hanging rest give the exact ω to 1e-6 (rigid links:
+    the rigid equations are exact in both)."""
+    chain, base, omega = _pendulum(-math.pi / 2)
+    if model == "first_order":
+        squared = _first_order_squared(ForwardSystem(chain, base, True, gravity=(0.0, -G)))
+    else:
+        squared = _nonlinear_squared(NonlinearForwardSystem(chain, base, gravity=(0.0, -G)))
+    assert squared[0] == pytest.approx(0.0, abs=1e-6)  # the cart's free translation
+    assert math.sqrt(squared[1]) == pytest.approx(omega, rel=1e-6)
+
+
+def test_cart_pendulum_oscillates_at_the_exact_period() -> None:
+    """A run released 1 mrad from the hanging rest: the period of the joint angle (mean
+    of 3 zero crossings) is 2π/ω to 1e-5, and the cart's momentum along the rail stays
+    zero (no force along it)."""
+    chain, base, omega = _pendulum(-math.pi / 2 + 1e-3)
+    scenario = Scenario(chain, settings=SimulationSettings(
+        t_end=4.0, dt_out=1e-3, gravity=(0.0, -G), rtol=1e-8), base=base)
+    r = simulate(scenario)
+    a = r["joint1_angle"] + math.pi / 2
+    t = r.time
+    i = np.flatnonzero(np.diff(np.sign(a)) > 0)
+    crossings = t[i] - a[i] * (t[i + 1] - t[i]) / (a[i + 1] - a[i])
+    assert np.diff(crossings).mean() == pytest.approx(2 * math.pi / omega, rel=1e-5)
+    assert np.abs(r["momentum_x"]).max() < 1e-10
+    assert np.ptp(r["cart_position"]) > 1e-4  # the cart does move
+
+
+# --- a flexible beam on a cart -------------------------------------------------------------
+
+RHO, L, EI = 0.8, 1.2, 30.0
+
+
+def _beam(cart_ratio: float, angle_deg: float, tip_ratio: float = 0.0,
+          modes: int = 8) -> tuple[Chain, Base]:
+    link = Link("beam", L, RHO, EI, tip_mass=tip_ratio * RHO * L, modes=modes)
+    return (Chain((link,), (Hold(angle_deg),)),
+            Base("cart", mass=cart_ratio * RHO * L, cart=Cart()))
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+@pytest.mark.parametrize("case", [
+    # (cart ratio M/ρL, beam angle deg, gravity on, tip ratio, sign of the axial load)
+    (2.0, 90.0, False, 0.0, 1.0),  # no gravity
+    (0.5, 90.0, False, 0.4, 1.0),  # a light cart, a tip mass
+    (2.0, -90.0, True, 0.5, 1.0),  # hanging
+    (2.0, 90.0, True, 0.5, -1.0),  # standing (inverted)
+])
+def test_beam_on_a_free_cart_frequencies(case: tuple, model: str) -> None:
+    """Linearised at rest (first order with geometric stiffening; the nonlinear model about
+    its straight equilibrium): the first three flexible frequencies of the beam on its free
+    cart within 0.5% of the Chebyshev solution, the first within 0.1%."""
+    ratio, angle, gravity, tip, sign = case
+    chain, base = _beam(ratio, angle, tip)
+    g = (0.0, -G) if gravity else (0.0, 0.0)
+    gamma = RHO * G * L**3 / EI if gravity else 0.0
+    expected = cart_beam_frequencies(ratio, 3, gamma, sign, tip) * math.sqrt(EI / RHO) / L**2
+    if model == "first_order":
+        squared = _first_order_squared(ForwardSystem(chain, base, True, gravity=g))
+    else:
+        squared = _nonlinear_squared(NonlinearForwardSystem(chain, base, gravity=g))
+    assert abs(squared[0]) < 1e-6 * squared[1]  # the free translation
+    got = np.sqrt(squared[1:4])
+    np.testing.assert_allclose(got, expected, rtol=5e-3)
+    assert got[0] == pytest.approx(expected[0], rel=1e-3)
+
+
+def test_reference_limits() -> None:
+    """The reference solver: a cart of huge mass is the clamp (cantilever λ₁ = 1.87510²),
+    a massless cart the sliding–free beam (tan μ + tanh μ = 0: μ₁ = 2.36502²), converged in
+    the number of points. (The third-derivative rows grow as the points' number to the sixth power: 40 points
+    are converged to 1e-7, more lose digits to round-off; the huge cart's row to 2e-5.)"""
+    assert cart_beam_frequencies(1e6, 1)[0] == pytest.approx(1.8751040687**2, rel=2e-5)
+    assert cart_beam_frequencies(0.0, 1)[0] == pytest.approx(2.3650203724**2, rel=1e-6)
+    np.testing.assert_allclose(cart_beam_frequencies(2.0, 3, 2.0, 1.0, 0.5, points=30),
+                               cart_beam_frequencies(2.0, 3, 2.0, 1.0, 0.5, points=40),
+                               rtol=1e-6)
+
+
+# --- balances ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_momentum_along_the_rail_is_conserved(model: str) -> None:
+    """A flexible beam on a free cart on a rail at 30°, the beam swinging on a torque-driven
+    joint (torque between cart and beam: internal), gravity across the rail only: the
+    momentum along the rail keeps its initial value to 1e-7 of the peak momentum."""
+    rail = math.radians(30.0)
+    link = Link("beam", 1.0, 0.6, 6.0, tip_mass=0.2, modes=4)
+    chain = Chain((link,), (TorqueDrive(BangBang(0.8, 0.0, 1.0), initial_angle=1.0),))
+    base = Base("cart", mass=1.5, cart=Cart(TorqueDrive(ZERO, 0.0, 0.3), rail_angle=rail))
+    gravity = (G * math.sin(rail), -G * math.cos(rail))  # perpendicular to the rail
+    r = simulate(Scenario(chain, settings=SimulationSettings(
+        t_end=1.5, dt_out=1e-3, gravity=gravity, model=model,
+        rtol=1e-8 if model == "first_order" else 1e-7), base=base))
+    along = r["momentum_x"] * math.cos(rail) + r["momentum_y"] * math.sin(rail)
+    peak = np.abs(np.stack([r["momentum_x"], r["momentum_y"]])).max()
+    assert np.abs(along - along[0]).max() < 1e-7 * peak
+    assert np.ptp(r["joint1_angle"]) > 0.3
+
+
+def test_energy_balance_of_a_force_driven_cart_in_gravity() -> None:
+    """Nonlinear model, no damping: a bang-bang force on the cart along a rail inclined at
+    20° with gravity, a flexible beam swinging on a free pin: kinetic + elastic + potential
+    energy changes by the work ∫F ds of the drive force, to 1e-6 of the energy moved."""
+    rail = math.radians(20.0)
+    link = Link("beam", 0.8, 0.5, 4.0, tip_mass=0.1, modes=3)
+    chain = Chain((link,), (TorqueDrive(ZERO, initial_angle=-1.2),))
+    force = BangBang(6.0, 0.1, 1.0)
+    base = Base("cart", mass=1.0, cart=Cart(TorqueDrive(force), rail_angle=rail))
+    t = np.linspace(0.0, 1.5, 3001)
+    system = NonlinearForwardSystem(chain, base, gravity=(0.0, -G))
+    from flexlink.solvers.gauss_forward import solve_nonlinear_forward
+
+    solution = solve_nonlinear_forward(system, t, 1e-9, None)
+    y, v, a = system.from_solution(solution)
+    kinetic, elastic = system.energy(t, y, v)
+    energy = kinetic + elastic + system.potential(t, y)
+    # The force is constant between its jumps, which fall on the grid: its work is exactly
+    # Σ F(mid-interval) Δs.
+    travel = y[:, system.n]
+    work = np.concatenate([[0.0], np.cumsum(force.value(0.5 * (t[1:] + t[:-1]))
+                                             * np.diff(travel))])
+    scale = np.ptp(energy)
+    assert np.abs(energy - energy[0] - work).max() < 1e-6 * scale
+    np.testing.assert_allclose(system.cart_force(t, y, v, a)[1:-1], force.value(t)[1:-1],
+                               atol=1e-6 * 6.0)
+
+
+# --- travel limits -------------------------------------------------------------------------
+
+def _travel_scenario(drive, travel=(-0.2, 0.2)) -> Scenario:
+    chain, base = _beam(2.0, 90.0, modes=2)
+    base = Base("cart", mass=2.0, cart=Cart(drive, travel=travel))
+    return Scenario(chain, settings=SimulationSettings(t_end=1.0, dt_out=1e-2), base=base)
+
+
+def test_a_prescribed_travel_outside_the_limits_is_refused() -> None:
+    """Refused when the scenario is made, naming the field, the time and the travel."""
+    with pytest.raises(ValueError, match=r"base.motion.*base.travel.*reaches s = 0\.3 m"):
+        _travel_scenario(Cycloidal(0.0, 0.3 * 180 / math.pi, 0.2, 0.5))
+    _travel_scenario(Cycloidal(0.0, 0.1 * 180 / math.pi, 0.2, 0.5))  # inside: accepted
+
+
+def test_a_driven_cart_that_leaves_its_travel_ends_the_run() -> None:
+    with pytest.raises(SimulationError, match=r"left its travel \[-0\.2, 0\.2\] m"):
+        simulate(_travel_scenario(TorqueDrive(Step(5.0))))
+    with pytest.raises(ValueError, match="starts at s = 0.5 m"):
+        _travel_scenario(TorqueDrive(ZERO, 0.5))
