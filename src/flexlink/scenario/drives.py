@@ -41,8 +41,10 @@ _SERVO_OWN = {name: tuple(f for f in s.fields if f.key not in _SERVO_COMMON)
 SegmentReader = Callable[[Any, str, Problems], tuple[dict[str, Any], JointMotion | None]]
 
 
-def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
-    """The resolved ``[base]`` table, or None if absent."""
+def read_base(raw: Any, base_dir: Path, p: Problems, t_end: float | None = None
+              ) -> dict[str, Any] | None:
+    """The resolved ``[base]`` table, or None if absent (``t_end``, s: the run's end, over
+    which a cart's prescribed travel is checked)."""
     if raw is None:
         return None
     if not isinstance(raw, Mapping):
@@ -53,7 +55,7 @@ def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
     kind = read_field(raw, BASE["type"], path, p)
     moving = kind in ("free", "pinned")
     out: dict[str, Any] = {"type": kind, **read_fields(raw, _BASE_FIELDS, path, p, defaults={
-        "mass": REQUIRED if kind == "free" else None,
+        "mass": REQUIRED if kind in ("free", "cart") else None,
         "inertia": REQUIRED if moving else None})}
     if kind == "pinned" and (out["position"] != [0.0, 0.0] or out["velocity"] != [0.0, 0.0]):
         p.add("base: a pinned base turns about its fixed reference point: position and "
@@ -61,6 +63,18 @@ def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
     if kind == "fixed" and (out["attitude_deg"] or out["rate_deg_s"] or "loads" in raw):
         p.add("base: a fixed base does not move: attitude_deg, rate_deg_s and loads need "
               "type = \"free\" or \"pinned\"")
+    if kind == "cart":
+        from .cart import read_cart
+
+        if out["velocity"] != [0.0, 0.0] or out["rate_deg_s"] or "inertia" in raw:
+            p.add("base: a cart moves along its rail only: give its initial speed as "
+                  "base.cart.initial_velocity, and no velocity, rate_deg_s or inertia")
+        if "cart" not in raw:
+            p.add("base: type = \"cart\" needs a [base.cart] table (the rail and the drive)")
+        else:
+            out["cart"] = read_cart(raw["cart"], "base.cart", base_dir, t_end, p)
+    elif "cart" in raw:
+        p.add("base.cart: only a base with type = \"cart\" takes a [base.cart] table")
     loads = raw.get("loads", [])
     if not isinstance(loads, list):
         p.add(f"base.loads: expected an array of tables [[base.loads]], got {describe(loads)}")
@@ -230,10 +244,15 @@ def build_base(entry: Mapping[str, Any] | None, joints: list[Mapping[str, Any]]
         **{k: build_history(v) for k, v in load.items() if k in ("force_x", "force_y", "moment")},
         point=(load["point"][0], load["point"][1]), frame=load["frame"])
         for load in entry["loads"])
+    cart = None
+    if entry["type"] == "cart":
+        from .cart import build_cart
+
+        cart = build_cart(entry["cart"])
     return model.Base(entry["type"], entry.get("mass", 0.0), entry.get("inertia", 0.0),
                        attachments, loads, tuple(entry["position"]),  # type: ignore[arg-type]
                        math.radians(entry["attitude_deg"]), tuple(entry["velocity"]),  # type: ignore[arg-type]
-                       math.radians(entry["rate_deg_s"]))
+                       math.radians(entry["rate_deg_s"]), cart)
 
 
 __all__ = ["build_base", "build_drive", "read_base", "read_driven_joint", "read_history"]

@@ -119,7 +119,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         joint, motion = _joint(table, path, base_dir, simulation.get("t_end"), p)
         joints.append(joint)
         motions.append(motion)
-    base = read_base(raw.get("base"), base_dir, p)
+    base = read_base(raw.get("base"), base_dir, p, simulation.get("t_end"))
     _check_massless_base(base, joints, simulation.get("model"), p)
     reserved = reserved_names([n for n in link_names if n], len(links))
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
