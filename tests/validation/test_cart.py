@@ -232,3 +232,26 @@ def test_a_driven_cart_that_leaves_its_travel_ends_the_run() -> None:
         simulate(_travel_scenario(TorqueDrive(Step(5.0))))
     with pytest.raises(ValueError, match="starts at s = 0.5 m"):
         _travel_scenario(TorqueDrive(ZERO, 0.5))
+
+
+def test_linearised_plant_of_the_example() -> None:
+    """`flexlink linearize` of examples/cart_beam.toml (hanging beam with a tip mass on a
+    force-driven cart, gravity): the plant's input is the cart force, its states name the
+    cart's travel and speed, and its frequencies are the Chebyshev reference's within 0.5%."""
+    from pathlib import Path
+
+    from flexlink.control.linearization import linearize
+    from flexlink.scenario import load_scenario
+
+    scenario = load_scenario(Path(__file__).resolve().parents[2] / "examples" / "cart_beam.toml")
+    plant = linearize(scenario)
+    assert plant.input_names == ("cart_force",)
+    assert {"cart_position", "cart_velocity"} <= set(plant.state_names)
+    omega = np.sort(np.abs(np.linalg.eigvals(plant.A).imag))
+    omega = np.unique(omega[omega > 1e-6].round(9))[:2]
+    link = scenario.chain.links[0]
+    rho, length = link.mass_per_length, link.length
+    expected = cart_beam_frequencies(
+        scenario.base.mass / (rho * length), 2, rho * G * length**3 / link.EI, 1.0,
+        link.tip_mass / (rho * length)) * math.sqrt(link.EI / rho) / length**2
+    np.testing.assert_allclose(omega, expected, rtol=5e-3)
