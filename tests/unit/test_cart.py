@@ -182,3 +182,30 @@ def test_both_models_need_the_same_force_for_a_prescribed_cart_with_rigid_links(
     expected = first.cart_force(t, p, pd, pdd, empty, empty, empty)
     np.testing.assert_allclose(nonlinear.cart_force(t, y, v, a), expected,
                                atol=1e-10 * np.abs(expected).max())
+
+
+def test_the_animation_draws_the_cart_on_its_rail(tmp_path) -> None:
+    """A cart driven along a rail at 30°: the block sits at the carried link's root, turned
+    along the rail, and the rail's ends lie on the line the root moves on, in its direction;
+    the animation is written."""
+    import math
+
+    from flexlink import simulate
+    from flexlink.model import Scenario, SimulationSettings
+    from flexlink.results.arm_tracks import run_track
+
+    rail = math.radians(30.0)
+    base = Base("cart", mass=1.0, position=(0.2, 0.1), attachments=((0, (0.05, 0.0)),),
+                cart=Cart(TorqueDrive(Step(2.0)), rail_angle=rail))
+    chain = Chain((Link("beam", 0.5, 0.5, 5.0, modes=2),), (Hold(-90.0),))
+    results = simulate(Scenario(chain, settings=SimulationSettings(t_end=0.5, dt_out=0.01),
+                                base=base))
+    track = run_track(results)
+    X, Y = track.links[0]
+    np.testing.assert_allclose(track.base[:, :2], np.column_stack([X[:, 0], Y[:, 0]]))
+    np.testing.assert_allclose(track.base[:, 2], rail, atol=1e-9)
+    d = track.rail[1] - track.rail[0]
+    assert math.atan2(d[1], d[0]) == pytest.approx(rail, abs=1e-9)
+    offset = track.rail[0] - track.base[0, :2]  # on the root's line
+    assert abs(offset[0] * d[1] - offset[1] * d[0]) < 1e-9
+    assert results.animate(tmp_path / "cart.gif").is_file()

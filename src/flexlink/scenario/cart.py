@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import model
+from .drives import build_history, read_history
 from .errors import REQUIRED, Problems, describe
 from .schema import CART, CART_PROFILE, CART_PROFILES, read_field, read_fields
 
@@ -31,8 +32,6 @@ def read_cart(table: Any, path: str, base_dir: Path, t_end: float | None,
               p: Problems) -> dict[str, Any]:
     """The resolved ``[base.cart]`` table; a prescribed travel (or a start) outside
     ``travel`` over [0, t_end] is a problem naming the field."""
-    from .drives import read_history
-
     if not isinstance(table, Mapping):
         p.add(f"{path}: expected a table [base.cart] with the rail and the drive, got "
               f"{describe(table)}")
@@ -127,8 +126,6 @@ def build_cart(entry: Mapping[str, Any]) -> model.Cart:
     if kind in ("free", "force"):
         force = model.ZERO
         if kind == "force":
-            from .drives import build_history
-
             force = build_history(entry["force"])
         drive = model.TorqueDrive(force, entry["initial_position"], entry["initial_velocity"])
     elif kind == "prescribed":

@@ -41,10 +41,9 @@ _SERVO_OWN = {name: tuple(f for f in s.fields if f.key not in _SERVO_COMMON)
 SegmentReader = Callable[[Any, str, Problems], tuple[dict[str, Any], JointMotion | None]]
 
 
-def read_base(raw: Any, base_dir: Path, p: Problems, t_end: float | None = None
-              ) -> dict[str, Any] | None:
-    """The resolved ``[base]`` table, or None if absent (``t_end``, s: the run's end, over
-    which a cart's prescribed travel is checked)."""
+def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
+    """The resolved ``[base]`` table, or None if absent (a cart's ``[base.cart]`` table is
+    read by scenario/cart.py)."""
     if raw is None:
         return None
     if not isinstance(raw, Mapping):
@@ -64,15 +63,11 @@ def read_base(raw: Any, base_dir: Path, p: Problems, t_end: float | None = None
         p.add("base: a fixed base does not move: attitude_deg, rate_deg_s and loads need "
               "type = \"free\" or \"pinned\"")
     if kind == "cart":
-        from .cart import read_cart
-
         if out["velocity"] != [0.0, 0.0] or out["rate_deg_s"] or "inertia" in raw:
             p.add("base: a cart moves along its rail only: give its initial speed as "
                   "base.cart.initial_velocity, and no velocity, rate_deg_s or inertia")
         if "cart" not in raw:
             p.add("base: type = \"cart\" needs a [base.cart] table (the rail and the drive)")
-        else:
-            out["cart"] = read_cart(raw["cart"], "base.cart", base_dir, t_end, p)
     elif "cart" in raw:
         p.add("base.cart: only a base with type = \"cart\" takes a [base.cart] table")
     loads = raw.get("loads", [])
@@ -234,8 +229,10 @@ def build_drive(entry: Mapping[str, Any], reference: JointMotion | None) -> mode
                                 limit, entry["motor_inertia"])
 
 
-def build_base(entry: Mapping[str, Any] | None, joints: list[Mapping[str, Any]]
-               ) -> model.Base | None:
+def build_base(entry: Mapping[str, Any] | None, joints: list[Mapping[str, Any]],
+               cart: model.Cart | None = None) -> model.Base | None:
+    """The model's base of a resolved ``[base]`` table (``cart``: a cart base's rail and
+    drive, built by scenario/cart.py)."""
     attachments = tuple((k, (float(j["base_point"][0]), float(j["base_point"][1])))
                         for k, j in enumerate(joints) if "base_point" in j)
     if entry is None:
@@ -244,11 +241,6 @@ def build_base(entry: Mapping[str, Any] | None, joints: list[Mapping[str, Any]]
         **{k: build_history(v) for k, v in load.items() if k in ("force_x", "force_y", "moment")},
         point=(load["point"][0], load["point"][1]), frame=load["frame"])
         for load in entry["loads"])
-    cart = None
-    if entry["type"] == "cart":
-        from .cart import build_cart
-
-        cart = build_cart(entry["cart"])
     return model.Base(entry["type"], entry.get("mass", 0.0), entry.get("inertia", 0.0),
                        attachments, loads, tuple(entry["position"]),  # type: ignore[arg-type]
                        math.radians(entry["attitude_deg"]), tuple(entry["velocity"]),  # type: ignore[arg-type]
