@@ -90,3 +90,18 @@ def test_a_cart_needs_its_table_and_its_mass() -> None:
     d["base"]["inertia"] = 1.0
     with pytest.raises(ScenarioError, match="only a base with type = \"cart\""):
         scenario_from_dict(d)
+
+
+def test_sweep_and_fit_paths_reach_the_cart_keys() -> None:
+    """Field paths address the cart's keys like any other (sweeps, fits): its force, its
+    mass, its rail angle."""
+    from flexlink.scenario.fields import ScenarioFile, parse, resolve
+
+    file = ScenarioFile.read(EXAMPLE)
+    values = {resolve(file.raw, parse(text)): value for text, value in (
+        ("base.cart.force[0].amplitude", 6.0), ("base.mass", 3.0),
+        ("base.cart.rail_angle_deg", 10.0))}
+    scenario = file.build(values)
+    assert scenario.base.mass == 3.0
+    assert scenario.base.cart.rail_angle == pytest.approx(math.radians(10.0))
+    assert scenario.base.cart.drive.torque.value(np.array([0.1]))[0] == pytest.approx(6.0)

@@ -13,6 +13,10 @@ hub's centre) carries the appendages and a moment history M(t) turns it.
   node (``MarkerNodePosition``) plus a ``CoordinateConstraint`` ψ_root − θ_hub = 0 on the
   angle displacements: position and slope of the root follow the hub exactly (any rotation).
 
+A cart (``rail = True``): the hub slides along the global X axis, its y and angle held by
+``CoordinateConstraint`` to the ground, and the history drives its x coordinate (a force
+along the rail, N) instead of its angle.
+
 Signals, from nodal coordinates (``SensorNode``): the hub angle θ, its rate and centre; per
 appendage ``tip_deflection`` = n_root · (r_tip − r_root) (transverse deflection in the clamped
 root frame, as flexlink's ``deflection`` sensor at x = L) and the tip position. Undamped, no
@@ -69,8 +73,9 @@ class _Moment:
 
 def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float, pinned: bool,
            elements: int, moment: Callable[[float], float] | None, dt: float = 0.0,
-           gravity: tuple[float, float] = (0.0, 0.0)) -> dict[str, Any]:
+           gravity: tuple[float, float] = (0.0, 0.0), rail: bool = False) -> dict[str, Any]:
     """The Exudyn system (not assembled); returns mbs, the container and the node numbers.
+    ``rail``: a cart on a rail along X driven by the history as a force (module doc).
     ``gravity`` (m/s²): the weights as nodal forces, each element's half on each of its
     nodes, the tip masses' on the tip node and (free hub) the hub's on the hub."""
     import exudyn as exu
@@ -108,11 +113,15 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
         for c in (0, 1):
             mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(hub_node, c)]))
     m_hub_angle = coord(hub_node, 2)
+    if rail:
+        for c in (1, 2):
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(hub_node, c)]))
     keep: list[Any] = []
     if moment is not None:
         uf = _Moment(moment, dt)
         keep.append(uf)
-        mbs.AddLoad(LoadCoordinate(markerNumber=m_hub_angle, load=0.0, loadUserFunction=uf))
+        driven = coord(hub_node, 0) if rail else m_hub_angle
+        mbs.AddLoad(LoadCoordinate(markerNumber=driven, load=0.0, loadUserFunction=uf))
     nodes: list[list[int]] = []
     for app in appendages:
         link = app.link
@@ -177,13 +186,15 @@ def simulate_hub_exudyn(
     newton_abs_tol: float = 1e-6,
     newton_rel_tol: float = 1e-8,
     gravity: tuple[float, float] = (0.0, 0.0),
+    rail: bool = False,
 ) -> dict[str, Any]:
     """A hub turned by the moment M(t) (N·m, about its centre), its appendages free to bend.
 
     elements: elements per appendage (uniform); dt: generalized-α step (default dt_out, at
     most 5e-4 s; it must divide dt_out — put bang-bang switches on the step grid);
     spectral_radius: ρ∞ (1 = no numerical dissipation); gravity: uniform field (m/s²,
-    lumped nodal weights). Starts at rest, undeformed.
+    lumped nodal weights); rail: a cart on a rail along X, ``moment`` then the force along it
+    (N), ``hub_mass`` its mass. Starts at rest, undeformed.
 
     Returns ``t`` (s); ``hub_angle`` (rad), ``hub_rate`` (rad/s), ``hub_position`` (n×2, m);
     per appendage (lists) ``tip_deflection`` (m, clamped root frame) and ``tip_position``
@@ -198,7 +209,8 @@ def simulate_hub_exudyn(
     if abs(ratio - round(ratio)) > 1e-6:
         raise ValueError(f"dt = {dt} must divide dt_out = {dt_out}")
     dt = dt_out / round(ratio)
-    built = _build(appendages, hub_mass, hub_inertia, pinned, elements, moment, dt, gravity)
+    built = _build(appendages, hub_mass, hub_inertia, pinned and not rail, elements, moment,
+                   dt, gravity, rail)
     mbs, nodes = built["mbs"], built["nodes"]
 
     def sensor(node: int, kind: Any) -> int:
