@@ -74,13 +74,13 @@ def cart_name(quantity: str) -> str:
 
 def cart_channels(prescribed: bool) -> list[Channel]:
     """A cart's travel along its rail, its speed and the force its drive applies."""
-    how = "the force its travel takes" if prescribed else "the drive's force"
+    how = "the force its prescribed travel takes" if prescribed else "its drive's force"
     return [Channel(cart_name("position"), ChannelKind.BASE, Unit.METRE,
                     "cart travel along its rail from the base position", "position", "cart"),
             Channel(cart_name("velocity"), ChannelKind.BASE, Unit.METRE_PER_SECOND,
                     "cart speed along its rail", "velocity", "cart"),
             Channel(cart_name("force"), ChannelKind.BASE, Unit.NEWTON,
-                    f"force along the rail on the cart ({how}; base loads excluded)",
+                    f"cart force along the rail: {how}",
                     "force", "cart")]
 
 
