@@ -445,12 +445,16 @@ class ForwardSystem:
         """Force along the rail (nt,), N, that the cart's drive applies at times t: the travel
         row of the equations, (M ẍ + C ẋ + K x − f)_s with x = [0; z] (cart mass included),
         less the base loads along the rail (a force drive's force; what a prescribed travel
-        takes)."""
-        M, C, K, f = self.matrices(p, pd, pdd)
+        takes). Assembled in blocks of times: the matrices of a whole run need not fit."""
+        out = np.empty(t.shape[0])
         zc = slice(self.n_rigid, self.n_x)
-        res = (np.einsum("tz,tz->t", M[:, 0, zc], zdd) + np.einsum("tz,tz->t", C[:, 0, zc], zd)
-               + np.einsum("tz,tz->t", K[:, 0, zc], z) - f[:, 0])
-        return res - self.rail_loads(t)
+        for i in range(0, t.shape[0], 2048):
+            b = slice(i, i + 2048)
+            M, C, K, f = self.matrices(p[b], pd[b], pdd[b])
+            out[b] = (np.einsum("tz,tz->t", M[:, 0, zc], zdd[b])
+                      + np.einsum("tz,tz->t", C[:, 0, zc], zd[b])
+                      + np.einsum("tz,tz->t", K[:, 0, zc], z[b]) - f[:, 0])
+        return out - self.rail_loads(t)
 
 
 def _drive_start(joint: object) -> tuple[list[float], list[float]]:
