@@ -345,3 +345,24 @@ def test_a_position_servo_brings_the_cart_to_its_reference() -> None:
     assert r["cart_position"][-1] == pytest.approx(0.3, abs=1e-3)
     assert np.abs(r["cart_force"]).max() <= 30.0 + 1e-6
     assert np.abs(r["cart_velocity"]).max() < 0.5 * 1.1
+
+
+def test_linearised_at_a_rest_configuration() -> None:
+    """`linearize --at joint1=…` with a force-driven cart: the cart held at rest where it
+    starts with no force (an equilibrium), the beam hanging: the reference's frequencies
+    within 0.5%; a base pose key is refused for a cart."""
+    from flexlink.control.linearization import linearize
+
+    chain, base = _beam(2.0, -90.0, 0.5)
+    base = Base("cart", mass=base.mass, cart=Cart(TorqueDrive(Step(3.0), 0.2)))
+    scenario = Scenario(chain, settings=SimulationSettings(t_end=1.0, dt_out=1e-2,
+                                                           gravity=(0.0, -G)), base=base)
+    plant = linearize(scenario, {"joint1": -90.0})
+    assert plant.equilibrium
+    omega = np.sort(np.abs(np.linalg.eigvals(plant.A).imag))
+    omega = np.unique(omega[omega > 1e-6].round(9))[:3]
+    expected = cart_beam_frequencies(2.0, 3, RHO * G * L**3 / EI, 1.0, 0.5) \
+        * math.sqrt(EI / RHO) / L**2
+    np.testing.assert_allclose(omega, expected, rtol=5e-3)
+    with pytest.raises(ValueError, match="not a coordinate of a cart base"):
+        linearize(scenario, {"base_x": 0.1})
