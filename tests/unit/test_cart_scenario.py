@@ -105,3 +105,29 @@ def test_sweep_and_fit_paths_reach_the_cart_keys() -> None:
     assert scenario.base.mass == 3.0
     assert scenario.base.cart.rail_angle == pytest.approx(math.radians(10.0))
     assert scenario.base.cart.drive.torque.value(np.array([0.1]))[0] == pytest.approx(6.0)
+
+
+@pytest.mark.parametrize("edit, status, expected", [
+    # refused when read: nothing runs, nothing is written
+    (("drive = \"force\"\nforce = [{ profile = \"bang_bang\", amplitude = 4.0, start = 0.0, "
+      "duration = 1.0 }]", "drive = \"prescribed\"\nmotion = [{ profile = \"cycloidal\", "
+      "from = 0.0, to = 0.8, start = 0.0, duration = 1.0 }]"), 2,
+     "base.cart.motion: the prescribed cart travel leaves its travel [-0.5, 0.5] m"),
+    # a driven run that leaves its travel: an error naming the time, no results folder
+    (("amplitude = 4.0", "amplitude = 40.0"), 1, "the cart left its travel [-0.5, 0.5] m"),
+])
+def test_the_command_refuses_a_cart_outside_its_travel(
+        edit: tuple[str, str], status: int, expected: str, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from flexlink.cli import main
+
+    text = EXAMPLE.read_text().replace(*edit)
+    assert text != EXAMPLE.read_text()
+    scenario = tmp_path / "cart.toml"
+    scenario.write_text(text)
+    out = tmp_path / "out"
+    code = main(["run", str(scenario), "-o", str(out), "-q", "--no-figures"])
+    err = capsys.readouterr().err
+    assert code == status, err
+    assert expected in err and "Traceback" not in err
+    assert not out.exists() or list(out.iterdir()) == []
