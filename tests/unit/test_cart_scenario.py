@@ -107,11 +107,15 @@ def test_sweep_and_fit_paths_reach_the_cart_keys() -> None:
     assert scenario.base.cart.drive.torque.value(np.array([0.1]))[0] == pytest.approx(6.0)
 
 
+_FORCE = ('drive = "force"\nforce = [{ profile = "bang_bang", amplitude = 4.0, start = 0.0, '
+          'duration = 1.0 }]')
+_TOO_FAR = ('drive = "prescribed"\nmotion = [{ profile = "cycloidal", from = 0.0, to = 0.8, '
+            'start = 0.0, duration = 1.0 }]')
+
+
 @pytest.mark.parametrize("edit, status, expected", [
     # refused when read: nothing runs, nothing is written
-    (("drive = \"force\"\nforce = [{ profile = \"bang_bang\", amplitude = 4.0, start = 0.0, "
-      "duration = 1.0 }]", "drive = \"prescribed\"\nmotion = [{ profile = \"cycloidal\", "
-      "from = 0.0, to = 0.8, start = 0.0, duration = 1.0 }]"), 2,
+    ((_FORCE, _TOO_FAR), 2,
      "base.cart.motion: the prescribed cart travel leaves its travel [-0.5, 0.5] m"),
     # a driven run that leaves its travel: an error naming the time, no results folder
     (("amplitude = 4.0", "amplitude = 40.0"), 1, "the cart left its travel [-0.5, 0.5] m"),
