@@ -62,6 +62,10 @@ def test_servo_carts(servo: str, cls: type) -> None:
      r"base\.cart\.motion: .*base\.cart\.travel.*reaches s = 0\.3 m"),
     ({"drive": "force", "initial_position": 0.5, "travel": [-0.2, 0.2],
       "force": [{"profile": "step", "amplitude": 1.0}]}, {}, r"starts at s = 0\.5 m"),
+    ({"drive": "servo", "servo": "position", "bandwidth": 20.0, "rate_limit": 0.5,
+      "loop_gain": 50.0, "travel": [-0.2, 0.2], "reference": [
+          {"profile": "quintic", "from": 0.0, "to": -0.25, "start": 0.1, "duration": 0.5}]}, {},
+     r"base\.cart\.reference: the cart servo's reference leaves .* reaches s = -0\.25 m"),
     ({"travel": [0.2, -0.2]}, {}, r"base\.cart\.travel: need lower < upper"),
     ({"drive": "force"}, {}, r"base\.cart: drive = \"force\" needs 'force'"),
     ({"drive": "prescribed"}, {}, r"base\.cart: drive = 'prescribed' needs 'motion'"),

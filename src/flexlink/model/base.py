@@ -130,21 +130,25 @@ class Cart:
         return None if out.size == 0 else (float(t[out[0]]), float(s[out[0]]))
 
     def check_travel(self, t_end: float) -> None:
-        """Refuse a start outside the travel, and a prescribed travel that leaves it in
-        [0, t_end] (s): a ValueError naming the field, the time and the travel."""
+        """Refuse a start outside the travel, and a prescribed travel or a servo's reference
+        that leaves it in [0, t_end] (s): a ValueError naming the field, the time and the
+        travel."""
         lo, hi = self.travel
         if not lo <= self.initial_travel() <= hi:
             raise ValueError(f"base: the cart starts at s = {self.initial_travel():g} m, outside "
                              f"its travel [{lo:g}, {hi:g}] m (base.travel)")
-        if not self.prescribed:
+        motion = self.drive if self.prescribed else getattr(self.drive, "reference", None)
+        if motion is None:  # a force drive: only its run can tell
             return
+        field, what = (("motion", "prescribed cart travel") if self.prescribed
+                       else ("reference", "cart servo's reference"))
         # Dense samples and every breakpoint: the profiles' extremes are at their ends.
-        breaks = [b for b in getattr(self.drive, "breakpoints", ()) if 0.0 <= b <= t_end]
+        breaks = [b for b in getattr(motion, "breakpoints", ()) if 0.0 <= b <= t_end]
         t = np.union1d(np.linspace(0.0, t_end, 4001), breaks)
-        s = np.ravel(self.drive.evaluate(t)[0]) + 0 * t  # type: ignore[union-attr]
+        s = np.ravel(motion.evaluate(t)[0]) + 0 * t
         exit_ = self.first_exit(t, s)
         if exit_ is not None:
             far = s.max() if s.max() > hi else s.min()
-            raise ValueError(f"base.motion: the prescribed cart travel leaves its travel "
+            raise ValueError(f"base.{field}: the {what} leaves its travel "
                              f"[{lo:g}, {hi:g}] m (base.travel) at t = {exit_[0]:g} s and "
                              f"reaches s = {far:g} m")

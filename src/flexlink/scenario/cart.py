@@ -72,8 +72,11 @@ def read_cart(table: Any, path: str, base_dir: Path, t_end: float | None,
         try:
             build_cart(out).check_travel(t_end)
         except ValueError as exc:
-            p.add(f"{path}: {exc}".replace("base: ", "").replace("base.motion", f"{path}.motion")
-                  .replace("(base.travel)", f"({path}.travel)"))
+            message = str(exc).replace("(base.travel)", f"({path}.travel)")
+            for key in ("motion", "reference"):
+                message = message.replace(f"base.{key}:", f"{path}.{key}:")
+            p.add(message if message.startswith(path) else f"{path}: "
+                  + message.removeprefix("base: "))
     return out
 
 

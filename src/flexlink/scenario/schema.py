@@ -414,7 +414,7 @@ CART = Section("base.cart", [
               "it from `base.position`"),
     Field("travel", "pair", unit="m", default=None, default_doc="unlimited",
           rule="lower < upper",
-          doc="allowed range of s: a prescribed travel outside it, or a start outside it, is "
+          doc="allowed range of s: a prescribed travel, a servo's reference or a start outside it is "
               "refused; a run whose cart leaves it ends with an error (never clipped)"),
     Field("drive", "string", choices=CART_DRIVES, default="free", notes={
         "free": "no force along the rail (base loads only)",
