@@ -91,8 +91,8 @@ class Cart:
     speed (m/s), ``motor_inertia`` must be 0: the cart's mass is the base's), or a servo on the
     travel (its reference in metres, rate limit in m/s, loop gain in N·s/m, torque limit the
     force limit in N). A free cart is a force drive with zero force. ``travel``: the allowed
-    range of s (m); a prescribed travel outside it is refused, a driven run that leaves it
-    ends with an error.
+    range of s (m); a prescribed travel or a servo reference outside it is refused, a run that
+    leaves it ends with an error.
     """
 
     drive: Joint = field(default_factory=lambda: TorqueDrive(ZERO))
