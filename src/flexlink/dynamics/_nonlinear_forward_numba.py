@@ -19,9 +19,11 @@ from ._nonlinear_numba import node_forces
 
 NonlinearForwardData = namedtuple("NonlinearForwardData", [
     "Ay", "At", "G", "s", "m_tot", "translation", "rot_y", "rot_J", "D", "K", "n", "nu",
-    "n_rigid", "free"])
+    "n_rigid", "free", "cart", "rail"])
 NonlinearForwardData.__doc__ = ("Constant arrays of a NonlinearForwardSystem for the kernels "
-                                "(SI units; columns on y = [q, p_free, σ]).")
+                                "(SI units; columns on y = [q, p_free, σ]); cart: 0 none, 1 "
+                                "its travel s is y[n], 2 s is prescribed (s̈ from the input "
+                                "row); rail (2,) its direction.")
 
 
 @njit(cache=True)
@@ -41,12 +43,16 @@ def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
     rx, ry = -d.gravity[0], -d.gravity[1]
     if nd.translation:
         rx, ry = X[n] + rx, X[n + 1] + ry
+    if nd.cart > 0:  # s̈ along the rail: y's, or the prescribed travel's input column
+        sdd = X[n] if nd.cart == 1 else u[u.shape[0] - 2]
+        rx, ry = sdd * nd.rail[0] + rx, sdd * nd.rail[1] + ry
+    force = nd.translation or nd.cart == 1
     node_forces(nd.Ay, m, Y, V, X, ang, rate, acc, nd.G, nd.s, rx, ry, c, s, S, moments)
     out[:] = 0.0
     fx = fy = 0.0
     for j in range(nodes):
         uj = moments[j]
-        if nd.translation:
+        if force:
             sj = nd.s[j]
             fx += sj * (-S[j, 1] - S[j, 2])
             fy += sj * (S[j, 0] - S[j, 3])
@@ -65,6 +71,8 @@ def residual(Y, V, X, ang, rate, acc, rot_acc, u, nd, d, out):
     if nd.translation:
         out[n] += nd.m_tot * rx + fx
         out[n + 1] += nd.m_tot * ry + fy
+    elif nd.cart == 1:  # the inertia force along the rail on s
+        out[n] += (nd.m_tot * rx + fx) * nd.rail[0] + (nd.m_tot * ry + fy) * nd.rail[1]
     if nu > 0 or d.actuator_B.shape[1] > 0:
         p = np.zeros(nd.n_rigid)
         pd = np.zeros(nd.n_rigid)
