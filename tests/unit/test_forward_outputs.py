@@ -11,6 +11,7 @@ from flexlink.dynamics._forward_numba import workspace
 from flexlink.dynamics.forward import momentum
 from flexlink.dynamics.forward_kernel import inputs, pack
 from flexlink.dynamics.forward_outputs import forward_outputs
+from tests.unit.test_cart import SYSTEMS as CARTS
 from tests.unit.test_forward_kernel import SYSTEMS
 
 
@@ -21,7 +22,17 @@ def _close(ours: np.ndarray, theirs: np.ndarray, what: str) -> None:
 
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
 def test_outputs_match_the_numpy_equations(name: str) -> None:
-    system = SYSTEMS[name](True)
+    _check(SYSTEMS[name](True))
+
+
+@pytest.mark.parametrize("name", sorted(CARTS))
+def test_outputs_of_a_cart_match_the_numpy_equations(name: str) -> None:
+    """The cart's links hang from R_0 + s e at the cart's constant attitude (its travel s is
+    no angle); its mass moves with ṡ e in the momentum."""
+    _check(CARTS[name](True))
+
+
+def _check(system) -> None:
     rng = np.random.default_rng(5)
     nt, nu, n, ns = 7, len(system.free), system.n, len(system.servos)
     t = np.sort(rng.uniform(0.0, 1.5, nt))

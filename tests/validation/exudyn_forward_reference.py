@@ -17,6 +17,10 @@ hub's centre) carries the appendages and a moment history M(t) turns it.
   reflected through the gear (angle θ_m/N, inertia N² J_m), coupled to the hub's angle by a
   ``CoordinateSpringDamper`` (k, c); the moment then turns the rotor (N τ_m), not the hub.
 
+A cart (``rail = True``): the hub slides along the global X axis, its y and angle held by
+``CoordinateConstraint`` to the ground, and the history drives its x coordinate (a force
+along the rail, N) instead of its angle.
+
 Signals, from nodal coordinates (``SensorNode``): the hub angle θ, its rate and centre; per
 appendage ``tip_deflection`` = n_root · (r_tip − r_root) (transverse deflection in the clamped
 root frame, as flexlink's ``deflection`` sensor at x = L) and the tip position. Undamped, no
@@ -74,8 +78,10 @@ class _Moment:
 def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float, pinned: bool,
            elements: int, moment: Callable[[float], float] | None, dt: float = 0.0,
            gravity: tuple[float, float] = (0.0, 0.0),
-           rotor: tuple[float, float, float] | None = None) -> dict[str, Any]:
+           rotor: tuple[float, float, float] | None = None, rail: bool = False
+           ) -> dict[str, Any]:
     """The Exudyn system (not assembled); returns mbs, the container and the node numbers.
+    ``rail``: a cart on a rail along X driven by the history as a force (module doc).
     ``gravity`` (m/s²): the weights as nodal forces, each element's half on each of its
     nodes, the tip masses' on the tip node and (free hub) the hub's on the hub. ``rotor``:
     (reflected inertia N² J_m kg·m², stiffness N·m/rad, damping N·m·s/rad) of an elastic
@@ -125,11 +131,15 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
         m_driven = coord(rotor_node, 2)
         mbs.AddObject(CoordinateSpringDamper(markerNumbers=[m_hub_angle, m_driven],
                                              stiffness=rotor[1], damping=rotor[2]))
+    if rail:
+        for c in (1, 2):
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(hub_node, c)]))
     keep: list[Any] = []
     if moment is not None:
         uf = _Moment(moment, dt)
         keep.append(uf)
-        mbs.AddLoad(LoadCoordinate(markerNumber=m_driven, load=0.0, loadUserFunction=uf))
+        driven = coord(hub_node, 0) if rail else m_driven
+        mbs.AddLoad(LoadCoordinate(markerNumber=driven, load=0.0, loadUserFunction=uf))
     nodes: list[list[int]] = []
     for app in appendages:
         link = app.link
@@ -198,6 +208,7 @@ def simulate_hub_exudyn(
     newton_rel_tol: float = 1e-8,
     gravity: tuple[float, float] = (0.0, 0.0),
     rotor: tuple[float, float, float] | None = None,
+    rail: bool = False,
 ) -> dict[str, Any]:
     """A hub turned by the moment M(t) (N·m, about its centre), its appendages free to bend.
 
@@ -205,7 +216,8 @@ def simulate_hub_exudyn(
     most 5e-4 s; it must divide dt_out — put bang-bang switches on the step grid);
     spectral_radius: ρ∞ (1 = no numerical dissipation); gravity: uniform field (m/s²,
     lumped nodal weights); rotor: an elastic joint's reflected rotor, spring and damper
-    (`_build`; adds ``rotor_angle``, rad, θ_m/N). Starts at rest, undeformed.
+    (`_build`; adds ``rotor_angle``, rad, θ_m/N); rail: a cart on a rail along X, ``moment``
+    then the force along it (N), ``hub_mass`` its mass. Starts at rest, undeformed.
 
     Returns ``t`` (s); ``hub_angle`` (rad), ``hub_rate`` (rad/s), ``hub_position`` (n×2, m);
     per appendage (lists) ``tip_deflection`` (m, clamped root frame) and ``tip_position``
@@ -220,8 +232,8 @@ def simulate_hub_exudyn(
     if abs(ratio - round(ratio)) > 1e-6:
         raise ValueError(f"dt = {dt} must divide dt_out = {dt_out}")
     dt = dt_out / round(ratio)
-    built = _build(appendages, hub_mass, hub_inertia, pinned, elements, moment, dt, gravity,
-                   rotor)
+    built = _build(appendages, hub_mass, hub_inertia, pinned and not rail, elements, moment,
+                   dt, gravity, rotor=rotor, rail=rail)
     mbs, nodes = built["mbs"], built["nodes"]
 
     def sensor(node: int, kind: Any) -> int:

@@ -10,13 +10,18 @@ geometrically exact Exudyn model (tests/validation/exudyn_forward_reference.py).
 * ``elastic_joint``: the hub–beam's beam on an elastic joint (no hub inertia), its motor
   turned by a bang-bang torque through a gear (docs/elastic_joints.md); in Exudyn a pinned
   rotor body of the reflected inertia coupled to the hub by a coordinate spring.
+* ``cart``: examples/cart_beam.toml undamped — a beam with a tip mass hanging from a 2 kg
+  cart (``[base] type = "cart"``) on a level rail, gravity, the cart pushed by a bang-bang force
+  along the rail (``amplitude`` in N); in Exudyn the hub is the cart, held to the rail by
+  constraints (``rail = True``).
 
-Each at two deflection levels: ``small`` (peak tip deflection ≈ 3% of the length) and
-``large`` (≥ 30%). Both models are undamped. Signals (SI, per case): ``tip`` — tip deflection
-of the (first) appendage in its clamped root frame (m); ``hub_angle`` (rad); ``hub_rate``
+Each hub at two deflection levels: ``small`` (peak tip deflection ≈ 3% of the length) and
+``large`` (≥ 30%); the cart at ≈ 2.4%. Both models are undamped. Signals (SI, per case):
+``tip`` — tip deflection of the (first) appendage in its clamped root frame (m); ``hub_angle`` (rad); ``hub_rate``
 (rad/s); the free case adds ``hub_momentum`` = J_h × hub rate (N·m·s, the hub's own angular
 momentum about its centre), the elastic joint ``motor_angle`` (rad, motor shaft) and
-``spring_torque`` (N·m).
+``spring_torque`` (N·m); the cart has ``cart_travel`` (m) in place of the hub's angle and
+rate.
 """
 
 from __future__ import annotations
@@ -49,7 +54,7 @@ class DrivenCase:
     ``t_end`` (s) simulated, output every ``dt_out`` (s)."""
 
     name: str
-    kind: str  # "hub_beam", "free_hub" or "elastic_joint" (amplitude: the motor's torque)
+    kind: str  # "hub_beam", "free_hub", "elastic_joint" (amplitude: the motor's torque) or "cart"
     amplitude: float
     slew: float
     t_end: float
@@ -72,12 +77,19 @@ ARRAY = Link("array_right", 3.0, 2.0, 200.0, thickness=0.02)
 # (reflected 0.2 kg·m²); ±0.1 N·m on the motor over 2 s slews the link 108°, tip 4.4% of L
 GEAR, ROTOR, SPRING = 10.0, 2e-3, 50.0
 
+# cart: examples/cart_beam.toml's beam (1.2 m, 0.8 kg/m, EI = 30 N·m², tip 0.3 kg) hanging from
+# a 2 kg cart, ±4 N for 1 s
+CART_MASS = 2.0
+CART_BEAM = Link("beam", 1.2, 0.8, 30.0, tip_mass=0.3, thickness=0.01)
+G = 9.81
+
 CASES = {c.name: c for c in (
     DrivenCase("hub_beam_small", "hub_beam", 2.0, 2.0, 4.0, 0.002),
     DrivenCase("hub_beam_large", "hub_beam", 20.0, 2.0, 4.0, 0.002),
     DrivenCase("free_hub_small", "free_hub", 8.0, 4.0, 8.0, 0.004),
     DrivenCase("free_hub_large", "free_hub", 100.0, 4.0, 8.0, 0.004),
     DrivenCase("elastic_joint", "elastic_joint", 0.1, 2.0, 4.0, 0.002),
+    DrivenCase("cart_hanging", "cart", 4.0, 1.0, 2.0, 0.002),
 )}
 
 
@@ -92,6 +104,16 @@ def flexlink_scenario(case: DrivenCase, modes: int = 6, rtol: float = 1e-6) -> S
         chain = Chain((link,), (joint,))
         sensors = (PointSensor("tip", "deflection", 0, link.length),)
         return Scenario(chain, sensors, settings, name=case.name)
+    if case.kind == "cart":
+        from flexlink.model import Cart
+
+        link = _with_modes(CART_BEAM, modes)
+        base = Base("cart", mass=CART_MASS, cart=Cart(TorqueDrive(case.moment)))
+        sensors = (PointSensor("tip", "deflection", 0, link.length),)
+        settings = SimulationSettings(case.t_end, case.dt_out, geometric_stiffening=True,
+                                      rtol=rtol, gravity=(0.0, -G))
+        return Scenario(Chain((link,), (Hold(-90.0),)), sensors, settings, base=base,
+                        name=case.name)
     right = _with_modes(ARRAY, modes)
     left = _with_modes(Link("array_left", ARRAY.length, ARRAY.mass_per_length, ARRAY.EI,
                             thickness=ARRAY.thickness), modes)
@@ -111,6 +133,9 @@ def _with_modes(link: Link, modes: int) -> Link:
 
 def flexlink_signals(case: DrivenCase, results: Any) -> dict[str, np.ndarray]:
     """The comparison signals of a flexlink run (see the module docstring)."""
+    if case.kind == "cart":
+        return {"tip": np.asarray(results["tip"]),
+                "cart_travel": np.asarray(results["cart_position"])}
     if case.kind != "free_hub":
         out = {"tip": np.asarray(results["tip"]), "hub_angle": np.asarray(results["joint1_angle"]),
                "hub_rate": np.asarray(results["joint1_rate"])}
@@ -139,6 +164,12 @@ def exudyn_signals(case: DrivenCase, elements: int, dt: float) -> tuple[dict[str
         out = simulate_hub_exudyn([Appendage(BEAM)], 0.0, lambda t: GEAR * m(t), case.t_end,
                                   case.dt_out, elements, dt=dt,
                                   rotor=(GEAR**2 * ROTOR, SPRING, 0.0))
+    elif case.kind == "cart":
+        out = simulate_hub_exudyn([Appendage(CART_BEAM, angle=-np.pi / 2)], 0.0, m,
+                                  case.t_end, case.dt_out, elements, hub_mass=CART_MASS,
+                                  dt=dt, gravity=(0.0, -G), rail=True)
+        return ({"tip": np.asarray(out["tip_deflection"][0]),
+                 "cart_travel": out["hub_position"][:, 0]}, out)
     else:
         arrays = [Appendage(ARRAY, (SAT_OFFSET, 0.0), 0.0),
                   Appendage(ARRAY, (-SAT_OFFSET, 0.0), np.pi)]

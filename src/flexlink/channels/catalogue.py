@@ -4,9 +4,9 @@ The one place where channel names are made. The channel computations of every mo
 take their records from here and add only the values; the scenario loader (names a sensor
 must not take), the measurement mapping and sweeps read the same records.
 
-Order: sensors, base pose and rates, joint quantities (all angles, then rates, torques,
-servo references and commands, elastic joints' motor angles, motor rates and spring torques),
-momentum, tip positions.
+Order: sensors, base pose and rates (a cart's travel, speed and force), joint quantities (all
+angles, then rates, torques, servo references and commands, elastic joints' motor angles,
+motor rates and spring torques), momentum, tip positions.
 """
 
 from __future__ import annotations
@@ -26,7 +26,9 @@ from .record import SENSOR_UNITS, Channel, ChannelKind, Unit
 
 JOINT_QUANTITIES = ("angle", "rate", "torque", "reference", "command", "motor_angle",
                     "motor_rate", "spring_torque")
-BASE_COORDINATES = {"free": ("x", "y", "attitude"), "pinned": ("attitude",), "fixed": ()}
+BASE_COORDINATES = {"free": ("x", "y", "attitude"), "pinned": ("attitude",), "fixed": (),
+                    "cart": ()}
+CART_QUANTITIES = ("position", "velocity", "force")
 _BASE_UNITS = {"x": (Unit.METRE, Unit.METRE_PER_SECOND), "y": (Unit.METRE, Unit.METRE_PER_SECOND),
                "attitude": (Unit.RADIAN, Unit.RADIAN_PER_SECOND)}
 
@@ -47,6 +49,7 @@ def reserved_names(link_names: list[str], joints: int) -> set[str]:
     names = {"t", "time", "momentum_x", "momentum_y", "angular_momentum"}
     names |= {joint_name(k, q) for k in range(joints) for q in JOINT_QUANTITIES}
     names |= {f"base_{c}{r}" for c in BASE_COORDINATES["free"] for r in ("", "_rate")}
+    names |= {cart_name(q) for q in CART_QUANTITIES}
     names |= {tip_name(n, axis) for n in link_names for axis in "XY"}
     return names
 
@@ -74,6 +77,23 @@ def base_channels(kind: str) -> list[Channel]:
         out.append(Channel(f"base_{name}_rate", ChannelKind.BASE, rate_unit,
                            f"rate of base {name}", f"{name}_rate", "base"))
     return out
+
+
+def cart_name(quantity: str) -> str:
+    """Channel name of a cart quantity: ``cart_position``."""
+    return f"cart_{quantity}"
+
+
+def cart_channels(prescribed: bool) -> list[Channel]:
+    """A cart's travel along its rail, its speed and the force its drive applies."""
+    how = "the force its prescribed travel takes" if prescribed else "its drive's force"
+    return [Channel(cart_name("position"), ChannelKind.BASE, Unit.METRE,
+                    "cart travel along its rail from the base position", "position", "cart"),
+            Channel(cart_name("velocity"), ChannelKind.BASE, Unit.METRE_PER_SECOND,
+                    "cart speed along its rail", "velocity", "cart"),
+            Channel(cart_name("force"), ChannelKind.BASE, Unit.NEWTON,
+                    f"cart force along the rail: {how}",
+                    "force", "cart")]
 
 
 def joint_channels(scenario: Scenario, model: str) -> list[Channel]:
@@ -182,6 +202,8 @@ def catalogue(scenario: Scenario) -> list[Channel]:
     base = scenario.base
     if base is not None:
         out += base_channels(base.kind)
+        if base.cart is not None:
+            out += cart_channels(base.cart.prescribed)
     out += joint_channels(scenario, model)
     if base is not None and base.kind != "fixed":
         out += momentum_channels(model)

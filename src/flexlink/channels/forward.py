@@ -16,7 +16,7 @@ from ..dynamics.kinematics import FrameMotion
 from ..dynamics.servos import command_volts
 from ..model import PositionServo, VelocityServo
 from ..model.joints import drive_side
-from .catalogue import BASE_COORDINATES, joint_name
+from .catalogue import BASE_COORDINATES, cart_name, joint_name
 
 
 class SolvedMotion:
@@ -54,6 +54,8 @@ def pose_and_joint_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, p
     for i, name in enumerate(BASE_COORDINATES[system.base.kind]):
         out[f"base_{name}"] = p[:, i]
         out[f"base_{name}_rate"] = pd[:, i]
+    if system.base.cart is not None:  # its force: the model's own equations (the callers)
+        out[cart_name("position")], out[cart_name("velocity")] = p[:, 0], pd[:, 0]
     for k, joint in enumerate(system.chain.joints):
         i = system.joint_index(k)
         out[joint_name(k, "angle")] = p[:, i]

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..dynamics.nonlinear_forward import NonlinearForwardSystem
 from ..model import Sensor
+from .catalogue import cart_name
 from .forward import pose_and_joint_values
 from .nonlinear import ArcMotion, motion_sensor_values, motion_shapes, motion_tip_values
 from .shapes import POINTS, LinkShape
@@ -20,8 +21,8 @@ def forward_motion(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray,
     alpha, alpha_d, alpha_dd, R, _, Rdd = system.node_motion(t, y, v, a)
     p, _, _ = system.rigid_state(t, y, v, a)
     q = y[:, :system.n]
-    return ArcMotion(alpha, alpha_d, alpha_dd, R, Rdd, q @ system.root_A.T + p @ system.root_B.T,
-                     q)
+    return ArcMotion(alpha, alpha_d, alpha_dd, R, Rdd,
+                     q @ system.root_A.T + p @ system.root_B.T + system.root_offset, q)
 
 
 def forward_values(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray, v: np.ndarray,
@@ -35,6 +36,8 @@ def forward_values(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray,
     momenta = system.momentum(t, y, v) if moving else None
     values.update(pose_and_joint_values(system.loads, t, p, pd, v[:, system.n + system.nu:],
                                         system.joint_torques(t, y, v, a), momenta))
+    if system.rail is not None:
+        values[cart_name("force")] = system.cart_force(t, y, v, a)
     values.update(motion_tip_values(system, motion))
     return values
 

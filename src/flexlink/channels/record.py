@@ -36,6 +36,7 @@ class Unit:
     METRE_PER_SECOND = "m s-1"
     METRE_PER_SECOND2 = "m s-2"
     RADIAN_PER_SECOND = "rad s-1"
+    NEWTON = "N"
     NEWTON_METRE = "N m"
     NEWTON_SECOND = "N s"
     NEWTON_METRE_SECOND = "N m s"

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..channels.catalogue import catalogue, joint_name
+from ..channels.catalogue import cart_name, catalogue, joint_name
 from ..channels.first_order import sensor_values, tip_values
 from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics.actuators import actuator_matrix
@@ -175,8 +175,10 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
                   or np.abs(z0).max(initial=0.0) > 0)
     if moving:  # frozen time: the Jacobian of the equations the run integrates, at its state
         A, B = _jacobian(system, t0, state, Bu, Ru, keep)
-    rigid = [f"base_{c}" for c in system.base.coordinates] + [
-        joint_name(k, "angle") for k in system.driven] + [
+    own = [i for i in system.free if i < system.n_base]  # the base's free coordinates
+    base_names = ([cart_name("position")] if system.base.cart is not None
+                  else [f"base_{c}" for c in system.base.coordinates])
+    rigid = base_names[:len(own)] + [joint_name(k, "angle") for k in system.driven] + [
         joint_name(k, "motor_angle") for k in driven_motors(system.chain.joints)]
 
     def readings(rows: _Rows) -> dict[str, np.ndarray]:
@@ -192,6 +194,8 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
         for i, name in enumerate(rigid):  # catalogue order: base, joint angles, joint rates
             if name.startswith("base_"):
                 out[name], out[f"{name}_rate"] = P[:, system.free[i]], PD[:, system.free[i]]
+            if name == cart_name("position"):
+                out[name], out[cart_name("velocity")] = P[:, system.free[i]], PD[:, system.free[i]]
         for i, name in enumerate(rigid):
             if name.startswith("joint"):
                 out[name] = P[:, system.free[i]]
@@ -390,7 +394,9 @@ def _input_columns(scenario: Scenario, system: ForwardSystem, t0: float, p: np.n
             rate_cols.append(rc)
     base, nb = system.base, system.n_base
     loads = {"free": [("base_force_x", 0), ("base_force_y", 1), ("base_moment", nb - 1)],
-             "pinned": [("base_moment", nb - 1)], "fixed": []}[base.kind]
+             "pinned": [("base_moment", nb - 1)], "fixed": [],
+             "cart": [] if base.cart is None or base.cart.prescribed
+             else [(cart_name("force"), 0)]}[base.kind]
     for name, index in loads:
         names.append(name)
         cols.append(unit(index))
@@ -533,7 +539,8 @@ def _input_names(scenario: Scenario, names: list[str]) -> list[str]:
 
 
 INPUT_UNITS = {"torque": "N m", "reference": "rad", "reference_rate": "rad s-1",
-               "base_force_x": "N", "base_force_y": "N", "base_moment": "N m", "voltage": "V"}
+               "base_force_x": "N", "base_force_y": "N", "base_moment": "N m", "voltage": "V",
+               "cart_force": "N"}
 
 
 def _input_unit(name: str) -> str:
@@ -558,6 +565,7 @@ def _plant(scenario: Scenario, A: np.ndarray, B: np.ndarray, C: np.ndarray, D: n
     out_units = tuple(units.get(name, rates.get(name, "")) for name in outputs)
     positions = rigid + elastic
     states = positions + [f"{name.removesuffix('_angle')}_rate" if name.endswith("_angle")
+                          else cart_name("velocity") if name == cart_name("position")
                           else f"{name}_rate" for name in positions] + (ns_names or [])
     return LinearPlant(A, B, C, D, tuple(states), tuple(inputs), tuple(outputs),
                        tuple(_input_unit(n) for n in inputs), out_units, op, equilibrium)

@@ -90,13 +90,14 @@ def parse_at(scenario: Scenario, at: At) -> float | Configuration:
             if key in names:
                 angles[names.index(key)] = math.radians(_number(key, value))
             elif key in BASE_KEYS:
-                if base.kind == "fixed" or (base.kind == "pinned" and key != "base_attitude"):
+                if base.kind in ("fixed", "cart") or (base.kind == "pinned"
+                                                      and key != "base_attitude"):
                     raise ValueError(f"at: {key!r} is not a coordinate of a {base.kind} base")
                 v = _number(key, value)
                 pose[BASE_KEYS.index(key)] = math.radians(v) if key == "base_attitude" else v
             else:
                 raise ValueError(f"at: unknown key {key!r}; use {', '.join(names)}"
-                                 + (f", {', '.join(BASE_KEYS)}" if base.kind != "fixed" else ""))
+                                 + (f", {', '.join(BASE_KEYS)}" if base.turns else ""))
     else:
         values = list(at)
         if len(values) != len(joints):
@@ -123,7 +124,14 @@ def held_scenario(scenario: Scenario, config: Configuration) -> Scenario:
     joints = [_held_joint(joint, angle) for joint, angle in zip(scenario.chain.joints,
                                                                  config.angles)]
     base = scenario.base
-    if base is not None:
+    if base is not None and base.cart is not None:  # at rest where it starts
+        start = base.cart.initial_travel()
+        drive = base.cart.drive
+        held = (replace(drive, torque=ZERO, initial_rate=0.0) if isinstance(drive, TorqueDrive)
+                else replace(drive, reference=Constant(start)) if is_driven(drive)  # type: ignore[type-var]
+                else Constant(start))
+        base = replace(base, loads=(), cart=replace(base.cart, drive=held))
+    elif base is not None:
         base = replace(base, loads=(), position=config.base[:2], attitude=config.base[2],
                        velocity=(0.0, 0.0), rate=0.0)
     actuators = tuple(replace(a, voltage=ZERO) for a in scenario.actuators)

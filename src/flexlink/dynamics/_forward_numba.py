@@ -46,7 +46,7 @@ def workspace(d, n_servos: int) -> Workspace:
 # Joint kinds in ForwardData.joint_kind.
 PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO, ELASTIC = 0, 1, 2, 3, 4
 # Base kinds in ForwardData.base_kind.
-FIXED, PINNED, FREE = 0, 1, 2
+FIXED, PINNED, FREE, CART = 0, 1, 2, 3
 
 
 @njit(cache=True)
@@ -57,6 +57,8 @@ def base_acceleration(d, pdd):
     and in the free base's own inertia)."""
     if d.base_kind == FREE:
         return pdd[0] - d.gravity[0], pdd[1] - d.gravity[1]
+    if d.base_kind == CART:  # s̈ along the rail
+        return pdd[0] * d.rail[0] - d.gravity[0], pdd[0] * d.rail[1] - d.gravity[1]
     return -d.gravity[0], -d.gravity[1]
 
 
@@ -73,8 +75,10 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
     Tdd[:] = 0.0
     bax, bay = base_acceleration(d, pdd)  # its position does not enter
     th_b = w_b = a_b = 0.0
-    if d.base_kind != FIXED:
+    if d.base_kind == FREE or d.base_kind == PINNED:
         th_b, w_b, a_b = p[nb - 1], pd[nb - 1], pdd[nb - 1]
+    elif d.base_kind == CART:  # its attitude is constant
+        th_b = d.attitude
     for k in range(N):
         beta, bd, bdd = p[nb + k], pd[nb + k], pdd[nb + k]
         cb, sb = np.cos(beta), np.sin(beta)
@@ -107,7 +111,16 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
                 Tdd[k, 0, 1] = a * A11 - w * w * A01
                 Tdd[k, 1, 0] = -a * A00 - w * w * A10
                 Tdd[k, 1, 1] = -a * A01 - w * w * A11
-            if d.base_kind != FIXED:  # δθ_b turns the attachment point and the frame
+            elif d.base_kind == CART:  # δs: a translation along the rail seen in frame k
+                w, a = omega[k], alpha[k]
+                ex, ey = d.rail[0], d.rail[1]
+                u0, u1 = ck * ex + sk * ey, -sk * ex + ck * ey  # A(−θ) e
+                T[k, 0, 0], T[k, 1, 0] = u0, u1
+                Td[k, 0, 0], Td[k, 1, 0] = w * u1, -w * u0
+                Tdd[k, 0, 0] = a * u1 - w * w * u0
+                Tdd[k, 1, 0] = -a * u0 - w * w * u1
+            if d.base_kind == FREE or d.base_kind == PINNED:  # δθ_b turns the attachment
+                # point and the frame
                 scx, scy = -py, px
                 j = nb - 1
                 T[k, 0, j] = b00 * scx + b01 * scy
@@ -283,7 +296,12 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
         if want_M:
             M[0, 0] += d.base_mass
             M[1, 1] += d.base_mass
-    if d.base_kind != FIXED:
+    elif d.base_kind == CART:  # the cart's mass along its rail
+        bax, bay = base_acceleration(d, pdd)
+        r[0] += d.base_mass * (bax * d.rail[0] + bay * d.rail[1])
+        if want_M:
+            M[0, 0] += d.base_mass
+    if d.base_kind == FREE or d.base_kind == PINNED:
         r[nb - 1] += d.base_inertia * pdd[nb - 1]
         if want_M:
             M[nb - 1, nb - 1] += d.base_inertia
@@ -306,29 +324,24 @@ def applied(d, u, p, pd, integral, Q, rates):
     nb = d.n_base
     Q[:] = 0.0
     for k in range(N):
-        kind = d.joint_kind[k]
-        i = nb + k
+        kind, i = d.joint_kind[k], nb + k
         if kind == ELASTIC:  # its drive turns the motor angle
             kind, i = d.motor_kind[k], d.motor_row[k]
-        if kind == TORQUE:
-            Q[i] = u[3 * N + k]
-            continue
-        if kind == PRESCRIBED:
-            continue
-        error = u[k] - p[i]
-        if kind == VELOCITY_SERVO:
-            raw = d.P[k] * error + d.I[k] * integral[d.servo_index[k]] \
-                + d.D[k] * (u[N + k] - pd[i])
-            volts = min(max(raw, -d.saturation[k]), d.saturation[k])
-            command = d.rate_per_volt[k] * volts
-            # Conditional integration: no wind-up while the command is saturated.
-            rates[d.servo_index[k]] = error if (volts == raw and d.I[k] != 0.0) else 0.0
-        else:
-            command = min(max(d.bandwidth[k] * error, -d.rate_limit[k]), d.rate_limit[k])
-        tau = d.loop_gain[k] * (command - pd[i])
-        Q[i] = min(max(tau, -d.torque_limit[k]), d.torque_limit[k])
+        Q[i] = _drive(d, k, kind, u[k], u[N + k], u[3 * N + k], p[i], pd[i], integral, rates)
     elastic.spring_torques(d, u, p, pd, Q)
-    if d.base_kind != FIXED:
+    if d.base_kind == CART:
+        c = u.shape[0] - 4  # the cart's input columns
+        Q[0] = _drive(d, N, d.joint_kind[N], u[c], u[c + 1], u[c + 3], p[0], pd[0],
+                      integral, rates)
+        ct, st = np.cos(d.attitude), np.sin(d.attitude)
+        base = 4 * N
+        nl = d.load_point.shape[0]
+        for j in range(nl):  # the rail takes the loads across it and their moment
+            fx, fy = u[base + j], u[base + nl + j]
+            if d.load_body[j]:
+                fx, fy = ct * fx - st * fy, st * fx + ct * fy
+            Q[0] += fx * d.rail[0] + fy * d.rail[1]
+    elif d.base_kind != FIXED:
         th = p[nb - 1]
         ct, st = np.cos(th), np.sin(th)
         base = 4 * N
@@ -352,6 +365,32 @@ def applied(d, u, p, pd, integral, Q, rates):
             for j in range(na):
                 acc += d.actuator_B[i, j] * u[at + j]
             Q[nr + i] += acc
+
+
+@njit(cache=True)
+def _drive(d, k, kind, ref, ref_rate, torque, pos, rate, integral, rates):
+    """The torque (force) of drive k (joint k, or the cart's at k = N) of the given kind (an
+    elastic joint's: its motor's) from its input columns (reference or motion, its rate, a
+    torque drive's torque) at coordinate pos and rate; writes a servo's integral rate into
+    ``rates``. Zero for a prescribed coordinate."""
+    if kind == TORQUE:
+        return torque
+    if kind == PRESCRIBED:
+        return 0.0
+    error = ref - pos
+    if kind == VELOCITY_SERVO:
+        s = d.servo_index[k]
+        held = integral[s] if s >= 0 else 0.0
+        raw = d.P[k] * error + d.I[k] * held + d.D[k] * (ref_rate - rate)
+        volts = min(max(raw, -d.saturation[k]), d.saturation[k])
+        command = d.rate_per_volt[k] * volts
+        # Conditional integration: no wind-up while the command is saturated.
+        if s >= 0:
+            rates[s] = error if (volts == raw and d.I[k] != 0.0) else 0.0
+    else:
+        command = min(max(d.bandwidth[k] * error, -d.rate_limit[k]), d.rate_limit[k])
+    tau = d.loop_gain[k] * (command - rate)
+    return min(max(tau, -d.torque_limit[k]), d.torque_limit[k])
 
 
 @njit(cache=True)
@@ -402,6 +441,9 @@ def rates(d, w_, u, y, dy):
     for k in range(N):  # prescribed joints from the input row, driven ones from the state
         p[nb + k], pd[nb + k], pdd[nb + k] = u[k], u[N + k], u[2 * N + k]
     elastic.prescribed_motors(d, u, p, pd, pdd)
+    if d.base_kind == CART:  # a prescribed cart's travel (a driven one's: from the state)
+        c = u.shape[0] - 4
+        p[0], pd[0], pdd[0] = u[c], u[c + 1], u[c + 2]
     for j in range(nu):
         p[free[j]] = y[j]
         pd[free[j]] = y[nu + j]

@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import FIXED, FREE, PRESCRIBED, frames, rates, residual
+from ._forward_numba import CART, FIXED, FREE, PRESCRIBED, frames, rates, residual
 from ._momentum_numba import momentum
 
 
@@ -54,7 +54,11 @@ def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd,
             torques[i, k] = acc
         th_b = 0.0
         bx = by = 0.0
-        if d.base_kind != FIXED:
+        if d.base_kind == CART:  # R_b = R_0 + s e, its attitude constant
+            th_b = d.attitude
+            bx = d.rail_origin[0] + w_.p[0] * d.rail[0]
+            by = d.rail_origin[1] + w_.p[0] * d.rail[1]
+        elif d.base_kind != FIXED:
             th_b = w_.p[nb - 1]
         if d.base_kind == FREE:
             bx, by = w_.p[0], w_.p[1]

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import FIXED, FREE, frames
+from ._forward_numba import CART, FREE, PINNED, frames
 
 
 @njit(cache=True)
@@ -34,13 +34,18 @@ def momentum(d, w_, p, pd, x, xd, pj, out):
     th_b = w_b = 0.0
     if d.base_kind == FREE:
         bx, by, bvx, bvy = p[0], p[1], pd[0], pd[1]
+    elif d.base_kind == CART:  # R_b = R_0 + s e, its attitude constant
+        bx, by = d.rail_origin[0] + p[0] * d.rail[0], d.rail_origin[1] + p[0] * d.rail[1]
+        bvx, bvy = pd[0] * d.rail[0], pd[0] * d.rail[1]
+        th_b = d.attitude
+    if d.base_kind == FREE or d.base_kind == CART:
         mb = d.base_mass
         lx += mb * bvx
         ly += mb * bvy
         h += mb * (bx * bvy - by * bvx)
         sx += mb * bx
         sy += mb * by
-    if d.base_kind != FIXED:
+    if d.base_kind == FREE or d.base_kind == PINNED:
         th_b, w_b = p[nb - 1], pd[nb - 1]
         h += d.base_inertia * w_b
     for k in range(N):
@@ -67,26 +72,33 @@ def momentum(d, w_, p, pd, x, xd, pj, out):
             v0 += T[k, 0, c] * xd[c] + Td[k, 0, c] * x[c]
             v1 += T[k, 1, c] * xd[c] + Td[k, 1, c] * x[c]
             v2 += T[k, 2, c] * xd[c] + Td[k, 2, c] * x[c]
-        m, s1, J, Jt = d.mass[k], d.s1[k], d.J[k], d.Jt[k]
+        m, s1, J, Jt, sy_k = d.mass[k], d.s1[k], d.J[k], d.Jt[k], d.sy[k]
+        # Bodies' centres across the link (sy = Σ m_b c_y): ∫g_x dm = M0[0]·ξ, X = [x, c_y].
+        g0 = m * x0 - sy_k * x2
+        gd0 = m * v0 - sy_k * v2
         g1 = m * x1 + s1 * x2
         gd1 = m * v1 + s1 * v2
-        hy = s1 * v1 + J * v2
-        tip = v2
+        hy = s1 * v1 + J * v2 - sy_k * v0
+        rot = Jt * v2  # the bodies' rotary inertia: J_t ξ̇_2 + Σ J_b Φ'(x_b) q̇
+        lat = sy_k * x1
         for i in range(nk):
+            g0 -= d.lat_slope[k, i] * x[o + i]
+            gd0 -= d.lat_slope[k, i] * xd[o + i]
             g1 += d.phi_bar[k, i] * x[o + i]
             gd1 += d.phi_bar[k, i] * xd[o + i]
             hy += d.phi_tilde[k, i] * xd[o + i]
-            tip += d.tip_slope[k, i] * xd[o + i]
-        X0, X1 = s1 + m * x0, g1  # ∫(X + g) dm, frame axes
+            rot += d.rot_slope[k, i] * xd[o + i]
+            lat -= d.lat_tilde[k, i] * x[o + i]
+        X0, X1 = s1 + g0, sy_k + g1  # ∫(X + g) dm, frame axes
         w = omega[k]
-        in0, in1 = m * v0 - w * X1, gd1 + w * X0  # ∫ġ dm + ω S ∫(X + g) dm
+        in0, in1 = gd0 - w * X1, gd1 + w * X0  # ∫ġ dm + ω S ∫(X + g) dm
         ck, sk = np.cos(theta[k]), np.sin(theta[k])
         R0, R1 = ck * ox + sk * oy, -sk * ox + ck * oy
         V0, V1 = ck * vx + sk * vy, -sk * vx + ck * vy
         lx += m * vx + ck * in0 - sk * in1
         ly += m * vy + sk * in0 + ck * in1
         h += (m * (R0 * V1 - R1 * V0) + (R0 * in1 - R1 * in0) + (X0 * V1 - X1 * V0) + hy
-              + w * (J + 2.0 * s1 * x0) + Jt * (w + tip))
+              + w * (J + 2.0 * s1 * x0 + 2.0 * lat) + Jt * w + rot)
         sx += m * ox + ck * X0 - sk * X1
         sy += m * oy + sk * X0 + ck * X1
     out[0], out[1], out[2], out[3], out[4] = lx, ly, h, sx, sy
@@ -94,7 +106,8 @@ def momentum(d, w_, p, pd, x, xd, pj, out):
 
 @njit(cache=True)
 def _state(d, w_, u, y):
-    """Rigid state p, ṗ (prescribed joints from the input row) and x, ẋ into the workspace."""
+    """Rigid state p, ṗ (prescribed joints and cart from the input row) and x, ẋ into the
+    workspace."""
     N = d.length.shape[0]
     nb, nr = d.n_base, d.n_rigid
     free = d.free
@@ -103,6 +116,9 @@ def _state(d, w_, u, y):
     p, pd, x, xd = w_.p, w_.pd, w_.x, w_.xd
     for k in range(N):
         p[nb + k], pd[nb + k] = u[k], u[N + k]
+    if d.base_kind == CART:  # a prescribed cart's travel (a driven one's: from y)
+        c = u.shape[0] - 4
+        p[0], pd[0] = u[c], u[c + 1]
     for j in range(nu):
         p[free[j]] = y[j]
         pd[free[j]] = y[nu + j]

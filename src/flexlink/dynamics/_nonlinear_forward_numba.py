@@ -2,10 +2,12 @@
 (d: `nonlinear_kernel.NonlinearForwardData`) — `NonlinearForwardSystem.residual` and
 `.accelerations` (the numpy reference, docs/nonlinear.md §7) written as loops over the tiny
 arrays. The inertia and elastic forces are the prescribed model's
-(`_nonlinear_numba.inertia_elastic`, the same code); the applied forces are the first-order
-forward kernel's (`_forward_numba.applied`: drive torques, servo laws, base loads), so each
-law has one compiled and one numpy copy, both tested against each other. tests/unit/
-test_nonlinear_forward.py compares this module with the numpy equations to round-off."""
+(`_nonlinear_numba.inertia_elastic`, the same code; a cart's travel enters it as the base's
+acceleration along the rail); the applied forces are the first-order forward kernel's
+(`_forward_numba.applied`: drive torques, servo laws — a cart's drive force by the joints'
+drive law —, base loads), so each law has one compiled and one numpy copy, both tested
+against each other. tests/unit/test_nonlinear_forward.py compares this module with the
+numpy equations to round-off."""
 
 from __future__ import annotations
 
@@ -25,8 +27,10 @@ def residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
     on σ (NonlinearForwardSystem.residual)."""
     n, nu = d.n, d.nu
     m = n + nu
+    # a cart's s̈ along its rail: y's, or the prescribed travel's input column
+    rail_acc = X[n] if d.cart == 1 else (u[u.shape[0] - 2] if d.cart == 2 else 0.0)
     inertia_elastic(d.Ay, d.G, d.s, d.m_tot, d.translation, d.rot_y, d.rot_J, d.Dq, d.Kq, n, nu,
-                    d.gravity, Y, V, X, ang, rate, acc, rot_acc, out)
+                    d.gravity, d.cart, d.rail, rail_acc, Y, V, X, ang, rate, acc, rot_acc, out)
     if nu > 0 or d.actuator_B.shape[1] > 0:
         p = np.zeros(d.n_rigid)
         pd = np.zeros(d.n_rigid)

@@ -15,15 +15,16 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 
 
 @njit(cache=True)
-def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, gravity, Y, V, X,
-                    ang, rate, acc, rot_acc, out):
+def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, gravity, cart,
+                    rail, rail_acc, Y, V, X, ang, rate, acc, rot_acc, out):
     """Generalized inertia + damping + elastic forces of one state into ``out`` (rows
     [q, p_free] of y; rows beyond them zeroed) — NonlinearSystem.residual and
     NonlinearForwardSystem._inertia written as loops, for either record of
-    `nonlinear_kernel.py`, whose fields (Ay … gravity) it takes one by one: each call of a
+    `nonlinear_kernel.py`, whose fields (Ay … rail) it takes one by one: each call of a
     compiled function takes a record's arrays one by one, so the residuals unpack theirs
     once. Y, V, X: the unknowns' values, rates and accelerations; ang, rate, acc (nodes,),
-    rot_acc (n_rot,): the prescribed parts.
+    rot_acc (n_rot,): the prescribed parts; rail_acc: a cart's s̈ along ``rail``, m/s²
+    (cart 1: X[n]; cart 2: its prescribed travel's).
 
     Node j turns by α_j = ang_j + Ay_j·y (rates and accelerations alike); its generalized
     inertia moment on its angle is u_j = c_j (G S)_j0 − c_j (G S)_j3 + s_j ((G S)_j1 +
@@ -31,7 +32,8 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
     (docs/nonlinear.md), plus lift_j e⊥(α_j)·(R̈_b − g): the base point's acceleration
     minus gravity (global axes) acting on the masses the node carries (lift = Wᵀm). This is
     where gravity enters the nonlinear model (equivalence principle: the field is the base's
-    acceleration −g); on a free base the same R̈_b − g drives the translation rows."""
+    acceleration −g); on a free base the same R̈_b − g drives the translation rows, on a
+    cart with a free travel its component along the rail drives row n."""
     nodes = Ay.shape[0]
     m = n + nu  # columns with node angles
     c = np.empty(nodes)
@@ -40,6 +42,9 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
     rx, ry = -gravity[0], -gravity[1]
     if translation:
         rx, ry = X[n] + rx, X[n + 1] + ry
+    if cart > 0:
+        rx, ry = rail_acc * rail[0] + rx, rail_acc * rail[1] + ry
+    force = translation or cart == 1  # the base's inertia force is a row of the residual
     for j in range(nodes):
         alpha = ang[j]
         alpha_dot = rate[j]
@@ -73,7 +78,7 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
         uj = c[j] * (g0 - g3) + s[j] * (g1 + g2)
         if rx != 0.0 or ry != 0.0:
             uj += lift[j] * (c[j] * ry - s[j] * rx)
-        if translation:
+        if force:
             fx += lift[j] * (-S[j, 1] - S[j, 2])
             fy += lift[j] * (S[j, 0] - S[j, 3])
         for i in range(m):
@@ -93,6 +98,8 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
     if translation:
         out[n] += m_tot * rx + fx
         out[n + 1] += m_tot * ry + fy
+    elif cart == 1:  # the inertia force along the rail on s
+        out[n] += (m_tot * rx + fx) * rail[0] + (m_tot * ry + fy) * rail[1]
 
 
 @njit(cache=True)
@@ -101,7 +108,7 @@ def residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
     with prescribed joints (d: NonlinearData) into ``out`` — NonlinearSystem.residual
     (rot_acc: the tips' prescribed angular accelerations)."""
     inertia_elastic(d.Ay, d.G, d.s, d.m_tot, d.translation, d.rot_y, d.rot_J, d.Dq, d.Kq, d.n,
-                    d.nu, d.gravity, Y, V, X, ang, rate, acc, rot_acc, out)
+                    d.nu, d.gravity, d.cart, d.rail, 0.0, Y, V, X, ang, rate, acc, rot_acc, out)
     for i in range(d.n):
         out[i] -= u[i]
 

@@ -82,9 +82,15 @@ class ForwardSystem:
         self.bodies: list[LinkBody] = [link_body(d, self.n_rigid + int(o))
                                        for d, o in zip(self.modal, offsets[:-1])]
         self.attach = [base.attachment(k) for k in range(n_links)]
+        if base.cart is not None and self.elastic:
+            raise ValueError("an elastic joint on a cart base is not modelled (joints "
+                             f"{[k + 1 for k in self.elastic]}): make the joints rigid or "
+                             "use a fixed, pinned or free base")
         self.driven = [k for k, j in enumerate(chain.joints) if is_driven(j)]
-        # Free rigid coordinates: the base's, then the driven joints'.
-        self.free = (list(range(self.n_base)) + [self.n_base + k for k in self.driven]
+        # Free rigid coordinates: the base's (not a prescribed cart's), then the driven
+        # joints', then the driven motors'.
+        own = [] if base.cart is not None and base.cart.prescribed else range(self.n_base)
+        self.free = (list(own) + [self.n_base + k for k in self.driven]
                      + [self.motor_index(k) for k in elastic_joints.driven_motors(chain.joints)])
         self.servos = [k for k in self.driven
                        if isinstance(drive_side(chain.joints[k]), VelocityServo | PositionServo)]
@@ -142,7 +148,10 @@ class ForwardSystem:
         """initial_state with the links undeformed at rest."""
         b = self.base
         p0, v0 = {"free": ([*b.position, b.attitude], [*b.velocity, b.rate]),
-                  "pinned": ([b.attitude], [b.rate]), "fixed": ([], [])}[b.kind]
+                  "pinned": ([b.attitude], [b.rate]), "fixed": ([], []), "cart": ([], [])}[b.kind]
+        if b.cart is not None and not b.cart.prescribed:
+            s0, r0 = elastic_joints.start(b.cart.drive)
+            p0, v0 = [s0], [r0]
         p, v = list(p0), list(v0)
         for k in self.driven:
             angle, rate = elastic_joints.start(self.chain.joints[k])
@@ -176,6 +185,10 @@ class ForwardSystem:
                 for arr, v in zip(out, joint.evaluate(t)):
                     arr[:, self.joint_index(k)] = np.broadcast_to(v, t.shape)
         elastic_joints.prescribed_motors(self, t, out)
+        cart = self.base.cart
+        if cart is not None and cart.prescribed:
+            for arr, v in zip(out, cart.drive.evaluate(t)):  # type: ignore[union-attr]
+                arr[:, 0] = np.broadcast_to(v, t.shape)
         for arr, v in zip(out, (p_free, pd_free, pdd_free)):
             arr[:, self.free] = v
         return out[0], out[1], out[2]
@@ -191,8 +204,12 @@ class ForwardSystem:
         th_b, w_b, a_b = (np.zeros(nt) for _ in range(3))
         if self.base.kind == "free":
             base_pos = p[:, :2]
-        if self.base.kind != "fixed":
+        if self.base.turns:
             th_b, w_b, a_b = p[:, nb - 1], pd[:, nb - 1], pdd[:, nb - 1]
+        rail = self._rail()
+        if rail is not None:  # a cart: its travel s along the rail, its attitude constant
+            base_pos = np.asarray(self.base.position) + p[:, :1] * rail
+            th_b = np.full(nt, self.base.attitude)
         theta = np.zeros((nt, n_links))
         omega = np.zeros_like(theta)
         alpha = np.zeros_like(theta)
@@ -214,13 +231,15 @@ class ForwardSystem:
                 origin[:, k] = base_pos + c
                 acc = base_acc + a_b[:, None] * (c @ TURN.T) - (w_b**2)[:, None] * c
                 origin_accel[:, k] = np.einsum("tji,tj->ti", rotation(theta[:, k]), acc)
-                if self.base.kind == "free":  # δx, δy: global translation seen in frame k
-                    A = rotation(-theta[:, k])
+                if self.base.kind in ("free", "cart"):  # δx, δy or δs: a global translation
+                    A = rotation(-theta[:, k])  # seen in frame k
                     w, a = omega[:, k, None, None], alpha[:, k, None, None]
-                    Tk[:, :2, :2] = A
-                    Tk_d[:, :2, :2] = -w * (TURN @ A)
-                    Tk_dd[:, :2, :2] = (-a * TURN - w**2 * np.eye(2)) @ A
-                if self.base.kind != "fixed":  # δθ_b: turns the attachment point and frame
+                    cols = slice(0, 2) if rail is None else slice(0, 1)
+                    E = np.eye(2) if rail is None else rail[:, None]
+                    Tk[:, :2, cols] = A @ E
+                    Tk_d[:, :2, cols] = -w * (TURN @ A) @ E
+                    Tk_dd[:, :2, cols] = (-a * TURN - w**2 * np.eye(2)) @ A @ E
+                if self.base.turns:  # δθ_b: turns the attachment point and frame
                     Sc = TURN @ np.asarray(point, dtype=float)
                     Tk[:, :2, nb - 1] = back @ Sc
                     Tk_d[:, :2, nb - 1] = back_d @ Sc
@@ -278,16 +297,29 @@ class ForwardSystem:
         elastic_joints.add_rotor_inertia(self, pdd, M, f)
         return M, C, K, f
 
+    def _rail(self) -> np.ndarray | None:
+        """A cart's rail direction (2,), global axes; None for other bases."""
+        cart = self.base.cart
+        return None if cart is None else np.array(cart.direction)
+
     def _base_acceleration(self, pdd: np.ndarray) -> np.ndarray:
         """The base reference point's acceleration minus gravity (nt, 2), global axes: what
         the synthesis and the base's own inertia take (kinematics.inertial_acceleration)."""
         moving = pdd[:, :2] if self.base.kind == "free" else np.zeros((pdd.shape[0], 2))
+        rail = self._rail()
+        if rail is not None:
+            moving = pdd[:, :1] * rail
         return inertial_acceleration(moving, self.gravity)
 
     def _base_inertia(self, pdd: np.ndarray, M: np.ndarray, f: np.ndarray) -> None:
         """The rigid base's own mass and inertia and their zero-order inertia load."""
         b, nb = self.base, self.n_base
         if b.kind == "fixed":
+            return
+        rail = self._rail()
+        if rail is not None:  # the cart's mass along its rail
+            M[:, 0, 0] += b.mass
+            f[:, 0] -= b.mass * (self._base_acceleration(pdd) @ rail)
             return
         if b.kind == "free":
             M[:, 0, 0] += b.mass
@@ -300,7 +332,7 @@ class ForwardSystem:
                          K: np.ndarray) -> None:
         """The second-order turn of each branch's attachment point on a turning base."""
         nb = self.n_base
-        if self.base.kind == "fixed":
+        if not self.base.turns:
             return
         # A branch hangs on the point c: r = R_b + A(θ_b + δθ) c has −½δθ² A(θ_b)c at second
         # order, so the branch's inertia force F (global) adds −(A c)·F δθ to the θ_b row.
@@ -347,6 +379,19 @@ class ForwardSystem:
         """Open-loop actuator voltages (nt, n_act), V, clipped to the limits."""
         return open_loop_voltages(self.actuators, t)
 
+    def rail_loads(self, t: np.ndarray) -> np.ndarray:
+        """The base loads' component along a cart's rail (nt,), N; the rail takes the rest."""
+        b, rail = self.base, self._rail()
+        assert rail is not None
+        turn = rotation(np.full(t.shape[0], b.attitude))
+        out = np.zeros(t.shape[0])
+        for load in b.loads:
+            F = np.stack([load.force_x.value(t), load.force_y.value(t)], -1)
+            if load.frame == "body":
+                F = np.einsum("tij,tj->ti", turn, F)
+            out += F @ rail
+        return out
+
     def applied(self, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
                 integral: np.ndarray, voltages: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
@@ -371,7 +416,11 @@ class ForwardSystem:
                 Q[:, i], rates[:, s] = servo_torque(joint, t, p[:, i], pd[:, i], integral[:, s])
         elastic_joints.add_spring_torques(self, p, pd, Q)
         b, nb = self.base, self.n_base
-        if b.kind != "fixed":
+        if b.cart is not None:  # the rail takes the loads across it and their moment
+            if not b.cart.prescribed:
+                Q[:, 0] += _cart_force(b.cart.drive, t, p[:, 0], pd[:, 0])
+            Q[:, 0] += self.rail_loads(t)
+        elif b.kind != "fixed":
             th = p[:, nb - 1]
             for load in b.loads:
                 F = np.stack([load.force_x.value(t), load.force_y.value(t)], -1)
@@ -424,6 +473,32 @@ class ForwardSystem:
                + np.einsum("taz,tz->ta", K[:, :, zc], z) - f)
         return res[:, self.n_base:self.n_base + len(self.chain.links)]
 
+    def cart_force(self, t: np.ndarray, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray,
+                   z: np.ndarray, zd: np.ndarray, zdd: np.ndarray) -> np.ndarray:
+        """Force along the rail (nt,), N, that the cart's drive applies at times t: the travel
+        row of the equations, (M ẍ + C ẋ + K x − f)_s with x = [0; z] (cart mass included),
+        less the base loads along the rail (a force drive's force; what a prescribed travel
+        takes). Assembled in blocks of times: the matrices of a whole run need not fit."""
+        out = np.empty(t.shape[0])
+        zc = slice(self.n_rigid, self.n_x)
+        for i in range(0, t.shape[0], 2048):
+            b = slice(i, i + 2048)
+            M, C, K, f = self.matrices(p[b], pd[b], pdd[b])
+            out[b] = (np.einsum("tz,tz->t", M[:, 0, zc], zdd[b])
+                      + np.einsum("tz,tz->t", C[:, 0, zc], zd[b])
+                      + np.einsum("tz,tz->t", K[:, 0, zc], z[b]) - f[:, 0])
+        return out - self.rail_loads(t)
+
+
+def _cart_force(drive: object, t: np.ndarray, s: np.ndarray, sd: np.ndarray) -> np.ndarray:
+    """The force (nt,), N, of a driven cart's drive at travel s (m) and speed ṡ (m/s): its
+    force history, or its servo law on the travel (no integral state: `model.Cart`)."""
+    from .servos import servo_torque
+
+    if isinstance(drive, TorqueDrive):
+        return drive.torque.value(t)
+    return servo_torque(drive, t, s, sd, np.zeros_like(s))[0]  # type: ignore[arg-type]
+
 
 def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray,
              zd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -444,17 +519,21 @@ def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray
     lin = np.zeros((nt, 2))
     ang = np.zeros(nt)
     base_vel = pd[:, :2] if b.kind == "free" else np.zeros((nt, 2))
-    w_b = pd[:, nb - 1] if b.kind != "fixed" else np.zeros(nt)
-    if b.kind == "free":
+    base_pos = p[:, :2] if b.kind == "free" else np.zeros((nt, 2))
+    w_b = pd[:, nb - 1] if b.turns else np.zeros(nt)
+    rail = system._rail()
+    if rail is not None:
+        base_vel, base_pos = pd[:, :1] * rail, np.asarray(b.position) + p[:, :1] * rail
+    if b.kind in ("free", "cart"):
         lin += b.mass * base_vel
-        ang += b.mass * (p[:, 0] * pd[:, 1] - p[:, 1] * pd[:, 0])
-    if b.kind != "fixed":
+        ang += b.mass * _cross(base_pos, base_vel)
+    if b.turns:
         ang += b.inertia * w_b
     velocity = np.zeros((nt, len(system.bodies), 2))  # zero-order origin velocities, global
     for k, body in enumerate(system.bodies):
         d = body.data
         if system.attach[k] is not None:
-            c = fr.origin[:, k] - (p[:, :2] if b.kind == "free" else 0.0)
+            c = fr.origin[:, k] - base_pos
             velocity[:, k] = base_vel + w_b[:, None] * (c @ TURN.T)
         else:
             e = rotation(fr.theta[:, k - 1])

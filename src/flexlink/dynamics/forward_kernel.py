@@ -33,20 +33,25 @@ ForwardData = namedtuple("ForwardData", [
     "servo_index", "P", "I", "D", "saturation", "rate_per_volt", "loop_gain", "torque_limit",
     "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B", "gravity", "rot_slope",
     "lateral", "sy", "lat_slope", "lat_tilde", "lat_fore", "lat_fore_moment",
-    "motor_row", "motor_kind", "spring_k", "spring_c", "gear", "rotor_inertia"])
+    "motor_row", "motor_kind", "spring_k", "spring_c", "gear", "rotor_inertia", "rail",
+    "attitude", "rail_origin"])
 ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI units, link "
                        "arrays padded to the most modes, offsets into x = [δp; z]; "
                        "actuator_B (n, n_act) the actuators' forces on z per volt; gravity "
                        "(2,) the uniform field [gx, gy], m/s², global axes; Jt, rot_slope the "
                        "bodies' rotary inertia Σ J_b (kg·m²) and Σ J_b Φ'(x_b) of each link; "
                        "lateral, sy, lat_*: the modal data's lateral_* (bodies' centres "
-                       "across the link); the elastic joints' arrays: "
-                       "dynamics/_elastic_numba.py.")
+                       "across the link); the elastic joints' arrays (N each): "
+                       "dynamics/_elastic_numba.py; rail (2,) a cart's rail direction, "
+                       "rail_origin (2,) its position at zero travel (m, global axes) and "
+                       "attitude its constant attitude (rad); the drive arrays (joint_kind … "
+                       "rate_limit) have N + 1 entries, the last the cart's drive.")
 
 
 def pack(system: ForwardSystem) -> ForwardData:
     """The constant data of ``system`` (see ForwardData)."""
     from ._forward_numba import (
+        CART,
         ELASTIC,
         FIXED,
         FREE,
@@ -69,12 +74,12 @@ def pack(system: ForwardSystem) -> ForwardData:
         return out
 
     bodies, modal = system.bodies, system.modal
-    kind = np.zeros(N, dtype=np.int64)
-    servo_index = np.full(N, -1, dtype=np.int64)
-    params = {name: np.zeros(N) for name in ("P", "I", "D", "saturation", "rate_per_volt",
-                                             "loop_gain", "bandwidth", "rate_limit")}
-    torque_limit = np.full(N, np.inf)
-    motor = np.zeros(N)
+    kind = np.zeros(N + 1, dtype=np.int64)
+    servo_index = np.full(N + 1, -1, dtype=np.int64)
+    params = {name: np.zeros(N + 1) for name in ("P", "I", "D", "saturation", "rate_per_volt",
+                                                 "loop_gain", "bandwidth", "rate_limit")}
+    torque_limit = np.full(N + 1, np.inf)
+    motor = np.zeros(N + 1)
     motor_row, motor_kind = np.full(N, -1, dtype=np.int64), np.zeros(N, dtype=np.int64)
     spring = {name: np.zeros(N) for name in ("spring_k", "spring_c", "rotor_inertia")}
     gear = np.ones(N)
@@ -83,7 +88,10 @@ def pack(system: ForwardSystem) -> ForwardData:
             motor_row[k] = system.motor_index(k)
             spring["spring_k"][k], spring["spring_c"][k] = elastic.stiffness, elastic.damping
             spring["rotor_inertia"][k], gear[k] = elastic.rotor_inertia, elastic.gear_ratio
-    for k, joint in enumerate(map(drive_side, chain.joints)):
+    cart = base.cart
+    # An elastic joint's drive is its motor's; the last drive is the cart's.
+    drives = [*map(drive_side, chain.joints), cart.drive if cart is not None else None]
+    for k, joint in enumerate(drives):
         if isinstance(joint, TorqueDrive):
             kind[k] = TORQUE
         elif isinstance(joint, VelocityServo):
@@ -96,16 +104,17 @@ def pack(system: ForwardSystem) -> ForwardData:
         else:
             kind[k] = PRESCRIBED
         if isinstance(joint, VelocityServo | PositionServo):
-            servo_index[k] = system.servos.index(k)
+            servo_index[k] = system.servos.index(k) if k < N else -1  # a cart's: no integral
             params["loop_gain"][k] = joint.loop_gain
             torque_limit[k] = joint.torque_limit
-        if motor_row[k] >= 0:  # the drive's kind is the motor's
+        if k < N and motor_row[k] >= 0:  # the drive's kind is the motor's
             motor_kind[k], kind[k] = kind[k], ELASTIC
         elif kind[k] != PRESCRIBED:
             motor[k] = joint.motor_inertia  # type: ignore[union-attr]
     loads = base.loads if base.kind != "fixed" else ()
     return ForwardData(
-        n_base=system.n_base, base_kind={"fixed": FIXED, "pinned": PINNED, "free": FREE}[base.kind],
+        n_base=system.n_base,
+        base_kind={"fixed": FIXED, "pinned": PINNED, "free": FREE, "cart": CART}[base.kind],
         n_rigid=system.n_rigid, n_x=system.n_x, stiffening=bool(system.geometric_stiffening),
         base_mass=float(base.mass), base_inertia=float(base.inertia),
         free=np.asarray(system.free, dtype=np.int64),
@@ -140,29 +149,29 @@ def pack(system: ForwardSystem) -> ForwardData:
         lat_tilde=pad([d.lateral_tilde for d in modal], (nm,)),
         lat_fore=pad([d.lateral_shortening for d in modal], (nm, nm)),
         lat_fore_moment=pad([d.lateral_shortening_moment for d in modal], (nm, nm)),
-        motor_row=motor_row, motor_kind=motor_kind, gear=gear, **spring)
+        motor_row=motor_row, motor_kind=motor_kind, gear=gear, **spring,
+        rail=np.array(cart.direction if cart is not None else (0.0, 0.0), dtype=float),
+        attitude=float(base.attitude),
+        rail_origin=np.array(base.position if cart is not None else (0.0, 0.0), dtype=float))
 
 
 def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:
-    """Input rows u(t) (nt, 4N + 3·loads + actuators): per joint its prescribed motion or servo
-    reference (angle rad, rate rad/s, acceleration rad/s², N columns each), its drive torque
-    (N·m, torque drives), then per base load F_x, F_y (N) and the moment (N·m), then per
+    """Input rows u(t) (nt, 4N + 3·loads + actuators + 4): per joint its prescribed motion or
+    servo reference (angle rad, rate rad/s, acceleration rad/s², N columns each), its drive
+    torque (N·m, torque drives), then per base load F_x, F_y (N) and the moment (N·m), then per
     actuator its open-loop voltage (V, clipped; a closed loop overwrites these columns with
-    its held voltages: `voltage_columns`)."""
+    its held voltages: `voltage_columns`), then a cart's prescribed or reference travel,
+    speed, acceleration (m, m/s, m/s²) and drive force (N) (zero without a cart)."""
     t = np.asarray(t, dtype=float)
     chain, base = system.chain, system.base
     N = len(chain.links)
     loads = base.loads if base.kind != "fixed" else ()
     na = len(system.actuators)
-    u = np.zeros((t.size, 4 * N + 3 * len(loads) + na))
+    u = np.zeros((t.size, 4 * N + 3 * len(loads) + na + 4))
     for k, joint in enumerate(map(drive_side, chain.joints)):  # an elastic joint's: its motor's
-        if isinstance(joint, TorqueDrive):
-            u[:, 3 * N + k] = joint.torque.value(t)
-            continue
-        motion: JointMotion = (joint.reference if isinstance(joint, VelocityServo | PositionServo)
-                               else joint)
-        for i, v in enumerate(motion.evaluate(t)):
-            u[:, i * N + k] = np.broadcast_to(v, t.shape)
+        _drive_inputs(joint, t, u, [i * N + k for i in range(4)])
+    if base.cart is not None:
+        _drive_inputs(base.cart.drive, t, u, [u.shape[1] - 4 + i for i in range(4)])
     nl = len(loads)
     for j, load in enumerate(loads):
         u[:, 4 * N + j] = load.force_x.value(t)
@@ -171,6 +180,18 @@ def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:
     if na:
         u[:, voltage_columns(system)] = system.voltages(t)
     return u
+
+
+def _drive_inputs(joint: object, t: np.ndarray, u: np.ndarray, columns: list[int]) -> None:
+    """Fill a drive's input columns [motion or reference, its rate, its acceleration, torque or
+    force] of the rows u at times t."""
+    if isinstance(joint, TorqueDrive):
+        u[:, columns[3]] = joint.torque.value(t)
+        return
+    motion: JointMotion = (joint.reference if isinstance(joint, VelocityServo | PositionServo)
+                           else joint)  # type: ignore[assignment]
+    for i, v in enumerate(motion.evaluate(t)):
+        u[:, columns[i]] = np.broadcast_to(v, t.shape)
 
 
 def voltage_columns(system: ForwardSystem) -> slice:
@@ -184,7 +205,8 @@ def breakpoints(system: ForwardSystem) -> np.ndarray:
     """Sorted times (s) where an input (motion, reference, torque, base load, voltage) is not
     smooth: the compiled integrator ends steps there."""
     loads = system.base.loads if system.base.kind != "fixed" else ()
-    return input_breakpoints(system.chain.joints, system.actuators,
+    cart = () if system.base.cart is None else (system.base.cart.drive,)
+    return input_breakpoints((*system.chain.joints, *cart), system.actuators,
                              (h for load in loads for h in (load.force_x, load.force_y,
                                                             load.moment)))
 

@@ -1,5 +1,5 @@
 """Forward dynamics of the geometrically nonlinear model (docs/nonlinear.md §7): a fixed,
-pinned or free base, prescribed and driven joints, branches on the base.
+pinned or free base or a cart on a rail, prescribed and driven joints, branches on the base.
 
 The rigid coordinates are more generalized coordinates of the same Lagrangian. Every section
 angle stays linear in all coordinates with constant coefficients,
@@ -16,7 +16,8 @@ is a point with an empty W row) the generalized inertia forces are
     u_j = Σ_l G_jl [cos(α_j − α_l) α̈_l + sin(α_j − α_l) α̇_l²],
     F = m_tot R̈_b + Σ_l s_l [e⊥(α_l) α̈_l − e(α_l) α̇_l²]     (on R_b),
 
-plus J α̈ of the rotary inertias (tip inertias, the base's inertia on θ_b, motor inertias on
+(a cart: R_b = R_0 + s e along its rail's direction e, its generalized force e·F on s when
+s is free, s̈ an input when prescribed), plus J α̈ of the rotary inertias (tip inertias, the base's inertia on θ_b, motor inertias on
 their β_k). Applied forces (drive torques, servo laws, base loads) are the first-order forward
 model's (`ForwardSystem.applied`, dynamics/servos.py): the same rigid coordinates.
 
@@ -86,7 +87,7 @@ class NonlinearForwardSystem:
                             if getattr(chain.joints[k], "integrator", False)]
         self.ns = len(self.servos)
         self.n_y = n + self.nu + self.ns
-        attitude = nb - 1 if base.kind != "fixed" else None
+        attitude = nb - 1 if base.turns else None
 
         # Node axis: every link's Gauss nodes, then one node per offset attachment point.
         self.arcs: list[ForwardArc] = []
@@ -134,6 +135,9 @@ class NonlinearForwardSystem:
             self.tip_A[k] = self.root_A[k]
             self.tip_A[k, arc.coords] += d.tip_slope
             self.tip_B[k] = self.root_B[k]
+        # A cart's constant attitude turns every link and pivot (rad).
+        self.root_offset = base.attitude if base.cart is not None else 0.0
+        self.offset += self.root_offset
         self.A, self.B = A, B
 
         # Point masses (beam quadrature, the bodies' centres, a free base's mass) and rotary
@@ -154,7 +158,7 @@ class NonlinearForwardSystem:
             rot_B.extend(body.rot_B)
             rot_J.extend(body.rot_J)
             absolute.extend([True] * body.rot_J.size)  # they turn with their section
-        if base.kind == "free" and base.mass > 0.0:
+        if base.kind in ("free", "cart") and base.mass > 0.0:
             rows.append(np.zeros((1, nodes)))
             masses.append(np.array([base.mass]))
         if attitude is not None and base.inertia > 0.0:
@@ -198,6 +202,9 @@ class NonlinearForwardSystem:
         self.rot_y[:, :n] = self.rot_A
         self.rot_y[:, n:n + self.nu] = self.rot_B[:, self.free]
         self.translation = base.kind == "free"  # y[n], y[n + 1] are the base's x, y
+        # A cart: its rail direction, and whether its travel s is y[n] (else an input).
+        self.rail = None if base.cart is None else np.array(base.cart.direction)
+        self.cart_free = base.cart is not None and not base.cart.prescribed
 
     # -- geometry -----------------------------------------------------------------------------
     def position_rows(self, k: int, x: np.ndarray) -> np.ndarray:
@@ -299,13 +306,19 @@ class NonlinearForwardSystem:
         if self.translation:
             n = self.n
             Rdd = a[..., n:n + 2] + Rdd
-        if self.translation or self.gravity.any():
+        if self.rail is not None:
+            Rdd = self._cart_acceleration(a, inp)[..., None] * self.rail + Rdd
+        if self.translation or self.rail is not None or self.gravity.any():
             u = u + self.s * (-s * Rdd[..., :1] + c * Rdd[..., 1:])
-        if self.translation:
+        if self.translation or self.rail is not None:
             F = self.m_tot * Rdd + np.stack([(-s * alpha_dd - c * w2) @ self.s,
                                              (c * alpha_dd - s * w2) @ self.s], -1)
         rot = (a @ self.rot_y.T + inp.rot_acceleration) * self.rot_J
         return u, F, rot, (alpha, alpha_d, alpha_dd)
+
+    def _cart_acceleration(self, a: np.ndarray, inp: StageInputs) -> np.ndarray:
+        """A cart's s̈ (b,), m/s²: y's when its travel is free, else its input column."""
+        return a[..., self.n] if self.cart_free else inp.u[..., -2]
 
     def applied(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
@@ -326,6 +339,8 @@ class NonlinearForwardSystem:
         out[:, :n] += v[:, :n] @ self.D + y[:, :n] @ self.K
         if self.translation:
             out[:, n:n + 2] += F
+        if self.cart_free:  # the inertia force along the rail on s
+            out[:, n] += F @ self.rail
         Q, rates = self.applied(t, y, v)
         out[:, n:n + nu] -= Q
         if self.actuators:  # B V on q, V the input rows' voltages (a closed loop's held ones)
@@ -365,7 +380,9 @@ class NonlinearForwardSystem:
                 "Ay": c(self.Ay), "G": c(self.G), "s": c(self.s), "m_tot": self.m_tot,
                 "translation": bool(self.translation), "rot_y": c(self.rot_y),
                 "rot_J": c(self.rot_J), "Dq": c(self.D), "Kq": c(self.K), "n": self.n,
-                "nu": self.nu, "gravity": c(self.gravity, dtype=float)},
+                "nu": self.nu, "gravity": c(self.gravity, dtype=float),
+                "cart": 0 if self.rail is None else (1 if self.cart_free else 2),
+                "rail": np.zeros(2) if self.rail is None else c(self.rail, dtype=float)},
                 forward_kernel.pack(self.loads))
         return self._kernel_data
 
@@ -378,6 +395,13 @@ class NonlinearForwardSystem:
         joints = slice(self.n_base, self.n_base + len(self.chain.links))
         return u @ self.B[:, joints] + rot @ self.rot_B[:, joints]
 
+    def cart_force(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
+                   ) -> np.ndarray:
+        """Force along the rail (b,), N, that a cart's drive applies: the inertia force of
+        the whole system along the rail (gravity included) less the base loads along it."""
+        _, F, _, _ = self._inertia(y, v, a, self.stage_inputs(t))
+        return F @ self.rail - self.loads.rail_loads(t)
+
     def node_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
                     ) -> tuple[np.ndarray, ...]:
         """α, α̇, α̈ at the nodes (b, nodes) and R_b, Ṙ_b, R̈_b (b, 2) (zero unless free)."""
@@ -387,6 +411,10 @@ class NonlinearForwardSystem:
         n = self.n
         trans = tuple(x[:, n:n + 2] if self.translation else np.zeros((x.shape[0], 2))
                       for x in (y, v, a))
+        if self.rail is not None:
+            p, pd, pdd = self.rigid_state(t, y, v, a)
+            trans = (np.asarray(self.base.position) + p[:, :1] * self.rail,
+                     pd[:, :1] * self.rail, pdd[:, :1] * self.rail)
         return alphas + trans
 
     def point_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
@@ -447,7 +475,9 @@ class NonlinearForwardSystem:
         nb = self.n_base
         b, N = y.shape[0], len(self.chain.links)
         R = p[:, :2] if self.base.kind == "free" else np.zeros((b, 2))
-        th_b = p[:, nb - 1] if self.base.kind != "fixed" else np.zeros(b)
+        th_b = p[:, nb - 1] if self.base.turns else np.full(b, self.base.attitude)
+        if self.rail is not None:
+            R = np.asarray(self.base.position) + p[:, :1] * self.rail
         origin, angle = np.zeros((b, N, 2)), np.zeros((b, N))
         for k, c in enumerate(self.attach):
             if c is not None:

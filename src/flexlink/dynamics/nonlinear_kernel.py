@@ -20,7 +20,8 @@ import numpy as np
 from .forward_kernel import ForwardData
 
 NonlinearData = namedtuple("NonlinearData", [
-    "Ay", "G", "s", "m_tot", "translation", "rot_y", "rot_J", "Dq", "Kq", "n", "nu", "gravity"])
+    "Ay", "G", "s", "m_tot", "translation", "rot_y", "rot_J", "Dq", "Kq", "n", "nu", "gravity",
+    "cart", "rail"])
 NonlinearData.__doc__ = """Constant arrays of the nonlinear model for the compiled kernels (SI
 units, global axes). Unknowns y: the n elastic coordinates q, then the nu free rigid
 coordinates (none with every joint prescribed), then the servo integrals.
@@ -34,14 +35,17 @@ coordinates (none with every joint prescribed), then the servo integrals.
   their inertias, kg·m² (tip inertias; on a moving base the base's and the motors');
 - Dq, Kq (n, n): modal damping and stiffness on q, N·m·s and N·m per unit of q;
 - n, nu: the counts of elastic and free rigid coordinates;
-- gravity (2,): the uniform field [gx, gy], m/s²."""
+- gravity (2,): the uniform field [gx, gy], m/s²;
+- cart: 0 no cart (every model with prescribed joints), 1 a cart whose travel s along its
+  rail is y[n], 2 a cart with a prescribed travel (s̈ from the forward input row);
+- rail (2,): the cart's rail direction (zero without a cart)."""
 
 NonlinearForwardData = namedtuple("NonlinearForwardData", NonlinearData._fields + tuple(
     name for name in ForwardData._fields if name not in NonlinearData._fields))
 NonlinearForwardData.__doc__ = """`NonlinearData`'s fields for a nonlinear model with free rigid
-coordinates (free or pinned base, driven joints), then those of the first-order forward
-model's `forward_kernel.ForwardData` of the same chain and base (gravity, n_rigid and free
-mean the same in both): its `_forward_numba.applied` gives the drive torques, servo laws,
+coordinates (free or pinned base, a cart, driven joints), then those of the first-order forward
+model's `forward_kernel.ForwardData` of the same chain and base (gravity, rail, n_rigid and
+free mean the same in both): its `_forward_numba.applied` gives the drive torques, servo laws,
 base loads and actuator forces at the solved rigid state, reading them from this record.
 One flat record, not one nested in the other: the compiled kernels take a record's arrays
 one by one at every call, and a nested one is taken again where it is read."""

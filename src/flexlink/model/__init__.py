@@ -6,7 +6,7 @@ which converts them once. Algorithms take a model and never mutate it.
 """
 
 from .actuators import PiezoActuator
-from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad
+from .base import BASE_KINDS, LOAD_FRAMES, Base, BaseKind, BaseLoad, Cart
 from .chain import MODE_SHAPES, Body, Chain, Link, ModeShapes
 from .controllers import (
     CONTROLLER_KINDS,
@@ -55,6 +55,7 @@ __all__ = [
     "BaseKind",
     "BaseLoad",
     "Body",
+    "Cart",
     "Chain",
     "Controller",
     "DiscreteLTI",

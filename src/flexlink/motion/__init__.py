@@ -9,6 +9,7 @@ from .measured import MeasuredMotion
 from .profiles import Cycloidal, Hold, Quintic, Sequence, Spinup
 from .shaped import Shaped
 from .shapers import ImpulseSequence
+from .travel import Travel
 
 __all__ = ["Cycloidal", "Harmonic", "Hold", "ImpulseSequence", "MeasuredMotion", "Quintic",
-           "Sequence", "Shaped", "Spinup"]
+           "Sequence", "Shaped", "Spinup", "Travel"]

@@ -224,6 +224,9 @@ class _Scene:
             if track.base is not None:
                 xs.append(track.base[:, 0])
                 ys.append(track.base[:, 1])
+            if track.rail is not None:
+                xs.append(track.rail[:, 0])
+                ys.append(track.rail[:, 1])
         x, y = np.concatenate(xs), np.concatenate(ys)
         reach = max(np.ptp(x), np.ptp(y), 1e-9)
         self.reach = reach
@@ -273,6 +276,10 @@ class _Scene:
         self.frame_y = add(Line2D([], [], color="#00a000", linewidth=1.2, animated=True))
         self.show_frames = run
         self.base_patch = None
+        rail = self.tracks[0].rail
+        if rail is not None:  # a cart's rail: static, under the block
+            ax.plot(rail[:, 0], rail[:, 1], color="#707070", linewidth=3.0,  # type: ignore[attr-defined]
+                    solid_capstyle="butt", zorder=0)
         base = self.tracks[0].base
         if base is not None:
             self.base_patch = Polygon(np.zeros((4, 2)), closed=True, facecolor="#c8d0e0",

@@ -1,5 +1,6 @@
 """What an animation draws of each case: the links as polylines over time (global frame, m),
-every link's tip, and a moving base, from a run's `Results` or a sweep file.
+every link's tip, and a moving base (a cart: a block on its rail), from a run's `Results` or
+a sweep file.
 
 A run draws each link's stored deformed shape (`flexlink.channels.shapes`); a sweep file holds
 channels only, so each case is drawn as the chords from joint to tip of a serial chain (the
@@ -26,13 +27,15 @@ class ArmTrack:
     """One case to draw: ``links`` (X, Y) polylines (nt, points) each, m, global;
     ``tips`` (nt, 2) per link at the stated magnification; ``base`` (nt, 3): x, y (m) and
     attitude (rad) of a moving base, else None; ``label`` for the legend; ``springs``: the
-    links whose joint is elastic (marked at the link's root)."""
+    links whose joint is elastic (marked at the link's root); ``rail`` (2, 2): the ends of a
+    cart's rail (m, global), else None."""
 
     links: list[tuple[np.ndarray, np.ndarray]]
     tips: list[np.ndarray]
     base: np.ndarray | None
     label: str
     springs: tuple[int, ...] = ()
+    rail: np.ndarray | None = None
 
 
 def run_track(results: ChannelTable, magnification: float = 1.0) -> ArmTrack:
@@ -47,8 +50,38 @@ def run_track(results: ChannelTable, magnification: float = 1.0) -> ArmTrack:
         tips = [_tip_xy(results, s.link) for s in shapes]
     else:
         tips = [np.column_stack([X[:, -1], Y[:, -1]]) for X, Y in links]
-    return ArmTrack(links, tips, _base(results), str(results.metadata.get("scenario", "")),
-                    _springs(results))
+    label = str(results.metadata.get("scenario", ""))
+    cart = _cart(results, shapes)
+    if cart is not None:
+        return ArmTrack(links, tips, cart[0], label, _springs(results), cart[1])
+    return ArmTrack(links, tips, _base(results), label, _springs(results))
+
+
+def _cart(results: ChannelTable, shapes: list) -> tuple[np.ndarray, np.ndarray] | None:
+    """A cart's block pose (nt, 3) and its rail's ends (2, 2), m, or None without a cart.
+
+    The channels hold the travel s only; the first link's root, which the cart carries,
+    moves along a line parallel to the rail by the travel's changes: the block is drawn
+    there, turned along the rail (level when the cart does not move)."""
+    travel = [results[n] for n in results.names_of(ChannelKind.BASE)
+              if results.channels[n].subject == "cart"
+              and results.channels[n].quantity == "position"]
+    if not travel or not shapes:
+        return None
+    s = travel[0]
+    X, Y = shapes[0].X, shapes[0].Y
+    root = np.column_stack([X[:, 0], Y[:, 0]])
+    i, j = int(np.argmin(s)), int(np.argmax(s))
+    if s[j] - s[i] > 0.0:
+        direction = (root[j] - root[i]) / (s[j] - s[i])
+        direction /= max(float(np.hypot(*direction)), 1e-300)
+    else:
+        direction = np.array([1.0, 0.0])
+    angle = float(np.arctan2(direction[1], direction[0]))
+    pose = np.column_stack([root, np.full(s.size, angle)])
+    reach = max(float(np.hypot(X - X[:, :1], Y - Y[:, :1]).max()), 1e-3)
+    ends = np.array([root[i] - 0.15 * reach * direction, root[j] + 0.15 * reach * direction])
+    return pose, ends
 
 
 def _springs(results: ChannelTable) -> tuple[int, ...]:

@@ -42,7 +42,8 @@ SegmentReader = Callable[[Any, str, Problems], tuple[dict[str, Any], JointMotion
 
 
 def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
-    """The resolved ``[base]`` table, or None if absent."""
+    """The resolved ``[base]`` table, or None if absent (a cart's ``[base.cart]`` table is
+    read by scenario/cart.py)."""
     if raw is None:
         return None
     if not isinstance(raw, Mapping):
@@ -53,7 +54,7 @@ def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
     kind = read_field(raw, BASE["type"], path, p)
     moving = kind in ("free", "pinned")
     out: dict[str, Any] = {"type": kind, **read_fields(raw, _BASE_FIELDS, path, p, defaults={
-        "mass": REQUIRED if kind == "free" else None,
+        "mass": REQUIRED if kind in ("free", "cart") else None,
         "inertia": REQUIRED if moving else None})}
     if kind == "pinned" and (out["position"] != [0.0, 0.0] or out["velocity"] != [0.0, 0.0]):
         p.add("base: a pinned base turns about its fixed reference point: position and "
@@ -61,6 +62,14 @@ def read_base(raw: Any, base_dir: Path, p: Problems) -> dict[str, Any] | None:
     if kind == "fixed" and (out["attitude_deg"] or out["rate_deg_s"] or "loads" in raw):
         p.add("base: a fixed base does not move: attitude_deg, rate_deg_s and loads need "
               "type = \"free\" or \"pinned\"")
+    if kind == "cart":
+        if out["velocity"] != [0.0, 0.0] or out["rate_deg_s"] or "inertia" in raw:
+            p.add("base: a cart moves along its rail only: give its initial speed as "
+                  "base.cart.initial_velocity, and no velocity, rate_deg_s or inertia")
+        if "cart" not in raw:
+            p.add("base: type = \"cart\" needs a [base.cart] table (the rail and the drive)")
+    elif "cart" in raw:
+        p.add("base.cart: only a base with type = \"cart\" takes a [base.cart] table")
     loads = raw.get("loads", [])
     if not isinstance(loads, list):
         p.add(f"base.loads: expected an array of tables [[base.loads]], got {describe(loads)}")
@@ -220,8 +229,10 @@ def build_drive(entry: Mapping[str, Any], reference: JointMotion | None) -> mode
                                 limit, entry["motor_inertia"])
 
 
-def build_base(entry: Mapping[str, Any] | None, joints: list[Mapping[str, Any]]
-               ) -> model.Base | None:
+def build_base(entry: Mapping[str, Any] | None, joints: list[Mapping[str, Any]],
+               cart: model.Cart | None = None) -> model.Base | None:
+    """The model's base of a resolved ``[base]`` table (``cart``: a cart base's rail and
+    drive, built by scenario/cart.py)."""
     attachments = tuple((k, (float(j["base_point"][0]), float(j["base_point"][1])))
                         for k, j in enumerate(joints) if "base_point" in j)
     if entry is None:
@@ -233,7 +244,7 @@ def build_base(entry: Mapping[str, Any] | None, joints: list[Mapping[str, Any]]
     return model.Base(entry["type"], entry.get("mass", 0.0), entry.get("inertia", 0.0),
                        attachments, loads, tuple(entry["position"]),  # type: ignore[arg-type]
                        math.radians(entry["attitude_deg"]), tuple(entry["velocity"]),  # type: ignore[arg-type]
-                       math.radians(entry["rate_deg_s"]))
+                       math.radians(entry["rate_deg_s"]), cart)
 
 
 __all__ = ["build_base", "build_drive", "read_base", "read_driven_joint", "read_history"]

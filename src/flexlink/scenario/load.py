@@ -30,6 +30,7 @@ from ..model import (
 from ..model.basis import chosen_mode_shapes
 from . import schema
 from .actuators import build_actuator, read_actuators
+from .cart import build_cart, read_cart
 from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .elastic import read_elastic_joint
@@ -133,6 +134,14 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         joints.append(joint)
         motions.append(motion)
     base = read_base(raw.get("base"), base_dir, p)
+    if base is not None and base.get("type") == "cart" and "cart" in raw["base"]:
+        base["cart"] = read_cart(raw["base"]["cart"], "base.cart", base_dir,
+                                 simulation.get("t_end"), p)
+        for path, table in joint_tables:  # elastic joints and carts: not combined
+            if any(key in table for key in ELASTIC.keys):
+                p.add(f"{path}: an elastic joint ({', '.join(ELASTIC.keys)}) on a cart "
+                      "(base.type = \"cart\") is not modelled; make the joint rigid (leave "
+                      "out the spring keys) or use a fixed, pinned or free base")
     _check_massless_base(base, joints, simulation.get("model"), p)
     reserved = reserved_names([n for n in link_names if n], len(links))
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)
@@ -497,7 +506,9 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
         else:
             sensors.append(PointSensor(kind=s["kind"], link=index[s["link"]], **fields))
     chain = Chain(links=links, joints=tuple(motions))
-    base = build_base(resolved.get("base"), resolved["joints"])
+    entry = resolved.get("base")
+    cart = build_cart(entry["cart"]) if entry is not None and "cart" in entry else None
+    base = build_base(entry, resolved["joints"], cart)
     chain = _with_chosen_bases(chain, base, resolved["links"])
     actuators = tuple(build_actuator(a, index) for a in resolved.get("actuators", ()))
     controllers = tuple(build_controller(c) for c in resolved.get("controllers", ()))

@@ -29,7 +29,7 @@ from .errors import REQUIRED, Problems
 
 # scalar kinds are read by `read_fields`; the others (arrays of tables, segments) by code
 Kind = Literal["number", "integer", "string", "boolean", "pair", "numbers", "profiles",
-               "history", "tables", "strings", "vector", "matrix"]
+               "history", "table", "tables", "strings", "vector", "matrix"]
 _READERS: dict[str, Callable[..., Any]] = {
     "number": Problems.number, "integer": Problems.integer, "string": Problems.string,
     "boolean": Problems.boolean, "pair": Problems.pair,
@@ -382,9 +382,11 @@ BASE = Section("base", [
     Field("type", "string", choices=BASE_KINDS, notes={
         "free": "moves and turns in the plane",
         "pinned": "turns about its fixed reference point",
-        "fixed": "does not move; only useful to start several branches"}),
+        "fixed": "does not move; only useful to start several branches",
+        "cart": "slides along a straight rail fixed in the ground, at a constant attitude "
+                "(`[base.cart]`, below)"}),
     # 0 is allowed: the first link is then the free body itself (a flexible beam in flight)
-    Field("mass", unit="kg", ge=0, default=None, default_doc="required for free",
+    Field("mass", unit="kg", ge=0, default=None, default_doc="required for free and cart",
           doc="mass of the rigid base; 0 (with `inertia = 0`) makes the first link itself "
               "the free body, its root the reference point (then no driven joint on the "
               "base, and no `loads` with the nonlinear model)"),
@@ -392,13 +394,16 @@ BASE = Section("base", [
           default_doc="required for free/pinned",
           doc="the centre of mass of a free base is its reference point"),
     Field("position", "pair", unit="m", default=(0.0, 0.0), rule="`[0, 0]` if pinned",
-          doc="initial reference point"),
+          doc="initial reference point; of a cart: the rail's point where its travel is 0"),
     Field("attitude_deg", unit="deg", default=0.0, rule="0 for a fixed base",
-          doc="initial attitude"),
-    Field("velocity", "pair", unit="m/s", default=(0.0, 0.0), rule="`[0, 0]` if pinned",
-          doc="initial velocity"),
-    Field("rate_deg_s", unit="deg/s", default=0.0, rule="0 for a fixed base",
+          doc="initial attitude (a cart's, constant)"),
+    Field("velocity", "pair", unit="m/s", default=(0.0, 0.0),
+          rule="`[0, 0]` if pinned or a cart", doc="initial velocity"),
+    Field("rate_deg_s", unit="deg/s", default=0.0, rule="0 for a fixed base or a cart",
           doc="initial angular rate"),
+    Field("cart", "table", default=None, default_doc="required for a cart",
+          rule="only with `type = \"cart\"`",
+          doc="the rail and the cart's drive, a `[base.cart]` table (below)"),
     Field("loads", "tables", default=None, default_doc="none", rule="not on a fixed base",
           doc="applied loads, `[[base.loads]]` tables (below)"),
 ])
@@ -415,6 +420,72 @@ LOADS = Section("base.loads", [
     Field("frame", "string", choices=LOAD_FRAMES, default="inertial",
           doc="the axes of `force_x`, `force_y`"),
 ])
+
+CART_DRIVES = ("free", "force", "prescribed", "servo")
+_DRIVE_ONLY = "only with drive = {}"
+CART = Section("base.cart", [
+    Field("rail_angle_deg", unit="deg", default=0.0,
+          doc="direction of the rail from the global X axis; the travel s is measured along "
+              "it from `base.position`"),
+    Field("travel", "pair", unit="m", default=None, default_doc="unlimited",
+          rule="lower < upper",
+          doc="allowed range of s: a prescribed travel, a servo's reference or a start outside it is "
+              "refused; a run whose cart leaves it ends with an error (never clipped)"),
+    Field("drive", "string", choices=CART_DRIVES, default="free", notes={
+        "free": "no force along the rail (base loads only)",
+        "force": "a force history along the rail (`force`)",
+        "prescribed": "the travel follows `motion`",
+        "servo": "a servo law on the travel follows `reference` (`servo`)"},
+        doc="what moves the cart along its rail"),
+    Field("initial_position", unit="m", default=0.0,
+          rule=_DRIVE_ONLY.format("free or force"), doc="travel s at t = 0"),
+    Field("initial_velocity", unit="m/s", default=0.0,
+          rule=_DRIVE_ONLY.format("free or force"), doc="speed along the rail at t = 0"),
+    Field("force", "history", unit="N", default=None, default_doc="required for force",
+          rule=_DRIVE_ONLY.format("force"),
+          doc="force along the rail on the cart (segments, as base loads)"),
+    Field("motion", "profiles", default=None, default_doc="required for prescribed",
+          rule=_DRIVE_ONLY.format("prescribed"),
+          doc="an array of travel profiles (below), in m"),
+    Field("servo", "string", choices=("position", "velocity_pid"), default=None,
+          default_doc="required for servo", notes={
+              "position": "v = clip(ω_b e, ±v_max), F = K_v (v − ṡ)",
+              "velocity_pid": "V = sat(P e + D ė), v = k_v V, F = K_v (v − ṡ)"},
+          rule=_DRIVE_ONLY.format("servo"), doc="e = reference − s; the joints' servo laws "
+                                                "on the travel, without an integral"),
+    Field("reference", "profiles", default=None, default_doc="required for servo",
+          rule=_DRIVE_ONLY.format("servo"),
+          doc="an array of travel profiles (below), in m; the cart starts on it"),
+    Field("bandwidth", unit="1/s", gt=0, default=None, default_doc="required",
+          rule="servo = \"position\" only", doc="ω_b"),
+    Field("rate_limit", unit="m/s", gt=0, default=None, default_doc="required",
+          rule="servo = \"position\" only", doc="v_max"),
+    Field("P", unit="V/m", ge=0, default=None, default_doc="required",
+          rule="servo = \"velocity_pid\" only", doc="proportional gain"),
+    Field("D", unit="V·s/m", ge=0, default=0.0, rule="servo = \"velocity_pid\" only",
+          doc="derivative gain"),
+    Field("saturation_V", unit="V", gt=0, default=10.0, rule="servo = \"velocity_pid\" only",
+          doc="command limit"),
+    Field("rate_per_volt", unit="m/s per V", gt=0, default=None, default_doc="required",
+          rule="servo = \"velocity_pid\" only", doc="k_v, commanded speed per volt"),
+    Field("loop_gain", unit="N·s/m", gt=0, default=None, default_doc="required",
+          rule=_DRIVE_ONLY.format("servo"), doc="K_v, the velocity loop"),
+    Field("force_limit", unit="N", gt=0, default=None, default_doc="none",
+          rule=_DRIVE_ONLY.format("servo"), doc="the servo's force limit"),
+])
+_TRAVEL_MOVE = (Field("from", unit="m", doc="travel held before `start`"),
+                Field("to", unit="m", doc="travel reached at `start + duration`, then held"),
+                Field("start", unit="s", ge=0, default=0.0),
+                Field("duration", unit="s", gt=0))
+CART_PROFILES: dict[str, Section] = {
+    "cycloidal": Section("cycloidal", _TRAVEL_MOVE, label='`"cycloidal"`',
+                         doc="rest-to-rest cycloidal move (as the joints' profile)"),
+    "quintic": Section("quintic", _TRAVEL_MOVE, label='`"quintic"`',
+                       doc="rest-to-rest quintic move"),
+    "hold": Section("hold", [Field("position", unit="m")], label='`"hold"`',
+                    doc="constant travel"),
+}
+CART_PROFILE = Field("profile", "string", choices=tuple(CART_PROFILES))
 
 _AMPLITUDE = Field("amplitude", doc="in the unit of the history")
 _FROM = Field("start", unit="s", ge=0, default=0.0)

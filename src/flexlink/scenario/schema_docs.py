@@ -17,6 +17,8 @@ from .schema import (
     ACTUATORS,
     BASE,
     BODIES,
+    CART,
+    CART_PROFILES,
     CONTROLLER_SISO,
     CONTROLLERS,
     ELASTIC,
@@ -44,7 +46,7 @@ BLOCK = re.compile(r"(<!-- generated: (?P<name>[\w.]+) -->\n)(?P<body>.*?)"
                    r"(<!-- end generated -->)", re.DOTALL)
 _KIND_TEXT = {"boolean": "`true` or `false`", "pair": "`[x, y]`",
               "numbers": "array of ≥ 2 numbers", "profiles": "array of profiles",
-              "history": "array of segments", "tables": "array of tables",
+              "history": "array of segments", "table": "table", "tables": "array of tables",
               "strings": "array of names", "vector": "array of numbers",
               "matrix": "array of rows (arrays of numbers)"}
 
@@ -160,6 +162,8 @@ BLOCKS: dict[str, Callable[[], str]] = {
     "piezo": lambda: key_table(PIEZO.fields),
     "base": lambda: key_table(BASE.fields),
     "base.loads": lambda: key_table(LOADS.fields),
+    "base.cart": lambda: key_table(CART.fields),
+    "cart_profiles": lambda: segment_table(CART_PROFILES.values(), "`profile`", "travel"),
     "histories": lambda: segment_table([*HISTORIES.values(), HISTORY_CSV], "segment", "value"),
     "torque": lambda: key_table(TORQUE.fields),
     "servo": _servo_common,

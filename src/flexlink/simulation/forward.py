@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..channels.catalogue import voltage_name
+from ..channels.catalogue import cart_name, voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.forward import SolvedMotion, pose_and_joint_values
 from ..channels.shapes import LazyShapes
@@ -20,6 +20,7 @@ from ..solvers import Solution
 from ..solvers.forward import FAST_METHOD, integrate_forward
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
 from .accuracy import axial_load_parameter
+from .cart import check_travel
 from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress, check_tip_deflection
 
@@ -35,8 +36,9 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol, method,
                                           on_progress, loop=loop, with_outputs=True)
     nu = len(system.free)
-    p, pd, _ = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
-                                  solution.q_ddot[:, :nu])
+    p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
+                                    solution.q_ddot[:, :nu])
+    check_travel(scenario.base, t, p[:, 0])
     z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
     view = SolvedMotion(system, outputs.frames)
     try:
@@ -53,6 +55,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
     values.update(pose_and_joint_values(system, t, p, pd, solution.extra, outputs.torques,
                                         outputs.momenta))
+    if system.base.cart is not None:
+        values[cart_name("force")] = system.cart_force(t, p, pd, pdd, z, zd, zdd)
     values.update(tip_values(view, view.frames, z))
     if loop is None:
         volts = system.voltages(t)  # open loop: the commanded voltages, clipped

@@ -1,4 +1,4 @@
-"""Forward dynamics, nonlinear model (free or pinned base, driven joints):
+"""Forward dynamics, nonlinear model (free or pinned base, a cart, driven joints):
 NonlinearForwardSystem → Gauss collocation → channels."""
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from ..channels.nonlinear_forward import forward_shapes, forward_values
 from ..dynamics.nonlinear_forward import NonlinearForwardSystem
 from ..model import Scenario
 from ..solvers.gauss_forward import solve_nonlinear_forward
+from .cart import check_travel
 from .common import PathRun, Progress
 
 
@@ -22,6 +23,8 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
     solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
                                        on_progress=on_progress, atol=settings.atol)
     y, v, a = system.from_solution(solution)
+    if system.rail is not None:
+        check_travel(scenario.base, t, system.rigid_state(t, y, v, a)[0][:, 0])
     values = forward_values(system, t, y, v, a, scenario.sensors)
     volts = system.loads.voltages(t)  # open loop: the commanded voltages, clipped
     values.update({voltage_name(a.name): volts[:, j] for j, a in enumerate(system.actuators)})

@@ -1,0 +1,22 @@
+"""A driven cart that leaves its travel ends the run with an error (never clipped)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SimulationError
+from ..model import Base
+
+
+def check_travel(base: Base | None, t: np.ndarray, s: np.ndarray) -> None:
+    """SimulationError if the cart's travel s (m) at the output times t (s) leaves the
+    allowed range (`model.Cart.travel`), naming the first time and travel outside it."""
+    if base is None or base.cart is None:
+        return
+    exit_ = base.cart.first_exit(t, s)
+    if exit_ is not None:
+        lo, hi = base.cart.travel
+        raise SimulationError(
+            f"the cart left its travel [{lo:g}, {hi:g}] m (base.travel): s = {exit_[1]:.6g} m "
+            f"at t = {exit_[0]:.6g} s (the first output sample outside it). Widen base.travel or "
+            "change the cart's drive")
