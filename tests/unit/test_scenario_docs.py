@@ -108,6 +108,9 @@ CASES = [
      s.VELOCITY_PID.keys),
     ("position", base_scenario(joints=[{**SERVO, "servo": "position"}]), JOINT,
      s.POSITION.keys),
+    ("closures", base_scenario(joints=[{"drive": "free"}],
+                               closures=[{"name": "c", "link": "a", "ground": [1.0, 0.0]}]),
+     ("closures", 0), s.CLOSURES.keys),
 ]
 
 

@@ -18,15 +18,16 @@ from .controllers import (
 )
 from .histories import ZERO, BangBang, History, Step, Sum, Table
 from .joints import (
-                     Drive,
-                     Joint,
-                     JointMotion,
-                     PositionServo,
-                     Servo,
-                     TorqueDrive,
-                     VelocityServo,
-                     is_driven,
+    Drive,
+    Joint,
+    JointMotion,
+    PositionServo,
+    Servo,
+    TorqueDrive,
+    VelocityServo,
+    is_driven,
 )
+from .loops import CLOSURE_KINDS, Closure, ClosureKind
 from .scenario import Scenario
 from .sensors import POINT_SENSOR_KINDS, PiezoSensor, PointSensor, PointSensorKind, Sensor
 from .settings import (
@@ -41,6 +42,7 @@ from .settings import (
 
 __all__ = [
     "BASE_KINDS",
+    "CLOSURE_KINDS",
     "CONTROLLER_KINDS",
     "INITIAL_STATES",
     "LOAD_FRAMES",
@@ -54,6 +56,8 @@ __all__ = [
     "BaseKind",
     "BaseLoad",
     "Chain",
+    "Closure",
+    "ClosureKind",
     "Controller",
     "DiscreteLTI",
     "Drive",

@@ -16,6 +16,7 @@ from .errors import REQUIRED, range_text
 from .schema import (
     ACTUATORS,
     BASE,
+    CLOSURES,
     CONTROLLER_SISO,
     CONTROLLERS,
     HISTORIES,
@@ -167,4 +168,5 @@ BLOCKS: dict[str, Callable[[], str]] = {
     "controller_siso": lambda: key_table(CONTROLLER_SISO.fields),
     "ppf": lambda: key_table(PPF.fields),
     "lti": lambda: key_table(LTI.fields),
+    "closures": lambda: key_table(CLOSURES.fields),
 }

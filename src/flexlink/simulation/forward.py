@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..channels.catalogue import voltage_name
+from ..channels.catalogue import joint_name, voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.forward import SolvedMotion, rigid_values
 from ..channels.shapes import LazyShapes
@@ -32,8 +32,15 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                            initial=settings.initial)
     method = settings.method if settings.method not in ("lawson", "magnus") else FAST_METHOD
     loop = sampled_loop(scenario, system, t) if scenario.controllers else None
-    solution = integrate_forward(system, t, settings.rtol, settings.atol, method, on_progress,
-                                 loop=loop)
+    closures: dict = {}
+    if scenario.closures:  # loops closed by constraints (simulation/loops.py)
+        from .loops import closed_loop_solution
+
+        solution, closure_values, joint_forces, closures = closed_loop_solution(
+            scenario, system, t, on_progress)
+    else:
+        solution = integrate_forward(system, t, settings.rtol, settings.atol, method,
+                                     on_progress, loop=loop)
     nu = len(system.free)
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
                                     solution.q_ddot[:, :nu])
@@ -53,6 +60,10 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
     values.update(rigid_values(system, t, p, pd, pdd, z, zd, zdd, solution.extra))
     values.update(tip_values(view, view.frames, z))
+    if scenario.closures:
+        for k in range(len(scenario.chain.joints)):  # the motor's torque: without G^T λ
+            values[joint_name(k, "torque")] = values[joint_name(k, "torque")] - joint_forces[:, k]
+        values.update(closure_values)
     if loop is None:
         volts = system.voltages(t)  # open loop: the commanded voltages, clipped
         values.update({voltage_name(a.name): volts[:, j]
@@ -63,7 +74,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,
-        **({"controllers": len(scenario.controllers)} if loop else {}), **validity})
+        **({"controllers": len(scenario.controllers)} if loop else {}), **closures,
+        **validity})
 
 
 def sampled_loop(scenario: Scenario, system, t: np.ndarray, model: str = "first-order"

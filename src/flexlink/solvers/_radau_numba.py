@@ -29,7 +29,9 @@ from numba.extending import overload
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._forward_numba import rates as forward_rates
+from ..dynamics._loops_numba import rates as loop_rates
 from ..dynamics.forward_kernel import ForwardData
+from ..dynamics.loops import LoopData
 from .solution import BLOW_UP
 
 LinearData = namedtuple("LinearData", ["A", "B"])
@@ -50,7 +52,7 @@ def linear_rates(d, w, u, y, dy):
 
 
 # kernel-data record class → its compiled rates(d, w, u, y, dy)
-_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates}
+_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates, LoopData: loop_rates}
 
 
 def model_rates(d, w, u, y, dy):

@@ -1,0 +1,176 @@
+"""Closed loops (four-bar, slider-crank) on the first-order forward model against the
+analytic rigid kinematics, the crank torque from the rate of change of the kinetic energy
+(virtual work), the energy of a freely turning mechanism, and the closure residual."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from flexlink import simulate
+from flexlink.scenario import scenario_from_dict
+from flexlink.scenario.errors import ScenarioError
+
+L1, L2, L3, D = 0.1, 0.3, 0.25, 0.3  # crank, coupler, rocker, ground pivots' distance (m)
+MASS = (2.0, 0.3, 2.0)  # kg/m
+
+FOUR_BAR = {
+    "simulation": {"name": "four-bar", "t_end": 1.0, "dt_out": 1e-3, "rtol": 1e-8},
+    "links": [
+        {"name": "crank", "length": L1, "mass_per_length": MASS[0], "rigid": True},
+        {"name": "coupler", "length": L2, "mass_per_length": MASS[1], "rigid": True},
+        {"name": "rocker", "length": L3, "mass_per_length": MASS[2], "rigid": True},
+    ],
+    "joints": [
+        {"motion": [{"profile": "spinup", "to_rate_deg_s": 720.0, "start": 0.0,
+                     "duration": 0.5, "from_deg": 90.0}]},
+        {"drive": "free", "initial_angle_deg": -60.0},
+        {"drive": "free", "base_point": [D, 0.0], "initial_angle_deg": 100.0},
+    ],
+    "closures": [{"name": "pin", "link": "coupler", "to_link": "rocker"}],
+}
+
+R, ROD = 0.152, 0.304  # the classic slider-crank: crank and connecting rod (m)
+SLIDER_CRANK = {
+    "simulation": {"name": "slider-crank", "t_end": 0.6, "dt_out": 5e-4, "rtol": 1e-8},
+    "links": [
+        {"name": "crank", "length": R, "mass_per_length": 1.0, "rigid": True},
+        {"name": "rod", "length": ROD, "mass_per_length": 0.2, "rigid": True, "tip_mass": 0.1},
+    ],
+    "joints": [
+        {"motion": [{"profile": "spinup", "to_rate_deg_s": 1000.0, "start": 0.0,
+                     "duration": 0.3, "from_deg": 30.0}]},
+        {"drive": "free", "initial_angle_deg": -40.0},
+    ],
+    "closures": [{"name": "piston", "kind": "slider", "link": "rod", "ground": [0.0, 0.0]}],
+}
+
+
+def _bar_energy(m: float, L: float, origin_v: np.ndarray, theta: np.ndarray,
+                omega: np.ndarray) -> np.ndarray:
+    """Kinetic energy of a uniform rigid bar (mass m, length L) turning at omega about its
+    end, which moves at origin_v (nt, 2)."""
+    e_perp = np.stack([-np.sin(theta), np.cos(theta)], -1)
+    vc = origin_v + 0.5 * L * omega[:, None] * e_perp
+    return 0.5 * m * np.sum(vc**2, 1) + 0.5 * m * L**2 / 12 * omega**2
+
+
+def _four_bar_energy(r) -> np.ndarray:
+    b1, b2, b3 = (r[f"joint{k}_angle"] for k in (1, 2, 3))
+    w1, w2, w3 = (r[f"joint{k}_rate"] for k in (1, 2, 3))
+    zero = np.zeros((b1.size, 2))
+    tip = L1 * w1[:, None] * np.stack([-np.sin(b1), np.cos(b1)], -1)
+    return (_bar_energy(MASS[0] * L1, L1, zero, b1, w1)
+            + _bar_energy(MASS[1] * L2, L2, tip, b1 + b2, w1 + w2)
+            + _bar_energy(MASS[2] * L3, L3, zero, b3, w3))
+
+
+def _rate(f: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """df/dt by fourth-order central differences on a uniform grid (NaN at two points
+    of each end)."""
+    out = np.full(f.shape, np.nan)
+    out[2:-2] = (f[:-4] - 8 * f[1:-3] + 8 * f[3:-1] - f[4:]) / (12 * (t[1] - t[0]))
+    return out
+
+
+@pytest.fixture(scope="module")
+def four_bar():
+    return simulate(scenario_from_dict(FOUR_BAR))
+
+
+def test_rigid_four_bar_follows_the_analytic_kinematics(four_bar) -> None:
+    r = four_bar
+    crank = r["joint1_angle"]
+    a = L1 * np.stack([np.cos(crank), np.sin(crank)], -1)
+    to_a = a - np.array([D, 0.0])
+    rho = np.hypot(*to_a.T)
+    spread = np.arccos((L3**2 + rho**2 - L2**2) / (2 * L3 * rho))
+    rocker = r["joint3_angle"]
+    branch = np.sign(np.sin(rocker[0] - np.arctan2(to_a[0, 1], to_a[0, 0])))
+    exact = np.arctan2(to_a[:, 1], to_a[:, 0]) + branch * spread
+    assert np.abs(np.angle(np.exp(1j * (rocker - exact)))).max() < 1e-9
+    b = np.array([D, 0.0]) + L3 * np.stack([np.cos(exact), np.sin(exact)], -1)
+    coupler = np.arctan2(*(b - a)[:, ::-1].T)
+    theta2 = crank + r["joint2_angle"]
+    assert np.abs(np.angle(np.exp(1j * (theta2 - coupler)))).max() < 1e-9
+
+
+def test_rigid_four_bar_closes_to_round_off(four_bar) -> None:
+    r = four_bar
+    gap = np.hypot(r["coupler_tip_X"] - r["rocker_tip_X"], r["coupler_tip_Y"] - r["rocker_tip_Y"])
+    size = L1 + L2 + L3
+    assert gap.max() < 1e-8 * size
+    assert r.metadata["closure_residual_relative"] < 1e-8
+
+
+def test_crank_torque_is_the_rate_of_change_of_kinetic_energy(four_bar) -> None:
+    """Virtual work: τ ω = dT/dt for a rigid mechanism without other loads; the free joints'
+    torques are zero (the constraint forces are not the motors')."""
+    r = four_bar
+    t = r.time
+    energy = _four_bar_energy(r)
+    power = _rate(energy, t)
+    w1 = r["joint1_rate"]
+    tau = r["joint1_torque"]
+    # differences across the spin-up's end (the acceleration jumps) are not derivatives
+    moving = (w1 > 0.2 * w1.max()) & (np.abs(t - 0.5) > 2.5e-3) & np.isfinite(power)
+    assert np.abs(tau[moving] * w1[moving] - power[moving]).max() < 1e-6 * np.nanmax(np.abs(power))
+    for k in (2, 3):
+        assert np.abs(r[f"joint{k}_torque"]).max() < 1e-9 * np.abs(tau).max()
+
+
+def test_free_rigid_four_bar_keeps_its_kinetic_energy() -> None:
+    """A crank set turning (a free joint with an initial rate), no loads: the constraint
+    forces do no work, the energy stays constant to the integration tolerance."""
+    d = copy.deepcopy(FOUR_BAR)
+    d["joints"][0] = {"drive": "free", "initial_angle_deg": 90.0, "initial_rate_deg_s": 360.0}
+    r = simulate(scenario_from_dict(d))
+    energy = _four_bar_energy(r)
+    assert np.abs(energy / energy[0] - 1).max() < 1e-6
+    assert r["joint1_angle"][-1] - r["joint1_angle"][0] > 2.0  # it turned
+
+
+def test_rigid_slider_crank_follows_the_analytic_kinematics_and_work() -> None:
+    r = simulate(scenario_from_dict(SLIDER_CRANK))
+    theta = r["joint1_angle"]
+    phi = -np.arcsin(R * np.sin(theta) / ROD)
+    assert np.abs(theta + r["joint2_angle"] - phi).max() < 1e-9
+    x = R * np.cos(theta) + ROD * np.cos(phi)
+    assert np.abs(r["rod_tip_X"] - x).max() < 1e-9 * (R + ROD)
+    assert np.abs(r["rod_tip_Y"]).max() < 1e-10 * (R + ROD)
+    t = r.time
+    w1, w2 = r["joint1_rate"], r["joint2_rate"]
+    zero = np.zeros((t.size, 2))
+    tip = R * w1[:, None] * np.stack([-np.sin(theta), np.cos(theta)], -1)
+    piston_v = -R * np.sin(theta) * w1 - ROD * np.sin(phi) * (w1 + w2)
+    energy = (_bar_energy(R, R, zero, theta, w1) + _bar_energy(0.2 * ROD, ROD, tip, phi, w1 + w2)
+              + 0.5 * 0.1 * piston_v**2)
+    power = _rate(energy, t)
+    tau = r["joint1_torque"]
+    moving = (w1 > 0.2 * w1.max()) & (np.abs(t - 0.3) > 1.5e-3) & np.isfinite(power)
+    assert np.abs(tau[moving] * w1[moving] - power[moving]).max() < 1e-6 * np.nanmax(np.abs(power))
+    # the piston's normal force balances the rod: nonzero while it accelerates
+    assert np.abs(r["piston_normal_force"]).max() > 0
+
+
+def test_a_loop_that_cannot_close_is_refused_with_its_residual() -> None:
+    d = copy.deepcopy(FOUR_BAR)
+    d["joints"][2]["base_point"] = [1.0, 0.0]  # beyond the coupler's and rocker's reach
+    with pytest.raises(Exception, match=r"closures\[0\] \('pin', residual [0-9.e-]+ m\)"):
+        simulate(scenario_from_dict(d))
+
+
+def test_a_closure_on_a_missing_link_is_refused_naming_the_field() -> None:
+    d = copy.deepcopy(FOUR_BAR)
+    d["closures"][0]["to_link"] = "rocket"
+    with pytest.raises(ScenarioError, match=r"closures\[0\]\.to_link: unknown link 'rocket'"):
+        scenario_from_dict(d)
+
+
+def test_more_prescribed_joints_than_the_loop_allows_are_refused() -> None:
+    d = copy.deepcopy(FOUR_BAR)
+    d["joints"][1] = {"motion": [{"profile": "hold", "angle_deg": -60.0}]}
+    with pytest.raises(Exception, match="more prescribed joints than degrees of freedom"):
+        simulate(scenario_from_dict(d))
