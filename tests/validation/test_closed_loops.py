@@ -5,6 +5,7 @@ analytic rigid kinematics, the crank torque from the rate of change of the kinet
 from __future__ import annotations
 
 import copy
+import math
 
 import numpy as np
 import pytest
@@ -174,3 +175,46 @@ def test_more_prescribed_joints_than_the_loop_allows_are_refused() -> None:
     d["joints"][1] = {"motion": [{"profile": "hold", "angle_deg": -60.0}]}
     with pytest.raises(Exception, match="more prescribed joints than degrees of freedom"):
         simulate(scenario_from_dict(d))
+
+
+def _four_bar_angles(crank: float) -> tuple[float, float, float]:
+    """Absolute angles of crank, coupler and rocker closing the loop (the branch of FOUR_BAR's
+    initial guess: the rocker on the side of the spread's minus sign)."""
+    a = L1 * np.array([np.cos(crank), np.sin(crank)])
+    to_a = a - np.array([D, 0.0])
+    rho = np.hypot(*to_a)
+    rocker = np.arctan2(to_a[1], to_a[0]) - np.arccos((L3**2 + rho**2 - L2**2) / (2 * L3 * rho))
+    b = np.array([D, 0.0]) + L3 * np.array([np.cos(rocker), np.sin(rocker)])
+    return crank, float(np.arctan2(*(b - a)[::-1])), float(rocker)
+
+
+@pytest.mark.parametrize(("crank_deg", "flexible_rocker"), [(90.0, False), (200.0, True)])
+def test_linearised_frequencies_match_a_finite_element_eigenanalysis(
+        crank_deg: float, flexible_rocker: bool) -> None:
+    """The four-bar at rest with its crank free (one mechanism motion: a zero frequency),
+    a flexible coupler (and rocker) in their default pinned–pinned bases: the lowest
+    frequencies of the constrained first-order equations against frame elements
+    (tests/validation/loop_fe.py, converged to < 1e-5 with 80 elements per flexible link)."""
+    from flexlink.dynamics.forward import ForwardSystem
+    from flexlink.dynamics.loops import LoopSystem, loop_frequencies
+    from tests.validation.loop_fe import four_bar_frequencies
+
+    coupler, rocker = (L2, 0.3, 20.0), (L3, MASS[2], 60.0 if flexible_rocker else math.inf)
+    d = copy.deepcopy(FOUR_BAR)
+    d["links"][1] = {"name": "coupler", "length": L2, "mass_per_length": coupler[1],
+                     "EI": coupler[2], "modes": 8}
+    if flexible_rocker:
+        d["links"][2] = {"name": "rocker", "length": L3, "mass_per_length": rocker[1],
+                         "EI": rocker[2], "modes": 8}
+    d["joints"][0] = {"drive": "free", "initial_angle_deg": crank_deg}
+    angles = _four_bar_angles(math.radians(crank_deg))
+    d["joints"][1]["initial_angle_deg"] = math.degrees(angles[1] - angles[0])
+    d["joints"][2]["initial_angle_deg"] = math.degrees(angles[2])
+    scenario = scenario_from_dict(d)
+    assert scenario.chain.links[1].mode_shapes == "pinned_pinned"
+    loops = LoopSystem(ForwardSystem(scenario.chain, scenario.base, True), scenario.closures)
+    model = loop_frequencies(loops)[:5]
+    fe = four_bar_frequencies((L1, MASS[0], math.inf), coupler, rocker, (D, 0.0), angles,
+                              EA=1e8, elements=80, count=5)
+    assert model[0] < 1e-3 and fe[0] < 0.1  # the mechanism's motion
+    assert np.abs(model[1:] / fe[1:] - 1).max() < 5e-3

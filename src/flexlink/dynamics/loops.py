@@ -160,3 +160,40 @@ def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray
     kernel(loops.data, loops.workspace(out.shape[1]), inputs(loops.system, t), out, lam, joint,
            residual)
     return out, lam, joint, residual
+
+
+def reduced_jacobian(loops: LoopSystem, t: float, y: np.ndarray | None = None,
+                     step: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """The Jacobian ∂f/∂y of the closed mechanism's rates at time t (s) and state y (default:
+    the closed initial state) over its independent components — the free coordinates not
+    dependent on the closures, the elastic ones, their rates (and servo integrals) — by
+    central differences of the compiled rates (step relative to each component's scale);
+    and those components' indices into y."""
+    from ._loops_numba import rates
+
+    y = loops.y0.copy() if y is None else np.asarray(y, dtype=float).copy()
+    nu = len(loops.system.free)
+    dep = {int(j) for j in loops.dep} | {int(j) + nu for j in loops.dep}
+    keep = np.array([i for i in range(y.size) if i not in dep], dtype=int)
+    u = inputs(loops.system, np.array([float(t)]))[0]
+    work = loops.workspace(y.size)
+    J = np.empty((keep.size, keep.size))
+    up, down = np.empty_like(y), np.empty_like(y)
+    for c, i in enumerate(keep):
+        h = step * max(1.0, abs(y[i]))
+        for sign, out in ((1.0, up), (-1.0, down)):
+            trial = y.copy()
+            trial[i] += sign * h
+            rates(loops.data, work, u, trial, out)
+        J[:, c] = (up[keep] - down[keep]) / (2 * h)
+    return J, keep
+
+
+def loop_frequencies(loops: LoopSystem, t: float = 0.0, y: np.ndarray | None = None
+                     ) -> np.ndarray:
+    """Natural frequencies (Hz, ascending, the zero ones of free mechanism motions included)
+    of the closed mechanism linearised about time t and state y (default: its closed
+    initial state): |Im λ|/2π of the eigenvalues of `reduced_jacobian`, which come in pairs
+    ±iω (a free motion: a double zero), one value per pair."""
+    J, _ = reduced_jacobian(loops, t, y)
+    return np.sort(np.abs(np.linalg.eigvals(J).imag))[::2] / (2 * np.pi)

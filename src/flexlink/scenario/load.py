@@ -458,19 +458,20 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
             sensors.append(PointSensor(kind=s["kind"], link=index[s["link"]], **fields))
     chain = Chain(links=links, joints=tuple(motions))
     base = build_base(resolved.get("base"), resolved["joints"])
-    chain = _with_chosen_bases(chain, base, resolved["links"])
+    closures = tuple(build_closure(c, index) for c in resolved.get("closures", ()))
+    chain = _with_chosen_bases(chain, base, resolved["links"], closures)
     actuators = tuple(build_actuator(a, index) for a in resolved.get("actuators", ()))
     controllers = tuple(build_controller(c) for c in resolved.get("controllers", ()))
-    closures = tuple(build_closure(c, index) for c in resolved.get("closures", ()))
     return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"],
                     base=base, actuators=actuators, controllers=controllers,
                     closures=closures)
 
 
-def _with_chosen_bases(chain: Chain, base: Any, entries: list[dict[str, Any]]) -> Chain:
+def _with_chosen_bases(chain: Chain, base: Any, entries: list[dict[str, Any]],
+                       closures: tuple[Any, ...] = ()) -> Chain:
     """``chain`` with "auto" replaced by the basis it stands for (model.basis), which the
     resolved ``entries`` then state too (the resolved scenario names the basis that ran)."""
-    kinds = chosen_mode_shapes(chain, base)
+    kinds = chosen_mode_shapes(chain, base, closures)
     for entry, kind in zip(entries, kinds):
         if entry.get("mode_shapes") == "auto":
             entry["mode_shapes"] = kind
