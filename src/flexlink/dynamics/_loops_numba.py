@@ -7,9 +7,11 @@ projection of a state onto them, and the forward rates with the constraint force
 Positions. Frame k (link k's joint) turns by θ_k = θ_parent + Φ'_parent(L) q_parent + β_k and
 sits at the parent's deformed tip; a point at x on link k is
 
-    r = o_k + A(θ_k) [x, Φ_k(x) q_k]
+    r = o_k + A(θ_k) [x − ½ q_kᵀ F_k(x) q_k, Φ_k(x) q_k],   F_k(x) = ∫₀ˣ Φ_k'ᵀ Φ_k' ds
 
-— the kinematics whose first-order expansion the forward model's maps T_k are. Φ(q) is
+(the foreshortening term with geometric stiffening only) — the kinematics whose first-order
+expansion the forward model's maps T_k are, and whose second-order part its stiffening terms
+come from: through it the closure's force along a link stiffens (tension) or softens it. Φ(q) is
 written on these positions, so Φ, its Jacobian G = ∂Φ/∂q and γ (the part of Φ̈ without
 second derivatives, Φ̈ = G q̈ + γ) are exact for them; q = [p; z] over the whole x of the
 forward model (rigid coordinates first).
@@ -62,30 +64,48 @@ def workspace(d, n_servos: int, n_state: int) -> LoopWork:
 
 
 @njit(cache=True)
-def point(f, k, s, phi, w, r, rd, g, Jr):
+def point(f, k, s, phi, fore, w, r, rd, g, Jr):
     """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x) of the point
-    at s (m) on link k whose mode values there are phi, from the frames in w (`frames`)."""
+    at s (m) on link k whose mode values there are phi, from the frames in w (`frames`).
+    With geometric stiffening the point is drawn in by the foreshortening ½ qᵀF q along the
+    link (F = ∫₀ˢ Φ'ᵀΦ' dx: ``fore``), the kinematics the stiffening terms come from."""
     c, sn = np.cos(w.th[k]), np.sin(w.th[k])
     o, nk = f.offset[k], f.n_modes[k]
     dev = 0.0
     dev_d = 0.0
+    ax, ax_d, ax_g = s, 0.0, 0.0  # along the link: s − ½qᵀFq, its rate, its γ −q̇ᵀFq̇
     for i in range(nk):
         dev += phi[i] * w.q[o + i]
         dev_d += phi[i] * w.v[o + i]
-    aux, auy = c * s - sn * dev, sn * s + c * dev  # A u
-    adx, ady = -sn * dev_d, c * dev_d  # A u̇
+        if f.stiffening:
+            fq = 0.0
+            fv = 0.0
+            for j in range(nk):
+                fq += fore[i, j] * w.q[o + j]
+                fv += fore[i, j] * w.v[o + j]
+            ax -= 0.5 * w.q[o + i] * fq
+            ax_d -= w.v[o + i] * fq
+            ax_g -= w.v[o + i] * fv
+    aux, auy = c * ax - sn * dev, sn * ax + c * dev  # A u
+    adx, ady = c * ax_d - sn * dev_d, sn * ax_d + c * dev_d  # A u̇
     om = w.om[k]
     r[0], r[1] = w.o[k, 0] + aux, w.o[k, 1] + auy
     rd[0] = w.od[k, 0] - om * auy + adx
     rd[1] = w.od[k, 1] + om * aux + ady
-    g[0] = w.og[k, 0] - om * om * aux - 2.0 * om * ady
-    g[1] = w.og[k, 1] - om * om * auy + 2.0 * om * adx
+    g[0] = w.og[k, 0] - om * om * aux - 2.0 * om * ady + c * ax_g
+    g[1] = w.og[k, 1] - om * om * auy + 2.0 * om * adx + sn * ax_g
     for col in range(Jr.shape[1]):
         Jr[0, col] = w.Jo[k, 0, col] - auy * w.Jth[k, col]
         Jr[1, col] = w.Jo[k, 1, col] + aux * w.Jth[k, col]
     for i in range(nk):
         Jr[0, o + i] += -sn * phi[i]
         Jr[1, o + i] += c * phi[i]
+        if f.stiffening:
+            fq = 0.0
+            for j in range(nk):
+                fq += fore[i, j] * w.q[o + j]
+            Jr[0, o + i] -= c * fq
+            Jr[1, o + i] -= sn * fq
 
 
 @njit(cache=True)
@@ -105,7 +125,7 @@ def frames(f, w):
             w.Jo[k, :, :] = 0.0
         else:
             j = k - 1
-            point(f, j, f.length[j], f.tip_value[j], w, w.r, w.rd, w.g, w.Jr)
+            point(f, j, f.length[j], f.tip_value[j], f.fore_tip[j], w, w.r, w.rd, w.g, w.Jr)
             o, nj = f.offset[j], f.n_modes[j]
             th, om = w.th[j] + w.q[nb + k], w.om[j] + w.v[nb + k]
             w.Jth[k, :] = w.Jth[j, :]
@@ -127,9 +147,10 @@ def constraints(d, w):
     frames(f, w)
     for c in range(d.kind.shape[0]):
         row = d.row[c]
-        point(f, d.link[c], d.x[c], d.phi[c], w, w.r, w.rd, w.g, w.Jr)
+        point(f, d.link[c], d.x[c], d.phi[c], d.fore[c], w, w.r, w.rd, w.g, w.Jr)
         if d.to_link[c] >= 0:
-            point(f, d.to_link[c], d.x_to[c], d.phi_to[c], w, w.r2, w.rd2, w.g2, w.Jr2)
+            point(f, d.to_link[c], d.x_to[c], d.phi_to[c], d.fore_to[c], w, w.r2, w.rd2,
+                  w.g2, w.Jr2)
         else:
             w.r2[0], w.r2[1] = d.ground[c, 0], d.ground[c, 1]
             w.g2[:] = 0.0

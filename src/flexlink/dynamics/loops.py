@@ -22,17 +22,18 @@ from .forward import ForwardSystem
 from .forward_kernel import ForwardData, inputs, pack
 
 LoopData = namedtuple("LoopData", [
-    "fwd", "kind", "link", "x", "phi", "to_link", "x_to", "phi_to", "ground", "normal",
-    "row", "dep", "tol"])
+    "fwd", "kind", "link", "x", "phi", "fore", "to_link", "x_to", "phi_to", "fore_to",
+    "ground", "normal", "row", "dep", "tol"])
 LoopData.__doc__ = ("Constant arrays of the closures for the kernels: fwd the tree's "
                     "ForwardData; per closure its kind (REVOLUTE, SLIDER), link, point x (m) "
-                    "and mode values there, the other link (−1: ground) with its point and "
-                    "mode values, the ground point (m), the slider line's unit normal, its "
+                    "with its mode values and foreshortening matrix ∫₀ˣΦ'ᵀΦ' there, the "
+                    "other link (−1: ground) with its point and those, the ground point (m), the slider line's unit normal, its "
                     "first equation row; dep the dependent coordinates (indices into the "
                     "free ones); tol the closure's Newton tolerance (m).")
 
 # |Φ| the projection reaches, relative to the loop's size (the links' total length)
 CLOSURE_TOLERANCE = 1e-12
+FORE_POINTS = 48  # Gauss points of ∫₀ˣΦ'ᵀΦ' at a closure's point (the modes: ≤ 20 half-waves)
 
 
 class LoopSystem:
@@ -75,6 +76,16 @@ class LoopSystem:
                 out[:modal[link].n] = modal[link].shapes.evaluate(np.array([x]))[0]
             return out
 
+        def fore(link: int, x: float) -> np.ndarray:
+            out = np.zeros((nm, nm))
+            if link >= 0 and modal[link].n:
+                g, wg = np.polynomial.legendre.leggauss(FORE_POINTS)
+                s = 0.5 * x * (g + 1.0)
+                slope = modal[link].shapes.evaluate(s, 1)
+                n = modal[link].n
+                out[:n, :n] = (slope * (0.5 * x * wg)[:, None]).T @ slope
+            return out
+
         to = [c.to_link if c.to_link is not None else -1 for c in self.closures]
         return LoopData(
             fwd=self.fwd,
@@ -83,10 +94,13 @@ class LoopSystem:
             link=np.array([c.link for c in self.closures], dtype=np.int64),
             x=np.array([c.x for c in self.closures], dtype=float),
             phi=np.array([values(c.link, c.x) for c in self.closures]).reshape(nc, nm),
+            fore=np.array([fore(c.link, c.x) for c in self.closures]).reshape(nc, nm, nm),
             to_link=np.array(to, dtype=np.int64),
             x_to=np.array([c.x_to for c in self.closures], dtype=float),
             phi_to=np.array([values(j, c.x_to) for c, j in zip(self.closures, to)]
                             ).reshape(nc, nm),
+            fore_to=np.array([fore(j, c.x_to) for c, j in zip(self.closures, to)]
+                             ).reshape(nc, nm, nm),
             ground=np.array([c.ground for c in self.closures], dtype=float).reshape(nc, 2),
             normal=np.array([(-np.sin(c.angle), np.cos(c.angle)) for c in self.closures]
                             ).reshape(nc, 2),
