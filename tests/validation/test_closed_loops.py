@@ -255,3 +255,21 @@ def test_free_flexible_four_bar_conserves_the_exact_energy(stiffening: bool, bou
     energy += 0.5 * MASS[2] * L3**3 / 3 * rate[:, 2] ** 2  # the rigid rocker about its pivot
     assert strain.max() > 1e-4 * energy[0]  # the coupler bends
     assert np.abs(energy - energy[0]).max() < bound * strain.max()
+
+
+@pytest.mark.parametrize("name", ["four_bar", "slider_crank"])
+def test_the_examples_run_closed(name: str) -> None:
+    """examples/four_bar.toml and slider_crank.toml (shortened): closed to round-off, the
+    flexible member in its pinned–pinned basis, the free joint without torque."""
+    from pathlib import Path
+
+    from flexlink.scenario import resolve_scenario_dict
+
+    path = Path(__file__).resolve().parents[2] / "examples" / f"{name}.toml"
+    d = resolve_scenario_dict(path)
+    d["simulation"]["t_end"] = 0.05
+    scenario = scenario_from_dict(d)
+    assert "pinned_pinned" in [link.mode_shapes for link in scenario.chain.links]
+    r = simulate(scenario)
+    assert r.metadata["closure_residual_relative"] < 1e-8
+    assert np.abs(r["joint2_torque"]).max() < 1e-8 * np.abs(r["joint1_torque"]).max()
