@@ -57,7 +57,7 @@ def test_four_bar_with_a_flexible_coupler_matches_the_geometrically_exact_model(
     from flexlink.model import Link
     from flexlink.scenario import scenario_from_dict
     from tests.validation.exudyn_loops_reference import simulate_four_bar_exudyn
-    from tests.validation.test_closed_loops import D, FOUR_BAR, L1, L2, L3, _four_bar_angles
+    from tests.validation.test_closed_loops import FOUR_BAR, L1, L2, L3, D, _four_bar_angles
 
     d = copy.deepcopy(FOUR_BAR)
     d["links"][1] = {"name": "coupler", "length": L2, "mass_per_length": 0.3, "EI": 2.0,
