@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 
 import numpy as np
 import pytest
@@ -159,8 +160,11 @@ def test_rigid_slider_crank_follows_the_analytic_kinematics_and_work() -> None:
 def test_a_loop_that_cannot_close_is_refused_with_its_residual() -> None:
     d = copy.deepcopy(FOUR_BAR)
     d["joints"][2]["base_point"] = [1.0, 0.0]  # beyond the coupler's and rocker's reach
-    with pytest.raises(Exception, match=r"closures\[0\] \('pin', residual [0-9.e-]+ m\)"):
+    with pytest.raises(Exception, match=r"closures\[0\] \('pin', residual [0-9.e-]+ m\)") as info:
         simulate(scenario_from_dict(d))
+    # the least gap the free coupler and rocker leave: from the crank pin (0, L1) to the pivot
+    gap = float(re.search(r"residual ([0-9.e-]+) m", str(info.value)).group(1))
+    assert gap == pytest.approx(math.hypot(1.0, L1) - (L2 + L3), rel=1e-3)
 
 
 def test_a_closure_on_a_missing_link_is_refused_naming_the_field() -> None:

@@ -125,11 +125,32 @@ class LoopSystem:
         self.data = self._pack(self.dep)
         start = y.copy()
         if not project(self.data, work, u0, y):
-            load_state(self.data, work, u0, start)
-            constraints(self.data, work)
-            raise SimulationError(self._open_message(work.Phi, "does not close at t = 0 from "
-                                                     "the joints' initial angles"))
+            raise SimulationError(self._open_message(
+                self._closest(work, u0, start), "does not close at t = 0 (the residual is "
+                "the least its free joints reach from their initial angles)"))
         return y
+
+    def _closest(self, work, u0: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Φ (m) where the free joints bring it closest to zero (least squares from y)."""
+        from scipy.optimize import least_squares
+
+        from ._loops_numba import constraints, load_state
+
+        free = self.system.free
+
+        def residual(angles: np.ndarray) -> np.ndarray:
+            trial = y.copy()
+            trial[:len(free)] = angles
+            load_state(self.data, work, u0, trial)
+            constraints(self.data, work)
+            return work.Phi.copy()
+
+        def jacobian(angles: np.ndarray) -> np.ndarray:
+            residual(angles)
+            return work.G[:, free].copy()
+
+        best = least_squares(residual, y[:len(free)], jac=jacobian, xtol=1e-12, ftol=1e-12)
+        return residual(best.x)
 
     def _dependent(self, G: np.ndarray) -> np.ndarray:
         """Indices (into the free coordinates) of the dependent ones: from the last free
