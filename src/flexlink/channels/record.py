@@ -23,6 +23,7 @@ class ChannelKind(StrEnum):
     BASE = "base"  # pose and rates of a moving base
     MOMENTUM = "momentum"  # linear and angular momentum of a free system
     CONTROLLER = "controller"  # controller states and commands
+    CLOSURE = "closure"  # forces of the joints that close loops
 
 
 class Unit:
@@ -36,6 +37,7 @@ class Unit:
     METRE_PER_SECOND = "m s-1"
     METRE_PER_SECOND2 = "m s-2"
     RADIAN_PER_SECOND = "rad s-1"
+    NEWTON = "N"
     NEWTON_METRE = "N m"
     NEWTON_SECOND = "N s"
     NEWTON_METRE_SECOND = "N m s"

@@ -17,6 +17,7 @@ from .schema import (
     ACTUATORS,
     BASE,
     BODIES,
+    CLOSURES,
     CONTROLLER_SISO,
     CONTROLLERS,
     ELASTIC,
@@ -171,4 +172,5 @@ BLOCKS: dict[str, Callable[[], str]] = {
     "controller_siso": lambda: key_table(CONTROLLER_SISO.fields),
     "ppf": lambda: key_table(PPF.fields),
     "lti": lambda: key_table(LTI.fields),
+    "closures": lambda: key_table(CLOSURES.fields),
 }
