@@ -67,26 +67,33 @@ def momentum(d, w_, p, pd, x, xd, pj, out):
             v0 += T[k, 0, c] * xd[c] + Td[k, 0, c] * x[c]
             v1 += T[k, 1, c] * xd[c] + Td[k, 1, c] * x[c]
             v2 += T[k, 2, c] * xd[c] + Td[k, 2, c] * x[c]
-        m, s1, J, Jt = d.mass[k], d.s1[k], d.J[k], d.Jt[k]
+        m, s1, J, Jt, cy = d.mass[k], d.s1[k], d.J[k], d.Jt[k], d.sy[k]
+        # bodies' centres across the link (cy = ∫y dm): ∫g_x dm = m x0 − cy ξ2 − lat_slope·q
+        g0 = m * x0 - cy * x2
+        gd0 = m * v0 - cy * v2
         g1 = m * x1 + s1 * x2
         gd1 = m * v1 + s1 * v2
-        hy = s1 * v1 + J * v2
-        tip = v2
+        hy = -cy * v0 + s1 * v1 + J * v2
+        turn = J + 2.0 * (s1 * x0 + cy * x1)
+        rot = Jt * v2
         for i in range(nk):
+            g0 -= d.lat_slope[k, i] * x[o + i]
+            gd0 -= d.lat_slope[k, i] * xd[o + i]
             g1 += d.phi_bar[k, i] * x[o + i]
             gd1 += d.phi_bar[k, i] * xd[o + i]
             hy += d.phi_tilde[k, i] * xd[o + i]
-            tip += d.tip_slope[k, i] * xd[o + i]
-        X0, X1 = s1 + m * x0, g1  # ∫(X + g) dm, frame axes
+            turn -= 2.0 * d.lat_tilde[k, i] * x[o + i]
+            rot += d.rot_slope[k, i] * xd[o + i]
+        X0, X1 = s1 + g0, cy + g1  # ∫(X + g) dm, frame axes
         w = omega[k]
-        in0, in1 = m * v0 - w * X1, gd1 + w * X0  # ∫ġ dm + ω S ∫(X + g) dm
+        in0, in1 = gd0 - w * X1, gd1 + w * X0  # ∫ġ dm + ω S ∫(X + g) dm
         ck, sk = np.cos(theta[k]), np.sin(theta[k])
         R0, R1 = ck * ox + sk * oy, -sk * ox + ck * oy
         V0, V1 = ck * vx + sk * vy, -sk * vx + ck * vy
         lx += m * vx + ck * in0 - sk * in1
         ly += m * vy + sk * in0 + ck * in1
         h += (m * (R0 * V1 - R1 * V0) + (R0 * in1 - R1 * in0) + (X0 * V1 - X1 * V0) + hy
-              + w * (J + 2.0 * s1 * x0) + Jt * (w + tip))
+              + w * turn + Jt * w + rot)
         sx += m * ox + ck * X0 - sk * X1
         sy += m * oy + sk * X0 + ck * X1
     out[0], out[1], out[2], out[3], out[4] = lx, ly, h, sx, sy
