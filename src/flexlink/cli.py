@@ -227,7 +227,7 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 # The warm-up runs: one per path (simulation.PATHS), and a free base moved by its loads with every joint
 # prescribed (the forward path's inputs then come from the base loads only).
 WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_base",
-               "nonlinear_forward", "nonlinear_forward_step", "closed_loop")
+               "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar")
 
 
 def warmup_scenarios() -> dict[str, Any]:
@@ -235,7 +235,8 @@ def warmup_scenarios() -> dict[str, Any]:
     compiled loop: the Lawson loop (prescribed), Gauss collocation (nonlinear: adaptive, and
     with a fixed `step`), the forward kernel with its Radau IIA integrator (driven joints; a
     free base), the nonlinear model's forward collocation (adaptive, and with a fixed `step`)
-    and the closed-loop Lawson loop."""
+    the closed-loop Lawson loop and the kernels of mechanisms with closed loops (a
+    four-bar)."""
     import copy
 
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
@@ -265,9 +266,18 @@ def warmup_scenarios() -> dict[str, Any]:
     closed_loop["controllers"] = [{"name": "warmup_ppf", "kind": "ppf", "sensor": "pzt",
                                    "actuator": "warmup_patch", "frequency_hz": 2.5,
                                    "damping": 0.3, "gain": 10.0, "sample_rate": 1000.0}]
+    four_bar = {"simulation": {"t_end": 0.02, "dt_out": 0.01}, "links": [
+        {"name": "crank", "length": 0.1, "mass_per_length": 1.0, "rigid": True},
+        {"name": "coupler", "length": 0.3, "mass_per_length": 0.3, "EI": 20.0, "modes": 2},
+        {"name": "rocker", "length": 0.25, "mass_per_length": 1.0, "rigid": True}], "joints": [
+        {"motion": [{"profile": "spinup", "to_rate_deg_s": 90.0, "start": 0.0,
+                     "duration": 0.02, "from_deg": 90.0}]},
+        {"drive": "free", "initial_angle_deg": -60.0},
+        {"drive": "free", "base_point": [0.3, 0.0], "initial_angle_deg": 100.0}],
+        "closures": [{"name": "pin", "link": "coupler", "to_link": "rocker"}]}
     return {name: scenario_from_dict(d) for name, d in zip(
         WARMUP_RUNS, (base, nonlinear, nonlinear_step, forward, free_base, nonlinear_forward,
-                      nonlinear_forward_step, closed_loop), strict=True)}
+                      nonlinear_forward_step, closed_loop, four_bar), strict=True)}
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:

@@ -114,6 +114,9 @@ CASES = [
     # an elastic joint's keys are taken out before the rest (its motor) is checked
     ("elastic", base_scenario(joints=[{"motion": HOLD, "spring_stiffness": 10.0}]), JOINT,
      ("motion",)),
+    ("closures", base_scenario(joints=[{"drive": "free"}],
+                               closures=[{"name": "c", "link": "a", "ground": [1.0, 0.0]}]),
+     ("closures", 0), s.CLOSURES.keys),
 ]
 
 

@@ -178,7 +178,9 @@ def test_warmup_scenarios_take_every_path() -> None:
     scenarios = warmup_scenarios()
     assert {name: model_path(s) for name, s in scenarios.items()} == {
         **{name: name for name in PATHS}, "free_base": "forward",
-        "nonlinear_step": "nonlinear", "nonlinear_forward_step": "nonlinear_forward"}
+        "nonlinear_step": "nonlinear", "nonlinear_forward_step": "nonlinear_forward",
+        "four_bar": "forward"}
+    assert scenarios["four_bar"].closures  # the closed-loop kernels (dynamics/_loops_numba.py)
     # the nonlinear paths with adaptive steps and with a fixed step (their two loops)
     assert scenarios["nonlinear"].settings.step is None
     assert scenarios["nonlinear_forward"].settings.step is None

@@ -195,6 +195,24 @@ def control_channels(scenario: Scenario) -> list[Channel]:
     return out
 
 
+def closure_name(closure: str, quantity: str) -> str:
+    """A loop-closing joint's channel: force_x, force_y (revolute) or normal_force (slider)."""
+    return f"{closure}_{quantity}"
+
+
+def closure_channels(scenario: Scenario) -> list[Channel]:
+    """The force each loop-closing joint applies to the point of its ``link`` (global axes;
+    a slider's along the normal of its line)."""
+    out = []
+    for c in scenario.closures:
+        quantities = (("force_x", "x"), ("force_y", "y")) if c.kind == "revolute" else (
+            ("normal_force", "normal to the line"),)
+        out += [Channel(closure_name(c.name, q), ChannelKind.CLOSURE, Unit.NEWTON,
+                        f"force of closure {c.name} on link {scenario.chain.links[c.link].name}"
+                        f" ({axis}, global axes)", q, c.name) for q, axis in quantities]
+    return out
+
+
 def catalogue(scenario: Scenario) -> list[Channel]:
     """Every channel a run of ``scenario`` produces, in the order of the results."""
     model = scenario.settings.model
@@ -208,6 +226,7 @@ def catalogue(scenario: Scenario) -> list[Channel]:
     if base is not None and base.kind != "fixed":
         out += momentum_channels(model)
     out += tip_channels(scenario.chain)
+    out += closure_channels(scenario)
     if scenario.actuators or scenario.controllers:
         out += control_channels(scenario)
     return out

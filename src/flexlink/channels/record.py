@@ -23,6 +23,7 @@ class ChannelKind(StrEnum):
     BASE = "base"  # pose and rates of a moving base
     MOMENTUM = "momentum"  # linear and angular momentum of a free system
     CONTROLLER = "controller"  # controller states and commands
+    CLOSURE = "closure"  # forces of the joints that close loops
 
 
 class Unit:

@@ -77,6 +77,10 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
     used; a ``model = "nonlinear"`` scenario with prescribed joints is linearised at a rest
     configuration about its static deflection under the actuators' t = 0 voltages
     (control/nonlinear.py)."""
+    if scenario.closures:
+        raise ValueError("closures: the linearised plant of a mechanism with closed loops is "
+                         "not built; its frequencies about a state: "
+                         "flexlink.dynamics.loops.loop_frequencies")
     point = parse_at(scenario, at)
     original = scenario
     if isinstance(point, Configuration):

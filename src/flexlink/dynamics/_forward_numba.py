@@ -431,12 +431,39 @@ def rates(d, w_, u, y, dy):
     (p̈_free, z̈),
 
         [∂r/∂p̈_free | M[:, z]] (p̈_free, z̈) = Q − r(p̈_free = 0)   on the free and z rows."""
+    assemble(d, w_, u, y)
+    _solve(w_.A, w_.b)
+    state_rates(d, w_, y, w_.b, dy)
+
+
+@njit(cache=True)
+def state_rates(d, w_, y, acc, dy):
+    """dy from the state y and the accelerations acc = (p̈_free, z̈) (the servo integrals'
+    rates from the last `assemble`)."""
+    nu = d.free.shape[0]
+    n = d.n_x - d.n_rigid
+    ns = y.shape[0] - 2 * nu - 2 * n
+    for j in range(nu):
+        dy[j] = y[nu + j]
+        dy[nu + j] = acc[j]
+    for i in range(n):
+        dy[2 * nu + i] = y[2 * nu + n + i]
+        dy[2 * nu + n + i] = acc[nu + i]
+    for s in range(ns):
+        dy[2 * nu + 2 * n + s] = w_.srates[s]
+
+
+@njit(cache=True)
+def assemble(d, w_, u, y):
+    """The linear equations of `rates` in (p̈_free, z̈) at state y and input row u: their
+    matrix into w_.A, right-hand side into w_.b, the servo integrals' rates into w_.srates
+    (w_.p, w_.pd, w_.pdd hold the rigid state, w_.M the mass matrix, w_.Q the applied
+    forces, w_.r0 the residual at p̈_free = 0)."""
     N = d.length.shape[0]
     nb, nr, nx = d.n_base, d.n_rigid, d.n_x
     free = d.free
     nu = free.shape[0]
     n = nx - nr
-    ns = y.shape[0] - 2 * nu - 2 * n
     p, pd, pdd, x, xd = w_.p, w_.pd, w_.pdd, w_.x, w_.xd
     for k in range(N):  # prescribed joints from the input row, driven ones from the state
         p[nb + k], pd[nb + k], pdd[nb + k] = u[k], u[N + k], u[2 * N + k]
@@ -471,15 +498,6 @@ def rates(d, w_, u, y, dy):
         for row in range(m):
             a = free[row] if row < nu else nr + row - nu
             A[row, j] = rj[a] - r0[a]
-    _solve(A, b)
-    for j in range(nu):
-        dy[j] = y[nu + j]
-        dy[nu + j] = b[j]
-    for i in range(n):
-        dy[2 * nu + i] = y[2 * nu + n + i]
-        dy[2 * nu + n + i] = b[nu + i]
-    for s in range(ns):
-        dy[2 * nu + 2 * n + s] = srates[s]
 
 
 @njit(cache=True)

@@ -18,16 +18,17 @@ from .controllers import (
 )
 from .histories import ZERO, BangBang, History, Step, Sum, Table
 from .joints import (
-                     Drive,
-                     ElasticJoint,
-                     Joint,
-                     JointMotion,
-                     PositionServo,
-                     Servo,
-                     TorqueDrive,
-                     VelocityServo,
-                     is_driven,
+    Drive,
+    ElasticJoint,
+    Joint,
+    JointMotion,
+    PositionServo,
+    Servo,
+    TorqueDrive,
+    VelocityServo,
+    is_driven,
 )
+from .loops import CLOSURE_KINDS, Closure, ClosureKind
 from .scenario import Scenario
 from .sensors import POINT_SENSOR_KINDS, PiezoSensor, PointSensor, PointSensorKind, Sensor
 from .settings import (
@@ -42,6 +43,7 @@ from .settings import (
 
 __all__ = [
     "BASE_KINDS",
+    "CLOSURE_KINDS",
     "CONTROLLER_KINDS",
     "INITIAL_STATES",
     "LOAD_FRAMES",
@@ -57,6 +59,8 @@ __all__ = [
     "Body",
     "Cart",
     "Chain",
+    "Closure",
+    "ClosureKind",
     "Controller",
     "DiscreteLTI",
     "Drive",

@@ -5,10 +5,13 @@ default basis"). A rule on the description only: the modes themselves are built 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from .base import Base
 from .chain import Chain
+from .histories import ZERO
 from .joints import TorqueDrive, initial_angle, is_driven
+from .loops import Closure
 
 
 def default_mode_shapes(tip_body: bool, carries_links: bool, free_hub: bool) -> str:
@@ -52,10 +55,23 @@ def free_hub(chain: Chain, k: int, base: Base | None = None) -> tuple[float, flo
     return base.inertia, radius
 
 
-def chosen_mode_shapes(chain: Chain, base: Base | None = None) -> tuple[str, ...]:
-    """Each link's basis: its own ``mode_shapes``, or for "auto" `default_mode_shapes`."""
+def held_by_loop(chain: Chain, k: int, closures: Sequence[Closure]) -> bool:
+    """Whether link k turns on a free joint (no torque) and a closure holds its tip: its
+    modes are then those of a member pinned at both ends."""
+    joint, length = chain.joints[k], chain.links[k].length
+    if not (isinstance(joint, TorqueDrive) and joint.torque == ZERO):
+        return False
+    return any((c.link == k and c.x >= length * (1 - 1e-12))
+               or (c.to_link == k and c.x_to >= length * (1 - 1e-12)) for c in closures)
+
+
+def chosen_mode_shapes(chain: Chain, base: Base | None = None,
+                       closures: Sequence[Closure] = ()) -> tuple[str, ...]:
+    """Each link's basis: its own ``mode_shapes``, or for "auto" "pinned_pinned" where a
+    closed loop holds it (`held_by_loop`), else `default_mode_shapes`."""
     return tuple(
+        link.mode_shapes if link.mode_shapes != "auto" else
+        "pinned_pinned" if held_by_loop(chain, k, closures) else
         default_mode_shapes(any(link.tip_body()[:2]),
                             carries_links(chain, k, base), free_hub(chain, k, base) is not None)
-        if link.mode_shapes == "auto" else link.mode_shapes
         for k, link in enumerate(chain.links))

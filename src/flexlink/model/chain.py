@@ -32,7 +32,8 @@ class Body:
         return self.inertia + self.mass * (dx * dx + dy * dy)
 
 
-ModeShapes = Literal["auto", "clamped_free", "tip_loaded", "outboard_loaded", "hub_loaded"]
+ModeShapes = Literal["auto", "clamped_free", "tip_loaded", "outboard_loaded", "hub_loaded",
+                     "pinned_pinned"]
 MODE_SHAPES: tuple[str, ...] = get_args(ModeShapes)
 
 
@@ -56,8 +57,9 @@ class Link:
     # link's tip mass and inertia; outboard_loaded: the tip body also holds the rest of the chain
     # (rigid, as at t = 0) — lets an inner link carry the outer links' tip moment; hub_loaded:
     # the modes of the link on its free joint or pinned hub, with its tip body or what its tip
-    # carries; auto: chosen from the chain (model.basis, docs/modes.md), the scenario files'
-    # default.
+    # carries; pinned_pinned: sine modes in the chord frame, for a member on a free joint whose
+    # far end a closed loop holds; auto: chosen from the chain (model.basis, docs/modes.md),
+    # the scenario files' default.
     mode_shapes: ModeShapes = "clamped_free"
     thickness: float | None = None  # m, section depth in the bending plane (strain sensors)
     bodies: tuple[Body, ...] = ()  # rigid bodies on the link besides the tip mass (`Body`)

@@ -9,6 +9,7 @@ from .base import Base
 from .chain import Chain
 from .controllers import Controller
 from .joints import is_driven
+from .loops import Closure
 from .sensors import Sensor
 from .settings import SimulationSettings, default_rtol
 
@@ -30,6 +31,8 @@ class Scenario:
     actuators: tuple[PiezoActuator, ...] = ()
     # sampled feedback loops from sensors to actuators (model/controllers.py)
     controllers: tuple[Controller, ...] = ()
+    # joints that close loops of the tree (model/loops.py): four-bars, slider-cranks
+    closures: tuple[Closure, ...] = ()
 
     def __post_init__(self) -> None:
         if self.settings.rtol is None:  # the default of the run's model and path

@@ -25,7 +25,7 @@ import numpy as np
 from flexlink.model import Link
 
 __all__ = ["ModeShapes", "clamped_free_modes", "hub_loaded_modes", "mode_shapes_for",
-           "offset_tip_modes", "tip_loaded_modes"]
+           "offset_tip_modes", "pinned_pinned_modes", "tip_loaded_modes"]
 
 _NORM_PANELS_PER_LAMBDA = 0.5  # quadrature panels per unit of λ for the normalisation integral
 _GAUSS_POINTS = 20  # Gauss–Legendre points per panel
@@ -408,6 +408,20 @@ def hub_loaded_modes(
                       "hub_loaded", extra)
 
 
+def pinned_pinned_modes(length: float, n: int) -> ModeShapes:
+    """Modes of a link pinned at both ends, in the frame of its chord: φ_i = √2 sin(iπx/L)
+    (λ_i = iπ, ∫φ_i² dx = L, φ_i'(0) > 0), for a member whose far end a closed loop holds
+    (a four-bar's coupler, a slider-crank's connecting rod) on a free joint. A tip mass at the
+    held end does not move the shapes (φ(L) = 0)."""
+    if n < 0:
+        raise ValueError("the number of modes must be >= 0")
+    lam = np.pi * np.arange(1, n + 1, dtype=float)
+    extra = np.zeros((5, n))
+    extra[1], extra[2] = 1.0, 2.0  # the bracket −cos − sin + cos + 2 sin = sin βx
+    return ModeShapes(length, n, lam, np.ones(n), np.zeros(n), np.full(n, math.sqrt(2.0)),
+                      "pinned_pinned", extra if n else None)
+
+
 def mode_shapes_for(link: Link) -> ModeShapes:
     """The link's assumed modes, chosen by ``link.mode_shapes``."""
     if link.mode_shapes == "clamped_free":
@@ -419,4 +433,6 @@ def mode_shapes_for(link: Link) -> ModeShapes:
                                     inertia, moment)
         return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI,
                                 mass, inertia)
+    if link.mode_shapes == "pinned_pinned":
+        return pinned_pinned_modes(link.length, link.modes)
     raise ValueError(f"unknown mode_shapes {link.mode_shapes!r} for link {link.name!r}")

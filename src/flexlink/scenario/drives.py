@@ -189,6 +189,9 @@ def read_driven_joint(table: Mapping[str, Any], path: str, base_dir: Path, p: Pr
         else:
             out["torque"] = read_history(table["torque"], f"{path}.torque", base_dir, p)
         out.update(read_fields(table, _TORQUE_INITIAL, path, p))
+    elif drive == "free":
+        p.unknown_keys(table, tuple(k for k in TORQUE.keys if k != "torque"), path)
+        out.update(read_fields(table, _TORQUE_INITIAL, path, p))
     elif drive == "servo":
         servo = read_field(table, SERVO, path, p)
         out["servo"] = servo
@@ -212,8 +215,9 @@ def read_driven_joint(table: Mapping[str, Any], path: str, base_dir: Path, p: Pr
 
 
 def build_drive(entry: Mapping[str, Any], reference: JointMotion | None) -> model.Drive:
-    if entry["drive"] == "torque":
-        return model.TorqueDrive(build_history(entry["torque"]),
+    if entry["drive"] in ("torque", "free"):
+        torque = build_history(entry["torque"]) if entry["drive"] == "torque" else model.ZERO
+        return model.TorqueDrive(torque,
                                   math.radians(entry["initial_angle_deg"]),
                                   math.radians(entry["initial_rate_deg_s"]),
                                   entry["motor_inertia"])

@@ -31,6 +31,7 @@ from ..model.basis import chosen_mode_shapes
 from . import schema
 from .actuators import build_actuator, read_actuators
 from .cart import build_cart, read_cart
+from .closures import build_closure, read_closures
 from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .elastic import read_elastic_joint
@@ -49,7 +50,7 @@ from .schema import (
 from .sensors import read_sensors
 
 SECTIONS = ("simulation", "base", "links", "joints", "sensors", "flexlink_version",
-            "actuators", "controllers")
+            "actuators", "controllers", "closures")
 # read by `flexlink compare` / `flexlink fit` (flexlink.experiment); `run` ignores them
 EXPERIMENT_SECTIONS = ("measurement", "fit")
 # the keys of each motion profile (flexlink.batch reads them to recognise sweep paths)
@@ -158,6 +159,12 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     _check_controller_names(controllers, actuators, reserved | {s.get("name") for s in sensors},
                             p)
     _check_controller_samples(controllers, simulation.get("t_end"), p)
+    closures = read_closures(p.table_array(raw, "closures", required=False), links, joints,
+                             simulation, raw.get("base") if isinstance(raw.get("base"), Mapping)
+                             else None, reserved | set(link_names) | sensor_names
+                             | {a.get("name") for a in actuators}, p)
+    if closures and controllers:
+        p.add("closures: controllers do not run with closed loops yet; drop [[controllers]]")
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
@@ -168,6 +175,8 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         resolved["actuators"] = actuators
     if controllers:
         resolved["controllers"] = controllers
+    if closures:
+        resolved["closures"] = closures
     return resolved, [m for m in motions if m is not None]  # all built: no problems
 
 
@@ -509,17 +518,20 @@ def _build(resolved: dict[str, Any], motions: list[JointMotion]) -> Scenario:
     entry = resolved.get("base")
     cart = build_cart(entry["cart"]) if entry is not None and "cart" in entry else None
     base = build_base(entry, resolved["joints"], cart)
-    chain = _with_chosen_bases(chain, base, resolved["links"])
+    closures = tuple(build_closure(c, index) for c in resolved.get("closures", ()))
+    chain = _with_chosen_bases(chain, base, resolved["links"], closures)
     actuators = tuple(build_actuator(a, index) for a in resolved.get("actuators", ()))
     controllers = tuple(build_controller(c) for c in resolved.get("controllers", ()))
     return Scenario(chain=chain, sensors=tuple(sensors), settings=settings, name=sim["name"],
-                    base=base, actuators=actuators, controllers=controllers)
+                    base=base, actuators=actuators, controllers=controllers,
+                    closures=closures)
 
 
-def _with_chosen_bases(chain: Chain, base: Any, entries: list[dict[str, Any]]) -> Chain:
+def _with_chosen_bases(chain: Chain, base: Any, entries: list[dict[str, Any]],
+                       closures: tuple[Any, ...] = ()) -> Chain:
     """``chain`` with "auto" replaced by the basis it stands for (model.basis), which the
     resolved ``entries`` then state too (the resolved scenario names the basis that ran)."""
-    kinds = chosen_mode_shapes(chain, base)
+    kinds = chosen_mode_shapes(chain, base, closures)
     for entry, kind in zip(entries, kinds):
         if entry.get("mode_shapes") == "auto":
             entry["mode_shapes"] = kind

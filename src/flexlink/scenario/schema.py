@@ -17,6 +17,7 @@ from typing import Any, Literal
 
 from ..model import (
     BASE_KINDS,
+    CLOSURE_KINDS,
     INITIAL_STATES,
     LOAD_FRAMES,
     METHODS,
@@ -233,7 +234,8 @@ LINKS = Section("links", [
     Field("damping_ratio", ge=0, lt=1, default=0.0, doc="modal damping ratio of every mode"),
     Field("modes", "integer", ge=1, le=20, default=4, doc="number of assumed modes"),
     Field("mode_shapes", "string", choices=MODE_SHAPES, default="auto", notes={
-        "auto": "chosen from the chain: `hub_loaded` for a link on a torque-driven joint or "
+        "auto": "chosen from the chain: `pinned_pinned` for a link on a free joint whose tip "
+                "a closure holds, else `hub_loaded` for a link on a torque-driven joint or "
                 "alone on a pinned base, else `outboard_loaded` for a link whose tip carries "
                 "the next link, else `tip_loaded` for a link with a tip mass or tip inertia, "
                 "else `clamped_free`; the resolved scenario states the choice",
@@ -243,7 +245,9 @@ LINKS = Section("links", [
                            "rest of the chain, rigid, as at t = 0",
         "hub_loaded": "the natural modes of the link on its free hub (motor or base inertia) "
                       "with its tip body or what its tip carries, less their rigid rotation; "
-                      "on a prescribed joint the loaded modes above"},
+                      "on a prescribed joint the loaded modes above",
+        "pinned_pinned": "√2 sin(iπx/L) in the frame of the chord: a member on a free joint "
+                         "whose far end a closed loop holds (a coupler, a connecting rod)"},
         doc="cantilever modes have no curvature at the tip, so a link with a tip inertia or "
             "carrying a heavy outer link converges slowly (~1/N) with them; the loaded modes "
             "converge fast there. Every run reports the estimated error of its frequencies in "
@@ -511,8 +515,10 @@ HISTORY_CSV = Section("history_csv", [
 
 # --- driven [[joints]] ----------------------------------------------------------------------
 
-DRIVE = Field("drive", "string", choices=("torque", "servo"), notes={
-    "torque": "a torque history drives the joint", "servo": "a servo follows `reference`"},
+DRIVE = Field("drive", "string", choices=("torque", "servo", "free"), notes={
+    "torque": "a torque history drives the joint", "servo": "a servo follows `reference`",
+    "free": "no torque: the joint turns freely (a passive joint of a closed loop); keys "
+            "`initial_angle_deg`, `initial_rate_deg_s`, `motor_inertia`, `base_point`"},
     doc="`joint<k>_torque` is the motor's torque")
 SERVO = Field("servo", "string", choices=("velocity_pid", "position"), notes={
     "velocity_pid": "V = sat(P e + I∫e + D ė), Ω = k_v V, τ = K_v(Ω − β̇)",
@@ -663,3 +669,27 @@ LTI = Section("lti", [
           doc="lti: feed-through"),
 ])
 SECTIONS.update({s.name: s for s in (ACTUATORS, CONTROLLERS, CONTROLLER_SISO, PPF, LTI)})
+
+# --- [[closures]] ---------------------------------------------------------------------------
+
+CLOSURES = Section("closures", [
+    Field("name", "string", rule=f"{NAME_RULE}; unique, not a link's, sensor's or actuator's",
+          doc="names the closure's force channels (`<name>_force_x`, `<name>_force_y`; "
+              "slider: `<name>_normal_force`)"),
+    Field("kind", "string", choices=CLOSURE_KINDS, default="revolute", notes={
+        "revolute": "pins the point to a point of `to_link` or to the fixed point `ground`",
+        "slider": "keeps the point on the fixed line through `ground` at `angle_deg`"}),
+    Field("link", "string", rule="the `name` of a link", doc="the link the point is on"),
+    Field("x", unit="m", ge=0, default=None, default_doc="the link's length (its tip)",
+          rule="≤ the link's length", doc="the point, from the link's joint"),
+    Field("to_link", "string", default=None, default_doc="none: the ground",
+          rule="revolute only; the `name` of another link", doc="the other link"),
+    Field("x_to", unit="m", ge=0, default=None, default_doc="`to_link`'s length (its tip)",
+          rule="≤ `to_link`'s length", doc="the point on `to_link`, from its joint"),
+    Field("ground", "pair", unit="m", default=None,
+          default_doc="required for a revolute without `to_link`; `[0, 0]` for a slider",
+          doc="revolute: the fixed pivot; slider: a point of the line"),
+    Field("angle_deg", unit="deg", default=0.0, rule="slider only",
+          doc="direction of the slider's line from the global X axis"),
+])
+SECTIONS[CLOSURES.name] = CLOSURES

@@ -19,6 +19,7 @@ from .schema import (
     BODIES,
     CART,
     CART_PROFILES,
+    CLOSURES,
     CONTROLLER_SISO,
     CONTROLLERS,
     ELASTIC,
@@ -175,4 +176,5 @@ BLOCKS: dict[str, Callable[[], str]] = {
     "controller_siso": lambda: key_table(CONTROLLER_SISO.fields),
     "ppf": lambda: key_table(PPF.fields),
     "lti": lambda: key_table(LTI.fields),
+    "closures": lambda: key_table(CLOSURES.fields),
 }

@@ -33,8 +33,16 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                            initial=settings.initial)
     method = settings.method if settings.method not in ("lawson", "magnus") else FAST_METHOD
     loop = sampled_loop(scenario, system, t) if scenario.controllers else None
-    solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol, method,
-                                          on_progress, loop=loop, with_outputs=True)
+    closures: dict = {}
+    if scenario.closures:  # loops closed by constraints (simulation/loops.py)
+        from .loops import closed_loop_outputs, closed_loop_solution
+
+        solution, closure_values, joint_forces, closures = closed_loop_solution(
+            scenario, system, t, on_progress)
+        outputs = closed_loop_outputs(system, solution, joint_forces)
+    else:
+        solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol, method,
+                                              on_progress, loop=loop, with_outputs=True)
     nu = len(system.free)
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
                                     solution.q_ddot[:, :nu])
@@ -58,6 +66,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     if system.base.cart is not None:
         values[cart_name("force")] = system.cart_force(t, p, pd, pdd, z, zd, zdd)
     values.update(tip_values(view, view.frames, z))
+    if scenario.closures:
+        values.update(closure_values)
     if loop is None:
         volts = system.voltages(t)  # open loop: the commanded voltages, clipped
         values.update({voltage_name(a.name): volts[:, j]
@@ -68,7 +78,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,
-        **({"controllers": len(scenario.controllers)} if loop else {}), **validity})
+        **({"controllers": len(scenario.controllers)} if loop else {}), **closures,
+        **validity})
 
 
 def sampled_loop(scenario: Scenario, system, t: np.ndarray, model: str = "first-order"

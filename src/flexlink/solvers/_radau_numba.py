@@ -30,8 +30,10 @@ from numba.extending import overload
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._forward_numba import rates as forward_rates
+from ..dynamics._loops_numba import rates as loop_rates
 from ..dynamics._momentum_numba import project as forward_project
 from ..dynamics.forward_kernel import ForwardData
+from ..dynamics.loops import LoopData
 from .solution import BLOW_UP
 
 LinearData = namedtuple("LinearData", ["A", "B"])
@@ -52,7 +54,7 @@ def linear_rates(d, w, u, y, dy):
 
 
 # kernel-data record class → its compiled rates(d, w, u, y, dy)
-_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates}
+_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates, LoopData: loop_rates}
 
 
 def model_rates(d, w, u, y, dy):
@@ -532,3 +534,11 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
             # Newton converged: the Jacobian is good enough for the smaller step (RADAU5
             # takes a fresh one here; ours costs a rate evaluation per state component).
     return 0
+
+
+@njit(cache=True)
+def rates_at(d, w, u, states, out):
+    """out[i] = f at states[i] with input row u[i] (the accelerations at the outputs of a
+    model without an outputs pass of its own: closed loops)."""
+    for i in range(states.shape[0]):
+        model_rates(d, w, u[i], states[i], out[i])

@@ -1,0 +1,303 @@
+"""Compiled (numba) kernels of closed loops: the closure equations Φ(q) = 0 of the
+loop-closing joints (`model.loops.Closure`), their Jacobian and acceleration terms, the
+projection of a state onto them, and the forward rates with the constraint forces
+(docs/derivation.md, "Closed loops"). The data layout (`LoopData`) is built by
+`dynamics/loops.py`.
+
+Positions. Frame k (link k's joint) turns by θ_k = θ_parent + Φ'_parent(L) q_parent + β_k and
+sits at the parent's deformed tip; a point at x on link k is
+
+    r = o_k + A(θ_k) [x − ½ q_kᵀ F_k(x) q_k, Φ_k(x) q_k],   F_k(x) = ∫₀ˣ Φ_k'ᵀ Φ_k' ds
+
+(the foreshortening term with geometric stiffening only) — the kinematics whose first-order
+expansion the forward model's maps T_k are, and whose second-order part its stiffening terms
+come from: through it the closure's force along a link stiffens (tension) or softens it. Φ(q) is
+written on these positions, so Φ, its Jacobian G = ∂Φ/∂q and γ (the part of Φ̈ without
+second derivatives, Φ̈ = G q̈ + γ) are exact for them; q = [p; z] over the whole x of the
+forward model (rigid coordinates first).
+
+Dynamics. The loop's constraint forces G^T λ join the forward equations: with A a = b the
+equations of `_forward_numba.assemble` in a = (p̈_free, z̈),
+
+    [ A       −G_aᵀ ] [a]   [ b                          ]
+    [ G_a      0    ] [λ] = [ −γ − G_prescribed p̈_prescribed ]
+
+(G_a: G's columns of the free and elastic coordinates). λ is the force the closing joint
+applies to the point of ``link`` (global axes, N; a slider: along the line's normal).
+Coordinate partitioning keeps Φ = 0 to round-off: `project` solves the dependent free
+coordinates (`LoopData.dep`) and their rates from the others by Newton's method at every
+evaluation, so the state the rates see is always closed and the integrated copies of the
+dependent coordinates are overwritten after the run.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from ._forward_numba import PRESCRIBED, _solve, assemble, state_rates
+from ._forward_numba import workspace as forward_workspace
+
+REVOLUTE, SLIDER = 0, 1
+NEWTON_ITERATIONS = 30
+
+LoopWork = namedtuple("LoopWork", [
+    "fw", "th", "om", "Jth", "o", "od", "og", "Jo", "r", "rd", "g", "Jr", "r2", "rd2", "g2",
+    "Jr2", "q", "v", "Phi", "G", "gam", "Gd", "step", "yp", "K", "rhs"])
+LoopWork.__doc__ = "Scratch arrays of the loop kernels (allocated once per run: see workspace)."
+
+
+def workspace(d, n_servos: int, n_state: int) -> LoopWork:
+    """Scratch arrays for LoopData d and states of n_state entries."""
+    f = d.fwd
+    N, nx = f.length.shape[0], f.n_x
+    nc = d.dep.shape[0]
+    m = f.free.shape[0] + nx - f.n_rigid
+    e = np.empty
+    return LoopWork(forward_workspace(f, n_servos), e(N), e(N), e((N, nx)), e((N, 2)),
+                    e((N, 2)), e((N, 2)), e((N, 2, nx)), e(2), e(2), e(2), e((2, nx)),
+                    e(2), e(2), e(2), e((2, nx)), e(nx), e(nx), e(nc), e((nc, nx)), e(nc),
+                    e((nc, nc)), e(nc), e(n_state), e((m + nc, m + nc)), e(m + nc))
+
+
+@njit(cache=True)
+def point(f, k, s, phi, fore, w, r, rd, g, Jr):
+    """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x) of the point
+    at s (m) on link k whose mode values there are phi, from the frames in w (`frames`).
+    With geometric stiffening the point is drawn in by the foreshortening ½ qᵀF q along the
+    link (F = ∫₀ˢ Φ'ᵀΦ' dx: ``fore``), the kinematics the stiffening terms come from."""
+    c, sn = np.cos(w.th[k]), np.sin(w.th[k])
+    o, nk = f.offset[k], f.n_modes[k]
+    dev = 0.0
+    dev_d = 0.0
+    ax, ax_d, ax_g = s, 0.0, 0.0  # along the link: s − ½qᵀFq, its rate, its γ −q̇ᵀFq̇
+    for i in range(nk):
+        dev += phi[i] * w.q[o + i]
+        dev_d += phi[i] * w.v[o + i]
+        if f.stiffening:
+            fq = 0.0
+            fv = 0.0
+            for j in range(nk):
+                fq += fore[i, j] * w.q[o + j]
+                fv += fore[i, j] * w.v[o + j]
+            ax -= 0.5 * w.q[o + i] * fq
+            ax_d -= w.v[o + i] * fq
+            ax_g -= w.v[o + i] * fv
+    aux, auy = c * ax - sn * dev, sn * ax + c * dev  # A u
+    adx, ady = c * ax_d - sn * dev_d, sn * ax_d + c * dev_d  # A u̇
+    om = w.om[k]
+    r[0], r[1] = w.o[k, 0] + aux, w.o[k, 1] + auy
+    rd[0] = w.od[k, 0] - om * auy + adx
+    rd[1] = w.od[k, 1] + om * aux + ady
+    g[0] = w.og[k, 0] - om * om * aux - 2.0 * om * ady + c * ax_g
+    g[1] = w.og[k, 1] - om * om * auy + 2.0 * om * adx + sn * ax_g
+    for col in range(Jr.shape[1]):
+        Jr[0, col] = w.Jo[k, 0, col] - auy * w.Jth[k, col]
+        Jr[1, col] = w.Jo[k, 1, col] + aux * w.Jth[k, col]
+    for i in range(nk):
+        Jr[0, o + i] += -sn * phi[i]
+        Jr[1, o + i] += c * phi[i]
+        if f.stiffening:
+            fq = 0.0
+            for j in range(nk):
+                fq += fore[i, j] * w.q[o + j]
+            Jr[0, o + i] -= c * fq
+            Jr[1, o + i] -= sn * fq
+
+
+@njit(cache=True)
+def frames(f, w):
+    """Every frame's angle, rate, Jacobian of the angle, origin, its velocity, γ and
+    Jacobian from q = w.q, q̇ = w.v (fixed base: the tree's branches start at fixed points)."""
+    N = f.length.shape[0]
+    nb = f.n_base
+    for k in range(N):
+        if f.attached[k]:
+            w.th[k] = w.q[nb + k]
+            w.om[k] = w.v[nb + k]
+            w.Jth[k, :] = 0.0
+            w.o[k, 0], w.o[k, 1] = f.point[k, 0], f.point[k, 1]
+            w.od[k, :] = 0.0
+            w.og[k, :] = 0.0
+            w.Jo[k, :, :] = 0.0
+        else:
+            j = k - 1
+            point(f, j, f.length[j], f.tip_value[j], f.fore_tip[j], w, w.r, w.rd, w.g, w.Jr)
+            o, nj = f.offset[j], f.n_modes[j]
+            th, om = w.th[j] + w.q[nb + k], w.om[j] + w.v[nb + k]
+            w.Jth[k, :] = w.Jth[j, :]
+            for i in range(nj):
+                th += f.tip_slope[j, i] * w.q[o + i]
+                om += f.tip_slope[j, i] * w.v[o + i]
+                w.Jth[k, o + i] += f.tip_slope[j, i]
+            w.th[k], w.om[k] = th, om
+            for a in range(2):
+                w.o[k, a], w.od[k, a], w.og[k, a] = w.r[a], w.rd[a], w.g[a]
+                w.Jo[k, a, :] = w.Jr[a, :]
+        w.Jth[k, nb + k] += 1.0
+
+
+@njit(cache=True)
+def constraints(d, w):
+    """Φ (w.Phi), G = ∂Φ/∂q (w.G) and γ (w.gam) at q = w.q, q̇ = w.v."""
+    f = d.fwd
+    frames(f, w)
+    for c in range(d.kind.shape[0]):
+        row = d.row[c]
+        point(f, d.link[c], d.x[c], d.phi[c], d.fore[c], w, w.r, w.rd, w.g, w.Jr)
+        if d.to_link[c] >= 0:
+            point(f, d.to_link[c], d.x_to[c], d.phi_to[c], d.fore_to[c], w, w.r2, w.rd2,
+                  w.g2, w.Jr2)
+        else:
+            w.r2[0], w.r2[1] = d.ground[c, 0], d.ground[c, 1]
+            w.g2[:] = 0.0
+            w.Jr2[:, :] = 0.0
+        if d.kind[c] == REVOLUTE:
+            for a in range(2):
+                w.Phi[row + a] = w.r[a] - w.r2[a]
+                w.gam[row + a] = w.g[a] - w.g2[a]
+                w.G[row + a, :] = w.Jr[a, :] - w.Jr2[a, :]
+        else:
+            nx_, ny_ = d.normal[c, 0], d.normal[c, 1]
+            w.Phi[row] = nx_ * (w.r[0] - d.ground[c, 0]) + ny_ * (w.r[1] - d.ground[c, 1])
+            w.gam[row] = nx_ * w.g[0] + ny_ * w.g[1]
+            w.G[row, :] = nx_ * w.Jr[0, :] + ny_ * w.Jr[1, :]
+
+
+@njit(cache=True)
+def load_state(d, w, u, y):
+    """w.q, w.v from the input row u (prescribed joints) and the state y (free, elastic)."""
+    f = d.fwd
+    N = f.length.shape[0]
+    nb, nr, nx = f.n_base, f.n_rigid, f.n_x
+    nu = f.free.shape[0]
+    n = nx - nr
+    w.q[:] = 0.0
+    w.v[:] = 0.0
+    for k in range(N):
+        w.q[nb + k], w.v[nb + k] = u[k], u[N + k]
+    for j in range(nu):
+        w.q[f.free[j]], w.v[f.free[j]] = y[j], y[nu + j]
+    for i in range(n):
+        w.q[nr + i], w.v[nr + i] = y[2 * nu + i], y[2 * nu + n + i]
+
+
+@njit(cache=True)
+def project(d, w, u, y):
+    """Overwrite the dependent coordinates of y (`LoopData.dep`, indices into the free ones)
+    and their rates with those that close the loops, Newton's method from y's values; True
+    when |Φ| ≤ d.tol (then w.Phi, w.G, w.gam hold the closed state's)."""
+    f = d.fwd
+    nu = f.free.shape[0]
+    nc = d.dep.shape[0]
+    load_state(d, w, u, y)
+    closed = False
+    for _ in range(NEWTON_ITERATIONS):
+        constraints(d, w)
+        big = 0.0
+        for c in range(nc):
+            big = max(big, abs(w.Phi[c]))
+        if big <= d.tol:
+            closed = True
+            break
+        for c in range(nc):
+            w.step[c] = -w.Phi[c]
+            for j in range(nc):
+                w.Gd[c, j] = w.G[c, f.free[d.dep[j]]]
+        _solve(w.Gd, w.step)
+        for j in range(nc):
+            w.q[f.free[d.dep[j]]] += w.step[j]
+    if not closed:
+        return False
+    # Rates: G q̇ = 0 for the dependent ones (linear: one solve), then γ at those rates.
+    for c in range(nc):
+        acc = 0.0
+        for col in range(f.n_x):
+            acc += w.G[c, col] * w.v[col]
+        w.step[c] = -acc
+        for j in range(nc):
+            w.Gd[c, j] = w.G[c, f.free[d.dep[j]]]
+    _solve(w.Gd, w.step)
+    for j in range(nc):
+        w.v[f.free[d.dep[j]]] += w.step[j]
+        y[d.dep[j]] = w.q[f.free[d.dep[j]]]
+        y[nu + d.dep[j]] = w.v[f.free[d.dep[j]]]
+    constraints(d, w)
+    return True
+
+
+@njit(cache=True)
+def solve_constrained(d, w, u, y):
+    """Project y (w.yp ← y closed) and solve the constrained equations: accelerations
+    (p̈_free, z̈) in w.rhs[:m], multipliers λ in w.rhs[m:]. False when the loop does not
+    close (a singular configuration): w.rhs is then NaN."""
+    f = d.fwd
+    N = f.length.shape[0]
+    nb, nr, nx = f.n_base, f.n_rigid, f.n_x
+    nu = f.free.shape[0]
+    n = nx - nr
+    m = nu + n
+    nc = d.dep.shape[0]
+    yp = w.yp
+    yp[:] = y
+    if not project(d, w, u, yp):
+        w.rhs[:] = np.nan
+        return False
+    fw = w.fw
+    assemble(f, fw, u, yp)
+    K, rhs = w.K, w.rhs
+    K[:, :] = 0.0
+    for r in range(m):
+        col = f.free[r] if r < nu else nr + r - nu
+        rhs[r] = fw.b[r]
+        for s in range(m):
+            K[r, s] = fw.A[r, s]
+        for c in range(nc):
+            K[r, m + c] = -w.G[c, col]
+            K[m + c, r] = w.G[c, col]
+    for c in range(nc):
+        acc = -w.gam[c]
+        for k in range(N):
+            if f.joint_kind[k] == PRESCRIBED:
+                acc -= w.G[c, nb + k] * u[2 * N + k]
+        rhs[m + c] = acc
+    _solve(K, rhs)
+    return True
+
+
+@njit(cache=True)
+def rates(d, w, u, y, dy):
+    """dy/dt of y = [p_free, ṗ_free, z, ż, servo integrals] on the closed loops (the
+    dependent coordinates' entries of y are not read: see `project`)."""
+    if not solve_constrained(d, w, u, y):
+        dy[:] = np.nan
+        return
+    state_rates(d.fwd, w.fw, w.yp, w.rhs, dy)
+
+
+@njit(cache=True)
+def closed_states(d, w, u, states, lam, joint_forces, residual):
+    """After a run: each state (nt, ·) projected onto the loops in place, the multipliers
+    λ (nt, n_c), the constraint forces' torques on the joints' rows (G^T λ, nt × N) and the
+    largest |Φ| of the projected state (nt,; NaN where it does not close)."""
+    f = d.fwd
+    N = f.length.shape[0]
+    nu = f.free.shape[0]
+    m = nu + f.n_x - f.n_rigid
+    nc = d.dep.shape[0]
+    for t in range(states.shape[0]):
+        ok = solve_constrained(d, w, u[t], states[t])
+        states[t, :] = w.yp
+        big = 0.0
+        for c in range(nc):
+            lam[t, c] = w.rhs[m + c]
+            big = max(big, abs(w.Phi[c]))
+        residual[t] = big if ok else np.nan
+        for k in range(N):
+            acc = 0.0
+            for c in range(nc):
+                acc += w.G[c, f.n_base + k] * w.rhs[m + c]
+            joint_forces[t, k] = acc

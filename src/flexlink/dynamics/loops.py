@@ -1,0 +1,234 @@
+"""Closed loops on the first-order forward model: a `ForwardSystem` (the tree: links on
+their joints, branches on the base) and the joints that close its loops
+(`model.loops.Closure`), as data for the compiled kernels (`_loops_numba.py`, where the
+equations are written out).
+
+`LoopSystem` checks what the kernels need before anything runs — a fixed base, enough free
+joints, independent closure equations, a loop that closes at t = 0 — and chooses the
+dependent coordinates: the free joint angles that the closures determine, solved from the
+others at every evaluation (coordinate partitioning).
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..errors import SimulationError
+from ..model import Closure
+from .forward import ForwardSystem
+from .forward_kernel import ForwardData, inputs, pack
+
+LoopData = namedtuple("LoopData", [
+    "fwd", "kind", "link", "x", "phi", "fore", "to_link", "x_to", "phi_to", "fore_to",
+    "ground", "normal", "row", "dep", "tol"])
+LoopData.__doc__ = ("Constant arrays of the closures for the kernels: fwd the tree's "
+                    "ForwardData; per closure its kind (REVOLUTE, SLIDER), link, point x (m) "
+                    "with its mode values and foreshortening matrix ∫₀ˣΦ'ᵀΦ' there, the "
+                    "other link (−1: ground) with its point and those, the ground point (m), the slider line's unit normal, its "
+                    "first equation row; dep the dependent coordinates (indices into the "
+                    "free ones); tol the closure's Newton tolerance (m).")
+
+# |Φ| the projection reaches, relative to the loop's size (the links' total length)
+CLOSURE_TOLERANCE = 1e-12
+FORE_POINTS = 48  # Gauss points of ∫₀ˣΦ'ᵀΦ' at a closure's point (the modes: ≤ 20 half-waves)
+
+
+class LoopSystem:
+    """The tree ``system`` with its loop-closing ``closures``.
+
+    Raises SimulationError naming ``closures[i]`` when the loops cannot be held: a moving
+    base, fewer free joints than closure equations, dependent equations, or a loop that
+    does not close at t = 0 from the joints' initial angles (the residual in metres)."""
+
+    def __init__(self, system: ForwardSystem, closures: Sequence[Closure]) -> None:
+        self.system = system
+        self.closures = tuple(closures)
+        if system.base.kind != "fixed":
+            raise SimulationError("closures: loops close on a fixed base only (base.type = "
+                                  f"{system.base.kind!r}); drop [base] or set type = \"fixed\"")
+        rows = np.cumsum([0] + [c.equations for c in self.closures])
+        self.n_c = int(rows[-1])
+        if len(system.free) < self.n_c:
+            raise SimulationError(
+                f"closures: {self.n_c} closure equations need as many joints whose angle "
+                f"follows from the dynamics (drive = \"free\", \"torque\" or \"servo\"); the "
+                f"tree has {len(system.free)}: the mechanism has more prescribed joints than "
+                "degrees of freedom")
+        self.size = float(sum(d.length for d in system.modal))
+        self.fwd: ForwardData = pack(system)
+        self._rows = rows
+        self.dep = np.zeros(0, dtype=np.int64)
+        self.data = self._pack(np.arange(self.n_c, dtype=np.int64))
+        self.y0 = self._closed_start()
+
+    def _pack(self, dep: np.ndarray) -> LoopData:
+        from ._loops_numba import REVOLUTE, SLIDER
+
+        modal, nc = self.system.modal, len(self.closures)
+        nm = max(1, max(d.n for d in modal))
+
+        def values(link: int, x: float) -> np.ndarray:
+            out = np.zeros(nm)
+            if link >= 0 and modal[link].n:
+                out[:modal[link].n] = modal[link].shapes.evaluate(np.array([x]))[0]
+            return out
+
+        def fore(link: int, x: float) -> np.ndarray:
+            out = np.zeros((nm, nm))
+            if link >= 0 and modal[link].n:
+                g, wg = np.polynomial.legendre.leggauss(FORE_POINTS)
+                s = 0.5 * x * (g + 1.0)
+                slope = modal[link].shapes.evaluate(s, 1)
+                n = modal[link].n
+                out[:n, :n] = (slope * (0.5 * x * wg)[:, None]).T @ slope
+            return out
+
+        to = [c.to_link if c.to_link is not None else -1 for c in self.closures]
+        return LoopData(
+            fwd=self.fwd,
+            kind=np.array([REVOLUTE if c.kind == "revolute" else SLIDER for c in self.closures],
+                          dtype=np.int64),
+            link=np.array([c.link for c in self.closures], dtype=np.int64),
+            x=np.array([c.x for c in self.closures], dtype=float),
+            phi=np.array([values(c.link, c.x) for c in self.closures]).reshape(nc, nm),
+            fore=np.array([fore(c.link, c.x) for c in self.closures]).reshape(nc, nm, nm),
+            to_link=np.array(to, dtype=np.int64),
+            x_to=np.array([c.x_to for c in self.closures], dtype=float),
+            phi_to=np.array([values(j, c.x_to) for c, j in zip(self.closures, to)]
+                            ).reshape(nc, nm),
+            fore_to=np.array([fore(j, c.x_to) for c, j in zip(self.closures, to)]
+                             ).reshape(nc, nm, nm),
+            ground=np.array([c.ground for c in self.closures], dtype=float).reshape(nc, 2),
+            normal=np.array([(-np.sin(c.angle), np.cos(c.angle)) for c in self.closures]
+                            ).reshape(nc, 2),
+            row=self._rows[:-1].astype(np.int64), dep=np.asarray(dep, dtype=np.int64),
+            tol=CLOSURE_TOLERANCE * self.size)
+
+    def workspace(self, n_state: int):
+        from ._loops_numba import workspace
+
+        return workspace(self.data, len(self.system.servos), n_state)
+
+    def _closed_start(self) -> np.ndarray:
+        """The initial state with the dependent joints (chosen here) closing the loops."""
+        from ._loops_numba import constraints, load_state, project
+
+        y = self.system.initial_state()
+        u0 = inputs(self.system, np.array([0.0]))[0]
+        work = self.workspace(y.size)
+        load_state(self.data, work, u0, y)
+        constraints(self.data, work)
+        self.dep = self._dependent(work.G)
+        self.data = self._pack(self.dep)
+        start = y.copy()
+        if not project(self.data, work, u0, y):
+            raise SimulationError(self._open_message(
+                self._closest(work, u0, start), "does not close at t = 0 (the residual is "
+                "the least its free joints reach from their initial angles)"))
+        return y
+
+    def _closest(self, work, u0: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Φ (m) where the free joints bring it closest to zero (least squares from y)."""
+        from scipy.optimize import least_squares
+
+        from ._loops_numba import constraints, load_state
+
+        free = self.system.free
+
+        def residual(angles: np.ndarray) -> np.ndarray:
+            trial = y.copy()
+            trial[:len(free)] = angles
+            load_state(self.data, work, u0, trial)
+            constraints(self.data, work)
+            return work.Phi.copy()
+
+        def jacobian(angles: np.ndarray) -> np.ndarray:
+            residual(angles)
+            return work.G[:, free].copy()
+
+        best = least_squares(residual, y[:len(free)], jac=jacobian, xtol=1e-12, ftol=1e-12)
+        return residual(best.x)
+
+    def _dependent(self, G: np.ndarray) -> np.ndarray:
+        """Indices (into the free coordinates) of the dependent ones: from the last free
+        joint backwards, each whose column of G adds to the rank (a driven crank first in
+        the tree stays independent)."""
+        free = self.system.free
+        chosen: list[int] = []
+        for j in range(len(free) - 1, -1, -1):
+            trial = chosen + [j]
+            cols = G[:, [free[i] for i in trial]]
+            if np.linalg.matrix_rank(cols, tol=1e-9 * max(1.0, np.abs(G).max())) == len(trial):
+                chosen = trial
+            if len(chosen) == self.n_c:
+                return np.array(sorted(chosen), dtype=np.int64)
+        raise SimulationError(self._open_message(
+            np.full(self.n_c, np.nan), "has equations the free joints cannot meet (dependent "
+            "closure equations, or a mechanism at a singular configuration at t = 0)"))
+
+    def _open_message(self, phi: np.ndarray, why: str) -> str:
+        parts = []
+        for i, c in enumerate(self.closures):
+            res = phi[self._rows[i]:self._rows[i + 1]]
+            size = f"residual {np.linalg.norm(res):.3g} m" if np.all(np.isfinite(res)) else ""
+            parts.append(f"closures[{i}] ({c.name!r}{', ' + size if size else ''})")
+        return ("the mechanism " + why + ": " + "; ".join(parts) + ". Give the free joints' "
+                "initial_angle_deg near a closed configuration, or check the closures' "
+                "links, points and ground")
+
+
+def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """States at times t projected onto the loops (a copy), the multipliers λ (nt, n_c:
+    force on each closure's point, N, global axes; a slider's along its line's normal), the
+    constraint forces' torque on each joint's row (nt, N) and the largest |Φ| (nt,), m."""
+    from ._loops_numba import closed_states as kernel
+
+    out = np.ascontiguousarray(states, dtype=float).copy()
+    nt = out.shape[0]
+    lam = np.empty((nt, loops.n_c))
+    joint = np.empty((nt, len(loops.system.chain.links)))
+    residual = np.empty(nt)
+    kernel(loops.data, loops.workspace(out.shape[1]), inputs(loops.system, t), out, lam, joint,
+           residual)
+    return out, lam, joint, residual
+
+
+def reduced_jacobian(loops: LoopSystem, t: float, y: np.ndarray | None = None,
+                     step: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """The Jacobian ∂f/∂y of the closed mechanism's rates at time t (s) and state y (default:
+    the closed initial state) over its independent components — the free coordinates not
+    dependent on the closures, the elastic ones, their rates (and servo integrals) — by
+    central differences of the compiled rates (step relative to each component's scale);
+    and those components' indices into y."""
+    from ._loops_numba import rates
+
+    y = loops.y0.copy() if y is None else np.asarray(y, dtype=float).copy()
+    nu = len(loops.system.free)
+    dep = {int(j) for j in loops.dep} | {int(j) + nu for j in loops.dep}
+    keep = np.array([i for i in range(y.size) if i not in dep], dtype=int)
+    u = inputs(loops.system, np.array([float(t)]))[0]
+    work = loops.workspace(y.size)
+    J = np.empty((keep.size, keep.size))
+    up, down = np.empty_like(y), np.empty_like(y)
+    for c, i in enumerate(keep):
+        h = step * max(1.0, abs(y[i]))
+        for sign, out in ((1.0, up), (-1.0, down)):
+            trial = y.copy()
+            trial[i] += sign * h
+            rates(loops.data, work, u, trial, out)
+        J[:, c] = (up[keep] - down[keep]) / (2 * h)
+    return J, keep
+
+
+def loop_frequencies(loops: LoopSystem, t: float = 0.0, y: np.ndarray | None = None
+                     ) -> np.ndarray:
+    """Natural frequencies (Hz, ascending, the zero ones of free mechanism motions included)
+    of the closed mechanism linearised about time t and state y (default: its closed
+    initial state): |Im λ|/2π of the eigenvalues of `reduced_jacobian`, which come in pairs
+    ±iω (a free motion: a double zero), one value per pair."""
+    J, _ = reduced_jacobian(loops, t, y)
+    return np.sort(np.abs(np.linalg.eigvals(J).imag))[::2] / (2 * np.pi)

@@ -1,0 +1,69 @@
+"""Forward runs of closed loops: the compiled Radau IIA integrator (`radau.py`) on the
+loops' rates (`dynamics/_loops_numba.py`: the tree's equations with the constraint forces,
+on states projected onto the closures), then the output states projected again, with the
+constraint forces at the outputs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..dynamics.forward_kernel import breakpoints, inputs
+from ..dynamics.loops import LoopSystem, closed_states
+from ..errors import SimulationError
+from .radau import RadauStop, integrate_radau
+from .solution import LOCAL_CONTROL, Accuracy, Progress, Solution
+
+METHOD = "radau5"
+
+
+@dataclass(frozen=True)
+class LoopRun:
+    """A closed-loop run: the Solution (coordinates [p_free, z]), the multipliers λ
+    (nt, n_c; N), their torques on the joints' rows (nt, N; N·m) and the largest closure
+    residual |Φ| of each output state (nt,; m)."""
+
+    solution: Solution
+    multipliers: np.ndarray
+    joint_forces: np.ndarray
+    residual: np.ndarray
+
+
+def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: float,
+                    on_progress: Progress | None = None) -> LoopRun:
+    """Integrate the closed mechanism from its closed initial state (`LoopSystem.y0`)."""
+    system = loops.system
+    y0 = loops.y0
+    nu, n = len(system.free), system.n
+    links = np.repeat(np.arange(len(system.modal)), [d.n for d in system.modal])
+    ns = y0.size - 2 * nu - 2 * n
+    groups = np.concatenate([np.arange(2 * nu), 2 * nu + links,
+                             2 * nu + len(system.modal) + links,
+                             2 * nu + 2 * len(system.modal) + np.arange(ns)])
+    try:
+        states, stats = integrate_radau(
+            loops.data, loops.workspace(y0.size), y0, t_out, lambda t: inputs(system, t),
+            breakpoints(system), rtol, atol, groups, np.inf, on_progress=on_progress,
+            z=slice(2 * nu, 2 * nu + n))
+    except RadauStop as exc:
+        raise SimulationError(
+            f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
+            "have reached a singular configuration (a toggle position) or left the "
+            "first-order model's range") from None
+    closed, lam, joint, residual = closed_states(loops, t_out, states)
+    if not np.all(np.isfinite(residual)):
+        at = float(t_out[np.argmax(~np.isfinite(residual))])
+        raise SimulationError(f"the closed loops could not be closed at t = {at:.6g} s: "
+                              "the mechanism reached a singular configuration")
+    from ._radau_numba import rates_at
+
+    rates = np.empty_like(closed)
+    rates_at(loops.data, loops.workspace(closed.shape[1]), inputs(system, t_out), closed, rates)
+    p, pd = closed[:, :nu], closed[:, nu:2 * nu]
+    z, zd = closed[:, 2 * nu:2 * nu + n], closed[:, 2 * nu + n:2 * nu + 2 * n]
+    solution = Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
+                        np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
+                        METHOD, stats, extra=closed[:, 2 * nu + 2 * n:],
+                        accuracy=Accuracy(rtol, None, LOCAL_CONTROL))
+    return LoopRun(solution, lam, joint, residual)

@@ -1,0 +1,127 @@
+"""The closure kinematics of the compiled loop kernels (dynamics/_loops_numba.py) against
+the exact kinematics of tests/validation/brute_force.py (positions, with and without the
+foreshortening of geometric stiffening), the Jacobian G against differences of Φ and γ
+against the second difference of Φ along a motion with q̈ = 0; and the constrained
+accelerations against the numpy ForwardSystem's equations with the multipliers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from flexlink.dynamics._loops_numba import constraints, load_state, solve_constrained
+from flexlink.dynamics.forward import ForwardSystem
+from flexlink.dynamics.forward_kernel import inputs
+from flexlink.dynamics.loops import LoopSystem
+from flexlink.model import ZERO, Base, Chain, Closure, Link, TorqueDrive
+from flexlink.motion.profiles import Spinup
+from tests.validation.brute_force import chain_points
+
+CRANK, COUPLER, ROCKER, D = 0.1, 0.3, 0.25, (0.3, 0.05)
+
+
+def _four_bar(stiffening: bool, x: float = COUPLER) -> LoopSystem:
+    links = (Link("crank", CRANK, 2.0, 40.0, modes=2),
+             Link("coupler", COUPLER, 0.3, 20.0, modes=3, mode_shapes="pinned_pinned"),
+             Link("rocker", ROCKER, 1.0, 30.0, modes=2, tip_mass=0.05))
+    joints = (Spinup(100.0, 0.0, 0.5, 80.0), TorqueDrive(ZERO, math.radians(-55.0)),
+              TorqueDrive(ZERO, math.radians(100.0)))
+    system = ForwardSystem(Chain(links, joints), Base("fixed", attachments=((2, D),)),
+                           stiffening)
+    return LoopSystem(system, [Closure("pin", "revolute", 1, x, 2, ROCKER)])
+
+
+def _state(loops: LoopSystem, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A closed state with random deflections and rates (rates not closing the loop: the
+    kinematics do not need it)."""
+    rng = np.random.default_rng(seed)
+    y = loops.y0.copy()
+    nu, n = len(loops.system.free), loops.system.n
+    y[2 * nu:2 * nu + n] = 2e-3 * rng.standard_normal(n)
+    y[nu:2 * nu] = rng.standard_normal(nu)
+    y[2 * nu + n:2 * nu + 2 * n] = 0.3 * rng.standard_normal(n)
+    return y, inputs(loops.system, np.array([0.2]))[0]
+
+
+def _phi(loops: LoopSystem, work, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    work.q[:] = q
+    work.v[:] = v
+    constraints(loops.data, work)
+    return work.Phi.copy()
+
+
+@pytest.mark.parametrize("stiffening", [False, True])
+def test_closure_positions_are_the_exact_kinematics(stiffening: bool) -> None:
+    loops = _four_bar(stiffening)
+    y, u = _state(loops, 1)
+    work = loops.workspace(y.size)
+    load_state(loops.data, work, u, y)
+    phi = _phi(loops, work, work.q.copy(), work.v.copy())
+    q = work.q
+    modal = loops.system.modal
+    nr = loops.system.n_rigid
+    z = q[nr:]
+    chain = chain_points(modal[:2], q[:2], z[:modal[0].n + modal[1].n], stiffening)
+    rocker = chain_points(modal[2:], q[2:3], z[modal[0].n + modal[1].n:], stiffening)
+    gap = chain[1][1][:, -1] - (np.asarray(D) + rocker[0][1][:, -1])
+    assert np.abs(phi - gap).max() < 1e-9 * (CRANK + COUPLER)
+
+
+@pytest.mark.parametrize("stiffening", [False, True])
+def test_jacobian_and_acceleration_terms_are_derivatives_of_the_closure(stiffening: bool
+                                                                        ) -> None:
+    loops = _four_bar(stiffening, x=0.21)  # a point inside the coupler, not its tip
+    y, u = _state(loops, 2)
+    work = loops.workspace(y.size)
+    load_state(loops.data, work, u, y)
+    q0, v0 = work.q.copy(), work.v.copy()
+    constraints(loops.data, work)
+    G, gamma = work.G.copy(), work.gam.copy()
+    h = 1e-6
+    for c in range(q0.size):
+        e = np.zeros_like(q0)
+        e[c] = h
+        fd = (_phi(loops, work, q0 + e, v0) - _phi(loops, work, q0 - e, v0)) / (2 * h)
+        assert np.abs(fd - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
+    tau = 1e-4
+    samples = [_phi(loops, work, q0 + v0 * s, v0) for s in (-2 * tau, -tau, 0.0, tau, 2 * tau)]
+    a, b, c_, d, e = samples
+    second = (-a + 16 * b - 30 * c_ + 16 * d - e) / (12 * tau**2)
+    assert np.abs(second - gamma).max() < 1e-5 * max(1.0, np.abs(gamma).max())
+    assert np.abs(G @ v0 - (a - 8 * b + 8 * d - e) / (12 * tau)).max() < 1e-8
+
+
+@pytest.mark.parametrize("stiffening", [False, True])
+def test_constrained_accelerations_satisfy_the_numpy_equations(stiffening: bool) -> None:
+    """M ẍ + r = Q + Gᵀλ on the free and elastic rows (ForwardSystem.matrices, the
+    reference) and G ẍ + γ = 0, at the kernel's accelerations and multipliers."""
+    loops = _four_bar(stiffening)
+    y, u = _state(loops, 3)
+    work = loops.workspace(y.size)
+    assert solve_constrained(loops.data, work, u, y)
+    system = loops.system
+    nu, n, nr = len(system.free), system.n, system.n_rigid
+    yp = work.yp
+    m = nu + n
+    acc, lam = work.rhs[:m].copy(), work.rhs[m:].copy()
+    t = np.array([0.2])
+    p_free, pd_free = yp[None, :nu], yp[None, nu:2 * nu]
+    pdd_free = acc[None, :nu]
+    p, pd, pdd = system.rigid_state(t, p_free, pd_free, pdd_free)
+    M, C, K, f = (a[0] for a in system.matrices(p, pd, pdd))
+    z, zd, zdd = yp[2 * nu:2 * nu + n], yp[2 * nu + n:2 * nu + 2 * n], acc[nu:]
+    x_dd = np.concatenate([np.zeros(nr), zdd])  # δp̈ = 0: the rigid ones are in f(p̈)
+    x_d = np.concatenate([np.zeros(nr), zd])
+    x = np.concatenate([np.zeros(nr), z])
+    Q, _ = system.applied(t, p, pd, np.zeros((1, 0)))
+    load_state(loops.data, work, u, yp)
+    work.v[:nr] = pd[0]
+    constraints(loops.data, work)
+    residual = M @ x_dd + C @ x_d + K @ x - f - Q[0] - work.G.T @ lam
+    rows = system.free + list(range(nr, nr + n))
+    scale = np.abs(f).max()
+    assert np.abs(residual[rows]).max() < 1e-9 * scale
+    q_dd = np.concatenate([pdd[0], zdd])
+    assert np.abs(work.G @ q_dd + work.gam).max() < 1e-9 * np.abs(work.gam).max()

@@ -1,0 +1,194 @@
+"""A geometrically exact reference for closed loops in Exudyn: the slider-crank with a
+prescribed crank and an elastic connecting rod (Simo–Reissner beams,
+``ObjectBeamGeometricallyExact2D`` on ``NodeRigidBody2D`` nodes, as
+tests/validation/exudyn_reference.py).
+
+The crank is one element of stiffness ``STIFF`` times the rod's, its root node held at the
+origin and turned by the prescribed angle (a ``CoordinateConstraint`` with offset user
+functions); the rod's root node shares the crank tip's position (two coordinate constraints,
+its rotation free: the crank pin), its tip node stays on the X axis (the piston: one
+coordinate constraint) and carries the piston's mass. Starts at rest in the closed rigid
+configuration, undeformed. Output: the rod's midpoint deflection from its chord,
+n_chord · (r_mid − (r_root + r_tip)/2), the piston's X and the crank angle."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any
+
+import numpy as np
+
+from flexlink.model import JointMotion, Link
+
+from .exudyn_reference import _Memo, default_section, solve_dynamic
+
+STIFF = 1e3  # the crank's bending and axial stiffness, times the rod's: rigid
+
+
+def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, EA: float,
+                                 t_end: float, dt_out: float, elements: int = 16,
+                                 dt: float = 5e-5, newton_rel_tol: float = 1e-8
+                                 ) -> dict[str, Any]:
+    """``crank`` (m) turned by ``motion`` (its angle from the X axis); ``rod``: the elastic
+    connecting rod (its tip mass: the piston); EA (N) the rod's axial stiffness (Exudyn's
+    beams stretch). Returns t, mid_deflection (m), piston_x (m), crank_angle (rad)."""
+    import exudyn as exu
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        MarkerNodeCoordinate,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectBeamGeometricallyExact2D,
+        ObjectRigidBody2D,
+        SensorNode,
+    )
+
+    if elements % 2:
+        raise ValueError("an even number of elements: the midpoint is a node")
+    theta0 = float(motion.evaluate(np.asarray(0.0))[0])
+    phi0 = -math.asin(crank * math.sin(theta0) / rod.length)
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
+
+    def coord(node: int, c: int) -> int:
+        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
+
+    sec = default_section(rod, EA)
+    pin = crank * np.array([math.cos(theta0), math.sin(theta0)])
+    c0 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, theta0]))
+    c1 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[pin[0], pin[1], theta0]))
+    mbs.AddObject(ObjectBeamGeometricallyExact2D(
+        nodeNumbers=[c0, c1], length=crank, massPerLength=rod.mass_per_length,
+        crossSectionInertia=sec.rhoI, bendingStiffness=STIFF * rod.EI,
+        axialStiffness=STIFF * EA, shearStiffness=STIFF * sec.GA))
+    keep = [_Memo(motion, 0, theta0), _Memo(motion, 1, 0.0)]
+    for c in (0, 1):
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(c0, c)]))
+    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(c0, 2)],
+                                       offsetUserFunction=keep[0], offsetUserFunction_t=keep[1]))
+    e = np.array([math.cos(phi0), math.sin(phi0)])
+    x = np.linspace(0.0, rod.length, elements + 1)
+    nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(pin + xi * e), phi0]))
+             for xi in x]
+    for a, b in itertools.pairwise(nodes):
+        mbs.AddObject(ObjectBeamGeometricallyExact2D(
+            nodeNumbers=[a, b], length=float(rod.length / elements),
+            massPerLength=rod.mass_per_length, crossSectionInertia=sec.rhoI,
+            bendingStiffness=rod.EI, axialStiffness=EA, shearStiffness=sec.GA))
+    for c in (0, 1):  # the crank pin
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(c1, c), coord(nodes[0], c)]))
+    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(nodes[-1], 1)]))
+    if rod.tip_mass > 0.0:  # the piston: a point mass (a vanishing rotary inertia)
+        mbs.AddObject(ObjectRigidBody2D(nodeNumber=nodes[-1], mass=rod.tip_mass,
+                                        inertia=1e-9))
+    sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
+                                        outputVariableType=exu.OutputVariableType.Coordinates))
+               for n in (c0, nodes[0], nodes[elements // 2], nodes[-1])]
+    wall, t = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-5, newton_rel_tol, 1.0)
+
+    def series(sensor: int, node: int) -> np.ndarray:
+        data = np.asarray(mbs.GetSensorStoredData(sensor))
+        out = np.stack([np.interp(t, data[:, 0], data[:, c]) for c in range(1, data.shape[1])],
+                       axis=1)
+        return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
+
+    crank_c, root, mid, tip = (series(s, n) for s, n in
+                               zip(sensors, (c0, nodes[0], nodes[elements // 2], nodes[-1])))
+    chord = tip[:, :2] - root[:, :2]
+    normal = np.stack([-chord[:, 1], chord[:, 0]], 1) / np.linalg.norm(chord, axis=1)[:, None]
+    deflection = np.sum(normal * (mid[:, :2] - 0.5 * (root[:, :2] + tip[:, :2])), 1)
+    return {"t": t, "mid_deflection": deflection, "piston_x": tip[:, 0],
+            "crank_angle": crank_c[:, 2], "wall_time_s": wall, "keep": keep}
+
+
+def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
+                             pivot: tuple[float, float], motion: JointMotion,
+                             angles: tuple[float, float, float], EA: float, t_end: float,
+                             dt_out: float, elements: int = 16, dt: float = 5e-5,
+                             newton_rel_tol: float = 1e-8) -> dict[str, Any]:
+    """A four-bar: the crank (one element, ``STIFF`` times the coupler's stiffness) turned by
+    ``motion`` about the origin, the elastic coupler pinned to its tip, the rocker (elastic
+    beams of its own EI; ``EA`` for both) pinned to the ground at ``pivot`` and to the
+    coupler's tip. ``angles``: the absolute angles (rad) of crank, coupler and rocker that
+    close the loop at t = 0 (at rest, undeformed). Returns t, mid_deflection (the coupler's
+    midpoint from its chord, m), rocker_angle (rad, of the rocker's chord)."""
+    import exudyn as exu
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        MarkerNodeCoordinate,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectBeamGeometricallyExact2D,
+        SensorNode,
+    )
+
+    if elements % 2:
+        raise ValueError("an even number of elements: the midpoint is a node")
+    theta0 = float(motion.evaluate(np.asarray(0.0))[0])
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
+
+    def coord(node: int, c: int) -> int:
+        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
+
+    def beam(start: np.ndarray, angle: float, link: Link, n: int, stiff: float) -> list[int]:
+        sec = default_section(link, EA)
+        e = np.array([math.cos(angle), math.sin(angle)])
+        x = np.linspace(0.0, link.length, n + 1)
+        nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(start + xi * e), angle]))
+                 for xi in x]
+        for a, b in itertools.pairwise(nodes):
+            mbs.AddObject(ObjectBeamGeometricallyExact2D(
+                nodeNumbers=[a, b], length=float(link.length / n),
+                massPerLength=link.mass_per_length, crossSectionInertia=sec.rhoI,
+                bendingStiffness=stiff * link.EI, axialStiffness=stiff * EA,
+                shearStiffness=stiff * sec.GA))
+        return nodes
+
+    def pin(a: int, b: int) -> None:
+        for c in (0, 1):
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(a, c), coord(b, c)]))
+
+    crank_link = Link("crank", crank, coupler.mass_per_length, coupler.EI)
+    cn = beam(np.zeros(2), theta0, crank_link, 1, STIFF)
+    keep = [_Memo(motion, 0, theta0), _Memo(motion, 1, 0.0)]
+    for c in (0, 1):
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(cn[0], c)]))
+    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(cn[0], 2)],
+                                       offsetUserFunction=keep[0], offsetUserFunction_t=keep[1]))
+    tip = crank * np.array([math.cos(theta0), math.sin(theta0)])
+    kn = beam(tip, angles[1], coupler, elements, 1.0)
+    pin(cn[-1], kn[0])
+    rigid_rocker = not math.isfinite(rocker.EI)
+    rocker_beam = Link("rocker", rocker.length, rocker.mass_per_length,
+                       coupler.EI if rigid_rocker else rocker.EI)
+    rn = beam(np.asarray(pivot, dtype=float), angles[2], rocker_beam,
+              2 if rigid_rocker else elements, STIFF if rigid_rocker else 1.0)
+    for c in (0, 1):  # the rocker's pivot: its root node stays where it is
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(rn[0], c)]))
+    pin(kn[-1], rn[-1])
+    sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
+                                        outputVariableType=exu.OutputVariableType.Coordinates))
+               for n in (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1])]
+    wall, t = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-5, newton_rel_tol, 1.0)
+
+    def series(sensor: int, node: int) -> np.ndarray:
+        data = np.asarray(mbs.GetSensorStoredData(sensor))
+        out = np.stack([np.interp(t, data[:, 0], data[:, c]) for c in range(1, data.shape[1])],
+                       axis=1)
+        return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
+
+    root, mid, end, r0, r1 = (series(s, n) for s, n in
+                              zip(sensors, (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1])))
+    chord = end[:, :2] - root[:, :2]
+    normal = np.stack([-chord[:, 1], chord[:, 0]], 1) / np.linalg.norm(chord, axis=1)[:, None]
+    deflection = np.sum(normal * (mid[:, :2] - 0.5 * (root[:, :2] + end[:, :2])), 1)
+    arm = r1[:, :2] - r0[:, :2]
+    return {"t": t, "mid_deflection": deflection,
+            "rocker_angle": np.unwrap(np.arctan2(arm[:, 1], arm[:, 0])), "wall_time_s": wall,
+            "keep": keep}
