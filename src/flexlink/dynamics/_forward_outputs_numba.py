@@ -1,6 +1,7 @@
 """Compiled (numba) pass over a forward run's output states (`forward_outputs.py`): per
 state one evaluation of the rates, the frames at the solved accelerations (with a
-prescribed joint: one more residual there, for its joint row), and the momentum."""
+prescribed joint: the joint rows there, `_forward_numba.joint_torques`), and the
+momentum."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import CART, FIXED, FREE, PRESCRIBED, frames, rates, residual
+from ._forward_numba import CART, FIXED, FREE, PRESCRIBED, frames, joint_torques, rates
 from ._momentum_numba import momentum
 
 
@@ -29,6 +30,8 @@ def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd,
     n = nx - nr
     out = pj.c0
     prescribed = False
+    p1, pd1, pdd1 = np.empty((1, nr)), np.empty((1, nr)), np.empty((1, nr))
+    z1, zd1, zdd1 = np.empty((1, n)), np.empty((1, n)), np.empty((1, n))
     for k in range(N):
         if d.joint_kind[k] == PRESCRIBED:
             prescribed = True
@@ -38,20 +41,19 @@ def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd,
         # rates left p, ṗ, x, ẋ and M at this state in the workspace, p̈_free = 0
         for j in range(nu):
             w_.pdd[free[j]] = dy[i, nu + j]
-        if prescribed:  # their rows are not solved for: the residual at the solved p̈
-            residual(d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.rj, w_.M, False)
+        if prescribed:  # their rows are not solved for: the joint rows at the solved p̈
+            for c in range(nr):
+                p1[0, c], pd1[0, c], pdd1[0, c] = w_.p[c], w_.pd[c], w_.pdd[c]
+            for c in range(n):
+                z1[0, c] = y[2 * nu + c]
+                zd1[0, c] = y[2 * nu + n + c]
+                zdd1[0, c] = dy[i, 2 * nu + n + c]
+            joint_torques(d, w_, p1, pd1, pdd1, z1, zd1, zdd1, torques[i:i + 1])
         else:  # every joint row is an equation solved for: it equals the applied torque Q
             frames(d, w_.p, w_.pd, w_.pdd, w_.theta, w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td,
                    w_.Tdd)
-        for k in range(N):
-            row = nb + k
-            if d.joint_kind[k] != PRESCRIBED:
-                torques[i, k] = w_.Q[row]
-                continue
-            acc = w_.rj[row]
-            for c in range(n):
-                acc += w_.M[row, nr + c] * dy[i, 2 * nu + n + c]
-            torques[i, k] = acc
+            for k in range(N):
+                torques[i, k] = w_.Q[nb + k]
         th_b = 0.0
         bx = by = 0.0
         if d.base_kind == CART:  # R_b = R_0 + s e, its attitude constant
