@@ -17,6 +17,6 @@ def check_travel(base: Base | None, t: np.ndarray, s: np.ndarray) -> None:
     if exit_ is not None:
         lo, hi = base.cart.travel
         raise SimulationError(
-            f"the cart left its travel [{lo:g}, {hi:g}] m (base.travel): s = {exit_[1]:.6g} m "
-            f"at t = {exit_[0]:.6g} s (the first output sample outside it). Widen base.travel or "
-            "change the cart's drive")
+            f"the cart left its travel [{lo:g}, {hi:g}] m (base.cart.travel): "
+            f"s = {exit_[1]:.6g} m at t = {exit_[0]:.6g} s (the first output sample outside "
+            "it). Widen base.cart.travel or change the cart's drive")
