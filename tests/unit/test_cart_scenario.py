@@ -147,3 +147,24 @@ def test_an_elastic_joint_on_a_cart_is_refused_naming_its_keys() -> None:
                     "motor_inertia": 1e-3, "spring_stiffness": 50.0}]
     with pytest.raises(ScenarioError, match=r"joints\[0\]: an elastic joint \(spring_stiffness"):
         scenario_from_dict(d)
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_a_run_with_nothing_to_integrate_runs(model: str) -> None:
+    """A prescribed cart carrying a rigid link: every coordinate is known (the integrator
+    once divided by zero on the empty state). The rail's force is then the whole mass times
+    the cart's acceleration."""
+    from flexlink import simulate
+
+    d = _dict({"drive": "prescribed", "motion": [
+        {"profile": "cycloidal", "from": 0.0, "to": 0.3, "start": 0.2, "duration": 1.0}]})
+    d["simulation"]["model"] = model
+    d["links"] = [{"name": "beam", "length": 1.0, "mass_per_length": 1.0, "rigid": True,
+                   "tip_mass": 0.5}]
+    scenario = scenario_from_dict(d)
+    results = simulate(scenario, shapes=False)
+    t = results.time
+    _, _, acceleration = scenario.base.cart.drive.evaluate(t)
+    force = results["cart_force"]
+    total = 2.0 + 1.0 + 0.5  # cart, link, tip mass (kg)
+    np.testing.assert_allclose(force, total * acceleration, atol=1e-9 * np.abs(force).max())
