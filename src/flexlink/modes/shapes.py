@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -258,6 +259,35 @@ def tip_loaded_modes(
     return _build(length, lam, mu, j, "tip_loaded")
 
 
+def _determinant_roots(det: Callable[[float], float], n: int, upper: float,
+                       what: str) -> np.ndarray:
+    """The first n roots λ of a characteristic determinant det(λ) in (0, upper): bracketed
+    by a sign scan, each bisected to adjacent floating-point numbers (its bracket's middle)."""
+    grid = np.unique(np.concatenate([
+        np.geomspace(1e-3, 1.0, 100),
+        np.arange(1.0, upper, np.pi / 64),
+    ]))
+    f = np.array([det(x) for x in grid])
+    idx = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)[:n]
+    if idx.size < n:
+        raise RuntimeError(f"found only {idx.size} of {n} {what} eigenvalues")
+    lam = np.empty(n)
+    for i, k in enumerate(idx):
+        a, b = float(grid[k]), float(grid[k + 1])
+        fa = f[k]
+        for _ in range(200):
+            m = 0.5 * (a + b)
+            if not a < m < b:
+                break
+            fm = det(m)
+            if (fm < 0.0) == (fa < 0.0):
+                a, fa = m, fm
+            else:
+                b = m
+        lam[i] = 0.5 * (a + b)
+    return lam
+
+
 def _offset_tip_matrix(lam: float, mu: float, j: float, s: float) -> np.ndarray:
     """The conditions on (G, H, C, D) of y = G e^{β(x−L)} + H e^{−βx} + C cos βx + D sin βx at
     λ = βL for a cantilever carrying a rigid body at its tip with mass μ = m_b/(mL), rotary
@@ -297,28 +327,10 @@ def offset_tip_modes(length: float, n: int, mass_per_length: float, tip_mass: fl
     s = tip_moment / (mass_per_length * length**2)
     if n == 0:
         return _build(length, np.empty(0), mu, j, "tip_loaded")
-    grid = np.unique(np.concatenate([
-        np.geomspace(1e-3, 1.0, 100),
-        np.arange(1.0, (n + 1) * np.pi, np.pi / 64),
-    ]))
-    f = np.array([_offset_tip_determinant(x, mu, j, s) for x in grid])
-    idx = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)[:n]
-    if idx.size < n:
-        raise RuntimeError(f"found only {idx.size} of {n} offset-tip eigenvalues")
-    lam, extra, growing = np.empty(n), np.zeros((5, n)), np.empty(n)
-    for i, k in enumerate(idx):
-        a, b = float(grid[k]), float(grid[k + 1])
-        fa = f[k]
-        for _ in range(200):  # bisection to adjacent floating-point numbers
-            m = 0.5 * (a + b)
-            if not a < m < b:
-                break
-            fm = _offset_tip_determinant(m, mu, j, s)
-            if (fm < 0.0) == (fa < 0.0):
-                a, fa = m, fm
-            else:
-                b = m
-        lam[i] = 0.5 * (a + b)
+    lam = _determinant_roots(lambda x: _offset_tip_determinant(x, mu, j, s), n,
+                             (n + 1) * np.pi, "offset-tip")
+    extra, growing = np.zeros((5, n)), np.empty(n)
+    for i in range(n):
         G, H, C, D = np.linalg.svd(_offset_tip_matrix(lam[i], mu, j, s))[2][-1]
         growing[i] = G
         extra[:3, i] = [H - 0.5, C + 1.0, D]
@@ -376,28 +388,10 @@ def hub_loaded_modes(
         return _build(length, np.empty(0), 0.0, 0.0, "hub_loaded")
     args = (tip_mass / (mass_per_length * length), tip_inertia / (mass_per_length * length**3),
             hub_inertia / (mass_per_length * length**3), radius / length)
-    grid = np.unique(np.concatenate([
-        np.geomspace(1e-3, 1.0, 100),
-        np.arange(1.0, (n + 2) * np.pi, np.pi / 64),
-    ]))
-    f = np.array([_hub_determinant(x, *args) for x in grid])
-    idx = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)[:n]
-    if idx.size < n:
-        raise RuntimeError(f"found only {idx.size} of {n} hub-loaded eigenvalues")
-    lam, extra, growing = np.empty(n), np.empty((5, n)), np.empty(n)
-    for i, k in enumerate(idx):
-        a, b = float(grid[k]), float(grid[k + 1])
-        fa = f[k]
-        for _ in range(200):  # bisection to adjacent floating-point numbers
-            m = 0.5 * (a + b)
-            if not a < m < b:
-                break
-            fm = _hub_determinant(m, *args)
-            if (fm < 0.0) == (fa < 0.0):
-                a, fa = m, fm
-            else:
-                b = m
-        lam[i] = 0.5 * (a + b)
+    lam = _determinant_roots(lambda x: _hub_determinant(x, *args), n, (n + 2) * np.pi,
+                             "hub-loaded")
+    extra, growing = np.empty((5, n)), np.empty(n)
+    for i in range(n):
         G, H, C, D, T = np.linalg.svd(_hub_matrix(lam[i], *args))[2][-1]
         # in the bracket of ModeShapes with c = 0: growing e^{β(x−L)} + ½e^{−βx} − cos βx + extra
         growing[i] = G
