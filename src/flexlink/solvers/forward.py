@@ -110,13 +110,7 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
     work = workspace(data, len(system.servos))
     y0 = system.initial_state()
     nu, n = len(system.free), system.n
-    # The error of each rigid coordinate and rate is relative to its own peak (metres and
-    # radians differ), of the elastic ones to the peak of their link's coordinates.
-    links = np.repeat(np.arange(len(system.modal)), [d.n for d in system.modal])
-    ns = y0.size - 2 * nu - 2 * n
-    groups = np.concatenate([np.arange(2 * nu), 2 * nu + links,
-                             2 * nu + len(system.modal) + links,
-                             2 * nu + 2 * len(system.modal) + np.arange(ns)])
+    groups = error_groups(system, y0.size)
     known = projection(system, data, float(t_out[0]), voltage_columns(system).stop)
     if known.active.size:
         start_values(known, data, work, inputs(system, t_out[:1])[0], y0, float(t_out[-1]))
@@ -156,6 +150,18 @@ def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_ou
                     np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
                     FAST_METHOD, stats, extra=states[:, 2 * nu + 2 * n:],
                     accuracy=accuracy), outputs
+
+
+def error_groups(system: ForwardSystem, size: int) -> np.ndarray:
+    """The error group of each of the ``size`` state components (Radau IIA weighs each error
+    against its group's peak): each rigid coordinate and rate its own (metres and radians
+    differ), the elastic coordinates and rates by link, each extra state (servo integrals)
+    its own."""
+    nu, n = len(system.free), system.n
+    links = np.repeat(np.arange(len(system.modal)), [d.n for d in system.modal])
+    return np.concatenate([np.arange(2 * nu), 2 * nu + links,
+                           2 * nu + len(system.modal) + links,
+                           2 * nu + 2 * len(system.modal) + np.arange(size - 2 * nu - 2 * n)])
 
 
 def split_state(system: ForwardSystem, y: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -12,6 +12,7 @@ import numpy as np
 from ..dynamics.forward_kernel import breakpoints, inputs
 from ..dynamics.loops import LoopSystem, closed_states
 from ..errors import SimulationError
+from .forward import error_groups
 from .radau import RadauStop, integrate_radau
 from .solution import LOCAL_CONTROL, Accuracy, Progress, Solution
 
@@ -36,11 +37,7 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
     system = loops.system
     y0 = loops.y0
     nu, n = len(system.free), system.n
-    links = np.repeat(np.arange(len(system.modal)), [d.n for d in system.modal])
-    ns = y0.size - 2 * nu - 2 * n
-    groups = np.concatenate([np.arange(2 * nu), 2 * nu + links,
-                             2 * nu + len(system.modal) + links,
-                             2 * nu + 2 * len(system.modal) + np.arange(ns)])
+    groups = error_groups(system, y0.size)
     try:
         states, stats = integrate_radau(
             loops.data, loops.workspace(y0.size), y0, t_out, lambda t: inputs(system, t),
