@@ -1,10 +1,13 @@
 """Batch throughput: N variants of the paper experiment through `flexlink.sweep` on all cores.
 
     python benchmarks/batch.py [--cases 1000] [--workers N] [--channels a,b] [--scheduler ADDR]
-                               [--summaries-only] [--output FILE] [--before SRC]
+                               [--vary model|sensors] [--summaries-only] [--output FILE]
+                               [--before SRC]
 
 The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) and both joint
-move durations (0.8-1.2 s) at random (seed 1). Prints one line per quantity: wall time of the
+move durations (0.8-1.2 s) at random (seed 1); ``--vary sensors`` draws the sensors'
+numbers instead (the accelerometer's position 1.0-1.37 m, the PZT amplifier's capacitance
+0.5-2 µF), cases that share one motion. Prints one line per quantity: wall time of the
 whole sweep (validation, worker start-up, runs, collection), runs per second, the sum of the
 cases' own run times (their serial cost), the parallel efficiency, the median wall and CPU
 time of one case (on a shared machine CPU time shows the work, wall time the wait), and the
@@ -34,8 +37,14 @@ RANDOM = {
     "joints[0].motion[0].duration": "uniform:0.8:1.2",
     "joints[1].motion[0].duration": "uniform:0.8:1.2",
 }
+SENSORS = {
+    "sensors[0].x": "uniform:1.0:1.37",
+    "sensors[pzt].capacitance": "uniform:0.5e-6:2e-6",
+}
 SUMMARIES = ["peak:link2_tip_deflection", "residual:link2_tip_deflection:after=3",
              "peak:joint1_torque", "peak:joint2_torque"]
+SENSOR_SUMMARIES = ["peak:link1_tip_acceleration", "residual:link1_tip_acceleration:after=3",
+                    "peak:pzt", "rms:pzt"]
 
 
 def peak_memory_mb() -> tuple[float, float]:
@@ -102,6 +111,8 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=None, help="default: every core")
     parser.add_argument("--channels", default=None, help="comma-separated (default: all)")
     parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
+    parser.add_argument("--vary", choices=("model", "sensors"), default="model",
+                        help="draw link 1's E and the durations (model) or the sensors' numbers")
     parser.add_argument("--summaries-only", action="store_true",
                         help="keep summary metrics instead of the histories")
     parser.add_argument("--machinery-only", action="store_true",
@@ -123,10 +134,12 @@ def main() -> None:
     workers = args.workers or available_cores()
 
     started = time.perf_counter()
-    dataset = sweep(paper_experiment_path(), random=RANDOM, samples=args.cases, seed=1,
+    random, summaries = (SENSORS, SENSOR_SUMMARIES) if args.vary == "sensors" \
+        else (RANDOM, SUMMARIES)
+    dataset = sweep(paper_experiment_path(), random=random, samples=args.cases, seed=1,
                     channels=channels, workers=None if args.scheduler else workers,
                     scheduler=args.scheduler, progress=True,
-                    summaries=SUMMARIES if args.summaries_only else (),
+                    summaries=summaries if args.summaries_only else (),
                     histories=not args.summaries_only, output=args.output)
     wall = time.perf_counter() - started
     own, child = peak_memory_mb()
@@ -135,11 +148,12 @@ def main() -> None:
     where = args.scheduler or f"{workers} local worker processes"
     if args.machinery_only:
         where += " (machinery only: runs replaced by a stored result)"
+    drawn = "sensor" if args.vary == "sensors" else "model"
     kept = (f"{len(SUMMARIES)} summary metrics" if args.summaries_only else
             f"{dataset.sizes['time']} samples of "
             f"{sum(1 for v in dataset.data_vars.values() if v.dims == ('case', 'time'))} "
             "channels")
-    print(f"batch of {args.cases} paper-experiment variants ({kept} a case) on {where}; "
+    print(f"batch of {args.cases} paper-experiment {drawn} variants ({kept} a case) on {where}; "
           f"{platform.processor() or platform.machine()}, python {platform.python_version()}")
     print(f"{'cases ok / failed':34s} {ok} / {int(dataset.attrs['cases_failed'])}")
     print(f"{'wall time, whole sweep [s]':34s} {wall:.3f}")

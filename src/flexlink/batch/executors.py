@@ -18,7 +18,15 @@ from typing import Any
 
 from ..model import Scenario
 from .errors import SweepError
-from .worker import Case, ChunkResult, Kept, SharedResults, init_local_worker, run_chunk
+from .worker import (
+    Case,
+    ChunkResult,
+    Kept,
+    SharedResults,
+    init_local_worker,
+    run_chunk,
+    thread_runner,
+)
 
 Chunk = list[tuple[int, Case]]
 CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
@@ -67,9 +75,12 @@ def failed_chunk(chunk: Chunk, exc: BaseException) -> ChunkResult:
 def in_process(chunks: Sequence[Chunk], kept: Kept) -> Iterator[ChunkResult]:
     """One worker: run the cases here, in order (no process start-up, same code path); one
     case at a time, as there is no per-task overhead to amortise."""
-    for chunk in chunks:
-        for case in chunk:
-            yield run_chunk([case], kept)
+    try:
+        for chunk in chunks:
+            for case in chunk:
+                yield run_chunk([case], kept)
+    finally:  # the last case's run is not kept in this process after the sweep
+        thread_runner().clear()
 
 
 def local_processes(workers: int, shared: SharedResults | None = None,

@@ -10,15 +10,18 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import simulation as _simulation
 from ..channels import Channel
 from ..model import Scenario
 from ..scenario.fields import FieldPath, ScenarioFile
+from .runner import CaseRunner
 from .summaries import Summary
 
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
@@ -73,18 +76,24 @@ class Kept:
     histories: bool = True
 
 
-def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept()) -> ChunkResult:
+def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept(),
+              runner: CaseRunner | None = None) -> ChunkResult:
     """Simulate each (case index, case) and keep what ``kept`` says. A case is a `Scenario`
-    or a `LazyCase` built here."""
-    from ..simulation import simulate
+    or a `LazyCase` built here. ``runner``: the `CaseRunner` that keeps the last case's run
+    for the next (default: this process's)."""
+    from .. import simulation
 
+    runner = runner or thread_runner()
+    # A replaced simulate (a test's failing case, the benchmark's stored run) is what runs.
+    run = runner.run if simulation.simulate is _SIMULATE else \
+        (lambda scenario: simulation.simulate(scenario, shapes=False))
     channels, summaries = kept.channels, kept.summaries
     out = ChunkResult()
     for index, case in cases:
         started, cpu_started = time.perf_counter(), time.thread_time()
         try:
             scenario = case.build() if isinstance(case, LazyCase) else case
-            results = simulate(scenario, shapes=False)  # a sweep keeps no shapes
+            results = run(scenario)
             names = (list(channels) if channels is not None else results.names) \
                 if kept.histories else []
             missing = [n for n in [*names, *(s.channel for s in summaries)] if n not in results]
@@ -110,6 +119,14 @@ def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept()) -> ChunkRe
         out.wall_times.append(time.perf_counter() - started)
         out.cpu_times.append(time.thread_time() - cpu_started)
     return out
+
+
+def thread_runner() -> CaseRunner:
+    """This thread's `CaseRunner`."""
+    runner = getattr(_RUNNERS, "runner", None)
+    if runner is None:
+        runner = _RUNNERS.runner = CaseRunner()
+    return runner
 
 
 @dataclass(frozen=True)
@@ -166,3 +183,5 @@ def load_compiled_code(scenario: Scenario) -> None:
 
 _THREAD_LIMIT: object = None
 _SHARED: SharedResults | None = None  # set in a local worker process only
+_RUNNERS = threading.local()  # a Dask worker may run chunks in several threads
+_SIMULATE = _simulation.simulate

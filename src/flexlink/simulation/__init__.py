@@ -68,6 +68,13 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) ->
     or (moving base, driven joints) the equations of motion. ``progress``: a progress bar on
     runs longer than a second; ``shapes``: every link's deformed shape on a grid of points
     (what animations draw; sweeps leave it out)."""
+    return assemble_results(scenario, *run_scenario(scenario, progress, shapes))
+
+
+def run_scenario(scenario: Scenario, progress: bool = False, shapes: bool = True
+                 ) -> tuple[PathRun, float]:
+    """`simulate` up to its `Results`: the path's run and its wall time (s). A sweep's
+    worker reads the channels it keeps from the run's values."""
     check_run_memory(scenario)
     warning = stiff_forward_links(scenario)  # may refuse: before anything runs
     path = path_function(model_path(scenario))
@@ -79,7 +86,7 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) ->
                                                  warning))
         if scenario.controllers:
             run = _with_loop_warnings(scenario, t, run)
-    return assemble_results(scenario, run, wall_time)
+    return run, wall_time
 
 
 def _with_loop_warnings(scenario: Scenario, t: np.ndarray, run: PathRun) -> PathRun:
@@ -106,4 +113,4 @@ def _run_path(path: PathFunction, scenario: Scenario, t: np.ndarray,
     return replace(run, metadata={**run.metadata, **rigid_metadata(scenario, stiff)})
 
 
-__all__ = ["PATHS", "model_path", "output_times", "path_function", "simulate"]
+__all__ = ["PATHS", "model_path", "output_times", "path_function", "run_scenario", "simulate"]

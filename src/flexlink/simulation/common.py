@@ -12,10 +12,11 @@ from typing import Any, Self
 import numpy as np
 
 from .._version import package_version
+from ..channels import Channel
 from ..channels.catalogue import catalogue
 from ..channels.shapes import LazyShapes, LinkShape
 from ..errors import RunTooLarge, SimulationError
-from ..model import Link, Scenario
+from ..model import Link, Scenario, Sensor
 from ..results import Results
 from ..solvers import Solution
 from .accuracy import accuracy_metadata, unestimated_metadata
@@ -134,6 +135,10 @@ class PathRun:
     values: Mapping[str, np.ndarray]
     metadata: Mapping[str, Any] = field(default_factory=dict)
     shapes: Sequence[LinkShape] = ()
+    # The sensors' readings of this run's motion for other sensors (sensors read the motion
+    # and change none of it): where a path offers it, a sweep whose cases differ only in
+    # their sensors reads each case's sensors from one run.
+    read_sensors: Callable[[tuple[Sensor, ...]], dict[str, np.ndarray]] | None = None
 
 
 def _check_finite(name: str, values: np.ndarray, t: np.ndarray) -> None:
@@ -162,16 +167,25 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
         **integration_metadata(solution),
         "wall_time_s": wall_time,
     })
-    values = dict(run.values)
-    for channel in catalogue(scenario):
-        value = values.pop(channel.name)
-        _check_finite(channel.name, value, solution.t)
+    for channel, value in catalogue_values(scenario, run):
         results.add(channel, value)
-    if values:  # a path computed a channel the catalogue does not list
-        raise AssertionError(f"channels outside the catalogue: {', '.join(values)}")
     # LazyShapes stay lazy: most callers of simulate() never read them
     results.shapes = run.shapes if isinstance(run.shapes, LazyShapes) else list(run.shapes)
     return results
+
+
+def catalogue_values(scenario: Scenario, run: PathRun) -> list[tuple[Channel, np.ndarray]]:
+    """The run's channels in the catalogue's order with their values, each checked finite
+    (NonFiniteResult)."""
+    values = dict(run.values)
+    out = []
+    for channel in catalogue(scenario):
+        value = values.pop(channel.name)
+        _check_finite(channel.name, value, run.solution.t)
+        out.append((channel, value))
+    if values:  # a path computed a channel the catalogue does not list
+        raise AssertionError(f"channels outside the catalogue: {', '.join(values)}")
+    return out
 
 
 def integration_metadata(solution: Solution) -> dict[str, Any]:

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -12,7 +13,7 @@ from ..channels.first_order import sensor_values, shape_values, tip_deflections,
 from ..channels.shapes import LazyShapes, LinkShape
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, joint_torques, solved_frames
-from ..model import Scenario
+from ..model import Scenario, Sensor
 from ..solvers import PRESCRIBED_METHODS, LinearIntegrator, Solution, rigid_solution
 from .accuracy import axial_load_parameter, hangs_on_elastic
 from .common import PathRun, Progress, check_tip_deflection
@@ -35,14 +36,15 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
             integrate(system, t, settings.rtol, settings.atol, on_progress))
     else:  # every link rigid: the motion is prescribed, nothing to integrate
         solution = rigid_solution(t, settings.method)
-    values, shapes, validity = prescribed_values(scenario, system, solution, with_shapes)
+    values, shapes, validity, read_sensors = prescribed_readings(scenario, system, solution,
+                                                                 with_shapes)
     if scenario.actuators:  # open loop: the commanded voltages, clipped
         volts = system.voltages(t)
         values.update({voltage_name(a.name): volts[:, j]
                        for j, a in enumerate(scenario.actuators)})
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "prescribed", "geometric_stiffening": settings.geometric_stiffening,
-        "elastic_coordinates": system.n, **validity})
+        "elastic_coordinates": system.n, **validity}, read_sensors=read_sensors)
 
 
 def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: Solution,
@@ -50,6 +52,14 @@ def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: So
                       ) -> tuple[dict[str, np.ndarray], Sequence[LinkShape], dict[str, Any]]:
     """The channels of a prescribed-joint run (sensors, joint angles and torques, tips), the
     link shapes and the validity metadata (a SimulationError if the tips ran away)."""
+    return prescribed_readings(scenario, system, solution, with_shapes)[:3]
+
+
+def prescribed_readings(scenario: Scenario, system: FirstOrderSystem, solution: Solution,
+                        with_shapes: bool
+                        ) -> tuple[dict[str, np.ndarray], Sequence[LinkShape], dict[str, Any],
+                                   Callable[[tuple[Sensor, ...]], dict[str, np.ndarray]]]:
+    """`prescribed_values`, and the readings of any sensors on the same motion."""
     t, z = solution.t, solution.q
     deflection = tip_deflections(system, z)
     hist = system.joint_history(t)
@@ -68,4 +78,4 @@ def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: So
         values[joint_name(k, "torque")] = torque[:, k]
     values.update(tip_values(system, frames, z))
     shapes = LazyShapes(lambda: shape_values(system, frames, z)) if with_shapes else ()
-    return values, shapes, validity
+    return values, shapes, validity, partial(sensor_values, system, frames, solution)

@@ -1,0 +1,87 @@
+"""One case of a sweep where it runs: `flexlink.simulate` up to its channel values, without
+building its `Results`, and one integration for consecutive cases that differ only in their
+sensors.
+
+A sensor reads the motion and changes none of it (a sensor that feeds a controller makes
+the case a closed loop, whose path offers no re-reading). So two cases whose scenarios are
+equal but for their sensors have the same system, frames and solution, and the second
+case's channels are the first one's with its own sensors read from that motion: the same
+operations on the same numbers as its own run, so the same values bit for bit
+(tests/unit/test_sweep_runner.py). Every other case is its own `run_scenario` call.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..channels import Channel
+from ..model import Scenario
+from ..simulation.common import PathRun, catalogue_values
+
+
+@dataclass(frozen=True)
+class CaseRun:
+    """A case's output times (s), its channels in the catalogue's order and their values,
+    each checked finite as a single run checks them."""
+
+    time: np.ndarray
+    channels: Mapping[str, Channel]
+    values: Mapping[str, np.ndarray]
+    shared: bool  # read from the previous case's run (only its sensors differ)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.values[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.values
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.channels)
+
+
+class CaseRunner:
+    """Runs a worker's cases one after the other, keeping the last case's run for the next
+    case if that one differs from it only in its sensors."""
+
+    def __init__(self) -> None:
+        self._last: tuple[Scenario, PathRun] | None = None
+
+    def run(self, scenario: Scenario) -> CaseRun:
+        """The case's channel values; a failure raises as `flexlink.simulate` would."""
+        from ..simulation import run_scenario  # a worker imports the simulation on first use
+
+        last, self._last = self._last, None  # a failing case keeps nothing
+        shared = last is not None and last[1].read_sensors is not None \
+            and _equal_but_sensors(last[0], scenario)
+        if shared:
+            assert last is not None and last[1].read_sensors is not None
+            previous = last[1]
+            values = {**previous.values, **previous.read_sensors(scenario.sensors)}
+            run = dataclasses.replace(previous, values=values)
+        else:
+            run = run_scenario(scenario, shapes=False)[0]  # a sweep keeps no shapes
+        checked = catalogue_values(scenario, run)
+        self._last = (scenario, run)
+        return CaseRun(run.solution.t, {c.name: c for c, _ in checked},
+                       {c.name: v for c, v in checked}, shared)
+
+    def clear(self) -> None:
+        """Forget the last run (its arrays)."""
+        self._last = None
+
+
+def _equal_but_sensors(a: Scenario, b: Scenario) -> bool:
+    """Whether ``a`` and ``b`` are equal in everything but their sensors (False where a
+    field cannot be compared, such as a measured motion's arrays)."""
+    if a is b:
+        return True
+    try:
+        return bool(dataclasses.replace(a, sensors=()) == dataclasses.replace(b, sensors=()))
+    except (ValueError, TypeError):  # numpy arrays compare element-wise
+        return False
+
