@@ -118,6 +118,9 @@ def main() -> None:
     parser.add_argument("--machinery-only", action="store_true",
                         help="replace the runs by a stored result: the sweep's own ceiling")
     parser.add_argument("--output", default=None, help="write the sweep's file (netCDF)")
+    parser.add_argument("--checkpoint-interval", type=float, default=60.0, metavar="S",
+                        help="with --output, rewrite the file every S s while running (as the "
+                             "command does; a large S times the sweep without checkpoints)")
     parser.add_argument("--before", default=None, metavar="SRC",
                         help="also run with the flexlink in SRC and print both")
     args = parser.parse_args()
@@ -140,7 +143,8 @@ def main() -> None:
                     channels=channels, workers=None if args.scheduler else workers,
                     scheduler=args.scheduler, progress=True,
                     summaries=summaries if args.summaries_only else (),
-                    histories=not args.summaries_only, output=args.output)
+                    histories=not args.summaries_only, output=args.output,
+                    checkpoint_interval=args.checkpoint_interval)
     wall = time.perf_counter() - started
     own, child = peak_memory_mb()
     ok = int(dataset.attrs["cases_ok"])
