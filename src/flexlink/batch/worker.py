@@ -80,13 +80,11 @@ def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept(),
               runner: CaseRunner | None = None) -> ChunkResult:
     """Simulate each (case index, case) and keep what ``kept`` says. A case is a `Scenario`
     or a `LazyCase` built here. ``runner``: the `CaseRunner` that keeps the last case's run
-    for the next (default: this process's)."""
-    from .. import simulation
-
+    for the next (default: this thread's)."""
     runner = runner or thread_runner()
     # A replaced simulate (a test's failing case, the benchmark's stored run) is what runs.
-    run = runner.run if simulation.simulate is _SIMULATE else \
-        (lambda scenario: simulation.simulate(scenario, shapes=False))
+    run = runner.run if _simulation.simulate is _SIMULATE else \
+        (lambda scenario: _simulation.simulate(scenario, shapes=False))
     channels, summaries = kept.channels, kept.summaries
     out = ChunkResult()
     for index, case in cases:
