@@ -64,6 +64,18 @@ def _fail(message: str, status: int = 2) -> int:
     return status
 
 
+def _start_figures(args: argparse.Namespace) -> Any:
+    """A forked worker drawing the figures while this process loads, fits and writes
+    (`figure_worker`), or None: no figures, or no fork. Forked before the heavy imports:
+    the child needs only matplotlib."""
+    if args.no_figures:
+        return None
+    from .figure_worker import FigureWorker
+    from .figures import FigureData  # noqa: F401 — numpy and the plotting helpers, shared
+
+    return FigureWorker.start()
+
+
 def _run(args: argparse.Namespace, work: Any) -> int:
     """Common error handling: input problems → 2, failed simulation → 1; warnings printed."""
     from ..errors import SimulationError
@@ -91,6 +103,15 @@ def _run(args: argparse.Namespace, work: Any) -> int:
 
 
 def run_compare(args: argparse.Namespace) -> int:
+    worker = _start_figures(args)
+    try:
+        return _compare_command(args, worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _compare_command(args: argparse.Namespace, worker: Any) -> int:
     from .comparison import compare
     from .report import metrics_table, write_comparison
 
@@ -100,7 +121,7 @@ def run_compare(args: argparse.Namespace) -> int:
                                            experiment.measurement)
         comparison = compare(scenario, measurement, progress=not args.quiet)
         write_comparison(comparison, out_dir, resolved, overwrite=args.overwrite,
-                         figures=not args.no_figures)
+                         figures=not args.no_figures, figure_worker=worker)
         print(out_dir if args.quiet else f"{metrics_table(comparison.metrics)}\nwrote {out_dir}")
         return 0
 
@@ -108,6 +129,15 @@ def run_compare(args: argparse.Namespace) -> int:
 
 
 def run_fit(args: argparse.Namespace) -> int:
+    worker = _start_figures(args)
+    try:
+        return _fit_command(args, worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _fit_command(args: argparse.Namespace, worker: Any) -> int:
     from .identification import fit
     from .parameters import model_values, parse_parameter_option, parse_parameter_table
     from .report import metrics_table, write_fit
@@ -159,7 +189,7 @@ def run_fit(args: argparse.Namespace) -> int:
                      max_simulations=budget, progress=progress, objective=objective)
         fitted = file.resolved(model_values(params, [e.value for e in result.estimates]))
         write_fit(result, out_dir, fitted, overwrite=args.overwrite,
-                  figures=not args.no_figures)
+                  figures=not args.no_figures, figure_worker=worker)
         if args.quiet:
             print(out_dir)
         else:
