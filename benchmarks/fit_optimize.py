@@ -2,7 +2,9 @@
 
     python benchmarks/fit_optimize.py                    # this tree only
     python benchmarks/fit_optimize.py --before 497667b   # and the code of that commit
+    python benchmarks/fit_optimize.py --before ../main   # or of that checkout
     python benchmarks/fit_optimize.py --only fit         # or --only optimize
+    python benchmarks/fit_optimize.py --repeat 3         # the fit command's median of 3
 
 Rows, each measured in fresh processes for each version of the code (``--before REV``: the
 sources of REV unpacked next to the system's temporary files, numba's caches warmed there by
@@ -166,7 +168,10 @@ def child_command(src: Path) -> dict[str, Any]:
 # -- parent ------------------------------------------------------------------------------
 def source_of(rev: str) -> Path:
     """The src/ folder of commit ``rev``, unpacked once into the temporary folder (its numba
-    caches stay with it between runs of this benchmark)."""
+    caches stay with it between runs of this benchmark); or of the checkout ``rev`` names
+    (a folder holding src/flexlink)."""
+    if (Path(rev) / "src" / "flexlink").is_dir():
+        return Path(rev).resolve() / "src"
     full = subprocess.run(["git", "-C", str(ROOT), "rev-parse", rev], check=True,
                           capture_output=True, text=True).stdout.strip()
     folder = Path(tempfile.gettempdir()) / f"flexlink-src-{full[:12]}"
@@ -182,9 +187,10 @@ def source_of(rev: str) -> Path:
     return folder / "src"
 
 
-def run_child(kind: str, src: Path) -> dict[str, Any]:
-    if kind == "command":
-        return child_command(src)
+def run_child(kind: str, src: Path, repeat: int = 1) -> dict[str, Any]:
+    if kind == "command":  # the median run by CPU time of ``repeat``
+        runs = sorted((child_command(src) for _ in range(repeat)), key=lambda r: r["cpu"])
+        return {**runs[len(runs) // 2], "runs": runs}
     env = {**os.environ, "PYTHONPATH": str(src)}
     done = subprocess.run([sys.executable, __file__, "--child", kind], env=env, check=True,
                           capture_output=True, text=True)
@@ -204,8 +210,11 @@ def _estimates(row: dict[str, Any]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--before", metavar="REV", help="also measure the code of commit REV")
+    parser.add_argument("--before", metavar="REV",
+                        help="also measure the code of commit REV (or of the checkout REV)")
     parser.add_argument("--only", choices=("fit", "optimize"))
+    parser.add_argument("--repeat", type=int, default=1, metavar="N",
+                        help="run the fit command N times: the median by CPU time, and all")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
@@ -231,7 +240,7 @@ def main() -> None:
     results = {label: {} for label in versions}
     for label, src in versions.items():
         if "fit" in kinds:
-            results[label]["command"] = run_child("command", src)
+            results[label]["command"] = run_child("command", src, args.repeat)
             results[label]["fit"] = run_child("fit", src)
         if "optimize" in kinds:
             results[label]["optimize"] = run_child("optimize", src)
@@ -240,7 +249,9 @@ def main() -> None:
         for label, res in results.items():
             c = res["command"]
             print(f"  {label:<22} command, lab_run3, 6 parameters: {c['wall']:.2f} s wall, "
-                  f"{c['cpu']:.2f} s CPU (load {c['load']:.1f})")
+                  f"{c['cpu']:.2f} s CPU (load {c['load']:.1f})"
+                  + ("; runs: " + ", ".join(f"{r['wall']:.2f}/{r['cpu']:.2f} s"
+                                             for r in c["runs"]) if len(c["runs"]) > 1 else ""))
         for case in results["after"]["fit"]:
             for label, res in results.items():
                 row = res["fit"][case]

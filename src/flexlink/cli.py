@@ -206,7 +206,10 @@ def _collect_from_here() -> None:
 def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.handler is not _cmd_run and args.handler is not _cmd_paper:
+    if getattr(args, "paused_start_up", False):
+        # the command imports within the block, then calls the function (experiment/commands.py)
+        args.start_up = (withheld_imports(_optional_imports()), _collect_from_here)
+    elif args.handler is not _cmd_run and args.handler is not _cmd_paper:
         _collect_from_here()  # only `run` and `paper` keep it paused through their imports
     if args.command == "run" and (args.paper == (args.scenario is not None)):
         args.subparser.error("give a scenario file or --paper (exactly one)")

@@ -5,6 +5,7 @@ input (scenario, measurement file, mapping, options, output folder)."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 import warnings
@@ -39,7 +40,8 @@ def add_commands(commands: Any, output: argparse.ArgumentParser) -> None:
         "compare", parents=[output, data], help="compare a scenario with measured data",
         description="Drive SCENARIO with the measured joint angles and compare its sensors "
                     "with the measured ones: overlays, metrics, report (docs/experiment.md).")
-    compare.set_defaults(handler=run_compare)
+    # paused_start_up: the collector stays paused through the imports (_start_up_imports)
+    compare.set_defaults(handler=run_compare, paused_start_up=True)
     fit = commands.add_parser(
         "fit", parents=[output, data], help="identify parameters from measured data",
         description="Estimate scenario parameters (links[0].EI, links[1].damping_ratio, "
@@ -56,12 +58,51 @@ def add_commands(commands: Any, output: argparse.ArgumentParser) -> None:
     fit.add_argument("--objective", choices=("modal", "time"),
                      help="match free-vibration frequencies and damping (modal, default) or "
                           "the time histories (time)")
-    fit.set_defaults(handler=run_fit)
+    fit.set_defaults(handler=run_fit, paused_start_up=True)
 
 
 def _fail(message: str, status: int = 2) -> int:
     print(message, file=sys.stderr)
     return status
+
+
+def _start_figures(args: argparse.Namespace) -> Any:
+    """A forked worker drawing the figures while this process loads, fits and writes
+    (`figure_worker`), or None: no figures, or no fork. Forked before the heavy imports:
+    the child needs only matplotlib."""
+    if args.no_figures:
+        return None
+    from .figure_worker import FigureWorker
+    from .figures import FigureData  # noqa: F401 — numpy and the plotting helpers, shared
+
+    return FigureWorker.start()
+
+
+def _start_up_imports(args: argparse.Namespace) -> None:
+    """Import what loading, comparing and fitting use within the block `cli.main` gives
+    (``args.start_up``: `cli.withheld_imports` of optional modules of numba and scipy that
+    they never use), then resume the garbage collector it paused, as `flexlink run` does
+    (ARCHITECTURE.md, "Start-up of `flexlink run`"); without ``start_up`` (a caller of the
+    handler itself) just the imports."""
+    block, imports_done = getattr(args, "start_up", (contextlib.nullcontext(), None))
+    preload = None
+    with block:
+        try:
+            # the measured angles drive a Lawson run: its compiled loop loads meanwhile
+            from ..solvers.lawson import preload_compiled_loop
+
+            preload = preload_compiled_loop()
+            import scipy.interpolate
+            import scipy.optimize  # noqa: F401
+
+            from . import identification, loading, report  # noqa: F401
+        except ImportError:
+            pass  # a library needs a withheld module after all: imported again on use
+        finally:
+            if preload is not None:
+                preload.join()  # compiled code must not run while it loads
+    if imports_done is not None:
+        imports_done()
 
 
 def _run(args: argparse.Namespace, work: Any) -> int:
@@ -91,6 +132,16 @@ def _run(args: argparse.Namespace, work: Any) -> int:
 
 
 def run_compare(args: argparse.Namespace) -> int:
+    worker = _start_figures(args)
+    try:
+        return _compare_command(args, worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _compare_command(args: argparse.Namespace, worker: Any) -> int:
+    _start_up_imports(args)
     from .comparison import compare
     from .report import metrics_table, write_comparison
 
@@ -100,7 +151,7 @@ def run_compare(args: argparse.Namespace) -> int:
                                            experiment.measurement)
         comparison = compare(scenario, measurement, progress=not args.quiet)
         write_comparison(comparison, out_dir, resolved, overwrite=args.overwrite,
-                         figures=not args.no_figures)
+                         figures=not args.no_figures, figure_worker=worker)
         print(out_dir if args.quiet else f"{metrics_table(comparison.metrics)}\nwrote {out_dir}")
         return 0
 
@@ -108,6 +159,16 @@ def run_compare(args: argparse.Namespace) -> int:
 
 
 def run_fit(args: argparse.Namespace) -> int:
+    worker = _start_figures(args)
+    try:
+        return _fit_command(args, worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _fit_command(args: argparse.Namespace, worker: Any) -> int:
+    _start_up_imports(args)
     from .identification import fit
     from .parameters import model_values, parse_parameter_option, parse_parameter_table
     from .report import metrics_table, write_fit
@@ -159,7 +220,7 @@ def run_fit(args: argparse.Namespace) -> int:
                      max_simulations=budget, progress=progress, objective=objective)
         fitted = file.resolved(model_values(params, [e.value for e in result.estimates]))
         write_fit(result, out_dir, fitted, overwrite=args.overwrite,
-                  figures=not args.no_figures)
+                  figures=not args.no_figures, figure_worker=worker)
         if args.quiet:
             print(out_dir)
         else:

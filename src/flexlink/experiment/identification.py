@@ -241,7 +241,8 @@ def _fit(scenario: ScenarioFile, measurement: Measurement, params: list[Paramete
 
         solved = [i for i, p in enumerate(params) if p.is_model]
         if solved:
-            solution, values = _solve(residual, params, solved, start, scales, budget)
+            solution, values = _solve(residual, params, solved, start, scales, budget,
+                                      known_weights=True)
             r = solution.fun
             cov = _covariance(solution.jac, r, 0.0, known_weights=True)
         else:
@@ -280,8 +281,9 @@ def _fit(scenario: ScenarioFile, measurement: Measurement, params: list[Paramete
 
 def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter],
            chosen: list[int], start: list[float], scales: list[float],
-           budget: int) -> tuple[Any, list[float]]:
-    """Bounded least squares over params[chosen] in scaled variables (log or linear)."""
+           budget: int, known_weights: bool = False) -> tuple[Any, list[float]]:
+    """Bounded least squares over params[chosen] in scaled variables (log or linear);
+    ``known_weights``: the residuals are in units of their standard errors (`_covariance`)."""
     from scipy.optimize import least_squares
 
     # u = 1 + log(v/scale) or 1 + (v − start)/scale: a relative finite-difference
@@ -311,14 +313,16 @@ def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter
             values[key] = residual(physical(u))
         return values[key]
 
-    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (u, steps, Jacobian)
+    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (u, tolerated, Jacobian)
 
     def jac(u: np.ndarray) -> np.ndarray:
         """Forward differences as scipy's "2-point" with diff_step (a backward one where a
         bound is in the way); the last Jacobian again after a step below a hundredth of its
         difference steps, which changes it less than those steps' own error (a last accepted
-        step of round-off size would otherwise cost a simulation per parameter)."""
-        if last and np.all(np.abs(u - last[0][0]) <= 1e-2 * np.abs(last[0][1])):
+        step of round-off size would otherwise cost a simulation per parameter), or below
+        REUSE_SIGMA standard deviations of the estimate there: the answer then moves by a
+        small fraction of its own uncertainty, and the intervals by as little."""
+        if last and np.all(np.abs(u - last[0][0]) <= last[0][1]):
             return last[0][2]
         f0 = fun(u)
         steps = DIFF_STEP * np.where(u >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(u))
@@ -330,7 +334,10 @@ def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter
             h = shifted[i] - u[i]  # the step as represented
             columns.append((fun(shifted) - f0) / h)
         jacobian = np.column_stack(columns) if columns else np.zeros((f0.size, 0))
-        last[:] = [(u.copy(), steps, jacobian)]
+        sigma = np.sqrt(np.clip(np.diag(_covariance(jacobian, f0, 0.0, known_weights)), 0.0,
+                                None))
+        tolerated = np.maximum(1e-2 * np.abs(steps), REUSE_SIGMA * np.nan_to_num(sigma))
+        last[:] = [(u.copy(), tolerated, jacobian)]
         return jacobian
 
     solution = least_squares(fun, u0, jac=jac, bounds=(lower, upper), method="trf",
@@ -339,6 +346,7 @@ def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter
 
 
 DIFF_STEP = 1e-3  # relative difference step of the fit's Jacobian, in the scaled variables
+REUSE_SIGMA = 0.02  # a step below this many standard deviations keeps the Jacobian
 
 
 MAX_FEATURES = 2  # components per channel whose frequency and damping are matched

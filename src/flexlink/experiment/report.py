@@ -8,44 +8,49 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
-from ..results.plotting import DPI, display_scale
 from ..results.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write_results_csv
 from .comparison import Comparison, SignalMetrics
+from .figures import FigureData, write_figures
 from .identification import FitResult
 from .report_html import write_experiment_report
 
-SPECTRUM_DECADES = 1e-4  # the spectra's axis spans this ratio below the highest peak
+if TYPE_CHECKING:
+    from .figure_worker import FigureWorker
+
 METRIC_COLUMNS = ("name", "unit", "nrmse", "correlation", "peak_measured", "peak_simulated",
                   "peak_error", "frequency_measured", "frequency_simulated", "frequency_error",
                   "damping_measured", "damping_simulated")
 
 
 def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[str, Any],
-                     overwrite: bool = False, figures: bool = True) -> Path:
-    """metrics.csv, metrics.json, simulated.csv, scenario.resolved.toml, figures, report.md."""
+                     overwrite: bool = False, figures: bool = True,
+                     figure_worker: FigureWorker | None = None) -> Path:
+    """metrics.csv, metrics.json, simulated.csv, scenario.resolved.toml, figures, report.md;
+    the figures drawn by ``figure_worker`` where given (`figure_worker.FigureWorker`)."""
     with atomic_folder(out_dir, overwrite) as folder:
-        _common(comparison, folder, resolved, figures)
+        drawing = _common(comparison, folder, resolved, figures, figure_worker)
         lines = [(f"# Comparison: {resolved['simulation']['name']} against "
                  f"{comparison.measurement.source}"), ""]
         lines += _report_body(comparison, figures)
         (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        drawing()
         write_experiment_report(folder, comparison, resolved)
     return Path(out_dir)
 
 
 def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
-              overwrite: bool = False, figures: bool = True) -> Path:
+              overwrite: bool = False, figures: bool = True,
+              figure_worker: FigureWorker | None = None) -> Path:
     """parameters.csv, fit.json, then everything ``write_comparison`` writes for the fitted,
     calibrated model; scenario.resolved.toml holds the fitted values."""
     with atomic_folder(out_dir, overwrite) as folder:
-        _common(result.comparison, folder, resolved, figures)
+        drawing = _common(result.comparison, folder, resolved, figures, figure_worker)
         rows = [e.as_dict() for e in result.estimates]
         _write_csv(folder / "parameters.csv", list(rows[0]), rows)
         info = {"parameters": rows, "channels": result.channels, "window_s": result.window,
@@ -75,6 +80,7 @@ def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
                   "## Fitted model against the measurement", ""]
         lines += _report_body(result.comparison, figures)
         (folder / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        drawing()
         write_experiment_report(folder, result.comparison, resolved, fit=result)
     return Path(out_dir)
 
@@ -94,7 +100,14 @@ def _fit_warnings(result: FitResult) -> list[str]:
 
 
 def _common(comparison: Comparison, folder: Path, resolved: Mapping[str, Any],
-            figures: bool) -> None:
+            figures: bool, figure_worker: FigureWorker | None = None) -> Callable[[], None]:
+    """The data files; the figures handed to ``figure_worker`` first if there is one. Returns
+    what completes the figures (waiting for the worker, or drawing them here)."""
+    data = FigureData.of(comparison) if figures else None
+    if data is not None:
+        (folder / "figures").mkdir()
+        if figure_worker is not None:
+            figure_worker.submit(data, folder / "figures")
     rows = [m.as_dict() for m in comparison.metrics]
     _write_csv(folder / "metrics.csv", list(METRIC_COLUMNS), rows)
     meta = {"measurement": comparison.measurement.source,
@@ -104,11 +117,12 @@ def _common(comparison: Comparison, folder: Path, resolved: Mapping[str, Any],
                                          encoding="utf-8")
     write_results_csv(comparison.results, folder / "simulated.csv")
     (folder / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
-    if figures:
-        (folder / "figures").mkdir()
-        overlay_figure(comparison).savefig(folder / "figures" / "overlay.png", dpi=DPI)
-        if comparison.free_start is not None:
-            spectra_figure(comparison).savefig(folder / "figures" / "spectra.png", dpi=DPI)
+
+    def drawing() -> None:
+        if data is not None and (figure_worker is None or not figure_worker.wait()):
+            write_figures(data, folder / "figures")
+
+    return drawing
 
 
 def _report_body(comparison: Comparison, figures: bool) -> list[str]:
@@ -133,62 +147,6 @@ def _report_body(comparison: Comparison, figures: bool) -> list[str]:
         if free is not None:
             lines += ["", "![free-vibration spectra](figures/spectra.png)"]
     return lines
-
-
-def overlay_figure(comparison: Comparison) -> Figure:
-    """Measured and simulated signals, one panel per channel (like the paper's Figs. 8–9)."""
-    names = [m.name for m in comparison.metrics]
-    t = comparison.results.time
-    fig = Figure(figsize=(7.0, 1.2 + 2.0 * len(names)), dpi=DPI, layout="constrained")
-    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, name in zip(axes, names, strict=True):
-        factor, unit = display_scale(comparison.results.channels[name].unit)
-        ax.plot(t, comparison.measured[name] * factor, color="0.55", linewidth=0.8,
-                label="measured")
-        ax.plot(t, comparison.results[name] * factor, color="C3", linewidth=1.0,
-                label="simulated")
-        if comparison.free_start is not None:
-            ax.axvline(comparison.free_start, color="k", linestyle=":", linewidth=0.8)
-        ax.set_ylabel(f"{name} [{unit}]")
-        ax.grid(True, linewidth=0.5, alpha=0.6)
-        ax.legend(loc="upper right", fontsize="small")
-    axes[-1].set_xlabel("time t [s]  (dotted: start of free vibration)")
-    axes[-1].set_xlim(t[0], t[-1])
-    return fig
-
-
-def spectra_figure(comparison: Comparison) -> Figure:
-    """Amplitude spectra of the free vibration, measured and simulated."""
-    names = [m.name for m in comparison.metrics]
-    t = comparison.results.time
-    window = t >= (comparison.free_start or t[0])
-    dt = float(t[1] - t[0])
-    fig = Figure(figsize=(7.0, 1.2 + 1.8 * len(names)), dpi=DPI, layout="constrained")
-    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
-    n = 1 << 16
-    freqs = np.fft.rfftfreq(n, dt)
-    top = max([4 * f for m in comparison.metrics
-                for f in (m.frequency_measured, m.frequency_simulated) if f] or [1.0])
-    shown = freqs <= min(top, freqs[-1])
-    for ax, m in zip(axes, comparison.metrics, strict=True):
-        highest = 0.0
-        for data, label, style in ((comparison.measured[m.name], "measured", "0.55"),
-                                   (comparison.results[m.name], "simulated", "C3")):
-            y = data[window] - np.mean(data[window])
-            amplitude = np.abs(np.fft.rfft(y * np.hanning(y.size), n)) + 1e-300
-            highest = max(highest, float(amplitude[shown].max()))
-            ax.semilogy(freqs, amplitude, color=style, linewidth=0.9, label=label)
-        for f in (m.frequency_measured, m.frequency_simulated):
-            if f:
-                ax.axvline(f, color="k", linestyle=":", linewidth=0.7)
-        if highest > 0:  # four decades below the highest peak: the noise floor, not 1e-10
-            ax.set_ylim(highest * SPECTRUM_DECADES, highest * 2.0)
-        ax.set_ylabel(f"|FFT| {m.name}")
-        ax.grid(True, linewidth=0.5, alpha=0.6)
-        ax.legend(loc="upper right", fontsize="small")
-    axes[-1].set_xlim(0, min(top, freqs[-1]))
-    axes[-1].set_xlabel("frequency [Hz]  (dotted: estimated dominant frequencies)")
-    return fig
 
 
 def _write_csv(path: Path, columns: list[str], rows: list[dict[str, Any]]) -> None:

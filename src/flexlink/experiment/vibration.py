@@ -296,8 +296,6 @@ def _standard_errors(jac: np.ndarray, r: np.ndarray, n_linear: int) -> np.ndarra
 def spectral_peaks(t: np.ndarray, y: np.ndarray, max_peaks: int) -> list[float]:
     """Frequencies (Hz) of the highest peaks of the zero-padded Hann-windowed FFT of the
     linearly detrended y(t), each with at least MIN_CYCLES periods in the window."""
-    from scipy.signal import find_peaks
-
     dt = (t[-1] - t[0]) / (t.size - 1)
     detrended = y - np.polyval(np.polyfit(t - t[0], y, 1), t - t[0])
     n = 1 << max(16, math.ceil(math.log2(16 * t.size)))
@@ -307,6 +305,21 @@ def spectral_peaks(t: np.ndarray, y: np.ndarray, max_peaks: int) -> list[float]:
     spectrum = np.where(usable, spectrum, 0.0)
     if spectrum.max() <= 0:
         return []
-    peaks, props = find_peaks(spectrum, height=PEAK_FRACTION * spectrum.max())
-    order = np.argsort(props["peak_heights"])[::-1][:max_peaks]
+    peaks = local_maxima(spectrum)
+    peaks = peaks[spectrum[peaks] >= PEAK_FRACTION * spectrum.max()]
+    order = np.argsort(spectrum[peaks])[::-1][:max_peaks]
     return [float(freqs[peaks[i]]) for i in order]
+
+
+def local_maxima(x: np.ndarray) -> np.ndarray:
+    """Indices of the local maxima of ``x``, the middle (left of two) of a flat top; the ends
+    are none (``scipy.signal.find_peaks`` without conditions, which imports scipy.stats)."""
+    x = np.asarray(x, dtype=float)
+    if x.size < 3:
+        return np.zeros(0, dtype=np.intp)
+    starts = np.flatnonzero(np.concatenate(([True], x[1:] != x[:-1])))  # runs of equal values
+    ends = np.append(starts[1:] - 1, x.size - 1)
+    inner = (starts > 0) & (ends < x.size - 1)
+    starts, ends = starts[inner], ends[inner]
+    peak = (x[starts - 1] < x[starts]) & (x[ends + 1] < x[ends])
+    return (starts[peak] + ends[peak]) // 2

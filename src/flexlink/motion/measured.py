@@ -193,8 +193,8 @@ def zero_phase_lowpass(y: np.ndarray, cutoff_hz: float, fs: float) -> np.ndarray
     backward, of samples y at rate fs (Hz). The ends are padded by even reflection over three
     periods of the cut-off: a measured angle usually rests there, and the default odd
     reflection would pin the filtered end to the last sample's noise."""
-    from scipy.signal import butter, sosfiltfilt
+    from .lowpass import butterworth_sections, zero_phase
 
-    sos = butter(FILTER_ORDER, cutoff_hz, btype="low", output="sos", fs=fs)
+    sos = butterworth_sections(FILTER_ORDER, cutoff_hz, fs)
     padlen = min(max(3 * (2 * len(sos) + 1), int(3.0 * fs / cutoff_hz)), y.size - 1)
-    return sosfiltfilt(sos, y, padtype="even", padlen=padlen)
+    return zero_phase(sos, y, padlen)

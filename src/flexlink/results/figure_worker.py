@@ -48,15 +48,17 @@ class FigureWorker:
         self._submitted = False
 
     @classmethod
-    def start(cls) -> FigureWorker | None:
+    def start(cls, child: Callable[[int, int], int] | None = None) -> FigureWorker | None:
         """Fork the worker; None where forking is unavailable or unsafe: threads running, or
-        not Linux (macOS's system libraries are not safe to use in a forked child)."""
+        not Linux (macOS's system libraries are not safe to use in a forked child).
+        ``child``: what the child runs on its job and reply pipes instead of drawing a run's
+        figures (another command's figures: `experiment.figure_worker`)."""
         if (not sys.platform.startswith("linux") or not hasattr(os, "fork")
                 or threading.active_count() > 1):
             return None
         sys.stdout.flush()
         sys.stderr.flush()
-        forked = _fork_piped(_child)
+        forked = _fork_piped(child or _child)
         return None if forked is None else cls(*forked)
 
     def hint(self, channels: Iterable[Channel]) -> None:

@@ -1,0 +1,92 @@
+"""Draw the figures of ``flexlink fit`` and ``flexlink compare`` in forked processes while
+the command loads, fits and writes its data files, as `flexlink run` does
+(`flexlink.results.figure_worker`, whose pipes and fallbacks this reuses).
+
+The child imports matplotlib while the parent works, forks its partner, and both wait for the
+job (a pickled `figures.FigureData` and the folder): the child draws the overlay, the partner
+the spectra. Where anything fails, `wait()` returns False and the caller draws the figures
+itself."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pickle
+import signal
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..results import figure_worker as _base
+
+
+class FigureWorker(_base.FigureWorker):
+    """A forked child that draws a comparison's figures on request (see the module doc)."""
+
+    @classmethod
+    def start(cls, child: Callable[[int, int], int] | None = None) -> FigureWorker | None:
+        """Fork the worker (None where `flexlink.results.figure_worker` cannot)."""
+        worker = super().start(child or _child)
+        return worker if isinstance(worker, FigureWorker) else None
+
+
+def _child(jobs: int, replies: int) -> int:
+    """The worker's child: its exit status (0: the figures are written)."""
+    partner = None
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)  # nothing of the child's on the command's output
+        os.dup2(devnull, 2)
+        # loaded while the parent works
+        import matplotlib.backends.backend_agg
+        import matplotlib.figure  # noqa: F401
+
+        from . import figures
+
+        partner = _base._fork_piped(_partner, inherited=(jobs, replies))
+        message = _base._read_message(jobs)
+        if partner is not None:
+            if message is not None:
+                with contextlib.suppress(OSError):  # a partner gone: done below says so
+                    _base._write_all(partner[1], message)
+            os.close(partner[1])
+        if message is None:
+            return 1  # no job: the command failed or drew nothing
+        data, folder = _job(message)
+        stems = data.stems()
+        mine, theirs = (stems[:1], stems[1:]) if partner is not None else (stems, [])
+        figures.write_figures(data, folder, mine)
+        if theirs and os.read(partner[2], 1) != b"1":  # type: ignore[index]
+            figures.write_figures(data, folder, theirs)
+        os.write(replies, b"1")
+        return 0
+    except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
+        if partner is not None:  # nothing else may draw while the parent does
+            with contextlib.suppress(OSError):
+                os.kill(partner[0], signal.SIGKILL)
+        return 1
+    finally:
+        if partner is not None:
+            with contextlib.suppress(ChildProcessError):
+                os.waitpid(partner[0], 0)
+
+
+def _partner(jobs: int, replies: int) -> int:
+    """The partner: draws the figures after the first (`figures.FigureData.stems`)."""
+    from . import figures
+
+    message = _base._read_message(jobs)
+    if message is None:
+        return 0
+    data, folder = _job(message)
+    figures.write_figures(data, folder, data.stems()[1:])
+    os.write(replies, b"1")
+    return 0
+
+
+def _job(message: bytes) -> tuple[Any, Path]:
+    kind, data, folder = pickle.loads(memoryview(message)[_base._HEADER.size:])
+    if kind != "job":
+        raise ValueError(f"unexpected message {kind!r}")
+    return data, folder

@@ -1,0 +1,118 @@
+"""The figures of ``flexlink compare`` and ``flexlink fit``: measured and simulated signals,
+and their free-vibration spectra. They draw from `FigureData`, plain arrays taken from a
+`Comparison`, so that a process that imports only matplotlib and this module can draw them
+(`figure_worker`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..results.plotting import DPI, display_scale
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from .comparison import Comparison
+
+SPECTRUM_DECADES = 1e-4  # the spectra's axis spans this ratio below the highest peak
+FIGURES = ("overlay", "spectra")  # file stems under figures/
+
+
+@dataclass(frozen=True)
+class FigureData:
+    """What the figures show of a comparison: the compared channels' names and storage units,
+    the time grid (s), measured and simulated values on it (SI), the start of the free
+    vibration (s, None: none found) and the estimated dominant frequencies (Hz, measured and
+    simulated, None where none was found)."""
+
+    names: list[str]
+    units: dict[str, str]
+    time: np.ndarray
+    measured: dict[str, np.ndarray]
+    simulated: dict[str, np.ndarray]
+    free_start: float | None
+    frequencies: dict[str, tuple[float | None, float | None]]
+
+    @classmethod
+    def of(cls, comparison: Comparison) -> FigureData:
+        names = [m.name for m in comparison.metrics]
+        results = comparison.results
+        return cls(names=names, units={n: results.channels[n].unit for n in names},
+                   time=np.asarray(results.time),
+                   measured={n: np.asarray(comparison.measured[n]) for n in names},
+                   simulated={n: np.asarray(results[n]) for n in names},
+                   free_start=comparison.free_start,
+                   frequencies={m.name: (m.frequency_measured, m.frequency_simulated)
+                                for m in comparison.metrics})
+
+    def stems(self) -> list[str]:
+        """The figures there are: the spectra only with a free vibration."""
+        return [s for s in FIGURES if s != "spectra" or self.free_start is not None]
+
+
+def write_figures(data: FigureData, folder: Path, stems: list[str] | None = None) -> None:
+    """Draw the figures ``stems`` (default: all there are) into ``folder`` as PNG."""
+    drawers = {"overlay": overlay_figure, "spectra": spectra_figure}
+    for stem in data.stems() if stems is None else stems:
+        drawers[stem](data).savefig(folder / f"{stem}.png", dpi=DPI)
+
+
+def overlay_figure(data: FigureData) -> Figure:
+    """Measured and simulated signals, one panel per channel (like the paper's Figs. 8–9)."""
+    from matplotlib.figure import Figure
+
+    names, t = data.names, data.time
+    fig = Figure(figsize=(7.0, 1.2 + 2.0 * len(names)), dpi=DPI, layout="constrained")
+    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, name in zip(axes, names, strict=True):
+        factor, unit = display_scale(data.units[name])
+        ax.plot(t, data.measured[name] * factor, color="0.55", linewidth=0.8,
+                label="measured")
+        ax.plot(t, data.simulated[name] * factor, color="C3", linewidth=1.0,
+                label="simulated")
+        if data.free_start is not None:
+            ax.axvline(data.free_start, color="k", linestyle=":", linewidth=0.8)
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.grid(True, linewidth=0.5, alpha=0.6)
+        ax.legend(loc="upper right", fontsize="small")
+    axes[-1].set_xlabel("time t [s]  (dotted: start of free vibration)")
+    axes[-1].set_xlim(t[0], t[-1])
+    return fig
+
+
+def spectra_figure(data: FigureData) -> Figure:
+    """Amplitude spectra of the free vibration, measured and simulated."""
+    from matplotlib.figure import Figure
+
+    names, t = data.names, data.time
+    window = t >= (data.free_start or t[0])
+    dt = float(t[1] - t[0])
+    fig = Figure(figsize=(7.0, 1.2 + 1.8 * len(names)), dpi=DPI, layout="constrained")
+    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    n = 1 << 16
+    freqs = np.fft.rfftfreq(n, dt)
+    top = max([4 * f for name in names for f in data.frequencies[name] if f] or [1.0])
+    shown = freqs <= min(top, freqs[-1])
+    for ax, name in zip(axes, names, strict=True):
+        highest = 0.0
+        for values, label, style in ((data.measured[name], "measured", "0.55"),
+                                     (data.simulated[name], "simulated", "C3")):
+            y = values[window] - np.mean(values[window])
+            amplitude = np.abs(np.fft.rfft(y * np.hanning(y.size), n)) + 1e-300
+            highest = max(highest, float(amplitude[shown].max()))
+            ax.semilogy(freqs, amplitude, color=style, linewidth=0.9, label=label)
+        for f in data.frequencies[name]:
+            if f:
+                ax.axvline(f, color="k", linestyle=":", linewidth=0.7)
+        if highest > 0:  # four decades below the highest peak: the noise floor, not 1e-10
+            ax.set_ylim(highest * SPECTRUM_DECADES, highest * 2.0)
+        ax.set_ylabel(f"|FFT| {name}")
+        ax.grid(True, linewidth=0.5, alpha=0.6)
+        ax.legend(loc="upper right", fontsize="small")
+    axes[-1].set_xlim(0, min(top, freqs[-1]))
+    axes[-1].set_xlabel("frequency [Hz]  (dotted: estimated dominant frequencies)")
+    return fig
