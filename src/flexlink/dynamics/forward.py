@@ -82,10 +82,6 @@ class ForwardSystem:
         self.bodies: list[LinkBody] = [link_body(d, self.n_rigid + int(o))
                                        for d, o in zip(self.modal, offsets[:-1])]
         self.attach = [base.attachment(k) for k in range(n_links)]
-        if base.cart is not None and self.elastic:
-            raise ValueError("an elastic joint on a cart base is not modelled (joints "
-                             f"{[k + 1 for k in self.elastic]}): make the joints rigid or "
-                             "use a fixed, pinned or free base")
         self.driven = [k for k, j in enumerate(chain.joints) if is_driven(j)]
         # Free rigid coordinates: the base's (not a prescribed cart's), then the driven
         # joints', then the driven motors'.
