@@ -11,7 +11,7 @@ tip channels), or only its tips when the scenario hangs its links on a base.
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +38,7 @@ class ArmTrack:
     label: str
     springs: tuple[int, ...] = ()
     rail: np.ndarray | None = None
-    parts: DrawnParts = DrawnParts()
+    parts: DrawnParts = field(default_factory=DrawnParts)
 
 
 def run_track(results: ChannelTable, magnification: float = 1.0) -> ArmTrack:
