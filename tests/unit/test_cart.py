@@ -56,6 +56,11 @@ SYSTEMS = {
         VelocityServo(CubicMotion(0.0, 0.2, 0.5), P=20.0, I=0.0, D=0.5, saturation=6.0,
                       rate_per_volt=0.1, loop_gain=50.0, torque_limit=20.0),
         (Hold(90.0), TorqueDrive(Step(-0.1))), (0.0, -9.81), s),
+    "pid_integral": lambda s: _cart(
+        VelocityServo(CubicMotion(0.0, 0.2, 0.5), P=20.0, I=8.0, D=0.5, saturation=6.0,
+                      rate_per_volt=0.1, loop_gain=50.0, torque_limit=20.0),
+        (VelocityServo(CubicMotion(0.1, 0.5), P=5.0, I=2.0, D=0.01, saturation=6.0,
+                       rate_per_volt=3.0, loop_gain=20.0), Hold(-20.0)), (0.0, -9.81), s),
     "elastic_joints": lambda s: _cart(
         TorqueDrive(BangBang(5.0, 0.0, 1.0), 0.1, 0.2),
         (ElasticJoint(TorqueDrive(Step(0.1), 1.0, motor_inertia=2e-2), 20.0, 0.1, 4.0),
