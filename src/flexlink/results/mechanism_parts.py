@@ -74,9 +74,7 @@ def drawn_parts(metadata: Mapping[str, Any], links: Sequence[tuple[np.ndarray, n
     try:
         parts = json.loads(str(text))
     except ValueError:
-        from .arm_tracks import AnimationInputError
-
-        raise AnimationInputError(f"the run's metadata {KEY} is damaged: {text!r}") from None
+        raise ValueError(f"the run's metadata {KEY} is damaged: {text!r}") from None
 
     def at(link: int, x: float) -> tuple[np.ndarray, np.ndarray]:
         X, Y = links[int(link)]
