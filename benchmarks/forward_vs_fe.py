@@ -18,7 +18,7 @@ large (≥ 30%) deflection, undamped:
   ±4 N for 1 s, 2 s simulated; flexlink: ``[base] type = "cart"`` with a force drive.
 
 flexlink runs its default forward integrator, first order with geometric stiffening, 4 and 6
-modes per link, and the nonlinear model with its default settings (docs/nonlinear.md §4, §7:
+modes per link (at rtol 1e-6, or ``--rtol``), and the nonlinear model with its default settings (docs/nonlinear.md §4, §7:
 Gauss collocation with error-controlled steps at the nonlinear model's default rtol), 4 and
 6 modes.
 Exudyn
@@ -65,10 +65,11 @@ MODES = (4, 6)
 CONVERGED = ("tip", "hub_angle", "cart_travel")  # those a case has: resolved within 1%
 
 
-def _flexlink(case: DrivenCase, modes: int, repeat: int, model: str = "first_order"
-              ) -> tuple[float, float, dict[str, np.ndarray]]:
-    """Median wall and CPU (process) time (s) of ``simulate`` and the comparison signals."""
-    scenario = flexlink_scenario(case, modes)
+def _flexlink(case: DrivenCase, modes: int, repeat: int, model: str = "first_order",
+              rtol: float = 1e-6) -> tuple[float, float, dict[str, np.ndarray]]:
+    """Median wall and CPU (process) time (s) of ``simulate`` and the comparison signals;
+    ``rtol``: the first-order runs' tolerance."""
+    scenario = flexlink_scenario(case, modes, rtol=rtol)
     if model == "nonlinear":  # its default settings: adaptive steps at its default rtol
         scenario = replace(scenario, settings=replace(scenario.settings, model="nonlinear",
                                                       rtol=None))
@@ -86,7 +87,7 @@ def _fmt(errors: dict[str, float]) -> str:
     return " ".join(f"{k} {100 * v:.3g}%" for k, v in errors.items())
 
 
-def _case(case: DrivenCase, repeat: int) -> dict[str, Any]:
+def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6) -> dict[str, Any]:
     """Every row of one case, printed as it runs; returns the summary numbers."""
     fe: dict[int, tuple[float, dict[str, np.ndarray], int]] = {}
     for elements, dt in MESHES.items():
@@ -117,10 +118,9 @@ def _case(case: DrivenCase, repeat: int) -> dict[str, Any]:
     for model, label in (("first_order", "first order stiffened"), ("nonlinear", "nonlinear")):
         for modes in MODES:
             name = f"flexlink {label}, {modes} modes"
-            if model == "nonlinear":
-                name += ", default settings"
+            name += ", default settings" if model == "nonlinear" else f", rtol {rtol:g}"
             try:
-                wall, cpu, ours = _flexlink(case, modes, repeat, model)
+                wall, cpu, ours = _flexlink(case, modes, repeat, model, rtol)
             except Exception as error:  # noqa: BLE001 — a refused run is a result to report
                 print(f"| {case.name} | {name} | refused: {error} | | |", flush=True)
                 continue
@@ -136,13 +136,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="timed flexlink runs (median)")
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--rtol", type=float, default=1e-6,
+                        help="first-order runs' tolerance (1e-4: flexlink's default)")
     args = parser.parse_args()
     print(f"# {platform.machine()} {os.cpu_count()} cores, {platform.processor() or ''} "
           f"Python {platform.python_version()}, numpy {np.__version__}")
     print("| case | model | wall [s] | error / peak vs. finest FE | Exudyn (coarsest within 1%)"
           " / flexlink |")
     print("|---|---|---|---|---|")
-    summaries = [_case(CASES[name], args.repeat) for name in args.cases]
+    summaries = [_case(CASES[name], args.repeat, args.rtol) for name in args.cases]
     print()
     for s in summaries:
         print(f"{s['case']}: peak tip deflection {100 * s['peak_tip']:.3g}% of the length "

@@ -14,6 +14,7 @@ from flexlink.model import (
     BaseLoad,
     Cart,
     Chain,
+    ElasticJoint,
     Link,
     PositionServo,
     Step,
@@ -55,6 +56,15 @@ SYSTEMS = {
         VelocityServo(CubicMotion(0.0, 0.2, 0.5), P=20.0, I=0.0, D=0.5, saturation=6.0,
                       rate_per_volt=0.1, loop_gain=50.0, torque_limit=20.0),
         (Hold(90.0), TorqueDrive(Step(-0.1))), (0.0, -9.81), s),
+    "pid_integral": lambda s: _cart(
+        VelocityServo(CubicMotion(0.0, 0.2, 0.5), P=20.0, I=8.0, D=0.5, saturation=6.0,
+                      rate_per_volt=0.1, loop_gain=50.0, torque_limit=20.0),
+        (VelocityServo(CubicMotion(0.1, 0.5), P=5.0, I=2.0, D=0.01, saturation=6.0,
+                       rate_per_volt=3.0, loop_gain=20.0), Hold(-20.0)), (0.0, -9.81), s),
+    "elastic_joints": lambda s: _cart(
+        TorqueDrive(BangBang(5.0, 0.0, 1.0), 0.1, 0.2),
+        (ElasticJoint(TorqueDrive(Step(0.1), 1.0, motor_inertia=2e-2), 20.0, 0.1, 4.0),
+         Hold(30.0)), (0.0, -9.81), s),
 }
 
 
@@ -209,12 +219,3 @@ def test_the_animation_draws_the_cart_on_its_rail(tmp_path) -> None:
     offset = track.rail[0] - track.base[0, :2]  # on the root's line
     assert abs(offset[0] * d[1] - offset[1] * d[0]) < 1e-9
     assert results.animate(tmp_path / "cart.gif").is_file()
-
-
-def test_an_elastic_joint_on_a_cart_is_refused() -> None:
-    """Not modelled (tests/unit/test_cart_scenario.py: refused at scenario load too)."""
-    from flexlink.model import ElasticJoint
-
-    with pytest.raises(ValueError, match="elastic joint on a cart"):
-        _cart(TorqueDrive(Step(1.0)), (ElasticJoint(TorqueDrive(Step(0.1), motor_inertia=1e-3),
-                                                    50.0), Hold(0.0)))

@@ -141,12 +141,17 @@ def test_the_command_refuses_a_cart_outside_its_travel(
     assert not out.exists() or list(out.iterdir()) == []
 
 
-def test_an_elastic_joint_on_a_cart_is_refused_naming_its_keys() -> None:
+def test_an_elastic_joint_on_a_cart_is_read() -> None:
+    """The motor is one more rigid coordinate after the cart's travel
+    (tests/validation/test_cart_elastic_joints.py checks the physics)."""
+    from flexlink.model import ElasticJoint
+
     d = _dict({"drive": "free"})
-    d["joints"] = [{"drive": "torque", "torque": {"profile": "step", "amplitude": 0.1},
+    d["joints"] = [{"drive": "torque", "torque": [{"profile": "step", "amplitude": 0.1}],
                     "motor_inertia": 1e-3, "spring_stiffness": 50.0}]
-    with pytest.raises(ScenarioError, match=r"joints\[0\]: an elastic joint \(spring_stiffness"):
-        scenario_from_dict(d)
+    scenario = scenario_from_dict(d)
+    assert isinstance(scenario.chain.joints[0], ElasticJoint)
+    assert scenario.base is not None and scenario.base.kind == "cart"
 
 
 @pytest.mark.parametrize("model", ["first_order", "nonlinear"])

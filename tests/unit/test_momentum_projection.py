@@ -100,3 +100,61 @@ def test_first_moment_changes_at_the_linear_momentum(kind: str) -> None:
                       y[None, 2 * nu + n:2 * nu + 2 * n])[0][0]
     np.testing.assert_allclose((moments[0] - moments[1]) / (2 * eps), linear, rtol=1e-6,
                                atol=1e-6 * np.abs(linear).max())
+
+
+def _cart_run(drive, loads: tuple = (), t_end: float = 10.0):
+    """A flexible beam swinging on a torque-driven pin of a cart on a 30° rail, gravity
+    along and across the rail, default tolerance: the run."""
+    import math
+
+    from flexlink import simulate
+    from flexlink.model import Cart, Scenario, SimulationSettings
+
+    rail = math.radians(30.0)
+    link = Link("beam", 1.0, 0.6, 6.0, tip_mass=0.2, modes=4)
+    chain = Chain((link,), (TorqueDrive(BangBang(0.8, 0.0, 1.0), initial_angle=1.0),))
+    base = Base("cart", mass=1.5, loads=loads, attitude=0.4,
+                cart=Cart(drive, rail_angle=rail))
+    settings = SimulationSettings(t_end=t_end, dt_out=0.01, gravity=(0.0, -9.81))
+    return simulate(Scenario(chain, settings=settings, base=base))
+
+
+def test_momentum_along_a_free_carts_rail_is_held_over_10_s() -> None:
+    """Default rtol 1e-4, 10 s: the momentum along the rail equals its start value plus
+    M g·e t plus the impulses of the drive's force and of the loads' components along the
+    rail (one in body axes: the cart's attitude is constant) to 1e-8 of its peak."""
+    import math
+
+    force = BangBang(3.0, 0.5, 2.0)
+    loads = (BaseLoad(force_x=Step(1.0, 1.0), force_y=Step(-2.0, 3.0)),
+             BaseLoad(force_x=Step(0.5, 2.0), frame="body", point=(0.1, 0.0)))
+    r = _cart_run(TorqueDrive(force, 0.0, 0.3), loads)
+    t = r.time
+    e = np.array([math.cos(math.radians(30.0)), math.sin(math.radians(30.0))])
+    along = r["momentum_x"] * e[0] + r["momentum_y"] * e[1]
+    mass = 1.5 + 0.6 * 1.0 + 0.2
+    body_e = np.array([math.cos(0.4) * e[0] + math.sin(0.4) * e[1]])
+    # ∫ of a bang-bang (+a for half the duration, −a for the other half) and of steps
+    bang = 3.0 * (np.clip(t - 0.5, 0.0, 1.0) - np.clip(t - 1.5, 0.0, 1.0))
+    impulse = (bang + e[0] * 1.0 * np.clip(t - 1.0, 0.0, None)
+               + e[1] * -2.0 * np.clip(t - 3.0, 0.0, None)
+               + body_e[0] * 0.5 * np.clip(t - 2.0, 0.0, None))
+    known = along[0] + mass * -9.81 * e[1] * t + impulse
+    peak = np.abs(along).max()
+    assert np.abs(along - known).max() < 1e-8 * peak
+    assert np.ptp(r["joint1_angle"]) > 0.3 and np.ptp(r["cart_position"]) > 1.0
+
+
+def test_a_servo_or_prescribed_cart_is_not_projected() -> None:
+    """Their force follows the solved travel (servo) or the rail sets the travel."""
+    from flexlink.model import Cart, PositionServo
+
+    for drive, active in ((TorqueDrive(Step(1.0)), [0]),
+                          (PositionServo(Cycloidal(0.0, 0.2, 0.0, 1.0), bandwidth=5.0,
+                                         rate_limit=1.0, loop_gain=10.0), []),
+                          (Cycloidal(0.0, 0.2, 0.0, 1.0), [])):
+        base = Base("cart", mass=1.0, cart=Cart(drive))
+        system = ForwardSystem(Chain(LINKS[:1], (TorqueDrive(Step(0.1)),)), base, True)
+        d = pack(system)
+        pj = projection(system, d, 0.0, inputs(system, np.zeros(1)).shape[1])
+        assert pj.active.tolist() == active

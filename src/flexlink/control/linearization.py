@@ -215,7 +215,7 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
     # Servos without an integrator (position servos, I = 0) carry a constant integral state:
     # decoupled (zero rows and columns), so it is left out of the plant.
     kept = [i for i in range(A.shape[0]) if i < 2 * (nf + n)
-            or scenario.chain.joints[system.servos[i - 2 * (nf + n)]].integrator]
+            or system.servo_of(system.servos[i - 2 * (nf + n)])[0].integrator]
     A, B, Cm = A[np.ix_(kept, kept)], B[kept], Cm[:, kept]
     scale = max(np.abs(M).max(), 1.0)
     still = np.abs(np.concatenate([pdd_free[0], zdd0[0]])).max(initial=0.0) <= 1e-9 * scale
@@ -224,9 +224,10 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
     op = _describe(scenario, point, equilibrium)
     op.update({f"{name}": float(v) for name, v in zip(rigid, p_free)})
     return _plant(scenario, A, B, Cm, D, _elastic_names(scenario), rigid, in_names, out_names,
-                  op, equilibrium, ns_names=[joint_name(k, "error_integral")
-                                             for k in system.servos
-                                             if scenario.chain.joints[k].integrator])
+                  op, equilibrium, ns_names=[
+                      "cart_error_integral" if k == len(scenario.chain.links)
+                      else joint_name(k, "error_integral")
+                      for k in system.servos if system.servo_of(k)[0].integrator])
 
 
 def forward_system(scenario: Scenario) -> ForwardSystem:
@@ -292,7 +293,7 @@ def _check_servos(scenario: Scenario, system: ForwardSystem, t0: float, p: np.nd
     """Refuse an operating point where a servo saturates: the plant is the unsaturated law."""
     t = np.array([t0])
     for s, k in enumerate(system.servos):
-        joint, i = drive_side(scenario.chain.joints[k]), system.drive_index(k)
+        joint, i = system.servo_of(k)
         args = (t, p[i:i + 1], pd[i:i + 1], integral[s:s + 1])
         torque, _ = servo_torque(joint, *args)  # type: ignore[arg-type]
         saturated = abs(float(torque[0])) >= joint.torque_limit  # type: ignore[union-attr]

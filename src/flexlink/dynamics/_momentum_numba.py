@@ -5,7 +5,8 @@ momentum (`momentum_projection.py`).
 stays the reference; `tests/unit/test_momentum_projection.py` compares them to round-off).
 `project` corrects the rates of a state so that the projected components of the momentum
 equal their known values: a velocity change along the system's rigid-body motions
-(translations of the base, a rotation about the centre of mass or the pin), whose
+(translations of the base or of a cart along its rail, a rotation about the centre of mass
+or the pin), whose
 amplitudes solve a linear system of at most 3 × 3. Momentum is affine in the rates at a fixed
 configuration, so one solve puts the state on the manifold to round-off.
 """
@@ -131,9 +132,12 @@ def _state(d, w_, u, y):
 
 @njit(cache=True)
 def components(d, w_, pj, pd, out):
-    """out[:3] = L_x, L_y and H (about the centre of mass if pj.about_cm, else the origin) at
-    the workspace's configuration with rigid rates pd; out[3:5] the first moment."""
+    """out[:3] = L_x (on a cart: L along its rail), L_y and H (about the centre of mass if
+    pj.about_cm, else the origin) at the workspace's configuration with rigid rates pd;
+    out[3:5] the first moment."""
     momentum(d, w_, w_.p, pd, w_.x, w_.xd, pj, out)
+    if d.base_kind == CART:
+        out[0] = out[0] * d.rail[0] + out[1] * d.rail[1]
     if pj.about_cm:  # H_cm = H_O − r_cm × L
         cx, cy = out[3] / pj.total_mass, out[4] / pj.total_mass
         out[2] -= cx * out[1] - cy * out[0]
@@ -185,7 +189,7 @@ def project(d, w_, pj, u, U, t, y):
             if d.base_kind == FREE:
                 dirs[a, 0] = -(w_.p[1] - cmy)
                 dirs[a, 1] = w_.p[0] - cmx
-        else:
+        else:  # on a cart, component 0's direction is the travel's rate: index 0 too
             dirs[a, comp] = 1.0
     for b in range(na):
         for i in range(nr):

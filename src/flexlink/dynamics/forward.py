@@ -20,6 +20,7 @@ axis over (time, trial acceleration) pairs.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -82,10 +83,6 @@ class ForwardSystem:
         self.bodies: list[LinkBody] = [link_body(d, self.n_rigid + int(o))
                                        for d, o in zip(self.modal, offsets[:-1])]
         self.attach = [base.attachment(k) for k in range(n_links)]
-        if base.cart is not None and self.elastic:
-            raise ValueError("an elastic joint on a cart base is not modelled (joints "
-                             f"{[k + 1 for k in self.elastic]}): make the joints rigid or "
-                             "use a fixed, pinned or free base")
         self.driven = [k for k, j in enumerate(chain.joints) if is_driven(j)]
         # Free rigid coordinates: the base's (not a prescribed cart's), then the driven
         # joints', then the driven motors'.
@@ -94,6 +91,8 @@ class ForwardSystem:
                      + [self.motor_index(k) for k in elastic_joints.driven_motors(chain.joints)])
         self.servos = [k for k in self.driven
                        if isinstance(drive_side(chain.joints[k]), VelocityServo | PositionServo)]
+        if base.cart is not None and getattr(base.cart.drive, "integrator", False):
+            self.servos.append(n_links)  # the cart's servo integral: index N (`servo_of`)
         # Piezo actuators: generalized forces B V on z (dynamics/actuators.py), V the
         # open-loop voltages unless a closed loop holds its own (``applied(voltages=…)``).
         self.actuators = tuple(actuators)
@@ -124,7 +123,8 @@ class ForwardSystem:
         unknowns = list(range(2 * nu, 2 * nu + n))  # z
         rows = list(range(nu, nu + n))  # z̈ in the accelerations [p̈_free, z̈]
         for k in self.servos:
-            joint, j = self.chain.joints[k], self.free.index(self.drive_index(k))
+            joint, i = self.servo_of(k)
+            j = self.free.index(i)
             rows.append(j)
             unknowns.append(2 * nu + 2 * n + self.servos.index(k) if joint.integrator else j)
         for k in self.elastic:  # the link held by its spring
@@ -173,6 +173,14 @@ class ForwardSystem:
     def drive_index(self, k: int) -> int:
         """The rigid coordinate joint k's drive turns: its motor's if elastic."""
         return self.motor_index(k) if k in self.elastic else self.joint_index(k)
+
+    def servo_of(self, k: int) -> tuple[Any, int]:
+        """The servo of ``servos`` entry k and the rigid coordinate it turns: joint k's drive
+        (its motor's if elastic), or at k = N the cart's on its travel (coordinate 0)."""
+        if k == len(self.chain.links):
+            assert self.base.cart is not None
+            return self.base.cart.drive, 0
+        return drive_side(self.chain.joints[k]), self.drive_index(k)
 
     def rigid_state(self, t: np.ndarray, p_free: np.ndarray, pd_free: np.ndarray,
                     pdd_free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -417,7 +425,12 @@ class ForwardSystem:
         elastic_joints.add_spring_torques(self, p, pd, Q)
         b, nb = self.base, self.n_base
         if b.cart is not None:  # the rail takes the loads across it and their moment
-            if not b.cart.prescribed:
+            if len(self.chain.links) in self.servos:  # a servo with an integral
+                s = self.servos.index(len(self.chain.links))
+                force, rates[:, s] = servo_torque(b.cart.drive, t, p[:, 0], pd[:, 0],
+                                                  integral[:, s])
+                Q[:, 0] += force
+            elif not b.cart.prescribed:
                 Q[:, 0] += _cart_force(b.cart.drive, t, p[:, 0], pd[:, 0])
             Q[:, 0] += self.rail_loads(t)
         elif b.kind != "fixed":
@@ -492,7 +505,8 @@ class ForwardSystem:
 
 def _cart_force(drive: object, t: np.ndarray, s: np.ndarray, sd: np.ndarray) -> np.ndarray:
     """The force (nt,), N, of a driven cart's drive at travel s (m) and speed ṡ (m/s): its
-    force history, or its servo law on the travel (no integral state: `model.Cart`)."""
+    force history, or its servo law on the travel without an integral state (one with an
+    integral: `ForwardSystem.applied`)."""
     from .servos import servo_torque
 
     if isinstance(drive, TorqueDrive):

@@ -104,7 +104,7 @@ def pack(system: ForwardSystem) -> ForwardData:
         else:
             kind[k] = PRESCRIBED
         if isinstance(joint, VelocityServo | PositionServo):
-            servo_index[k] = system.servos.index(k) if k < N else -1  # a cart's: no integral
+            servo_index[k] = system.servos.index(k) if k in system.servos else -1
             params["loop_gain"][k] = joint.loop_gain
             torque_limit[k] = joint.torque_limit
         if k < N and motor_row[k] >= 0:  # the drive's kind is the motor's

@@ -17,6 +17,11 @@ components whose change is known exactly from the inputs are projected:
   (~rtol) would otherwise show in the angular momentum about the origin;
 - pinned base, angular momentum about the pin (the origin): as above, and only without
   gravity (its arm about the pin follows the motion); the pin's force changes L;
+- cart driven by a force history or free, momentum along its rail L·e: changed by the
+  drive's force (its integral from the input table), the loads' components along the rail
+  (the cart's attitude is constant, so body-axis forces too) and gravity's (M g·e per
+  second); the rail takes the rest. Not for a servo (its force follows the solved travel)
+  or a prescribed travel;
 - fixed base: nothing.
 
 Joint torques, servos, prescribed joint motions and actuators are internal. The start
@@ -29,6 +34,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from ..model import TorqueDrive
 from ..model.histories import BangBang, History, Step, Sum, Table
 from .forward import ForwardSystem
 from .forward_kernel import ForwardData
@@ -37,8 +43,9 @@ Projection = namedtuple("Projection", [
     "active", "start", "rate", "impulse", "t0", "about_cm", "total_mass", "size",
     "zero_rigid", "origin", "velocity", "c0", "c1", "A", "lam", "dirs", "pd1"])
 Projection.__doc__ = (
-    "Known momentum of a forward run: ``active`` the projected components (0: L_x, 1: L_y "
-    "in N·s, 2: H in N·m·s, about the centre of mass if ``about_cm``, else the origin); "
+    "Known momentum of a forward run: ``active`` the projected components (0: L_x, or on a "
+    "cart L along its rail, 1: L_y in N·s, 2: H in N·m·s, about the centre of mass if "
+    "``about_cm``, else the origin); "
     "their values start (3,) at t0 (s) plus rate (3,) · (t − t0) plus impulse (3, columns) "
     "@ the inputs' integrals; size (3,) their scale; the rest scratch arrays.")
 
@@ -58,13 +65,14 @@ def projection(system: ForwardSystem, data: ForwardData, t0: float, columns: int
                ) -> Projection:
     """The record of ``system``'s known momentum for input rows of ``columns`` columns, its
     start values not yet filled (`start_values`)."""
-    from ._forward_numba import FREE, PINNED
+    from ._forward_numba import CART, FREE, PINNED
 
     base = system.base
     loads = base.loads if base.kind != "fixed" else ()
     N = len(system.chain.links)
     nl = len(loads)
-    total = float(np.sum(data.mass)) + (float(base.mass) if base.kind == "free" else 0.0)
+    total = float(np.sum(data.mass)) + (float(base.mass) if base.kind in ("free", "cart")
+                                        else 0.0)
     gravity = np.asarray(system.gravity, dtype=float)
     no_force = all(is_zero(ld.force_x) and is_zero(ld.force_y) for ld in loads)
     no_body_force = all(is_zero(ld.force_x) and is_zero(ld.force_y)
@@ -82,6 +90,16 @@ def projection(system: ForwardSystem, data: ForwardData, t0: float, columns: int
                      or (data.base_kind == PINNED and not np.any(gravity))):
         active.append(2)
         impulse[2, 4 * N + 2 * nl:4 * N + 3 * nl] = 1.0
+    cart = base.cart
+    if data.base_kind == CART and cart is not None and isinstance(cart.drive, TorqueDrive):
+        e = np.asarray(cart.direction, dtype=float)
+        active.append(0)
+        rate[0] = total * float(gravity @ e)
+        impulse[0, columns - 1] = 1.0  # the drive's force: the input row's last column
+        c, s = np.cos(base.attitude), np.sin(base.attitude)
+        for j, ld in enumerate(loads):  # body axes: F·e = F_body·(Rᵀ e)
+            ex, ey = (c * e[0] + s * e[1], -s * e[0] + c * e[1]) if ld.frame == "body" else e
+            impulse[0, 4 * N + j], impulse[0, 4 * N + nl + j] = ex, ey
     nr = data.n_rigid
     return Projection(
         active=np.array(active, dtype=np.int64), start=np.zeros(3), rate=rate,

@@ -84,7 +84,7 @@ class NonlinearForwardSystem:
         self.nu = len(self.free)
         self.servos = list(self.loads.servos)
         self.integrating = [s for s, k in enumerate(self.servos)
-                            if getattr(chain.joints[k], "integrator", False)]
+                            if getattr(self.loads.servo_of(k)[0], "integrator", False)]
         self.ns = len(self.servos)
         self.n_y = n + self.nu + self.ns
         attitude = nb - 1 if base.turns else None
@@ -240,9 +240,10 @@ class NonlinearForwardSystem:
         n, nu = self.n, self.nu
         in_y, in_v, rows = list(range(n)), [], list(range(n))
         for s, k in enumerate(self.servos):
-            j = n + self.free.index(self.loads.drive_index(k))
+            servo, i = self.loads.servo_of(k)
+            j = n + self.free.index(i)
             rows.append(j)
-            if self.chain.joints[k].integrator:
+            if servo.integrator:
                 in_v.append(n + nu + s)
             else:
                 in_y.append(j)

@@ -106,8 +106,6 @@ class Cart:
         if is_driven(self.drive) and self.drive.motor_inertia != 0.0:  # type: ignore[union-attr]
             raise ValueError("base: a cart's drive has no motor inertia (give the cart's "
                              "mass as the base's mass)")
-        if getattr(self.drive, "integrator", False):
-            raise ValueError("base: a cart's servo has no integral state: its I gain must be 0")
 
     @property
     def direction(self) -> tuple[float, float]:

@@ -227,6 +227,11 @@ class _Scene:
             if track.rail is not None:
                 xs.append(track.rail[:, 0])
                 ys.append(track.rail[:, 1])
+            parts = track.parts
+            for points in ([c for _, c in parts.bodies] + [e for _, _, e in parts.sliders]
+                           + ([parts.pivots] if parts.pivots is not None else [])):
+                xs.append(points[:, 0])
+                ys.append(points[:, 1])
         x, y = np.concatenate(xs), np.concatenate(ys)
         reach = max(np.ptp(x), np.ptp(y), 1e-9)
         self.reach = reach
@@ -286,13 +291,61 @@ class _Scene:
                                       edgecolor="#404860", animated=True, zorder=1)
             ax.add_patch(self.base_patch)  # type: ignore[attr-defined]
             self.base_half = self._base_half(self.tracks[0])
+        self._parts_artists(ax)
         for group in (*self.link_lines, *self.trails):
             self.moving.extend(group)
-        self.moving += [self.frame_x, self.frame_y]
+        self.moving += [self.frame_x, self.frame_y, *self.part_artists]
         for group in self.tip_dots:  # last: nothing covers a dot (its centre is the tip)
             self.moving.extend(group)
         if self.base_patch is not None:
             self.moving.insert(0, self.base_patch)
+
+    def _parts_artists(self, ax: object) -> None:
+        """A run's bodies (a disc at the centre of mass on a stalk from its section point),
+        closing pins (open rings), ground pivots (triangles, static) and sliders (a block on
+        its dashed line, static): drawn for the first track (a run has one)."""
+        add = ax.add_line  # type: ignore[attr-defined]
+        parts = self.tracks[0].parts
+        self.part_artists: list = []
+        self.stalks = add(Line2D([], [], color="#505050", linewidth=1.4, animated=True))
+        self.body_dots = add(Line2D([], [], marker="o", markersize=10, linestyle="none",
+                                    markerfacecolor="#4a6fa5", markeredgecolor="#1f3050",
+                                    markeredgewidth=1.0, zorder=4, animated=True))
+        self.pin_marks = add(Line2D([], [], marker="o", markersize=7, linestyle="none",
+                                    markerfacecolor="white", markeredgecolor="#202020",
+                                    markeredgewidth=1.5, zorder=4, animated=True))
+        self.part_artists += [self.stalks, self.body_dots, self.pin_marks]
+        if parts.pivots is not None:
+            ax.plot(parts.pivots[:, 0], parts.pivots[:, 1],  # type: ignore[attr-defined]
+                    marker="^", color="0.3", markersize=8, linestyle="none")
+        self.slider_blocks = []
+        for point, angle, ends in parts.sliders:
+            ax.plot(ends[:, 0], ends[:, 1], color="#707070", linewidth=1.5,  # type: ignore[attr-defined]
+                    linestyle="--", zorder=0)
+            block = Polygon(np.zeros((4, 2)), closed=True, facecolor="#c8d0e0",
+                            edgecolor="#404860", animated=True, zorder=3)
+            ax.add_patch(block)  # type: ignore[attr-defined]
+            self.slider_blocks.append((block, point, angle))
+            self.part_artists.append(block)
+
+    def _place_parts(self, index: int) -> None:
+        parts = self.tracks[0].parts
+        sx: list[float] = []
+        sy: list[float] = []
+        for anchor, centre in parts.bodies:  # one line, segments separated by NaN
+            sx += [anchor[index, 0], centre[index, 0], np.nan]
+            sy += [anchor[index, 1], centre[index, 1], np.nan]
+        self.stalks.set_data(sx, sy)
+        self.body_dots.set_data([c[index, 0] for _, c in parts.bodies],
+                                [c[index, 1] for _, c in parts.bodies])
+        self.pin_marks.set_data([p[index, 0] for p in parts.pins],
+                                [p[index, 1] for p in parts.pins])
+        half = 0.035 * self.reach
+        for block, point, angle in self.slider_blocks:
+            c, s = math.cos(angle), math.sin(angle)
+            corners = np.array([[-1.4 * half, -half], [1.4 * half, -half],
+                                [1.4 * half, half], [-1.4 * half, half]])
+            block.set_xy(point[index] + corners @ np.array([[c, s], [-s, c]]))
 
     def _base_half(self, track: ArmTrack) -> float:
         """Half side (m) of the square drawn for a base: reaching its farthest link joint."""
@@ -351,6 +404,7 @@ class _Scene:
             self.frame_y.set_data(fy[0::2], fy[1::2])
         if self.base_patch is not None:
             self._place_base(self.tracks[0].base[index])  # type: ignore[index]
+        self._place_parts(index)
         for cursor, dot, trace in self.cursors:
             cursor.set_xdata([self.time[index]] * 2)
             dot.set_data([self.time[index]], [trace.values[index]])

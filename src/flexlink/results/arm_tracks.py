@@ -1,6 +1,7 @@
 """What an animation draws of each case: the links as polylines over time (global frame, m),
-every link's tip, and a moving base (a cart: a block on its rail), from a run's `Results` or
-a sweep file.
+every link's tip, a moving base (a cart: a block on its rail), and a run's bodies, closing
+pins and sliders and ground pivots (`mechanism_parts`), from a run's `Results` or a sweep
+file.
 
 A run draws each link's stored deformed shape (`flexlink.channels.shapes`); a sweep file holds
 channels only, so each case is drawn as the chords from joint to tip of a serial chain (the
@@ -10,12 +11,13 @@ tip channels), or only its tips when the scenario hangs its links on a base.
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..channels import ChannelKind, ChannelTable
+from .mechanism_parts import DrawnParts, drawn_parts
 
 
 class AnimationInputError(ValueError):
@@ -36,6 +38,7 @@ class ArmTrack:
     label: str
     springs: tuple[int, ...] = ()
     rail: np.ndarray | None = None
+    parts: DrawnParts = field(default_factory=DrawnParts)
 
 
 def run_track(results: ChannelTable, magnification: float = 1.0) -> ArmTrack:
@@ -51,10 +54,11 @@ def run_track(results: ChannelTable, magnification: float = 1.0) -> ArmTrack:
     else:
         tips = [np.column_stack([X[:, -1], Y[:, -1]]) for X, Y in links]
     label = str(results.metadata.get("scenario", ""))
+    parts = drawn_parts(results.metadata, links, [s.length for s in shapes])
     cart = _cart(results, shapes)
     if cart is not None:
-        return ArmTrack(links, tips, cart[0], label, _springs(results), cart[1])
-    return ArmTrack(links, tips, _base(results), label, _springs(results))
+        return ArmTrack(links, tips, cart[0], label, _springs(results), cart[1], parts)
+    return ArmTrack(links, tips, _base(results), label, _springs(results), parts=parts)
 
 
 def _cart(results: ChannelTable, shapes: list) -> tuple[np.ndarray, np.ndarray] | None:

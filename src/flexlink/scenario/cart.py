@@ -23,7 +23,7 @@ _OWN = {"free": ("initial_position", "initial_velocity"),
         "prescribed": ("motion",),
         "servo": ("servo", "reference", "loop_gain", "force_limit")}
 _SERVO_OWN = {"position": ("bandwidth", "rate_limit"),
-              "velocity_pid": ("P", "D", "saturation_V", "rate_per_volt")}
+              "velocity_pid": ("P", "I", "D", "saturation_V", "rate_per_volt")}
 _REQUIRED = {"force", "motion", "servo", "reference", "loop_gain", "bandwidth", "rate_limit",
              "P", "rate_per_volt"}
 
@@ -137,7 +137,8 @@ def build_cart(entry: Mapping[str, Any]) -> model.Cart:
         drive = model.PositionServo(_motion(entry["reference"]), entry["bandwidth"],
                                     entry["rate_limit"], entry["loop_gain"], limit)
     else:
-        drive = model.VelocityServo(_motion(entry["reference"]), entry["P"], 0.0, entry["D"],
+        drive = model.VelocityServo(_motion(entry["reference"]), entry["P"], entry["I"],
+                                    entry["D"],
                                     entry["saturation_V"], entry["rate_per_volt"],
                                     entry["loop_gain"], limit)
     travel = entry.get("travel")

@@ -138,11 +138,6 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     if base is not None and base.get("type") == "cart" and "cart" in raw["base"]:
         base["cart"] = read_cart(raw["base"]["cart"], "base.cart", base_dir,
                                  simulation.get("t_end"), p)
-        for path, table in joint_tables:  # elastic joints and carts: not combined
-            if any(key in table for key in ELASTIC.keys):
-                p.add(f"{path}: an elastic joint ({', '.join(ELASTIC.keys)}) on a cart "
-                      "(base.type = \"cart\") is not modelled; make the joint rigid (leave "
-                      "out the spring keys) or use a fixed, pinned or free base")
     _check_massless_base(base, joints, simulation.get("model"), p)
     reserved = reserved_names([n for n in link_names if n], len(links))
     sensors = read_sensors(p.table_array(raw, "sensors", required=False), links, reserved, p)

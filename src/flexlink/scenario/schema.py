@@ -466,6 +466,8 @@ CART = Section("base.cart", [
           rule="servo = \"position\" only", doc="v_max"),
     Field("P", unit="V/m", ge=0, default=None, default_doc="required",
           rule="servo = \"velocity_pid\" only", doc="proportional gain"),
+    Field("I", unit="V/(m·s)", ge=0, default=0.0, rule="servo = \"velocity_pid\" only",
+          doc="integral gain (an integral state, with no wind-up while the command saturates)"),
     Field("D", unit="V·s/m", ge=0, default=0.0, rule="servo = \"velocity_pid\" only",
           doc="derivative gain"),
     Field("saturation_V", unit="V", gt=0, default=10.0, rule="servo = \"velocity_pid\" only",

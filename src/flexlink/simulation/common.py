@@ -18,6 +18,7 @@ from ..channels.shapes import LazyShapes, LinkShape
 from ..errors import RunTooLarge, SimulationError
 from ..model import Link, Scenario, Sensor
 from ..results import Results
+from ..results.mechanism_parts import parts_metadata
 from ..solvers import Solution
 from .accuracy import accuracy_metadata, unestimated_metadata
 
@@ -166,6 +167,7 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
         **solution.stats,
         **integration_metadata(solution),
         "wall_time_s": wall_time,
+        **parts_metadata(scenario),  # what the animation draws besides the links
     })
     for channel, value in catalogue_values(scenario, run):
         results.add(channel, value)

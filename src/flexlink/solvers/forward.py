@@ -111,9 +111,10 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
     y0 = system.initial_state()
     nu, n = len(system.free), system.n
     groups = error_groups(system, y0.size)
-    known = projection(system, data, float(t_out[0]), voltage_columns(system).stop)
+    u0 = inputs(system, t_out[:1])[0]
+    known = projection(system, data, float(t_out[0]), u0.size)  # every column is integrated
     if known.active.size:
-        start_values(known, data, work, inputs(system, t_out[:1])[0], y0, float(t_out[-1]))
+        start_values(known, data, work, u0, y0, float(t_out[-1]))
     try:
         states, stats = integrate_radau(
             data, work, y0, t_out, lambda t: inputs(system, t), breakpoints(system), rtol,
