@@ -77,10 +77,6 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
     used; a ``model = "nonlinear"`` scenario with prescribed joints is linearised at a rest
     configuration about its static deflection under the actuators' t = 0 voltages
     (control/nonlinear.py)."""
-    if scenario.closures:
-        raise ValueError("closures: the linearised plant of a mechanism with closed loops is "
-                         "not built; its frequencies about a state: "
-                         "flexlink.dynamics.loops.loop_frequencies")
     point = parse_at(scenario, at)
     original = scenario
     if isinstance(point, Configuration):
@@ -88,7 +84,11 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
         t0 = 0.0
     else:
         t0 = point
-    if scenario.settings.model == "nonlinear" and not scenario.is_forward:
+    if scenario.closures:  # independent coordinates of the closed loops
+        from .loop_plant import loop_plant
+
+        plant = loop_plant(scenario, t0, point)
+    elif scenario.settings.model == "nonlinear" and not scenario.is_forward:
         if not isinstance(point, Configuration):
             raise ValueError("at: a model = 'nonlinear' scenario is linearised about a rest "
                              "configuration (joint angles), its static deflection under the "
