@@ -132,3 +132,72 @@ def test_frozen_time_plant_along_the_run() -> None:
     plant = flexlink.linearize(scenario, at=0.3)
     assert not plant.equilibrium
     assert np.all(np.isfinite(plant.A)) and modes.frequency_hz.shape == (2, 2)
+
+
+def test_more_drives_than_degrees_of_freedom_are_refused_naming_the_joints() -> None:
+    """The four-bar's coupler prescribed as well as its crank: the pin's two equations leave
+    one joint to move them; refused at load, naming the prescribed joints."""
+    from flexlink.scenario.errors import ScenarioError
+
+    d = copy.deepcopy(FOUR_BAR)
+    d["joints"][1] = {"motion": [{"profile": "hold", "angle_deg": -60.0}]}
+    with pytest.raises(ScenarioError, match=r"more drives than degrees of freedom.*"
+                                            r"prescribed: joints\[0\] \(joint1\), "
+                                            r"joints\[1\] \(joint2\)"):
+        scenario_from_dict(d)
+    d["joints"][1] = {"drive": "free", "initial_angle_deg": -60.0}
+    d["closures"] = [{"name": "piston", "kind": "slider", "link": "rocker", "ground": [0, 0]}]
+    scenario_from_dict(d)  # a slider's one equation: the two free joints suffice
+
+
+def _gravity_four_bar(crank: dict, stiffening: bool = True) -> dict:
+    d = _closed(90.0)
+    d["joints"][0] = crank
+    d["simulation"].update(gravity=[0.0, -9.81], initial="equilibrium", t_end=0.2, rtol=1e-9,
+                           geometric_stiffening=stiffening)
+    d["sensors"] = [{"name": "mid", "kind": "deflection", "link": "coupler", "x": L2 / 2}]
+    return d
+
+
+def test_equilibrium_start_of_a_closed_loop_under_gravity() -> None:
+    """The crank held at 90°: the loop locks the mechanism, the coupler is a simply supported
+    beam under its weight's transverse part q = m g cos θ₂: mid-span deflection 5 q L⁴ /
+    384 EI (without stiffening; the rocker's weight loads the coupler axially). The run
+    from that start stays still; from rest it vibrates."""
+    d = _gravity_four_bar({"motion": [{"profile": "hold", "angle_deg": 90.0}]}, False)
+    r = flexlink.simulate(scenario_from_dict(d))
+    theta2 = r["joint1_angle"][0] + r["joint2_angle"][0]
+    q = 0.3 * 9.81 * math.cos(theta2)
+    exact = -5 * q * L2**4 / (384 * 20.0)
+    # the basis's 8 sine modes hold the series' terms n ≤ 8 of w = Σ 4qL⁴ sin(nπx/L)/(EI n⁵π⁵)
+    series = -sum(4 * q * L2**4 * math.sin(n * math.pi / 2) / (20.0 * (n * math.pi) ** 5)
+                  for n in range(1, 9, 2))
+    assert r["mid"][0] == pytest.approx(series, rel=1e-9)
+    assert r["mid"][0] == pytest.approx(exact, rel=2e-5)  # the series' truncation: 1.3e-5
+    assert np.ptp(r["mid"]) < 1e-9 * abs(exact)
+    d["simulation"]["initial"] = "rest"
+    assert np.ptp(flexlink.simulate(scenario_from_dict(d))["mid"]) > 0.5 * abs(exact)
+
+
+def test_equilibrium_start_with_a_servo_crank_balances_the_weights() -> None:
+    """A position servo holds the crank: at equilibrium its torque is the weights' moment
+    dV/dθ₁ of the closed mechanism (virtual work on the exact rigid four-bar kinematics;
+    the coupler's sag changes it by ~1e-4), and the run stays still."""
+    servo = {"drive": "servo", "servo": "position", "bandwidth": 30.0,
+             "rate_limit_deg_s": 500.0, "loop_gain": 5.0, "motor_inertia": 0.001,
+             "reference": [{"profile": "hold", "angle_deg": 90.0}]}
+    r = flexlink.simulate(scenario_from_dict(_gravity_four_bar(servo)))
+    crank = r["joint1_angle"][0]
+    assert crank != pytest.approx(math.pi / 2, abs=1e-5)  # the servo yields to the load
+
+    def potential(c: float) -> float:
+        b1, b2, b3 = _four_bar_angles(c)
+        return 9.81 * (MASS[0] * L1 * 0.5 * L1 * math.sin(b1)
+                       + 0.3 * L2 * (L1 * math.sin(b1) + 0.5 * L2 * math.sin(b2))
+                       + MASS[2] * L3 * 0.5 * L3 * math.sin(b3))
+
+    h = 1e-6
+    moment = (potential(crank + h) - potential(crank - h)) / (2 * h)
+    assert r["joint1_torque"][0] == pytest.approx(moment, rel=1e-3)
+    for name in ("joint1_angle", "joint3_angle", "mid"):
+        assert np.ptp(r[name]) < 1e-9 * max(1.0, abs(r[name][0]))
