@@ -175,8 +175,10 @@ def test_equilibrium_start_of_a_closed_loop_under_gravity() -> None:
     assert r["mid"][0] == pytest.approx(series, rel=1e-9)
     assert r["mid"][0] == pytest.approx(exact, rel=2e-5)  # the series' truncation: 1.3e-5
     assert np.ptp(r["mid"]) < 1e-9 * abs(exact)
+    assert flexlink.linearize(scenario_from_dict(d), at=0.0).equilibrium
     d["simulation"]["initial"] = "rest"
     assert np.ptp(flexlink.simulate(scenario_from_dict(d))["mid"]) > 0.5 * abs(exact)
+    assert not flexlink.linearize(scenario_from_dict(d), at=0.0).equilibrium
 
 
 def test_equilibrium_start_with_a_servo_crank_balances_the_weights() -> None:
