@@ -268,3 +268,24 @@ def test_plant_frequencies_match_exudyn_eigenvalues(free_crank: bool) -> None:
         d["joints"][0] = {"drive": "free", "initial_angle_deg": 90.0}
     model = flexlink.linearize(scenario_from_dict(d), at=0.0).modes()[0][:3]
     assert np.abs(model / reference - 1).max() < 5e-3
+
+
+def test_servo_crank_static_gain_is_the_loop_kinematics() -> None:
+    """A position servo on the crank, no loads: the plant's static gain from the crank's
+    reference, −C A⁻¹ B + D, is 1 on the crank's angle and the loop's kinematic ratios
+    dθ/dθ₁ (exact rigid four-bar, central differences) on the dependent joints."""
+    d = _closed(90.0)
+    d["joints"][0] = {"drive": "servo", "servo": "position", "bandwidth": 30.0,
+                      "rate_limit_deg_s": 500.0, "loop_gain": 5.0, "motor_inertia": 0.001,
+                      "reference": [{"profile": "hold", "angle_deg": 90.0}]}
+    plant = flexlink.linearize(scenario_from_dict(d), at=0.0)
+    assert plant.equilibrium and np.linalg.eigvals(plant.A).real.max() < 0
+    column = plant.input_names.index("joint1_reference")
+    gain = (-plant.C @ np.linalg.solve(plant.A, plant.B[:, column]) + plant.D[:, column])
+    h = 1e-6
+    up, down = (np.array(_four_bar_angles(math.pi / 2 + s)) for s in (h, -h))
+    ratio = (up - down) / (2 * h)  # absolute angles of crank, coupler, rocker
+    out = {name: gain[i] for i, name in enumerate(plant.output_names)}
+    assert out["joint1_angle"] == pytest.approx(1.0, abs=1e-7)
+    assert out["joint2_angle"] == pytest.approx(ratio[1] - ratio[0], abs=1e-6)
+    assert out["joint3_angle"] == pytest.approx(ratio[2], abs=1e-6)

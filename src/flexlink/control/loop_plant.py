@@ -63,7 +63,8 @@ def loop_plant(scenario: Scenario, t0: float, point: float | Configuration,
     A = J[np.ix_(order, order)]
     full = keep[order]  # each plant state's index into y
     u0 = input_rows(system, np.array([float(t0)]))[0]
-    _check_servos(scenario, system, t0, *_rigid(system, t0, y[None])[:2], y[2 * (nu + n):])
+    p, pd, _ = _rigid(system, t0, y[None])
+    _check_servos(scenario, system, t0, p[0], pd[0], y[2 * (nu + n):])
     columns, in_names = _input_columns(scenario, system)
     B = _input_jacobian(loops, u0, y, columns, full)
 
@@ -83,8 +84,7 @@ def loop_plant(scenario: Scenario, t0: float, point: float | Configuration,
                    ).max(initial=0.0) <= 1e-9 * scale
     equilibrium = not moving and bool(still)
     op = _describe(scenario, point, equilibrium)
-    p = _rigid(system, t0, y[None])[0][0]
-    op.update({joint_name(k, "angle"): float(p[system.joint_index(k)])
+    op.update({joint_name(k, "angle"): float(p[0, system.joint_index(k)])
                for k in range(len(scenario.chain.joints))})
     op["dependent_joints"] = " ".join(joint_name(system.free[j] - system.n_base, "angle")
                                       .removesuffix("_angle") for j in loops.dep)
