@@ -289,3 +289,25 @@ def test_servo_crank_static_gain_is_the_loop_kinematics() -> None:
     assert out["joint1_angle"] == pytest.approx(1.0, abs=1e-7)
     assert out["joint2_angle"] == pytest.approx(ratio[1] - ratio[0], abs=1e-6)
     assert out["joint3_angle"] == pytest.approx(ratio[2], abs=1e-6)
+
+
+def test_servo_on_a_dependent_joint_static_gain() -> None:
+    """The crank free, a position servo on the rocker (a joint the closures determine: its
+    servo drives the loop through the constraint): static gain 1 on the rocker's angle and
+    dθ₁/dθ₃ = 1/(dθ₃/dθ₁) of the rigid four-bar on the crank's."""
+    d = _closed(90.0)
+    d["joints"][0] = {"drive": "free", "initial_angle_deg": 90.0}
+    rocker = math.degrees(_four_bar_angles(math.pi / 2)[2])
+    d["joints"][2] = {"drive": "servo", "servo": "position", "bandwidth": 30.0,
+                      "rate_limit_deg_s": 500.0, "loop_gain": 5.0, "motor_inertia": 0.001,
+                      "base_point": [D, 0.0], "reference": [{"profile": "hold",
+                                                             "angle_deg": rocker}]}
+    plant = flexlink.linearize(scenario_from_dict(d), at=0.0)
+    assert plant.operating_point["dependent_joints"] == "joint2 joint3"
+    column = plant.input_names.index("joint3_reference")
+    gain = (-plant.C @ np.linalg.solve(plant.A, plant.B[:, column]) + plant.D[:, column])
+    out = {name: gain[i] for i, name in enumerate(plant.output_names)}
+    h = 1e-6
+    ratio = (_four_bar_angles(math.pi / 2 + h)[2] - _four_bar_angles(math.pi / 2 - h)[2]) / (2 * h)
+    assert out["joint3_angle"] == pytest.approx(1.0, abs=1e-6)
+    assert out["joint1_angle"] == pytest.approx(1 / ratio, rel=1e-6)
