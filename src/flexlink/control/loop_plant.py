@@ -36,8 +36,8 @@ from ..model import Scenario, TorqueDrive, VelocityServo, is_driven
 from ..model.joints import drive_side
 from ..solvers import Solution
 from .linear import LinearPlant
-from .linearization import STEP, _check_servos, _describe, _elastic_names, _plant, forward_system
 from .operating_point import Configuration
+from .plant_parts import STEP, _check_servos, _describe, _elastic_names, _plant, forward_system
 
 # The projection closes each perturbed state to 1e-12 of the loop's size: a difference step
 # well above that keeps the closure's round-off out of the slopes.
@@ -97,7 +97,7 @@ def loop_states(scenario: Scenario, loops: LoopSystem, times: np.ndarray) -> lis
     """The closed state y = [p_free, ṗ_free, z, ż, integrals] at each of the increasing
     times (s) of the scenario's run, from one run (t = 0 alone: the closed initial state)."""
     from ..solvers.loops import integrate_loops
-    from .linearization import _check_run_size
+    from .plant_parts import _check_run_size
 
     times = np.asarray(times, dtype=float)
     if times.max(initial=0.0) == 0.0:
