@@ -122,7 +122,7 @@ def test_all_problems_are_reported_at_once() -> None:
         ("links", "modes", 4.0, "links[0].modes: expected an integer, got number 4.0"),
         ("links", "mode_shapes", "clamped", ("links[0].mode_shapes must be one of 'auto', "
          "'clamped_free', 'tip_loaded', 'outboard_loaded', 'hub_loaded', 'pinned_pinned', "
-         "got 'clamped' "
+         "'pinned_loaded', got 'clamped' "
          "(did you mean 'clamped_free'?)")),
         ("links", "name", "", "links[0].name must not be empty"),
         ("links", "name", "b", "links[1].name: duplicate name 'b' (names must be unique)"),

@@ -38,11 +38,15 @@ def _element(EA: float, EI: float, m: float, L: float, angle: float
 def four_bar_frequencies(crank: tuple[float, float, float], coupler: tuple[float, float, float],
                          rocker: tuple[float, float, float], pivot: tuple[float, float],
                          angles: tuple[float, float, float], EA: float,
-                         elements: int = 40, count: int = 4) -> np.ndarray:
+                         elements: int = 40, count: int = 4, held_crank: bool = False,
+                         coupler_tip: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
     """The lowest ``count`` natural frequencies (Hz, the mechanism's zero included) of the
     four-bar: crank from the origin, coupler from the crank's tip, rocker from ``pivot``
     (the pivot's position enters through the angles), their tips pinned. Each link is (length m, mass per length kg/m, EI N·m², inf: rigid) at
-    its absolute angle (rad) in ``angles``; EA (N) the flexible links' axial stiffness."""
+    its absolute angle (rad) in ``angles``; EA (N) the flexible links' axial stiffness;
+    ``held_crank``: the crank's rotation at the origin fixed too (a crank held by its motor:
+    no mechanism motion); ``coupler_tip``: a body (mass kg, rotary inertia kg·m²) on the
+    coupler's tip, lumped on its node (it turns with the coupler's end section)."""
     flexible_EI = max(ei for _, _, ei in (crank, coupler, rocker) if np.isfinite(ei))
     dof = 0
     nodes: list[list[list[int]]] = []  # per link, per node: [u, v, θ] global indices
@@ -61,6 +65,8 @@ def four_bar_frequencies(crank: tuple[float, float, float], coupler: tuple[float
         nodes.append(link_nodes)
         if k != 1:
             fixed |= set(link_nodes[0][:2])  # ground pivots
+        if k == 0 and held_crank:
+            fixed.add(link_nodes[0][2])
     tip_c, tip_r = nodes[1][-1], nodes[2][-1]  # the closure: shared translation
     merge = {tip_r[0]: tip_c[0], tip_r[1]: tip_c[1]}
     K = np.zeros((dof, dof))
@@ -73,6 +79,10 @@ def four_bar_frequencies(crank: tuple[float, float, float], coupler: tuple[float
             idx = [merge.get(j, j) for j in nodes[k][i] + nodes[k][i + 1]]
             K[np.ix_(idx, idx)] += ke
             M[np.ix_(idx, idx)] += me
+    tip_u, tip_v, tip_th = nodes[1][-1]
+    M[tip_u, tip_u] += coupler_tip[0]
+    M[tip_v, tip_v] += coupler_tip[0]
+    M[tip_th, tip_th] += coupler_tip[1]
     keep = [i for i in range(dof) if i not in fixed and i not in merge]
     w2 = eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)], eigvals_only=True,
               subset_by_index=[0, count - 1])

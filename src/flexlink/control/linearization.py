@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..channels.catalogue import cart_name, catalogue, joint_name
+from ..channels.catalogue import cart_name, joint_name
 from ..channels.first_order import sensor_values, tip_values
 from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics.actuators import actuator_matrix
@@ -31,15 +31,24 @@ from ..dynamics.elastic_joints import driven_motors
 from ..dynamics.first_order import FirstOrderSystem
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.kinematics import JointHistory, frame_motion
-from ..dynamics.servos import command_volts, servo_torque
+from ..dynamics.servos import servo_torque
 from ..dynamics.torques import joint_torques
-from ..model import Base, PositionServo, Scenario, TorqueDrive, VelocityServo, is_driven
+from ..model import Scenario, TorqueDrive, VelocityServo, is_driven
 from ..model.joints import drive_side
 from ..solvers import Solution
 from .linear import LinearPlant
 from .operating_point import At, Configuration, Shifted, held_scenario, parse_at
+from .plant_parts import (  # noqa: F401 — modes.py and tests import these from here
+    STEP,
+    _check_run_size,
+    _check_servos,
+    _describe,
+    _elastic_names,
+    _input_unit,
+    _plant,
+    forward_system,
+)
 
-STEP = 1e-6  # central-difference step in the rigid coordinates (rad, m, and their rates)
 KINK = 1e-4  # one-sided slopes differing by more than this (relative): a saturation
 
 
@@ -77,10 +86,6 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
     used; a ``model = "nonlinear"`` scenario with prescribed joints is linearised at a rest
     configuration about its static deflection under the actuators' t = 0 voltages
     (control/nonlinear.py)."""
-    if scenario.closures:
-        raise ValueError("closures: the linearised plant of a mechanism with closed loops is "
-                         "not built; its frequencies about a state: "
-                         "flexlink.dynamics.loops.loop_frequencies")
     point = parse_at(scenario, at)
     original = scenario
     if isinstance(point, Configuration):
@@ -88,7 +93,11 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
         t0 = 0.0
     else:
         t0 = point
-    if scenario.settings.model == "nonlinear" and not scenario.is_forward:
+    if scenario.closures:  # independent coordinates of the closed loops
+        from .loop_plant import loop_plant
+
+        plant = loop_plant(scenario, t0, point)
+    elif scenario.settings.model == "nonlinear" and not scenario.is_forward:
         if not isinstance(point, Configuration):
             raise ValueError("at: a model = 'nonlinear' scenario is linearised about a rest "
                              "configuration (joint angles), its static deflection under the "
@@ -230,12 +239,6 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
                       for k in system.servos if system.servo_of(k)[0].integrator])
 
 
-def forward_system(scenario: Scenario) -> ForwardSystem:
-    return ForwardSystem(scenario.chain, scenario.base or Base(),
-                         scenario.settings.geometric_stiffening, scenario.actuators,
-                         gravity=scenario.settings.gravity, initial=scenario.settings.initial)
-
-
 def run_state(scenario: Scenario, system: ForwardSystem, t0: float) -> tuple[np.ndarray, ...]:
     """p_free, ṗ_free, z, ż, servo integrals at t0 of the scenario's run (t0 = 0: the
     initial state, no run)."""
@@ -266,46 +269,6 @@ def run_states(scenario: Scenario, system: ForwardSystem, times: np.ndarray
         out.append((sol.q[i, :nf], sol.q_dot[i, :nf], sol.q[i, nf:], sol.q_dot[i, nf:],
                     extra[i]))
     return out
-
-
-def _check_run_size(scenario: Scenario, t_end: float) -> None:
-    """RunTooLarge, before the run to ``t_end`` (s), if its arrays would not fit in memory
-    (the check `flexlink run` makes, for this shorter or equal run)."""
-    from ..errors import RunTooLarge
-    from ..simulation.common import (
-        ALWAYS_FITS,
-        MemoryEstimate,
-        memory_problem,
-        run_memory,
-        sample_count,
-    )
-
-    estimate = MemoryEstimate(sample_count(t_end, scenario.settings.dt_out),
-                              run_memory(scenario).per_sample)
-    if estimate.total > ALWAYS_FITS:
-        problem = memory_problem(estimate, t_end, f"the run up to t = {t_end:g} s")
-        if problem:
-            raise RunTooLarge(problem)
-
-
-def _check_servos(scenario: Scenario, system: ForwardSystem, t0: float, p: np.ndarray,
-                  pd: np.ndarray, integral: np.ndarray) -> None:
-    """Refuse an operating point where a servo saturates: the plant is the unsaturated law."""
-    t = np.array([t0])
-    for s, k in enumerate(system.servos):
-        joint, i = system.servo_of(k)
-        args = (t, p[i:i + 1], pd[i:i + 1], integral[s:s + 1])
-        torque, _ = servo_torque(joint, *args)  # type: ignore[arg-type]
-        saturated = abs(float(torque[0])) >= joint.torque_limit  # type: ignore[union-attr]
-        if isinstance(joint, VelocityServo):
-            saturated |= abs(float(command_volts(joint, *args)[0])) >= joint.saturation
-        elif isinstance(joint, PositionServo):
-            error = float(joint.reference.evaluate(t)[0][0]) - p[i]
-            saturated |= abs(joint.bandwidth * error) >= joint.rate_limit
-        if saturated:
-            raise ValueError(f"joint {k + 1}'s servo is saturated at the operating point: the "
-                             "linearisation is of the unsaturated servo law; choose another "
-                             "time or a rest configuration")
 
 
 def _central(fun: Any, width: int) -> tuple[np.ndarray, np.ndarray]:
@@ -535,55 +498,7 @@ def _outputs(readings: Any, nf: int, n: int, A: np.ndarray, B: np.ndarray, ns: i
     return C, D, names
 
 
-def _elastic_names(scenario: Scenario) -> list[str]:
-    return [f"{link.name}_q{i + 1}" for link in scenario.chain.links for i in range(link.modes)]
-
-
 def _input_names(scenario: Scenario, names: list[str]) -> list[str]:
     return names + [f"{a.name}_voltage" for a in scenario.actuators]
 
 
-INPUT_UNITS = {"torque": "N m", "reference": "rad", "reference_rate": "rad s-1",
-               "base_force_x": "N", "base_force_y": "N", "base_moment": "N m", "voltage": "V",
-               "cart_force": "N"}
-
-
-def _input_unit(name: str) -> str:
-    if name in INPUT_UNITS:
-        return INPUT_UNITS[name]
-    for suffix in ("reference_rate", "reference", "torque", "voltage"):
-        if name.endswith("_" + suffix):
-            return INPUT_UNITS[suffix]
-    raise KeyError(name)
-
-
-def _plant(scenario: Scenario, A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray,
-           elastic: list[str], rigid: list[str], inputs: list[str], outputs: list[str],
-           op: dict[str, Any], equilibrium: bool, ns_names: list[str] | None = None
-           ) -> LinearPlant:
-    units = {c.name: c.unit for c in catalogue(scenario)}
-    rates = {f"{name.removesuffix('_angle')}_rate": "rad s-1" for name in rigid}
-    rates.update({"base_x_rate": "m s-1", "base_y_rate": "m s-1",
-                  "base_attitude_rate": "rad s-1", "base_x": "m", "base_y": "m",
-                  "base_attitude": "rad"})
-    rates.update({name: "rad" for name in rigid if name.startswith("joint")})
-    out_units = tuple(units.get(name, rates.get(name, "")) for name in outputs)
-    positions = rigid + elastic
-    states = positions + [f"{name.removesuffix('_angle')}_rate" if name.endswith("_angle")
-                          else cart_name("velocity") if name == cart_name("position")
-                          else f"{name}_rate" for name in positions] + (ns_names or [])
-    return LinearPlant(A, B, C, D, tuple(states), tuple(inputs), tuple(outputs),
-                       tuple(_input_unit(n) for n in inputs), out_units, op, equilibrium)
-
-
-def _describe(scenario: Scenario, point: float | Configuration, equilibrium: bool
-              ) -> dict[str, Any]:
-    op: dict[str, Any] = {"scenario": scenario.name,
-                          "geometric_stiffening": scenario.settings.geometric_stiffening,
-                          "model": "first_order"}
-    if isinstance(point, Configuration):
-        op.update(point.describe())
-    else:
-        op.update(kind="time of the run" + ("" if equilibrium else " (frozen, not at rest)"),
-                  time_s=point)
-    return op

@@ -126,8 +126,16 @@ def _over_times(scenario: Scenario, times: np.ndarray) -> list[tuple[LinearPlant
         return [(linearize(scenario, at=float(t)), scenario) for t in times]
     order = np.argsort(times)
     system = forward_system(scenario)
-    states = run_states(scenario, system, times[order])
     plants: list[tuple[LinearPlant, Scenario] | None] = [None] * times.size
+    if scenario.closures:  # one closed-loop run, a plant in independent coordinates each
+        from ..dynamics.loops import LoopSystem
+        from .loop_plant import loop_plant, loop_states
+
+        closed = loop_states(scenario, LoopSystem(system, scenario.closures), times[order])
+        for i, y in zip(order, closed):
+            plants[i] = (loop_plant(scenario, float(times[i]), float(times[i]), y), scenario)
+        return [p for p in plants if p is not None]
+    states = run_states(scenario, system, times[order])
     for i, state in zip(order, states):
         plants[i] = (forward_plant(scenario, float(times[i]), float(times[i]), state), scenario)
     return [p for p in plants if p is not None]

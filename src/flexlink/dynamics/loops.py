@@ -52,11 +52,13 @@ class LoopSystem:
         rows = np.cumsum([0] + [c.equations for c in self.closures])
         self.n_c = int(rows[-1])
         if len(system.free) < self.n_c:
+            held = ", ".join(f"joint{k + 1}" for k in range(len(system.chain.joints))
+                             if system.n_base + k not in system.free)
             raise SimulationError(
                 f"closures: {self.n_c} closure equations need as many joints whose angle "
                 f"follows from the dynamics (drive = \"free\", \"torque\" or \"servo\"); the "
-                f"tree has {len(system.free)}: the mechanism has more prescribed joints than "
-                "degrees of freedom")
+                f"tree has {len(system.free)}: the mechanism has more drives than degrees of "
+                f"freedom, more prescribed joints than degrees of freedom (prescribed: {held})")
         self.size = float(sum(d.length for d in system.modal))
         self.fwd: ForwardData = pack(system)
         self._rows = rows
@@ -116,7 +118,8 @@ class LoopSystem:
         """The initial state with the dependent joints (chosen here) closing the loops."""
         from ._loops_numba import constraints, load_state, project
 
-        y = self.system.initial_state()
+        equilibrium = self.system.initial == "equilibrium"  # the tree's would leave the loop
+        y = self.system._rest_state() if equilibrium else self.system.initial_state()
         u0 = inputs(self.system, np.array([0.0]))[0]
         work = self.workspace(y.size)
         load_state(self.data, work, u0, y)
@@ -128,6 +131,10 @@ class LoopSystem:
             raise SimulationError(self._open_message(
                 self._closest(work, u0, start), "does not close at t = 0 (the residual is "
                 "the least its free joints reach from their initial angles)"))
+        if equilibrium:
+            from .loop_equilibrium import closed_equilibrium
+
+            return closed_equilibrium(self, y, u0)
         return y
 
     def _closest(self, work, u0: np.ndarray, y: np.ndarray) -> np.ndarray:

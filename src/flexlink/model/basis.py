@@ -67,11 +67,14 @@ def held_by_loop(chain: Chain, k: int, closures: Sequence[Closure]) -> bool:
 
 def chosen_mode_shapes(chain: Chain, base: Base | None = None,
                        closures: Sequence[Closure] = ()) -> tuple[str, ...]:
-    """Each link's basis: its own ``mode_shapes``, or for "auto" "pinned_pinned" where a
-    closed loop holds it (`held_by_loop`), else `default_mode_shapes`."""
+    """Each link's basis: its own ``mode_shapes``, or for "auto" where a closed loop holds it
+    (`held_by_loop`) "pinned_pinned", "pinned_loaded" when its tip body has a rotary inertia
+    (which the sines, without curvature at the ends, converge on like N⁻¹), else
+    `default_mode_shapes`."""
     return tuple(
         link.mode_shapes if link.mode_shapes != "auto" else
-        "pinned_pinned" if held_by_loop(chain, k, closures) else
+        ("pinned_loaded" if link.tip_body()[1] > 0 else "pinned_pinned")
+        if held_by_loop(chain, k, closures) else
         default_mode_shapes(any(link.tip_body()[:2]),
                             carries_links(chain, k, base), free_hub(chain, k, base) is not None)
         for k, link in enumerate(chain.links))

@@ -33,7 +33,7 @@ class Body:
 
 
 ModeShapes = Literal["auto", "clamped_free", "tip_loaded", "outboard_loaded", "hub_loaded",
-                     "pinned_pinned"]
+                     "pinned_pinned", "pinned_loaded"]
 MODE_SHAPES: tuple[str, ...] = get_args(ModeShapes)
 
 

@@ -298,7 +298,7 @@ def modal_data_for_stiffness(link: Link) -> ModalData:
     """`modal_data` of a clamped–free or tip-loaded link from `unit_stiffness_modal_data`: the
     same operations on the same numbers, so equal to a fresh computation bit for bit
     (tests/unit/test_startup.py)."""
-    if link.mode_shapes not in ("clamped_free", "tip_loaded", "pinned_pinned"):
+    if link.mode_shapes not in ("clamped_free", "tip_loaded", "pinned_pinned", "pinned_loaded"):
         raise ValueError(f"mode shapes {link.mode_shapes!r} depend on more than the link")
     return _with_stiffness(unit_stiffness_modal_data(link), link.EI, link.damping_ratio)
 

@@ -26,7 +26,7 @@ import numpy as np
 from flexlink.model import Link
 
 __all__ = ["ModeShapes", "clamped_free_modes", "hub_loaded_modes", "mode_shapes_for",
-           "offset_tip_modes", "pinned_pinned_modes", "tip_loaded_modes"]
+           "offset_tip_modes", "pinned_loaded_modes", "pinned_pinned_modes", "tip_loaded_modes"]
 
 _NORM_PANELS_PER_LAMBDA = 0.5  # quadrature panels per unit of λ for the normalisation integral
 _GAUSS_POINTS = 20  # Gauss–Legendre points per panel
@@ -416,6 +416,51 @@ def pinned_pinned_modes(length: float, n: int) -> ModeShapes:
                       "pinned_pinned", extra if n else None)
 
 
+def _pinned_loaded_matrix(lam: float, j: float) -> np.ndarray:
+    """The conditions on (G, H, C, D) of y = G e^{β(x−L)} + H e^{−βx} + C cos βx + D sin βx at
+    λ = βL for a beam pinned at both ends of its chord carrying at its far end a body of
+    rotary inertia j = J/(mL³) about the end: y(0) = y''(0) = 0, y(L) = 0 and
+    EI y''(L) = J ω² y'(L) (every entry bounded)."""
+    e, co, si = math.exp(-lam), math.cos(lam), math.sin(lam)
+    slope, curvature = np.array([1.0, -e, -si, co]), np.array([1.0, e, -co, -si])
+    a = np.zeros((4, 4))
+    a[0] = [e, 1.0, 1.0, 0.0]
+    a[1] = [e, 1.0, -1.0, 0.0]
+    a[2] = [1.0, e, co, si]
+    a[3] = curvature - j * lam**3 * slope
+    return a
+
+
+def pinned_loaded_modes(length: float, n: int, mass_per_length: float,
+                        tip_inertia: float) -> ModeShapes:
+    """Exact modes of a link pinned at both ends of its chord (the frame of `pinned_pinned`)
+    whose far end carries a body of rotary inertia ``tip_inertia`` (kg·m², about the end):
+    the end turns with the link's slope there, so its inertia bends the link, which the sines
+    (no curvature at the ends) represent only slowly. A mass at the held end does not move
+    (φ(L) = 0); with no inertia these are the sines. Roots by a sign scan and bisection, each
+    mode from the null vector of `_pinned_loaded_matrix`."""
+    if n < 0:
+        raise ValueError("the number of modes must be >= 0")
+    if mass_per_length <= 0 or length <= 0 or tip_inertia < 0:
+        raise ValueError("length and mass_per_length must be positive, tip_inertia >= 0")
+    j = tip_inertia / (mass_per_length * length**3)
+    if n == 0 or j == 0.0:
+        return pinned_pinned_modes(length, n)
+    lam = _determinant_roots(lambda x: float(np.linalg.det(_pinned_loaded_matrix(x, j))), n,
+                             (n + 1) * np.pi, "pinned-loaded")
+    extra, growing = np.zeros((5, n)), np.empty(n)
+    for i in range(n):
+        G, H, C, D = np.linalg.svd(_pinned_loaded_matrix(lam[i], j))[2][-1]
+        growing[i] = G
+        extra[:3, i] = [H - 0.5, C + 1.0, D]
+    zero = np.zeros(n)
+    raw = ModeShapes(length, n, lam, zero, growing, np.ones(n), "pinned_loaded", extra)
+    scale = _scale(raw, 0.0, j)
+    # signed as the sines: φ_i'(0) > 0 (φ(L) = 0 cannot sign them)
+    scale = scale * np.sign(raw.evaluate(np.array([0.0]), 1)[0] * scale)
+    return ModeShapes(length, n, lam, zero, growing, scale, "pinned_loaded", extra)
+
+
 def mode_shapes_for(link: Link) -> ModeShapes:
     """The link's assumed modes, chosen by ``link.mode_shapes``."""
     if link.mode_shapes == "clamped_free":
@@ -429,4 +474,7 @@ def mode_shapes_for(link: Link) -> ModeShapes:
                                 mass, inertia)
     if link.mode_shapes == "pinned_pinned":
         return pinned_pinned_modes(link.length, link.modes)
+    if link.mode_shapes == "pinned_loaded":
+        return pinned_loaded_modes(link.length, link.modes, link.mass_per_length,
+                                   link.tip_body()[1])
     raise ValueError(f"unknown mode_shapes {link.mode_shapes!r} for link {link.name!r}")

@@ -64,19 +64,26 @@ def read_closures(tables: list[tuple[str, dict[str, Any]]], links: list[dict[str
     if simulation.get("model") == "nonlinear":
         p.add("closures: closed loops run on the first-order model only; set simulation.model "
               "= \"first_order\"")
-    if simulation.get("initial") == "equilibrium":
-        p.add("closures: a closed loop starts from its joints' initial angles and rates; set "
-              "simulation.initial = \"rest\"")
     if base is not None and base.get("type") not in (None, "fixed"):
         p.add(f"closures: loops close on a fixed base only; base.type = {base.get('type')!r}")
     elastic = [i for i, j in enumerate(joints) if "spring_stiffness" in j]
     if elastic:  # the loops' partitioning reads joint angles only, not the motors' angles
         p.add(f"closures: elastic joints do not run with closed loops yet (joints[{elastic[0]}] "
               "has spring_stiffness); drop the spring (a rigid joint) or the [[closures]]")
-    if not any("drive" in j for j in joints):
+    movable = [i for i, j in enumerate(joints) if "drive" in j]
+    equations = sum(1 if c.get("kind") == "slider" else 2 for c in out)
+    if not movable:
         p.add("closures: every joint is prescribed, so nothing can move to close the loop; "
               "give the loop's passive joints drive = \"free\" (and initial_angle_deg near "
               "the closed configuration)")
+    elif len(movable) < equations:
+        held = ", ".join(f"joints[{i}] (joint{i + 1})" for i, j in enumerate(joints)
+                         if "drive" not in j)
+        p.add(f"closures: the mechanism has more drives than degrees of freedom: its "
+              f"{equations} closure equations need as many joints the dynamics move (drive = "
+              f"\"free\", \"torque\" or \"servo\"), it has {len(movable)} — more prescribed "
+              f"joints than degrees of freedom (prescribed: {held}); set drive = \"free\" on "
+              "the loop's passive joints")
     return out
 
 

@@ -235,7 +235,7 @@ LINKS = Section("links", [
     Field("modes", "integer", ge=1, le=20, default=4, doc="number of assumed modes"),
     Field("mode_shapes", "string", choices=MODE_SHAPES, default="auto", notes={
         "auto": "chosen from the chain: `pinned_pinned` for a link on a free joint whose tip "
-                "a closure holds, else `hub_loaded` for a link on a torque-driven joint or "
+                "a closure holds (`pinned_loaded` if its tip body has a rotary inertia), else `hub_loaded` for a link on a torque-driven joint or "
                 "alone on a pinned base, else `outboard_loaded` for a link whose tip carries "
                 "the next link, else `tip_loaded` for a link with a tip mass or tip inertia, "
                 "else `clamped_free`; the resolved scenario states the choice",
@@ -247,7 +247,9 @@ LINKS = Section("links", [
                       "with its tip body or what its tip carries, less their rigid rotation; "
                       "on a prescribed joint the loaded modes above",
         "pinned_pinned": "√2 sin(iπx/L) in the frame of the chord: a member on a free joint "
-                         "whose far end a closed loop holds (a coupler, a connecting rod)"},
+                         "whose far end a closed loop holds (a coupler, a connecting rod)",
+        "pinned_loaded": "exact modes of that member carrying its tip body's rotary inertia "
+                         "at the held end (`tip_inertia`, bodies at the tip)"},
         doc="cantilever modes have no curvature at the tip, so a link with a tip inertia or "
             "carrying a heavy outer link converges slowly (~1/N) with them; the loaded modes "
             "converge fast there. Every run reports the estimated error of its frequencies in "
