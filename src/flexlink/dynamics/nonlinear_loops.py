@@ -53,8 +53,6 @@ class NonlinearLoopSystem:
         self.y0 = self._closed_start()
 
     def _pack(self) -> NonlinearLoopData:
-        from ._loops_numba import REVOLUTE, SLIDER
-
         s, lo = self.system, self.first_order
         N = len(s.chain.links)
         joints = slice(s.n_base, s.n_base + N)
