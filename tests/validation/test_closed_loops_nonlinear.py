@@ -33,7 +33,7 @@ def _flexible_four_bar(**simulation) -> dict:
 
 def test_rigid_mechanisms_follow_the_first_order_kinematics() -> None:
     """Rigid links: both models are exact, so joint angles, the crank torque and the pin
-    force agree to the integration tolerance (rtol 1e-8)."""
+    force agree to round-off (measured 6e-15 four-bar, 8e-13 slider-crank)."""
     for base, channels in ((FOUR_BAR, ("joint2_angle", "joint3_angle", "joint1_torque",
                                        "pin_force_x", "pin_force_y")),
                            (SLIDER_CRANK, ("joint2_angle", "joint1_torque",
@@ -45,7 +45,7 @@ def test_rigid_mechanisms_follow_the_first_order_kinematics() -> None:
         assert exact.metadata["method"] == "radau5"
         for name in channels:
             scale = np.abs(first[name]).max()
-            assert np.abs(exact[name] - first[name]).max() < 1e-6 * scale, name
+            assert np.abs(exact[name] - first[name]).max() < 1e-9 * scale, name
 
 
 def test_flexible_slider_crank_stays_on_its_line_exactly() -> None:
@@ -126,7 +126,7 @@ def test_pin_force_turns_the_rigid_rocker() -> None:
     alpha = _rate(r["joint3_rate"], t)
     inertia = MASS[2] * L3**3 / 3
     ok = np.isfinite(alpha) & (np.abs(t - 0.5) > 2.5e-3)
-    assert np.abs(moment[ok] - inertia * alpha[ok]).max() < 1e-5 * np.abs(moment).max()
+    assert np.abs(moment[ok] - inertia * alpha[ok]).max() < 1e-7 * np.abs(moment).max()
 
 
 def test_a_fixed_step_with_closures_is_refused() -> None:
