@@ -170,3 +170,13 @@ def test_driven_crank_under_gravity_does_the_work_of_its_torque(drive: str) -> N
     assert run.values["joint1_rate"][-1] > 1.0  # the crank turns
     assert strain.max() > 1e-4 * np.abs(energy).max()
     assert np.abs(work - energy).max() < 1e-5 * np.abs(energy).max()
+
+
+def test_a_loop_that_cannot_close_is_refused_with_its_residual() -> None:
+    """The closed start is the first-order loops' (the links start undeformed): a pivot
+    beyond reach is refused, naming the closure and the least gap (√(1 + L1²) − L2 − L3 =
+    0.455 m), before anything runs."""
+    d = _nonlinear(FOUR_BAR)
+    d["joints"][2]["base_point"] = [1.0, 0.0]
+    with pytest.raises(Exception, match=r"closures\[0\] \('pin', residual 0\.455 m\)"):
+        simulate(scenario_from_dict(d))
