@@ -1,8 +1,10 @@
-"""Closed loops: flexlink's first-order model against the geometrically exact FE model
-(Exudyn) on the two cases of tests/validation/test_closed_loops_exact.py, in one run: CPU
-time of the whole ``simulate`` call (median of ``--repeat`` runs after a warm-up, numba's
-compilation excluded) and of Exudyn's solver, and the error of flexlink's deflection
-channel relative to its peak.
+"""Closed loops: flexlink's first-order and nonlinear models against the geometrically exact
+FE model (Exudyn) on the two cases of tests/validation/test_closed_loops_exact.py (and
+test_closed_loops_nonlinear_exact.py), in one run: CPU time of the whole ``simulate`` call
+(median of ``--repeat`` runs after a warm-up, numba's compilation excluded) and of Exudyn's
+solver — the reference mesh (32 elements, steps 2.5e-5 s) and a coarser one (16 elements,
+5e-5 s, its error against the reference shown) — and the error of flexlink's deflection
+channel relative to the reference's peak.
 
     python benchmarks/loops_vs_fe.py [--repeat 3]
 """
@@ -40,25 +42,57 @@ def main() -> None:
 
     from flexlink import simulate
     from flexlink.model import Link
-    from flexlink.scenario import load_scenario, scenario_from_dict
+    from flexlink.scenario import resolve_scenario_dict, scenario_from_dict
     from tests.validation.exudyn_loops_reference import (
         simulate_four_bar_exudyn,
         simulate_slider_crank_exudyn,
     )
     from tests.validation.test_closed_loops import FOUR_BAR, L1, L2, L3, D, _four_bar_angles
 
-    scenario = load_scenario(ROOT / "examples" / "slider_crank.toml")
+    def report(case: str, runs: dict, channel: str, fe: dict, key: str) -> None:
+        ref = fe[(32, 2.5e-5)][1][key]
+        peak = np.abs(ref).max()
+        coarse_cpu, coarse = fe[(16, 5e-5)]
+        coarse_err = np.abs(coarse[key] - ref).max() / peak
+        print(f"{case}: Exudyn {fe[(32, 2.5e-5)][0]:.2f} s CPU (32 elements, 2.5e-5 s); "
+              f"{coarse_cpu:.2f} s (16 elements, 5e-5 s: {coarse_err:.2%} of peak)")
+        for model, (cpu, run) in runs.items():
+            err = np.abs(run[channel] - ref).max() / peak
+            print(f"  {model}: {cpu:.3f} s CPU, {fe[(32, 2.5e-5)][0] / cpu:.0f}x the reference "
+                  f"mesh, {coarse_cpu / cpu:.0f}x the coarse one; error {err:.2%} of peak")
+
+    def both(d: dict) -> dict:
+        """Both models at the scenario's rtol, and the nonlinear one at rtol 1e-4 (its error
+        then still below the coarse mesh's)."""
+        out = {}
+        for label, model, rtol in (("first_order", "first_order", None),
+                                   ("nonlinear", "nonlinear", None),
+                                   ("nonlinear, rtol 1e-4", "nonlinear", 1e-4)):
+            e = copy.deepcopy(d)
+            e["simulation"]["model"] = model
+            if rtol is not None:
+                e["simulation"]["rtol"] = rtol
+            scenario = scenario_from_dict(e)
+            out[label] = _cpu(lambda scenario=scenario: simulate(scenario), args.repeat)
+        return out
+
+    def exudyn(fn) -> dict:
+        out = {}
+        for elements, dt in ((32, 2.5e-5), (16, 5e-5)):
+            start = time.process_time()
+            ref = fn(elements, dt)
+            out[(elements, dt)] = (time.process_time() - start, ref)
+        return out
+
+    d = resolve_scenario_dict(ROOT / "examples" / "slider_crank.toml")
+    scenario = scenario_from_dict(d)
     rod = scenario.chain.links[1]
     s = scenario.settings
-    cpu, run = _cpu(lambda: simulate(scenario), args.repeat)
-    start = time.process_time()
-    ref = simulate_slider_crank_exudyn(scenario.chain.links[0].length, rod,
-                                       scenario.chain.joints[0], 2e11 * math.pi * 0.003**2,
-                                       s.t_end, s.dt_out, elements=32, dt=2.5e-5)
-    fe = time.process_time() - start
-    err = np.abs(run["rod_mid"] - ref["mid_deflection"]).max() / np.abs(ref["mid_deflection"]).max()
-    print(f"slider-crank: flexlink {cpu:.3f} s CPU, Exudyn {fe:.2f} s CPU ({fe / cpu:.0f}x), "
-          f"rod midpoint error {err:.2%} of peak")
+    runs = both(d)
+    fe = exudyn(lambda elements, dt: simulate_slider_crank_exudyn(
+        scenario.chain.links[0].length, rod, scenario.chain.joints[0],
+        2e11 * math.pi * 0.003**2, s.t_end, s.dt_out, elements=elements, dt=dt))
+    report("slider-crank, rod midpoint", runs, "rod_mid", fe, "mid_deflection")
 
     d = copy.deepcopy(FOUR_BAR)
     d["links"][1] = {"name": "coupler", "length": L2, "mass_per_length": 0.3, "EI": 2.0,
@@ -68,17 +102,12 @@ def main() -> None:
     d["sensors"] = [{"name": "mid", "kind": "deflection", "link": "coupler", "x": L2 / 2}]
     d["simulation"] = {"name": "four-bar", "t_end": 0.6, "dt_out": 5e-4}
     four_bar = scenario_from_dict(d)
-    cpu, run = _cpu(lambda: simulate(four_bar), args.repeat)
-    start = time.process_time()
-    ref = simulate_four_bar_exudyn(L1, Link("coupler", L2, 0.3, 2.0),
-                                   Link("rocker", L3, 2.0, math.inf), (D, 0.0),
-                                   four_bar.chain.joints[0], _four_bar_angles(math.radians(90)),
-                                   1e6, 0.6, 5e-4, elements=32, dt=2.5e-5)
-    fe = time.process_time() - start
-    err = np.abs(run["mid"] - ref["mid_deflection"]).max() / np.abs(ref["mid_deflection"]).max()
-    print(f"four-bar: flexlink {cpu:.3f} s CPU, Exudyn {fe:.2f} s CPU ({fe / cpu:.0f}x), "
-          f"coupler midpoint error {err:.2%} of peak")
-
+    runs = both(d)
+    fe = exudyn(lambda elements, dt: simulate_four_bar_exudyn(
+        L1, Link("coupler", L2, 0.3, 2.0), Link("rocker", L3, 2.0, math.inf), (D, 0.0),
+        four_bar.chain.joints[0], _four_bar_angles(math.radians(90)), 1e6, 0.6, 5e-4,
+        elements=elements, dt=dt))
+    report("four-bar, coupler midpoint", runs, "mid", fe, "mid_deflection")
 
 if __name__ == "__main__":
     main()

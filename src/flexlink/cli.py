@@ -230,7 +230,8 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 # The warm-up runs: one per path (simulation.PATHS), and a free base moved by its loads with every joint
 # prescribed (the forward path's inputs then come from the base loads only).
 WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_base",
-               "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar")
+               "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar",
+               "nonlinear_four_bar")
 
 
 def warmup_scenarios() -> dict[str, Any]:
@@ -239,7 +240,7 @@ def warmup_scenarios() -> dict[str, Any]:
     with a fixed `step`), the forward kernel with its Radau IIA integrator (driven joints; a
     free base), the nonlinear model's forward collocation (adaptive, and with a fixed `step`)
     the closed-loop Lawson loop and the kernels of mechanisms with closed loops (a
-    four-bar)."""
+    four-bar, in both models)."""
     import copy
 
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
@@ -278,9 +279,12 @@ def warmup_scenarios() -> dict[str, Any]:
         {"drive": "free", "initial_angle_deg": -60.0},
         {"drive": "free", "base_point": [0.3, 0.0], "initial_angle_deg": 100.0}],
         "closures": [{"name": "pin", "link": "coupler", "to_link": "rocker"}]}
+    nonlinear_four_bar = copy.deepcopy(four_bar)
+    nonlinear_four_bar["simulation"]["model"] = "nonlinear"
     return {name: scenario_from_dict(d) for name, d in zip(
         WARMUP_RUNS, (base, nonlinear, nonlinear_step, forward, free_base, nonlinear_forward,
-                      nonlinear_forward_step, closed_loop, four_bar), strict=True)}
+                      nonlinear_forward_step, closed_loop, four_bar, nonlinear_four_bar),
+        strict=True)}
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:

@@ -179,8 +179,10 @@ def test_warmup_scenarios_take_every_path() -> None:
     assert {name: model_path(s) for name, s in scenarios.items()} == {
         **{name: name for name in PATHS}, "free_base": "forward",
         "nonlinear_step": "nonlinear", "nonlinear_forward_step": "nonlinear_forward",
-        "four_bar": "forward"}
+        "four_bar": "forward", "nonlinear_four_bar": "nonlinear_forward"}
     assert scenarios["four_bar"].closures  # the closed-loop kernels (dynamics/_loops_numba.py)
+    # … and on the nonlinear model (dynamics/_nonlinear_loops_numba.py)
+    assert scenarios["nonlinear_four_bar"].closures
     # the nonlinear paths with adaptive steps and with a fixed step (their two loops)
     assert scenarios["nonlinear"].settings.step is None
     assert scenarios["nonlinear_forward"].settings.step is None

@@ -26,16 +26,22 @@ def forward_motion(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray,
 
 
 def forward_values(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray, v: np.ndarray,
-                   a: np.ndarray, sensors: tuple[Sensor, ...]) -> dict[str, np.ndarray]:
+                   a: np.ndarray, sensors: tuple[Sensor, ...],
+                   constraint_torques: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Every channel of a forward scenario by name: sensors, base pose and rates, joint
-    angles, rates, torques, servo references and commands, momentum (base not fixed), tips."""
+    angles, rates, torques, servo references and commands, momentum (base not fixed), tips.
+    ``constraint_torques`` (nt, N; N·m): closed loops' constraint forces on each joint, left
+    out of its motor torque."""
     motion = forward_motion(system, t, y, v, a)
     values = motion_sensor_values(system, motion, sensors)
     p, pd, _ = system.rigid_state(t, y, v, a)
     moving = system.base.kind != "fixed"
     momenta = system.momentum(t, y, v) if moving else None
+    torques = system.joint_torques(t, y, v, a)
+    if constraint_torques is not None:
+        torques = torques - constraint_torques
     values.update(pose_and_joint_values(system.loads, t, p, pd, v[:, system.n + system.nu:],
-                                        system.joint_torques(t, y, v, a), momenta))
+                                        torques, momenta))
     if system.rail is not None:
         values[cart_name("force")] = system.cart_force(t, y, v, a)
     values.update(motion_tip_values(system, motion))

@@ -130,14 +130,25 @@ def accelerations(d, q, qd, ang, rate, acc, rot_acc, load):
         residual(d, q[t], qd[t], zero, ang[t], rate[t], acc[t], rot_acc[t], load[t], f)
         c = np.cos(np.dot(A, q[t]) + ang[t])
         s = np.sin(np.dot(A, q[t]) + ang[t])
-        for j in range(nodes):
-            for m in range(nodes):
-                H[j, m] = d.G[j, m] * (c[j] * c[m] + s[j] * s[m])
-        HA[:, :] = np.dot(H, A)
-        M = np.dot(At, HA)
-        for k in range(d.rot_J.shape[0]):
-            for i in range(n):
-                for m in range(n):
-                    M[i, m] += d.rot_J[k] * d.rot_y[k, i] * d.rot_y[k, m]
+        M = mass_matrix(A, At, d.G, d.rot_y, d.rot_J, c, s, H, HA)
         out[t] = np.linalg.solve(M, -f)
     return out
+
+
+@njit(cache=True)
+def mass_matrix(A, At, G, rot_y, rot_J, c, s, H, HA):
+    """M = Aᵀ(G ∘ cos(α_j − α_l))A + Σ J_r a_r a_rᵀ (the columns of A: A (nodes, m), At its
+    transpose, contiguous; rot_y's first m columns) from c = cos α, s = sin α of the nodes;
+    H (nodes, nodes), HA (nodes, m) scratch. The inertia forces' coefficients of the
+    accelerations (`inertia_elastic` is affine in them)."""
+    nodes, n = A.shape
+    for j in range(nodes):
+        for m in range(nodes):
+            H[j, m] = G[j, m] * (c[j] * c[m] + s[j] * s[m])
+    HA[:, :] = np.dot(H, A)
+    M = np.dot(At, HA)
+    for k in range(rot_J.shape[0]):
+        for i in range(n):
+            for m in range(n):
+                M[i, m] += rot_J[k] * rot_y[k, i] * rot_y[k, m]
+    return M

@@ -61,9 +61,13 @@ def read_closures(tables: list[tuple[str, dict[str, Any]]], links: list[dict[str
             p.add(f"{path}: 'link' and 'to_link' are the same link {entry['link']!r}")
         out.append({k: v for k, v in entry.items() if v is not None})
     p.check_names([c.get("name") for c in out], "closures")
-    if simulation.get("model") == "nonlinear":
-        p.add("closures: closed loops run on the first-order model only; set simulation.model "
-              "= \"first_order\"")
+    if simulation.get("model") == "nonlinear" and simulation.get("step") is not None:
+        p.add("closures: closed loops on the nonlinear model run with error-controlled steps; "
+              "drop simulation.step")
+    if simulation.get("model") == "nonlinear" and simulation.get("initial") == "equilibrium":
+        p.add("closures: a closed loop on the nonlinear model starts from its joints' initial "
+              "angles and rates; set simulation.initial = \"rest\" (or use the first-order "
+              "model)")
     if base is not None and base.get("type") not in (None, "fixed"):
         p.add(f"closures: loops close on a fixed base only; base.type = {base.get('type')!r}")
     elastic = [i for i, j in enumerate(joints) if "spring_stiffness" in j]

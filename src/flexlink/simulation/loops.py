@@ -28,19 +28,32 @@ def closed_loop_solution(scenario: Scenario, system: ForwardSystem, t: np.ndarra
     loops = LoopSystem(system, scenario.closures)
     settings = scenario.settings
     run = integrate_loops(loops, t, settings.rtol, settings.atol, on_progress)
+    return (run.solution, closure_values(scenario, loops, run.multipliers), run.joint_forces,
+            closure_metadata(loops, run.residual))
+
+
+def closure_values(scenario: Scenario, loops: LoopSystem, multipliers: np.ndarray
+                   ) -> dict[str, np.ndarray]:
+    """The closures' force channels (N) from the multipliers λ (nt, n_c) of either model."""
     values: dict[str, np.ndarray] = {}
     for i, c in enumerate(scenario.closures):
         row = int(loops.data.row[i])
         if c.kind == "revolute":
-            values[closure_name(c.name, "force_x")] = run.multipliers[:, row]
-            values[closure_name(c.name, "force_y")] = run.multipliers[:, row + 1]
+            values[closure_name(c.name, "force_x")] = multipliers[:, row]
+            values[closure_name(c.name, "force_y")] = multipliers[:, row + 1]
         else:
-            values[closure_name(c.name, "normal_force")] = run.multipliers[:, row]
-    residual = float(np.max(run.residual))
+            values[closure_name(c.name, "normal_force")] = multipliers[:, row]
+    return values
+
+
+def closure_metadata(loops: LoopSystem, residual: np.ndarray) -> dict:
+    """The largest closure residual of a run (m, and relative to the loop's size) and the
+    dependent joints."""
+    largest = float(np.max(residual))
+    system = loops.system
     dependent = [system.free[j] - system.n_base for j in loops.dep]
-    return run.solution, values, run.joint_forces, {
-        "closure_residual": residual, "closure_residual_relative": residual / loops.size,
-        "dependent_joints": " ".join(f"joint{k + 1}" for k in dependent)}
+    return {"closure_residual": largest, "closure_residual_relative": largest / loops.size,
+            "dependent_joints": " ".join(f"joint{k + 1}" for k in dependent)}
 
 
 def closed_loop_outputs(system: ForwardSystem, solution: Solution, joint_forces: np.ndarray

@@ -20,15 +20,25 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
     system = NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators,
                                     gravity=settings.gravity, initial=settings.initial)
     system.stage_inputs(t)  # fails early if a measured motion or table does not cover t
-    solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
-                                       on_progress=on_progress, atol=settings.atol)
+    closures: dict = {}
+    constraint_torques = None
+    if scenario.closures:  # loops closed by constraints (simulation/nonlinear_loops.py)
+        from .nonlinear_loops import nonlinear_loop_solution
+
+        solution, closure_values, constraint_torques, closures = nonlinear_loop_solution(
+            scenario, system, t, on_progress)
+    else:
+        solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
+                                           on_progress=on_progress, atol=settings.atol)
     y, v, a = system.from_solution(solution)
     if system.rail is not None:
         check_travel(scenario.base, t, system.rigid_state(t, y, v, a)[0][:, 0])
-    values = forward_values(system, t, y, v, a, scenario.sensors)
+    values = forward_values(system, t, y, v, a, scenario.sensors, constraint_torques)
+    if scenario.closures:
+        values.update(closure_values)
     volts = system.loads.voltages(t)  # open loop: the commanded voltages, clipped
     values.update({voltage_name(a.name): volts[:, j] for j, a in enumerate(system.actuators)})
     shapes = forward_shapes(system, t, y) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "elastic_coordinates": system.n,
-        "rigid_coordinates": system.n_rigid})
+        "rigid_coordinates": system.n_rigid, **closures})

@@ -32,8 +32,10 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 from ..dynamics._forward_numba import rates as forward_rates
 from ..dynamics._loops_numba import rates as loop_rates
 from ..dynamics._momentum_numba import project as forward_project
+from ..dynamics._nonlinear_loops_numba import rates as nonlinear_loop_rates
 from ..dynamics.forward_kernel import ForwardData
 from ..dynamics.loops import LoopData
+from ..dynamics.nonlinear_loops import NonlinearLoopData
 from .solution import BLOW_UP
 
 LinearData = namedtuple("LinearData", ["A", "B"])
@@ -54,7 +56,8 @@ def linear_rates(d, w, u, y, dy):
 
 
 # kernel-data record class → its compiled rates(d, w, u, y, dy)
-_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates, LoopData: loop_rates}
+_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates, LoopData: loop_rates,
+            NonlinearLoopData: nonlinear_loop_rates}
 
 
 def model_rates(d, w, u, y, dy):

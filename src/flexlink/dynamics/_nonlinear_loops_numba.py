@@ -1,0 +1,247 @@
+"""Compiled (numba) kernels of closed loops on the geometrically nonlinear model
+(`NonlinearLoopData`, built by `dynamics/nonlinear_loops.py`): the closure equations on the
+exact arc kinematics, the projection of a state onto them and the forward rates with the
+constraint forces, for the Radau IIA integrator (`solvers/_radau_numba.py`).
+
+Positions. Every point of the chain sits at r = Σ_j W_j e(α_j), α_j = Ay_j y + (prescribed
+part) the node angles of the nonlinear model (docs/nonlinear.md §7): a closure's point on its
+deformed link is a constant row W of cumulative arc weights, so with D = W_link − W_other
+(the other link's row, or none for the ground)
+
+    Φ  = Σ_j D_j e(α_j) − ground                 (revolute: both axes; slider: along n),
+    G  = ∂Φ/∂y = Σ_j D_j e⊥(α_j) Ay_j,
+    γ  = Σ_j D_j [e⊥(α_j) α̈ᵖ_j − e(α_j) α̇_j²]    (Φ̈ = G ÿ + γ, α̈ᵖ the prescribed part),
+
+exact for the inextensible links: the loop closes on the deformed links' arcs, with no
+expansion in the deflection (a bent link's shortening is part of Σ D e(α)).
+
+Dynamics. With r(ÿ) = M ÿ + r₀ the model's residual (`_nonlinear_forward_numba.residual`:
+inertia + damping + elastic − applied on y = [q, p_free, σ]; affine in ÿ, so M's columns
+are its changes under unit accelerations), the constrained accelerations solve
+
+    [ M   −Gᵀ ] [ÿ]   [ −r₀ ]
+    [ G    0  ] [λ] = [ −γ  ],
+
+λ the force the closing joint applies to the point of ``link`` (global axes, N; a slider:
+along its line's normal), as in the first-order kernels (`_loops_numba.py`). Coordinate
+partitioning keeps Φ = 0: `project` solves the dependent free joint angles (`dep`) and their
+rates from the others by Newton's method at every evaluation.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from ._forward_numba import _solve
+from ._loops_numba import NEWTON_ITERATIONS, REVOLUTE
+from ._nonlinear_forward_numba import residual
+from ._nonlinear_numba import mass_matrix
+
+NonlinearLoopWork = namedtuple("NonlinearLoopWork", [
+    "yp", "c", "s", "ad", "ang", "rate", "acc", "rot_acc", "Phi", "Phid", "G", "gam", "GJ",
+    "Gd", "step", "X", "r0", "H", "HA", "K", "rhs"])
+NonlinearLoopWork.__doc__ = ("Scratch arrays of the kernels (allocated once per run: see "
+                             "workspace).")
+
+
+def workspace(d, n_state: int) -> NonlinearLoopWork:
+    """Scratch arrays for NonlinearLoopData d and states [y, ẏ] of n_state entries."""
+    f = d.fwd
+    nodes, N = f.Ay.shape[0], d.B_joint.shape[1]
+    ny = n_state // 2
+    nc = d.dep.shape[0]
+    e = np.empty
+    return NonlinearLoopWork(e(n_state), e(nodes), e(nodes), e(nodes), e(nodes), e(nodes),
+                             e(nodes), e(f.rot_J.shape[0]), e(nc), e(nc), e((nc, ny)), e(nc),
+                             e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e((nodes, nodes)),
+                             e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc))
+
+
+@njit(cache=True)
+def prescribed(d, w, u):
+    """The prescribed parts of the node angles, rates, accelerations and of the rotary
+    inertias' accelerations from the forward input row u (joint k: u[k], u[N + k],
+    u[2N + k])."""
+    N = d.B_joint.shape[1]
+    for j in range(d.offset.shape[0]):
+        a, r, c = d.offset[j], 0.0, 0.0
+        for k in range(N):
+            b = d.B_pres[j, k]
+            if b != 0.0:
+                a += b * u[k]
+                r += b * u[N + k]
+                c += b * u[2 * N + k]
+        w.ang[j], w.rate[j], w.acc[j] = a, r, c
+    for i in range(w.rot_acc.shape[0]):
+        acc = 0.0
+        for k in range(N):
+            acc += d.rot_pres[i, k] * u[2 * N + k]
+        w.rot_acc[i] = acc
+
+
+@njit(cache=True)
+def constraints(d, w, Y):
+    """Φ (w.Phi), G = ∂Φ/∂y (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the
+    prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ] (the
+    prescribed parts already in w: `prescribed`)."""
+    f = d.fwd
+    Ay = f.Ay
+    nodes, ny = Ay.shape[0], Y.shape[0] // 2
+    for j in range(nodes):
+        a, ad = w.ang[j], w.rate[j]
+        for i in range(Ay.shape[1]):
+            x = Ay[j, i]
+            if x != 0.0:
+                a += x * Y[i]
+                ad += x * Y[ny + i]
+        w.c[j], w.s[j], w.ad[j] = np.cos(a), np.sin(a), ad
+    for c in range(d.kind.shape[0]):
+        row = d.row[c]
+        rows = 2 if d.kind[c] == REVOLUTE else 1
+        for e in range(rows):
+            # the component of Φ: x, y (revolute) or along the slider line's normal
+            ex = 1.0 if (rows == 2 and e == 0) else (0.0 if rows == 2 else d.normal[c, 0])
+            ey = 0.0 if (rows == 2 and e == 0) else (1.0 if rows == 2 else d.normal[c, 1])
+            phi = -(ex * d.ground[c, 0] + ey * d.ground[c, 1])
+            gam = 0.0
+            phid = 0.0
+            w.G[row + e, :] = 0.0
+            w.GJ[row + e, :] = 0.0
+            for j in range(nodes):
+                D = d.D[c, j]
+                if D == 0.0:
+                    continue
+                along = ex * w.c[j] + ey * w.s[j]  # n·e(α_j)
+                across = ey * w.c[j] - ex * w.s[j]  # n·e⊥(α_j)
+                phi += D * along
+                phid += D * across * w.rate[j]
+                gam += D * (across * w.acc[j] - along * w.ad[j] * w.ad[j])
+                for i in range(Ay.shape[1]):
+                    if Ay[j, i] != 0.0:
+                        w.G[row + e, i] += D * across * Ay[j, i]
+                for k in range(d.B_joint.shape[1]):
+                    if d.B_joint[j, k] != 0.0:
+                        w.GJ[row + e, k] += D * across * d.B_joint[j, k]
+            w.Phi[row + e], w.gam[row + e], w.Phid[row + e] = phi, gam, phid
+
+
+@njit(cache=True)
+def project(d, w, u, Y):
+    """Overwrite the dependent joint angles of Y = [y, ẏ] (y indices ``d.dep``) and their
+    rates with those that close the loops, Newton's method from Y's values; True when
+    |Φ| ≤ d.tol (then w holds the closed state's Φ, G, γ)."""
+    ny = Y.shape[0] // 2
+    nc = d.dep.shape[0]
+    prescribed(d, w, u)
+    closed = False
+    for _ in range(NEWTON_ITERATIONS):
+        constraints(d, w, Y)
+        big = 0.0
+        for c in range(nc):
+            big = max(big, abs(w.Phi[c]))
+        if big <= d.tol:
+            closed = True
+            break
+        for c in range(nc):
+            w.step[c] = -w.Phi[c]
+            for j in range(nc):
+                w.Gd[c, j] = w.G[c, d.dep[j]]
+        _solve(w.Gd, w.step)
+        for j in range(nc):
+            Y[d.dep[j]] += w.step[j]
+    if not closed:
+        return False
+    # rates: Φ̇ = G ẏ + Phid = 0 is linear in the dependent ones (one solve); then γ at those
+    # rates
+    for c in range(nc):
+        acc = w.Phid[c]
+        for i in range(ny):
+            acc += w.G[c, i] * Y[ny + i]
+        w.step[c] = -acc
+        for j in range(nc):
+            w.Gd[c, j] = w.G[c, d.dep[j]]
+    _solve(w.Gd, w.step)
+    for j in range(nc):
+        Y[ny + d.dep[j]] += w.step[j]
+    constraints(d, w, Y)
+    return True
+
+
+@njit(cache=True)
+def solve_constrained(d, w, u, Y):
+    """Project Y (w.yp ← Y closed) and solve the constrained equations: ÿ in w.rhs[:n_y],
+    λ in w.rhs[n_y:]. False when the loop does not close (w.rhs is then NaN)."""
+    f = d.fwd
+    ny = Y.shape[0] // 2
+    nc = d.dep.shape[0]
+    yp = w.yp
+    yp[:] = Y
+    if not project(d, w, u, yp):
+        w.rhs[:] = np.nan
+        return False
+    y, v = yp[:ny], yp[ny:]
+    X, r0 = w.X, w.r0
+    X[:] = 0.0
+    residual(f, y, v, X, w.ang, w.rate, w.acc, w.rot_acc, u, r0)
+    # the residual is affine in ÿ: M ÿ + r0, M the inertia's (a fixed base: no translation
+    # rows) and 1 on each servo integral's row (σ̈ − its rate)
+    M = mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, w.c, w.s, w.H, w.HA)
+    K, rhs = w.K, w.rhs
+    for i in range(ny):
+        for k in range(ny):
+            K[i, k] = M[i, k]
+    for i in range(f.n + f.nu, ny):
+        K[i, i] = 1.0
+    for i in range(ny):
+        rhs[i] = -r0[i]
+        for c in range(nc):
+            K[i, ny + c] = -w.G[c, i]
+            K[ny + c, i] = w.G[c, i]
+    for c in range(nc):
+        rhs[ny + c] = -w.gam[c]
+        for e in range(nc):
+            K[ny + c, ny + e] = 0.0
+    _solve(K, rhs)
+    return True
+
+
+@njit(cache=True)
+def rates(d, w, u, Y, dY):
+    """dY/dt of Y = [y, ẏ] on the closed loops (the dependent joints' entries of Y are not
+    read: see `project`)."""
+    if not solve_constrained(d, w, u, Y):
+        dY[:] = np.nan
+        return
+    ny = Y.shape[0] // 2
+    for i in range(ny):
+        dY[i] = w.yp[ny + i]
+        dY[ny + i] = w.rhs[i]
+
+
+@njit(cache=True)
+def closed_states(d, w, u, states, accelerations, lam, joint_forces, residual_out):
+    """After a run: each state [y, ẏ] (nt, ·) projected onto the loops in place, its ÿ
+    (nt, n_y), the multipliers λ (nt, n_c), the constraint forces' torque on each joint
+    (∂Φ/∂βᵀ λ, nt × N, N·m) and the largest |Φ| of the projected state (nt,; m, NaN where it
+    does not close)."""
+    ny = states.shape[1] // 2
+    nc = d.dep.shape[0]
+    for t in range(states.shape[0]):
+        ok = solve_constrained(d, w, u[t], states[t])
+        states[t, :] = w.yp
+        big = 0.0
+        for c in range(nc):
+            lam[t, c] = w.rhs[ny + c]
+            big = max(big, abs(w.Phi[c]))
+        residual_out[t] = big if ok else np.nan
+        for i in range(ny):
+            accelerations[t, i] = w.rhs[i]
+        for k in range(joint_forces.shape[1]):
+            acc = 0.0
+            for c in range(nc):
+                acc += w.GJ[c, k] * w.rhs[ny + c]
+            joint_forces[t, k] = acc

@@ -1,0 +1,122 @@
+"""Closed loops on the geometrically nonlinear model: a `NonlinearForwardSystem` (the tree)
+and the joints that close its loops (`model.loops.Closure`), as data for the compiled kernels
+(`_nonlinear_loops_numba.py`, where the exact closure equations are written out).
+
+The checks before anything runs (a fixed base, enough free joints, independent closure
+equations), the choice of the dependent joints and the closed start at t = 0 are the
+first-order loops' (`loops.LoopSystem` on the tree's first-order twin ``system.loads``): a
+closed loop starts from rest undeformed (q = 0), where the first-order positions are the
+exact ones, so the same joint angles close both models.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..model import Closure
+from .forward_kernel import inputs
+from .loops import LoopSystem
+from .nonlinear_forward import NonlinearForwardSystem
+
+NonlinearLoopData = namedtuple("NonlinearLoopData", [
+    "fwd", "At", "kind", "D", "ground", "normal", "row", "dep", "tol", "B_pres", "offset", "rot_pres",
+    "B_joint"])
+NonlinearLoopData.__doc__ = (
+    "Constant arrays of the closures on the nonlinear model: fwd the tree's "
+    "NonlinearForwardData; At its Ay transposed (contiguous); per closure its kind (REVOLUTE, SLIDER), D (nodes,) the arc "
+    "weights of its point on ``link`` less those of its point on ``to_link`` (none: the "
+    "ground), the ground point (m), the slider line's unit normal, its first equation row; "
+    "dep the dependent joint angles (indices into y); tol the Newton tolerance (m); B_pres "
+    "(nodes, N) and offset (nodes,) the node angles' prescribed part (coefficients on the "
+    "prescribed joints' angles, zero columns for the free ones; constant offsets, rad); "
+    "rot_pres (n_rot, N) the rotary inertias' coefficients on the prescribed joints; "
+    "B_joint (nodes, N) every joint angle's coefficients in the node angles.")
+
+
+class NonlinearLoopSystem:
+    """The nonlinear tree ``system`` with its loop-closing ``closures``.
+
+    Raises SimulationError naming ``closures[i]`` when the loops cannot be held (as
+    `loops.LoopSystem`: a moving base, too few free joints, dependent equations, a loop that
+    does not close at t = 0, with its residual in metres)."""
+
+    def __init__(self, system: NonlinearForwardSystem, closures: Sequence[Closure]) -> None:
+        self.system = system
+        self.closures = tuple(closures)
+        self.first_order = LoopSystem(system.loads, self.closures)
+        self.n_c = self.first_order.n_c
+        self.size = self.first_order.size
+        self.data = self._pack()
+        self.y0 = self._closed_start()
+
+    def _pack(self) -> NonlinearLoopData:
+        s, lo = self.system, self.first_order
+        N = len(s.chain.links)
+        joints = slice(s.n_base, s.n_base + N)
+        B_joint = np.ascontiguousarray(s.B[:, joints])
+        B_pres = B_joint.copy()
+        rot_pres = np.ascontiguousarray(s.rot_B[:, joints]).copy()
+        for i in s.free:
+            if s.n_base <= i < s.n_base + N:
+                B_pres[:, i - s.n_base] = 0.0
+                rot_pres[:, i - s.n_base] = 0.0
+        D = np.zeros((len(self.closures), s.nodes))
+        for c, cl in enumerate(self.closures):
+            D[c] = s.position_rows(cl.link, np.array([cl.x]))[0]
+            if cl.to_link is not None:
+                D[c] -= s.position_rows(cl.to_link, np.array([cl.x_to]))[0]
+        nc = len(self.closures)
+        ground = np.array([c.ground if c.to_link is None else (0.0, 0.0)
+                           for c in self.closures], dtype=float).reshape(nc, 2)
+        return NonlinearLoopData(
+            fwd=s.kernel_data(), At=np.ascontiguousarray(s.kernel_data().Ay.T), kind=np.asarray(lo.data.kind, dtype=np.int64),
+            D=D, ground=ground,
+            normal=np.ascontiguousarray(lo.data.normal, dtype=float),
+            row=np.asarray(lo.data.row, dtype=np.int64),
+            dep=np.asarray(s.n + lo.dep, dtype=np.int64), tol=float(lo.data.tol),
+            B_pres=B_pres, offset=np.ascontiguousarray(s.offset, dtype=float),
+            rot_pres=rot_pres, B_joint=B_joint)
+
+    def workspace(self):
+        from ._nonlinear_loops_numba import workspace
+
+        return workspace(self.data, 2 * self.system.n_y)
+
+    def _closed_start(self) -> np.ndarray:
+        """[y, ẏ] at t = 0: the first-order loops' closed start (q = 0) carried over, then
+        projected on the exact closures (a check: it moves nothing beyond round-off)."""
+        from ..errors import SimulationError
+        from ._nonlinear_loops_numba import project
+
+        s, nu = self.system, self.system.nu
+        y, v = s.initial_state()
+        start = self.first_order.y0
+        y[s.n:s.n + nu], v[s.n:s.n + nu] = start[:nu], start[nu:2 * nu]
+        Y = np.concatenate([y, v])
+        if not project(self.data, self.workspace(), inputs(s.loads, np.zeros(1))[0], Y):
+            raise SimulationError("closures: the loop does not close at t = 0 on the "
+                                  "nonlinear model's kinematics")
+        return Y
+
+
+def closed_states(loops: NonlinearLoopSystem, t: np.ndarray, states: np.ndarray
+                  ) -> tuple[np.ndarray, ...]:
+    """States [y, ẏ] at times t projected onto the loops (a copy), ÿ (nt, n_y), the
+    multipliers λ (nt, n_c: force on each closure's point, N, global axes; a slider's along
+    its line's normal), the constraint forces' torque on each joint (nt, N; N·m) and the
+    largest |Φ| (nt,), m."""
+    from ._nonlinear_loops_numba import closed_states as kernel
+
+    out = np.ascontiguousarray(states, dtype=float).copy()
+    nt = out.shape[0]
+    acc = np.empty((nt, loops.system.n_y))
+    lam = np.empty((nt, loops.n_c))
+    joint = np.empty((nt, len(loops.system.chain.links)))
+    residual = np.empty(nt)
+    kernel(loops.data, loops.workspace(), inputs(loops.system.loads, t), out, acc, lam, joint,
+           residual)
+    return out, acc, lam, joint, residual
+

@@ -1,0 +1,56 @@
+"""Forward runs of closed loops on the geometrically nonlinear model: the compiled Radau IIA
+integrator (`radau.py`) on the loops' rates (`dynamics/_nonlinear_loops_numba.py`: the
+tree's residual with the constraint forces, on states projected onto the exact closures),
+then the output states projected again, with their accelerations and constraint forces."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..dynamics.forward_kernel import breakpoints, inputs
+from ..dynamics.nonlinear_loops import NonlinearLoopSystem, closed_states
+from ..errors import SimulationError
+from .loops import LoopRun
+from .radau import RadauStop, integrate_radau
+from .solution import LOCAL_CONTROL, Accuracy, Progress, Solution
+
+METHOD = "radau5"
+
+
+def error_groups(loops: NonlinearLoopSystem) -> np.ndarray:
+    """The error group of each component of [y, ẏ] (Radau IIA weighs each error against its
+    group's peak): the elastic coordinates by link, each free joint angle its own, each servo
+    integral its own; the rates likewise."""
+    s = loops.system
+    links = np.repeat(np.arange(len(s.modal)), [d.n for d in s.modal])
+    one = np.concatenate([links, len(s.modal) + np.arange(s.nu + s.ns)])
+    return np.concatenate([one, one.max(initial=-1) + 1 + one])
+
+
+def integrate_nonlinear_loops(loops: NonlinearLoopSystem, t_out: np.ndarray, rtol: float,
+                              atol: float, on_progress: Progress | None = None) -> LoopRun:
+    """Integrate the closed mechanism from its closed initial state (`NonlinearLoopSystem.y0`):
+    the Solution's coordinates are [p_free, q] (the nonlinear forward path's order), the servo
+    integrals its ``extra``."""
+    system = loops.system
+    y0 = loops.y0
+    n, nu, ny = system.n, system.nu, system.n_y
+    try:
+        states, stats = integrate_radau(
+            loops.data, loops.workspace(), y0, t_out, lambda t: inputs(system.loads, t),
+            breakpoints(system.loads), rtol, atol, error_groups(loops), np.inf,
+            on_progress=on_progress)
+    except RadauStop as exc:
+        raise SimulationError(
+            f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
+            "have reached a singular configuration (a toggle position)") from None
+    closed, acc, lam, joint, residual = closed_states(loops, t_out, states)
+    if not np.all(np.isfinite(residual)):
+        at = float(t_out[np.argmax(~np.isfinite(residual))])
+        raise SimulationError(f"the closed loops could not be closed at t = {at:.6g} s: "
+                              "the mechanism reached a singular configuration")
+    y, v = closed[:, :ny], closed[:, ny:]
+    order = np.r_[n:n + nu, 0:n]
+    solution = Solution(t_out, y[:, order], v[:, order], acc[:, order], METHOD, stats,
+                        extra=v[:, n + nu:], accuracy=Accuracy(rtol, None, LOCAL_CONTROL))
+    return LoopRun(solution, lam, joint, residual)

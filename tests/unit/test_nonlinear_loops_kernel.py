@@ -1,0 +1,123 @@
+"""The compiled kernels of closed loops on the nonlinear model
+(dynamics/_nonlinear_loops_numba.py) against differences of their own closure equations and
+against the model's residual: the Jacobian G, the prescribed joints' share of Φ̇, γ (Φ̈ at
+ÿ = 0), the mass matrix (the residual's change under unit accelerations) and the closure
+at t = 0."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from flexlink.dynamics import _nonlinear_loops_numba as kernels
+from flexlink.dynamics.forward_kernel import inputs
+from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
+from flexlink.dynamics.nonlinear_loops import NonlinearLoopSystem
+from flexlink.scenario import scenario_from_dict
+from tests.validation.test_closed_loops import FOUR_BAR, L2
+
+T = 0.13  # s: the crank is spinning up (rate and acceleration both non-zero)
+
+
+@pytest.fixture(scope="module")
+def loops() -> NonlinearLoopSystem:
+    d = copy.deepcopy(FOUR_BAR)
+    d["links"][1] = {"name": "coupler", "length": L2, "mass_per_length": 0.3, "EI": 2.0,
+                     "modes": 3}
+    d["simulation"]["model"] = "nonlinear"
+    scenario = scenario_from_dict(d)
+    return NonlinearLoopSystem(NonlinearForwardSystem(scenario.chain, scenario.base),
+                               scenario.closures)
+
+
+def _state(loops: NonlinearLoopSystem) -> np.ndarray:
+    rng = np.random.default_rng(3)
+    Y = loops.y0.copy()
+    n = loops.system.n
+    ny = loops.system.n_y
+    Y[:n] = 1e-2 * rng.standard_normal(n)  # a visibly bent coupler
+    Y[ny:] = rng.standard_normal(ny)
+    return Y
+
+
+def _phi(loops, w, t: float, Y: np.ndarray) -> tuple[np.ndarray, ...]:
+    kernels.prescribed(loops.data, w, inputs(loops.system.loads, np.array([t]))[0])
+    kernels.constraints(loops.data, w, Y)
+    return w.Phi.copy(), w.G.copy(), w.gam.copy(), w.Phid.copy()
+
+
+def test_jacobian_and_velocity_terms_are_the_closure_equations_derivatives(loops) -> None:
+    w = loops.workspace()
+    Y = _state(loops)
+    ny = loops.system.n_y
+    _, G, gam, phid = _phi(loops, w, T, Y)
+    h = 1e-6
+    for i in range(ny):
+        up, down = Y.copy(), Y.copy()
+        up[i] += h
+        down[i] -= h
+        diff = (_phi(loops, w, T, up)[0] - _phi(loops, w, T, down)[0]) / (2 * h)
+        np.testing.assert_allclose(G[:, i], diff, atol=1e-8)
+
+    def along(tau: float) -> np.ndarray:  # Φ on the path y + ẏ τ (ÿ = 0), joints prescribed
+        Z = Y.copy()
+        Z[:ny] += Y[ny:] * tau
+        return _phi(loops, w, T + tau, Z)
+
+    rate = (along(h)[0] - along(-h)[0]) / (2 * h)
+    np.testing.assert_allclose(G @ Y[ny:] + phid, rate, atol=1e-7)
+    # Φ̈ at ÿ = 0 is γ: Φ̇ = G ẏ + Φ̇ₚ differenced along the same path (ẏ constant)
+    h = 1e-5
+    dots = [g @ Y[ny:] + p for _, g, _, p in (along(h), along(-h))]
+    np.testing.assert_allclose(gam, (dots[0] - dots[1]) / (2 * h), rtol=1e-6,
+                               atol=1e-6 * np.abs(gam).max())
+
+
+def test_mass_matrix_is_the_residuals_change_under_unit_accelerations(loops) -> None:
+    """The constrained solve's M (`_nonlinear_numba.mass_matrix`) against the columns of
+    the model's residual, which is affine in ÿ."""
+    from flexlink.dynamics._nonlinear_forward_numba import residual
+    from flexlink.dynamics._nonlinear_numba import mass_matrix
+
+    w = loops.workspace()
+    Y = _state(loops)
+    ny = loops.system.n_y
+    u = inputs(loops.system.loads, np.array([T]))[0]
+    _phi(loops, w, T, Y)
+    f = loops.data.fwd
+    M = mass_matrix(f.Ay, loops.data.At, f.G, f.rot_y, f.rot_J, w.c, w.s,
+                    np.empty((f.Ay.shape[0],) * 2), np.empty(f.Ay.shape))
+    X = np.zeros(ny)
+    r0, r1 = np.empty(ny), np.empty(ny)
+    residual(f, Y[:ny], Y[ny:], X, w.ang, w.rate, w.acc, w.rot_acc, u, r0)
+    for k in range(ny):
+        X[:] = 0.0
+        X[k] = 1.0
+        residual(f, Y[:ny], Y[ny:], X, w.ang, w.rate, w.acc, w.rot_acc, u, r1)
+        np.testing.assert_allclose(M[:, k], r1 - r0, atol=1e-12 * np.abs(M).max())
+
+
+def test_prescribed_parts_are_the_models_stage_inputs(loops) -> None:
+    w = loops.workspace()
+    t = np.array([T])
+    kernels.prescribed(loops.data, w, inputs(loops.system.loads, t)[0])
+    stage = loops.system.stage_inputs(t)
+    np.testing.assert_allclose(w.ang, stage.angle[0], atol=1e-14)
+    np.testing.assert_allclose(w.rate, stage.rate[0], atol=1e-14)
+    np.testing.assert_allclose(w.acc, stage.acceleration[0], atol=1e-12)
+    np.testing.assert_allclose(w.rot_acc, stage.rot_acceleration[0], atol=1e-12)
+
+
+def test_the_start_is_closed_and_projection_closes_a_bent_state(loops) -> None:
+    w = loops.workspace()
+    phi, *_ = _phi(loops, w, 0.0, loops.y0)
+    assert np.abs(phi).max() < 1e-12 * loops.size
+    Y = _state(loops)  # at T, where the prescribed crank turns: Φ̇ has its share
+    assert kernels.project(loops.data, w, inputs(loops.system.loads, np.array([T]))[0], Y)
+    phi, G, _, phid = _phi(loops, w, T, Y)
+    ny = loops.system.n_y
+    assert np.abs(phid).max() > 1e-2
+    assert np.abs(phi).max() < 1e-12 * loops.size
+    assert np.abs(G @ Y[ny:] + phid).max() < 1e-10
