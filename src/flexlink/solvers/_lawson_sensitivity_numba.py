@@ -5,7 +5,8 @@ derivatives s_k = ∂y/∂p_k of K parameters, each step being the exact derivat
 Lawson step of the run on a fixed discretisation (block propagators E = exp(h/2 Ã_ref) with
 the reference Ã_ref held, ΔÃ = A(t) − Ã_ref from the table): the same step on s_k with the
 stage slopes k_i = ΔÃ(t_i) s_stage + ∂A/∂p_k(t_i) y_stage, where y_stage are the stages of y
-(module docstring of lawson.py). All matrices are passed transposed, as in _lawson_numba.
+(module docstring of lawson.py). All matrices are passed transposed, as in _lawson_numba. ∂A/∂p_k is evaluated from its table
+twice per step (middle and end; the end is the next step's start).
 """
 
 from __future__ import annotations
@@ -13,11 +14,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ._lawson_numba import _delta, _gemv
 
+# Compiled on first use in each process (about a second), not cached: no warm-up run of the
+# installation reaches these kernels, and an uncached kernel cannot be left uncompiled there.
+CACHE = False
 
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+
+@njit(cache=CACHE, no_cpython_wrapper=True, error_model="numpy")
 def _many(PT, j0, nj, X, scale, out, accumulate):
     """out[k] (+)= scale · P[:, j0:j0+nj] X[k, :nj] for every row k of X, from Pᵀ: one pass
     over the matrix for all K vectors."""
@@ -34,21 +38,28 @@ def _many(PT, j0, nj, X, scale, out, accumulate):
                 out[k, i] += row[i] * x
 
 
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
-def _forcing(dpolyT, lower, upper, p0, p1, zeroT, tau, x, out, scratch):
-    """out[k] = ∂A/∂p_k(τ) x for every parameter k (dpolyT[k]: its table's polynomials)."""
-    m = x.shape[0]
+@njit(cache=CACHE, no_cpython_wrapper=True, error_model="numpy")
+def _derivatives(dpolyT, lower, upper, p0, p1, zeroT, tau, out):
+    """out[k] = (∂A/∂p_k)ᵀ at the block's local time τ (dpolyT[k]: its table)."""
     for k in range(dpolyT.shape[0]):
-        _delta(dpolyT[k], lower, upper, p0, p1, zeroT, tau, scratch)
+        _delta(dpolyT[k], lower, upper, p0, p1, zeroT, tau, out[k])
+
+
+@njit(cache=CACHE, no_cpython_wrapper=True, error_model="numpy")
+def _forcing(dAT, x, out):
+    """out[k] = ∂A/∂p_k x for every parameter k (dAT[k]: (∂A/∂p_k)ᵀ, (m, n))."""
+    m = x.shape[0]
+    for k in range(dAT.shape[0]):
         for i in range(out.shape[1]):
             out[k, i] = 0.0
         for j in range(m):
             xj = x[j]
+            row = dAT[k, j]
             for i in range(out.shape[1]):
-                out[k, i] += scratch[j, i] * xj
+                out[k, i] += row[i] * xj
 
 
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+@njit(cache=CACHE, no_cpython_wrapper=True, error_model="numpy")
 def _slopes(DT, S, F, out):
     """out[k] = ΔÃ S[k] + F[k] (ΔÃ given transposed, (m, n))."""
     K, n = out.shape
@@ -64,7 +75,7 @@ def _slopes(DT, S, F, out):
                 out[k, i] += row[i] * x
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, polyT, dpolyT,
                           referenceT, ET, E2T, PdT, substeps, states, accelerations, dstates,
                           daccelerations):
@@ -87,7 +98,7 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
         states[0, q] = y[q]
     zeroT = np.zeros((m, n))
     D0, Dm, De = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
-    scratch = np.empty((m, n))
+    dA0, dAm, dAe = np.empty((K, m, n)), np.empty((K, m, n)), np.empty((K, m, n))
     k1, k2, k3, k4 = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     Ey, E2y, a, b, c, w, r = (np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m),
                               np.empty(m), np.empty(m))
@@ -117,14 +128,19 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
         A_ref = referenceT[blk]
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[blk], pieces[blk + 1]
+        _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, De)
+        _derivatives(dpolyT, lower, upper, p0, p1, zeroT, 0.0, dAe)
         for i in range(i0, i1):
             h = (t_out[i + 1] - t_out[i]) / substeps
             dtau = h / span
             for j in range(substeps):
                 tau = (t_out[i] - t_out[i0] + j * h) / span
-                _delta(polyT, lower, upper, p0, p1, A_ref, tau, D0)
+                D0, De = De, D0  # the last step's end is this step's start
+                dA0, dAe = dAe, dA0
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, De)
+                _derivatives(dpolyT, lower, upper, p0, p1, zeroT, tau + 0.5 * dtau, dAm)
+                _derivatives(dpolyT, lower, upper, p0, p1, zeroT, tau + dtau, dAe)
                 # y's stages: a = Ey + h/2 E k₁, b = Ey + h/2 k₂, c = E²y + h E k₃
                 _gemv(D0, 0, m, y, 1.0, k1, False)
                 _gemv(P, 0, m, y, 1.0, Ey, False)
@@ -143,7 +159,7 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 _gemv(P, n, n, k3, h, c, True)
                 _gemv(De, 0, m, c, 1.0, k4, False)
                 # the tangents' stages, with the forcing ∂A/∂p at y's stages
-                _forcing(dpolyT, lower, upper, p0, p1, zeroT, tau, y, F, scratch)
+                _forcing(dA0, y, F)
                 _slopes(D0, S, F, G1)
                 _many(P, 0, m, S, 1.0, ES, False)
                 _many(P2, 0, m, S, 1.0, E2S, False)
@@ -151,20 +167,20 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                     for q in range(m):
                         SA[k, q] = ES[k, q]
                 _many(P, n, n, G1, 0.5 * h, SA, True)
-                _forcing(dpolyT, lower, upper, p0, p1, zeroT, tau + 0.5 * dtau, a, F, scratch)
+                _forcing(dAm, a, F)
                 _slopes(Dm, SA, F, G2)
                 for k in range(K):
                     for q in range(m):
                         SB[k, q] = ES[k, q]
                     for q in range(n):
                         SB[k, n + q] += 0.5 * h * G2[k, q]
-                _forcing(dpolyT, lower, upper, p0, p1, zeroT, tau + 0.5 * dtau, b, F, scratch)
+                _forcing(dAm, b, F)
                 _slopes(Dm, SB, F, G3)
                 for k in range(K):
                     for q in range(m):
                         SC[k, q] = E2S[k, q]
                 _many(P, n, n, G3, h, SC, True)
-                _forcing(dpolyT, lower, upper, p0, p1, zeroT, tau + dtau, c, F, scratch)
+                _forcing(dAe, c, F)
                 _slopes(De, SC, F, G4)
                 # y⁺ = E²y + h/6 E² k₁ + h/3 E (k₂ + k₃) + h/6 k₄, and the same for each S
                 for q in range(n):
@@ -192,13 +208,14 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
             # outputs: y, S and z̈ = A y, ∂z̈/∂p = A s + ∂A/∂p y at the interval's end
             for q in range(m):
                 states[i + 1, q] = y[q]
-            _delta(polyT, lower, upper, p0, p1, zeroT, (t_out[i + 1] - t_out[i0]) / span, De)
-            _gemv(De, 0, m, y, 1.0, k4, False)
+            for q in range(m):  # A = Ã_ref + ΔÃ at the end of the last step
+                for r_ in range(n):
+                    Dm[q, r_] = De[q, r_] + A_ref[q, r_]
+            _gemv(Dm, 0, m, y, 1.0, k4, False)
             for q in range(n):
                 accelerations[i + 1, q] = k4[q]
-            _forcing(dpolyT, lower, upper, p0, p1, zeroT, (t_out[i + 1] - t_out[i0]) / span,
-                     y, F, scratch)
-            _slopes(De, S, F, G4)
+            _forcing(dAe, y, F)
+            _slopes(Dm, S, F, G4)
             for k in range(K):
                 for q in range(m):
                     dstates[k, i + 1, q] = S[k, q]
