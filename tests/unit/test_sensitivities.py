@@ -90,6 +90,15 @@ def test_sensitivities_are_the_derivative_of_the_computed_run() -> None:
         assert _worst(results, field, _frozen_differences(file, field)) < 1e-6, field
 
 
+def test_a_run_starting_in_equilibrium_under_gravity() -> None:
+    """The start z₀(p) moves with the fields too (its derivative is added to ∂z/∂p)."""
+    file = _paper(t_end=1.0, initial="equilibrium", gravity=[0.0, -9.81])
+    fields = ["links[0].EI", "links[0].tip_mass", "simulation.gravity[1]"]
+    results = flexlink.simulate(file.build(), sensitivities=fields)
+    for field in fields:
+        assert _worst(results, field, _frozen_differences(file, field)) < 1e-6, field
+
+
 def test_sensitivities_approach_the_continuous_derivative_at_tight_tolerance() -> None:
     file = _paper(t_end=1.6, rtol=1e-9)
     fields = ["links[0].EI", "joints[1].motion[0].to_deg"]
@@ -119,13 +128,15 @@ def test_units_are_the_channel_unit_over_the_field_unit() -> None:
 
 
 @pytest.mark.parametrize(("field", "message"), [
+    (None, "at least one field"),
     ("links[5].EI", "links"),
     ("links[0].name", "links\\[0\\].name"),
     ("links[0].modes", "links\\[0\\].modes"),
     ("joints[0].motion[0].duration", "joints\\[0\\].motion\\[0\\].duration"),
     ("simulation.dt_out", "simulation.dt_out"),
+    ("simulation.rtol", "simulation.rtol"),
 ])
-def test_bad_fields_are_refused_before_anything_runs(field: str, message: str,
+def test_bad_fields_are_refused_before_anything_runs(field: str | None, message: str,
                                                      monkeypatch: pytest.MonkeyPatch) -> None:
     from flexlink.simulation import sensitivities
 
@@ -134,7 +145,7 @@ def test_bad_fields_are_refused_before_anything_runs(field: str, message: str,
 
     monkeypatch.setattr(sensitivities, "run_with_sensitivities", never)
     with pytest.raises(SensitivityError, match=message):
-        flexlink.simulate(_paper().build(), sensitivities=[field])
+        flexlink.simulate(_paper().build(), sensitivities=[] if field is None else [field])
 
 
 def test_paths_without_sensitivities_are_refused_naming_the_path() -> None:

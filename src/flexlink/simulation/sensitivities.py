@@ -37,6 +37,7 @@ from .common import PathRun, Progress
 
 RELATIVE_STEP = 1e-5  # of a field's magnitude: the step of the differences of the assembly
 ABSOLUTE_STEP = 1e-6  # the step of a field whose value is zero, in its unit
+_SETTINGS = ("rtol", "atol", "step")  # [simulation] keys of the integrator, not the model
 # (offsets in steps, weights): central, then forward and backward one-sided, second order
 _STENCILS = (((1, -1), (0.5, -0.5)), ((0, 1, 2), (-1.5, 2.0, -0.5)),
              ((0, -1, -2), (1.5, -2.0, 0.5)))
@@ -103,8 +104,11 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
 
     if isinstance(fields, str):
         fields = [fields]
-    if len(set(fields)) != len(fields):
-        raise SensitivityError("sensitivities: a field is named twice")
+    if not fields:
+        raise SensitivityError("sensitivities: name at least one field, e.g. links[0].EI")
+    twice = [text for i, text in enumerate(fields) if text in fields[:i]]
+    if twice:
+        raise SensitivityError(f"sensitivities: {twice[0]} is named twice")
     breaks = input_breakpoints(scenario.chain.joints, scenario.actuators)
     out = []
     for text in fields:
@@ -120,6 +124,9 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
         if is_time_grid(target.path):
             raise SensitivityError(f"sensitivities: {text} changes the output time grid; "
                                    "choose a field of the model")
+        if target.path[0] == "simulation" and target.key in _SETTINGS:
+            raise SensitivityError(f"sensitivities: {text} is a setting of the integrator, "
+                                   "not of the model; choose a field of the model")
         value = float(target.value)
         step = RELATIVE_STEP * abs(value) if value else ABSOLUTE_STEP
         problem: Exception | None = None

@@ -22,10 +22,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy.linalg import expm_frechet
+from scipy.linalg import expm
 
 from ..errors import SimulationError
-from .coefficient_table import tabulate_on
+from .coefficient_table import CoefficientTable, tabulate_on
 from .lawson import Discretisation, _block_propagators
 from .magnus import augmented, state_rows
 from .solution import FIXED_STEP, Accuracy, LinearSystem, Solution
@@ -85,18 +85,24 @@ def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
     return solution, dstates[:, :, :n], dstates[:, :, n: 2 * n], dacc
 
 
-def _static_derivatives(table, dtable, t_out: np.ndarray, n: int) -> np.ndarray:
+def _static_derivatives(table: CoefficientTable, dtable: CoefficientTable, t_out: np.ndarray,
+                        n: int) -> np.ndarray:
     """Per parameter and block, transposed (K, blocks, m, m): on a static block the
-    derivative of its propagator exp(Δt Ã) (Fréchet derivative in the direction Δt ∂Ã/∂p),
-    zero on moving blocks."""
+    derivative of its propagator exp(Δt Ã) in the direction Δt ∂Ã/∂p (the Fréchet
+    derivative: the upper right block of exp([[Ã, ∂Ã], [0, Ã]] Δt)), zero on moving blocks."""
     K = dtable.poly.shape[2]
     m = 2 * n + 1
     out = np.zeros((K, len(table), m, m))
-    for b in np.flatnonzero(table.static):
-        dt = (t_out[table.last[b]] - t_out[table.first[b]]) / (table.last[b] - table.first[b])
-        A = augmented(table.reference[b]) * dt
-        for k in range(K):
-            dA = np.zeros((m, m))
-            dA[n: 2 * n] = dtable.reference[b, k] * dt
-            out[k, b] = expm_frechet(A, dA, compute_expm=False).T
+    blocks = np.flatnonzero(table.static)
+    if blocks.size == 0:
+        return out
+    dt = (t_out[table.last[blocks]] - t_out[table.first[blocks]]) / (
+        table.last[blocks] - table.first[blocks])
+    big = np.zeros((blocks.size, K, 2 * m, 2 * m))
+    A = augmented(table.reference[blocks]) * dt[:, None, None]
+    big[:, :, :m, :m] = A[:, None]
+    big[:, :, m:, m:] = A[:, None]
+    big[:, :, n: 2 * n, m:] = dtable.reference[blocks] * dt[:, None, None, None]
+    frechet = expm(big.reshape(-1, 2 * m, 2 * m))[:, :m, m:].reshape(blocks.size, K, m, m)
+    out[:, blocks] = np.swapaxes(np.swapaxes(frechet, 0, 1), 2, 3)
     return out
