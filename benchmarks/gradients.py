@@ -86,13 +86,24 @@ def _worst(results: flexlink.Results, field: str, fd: dict[str, np.ndarray]) -> 
     return worst
 
 
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as info:
+            for line in info:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=10)
     args = parser.parse_args()
     scenario = flexlink.load_paper_experiment()
     file = scenario_file(scenario)
-    print(f"# {platform.machine()} {platform.processor() or ''} {os.cpu_count()} cores, "
+    print(f"# {platform.machine()} {_cpu_model()} {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, numpy {np.__version__}, "
           f"load {os.getloadavg()[0]:.1f}")
     flexlink.simulate(scenario, shapes=False)
