@@ -14,14 +14,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ._lawson_numba import _delta, _gemv
 
-# Compiled on first use in each process (about a second), not cached: no warm-up run of the
-# installation reaches these kernels, and an uncached kernel cannot be left uncompiled there.
-CACHE = False
 
-
-@njit(cache=CACHE, no_cpython_wrapper=True, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _many(PT, j0, nj, X, scale, out, accumulate):
     """out[k] (+)= scale · P[:, j0:j0+nj] X[k, :nj] for every row k of X, from Pᵀ: one pass
     over the matrix for all K vectors."""
@@ -38,14 +35,14 @@ def _many(PT, j0, nj, X, scale, out, accumulate):
                 out[k, i] += row[i] * x
 
 
-@njit(cache=CACHE, no_cpython_wrapper=True, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _derivatives(dpolyT, lower, upper, p0, p1, zeroT, tau, out):
     """out[k] = (∂A/∂p_k)ᵀ at the block's local time τ (dpolyT[k]: its table)."""
     for k in range(dpolyT.shape[0]):
         _delta(dpolyT[k], lower, upper, p0, p1, zeroT, tau, out[k])
 
 
-@njit(cache=CACHE, no_cpython_wrapper=True, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _forcing(dAT, x, out):
     """out[k] = ∂A/∂p_k x for every parameter k (dAT[k]: (∂A/∂p_k)ᵀ, (m, n))."""
     m = x.shape[0]
@@ -59,7 +56,7 @@ def _forcing(dAT, x, out):
                 out[k, i] += row[i] * xj
 
 
-@njit(cache=CACHE, no_cpython_wrapper=True, error_model="numpy")
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _slopes(DT, S, F, out):
     """out[k] = ΔÃ S[k] + F[k] (ΔÃ given transposed, (m, n))."""
     K, n = out.shape
@@ -75,7 +72,7 @@ def _slopes(DT, S, F, out):
                 out[k, i] += row[i] * x
 
 
-@njit(cache=CACHE, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, polyT, dpolyT,
                           referenceT, ET, E2T, PdT, substeps, states, accelerations, dstates,
                           daccelerations):
