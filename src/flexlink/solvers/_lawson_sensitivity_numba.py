@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._lawson_numba import _delta, _gemv
+from ._lawson_numba import _delta, _gemv, _gemv2
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -33,27 +33,6 @@ def _many(PT, j0, nj, X, scale, out, accumulate):
             x = scale * X[k, q]
             for i in range(m):
                 out[k, i] += row[i] * x
-
-
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
-def _derivatives(dpolyT, lower, upper, p0, p1, zeroT, tau, out):
-    """out[k] = (∂A/∂p_k)ᵀ at the block's local time τ (dpolyT[k]: its table)."""
-    for k in range(dpolyT.shape[0]):
-        _delta(dpolyT[k], lower, upper, p0, p1, zeroT, tau, out[k])
-
-
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
-def _forcing(dAT, x, out):
-    """out[k] = ∂A/∂p_k x for every parameter k (dAT[k]: (∂A/∂p_k)ᵀ, (m, n))."""
-    m = x.shape[0]
-    for k in range(dAT.shape[0]):
-        for i in range(out.shape[1]):
-            out[k, i] = 0.0
-        for j in range(m):
-            xj = x[j]
-            row = dAT[k, j]
-            for i in range(out.shape[1]):
-                out[k, i] += row[i] * xj
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -78,7 +57,10 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                           daccelerations):
     """Advance y and the K tangents S (K, m) through the blocks, from y = [0, 0, 1], S = 0.
 
-    ``polyT``/``dpolyT[k]``: the table of A and of ∂A/∂p_k (pieces, degree+1, m, n);
+    ``polyT``: the table of A (pieces, degree+1, m, n); ``dpolyT``: the tables of all K
+    ∂A/∂p_k side by side (pieces, degree+1, m, K·n: column k·n + i is row i of ∂A/∂p_k), so
+    that one Horner pass and one matrix-vector product per stage serve every parameter over
+    long contiguous rows;
     ``ET``/``E2T``: exp(h/2 Ã_ref)ᵀ and its square on moving blocks, exp(Δt Ã)ᵀ on static
     blocks (E2T unused there); ``PdT[k, b]``: on a static block the derivative of its
     propagator in p_k (transposed). Writes y and S at every output index into ``states``
@@ -87,19 +69,20 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
     A s + ∂A/∂p y, which the caller sets)."""
     m = states.shape[1]
     n = (m - 1) // 2
-    K = dpolyT.shape[0]
+    K = dstates.shape[0]
     y = np.zeros(m)
     y[m - 1] = 1.0
     S = np.zeros((K, m))
     for q in range(m):
         states[0, q] = y[q]
-    zeroT = np.zeros((m, n))
+    zeroT = np.zeros((m, K * n))
     D0, Dm, De = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
-    dA0, dAm, dAe = np.empty((K, m, n)), np.empty((K, m, n)), np.empty((K, m, n))
+    dA0, dAm, dAe = np.empty((m, K * n)), np.empty((m, K * n)), np.empty((m, K * n))
     k1, k2, k3, k4 = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     Ey, E2y, a, b, c, w, r = (np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m),
                               np.empty(m), np.empty(m))
-    F = np.empty((K, n))
+    Fa, Fb = np.empty(K * n), np.empty(K * n)
+    F, F2 = Fa.reshape((K, n)), Fb.reshape((K, n))  # views: (K, n) of the flat products
     G1, G2, G3, G4 = np.empty((K, n)), np.empty((K, n)), np.empty((K, n)), np.empty((K, n))
     ES, E2S, SA, SB, SC, SW = (np.empty((K, m)), np.empty((K, m)), np.empty((K, m)),
                                np.empty((K, m)), np.empty((K, m)), np.empty((K, m)))
@@ -126,7 +109,7 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[blk], pieces[blk + 1]
         _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, De)
-        _derivatives(dpolyT, lower, upper, p0, p1, zeroT, 0.0, dAe)
+        _delta(dpolyT, lower, upper, p0, p1, zeroT, 0.0, dAe)
         for i in range(i0, i1):
             h = (t_out[i + 1] - t_out[i]) / substeps
             dtau = h / span
@@ -136,8 +119,8 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 dA0, dAe = dAe, dA0
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, De)
-                _derivatives(dpolyT, lower, upper, p0, p1, zeroT, tau + 0.5 * dtau, dAm)
-                _derivatives(dpolyT, lower, upper, p0, p1, zeroT, tau + dtau, dAe)
+                _delta(dpolyT, lower, upper, p0, p1, zeroT, tau + 0.5 * dtau, dAm)
+                _delta(dpolyT, lower, upper, p0, p1, zeroT, tau + dtau, dAe)
                 # y's stages: a = Ey + h/2 E k₁, b = Ey + h/2 k₂, c = E²y + h E k₃
                 _gemv(D0, 0, m, y, 1.0, k1, False)
                 _gemv(P, 0, m, y, 1.0, Ey, False)
@@ -156,7 +139,7 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 _gemv(P, n, n, k3, h, c, True)
                 _gemv(De, 0, m, c, 1.0, k4, False)
                 # the tangents' stages, with the forcing ∂A/∂p at y's stages
-                _forcing(dA0, y, F)
+                _gemv(dA0, 0, m, y, 1.0, Fa, False)
                 _slopes(D0, S, F, G1)
                 _many(P, 0, m, S, 1.0, ES, False)
                 _many(P2, 0, m, S, 1.0, E2S, False)
@@ -164,20 +147,22 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                     for q in range(m):
                         SA[k, q] = ES[k, q]
                 _many(P, n, n, G1, 0.5 * h, SA, True)
-                _forcing(dAm, a, F)
+                for q in range(K * n):
+                    Fa[q] = 0.0
+                    Fb[q] = 0.0
+                _gemv2(dAm, 0, m, a, 1.0, Fa, b, 1.0, Fb)  # a and b: b is known before SA
                 _slopes(Dm, SA, F, G2)
                 for k in range(K):
                     for q in range(m):
                         SB[k, q] = ES[k, q]
                     for q in range(n):
                         SB[k, n + q] += 0.5 * h * G2[k, q]
-                _forcing(dAm, b, F)
-                _slopes(Dm, SB, F, G3)
+                _slopes(Dm, SB, F2, G3)
                 for k in range(K):
                     for q in range(m):
                         SC[k, q] = E2S[k, q]
                 _many(P, n, n, G3, h, SC, True)
-                _forcing(dAe, c, F)
+                _gemv(dAe, 0, m, c, 1.0, Fa, False)
                 _slopes(De, SC, F, G4)
                 # y⁺ = E²y + h/6 E² k₁ + h/3 E (k₂ + k₃) + h/6 k₄, and the same for each S
                 for q in range(n):
@@ -211,7 +196,7 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
             _gemv(Dm, 0, m, y, 1.0, k4, False)
             for q in range(n):
                 accelerations[i + 1, q] = k4[q]
-            _forcing(dAe, y, F)
+            _gemv(dAe, 0, m, y, 1.0, Fa, False)
             _slopes(Dm, S, F, G4)
             for k in range(K):
                 for q in range(m):

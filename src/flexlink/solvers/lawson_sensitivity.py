@@ -59,7 +59,9 @@ def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
         PdT = _static_derivatives(table, dtable, t_out, n)
         m = 2 * n + 1
         polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))
-        dpolyT = np.ascontiguousarray(np.moveaxis(dtable.poly, 2, 0).swapaxes(3, 4))
+        pieces, coefficients = dtable.poly.shape[:2]
+        dpolyT = np.ascontiguousarray(np.transpose(dtable.poly, (0, 1, 4, 2, 3))).reshape(
+            pieces, coefficients, m, K * n)
         referenceT = np.ascontiguousarray(np.swapaxes(reference, 1, 2))
         states = np.empty((t_out.size, m))
         acc = np.empty((t_out.size, n))
