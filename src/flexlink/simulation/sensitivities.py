@@ -201,11 +201,17 @@ def run_with_sensitivities(scenario: Scenario, fields: list[_Field], t: np.ndarr
                         for j, sc in zip(f.offsets, f.scenarios, strict=True)])
 
     def derivative_rows(times: np.ndarray) -> np.ndarray:
-        out = []
-        for f, moved in zip(fields, systems, strict=True):
-            d = sum(w * s.state_rows(times) for w, s in zip(f.weights, moved, strict=True))
-            out.append(d / f.step)
-        return np.stack(out, axis=1)
+        out = None
+        for k, (f, moved) in enumerate(zip(fields, systems, strict=True)):
+            for i, (w, s) in enumerate(zip(f.weights, moved, strict=True)):
+                rows = s.state_rows(times)
+                if out is None:  # written in place: no per-field temporaries to stack
+                    out = np.empty((rows.shape[0], len(fields), *rows.shape[1:]))
+                if i == 0:
+                    np.multiply(rows, w / f.step, out=out[:, k])
+                else:
+                    out[:, k] += (w / f.step) * rows
+        return out
 
     _, dq, dqd, dqdd = lawson_sensitivities(nominal, derivative_rows, t, settled[0])
     if nominal.z_start is not None:
