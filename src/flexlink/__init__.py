@@ -8,6 +8,8 @@ from __future__ import annotations
 from typing import Any
 
 __all__ = [
+    "MeanSquare",
+    "Objective",
     "Results",
     "Scenario",
     "__version__",
@@ -35,6 +37,10 @@ def __getattr__(name: str) -> Any:
         from .simulation import simulate
 
         return simulate
+    if name in ("Objective", "MeanSquare"):
+        from .simulation import objective
+
+        return getattr(objective, name)
     if name == "sweep":
         from .batch import sweep
 

@@ -81,15 +81,14 @@ def kernels(package_dir: Path = PACKAGE_DIR) -> dict[str, Any]:
 def run_warmup(name: str, scenario: Any) -> dict[str, Any]:
     """Run one warm-up: the kernels `flexlink run` preloads for `scenario`, then the run
     itself. Its wall and CPU seconds, or the error."""
-    from .cli import _preload_compiled_code
-    from .simulation import simulate
+    from .cli import _preload_compiled_code, warmup_run
 
     wall, cpu = time.perf_counter(), time.process_time()
     try:
         thread = _preload_compiled_code(scenario)
         if thread is not None:
             thread.join()
-        simulate(scenario, shapes=False)
+        warmup_run(name, scenario)
     except Exception as exc:  # noqa: BLE001 — a kernel left out compiles at first use
         return {"error": f"{type(exc).__name__}: {exc}"}
     return {"seconds": round(time.perf_counter() - wall, 1),

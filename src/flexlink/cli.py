@@ -231,7 +231,16 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 # prescribed (the forward path's inputs then come from the base loads only).
 WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_base",
                "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar",
-               "nonlinear_four_bar")
+               "nonlinear_four_bar", "sensitivities")
+# What a warm-up run asks of `simulate` besides the run (the tangent loop of sensitivities).
+WARMUP_OPTIONS: dict[str, dict[str, Any]] = {"sensitivities": {"sensitivities": ["links[0].EI"]}}
+
+
+def warmup_run(name: str, scenario: Any) -> None:
+    """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_OPTIONS`."""
+    from .simulation import simulate
+
+    simulate(scenario, shapes=False, **WARMUP_OPTIONS.get(name, {}))
 
 
 def warmup_scenarios() -> dict[str, Any]:
@@ -239,8 +248,9 @@ def warmup_scenarios() -> dict[str, Any]:
     compiled loop: the Lawson loop (prescribed), Gauss collocation (nonlinear: adaptive, and
     with a fixed `step`), the forward kernel with its Radau IIA integrator (driven joints; a
     free base), the nonlinear model's forward collocation (adaptive, and with a fixed `step`)
-    the closed-loop Lawson loop and the kernels of mechanisms with closed loops (a
-    four-bar, in both models)."""
+    the closed-loop Lawson loop, the kernels of mechanisms with closed loops (a
+    four-bar, in both models) and the tangent loop of sensitivities (the prescribed run,
+    with `WARMUP_OPTIONS`)."""
     import copy
 
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
@@ -283,15 +293,14 @@ def warmup_scenarios() -> dict[str, Any]:
     nonlinear_four_bar["simulation"]["model"] = "nonlinear"
     return {name: scenario_from_dict(d) for name, d in zip(
         WARMUP_RUNS, (base, nonlinear, nonlinear_step, forward, free_base, nonlinear_forward,
-                      nonlinear_forward_step, closed_loop, four_bar, nonlinear_four_bar),
-        strict=True)}
+                      nonlinear_forward_step, closed_loop, four_bar, nonlinear_four_bar,
+                      base), strict=True)}
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
     import time
 
     from ._compiled_cache import cache_root, complete, read_record
-    from .simulation import simulate
 
     root = cache_root()
     if root is not None and complete(read_record(root), WARMUP_RUNS):
@@ -302,7 +311,7 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
     for name, scenario in warmup_scenarios().items():
         start = time.perf_counter()
         try:
-            simulate(scenario, shapes=False)
+            warmup_run(name, scenario)
         except Exception as exc:  # noqa: BLE001 — report it and go on with the others
             print(f"{name}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
             status = 1

@@ -179,7 +179,8 @@ def test_warmup_scenarios_take_every_path() -> None:
     assert {name: model_path(s) for name, s in scenarios.items()} == {
         **{name: name for name in PATHS}, "free_base": "forward",
         "nonlinear_step": "nonlinear", "nonlinear_forward_step": "nonlinear_forward",
-        "four_bar": "forward", "nonlinear_four_bar": "nonlinear_forward"}
+        "four_bar": "forward", "nonlinear_four_bar": "nonlinear_forward",
+        "sensitivities": "prescribed"}
     assert scenarios["four_bar"].closures  # the closed-loop kernels (dynamics/_loops_numba.py)
     # … and on the nonlinear model (dynamics/_nonlinear_loops_numba.py)
     assert scenarios["nonlinear_four_bar"].closures
@@ -207,7 +208,7 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
     monkeypatch.setattr(flexlink._compiled_cache, "cache_root", lambda: None)  # none installed
     ran: list[str] = []
 
-    def fake(scenario, progress=False, shapes=True):
+    def fake(scenario, progress=False, shapes=True, sensitivities=None):
         ran.append(flexlink.simulation.model_path(scenario))
         if ran[-1] == "prescribed":
             raise RuntimeError("boom")
@@ -233,7 +234,7 @@ def test_warmup_does_nothing_where_the_installation_compiled_every_loop(
     monkeypatch.setattr(flexlink._compiled_cache, "complete",
                         lambda r, runs: r["complete"] and runs == WARMUP_RUNS)
 
-    def ran(scenario, progress=False, shapes=True):
+    def ran(scenario, progress=False, shapes=True, sensitivities=None):
         print("ran")
 
     monkeypatch.setattr(flexlink.simulation, "simulate", ran)

@@ -37,6 +37,23 @@ class Results:
     created: str = field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"),
                          compare=False)
     shapes: Sequence[LinkShape] = field(default_factory=list, compare=False, repr=False)
+    # ∂channel/∂field (xarray DataArray, time × channel × field) of a run asked for them
+    sensitivities: Any = field(default=None, compare=False, repr=False)
+
+    def sensitivity(self, channel: str, field_path: str) -> Any:
+        """∂channel/∂field over time (an xarray DataArray with its unit in ``attrs``) of a
+        run with ``sensitivities`` (`flexlink.simulate`); KeyError naming what is missing."""
+        if self.sensitivities is None:
+            raise KeyError("these results have no sensitivities: run simulate(scenario, "
+                           "sensitivities=[...])")
+        s = self.sensitivities
+        for what, name in (("channel", channel), ("field", field_path)):
+            if name not in s.coords[what].values:
+                known = ", ".join(map(str, s.coords[what].values))
+                raise KeyError(f"no sensitivity for {what} {name!r}; {what}s: {known}")
+        out = s.sel(channel=channel, field=field_path)
+        out.attrs = {**s.attrs, "units": str(out.coords["unit"].values)}
+        return out
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self._values[name]

@@ -80,7 +80,10 @@ def scenario_from_dict(d: Mapping[str, Any], base_dir: Path = Path("."), *,
     ``name`` is used when ``simulation.name`` is absent; ``source`` labels error messages.
     """
     resolved, motions = _resolve(d, Path(base_dir), name, source)
-    return _build(resolved, motions)
+    scenario = _build(resolved, motions)
+    # what field paths address (simulation/sensitivities.py); dataclasses.replace drops it
+    object.__setattr__(scenario, "_origin", (d, Path(base_dir), name, source))
+    return scenario
 
 
 def resolve_scenario_dict(path_or_dict: str | Path | Mapping[str, Any],

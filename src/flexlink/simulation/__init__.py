@@ -16,7 +16,7 @@ Open-loop piezo actuators run in every path.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from importlib import import_module
 
@@ -62,12 +62,19 @@ def model_path(scenario: Scenario) -> str:
     return "nonlinear" if scenario.settings.model == "nonlinear" else "prescribed"
 
 
-def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True) -> Results:
+def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True,
+             sensitivities: Sequence[str] | None = None) -> Results:
     """Run one scenario: elastic coordinates start at rest, undeformed or (``initial =
     "equilibrium"``) in static equilibrium; joints follow their prescriptions,
     or (moving base, driven joints) the equations of motion. ``progress``: a progress bar on
     runs longer than a second; ``shapes``: every link's deformed shape on a grid of points
-    (what animations draw; sweeps leave it out)."""
+    (what animations draw; sweeps leave it out); ``sensitivities``: field paths
+    (``links[0].EI``, …) whose derivatives of every channel the run computes too
+    (`Results.sensitivity`, docs/sensitivities.md)."""
+    if sensitivities is not None:
+        from .sensitivities import simulate_with_sensitivities
+
+        return simulate_with_sensitivities(scenario, sensitivities, progress, shapes)
     return assemble_results(scenario, *run_scenario(scenario, progress, shapes))
 
 

@@ -48,29 +48,31 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
 
 
 def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: Solution,
-                      with_shapes: bool
+                      with_shapes: bool, checked: bool = True
                       ) -> tuple[dict[str, np.ndarray], Sequence[LinkShape], dict[str, Any]]:
     """The channels of a prescribed-joint run (sensors, joint angles and torques, tips), the
-    link shapes and the validity metadata (a SimulationError if the tips ran away)."""
-    return prescribed_readings(scenario, system, solution, with_shapes)[:3]
+    link shapes and the validity metadata (a SimulationError if the tips ran away; with
+    ``checked`` False neither: channels of a state next to a checked run's)."""
+    return prescribed_readings(scenario, system, solution, with_shapes, checked)[:3]
 
 
 def prescribed_readings(scenario: Scenario, system: FirstOrderSystem, solution: Solution,
-                        with_shapes: bool
+                        with_shapes: bool, checked: bool = True
                         ) -> tuple[dict[str, np.ndarray], Sequence[LinkShape], dict[str, Any],
                                    Callable[[tuple[Sensor, ...]], dict[str, np.ndarray]]]:
     """`prescribed_values`, and the readings of any sensors on the same motion."""
     t, z = solution.t, solution.q
-    deflection = tip_deflections(system, z)
     hist = system.joint_history(t)
     # The frames along the solution, with T z, … per output time from the compiled kernel.
     frames = solved_frames(system, t, z, solution.q_dot, solution.q_ddot)
     links = scenario.chain.links
-    validity = check_tip_deflection(
-        links, t, deflection, system.geometric_stiffening,
-        axial_load_parameter(links, system.modal, scenario.base, frames.theta, frames.omega,
-                             frames.alpha, frames.origin_accel),
-        inboard=hangs_on_elastic(links, scenario.base))
+    validity: dict[str, Any] = {}
+    if checked:
+        validity = check_tip_deflection(
+            links, t, tip_deflections(system, z), system.geometric_stiffening,
+            axial_load_parameter(links, system.modal, scenario.base, frames.theta,
+                                 frames.omega, frames.alpha, frames.origin_accel),
+            inboard=hangs_on_elastic(links, scenario.base))
     torque = joint_torques(system, frames)
     values = sensor_values(system, frames, solution, scenario.sensors)
     for k in range(len(scenario.chain.links)):

@@ -119,8 +119,9 @@ def tabulate_on(rows: RowsFunction, t_out: np.ndarray, where: TableLayout) -> Co
     sampler = _Sampler(rows)
     values = sampler.at(np.concatenate([nodes, static_times]))
     samples = values[:nodes.size].reshape(len(where.moving), DEGREE + 1, *values.shape[1:])
-    poly = np.matmul(_FIT, samples.reshape(len(where.moving), DEGREE + 1, -1)).reshape(
-        samples.shape)
+    # the entries' count spelled out: -1 cannot be inferred on a layout with no moving block
+    poly = np.matmul(_FIT, samples.reshape(len(where.moving), DEGREE + 1,
+                                           int(np.prod(values.shape[1:])))).reshape(samples.shape)
     done = [(*piece, p) for piece, p in zip(where.moving, poly, strict=True)]
     return _assemble_table(done, list(where.static), values[nodes.size:], sampler.count)
 

@@ -1,0 +1,89 @@
+"""A scalar objective over a run's channels with its exact gradient, for scipy.optimize.
+
+``Objective(scenario, fields, metric)(x)`` sets the fields to x, runs the scenario with their
+sensitivities (`simulation.sensitivities`) and returns the metric and its gradient in x, as
+``scipy.optimize.minimize(objective, objective.x0, jac=True)`` calls it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import Scenario
+from ..results import Results
+from ..scenario.fields import ScenarioFile
+from .sensitivities import SensitivityError, prepare_fields, scenario_file
+
+# (results) → (value, {channel: ∂value/∂channel values, (nt,)})
+Metric = Callable[[Results], tuple[float, Mapping[str, np.ndarray]]]
+
+
+@dataclass(frozen=True)
+class MeanSquare:
+    """The mean over the output times t ≥ ``after`` (s) of (channel − target)², in the
+    channel's unit squared: a residual vibration (target 0) or a tracking error."""
+
+    channel: str
+    after: float = 0.0
+    target: float = 0.0
+
+    def __call__(self, results: Results) -> tuple[float, dict[str, np.ndarray]]:
+        if self.channel not in results:
+            raise SensitivityError(f"the metric's channel {self.channel!r} is not a channel "
+                                   f"of this run; channels: {', '.join(results.names)}")
+        keep = results.time >= self.after
+        count = int(keep.sum())
+        if count == 0:
+            raise SensitivityError(f"the metric's after = {self.after:g} s leaves no output "
+                                   "time")
+        error = np.where(keep, results[self.channel] - self.target, 0.0)
+        return float(np.sum(error ** 2) / count), {self.channel: 2.0 * error / count}
+
+
+class Objective:
+    """f(x) and ∇f(x) of ``metric`` over a run with the ``fields`` (field paths) set to x.
+
+    ``metric``: a callable (results) → (value, {channel: ∂value/∂channel over time}), e.g.
+    `MeanSquare`. Calls with the same x reuse the last run. Every field is checked when the
+    objective is made, before anything runs."""
+
+    def __init__(self, scenario: Scenario | ScenarioFile, fields: Sequence[str],
+                 metric: Metric) -> None:
+        self.file = scenario_file(scenario)
+        self.fields = list(fields)
+        self.metric = metric
+        built = self.file.build()
+        self._targets = [f.target for f in prepare_fields(self.file, built, self.fields)]
+        self.x0 = np.array([float(t.value) for t in self._targets])
+        self._last: tuple[np.ndarray, float, np.ndarray] | None = None
+        self.runs = 0
+
+    def results(self, x: np.ndarray) -> Results:
+        """The run (with sensitivities) at x."""
+        from .sensitivities import simulate_with_sensitivities
+
+        x = np.asarray(x, dtype=float)
+        if x.shape != self.x0.shape:
+            raise ValueError(f"x has shape {x.shape}; the objective has {self.x0.size} fields")
+        values = {t.path: float(v) for t, v in zip(self._targets, x, strict=True)}
+        file = ScenarioFile(self.file.with_values(values), self.file.base_dir, self.file.name,
+                            self.file.source)
+        self.runs += 1
+        return simulate_with_sensitivities(file, self.fields, shapes=False)
+
+    def __call__(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """(f(x), ∇f(x)): the metric and its derivative in each field, in field order."""
+        x = np.array(x, dtype=float)
+        if self._last is not None and np.array_equal(self._last[0], x):
+            return self._last[1], self._last[2].copy()
+        results = self.results(x)
+        value, slopes = self.metric(results)
+        gradient = np.zeros(x.size)
+        for channel, weight in slopes.items():
+            d = results.sensitivities.sel(channel=channel).values  # (nt, fields)
+            gradient += np.asarray(weight) @ d
+        self._last = (x, float(value), gradient)
+        return float(value), gradient.copy()

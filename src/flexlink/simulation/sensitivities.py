@@ -1,0 +1,370 @@
+"""Sensitivities of a run's channels to numeric scenario fields (docs/sensitivities.md).
+
+``simulate(scenario, sensitivities=["links[0].EI", …])`` runs the scenario and, with the run,
+the derivative of every channel on the output grid with respect to each field (the field-path
+grammar of sweeps and fits, `scenario.fields`). Path taken: prescribed joints, first-order
+model, ``method = "lawson"`` (the default of prescribed runs). There the derivative is the
+exact derivative of what the run computed (`solvers.lawson_sensitivity`): forward
+sensitivity equations stepped by the same Lawson steps on the same table layout and block
+propagators. Two pieces come from differences, both at a fixed state or fixed times, never of
+a run:
+
+* ∂A/∂p, A = M⁻¹[−K, −C, f] the state matrix, by central differences of the assembly of the
+  scenario with the field moved by ±δ (δ = `RELATIVE_STEP` × |value|) at the table's
+  sampling times; a field whose lower bound the step would cross takes a one-sided
+  second-order difference. The assembly is smooth in every numeric field (modes and
+  frequencies from roots found to adjacent floating-point numbers), so the difference's
+  error (δ² terms, round-off / δ) is ~1e-9 relative or less.
+* ∂channel/∂p at the computed state: the channel map (`prescribed.prescribed_values`) at the
+  moved field and the state moved along its sensitivity, by the same stencil. Channels are
+  linear or quadratic in the state, so this is exact in the state up to round-off.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..model import Scenario
+from ..results import Results
+from ..scenario.fields import FieldPathError, ScenarioFile, Target, is_time_grid
+from ..solvers import Solution
+from .common import PathRun, Progress
+
+RELATIVE_STEP = 1e-5  # of a field's magnitude: the step of the differences of the assembly
+ABSOLUTE_STEP = 1e-6  # the step of a field whose value is zero, in its unit
+_SETTINGS = ("rtol", "atol", "step")  # [simulation] keys of the integrator, not the model
+# (offsets in steps, weights): central, then forward and backward one-sided, second order
+_STENCILS = (((1, -1), (0.5, -0.5)), ((0, 1, 2), (-1.5, 2.0, -0.5)),
+             ((0, -1, -2), (1.5, -2.0, 0.5)))
+SUPPORTED = ('prescribed joints with the first-order model and method = "lawson" (the '
+             "default of prescribed runs)")
+
+
+class SensitivityError(ValueError):
+    """A sensitivity that cannot be computed: unknown or non-numeric field, or a path
+    (model, integrator) that does not take sensitivities."""
+
+
+@dataclass(frozen=True)
+class _Field:
+    """One field: its target in the file, the unit of its values (UDUNITS), and the offsets
+    (multiples of ``step``) and weights of its difference stencil."""
+
+    target: Target
+    unit: str
+    step: float
+    offsets: tuple[int, ...]
+    weights: tuple[float, ...]
+    scenarios: tuple[Scenario, ...]
+
+
+def scenario_file(scenario: Scenario | ScenarioFile) -> ScenarioFile:
+    """The file a Scenario was built from (what field paths address)."""
+    if isinstance(scenario, ScenarioFile):
+        return scenario
+    origin = getattr(scenario, "_origin", None)
+    if origin is None:
+        raise SensitivityError(
+            "sensitivities: this Scenario was not built from a scenario file or dict (or was "
+            "changed since with dataclasses.replace); field paths address the file: pass a "
+            "Scenario from flexlink.load_scenario, load_paper_experiment or scenario_from_dict")
+    raw, base_dir, name, source = origin
+    return ScenarioFile(raw, base_dir, name, source)
+
+
+def check_path(scenario: Scenario) -> None:
+    """SensitivityError naming the run's path unless it takes sensitivities."""
+    from . import model_path
+
+    path = model_path(scenario)
+    method = scenario.settings.method
+    if path != "prescribed" or method != "lawson":
+        what = f"the {path} path" + (f" with method = {method!r}" if path == "prescribed"
+                                     else "")
+        raise SensitivityError(
+            f"sensitivities: {what} does not compute sensitivities yet; they are computed on "
+            f"{SUPPORTED}")
+    if scenario.actuators:
+        raise SensitivityError("sensitivities: scenarios with piezo actuators do not compute "
+                               f"sensitivities yet; they are computed on {SUPPORTED}")
+
+
+def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
+                   ) -> list[_Field]:
+    """Check every field before anything runs, and build the scenarios of its stencil.
+    SensitivityError naming the field: malformed or unknown path, non-numeric or integer
+    field, a field that changes the output grid or moves the motion's breaks, or one
+    whose moved values the scenario refuses on both sides."""
+    from ..dynamics.first_order import input_breakpoints
+
+    if isinstance(fields, str):
+        fields = [fields]
+    if not fields:
+        raise SensitivityError("sensitivities: name at least one field, e.g. links[0].EI")
+    twice = [text for i, text in enumerate(fields) if text in fields[:i]]
+    if twice:
+        raise SensitivityError(f"sensitivities: {twice[0]} is named twice")
+    breaks = input_breakpoints(scenario.chain.joints, scenario.actuators)
+    out = []
+    for text in fields:
+        try:
+            target = file.locate(text)
+        except FieldPathError as error:
+            raise SensitivityError(f"sensitivities: {error}") from None
+        if target.value is None:
+            raise SensitivityError(f"sensitivities: {text} has no value in the scenario")
+        if target.integer:
+            raise SensitivityError(f"sensitivities: {text} takes integers; a derivative needs "
+                                   "a real-valued field")
+        if is_time_grid(target.path):
+            raise SensitivityError(f"sensitivities: {text} changes the output time grid; "
+                                   "choose a field of the model")
+        if target.path[0] == "simulation" and target.key in _SETTINGS:
+            raise SensitivityError(f"sensitivities: {text} is a setting of the integrator, "
+                                   "not of the model; choose a field of the model")
+        value = float(target.value)
+        step = RELATIVE_STEP * abs(value) if value else ABSOLUTE_STEP
+        problem: Exception | None = None
+        for stencil in _STENCILS:  # central; at a bound, one-sided (second order)
+            try:
+                scenarios = tuple(scenario if j == 0 else
+                                  file.build({target.path: value + j * step})
+                                  for j in stencil[0])
+                break
+            except ValueError as error:
+                problem = error
+        else:
+            raise SensitivityError(f"sensitivities: {text} = {value:g} cannot be moved by "
+                                   f"±{step:.3g}: {problem}") from None
+        for moved in scenarios:
+            check_path(moved)
+            if not _same_breaks(breaks, input_breakpoints(moved.chain.joints,
+                                                          moved.actuators)):
+                raise SensitivityError(
+                    f"sensitivities: {text} moves a time where a joint's acceleration jumps "
+                    "(a motion's start or end); the computed run is not differentiable in it "
+                    "on a fixed discretisation. Fields that keep those times (angles, link, "
+                    "sensor and damping properties) take sensitivities")
+        out.append(_Field(target, field_unit(target), step, stencil[0], stencil[1],
+                          scenarios))
+    return out
+
+
+def _same_breaks(a: np.ndarray, b: np.ndarray) -> bool:
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return a.shape == b.shape and bool(np.all(a == b))
+
+
+def run_with_sensitivities(scenario: Scenario, fields: list[_Field], t: np.ndarray,
+                           on_progress: Progress, shapes: bool
+                           ) -> tuple[PathRun, dict[str, np.ndarray]]:
+    """The prescribed run of ``scenario`` (`prescribed.run_prescribed`, adaptive Lawson)
+    and, per channel, its derivatives (nt, K) in the fields."""
+    from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem
+    from ..solvers.lawson import integrate_lawson_discretised
+    from ..solvers.lawson_sensitivity import lawson_sensitivities
+    from .prescribed import prescribed_values, run_prescribed
+
+    settled: list[Any] = [None]
+
+    def adaptive(system: Any, times: np.ndarray, rtol: float, atol: float,
+                 progress: Any) -> Solution:
+        solution, settled[0] = integrate_lawson_discretised(system, times, rtol, atol,
+                                                            progress)
+        return solution
+
+    run = run_prescribed(scenario, t, on_progress, shapes, adaptive)
+    if run.solution.q.shape[1] == 0:
+        raise SensitivityError("sensitivities: every link is rigid: there is nothing to "
+                               "differentiate through the integrator")
+    if settled[0] is None:
+        raise SensitivityError(
+            "sensitivities: this run's coefficients were too rough to tabulate (a measured "
+            "motion) and were integrated by Magnus, which does not compute sensitivities")
+    systems = []
+
+    def system_of(sc: Scenario) -> Any:
+        s = CompiledFirstOrderSystem(sc.chain, sc.settings.geometric_stiffening,
+                                     sc.actuators, sc.settings.gravity)
+        if sc.settings.initial == "equilibrium":
+            s.start_from(s.equilibrium(float(t[0])))
+        return s
+
+    nominal = system_of(scenario)
+    for f in fields:
+        systems.append([nominal if j == 0 else system_of(sc)
+                        for j, sc in zip(f.offsets, f.scenarios, strict=True)])
+
+    def derivative_rows(times: np.ndarray) -> np.ndarray:
+        out = None
+        for k, (f, moved) in enumerate(zip(fields, systems, strict=True)):
+            for i, (w, s) in enumerate(zip(f.weights, moved, strict=True)):
+                rows = s.state_rows(times)
+                if out is None:  # written in place: no per-field temporaries to stack
+                    out = np.empty((rows.shape[0], len(fields), *rows.shape[1:]))
+                if i == 0:
+                    np.multiply(rows, w / f.step, out=out[:, k])
+                else:
+                    out[:, k] += (w / f.step) * rows
+        return out
+
+    _, dq, dqd, dqdd = lawson_sensitivities(nominal, derivative_rows, t, settled[0])
+    if nominal.z_start is not None:
+        for k, moved in enumerate(systems):
+            f = fields[k]
+            dz0 = sum(w * s.z_start for w, s in zip(f.weights, moved, strict=True))
+            dq[k] += dz0 / f.step
+    run_solution = run.solution
+    channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
+    for k, f in enumerate(fields):
+        total: dict[str, np.ndarray] = {}
+        for j, w, sc, system in zip(f.offsets, f.weights, f.scenarios, systems[k],
+                                    strict=True):
+            h = j * f.step
+            moved_solution = Solution(t, run_solution.q + h * dq[k],
+                                      run_solution.q_dot + h * dqd[k],
+                                      run_solution.q_ddot + h * dqdd[k], run_solution.method)
+            values, _, _ = prescribed_values(sc, system, moved_solution, False,
+                                             checked=False)
+            for name, v in values.items():
+                total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
+        for name, column in channels.items():
+            column.append(total[name] / f.step)
+    return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
+
+
+def attach(results: Results, fields: list[_Field], derivatives: dict[str, np.ndarray]) -> None:
+    """Put the sensitivities on ``results`` as a DataArray (time × channel × field)."""
+    import xarray as xr
+
+    names = [name for name in results.names if name in derivatives]
+    texts = [f.target.text for f in fields]
+    data = np.stack([derivatives[name] for name in names], axis=1)
+    units = np.array([[quotient_unit(results.channels[name].unit, f.unit) for f in fields]
+                      for name in names], dtype=object)
+    results.sensitivities = xr.DataArray(
+        data, dims=("time", "channel", "field"),
+        coords={"time": results.time, "channel": names, "field": texts,
+                "unit": (("channel", "field"), units),
+                "field_unit": ("field", [f.unit for f in fields]),
+                "field_value": ("field", [float(f.target.value) for f in fields])},
+        name="sensitivity",
+        attrs={"long_name": "∂channel/∂field of the computed run",
+               "method": "forward sensitivities on the run's Lawson discretisation"})
+
+
+# ---- units -------------------------------------------------------------------------------
+
+_SUPERSCRIPTS = str.maketrans("²³⁻¹", "23-1")
+_SYMBOLS = {"deg": "degree"}
+
+
+def field_unit(target: Target) -> str:
+    """The UDUNITS unit of a field's values, from the schema ("1" if dimensionless, "" where
+    the schema gives none it can spell)."""
+    from ..scenario import schema
+
+    key = target.key
+    head = str(target.path[0])
+    sections = list(schema.SECTIONS.values()) + list(schema.PROFILES.values()) + \
+        list(schema.CART_PROFILES.values()) + list(schema.HISTORIES.values())
+    found = [s[key].unit for s in sections if key in s.keys]
+    preferred = [s[key].unit for s in sections
+                 if key in s.keys and s.name.split(".")[0] == head]
+    units = set(preferred) or set(found)
+    if len(units) != 1:
+        return ""
+    return udunits(units.pop())
+
+
+def udunits(text: str) -> str:
+    """A schema unit (N·m², kg/m, m/s², 1/s, deg) in UDUNITS spelling (N m2, kg m-1, m s-2,
+    s-1, degree); "" where it is not a plain product of powers."""
+    text = text.split(",")[0].split(" (")[0].strip()
+    if not text:
+        return "1"
+    if re.search(r"[^A-Za-zΩ°·/²³()]", text):
+        return ""
+    numerator, _, denominator = text.partition("/")
+    powers: dict[str, int] = {}
+    for part, sign in ((numerator, 1), (denominator.strip("()"), -1)):
+        for token in filter(None, part.split("·")):
+            m = re.fullmatch(r"([A-Za-zΩ°]+)([²³]?)", token)
+            if m is None:
+                return ""
+            base = _SYMBOLS.get(m.group(1), m.group(1))
+            if base == "1":
+                continue
+            power = {"": 1, "²": 2, "³": 3}[m.group(2)]
+            powers[base] = powers.get(base, 0) + sign * power
+    return _spell(powers)
+
+
+def _spell(powers: dict[str, int]) -> str:
+    parts = [b if p == 1 else f"{b}{p}" for b, p in powers.items() if p]
+    return " ".join(parts) or "1"
+
+
+def _powers(unit: str) -> dict[str, int] | None:
+    powers: dict[str, int] = {}
+    if unit in ("", "1"):
+        return powers
+    for token in unit.split():
+        m = re.fullmatch(r"([A-Za-z]+)(-?\d*)", token)
+        if m is None:
+            return None
+        powers[m.group(1)] = powers.get(m.group(1), 0) + int(m.group(2) or 1)
+    return powers
+
+
+def quotient_unit(channel: str, field: str) -> str:
+    """channel unit / field unit in UDUNITS spelling ("" if either is unknown)."""
+    a, b = _powers(channel), _powers(field)
+    if a is None or b is None or field == "":
+        return ""
+    for base, p in b.items():
+        a[base] = a.get(base, 0) - p
+    return _spell(a)
+
+
+def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Sequence[str],
+                                progress: bool = False, shapes: bool = True) -> Results:
+    """`simulate` with the sensitivities of every channel to ``fields`` on the results
+    (`Results.sensitivities`, `Results.sensitivity`). Every check runs before the run."""
+    from .common import ProgressBar, assemble_results, check_run_memory, output_times, timed
+    from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
+
+    file = scenario_file(scenario)
+    if isinstance(scenario, ScenarioFile):
+        scenario = file.build()
+    check_path(scenario)
+    prepared = prepare_fields(file, scenario, fields)
+    check_run_memory(scenario)
+    settings = scenario.settings
+    t = output_times(settings.t_end, settings.dt_out)
+    stiff = quasi_rigid_links(scenario, t)
+    if stiff:  # the links the run makes rigid are rigid in every moved scenario too
+        from dataclasses import replace
+
+        prepared = [replace(f, scenarios=tuple(with_rigid_links(s, stiff)
+                                               for s in f.scenarios)) for f in prepared]
+        base = with_rigid_links(scenario, stiff)
+    else:
+        base = scenario
+    from ..solvers.threads import single_threaded
+
+    with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
+        (run, derivatives), wall_time = timed(  # type: ignore[arg-type]
+            lambda: run_with_sensitivities(base, prepared, t, bar.update, shapes))
+    if stiff:
+        from dataclasses import replace
+
+        run = replace(run, metadata={**run.metadata, **rigid_metadata(scenario, stiff)})
+    results = assemble_results(scenario, run, wall_time)
+    attach(results, prepared, derivatives)
+    return results
