@@ -32,6 +32,7 @@ from .gauss_steps import (
     COEFFS2,
     GAUSS2,
     NODES,
+    STATE_ROUND_OFF,
     WEIGHTS,
     WEIGHTS2,
     NewtonSettings,
@@ -137,7 +138,8 @@ class _Newton:
         run so far, not only of this step (forward runs: a rigid arm's accelerations vanish
         while it coasts, `_gauss_numba.solve_stages`). ``floor`` (1/s²) · max|q|
         (the first ``elastic`` unknowns, default all): the absolute part of the stopping
-        test, as the compiled loops' ``floor``."""
+        test, as the compiled loops' ``floor``, with their STATE_ROUND_OFF of every
+        unknown."""
         self.system, self.h, self.tol = system, h, tol
         self.running_peak = running_peak
         self.peak = 0.0
@@ -171,7 +173,9 @@ class _Newton:
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
             largest = float(np.abs(X).max())
             q_size = float(np.abs(q0[:self.elastic]).max(initial=0.0))
-            if remaining <= self.tol * max(largest, self.peak, 1e-300) + self.floor * q_size:
+            state_floor = STATE_ROUND_OFF * float(np.abs(q0).max(initial=0.0)) / self.h**2
+            if remaining <= (self.tol * max(largest, self.peak, 1e-300) + self.floor * q_size
+                             + state_floor):
                 if self.running_peak:
                     self.peak = max(self.peak, largest)
                 return X

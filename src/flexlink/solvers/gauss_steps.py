@@ -43,6 +43,10 @@ Tableau.__doc__ = ("A collocation method for q̈ = f as the compiled loops take 
                    "coefficients a (s, s) and a² (s, s), weights b (s,) and bᵀa (s,).")
 GAUSS2 = Tableau(NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2)
 
+# Relative round-off of a stage position: a Newton correction of the accelerations below it
+# times max|y| / h² cannot move any stage position (`_gauss_numba.solve_stages`).
+STATE_ROUND_OFF = 1e-15
+
 NewtonSettings = namedtuple("NewtonSettings", ["tol", "max_iterations", "floor",
                                                "running_peak"])
 NewtonSettings.__doc__ = (

@@ -1,5 +1,7 @@
-"""Output samples of the nonlinear model next to an input's jump: the interpolant of a step
-that ends on a breakpoint ends on the accelerations of the inputs before it."""
+"""Edge cases of the nonlinear model's integrator: output samples next to an input's jump
+(the interpolant of a step that ends on a breakpoint ends on the accelerations of the
+inputs before it), and a chain of rigid links starting in exact equilibrium (Newton's
+round-off floor counts the rigid coordinates)."""
 
 from __future__ import annotations
 
@@ -14,6 +16,7 @@ from flexlink.model import (
     Chain,
     Link,
     PiezoActuator,
+    PositionServo,
     Scenario,
     SimulationSettings,
     Step,
@@ -54,3 +57,19 @@ def test_outputs_before_a_voltage_step_follow_the_equations() -> None:
     equations = system.accelerations(t, solution.q, solution.q_dot)
     peak = np.abs(equations).max()
     np.testing.assert_allclose(solution.q_ddot, equations, rtol=0, atol=1e-3 * peak)
+
+
+def test_rigid_links_starting_in_exact_equilibrium_stay_there() -> None:
+    """Two rigid links held by position servos against gravity, starting in static
+    equilibrium: every acceleration is round-off, and the run stays at rest (it used to
+    halve its step until it collapsed)."""
+    link1 = Link("upper", 1.0, 0.6, 6.0, tip_mass=0.2, modes=0)
+    link2 = Link("lower", 0.7, 0.3, 6.0, tip_mass=0.1, modes=0)
+    chain = Chain((link1, link2), (PositionServo(Hold(20.0), 10.0, 3.0, 5.0),
+                                   PositionServo(Hold(-30.0), 10.0, 3.0, 5.0)))
+    r = simulate(Scenario(chain, settings=SimulationSettings(
+        t_end=1.0, dt_out=1e-2, model="nonlinear", gravity=(0.0, -9.81),
+        initial="equilibrium")))
+    assert r.metadata["rejected_steps"] == 0
+    for name in ("joint1_angle", "joint2_angle"):
+        assert np.ptp(r[name]) < 1e-12
