@@ -26,7 +26,6 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 from ..dynamics._nonlinear_forward_numba import residual as forward_residual
 from ..dynamics._nonlinear_numba import residual as prescribed_residual
 from ..dynamics.nonlinear_kernel import NonlinearData, NonlinearForwardData
-from .gauss_steps import STATE_ROUND_OFF
 
 # kernel-data record class → its compiled residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out)
 _RESIDUALS = {NonlinearData: prescribed_residual, NonlinearForwardData: forward_residual}
@@ -56,7 +55,7 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
     accelerations that no elastic term keeps finite) or within newton.floor (1/s²) ·
     max|q| (the first d.n unknowns): the round-off of the elastic forces (at a static
     equilibrium under a constant load the accelerations vanish and no relative test can be
-    met), or within STATE_ROUND_OFF · max|y| / h² (every unknown, rigid ones too): a
+    met), or within newton.state_round_off · max|y| / h² (every unknown, rigid ones too): a
     correction that moves no stage position beyond its round-off (a chain of rigid links
     in exact equilibrium has no elastic coordinate to set the floor). counts[0] += matrix
     rebuilds, counts[1] += iterations. Returns whether it converged."""
@@ -77,7 +76,7 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
     state_floor = 0.0
     for m in range(n):
         state_floor = max(state_floor, abs(y0[m]))
-    state_floor *= STATE_ROUND_OFF / (h * h)
+    state_floor *= newton.state_round_off / (h * h)
     for _ in range(newton.max_iterations):
         counts[1] += 1
         for st in range(2):
