@@ -63,6 +63,19 @@ def base_acceleration(d, pdd):
 
 
 @njit(cache=True)
+def map_columns(d, k):
+    """How many leading columns of x = [δp; z] frame k's maps T̂_k can have nonzero (s):
+    the rigid coordinates' and the modes of the links it hangs on, which come before its
+    own. The loops over a map's columns stop there: the rest are zero."""
+    columns = d.n_rigid
+    j = k
+    while j > 0 and not d.attached[j]:
+        j -= 1
+        columns = max(columns, d.offset[j] + d.n_modes[j])
+    return columns
+
+
+@njit(cache=True)
 def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
     """Fill the zero-order frame angles, rates, accelerations, origin accelerations (frame
     axes) and the maps x → [ρx, ρy, θ1] of every link with their time derivatives
@@ -141,7 +154,7 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
             oacc[k, 0] = b00 * tx + b01 * ty
             oacc[k, 1] = b10 * tx + b11 * ty
             o, nj = d.offset[j], d.n_modes[j]
-            for c in range(d.n_x):
+            for c in range(map_columns(d, k)):
                 # U = P̃ T̂_{j}: rows ρx, ρy + L θ1 (+ Φ(L) q), θ1 (+ Φ'(L) q)
                 u0, u1, u2 = T[j, 0, c], T[j, 1, c] + L * T[j, 2, c], T[j, 2, c]
                 v0, v1, v2 = Td[j, 0, c], Td[j, 1, c] + L * Td[j, 2, c], Td[j, 2, c]
@@ -171,7 +184,6 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     Per link (first_order.add_link_terms, docs/derivation.md §3–4), with ξ = T̂x:
     T̂ᵀ[M_t(ξ̈ + 2ξ̇) + 2ω G₀(ξ̇ + ξ) + (ω̇ G₀ − ω² M₀)ξ + load] − S₂x + K_e q + D q̇."""
     N = d.length.shape[0]
-    nx = d.n_x
     omega, alpha, oacc, T, Td, Tdd = w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td, w_.Tdd
     frames(d, p, pd, pdd, w_.theta, omega, alpha, oacc, T, Td, Tdd)
     # Outboard inertia force Σ_{j>k, same branch} ∫a0 dm along frame k's x (its x part is
@@ -202,9 +214,10 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
         nk, o = d.n_modes[k], d.offset[k]
         mk = 3 + nk
         w, wd = omega[k], alpha[k]
+        nc = map_columns(d, k)  # T̂_k's columns beyond are zero
         for a in range(3):
             s0 = s1 = s2 = 0.0
-            for c in range(nx):
+            for c in range(nc):
                 s0 += T[k, a, c] * x[c]
                 s1 += Td[k, a, c] * x[c] + T[k, a, c] * xd[c]
                 s2 += Tdd[k, a, c] * x[c] + 2.0 * Td[k, a, c] * xd[c]
@@ -235,7 +248,7 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
                         + (wd * d.G0[k, a, b] - w * w * d.M0[k, a, b]) * xi[b])
             v[a] += acc
         # r += T̂ᵀ v
-        for c in range(nx):
+        for c in range(nc):
             acc = 0.0
             for a in range(3):
                 acc += T[k, a, c] * v[a]
@@ -247,7 +260,7 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
         w2 = w * w
         scal = ax * s1k - w2 * J + N_out * d.length[k] + ay * sy
         t1x = 0.0
-        for c in range(nx):
+        for c in range(nc):
             t1x += T[k, 2, c] * x[c]
         vq = 0.0
         for i in range(nk):
@@ -256,7 +269,7 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
                 vec_i += ay * d.lat_slope[k, i] + wd * d.lat_tilde[k, i]
             vq += vec_i * x[o + i]
             r[o + i] -= vec_i * t1x
-        for c in range(nx):
+        for c in range(nc):
             r[c] -= T[k, 2, c] * (scal * t1x + vq)
         for i in range(nk):
             acc = 0.0
@@ -269,23 +282,24 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
                                 + wd * d.lat_fore_moment[k, i, j]) * x[o + j]
                 acc += d.stiffness[k, i, j] * x[o + j] + d.damping[k, i, j] * xd[o + j]
             r[o + i] += acc
-        if want_M:  # M += T̂ᵀ M_t T̂
+        if want_M:  # M += T̂ᵀ M_t T̂ (TM's columns beyond its own modes are zero)
+            nt = max(nc, o + nk)
             for a in range(mk):
-                for c in range(nx):
+                for c in range(nt):
                     acc = 0.0
                     for b in range(3):
                         acc += d.Mtot[k, a, b] * T[k, b, c]
                     TM[a, c] = acc
                 for i in range(nk):
                     TM[a, o + i] += d.Mtot[k, a, 3 + i]
-            for c1 in range(nx):
-                for c2 in range(nx):
+            for c1 in range(nc):
+                for c2 in range(nt):
                     acc = 0.0
                     for b in range(3):
                         acc += T[k, b, c1] * TM[b, c2]
                     M[c1, c2] += acc
             for i in range(nk):
-                for c2 in range(nx):
+                for c2 in range(nt):
                     M[o + i, c2] += TM[3 + i, c2]
     # The rigid base's mass and inertia and their zero-order load (ForwardSystem._base_inertia).
     nb = d.n_base

@@ -55,8 +55,10 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
     accelerations that no elastic term keeps finite) or within newton.floor (1/s²) ·
     max|q| (the first d.n unknowns): the round-off of the elastic forces (at a static
     equilibrium under a constant load the accelerations vanish and no relative test can be
-    met). counts[0] += matrix rebuilds, counts[1] += iterations. Returns whether it
-    converged."""
+    met), or within newton.state_round_off · max|y| / h² (every unknown, rigid ones too): a
+    correction that moves no stage position beyond its round-off (a chain of rigid links
+    in exact equilibrium has no elastic coordinate to set the floor). counts[0] += matrix
+    rebuilds, counts[1] += iterations. Returns whether it converged."""
     n = y0.size
     nodes, coeffs, coeffs2 = tab.nodes, tab.coeffs, tab.coeffs2
     angle, rate, acc, rot, u = rows
@@ -71,6 +73,10 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
     q_size = 0.0
     for m in range(d.n):
         q_size = max(q_size, abs(y0[m]))
+    state_floor = 0.0
+    for m in range(n):
+        state_floor = max(state_floor, abs(y0[m]))
+    state_floor *= newton.state_round_off / (h * h)
     for _ in range(newton.max_iterations):
         counts[1] += 1
         for st in range(2):
@@ -122,7 +128,8 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
         theta = size / previous
         # (first iteration: no rate yet, the increment itself must be small)
         remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-        if remaining <= newton.tol * max(largest, peak[0], 1e-300) + newton.floor * q_size:
+        if remaining <= (newton.tol * max(largest, peak[0], 1e-300) + newton.floor * q_size
+                         + state_floor):
             if newton.running_peak:
                 peak[0] = max(peak[0], largest)
             return True

@@ -32,6 +32,7 @@ from .gauss_steps import (
     COEFFS2,
     GAUSS2,
     NODES,
+    STATE_ROUND_OFF,
     WEIGHTS,
     WEIGHTS2,
     NewtonSettings,
@@ -137,7 +138,8 @@ class _Newton:
         run so far, not only of this step (forward runs: a rigid arm's accelerations vanish
         while it coasts, `_gauss_numba.solve_stages`). ``floor`` (1/s²) · max|q|
         (the first ``elastic`` unknowns, default all): the absolute part of the stopping
-        test, as the compiled loops' ``floor``."""
+        test, as the compiled loops' ``floor``, with their STATE_ROUND_OFF of every
+        unknown."""
         self.system, self.h, self.tol = system, h, tol
         self.running_peak = running_peak
         self.peak = 0.0
@@ -171,7 +173,9 @@ class _Newton:
             remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
             largest = float(np.abs(X).max())
             q_size = float(np.abs(q0[:self.elastic]).max(initial=0.0))
-            if remaining <= self.tol * max(largest, self.peak, 1e-300) + self.floor * q_size:
+            state_floor = STATE_ROUND_OFF * float(np.abs(q0).max(initial=0.0)) / self.h**2
+            if remaining <= (self.tol * max(largest, self.peak, 1e-300) + self.floor * q_size
+                             + state_floor):
                 if self.running_peak:
                     self.peak = max(self.peak, largest)
                 return X
@@ -217,16 +221,46 @@ _HERMITE_D = [_HERMITE, _HERMITE @ _DERIVATIVE, _HERMITE @ _DERIVATIVE @ _DERIVA
 
 
 def hermite_quintic(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                    t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    t: np.ndarray, a_end: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q, q̇, q̈ at times t from values, rates and accelerations at nodes t_nodes (uniform or
-    not): the quintic Hermite interpolant and its first two derivatives (exact at the nodes)."""
+    not): the quintic Hermite interpolant and its first two derivatives (exact at the nodes).
+    ``a_end``: the accelerations at each node as the end of the interval before it, where
+    they differ from ``a`` (an input's jump there: `end_accelerations`); default a."""
+    a_end = a if a_end is None else a_end
     i = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, t_nodes.size - 2)
     h = (t_nodes[i + 1] - t_nodes[i])[:, None] if t_nodes.size > 1 else np.ones((t.size, 1))
     s = (t - t_nodes[i]) / h[:, 0]
-    terms = np.stack([q[i], h * v[i], h**2 * a[i], q[i + 1], h * v[i + 1], h**2 * a[i + 1]])
+    terms = np.stack([q[i], h * v[i], h**2 * a[i], q[i + 1], h * v[i + 1],
+                      h**2 * a_end[i + 1]])
     powers = s[:, None] ** np.arange(6)[None, :]  # (m, 6)
     return tuple(np.einsum("mj,jmn->mn", powers @ B.T, terms) / h**d  # type: ignore[return-value]
                  for d, B in enumerate(_HERMITE_D))
+
+
+def end_accelerations(accelerations: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+                      t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                      breaks: np.ndarray) -> np.ndarray:
+    """The accelerations (m+1, n) at each step end t_nodes as the end of the step before it:
+    ``a`` (the equations with the inputs at the node), except at a node on an input
+    breakpoint ``breaks`` (s), where the inputs jump: there ``accelerations(t, q, v)`` with
+    the inputs of the step that ends there (just before the breakpoint). Without them the
+    interpolant of that step would end on the next step's acceleration."""
+    breaks = np.asarray(breaks, dtype=float)
+    a_end = a.copy()
+    if breaks.size == 0 or t_nodes.size < 2:
+        return a_end
+    eps = 1e-12 * max(1.0, float(t_nodes[-1]))
+    j = np.clip(np.searchsorted(breaks, t_nodes[1:]), 1, breaks.size) - 1
+    nearest = np.where(np.abs(breaks[np.minimum(j + 1, breaks.size - 1)] - t_nodes[1:])
+                       < np.abs(breaks[j] - t_nodes[1:]), breaks[np.minimum(j + 1,
+                                                                           breaks.size - 1)],
+                       breaks[j])
+    at = np.flatnonzero(np.abs(nearest - t_nodes[1:]) <= eps) + 1
+    if at.size:
+        before = np.nextafter(np.minimum(t_nodes[at], nearest[at - 1]), -np.inf)
+        a_end[at] = accelerations(before, q[at], v[at])
+    return a_end
 
 
 def solve_nonlinear(
@@ -246,13 +280,22 @@ def solve_nonlinear(
 
     def finish(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, stats: dict[str, float],
                accuracy: Accuracy) -> Solution:
-        if loop is None:
-            a = system.accelerations(t_nodes, q, v)
-        else:  # sampled controllers (gauss_sampled.SampledLoop): the held forces at the ends
-            a = system.accelerations(t_nodes, q, v, load=loop.held_voltages(t_nodes)
-                                     @ system.actuator_B.T)
-        return Solution(t_out, *hermite_quintic(t_nodes, q, v, a, t_out), "gauss", stats,
-                        accuracy=accuracy)
+        def accelerations(t: np.ndarray, q: np.ndarray, v: np.ndarray,
+                          before: bool = False) -> np.ndarray:
+            if loop is None:
+                return system.accelerations(t, q, v)
+            # sampled controllers (gauss_sampled.SampledLoop): the held forces
+            return system.accelerations(t, q, v, load=loop.held_voltages(t, before)
+                                        @ system.actuator_B.T)
+
+        a = accelerations(t_nodes, q, v)
+        breaks = input_breakpoints(system.chain.joints, system.actuators)
+        if loop is not None:
+            breaks = np.union1d(breaks, loop.grid)
+        a_end = end_accelerations(lambda t, q, v: accelerations(t, q, v, True), t_nodes, q, v,
+                                  a, breaks)
+        return Solution(t_out, *hermite_quintic(t_nodes, q, v, a, t_out, a_end), "gauss",
+                        stats, accuracy=accuracy)
 
     if step is not None:
         nodes = (integrate_gauss(system, t_end, step, on_progress) if loop is None

@@ -27,6 +27,7 @@ from .gauss import (
     RATE_FLOOR,
     ROUND_OFF,
     _Newton,
+    end_accelerations,
     fixed_steps,
     hermite_quintic,
     numpy_fixed_steps,
@@ -109,7 +110,12 @@ def solve_nonlinear_forward(
 
     def solution(t_nodes: np.ndarray, y: np.ndarray, v: np.ndarray, stats: dict[str, float],
                  accuracy: Accuracy) -> Solution:
-        y, v, a = hermite_quintic(t_nodes, y, v, system.accelerations(t_nodes, y, v), t_out)
+        from ..dynamics.forward_kernel import breakpoints
+
+        a = system.accelerations(t_nodes, y, v)
+        a_end = end_accelerations(system.accelerations, t_nodes, y, v, a,
+                                  breakpoints(system.loads))
+        y, v, a = hermite_quintic(t_nodes, y, v, a, t_out, a_end)
         order = np.r_[n:n + nu, 0:n]
         return Solution(t_out, y[:, order], v[:, order], a[:, order], "gauss", stats,
                         extra=v[:, n + nu:], accuracy=accuracy)

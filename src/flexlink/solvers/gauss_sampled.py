@@ -84,10 +84,11 @@ class SampledLoop:
         if np.abs(system.A @ q).max() > BOUND:
             raise UnstableLoop(t, "the links curled beyond a full turn")
 
-    def held_voltages(self, t: np.ndarray) -> np.ndarray:
+    def held_voltages(self, t: np.ndarray, before: bool = False) -> np.ndarray:
         """The voltages (nt, n_act) held at times t (s) of the last integration pass (at a
-        sample instant: the new value)."""
-        i = np.searchsorted(self.grid, t + 1e-9 * max(1.0, self.grid[-1]), side="right") - 1
+        sample instant: the new value, or the one held until then if ``before``)."""
+        shift = (-1e-9 if before else 1e-9) * max(1.0, self.grid[-1])
+        i = np.searchsorted(self.grid, t + shift, side="right") - 1
         return self.work.v_rec[np.clip(i, 0, self.grid.size - 1)]
 
     def update(self, i: int, z: np.ndarray) -> np.ndarray:

@@ -43,18 +43,25 @@ Tableau.__doc__ = ("A collocation method for q̈ = f as the compiled loops take 
                    "coefficients a (s, s) and a² (s, s), weights b (s,) and bᵀa (s,).")
 GAUSS2 = Tableau(NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2)
 
+# Relative round-off of a stage position: a Newton correction of the accelerations below it
+# times max|y| / h² cannot move any stage position (`_gauss_numba.solve_stages`, through
+# NewtonSettings).
+STATE_ROUND_OFF = 1e-15
+
 NewtonSettings = namedtuple("NewtonSettings", ["tol", "max_iterations", "floor",
-                                               "running_peak"])
+                                               "running_peak", "state_round_off"])
 NewtonSettings.__doc__ = (
     "Newton's stopping test in the compiled loops (`_gauss_numba.solve_stages`): tol relative "
     "to the largest stage acceleration (of the run so far if running_peak), at most "
-    "max_iterations, the absolute floor (1/s²) times max|q|.")
+    "max_iterations, the absolute floor (1/s²) times max|q|, and state_round_off times "
+    "max|y| / h² (STATE_ROUND_OFF).")
 
 
 def newton_settings(tol: float, max_iterations: int, floor: float,
                     running_peak: bool) -> NewtonSettings:
     """A NewtonSettings of fixed field types (one compiled signature)."""
-    return NewtonSettings(float(tol), int(max_iterations), float(floor), bool(running_peak))
+    return NewtonSettings(float(tol), int(max_iterations), float(floor), bool(running_peak),
+                          STATE_ROUND_OFF)
 
 
 StepControl = namedtuple("StepControl", ["group", "peak_q", "peak_v", "rtol", "atol",
