@@ -439,3 +439,23 @@ def test_differences_run_on_the_discretisation_of_their_point() -> None:
     central = np.stack([(tight.evaluate(x + 1e-4 * e)[0] - tight.evaluate(x - 1e-4 * e)[0])
                         .ravel() / 2e-4 for e in np.eye(x.size)], axis=1)
     np.testing.assert_allclose(fine, central, rtol=0, atol=1e-2 * np.abs(central).max())
+
+
+def test_runs_without_channels_keep_the_solution_and_the_divergence_check() -> None:
+    from flexlink.simulation.common import output_times
+    from flexlink.simulation.prescribed import run_prescribed
+
+    scenario = _arm()
+    t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
+    full = run_prescribed(scenario, t, lambda _t: None, False)
+    bare = run_prescribed(scenario, t, lambda _t: None, False, channels=False)
+    assert not bare.values
+    np.testing.assert_array_equal(bare.solution.q, full.solution.q)
+    np.testing.assert_array_equal(bare.solution.q_dot, full.solution.q_dot)
+    # a soft link spun far above its first frequency without stiffening diverges
+    soft = dataclasses.replace(scenario, chain=Chain(
+        (Link("beam", 1.0, 0.5, 0.05, modes=2), Link("stub", 0.2, 0.3, 1.0, modes=0)),
+        (Cycloidal(0.0, 3600.0, 0.0, 1.0), Hold(0.0))))
+    for channels in (True, False):
+        with pytest.raises(SimulationError, match="exceeds its length"):
+            run_prescribed(soft, t, lambda _t: None, False, channels=channels)

@@ -335,7 +335,9 @@ class Problem:
 
         integrate = (None if sc.settings.method != "lawson"
                      else adaptive if on is None else fixed)
-        run = run_prescribed(self.with_coefficients(sc, x), self.t, _quiet, False, integrate)
+        # the torques are the nominal plant's (plant 0): the others need their state alone
+        run = run_prescribed(self.with_coefficients(sc, x), self.t, _quiet, False, integrate,
+                             channels=i == 0)
         LM, LK = self.final[i]
         z, z_dot = run.solution.q[-1], run.solution.q_dot[-1]
         return np.concatenate([LM.T @ z_dot, LK.T @ z]) / np.sqrt(2.0), run, settled[0]

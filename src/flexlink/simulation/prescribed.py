@@ -20,10 +20,11 @@ from .common import PathRun, Progress, check_tip_deflection
 
 
 def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
-                  with_shapes: bool = True, integrate: LinearIntegrator | None = None
-                  ) -> PathRun:
+                  with_shapes: bool = True, integrate: LinearIntegrator | None = None,
+                  channels: bool = True) -> PathRun:
     """``integrate``: the integrator instead of the one ``simulation.method`` names (the
-    optimiser's runs on a fixed discretisation)."""
+    optimiser's runs on a fixed discretisation); ``channels``: False for the solution alone
+    (no channels; the tip-deflection check that a diverged run fails still made)."""
     settings = scenario.settings
     system = CompiledFirstOrderSystem(scenario.chain, settings.geometric_stiffening,
                                       scenario.actuators, settings.gravity)
@@ -36,6 +37,10 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
             integrate(system, t, settings.rtol, settings.atol, on_progress))
     else:  # every link rigid: the motion is prescribed, nothing to integrate
         solution = rigid_solution(t, settings.method)
+    if not channels:
+        check_tip_deflection(scenario.chain.links, solution.t,
+                             tip_deflections(system, solution.q), settings.geometric_stiffening)
+        return PathRun(solution, {}, metadata={"path": "prescribed"})
     values, shapes, validity, read_sensors = prescribed_readings(scenario, system, solution,
                                                                  with_shapes)
     if scenario.actuators:  # open loop: the commanded voltages, clipped

@@ -100,7 +100,10 @@ def integrate_lawson_on(system: LinearSystem, t_out: np.ndarray,
         table = replace(table, reference=np.ascontiguousarray(
             np.where(static, table.reference, discretisation.reference)))
         ET = discretisation.propagators.copy()
-        if table.static.any():
+        # static blocks whose A all equal the settled ones keep their exponentials (the same
+        # arguments): the joints rest at the same angles in the runs around one point
+        if table.static.any() and not np.array_equal(table.reference,
+                                                     discretisation.reference):
             ET[table.static] = _block_propagators(table, n, t_out, discretisation.substeps,
                                                   table.static)
         states, acc = _solve(table, n, t_out, discretisation.substeps, None, ET)
