@@ -106,3 +106,77 @@ def test_a_slider_outside_its_travel_is_refused_at_load() -> None:
         scenario(TorqueDrive(Step(0.0), 0.5))
     with pytest.raises(ValueError, match=r"joints\[1\].motion.*leaves its travel.*t = 1.13"):
         scenario(Travel(Cycloidal(0.0, 0.4, 0.5, 1.0)))
+
+
+# --- scenario keys, channels and travel, end to end ------------------------------------------
+
+def _example() -> dict:
+    from pathlib import Path
+
+    from flexlink.scenario import resolve_scenario_dict
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "telescoping_arm.toml"
+    d = resolve_scenario_dict(path)
+    d["simulation"]["t_end"] = 0.4
+    return d
+
+
+def test_the_example_reads_runs_and_names_its_slider_channels() -> None:
+    """examples/telescoping_arm.toml (shortened): the slider is joint 2 with its keys in
+    radians and metres; its channels are position, velocity and force, the position the
+    prescribed travel; the resolved table reads back to the same joint."""
+    from flexlink import simulate
+    from flexlink.scenario import scenario_from_dict
+
+    d = _example()
+    scenario = scenario_from_dict(d)
+    joint = scenario.chain.joints[1]
+    assert isinstance(joint, PrismaticJoint)
+    assert joint.travel == (0.0, 0.7) and joint.mass == 0.5
+    assert scenario_from_dict(d).chain.joints[1] == joint
+    r = simulate(scenario, shapes=False)
+    for name, unit in (("joint2_position", "m"), ("joint2_velocity", "m s-1"),
+                       ("joint2_force", "N")):
+        assert r.channels[name].unit == unit
+    assert "joint2_angle" not in r.channels
+    expected = joint.evaluate(r.time)[0]
+    np.testing.assert_allclose(r["joint2_position"], expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d["simulation"].update(model="nonlinear"),
+     r"joints\[1\]: a slider inside a chain runs with the first-order model"),
+    (lambda d: d["joints"][1].update(rail_angle_deg=10.0),
+     r"joints\[1\]: unknown key 'rail_angle_deg'"),
+    (lambda d: d["joints"][1].update(travel=[0.2, 0.7]),
+     r"joints\[1\]: the slider starts at s = 0.1 m, outside its travel .*joints\[1\].travel"),
+    (lambda d: d["joints"][1].update(travel=[0.0, 0.5]),
+     r"joints\[1\].motion: the prescribed slider travel leaves its travel \[0, 0.5\] m "
+     r"\(joints\[1\].travel\) at t = 1.3275 s"),
+    (lambda d: d["joints"][1].update(mass=-1.0), r"joints\[1\].mass"),
+    (lambda d: d["joints"].reverse(), r"joints\[0\]: a slider rides on the tip"),
+])
+def test_bad_slider_input_is_refused_at_load(change, message: str) -> None:
+    from flexlink.scenario import ScenarioError, scenario_from_dict
+
+    d = _example()
+    d["simulation"]["t_end"] = 3.0
+    change(d)
+    with pytest.raises(ScenarioError, match=message):
+        scenario_from_dict(d)
+
+
+def test_a_driven_slider_that_leaves_its_travel_ends_the_run() -> None:
+    """A force-driven slider pushed past its travel: the run ends with an error naming
+    joints[1].travel and the first output time outside, not a clipped travel."""
+    from flexlink import simulate
+    from flexlink.errors import SimulationError
+    from flexlink.scenario import scenario_from_dict
+
+    d = _example()
+    slider = {k: v for k, v in d["joints"][1].items() if k not in ("motion",)}
+    slider.update(drive="force", force=[{"profile": "step", "amplitude": 5.0}],
+                  initial_position=0.1, initial_velocity=0.0, travel=[0.0, 0.15])
+    d["joints"][1] = slider
+    with pytest.raises(SimulationError, match=r"joints\[1\].travel\): s = 0.15\d* m at t = 0.1"):
+        simulate(scenario_from_dict(d), shapes=False)
