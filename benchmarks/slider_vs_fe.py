@@ -30,9 +30,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # the Exudyn model lives with the validation tests
 
-from flexlink import simulate  # noqa: E402
-from tests.validation.exudyn_slider_reference import simulate_slider_exudyn  # noqa: E402
-from tests.validation.test_prismatic import slider_fe_case  # noqa: E402
+from flexlink import simulate
+from tests.validation.exudyn_slider_reference import simulate_slider_exudyn
+from tests.validation.test_prismatic import slider_fe_case
 
 SIGNALS = (("joint2_position", "travel"), ("tip", "tip_deflection"))
 

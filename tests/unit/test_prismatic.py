@@ -151,8 +151,8 @@ def test_the_example_reads_runs_and_names_its_slider_channels() -> None:
     (lambda d: d["joints"][1].update(travel=[0.2, 0.7]),
      r"joints\[1\]: the slider starts at s = 0.1 m, outside its travel .*joints\[1\].travel"),
     (lambda d: d["joints"][1].update(travel=[0.0, 0.5]),
-     r"joints\[1\].motion: the prescribed slider travel leaves its travel \[0, 0.5\] m "
-     r"\(joints\[1\].travel\) at t = 1.3275 s"),
+     (r"joints\[1\].motion: the prescribed slider travel leaves its travel \[0, 0.5\] m "
+      r"\(joints\[1\].travel\) at t = 1.3275 s")),
     (lambda d: d["joints"][1].update(mass=-1.0), r"joints\[1\].mass"),
     (lambda d: d["joints"].reverse(), r"joints\[0\]: a slider rides on the tip"),
 ])

@@ -20,6 +20,7 @@ Undamped, no gravity.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from typing import Any
@@ -86,7 +87,7 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
     x = np.linspace(0.0, beam.length, elements + 1)
     chain = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(root + xi * e), gamma]))
              for xi in x]
-    for a, b in zip(chain[:-1], chain[1:]):
+    for a, b in itertools.pairwise(chain):
         mbs.AddObject(ObjectBeamGeometricallyExact2D(
             nodeNumbers=[a, b], length=float(beam.length / elements),
             massPerLength=beam.mass_per_length, crossSectionInertia=sec.rhoI,

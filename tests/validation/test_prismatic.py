@@ -144,7 +144,9 @@ def _exact_forces(system: ForwardSystem, links, rigid, z, zd, zdd, stiffening, h
     p0, pd0, pdd0 = rigid
     n, modal = system.n, system.modal
 
-    def points(tau, dp=np.zeros(2), dz=np.zeros(n)):
+    def points(tau, dp=None, dz=None):
+        dp = np.zeros(2) if dp is None else dp
+        dz = np.zeros(n) if dz is None else dz
         p = p0 + pd0 * tau + 0.5 * pdd0 * tau**2 + dp
         return _points(modal, p[0], p[1], z + zd * tau + 0.5 * zdd * tau**2 + dz, stiffening)
 
@@ -184,7 +186,7 @@ def test_equations_are_the_linearisation_of_the_exact_kinematics(stiffening: boo
     system = ForwardSystem(scenario.chain, _fixed(), stiffening)
     links, n = scenario.chain.links, system.n
     rigid = (np.array([0.3, 0.25]), np.array([1.1, 0.4]), np.array([0.7, -0.5]))
-    M, C, K, f = (a[0] for a in system.matrices(*(r[None] for r in rigid)))
+    M, C, K, _ = (a[0] for a in system.matrices(*(r[None] for r in rigid)))
     zc = slice(2, 2 + n)
     rng = np.random.default_rng(1)
     eps = 3e-4
@@ -220,10 +222,11 @@ def slider_fe_case(modes: int = 6, gamma_deg: float = 0.0):
                                                    mass=block))),
         (PointSensor("tip", "deflection", 1, beam.length),),
         SimulationSettings(2.0, 0.002, geometric_stiffening=True, rtol=1e-6))
-    args = dict(link_length=0.5, link_inertia=2.0 * 0.5**3 / 3, beam=beam, block=block,
-                axis=0.0, gamma=gamma, s0=s0,
-                moment=lambda t: float(moment.value(np.array([t]))[0]),
-                force=lambda t: float(force.value(np.array([t]))[0]), t_end=2.0, dt_out=0.002)
+    args = {"link_length": 0.5, "link_inertia": 2.0 * 0.5**3 / 3, "beam": beam,
+            "block": block, "axis": 0.0, "gamma": gamma, "s0": s0,
+            "moment": lambda t: float(moment.value(np.array([t]))[0]),
+            "force": lambda t: float(force.value(np.array([t]))[0]), "t_end": 2.0,
+            "dt_out": 0.002}
     return scenario, args
 
 
