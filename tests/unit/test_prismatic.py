@@ -180,3 +180,24 @@ def test_a_driven_slider_that_leaves_its_travel_ends_the_run() -> None:
     d["joints"][1] = slider
     with pytest.raises(SimulationError, match=r"joints\[1\].travel\): s = 0.15\d* m at t = 0.1"):
         simulate(scenario_from_dict(d), shapes=False)
+
+
+def test_a_position_servo_brings_the_slider_to_its_reference() -> None:
+    """The example's slider on a position servo following the same travel while the boom
+    slews: its reference channel is the travel profile (m), and it holds the reference
+    within 2 mm once the move has ended (the servo against the arm's centrifugal pull)."""
+    from flexlink import simulate
+    from flexlink.scenario import scenario_from_dict
+
+    d = _example()
+    d["simulation"]["t_end"] = 3.0
+    slider = {k: v for k, v in d["joints"][1].items() if k != "motion"}
+    slider.update(drive="servo", servo="position", reference=d["joints"][1]["motion"],
+                  bandwidth=30.0, rate_limit=1.0, loop_gain=200.0)
+    d["joints"][1] = slider
+    r = simulate(scenario_from_dict(d), shapes=False)
+    reference = np.asarray(r["joint2_reference"])
+    assert r.channels["joint2_reference"].unit == "m"
+    np.testing.assert_allclose(reference[-1], 0.6)
+    late = r.time >= 2.5
+    assert np.abs(np.asarray(r["joint2_position"])[late] - reference[late]).max() < 2e-3
