@@ -201,3 +201,29 @@ def test_a_position_servo_brings_the_slider_to_its_reference() -> None:
     np.testing.assert_allclose(reference[-1], 0.6)
     late = r.time >= 2.5
     assert np.abs(np.asarray(r["joint2_position"])[late] - reference[late]).max() < 2e-3
+
+
+def test_linearised_plant_of_a_force_driven_slider() -> None:
+    """The example with rigid links and a force-driven slider, linearised at t = 0 (the boom
+    at rest): states and outputs are named by the slider's channels with their units, and
+    the force enters the slider's acceleration as 1/m, m the block, the arm and its tip
+    mass (exact)."""
+    from flexlink.control import linearize
+    from flexlink.scenario import scenario_from_dict
+
+    d = _example()
+    for link in d["links"]:
+        for key in ("EI", "modes", "damping_ratio", "mode_shapes"):
+            link.pop(key, None)
+        link["rigid"] = True
+    slider = {k: v for k, v in d["joints"][1].items() if k != "motion"}
+    slider.update(drive="force", force=[{"profile": "step", "amplitude": 1.0}],
+                  initial_position=0.3, initial_velocity=0.0)
+    d["joints"][1] = slider
+    plant = linearize(scenario_from_dict(d), 0.0)
+    assert plant.state_names == ("joint2_position", "joint2_velocity")
+    assert plant.input_names == ("joint2_force",) and plant.input_units == ("N",)
+    units = dict(zip(plant.output_names, plant.output_units))
+    assert units["joint2_position"] == "m" and units["joint2_force"] == "N"
+    mass = 0.5 + 0.6 * 0.8 + 0.2
+    np.testing.assert_allclose(plant.B[1, 0], 1.0 / mass, rtol=1e-12)

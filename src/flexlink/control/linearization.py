@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..channels.catalogue import cart_name, catalogue, joint_name
+from ..channels.catalogue import cart_name, catalogue, coordinate_name, joint_name
 from ..channels.first_order import sensor_values, tip_values
 from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics.actuators import actuator_matrix
@@ -182,7 +182,9 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
     own = [i for i in system.free if i < system.n_base]  # the base's free coordinates
     base_names = ([cart_name("position")] if system.base.cart is not None
                   else [f"base_{c}" for c in system.base.coordinates])
-    rigid = base_names[:len(own)] + [joint_name(k, "angle") for k in system.driven] + [
+    joints = system.chain.joints
+    rigid = base_names[:len(own)] + [coordinate_name(joints[k], k, "angle")
+                                     for k in system.driven] + [
         joint_name(k, "motor_angle") for k in driven_motors(system.chain.joints)]
 
     def readings(rows: _Rows) -> dict[str, np.ndarray]:
@@ -205,10 +207,10 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
                 out[name] = P[:, system.free[i]]
         for i, name in enumerate(rigid):
             if name.startswith("joint"):
-                out[name.replace("_angle", "_rate")] = PD[:, system.free[i]]
+                out[_rate_name(name)] = PD[:, system.free[i]]
         torque = system.joint_torques(P, PD, PDD, z, zd, zdd)
         for k in range(torque.shape[1]):
-            out[joint_name(k, "torque")] = torque[:, k]
+            out[coordinate_name(joints[k], k, "torque")] = torque[:, k]
         return {**out, **tip_values(view, view.frames, z)}
 
     Cm, D, out_names = _outputs(readings, nf, n, A, B, ns)
@@ -374,7 +376,7 @@ def _input_columns(scenario: Scenario, system: ForwardSystem, t0: float, p: np.n
         if not is_driven(joint):  # an elastic joint's prescribed motor
             continue
         if isinstance(joint, TorqueDrive):
-            names.append(joint_name(k, "torque"))
+            names.append(coordinate_name(scenario.chain.joints[k], k, "torque"))
             cols.append(unit(i))
             rate_cols.append(np.zeros(ns))
             continue
@@ -544,13 +546,13 @@ def _input_names(scenario: Scenario, names: list[str]) -> list[str]:
 
 INPUT_UNITS = {"torque": "N m", "reference": "rad", "reference_rate": "rad s-1",
                "base_force_x": "N", "base_force_y": "N", "base_moment": "N m", "voltage": "V",
-               "cart_force": "N"}
+               "cart_force": "N", "force": "N"}
 
 
 def _input_unit(name: str) -> str:
     if name in INPUT_UNITS:
         return INPUT_UNITS[name]
-    for suffix in ("reference_rate", "reference", "torque", "voltage"):
+    for suffix in ("reference_rate", "reference", "torque", "voltage", "force"):
         if name.endswith("_" + suffix):
             return INPUT_UNITS[suffix]
     raise KeyError(name)
@@ -561,18 +563,28 @@ def _plant(scenario: Scenario, A: np.ndarray, B: np.ndarray, C: np.ndarray, D: n
            op: dict[str, Any], equilibrium: bool, ns_names: list[str] | None = None
            ) -> LinearPlant:
     units = {c.name: c.unit for c in catalogue(scenario)}
-    rates = {f"{name.removesuffix('_angle')}_rate": "rad s-1" for name in rigid}
+    rates = {_rate_name(name): "rad s-1" for name in rigid}
     rates.update({"base_x_rate": "m s-1", "base_y_rate": "m s-1",
                   "base_attitude_rate": "rad s-1", "base_x": "m", "base_y": "m",
                   "base_attitude": "rad"})
     rates.update({name: "rad" for name in rigid if name.startswith("joint")})
     out_units = tuple(units.get(name, rates.get(name, "")) for name in outputs)
     positions = rigid + elastic
-    states = positions + [f"{name.removesuffix('_angle')}_rate" if name.endswith("_angle")
-                          else cart_name("velocity") if name == cart_name("position")
-                          else f"{name}_rate" for name in positions] + (ns_names or [])
+    states = positions + [_rate_name(name) for name in positions] + (ns_names or [])
     return LinearPlant(A, B, C, D, tuple(states), tuple(inputs), tuple(outputs),
                        tuple(_input_unit(n) for n in inputs), out_units, op, equilibrium)
+
+
+def _rate_name(name: str) -> str:
+    """The rate's name of a coordinate's: ``joint1_angle`` → ``joint1_rate``, a slider's
+    ``joint2_position`` → ``joint2_velocity``, ``cart_position`` → ``cart_velocity``,
+    ``base_x`` or an elastic coordinate ``arm_q1`` → ``…_rate``."""
+    if name.endswith("_angle"):
+        return f"{name.removesuffix('_angle')}_rate"
+    if name.endswith("_position") and (name == cart_name("position")
+                                       or name.startswith("joint")):
+        return f"{name.removesuffix('_position')}_velocity"
+    return f"{name}_rate"
 
 
 def _describe(scenario: Scenario, point: float | Configuration, equilibrium: bool
