@@ -27,6 +27,7 @@ from ..model import (
 )
 from ..model.histories import ZERO
 from ..model.joints import initial_angle
+from ..model.prismatic import guide
 
 At = float | int | Sequence[float] | Mapping[str, float]
 
@@ -153,7 +154,7 @@ def _held_joint(joint: Any, angle: float) -> Any:
     if isinstance(joint, ElasticJoint):
         return replace(joint, motor=_held_joint(joint.motor, joint.gear_ratio * angle))
     if isinstance(joint, PrismaticJoint):  # a slider: at rest where it starts, its angle fixed
-        start = joint.guide().initial_travel()
+        start = guide(joint).initial_travel()
         drive = joint.drive
         held = (replace(drive, torque=ZERO, initial_rate=0.0) if isinstance(drive, TorqueDrive)
                 else replace(drive, reference=Constant(start)) if is_driven(drive)  # type: ignore[type-var]

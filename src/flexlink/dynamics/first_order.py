@@ -23,6 +23,7 @@ import numpy as np
 from ..model import Base, Chain, Link, PiezoActuator, PrismaticJoint, TorqueDrive, is_driven
 from ..model.basis import carries_links, chosen_mode_shapes, free_hub
 from ..model.joints import initial_angle
+from ..model.prismatic import guide
 from ..modes import (
     ModalData,
     ModeShapes,
@@ -94,7 +95,7 @@ def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float
         outer, joint = chain.links[j], chain.joints[j]
         if isinstance(joint, PrismaticJoint):  # its block starts s0 along its line
             line = angle + joint.axis_angle
-            position = position + joint.guide().initial_travel() * np.array(
+            position = position + guide(joint).initial_travel() * np.array(
                 [np.cos(line), np.sin(line)])
         angle += initial_angle(joint)
         if is_driven(joint):

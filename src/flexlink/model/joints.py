@@ -170,12 +170,6 @@ class PrismaticJoint:
         """Unit vector of the line in the parent's tip-section axes."""
         return (math.cos(self.axis_angle), math.sin(self.axis_angle))
 
-    def guide(self) -> object:
-        """The drive and travel as a `base.Cart` on a rail at 0 rad: its travel checks."""
-        from .base import Cart
-
-        return Cart(self.drive, 0.0, self.travel)  # type: ignore[arg-type]
-
 
 def drive_side(joint: object) -> object:
     """What drives a joint's coordinate: an elastic joint's motor, a slider's drive, else the

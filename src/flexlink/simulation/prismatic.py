@@ -7,6 +7,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..model import PrismaticJoint
+from ..model.prismatic import guide
 
 
 def check_travel(joints: tuple, t: np.ndarray, p: np.ndarray, first: int) -> None:
@@ -16,7 +17,7 @@ def check_travel(joints: tuple, t: np.ndarray, p: np.ndarray, first: int) -> Non
     for k, joint in enumerate(joints):
         if not isinstance(joint, PrismaticJoint):
             continue
-        exit_ = joint.guide().first_exit(t, p[:, first + k])  # type: ignore[attr-defined]
+        exit_ = guide(joint).first_exit(t, p[:, first + k])
         if exit_ is not None:
             lo, hi = joint.travel
             raise SimulationError(
