@@ -16,6 +16,7 @@ from ..model import (
     ElasticJoint,
     PiezoSensor,
     PositionServo,
+    PrismaticJoint,
     Scenario,
     Sensor,
     TorqueDrive,
@@ -26,6 +27,8 @@ from .record import SENSOR_UNITS, Channel, ChannelKind, Unit
 
 JOINT_QUANTITIES = ("angle", "rate", "torque", "reference", "command", "motor_angle",
                     "motor_rate", "spring_torque")
+# A slider's coordinate is a travel: its angle, rate and torque channels are these.
+SLIDER_QUANTITIES = {"angle": "position", "rate": "velocity", "torque": "force"}
 BASE_COORDINATES = {"free": ("x", "y", "attitude"), "pinned": ("attitude",), "fixed": (),
                     "cart": ()}
 CART_QUANTITIES = ("position", "velocity", "force")
@@ -38,6 +41,14 @@ def joint_name(k: int, quantity: str) -> str:
     return f"joint{k + 1}_{quantity}"
 
 
+def coordinate_name(joint: object, k: int, quantity: str) -> str:
+    """joint_name of joint k's ``angle``, ``rate`` or ``torque``; a slider's (model.
+    PrismaticJoint) are its ``position``, ``velocity`` and ``force``: ``joint2_position``."""
+    if isinstance(joint, PrismaticJoint):
+        quantity = SLIDER_QUANTITIES.get(quantity, quantity)
+    return joint_name(k, quantity)
+
+
 def tip_name(link: str, axis: str) -> str:
     """Channel name of a tip coordinate: ``link1_tip_X``."""
     return f"{link}_tip_{axis}"
@@ -47,7 +58,8 @@ def reserved_names(link_names: list[str], joints: int) -> set[str]:
     """Every automatic channel name a chain of these links could produce (and ``t``,
     ``time``): a sensor must not take one."""
     names = {"t", "time", "momentum_x", "momentum_y", "angular_momentum"}
-    names |= {joint_name(k, q) for k in range(joints) for q in JOINT_QUANTITIES}
+    names |= {joint_name(k, q) for k in range(joints)
+              for q in (*JOINT_QUANTITIES, *SLIDER_QUANTITIES.values())}
     names |= {f"base_{c}{r}" for c in BASE_COORDINATES["free"] for r in ("", "_rate")}
     names |= {cart_name(q) for q in CART_QUANTITIES}
     names |= {tip_name(n, axis) for n in link_names for axis in "XY"}
@@ -111,6 +123,28 @@ def joint_channels(scenario: Scenario, model: str) -> list[Channel]:
                PositionServo: "position servo"}.get(type(joint), "prescribed")
         if isinstance(elastic, ElasticJoint):
             how = f"elastic, its motor {how}"
+        if isinstance(elastic, PrismaticJoint):
+            how = how.replace("torque-driven", "force-driven")
+            out["angle"].append(Channel(
+                joint_name(k, "position"), ChannelKind.JOINT, Unit.METRE,
+                f"travel of slider {k + 1} along its line from the parent's tip ({how})",
+                "position", subject))
+            out["rate"].append(Channel(joint_name(k, "velocity"), ChannelKind.JOINT,
+                                       Unit.METRE_PER_SECOND, f"speed of slider {k + 1}",
+                                       "velocity", subject))
+            out["torque"].append(Channel(
+                joint_name(k, "force"), ChannelKind.JOINT, Unit.NEWTON,
+                f"force of slider {k + 1}'s drive along its line ({torque_source}, "
+                f"{model.replace('_', ' ')} model)", "force", subject))
+            if isinstance(joint, VelocityServo | PositionServo):
+                out["reference"].append(Channel(joint_name(k, "reference"), ChannelKind.JOINT,
+                                                Unit.METRE, f"reference travel of slider "
+                                                f"{k + 1}'s servo", "reference", subject))
+            if isinstance(joint, VelocityServo):
+                out["command"].append(Channel(joint_name(k, "command"), ChannelKind.JOINT,
+                                              Unit.VOLT, f"servo command of slider {k + 1}",
+                                              "command", subject))
+            continue
         out["angle"].append(Channel(joint_name(k, "angle"), ChannelKind.JOINT, Unit.RADIAN,
                                     f"angle of joint {k + 1} ({how})", "angle", subject))
         if forward:

@@ -16,7 +16,7 @@ from ..dynamics.kinematics import FrameMotion
 from ..dynamics.servos import command_volts
 from ..model import PositionServo, VelocityServo
 from ..model.joints import drive_side
-from .catalogue import BASE_COORDINATES, cart_name, joint_name
+from .catalogue import BASE_COORDINATES, cart_name, coordinate_name, joint_name
 
 
 class SolvedMotion:
@@ -58,9 +58,9 @@ def pose_and_joint_values(system: ForwardSystem, t: np.ndarray, p: np.ndarray, p
         out[cart_name("position")], out[cart_name("velocity")] = p[:, 0], pd[:, 0]
     for k, joint in enumerate(system.chain.joints):
         i = system.joint_index(k)
-        out[joint_name(k, "angle")] = p[:, i]
-        out[joint_name(k, "rate")] = pd[:, i]
-        out[joint_name(k, "torque")] = torque[:, k]
+        out[coordinate_name(joint, k, "angle")] = p[:, i]
+        out[coordinate_name(joint, k, "rate")] = pd[:, i]
+        out[coordinate_name(joint, k, "torque")] = torque[:, k]
         joint, i = drive_side(joint), system.drive_index(k)  # a servo on an elastic motor
         if isinstance(joint, VelocityServo | PositionServo):
             out[joint_name(k, "reference")] = joint.reference.evaluate(t)[0] + 0 * t

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..channels.catalogue import cart_name, joint_name
+from ..channels.catalogue import cart_name, coordinate_name, joint_name
 from ..channels.first_order import sensor_values, tip_values
 from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics.actuators import actuator_matrix
@@ -46,6 +46,7 @@ from .plant_parts import (  # noqa: F401 — modes.py and tests import these fro
     _elastic_names,
     _input_unit,
     _plant,
+    _rate_name,
     forward_system,
 )
 
@@ -191,7 +192,9 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
     own = [i for i in system.free if i < system.n_base]  # the base's free coordinates
     base_names = ([cart_name("position")] if system.base.cart is not None
                   else [f"base_{c}" for c in system.base.coordinates])
-    rigid = base_names[:len(own)] + [joint_name(k, "angle") for k in system.driven] + [
+    joints = system.chain.joints
+    rigid = base_names[:len(own)] + [coordinate_name(joints[k], k, "angle")
+                                     for k in system.driven] + [
         joint_name(k, "motor_angle") for k in driven_motors(system.chain.joints)]
 
     def readings(rows: _Rows) -> dict[str, np.ndarray]:
@@ -214,10 +217,10 @@ def forward_plant(scenario: Scenario, t0: float, point: float | Configuration,
                 out[name] = P[:, system.free[i]]
         for i, name in enumerate(rigid):
             if name.startswith("joint"):
-                out[name.replace("_angle", "_rate")] = PD[:, system.free[i]]
+                out[_rate_name(name)] = PD[:, system.free[i]]
         torque = system.joint_torques(P, PD, PDD, z, zd, zdd)
         for k in range(torque.shape[1]):
-            out[joint_name(k, "torque")] = torque[:, k]
+            out[coordinate_name(joints[k], k, "torque")] = torque[:, k]
         return {**out, **tip_values(view, view.frames, z)}
 
     Cm, D, out_names = _outputs(readings, nf, n, A, B, ns)
@@ -338,7 +341,7 @@ def _input_columns(scenario: Scenario, system: ForwardSystem, t0: float, p: np.n
         if not is_driven(joint):  # an elastic joint's prescribed motor
             continue
         if isinstance(joint, TorqueDrive):
-            names.append(joint_name(k, "torque"))
+            names.append(coordinate_name(scenario.chain.joints[k], k, "torque"))
             cols.append(unit(i))
             rate_cols.append(np.zeros(ns))
             continue

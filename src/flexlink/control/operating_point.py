@@ -16,9 +16,18 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Base, ElasticJoint, JointMotion, Scenario, TorqueDrive, is_driven
+from ..model import (
+    Base,
+    ElasticJoint,
+    JointMotion,
+    PrismaticJoint,
+    Scenario,
+    TorqueDrive,
+    is_driven,
+)
 from ..model.histories import ZERO
 from ..model.joints import initial_angle
+from ..model.prismatic import guide
 
 At = float | int | Sequence[float] | Mapping[str, float]
 
@@ -144,6 +153,13 @@ def _held_joint(joint: Any, angle: float) -> Any:
     elastic joint's motor at N·angle (the spring relaxed)."""
     if isinstance(joint, ElasticJoint):
         return replace(joint, motor=_held_joint(joint.motor, joint.gear_ratio * angle))
+    if isinstance(joint, PrismaticJoint):  # a slider: at rest where it starts, its angle fixed
+        start = guide(joint).initial_travel()
+        drive = joint.drive
+        held = (replace(drive, torque=ZERO, initial_rate=0.0) if isinstance(drive, TorqueDrive)
+                else replace(drive, reference=Constant(start)) if is_driven(drive)  # type: ignore[type-var]
+                else Constant(start))
+        return replace(joint, drive=held)
     if isinstance(joint, TorqueDrive):
         return replace(joint, torque=ZERO, initial_angle=angle, initial_rate=0.0)
     if is_driven(joint):

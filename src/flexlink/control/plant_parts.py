@@ -71,13 +71,13 @@ def _elastic_names(scenario: Scenario) -> list[str]:
 
 INPUT_UNITS = {"torque": "N m", "reference": "rad", "reference_rate": "rad s-1",
                "base_force_x": "N", "base_force_y": "N", "base_moment": "N m", "voltage": "V",
-               "cart_force": "N"}
+               "cart_force": "N", "force": "N"}
 
 
 def _input_unit(name: str) -> str:
     if name in INPUT_UNITS:
         return INPUT_UNITS[name]
-    for suffix in ("reference_rate", "reference", "torque", "voltage"):
+    for suffix in ("reference_rate", "reference", "torque", "voltage", "force"):
         if name.endswith("_" + suffix):
             return INPUT_UNITS[suffix]
     raise KeyError(name)
@@ -88,18 +88,28 @@ def _plant(scenario: Scenario, A: np.ndarray, B: np.ndarray, C: np.ndarray, D: n
            op: dict[str, Any], equilibrium: bool, ns_names: list[str] | None = None
            ) -> LinearPlant:
     units = {c.name: c.unit for c in catalogue(scenario)}
-    rates = {f"{name.removesuffix('_angle')}_rate": "rad s-1" for name in rigid}
+    rates = {_rate_name(name): "rad s-1" for name in rigid}
     rates.update({"base_x_rate": "m s-1", "base_y_rate": "m s-1",
                   "base_attitude_rate": "rad s-1", "base_x": "m", "base_y": "m",
                   "base_attitude": "rad"})
     rates.update({name: "rad" for name in rigid if name.startswith("joint")})
     out_units = tuple(units.get(name, rates.get(name, "")) for name in outputs)
     positions = rigid + elastic
-    states = positions + [f"{name.removesuffix('_angle')}_rate" if name.endswith("_angle")
-                          else cart_name("velocity") if name == cart_name("position")
-                          else f"{name}_rate" for name in positions] + (ns_names or [])
+    states = positions + [_rate_name(name) for name in positions] + (ns_names or [])
     return LinearPlant(A, B, C, D, tuple(states), tuple(inputs), tuple(outputs),
                        tuple(_input_unit(n) for n in inputs), out_units, op, equilibrium)
+
+
+def _rate_name(name: str) -> str:
+    """The rate's name of a coordinate's: ``joint1_angle`` → ``joint1_rate``, a slider's
+    ``joint2_position`` → ``joint2_velocity``, ``cart_position`` → ``cart_velocity``,
+    ``base_x`` or an elastic coordinate ``arm_q1`` → ``…_rate``."""
+    if name.endswith("_angle"):
+        return f"{name.removesuffix('_angle')}_rate"
+    if name.endswith("_position") and (name == cart_name("position")
+                                       or name.startswith("joint")):
+        return f"{name.removesuffix('_position')}_velocity"
+    return f"{name}_rate"
 
 
 def _describe(scenario: Scenario, point: float | Configuration, equilibrium: bool

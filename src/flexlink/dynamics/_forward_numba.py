@@ -24,6 +24,7 @@ from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from . import _elastic_numba as elastic
+from ._prismatic_numba import lever_stiffness
 
 Workspace = namedtuple("Workspace", [
     "theta", "omega", "alpha", "oacc", "T", "Td", "Tdd", "own", "out", "xi", "xi_d", "xi_dd", "v", "TM",
@@ -94,6 +95,8 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
         th_b = d.attitude
     for k in range(N):
         beta, bd, bdd = p[nb + k], pd[nb + k], pdd[nb + k]
+        if d.slide[k]:  # a slider: its coordinate is the travel, the angle constant
+            beta, bd, bdd = d.slide_angle[k], 0.0, 0.0
         cb, sb = np.cos(beta), np.sin(beta)
         # back = A(−β), back_d = −β̇ S back, back_dd = (−β̈ S − β̇² I) back
         b00, b01, b10, b11 = cb, sb, -sb, cb
@@ -151,6 +154,14 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
             alpha[k] = alpha[j] + bdd
             tx = oacc[j, 0] - L * omega[j] * omega[j]
             ty = oacc[j, 1] + L * alpha[j]
+            ux = uy = s = sd = sdd = 0.0
+            if d.slide[k]:  # the block on its line (prismatic.lever)
+                ux, uy = d.slide_axis[k, 0], d.slide_axis[k, 1]
+                s, sd, sdd = p[nb + k], pd[nb + k], pdd[nb + k]
+                along = sdd - omega[j] * omega[j] * s
+                across = 2.0 * omega[j] * sd + alpha[j] * s
+                tx += along * ux - across * uy
+                ty += along * uy + across * ux
             oacc[k, 0] = b00 * tx + b01 * ty
             oacc[k, 1] = b10 * tx + b11 * ty
             o, nj = d.offset[j], d.n_modes[j]
@@ -162,6 +173,13 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
                 if o <= c < o + nj:
                     u1 += d.tip_value[j, c - o]
                     u2 += d.tip_slope[j, c - o]
+                if d.slide[k]:  # the lever L(s) and its derivatives
+                    w0 -= uy * (s * w2 + 2.0 * sd * v2 + sdd * u2)
+                    w1 += ux * (s * w2 + 2.0 * sd * v2 + sdd * u2)
+                    v0 -= uy * (s * v2 + sd * u2)
+                    v1 += ux * (s * v2 + sd * u2)
+                    u0 -= uy * s * u2
+                    u1 += ux * s * u2
                 T[k, 0, c] = b00 * u0 + b01 * u1
                 T[k, 1, c] = b10 * u0 + b11 * u1
                 T[k, 2, c] = u2
@@ -173,7 +191,12 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
                 Tdd[k, 1, c] = e10 * u0 + e11 * u1 + 2.0 * (d10 * v0 + d11 * v1) \
                     + b10 * w0 + b11 * w1
                 Tdd[k, 2, c] = w2
-        T[k, 2, nb + k] += 1.0  # δβ_k turns frame k
+        if d.slide[k]:  # δs_k moves frame k along the line
+            ux, uy = d.slide_axis[k, 0], d.slide_axis[k, 1]
+            T[k, 0, nb + k] += b00 * ux + b01 * uy
+            T[k, 1, nb + k] += b10 * ux + b11 * uy
+        else:
+            T[k, 2, nb + k] += 1.0  # δβ_k turns frame k
 
 
 @njit(cache=True)
@@ -199,6 +222,8 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
             continue
         fx, fy = out[k + 1, 0] + own[k + 1, 0], out[k + 1, 1] + own[k + 1, 1]
         beta = p[d.n_base + k + 1]  # θ_{k+1} − θ_k
+        if d.slide[k + 1]:
+            beta = d.slide_angle[k + 1]
         cb, sb = np.cos(beta), np.sin(beta)
         out[k, 0] = cb * fx - sb * fy
         out[k, 1] = sb * fx + cb * fy
@@ -301,6 +326,7 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
             for i in range(nk):
                 for c2 in range(nt):
                     M[o + i, c2] += TM[3 + i, c2]
+    lever_stiffness(d, p, T, out, x, r)
     # The rigid base's mass and inertia and their zero-order load (ForwardSystem._base_inertia).
     nb = d.n_base
     if d.base_kind == FREE:

@@ -79,6 +79,11 @@ def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd,
                 L = d.length[k - 1]
                 origin[i, k, 0] = origin[i, k - 1, 0] + L * np.cos(w_.theta[k - 1])
                 origin[i, k, 1] = origin[i, k - 1, 1] + L * np.sin(w_.theta[k - 1])
+                if d.slide[k]:  # the block on its line: s A(θ_{k−1}) u
+                    c, sn = np.cos(w_.theta[k - 1]), np.sin(w_.theta[k - 1])
+                    ux, uy = d.slide_axis[k, 0], d.slide_axis[k, 1]
+                    origin[i, k, 0] += w_.p[nb + k] * (c * ux - sn * uy)
+                    origin[i, k, 1] += w_.p[nb + k] * (sn * ux + c * uy)
             for a in range(3):
                 for c in range(nx):
                     T[i, k, a, c] = w_.T[k, a, c]

@@ -20,9 +20,10 @@ from typing import TypeVar
 
 import numpy as np
 
-from ..model import Base, Chain, Link, PiezoActuator, TorqueDrive, is_driven
+from ..model import Base, Chain, Link, PiezoActuator, PrismaticJoint, TorqueDrive, is_driven
 from ..model.basis import carries_links, chosen_mode_shapes, free_hub
 from ..model.joints import initial_angle
+from ..model.prismatic import guide
 from ..modes import (
     ModalData,
     ModeShapes,
@@ -92,6 +93,10 @@ def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float
         if base is not None and base.attachment(j) is not None:
             break
         outer, joint = chain.links[j], chain.joints[j]
+        if isinstance(joint, PrismaticJoint):  # its block starts s0 along its line
+            line = angle + joint.axis_angle
+            position = position + guide(joint).initial_travel() * np.array(
+                [np.cos(line), np.sin(line)])
         angle += initial_angle(joint)
         if is_driven(joint):
             inertia += joint.motor_inertia if turning else 0.0

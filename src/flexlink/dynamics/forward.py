@@ -37,7 +37,7 @@ from ..model import (
 from ..model.joints import drive_side
 from ..model.settings import InitialName
 from ..modes import ModalData
-from . import elastic_joints
+from . import elastic_joints, prismatic
 from .actuators import actuator_matrix, open_loop_voltages
 from .first_order import (
     LinkBody,
@@ -64,7 +64,9 @@ class ForwardSystem:
         axes), entering only as the base's acceleration a − g of the kinematical synthesis
         and of the free base's own inertia (`kinematics.inertial_acceleration`).
         ``initial``: "rest" (links undeformed) or "equilibrium" (`equilibrium_state`)."""
-        self.chain = chain
+        # A slider's block is a point body at the root of the link it carries.
+        self.chain = chain = prismatic.with_slider_masses(chain)
+        self.slides = prismatic.sliders(chain.joints)
         self.base = base
         self.geometric_stiffening = geometric_stiffening
         self.gravity: tuple[float, float] = (float(gravity[0]), float(gravity[1]))
@@ -154,7 +156,8 @@ class ForwardSystem:
             p0, v0 = [s0], [r0]
         p, v = list(p0), list(v0)
         for k in self.driven:
-            angle, rate = elastic_joints.start(self.chain.joints[k])
+            joint = self.chain.joints[k]
+            angle, rate = elastic_joints.start(joint.drive if k in self.slides else joint)
             p.append(angle)
             v.append(rate)
         for k in elastic_joints.driven_motors(self.chain.joints):
@@ -206,7 +209,8 @@ class ForwardSystem:
         """Zero-order frames at rigid states (nt, n_rigid) and maps x → [ρx, ρy, θ1]."""
         nt, nb = p.shape[0], self.n_base
         n_links = len(self.chain.links)
-        beta, beta_d, beta_dd = (a[:, nb:] for a in (p, pd, pdd))
+        beta, beta_d, beta_dd = prismatic.joint_angles(
+            self.chain.joints, *(a[:, nb:nb + n_links] for a in (p, pd, pdd)))
         base_pos = np.zeros((nt, 2))
         base_acc = self._base_acceleration(pdd)
         th_b, w_b, a_b = (np.zeros(nt) for _ in range(3))
@@ -262,16 +266,24 @@ class ForwardSystem:
                 origin[:, k] = origin[:, j] + data.length * e_j[:, :, 0]
                 tip_acc = origin_accel[:, j] + data.length * np.stack(
                     [-omega[:, j] ** 2, alpha[:, j]], -1)
-                origin_accel[:, k] = np.einsum("tij,tj->ti", back, tip_acc)
                 P = tip_map(data)
                 U, U_d, U_dd = (np.einsum("ij,tjn->tin", P[:, :3], M) for M in
                                 (T[j], T_d[j], T_dd[j]))
                 U[:, :, self.bodies[j].slice] += P[:, 3:]
+                if k in self.slides:  # the block on its line through the tip
+                    joint, i = self.chain.joints[k], self.joint_index(k)
+                    tip_acc = tip_acc + prismatic.lever(joint, p[:, i], pd[:, i], pdd[:, i],
+                                                        omega[:, j], alpha[:, j], U, U_d, U_dd)
+                    origin[:, k] += p[:, i, None] * (e_j @ np.array(joint.direction))
+                origin_accel[:, k] = np.einsum("tij,tj->ti", back, tip_acc)
                 R, R_d, R_dd = block_map(back), block_map(back_d, 0.0), block_map(back_dd, 0.0)
                 Tk = R @ U
                 Tk_d = R_d @ U + R @ U_d
                 Tk_dd = R_dd @ U + 2.0 * R_d @ U_d + R @ U_dd
-            Tk[:, 2, self.joint_index(k)] += 1.0  # δβ_k turns frame k
+            if k in self.slides:  # δs_k moves frame k along the line
+                Tk[:, :2, self.joint_index(k)] += back @ np.array(self.chain.joints[k].direction)
+            else:
+                Tk[:, 2, self.joint_index(k)] += 1.0  # δβ_k turns frame k
             T.append(Tk)
             T_d.append(Tk_d)
             T_dd.append(Tk_dd)
@@ -298,6 +310,7 @@ class ForwardSystem:
                            self._second_order_stiffness(body, fr, k, outboard[:, k]), M, C, K, f)
         self._base_inertia(pdd, M, f)
         self._attachment_turn(p, fr, own, K)
+        prismatic.lever_stiffness(self, p, fr, outboard, K)
         for k in self.driven:
             i = self.joint_index(k)
             M[:, i, i] += self.chain.joints[k].motor_inertia  # type: ignore[union-attr]

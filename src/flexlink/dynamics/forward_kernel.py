@@ -34,7 +34,7 @@ ForwardData = namedtuple("ForwardData", [
     "bandwidth", "rate_limit", "load_point", "load_body", "actuator_B", "gravity", "rot_slope",
     "lateral", "sy", "lat_slope", "lat_tilde", "lat_fore", "lat_fore_moment",
     "motor_row", "motor_kind", "spring_k", "spring_c", "gear", "rotor_inertia", "rail",
-    "attitude", "rail_origin"])
+    "attitude", "rail_origin", "slide", "slide_axis", "slide_angle"])
 ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI units, link "
                        "arrays padded to the most modes, offsets into x = [δp; z]; "
                        "actuator_B (n, n_act) the actuators' forces on z per volt; gravity "
@@ -45,7 +45,11 @@ ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI u
                        "dynamics/_elastic_numba.py; rail (2,) a cart's rail direction, "
                        "rail_origin (2,) its position at zero travel (m, global axes) and "
                        "attitude its constant attitude (rad); the drive arrays (joint_kind … "
-                       "rate_limit) have N + 1 entries, the last the cart's drive.")
+                       "rate_limit) have N + 1 entries, the last the cart's drive; slide "
+                       "(N,) whether joint k is a slider (its coordinate the travel, m), "
+                       "slide_axis (N, 2) its line's direction in the parent's tip axes and "
+                       "slide_angle (N,) the carried link's constant angle (rad): "
+                       "dynamics/prismatic.py.")
 
 
 def pack(system: ForwardSystem) -> ForwardData:
@@ -152,7 +156,23 @@ def pack(system: ForwardSystem) -> ForwardData:
         motor_row=motor_row, motor_kind=motor_kind, gear=gear, **spring,
         rail=np.array(cart.direction if cart is not None else (0.0, 0.0), dtype=float),
         attitude=float(base.attitude),
-        rail_origin=np.array(base.position if cart is not None else (0.0, 0.0), dtype=float))
+        rail_origin=np.array(base.position if cart is not None else (0.0, 0.0), dtype=float),
+        **slide_arrays(chain.joints))
+
+
+def slide_arrays(joints: tuple | list) -> dict[str, np.ndarray]:
+    """ForwardData's slider arrays (slide, slide_axis, slide_angle) of the joints."""
+    from ..model import PrismaticJoint
+
+    N = len(joints)
+    out = {"slide": np.zeros(N, dtype=bool), "slide_axis": np.zeros((N, 2)),
+           "slide_angle": np.zeros(N)}
+    for k, joint in enumerate(joints):
+        if isinstance(joint, PrismaticJoint):
+            out["slide"][k] = True
+            out["slide_axis"][k] = joint.direction
+            out["slide_angle"][k] = joint.link_angle
+    return out
 
 
 def inputs(system: ForwardSystem, t: np.ndarray) -> np.ndarray:

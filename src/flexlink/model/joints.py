@@ -7,6 +7,7 @@ Description only: motions are evaluated in ``motion/``, the servo laws in
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -115,14 +116,74 @@ class ElasticJoint:
         return bool(getattr(self.motor, "integrator", False))
 
 
+@dataclass(frozen=True)
+class PrismaticJoint:
+    """A slider inside a chain (docs/prismatic_joints.md): link k rides on a block that
+    slides along a straight line fixed in link k − 1's section at its tip, carried with that
+    section's deflection and slope. Its coordinate is the travel s (m) of the block from the
+    tip along the line, which points at ``axis_angle`` (rad) from the parent's section;
+    link k is fixed to the block at ``link_angle`` (rad) from the parent's section.
+
+    ``drive`` moves s as a cart's drive moves its travel (`base.Cart`): a prescribed travel
+    (a ``JointMotion`` in metres: `motion.Travel`), a force along the line (``TorqueDrive``:
+    its history in N, its initial angle and rate the initial travel (m) and speed (m/s)), or
+    a servo on the travel (no integral state); a free slider is a force drive with zero
+    force. ``mass`` (kg): the block, a point mass at link k's root. ``travel``: the allowed
+    range of s (m), never clipped: a start, prescribed travel or servo reference outside it
+    is refused at load, a run that leaves it ends with an error."""
+
+    drive: object  # JointMotion | TorqueDrive | VelocityServo | PositionServo, in metres
+    axis_angle: float = 0.0  # rad, the line's direction from the parent's tip section
+    link_angle: float = 0.0  # rad, link k's direction from the parent's tip section
+    travel: tuple[float, float] = (-float("inf"), float("inf"))  # m
+    mass: float = 0.0  # kg, the block
+
+    def __post_init__(self) -> None:
+        if not self.travel[0] < self.travel[1]:
+            raise ValueError(f"prismatic joint travel: need lower < upper, got {self.travel}")
+        if self.mass < 0.0:
+            raise ValueError(f"prismatic joint mass: need ≥ 0 kg, got {self.mass:g}")
+        if getattr(self.drive, "integrator", False):
+            raise ValueError("a slider's servo has no integral state: its I gain must be 0")
+        if getattr(self.drive, "motor_inertia", 0.0) != 0.0:
+            raise ValueError("a slider's drive has no motor inertia (give the block's mass)")
+
+    @property
+    def motor_inertia(self) -> float:
+        """The block's mass is a body on the carried link, not an inertia on the row: 0."""
+        return 0.0
+
+    @property
+    def integrator(self) -> bool:
+        return False
+
+    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A prescribed slider's travel (m), speed (m/s), acceleration (m/s²) at times t."""
+        return self.drive.evaluate(t)  # type: ignore[attr-defined]
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        return tuple(getattr(self.drive, "breakpoints", ()))
+
+    @property
+    def direction(self) -> tuple[float, float]:
+        """Unit vector of the line in the parent's tip-section axes."""
+        return (math.cos(self.axis_angle), math.sin(self.axis_angle))
+
+
 def drive_side(joint: object) -> object:
-    """What drives a joint's coordinate: an elastic joint's motor, else the joint itself."""
+    """What drives a joint's coordinate: an elastic joint's motor, a slider's drive, else the
+    joint itself."""
+    if isinstance(joint, PrismaticJoint):
+        return joint.drive
     return joint.motor if isinstance(joint, ElasticJoint) else joint
 
 
 def is_driven(joint: object) -> bool:
-    """True for a drive or an elastic joint (the link angle follows from the dynamics),
-    False for a prescribed joint motion."""
+    """True for a drive or an elastic joint (the link angle follows from the dynamics), or a
+    slider whose drive is one; False for a prescribed joint motion or travel."""
+    if isinstance(joint, PrismaticJoint):
+        return is_driven(joint.drive)
     return isinstance(joint, TorqueDrive | VelocityServo | PositionServo | ElasticJoint)
 
 
@@ -131,6 +192,8 @@ def initial_angle(joint: object) -> float:
     reference; an elastic joint's motor angle over the gear ratio (the spring relaxed)."""
     if isinstance(joint, ElasticJoint):
         return initial_angle(joint.motor) / joint.gear_ratio
+    if isinstance(joint, PrismaticJoint):  # the carried link's angle; its travel is not one
+        return joint.link_angle
     if isinstance(joint, TorqueDrive):
         return float(joint.initial_angle)
     motion = getattr(joint, "reference", joint)
@@ -138,4 +201,4 @@ def initial_angle(joint: object) -> float:
 
 
 # A joint is prescribed (its motion is given) or driven (its angle follows from the dynamics).
-Joint = JointMotion | Drive | ElasticJoint
+Joint = JointMotion | Drive | ElasticJoint | PrismaticJoint

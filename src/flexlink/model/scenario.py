@@ -8,7 +8,7 @@ from .actuators import PiezoActuator
 from .base import Base
 from .chain import Chain
 from .controllers import Controller
-from .joints import is_driven
+from .joints import PrismaticJoint, is_driven
 from .loops import Closure
 from .sensors import Sensor
 from .settings import SimulationSettings, default_rtol
@@ -40,9 +40,16 @@ class Scenario:
                 self.settings, rtol=default_rtol(self.settings.model, self.is_forward)))
         if self.base is not None and self.base.cart is not None:
             self.base.cart.check_travel(self.settings.t_end)
+        for k, joint in enumerate(self.chain.joints):
+            if isinstance(joint, PrismaticJoint):
+                from .prismatic import check_slider
+
+                check_slider(self, k)
 
     @property
     def is_forward(self) -> bool:
         """True if the base moves, branches start on it, or a joint is driven: the joint
-        angles then follow from the equations of motion (forward dynamics)."""
-        return self.base is not None or any(is_driven(j) for j in self.chain.joints)
+        angles then follow from the equations of motion (forward dynamics); a slider in the
+        chain runs there too (its travel is one more rigid coordinate: dynamics/prismatic.py)."""
+        return self.base is not None or any(is_driven(j) or isinstance(j, PrismaticJoint)
+                                            for j in self.chain.joints)

@@ -36,6 +36,7 @@ from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .elastic import read_elastic_joint
 from .errors import Problems, ScenarioError, describe
+from .prismatic import check_sliders, read_prismatic
 from .schema import (
     BODIES,
     ELASTIC,
@@ -163,6 +164,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                              | {a.get("name") for a in actuators}, p)
     if closures and controllers:
         p.add("closures: controllers do not run with closed loops yet; drop [[controllers]]")
+    check_sliders(joint_tables, base, simulation, closures, controllers, p)
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
@@ -317,6 +319,8 @@ def _bending_stiffness(table: dict[str, Any], path: str, width: float | None,
 
 def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,
            p: Problems) -> tuple[dict[str, Any], Any]:
+    if table.get("type") == "prismatic":  # a slider (scenario/prismatic.py)
+        return read_prismatic(table, path, base_dir, t_end, p)
     if any(key in table for key in ELASTIC.keys):  # the rest of the table drives the motor
         return read_elastic_joint(table, path, p, lambda rest: _joint(rest, path, base_dir,
                                                                       t_end, p))

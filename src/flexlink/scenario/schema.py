@@ -588,6 +588,21 @@ ELASTIC = Section("elastic", [
           doc="N, motor turns per link turn (the link starts on θ_m/N, the spring relaxed)"),
 ])
 
+PRISMATIC = Section("prismatic", [
+    Field("type", "string", choices=("prismatic",),
+          doc="makes the joint a slider: link k rides on a block along a line through link "
+              "k − 1's deformed tip, turning with the tip's slope; the travel s (m) from the "
+              "tip along the line is the joint's coordinate; the other keys are a cart's "
+              "(`travel`, `drive`, `motion`, `force`, `servo` …: `[base.cart]`, without "
+              "`rail_angle_deg`)"),
+    Field("axis_angle_deg", unit="deg", default=0.0,
+          doc="direction of the line from the parent link's tip section (0: along the parent)"),
+    Field("link_angle_deg", unit="deg", default=0.0,
+          doc="direction of the carried link from the parent link's tip section, constant"),
+    Field("mass", unit="kg", ge=0, default=0.0,
+          doc="the block, a point mass at the carried link's root"),
+])
+
 # every table kind, by the name of its generated docs block
 SECTIONS: dict[str, Section] = {s.name: s for s in (
     SIMULATION, LINKS, BODIES, JOINTS, *PROFILES.values(), MEASURED_ANGLES, SENSORS,

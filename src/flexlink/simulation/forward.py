@@ -23,6 +23,7 @@ from .accuracy import axial_load_parameter
 from .cart import check_travel
 from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress, check_tip_deflection
+from .prismatic import check_travel as check_slider_travel
 
 
 def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
@@ -47,6 +48,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
                                     solution.q_ddot[:, :nu])
     check_travel(scenario.base, t, p[:, 0])
+    check_slider_travel(system.chain.joints, t, p, system.n_base)
     z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
     view = SolvedMotion(system, outputs.frames)
     try:

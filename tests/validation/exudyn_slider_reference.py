@@ -1,0 +1,139 @@
+"""A geometrically exact reference for a slider inside a chain (dynamics/prismatic.py), in
+Exudyn: a flexible beam on a block sliding along a line at the tip of a rotating rigid link.
+
+* the rigid link: an ``ObjectRigidBody2D`` pinned at the origin (its node's centre held by two
+  ``CoordinateConstraint``), of inertia ``link_inertia`` about the pin, turned by a moment
+  history M(t) on its angle coordinate (`exudyn_forward_reference._Moment`: the step mean);
+* the block: the beam's root node carries an ``ObjectRigidBody2D`` of the block's mass; a
+  ``PrismaticJoint2D`` holds it on the line through the link's point (L1, 0) along the
+  link-frame direction u, its rotation fixed to the link's (the beam at γ from the link);
+* the slider's drive: an ``ObjectConnectorLinearSpringDamper`` along the same axis, without
+  stiffness, whose force user function returns the history F(t) (its sign: a positive
+  connector force pulls the two markers together, so it returns −F, F pushing the block
+  out along u);
+* the beam: ``ObjectBeamGeometricallyExact2D`` elements (Simo–Reissner) from the block.
+
+Signals: the link's angle, the block's travel s along the line, and the beam's tip deflection
+n_root · (r_tip − r_root) in the clamped root frame (flexlink's deflection sensor at x = L).
+Undamped, no gravity.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from flexlink.model import Link
+
+from .exudyn_forward_reference import _Moment
+from .exudyn_reference import default_section, solve_dynamic
+
+VERBOSE = 0
+
+
+def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, block: float,
+                           axis: float, gamma: float, s0: float,
+                           moment: Callable[[float], float], force: Callable[[float], float],
+                           t_end: float, dt_out: float, elements: int,
+                           dt: float | None = None) -> dict[str, Any]:
+    """The system of the module docstring from rest, the block at travel s0 (m); angles in
+    rad (axis: the line's direction, gamma: the beam's, both from the rigid link).
+
+    Returns ``t`` (s), ``angle`` (rad), ``travel`` (m), ``tip_deflection`` (m),
+    ``wall_time_s`` (the solver's), ``cpu_time_s`` (the process's during the solve)."""
+    import time
+
+    import exudyn as exu
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        LinearSpringDamper,
+        LoadCoordinate,
+        MarkerBodyRigid,
+        MarkerNodeCoordinate,
+        MarkerNodeRigid,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectBeamGeometricallyExact2D,
+        ObjectRigidBody2D,
+        PrismaticJoint2D,
+        SensorNode,
+    )
+
+    if dt is None:
+        dt = min(dt_out, 5e-4)
+    dt = dt_out / round(dt_out / dt)
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+
+    def coord(node: int, c: int) -> int:
+        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
+
+    hub_node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0]))
+    hub = mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub_node, mass=1.0, inertia=link_inertia))
+    for c in (0, 1):
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(hub_node, c)]))
+    turn = _Moment(moment, dt)
+    mbs.AddLoad(LoadCoordinate(markerNumber=coord(hub_node, 2), load=0.0,
+                               loadUserFunction=turn))
+    u = np.array([math.cos(axis), math.sin(axis)])
+    root = np.array([link_length, 0.0]) + s0 * u
+    e = np.array([math.cos(gamma), math.sin(gamma)])
+    sec = default_section(beam)
+    x = np.linspace(0.0, beam.length, elements + 1)
+    chain = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(root + xi * e), gamma]))
+             for xi in x]
+    for a, b in itertools.pairwise(chain):
+        mbs.AddObject(ObjectBeamGeometricallyExact2D(
+            nodeNumbers=[a, b], length=float(beam.length / elements),
+            massPerLength=beam.mass_per_length, crossSectionInertia=sec.rhoI,
+            bendingStiffness=beam.EI, axialStiffness=sec.EA, shearStiffness=sec.GA))
+    if beam.tip_mass > 0.0:
+        mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[-1], mass=beam.tip_mass, inertia=0.0))
+    mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[0], mass=block, inertia=0.0))
+    on_link = mbs.AddMarker(MarkerBodyRigid(bodyNumber=hub, localPosition=[link_length, 0.0,
+                                                                             0.0]))
+    on_block = mbs.AddMarker(MarkerNodeRigid(nodeNumber=chain[0]))
+    # The normal to the line in the block's frame: S u turned back by γ.
+    normal = [-math.sin(axis - gamma), math.cos(axis - gamma), 0.0]
+    mbs.AddObject(PrismaticJoint2D(markerNumbers=[on_link, on_block],
+                                   axisMarker0=[u[0], u[1], 0.0], normalMarker1=normal,
+                                   constrainRotation=True))
+    push = _Moment(force, dt)
+
+    def connector_force(mbs_: Any, t: float, item: int, *args: Any) -> float:
+        return -push(mbs_, t, item)
+
+    mbs.AddObject(LinearSpringDamper(markerNumbers=[on_link, on_block], stiffness=0.0,
+                                     damping=0.0, axisMarker0=[u[0], u[1], 0.0],
+                                     springForceUserFunction=connector_force))
+
+    def sensor(node: int, kind: Any) -> int:
+        return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, writeToFile=False,
+                                        outputVariableType=kind))
+
+    s_hub = sensor(hub_node, exu.OutputVariableType.Coordinates)
+    s_root = sensor(chain[0], exu.OutputVariableType.Coordinates)
+    s_tip = sensor(chain[-1], exu.OutputVariableType.Coordinates)
+    cpu = time.process_time()
+    wall, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-6, 1e-8, 1.0, verbose=VERBOSE)
+    cpu = time.process_time() - cpu
+
+    def series(number: int, node: int) -> np.ndarray:
+        data = np.asarray(mbs.GetSensorStoredData(number))
+        out = np.stack([np.interp(t_grid, data[:, 0], data[:, c]) for c in range(1, 4)], 1)
+        return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
+
+    hub_q, r0, r1 = series(s_hub, hub_node), series(s_root, chain[0]), series(s_tip, chain[-1])
+    angle = hub_q[:, 2]
+    tip_point = link_length * np.stack([np.cos(angle), np.sin(angle)], 1)
+    line = np.stack([np.cos(angle + axis), np.sin(angle + axis)], 1)
+    normal_root = np.stack([-np.sin(r0[:, 2]), np.cos(r0[:, 2])], 1)
+    return {"t": t_grid, "angle": angle,
+            "travel": np.sum((r0[:, :2] - tip_point) * line, 1),
+            "tip_deflection": np.sum(normal_root * (r1[:, :2] - r0[:, :2]), 1),
+            "wall_time_s": wall, "cpu_time_s": cpu, "coordinates": mbs.systemData.ODE2Size()}
