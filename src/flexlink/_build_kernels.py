@@ -13,9 +13,10 @@ warm-up run in `cli.warmup_scenarios`.
 
 The runs are shared among worker processes (one per core), each on its own copy of the
 package so that no two processes write one cache file; their cache files are then moved into
-the package's folder (a kernel two workers both compiled keeps the first copy), and a last
-pass in one process runs every warm-up again: it loads every kernel, compiles whatever the
-merge left out and checks the coverage above.
+the package's folder (a kernel that two workers compiled for different types keeps every
+version; one they both compiled keeps the first copy), and a last pass in one process runs
+every warm-up again: it loads every kernel, compiles whatever the merge left out and checks
+the coverage above.
 """
 
 from __future__ import annotations
@@ -225,19 +226,66 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
 
 def _merge(source: Path, target: Path) -> None:
     """Move each kernel's cache files (its index ``<stem>.nbi`` and data ``<stem>.<n>.nbc``)
-    from `source` to `target` where `target` has no index of that kernel yet: files of one
-    kernel never come from two processes."""
+    from `source` to `target`. Where `target` holds an index of that kernel already (another
+    worker compiled other versions of it: a loop specialised for another model's record),
+    the versions it lacks join it under data file numbers of its own; a version both hold
+    keeps `target`'s copy."""
     for index in sorted(source.rglob("*.nbi")):
         relative = index.parent.relative_to(source)
         destination = target / relative
+        stem = index.name[:-len(".nbi")]
         if (destination / index.name).exists():
+            _merge_index(index, destination / index.name)
             continue
         destination.mkdir(parents=True, exist_ok=True)
-        data = re.compile(re.escape(index.name[:-len(".nbi")]) + _INDEX_DATA + "$")
+        data = re.compile(re.escape(stem) + _INDEX_DATA + "$")
         for path in index.parent.iterdir():
             if data.match(path.name):
                 shutil.move(path, destination / path.name)
         shutil.move(index, destination / index.name)  # last: an index names its data
+
+
+def _read_index(path: Path) -> tuple[Any, Any, dict[Any, str]]:
+    """numba's index file: (numba version, source stamp, {version key: data file name})."""
+    import pickle
+
+    with open(path, "rb") as f:
+        version = pickle.load(f)
+        stamp, overloads = pickle.loads(f.read())
+    return version, stamp, overloads
+
+
+def _merge_index(index: Path, into: Path) -> None:
+    """Add the compiled versions of the index file `index` that the index file `into` (of
+    the same kernel, in another folder) lacks, moving their data files beside `into` under
+    free numbers; nothing when the two were written by another numba or for another source
+    (their versions could not be loaded together)."""
+    import pickle
+
+    from numba.core.serialize import dumps
+
+    version, stamp, overloads = _read_index(index)
+    into_version, into_stamp, into_overloads = _read_index(into)
+    if (version, stamp) != (into_version, into_stamp):
+        return
+    stem = into.name[:-len(".nbi")]
+    taken = set(into_overloads.values())
+    number = 0
+    for key, name in overloads.items():
+        if key in into_overloads:
+            continue
+        number += 1
+        while f"{stem}.{number}.nbc" in taken:
+            number += 1
+        fresh = f"{stem}.{number}.nbc"
+        taken.add(fresh)
+        shutil.move(index.parent / name, into.parent / fresh)
+        into_overloads[key] = fresh
+    temporary = into.with_name(into.name + ".merging")
+    with open(temporary, "wb") as f:
+        pickle.dump(into_version, f, protocol=-1)
+        f.write(dumps((into_stamp, into_overloads)))
+    os.replace(temporary, into)  # last: the index names data files already in place
 
 
 def _seed(root: Path, stamp: str, seed: Path | None) -> None:
