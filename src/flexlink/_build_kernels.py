@@ -45,6 +45,15 @@ from ._compiled_cache import (
 )
 
 _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
+# CPU seconds each warm-up run compiled for in a two-worker build (``_compiled/build.json``,
+# "compile"), after the runs of its family before it: the build hands the families out
+# longest first. A run missing here counts as the mean of those listed.
+COMPILE_CPU = {"prescribed": 21, "nonlinear": 9, "nonlinear_step": 2, "forward": 61,
+               "free_base": 2, "nonlinear_forward": 28, "nonlinear_forward_step": 4,
+               "closed_loop": 5, "four_bar": 59, "nonlinear_four_bar": 53, "sensitivities": 5}
+# Model paths whose runs integrate with another path's compiled loop (the closed loop's
+# Lawson loop is the prescribed path's): one family, one worker.
+_SHARES = {"closed_loop": "prescribed"}
 _CACHED_KERNEL = re.compile(r"jit\([^)]*\bcache\s*=\s*True")
 _INDEX_DATA = r"\.\d+\.nbc"  # numba's data files beside an index <stem>.nbi: <stem>.<n>.nbc
 
@@ -141,11 +150,11 @@ def worker() -> None:
 
 def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
              worker: int) -> str | None:
-    """Take from `queue` the next run for `worker`: the next of the family (model path) it is
-    on, else the first whose family no other worker is on. Runs of one path share most
-    kernels, so one worker compiles them: None when every run left is of a path another
-    worker is on (it takes them next) or none is left. `working` (worker → family) is
-    updated."""
+    """Take from `queue` the next run for `worker`: the next of the family (model path, or
+    the path whose compiled loop it uses) it is on, else the first whose family no other
+    worker is on. Runs of one family share most kernels, so one worker compiles them: None
+    when every run left is of a family another worker is on (it takes them next) or none is
+    left. `working` (worker → family) is updated."""
     others = {f for k, f in working.items() if k != worker}
     for wanted in ([n for n in queue if family[n] == working.get(worker)],
                    [n for n in queue if family[n] not in others]):
@@ -156,6 +165,19 @@ def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
             return name
     working.pop(worker, None)
     return None
+
+
+def queue_order(names: list[str], family: dict[str, str],
+                cost: dict[str, float] = COMPILE_CPU) -> list[str]:
+    """`names` in the order the workers take them: families (runs that share kernels) by
+    their summed compile `cost`, longest first, as longest-processing-time-first
+    scheduling does; within a family, in the order given."""
+    known = [cost[n] for n in names if n in cost]
+    default = sum(known) / len(known) if known else 1.0
+    total: dict[str, float] = {}
+    for name in names:
+        total[family[name]] = total.get(family[name], 0.0) + cost.get(name, default)
+    return sorted(names, key=lambda n: -total[family[n]])
 
 
 def _copy_package(source: Path, target: Path) -> None:
@@ -172,9 +194,9 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
     from .simulation import model_path
 
     scenarios = warmup_scenarios()
-    family = {name: model_path(scenarios[name]) for name in names}
-    # the paths with most runs first: they take longest
-    queue = sorted(names, key=lambda n: -list(family.values()).count(family[n]))
+    paths = {name: model_path(scenarios[name]) for name in names}
+    family = {name: _SHARES.get(path, path) for name, path in paths.items()}
+    queue = queue_order(names, family)
     lock = threading.Lock()
     working: dict[int, str] = {}  # worker → the family (model path) of its current run
 
