@@ -13,9 +13,10 @@ warm-up run in `cli.warmup_scenarios`.
 
 The runs are shared among worker processes (one per core), each on its own copy of the
 package so that no two processes write one cache file; their cache files are then moved into
-the package's folder (a kernel two workers both compiled keeps the first copy), and a last
-pass in one process runs every warm-up again: it loads every kernel, compiles whatever the
-merge left out and checks the coverage above.
+the package's folder (a kernel that two workers compiled for different types keeps every
+version; one they both compiled keeps the first copy), and a last pass in one process runs
+every warm-up again: it loads every kernel, compiles whatever the merge left out and checks
+the coverage above.
 """
 
 from __future__ import annotations
@@ -44,6 +45,15 @@ from ._compiled_cache import (
 )
 
 _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
+# CPU seconds each warm-up run compiled for in a two-worker build (``_compiled/build.json``,
+# "compile"), after the runs of its family before it: the build hands the families out
+# longest first. A run missing here counts as the mean of those listed.
+COMPILE_CPU = {"prescribed": 21, "nonlinear": 9, "nonlinear_step": 2, "forward": 61,
+               "free_base": 2, "nonlinear_forward": 28, "nonlinear_forward_step": 4,
+               "closed_loop": 5, "four_bar": 59, "nonlinear_four_bar": 53, "sensitivities": 5}
+# Model paths whose runs integrate with another path's compiled loop (the closed loop's
+# Lawson loop is the prescribed path's): one family, one worker.
+_SHARES = {"closed_loop": "prescribed"}
 _CACHED_KERNEL = re.compile(r"jit\([^)]*\bcache\s*=\s*True")
 _INDEX_DATA = r"\.\d+\.nbc"  # numba's data files beside an index <stem>.nbi: <stem>.<n>.nbc
 
@@ -140,11 +150,11 @@ def worker() -> None:
 
 def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
              worker: int) -> str | None:
-    """Take from `queue` the next run for `worker`: the next of the family (model path) it is
-    on, else the first whose family no other worker is on. Runs of one path share most
-    kernels, so one worker compiles them: None when every run left is of a path another
-    worker is on (it takes them next) or none is left. `working` (worker → family) is
-    updated."""
+    """Take from `queue` the next run for `worker`: the next of the family (model path, or
+    the path whose compiled loop it uses) it is on, else the first whose family no other
+    worker is on. Runs of one family share most kernels, so one worker compiles them: None
+    when every run left is of a family another worker is on (it takes them next) or none is
+    left. `working` (worker → family) is updated."""
     others = {f for k, f in working.items() if k != worker}
     for wanted in ([n for n in queue if family[n] == working.get(worker)],
                    [n for n in queue if family[n] not in others]):
@@ -155,6 +165,19 @@ def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
             return name
     working.pop(worker, None)
     return None
+
+
+def queue_order(names: list[str], family: dict[str, str],
+                cost: dict[str, float] = COMPILE_CPU) -> list[str]:
+    """`names` in the order the workers take them: families (runs that share kernels) by
+    their summed compile `cost`, longest first, as longest-processing-time-first
+    scheduling does; within a family, in the order given."""
+    known = [cost[n] for n in names if n in cost]
+    default = sum(known) / len(known) if known else 1.0
+    total: dict[str, float] = {}
+    for name in names:
+        total[family[name]] = total.get(family[name], 0.0) + cost.get(name, default)
+    return sorted(names, key=lambda n: -total[family[n]])
 
 
 def _copy_package(source: Path, target: Path) -> None:
@@ -171,9 +194,9 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
     from .simulation import model_path
 
     scenarios = warmup_scenarios()
-    family = {name: model_path(scenarios[name]) for name in names}
-    # the paths with most runs first: they take longest
-    queue = sorted(names, key=lambda n: -list(family.values()).count(family[n]))
+    paths = {name: model_path(scenarios[name]) for name in names}
+    family = {name: _SHARES.get(path, path) for name, path in paths.items()}
+    queue = queue_order(names, family)
     lock = threading.Lock()
     working: dict[int, str] = {}  # worker → the family (model path) of its current run
 
@@ -225,19 +248,66 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
 
 def _merge(source: Path, target: Path) -> None:
     """Move each kernel's cache files (its index ``<stem>.nbi`` and data ``<stem>.<n>.nbc``)
-    from `source` to `target` where `target` has no index of that kernel yet: files of one
-    kernel never come from two processes."""
+    from `source` to `target`. Where `target` holds an index of that kernel already (another
+    worker compiled other versions of it: a loop specialised for another model's record),
+    the versions it lacks join it under data file numbers of its own; a version both hold
+    keeps `target`'s copy."""
     for index in sorted(source.rglob("*.nbi")):
         relative = index.parent.relative_to(source)
         destination = target / relative
+        stem = index.name[:-len(".nbi")]
         if (destination / index.name).exists():
+            _merge_index(index, destination / index.name)
             continue
         destination.mkdir(parents=True, exist_ok=True)
-        data = re.compile(re.escape(index.name[:-len(".nbi")]) + _INDEX_DATA + "$")
+        data = re.compile(re.escape(stem) + _INDEX_DATA + "$")
         for path in index.parent.iterdir():
             if data.match(path.name):
                 shutil.move(path, destination / path.name)
         shutil.move(index, destination / index.name)  # last: an index names its data
+
+
+def _read_index(path: Path) -> tuple[Any, Any, dict[Any, str]]:
+    """numba's index file: (numba version, source stamp, {version key: data file name})."""
+    import pickle
+
+    with open(path, "rb") as f:
+        version = pickle.load(f)
+        stamp, overloads = pickle.loads(f.read())
+    return version, stamp, overloads
+
+
+def _merge_index(index: Path, into: Path) -> None:
+    """Add the compiled versions of the index file `index` that the index file `into` (of
+    the same kernel, in another folder) lacks, moving their data files beside `into` under
+    free numbers; nothing when the two were written by another numba or for another source
+    (their versions could not be loaded together)."""
+    import pickle
+
+    from numba.core.serialize import dumps
+
+    version, stamp, overloads = _read_index(index)
+    into_version, into_stamp, into_overloads = _read_index(into)
+    if (version, stamp) != (into_version, into_stamp):
+        return
+    stem = into.name[:-len(".nbi")]
+    taken = set(into_overloads.values())
+    number = 0
+    for key, name in overloads.items():
+        if key in into_overloads:
+            continue
+        number += 1
+        while f"{stem}.{number}.nbc" in taken:
+            number += 1
+        fresh = f"{stem}.{number}.nbc"
+        taken.add(fresh)
+        shutil.move(index.parent / name, into.parent / fresh)
+        into_overloads[key] = fresh
+    temporary = into.with_name(into.name + ".merging")
+    with open(temporary, "wb") as f:
+        pickle.dump(into_version, f, protocol=-1)
+        f.write(dumps((into_stamp, into_overloads)))
+    os.replace(temporary, into)  # last: the index names data files already in place
 
 
 def _seed(root: Path, stamp: str, seed: Path | None) -> None:

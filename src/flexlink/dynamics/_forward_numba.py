@@ -493,7 +493,9 @@ def state_rates(d, w_, y, acc, dy):
         dy[2 * nu + 2 * n + s] = w_.srates[s]
 
 
-@njit(cache=True)
+# Inlined into its callers (these rates, the closed loops' solve_constrained) rather than
+# compiled on its own: a kernel of its own is optimised again inside each caller.
+@njit(inline="always")
 def assemble(d, w_, u, y):
     """The linear equations of `rates` in (p̈_free, z̈) at state y and input row u: their
     matrix into w_.A, right-hand side into w_.b, the servo integrals' rates into w_.srates
@@ -521,8 +523,10 @@ def assemble(d, w_, u, y):
         x[nr + i] = y[2 * nu + i]
         xd[nr + i] = y[2 * nu + n + i]
     integral = y[2 * nu + 2 * n:]
+    # bool(): a plain bool, not a literal, so that both calls share one compiled residual
+    want = bool(1)
     r0, rj, M, Q, srates, A, b = w_.r0, w_.rj, w_.M, w_.Q, w_.srates, w_.A, w_.b
-    residual(d, w_, p, pd, pdd, x, xd, r0, M, True)
+    residual(d, w_, p, pd, pdd, x, xd, r0, M, want)
     srates[:] = 0.0
     applied(d, u, p, pd, integral, Q, srates)
     m = nu + n
@@ -533,7 +537,7 @@ def assemble(d, w_, u, y):
             A[row, nu + i] = M[a, nr + i]
     for j in range(nu):
         pdd[free[j]] = 1.0
-        residual(d, w_, p, pd, pdd, x, xd, rj, M, False)
+        residual(d, w_, p, pd, pdd, x, xd, rj, M, not want)
         pdd[free[j]] = 0.0
         for row in range(m):
             a = free[row] if row < nu else nr + row - nu
@@ -554,7 +558,7 @@ def joint_torques(d, w_, p, pd, pdd, z, zd, zdd, out):
         for i in range(nx - nr):
             x[nr + i] = z[t, i]
             xd[nr + i] = zd[t, i]
-        residual(d, w_, p[t], pd[t], pdd[t], x, xd, r, M, True)
+        residual(d, w_, p[t], pd[t], pdd[t], x, xd, r, M, bool(1))  # assemble's version
         for k in range(N):
             row = nb + k
             acc = r[row]

@@ -229,7 +229,9 @@ def project(d, w, u, y):
     return True
 
 
-@njit(cache=True)
+# Inlined into `rates` and `closed_states` rather than compiled on its own: a kernel of its
+# own is optimised again, with the whole forward model it calls, inside each caller.
+@njit(inline="always")
 def solve_constrained(d, w, u, y):
     """Project y (w.yp ← y closed) and solve the constrained equations: accelerations
     (p̈_free, z̈) in w.rhs[:m], multipliers λ in w.rhs[m:]. False when the loop does not

@@ -171,7 +171,9 @@ def project(d, w, u, Y):
     return True
 
 
-@njit(cache=True)
+# Inlined into `rates` and `closed_states` rather than compiled on its own: a kernel of its
+# own is optimised again, with the whole nonlinear model it calls, inside each caller.
+@njit(inline="always")
 def solve_constrained(d, w, u, Y):
     """Project Y (w.yp ← Y closed) and solve the constrained equations: ÿ in w.rhs[:n_y],
     λ in w.rhs[n_y:]. False when the loop does not close (w.rhs is then NaN)."""

@@ -231,7 +231,9 @@ def _lu_solve(LU, piv, b):
         b[i] = acc / LU[i, i]
 
 
-@njit(cache=True)
+# Inlined into the loop rather than compiled on its own: as a kernel of its own it would
+# optimise and emit the whole model it calls once more for each record type.
+@njit(inline="always")
 def _jacobian(d, w, u, y, f0, J, yp, f1):
     """J = ∂f/∂y at y by one-sided differences (f0 = f(y) given)."""
     m = y.shape[0]
