@@ -232,15 +232,22 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_base",
                "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar",
                "nonlinear_four_bar", "sensitivities")
-# What a warm-up run asks of `simulate` besides the run (the tangent loop of sensitivities).
-WARMUP_OPTIONS: dict[str, dict[str, Any]] = {"sensitivities": {"sensitivities": ["links[0].EI"]}}
+# The warm-up runs that also compute sensitivities, with their fields (the tangent loop).
+WARMUP_SENSITIVITIES: dict[str, list[str]] = {"sensitivities": ["links[0].EI"]}
 
 
 def warmup_run(name: str, scenario: Any) -> None:
-    """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_OPTIONS`."""
+    """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_SENSITIVITIES`."""
+    fields = WARMUP_SENSITIVITIES.get(name)
+    if fields:
+        from .simulation.sensitivities import simulate_with_sensitivities
+
+        # unlabelled: the installation's build environment has no xarray
+        simulate_with_sensitivities(scenario, fields, shapes=False, labelled=False)
+        return
     from .simulation import simulate
 
-    simulate(scenario, shapes=False, **WARMUP_OPTIONS.get(name, {}))
+    simulate(scenario, shapes=False)
 
 
 def warmup_scenarios() -> dict[str, Any]:
@@ -250,7 +257,7 @@ def warmup_scenarios() -> dict[str, Any]:
     free base), the nonlinear model's forward collocation (adaptive, and with a fixed `step`)
     the closed-loop Lawson loop, the kernels of mechanisms with closed loops (a
     four-bar, in both models) and the tangent loop of sensitivities (the prescribed run,
-    with `WARMUP_OPTIONS`)."""
+    with `WARMUP_SENSITIVITIES`)."""
     import copy
 
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict

@@ -212,3 +212,18 @@ def test_a_scenario_read_from_disk_takes_sensitivities() -> None:
     assert results.sensitivities.shape[2] == 1
     fd = _frozen_differences(ScenarioFile.read(path), field)
     assert _worst(results, field, fd) < 1e-6
+
+
+def test_the_installation_warm_up_of_the_tangent_loop_needs_no_xarray(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The kernel build's environment has numpy, scipy and numba only: the sensitivities'
+    warm-up run computes them without labelling them (an xarray import would fail there)."""
+    import sys
+
+    from flexlink.cli import warmup_run, warmup_scenarios
+
+    scenario = warmup_scenarios()["sensitivities"]
+    monkeypatch.setitem(sys.modules, "xarray", None)  # any `import xarray` now fails
+    warmup_run("sensitivities", scenario)
+    with pytest.raises(ImportError):
+        flexlink.simulate(scenario, sensitivities=["links[0].EI"])

@@ -202,6 +202,7 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
     """Regression: the first failure ended the command although it said it went on."""
     import flexlink._compiled_cache
     import flexlink.simulation
+    import flexlink.simulation.sensitivities
     from flexlink.cli import main, warmup_scenarios
 
     paths = [flexlink.simulation.model_path(s) for s in warmup_scenarios().values()]
@@ -214,6 +215,8 @@ def test_warmup_reports_a_failing_path_and_goes_on(monkeypatch: pytest.MonkeyPat
             raise RuntimeError("boom")
 
     monkeypatch.setattr(flexlink.simulation, "simulate", fake)
+    monkeypatch.setattr(flexlink.simulation.sensitivities, "simulate_with_sensitivities",
+                        lambda scenario, fields, **options: fake(scenario))
     assert main(["warmup"]) == 1
     assert ran == paths
     out = capsys.readouterr()
@@ -226,6 +229,7 @@ def test_warmup_does_nothing_where_the_installation_compiled_every_loop(
         tmp_path: Path) -> None:
     import flexlink._compiled_cache
     import flexlink.simulation
+    import flexlink.simulation.sensitivities
     from flexlink.cli import WARMUP_RUNS, main
 
     record = {"complete": True}
@@ -238,6 +242,8 @@ def test_warmup_does_nothing_where_the_installation_compiled_every_loop(
         print("ran")
 
     monkeypatch.setattr(flexlink.simulation, "simulate", ran)
+    monkeypatch.setattr(flexlink.simulation.sensitivities, "simulate_with_sensitivities",
+                        lambda scenario, fields, **options: ran(scenario))
     assert main(["warmup"]) == 0
     out = capsys.readouterr().out
     assert "nothing to do" in out and "ran" not in out.split()

@@ -333,9 +333,12 @@ def quotient_unit(channel: str, field: str) -> str:
 
 
 def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Sequence[str],
-                                progress: bool = False, shapes: bool = True) -> Results:
+                                progress: bool = False, shapes: bool = True,
+                                labelled: bool = True) -> Results:
     """`simulate` with the sensitivities of every channel to ``fields`` on the results
-    (`Results.sensitivities`, `Results.sensitivity`). Every check runs before the run."""
+    (`Results.sensitivities`, `Results.sensitivity`). Every check runs before the run.
+    ``labelled`` False computes them without putting them on the results (no xarray: the
+    installation's warm-up run of the tangent loop)."""
     from .common import ProgressBar, assemble_results, check_run_memory, output_times, timed
     from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
@@ -366,5 +369,6 @@ def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Seque
 
         run = replace(run, metadata={**run.metadata, **rigid_metadata(scenario, stiff)})
     results = assemble_results(scenario, run, wall_time)
-    attach(results, prepared, derivatives)
+    if labelled:
+        attach(results, prepared, derivatives)
     return results
