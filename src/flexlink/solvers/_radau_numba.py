@@ -148,6 +148,16 @@ def _piece(tab, seg, t):
     return lo
 
 
+@njit(inline="always")
+def _chebyshev(coef, piece, column, x):
+    """Σ_k coef[piece, k, column] T_k(x) by Clenshaw's recurrence (x in [-1, 1])."""
+    b1 = 0.0
+    b2 = 0.0
+    for k in range(coef.shape[1] - 1, 0, -1):
+        b1, b2 = 2.0 * x * b1 - b2 + coef[piece, k, column], b1
+    return x * b1 - b2 + coef[piece, 0, column]
+
+
 @njit(cache=True)
 def input_integral(tab, itab, seg, t, U):
     """U = the inputs' integrals from the run's start to time t (s) inside segment ``seg``
@@ -157,13 +167,8 @@ def input_integral(tab, itab, seg, t, U):
     lo = _piece(tab, seg, t)
     a, b = t0s[lo], t1s[lo]
     x = (2.0 * t - (a + b)) / (b - a)
-    deg = icoef.shape[1] - 1
-    for c in range(icoef.shape[2]):  # Clenshaw
-        b1 = 0.0
-        b2 = 0.0
-        for k in range(deg, 0, -1):
-            b1, b2 = 2.0 * x * b1 - b2 + icoef[lo, k, c], b1
-        U[c] = offset[lo, c] + x * b1 - b2 + icoef[lo, 0, c]
+    for c in range(icoef.shape[2]):
+        U[c] = offset[lo, c] + _chebyshev(icoef, lo, c, x)
 
 
 @njit(cache=True)
@@ -175,13 +180,8 @@ def input_row(tab, held_values, held, seg, t, u):
     lo = _piece(tab, seg, t)
     a, b = t0s[lo], t1s[lo]
     x = (2.0 * t - (a + b)) / (b - a)
-    deg = coef.shape[1] - 1
-    for c in range(coef.shape[2]):  # Clenshaw
-        b1 = 0.0
-        b2 = 0.0
-        for k in range(deg, 0, -1):
-            b1, b2 = 2.0 * x * b1 - b2 + coef[lo, k, c], b1
-        u[c] = x * b1 - b2 + coef[lo, 0, c]
+    for c in range(coef.shape[2]):
+        u[c] = _chebyshev(coef, lo, c, x)
     for c in range(held[0], held[1]):
         u[c] = held_values[c - held[0]]
 
