@@ -9,6 +9,7 @@ import contextlib
 import math
 import sys
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -131,13 +132,19 @@ def _run(args: argparse.Namespace, work: Any) -> int:
     return status
 
 
-def run_compare(args: argparse.Namespace) -> int:
+def _with_figure_worker(command: Callable[[argparse.Namespace, Any], int],
+                        args: argparse.Namespace) -> int:
+    """``command(args, worker)`` with the figure worker started before it and closed after."""
     worker = _start_figures(args)
     try:
-        return _compare_command(args, worker)
+        return command(args, worker)
     finally:
         if worker is not None:
             worker.close()
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    return _with_figure_worker(_compare_command, args)
 
 
 def _compare_command(args: argparse.Namespace, worker: Any) -> int:
@@ -159,12 +166,7 @@ def _compare_command(args: argparse.Namespace, worker: Any) -> int:
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    worker = _start_figures(args)
-    try:
-        return _fit_command(args, worker)
-    finally:
-        if worker is not None:
-            worker.close()
+    return _with_figure_worker(_fit_command, args)
 
 
 def _fit_command(args: argparse.Namespace, worker: Any) -> int:
