@@ -79,8 +79,8 @@ def machinery_only() -> None:
     from flexlink import load_paper_experiment
     from flexlink.batch import executors
 
-    stored = flexlink.simulation.simulate(load_paper_experiment())
-    flexlink.simulation.simulate = lambda scenario, progress=False, shapes=True: stored
+    stored = flexlink.simulation.run_scenario(load_paper_experiment(), shapes=False)
+    flexlink.simulation.run_scenario = lambda scenario, *args, **kwargs: stored
     executors._start_context = lambda: multiprocessing.get_context("fork")
 
 

@@ -18,7 +18,7 @@ from flexlink.batch import SweepError, SweepInterrupted, executors, sweep
 from flexlink.cli import main
 from flexlink.scenario import paper_experiment_path, scenario_from_dict
 from flexlink.scenario.load import read_toml
-from flexlink.simulation import simulate
+from flexlink.simulation import run_scenario, simulate
 
 SPIN = """\
 [simulation]
@@ -140,15 +140,15 @@ def test_interrupt_writes_the_finished_cases_and_raises(tmp_path: Path,
     checkpoints: list[list[str]] = []
     out = tmp_path / "spin.nc"
 
-    def interrupted_on_third(scenario, progress=False, shapes=True):
+    def interrupted_on_third(scenario, progress=False, shapes=True, channels=None):
         calls.append(1)
         if len(calls) == 3:
             with xr.open_dataset(out) as partial:  # the checkpoint after the second case
                 checkpoints.append(partial.status.values.tolist())
             raise KeyboardInterrupt
-        return simulate(scenario, progress)
+        return run_scenario(scenario, progress, shapes, channels)
 
-    monkeypatch.setattr(flexlink.simulation, "simulate", interrupted_on_third)
+    monkeypatch.setattr(flexlink.simulation, "run_scenario", interrupted_on_third)
     with pytest.raises(SweepInterrupted) as excinfo:
         sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0, 300.0, 400.0]}, workers=1,
               output=out, checkpoint_interval=0.0)
@@ -228,13 +228,13 @@ def test_command_line_interrupt_exits_130_with_the_file(tmp_path: Path,
                                                       capsys: pytest.CaptureFixture[str]) -> None:
     calls: list[int] = []
 
-    def interrupted_on_second(scenario, progress=False, shapes=True):
+    def interrupted_on_second(scenario, progress=False, shapes=True, channels=None):
         calls.append(1)
         if len(calls) == 2:
             raise KeyboardInterrupt
-        return simulate(scenario, progress)
+        return run_scenario(scenario, progress, shapes, channels)
 
-    monkeypatch.setattr(flexlink.simulation, "simulate", interrupted_on_second)
+    monkeypatch.setattr(flexlink.simulation, "run_scenario", interrupted_on_second)
     out = tmp_path / "cut.nc"
     status = main(["sweep", str(spin_file(tmp_path)), "--grid", f"{RATE}=100,200,300",
                    "--workers", "1", "-o", str(out), "-q"])
@@ -263,12 +263,12 @@ def test_a_dying_worker_fails_its_cases_and_loses_none(tmp_path: Path, forked_wo
                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     import os
 
-    def dies_on_200(scenario, progress=False, shapes=True):
+    def dies_on_200(scenario, progress=False, shapes=True, channels=None):
         if scenario.chain.joints[0].to_rate_deg_s == 200.0:
             os._exit(1)  # as a worker killed by the out-of-memory killer
-        return simulate(scenario, progress)
+        return run_scenario(scenario, progress, shapes, channels)
 
-    monkeypatch.setattr(flexlink.simulation, "simulate", dies_on_200)
+    monkeypatch.setattr(flexlink.simulation, "run_scenario", dies_on_200)
     dataset = sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0, 300.0, 400.0]}, workers=2)
     status = dataset.status.values.tolist()
     assert status[1] == "failed" and "BrokenProcessPool" in str(dataset.error.values[1])
@@ -287,16 +287,16 @@ def test_ctrl_c_ends_running_workers(tmp_path: Path, forked_workers,
 
     pids = tmp_path / "pids"
 
-    def interrupts_then_hangs(scenario, progress=False, shapes=True):
+    def interrupts_then_hangs(scenario, progress=False, shapes=True, channels=None):
         if scenario.chain.joints[0].to_rate_deg_s == 100.0:
-            return simulate(scenario, progress)
+            return run_scenario(scenario, progress, shapes, channels)
         with pids.open("a") as fh:
             fh.write(f"{os.getpid()}\n")
         os.kill(os.getppid(), signal.SIGINT)  # Ctrl-C reaches the sweep process
         signal.pause()  # a long case: must be ended, not waited for
         return None
 
-    monkeypatch.setattr(flexlink.simulation, "simulate", interrupts_then_hangs)
+    monkeypatch.setattr(flexlink.simulation, "run_scenario", interrupts_then_hangs)
     # A process started in the background by a non-interactive shell (as a CI runner may
     # start this suite) ignores SIGINT; Ctrl-C must raise KeyboardInterrupt here.
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -350,7 +350,7 @@ def test_conflicting_places_and_an_unwritable_output_fail_before_any_case_runs(
     def never(*args, **kwargs):
         raise AssertionError("a case ran")
 
-    monkeypatch.setattr(flexlink.simulation, "simulate", never)
+    monkeypatch.setattr(flexlink.simulation, "run_scenario", never)
     with pytest.raises(SweepError, match="workers .* or scheduler .*, not both"):
         sweep(spin_file(tmp_path), grid={RATE: [100.0]}, workers=2, scheduler="tcp://x:1")
     blocker = tmp_path / "a_file"

@@ -119,3 +119,48 @@ def test_a_sweep_shows_a_progress_bar_over_its_cases(capfd: pytest.CaptureFixtur
           base_dir=paper_experiment_path().parent)
     err = capfd.readouterr().err
     assert "3/3" in err and "case" in err
+
+
+KEPT = frozenset(["link2_tip_deflection", "joint1_torque", "pzt"])
+
+
+@pytest.mark.parametrize(("setter", "values"), [
+    (_set_EI, [250.0, 350.0]),
+    (_set("joints", 0, "motion", 0, "duration"), [0.25, 0.3]),
+    (_set("sensors", 2, "capacitance"), [1e-6, 2e-6]),
+], ids=["EI", "duration", "capacitance"])
+def test_a_case_that_keeps_some_channels_computes_those_alone_as_its_single_run(
+        setter, values) -> None:
+    raw = short_paper()
+    runner = CaseRunner()
+    for value in values:
+        scenario = by_hand(raw, setter, value)
+        case = runner.run(scenario, KEPT)
+        assert set(case.names) == KEPT  # nothing else read, nothing missing
+        reference = simulate(scenario)
+        for name in KEPT:
+            assert np.array_equal(case[name], reference[name]), (value, name)
+
+
+def test_the_lean_run_leaves_out_the_channels_not_kept() -> None:
+    from flexlink.simulation import run_scenario
+
+    scenario = by_hand(short_paper(), _set_EI, 300.0)
+    run, _ = run_scenario(scenario, shapes=False, channels=KEPT)
+    assert set(run.values) == KEPT
+    assert "peak_tip_deflection_per_length" in run.metadata  # the divergence check ran
+
+
+def test_a_summaries_only_sweep_equals_the_metrics_of_single_runs() -> None:
+    raw = short_paper()
+    texts = ["peak:link2_tip_deflection", "rms:pzt", "peak:joint2_torque"]
+    EIs = [250.0, 350.0]
+    dataset = sweep(raw, grid={"links[0].EI": EIs}, workers=1, histories=False,
+                    summaries=texts, base_dir=paper_experiment_path().parent)
+    from flexlink.batch.summaries import parse_summaries
+
+    for case, EI in enumerate(EIs):
+        reference = simulate(by_hand(raw, _set_EI, EI))
+        for summary in parse_summaries(texts):
+            expected = summary.evaluate(reference.time, reference[summary.channel])
+            assert float(dataset[summary.name].values[case]) == expected, (case, summary.name)

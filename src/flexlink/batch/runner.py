@@ -7,13 +7,14 @@ the case a closed loop, whose path offers no re-reading). So two cases whose sce
 equal but for their sensors have the same system, frames and solution, and the second
 case's channels are the first one's with its own sensors read from that motion: the same
 operations on the same numbers as its own run, so the same values bit for bit
-(tests/unit/test_sweep_runner.py). Every other case is its own `run_scenario` call.
+(tests/unit/test_sweep_runner.py). Every other case is its own `run_scenario` call, which
+computes only the channels the sweep keeps (its histories' and its summaries').
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,24 +50,29 @@ class CaseRunner:
     case if that one differs from it only in its sensors."""
 
     def __init__(self) -> None:
-        self._last: tuple[Scenario, PathRun] | None = None
+        self._last: tuple[Scenario, PathRun, frozenset[str] | None] | None = None
 
-    def run(self, scenario: Scenario) -> CaseRun:
-        """The case's channel values; a failure raises as `flexlink.simulate` would."""
-        from ..simulation import run_scenario  # a worker imports the simulation on first use
+    def run(self, scenario: Scenario, kept: Collection[str] | None = None) -> CaseRun:
+        """The case's channel values (``kept``: of these channels only, the only ones its run
+        computes where its path can leave the others out; None: all); a failure raises as
+        `flexlink.simulate` would. The run is `flexlink.simulation.run_scenario`, looked up
+        when called (what a test replaces to make a case fail)."""
+        from .. import simulation  # a worker imports the simulation on first use
 
+        names = None if kept is None else frozenset(kept)
         last, self._last = self._last, None  # a failing case keeps nothing
         shared = last is not None and last[1].read_sensors is not None \
-            and _equal_but_sensors(last[0], scenario)
+            and last[2] == names and _equal_but_sensors(last[0], scenario)
         if shared:
             assert last is not None and last[1].read_sensors is not None
             previous = last[1]
-            values = {**previous.values, **previous.read_sensors(scenario.sensors)}
-            run = dataclasses.replace(previous, values=values)
-        else:
-            run = run_scenario(scenario, shapes=False)[0]  # a sweep keeps no shapes
-        checked = catalogue_values(scenario, run)
-        self._last = (scenario, run)
+            read = previous.read_sensors(scenario.sensors if names is None else tuple(
+                s for s in scenario.sensors if s.name in names))
+            run = dataclasses.replace(previous, values={**previous.values, **read})
+        else:  # a sweep keeps no shapes
+            run = simulation.run_scenario(scenario, shapes=False, channels=names)[0]
+        checked = catalogue_values(scenario, run, names)
+        self._last = (scenario, run, names)
         return CaseRun(run.solution.t, {c.name: c for c, _ in checked},
                        {c.name: v for c, v in checked}, shared)
 

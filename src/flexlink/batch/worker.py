@@ -1,4 +1,5 @@
-"""What a worker runs: a chunk of cases, each through `flexlink.simulate`, one at a time.
+"""What a worker runs: a chunk of cases, each through `flexlink.simulate` up to its channel
+values (`runner.CaseRunner`), one at a time.
 
 A case that raises is recorded with its error message and the chunk goes on: one bad case
 never costs the others. Runs in a local worker process or on a Dask worker (which must be
@@ -17,7 +18,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import simulation as _simulation
 from ..channels import Channel
 from ..model import Scenario
 from ..scenario.fields import FieldPath, ScenarioFile
@@ -75,6 +75,14 @@ class Kept:
     summaries: tuple[Summary, ...] = ()
     histories: bool = True
 
+    def needed(self) -> frozenset[str] | None:
+        """The channels a case must compute: the kept histories' and the summaries' (None:
+        every channel)."""
+        if self.histories and self.channels is None:
+            return None
+        histories = (self.channels or ()) if self.histories else ()
+        return frozenset([*histories, *(s.channel for s in self.summaries)])
+
 
 def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept(),
               runner: CaseRunner | None = None) -> ChunkResult:
@@ -82,16 +90,14 @@ def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept(),
     or a `LazyCase` built here. ``runner``: the `CaseRunner` that keeps the last case's run
     for the next (default: this thread's)."""
     runner = runner or thread_runner()
-    # A replaced simulate (a test's failing case, the benchmark's stored run) is what runs.
-    run = runner.run if _simulation.simulate is _SIMULATE else \
-        (lambda scenario: _simulation.simulate(scenario, shapes=False))
     channels, summaries = kept.channels, kept.summaries
+    needed = kept.needed()
     out = ChunkResult()
     for index, case in cases:
         started, cpu_started = time.perf_counter(), time.thread_time()
         try:
             scenario = case.build() if isinstance(case, LazyCase) else case
-            results = run(scenario)
+            results = runner.run(scenario, needed)
             names = (list(channels) if channels is not None else results.names) \
                 if kept.histories else []
             missing = [n for n in [*names, *(s.channel for s in summaries)] if n not in results]
@@ -182,4 +188,3 @@ def load_compiled_code(scenario: Scenario) -> None:
 _THREAD_LIMIT: object = None
 _SHARED: SharedResults | None = None  # set in a local worker process only
 _RUNNERS = threading.local()  # a Dask worker may run chunks in several threads
-_SIMULATE = _simulation.simulate

@@ -16,8 +16,9 @@ Open-loop piezo actuators run in every path.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import replace
+from functools import partial
 from importlib import import_module
 
 import numpy as np
@@ -78,13 +79,18 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True,
     return assemble_results(scenario, *run_scenario(scenario, progress, shapes))
 
 
-def run_scenario(scenario: Scenario, progress: bool = False, shapes: bool = True
-                 ) -> tuple[PathRun, float]:
+def run_scenario(scenario: Scenario, progress: bool = False, shapes: bool = True,
+                 channels: Collection[str] | None = None) -> tuple[PathRun, float]:
     """`simulate` up to its `Results`: the path's run and its wall time (s). A sweep's
-    worker reads the channels it keeps from the run's values."""
+    worker reads the channels it keeps from the run's values. ``channels``: the only
+    channels the caller reads (None: all); the prescribed path then computes those alone
+    and its validity check without the accuracy metadata, other paths every channel."""
     check_run_memory(scenario)
     warning = stiff_forward_links(scenario)  # may refuse: before anything runs
-    path = path_function(model_path(scenario))
+    name = model_path(scenario)
+    path = path_function(name)
+    if channels is not None and name == "prescribed":
+        path = partial(path, kept=frozenset(channels))
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
     # Small matrices and batched products over time: BLAS threads only add overhead.

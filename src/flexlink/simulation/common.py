@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Self
 
@@ -176,12 +176,16 @@ def assemble_results(scenario: Scenario, run: PathRun, wall_time: float) -> Resu
     return results
 
 
-def catalogue_values(scenario: Scenario, run: PathRun) -> list[tuple[Channel, np.ndarray]]:
+def catalogue_values(scenario: Scenario, run: PathRun,
+                     kept: Collection[str] | None = None) -> list[tuple[Channel, np.ndarray]]:
     """The run's channels in the catalogue's order with their values, each checked finite
-    (NonFiniteResult)."""
-    values = dict(run.values)
+    (NonFiniteResult); ``kept``: those of these names only (the run may hold others)."""
+    values = dict(run.values) if kept is None else \
+        {name: v for name, v in run.values.items() if name in kept}
     out = []
     for channel in catalogue(scenario):
+        if kept is not None and channel.name not in kept:
+            continue
         value = values.pop(channel.name)
         _check_finite(channel.name, value, run.solution.t)
         out.append((channel, value))
