@@ -2,7 +2,7 @@
 
     python benchmarks/batch.py [--cases 1000] [--workers N] [--channels a,b] [--scheduler ADDR]
                                [--vary model|sensors] [--summaries-only] [--output FILE]
-                               [--before SRC]
+                               [--before SRC [--vary model,sensors]]
 
 The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) and both joint
 move durations (0.8-1.2 s) at random (seed 1); ``--vary sensors`` draws the sensors'
@@ -17,7 +17,10 @@ cost: the throughput it can reach at best. ``--summaries-only`` keeps per-case m
 and residual link-2 tip deflection, peak joint torques) instead of the histories: the memory
 of a large study. ``--output FILE`` writes the sweep's file too (end to end, as the command
 does). ``--before SRC`` runs the same benchmark first with the flexlink found in the source
-folder SRC (another checkout's ``src``), then this one, and prints the two side by side.
+folder SRC (another checkout's ``src``), then this one, each in a fresh process, and prints
+the two side by side, adding each process's wall and CPU time from start to exit (start-up,
+imports and writing included) and the 1-minute load average when it started; ``--vary
+model,sensors`` then does so for both kinds of variant in one run.
 """
 
 from __future__ import annotations
@@ -84,25 +87,42 @@ def machinery_only() -> None:
     executors._start_context = lambda: multiprocessing.get_context("fork")
 
 
-def side_by_side(before_src: str, argv: list[str]) -> None:
-    """This benchmark run twice in fresh processes, with ``before_src`` and then this
-    checkout's flexlink on the path; their reports in two columns."""
+def side_by_side(before_src: str, argv: list[str], varied: list[str]) -> None:
+    """This benchmark run in fresh processes for each kind of variant in ``varied``, first
+    with ``before_src`` and then with this checkout's flexlink on the path; their reports in
+    two columns, with each process's own wall and CPU time from its start to its exit
+    (interpreter start-up and imports included) and the machine's load when it started."""
     import os
+    import resource
     import subprocess
     import sys
     from pathlib import Path
 
     here = str(Path(__file__).resolve().parents[1] / "src")
-    reports = []
-    for src in (before_src, here):
-        env = {**os.environ, "PYTHONPATH": src}
-        done = subprocess.run([sys.executable, __file__, *argv], env=env, check=True,
-                              capture_output=True, text=True)
-        reports.append(done.stdout.splitlines())
-    print(reports[1][0])
-    print(f"{'':34s} {'before':>12s} {'after':>12s}   (before: {before_src})")
-    for old, new in zip(reports[0][1:], reports[1][1:], strict=True):
-        print(f"{new[:34]} {old[35:].strip():>12s} {new[35:].strip():>12s}")
+    cases = int(argv[argv.index("--cases") + 1]) if "--cases" in argv else 1000
+    for vary in varied:
+        reports = []
+        for src in (before_src, here):
+            env = {**os.environ, "PYTHONPATH": src}
+            load = os.getloadavg()[0]
+            usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+            started = time.perf_counter()
+            done = subprocess.run([sys.executable, __file__, *argv, "--vary", vary], env=env,
+                                  check=True, capture_output=True, text=True)
+            wall = time.perf_counter() - started
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = (after.ru_utime + after.ru_stime) - (usage.ru_utime + usage.ru_stime)
+            lines = done.stdout.splitlines()
+            lines += [f"{'process wall, start to exit [s]':34s} {wall:.3f}",
+                      f"{'runs per second, start to exit':34s} {cases / wall:.1f}",
+                      f"{'process CPU, start to exit [s]':34s} {cpu:.3f}",
+                      f"{'load average (1 min) at start':34s} {load:.1f}"]
+            reports.append(lines)
+        print(reports[1][0])
+        print(f"{'':34s} {'before':>12s} {'after':>12s}   (before: {before_src})")
+        for old, new in zip(reports[0][1:], reports[1][1:], strict=True):
+            print(f"{new[:34]} {old[35:].strip():>12s} {new[35:].strip():>12s}")
+        print()
 
 
 def main() -> None:
@@ -111,8 +131,9 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=None, help="default: every core")
     parser.add_argument("--channels", default=None, help="comma-separated (default: all)")
     parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
-    parser.add_argument("--vary", choices=("model", "sensors"), default="model",
-                        help="draw link 1's E and the durations (model) or the sensors' numbers")
+    parser.add_argument("--vary", default="model",
+                        help="draw link 1's E and the durations (model) or the sensors' numbers "
+                             "(sensors); with --before a comma-separated list, each side by side")
     parser.add_argument("--summaries-only", action="store_true",
                         help="keep summary metrics instead of the histories")
     parser.add_argument("--machinery-only", action="store_true",
@@ -128,14 +149,25 @@ def main() -> None:
         import sys
 
         argv = sys.argv[1:]
-        at = argv.index("--before")
-        side_by_side(args.before, argv[:at] + argv[at + 2:])
+        for option in ("--before", "--vary"):
+            if option in argv:
+                at = argv.index(option)
+                argv = argv[:at] + argv[at + 2:]
+        varied = args.vary.split(",")
+        if not set(varied) <= {"model", "sensors"}:
+            parser.error(f"--vary: model, sensors or both, got {args.vary!r}")
+        side_by_side(args.before, argv, varied)
         return
+    if args.vary not in ("model", "sensors"):
+        parser.error(f"--vary: model or sensors, got {args.vary!r}")
     if args.machinery_only:
         machinery_only()
     channels = args.channels.split(",") if args.channels else None
     workers = args.workers or available_cores()
 
+    import os
+
+    load = os.getloadavg()[0]
     started = time.perf_counter()
     random, summaries = (SENSORS, SENSOR_SUMMARIES) if args.vary == "sensors" \
         else (RANDOM, SUMMARIES)
@@ -169,6 +201,7 @@ def main() -> None:
     print(f"{'CPU time, sweep + workers [s]':34s} {cpu_seconds():.3f}")
     print(f"{'peak memory, sweep process [MB]':34s} {own:.0f}")
     print(f"{'peak memory, largest worker [MB]':34s} {child:.0f}")
+    print(f"{'load average (1 min): start, end':34s} {load:.1f}, {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":
