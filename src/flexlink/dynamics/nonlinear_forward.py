@@ -38,12 +38,14 @@ import numpy as np
 
 from ..model import Base, Chain, PiezoActuator, is_driven
 from ..model.settings import InitialName
-from .arc import ArcQuadrature, arc_quadrature
+from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .elastic_joints import spring_energy, spring_frequency
 from .forward import ForwardSystem
 from .nonlinear_bodies import body_nodes, body_rows
 from .nonlinear_kernel import NonlinearForwardData, StageInputs, forward_data, stage_rows
 from .prismatic import sliders
+
+RIGID_POINTS = 2  # Gauss points of a link without modes
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,7 +97,11 @@ class NonlinearForwardSystem:
         self.arcs: list[ForwardArc] = []
         start = 0
         for k, d in enumerate(self.modal):
-            quad = arc_quadrature(d.length, float(d.shapes.beta_l.max(initial=0.0)))
+            # A rigid link's nodes share one angle: its positions are x e(α) and its mass
+            # moments up to ∫x² dm, which two Gauss points integrate exactly.
+            quad = arc_quadrature(d.length, float(d.shapes.beta_l.max(initial=0.0)),
+                                  points_per_panel=RIGID_POINTS if d.n == 0 else
+                                  POINTS_PER_PANEL)
             self.arcs.append(ForwardArc(quad, slice(start, start + quad.size),
                                         slice(int(offsets[k]), int(offsets[k + 1])),
                                         d.shapes.evaluate(quad.x, 1)))
