@@ -90,3 +90,36 @@ def test_a_run_without_parts_carries_no_parts_metadata() -> None:
     results = flexlink.simulate(scenario_from_dict(raw))
     assert KEY not in results.metadata
     assert run_track(results).parts.bodies == ()
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_a_slider_inside_the_chain_is_a_block_on_a_line_turning_with_its_parent(
+        model: str) -> None:
+    """examples/telescoping_arm.toml: the block sits at the arm's root, on the line through
+    the boom's tip along its tip section (axis 0), at the travel the run reports; the line
+    reaches past both ends of the travel, and every frame draws the block's pixels there."""
+    raw = tomllib.loads((EXAMPLES / "telescoping_arm.toml").read_text())
+    raw["simulation"].update(t_end=2.0, dt_out=0.02, model=model)
+    results = flexlink.simulate(scenario_from_dict(raw))
+    (point, angle, ends), = run_track(results).parts.sliders
+    root = np.column_stack([results["arm_tip_X"], results["arm_tip_Y"]])  # for the length
+    tip = np.column_stack([results["boom_tip_X"], results["boom_tip_Y"]])
+    direction = np.column_stack([np.cos(angle), np.sin(angle)])
+    travel = np.sum((point - tip) * direction, axis=1)
+    # read off the drawn polylines (tangents by differences): within 0.5 mm, a quarter pixel
+    np.testing.assert_allclose(travel, results["joint2_position"], atol=5e-4)
+    across = (point - tip) @ np.array([[0.0, 1.0], [-1.0, 0.0]])
+    assert np.abs(np.sum(across * direction, axis=1)).max() < 5e-4  # on the line
+    assert np.abs(angle - results["joint1_angle"]).max() < 0.05  # the boom's tip section
+    along = np.einsum("tei,ti->te", ends - tip[:, None], direction)
+    assert np.all(along[:, 0] < 0.0) and np.all(along[:, 1] > travel)
+    assert np.abs(root - point).max() > 0.5  # the arm's tip is not its root
+    track = run_track(results)
+    scene = _Scene(np.asarray(results.time), [track], [], 1.0, 1.0, "slider", True)
+    for index in (0, 50, 100):
+        frame = scene.frame(index, float(results.time[index]), 10)
+        rows, cols = np.nonzero(np.abs(frame.astype(int) - [0xc8, 0xd0, 0xe0]).sum(-1) < 12)
+        assert rows.size > 10
+        col = scene.origin_px[0] + point[index, 0] / scene.metres_per_pixel
+        row = scene.origin_px[1] - point[index, 1] / scene.metres_per_pixel
+        assert abs(cols.mean() + 0.5 - col) < 2.0 and abs(rows.mean() + 0.5 - row) < 2.0

@@ -148,8 +148,6 @@ def test_the_example_reads_runs_and_names_its_slider_channels() -> None:
 
 
 @pytest.mark.parametrize("change, message", [
-    (lambda d: d["simulation"].update(model="nonlinear"),
-     r"joints\[1\]: a slider inside a chain runs with the first-order model"),
     (lambda d: d["joints"][1].update(rail_angle_deg=10.0),
      r"joints\[1\]: unknown key 'rail_angle_deg'"),
     (lambda d: d["joints"][1].update(travel=[0.2, 0.7]),

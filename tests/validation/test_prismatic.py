@@ -204,17 +204,20 @@ def test_equations_are_the_linearisation_of_the_exact_kinematics(stiffening: boo
 
 # --- against a geometrically exact model ---------------------------------------------------
 
-def slider_fe_case(modes: int = 6, gamma_deg: float = 0.0):
+def slider_fe_case(modes: int = 6, gamma_deg: float = 0.0, EI: float = 12.0,
+                   moment_amplitude: float = 0.6):
     """The case of the Exudyn comparison (and of benchmarks/slider_vs_fe.py): a rigid link
     (0.5 m, 2 kg/m) turned by a ±0.6 N·m bang-bang moment for 1 s, a 0.5 kg block sliding
     along its axis from 0.1 m at its tip under a ±1.5 N bang-bang force from 0.2 s to 1 s,
     carrying a beam (0.8 m, 0.6 kg/m, EI = 12 N·m², tip mass 0.2 kg) at ``gamma_deg`` from
     the line; 2 s, undamped, rtol 1e-6. Returns the flexlink scenario (first order, stiffened) and the
-    arguments of exudyn_slider_reference.simulate_slider_exudyn but the element count."""
+    arguments of exudyn_slider_reference.simulate_slider_exudyn but the element count.
+    ``EI`` (N·m²) and ``moment_amplitude`` (N·m) change the beam and the moment (the
+    nonlinear model's large-deflection case: tests/validation/test_nonlinear_prismatic.py)."""
     from flexlink.model import PointSensor
 
-    beam = Link("beam", 0.8, 0.6, 12.0, tip_mass=0.2, thickness=0.01, modes=modes)
-    moment, force = BangBang(0.6, 0.0, 1.0), BangBang(1.5, 0.2, 0.8)
+    beam = Link("beam", 0.8, 0.6, EI, tip_mass=0.2, thickness=0.01, modes=modes)
+    moment, force = BangBang(moment_amplitude, 0.0, 1.0), BangBang(1.5, 0.2, 0.8)
     gamma, block, s0 = np.radians(gamma_deg), 0.5, 0.1
     scenario = Scenario(
         Chain((Link("link", 0.5, 2.0, 1.0, modes=0), beam),

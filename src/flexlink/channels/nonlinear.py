@@ -33,7 +33,9 @@ from .shapes import POINTS, LinkShape, fractions, rigid_chain_frames
 class ArcMotion:
     """The solved motion on a nonlinear system's node axis: α, α̇, α̈ (nt, nodes) in rad,
     rad/s, rad/s²; the base's reference point R_b and R̈_b (nt, 2) in m, m/s²; each link's
-    clamped-frame (root section) angle (nt, N), rad; the elastic coordinates q (nt, n)."""
+    clamped-frame (root section) angle (nt, N), rad; the elastic coordinates q (nt, n);
+    ``lengths``: each node's length ρ, ρ̇, ρ̈ (nt, nodes) where a slider's line makes it the
+    travel (positions Σ_j W_j ρ_j e(α_j)); None: every ρ = 1."""
 
     alpha: np.ndarray
     alpha_dot: np.ndarray
@@ -42,6 +44,14 @@ class ArcMotion:
     origin_ddot: np.ndarray
     root_angle: np.ndarray
     q: np.ndarray
+    lengths: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def directions(self) -> tuple[np.ndarray, np.ndarray]:
+        """ρ cos α and ρ sin α (nt, nodes): positions are their products with W rows."""
+        c, s = np.cos(self.alpha), np.sin(self.alpha)
+        if self.lengths is None:
+            return c, s
+        return self.lengths[0] * c, self.lengths[0] * s
 
 
 def prescribed_motion(system: NonlinearSystem, solution: Solution,
@@ -86,7 +96,7 @@ def motion_sensor_values(system: Any, motion: ArcMotion,
 def motion_tip_values(system: Any, motion: ArcMotion) -> dict[str, np.ndarray]:
     """Global X and Y (m) of every link's deformed tip, by channel name."""
     out = {}
-    c, s = np.cos(motion.alpha), np.sin(motion.alpha)
+    c, s = motion.directions()
     for k, link in enumerate(system.chain.links):
         row = system.position_rows(k, np.array([link.length]))[0]
         out[tip_name(link.name, "X")] = motion.origin[:, 0] + c @ row
@@ -98,7 +108,7 @@ def motion_shapes(system: Any, motion: ArcMotion, origins: np.ndarray, theta: np
                   points: int = POINTS) -> list[LinkShape]:
     """Every link's deformed shape (exact positions) with the given rigid frames: origins
     (nt, N, 2), m, angles (nt, N), rad."""
-    c, s = np.cos(motion.alpha), np.sin(motion.alpha)
+    c, s = motion.directions()
     out = []
     for k, link in enumerate(system.chain.links):
         fraction = fractions(points)
@@ -124,7 +134,8 @@ def _read(system: Any, motion: ArcMotion, sensor: Sensor) -> np.ndarray:
 
 def normal_acceleration(system: Any, motion: ArcMotion, k: int, x: float) -> np.ndarray:
     """n(x)·(r̈(x) − g) = n·(R̈_b − g) + Σ_l W_l [cos(α_x − α_l) α̈_l + sin(α_x − α_l) α̇_l²]
-    (m/s²): the specific force an accelerometer reads (its proof mass feels no gravity)."""
+    (m/s²): the specific force an accelerometer reads (its proof mass feels no gravity); a
+    slider's line node l adds its length's terms, n·[ρ(α̈ e⊥ − α̇² e) + 2ρ̇α̇ e⊥ + ρ̈ e]."""
     row = system.position_rows(k, np.array([x]))[0]
     arc = system.arcs[k]
     slope = system.modal[k].shapes.evaluate(np.array([x]), 1)[0]
@@ -133,4 +144,9 @@ def normal_acceleration(system: Any, motion: ArcMotion, k: int, x: float) -> np.
     gx, gy = system.gravity
     base = (-np.sin(angle_x) * (motion.origin_ddot[:, 0] - gx)
             + np.cos(angle_x) * (motion.origin_ddot[:, 1] - gy))
-    return base + (np.cos(diff) * motion.alpha_ddot + np.sin(diff) * motion.alpha_dot**2) @ row
+    if motion.lengths is None:
+        return base + (np.cos(diff) * motion.alpha_ddot
+                       + np.sin(diff) * motion.alpha_dot**2) @ row
+    rho, rho_d, rho_dd = motion.lengths
+    return base + (np.cos(diff) * (rho * motion.alpha_ddot + 2.0 * rho_d * motion.alpha_dot)
+                   + np.sin(diff) * (rho * motion.alpha_dot**2 - rho_dd)) @ row

@@ -21,8 +21,11 @@ def forward_motion(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray,
     alpha, alpha_d, alpha_dd, R, _, Rdd = system.node_motion(t, y, v, a)
     p, _, _ = system.rigid_state(t, y, v, a)
     q = y[:, :system.n]
+    lengths = (system.line_weights(y, v, a, system.stage_inputs(t)) if system.slides
+               else None)
     return ArcMotion(alpha, alpha_d, alpha_dd, R, Rdd,
-                     q @ system.root_A.T + p @ system.root_B.T + system.root_offset, q)
+                     q @ system.root_A.T + p @ system.root_B.T + system.root_offset
+                     + system.link_offset, q, lengths)
 
 
 def forward_values(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray, v: np.ndarray,

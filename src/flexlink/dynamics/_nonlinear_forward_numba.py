@@ -29,8 +29,19 @@ def residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
     m = n + nu
     # a cart's s̈ along its rail: y's, or the prescribed travel's input column
     rail_acc = X[n] if d.cart == 1 else (u[u.shape[0] - 2] if d.cart == 2 else 0.0)
+    # each slider's travel, speed, acceleration: y's, or its prescribed input columns
+    lines = d.line_node.shape[0]
+    line_s = np.empty((lines, 3))
+    for i in range(lines):
+        col = d.line_col[i]
+        if col >= 0:
+            line_s[i, 0], line_s[i, 1], line_s[i, 2] = Y[col], V[col], X[col]
+        else:
+            for r in range(3):
+                line_s[i, r] = u[d.line_u[i, r]]
     inertia_elastic(d.Ay, d.G, d.s, d.m_tot, d.translation, d.rot_y, d.rot_J, d.Dq, d.Kq, n, nu,
-                    d.gravity, d.cart, d.rail, rail_acc, Y, V, X, ang, rate, acc, rot_acc, out)
+                    d.gravity, d.cart, d.rail, rail_acc, d.line_node, d.line_col, line_s, Y, V,
+                    X, ang, rate, acc, rot_acc, out)
     if nu > 0 or d.actuator_B.shape[1] > 0:
         p = np.zeros(d.n_rigid)
         pd = np.zeros(d.n_rigid)

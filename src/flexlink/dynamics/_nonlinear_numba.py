@@ -16,29 +16,41 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 
 @njit(cache=True)
 def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, gravity, cart,
-                    rail, rail_acc, Y, V, X, ang, rate, acc, rot_acc, out):
+                    rail, rail_acc, line_node, line_col, line_s, Y, V, X, ang, rate, acc,
+                    rot_acc, out):
     """Generalized inertia + damping + elastic forces of one state into ``out`` (rows
     [q, p_free] of y; rows beyond them zeroed) — NonlinearSystem.residual and
     NonlinearForwardSystem._inertia written as loops, for either record of
-    `nonlinear_kernel.py`, whose fields (Ay … rail) it takes one by one: each call of a
-    compiled function takes a record's arrays one by one, so the residuals unpack theirs
-    once. Y, V, X: the unknowns' values, rates and accelerations; ang, rate, acc (nodes,),
-    rot_acc (n_rot,): the prescribed parts; rail_acc: a cart's s̈ along ``rail``, m/s²
-    (cart 1: X[n]; cart 2: its prescribed travel's).
+    `nonlinear_kernel.py`, whose fields (Ay … rail, line_node, line_col) it takes one by one:
+    each call of a compiled function takes a record's arrays one by one, so the residuals
+    unpack theirs once. Y, V, X: the unknowns' values, rates and accelerations; ang, rate,
+    acc (nodes,), rot_acc (n_rot,): the prescribed parts; rail_acc: a cart's s̈ along
+    ``rail``, m/s² (cart 1: X[n]; cart 2: its prescribed travel's); line_s (n_lines, 3): each
+    slider's travel s, ṡ, s̈ (m, m/s, m/s²), the length of its line node ``line_node``.
 
-    Node j turns by α_j = ang_j + Ay_j·y (rates and accelerations alike); its generalized
-    inertia moment on its angle is u_j = c_j (G S)_j0 − c_j (G S)_j3 + s_j ((G S)_j1 +
-    (G S)_j2), S = [c α̈, s α̈, c α̇², s α̇²] per node, G the nodes' coupling weights
-    (docs/nonlinear.md), plus lift_j e⊥(α_j)·(R̈_b − g): the base point's acceleration
-    minus gravity (global axes) acting on the masses the node carries (lift = Wᵀm). This is
-    where gravity enters the nonlinear model (equivalence principle: the field is the base's
-    acceleration −g); on a free base the same R̈_b − g drives the translation rows, on a
-    cart with a free travel its component along the rail drives row n."""
+    Node j turns by α_j = ang_j + Ay_j·y (rates and accelerations alike) and has the length
+    ρ_j (1, a slider's line node its travel s). Its contribution to the accelerations of the
+    points it carries is a_j = ρ(α̈ e⊥ − α̇² e) + 2ρ̇α̇ e⊥ + ρ̈ e (e = e(α_j)); with
+    F_j = Σ_l G_jl a_l + lift_j (R̈_b − g) its generalized inertia moment on its angle is
+    u_j = ρ_j e⊥_j·F_j and a line's force on its travel e_j·F_j (docs/nonlinear.md §7), G the
+    nodes' coupling weights, lift = Wᵀm the mass each node carries, R̈_b − g the base point's
+    acceleration minus gravity (global axes). This is where gravity enters the nonlinear model
+    (equivalence principle: the field is the base's acceleration −g); on a free base the same
+    R̈_b − g drives the translation rows, on a cart with a free travel its component along the
+    rail drives row n."""
     nodes = Ay.shape[0]
     m = n + nu  # columns with node angles
     c = np.empty(nodes)
     s = np.empty(nodes)
     S = np.empty((nodes, 4))
+    line_f = np.empty(line_node.shape[0])  # the inertia force along each line
+    rho = np.ones(nodes)
+    rho_d = np.zeros(nodes)
+    rho_dd = np.zeros(nodes)
+    for i in range(line_node.shape[0]):
+        rho[line_node[i]] = line_s[i, 0]
+        rho_d[line_node[i]] = line_s[i, 1]
+        rho_dd[line_node[i]] = line_s[i, 2]
     rx, ry = -gravity[0], -gravity[1]
     if translation:
         rx, ry = X[n] + rx, X[n + 1] + ry
@@ -57,11 +69,13 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
                 alpha_ddot += a * X[i]
         c[j] = np.cos(alpha)
         s[j] = np.sin(alpha)
-        v2 = alpha_dot * alpha_dot
-        S[j, 0] = c[j] * alpha_ddot
-        S[j, 1] = s[j] * alpha_ddot
-        S[j, 2] = c[j] * v2
-        S[j, 3] = s[j] * v2
+        # a_j = T e⊥ − R e: T = ρα̈ + 2ρ̇α̇, R = ρα̇² − ρ̈ (α̈ and α̇² where ρ = 1)
+        tangential = rho[j] * alpha_ddot + 2.0 * rho_d[j] * alpha_dot
+        radial = rho[j] * (alpha_dot * alpha_dot) - rho_dd[j]
+        S[j, 0] = c[j] * tangential
+        S[j, 1] = s[j] * tangential
+        S[j, 2] = c[j] * radial
+        S[j, 3] = s[j] * radial
     out[:] = 0.0
     fx = fy = 0.0
     for j in range(nodes):
@@ -75,6 +89,7 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
             g1 += w * S[k, 1]
             g2 += w * S[k, 2]
             g3 += w * S[k, 3]
+        # F_j = Σ_l G_jl a_l + lift_j (R̈_b − g) = (−g1 − g2, g0 − g3) + lift_j (rx, ry)
         uj = c[j] * (g0 - g3) + s[j] * (g1 + g2)
         if rx != 0.0 or ry != 0.0:
             uj += lift[j] * (c[j] * ry - s[j] * rx)
@@ -82,7 +97,14 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
             fx += lift[j] * (-S[j, 1] - S[j, 2])
             fy += lift[j] * (S[j, 0] - S[j, 3])
         for i in range(m):
-            out[i] += Ay[j, i] * uj
+            out[i] += Ay[j, i] * rho[j] * uj
+        for i in range(line_node.shape[0]):
+            if line_node[i] == j:
+                line_f[i] = (c[j] * (lift[j] * rx - g1 - g2)
+                             + s[j] * (g0 - g3 + lift[j] * ry))
+    for i in range(line_node.shape[0]):
+        if line_col[i] >= 0:  # a free travel: the inertia force along its line
+            out[line_col[i]] += line_f[i]
     for r in range(rot_J.shape[0]):
         if rot_J[r] == 0.0:
             continue
@@ -108,7 +130,8 @@ def residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
     with prescribed joints (d: NonlinearData) into ``out`` — NonlinearSystem.residual
     (rot_acc: the tips' prescribed angular accelerations)."""
     inertia_elastic(d.Ay, d.G, d.s, d.m_tot, d.translation, d.rot_y, d.rot_J, d.Dq, d.Kq, d.n,
-                    d.nu, d.gravity, d.cart, d.rail, 0.0, Y, V, X, ang, rate, acc, rot_acc, out)
+                    d.nu, d.gravity, d.cart, d.rail, 0.0, d.line_node, d.line_col,
+                    np.zeros((0, 3)), Y, V, X, ang, rate, acc, rot_acc, out)
     for i in range(d.n):
         out[i] -= u[i]
 

@@ -249,7 +249,9 @@ class NonlinearSystem:
                 m_tot=float(self.point_mass.sum()), translation=False,
                 rot_y=c(self.tip_A, dtype=float), rot_J=c(self.tip_inertia, dtype=float),
                 Dq=c(self.D, dtype=float), Kq=c(self.K, dtype=float), n=self.n, nu=0,
-                gravity=c(self.gravity, dtype=float), cart=0, rail=np.zeros(2))
+                gravity=c(self.gravity, dtype=float), cart=0, rail=np.zeros(2),
+                line_node=np.zeros(0, dtype=np.int64), line_col=np.zeros(0, dtype=np.int64),
+                line_u=np.zeros((0, 3), dtype=np.int64))
         return self._kernel_data
 
     def voltages(self, t: np.ndarray) -> np.ndarray:

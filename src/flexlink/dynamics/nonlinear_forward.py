@@ -38,11 +38,14 @@ import numpy as np
 
 from ..model import Base, Chain, PiezoActuator, is_driven
 from ..model.settings import InitialName
-from .arc import ArcQuadrature, arc_quadrature
+from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
 from .elastic_joints import spring_energy, spring_frequency
 from .forward import ForwardSystem
 from .nonlinear_bodies import body_nodes, body_rows
 from .nonlinear_kernel import NonlinearForwardData, StageInputs, forward_data, stage_rows
+from .prismatic import sliders
+
+RIGID_POINTS = 2  # Gauss points of a link without modes
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,6 +76,7 @@ class NonlinearForwardSystem:
         # force B V on q is the same function in both models, ψ = Φ′q being exact): the
         # first-order forward model's (its gravity: the kernels read it from its data).
         self.loads = ForwardSystem(chain, base, actuators=actuators, gravity=gravity)
+        self.chain = chain = self.loads.chain  # a slider's block: a body at its link's root
         self.actuators = self.loads.actuators
         self.modal = self.loads.modal
         N = len(chain.links)
@@ -93,7 +97,11 @@ class NonlinearForwardSystem:
         self.arcs: list[ForwardArc] = []
         start = 0
         for k, d in enumerate(self.modal):
-            quad = arc_quadrature(d.length, float(d.shapes.beta_l.max(initial=0.0)))
+            # A rigid link's nodes share one angle: its positions are x e(α) and its mass
+            # moments up to ∫x² dm, which two Gauss points integrate exactly.
+            quad = arc_quadrature(d.length, float(d.shapes.beta_l.max(initial=0.0)),
+                                  points_per_panel=RIGID_POINTS if d.n == 0 else
+                                  POINTS_PER_PANEL)
             self.arcs.append(ForwardArc(quad, slice(start, start + quad.size),
                                         slice(int(offsets[k]), int(offsets[k + 1])),
                                         d.shapes.evaluate(quad.x, 1)))
@@ -104,6 +112,13 @@ class NonlinearForwardSystem:
             if c is not None and np.hypot(*c) > 0.0:
                 self.pivot[k] = start
                 start += 1
+        # A slider's line (dynamics/prismatic.py): one node turned by the axis angle from the
+        # parent's tip section, its length the travel s (`line_weights`).
+        self.slides = sliders(chain.joints)
+        self.line_node = {}
+        for k in self.slides:
+            self.line_node[k] = start
+            start += 1
         bodies = start  # then one node per body offset along its section
         self.nodes = nodes = start + body_nodes(chain)
         A = np.zeros((nodes, n))
@@ -113,7 +128,8 @@ class NonlinearForwardSystem:
         self.root_B = np.zeros((N, nr))  # … on p
         self.tip_A = np.zeros((N, n))
         self.tip_B = np.zeros((N, nr))
-        self.root_W = np.zeros((N, nodes))  # root position − R_b = root_W e(α)
+        self.root_W = np.zeros((N, nodes))  # root position − R_b = root_W ρ e(α)
+        self.link_offset = np.zeros(N)  # the sliders' link angles in each clamped frame, rad
         for k, (arc, d) in enumerate(zip(self.arcs, self.modal)):
             c = self.attach[k]
             if c is not None:
@@ -128,7 +144,16 @@ class NonlinearForwardSystem:
                 self.root_A[k], self.root_B[k] = self.tip_A[k - 1], self.tip_B[k - 1]
                 self.root_W[k] = self.root_W[k - 1]
                 self.root_W[k, self.arcs[k - 1].nodes] = self.arcs[k - 1].quad.w
-            self.root_B[k, nb + k] += 1.0
+                self.link_offset[k] = self.link_offset[k - 1]
+            if k in self.line_node:  # link k rides its parent's line: no angle of its own
+                joint, j = chain.joints[k], self.line_node[k]
+                A[j], B[j] = self.tip_A[k - 1], self.tip_B[k - 1]
+                self.offset[j] = self.link_offset[k - 1] + joint.axis_angle
+                self.root_W[k, j] = 1.0
+                self.link_offset[k] += joint.link_angle
+            else:
+                self.root_B[k, nb + k] += 1.0
+            self.offset[arc.nodes] = self.link_offset[k]
             A[arc.nodes] = self.root_A[k]
             A[arc.nodes, arc.coords] = arc.dphi
             B[arc.nodes] = self.root_B[k]
@@ -152,7 +177,7 @@ class NonlinearForwardSystem:
             rows.append(body.W)
             masses.append(body.mass)
             A[body.nodes], B[body.nodes] = body.node_A, body.node_B
-            self.offset[body.nodes] = body.node_offset
+            self.offset[body.nodes] = body.node_offset + self.link_offset[k]
             bodies += len(body.nodes)
             rot_A.extend(body.rot_A)
             rot_B.extend(body.rot_B)
@@ -205,6 +230,13 @@ class NonlinearForwardSystem:
         # A cart: its rail direction, and whether its travel s is y[n] (else an input).
         self.rail = None if base.cart is None else np.array(base.cart.direction)
         self.cart_free = base.cart is not None and not base.cart.prescribed
+        # Each slider's line node, the column of its travel in y (−1: prescribed, an input)
+        # and its prescribed travel's input columns (s, ṡ, s̈: `forward_kernel.inputs`).
+        self.lines = np.array([self.line_node[k] for k in self.slides], dtype=np.int64)
+        self.line_col = np.array([n + self.free.index(nb + k) if nb + k in self.free else -1
+                                  for k in self.slides], dtype=np.int64)
+        self.line_u = np.array([[k, N + k, 2 * N + k] for k in self.slides],
+                               dtype=np.int64).reshape(len(self.slides), 3)
 
     # -- geometry -----------------------------------------------------------------------------
     def position_rows(self, k: int, x: np.ndarray) -> np.ndarray:
@@ -289,17 +321,35 @@ class NonlinearForwardSystem:
                            pres[2] @ rot.T, inputs(self.loads, t))
 
     # -- equations ----------------------------------------------------------------------------
+    def line_weights(self, y: np.ndarray, v: np.ndarray, a: np.ndarray, inp: StageInputs
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each node's length ρ and its rate and acceleration (b, nodes): 1, 0, 0 except on a
+        slider's line, where they are its travel s, ṡ, s̈ (m, m/s, m/s²): y's when free, the
+        input rows' when prescribed."""
+        shape = y.shape[:-1] + (self.nodes,)
+        rho, rho_d, rho_dd = np.ones(shape), np.zeros(shape), np.zeros(shape)
+        for i, (node, col) in enumerate(zip(self.lines, self.line_col)):
+            for r, (out, x) in enumerate(zip((rho, rho_d, rho_dd), (y, v, a))):
+                out[..., node] = x[..., col] if col >= 0 else inp.u[..., self.line_u[i, r]]
+        return rho, rho_d, rho_dd
+
     def _inertia(self, y: np.ndarray, v: np.ndarray, a: np.ndarray, inp: StageInputs
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...],
+                            np.ndarray]:
         """ũ (b, nodes), the translation force F (b, 2) and the rotary torques J α̈ (b, n_rot)
-        of the motion y, ẏ, ÿ; and the node angles, rates, accelerations."""
+        of the motion y, ẏ, ÿ; the node angles, rates, accelerations; and the inertia force
+        along each slider's line (b, n_lines), N (gravity included)."""
         alpha = y @ self.Ay.T + inp.angle
         alpha_d = v @ self.Ay.T + inp.rate
         alpha_dd = a @ self.Ay.T + inp.acceleration
         c, s = np.cos(alpha), np.sin(alpha)
-        w2 = alpha_d**2
-        g = [(x @ self.G) for x in (c * alpha_dd, s * alpha_dd, c * w2, s * w2)]  # G symmetric
-        u = c * (g[0] - g[3]) + s * (g[1] + g[2])
+        rho, rho_d, rho_dd = self.line_weights(y, v, a, inp)
+        # a_j = ρ(α̈ e⊥ − α̇² e) + 2ρ̇α̇ e⊥ + ρ̈ e = T e⊥ − R e; F_j = Σ_l G_jl a_l
+        tangential = rho * alpha_dd + 2.0 * rho_d * alpha_d
+        radial = rho * alpha_d**2 - rho_dd
+        g = [(x @ self.G) for x in (c * tangential, s * tangential, c * radial, s * radial)]
+        u = c * (g[0] - g[3]) + s * (g[1] + g[2])  # e⊥_j·F_j (G symmetric)
+        Fx, Fy = -(g[1] + g[2]), g[0] - g[3]
         F = np.zeros(y.shape[:-1] + (2,))
         # The base point's acceleration minus gravity (global axes): where the field enters
         # this model (equivalence principle), as −g on a base that does not translate.
@@ -311,11 +361,14 @@ class NonlinearForwardSystem:
             Rdd = self._cart_acceleration(a, inp)[..., None] * self.rail + Rdd
         if self.translation or self.rail is not None or self.gravity.any():
             u = u + self.s * (-s * Rdd[..., :1] + c * Rdd[..., 1:])
+            Fx, Fy = Fx + self.s * Rdd[..., :1], Fy + self.s * Rdd[..., 1:]
+        line = (c * Fx + s * Fy)[..., self.lines]  # e_l·F_l on each slider's travel
+        u = rho * u
         if self.translation or self.rail is not None:
-            F = self.m_tot * Rdd + np.stack([(-s * alpha_dd - c * w2) @ self.s,
-                                             (c * alpha_dd - s * w2) @ self.s], -1)
+            F = self.m_tot * Rdd + np.stack([(-s * tangential - c * radial) @ self.s,
+                                             (c * tangential - s * radial) @ self.s], -1)
         rot = (a @ self.rot_y.T + inp.rot_acceleration) * self.rot_J
-        return u, F, rot, (alpha, alpha_d, alpha_dd)
+        return u, F, rot, (alpha, alpha_d, alpha_dd), line
 
     def _cart_acceleration(self, a: np.ndarray, inp: StageInputs) -> np.ndarray:
         """A cart's s̈ (b,), m/s²: y's when its travel is free, else its input column."""
@@ -335,8 +388,10 @@ class NonlinearForwardSystem:
         """Inertia + damping + elastic − applied forces on y (b, n_y), and on σ the
         difference of σ̈ and the integral rate: zero on a solution."""
         n, nu = self.n, self.nu
-        u, F, rot, _ = self._inertia(y, v, a, inp)
+        u, F, rot, _, line = self._inertia(y, v, a, inp)
         out = u @ self.Ay + rot @ self.rot_y
+        free = self.line_col >= 0
+        out[:, self.line_col[free]] += line[:, free]  # a free travel: the force along its line
         out[:, :n] += v[:, :n] @ self.D + y[:, :n] @ self.K
         if self.translation:
             out[:, n:n + 2] += F
@@ -383,7 +438,9 @@ class NonlinearForwardSystem:
                 "rot_J": c(self.rot_J), "Dq": c(self.D), "Kq": c(self.K), "n": self.n,
                 "nu": self.nu, "gravity": c(self.gravity, dtype=float),
                 "cart": 0 if self.rail is None else (1 if self.cart_free else 2),
-                "rail": np.zeros(2) if self.rail is None else c(self.rail, dtype=float)},
+                "rail": np.zeros(2) if self.rail is None else c(self.rail, dtype=float),
+                "line_node": c(self.lines), "line_col": c(self.line_col),
+                "line_u": c(self.line_u)},
                 forward_kernel.pack(self.loads))
         return self._kernel_data
 
@@ -391,16 +448,19 @@ class NonlinearForwardSystem:
     def joint_torques(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
                       ) -> np.ndarray:
         """Torque each joint's motor applies (b, N), N·m: the generalized inertia force of β_k
-        (with the motor inertia; for a driven joint equal to its drive torque)."""
-        u, _, rot, _ = self._inertia(y, v, a, self.stage_inputs(t))
+        (with the motor inertia; for a driven joint equal to its drive torque); a slider's
+        column: the force along its line, N (the drive's, or what a prescribed travel takes)."""
+        u, _, rot, _, line = self._inertia(y, v, a, self.stage_inputs(t))
         joints = slice(self.n_base, self.n_base + len(self.chain.links))
-        return u @ self.B[:, joints] + rot @ self.rot_B[:, joints]
+        out = u @ self.B[:, joints] + rot @ self.rot_B[:, joints]
+        out[:, self.slides] = line
+        return out
 
     def cart_force(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
                    ) -> np.ndarray:
         """Force along the rail (b,), N, that a cart's drive applies: the inertia force of
         the whole system along the rail (gravity included) less the base loads along it."""
-        _, F, _, _ = self._inertia(y, v, a, self.stage_inputs(t))
+        _, F, _, _, _ = self._inertia(y, v, a, self.stage_inputs(t))
         return F @ self.rail - self.loads.rail_loads(t)
 
     def node_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
@@ -421,10 +481,14 @@ class NonlinearForwardSystem:
     def point_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray]:
         """Positions and velocities (b, points, 2) of the point masses, global (m, m/s)."""
-        alpha, alpha_d, _, R, Rd, _ = self.node_motion(t, y, v, np.zeros_like(y))
+        zero = np.zeros_like(y)
+        alpha, alpha_d, _, R, Rd, _ = self.node_motion(t, y, v, zero)
+        rho, rho_d, _ = self.line_weights(y, v, zero, self.stage_inputs(t))
         c, s = np.cos(alpha), np.sin(alpha)
-        r = np.stack([c @ self.W.T, s @ self.W.T], -1) + R[:, None]
-        rd = np.stack([(-s * alpha_d) @ self.W.T, (c * alpha_d) @ self.W.T], -1) + Rd[:, None]
+        r = np.stack([(rho * c) @ self.W.T, (rho * s) @ self.W.T], -1) + R[:, None]
+        rate = rho * alpha_d
+        rd = np.stack([(rho_d * c - s * rate) @ self.W.T, (rho_d * s + c * rate) @ self.W.T],
+                      -1) + Rd[:, None]
         return r, rd
 
     def rotary_rates(self, t: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -490,6 +554,12 @@ class NonlinearForwardSystem:
                 origin[:, k] = origin[:, k - 1] + L * np.stack(
                     [np.cos(angle[:, k - 1]), np.sin(angle[:, k - 1])], -1)
                 angle[:, k] = angle[:, k - 1] + p[:, nb + k]
+                if k in self.line_node:  # on the block, along the line
+                    joint = self.chain.joints[k]
+                    line = angle[:, k - 1] + joint.axis_angle
+                    origin[:, k] += p[:, nb + k, None] * np.stack([np.cos(line), np.sin(line)],
+                                                                   -1)
+                    angle[:, k] = angle[:, k - 1] + joint.link_angle
         return origin, angle
 
     @property

@@ -21,7 +21,7 @@ from .forward_kernel import ForwardData
 
 NonlinearData = namedtuple("NonlinearData", [
     "Ay", "G", "s", "m_tot", "translation", "rot_y", "rot_J", "Dq", "Kq", "n", "nu", "gravity",
-    "cart", "rail"])
+    "cart", "rail", "line_node", "line_col", "line_u"])
 NonlinearData.__doc__ = """Constant arrays of the nonlinear model for the compiled kernels (SI
 units, global axes). Unknowns y: the n elastic coordinates q, then the nu free rigid
 coordinates (none with every joint prescribed), then the servo integrals.
@@ -38,7 +38,12 @@ coordinates (none with every joint prescribed), then the servo integrals.
 - gravity (2,): the uniform field [gx, gy], m/s²;
 - cart: 0 no cart (every model with prescribed joints), 1 a cart whose travel s along its
   rail is y[n], 2 a cart with a prescribed travel (s̈ from the forward input row);
-- rail (2,): the cart's rail direction (zero without a cart)."""
+- rail (2,): the cart's rail direction (zero without a cart);
+- line_node, line_col (n_lines,) int: per slider inside the chain (dynamics/prismatic.py) the
+  node of its line, whose length is the travel s, and the column of s in y (−1 when the
+  travel is prescribed);
+- line_u (n_lines, 3) int: a prescribed travel's columns s, ṡ, s̈ (m, m/s, m/s²) in the
+  forward input rows (`forward_kernel.inputs`; unused when free)."""
 
 NonlinearForwardData = namedtuple("NonlinearForwardData", NonlinearData._fields + tuple(
     name for name in ForwardData._fields if name not in NonlinearData._fields))

@@ -28,9 +28,6 @@ def check_slider(scenario: Any, k: int) -> None:
     if scenario.base is not None and scenario.base.kind != "fixed":
         raise ValueError(f"{where}: a slider inside a chain is modelled on a fixed base only "
                          f"(base.type = {scenario.base.kind!r}); use a fixed base")
-    if scenario.settings.model != "first_order":
-        raise ValueError(f"{where}: a slider inside a chain runs with the first-order model "
-                         "only; set simulation.model = \"first_order\"")
     if scenario.closures:
         raise ValueError(f"{where}: a slider inside a chain does not run with closed loops "
                          "([[closures]]) yet")

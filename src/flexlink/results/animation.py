@@ -228,7 +228,8 @@ class _Scene:
                 xs.append(track.rail[:, 0])
                 ys.append(track.rail[:, 1])
             parts = track.parts
-            for points in ([c for _, c in parts.bodies] + [e for _, _, e in parts.sliders]
+            for points in ([c for _, c in parts.bodies]
+                           + [e.reshape(-1, 2) for _, _, e in parts.sliders]
                            + ([parts.pivots] if parts.pivots is not None else [])):
                 xs.append(points[:, 0])
                 ys.append(points[:, 1])
@@ -303,7 +304,8 @@ class _Scene:
     def _parts_artists(self, ax: object) -> None:
         """A run's bodies (a disc at the centre of mass on a stalk from its section point),
         closing pins (open rings), ground pivots (triangles, static) and sliders (a block on
-        its dashed line, static): drawn for the first track (a run has one)."""
+        its dashed line, static; a slider inside the chain's line moves with its parent's
+        tip): drawn for the first track (a run has one)."""
         add = ax.add_line  # type: ignore[attr-defined]
         parts = self.tracks[0].parts
         self.part_artists: list = []
@@ -320,12 +322,18 @@ class _Scene:
                     marker="^", color="0.3", markersize=8, linestyle="none")
         self.slider_blocks = []
         for point, angle, ends in parts.sliders:
-            ax.plot(ends[:, 0], ends[:, 1], color="#707070", linewidth=1.5,  # type: ignore[attr-defined]
-                    linestyle="--", zorder=0)
+            rail = None
+            if ends.ndim == 2:
+                ax.plot(ends[:, 0], ends[:, 1], color="#707070", linewidth=1.5,  # type: ignore[attr-defined]
+                        linestyle="--", zorder=0)
+            else:  # on a moving link: redrawn every frame
+                rail = add(Line2D([], [], color="#707070", linewidth=1.5, linestyle="--",
+                                  zorder=2, animated=True))
+                self.part_artists.append(rail)
             block = Polygon(np.zeros((4, 2)), closed=True, facecolor="#c8d0e0",
                             edgecolor="#404860", animated=True, zorder=3)
             ax.add_patch(block)  # type: ignore[attr-defined]
-            self.slider_blocks.append((block, point, angle))
+            self.slider_blocks.append((block, point, angle, rail, ends))
             self.part_artists.append(block)
 
     def _place_parts(self, index: int) -> None:
@@ -341,7 +349,10 @@ class _Scene:
         self.pin_marks.set_data([p[index, 0] for p in parts.pins],
                                 [p[index, 1] for p in parts.pins])
         half = 0.035 * self.reach
-        for block, point, angle in self.slider_blocks:
+        for block, point, angle, rail, ends in self.slider_blocks:
+            if rail is not None:
+                rail.set_data(ends[index, :, 0], ends[index, :, 1])
+                angle = angle[index]
             c, s = math.cos(angle), math.sin(angle)
             corners = np.array([[-1.4 * half, -half], [1.4 * half, -half],
                                 [1.4 * half, half], [-1.4 * half, half]])

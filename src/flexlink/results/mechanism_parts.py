@@ -12,7 +12,10 @@ results.mat keep it and a run folder is drawn as the run was):
   ``(gx, gy)`` (m, global);
 - ``sliders``: ``[link, x, gx, gy, angle]``, a slider closure keeping the point ``x`` of
   ``link`` on the fixed line through ``(gx, gy)`` at ``angle`` (rad from global X);
-- ``pivots``: links other than the first whose joint sits on a fixed base.
+- ``pivots``: links other than the first whose joint sits on a fixed base;
+- ``rails``: ``[link, axis]``, a slider inside the chain (`model.PrismaticJoint`): link
+  ``link`` rides on a block along the line through the tip of link ``link`` − 1 at ``axis``
+  (rad) from that tip's section, the line turning with it.
 
 Positions over time are read off the drawn (possibly magnified) link polylines: a point at
 ``x`` is interpolated between the stored points, the section's angle is the polyline's
@@ -46,8 +49,11 @@ def parts_metadata(scenario: Any) -> dict[str, str]:
     base = scenario.base
     pivots = ([k for k, _ in base.attachments if k != 0]
               if base is not None and base.kind == "fixed" else [])
+    rails = [[k, joint.axis_angle] for k, joint in enumerate(scenario.chain.joints)
+             if hasattr(joint, "axis_angle")]
     parts = {name: value for name, value in (("bodies", bodies), ("pins", pins),
-                                             ("sliders", sliders), ("pivots", pivots)) if value}
+                                             ("sliders", sliders), ("pivots", pivots),
+                                             ("rails", rails)) if value}
     return {KEY: json.dumps(parts, separators=(",", ":"))} if parts else {}
 
 
@@ -56,7 +62,8 @@ class DrawnParts:
     """What to draw over time (global frame, m): ``bodies`` (anchor, centre), each (nt, 2):
     the section point and the body's centre of mass; ``pins`` (nt, 2) each: the moving pins;
     ``pivots`` (n, 2): fixed ground pivots; ``sliders`` (point (nt, 2), angle rad, line ends
-    (2, 2)): a block on its line."""
+    (2, 2)): a block on its line; a slider inside the chain's line moves: its angle (nt,)
+    and ends (nt, 2, 2)."""
 
     bodies: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
     pins: tuple[np.ndarray, ...] = ()
@@ -103,6 +110,17 @@ def drawn_parts(metadata: Mapping[str, Any], links: Sequence[tuple[np.ndarray, n
         ends = np.array([gx, gy]) + np.outer([along.min() - 0.25 * reach,
                                               along.max() + 0.25 * reach], direction)
         sliders.append((point, float(angle), ends))
+    for link, axis in parts.get("rails", ()):
+        X, Y = links[int(link)]
+        point = np.column_stack([X[:, 0], Y[:, 0]])  # the block: the carried link's root
+        tip, tip_angle = at(int(link) - 1, lengths[int(link) - 1])
+        angle = tip_angle + float(axis)
+        direction = np.column_stack([np.cos(angle), np.sin(angle)])
+        along = np.sum((point - tip) * direction, axis=1)
+        reach = max(float(np.ptp(along)), 0.1 * float(lengths[int(link)]))
+        low, high = min(float(along.min()), 0.0) - 0.25 * reach, float(along.max()) + 0.25 * reach
+        ends = tip[:, None, :] + np.array([low, high])[None, :, None] * direction[:, None, :]
+        sliders.append((point, angle, ends))
     return DrawnParts(tuple(bodies), tuple(pins),
                       np.array(fixed, dtype=float) if fixed else None, tuple(sliders))
 

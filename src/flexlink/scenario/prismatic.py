@@ -55,9 +55,6 @@ def check_sliders(joint_tables: list[tuple[str, Any]], base: Mapping[str, Any] |
         if base is not None and base.get("type") not in (None, "fixed"):
             p.add(f"{path}: a slider inside a chain is modelled on a fixed base only (base.type "
                   f"= {base.get('type')!r}); use a fixed base")
-        if simulation.get("model") not in (None, "first_order"):
-            p.add(f"{path}: a slider inside a chain runs with the first-order model only; set "
-                  "simulation.model = \"first_order\"")
         if closures:
             p.add(f"{path}: a slider inside a chain does not run with [[closures]] yet")
         if controllers:

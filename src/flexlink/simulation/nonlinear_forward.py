@@ -12,6 +12,7 @@ from ..model import Scenario
 from ..solvers.gauss_forward import solve_nonlinear_forward
 from .cart import check_travel
 from .common import PathRun, Progress
+from .prismatic import check_travel as check_slider_travel
 
 
 def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
@@ -33,6 +34,9 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
     y, v, a = system.from_solution(solution)
     if system.rail is not None:
         check_travel(scenario.base, t, system.rigid_state(t, y, v, a)[0][:, 0])
+    if system.slides:
+        check_slider_travel(system.chain.joints, t, system.rigid_state(t, y, v, a)[0],
+                            system.n_base)
     values = forward_values(system, t, y, v, a, scenario.sensors, constraint_torques)
     if scenario.closures:
         values.update(closure_values)
