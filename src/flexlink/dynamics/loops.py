@@ -187,11 +187,14 @@ class LoopSystem:
                 "links, points and ground")
 
 
-def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray
+def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray,
+                  u: np.ndarray | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """States at times t projected onto the loops (a copy), the multipliers λ (nt, n_c:
     force on each closure's point, N, global axes; a slider's along its line's normal), the
-    constraint forces' torque on each joint's row (nt, N) and the largest |Φ| (nt,), m."""
+    constraint forces' torque on each joint's row (nt, N) and the largest |Φ| (nt,), m;
+    ``u``: the input rows at t (default: the scenario's; a run with controllers passes its
+    held voltages)."""
     from ._loops_numba import closed_states as kernel
 
     out = np.ascontiguousarray(states, dtype=float).copy()
@@ -199,8 +202,8 @@ def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray
     lam = np.empty((nt, loops.n_c))
     joint = np.empty((nt, len(loops.system.chain.links)))
     residual = np.empty(nt)
-    kernel(loops.data, loops.workspace(out.shape[1]), inputs(loops.system, t), out, lam, joint,
-           residual)
+    u = inputs(loops.system, t) if u is None else u
+    kernel(loops.data, loops.workspace(out.shape[1]), u, out, lam, joint, residual)
     return out, lam, joint, residual
 
 

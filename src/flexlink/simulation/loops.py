@@ -14,20 +14,21 @@ from ..dynamics.forward_outputs import ForwardOutputs
 from ..dynamics.loops import LoopSystem
 from ..model import Scenario
 from ..solvers import Solution
+from ..solvers.gauss_sampled import SampledLoop
 from ..solvers.loops import integrate_loops
 from .common import Progress
 
 
 def closed_loop_solution(scenario: Scenario, system: ForwardSystem, t: np.ndarray,
-                         on_progress: Progress
+                         on_progress: Progress, loop: SampledLoop | None = None
                          ) -> tuple[Solution, dict[str, np.ndarray], np.ndarray, dict]:
     """The Solution on the closed loops, the closures' channel values, the constraint
     forces' torque on each joint's row (nt, N; subtract it from the equations' joint row
     for the motor's torque) and metadata (the largest closure residual, m, and relative to
-    the loop's size)."""
+    the loop's size); ``loop``: the scenario's sampled controllers."""
     loops = LoopSystem(system, scenario.closures)
     settings = scenario.settings
-    run = integrate_loops(loops, t, settings.rtol, settings.atol, on_progress)
+    run = integrate_loops(loops, t, settings.rtol, settings.atol, on_progress, loop)
     return (run.solution, closure_values(scenario, loops, run.multipliers), run.joint_forces,
             closure_metadata(loops, run.residual))
 
