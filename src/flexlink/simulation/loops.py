@@ -9,7 +9,7 @@ import numpy as np
 
 from ..channels.catalogue import closure_name
 from ..dynamics import forward_kernel
-from ..dynamics.forward import ForwardSystem
+from ..dynamics.forward import ForwardSystem, momentum
 from ..dynamics.forward_outputs import ForwardOutputs
 from ..dynamics.loops import LoopSystem
 from ..model import Scenario
@@ -63,7 +63,8 @@ def closed_loop_outputs(system: ForwardSystem, solution: Solution, joint_forces:
     solved rigid motion and each joint's motor torque, its joint row of M ẍ + C ẋ + K x − f
     at the solved accelerations less the constraint forces' torque ``joint_forces`` (nt, N)
     on it. The tree's compiled outputs pass cannot serve: its rates leave the closures'
-    forces out. The base is fixed, so there is no momentum."""
+    forces out. A moving base's momentum is the kinematics' (`dynamics.forward.momentum`):
+    the constraint forces do not enter it."""
     nu = len(system.free)
     t = solution.t
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
@@ -71,4 +72,5 @@ def closed_loop_outputs(system: ForwardSystem, solution: Solution, joint_forces:
     z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
     torques = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd) - joint_forces
     rates = np.hstack([solution.q_dot[:, :nu], solution.q_ddot[:, :nu], zd, zdd])
-    return ForwardOutputs(rates, system.frames(p, pd, pdd), torques, None)
+    momenta = None if system.base.kind == "fixed" else momentum(system, p, pd, z, zd)
+    return ForwardOutputs(rates, system.frames(p, pd, pdd), torques, momenta)
