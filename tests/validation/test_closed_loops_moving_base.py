@@ -126,3 +126,33 @@ def test_what_a_closed_loop_on_a_moving_base_still_refuses() -> None:
     d["simulation"]["initial"] = "equilibrium"
     with pytest.raises(ScenarioError, match=r"set simulation.initial = \"rest\""):
         scenario_from_dict(d)
+
+
+
+def test_an_elastic_crank_on_a_free_cart_sets_the_reduced_inertia_frequency() -> None:
+    """Rigid four-bar, crank joint elastic with its motor held, on a free cart (1 kg) on a
+    rail at 30°: T = ½ M ṡ² + c ṡ β̇₁ + ½ I_eff β̇₁², so ω² = k / (I_eff − c²/M), c the bars'
+    momentum along the rail per unit crank rate; the plant's states name the cart."""
+    from tests.validation.test_closed_loops import _four_bar_angles
+    from tests.validation.test_closed_loops_elastic_joints import K as SPRING
+    from tests.validation.test_closed_loops_elastic_joints import _crank_inertia, _elastic
+
+    cart_mass, crank = 1.0, math.radians(90.0)
+    d = _elastic()
+    d["base"] = {"type": "cart", "mass": cart_mass,
+                 "cart": {"rail_angle_deg": math.degrees(RAIL), "drive": "force",
+                          "force": [{"profile": "step", "amplitude": 0.0}]}}
+    plant = flexlink.linearize(scenario_from_dict(d), at=0.0)
+    assert plant.state_names[:2] == ("cart_position", "joint1_angle")
+    a, b, c = _four_bar_angles(crank)
+    e = [np.array([-np.sin(x), np.cos(x)]) for x in (a, b, c)]
+    rate_b, rate_c = np.linalg.solve(np.column_stack([L2 * e[1], -L3 * e[2]]), -L1 * e[0])
+    centres = (0.5 * L1 * e[0], L1 * e[0] + 0.5 * L2 * rate_b * e[1], 0.5 * L3 * rate_c * e[2])
+    masses = (MASS[0] * L1, MASS[1] * L2, MASS[2] * L3)
+    rail = np.array([math.cos(RAIL), math.sin(RAIL)])
+    coupling = sum(m * float(v @ rail) for m, v in zip(masses, centres))
+    total = cart_mass + sum(masses)
+    exact = math.sqrt(SPRING / (_crank_inertia(crank) - coupling**2 / total)) / (2 * math.pi)
+    f = np.sort(np.abs(np.linalg.eigvals(plant.A).imag)) / (2 * math.pi)
+    assert f[-1] == pytest.approx(exact, rel=1e-7)
+    assert exact > 1.01 * math.sqrt(SPRING / _crank_inertia(crank)) / (2 * math.pi)

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..channels.catalogue import closure_name, joint_name
+from ..channels.catalogue import cart_name, closure_name, joint_name
 from ..channels.first_order import sensor_values, tip_values
 from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics import forward_kernel
@@ -118,10 +118,14 @@ def loop_states(scenario: Scenario, loops: LoopSystem, times: np.ndarray) -> lis
 
 
 def _coordinate_name(system: ForwardSystem, i: int) -> str:
-    """The channel name of rigid coordinate i: a joint's angle, an elastic joint's motor
-    angle (after the joints' in p)."""
+    """The channel name of rigid coordinate i: the base's (``base_x``, ``cart_position``
+    …), a joint's angle, an elastic joint's motor angle (after the joints' in p)."""
     k = i - system.n_base
     N = len(system.chain.links)
+    if k < 0:
+        base = system.base
+        return (cart_name("position") if base.cart is not None
+                else f"base_{base.coordinates[i]}")
     return joint_name(k, "angle") if k < N else joint_name(system.elastic[k - N], "motor_angle")
 
 
