@@ -125,3 +125,113 @@ def test_constrained_accelerations_satisfy_the_numpy_equations(stiffening: bool)
     assert np.abs(residual[rows]).max() < 1e-9 * scale
     q_dd = np.concatenate([pdd[0], zdd])
     assert np.abs(work.G @ q_dd + work.gam).max() < 1e-9 * np.abs(work.gam).max()
+
+
+def _moving(kind: str, closure: str) -> LoopSystem:
+    """The four-bar (``closure`` = "revolute": the coupler pinned to the rocker) or a
+    slider-crank (``"slider"``: the coupler's tip on a line through a point of the base,
+    the rocker left hanging) on a moving base: free, pinned, or a cart on a rail at 20°
+    (prescribed travel) with its attitude 15°. Ground points and lines are fixed in the
+    base."""
+    from flexlink.model import Cart
+
+    links = (Link("crank", CRANK, 2.0, 40.0, modes=2),
+             Link("coupler", COUPLER, 0.3, 20.0, modes=3, mode_shapes="pinned_pinned"),
+             Link("rocker", ROCKER, 1.0, 30.0, modes=2, tip_mass=0.05))
+    joints = (Spinup(100.0, 0.0, 0.5, 80.0), TorqueDrive(ZERO, math.radians(-55.0)),
+              TorqueDrive(ZERO, math.radians(100.0)))
+    if kind == "cart":
+        base = Base("cart", 3.0, attachments=((2, D),), position=(0.1, -0.2),
+                    attitude=math.radians(15.0),
+                    cart=Cart(Spinup(30.0, 0.0, 0.5, 0.0), math.radians(20.0)))
+    else:
+        base = Base(kind, 3.0, 0.2, attachments=((2, D),), position=(0.1, -0.2),
+                    attitude=0.3, velocity=(0.4, -0.1), rate=0.7)
+    system = ForwardSystem(Chain(links, joints), base, True)
+    if closure == "revolute":
+        return LoopSystem(system, [Closure("pin", "revolute", 1, 0.21, 2, ROCKER)])
+    return LoopSystem(system, [Closure("piston", "slider", 1, COUPLER, None, 0.0, (0.05, 0.1),
+                                       math.radians(30.0))])
+
+
+@pytest.mark.parametrize("closure", ["revolute", "slider"])
+@pytest.mark.parametrize("kind", ["free", "pinned", "cart"])
+def test_a_moving_base_carries_the_closures_ground_and_its_derivatives(kind: str,
+                                                                       closure: str) -> None:
+    """On a moving base: G against central differences of Φ over every coordinate (the
+    base's included), γ against the second difference of Φ along a motion with q̈ = 0
+    (a slider's line turns with a pinned or free base), and a closure to the ground in the
+    base frame: Φ unchanged by a rigid motion of the whole mechanism with its base."""
+    loops = _moving(kind, closure)
+    y, u = _state(loops, 4)
+    work = loops.workspace(y.size)
+    load_state(loops.data, work, u, y)
+    if kind != "cart":  # the base's own rates: random too
+        work.v[:loops.system.n_base] = np.random.default_rng(5).standard_normal(
+            loops.system.n_base)
+    q0, v0 = work.q.copy(), work.v.copy()
+    constraints(loops.data, work)
+    G, gamma, phi0 = work.G.copy(), work.gam.copy(), work.Phi.copy()
+    assert np.abs(phi0).max() > 1e-3  # a state off the closure: the terms do not vanish
+    h = 1e-6
+    for c in range(q0.size):
+        e = np.zeros_like(q0)
+        e[c] = h
+        fd = (_phi(loops, work, q0 + e, v0) - _phi(loops, work, q0 - e, v0)) / (2 * h)
+        assert np.abs(fd - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
+    tau = 1e-4
+    samples = [_phi(loops, work, q0 + v0 * s, v0) for s in (-2 * tau, -tau, 0.0, tau, 2 * tau)]
+    a, b, c_, d, e = samples
+    second = (-a + 16 * b - 30 * c_ + 16 * d - e) / (12 * tau**2)
+    assert np.abs(second - gamma).max() < 1e-5 * max(1.0, np.abs(gamma).max())
+    if kind == "free":  # translate and turn the base: every point, pivot and line with it
+        moved = q0.copy()
+        moved[0] += 0.3
+        moved[1] -= 0.2
+        shifted = _phi(loops, work, moved, v0)
+        assert np.abs(shifted - phi0).max() < 1e-12
+    if kind != "cart":
+        turned = q0.copy()
+        turned[loops.system.n_base - 1] += 0.4
+        if kind == "free":  # about the base's reference point
+            c, s = np.cos(0.4), np.sin(0.4)
+            turned[0], turned[1] = c * q0[0] - s * q0[1], s * q0[0] + c * q0[1]
+        rotated = _phi(loops, work, turned, v0)
+        if closure == "slider":  # a distance to the line: unchanged
+            assert abs(rotated[0] - phi0[0]) < 1e-12
+        else:  # the gap turns with the mechanism
+            c, s = np.cos(0.4), np.sin(0.4)
+            assert np.abs(rotated - [c * phi0[0] - s * phi0[1], s * phi0[0] + c * phi0[1]]
+                          ).max() < 1e-12
+
+
+@pytest.mark.parametrize("kind", ["free", "pinned", "cart"])
+def test_constrained_accelerations_on_a_moving_base_satisfy_the_numpy_equations(kind: str
+                                                                               ) -> None:
+    """M ẍ + r = Q + Gᵀλ on the free rows (the base's too) and G ẍ + γ = 0 on a moving
+    base, as on a fixed one."""
+    loops = _moving(kind, "revolute")
+    y, u = _state(loops, 6)
+    work = loops.workspace(y.size)
+    assert solve_constrained(loops.data, work, u, y)
+    system = loops.system
+    nu, n, nr = len(system.free), system.n, system.n_rigid
+    yp = work.yp
+    m = nu + n
+    acc, lam = work.rhs[:m].copy(), work.rhs[m:].copy()
+    t = np.array([0.2])
+    p, pd, pdd = system.rigid_state(t, yp[None, :nu], yp[None, nu:2 * nu], acc[None, :nu])
+    M, C, K, f = (a[0] for a in system.matrices(p, pd, pdd))
+    z, zd, zdd = yp[2 * nu:2 * nu + n], yp[2 * nu + n:2 * nu + 2 * n], acc[nu:]
+    x_dd = np.concatenate([np.zeros(nr), zdd])
+    x_d = np.concatenate([np.zeros(nr), zd])
+    x = np.concatenate([np.zeros(nr), z])
+    Q, _ = system.applied(t, p, pd, np.zeros((1, 0)))
+    load_state(loops.data, work, u, yp)
+    work.v[:nr] = pd[0]
+    constraints(loops.data, work)
+    residual = M @ x_dd + C @ x_d + K @ x - f - Q[0] - work.G.T @ lam
+    rows = system.free + list(range(nr, nr + n))
+    assert np.abs(residual[rows]).max() < 1e-9 * np.abs(f).max()
+    q_dd = np.concatenate([pdd[0], zdd])
+    assert np.abs(work.G @ q_dd + work.gam).max() < 1e-9 * np.abs(work.gam).max()

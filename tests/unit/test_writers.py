@@ -376,3 +376,31 @@ def test_the_streaming_netcdf_writer_writes_the_bytes_scipy_writes(tmp_path: Pat
     assert streamed.read_bytes() == reference.read_bytes()
     with xr.open_dataset(streamed) as dataset:
         np.testing.assert_array_equal(dataset.tip.values, layout.data["tip"].values)
+
+
+def test_the_joint_figure_leaves_free_joints_torques_out() -> None:
+    """A free joint's torque channel is its equation's round-off (no motor acts): the joint
+    figure shows the driven crank's torque alone, on one panel, not three panels of which
+    two are noise."""
+    from flexlink import simulate
+    from flexlink.channels.catalogue import joint_channels
+
+    rigid = {"mass_per_length": 1.0, "rigid": True}
+    scenario = scenario_from_dict({
+        "simulation": {"name": "free-pins", "t_end": 0.02, "dt_out": 1e-3},
+        "links": [{"name": "crank", "length": 0.1, **rigid},
+                  {"name": "coupler", "length": 0.3, **rigid},
+                  {"name": "rocker", "length": 0.25, **rigid}],
+        "joints": [{"motion": [{"profile": "spinup", "to_rate_deg_s": 720.0, "start": 0.0,
+                                "duration": 0.5, "from_deg": 90.0}]},
+                   {"drive": "free", "initial_angle_deg": -60.0},
+                   {"drive": "free", "base_point": [0.3, 0.0], "initial_angle_deg": 100.0}],
+        "closures": [{"name": "pin", "link": "coupler", "to_link": "rocker"}]})
+    quantities = [c.quantity for c in joint_channels(scenario, "first_order")
+                  if c.name.endswith("_torque")]
+    assert quantities == ["torque", "free_torque", "free_torque"]
+    results = simulate(scenario)
+    assert np.abs(results["joint3_torque"]).max() < 1e-9  # round-off, still written
+    fig = plotting.plot_joint_angles(results)
+    assert len(fig.axes) == 2
+    assert [t.get_text() for t in fig.axes[1].get_legend().get_texts()] == ["τ₁"]

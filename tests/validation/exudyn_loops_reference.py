@@ -24,6 +24,7 @@ from flexlink.model import JointMotion, Link
 from .exudyn_reference import _Memo, default_section, solve_dynamic
 
 STIFF = 1e3  # the crank's bending and axial stiffness, times the rod's: rigid
+CRANK_ELEMENTS = 4
 
 
 def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, EA: float,
@@ -108,13 +109,18 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
                              pivot: tuple[float, float], motion: JointMotion,
                              angles: tuple[float, float, float], EA: float, t_end: float,
                              dt_out: float, elements: int = 16, dt: float = 5e-5,
-                             newton_rel_tol: float = 1e-8) -> dict[str, Any]:
+                             newton_rel_tol: float = 1e-8, crank_spring: float = 0.0,
+                             crank_mass_per_length: float | None = None) -> dict[str, Any]:
     """A four-bar: the crank (one element, ``STIFF`` times the coupler's stiffness) turned by
     ``motion`` about the origin, the elastic coupler pinned to its tip, the rocker (elastic
     beams of its own EI; ``EA`` for both) pinned to the ground at ``pivot`` and to the
     coupler's tip. ``angles``: the absolute angles (rad) of crank, coupler and rocker that
-    close the loop at t = 0 (at rest, undeformed). Returns t, mid_deflection (the coupler's
-    midpoint from its chord, m), rocker_angle (rad, of the rocker's chord)."""
+    close the loop at t = 0 (at rest, undeformed). ``crank_spring`` (N·m/rad): the crank
+    turned through a torsional spring instead (an elastic joint: ``motion`` the motor's
+    angle over the gear ratio), its root's rotation free; ``crank_mass_per_length``
+    (kg/m, default the coupler's) the crank's, whose inertia the spring then feels. Returns
+    t, mid_deflection (the coupler's midpoint from its chord, m), rocker_angle (rad, of the
+    rocker's chord), crank_angle (rad, of the crank's root section)."""
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
@@ -154,13 +160,29 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
         for c in (0, 1):
             mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(a, c), coord(b, c)]))
 
-    crank_link = Link("crank", crank, coupler.mass_per_length, coupler.EI)
-    cn = beam(np.zeros(2), theta0, crank_link, 1, STIFF)
+    crank_link = Link("crank", crank, crank_mass_per_length or coupler.mass_per_length,
+                      coupler.EI)
+    # a turning crank's inertia is felt through a spring: elements enough for its mass's
+    # distribution (one element lumps it at the ends)
+    cn = beam(np.zeros(2), theta0, crank_link, CRANK_ELEMENTS if crank_spring > 0.0 else 1,
+              STIFF)
     keep = [_Memo(motion, 0, theta0), _Memo(motion, 1, 0.0)]
     for c in (0, 1):
         mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(cn[0], c)]))
-    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(cn[0], 2)],
-                                       offsetUserFunction=keep[0], offsetUserFunction_t=keep[1]))
+    if crank_spring > 0.0:
+        from exudyn.itemInterface import CoordinateSpringDamper
+
+        def spring(mbs: Any, t: float, item: int, u: float, v: float, k: float, d: float,
+                   offset: float) -> float:  # k (β − θ_m/N) on the root's rotation
+            return k * (u - keep[0](mbs, t, item, 0.0)) + d * (v - keep[1](mbs, t, item, 0.0))
+
+        mbs.AddObject(CoordinateSpringDamper(markerNumbers=[m_ground, coord(cn[0], 2)],
+                                             stiffness=crank_spring,
+                                             springForceUserFunction=spring))
+    else:
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(cn[0], 2)],
+                                           offsetUserFunction=keep[0],
+                                           offsetUserFunction_t=keep[1]))
     tip = crank * np.array([math.cos(theta0), math.sin(theta0)])
     kn = beam(tip, angles[1], coupler, elements, 1.0)
     pin(cn[-1], kn[0])
@@ -174,7 +196,7 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
     pin(kn[-1], rn[-1])
     sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
                                         outputVariableType=exu.OutputVariableType.Coordinates))
-               for n in (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1])]
+               for n in (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1], cn[0])]
     wall, t = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-5, newton_rel_tol, 1.0)
 
     def series(sensor: int, node: int) -> np.ndarray:
@@ -183,12 +205,12 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
                        axis=1)
         return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
 
-    root, mid, end, r0, r1 = (series(s, n) for s, n in
-                              zip(sensors, (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1])))
+    root, mid, end, r0, r1, c0 = (series(s, n) for s, n in zip(
+        sensors, (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1], cn[0])))
     chord = end[:, :2] - root[:, :2]
     normal = np.stack([-chord[:, 1], chord[:, 0]], 1) / np.linalg.norm(chord, axis=1)[:, None]
     deflection = np.sum(normal * (mid[:, :2] - 0.5 * (root[:, :2] + end[:, :2])), 1)
     arm = r1[:, :2] - r0[:, :2]
     return {"t": t, "mid_deflection": deflection,
             "rocker_angle": np.unwrap(np.arctan2(arm[:, 1], arm[:, 0])), "wall_time_s": wall,
-            "keep": keep}
+            "crank_angle": c0[:, 2], "keep": keep}

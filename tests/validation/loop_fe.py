@@ -39,14 +39,17 @@ def four_bar_frequencies(crank: tuple[float, float, float], coupler: tuple[float
                          rocker: tuple[float, float, float], pivot: tuple[float, float],
                          angles: tuple[float, float, float], EA: float,
                          elements: int = 40, count: int = 4, held_crank: bool = False,
-                         coupler_tip: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+                         coupler_tip: tuple[float, float] = (0.0, 0.0),
+                         crank_spring: float = 0.0) -> np.ndarray:
     """The lowest ``count`` natural frequencies (Hz, the mechanism's zero included) of the
     four-bar: crank from the origin, coupler from the crank's tip, rocker from ``pivot``
     (the pivot's position enters through the angles), their tips pinned. Each link is (length m, mass per length kg/m, EI N·m², inf: rigid) at
     its absolute angle (rad) in ``angles``; EA (N) the flexible links' axial stiffness;
     ``held_crank``: the crank's rotation at the origin fixed too (a crank held by its motor:
     no mechanism motion); ``coupler_tip``: a body (mass kg, rotary inertia kg·m²) on the
-    coupler's tip, lumped on its node (it turns with the coupler's end section)."""
+    coupler's tip, lumped on its node (it turns with the coupler's end section);
+    ``crank_spring``: a torsional spring (N·m/rad) from the ground to the crank's root
+    rotation (an elastic joint whose motor is held)."""
     flexible_EI = max(ei for _, _, ei in (crank, coupler, rocker) if np.isfinite(ei))
     dof = 0
     nodes: list[list[list[int]]] = []  # per link, per node: [u, v, θ] global indices
@@ -79,6 +82,7 @@ def four_bar_frequencies(crank: tuple[float, float, float], coupler: tuple[float
             idx = [merge.get(j, j) for j in nodes[k][i] + nodes[k][i + 1]]
             K[np.ix_(idx, idx)] += ke
             M[np.ix_(idx, idx)] += me
+    K[nodes[0][0][2], nodes[0][0][2]] += crank_spring
     tip_u, tip_v, tip_th = nodes[1][-1]
     M[tip_u, tip_u] += coupler_tip[0]
     M[tip_v, tip_v] += coupler_tip[0]

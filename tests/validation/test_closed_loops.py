@@ -174,14 +174,6 @@ def test_a_closure_on_a_missing_link_is_refused_naming_the_field() -> None:
         scenario_from_dict(d)
 
 
-def test_an_elastic_joint_in_a_closed_loop_is_refused_at_load() -> None:
-    d = copy.deepcopy(FOUR_BAR)
-    d["joints"][1] = {**d["joints"][1], "spring_stiffness": 50.0}
-    with pytest.raises(ScenarioError, match=r"closures: elastic joints do not run with closed "
-                                            r"loops yet \(joints\[1\] has spring_stiffness\)"):
-        scenario_from_dict(d)
-
-
 def test_more_prescribed_joints_than_the_loop_allows_are_refused() -> None:
     d = copy.deepcopy(FOUR_BAR)
     d["joints"][1] = {"motion": [{"profile": "hold", "angle_deg": -60.0}]}

@@ -12,6 +12,7 @@ motor rates and spring torques), momentum, tip positions.
 from __future__ import annotations
 
 from ..model import (
+    ZERO,
     Chain,
     ElasticJoint,
     PiezoSensor,
@@ -27,6 +28,9 @@ from .record import SENSOR_UNITS, Channel, ChannelKind, Unit
 
 JOINT_QUANTITIES = ("angle", "rate", "torque", "reference", "command", "motor_angle",
                     "motor_rate", "spring_torque")
+# The torque channel of a free (undriven) revolute joint: no motor acts, so its value is the
+# round-off of its equation's row; the joint figure leaves it out.
+FREE_TORQUE = "free_torque"
 # A slider's coordinate is a travel: its angle, rate and torque channels are these.
 SLIDER_QUANTITIES = {"angle": "position", "rate": "velocity", "torque": "force"}
 BASE_COORDINATES = {"free": ("x", "y", "attitude"), "pinned": ("attitude",), "fixed": (),
@@ -151,10 +155,12 @@ def joint_channels(scenario: Scenario, model: str) -> list[Channel]:
             out["rate"].append(Channel(joint_name(k, "rate"), ChannelKind.JOINT,
                                        Unit.RADIAN_PER_SECOND, f"rate of joint {k + 1}",
                                        "rate", subject))
+        free = isinstance(elastic, TorqueDrive) and elastic.torque == ZERO
         out["torque"].append(Channel(joint_name(k, "torque"), ChannelKind.JOINT,
                                      Unit.NEWTON_METRE, f"motor torque of joint {k + 1} "
-                                     f"({torque_source}, {model.replace('_', ' ')} model)",
-                                     "torque", subject))
+                                     f"({torque_source}, {model.replace('_', ' ')} model)"
+                                     + ("; a free joint: zero to round-off" if free else ""),
+                                     FREE_TORQUE if free else "torque", subject))
         if isinstance(joint, VelocityServo | PositionServo):
             out["reference"].append(Channel(joint_name(k, "reference"), ChannelKind.JOINT,
                                             Unit.RADIAN, f"reference angle of joint {k + 1}'s "

@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from ..channels.catalogue import closure_name, joint_name
+from ..channels.catalogue import cart_name, closure_name, joint_name
 from ..channels.first_order import sensor_values, tip_values
-from ..channels.forward import SolvedMotion
+from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics import forward_kernel
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.forward_kernel import inputs as input_rows
@@ -72,7 +72,7 @@ def loop_plant(scenario: Scenario, t0: float, point: float | Configuration,
         return _readings(scenario, loops, t0, ys, us)
 
     C, D, out_names = _output_jacobians(readings, y, u0, full, columns)
-    rigid = [joint_name(system.free[j] - system.n_base, "angle") for j in independent]
+    rigid = [_coordinate_name(system, system.free[j]) for j in independent]
     dy = np.empty_like(y)
     from ..dynamics._loops_numba import rates
 
@@ -115,6 +115,18 @@ def loop_states(scenario: Scenario, loops: LoopSystem, times: np.ndarray) -> lis
         out.append(np.concatenate([sol.q[i, :nu], sol.q_dot[i, :nu], sol.q[i, nu:],
                                    sol.q_dot[i, nu:], extra[i]]))
     return out
+
+
+def _coordinate_name(system: ForwardSystem, i: int) -> str:
+    """The channel name of rigid coordinate i: the base's (``base_x``, ``cart_position``
+    …), a joint's angle, an elastic joint's motor angle (after the joints' in p)."""
+    k = i - system.n_base
+    N = len(system.chain.links)
+    if k < 0:
+        base = system.base
+        return (cart_name("position") if base.cart is not None
+                else f"base_{base.coordinates[i]}")
+    return joint_name(k, "angle") if k < N else joint_name(system.elastic[k - N], "motor_angle")
 
 
 def _rigid(system: ForwardSystem, t0: float, ys: np.ndarray, pdd_free: np.ndarray | None = None
@@ -203,6 +215,7 @@ def _readings(scenario: Scenario, loops: LoopSystem, t0: float, ys: np.ndarray,
             out[joint_name(k, "rate")] = pd[:, system.joint_index(k)]
     for k in range(torque.shape[1]):
         out[joint_name(k, "torque")] = torque[:, k]
+    out.update(elastic_joint_values(system, p, pd))
     for i, c in enumerate(scenario.closures):
         row = int(loops.data.row[i])
         if c.kind == "revolute":

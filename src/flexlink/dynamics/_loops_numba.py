@@ -38,7 +38,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import PRESCRIBED, _solve, assemble, state_rates
+from ._forward_numba import CART, FREE, PINNED, PRESCRIBED, _solve, assemble, state_rates
 from ._forward_numba import workspace as forward_workspace
 
 REVOLUTE, SLIDER = 0, 1
@@ -108,21 +108,63 @@ def point(f, k, s, phi, fore, w, r, rd, g, Jr):
             Jr[1, o + i] -= sn * fq
 
 
+@njit(inline="always")
+def base_pose(f, w):
+    """The base's reference point (m), its velocity, its attitude (rad) and rate, and the
+    coordinate of the attitude (−1: constant): a fixed base at the origin; a pinned base
+    turning about the origin; a free base (x, y, attitude); a cart at rail_origin + s rail
+    with its constant attitude. Linear in q: no γ term of its own."""
+    if f.base_kind == FREE:
+        return w.q[0], w.q[1], w.v[0], w.v[1], w.q[2], w.v[2], 2
+    if f.base_kind == PINNED:
+        return 0.0, 0.0, 0.0, 0.0, w.q[0], w.v[0], 0
+    if f.base_kind == CART:
+        s, sd = w.q[0], w.v[0]
+        return (f.rail_origin[0] + s * f.rail[0], f.rail_origin[1] + s * f.rail[1],
+                sd * f.rail[0], sd * f.rail[1], f.attitude, 0.0, -1)
+    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1
+
+
+@njit(inline="always")
+def base_point(f, w, px, py, r, rd, g, Jr):
+    """Position, velocity, γ and Jacobian (2, n_x) of the point (px, py) fixed in the base
+    (m, base axes): a branch's joint, a closure's ground pivot."""
+    bx, by, bvx, bvy, th, om, att = base_pose(f, w)
+    c, sn = np.cos(th), np.sin(th)
+    ax, ay = c * px - sn * py, sn * px + c * py
+    r[0], r[1] = bx + ax, by + ay
+    rd[0], rd[1] = bvx - om * ay, bvy + om * ax
+    g[0], g[1] = -om * om * ax, -om * om * ay
+    Jr[:, :] = 0.0
+    if f.base_kind == FREE:
+        Jr[0, 0] = 1.0
+        Jr[1, 1] = 1.0
+    elif f.base_kind == CART:
+        Jr[0, 0], Jr[1, 0] = f.rail[0], f.rail[1]
+    if att >= 0:
+        Jr[0, att] = -ay
+        Jr[1, att] = ax
+
+
 @njit(cache=True)
 def frames(f, w):
     """Every frame's angle, rate, Jacobian of the angle, origin, its velocity, γ and
-    Jacobian from q = w.q, q̇ = w.v (fixed base: the tree's branches start at fixed points)."""
+    Jacobian from q = w.q, q̇ = w.v (a branch starts at its point of the base, which moves
+    with the base's coordinates: `base_pose`)."""
     N = f.length.shape[0]
     nb = f.n_base
     for k in range(N):
         if f.attached[k]:
-            w.th[k] = w.q[nb + k]
-            w.om[k] = w.v[nb + k]
+            _, _, _, _, th_b, om_b, att = base_pose(f, w)
+            w.th[k] = th_b + w.q[nb + k]
+            w.om[k] = om_b + w.v[nb + k]
             w.Jth[k, :] = 0.0
-            w.o[k, 0], w.o[k, 1] = f.point[k, 0], f.point[k, 1]
-            w.od[k, :] = 0.0
-            w.og[k, :] = 0.0
-            w.Jo[k, :, :] = 0.0
+            if att >= 0:
+                w.Jth[k, att] = 1.0
+            base_point(f, w, f.point[k, 0], f.point[k, 1], w.r, w.rd, w.g, w.Jr)
+            for a in range(2):
+                w.o[k, a], w.od[k, a], w.og[k, a] = w.r[a], w.rd[a], w.g[a]
+                w.Jo[k, a, :] = w.Jr[a, :]
         else:
             j = k - 1
             point(f, j, f.length[j], f.tip_value[j], f.fore_tip[j], w, w.r, w.rd, w.g, w.Jr)
@@ -151,20 +193,29 @@ def constraints(d, w):
         if d.to_link[c] >= 0:
             point(f, d.to_link[c], d.x_to[c], d.phi_to[c], d.fore_to[c], w, w.r2, w.rd2,
                   w.g2, w.Jr2)
-        else:
-            w.r2[0], w.r2[1] = d.ground[c, 0], d.ground[c, 1]
-            w.g2[:] = 0.0
-            w.Jr2[:, :] = 0.0
+        else:  # the ground: a point (and a slider's line) fixed in the base
+            base_point(f, w, d.ground[c, 0], d.ground[c, 1], w.r2, w.rd2, w.g2, w.Jr2)
         if d.kind[c] == REVOLUTE:
             for a in range(2):
                 w.Phi[row + a] = w.r[a] - w.r2[a]
                 w.gam[row + a] = w.g[a] - w.g2[a]
                 w.G[row + a, :] = w.Jr[a, :] - w.Jr2[a, :]
         else:
-            nx_, ny_ = d.normal[c, 0], d.normal[c, 1]
-            w.Phi[row] = nx_ * (w.r[0] - d.ground[c, 0]) + ny_ * (w.r[1] - d.ground[c, 1])
-            w.gam[row] = nx_ * w.g[0] + ny_ * w.g[1]
-            w.G[row, :] = nx_ * w.Jr[0, :] + ny_ * w.Jr[1, :]
+            # Φ = n·(r − r2), n = A(θ_b) n₀ turning with the base: ṅ = ω_b n⊥, and n̈ has
+            # −ω_b² n besides its θ̈_b part (in G through n⊥·(r − r2) on the attitude)
+            _, _, _, _, th_b, om_b, att = base_pose(f, w)
+            cb, sb = np.cos(th_b), np.sin(th_b)
+            n0x, n0y = d.normal[c, 0], d.normal[c, 1]
+            nx_, ny_ = cb * n0x - sb * n0y, sb * n0x + cb * n0y
+            dx, dy = w.r[0] - w.r2[0], w.r[1] - w.r2[1]
+            w.Phi[row] = nx_ * dx + ny_ * dy
+            w.gam[row] = (nx_ * (w.g[0] - w.g2[0]) + ny_ * (w.g[1] - w.g2[1])
+                          + 2.0 * om_b * (-ny_ * (w.rd[0] - w.rd2[0])
+                                          + nx_ * (w.rd[1] - w.rd2[1]))
+                          - om_b * om_b * (nx_ * dx + ny_ * dy))
+            w.G[row, :] = nx_ * (w.Jr[0, :] - w.Jr2[0, :]) + ny_ * (w.Jr[1, :] - w.Jr2[1, :])
+            if att >= 0:
+                w.G[row, att] += -ny_ * dx + nx_ * dy
 
 
 @njit(cache=True)
@@ -179,6 +230,8 @@ def load_state(d, w, u, y):
     w.v[:] = 0.0
     for k in range(N):
         w.q[nb + k], w.v[nb + k] = u[k], u[N + k]
+    if f.base_kind == CART and f.joint_kind[N] == PRESCRIBED:  # the travel: an input
+        w.q[0], w.v[0] = u[u.shape[0] - 4], u[u.shape[0] - 3]
     for j in range(nu):
         w.q[f.free[j]], w.v[f.free[j]] = y[j], y[nu + j]
     for i in range(n):
@@ -265,6 +318,8 @@ def solve_constrained(d, w, u, y):
         for k in range(N):
             if f.joint_kind[k] == PRESCRIBED:
                 acc -= w.G[c, nb + k] * u[2 * N + k]
+        if f.base_kind == CART and f.joint_kind[N] == PRESCRIBED:
+            acc -= w.G[c, 0] * u[u.shape[0] - 2]
         rhs[m + c] = acc
     _solve(K, rhs)
     return True

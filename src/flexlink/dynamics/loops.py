@@ -3,8 +3,7 @@ their joints, branches on the base) and the joints that close its loops
 (`model.loops.Closure`), as data for the compiled kernels (`_loops_numba.py`, where the
 equations are written out).
 
-`LoopSystem` checks what the kernels need before anything runs — a fixed base, enough free
-joints, independent closure equations, a loop that closes at t = 0 — and chooses the
+`LoopSystem` checks what the kernels need before anything runs — enough free joints, independent closure equations, a loop that closes at t = 0 — and chooses the
 dependent coordinates: the free joint angles that the closures determine, solved from the
 others at every evaluation (coordinate partitioning).
 """
@@ -39,16 +38,13 @@ FORE_POINTS = 48  # Gauss points of ∫₀ˣΦ'ᵀΦ' at a closure's point (the 
 class LoopSystem:
     """The tree ``system`` with its loop-closing ``closures``.
 
-    Raises SimulationError naming ``closures[i]`` when the loops cannot be held: a moving
-    base, fewer free joints than closure equations, dependent equations, or a loop that
+    Raises SimulationError naming ``closures[i]`` when the loops cannot be held: fewer
+    free joints than closure equations, dependent equations, or a loop that
     does not close at t = 0 from the joints' initial angles (the residual in metres)."""
 
     def __init__(self, system: ForwardSystem, closures: Sequence[Closure]) -> None:
         self.system = system
         self.closures = tuple(closures)
-        if system.base.kind != "fixed":
-            raise SimulationError("closures: loops close on a fixed base only (base.type = "
-                                  f"{system.base.kind!r}); drop [base] or set type = \"fixed\"")
         rows = np.cumsum([0] + [c.equations for c in self.closures])
         self.n_c = int(rows[-1])
         if len(system.free) < self.n_c:
@@ -187,11 +183,14 @@ class LoopSystem:
                 "links, points and ground")
 
 
-def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray
+def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray,
+                  u: np.ndarray | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """States at times t projected onto the loops (a copy), the multipliers λ (nt, n_c:
     force on each closure's point, N, global axes; a slider's along its line's normal), the
-    constraint forces' torque on each joint's row (nt, N) and the largest |Φ| (nt,), m."""
+    constraint forces' torque on each joint's row (nt, N) and the largest |Φ| (nt,), m;
+    ``u``: the input rows at t (default: the scenario's; a run with controllers passes its
+    held voltages)."""
     from ._loops_numba import closed_states as kernel
 
     out = np.ascontiguousarray(states, dtype=float).copy()
@@ -199,8 +198,8 @@ def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray
     lam = np.empty((nt, loops.n_c))
     joint = np.empty((nt, len(loops.system.chain.links)))
     residual = np.empty(nt)
-    kernel(loops.data, loops.workspace(out.shape[1]), inputs(loops.system, t), out, lam, joint,
-           residual)
+    u = inputs(loops.system, t) if u is None else u
+    kernel(loops.data, loops.workspace(out.shape[1]), u, out, lam, joint, residual)
     return out, lam, joint, residual
 
 

@@ -2,8 +2,8 @@
 and the joints that close its loops (`model.loops.Closure`), as data for the compiled kernels
 (`_nonlinear_loops_numba.py`, where the exact closure equations are written out).
 
-The checks before anything runs (a fixed base, enough free joints, independent closure
-equations), the choice of the dependent joints and the closed start at t = 0 are the
+The checks before anything runs (a fixed base: the exact closure kernels start the branches
+at fixed points; enough free joints, independent closure equations), the choice of the dependent joints and the closed start at t = 0 are the
 first-order loops' (`loops.LoopSystem` on the tree's first-order twin ``system.loads``): a
 closed loop starts from rest undeformed (q = 0), where the first-order positions are the
 exact ones, so the same joint angles close both models.
@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..errors import SimulationError
 from ..model import Closure
 from .forward_kernel import inputs
 from .loops import LoopSystem
@@ -36,16 +37,22 @@ NonlinearLoopData.__doc__ = (
     "B_joint (nodes, N) every joint angle's coefficients in the node angles.")
 
 
+MOVING_BASE = ("closures: closed loops on a moving base (base.type = {kind!r}) run on the "
+               "first-order model only; set simulation.model = \"first_order\" or a fixed base")
+
+
 class NonlinearLoopSystem:
     """The nonlinear tree ``system`` with its loop-closing ``closures``.
 
-    Raises SimulationError naming ``closures[i]`` when the loops cannot be held (as
-    `loops.LoopSystem`: a moving base, too few free joints, dependent equations, a loop that
+    Raises SimulationError naming ``closures[i]`` when the loops cannot be held: a moving
+    base, or (as `loops.LoopSystem`) too few free joints, dependent equations, a loop that
     does not close at t = 0, with its residual in metres)."""
 
     def __init__(self, system: NonlinearForwardSystem, closures: Sequence[Closure]) -> None:
         self.system = system
         self.closures = tuple(closures)
+        if system.loads.base.kind != "fixed":
+            raise SimulationError(MOVING_BASE.format(kind=system.loads.base.kind))
         self.first_order = LoopSystem(system.loads, self.closures)
         self.n_c = self.first_order.n_c
         self.size = self.first_order.size

@@ -9,25 +9,26 @@ import numpy as np
 
 from ..channels.catalogue import closure_name
 from ..dynamics import forward_kernel
-from ..dynamics.forward import ForwardSystem
+from ..dynamics.forward import ForwardSystem, momentum
 from ..dynamics.forward_outputs import ForwardOutputs
 from ..dynamics.loops import LoopSystem
 from ..model import Scenario
 from ..solvers import Solution
+from ..solvers.gauss_sampled import SampledLoop
 from ..solvers.loops import integrate_loops
 from .common import Progress
 
 
 def closed_loop_solution(scenario: Scenario, system: ForwardSystem, t: np.ndarray,
-                         on_progress: Progress
+                         on_progress: Progress, loop: SampledLoop | None = None
                          ) -> tuple[Solution, dict[str, np.ndarray], np.ndarray, dict]:
     """The Solution on the closed loops, the closures' channel values, the constraint
     forces' torque on each joint's row (nt, N; subtract it from the equations' joint row
     for the motor's torque) and metadata (the largest closure residual, m, and relative to
-    the loop's size)."""
+    the loop's size); ``loop``: the scenario's sampled controllers."""
     loops = LoopSystem(system, scenario.closures)
     settings = scenario.settings
-    run = integrate_loops(loops, t, settings.rtol, settings.atol, on_progress)
+    run = integrate_loops(loops, t, settings.rtol, settings.atol, on_progress, loop)
     return (run.solution, closure_values(scenario, loops, run.multipliers), run.joint_forces,
             closure_metadata(loops, run.residual))
 
@@ -62,7 +63,8 @@ def closed_loop_outputs(system: ForwardSystem, solution: Solution, joint_forces:
     solved rigid motion and each joint's motor torque, its joint row of M ẍ + C ẋ + K x − f
     at the solved accelerations less the constraint forces' torque ``joint_forces`` (nt, N)
     on it. The tree's compiled outputs pass cannot serve: its rates leave the closures'
-    forces out. The base is fixed, so there is no momentum."""
+    forces out. A moving base's momentum is the kinematics' (`dynamics.forward.momentum`):
+    the constraint forces do not enter it."""
     nu = len(system.free)
     t = solution.t
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
@@ -70,4 +72,5 @@ def closed_loop_outputs(system: ForwardSystem, solution: Solution, joint_forces:
     z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
     torques = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd) - joint_forces
     rates = np.hstack([solution.q_dot[:, :nu], solution.q_ddot[:, :nu], zd, zdd])
-    return ForwardOutputs(rates, system.frames(p, pd, pdd), torques, None)
+    momenta = None if system.base.kind == "fixed" else momentum(system, p, pd, z, zd)
+    return ForwardOutputs(rates, system.frames(p, pd, pdd), torques, momenta)

@@ -9,10 +9,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..dynamics.forward_kernel import breakpoints, inputs
+from ..dynamics.forward_kernel import breakpoints, inputs, voltage_columns
 from ..dynamics.loops import LoopSystem, closed_states
-from ..errors import SimulationError
+from ..errors import SimulationError, UnstableLoop
 from .forward import error_groups
+from .gauss_sampled import SampledLoop
 from .radau import RadauStop, integrate_radau
 from .solution import LOCAL_CONTROL, Accuracy, Progress, Solution
 
@@ -32,23 +33,33 @@ class LoopRun:
 
 
 def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: float,
-                    on_progress: Progress | None = None) -> LoopRun:
-    """Integrate the closed mechanism from its closed initial state (`LoopSystem.y0`)."""
+                    on_progress: Progress | None = None, loop: SampledLoop | None = None
+                    ) -> LoopRun:
+    """Integrate the closed mechanism from its closed initial state (`LoopSystem.y0`);
+    ``loop``: sampled controllers driving the actuators (the integrator stops at each
+    sample and holds their voltages in the input rows, as on the tree's forward path)."""
     system = loops.system
     y0 = loops.y0
     nu, n = len(system.free), system.n
     groups = error_groups(system, y0.size)
+    held = voltage_columns(system) if loop is not None else slice(0, 0)
     try:
         states, stats = integrate_radau(
             loops.data, loops.workspace(y0.size), y0, t_out, lambda t: inputs(system, t),
             breakpoints(system), rtol, atol, groups, np.inf, on_progress=on_progress,
-            z=slice(2 * nu, 2 * nu + n))
+            loop=loop, held=held, z=slice(2 * nu, 2 * nu + n))
     except RadauStop as exc:
+        if loop is not None:
+            raise UnstableLoop(exc.t, "the state grew without bound" if exc.why == "blow-up"
+                               else "the time step collapsed") from None
         raise SimulationError(
             f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
             "have reached a singular configuration (a toggle position) or left the "
             "first-order model's range") from None
-    closed, lam, joint, residual = closed_states(loops, t_out, states)
+    u = inputs(system, t_out)
+    if loop is not None:
+        u[:, held] = loop.held_voltages(t_out)
+    closed, lam, joint, residual = closed_states(loops, t_out, states, u)
     if not np.all(np.isfinite(residual)):
         at = float(t_out[np.argmax(~np.isfinite(residual))])
         raise SimulationError(f"the closed loops could not be closed at t = {at:.6g} s: "
@@ -56,7 +67,7 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
     from ._radau_numba import rates_at
 
     rates = np.empty_like(closed)
-    rates_at(loops.data, loops.workspace(closed.shape[1]), inputs(system, t_out), closed, rates)
+    rates_at(loops.data, loops.workspace(closed.shape[1]), u, closed, rates)
     p, pd = closed[:, :nu], closed[:, nu:2 * nu]
     z, zd = closed[:, 2 * nu:2 * nu + n], closed[:, 2 * nu + n:2 * nu + 2 * n]
     solution = Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
