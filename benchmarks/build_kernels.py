@@ -61,6 +61,10 @@ for key, spent in sorted(own.items(), key=lambda kv: -kv[1])[:40]:
 """
 
 
+_BUILD = ("import os, json; from flexlink._build_kernels import build; "
+          "print(json.dumps(build(workers=int(os.environ['FLEXLINK_BENCH_WORKERS']))))")
+
+
 def fresh_copy(source: Path, into: Path) -> Path:
     """A copy of `source`'s package folder ``src/flexlink`` without compiled files."""
     target = into / "flexlink"
@@ -83,9 +87,7 @@ def build(source: Path, workers: int) -> None:
         env["FLEXLINK_BENCH_WORKERS"] = str(workers)
         start = time.perf_counter()
         done = subprocess.run(
-            [sys.executable, "-c",
-             "import os, sys, json; from flexlink._build_kernels import build; "
-             "print(json.dumps(build(workers=int(os.environ['FLEXLINK_BENCH_WORKERS']))))"],
+            [sys.executable, "-c", _BUILD],
             cwd=tmp, env=env, capture_output=True, text=True, check=False)
         wall = time.perf_counter() - start
         if done.returncode != 0:
