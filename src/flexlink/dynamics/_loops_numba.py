@@ -108,9 +108,7 @@ def point(f, k, s, phi, fore, w, r, rd, g, Jr):
             Jr[1, o + i] -= sn * fq
 
 
-# Inlined into `constraints`, its one caller, rather than compiled on its own: a kernel of
-# its own is optimised again inside each caller.
-@njit(inline="always")
+@njit(cache=True)
 def frames(f, w):
     """Every frame's angle, rate, Jacobian of the angle, origin, its velocity, γ and
     Jacobian from q = w.q, q̇ = w.v (fixed base: the tree's branches start at fixed points)."""
@@ -231,8 +229,8 @@ def project(d, w, u, y):
     return True
 
 
-# Inlined into `rates` rather than compiled on its own: a kernel of its own is optimised
-# again, with the whole forward model it calls, inside each caller.
+# Inlined into `rates` and `closed_states` rather than compiled on its own: a kernel of its
+# own is optimised again, with the whole forward model it calls, inside each caller.
 @njit(inline="always")
 def solve_constrained(d, w, u, y):
     """Project y (w.yp ← y closed) and solve the constrained equations: accelerations
@@ -275,30 +273,25 @@ def solve_constrained(d, w, u, y):
 @njit(cache=True)
 def rates(d, w, u, y, dy):
     """dy/dt of y = [p_free, ṗ_free, z, ż, servo integrals] on the closed loops (the
-    dependent coordinates' entries of y are not read: see `project`); w.yp holds y closed,
-    w.rhs the accelerations and multipliers. False (dy NaN) when the loop does not close."""
+    dependent coordinates' entries of y are not read: see `project`)."""
     if not solve_constrained(d, w, u, y):
         dy[:] = np.nan
-        return False
+        return
     state_rates(d.fwd, w.fw, w.yp, w.rhs, dy)
-    return True
 
 
 @njit(cache=True)
-def closed_states(d, w, u, states, dy, lam, joint_forces, residual):
-    """After a run: each state (nt, ·) projected onto the loops in place, its rates dy (nt,
-    ·; `rates`), the multipliers λ (nt, n_c), the constraint forces' torques on the joints'
-    rows (G^T λ, nt × N) and the largest |Φ| of the projected state (nt,; NaN where it does
-    not close)."""
+def closed_states(d, w, u, states, lam, joint_forces, residual):
+    """After a run: each state (nt, ·) projected onto the loops in place, the multipliers
+    λ (nt, n_c), the constraint forces' torques on the joints' rows (G^T λ, nt × N) and the
+    largest |Φ| of the projected state (nt,; NaN where it does not close)."""
     f = d.fwd
     N = f.length.shape[0]
     nu = f.free.shape[0]
     m = nu + f.n_x - f.n_rigid
     nc = d.dep.shape[0]
     for t in range(states.shape[0]):
-        # through `rates` rather than its own copy of the constrained solve: one compiled
-        # model fewer
-        ok = rates(d, w, u[t], states[t], dy[t])
+        ok = solve_constrained(d, w, u[t], states[t])
         states[t, :] = w.yp
         big = 0.0
         for c in range(nc):

@@ -105,9 +105,7 @@ def momentum(d, w_, p, pd, x, xd, pj, out):
     out[0], out[1], out[2], out[3], out[4] = lx, ly, h, sx, sy
 
 
-# Inlined, as `components`, into the few kernels that call it rather than compiled on its
-# own: a kernel of its own is optimised again inside each caller.
-@njit(inline="always")
+@njit(cache=True)
 def _state(d, w_, u, y):
     """Rigid state p, ṗ (prescribed joints and cart from the input row) and x, ẋ into the
     workspace."""
@@ -132,7 +130,7 @@ def _state(d, w_, u, y):
         xd[nr + i] = y[2 * nu + n + i]
 
 
-@njit(inline="always")
+@njit(cache=True)
 def components(d, w_, pj, pd, out):
     """out[:3] = L_x (on a cart: L along its rail), L_y and H (about the centre of mass if
     pj.about_cm, else the origin) at the workspace's configuration with rigid rates pd;

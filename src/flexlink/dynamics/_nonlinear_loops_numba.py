@@ -171,8 +171,8 @@ def project(d, w, u, Y):
     return True
 
 
-# Inlined into `rates` rather than compiled on its own: a kernel of its own is optimised
-# again, with the whole nonlinear model it calls, inside each caller.
+# Inlined into `rates` and `closed_states` rather than compiled on its own: a kernel of its
+# own is optimised again, with the whole nonlinear model it calls, inside each caller.
 @njit(inline="always")
 def solve_constrained(d, w, u, Y):
     """Project Y (w.yp ← Y closed) and solve the constrained equations: ÿ in w.rhs[:n_y],
@@ -214,16 +214,14 @@ def solve_constrained(d, w, u, Y):
 @njit(cache=True)
 def rates(d, w, u, Y, dY):
     """dY/dt of Y = [y, ẏ] on the closed loops (the dependent joints' entries of Y are not
-    read: see `project`); w.yp holds Y closed, w.rhs ÿ and the multipliers. False (dY NaN)
-    when the loop does not close."""
+    read: see `project`)."""
     if not solve_constrained(d, w, u, Y):
         dY[:] = np.nan
-        return False
+        return
     ny = Y.shape[0] // 2
     for i in range(ny):
         dY[i] = w.yp[ny + i]
         dY[ny + i] = w.rhs[i]
-    return True
 
 
 @njit(cache=True)
@@ -234,11 +232,8 @@ def closed_states(d, w, u, states, accelerations, lam, joint_forces, residual_ou
     does not close)."""
     ny = states.shape[1] // 2
     nc = d.dep.shape[0]
-    dY = np.empty(states.shape[1])
     for t in range(states.shape[0]):
-        # through `rates` rather than its own copy of the constrained solve: one compiled
-        # model fewer
-        ok = rates(d, w, u[t], states[t], dY)
+        ok = solve_constrained(d, w, u[t], states[t])
         states[t, :] = w.yp
         big = 0.0
         for c in range(nc):

@@ -65,9 +65,7 @@ def model_rates(d, w, u, y, dy):
     _KERNELS[type(d)](d, w, u, y, dy)
 
 
-# inline: the call goes straight to the model's rates, with no function of its own between
-# them, which would be compiled (and optimised with the whole model) once more per record type
-@overload(model_rates, inline="always")
+@overload(model_rates)
 def _model_rates(d, w, u, y, dy):
     kernel = _KERNELS.get(getattr(d, "instance_class", None))
     if kernel is None:
@@ -89,7 +87,7 @@ def model_project(d, w, pj, u, U, t, y):
     _PROJECTIONS[type(d)](d, w, pj, u, U, t, y)
 
 
-@overload(model_project, inline="always")  # as model_rates
+@overload(model_project)
 def _model_project(d, w, pj, u, U, t, y):
     project = _PROJECTIONS.get(getattr(d, "instance_class", None))
     if project is None:
@@ -541,3 +539,11 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
             # Newton converged: the Jacobian is good enough for the smaller step (RADAU5
             # takes a fresh one here; ours costs a rate evaluation per state component).
     return 0
+
+
+@njit(cache=True)
+def rates_at(d, w, u, states, out):
+    """out[i] = f at states[i] with input row u[i] (the accelerations at the outputs of a
+    model without an outputs pass of its own: closed loops)."""
+    for i in range(states.shape[0]):
+        model_rates(d, w, u[i], states[i], out[i])

@@ -48,11 +48,15 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
             f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
             "have reached a singular configuration (a toggle position) or left the "
             "first-order model's range") from None
-    closed, rates, lam, joint, residual = closed_states(loops, t_out, states)
+    closed, lam, joint, residual = closed_states(loops, t_out, states)
     if not np.all(np.isfinite(residual)):
         at = float(t_out[np.argmax(~np.isfinite(residual))])
         raise SimulationError(f"the closed loops could not be closed at t = {at:.6g} s: "
                               "the mechanism reached a singular configuration")
+    from ._radau_numba import rates_at
+
+    rates = np.empty_like(closed)
+    rates_at(loops.data, loops.workspace(closed.shape[1]), inputs(system, t_out), closed, rates)
     p, pd = closed[:, :nu], closed[:, nu:2 * nu]
     z, zd = closed[:, 2 * nu:2 * nu + n], closed[:, 2 * nu + n:2 * nu + 2 * n]
     solution = Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
