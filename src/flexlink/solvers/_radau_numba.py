@@ -65,9 +65,7 @@ def model_rates(d, w, u, y, dy):
     _KERNELS[type(d)](d, w, u, y, dy)
 
 
-# Compiled without reference counting (_nrt=False, as the model kernels: _forward_numba): the
-# dispatch allocates nothing, and would otherwise incref every array of the records it passes.
-@overload(model_rates, jit_options={"_nrt": False})
+@overload(model_rates)
 def _model_rates(d, w, u, y, dy):
     kernel = _KERNELS.get(getattr(d, "instance_class", None))
     if kernel is None:
@@ -89,7 +87,7 @@ def model_project(d, w, pj, u, U, t, y):
     _PROJECTIONS[type(d)](d, w, pj, u, U, t, y)
 
 
-@overload(model_project, jit_options={"_nrt": False})
+@overload(model_project)
 def _model_project(d, w, pj, u, U, t, y):
     project = _PROJECTIONS.get(getattr(d, "instance_class", None))
     if project is None:
