@@ -2,6 +2,7 @@
 
     python benchmarks/forward_targets.py --before /path/to/old/src   # old tree vs this one
     python benchmarks/forward_targets.py                             # this tree only
+    python benchmarks/forward_targets.py --only servo --repeat 15    # one row, less noise
 
 ``--before`` is the ``src`` folder of another checkout (e.g. ``git worktree add /tmp/old
 <commit>``, or ``git archive <commit> src | tar -x -C /tmp/old``); every measurement runs in
@@ -134,34 +135,47 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", help="src folder of the tree to compare with")
     parser.add_argument("--repeat", type=int, default=7, help="timed runs per row (median)")
+    parser.add_argument("--only", choices=("hub_beam", "servo", "momentum"),
+                        help="run only these rows (and no Exudyn)")
     args = parser.parse_args()
     trees = ([("before", args.before)] if args.before else []) + [("after", str(ROOT / "src"))]
     print(f"# {platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, "
           f"numpy {np.__version__}, load average {os.getloadavg()[0]:.1f}")
-    wall, exudyn = _child(str(ROOT / "src"), "_exudyn", 3)
-    print(f"Exudyn, hub–beam small, 16 elements, dt 1 ms (coarsest within 1%): solver CPU "
-          f"{exudyn:.3g} s (wall {wall:.3g} s)")
+    exudyn = None
+    if args.only is None:
+        wall, exudyn = _child(str(ROOT / "src"), "_exudyn", 3)
+        print(f"Exudyn, hub–beam small, 16 elements, dt 1 ms (coarsest within 1%): solver CPU "
+              f"{exudyn:.3g} s (wall {wall:.3g} s)")
     print("| tree | row | CPU [s] | error / peak or ratio |")
     print("|---|---|---|---|")
     for label, src in trees:
-        reference = _child(src, "_hub_beam", 0.0, 1)["signals"]
-        best = None
-        for rtol in RTOLS:
-            run = _child(src, "_hub_beam", rtol, args.repeat)
-            err = _error(run["signals"], reference)
-            print(f"| {label} | hub–beam small, rtol {rtol:g} | {run['cpu']:.3g} | {err:.2g} |",
-                  flush=True)
-            if err <= 1e-3 and (best is None or run["cpu"] < best):
-                best = run["cpu"]
-        if best is not None:
-            print(f"| {label} | hub–beam small, cheapest within 1e-3 | {best:.3g} | "
-                  f"{exudyn / best:.1f}× faster than Exudyn |", flush=True)
-        servo, prescribed = _child(src, "_servo", args.repeat)
-        print(f"| {label} | paper_servo / its prescribed manoeuvre | {servo:.3g} / "
-              f"{prescribed:.3g} | {servo / prescribed:.2f}× |", flush=True)
-        linear, angular = _child(src, "_momentum")
-        print(f"| {label} | free hub 10 s, default rtol: momentum drift (linear, angular) | | "
-              f"{linear:.1e}, {angular:.1e} |", flush=True)
+        if args.only in (None, "hub_beam"):
+            _hub_beam_rows(label, src, args.repeat, exudyn)
+        if args.only in (None, "servo"):
+            servo, prescribed = _child(src, "_servo", args.repeat)
+            print(f"| {label} | paper_servo / its prescribed manoeuvre | {servo:.3g} / "
+                  f"{prescribed:.3g} | {servo / prescribed:.2f}× |", flush=True)
+        if args.only in (None, "momentum"):
+            linear, angular = _child(src, "_momentum")
+            print(f"| {label} | free hub 10 s, default rtol: momentum drift (linear, angular) "
+                  f"| | {linear:.1e}, {angular:.1e} |", flush=True)
+
+
+def _hub_beam_rows(label: str, src: str, repeat: int, exudyn: float | None) -> None:
+    """The hub–beam rows of one tree (the cheapest within 1e-3 against Exudyn's solver CPU
+    time when given)."""
+    reference = _child(src, "_hub_beam", 0.0, 1)["signals"]
+    best = None
+    for rtol in RTOLS:
+        run = _child(src, "_hub_beam", rtol, repeat)
+        err = _error(run["signals"], reference)
+        print(f"| {label} | hub–beam small, rtol {rtol:g} | {run['cpu']:.3g} | {err:.2g} |",
+              flush=True)
+        if err <= 1e-3 and (best is None or run["cpu"] < best):
+            best = run["cpu"]
+    if best is not None and exudyn is not None:
+        print(f"| {label} | hub–beam small, cheapest within 1e-3 | {best:.3g} | "
+              f"{exudyn / best:.1f}× faster than Exudyn |", flush=True)
 
 
 if __name__ == "__main__":

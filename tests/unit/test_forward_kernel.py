@@ -187,3 +187,19 @@ def test_joint_torques_match_the_numpy_equations(name: str, stiffening: bool) ->
     expected = system.joint_torques(p, pd, pdd, z, zd, zdd)
     got = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd)
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-11 * np.abs(expected).max())
+
+
+def test_the_rates_kernels_run_without_reference_counting() -> None:
+    """Every compiled kernel a rate evaluation passes the records to is compiled with
+    _nrt=False: with numba's runtime, each call increfs and decrefs every array of
+    ForwardData and the workspace, which cost more than a servo's arithmetic (ARCHITECTURE.md)."""
+    from flexlink.dynamics import _elastic_numba, _forward_numba, _momentum_numba, _prismatic_numba
+
+    kernels = [getattr(_forward_numba, name) for name in (
+        "base_acceleration", "map_columns", "frames", "residual", "applied", "_drive", "_solve",
+        "rates", "state_rates", "joint_torques")]
+    kernels += [_elastic_numba.prescribed_motors, _elastic_numba.spring_torques,
+                _elastic_numba.rotor_inertia, _prismatic_numba.lever_stiffness,
+                _momentum_numba.momentum, _momentum_numba.project]
+    counted = [k.py_func.__name__ for k in kernels if k.targetoptions.get("_nrt", True)]
+    assert not counted, f"compiled with reference counting: {counted}"

@@ -13,6 +13,13 @@ their products with ż and z enter, so it forms
 link by link from ξ = T̂ z, ξ̇ = Ṫ̂ z + T̂ ż, … (mat-vec, not mat-mat), M once, and the columns
 ∂r/∂p̈_j by one more evaluation of r per free coordinate (r is affine in p̈, §10). The
 attachment-turn term of K (ForwardSystem._attachment_turn) multiplies δθ_b = 0 and drops out.
+
+The kernels that allocate nothing (these, and their helpers in _elastic_numba,
+_prismatic_numba, _momentum_numba) are compiled with ``_nrt=False``, numba's flag for code
+without runtime allocation (its own allocation-free helpers use it): otherwise every call
+increfs and decrefs each array of the ForwardData and Workspace records it is passed, ~60
+atomic pairs, which cost more than the arithmetic of a servo's drive. A kernel that needs to
+allocate fails to compile under the flag rather than running slowly.
 """
 
 from __future__ import annotations
@@ -50,7 +57,7 @@ PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO, ELASTIC = 0, 1, 2, 3, 4
 FIXED, PINNED, FREE, CART = 0, 1, 2, 3
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def base_acceleration(d, pdd):
     """The base reference point's acceleration minus gravity, global axes (m/s²): where
     gravity enters the compiled first-order model (kinematics.inertial_acceleration: by the
@@ -63,7 +70,7 @@ def base_acceleration(d, pdd):
     return -d.gravity[0], -d.gravity[1]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def map_columns(d, k):
     """How many leading columns of x = [δp; z] frame k's maps T̂_k can have nonzero (s):
     the rigid coordinates' and the modes of the links it hangs on, which come before its
@@ -76,7 +83,7 @@ def map_columns(d, k):
     return columns
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
     """Fill the zero-order frame angles, rates, accelerations, origin accelerations (frame
     axes) and the maps x → [ρx, ρy, θ1] of every link with their time derivatives
@@ -199,7 +206,7 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
             T[k, 2, nb + k] += 1.0  # δβ_k turns frame k
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     """r = C ẋ + K x − f (n_x,) at rigid state (p, ṗ, p̈) for x = [0; z], ẋ = [0; ż], and
     (want_M) the mass matrix M (n_x, n_x): ForwardSystem.matrices through its products.
@@ -353,7 +360,7 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     elastic.rotor_inertia(d, pdd, r, M, want_M)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def applied(d, u, p, pd, integral, Q, rates):
     """Generalized applied forces Q (n_x,) and servo integral rates at one time
     (ForwardSystem.applied, dynamics/servos.py). u is the input row (forward_kernel.inputs):
@@ -407,7 +414,7 @@ def applied(d, u, p, pd, integral, Q, rates):
             Q[nr + i] += acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _drive(d, k, kind, ref, ref_rate, torque, pos, rate, integral, rates):
     """The torque (force) of drive k (joint k, or the cart's at k = N) of the given kind (an
     elastic joint's: its motor's) from its input columns (reference or motion, its rate, a
@@ -433,7 +440,7 @@ def _drive(d, k, kind, ref, ref_rate, torque, pos, rate, integral, rates):
     return min(max(tau, -d.torque_limit[k]), d.torque_limit[k])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _solve(A, b):
     """Solve A y = b in place (b ← y) by Gaussian elimination with partial pivoting."""
     n = b.shape[0]
@@ -464,7 +471,7 @@ def _solve(A, b):
         b[i] = acc / A[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rates(d, w_, u, y, dy):
     """dy/dt of the state y = [p_free, ṗ_free, z, ż, servo integrals] at one time with input
     row u (ForwardSystem.accelerations); w_ is a Workspace. The equations are linear in
@@ -476,7 +483,7 @@ def rates(d, w_, u, y, dy):
     state_rates(d, w_, y, w_.b, dy)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def state_rates(d, w_, y, acc, dy):
     """dy from the state y and the accelerations acc = (p̈_free, z̈) (the servo integrals'
     rates from the last `assemble`)."""
@@ -544,7 +551,7 @@ def assemble(d, w_, u, y):
             A[row, j] = rj[a] - r0[a]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def joint_torques(d, w_, p, pd, pdd, z, zd, zdd, out):
     """out[t, k] = torque of joint k's motor (N·m) at rigid states p, ṗ, p̈ (nt, n_rigid) and
     z, ż, z̈ (nt, n): the joint row of M ẍ + C ẋ + K x − f with x = [0; z] (motor inertia

@@ -20,7 +20,7 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 from ._forward_numba import CART, FREE, PINNED, frames
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def momentum(d, w_, p, pd, x, xd, pj, out):
     """out[:] = [L_x, L_y (N·s), H about the origin (N·m·s), first moment S_x, S_y (kg·m)] of
     base and links at rigid state p, ṗ (n_rigid,) and x = [0; z], ẋ = [0; ż] (n_x,), global
@@ -105,7 +105,7 @@ def momentum(d, w_, p, pd, x, xd, pj, out):
     out[0], out[1], out[2], out[3], out[4] = lx, ly, h, sx, sy
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _state(d, w_, u, y):
     """Rigid state p, ṗ (prescribed joints and cart from the input row) and x, ẋ into the
     workspace."""
@@ -130,7 +130,7 @@ def _state(d, w_, u, y):
         xd[nr + i] = y[2 * nu + n + i]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def components(d, w_, pj, pd, out):
     """out[:3] = L_x (on a cart: L along its rail), L_y and H (about the centre of mass if
     pj.about_cm, else the origin) at the workspace's configuration with rigid rates pd;
@@ -143,7 +143,7 @@ def components(d, w_, pj, pd, out):
         out[2] -= cx * out[1] - cy * out[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def invariants(d, w_, pj, u, y, out):
     """out[:3] = the projected components' values (L_x, L_y, H) at state y, input row u."""
     _state(d, w_, u, y)
@@ -151,7 +151,7 @@ def invariants(d, w_, pj, u, y, out):
     out[0], out[1], out[2] = pj.c0[0], pj.c0[1], pj.c0[2]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def project(d, w_, pj, u, U, t, y):
     """Correct the free rigid rates of y (in place) so that each projected component of the
     momentum equals pj.start + pj.rate · (t − pj.t0) + pj.impulse @ U (U: the inputs'
