@@ -18,6 +18,7 @@ instead, cheaper there.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -29,6 +30,17 @@ from .common import PathRun, Progress
 from .sensitivities import SettledRun, _Field, settled_run
 
 Metric = Callable[[Results], tuple[float, Mapping[str, np.ndarray]]]
+
+
+@dataclass(frozen=True)
+class _State:
+    """What the channel readings read of a Solution, without its checks: a state next to
+    the run's."""
+
+    t: np.ndarray
+    q: np.ndarray
+    q_dot: np.ndarray
+    q_ddot: np.ndarray
 
 
 class _Frames:
@@ -110,7 +122,7 @@ def objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray,
                 shifted = [a.copy() if p == part else a for p, a in enumerate(arrays)]
                 shifted[part][:, j] += sign * step
                 moved.append(functional(nominal_scenario, settled.nominal,
-                                        Solution(t, *shifted, solution.method)))
+                                        _State(t, *shifted)))  # type: ignore[arg-type]
             seeds[part][:, j] = (moved[0] - moved[1]) / (2.0 * step)
     gradient, _ = lawson_gradient(settled.nominal, settled.derivative_rows, t,
                                   settled.discretisation, *seeds)

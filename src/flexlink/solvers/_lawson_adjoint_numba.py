@@ -194,12 +194,15 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
             continue
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[blk], pieces[blk + 1]
+        # ΔÃ at the block's last step's end; further back, a step's end is the start of the
+        # step after it, which the pass has just read (the same local time, as forward)
+        h = (t_out[i1] - t_out[i1 - 1]) / substeps
+        tau_end = (t_out[i1 - 1] - t_out[i0] + (substeps - 1) * h) / span + h / span
+        _delta(polyT, lower, upper, p0, p1, A_ref, tau_end, De)
         for i in range(i1 - 1, i0 - 1, -1):
             h = (t_out[i + 1] - t_out[i]) / substeps
             dtau = h / span
             # the output at i + 1: y and z̈ = (Ã_ref + ΔÃ(end)) y
-            tau_end = (t_out[i] - t_out[i0] + (substeps - 1) * h) / span + dtau
-            _delta(polyT, lower, upper, p0, p1, A_ref, tau_end, De)
             for q in range(n):
                 u[q] = seed_acc[i + 1, q]
             for q in range(m):
@@ -212,7 +215,6 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 t0 = _start_tau(t_out, i0, i, j, substeps, span)
                 _delta(polyT, lower, upper, p0, p1, A_ref, t0, D0)
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
-                _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, De)
                 s -= 1
                 for q in range(m):
                     yb[q] = ys[s, q]
@@ -251,7 +253,8 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 _dots(P2, 0, m, E2yb, 1.0, lam, True)
                 _spread(G, lower, upper, p0, p1, tau + dtau, Xe)
                 _spread(G, lower, upper, p0, p1, tau + 0.5 * dtau, Xm)
-                # the step's start is the previous step's end: X0 joins its Xe
+                # the step's start is the previous step's end: X0 joins its Xe, D0 is its De
+                D0, De = De, D0
                 for q in range(n):
                     for r in range(m):
                         Xe[q, r] = X0[q, r]

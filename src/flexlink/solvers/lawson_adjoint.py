@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import expm
 
-from .coefficient_table import tabulate_on
+from .coefficient_table import CoefficientTable, tabulate_on
 from .lawson import Discretisation
 from .lawson_sensitivity import DerivativeRows, steps_on
 from .magnus import augmented
@@ -55,19 +55,30 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
                                        np.ascontiguousarray(E2T), discretisation.substeps,
                                        seed_y, seed_acc, G, Gs, W)
         dtable = tabulate_on(derivative_rows, t_out, discretisation.layout)
-    # z̈ at the first output: A at the first piece's start (its constant coefficient)
-    G[0, 0] += np.outer(seed_acc[0], states[0])
-    gradient = np.einsum("pdkij,pdij->k", dtable.poly, G)
-    blocks = np.flatnonzero(table.static)
-    if blocks.size:
-        dt = (t_out[table.last[blocks]] - t_out[table.first[blocks]]) / (
-            table.last[blocks] - table.first[blocks])
-        X = np.swapaxes(augmented(table.reference[blocks]), 1, 2) * dt[:, None, None]
-        big = np.zeros((blocks.size, 2 * m, 2 * m))
-        big[:, :m, :m] = X
-        big[:, m:, m:] = X
-        big[:, :m, m:] = W[blocks]
-        frechet = np.stack([expm(b)[:m, m:] for b in big])  # L(Δt Ãᵀ, W)
-        weight = Gs[blocks] + dt[:, None, None] * frechet[:, n: 2 * n]
-        gradient += np.einsum("bkij,bij->k", dtable.reference[blocks], weight)
+        # z̈ at the first output: A at the first piece's start (its constant coefficient)
+        G[0, 0] += np.outer(seed_acc[0], states[0])
+        gradient = np.einsum("pdkij,pdij->k", dtable.poly, G)
+        blocks = np.flatnonzero(table.static)
+        if blocks.size:
+            gradient += np.einsum("bkij,bij->k", dtable.reference[blocks],
+                                  _static_weights(table, t_out, blocks, Gs, W, n))
     return gradient, states
+
+
+def _static_weights(table: CoefficientTable, t_out: np.ndarray, blocks: np.ndarray,
+                    Gs: np.ndarray, W: np.ndarray, n: int) -> np.ndarray:
+    """Per static block, the weight of its ∂A/∂p (n, 2n+1): Σ ∂J/∂z̈ yᵀ, plus the rows of
+    A in Δt L(Δt Ãᵀ, W) (the pairing of W with the derivative of exp(Δt Ã))."""
+    m = 2 * n + 1
+    dt = (t_out[table.last[blocks]] - t_out[table.first[blocks]]) / (
+        table.last[blocks] - table.first[blocks])
+    X = np.swapaxes(augmented(table.reference[blocks]), 1, 2) * dt[:, None, None]
+    # L is linear in W: W scaled to unit size, so that it does not set the exponential's
+    # scaling and squaring
+    size = np.maximum(np.abs(W[blocks]).max(axis=(1, 2)), 1e-300)
+    big = np.zeros((blocks.size, 2 * m, 2 * m))
+    big[:, :m, :m] = X
+    big[:, m:, m:] = X
+    big[:, :m, m:] = W[blocks] / size[:, None, None]
+    frechet = expm(big)[:, :m, m:] * size[:, None, None]  # L(Δt Ãᵀ, W)
+    return Gs[blocks] + dt[:, None, None] * frechet[:, n: 2 * n]
