@@ -209,23 +209,33 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
 
     nominal = system_of(scenario)
     for f in fields:
-        systems.append([nominal if j == 0 else system_of(sc)
+        systems.append([nominal if j == 0 or _same_model(sc, scenario) else system_of(sc)
                         for j, sc in zip(f.offsets, f.scenarios, strict=True)])
 
     def derivative_rows(times: np.ndarray) -> np.ndarray:
-        out = None
+        rows0 = nominal.state_rows(times)
+        out = np.zeros((rows0.shape[0], len(fields), *rows0.shape[1:]))
         for k, (f, moved) in enumerate(zip(fields, systems, strict=True)):
-            for i, (w, s) in enumerate(zip(f.weights, moved, strict=True)):
-                rows = s.state_rows(times)
-                if out is None:  # written in place: no per-field temporaries to stack
-                    out = np.empty((rows.shape[0], len(fields), *rows.shape[1:]))
-                if i == 0:
-                    np.multiply(rows, w / f.step, out=out[:, k])
-                else:
-                    out[:, k] += (w / f.step) * rows
+            if all(s is nominal for s in moved):  # a field the equations do not read
+                continue
+            for w, s in zip(f.weights, moved, strict=True):
+                # written in place: no per-field temporaries to stack
+                out[:, k] += (w / f.step) * (rows0 if s is nominal else s.state_rows(times))
         return out
 
     return SettledRun(run, scenario, settled[0], nominal, systems, derivative_rows)
+
+
+def _same_model(moved: Scenario, scenario: Scenario) -> bool:
+    """Whether a moved scenario's equations are the scenario's (a field of the sensors):
+    the same chain, actuators and settings of the equations, so the same system."""
+    a, b = moved.settings, scenario.settings
+    try:
+        return bool(moved.chain == scenario.chain and moved.actuators == scenario.actuators
+                    and a.geometric_stiffening == b.geometric_stiffening
+                    and a.gravity == b.gravity and a.initial == b.initial)
+    except ValueError:  # values holding arrays (a measured motion): compared as different
+        return False
 
 
 def run_with_sensitivities(scenario: Scenario, fields: list[_Field], t: np.ndarray,
