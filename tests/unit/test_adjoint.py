@@ -111,3 +111,17 @@ def test_a_metric_on_channels_that_need_the_frames_takes_the_tangents() -> None:
     expected = slopes["link1_tip_acceleration"] @ results.sensitivities.sel(
         channel="link1_tip_acceleration").values
     np.testing.assert_allclose(gradient, expected, rtol=1e-12)
+
+
+def test_a_field_the_equations_do_not_read_assembles_nothing() -> None:
+    """A sensor's gain moves the channel map only: its stencil reuses the run's system and
+    its dA/dp is zero (not a difference of two assemblies); a link field builds its own."""
+    file = _paper(t_end=0.3)
+    scenario = file.build()
+    fields = prepare_fields(file, scenario, ["sensors[pzt].d31", "links[0].EI"])
+    t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
+    settled = settled_run(scenario, fields, t, lambda _: None, False)
+    assert all(s is settled.nominal for s in settled.systems[0])
+    assert all(s is not settled.nominal for s in settled.systems[1])
+    rows = settled.derivative_rows(t[:5])
+    assert not rows[:, 0].any() and rows[:, 1].any()

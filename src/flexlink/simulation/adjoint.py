@@ -94,6 +94,14 @@ def objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray,
                        slopes: Mapping[str, np.ndarray]) -> tuple[np.ndarray, str]:
     """dJ/dp (K,) of J with ∂J/∂channel = ``slopes`` (nt each) along the settled run, and
     how it was computed ("adjoint" or "tangents")."""
+    from ..solvers.threads import single_threaded
+
+    with single_threaded():  # small arrays: BLAS threads would only spin
+        return _objective_gradient(settled, fields, t, slopes)
+
+
+def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray,
+                        slopes: Mapping[str, np.ndarray]) -> tuple[np.ndarray, str]:
     from ..solvers.lawson_adjoint import lawson_gradient
 
     names = list(slopes)
