@@ -255,8 +255,16 @@ def forward_derivatives(settled: SettledRun, fields: list[_Field], t: np.ndarray
     from .prescribed import prescribed_values
 
     run, nominal, systems = settled.run, settled.nominal, settled.systems
-    _, dq, dqd, dqdd = lawson_sensitivities(nominal, settled.derivative_rows, t,
-                                            settled.discretisation)
+    # A field the equations do not read (its stencil's systems all the run's: a sensor's
+    # gain) moves no state, only the sensors' readings: no tangent, and the sensors alone.
+    sensors_only = [all(s is nominal for s in moved) for moved in systems]
+    active = [k for k, only in enumerate(sensors_only) if not only]
+    K, nt, n = len(fields), t.size, nominal.n
+    dq, dqd, dqdd = np.zeros((K, nt, n)), np.zeros((K, nt, n)), np.zeros((K, nt, n))
+    if active:
+        _, dq[active], dqd[active], dqdd[active] = lawson_sensitivities(
+            nominal, lambda times: settled.derivative_rows(times)[:, active], t,
+            settled.discretisation)
     if nominal.z_start is not None:
         for k, moved in enumerate(systems):
             f = fields[k]
@@ -273,17 +281,18 @@ def forward_derivatives(settled: SettledRun, fields: list[_Field], t: np.ndarray
             moved_solution = Solution(t, run_solution.q + h * dq[k],
                                       run_solution.q_dot + h * dqd[k],
                                       run_solution.q_ddot + h * dqdd[k], run_solution.method)
-            if names is None:
+            if names is None and not sensors_only[k]:
                 values, _, _ = prescribed_values(sc, system, moved_solution, False,
                                                  checked=False)
             else:
                 from .adjoint import channel_values
 
-                values, _ = channel_values(sc, system, moved_solution, names)
+                wanted = [s.name for s in sc.sensors] if names is None else names
+                values, _ = channel_values(sc, system, moved_solution, wanted)
             for name, v in values.items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
-            column.append(total[name] / f.step)
+            column.append(total[name] / f.step if name in total else np.zeros(nt))
     return {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
