@@ -1,8 +1,9 @@
 """A scalar objective over a run's channels with its exact gradient, for scipy.optimize.
 
-``Objective(scenario, fields, metric)(x)`` sets the fields to x, runs the scenario with their
-sensitivities (`simulation.sensitivities`) and returns the metric and its gradient in x, as
-``scipy.optimize.minimize(objective, objective.x0, jac=True)`` calls it.
+``Objective(scenario, fields, metric)(x)`` sets the fields to x, runs the scenario and returns
+the metric and its gradient in x, as ``scipy.optimize.minimize(objective, objective.x0,
+jac=True)`` calls it: the gradient of what the run computed, by one reverse pass of its steps
+or from the fields' tangents (`simulation.adjoint`).
 """
 
 from __future__ import annotations
