@@ -17,8 +17,7 @@ instead, cheaper there.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -26,61 +25,11 @@ import numpy as np
 from ..model import Scenario
 from ..results import Results
 from ..solvers import Solution
+from .channel_subset import State, channel_values
 from .common import PathRun, Progress
 from .sensitivities import SettledRun, _Field, settled_run
 
 Metric = Callable[[Results], tuple[float, Mapping[str, np.ndarray]]]
-
-
-@dataclass(frozen=True)
-class _State:
-    """What the channel readings read of a Solution, without its checks: a state next to
-    the run's."""
-
-    t: np.ndarray
-    q: np.ndarray
-    q_dot: np.ndarray
-    q_ddot: np.ndarray
-
-
-class _Frames:
-    """The frames along a solution (`prescribed_kernel.solved_frames`), made when first read;
-    ``used`` tells whether a reading needed them."""
-
-    def __init__(self, system: Any, solution: Solution) -> None:
-        self._system, self._solution = system, solution
-        self._frames: Any = None
-        self.used = False
-
-    def __getattr__(self, name: str) -> Any:
-        if name.startswith("_"):
-            raise AttributeError(name)
-        if self._frames is None:
-            from ..dynamics.prescribed_kernel import solved_frames
-
-            s = self._solution
-            self._frames = solved_frames(self._system, s.t, s.q, s.q_dot, s.q_ddot)
-            self.used = True
-        return getattr(self._frames, name)
-
-
-def channel_values(scenario: Scenario, system: Any, solution: Solution,
-                   names: Sequence[str]) -> tuple[dict[str, np.ndarray], bool]:
-    """The channels ``names`` of a prescribed run's solution, and whether they needed the
-    frames: sensors read alone (`channels.first_order.sensor_values`), any other channel
-    from the whole channel map (`prescribed.prescribed_values`)."""
-    from ..channels.first_order import sensor_values
-    from .prescribed import prescribed_values
-
-    frames = _Frames(system, solution)
-    sensors = tuple(s for s in scenario.sensors if s.name in names)
-    out = sensor_values(system, frames, solution, sensors)  # type: ignore[arg-type]
-    rest = [name for name in names if name not in out]
-    if rest:
-        values, _, _ = prescribed_values(scenario, system, solution, False, checked=False)
-        out.update({name: np.asarray(values[name], dtype=float) for name in rest})
-        return out, True
-    return out, frames.used
 
 
 def adjoint_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
@@ -130,7 +79,7 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
                 shifted = [a.copy() if p == part else a for p, a in enumerate(arrays)]
                 shifted[part][:, j] += sign * step
                 moved.append(functional(nominal_scenario, settled.nominal,
-                                        _State(t, *shifted)))  # type: ignore[arg-type]
+                                        State(t, *shifted)))  # type: ignore[arg-type]
             seeds[part][:, j] = (moved[0] - moved[1]) / (2.0 * step)
     gradient, _ = lawson_gradient(settled.nominal, settled.derivative_rows, t,
                                   settled.discretisation, *seeds)

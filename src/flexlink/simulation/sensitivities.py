@@ -285,7 +285,7 @@ def forward_derivatives(settled: SettledRun, fields: list[_Field], t: np.ndarray
                 values, _, _ = prescribed_values(sc, system, moved_solution, False,
                                                  checked=False)
             else:
-                from .adjoint import channel_values
+                from .channel_subset import channel_values
 
                 wanted = [s.name for s in sc.sensors] if names is None else names
                 values, _ = channel_values(sc, system, moved_solution, wanted)
