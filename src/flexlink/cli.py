@@ -241,13 +241,12 @@ def warmup_run(name: str, scenario: Any) -> None:
     """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_SENSITIVITIES`."""
     fields = WARMUP_SENSITIVITIES.get(name)
     if fields:
-        from .simulation.objective import MeanSquare, Objective
+        from .simulation.adjoint import warm_up
         from .simulation.sensitivities import simulate_with_sensitivities
 
         # the tangent loop, and the reverse pass of an objective on a sensor on the modes
         simulate_with_sensitivities(scenario, fields, shapes=False)
-        objective = Objective(scenario, fields, MeanSquare(WARMUP_OBJECTIVE_CHANNEL))
-        objective(objective.x0)
+        warm_up(scenario, fields, WARMUP_OBJECTIVE_CHANNEL)
         return
     from .simulation import simulate
 

@@ -17,7 +17,7 @@ instead, cheaper there.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -103,3 +103,12 @@ def _by_tangents(settled: SettledRun, fields: list[_Field], t: np.ndarray,
     for name, weight in slopes.items():
         gradient += np.asarray(weight, dtype=float) @ derivatives[name]
     return gradient
+
+
+def warm_up(scenario: Scenario, fields: Sequence[str], channel: str) -> None:
+    """One gradient by the reverse pass (`Objective` of the mean square of ``channel``, a
+    sensor on the modes): loads or compiles its loop (`flexlink warmup`)."""
+    from .objective import MeanSquare, Objective
+
+    objective = Objective(scenario, fields, MeanSquare(channel))
+    objective(objective.x0)
