@@ -241,7 +241,7 @@ def warmup_run(name: str, scenario: Any) -> None:
     """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_SENSITIVITIES`."""
     fields = WARMUP_SENSITIVITIES.get(name)
     if fields:
-        from .simulation.adjoint import warm_up
+        from .simulation.objective import warm_up
         from .simulation.sensitivities import simulate_with_sensitivities
 
         # the tangent loop, and the reverse pass of an objective on a sensor on the modes

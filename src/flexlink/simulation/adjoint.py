@@ -17,7 +17,7 @@ instead, cheaper there.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -104,11 +104,3 @@ def _by_tangents(settled: SettledRun, fields: list[_Field], t: np.ndarray,
         gradient += np.asarray(weight, dtype=float) @ derivatives[name]
     return gradient
 
-
-def warm_up(scenario: Scenario, fields: Sequence[str], channel: str) -> None:
-    """One gradient by the reverse pass (`Objective` of the mean square of ``channel``, a
-    sensor on the modes): loads or compiles its loop (`flexlink warmup`)."""
-    from .objective import MeanSquare, Objective
-
-    objective = Objective(scenario, fields, MeanSquare(channel))
-    objective(objective.x0)

@@ -97,3 +97,10 @@ class Objective:
         gradient, self.method = objective_gradient(settled, prepared, results.time, slopes)
         self._last = (x, float(value), gradient)
         return float(value), gradient.copy()
+
+
+def warm_up(scenario: Scenario, fields: Sequence[str], channel: str) -> None:
+    """One gradient by the reverse pass (the mean square of ``channel``, a sensor on the
+    modes): loads or compiles its loop (`flexlink warmup`)."""
+    objective = Objective(scenario, fields, MeanSquare(channel))
+    objective(objective.x0)
