@@ -234,16 +234,19 @@ WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_bas
                "nonlinear_four_bar", "sensitivities")
 # The warm-up runs that also compute sensitivities, with their fields (the tangent loop).
 WARMUP_SENSITIVITIES: dict[str, list[str]] = {"sensitivities": ["links[0].EI"]}
+WARMUP_OBJECTIVE_CHANNEL = "link2_tip_deflection"  # a sensor on the modes: the reverse pass
 
 
 def warmup_run(name: str, scenario: Any) -> None:
     """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_SENSITIVITIES`."""
     fields = WARMUP_SENSITIVITIES.get(name)
     if fields:
+        from .simulation.objective import warm_up
         from .simulation.sensitivities import simulate_with_sensitivities
 
-        # unlabelled: the installation's build environment has no xarray
-        simulate_with_sensitivities(scenario, fields, shapes=False, labelled=False)
+        # the tangent loop, and the reverse pass of an objective on a sensor on the modes
+        simulate_with_sensitivities(scenario, fields, shapes=False)
+        warm_up(scenario, fields, WARMUP_OBJECTIVE_CHANNEL)
         return
     from .simulation import simulate
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -37,8 +37,25 @@ class Results:
     created: str = field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"),
                          compare=False)
     shapes: Sequence[LinkShape] = field(default_factory=list, compare=False, repr=False)
-    # ∂channel/∂field (xarray DataArray, time × channel × field) of a run asked for them
-    sensitivities: Any = field(default=None, compare=False, repr=False)
+    # ∂channel/∂field (xarray DataArray, time × channel × field) of a run asked for them,
+    # or what makes it when first read (`label_sensitivities`)
+    _sensitivities: Any = field(default=None, compare=False, repr=False)
+
+    @property
+    def sensitivities(self) -> Any:
+        """∂channel/∂field of a run with ``sensitivities`` (xarray DataArray, time × channel
+        × field; docs/sensitivities.md), None for other runs."""
+        if callable(self._sensitivities):  # labelled on first use: xarray only then
+            self._sensitivities = self._sensitivities()
+        return self._sensitivities
+
+    @sensitivities.setter
+    def sensitivities(self, value: Any) -> None:
+        self._sensitivities = value
+
+    def label_sensitivities(self, make: Callable[[], Any]) -> None:
+        """Give the results sensitivities that ``make()`` labels when first read."""
+        self._sensitivities = make
 
     def sensitivity(self, channel: str, field_path: str) -> Any:
         """∂channel/∂field over time (an xarray DataArray with its unit in ``attrs``) of a

@@ -1,8 +1,9 @@
 """A scalar objective over a run's channels with its exact gradient, for scipy.optimize.
 
-``Objective(scenario, fields, metric)(x)`` sets the fields to x, runs the scenario with their
-sensitivities (`simulation.sensitivities`) and returns the metric and its gradient in x, as
-``scipy.optimize.minimize(objective, objective.x0, jac=True)`` calls it.
+``Objective(scenario, fields, metric)(x)`` sets the fields to x, runs the scenario and returns
+the metric and its gradient in x, as ``scipy.optimize.minimize(objective, objective.x0,
+jac=True)`` calls it: the gradient of what the run computed, by one reverse pass of its steps
+or from the fields' tangents (`simulation.adjoint`).
 """
 
 from __future__ import annotations
@@ -60,30 +61,46 @@ class Objective:
         self.x0 = np.array([float(t.value) for t in self._targets])
         self._last: tuple[np.ndarray, float, np.ndarray] | None = None
         self.runs = 0
+        self.method = ""  # how the last gradient was computed: "adjoint" or "tangents"
 
     def results(self, x: np.ndarray) -> Results:
         """The run (with sensitivities) at x."""
         from .sensitivities import simulate_with_sensitivities
 
+        self.runs += 1
+        return simulate_with_sensitivities(self._file_at(x), self.fields, shapes=False)
+
+    def _file_at(self, x: np.ndarray) -> ScenarioFile:
         x = np.asarray(x, dtype=float)
         if x.shape != self.x0.shape:
             raise ValueError(f"x has shape {x.shape}; the objective has {self.x0.size} fields")
         values = {t.path: float(v) for t, v in zip(self._targets, x, strict=True)}
-        file = ScenarioFile(self.file.with_values(values), self.file.base_dir, self.file.name,
+        return ScenarioFile(self.file.with_values(values), self.file.base_dir, self.file.name,
                             self.file.source)
-        self.runs += 1
-        return simulate_with_sensitivities(file, self.fields, shapes=False)
 
     def __call__(self, x: np.ndarray) -> tuple[float, np.ndarray]:
-        """(f(x), ∇f(x)): the metric and its derivative in each field, in field order."""
+        """(f(x), ∇f(x)): the metric and its derivative in each field, in field order. The
+        gradient comes from one reverse pass of the run's steps when the metric's channels
+        are sensors on the modes, else from the fields' tangents (simulation/adjoint.py);
+        ``method`` says which the last call took."""
+        from .adjoint import adjoint_run, objective_gradient
+        from .sensitivities import sensitivity_run
+
         x = np.array(x, dtype=float)
         if self._last is not None and np.array_equal(self._last[0], x):
             return self._last[1], self._last[2].copy()
-        results = self.results(x)
+        file = self._file_at(x)
+        self.runs += 1
+        results, prepared, settled = sensitivity_run(file, self.fields, False, False,
+                                                     adjoint_run)
         value, slopes = self.metric(results)
-        gradient = np.zeros(x.size)
-        for channel, weight in slopes.items():
-            d = results.sensitivities.sel(channel=channel).values  # (nt, fields)
-            gradient += np.asarray(weight) @ d
+        gradient, self.method = objective_gradient(settled, prepared, results.time, slopes)
         self._last = (x, float(value), gradient)
         return float(value), gradient.copy()
+
+
+def warm_up(scenario: Scenario, fields: Sequence[str], channel: str) -> None:
+    """One gradient by the reverse pass (the mean square of ``channel``, a sensor on the
+    modes): loads or compiles its loop (`flexlink warmup`)."""
+    objective = Objective(scenario, fields, MeanSquare(channel))
+    objective(objective.x0)

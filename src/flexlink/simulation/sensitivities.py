@@ -160,15 +160,27 @@ def _same_breaks(a: np.ndarray, b: np.ndarray) -> bool:
     return a.shape == b.shape and bool(np.all(a == b))
 
 
-def run_with_sensitivities(scenario: Scenario, fields: list[_Field], t: np.ndarray,
-                           on_progress: Progress, shapes: bool
-                           ) -> tuple[PathRun, dict[str, np.ndarray]]:
-    """The prescribed run of ``scenario`` (`prescribed.run_prescribed`, adaptive Lawson)
-    and, per channel, its derivatives (nt, K) in the fields."""
+@dataclass(frozen=True)
+class SettledRun:
+    """A prescribed run, the discretisation its Lawson integrator settled on, its system
+    and, per field, the systems of the field's stencil (the nominal one where the offset is
+    0), with ``derivative_rows``: ∂A/∂p of every field at given times (nt, K, n, 2n+1)."""
+
+    run: PathRun
+    scenario: Scenario
+    discretisation: Any
+    nominal: Any
+    systems: list[list[Any]]
+    derivative_rows: Any
+
+
+def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
+                on_progress: Progress, shapes: bool) -> SettledRun:
+    """The prescribed run of ``scenario`` (`prescribed.run_prescribed`, adaptive Lawson),
+    its discretisation and the systems of the fields' stencils."""
     from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem
     from ..solvers.lawson import integrate_lawson_discretised
-    from ..solvers.lawson_sensitivity import lawson_sensitivities
-    from .prescribed import prescribed_values, run_prescribed
+    from .prescribed import run_prescribed
 
     settled: list[Any] = [None]
 
@@ -197,30 +209,70 @@ def run_with_sensitivities(scenario: Scenario, fields: list[_Field], t: np.ndarr
 
     nominal = system_of(scenario)
     for f in fields:
-        systems.append([nominal if j == 0 else system_of(sc)
+        systems.append([nominal if j == 0 or _same_model(sc, scenario) else system_of(sc)
                         for j, sc in zip(f.offsets, f.scenarios, strict=True)])
 
     def derivative_rows(times: np.ndarray) -> np.ndarray:
-        out = None
+        rows0 = nominal.state_rows(times)
+        out = np.zeros((rows0.shape[0], len(fields), *rows0.shape[1:]))
         for k, (f, moved) in enumerate(zip(fields, systems, strict=True)):
-            for i, (w, s) in enumerate(zip(f.weights, moved, strict=True)):
-                rows = s.state_rows(times)
-                if out is None:  # written in place: no per-field temporaries to stack
-                    out = np.empty((rows.shape[0], len(fields), *rows.shape[1:]))
-                if i == 0:
-                    np.multiply(rows, w / f.step, out=out[:, k])
-                else:
-                    out[:, k] += (w / f.step) * rows
+            if all(s is nominal for s in moved):  # a field the equations do not read
+                continue
+            for w, s in zip(f.weights, moved, strict=True):
+                # written in place: no per-field temporaries to stack
+                out[:, k] += (w / f.step) * (rows0 if s is nominal else s.state_rows(times))
         return out
 
-    _, dq, dqd, dqdd = lawson_sensitivities(nominal, derivative_rows, t, settled[0])
+    return SettledRun(run, scenario, settled[0], nominal, systems, derivative_rows)
+
+
+def _same_model(moved: Scenario, scenario: Scenario) -> bool:
+    """Whether a moved scenario's equations are the scenario's (a field of the sensors):
+    the same chain, actuators and settings of the equations, so the same system."""
+    a, b = moved.settings, scenario.settings
+    try:
+        return bool(moved.chain == scenario.chain and moved.actuators == scenario.actuators
+                    and a.geometric_stiffening == b.geometric_stiffening
+                    and a.gravity == b.gravity and a.initial == b.initial)
+    except ValueError:  # values holding arrays (a measured motion): compared as different
+        return False
+
+
+def run_with_sensitivities(scenario: Scenario, fields: list[_Field], t: np.ndarray,
+                           on_progress: Progress, shapes: bool
+                           ) -> tuple[PathRun, dict[str, np.ndarray]]:
+    """The prescribed run of ``scenario`` (`prescribed.run_prescribed`, adaptive Lawson)
+    and, per channel, its derivatives (nt, K) in the fields."""
+    settled = settled_run(scenario, fields, t, on_progress, shapes)
+    return settled.run, forward_derivatives(settled, fields, t)
+
+
+def forward_derivatives(settled: SettledRun, fields: list[_Field], t: np.ndarray,
+                        names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+    """Per channel (``names``: those only), its derivatives (nt, K) in the fields along the
+    settled run, from the fields' tangents."""
+    from ..solvers.lawson_sensitivity import lawson_sensitivities
+    from .prescribed import prescribed_values
+
+    run, nominal, systems = settled.run, settled.nominal, settled.systems
+    # A field the equations do not read (its stencil's systems all the run's: a sensor's
+    # gain) moves no state, only the sensors' readings: no tangent, and the sensors alone.
+    sensors_only = [all(s is nominal for s in moved) for moved in systems]
+    active = [k for k, only in enumerate(sensors_only) if not only]
+    K, nt, n = len(fields), t.size, nominal.n
+    dq, dqd, dqdd = np.zeros((K, nt, n)), np.zeros((K, nt, n)), np.zeros((K, nt, n))
+    if active:
+        _, dq[active], dqd[active], dqdd[active] = lawson_sensitivities(
+            nominal, lambda times: settled.derivative_rows(times)[:, active], t,
+            settled.discretisation)
     if nominal.z_start is not None:
         for k, moved in enumerate(systems):
             f = fields[k]
             dz0 = sum(w * s.z_start for w, s in zip(f.weights, moved, strict=True))
             dq[k] += dz0 / f.step
     run_solution = run.solution
-    channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
+    channels: dict[str, list[np.ndarray]] = {
+        name: [] for name in (run.values if names is None else names)}
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
         for j, w, sc, system in zip(f.offsets, f.weights, f.scenarios, systems[k],
@@ -229,17 +281,23 @@ def run_with_sensitivities(scenario: Scenario, fields: list[_Field], t: np.ndarr
             moved_solution = Solution(t, run_solution.q + h * dq[k],
                                       run_solution.q_dot + h * dqd[k],
                                       run_solution.q_ddot + h * dqdd[k], run_solution.method)
-            values, _, _ = prescribed_values(sc, system, moved_solution, False,
-                                             checked=False)
+            if names is None and not sensors_only[k]:
+                values, _, _ = prescribed_values(sc, system, moved_solution, False,
+                                                 checked=False)
+            else:
+                from .channel_subset import channel_values
+
+                wanted = [s.name for s in sc.sensors] if names is None else names
+                values, _ = channel_values(sc, system, moved_solution, wanted)
             for name, v in values.items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
-            column.append(total[name] / f.step)
-    return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
+            column.append(total[name] / f.step if name in total else np.zeros(nt))
+    return {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
-def attach(results: Results, fields: list[_Field], derivatives: dict[str, np.ndarray]) -> None:
-    """Put the sensitivities on ``results`` as a DataArray (time × channel × field)."""
+def labelled(results: Results, fields: list[_Field], derivatives: dict[str, np.ndarray]) -> Any:
+    """The sensitivities of ``results`` as a DataArray (time × channel × field)."""
     import xarray as xr
 
     names = [name for name in results.names if name in derivatives]
@@ -247,7 +305,7 @@ def attach(results: Results, fields: list[_Field], derivatives: dict[str, np.nda
     data = np.stack([derivatives[name] for name in names], axis=1)
     units = np.array([[quotient_unit(results.channels[name].unit, f.unit) for f in fields]
                       for name in names], dtype=object)
-    results.sensitivities = xr.DataArray(
+    return xr.DataArray(
         data, dims=("time", "channel", "field"),
         coords={"time": results.time, "channel": names, "field": texts,
                 "unit": (("channel", "field"), units),
@@ -333,12 +391,22 @@ def quotient_unit(channel: str, field: str) -> str:
 
 
 def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Sequence[str],
-                                progress: bool = False, shapes: bool = True,
-                                labelled: bool = True) -> Results:
+                                progress: bool = False, shapes: bool = True) -> Results:
     """`simulate` with the sensitivities of every channel to ``fields`` on the results
-    (`Results.sensitivities`, `Results.sensitivity`). Every check runs before the run.
-    ``labelled`` False computes them without putting them on the results (no xarray: the
-    installation's warm-up run of the tangent loop)."""
+    (`Results.sensitivities`, `Results.sensitivity`). Every check runs before the run. They
+    are labelled (an xarray DataArray) when first read: computing them needs no xarray."""
+    results, prepared, derivatives = sensitivity_run(scenario, fields, progress, shapes,
+                                                     run_with_sensitivities)
+    results.label_sensitivities(lambda: labelled(results, prepared, derivatives))
+    return results
+
+
+def sensitivity_run(scenario: Scenario | ScenarioFile, fields: Sequence[str], progress: bool,
+                    shapes: bool, compute: Any) -> tuple[Results, list[_Field], Any]:
+    """Check the scenario and ``fields``, then ``compute(scenario, prepared fields, t,
+    on_progress, shapes) → (PathRun, extra)`` (timed, single-threaded, with the links the
+    run makes rigid rigid in every moved scenario too): the Results, the prepared fields and
+    the extra."""
     from .common import ProgressBar, assemble_results, check_run_memory, output_times, timed
     from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
@@ -362,13 +430,10 @@ def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Seque
     from ..solvers.threads import single_threaded
 
     with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
-        (run, derivatives), wall_time = timed(  # type: ignore[arg-type]
-            lambda: run_with_sensitivities(base, prepared, t, bar.update, shapes))
+        (run, extra), wall_time = timed(  # type: ignore[arg-type]
+            lambda: compute(base, prepared, t, bar.update, shapes))
     if stiff:
         from dataclasses import replace
 
         run = replace(run, metadata={**run.metadata, **rigid_metadata(scenario, stiff)})
-    results = assemble_results(scenario, run, wall_time)
-    if labelled:
-        attach(results, prepared, derivatives)
-    return results
+    return assemble_results(scenario, run, wall_time), prepared, extra

@@ -43,19 +43,11 @@ def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
     from ._lawson_sensitivity_numba import lawson_tangent_blocks
 
     n = system.n
-    rows = getattr(system, "state_rows", None) or (
-        lambda times: state_rows(system.matrices, times))
     with single_threaded():
-        table = tabulate_on(rows, t_out, discretisation.layout)
+        table, reference, ET, E2T = steps_on(system, t_out, discretisation)
         dtable = tabulate_on(derivative_rows, t_out, discretisation.layout)
         K = dtable.poly.shape[2]
         static = table.static
-        reference = np.where(static[:, None, None], table.reference, discretisation.reference)
-        ET = discretisation.propagators.copy()
-        if static.any():
-            ET[static] = _block_propagators(table, n, t_out, discretisation.substeps, static)
-        E2T = ET.copy()
-        E2T[~static] = ET[~static] @ ET[~static]
         PdT = _static_derivatives(table, dtable, t_out, n)
         m = 2 * n + 1
         polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))
@@ -85,6 +77,26 @@ def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
     solution = Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson", stats,
                         accuracy=Accuracy(discretisation.rtol, None, FIXED_STEP))
     return solution, dstates[:, :, :n], dstates[:, :, n: 2 * n], dacc
+
+
+def steps_on(system: LinearSystem, t_out: np.ndarray, discretisation: Discretisation
+             ) -> tuple[CoefficientTable, np.ndarray, np.ndarray, np.ndarray]:
+    """The system's table on the discretisation's layout, each block's reference (the
+    settled one on moving blocks, the system's own on static ones) and the propagators the
+    steps read, transposed: E = exp(h/2 Ã_ref) and E² on moving blocks, exp(Δt Ã) on static
+    ones (E² unused there)."""
+    n = system.n
+    rows = getattr(system, "state_rows", None) or (
+        lambda times: state_rows(system.matrices, times))
+    table = tabulate_on(rows, t_out, discretisation.layout)
+    static = table.static
+    reference = np.where(static[:, None, None], table.reference, discretisation.reference)
+    ET = discretisation.propagators.copy()
+    if static.any():
+        ET[static] = _block_propagators(table, n, t_out, discretisation.substeps, static)
+    E2T = ET.copy()
+    E2T[~static] = ET[~static] @ ET[~static]
+    return table, reference, ET, E2T
 
 
 def _static_derivatives(table: CoefficientTable, dtable: CoefficientTable, t_out: np.ndarray,

@@ -1,0 +1,106 @@
+"""The gradient of a scalar objective over a run's channels by one reverse pass of the run's
+Lawson steps (`solvers.lawson_adjoint`), for `Objective` (docs/sensitivities.md).
+
+J = metric(channels) depends on the fields p through the run's state and directly through the
+channel map (a sensor's gain, a link's shapes): dJ/dp = Σ_t ∂J/∂x(t) ∂x(t)/∂p + ∂J/∂p|x, with
+x = (q, q̇, q̈) at the output times. The first term is the reverse pass with the seeds
+∂J/∂x(t) = Σ_c ∂J/∂c(t) ∂c(t)/∂x(t), its cost independent of the number of fields; the
+channels' derivatives in the state are central differences along each state coordinate at
+every output time at once (each channel at one time depends on the state at that time only,
+linearly or quadratically, so the differences are exact to round-off), and ∂J/∂p|x central
+differences of the channel map over each field's stencil at the run's state, as the tangents'
+channel pass takes them. Both read only the metric's channels, which for sensors on the
+modes (strain, deflection, piezo) cost no frames; a metric on channels that need the frames
+(tips, torques, accelerometers) has the fields' tangents (`sensitivities.forward_derivatives`)
+instead, cheaper there.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from ..model import Scenario
+from ..results import Results
+from ..solvers import Solution
+from .channel_subset import State, channel_values
+from .common import PathRun, Progress
+from .sensitivities import SettledRun, _Field, settled_run
+
+Metric = Callable[[Results], tuple[float, Mapping[str, np.ndarray]]]
+
+
+def adjoint_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
+                on_progress: Progress, shapes: bool) -> tuple[PathRun, SettledRun]:
+    """The prescribed run and what its gradient needs (`sensitivity_run`'s compute)."""
+    settled = settled_run(scenario, fields, t, on_progress, shapes)
+    return settled.run, settled
+
+
+def objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray,
+                       slopes: Mapping[str, np.ndarray]) -> tuple[np.ndarray, str]:
+    """dJ/dp (K,) of J with ∂J/∂channel = ``slopes`` (nt each) along the settled run, and
+    how it was computed ("adjoint" or "tangents")."""
+    from ..solvers.threads import single_threaded
+
+    with single_threaded():  # small arrays: BLAS threads would only spin
+        return _objective_gradient(settled, fields, t, slopes)
+
+
+def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray,
+                        slopes: Mapping[str, np.ndarray]) -> tuple[np.ndarray, str]:
+    from ..solvers.lawson_adjoint import lawson_gradient
+
+    names = list(slopes)
+    solution = settled.run.solution
+    nominal_scenario = settled.scenario
+    _, frames = channel_values(nominal_scenario, settled.nominal, solution, names)
+    if frames:
+        return _by_tangents(settled, fields, t, slopes), "tangents"
+    weights = {name: np.asarray(slopes[name], dtype=float) for name in names}
+
+    def functional(scenario: Scenario, system: Any, sol: Solution) -> np.ndarray:
+        """Σ_c ∂J/∂c · c, per output time."""
+        values, _ = channel_values(scenario, system, sol, names)
+        return sum(weights[name] * values[name] for name in names)  # type: ignore[return-value]
+
+    # ∂J/∂x(t) by central differences along each state coordinate at all times at once
+    n = solution.q.shape[1]
+    arrays = [solution.q, solution.q_dot, solution.q_ddot]
+    seeds = [np.zeros_like(a) for a in arrays]
+    for part in range(3):
+        for j in range(n):
+            column = arrays[part][:, j]
+            step = float(np.abs(column).max()) or 1.0
+            moved = []
+            for sign in (1.0, -1.0):
+                shifted = [a.copy() if p == part else a for p, a in enumerate(arrays)]
+                shifted[part][:, j] += sign * step
+                moved.append(functional(nominal_scenario, settled.nominal,
+                                        State(t, *shifted)))  # type: ignore[arg-type]
+            seeds[part][:, j] = (moved[0] - moved[1]) / (2.0 * step)
+    gradient, _ = lawson_gradient(settled.nominal, settled.derivative_rows, t,
+                                  settled.discretisation, *seeds)
+    for k, (f, moved_systems) in enumerate(zip(fields, settled.systems, strict=True)):
+        direct = 0.0
+        for w, sc, system in zip(f.weights, f.scenarios, moved_systems, strict=True):
+            direct += w * float(np.sum(functional(sc, system, solution)))
+            if system.z_start is not None:  # q = w + z_start(p): the start moves too
+                gradient[k] += w * float(np.sum(seeds[0] @ system.z_start)) / f.step
+        gradient[k] += direct / f.step
+    return gradient, "adjoint"
+
+
+def _by_tangents(settled: SettledRun, fields: list[_Field], t: np.ndarray,
+                 slopes: Mapping[str, np.ndarray]) -> np.ndarray:
+    """dJ/dp from the fields' tangents, reading the metric's channels only."""
+    from .sensitivities import forward_derivatives
+
+    derivatives = forward_derivatives(settled, fields, t, list(slopes))
+    gradient = np.zeros(len(fields))
+    for name, weight in slopes.items():
+        gradient += np.asarray(weight, dtype=float) @ derivatives[name]
+    return gradient
+
