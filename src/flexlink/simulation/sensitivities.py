@@ -23,7 +23,7 @@ a run:
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -334,11 +334,15 @@ def quotient_unit(channel: str, field: str) -> str:
 
 def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Sequence[str],
                                 progress: bool = False, shapes: bool = True,
-                                labelled: bool = True) -> Results:
+                                labelled: bool = True,
+                                drive: Callable[[Scenario], Scenario] | None = None
+                                ) -> Results:
     """`simulate` with the sensitivities of every channel to ``fields`` on the results
     (`Results.sensitivities`, `Results.sensitivity`). Every check runs before the run.
-    ``labelled`` False computes them without putting them on the results (no xarray: the
-    installation's warm-up run of the tangent loop)."""
+    ``labelled`` False leaves xarray out: `Results.sensitivities` is then the plain
+    {channel: (time, field) array}, fields in the order given (the fit's Jacobians; the
+    installation's warm-up run of the tangent loop). ``drive``: applied to the scenario and
+    to every moved one before they run (a fit's measured joint motions, `experiment`)."""
     from .common import ProgressBar, assemble_results, check_run_memory, output_times, timed
     from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
@@ -347,6 +351,13 @@ def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Seque
         scenario = file.build()
     check_path(scenario)
     prepared = prepare_fields(file, scenario, fields)
+    if drive is not None:
+        from dataclasses import replace
+
+        scenario = drive(scenario)
+        prepared = [replace(f, scenarios=tuple(drive(s) for s in f.scenarios))
+                    for f in prepared]
+        check_path(scenario)
     check_run_memory(scenario)
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
@@ -371,4 +382,6 @@ def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Seque
     results = assemble_results(scenario, run, wall_time)
     if labelled:
         attach(results, prepared, derivatives)
+    else:
+        results.sensitivities = derivatives
     return results
