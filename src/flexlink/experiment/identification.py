@@ -12,6 +12,11 @@ point close to the answer keeps their number small: EI of link k is scaled by (f
 the dominant free-vibration frequency of the channels on link k (twice), its damping ratio by
 ζ_meas/ζ_sim, and gains, offsets and drifts come from a linear fit.
 
+Jacobians: exact where the runs take sensitivities (`simulation.sensitivities`: one run with
+the derivatives of every channel gives the whole Jacobian; calibration columns analytic; the
+modal features differentiated through their fit, `vibration.damped_mode_slopes`), else forward
+differences.
+
 Uncertainty: cov = s² (JᵀJ)⁻¹ in the scaled variables (modal: s² = max(1, χ²/dof); time:
 s² = Σr²/(m − p) widened by the AR(1) factor (1 + ρ)/(1 − ρ) of the residuals); 95 % intervals
 are ±1.96 σ (×exp(±1.96 σ) on log-scaled parameters).
