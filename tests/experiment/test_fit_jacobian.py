@@ -158,3 +158,26 @@ def test_the_fit_uses_the_exact_jacobian_where_the_runs_take_sensitivities(exper
     for a, b in zip(exact.estimates, differenced.estimates, strict=True):
         assert abs(a.value - b.value) < 0.05 * a.std, a.path
         assert a.std == pytest.approx(b.std, rel=0.01), a.path
+
+
+def test_a_driven_run_with_sensitivities_is_the_driven_run(experiment) -> None:
+    """simulate_with_sensitivities(drive=…) runs the scenario the fit's plain runs run (the
+    measured angles in place of the file's profiles, to the end of the data), and unlabelled
+    gives plain arrays, one column per field."""
+    from flexlink.experiment.comparison import measured_inputs
+    from flexlink.simulation import simulate
+    from flexlink.simulation.sensitivities import simulate_with_sensitivities
+
+    inputs = measured_inputs(experiment.file.build(), experiment.measurement)
+    plain = simulate(inputs.drive(experiment.file.build()), shapes=False)
+    with_slopes = simulate_with_sensitivities(
+        experiment.file, ["links[0].EI", "sensors[pzt].capacitance"], shapes=False,
+        labelled=False, drive=inputs.drive)
+    assert plain.time[-1] == pytest.approx(float(experiment.measurement.time[-1]))
+    for name in plain.names:
+        np.testing.assert_array_equal(with_slopes[name], plain[name])
+        assert with_slopes.sensitivities[name].shape == (plain.time.size, 2)
+    # the PZT's voltage goes as 1/C: its slope in C is −v/C
+    c = float(experiment.file.locate("sensors[pzt].capacitance").value)
+    np.testing.assert_allclose(with_slopes.sensitivities["pzt"][:, 1], -plain["pzt"] / c,
+                               rtol=1e-6, atol=1e-9 * np.abs(plain["pzt"]).max() / c)
