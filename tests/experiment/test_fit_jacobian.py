@@ -96,7 +96,8 @@ def test_modal_jacobian_is_the_derivative_of_the_modal_residual(experiment) -> N
     t = results.time
     measured = ident.on_grid(experiment.measurement, t)
     mask = t >= 1.9
-    features = ident._measured_features(t[mask], measured, CHANNELS, mask)
+    features = ident._measured_features({c: damped_modes(t[mask], measured[c][mask])
+                                         for c in CHANNELS})
     slopes = model.slopes_at(values)
     assert slopes is not None and model.exact_reason == ""
     r, jac = ident._modal_residual(t[mask], model.results(values), features, mask, slopes)

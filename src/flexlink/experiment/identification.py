@@ -49,7 +49,14 @@ from .comparison import (
 from .files import MeasurementError
 from .measurement import Measurement
 from .parameters import Parameter, model_values
-from .vibration import Mode, damped_mode_slopes, damped_modes, dominant_mode, spectral_peaks
+from .vibration import (
+    Mode,
+    damped_mode_slopes,
+    damped_modes,
+    dominant_mode,
+    spectral_peaks,
+    strongest,
+)
 
 Z95 = 1.959964
 UNIDENTIFIABLE_RATIO = 10.0  # a 95 % interval wider than a decade says little
@@ -265,7 +272,9 @@ def _fit(scenario: ScenarioFile, measurement: Measurement, params: list[Paramete
         raise MeasurementError(f"the fit window {t0:g} … {t1:g} s holds {int(mask.sum())} "
                                f"samples, too few for {len(params)} parameters")
     norm = {c: float(np.std(measured[c][mask])) or 1.0 for c in channels}
-    start = _initial_guess(model, params, initial, channels, measured, mask)
+    # the measured free vibration's components, fitted once for the start and the features
+    measured_modes = {c: damped_modes(t[mask], measured[c][mask]) for c in channels}
+    start = _initial_guess(model, params, initial, channels, measured, mask, measured_modes)
     scales = [_scale(p, v, norm, t1) for p, v in zip(params, start, strict=True)]
     budget = max(3, max_simulations // (max(1, sum(p.is_model for p in params)) + 1))
     first_values = [p.initial if p.initial is not None else v
@@ -292,7 +301,7 @@ def _fit(scenario: ScenarioFile, measurement: Measurement, params: list[Paramete
                                                  for i in range(len(channels))]))
         rms = float(np.sqrt(np.mean(r**2)))
     else:
-        features = _measured_features(t[mask], measured, channels, mask)
+        features = _measured_features(measured_modes)
         if not features:
             raise MeasurementError("no free vibration found in the measured channels on the fit "
                                    f"window {t0:g} … {t1:g} s; try objective = \"time\"")
@@ -452,12 +461,11 @@ MAX_COMPONENTS = 3  # components fitted to a simulated channel
 MIN_ENERGY = 0.1  # of the channel's dominant component
 
 
-def _measured_features(t: np.ndarray, measured: dict[str, np.ndarray], channels: list[str],
-                       mask: np.ndarray) -> dict[str, list[Mode]]:
-    """The strongest free-vibration components of every measured channel."""
+def _measured_features(measured_modes: dict[str, list[Mode]]) -> dict[str, list[Mode]]:
+    """The strongest free-vibration components of every measured channel, from its fitted
+    components (`damped_modes`)."""
     out = {}
-    for c in channels:
-        modes = damped_modes(t, measured[c][mask])
+    for c, modes in measured_modes.items():
         if not modes:
             continue
         top = max(m.energy for m in modes)
@@ -601,14 +609,17 @@ def _window(window: tuple[float | None, float | None], measurement: Measurement,
 
 def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
                    channels: list[str], measured: dict[str, np.ndarray],
-                   mask: np.ndarray) -> list[float]:
-    """Frequency- and damping-matched model values, linear calibration (see module doc)."""
+                   mask: np.ndarray, measured_modes: dict[str, list[Mode]]) -> list[float]:
+    """Frequency- and damping-matched model values, linear calibration (see module doc);
+    ``measured_modes``: the measured channels' fitted components on the window."""
     values = list(values)
     t = model.results(values).time
-    ref = {c: dominant_mode(t[mask], measured[c][mask]) for c in channels}
+    duration = float(t[mask][-1] - t[mask][0])
+    ref = {c: strongest(measured_modes[c], duration) for c in channels}
     link_of = _channel_links(model.base)
     for _ in range(2):
         results = model.results(values)
+        sims: dict[str, Mode | None] = {}  # this run's dominant modes, by channel
         changed = False
         for i, p in enumerate(params):
             link = _link_of(p)
@@ -617,7 +628,9 @@ def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
             mine = [c for c in channels if link_of.get(c) == link] or channels
             ratios = []
             for c in mine:
-                sim = dominant_mode(t[mask], results[c][mask])
+                if c not in sims:
+                    sims[c] = dominant_mode(t[mask], results[c][mask])
+                sim = sims[c]
                 if ref[c] is None or sim is None:
                     continue
                 if p.field != "damping_ratio":  # f² ∝ EI ∝ E

@@ -187,9 +187,13 @@ def manoeuvre_end(t: np.ndarray, angles: list[np.ndarray], rel_tol: float = 1e-3
 def dominant_mode(t: np.ndarray, y: np.ndarray, max_modes: int = 3) -> Mode | None:
     """The component of the free vibration ``y(t)`` (uniform t) with the most energy, or None
     if the window is too short or holds no oscillation."""
-    duration = float(t[-1] - t[0]) if len(t) else 0.0
-    modes = [m for m in damped_modes(t, y, max_modes)
-             if m.frequency_hz * duration >= MIN_CYCLES]  # a drift is no vibration
+    return strongest(damped_modes(t, y, max_modes), float(t[-1] - t[0]) if len(t) else 0.0)
+
+
+def strongest(modes: list[Mode], duration: float) -> Mode | None:
+    """The mode of ``modes`` with the most energy among those with MIN_CYCLES periods in
+    ``duration`` (s), or None (`dominant_mode` of already fitted modes)."""
+    modes = [m for m in modes if m.frequency_hz * duration >= MIN_CYCLES]  # a drift: none
     return max(modes, key=lambda m: m.energy) if modes else None
 
 
