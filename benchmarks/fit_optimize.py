@@ -11,13 +11,16 @@ sources of REV unpacked next to the system's temporary files, numba's caches war
 one untimed run of each kind first):
 
 - ``fit command``: `flexlink fit examples/lab_arm.toml examples/lab_run3.csv` with the README's
-  six parameters (figures and report written), wall time and CPU time (user + system) of the
-  whole process: start-up, loading, fit and writing;
-- ``fit <case>``: `flexlink.experiment.fit` alone, in process, of the lab record and of the
+  six parameters (figures and report written; and again with ``--no-figures``), wall time and
+  CPU time (user + system) of the whole process and its children (the figures' worker):
+  start-up, loading, fit and writing;
+- ``fit <case>``: `flexlink.experiment.fit` alone, in process, of the lab record, of the
   synthetic lab manoeuvres of tests/experiment/synthetic.py (seven parameters each, with the
-  truth known): wall and CPU time, simulations, and each estimate's error against the truth
-  with whether its 95 % interval covers it (the judged tolerances: EI 3 %, damping 20 %, gains
-  3 %);
+  truth known) and of the one-link arm of tests/experiment/test_compare_fit.py: wall and CPU
+  time, simulations, how the Jacobians were computed (exact from the runs' sensitivities, or
+  differences, with the reason), each estimate with its 95 % interval and its error against
+  the truth with whether the interval covers it (the judged tolerances: EI 3 %, damping
+  20 %, gains 3 %);
 - ``optimize``: `flexlink.shaping.optimize_move` of the paper manoeuvre (90° / 80° in 1.2 s,
   `--robust 10`, the seed and limits of `flexlink.shaping.paper`) on every core: wall time,
   iterations, evaluations (each runs every plant) and runs; the residual energy of each plant
@@ -50,9 +53,10 @@ FIT_PARAMS = ("links[0].EI", "links[0].damping_ratio", "links[1].damping_ratio",
               "pzt:offset", "link1_tip_acceleration:gain")
 MANOEUVRE_PARAMS = ("links[0].EI", "links[0].damping_ratio", "links[1].damping_ratio",
                     "pzt:gain", "pzt:offset", "pzt:drift", "link1_tip_acceleration:gain")
+SINGLE_PARAMS = ("links[0].EI", "links[0].damping_ratio", "strain:gain")
 TOLERANCE = {"links[0].EI": 0.03, "links[0].damping_ratio": 0.2,
              "links[1].damping_ratio": 0.2, "pzt:gain": 0.03,
-             "link1_tip_acceleration:gain": 0.03}
+             "link1_tip_acceleration:gain": 0.03, "strain:gain": 0.03}
 ERRORS = (-0.10, 0.0, 0.10)
 
 
@@ -72,8 +76,11 @@ def child_fit() -> dict[str, Any]:
     from tests.experiment.synthetic import (
         MANOEUVRES,
         MAPPING,
+        SINGLE_LINK_MAPPING,
         measured_columns,
         scenario_text,
+        single_link_measurement,
+        single_link_text,
         write_csv,
     )
 
@@ -91,6 +98,14 @@ def child_fit() -> dict[str, Any]:
                 "pzt:offset": truth.pzt_offset, "pzt:drift": truth.pzt_drift,
                 "link1_tip_acceleration:gain": truth.acc_gain}
         cases.append((name, folder / f"{name}.toml", MANOEUVRE_PARAMS, true))
+    # the one-link arm of tests/experiment/test_compare_fit.py (its truth: EI 262 N·m²,
+    # damping ratio 0.03, strain gauge read with gain 0.9)
+    write_csv(folder / "measured.csv", single_link_measurement(262.0, 0.03))
+    (folder / "single.toml").write_text(single_link_text() + SINGLE_LINK_MAPPING + (
+        '[[measurement.columns]]\ncolumn = "strain"\nsensor = "strain"\nunit = "ustrain"\n'),
+        encoding="utf-8")
+    cases.append(("one link", folder / "single.toml", SINGLE_PARAMS,
+                  {"links[0].EI": 262.0, "links[0].damping_ratio": 0.03, "strain:gain": 0.9}))
     for name, toml, paths, true in cases:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -110,7 +125,8 @@ def child_fit() -> dict[str, Any]:
                                  if e.path in TOLERANCE else None)
             estimates[e.path] = row
         out[name] = {"wall": wall, "cpu": cpu, "simulations": result.simulations,
-                     "estimates": estimates, "load": os.getloadavg()[0]}
+                     "estimates": estimates, "load": os.getloadavg()[0],
+                     "jacobian": result.info.get("jacobian", "differences")}
     return out
 
 
@@ -148,11 +164,13 @@ def child_optimize() -> dict[str, Any]:
             "peaks": peaks, "message": result.message, "load": os.getloadavg()[0]}
 
 
-def child_command(src: Path) -> dict[str, Any]:
+def child_command(src: Path, figures: bool = True) -> dict[str, Any]:
     """The whole `flexlink fit` command in a fresh process: wall and CPU time."""
     out = Path(tempfile.mkdtemp(prefix="flexlink-fit-cmd-")) / "fitted"
     args = [sys.executable, "-m", "flexlink", "fit", str(ROOT / "examples" / "lab_arm.toml"),
             str(ROOT / "examples" / "lab_run3.csv"), "-o", str(out), "-q"]
+    if not figures:
+        args.append("--no-figures")
     for p in FIT_PARAMS:
         args += ["-p", p]
     env = {**os.environ, "PYTHONPATH": str(src)}
@@ -188,8 +206,9 @@ def source_of(rev: str) -> Path:
 
 
 def run_child(kind: str, src: Path, repeat: int = 1) -> dict[str, Any]:
-    if kind == "command":  # the median run by CPU time of ``repeat``
-        runs = sorted((child_command(src) for _ in range(repeat)), key=lambda r: r["cpu"])
+    if kind in ("command", "no figures"):  # the median run by CPU time of ``repeat``
+        runs = sorted((child_command(src, kind == "command") for _ in range(repeat)),
+                      key=lambda r: r["cpu"])
         return {**runs[len(runs) // 2], "runs": runs}
     env = {**os.environ, "PYTHONPATH": str(src)}
     done = subprocess.run([sys.executable, __file__, "--child", kind], env=env, check=True,
@@ -200,7 +219,8 @@ def run_child(kind: str, src: Path, repeat: int = 1) -> dict[str, Any]:
 def _estimates(row: dict[str, Any]) -> str:
     parts = []
     for path, e in row["estimates"].items():
-        text = f"{path.split('.')[-1] if path.startswith('links') else path}={e['value']:.4g}"
+        text = (f"{path.split('.')[-1] if path.startswith('links') else path}={e['value']:.6g}"
+                f" [{e['low']:.6g}, {e['high']:.6g}]")
         if "error" in e and e["error"] is not None:
             text += (f" ({100 * e['error']:+.1f} %{'' if e['covers'] else ', NOT covered'}"
                      f"{', OUT of tolerance' if e['within'] is False else ''})")
@@ -241,22 +261,26 @@ def main() -> None:
     for label, src in versions.items():
         if "fit" in kinds:
             results[label]["command"] = run_child("command", src, args.repeat)
+            results[label]["no figures"] = run_child("no figures", src, args.repeat)
             results[label]["fit"] = run_child("fit", src)
         if "optimize" in kinds:
             results[label]["optimize"] = run_child("optimize", src)
     if "fit" in kinds:
         print("\nflexlink fit (target: at most 2 s, the same estimates)")
-        for label, res in results.items():
-            c = res["command"]
-            print(f"  {label:<22} command, lab_run3, 6 parameters: {c['wall']:.2f} s wall, "
-                  f"{c['cpu']:.2f} s CPU (load {c['load']:.1f})"
-                  + ("; runs: " + ", ".join(f"{r['wall']:.2f}/{r['cpu']:.2f} s"
-                                             for r in c["runs"]) if len(c["runs"]) > 1 else ""))
+        for kind, what in (("command", ""), ("no figures", " --no-figures")):
+            for label, res in results.items():
+                c = res[kind]
+                print(f"  {label:<22} command{what}, lab_run3, 6 parameters: {c['wall']:.2f} s "
+                      f"wall, {c['cpu']:.2f} s CPU (load {c['load']:.1f})"
+                      + ("; runs: " + ", ".join(f"{r['wall']:.2f}/{r['cpu']:.2f} s"
+                                                 for r in c["runs"]) if len(c["runs"]) > 1
+                         else ""))
         for case in results["after"]["fit"]:
             for label, res in results.items():
                 row = res["fit"][case]
                 print(f"  {label:<22} fit() {case}: {row['wall']:.2f} s wall, {row['cpu']:.2f} s "
-                      f"CPU, {row['simulations']} simulations (load {row['load']:.1f})\n"
+                      f"CPU, {row['simulations']} simulations, Jacobian: "
+                      f"{row.get('jacobian', 'differences')} (load {row['load']:.1f})\n"
                       f"  {'':<22}   {_estimates(row)}")
     if "optimize" in kinds:
         print("\nflexlink optimize, paper manoeuvre, --robust 10 (target: at most 5 s, residual "

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -237,15 +238,17 @@ def compare(scenario: Scenario, measurement: Measurement, progress: bool = False
     return evaluate(results, measurement)
 
 
-def simulate_driven(scenario: Scenario, measurement: Measurement,
-                    progress: bool = False) -> Results:
-    """``simulate(scenario)``; if it fails while a measured angle is too noisy to drive the
-    model (`measurement.noisy_angles`), the error names that column as the likely cause."""
+def simulate_driven(scenario: Scenario | None, measurement: Measurement,
+                    progress: bool = False, run: Callable[[], Results] | None = None
+                    ) -> Results:
+    """``simulate(scenario)`` (or ``run()``: the fit's runs with sensitivities); if it fails
+    while a measured angle is too noisy to drive the model (`measurement.noisy_angles`), the
+    error names that column as the likely cause."""
     from ..errors import SimulationError
     from ..simulation import simulate
 
     try:
-        return simulate(scenario, progress=progress)
+        return run() if run is not None else simulate(scenario, progress=progress)
     except SimulationError as exc:
         if not measurement.noisy_angles:
             raise

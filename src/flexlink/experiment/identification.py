@@ -12,6 +12,11 @@ point close to the answer keeps their number small: EI of link k is scaled by (f
 the dominant free-vibration frequency of the channels on link k (twice), its damping ratio by
 ζ_meas/ζ_sim, and gains, offsets and drifts come from a linear fit.
 
+Jacobians: exact where the runs take sensitivities (`simulation.sensitivities`: one run with
+the derivatives of every channel gives the whole Jacobian; calibration columns analytic; the
+modal features differentiated through their fit, `vibration.damped_mode_slopes`), else forward
+differences.
+
 Uncertainty: cov = s² (JᵀJ)⁻¹ in the scaled variables (modal: s² = max(1, χ²/dof); time:
 s² = Σr²/(m − p) widened by the AR(1) factor (1 + ρ)/(1 − ρ) of the residuals); 95 % intervals
 are ±1.96 σ (×exp(±1.96 σ) on log-scaled parameters).
@@ -44,7 +49,14 @@ from .comparison import (
 from .files import MeasurementError
 from .measurement import Measurement
 from .parameters import Parameter, model_values
-from .vibration import Mode, damped_modes, dominant_mode, spectral_peaks
+from .vibration import (
+    Mode,
+    damped_mode_slopes,
+    damped_modes,
+    dominant_mode,
+    spectral_peaks,
+    strongest,
+)
 
 Z95 = 1.959964
 UNIDENTIFIABLE_RATIO = 10.0  # a 95 % interval wider than a decade says little
@@ -106,10 +118,16 @@ class FitResult:
     info: dict[str, Any] = field(default_factory=dict)
 
 
+NO_MODEL_PARAMETER = "no model parameter"  # nothing to differentiate through the runs
+
+
 class _Model:
     """Simulations cached by model parameter values; calibration applied on top. Each
     simulation rebuilds the scenario from the file with the values set (so derived fields
-    follow: EI from E, a sensor's default thickness) and drives it with the measured angles."""
+    follow: EI from E, a sensor's default thickness) and drives it with the measured angles.
+    A run asked ``with_slopes`` also computes every channel's exact derivatives in the model
+    parameters (`simulation.sensitivities`), where the run's path takes them; where it does
+    not (`exact_reason` says why), the fit's Jacobians come from differences."""
 
     def __init__(self, file: ScenarioFile, params: list[Parameter], measurement: Measurement,
                  progress: Callable[[str], None] | None) -> None:
@@ -120,20 +138,69 @@ class _Model:
         self.params = params
         self.model_params = [p for p in params if p.is_model]
         self.cache: dict[tuple[float, ...], Results] = {}
+        self.slopes: dict[tuple[float, ...], dict[str, np.ndarray]] = {}
+        self.exact_reason = "" if self.model_params else NO_MODEL_PARAMETER
         self.simulations = 0
         self.progress = progress
 
-    def results(self, values: list[float]) -> Results:
+    def _key(self, values: list[float]) -> tuple[float, ...]:
         model = [v for p, v in zip(self.params, values, strict=True) if p.is_model]
-        key = tuple(np.round(model, 14))
+        return tuple(np.round(model, 14))
+
+    def results(self, values: list[float], with_slopes: bool = False) -> Results:
+        key = self._key(values)
+        if with_slopes and not self.exact_reason and key not in self.slopes:
+            run = self._run_with_slopes(values)
+            if run is not None:
+                self._store(key, values, run[0])
+                self.slopes[key] = run[1]
         if key not in self.cache:
-            if len(self.cache) > 64:
-                self.cache.pop(next(iter(self.cache)))
-            self.cache[key] = simulate_driven(self.scenario(values), self.measurement)
-            self.simulations += 1
-            if self.progress:
-                self.progress(f"simulation {self.simulations}: {_shown(self.model_params, model)}")
+            results = simulate_driven(self.scenario(values), self.measurement)
+            if results.metadata.get("method") != "lawson" and not self.exact_reason:
+                # a measured motion too rough to tabulate: Magnus integrated it
+                self.exact_reason = (f"the run was integrated by {results.metadata.get('method')}"
+                                     ", which computes no sensitivities")
+            self._store(key, values, results)
         return self.cache[key]
+
+    def slopes_at(self, values: list[float]) -> dict[str, np.ndarray] | None:
+        """{channel: ∂channel/∂(model parameters) (time, model parameter)} at ``values``,
+        in the parameters' own units, or None where the path takes no sensitivities."""
+        self.results(values, with_slopes=True)
+        return self.slopes.get(self._key(values))
+
+    def _store(self, key: tuple[float, ...], values: list[float], results: Results) -> None:
+        if len(self.cache) > 64:
+            old = next(iter(self.cache))
+            self.cache.pop(old)
+            self.slopes.pop(old, None)
+        self.cache[key] = results
+        self.simulations += 1
+        if self.progress:
+            self.progress(f"simulation {self.simulations}: "
+                          f"{_shown(self.model_params, list(key))}")
+
+    def _run_with_slopes(self, values: list[float]
+                         ) -> tuple[Results, dict[str, np.ndarray]] | None:
+        from ..simulation.sensitivities import SensitivityError, simulate_with_derivatives
+
+        self.scenario(values)  # an invalid scenario: the error the plain run would give
+        file = ScenarioFile(self.file.with_values(model_values(self.params, values)),
+                            self.file.base_dir, self.file.name, self.file.source)
+        paths = [p.path for p in self.model_params]
+        slopes: dict[str, np.ndarray] = {}
+
+        def run() -> Results:
+            results, derivatives = simulate_with_derivatives(file, paths, shapes=False,
+                                                             drive=self.inputs.drive)
+            slopes.update(derivatives)
+            return results
+
+        try:
+            return simulate_driven(None, self.measurement, run=run), slopes
+        except SensitivityError as exc:
+            self.exact_reason = str(exc)
+            return None
 
     def scenario(self, values: list[float]) -> Scenario:
         """The driven scenario with the model values set."""
@@ -211,38 +278,63 @@ def _fit(scenario: ScenarioFile, measurement: Measurement, params: list[Paramete
         raise MeasurementError(f"the fit window {t0:g} … {t1:g} s holds {int(mask.sum())} "
                                f"samples, too few for {len(params)} parameters")
     norm = {c: float(np.std(measured[c][mask])) or 1.0 for c in channels}
-    start = _initial_guess(model, params, initial, channels, measured, mask)
+    # the measured free vibration's components, fitted once for the start and the features
+    measured_modes = {c: damped_modes(t[mask], measured[c][mask]) for c in channels}
+    start = _initial_guess(model, params, initial, channels, measured, mask, measured_modes)
     scales = [_scale(p, v, norm, t1) for p, v in zip(params, start, strict=True)]
     budget = max(3, max_simulations // (max(1, sum(p.is_model for p in params)) + 1))
     first_values = [p.initial if p.initial is not None else v
                     for p, v in zip(params, initial, strict=True)]
     if objective == "time":
-        def residual(values: list[float]) -> np.ndarray:
-            results = model.results(values)
+        def residual(values: list[float], with_slopes: bool = False) -> np.ndarray:
+            results = model.results(values, with_slopes)
             return np.concatenate([(calibrated(results, c, params, values)[mask]
                                     - measured[c][mask]) / norm[c] for c in channels])
 
+        def jacobian(values: list[float]) -> np.ndarray | None:
+            slopes = model.slopes_at(values) if model.model_params else {}
+            if slopes is None:
+                return None
+            return _time_jacobian(model.results(values), slopes, params, values, channels,
+                                  mask, norm)
+
         solved = list(range(len(params)))
-        solution, values = _solve(residual, params, solved, start, scales, budget)
+        solution, values = _solve(residual, params, solved, start, scales, budget,
+                                  jacobian=jacobian)
         r = solution.fun
         per = int(mask.sum())
         cov = _covariance(solution.jac, r, _ar1([r[i * per:(i + 1) * per]
                                                  for i in range(len(channels))]))
         rms = float(np.sqrt(np.mean(r**2)))
     else:
-        features = _measured_features(t[mask], measured, channels, mask)
+        features = _measured_features(measured_modes)
         if not features:
             raise MeasurementError("no free vibration found in the measured channels on the fit "
                                    f"window {t0:g} … {t1:g} s; try objective = \"time\"")
 
-        def residual(values: list[float]) -> np.ndarray:
-            results = model.results(values)
-            return _modal_residual(t[mask], results, features, mask)
+        modal: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = {}
+
+        def residual(values: list[float], with_slopes: bool = False) -> np.ndarray:
+            results = model.results(values, with_slopes)
+            slopes = model.slopes.get(model._key(values)) if with_slopes else None
+            r, jac = _modal_residual(t[mask], results, features, mask, slopes)
+            if jac is not None:
+                modal[model._key(values)] = (r, jac)
+            return r
+
+        def jacobian(values: list[float]) -> np.ndarray | None:
+            key = model._key(values)
+            if key not in modal:
+                slopes = model.slopes_at(values)
+                if slopes is None:
+                    return None
+                residual(values, True)
+            return modal[key][1]
 
         solved = [i for i, p in enumerate(params) if p.is_model]
         if solved:
             solution, values = _solve(residual, params, solved, start, scales, budget,
-                                      known_weights=True)
+                                      known_weights=True, jacobian=jacobian)
             r = solution.fun
             cov = _covariance(solution.jac, r, 0.0, known_weights=True)
         else:
@@ -276,14 +368,22 @@ def _fit(scenario: ScenarioFile, measurement: Measurement, params: list[Paramete
               "success": bool(solution.success) if solution is not None else True,
               "converged": solution is None or solution.status > 0,
               "optimizer_message": solution.message if solution is not None else "",
+              "jacobian": ("exact" if model.exact_reason in ("", NO_MODEL_PARAMETER) else
+                           f"differences ({model.exact_reason})"),
               "residuals": int(r.size)})
 
 
-def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter],
+def _solve(residual: Callable[..., np.ndarray], params: list[Parameter],
            chosen: list[int], start: list[float], scales: list[float],
-           budget: int, known_weights: bool = False) -> tuple[Any, list[float]]:
+           budget: int, known_weights: bool = False,
+           jacobian: Callable[[list[float]], np.ndarray | None] | None = None
+           ) -> tuple[Any, list[float]]:
     """Bounded least squares over params[chosen] in scaled variables (log or linear);
-    ``known_weights``: the residuals are in units of their standard errors (`_covariance`)."""
+    ``known_weights``: the residuals are in units of their standard errors (`_covariance`).
+    ``jacobian(values)``: the exact ∂residual/∂params[chosen] in the parameters' own units,
+    or None where there is none (then differences); with it, ``residual(values, slopes)`` is
+    told whether the point will likely need a Jacobian (a run then computes its
+    sensitivities at once)."""
     from scipy.optimize import least_squares
 
     # u = 1 + log(v/scale) or 1 + (v − start)/scale: a relative finite-difference
@@ -306,39 +406,52 @@ def _solve(residual: Callable[[list[float]], np.ndarray], params: list[Parameter
                       for i in chosen])
     u0 = np.clip(u0, lower + 1e-9, upper - 1e-9)
     values: dict[bytes, np.ndarray] = {}
+    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (u, tolerated, Jacobian)
+
+    def kept(u: np.ndarray) -> bool:
+        """The last Jacobian holds at u (see `jac`)."""
+        return bool(last) and bool(np.all(np.abs(u - last[0][0]) <= last[0][1]))
 
     def fun(u: np.ndarray) -> np.ndarray:
         key = u.tobytes()  # a few dozen points at most: every one kept
         if key not in values:
-            values[key] = residual(physical(u))
+            values[key] = (residual(physical(u)) if jacobian is None
+                           else residual(physical(u), not kept(u)))
         return values[key]
 
-    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (u, tolerated, Jacobian)
-
     def jac(u: np.ndarray) -> np.ndarray:
-        """Forward differences as scipy's "2-point" with diff_step (a backward one where a
-        bound is in the way); the last Jacobian again after a step below a hundredth of its
-        difference steps, which changes it less than those steps' own error (a last accepted
-        step of round-off size would otherwise cost a simulation per parameter), or below
-        REUSE_SIGMA standard deviations of the estimate there: the answer then moves by a
-        small fraction of its own uncertainty, and the intervals by as little."""
-        if last and np.all(np.abs(u - last[0][0]) <= last[0][1]):
+        """The exact Jacobian (``jacobian``) in the scaled variables, else forward
+        differences as scipy's "2-point" with diff_step (a backward one where a bound is in
+        the way); the last Jacobian again after a step below REUSE_SIGMA standard deviations
+        of the estimate there (the answer then moves by a small fraction of its own
+        uncertainty, and the intervals by as little) or, of differences, below a hundredth
+        of their steps, which changes them less than their own error (a last accepted step
+        of round-off size would otherwise cost a simulation per parameter)."""
+        if kept(u):
             return last[0][2]
         f0 = fun(u)
-        steps = DIFF_STEP * np.where(u >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(u))
-        steps = np.where(u + steps > upper, -steps, steps)
-        columns = []
-        for i, h in enumerate(steps):
-            shifted = u.copy()
-            shifted[i] += h
-            h = shifted[i] - u[i]  # the step as represented
-            columns.append((fun(shifted) - f0) / h)
-        jacobian = np.column_stack(columns) if columns else np.zeros((f0.size, 0))
-        sigma = np.sqrt(np.clip(np.diag(_covariance(jacobian, f0, 0.0, known_weights)), 0.0,
-                                None))
+        point = physical(u)
+        exact = jacobian(point) if jacobian is not None else None
+        if exact is not None:
+            # ∂v/∂u: v on a log scale, the scale on a linear one
+            jacobian_u = exact * np.array([point[i] if params[i].log else scales[i]
+                                           for i in chosen])
+            steps = np.zeros(u.size)
+        else:
+            steps = DIFF_STEP * np.where(u >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(u))
+            steps = np.where(u + steps > upper, -steps, steps)
+            columns = []
+            for i, h in enumerate(steps):
+                shifted = u.copy()
+                shifted[i] += h
+                h = shifted[i] - u[i]  # the step as represented
+                columns.append((fun(shifted) - f0) / h)
+            jacobian_u = np.column_stack(columns) if columns else np.zeros((f0.size, 0))
+        sigma = np.sqrt(np.clip(np.diag(_covariance(jacobian_u, f0, 0.0, known_weights)),
+                                0.0, None))
         tolerated = np.maximum(1e-2 * np.abs(steps), REUSE_SIGMA * np.nan_to_num(sigma))
-        last[:] = [(u.copy(), tolerated, jacobian)]
-        return jacobian
+        last[:] = [(u.copy(), tolerated, jacobian_u)]
+        return jacobian_u
 
     solution = least_squares(fun, u0, jac=jac, bounds=(lower, upper), method="trf",
                              x_scale=1.0, xtol=1e-5, ftol=1e-8, gtol=1e-8, max_nfev=budget)
@@ -354,12 +467,11 @@ MAX_COMPONENTS = 3  # components fitted to a simulated channel
 MIN_ENERGY = 0.1  # of the channel's dominant component
 
 
-def _measured_features(t: np.ndarray, measured: dict[str, np.ndarray], channels: list[str],
-                       mask: np.ndarray) -> dict[str, list[Mode]]:
-    """The strongest free-vibration components of every measured channel."""
+def _measured_features(measured_modes: dict[str, list[Mode]]) -> dict[str, list[Mode]]:
+    """The strongest free-vibration components of every measured channel, from its fitted
+    components (`damped_modes`)."""
     out = {}
-    for c in channels:
-        modes = damped_modes(t, measured[c][mask])
+    for c, modes in measured_modes.items():
         if not modes:
             continue
         top = max(m.energy for m in modes)
@@ -370,10 +482,13 @@ def _measured_features(t: np.ndarray, measured: dict[str, np.ndarray], channels:
 
 
 def _modal_residual(t: np.ndarray, results: Results, features: dict[str, list[Mode]],
-                    mask: np.ndarray) -> np.ndarray:
+                    mask: np.ndarray, slopes: dict[str, np.ndarray] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray | None]:
     """(f_sim − f_meas)/σ_f and (ζ_sim − ζ_meas)/σ_ζ of every matched component; the
-    simulated components are fitted from the measured frequencies, so they stay matched."""
-    r = []
+    simulated components are fitted from the measured frequencies, so they stay matched.
+    With ``slopes`` ({channel: ∂channel/∂p over time}) also their exact Jacobian in p
+    (`vibration.damped_mode_slopes`), else None."""
+    r, rows = [], []
     for c, modes in features.items():
         y = results[c][mask]
         guesses = [m.frequency_hz for m in modes]
@@ -381,13 +496,60 @@ def _modal_residual(t: np.ndarray, results: Results, features: dict[str, list[Mo
         # left out of the simulated signal's fit: add the simulation's own other peaks
         others = [f for f in spectral_peaks(t, y, MAX_COMPONENTS)
                   if all(abs(f / g - 1) > 0.1 for g in guesses)]
-        sim = damped_modes(t, y, guesses=guesses + others[:MAX_COMPONENTS - len(guesses)])
-        for meas, got in zip(modes, sim, strict=False):
+        guesses += others[:MAX_COMPONENTS - len(guesses)]
+        if slopes is None:
+            sim = damped_modes(t, y, guesses=guesses)
+        else:
+            sim, d_freq, d_zeta = damped_mode_slopes(t, y, slopes[c][mask], guesses)
+        for k, (meas, got) in enumerate(zip(modes, sim, strict=False)):
             sf = max(meas.frequency_std, 1e-4 * meas.frequency_hz)
             sz = max(meas.damping_std, 0.02 * abs(meas.damping_ratio), 1e-5)
             r += [(got.frequency_hz - meas.frequency_hz) / sf,
                   (got.damping_ratio - meas.damping_ratio) / sz]
-    return np.array(r)
+            if slopes is not None:
+                rows += [d_freq[k] / sf, d_zeta[k] / sz]
+    if slopes is None:
+        return np.array(r), None
+    width = next(iter(slopes.values())).shape[1] if slopes else 0
+    return np.array(r), np.array(rows).reshape(len(r), width)
+
+
+def _time_jacobian(results: Results, slopes: dict[str, np.ndarray], params: list[Parameter],
+                   values: list[float], channels: list[str], mask: np.ndarray,
+                   norm: dict[str, float]) -> np.ndarray:
+    """∂/∂params of the time objective's residuals (gain·sim(t − delay) + offset + drift·t −
+    meas)/norm, in the parameters' own units: the model columns from the run's
+    sensitivities (``slopes``, columns in the order of the model parameters), the
+    calibration ones analytic (a delay's through the slope of the linear interpolation)."""
+    t = results.time
+    model = [i for i, p in enumerate(params) if p.is_model]
+    blocks = []
+    for c in channels:
+        cal = {p.field: v for p, v in zip(params, values, strict=True)
+               if not p.is_model and p.channel == c}
+        gain, delay = cal.get("gain", 1.0), cal.get("delay", 0.0)
+        sim = results[c]
+        d_sim = slopes[c] if model else np.zeros((t.size, 0))
+        slope = np.zeros(t.size)
+        if "delay" in cal:
+            shifted = t - delay
+            # the segment a growing delay moves along (the one left of a grid point)
+            segment = np.clip(np.searchsorted(t, shifted, side="left") - 1, 0, t.size - 2)
+            slope = np.diff(sim)[segment] / np.diff(t)[segment]
+            slope[(shifted <= t[0]) | (shifted > t[-1])] = 0.0  # np.interp holds the ends
+            sim = np.interp(shifted, t, sim)
+            d_sim = np.column_stack([np.interp(shifted, t, col) for col in d_sim.T]
+                                    ) if model else d_sim
+        n = int(mask.sum())
+        block = np.zeros((n, len(params)))
+        block[:, model] = gain * d_sim[mask]
+        columns = {"gain": sim[mask], "offset": np.ones(n), "drift": t[mask],
+                   "delay": -gain * slope[mask]}
+        for i, p in enumerate(params):
+            if not p.is_model and p.channel == c:
+                block[:, i] = columns[p.field]
+        blocks.append(block / norm[c])
+    return np.vstack(blocks)
 
 
 BAND_FRACTION = 0.5  # gains are regressed below this fraction of the lowest free frequency
@@ -453,14 +615,17 @@ def _window(window: tuple[float | None, float | None], measurement: Measurement,
 
 def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
                    channels: list[str], measured: dict[str, np.ndarray],
-                   mask: np.ndarray) -> list[float]:
-    """Frequency- and damping-matched model values, linear calibration (see module doc)."""
+                   mask: np.ndarray, measured_modes: dict[str, list[Mode]]) -> list[float]:
+    """Frequency- and damping-matched model values, linear calibration (see module doc);
+    ``measured_modes``: the measured channels' fitted components on the window."""
     values = list(values)
     t = model.results(values).time
-    ref = {c: dominant_mode(t[mask], measured[c][mask]) for c in channels}
+    duration = float(t[mask][-1] - t[mask][0])
+    ref = {c: strongest(measured_modes[c], duration) for c in channels}
     link_of = _channel_links(model.base)
     for _ in range(2):
         results = model.results(values)
+        sims: dict[str, Mode | None] = {}  # this run's dominant modes, by channel
         changed = False
         for i, p in enumerate(params):
             link = _link_of(p)
@@ -469,7 +634,9 @@ def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
             mine = [c for c in channels if link_of.get(c) == link] or channels
             ratios = []
             for c in mine:
-                sim = dominant_mode(t[mask], results[c][mask])
+                if c not in sims:
+                    sims[c] = dominant_mode(t[mask], results[c][mask])
+                sim = sims[c]
                 if ref[c] is None or sim is None:
                     continue
                 if p.field != "damping_ratio":  # f² ∝ EI ∝ E
@@ -484,7 +651,8 @@ def _initial_guess(model: _Model, params: list[Parameter], values: list[float],
                 values[i] = new
         if not changed:
             break
-    results = model.results(values)
+    # the fit starts here with a Jacobian: its run computes the sensitivities with it
+    results = model.results(values, with_slopes=True)
     for c in channels:
         cal = [i for i, p in enumerate(params) if not p.is_model and p.channel == c
                and p.field in ("gain", "offset", "drift") and p.initial is None]

@@ -18,6 +18,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -186,9 +187,13 @@ def manoeuvre_end(t: np.ndarray, angles: list[np.ndarray], rel_tol: float = 1e-3
 def dominant_mode(t: np.ndarray, y: np.ndarray, max_modes: int = 3) -> Mode | None:
     """The component of the free vibration ``y(t)`` (uniform t) with the most energy, or None
     if the window is too short or holds no oscillation."""
-    duration = float(t[-1] - t[0]) if len(t) else 0.0
-    modes = [m for m in damped_modes(t, y, max_modes)
-             if m.frequency_hz * duration >= MIN_CYCLES]  # a drift is no vibration
+    return strongest(damped_modes(t, y, max_modes), float(t[-1] - t[0]) if len(t) else 0.0)
+
+
+def strongest(modes: list[Mode], duration: float) -> Mode | None:
+    """The mode of ``modes`` with the most energy among those with MIN_CYCLES periods in
+    ``duration`` (s), or None (`dominant_mode` of already fitted modes)."""
+    modes = [m for m in modes if m.frequency_hz * duration >= MIN_CYCLES]  # a drift: none
     return max(modes, key=lambda m: m.energy) if modes else None
 
 
@@ -197,17 +202,82 @@ def damped_modes(t: np.ndarray, y: np.ndarray, max_modes: int = 3,
     """Fitted damped sinusoids of y(t), strongest spectral peaks first (see module doc), or
     one per starting frequency in ``guesses`` (Hz), in that order. Standard errors assume
     white residuals, widened by the AR(1) factor of their lag-one autocorrelation."""
+    fitted = _fit_components(t, y, max_modes, guesses)
+    return fitted.modes if fitted is not None else []
+
+
+def damped_mode_slopes(t: np.ndarray, y: np.ndarray, dy: np.ndarray,
+                       guesses: list[float]) -> tuple[list[Mode], np.ndarray, np.ndarray]:
+    """`damped_modes` of y(t) from ``guesses`` and the derivatives of their frequencies (Hz)
+    and damping ratios along the columns of ``dy`` (n, P): ∂y/∂p of P parameters p, giving
+    (K, P) arrays ∂f_k/∂p and ∂ζ_k/∂p.
+
+    The fitted θ = (σ, ω) minimise F(θ, y) = ½‖r‖², r = A(θ)c(θ) − y (variable projection),
+    so ∂F/∂θ = 0 and, by the implicit function theorem, ∂θ/∂y = H⁻¹ Jᵀ with H = ∂²F/∂θ² and
+    J = ∂r/∂θ (the exact projected Jacobian; ∂(∂F/∂θ)/∂y = −Jᵀ). H holds the residual's
+    second-order term as well as JᵀJ: it comes from central differences of the exact
+    gradient Jᵀr in θ at the fixed signal (no refit). A component held at a bound of the
+    fit has zero slope."""
+    p = dy.shape[1]
+    fitted = _fit_components(t, y, len(guesses), guesses)
+    if fitted is None:
+        return [], np.zeros((0, p)), np.zeros((0, p))
+    theta, k = fitted.theta, len(fitted.modes)
+    free = fitted.free
+    d_theta = np.zeros((theta.size, p))
+    if free.any():
+        def gradient(x: np.ndarray) -> np.ndarray:
+            r, jac = fitted.projected(x)
+            return jac.T @ r
+
+        idx = np.flatnonzero(free)
+        steps = SLOPE_STEP * (np.abs(theta) + np.max(np.abs(theta[k:])))
+        hessian = np.empty((idx.size, idx.size))
+        for j, i in enumerate(idx):
+            up, down = theta.copy(), theta.copy()
+            up[i] += steps[i]
+            down[i] -= steps[i]
+            hessian[:, j] = (gradient(up)[idx] - gradient(down)[idx]) / (up[i] - down[i])
+        hessian = 0.5 * (hessian + hessian.T)
+        _, jac = fitted.projected(theta)
+        d_theta[idx] = np.linalg.solve(hessian, jac[:, idx].T @ (dy / fitted.scale))
+    sigma, omega = theta[:k], theta[k:]
+    d_sigma, d_omega = d_theta[:k], d_theta[k:]
+    norm3 = np.hypot(sigma, omega)[:, None] ** 3
+    d_zeta = (omega[:, None] ** 2 * d_sigma - (sigma * omega)[:, None] * d_omega) / norm3
+    return fitted.modes, d_omega / (2 * math.pi), d_zeta
+
+
+SLOPE_STEP = 1e-7  # of the parameters' size: the step of the differences of the gradient
+
+
+@dataclass(frozen=True)
+class _Fitted:
+    """A fit of damped sinusoids: the components, the nonlinear parameters θ = (σ, ω),
+    which of them are off their bounds, the signal's scale and the projected residual and
+    Jacobian (θ) → (r, ∂r/∂θ) of the signal divided by it."""
+
+    modes: list[Mode]
+    theta: np.ndarray
+    free: np.ndarray
+    scale: float
+    projected: Any
+
+
+def _fit_components(t: np.ndarray, y: np.ndarray, max_modes: int,
+                    guesses: list[float] | None) -> _Fitted | None:
+    """The fit behind `damped_modes` (see module doc); None without a usable signal."""
     from scipy.optimize import least_squares
 
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     if t.size < 16 or not np.all(np.isfinite(y)):
-        return []
+        return None
     s = t - t[0]
     if guesses is None:
         guesses = spectral_peaks(t, y, max_modes)
     if not guesses:
-        return []
+        return None
     scale = float(np.std(y)) or 1.0
     yn = y / scale
     omega0 = np.array([2 * math.pi * f for f in guesses])
@@ -279,7 +349,8 @@ def damped_modes(t: np.ndarray, y: np.ndarray, max_modes: int = 3,
                           energy=float(np.sum(part**2)),
                           frequency_std=s_omega / (2 * math.pi),
                           damping_std=math.hypot(s_sigma / omega, sigma * s_omega / omega**2)))
-    return modes
+    return _Fitted(modes, np.array(fit.x, dtype=float), np.asarray(fit.active_mask) == 0,
+                   scale, projected)
 
 
 def _standard_errors(jac: np.ndarray, r: np.ndarray, n_linear: int) -> np.ndarray:

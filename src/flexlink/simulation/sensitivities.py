@@ -23,7 +23,7 @@ a run:
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -391,22 +391,39 @@ def quotient_unit(channel: str, field: str) -> str:
 
 
 def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Sequence[str],
-                                progress: bool = False, shapes: bool = True) -> Results:
+                                progress: bool = False, shapes: bool = True,
+                                drive: Callable[[Scenario], Scenario] | None = None
+                                ) -> Results:
     """`simulate` with the sensitivities of every channel to ``fields`` on the results
     (`Results.sensitivities`, `Results.sensitivity`). Every check runs before the run. They
-    are labelled (an xarray DataArray) when first read: computing them needs no xarray."""
+    are labelled (an xarray DataArray) when first read: computing them needs no xarray.
+    ``drive``: applied to the scenario and to every moved one before they run (a fit's
+    measured joint motions, `experiment`)."""
     results, prepared, derivatives = sensitivity_run(scenario, fields, progress, shapes,
-                                                     run_with_sensitivities)
+                                                     run_with_sensitivities, drive)
     results.label_sensitivities(lambda: labelled(results, prepared, derivatives))
     return results
 
 
+def simulate_with_derivatives(scenario: Scenario | ScenarioFile, fields: Sequence[str],
+                              shapes: bool = True,
+                              drive: Callable[[Scenario], Scenario] | None = None
+                              ) -> tuple[Results, dict[str, np.ndarray]]:
+    """`simulate_with_sensitivities` without labels: the results and the plain
+    {channel: (time, field) array}, fields in the order given (the fit's Jacobians)."""
+    results, _, derivatives = sensitivity_run(scenario, fields, False, shapes,
+                                              run_with_sensitivities, drive)
+    return results, derivatives
+
+
 def sensitivity_run(scenario: Scenario | ScenarioFile, fields: Sequence[str], progress: bool,
-                    shapes: bool, compute: Any) -> tuple[Results, list[_Field], Any]:
+                    shapes: bool, compute: Any,
+                    drive: Callable[[Scenario], Scenario] | None = None
+                    ) -> tuple[Results, list[_Field], Any]:
     """Check the scenario and ``fields``, then ``compute(scenario, prepared fields, t,
     on_progress, shapes) → (PathRun, extra)`` (timed, single-threaded, with the links the
-    run makes rigid rigid in every moved scenario too): the Results, the prepared fields and
-    the extra."""
+    run makes rigid rigid in every moved scenario too, ``drive`` applied to the scenario
+    and every moved one first): the Results, the prepared fields and the extra."""
     from .common import ProgressBar, assemble_results, check_run_memory, output_times, timed
     from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
@@ -415,6 +432,13 @@ def sensitivity_run(scenario: Scenario | ScenarioFile, fields: Sequence[str], pr
         scenario = file.build()
     check_path(scenario)
     prepared = prepare_fields(file, scenario, fields)
+    if drive is not None:
+        from dataclasses import replace
+
+        scenario = drive(scenario)
+        prepared = [replace(f, scenarios=tuple(drive(s) for s in f.scenarios))
+                    for f in prepared]
+        check_path(scenario)
     check_run_memory(scenario)
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
