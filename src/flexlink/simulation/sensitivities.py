@@ -42,7 +42,9 @@ _SETTINGS = ("rtol", "atol", "step")  # [simulation] keys of the integrator, not
 _STENCILS = (((1, -1), (0.5, -0.5)), ((0, 1, 2), (-1.5, 2.0, -0.5)),
              ((0, -1, -2), (1.5, -2.0, 0.5)))
 SUPPORTED = ('prescribed joints with the first-order model and method = "lawson" (the '
-             "default of prescribed runs)")
+             "default of prescribed runs), and driven joints or a moving base with the "
+             'first-order model, the compiled Radau IIA (method = "radau5", "lawson" or '
+             '"magnus"), without controllers or closed loops')
 
 
 class SensitivityError(ValueError):
@@ -83,6 +85,11 @@ def check_path(scenario: Scenario) -> None:
 
     path = model_path(scenario)
     method = scenario.settings.method
+    if path == "forward":
+        from .driven_sensitivities import check_forward
+
+        check_forward(scenario)
+        return
     if path != "prescribed" or method != "lawson":
         what = f"the {path} path" + (f" with method = {method!r}" if path == "prescribed"
                                      else "")
@@ -238,6 +245,17 @@ def run_with_sensitivities(scenario: Scenario, fields: list[_Field], t: np.ndarr
     return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
+def path_with_sensitivities(scenario: Scenario) -> Any:
+    """The run-with-sensitivities function of the scenario's path."""
+    from . import model_path
+
+    if model_path(scenario) == "forward":
+        from .driven_sensitivities import run_with_forward_sensitivities
+
+        return run_with_forward_sensitivities
+    return run_with_sensitivities
+
+
 def attach(results: Results, fields: list[_Field], derivatives: dict[str, np.ndarray]) -> None:
     """Put the sensitivities on ``results`` as a DataArray (time × channel × field)."""
     import xarray as xr
@@ -363,7 +381,7 @@ def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Seque
 
     with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
         (run, derivatives), wall_time = timed(  # type: ignore[arg-type]
-            lambda: run_with_sensitivities(base, prepared, t, bar.update, shapes))
+            lambda: path_with_sensitivities(base)(base, prepared, t, bar.update, shapes))
     if stiff:
         from dataclasses import replace
 
