@@ -40,9 +40,13 @@ class _Model:
     y0: np.ndarray
     table: tuple
     integrals: tuple | None
+    loops: Any = None  # closed loops: their `dynamics.loops.LoopSystem`
 
 
-def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None) -> _Model:
+def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
+           dependent: np.ndarray | None = None) -> _Model:
+    """The model of ``scenario``; ValueError if its input segments differ from ``nodes`` or
+    its closures' dependent joints from ``dependent`` (those of the nominal model)."""
     from ..dynamics._forward_numba import workspace
     from ..dynamics.forward_kernel import breakpoints, inputs, pack
     from ..dynamics.momentum_projection import projection, start_values
@@ -51,19 +55,32 @@ def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None) -> _Mode
     from .forward import forward_system
 
     system = forward_system(scenario)
-    data = pack(system)
-    work = workspace(data, len(system.servos))
-    y0 = system.initial_state()
     u0 = inputs(system, t[:1])[0]
-    known = projection(system, data, float(t[0]), u0.size)
-    if known.active.size:
-        start_values(known, data, work, u0, y0, float(t[-1]))
+    loops = None
+    if scenario.closures:  # the loops' rates (the tree's on states closed by Newton)
+        from ..dynamics.loops import LoopSystem
+
+        loops = LoopSystem(system, scenario.closures)
+        data, y0 = loops.data, loops.y0
+        work = loops.workspace(y0.size)
+        known = projection(system, pack(system), float(t[0]), u0.size)
+        known = known._replace(active=known.active[:0])  # the Radau loop projects nothing
+    else:
+        data = pack(system)
+        work = workspace(data, len(system.servos))
+        y0 = system.initial_state()
+        known = projection(system, data, float(t[0]), u0.size)
+        if known.active.size:
+            start_values(known, data, work, u0, y0, float(t[-1]))
     own = segment_nodes(t, breakpoints(system))
     if nodes is not None and not (own.shape == nodes.shape and np.all(own == nodes)):
         raise ValueError("moves a time where an input jumps")
+    if loops is not None and dependent is not None and not np.array_equal(loops.dep,
+                                                                            dependent):
+        raise ValueError("changes which joints the closures make dependent")
     table = tabulate(lambda times: inputs(system, times), own)
     return _Model(scenario, system, data, work, known, y0, table,
-                  integrals(table) if known.active.size else None)
+                  integrals(table) if known.active.size else None, loops)
 
 
 def _rates(model: _Model) -> Any:
@@ -76,15 +93,12 @@ def _rates(model: _Model) -> Any:
     return rates
 
 
-def _project(model: _Model, segment: int, t: float, y: np.ndarray) -> np.ndarray:
-    """y projected onto the model's known momentum at time t (s) (`model_project`)."""
+def _project(model: _Model, t: float, u: np.ndarray, U: np.ndarray, y: np.ndarray
+             ) -> np.ndarray:
+    """y projected onto the model's known momentum at time t (s) (`model_project`), with
+    the input row u and the inputs' integrals U there."""
     from ..dynamics._momentum_numba import project
-    from ..solvers.radau_sensitivity import table_rows
 
-    seg = np.array([segment])
-    times = np.array([t])
-    u = table_rows(model.table, seg, times)[0]
-    U = _integral_rows(model, seg, times)[0]
     out = np.array(y, dtype=float)
     project(model.data, model.work, model.projection, u, U, float(t), out)
     return out
@@ -106,7 +120,6 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
                                    ) -> tuple[PathRun, dict[str, np.ndarray]]:
     """The forward run of ``scenario`` (`forward.run_forward`, compiled Radau IIA) and,
     per channel, its derivatives (nt, K) in the fields (`sensitivities._Field`)."""
-    from ..solvers.forward import forward_solution
     from ..solvers.radau_sensitivity import (
         NODES,
         dense,
@@ -115,7 +128,7 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         step_sequence,
         table_rows,
     )
-    from .forward import forward_run, run_forward
+    from .forward import run_forward
     from .sensitivities import SensitivityError
 
     records: list = []
@@ -123,10 +136,11 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     nominal = _model(scenario, t, None)
     nodes = np.array([nominal.table[0][nominal.table[3][k]]
                       for k in range(nominal.table[3].size - 1)] + [t[-1]])
+    dependent = None if nominal.loops is None else nominal.loops.dep
     moved: list[list[_Model]] = []
     for f in fields:
         try:
-            moved.append([nominal if j == 0 else _model(sc, t, nodes)
+            moved.append([nominal if j == 0 else _model(sc, t, nodes, dependent)
                           for j, sc in zip(f.offsets, f.scenarios, strict=True)])
         except ValueError as error:
             raise SensitivityError(f"sensitivities: {f.target.text} {error}; the computed "
@@ -151,19 +165,31 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         dy0[:, k] = sum(w * md.y0 for w, md in zip(f.weights, moved[k], strict=True)) / f.step
     projected = nominal.projection.active.size > 0
 
-    def project_derivative(segment: int, time: float, y: np.ndarray, dy: np.ndarray
+    def project_derivative(rows: list, time: float, y: np.ndarray, dy: np.ndarray
                            ) -> np.ndarray:
+        """The derivative of the projection of y (moving along dy) at ``time``; rows: per
+        field, per offset, the moved model's (input row, input integrals) there."""
         out = np.empty_like(dy)
         for k, f in enumerate(fields):
-            out[:, k] = sum(w * _project(md, segment, time, y + j * f.step * dy[:, k])
-                            for j, w, md in zip(f.offsets, f.weights, moved[k], strict=True)
+            out[:, k] = sum(w * _project(md, time, *rows[k][i], y + j * f.step * dy[:, k])
+                            for i, (j, w, md) in enumerate(zip(f.offsets, f.weights,
+                                                               moved[k], strict=True))
                             ) / f.step
         return out
 
+    def rows_at(segment: np.ndarray, times: np.ndarray) -> list:
+        """Per time, per field, per offset: the moved model's (u, U) there."""
+        table = [[(table_rows(md.table, segment, times), _integral_rows(md, segment, times))
+                  for md in group] for group in moved]
+        return [[[(u[n], U[n]) for u, U in group] for group in table]
+                for n in range(times.size)]
+
+    if projected:
+        step_rows = rows_at(steps.segment, steps.t + steps.h)
+
     def project_step(s: int, y1: np.ndarray, dy1: np.ndarray) -> np.ndarray:
         raw = steps.y0[s] + steps.z[s, 2]
-        return project_derivative(int(steps.segment[s]), float(steps.t[s] + steps.h[s]),
-                                  raw, dy1)
+        return project_derivative(step_rows[s], float(steps.t[s] + steps.h[s]), raw, dy1)
 
     stage_u = table_rows(nominal.table, np.repeat(steps.segment, 3),
                          (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
@@ -176,25 +202,48 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     dstates[1:] = dense(starts[which], dz[which], ends[which], s)
     if projected:  # the outputs are projected too
         raw = dense(steps.y0[which], steps.z[which], steps.y1[which], s)
+        out_rows = rows_at(steps.segment[which], t[1:])
         for i in range(1, t.size):
-            dstates[i] = project_derivative(int(steps.segment[which[i - 1]]), float(t[i]),
-                                            raw[i - 1], dstates[i])
-    channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
+            dstates[i] = project_derivative(out_rows[i - 1], float(t[i]), raw[i - 1],
+                                            dstates[i])
+    # the states the channels are computed from: the run's outputs (projected onto the
+    # known momentum), or for closed loops the integrated ones (the channels close them)
     states_out = _states(run, nominal)
+    if nominal.loops is not None:
+        states_out = np.vstack([nominal.y0, dense(steps.y0[which], steps.z[which],
+                                                  steps.y1[which], s)])
+    channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
         for j, w, md in zip(f.offsets, f.weights, moved[k], strict=True):
             y = states_out + j * f.step * dstates[:, :, k]
-            solution, outputs = forward_solution(md.data, md.work, md.system, t, y,
-                                                 dict(run.solution.stats),
-                                                 None, run.solution.accuracy, md.projection)
-            values = forward_run(md.scenario, md.system, t, solution, outputs, None, {}, {},
-                                 False).values
-            for name, v in values.items():
+            for name, v in _channels(md, t, y, run).items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
             column.append(total[name] / f.step)
     return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
+
+
+def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun
+              ) -> dict[str, np.ndarray]:
+    """The forward path's channels of ``model`` at the integrator's states (nt, m)."""
+    from ..solvers.forward import forward_solution
+    from .forward import forward_run
+
+    stats, accuracy = dict(run.solution.stats), run.solution.accuracy
+    if model.loops is None:
+        solution, outputs = forward_solution(model.data, model.work, model.system, t, states,
+                                             stats, None, accuracy, model.projection)
+        return forward_run(model.scenario, model.system, t, solution, outputs, None, {}, {},
+                           False).values
+    from ..solvers.loops import loop_run
+    from .loops import closed_loop_outputs, closure_metadata, closure_values
+
+    looped = loop_run(model.loops, t, states, stats, model.scenario.settings.rtol)
+    outputs = closed_loop_outputs(model.system, looped.solution, looped.joint_forces)
+    return forward_run(model.scenario, model.system, t, looped.solution, outputs, None,
+                       closure_values(model.scenario, model.loops, looped.multipliers),
+                       closure_metadata(model.loops, looped.residual), False).values
 
 
 def _states(run: PathRun, model: _Model) -> np.ndarray:
@@ -207,15 +256,13 @@ def _states(run: PathRun, model: _Model) -> np.ndarray:
 
 def check_forward(scenario: Scenario) -> None:
     """SensitivityError unless the forward run of ``scenario`` takes sensitivities: the
-    compiled Radau IIA run without sampled controllers or closed loops."""
+    compiled Radau IIA run (closed kinematic loops too) without sampled controllers."""
     from ..solvers.forward import FAST_METHOD
     from .sensitivities import SUPPORTED, SensitivityError
 
     what = None
     if scenario.controllers:
         what = "controllers on a forward run"
-    elif scenario.closures:
-        what = "closed kinematic loops"
     elif scenario.settings.method not in (FAST_METHOD, "lawson", "magnus"):
         what = f"a forward run with method = {scenario.settings.method!r}"
     if what is not None:

@@ -47,7 +47,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         from .loops import closed_loop_outputs, closed_loop_solution
 
         solution, closure_values, joint_forces, closures = closed_loop_solution(
-            scenario, system, t, on_progress)
+            scenario, system, t, on_progress, steps)
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
         solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol, method,

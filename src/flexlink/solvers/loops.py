@@ -32,8 +32,10 @@ class LoopRun:
 
 
 def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: float,
-                    on_progress: Progress | None = None) -> LoopRun:
-    """Integrate the closed mechanism from its closed initial state (`LoopSystem.y0`)."""
+                    on_progress: Progress | None = None, steps: list | None = None
+                    ) -> LoopRun:
+    """Integrate the closed mechanism from its closed initial state (`LoopSystem.y0`);
+    ``steps``: a list that receives the accepted steps (`radau.integrate_radau`)."""
     system = loops.system
     y0 = loops.y0
     nu, n = len(system.free), system.n
@@ -42,12 +44,21 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
         states, stats = integrate_radau(
             loops.data, loops.workspace(y0.size), y0, t_out, lambda t: inputs(system, t),
             breakpoints(system), rtol, atol, groups, np.inf, on_progress=on_progress,
-            z=slice(2 * nu, 2 * nu + n))
+            z=slice(2 * nu, 2 * nu + n), steps=steps)
     except RadauStop as exc:
         raise SimulationError(
             f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
             "have reached a singular configuration (a toggle position) or left the "
             "first-order model's range") from None
+    return loop_run(loops, t_out, states, stats, rtol)
+
+
+def loop_run(loops: LoopSystem, t_out: np.ndarray, states: np.ndarray, stats: dict,
+             rtol: float) -> LoopRun:
+    """The LoopRun from the integrated states at t_out: projected onto the closures, with
+    their multipliers and rates."""
+    system = loops.system
+    nu, n = len(system.free), system.n
     closed, lam, joint, residual = closed_states(loops, t_out, states)
     if not np.all(np.isfinite(residual)):
         at = float(t_out[np.argmax(~np.isfinite(residual))])
