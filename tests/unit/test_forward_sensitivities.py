@@ -116,3 +116,12 @@ def test_a_field_that_moves_an_input_breakpoint_is_refused() -> None:
     file = scenario_file(scenario_from_dict(tomllib.loads(HUB_BEAM)))
     with pytest.raises(SensitivityError, match="duration"):
         flexlink.simulate(file.build(), sensitivities=["joints[0].torque[0].duration"])
+
+
+def test_closed_kinematic_loops_are_refused_before_anything_runs() -> None:
+    from pathlib import Path
+
+    closed = flexlink.load_scenario(Path(__file__).parents[2] / "examples" / "four_bar.toml")
+    with pytest.raises(SensitivityError, match="closed kinematic loops"):
+        flexlink.simulate(closed, sensitivities=["links[1].EI"])
+

@@ -256,13 +256,18 @@ def _states(run: PathRun, model: _Model) -> np.ndarray:
 
 def check_forward(scenario: Scenario) -> None:
     """SensitivityError unless the forward run of ``scenario`` takes sensitivities: the
-    compiled Radau IIA run (closed kinematic loops too) without sampled controllers."""
+    compiled Radau IIA run without sampled controllers or closed kinematic loops."""
     from ..solvers.forward import FAST_METHOD
     from .sensitivities import SUPPORTED, SensitivityError
 
     what = None
     if scenario.controllers:
         what = "controllers on a forward run"
+    elif scenario.closures:
+        # The loops' tangent (`_model`, `_channels`) gives the joints' angles and rates and
+        # the tips to 3e-7 of converged differences, but the closure forces and joint
+        # torques differ from them by 1e-3 (examples/four_bar.toml): not yet trusted.
+        what = "closed kinematic loops"
     elif scenario.settings.method not in (FAST_METHOD, "lawson", "magnus"):
         what = f"a forward run with method = {scenario.settings.method!r}"
     if what is not None:

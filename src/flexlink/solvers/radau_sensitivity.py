@@ -14,9 +14,9 @@ the Jacobian J_j = ∂f/∂y at each stage (not the run's frozen Newton Jacobian
 for every parameter at once (one factorisation per step). A model that projects onto
 known invariants after each step passes the derivative of its projection. The outputs
 come from the step's collocation polynomial (the run's dense output), differentiated
-alike. The Jacobians are forward differences of the compiled rates (f is smooth in y); so
+alike. The Jacobians are central differences of the compiled rates (f is smooth in y); so
 the derivative equals the exact derivative of the computed run up to those differences
-(~1e-8 relative) and the Newton iteration's residual (a small fraction of the local error
+(~1e-10 relative, ~1e-7 through a closed loop's Newton tolerance) and the Newton iteration's residual (a small fraction of the local error
 tolerance), and approaches the continuous sensitivity as the run's tolerance does.
 """
 
@@ -36,7 +36,7 @@ COEFFICIENTS = np.array([  # Radau IIA (s = 3): a_ij
     [(296 + 169 * _SQ6) / 1800, (88 + 7 * _SQ6) / 360, (-2 - 3 * _SQ6) / 225],
     [(16 - _SQ6) / 36, (16 + _SQ6) / 36, 1 / 9]])
 C1M1, C2M1, C1MC2 = C1 - 1.0, C2 - 1.0, C1 - C2
-JACOBIAN_STEP = 1.5e-8  # relative (absolute below 1): √ of the unit round-off
+JACOBIAN_STEP = 6e-6  # relative (absolute below 1): ~ the cube root of the unit round-off
 CHUNK = 128  # steps whose Jacobians and stage systems are formed at once (memory)
 
 # rates(u (n, columns), Y (n, m)) → f (n, m) of the nominal model
@@ -77,18 +77,20 @@ def step_sequence(records: list) -> StepSequence:
 
 
 def stage_jacobians(rates: Rates, u: np.ndarray, Y: np.ndarray) -> np.ndarray:
-    """∂f/∂y (n, m, m) at states Y (n, m) with input rows u (n, columns): forward
-    differences of the rates with steps of √(unit round-off) · max(1, |y_j|) (truncation
-    and round-off each ~1e-8 relative: far below what the sensitivities are asked for, at
-    half the rate evaluations of central differences)."""
+    """∂f/∂y (n, m, m) at states Y (n, m) with input rows u (n, columns): central
+    differences of the rates with steps of JACOBIAN_STEP · max(1, |y_j|). Central, with
+    steps far above √ε: a model's rates may close the state by an iteration that stops at a
+    tolerance (closed loops: |Φ| ≤ 1e-12 of the loop's size), whose jitter a step of √ε
+    would turn into Jacobian errors of 1e-5."""
     n, m = Y.shape
     eps = JACOBIAN_STEP * np.maximum(1.0, np.abs(Y))  # (n, m)
-    moved = np.repeat(Y[:, None, :], m + 1, axis=1)  # (n, m + 1, m): Y, then Y + eps_j e_j
+    moved = np.repeat(Y[:, None, None, :], 2, axis=1).repeat(m, axis=2)  # (n, 2, m, m)
     idx = np.arange(m)
-    moved[:, 1 + idx, idx] += eps
-    eps = (moved[:, 1 + idx, idx] - Y)  # the steps as represented
-    f = rates(np.repeat(u, m + 1, axis=0), moved.reshape(-1, m)).reshape(n, m + 1, m)
-    return np.swapaxes((f[:, 1:] - f[:, :1]) / eps[:, :, None], 1, 2)
+    moved[:, 0, idx, idx] += eps
+    moved[:, 1, idx, idx] -= eps
+    span = moved[:, 0, idx, idx] - moved[:, 1, idx, idx]  # the steps as represented
+    f = rates(np.repeat(u, 2 * m, axis=0), moved.reshape(-1, m)).reshape(n, 2, m, m)
+    return np.swapaxes((f[:, 0] - f[:, 1]) / span[:, :, None], 1, 2)
 
 
 def radau_tangent(steps: StepSequence, rates: Rates, stage_inputs: np.ndarray,
