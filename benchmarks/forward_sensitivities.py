@@ -72,7 +72,7 @@ CASES = {
     "paper_servo": ("examples/paper_servo.toml", [
         "links[0].E", "links[1].mass_per_length", "links[0].tip_mass", "links[1].damping_ratio",
         "joints[0].P", "joints[0].D", "joints[0].loop_gain", "joints[1].bandwidth",
-        "joints[0].motor_inertia", "links[1].length"]),
+        "joints[0].motor_inertia", "joints[0].rate_per_volt_deg_s"]),
 }
 
 # the satellite's first 8 s (the bang-bang's switch at 10 s stays outside): the

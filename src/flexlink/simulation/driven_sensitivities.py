@@ -28,6 +28,11 @@ from ..model import Scenario
 from .common import PathRun, Progress
 
 
+class Refused(ValueError):
+    """A field the forward run's sensitivities cannot take (the caller reports it as a
+    `sensitivities.SensitivityError`)."""
+
+
 @dataclass
 class _Model:
     """One scenario's forward system as the compiled kernels see it."""
@@ -129,7 +134,6 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         table_rows,
     )
     from .forward import run_forward
-    from .sensitivities import SensitivityError
 
     records: list = []
     run = run_forward(scenario, t, on_progress, shapes, steps=records)
@@ -143,11 +147,11 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
             moved.append([nominal if j == 0 else _model(sc, t, nodes, dependent)
                           for j, sc in zip(f.offsets, f.scenarios, strict=True)])
         except ValueError as error:
-            raise SensitivityError(f"sensitivities: {f.target.text} {error}; the computed "
+            raise Refused(f"sensitivities: {f.target.text} {error}; the computed "
                                    "run is not differentiable in it on a fixed step "
                                    "sequence") from None
     if nominal.y0.size == 0:
-        raise SensitivityError("sensitivities: this run has no state to differentiate")
+        raise Refused("sensitivities: this run has no state to differentiate")
     steps = step_sequence(records)
     K = len(fields)
     m = nominal.y0.size
@@ -254,22 +258,19 @@ def _states(run: PathRun, model: _Model) -> np.ndarray:
                       sol.extra if sol.extra is not None else np.zeros((sol.t.size, 0))])
 
 
-def check_forward(scenario: Scenario) -> None:
-    """SensitivityError unless the forward run of ``scenario`` takes sensitivities: the
-    compiled Radau IIA run without sampled controllers or closed kinematic loops."""
+def refused(scenario: Scenario) -> str | None:
+    """What keeps the forward run of ``scenario`` from taking sensitivities ("controllers
+    on a forward run", …), or None: they are computed on the compiled Radau IIA run without
+    sampled controllers or closed kinematic loops."""
     from ..solvers.forward import FAST_METHOD
-    from .sensitivities import SUPPORTED, SensitivityError
 
-    what = None
     if scenario.controllers:
-        what = "controllers on a forward run"
-    elif scenario.closures:
+        return "controllers on a forward run"
+    if scenario.closures:
         # The loops' tangent (`_model`, `_channels`) gives the joints' angles and rates and
         # the tips to 3e-7 of converged differences, but the closure forces and joint
         # torques differ from them by 1e-3 (examples/four_bar.toml): not yet trusted.
-        what = "closed kinematic loops"
-    elif scenario.settings.method not in (FAST_METHOD, "lawson", "magnus"):
-        what = f"a forward run with method = {scenario.settings.method!r}"
-    if what is not None:
-        raise SensitivityError(f"sensitivities: {what} do not compute sensitivities yet; "
-                               f"they are computed on {SUPPORTED}")
+        return "closed kinematic loops"
+    if scenario.settings.method not in (FAST_METHOD, "lawson", "magnus"):
+        return f"a forward run with method = {scenario.settings.method!r}"
+    return None

@@ -86,10 +86,13 @@ def check_path(scenario: Scenario) -> None:
     path = model_path(scenario)
     method = scenario.settings.method
     if path == "forward":
-        from .driven_sensitivities import check_forward
+        from .driven_sensitivities import refused
 
-        check_forward(scenario)
-        return
+        what = refused(scenario)
+        if what is None:
+            return
+        raise SensitivityError(f"sensitivities: {what} do not compute sensitivities yet; "
+                               f"they are computed on {SUPPORTED}")
     if path != "prescribed" or method != "lawson":
         what = f"the {path} path" + (f" with method = {method!r}" if path == "prescribed"
                                      else "")
@@ -249,11 +252,16 @@ def path_with_sensitivities(scenario: Scenario) -> Any:
     """The run-with-sensitivities function of the scenario's path."""
     from . import model_path
 
-    if model_path(scenario) == "forward":
-        from .driven_sensitivities import run_with_forward_sensitivities
+    if model_path(scenario) != "forward":
+        return run_with_sensitivities
+    from .driven_sensitivities import Refused, run_with_forward_sensitivities
 
-        return run_with_forward_sensitivities
-    return run_with_sensitivities
+    def run(*args: Any) -> Any:
+        try:
+            return run_with_forward_sensitivities(*args)
+        except Refused as error:
+            raise SensitivityError(str(error)) from None
+    return run
 
 
 def attach(results: Results, fields: list[_Field], derivatives: dict[str, np.ndarray]) -> None:
