@@ -169,9 +169,9 @@ def test_bad_fields_are_refused_before_anything_runs(field: str | None, message:
 
 
 def test_paths_without_sensitivities_are_refused_naming_the_path() -> None:
-    driven = flexlink.load_scenario(EXAMPLES / "flexible_joint_arm.toml")
-    with pytest.raises(SensitivityError, match="forward path.*prescribed joints"):
-        flexlink.simulate(driven, sensitivities=["links[0].mass_per_length"])
+    controlled = flexlink.load_scenario(EXAMPLES / "active_damping.toml")
+    with pytest.raises(SensitivityError, match="closed_loop path.*prescribed joints"):
+        flexlink.simulate(controlled, sensitivities=["links[0].mass_per_length"])
     file = _paper()
     raw = dict(file.raw)
     raw["simulation"] = {**raw["simulation"], "method": "magnus"}

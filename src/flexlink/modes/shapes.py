@@ -360,6 +360,14 @@ def _hub_determinant(lam: float, mu: float, j: float, eta: float, rho: float) ->
     return float(np.linalg.det(_hub_matrix(lam, mu, j, eta, rho)))
 
 
+@functools.lru_cache(maxsize=64)
+def _hub_roots(n: int, mu: float, j: float, eta: float, rho: float) -> tuple[float, ...]:
+    """The first n roots of `_hub_determinant` (a run's moved scenarios, a sweep's cases
+    and the equilibrium of one run ask for the same link again)."""
+    return tuple(_determinant_roots(lambda x: _hub_determinant(x, mu, j, eta, rho), n,
+                                    (n + 2) * np.pi, "hub-loaded"))
+
+
 def hub_loaded_modes(
     length: float,
     n: int,
@@ -388,8 +396,7 @@ def hub_loaded_modes(
         return _build(length, np.empty(0), 0.0, 0.0, "hub_loaded")
     args = (tip_mass / (mass_per_length * length), tip_inertia / (mass_per_length * length**3),
             hub_inertia / (mass_per_length * length**3), radius / length)
-    lam = _determinant_roots(lambda x: _hub_determinant(x, *args), n, (n + 2) * np.pi,
-                             "hub-loaded")
+    lam = np.array(_hub_roots(n, *args))
     extra, growing = np.empty((5, n)), np.empty(n)
     for i in range(n):
         G, H, C, D, T = np.linalg.svd(_hub_matrix(lam[i], *args))[2][-1]

@@ -26,24 +26,43 @@ from .common import PathRun, Progress, check_tip_deflection
 from .prismatic import check_travel as check_slider_travel
 
 
-def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
-                  with_shapes: bool = True) -> PathRun:
+def forward_system(scenario: Scenario) -> ForwardSystem:
+    """The forward system of ``scenario`` (first-order model)."""
     settings = scenario.settings
-    system = ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening,
-                           scenario.actuators, gravity=settings.gravity,
-                           initial=settings.initial)
+    return ForwardSystem(scenario.chain, scenario.base or Base(), settings.geometric_stiffening,
+                         scenario.actuators, gravity=settings.gravity, initial=settings.initial)
+
+
+def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
+                  with_shapes: bool = True, steps: list | None = None) -> PathRun:
+    """The forward run; ``steps``: a list that receives the compiled integrator's accepted
+    steps (`solvers.radau.integrate_radau`)."""
+    settings = scenario.settings
+    system = forward_system(scenario)
     method = settings.method if settings.method not in ("lawson", "magnus") else FAST_METHOD
     loop = sampled_loop(scenario, system, t) if scenario.controllers else None
     closures: dict = {}
+    closure_values: dict = {}
     if scenario.closures:  # loops closed by constraints (simulation/loops.py)
         from .loops import closed_loop_outputs, closed_loop_solution
 
         solution, closure_values, joint_forces, closures = closed_loop_solution(
-            scenario, system, t, on_progress, loop)
+            scenario, system, t, on_progress, loop, steps)
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
         solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol, method,
-                                              on_progress, loop=loop, with_outputs=True)
+                                              on_progress, loop=loop, with_outputs=True,
+                                              steps=steps)
+    return forward_run(scenario, system, t, solution, outputs, loop, closure_values, closures,
+                       with_shapes)
+
+
+def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, solution: Solution,
+                outputs: object, loop: SampledLoop | None, closure_values: dict,
+                closures: dict, with_shapes: bool) -> PathRun:
+    """The forward path's run (channels, shapes, metadata) from its solution and outputs
+    (`solvers.forward.forward_solution`)."""
+    settings = scenario.settings
     nu = len(system.free)
     p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
                                     solution.q_ddot[:, :nu])

@@ -20,15 +20,17 @@ from .common import Progress
 
 
 def closed_loop_solution(scenario: Scenario, system: ForwardSystem, t: np.ndarray,
-                         on_progress: Progress, loop: SampledLoop | None = None
+                         on_progress: Progress, loop: SampledLoop | None = None,
+                         steps: list | None = None
                          ) -> tuple[Solution, dict[str, np.ndarray], np.ndarray, dict]:
     """The Solution on the closed loops, the closures' channel values, the constraint
     forces' torque on each joint's row (nt, N; subtract it from the equations' joint row
     for the motor's torque) and metadata (the largest closure residual, m, and relative to
-    the loop's size); ``loop``: the scenario's sampled controllers."""
+    the loop's size); ``loop``: the scenario's sampled controllers; ``steps``: a list that
+    receives the accepted steps (`solvers.radau.integrate_radau`)."""
     loops = LoopSystem(system, scenario.closures)
     settings = scenario.settings
-    run = integrate_loops(loops, t, settings.rtol, settings.atol, on_progress, loop)
+    run = integrate_loops(loops, t, settings.rtol, settings.atol, on_progress, loop, steps)
     return (run.solution, closure_values(scenario, loops, run.multipliers), run.joint_forces,
             closure_metadata(loops, run.residual))
 

@@ -42,7 +42,9 @@ _SETTINGS = ("rtol", "atol", "step")  # [simulation] keys of the integrator, not
 _STENCILS = (((1, -1), (0.5, -0.5)), ((0, 1, 2), (-1.5, 2.0, -0.5)),
              ((0, -1, -2), (1.5, -2.0, 0.5)))
 SUPPORTED = ('prescribed joints with the first-order model and method = "lawson" (the '
-             "default of prescribed runs)")
+             "default of prescribed runs), and driven joints or a moving base with the "
+             'first-order model, the compiled Radau IIA (method = "radau5", "lawson" or '
+             '"magnus"), without controllers or closed kinematic loops')
 
 
 class SensitivityError(ValueError):
@@ -83,6 +85,14 @@ def check_path(scenario: Scenario) -> None:
 
     path = model_path(scenario)
     method = scenario.settings.method
+    if path == "forward":
+        from .driven_sensitivities import refused
+
+        what = refused(scenario)
+        if what is None:
+            return
+        raise SensitivityError(f"sensitivities: {what} do not compute sensitivities yet; "
+                               f"they are computed on {SUPPORTED}")
     if path != "prescribed" or method != "lawson":
         what = f"the {path} path" + (f" with method = {method!r}" if path == "prescribed"
                                      else "")
@@ -296,6 +306,28 @@ def forward_derivatives(settled: SettledRun, fields: list[_Field], t: np.ndarray
     return {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
+def path_with_sensitivities(scenario: Scenario) -> Any:
+    """The run-with-sensitivities function of the scenario's path."""
+    from . import model_path
+
+    if model_path(scenario) != "forward":
+        return run_with_sensitivities
+    from .driven_sensitivities import Refused, run_with_forward_sensitivities
+
+    def run(*args: Any) -> Any:
+        try:
+            return run_with_forward_sensitivities(*args)
+        except Refused as error:
+            raise SensitivityError(str(error)) from None
+    return run
+
+
+def run_on_path(scenario: Scenario, fields: list[_Field], t: np.ndarray, on_progress: Any,
+                shapes: bool) -> Any:
+    """`run_with_sensitivities` on the scenario's path (prescribed Lawson or forward)."""
+    return path_with_sensitivities(scenario)(scenario, fields, t, on_progress, shapes)
+
+
 def labelled(results: Results, fields: list[_Field], derivatives: dict[str, np.ndarray]) -> Any:
     """The sensitivities of ``results`` as a DataArray (time × channel × field)."""
     import xarray as xr
@@ -400,7 +432,7 @@ def simulate_with_sensitivities(scenario: Scenario | ScenarioFile, fields: Seque
     ``drive``: applied to the scenario and to every moved one before they run (a fit's
     measured joint motions, `experiment`)."""
     results, prepared, derivatives = sensitivity_run(scenario, fields, progress, shapes,
-                                                     run_with_sensitivities, drive)
+                                                     run_on_path, drive)
     results.label_sensitivities(lambda: labelled(results, prepared, derivatives))
     return results
 
@@ -412,7 +444,7 @@ def simulate_with_derivatives(scenario: Scenario | ScenarioFile, fields: Sequenc
     """`simulate_with_sensitivities` without labels: the results and the plain
     {channel: (time, field) array}, fields in the order given (the fit's Jacobians)."""
     results, _, derivatives = sensitivity_run(scenario, fields, False, shapes,
-                                              run_with_sensitivities, drive)
+                                              run_on_path, drive)
     return results, derivatives
 
 

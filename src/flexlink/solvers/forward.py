@@ -38,7 +38,7 @@ MAX_STEP_OUTPUTS = 10  # longest solve_ivp step, in output intervals (simulation
 def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
                       method: str = DEFAULT_METHOD, on_progress: Progress | None = None,
                       compiled: bool = True, loop: SampledLoop | None = None,
-                      with_outputs: bool = False
+                      with_outputs: bool = False, steps: list | None = None
                       ) -> Solution | tuple[Solution, ForwardOutputs]:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
     initial state; the servo integrals as ``extra``. ``method``: FAST_METHOD (the compiled
@@ -52,14 +52,15 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
     input (the compiled integrator ends steps on every breakpoint of the inputs instead).
 
     ``loop``: sampled controllers driving the actuators, compiled integrator only; a
-    blow-up is then reported as an unstable closed loop."""
+    blow-up is then reported as an unstable closed loop. ``steps``: a list that receives
+    the compiled integrator's accepted steps (`radau.integrate_radau`)."""
     if loop is not None and method != FAST_METHOD:
         raise ValueError(f"controllers on a forward run need the compiled integrator: method "
                          f"= {method!r} cannot hold sampled voltages; use \"lawson\"")
     max_step = MAX_STEP_OUTPUTS * float(np.min(np.diff(t_out))) if t_out.size > 1 else np.inf
     if method == FAST_METHOD:
         solution, outputs = _integrate_compiled(system, t_out, rtol, atol, np.inf, on_progress,
-                                                loop)
+                                                loop, steps)
         return (solution, outputs) if with_outputs else solution
     nu, n = len(system.free), system.n
     if compiled:
@@ -102,7 +103,8 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
 
 def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
                         max_step: float, on_progress: Progress | None,
-                        loop: SampledLoop | None) -> tuple[Solution, ForwardOutputs]:
+                        loop: SampledLoop | None, steps: list | None = None
+                        ) -> tuple[Solution, ForwardOutputs]:
     """integrate_forward with the compiled Radau IIA integrator."""
     from ..dynamics._forward_numba import workspace
 
@@ -120,7 +122,7 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
             data, work, y0, t_out, lambda t: inputs(system, t), breakpoints(system), rtol,
             atol, groups, max_step, on_progress=on_progress, loop=loop,
             held=voltage_columns(system) if loop is not None else slice(0, 0),
-            z=slice(2 * nu, 2 * nu + n), projection=known)
+            z=slice(2 * nu, 2 * nu + n), projection=known, steps=steps)
     except RadauStop as exc:
         why = ("the state grew without bound" if exc.why == "blow-up"
                else "the time step collapsed")

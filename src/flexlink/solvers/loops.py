@@ -33,11 +33,12 @@ class LoopRun:
 
 
 def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: float,
-                    on_progress: Progress | None = None, loop: SampledLoop | None = None
-                    ) -> LoopRun:
+                    on_progress: Progress | None = None, loop: SampledLoop | None = None,
+                    steps: list | None = None) -> LoopRun:
     """Integrate the closed mechanism from its closed initial state (`LoopSystem.y0`);
     ``loop``: sampled controllers driving the actuators (the integrator stops at each
-    sample and holds their voltages in the input rows, as on the tree's forward path)."""
+    sample and holds their voltages in the input rows, as on the tree's forward path);
+    ``steps``: a list that receives the accepted steps (`radau.integrate_radau`)."""
     system = loops.system
     y0 = loops.y0
     nu, n = len(system.free), system.n
@@ -47,7 +48,7 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
         states, stats = integrate_radau(
             loops.data, loops.workspace(y0.size), y0, t_out, lambda t: inputs(system, t),
             breakpoints(system), rtol, atol, groups, np.inf, on_progress=on_progress,
-            loop=loop, held=held, z=slice(2 * nu, 2 * nu + n))
+            loop=loop, held=held, z=slice(2 * nu, 2 * nu + n), steps=steps)
     except RadauStop as exc:
         if loop is not None:
             raise UnstableLoop(exc.t, "the state grew without bound" if exc.why == "blow-up"
@@ -59,6 +60,18 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
     u = inputs(system, t_out)
     if loop is not None:
         u[:, held] = loop.held_voltages(t_out)
+    return loop_run(loops, t_out, states, stats, rtol, u)
+
+
+def loop_run(loops: LoopSystem, t_out: np.ndarray, states: np.ndarray, stats: dict,
+             rtol: float, u: np.ndarray | None = None) -> LoopRun:
+    """The LoopRun from the integrated states at t_out: projected onto the closures, with
+    their multipliers and rates; ``u``: the inputs at t_out (default the system's, without
+    held controller voltages)."""
+    system = loops.system
+    nu, n = len(system.free), system.n
+    if u is None:
+        u = inputs(system, t_out)
     closed, lam, joint, residual = closed_states(loops, t_out, states, u)
     if not np.all(np.isfinite(residual)):
         at = float(t_out[np.argmax(~np.isfinite(residual))])

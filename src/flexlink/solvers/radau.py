@@ -52,35 +52,10 @@ def local_tolerances(rtol: float, atol: float) -> tuple[float, float]:
     return 0.7 * rtol ** 0.875, 0.1 * atol
 
 
-def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
-                    inputs: Callable[[np.ndarray], np.ndarray], breaks: np.ndarray,
-                    rtol: float, atol: float, groups: np.ndarray, hmax: float = np.inf,
-                    mass: np.ndarray | None = None, on_progress: Progress | None = None,
-                    loop: SampledLoop | None = None, held: slice = slice(0, 0),
-                    z: slice = slice(0, 0), projection: object | None = None
-                    ) -> tuple[np.ndarray, dict[str, int]]:
-    """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
-
-    inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
-    smooth; groups (len(y0),) the group index of each component (its error is relative to
-    the group's peak); mass: M (None: the identity); hmax: the longest step (s);
-    projection: the model's record of known invariants (`_radau_numba.model_project`; its
-    ``active`` components empty: none), onto which every accepted step and output state is
-    put. Raises RadauStop."""
-    from ._radau_numba import (
-        F0_OK,
-        FACCON,
-        FIRST,
-        N_ST,
-        NEXT_OUT,
-        H,
-        X,
-        radau_advance,
-    )
-
-    if np.size(y0) == 0 and loop is None:  # every coordinate known: nothing to integrate
-        return np.empty((t_out.size, 0)), dict.fromkeys(
-            ("steps", "rejected_steps", "rhs_evaluations", "jacobians", "factorisations"), 0)
+def segment_nodes(t_out: np.ndarray, breaks: np.ndarray, loop: SampledLoop | None = None
+                  ) -> np.ndarray:
+    """The nodes (s) no step straddles: the run's ends, the inputs' breakpoints and the
+    controllers' sample instants inside it."""
     t0, t1 = float(t_out[0]), float(t_out[-1])
     scale = 1e-9 * max(1.0, abs(t1))
     inner = breaks[(breaks > t0 + scale) & (breaks < t1 - scale)]
@@ -91,6 +66,46 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     nodes = np.union1d(np.union1d([t0, t1], inner), samples)
     nodes = nodes[np.concatenate([[True], np.diff(nodes) > scale])]
     nodes[-1] = t1
+    return nodes
+
+
+def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
+                    inputs: Callable[[np.ndarray], np.ndarray], breaks: np.ndarray,
+                    rtol: float, atol: float, groups: np.ndarray, hmax: float = np.inf,
+                    mass: np.ndarray | None = None, on_progress: Progress | None = None,
+                    loop: SampledLoop | None = None, held: slice = slice(0, 0),
+                    z: slice = slice(0, 0), projection: object | None = None,
+                    steps: list | None = None) -> tuple[np.ndarray, dict[str, int]]:
+    """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
+
+    inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
+    smooth; groups (len(y0),) the group index of each component (its error is relative to
+    the group's peak); mass: M (None: the identity); hmax: the longest step (s);
+    projection: the model's record of known invariants (`_radau_numba.model_project`; its
+    ``active`` components empty: none), onto which every accepted step and output state is
+    put. ``steps``: a list to which every accepted step is appended as (t (s) at its start,
+    h (s), segment index, y at its start, y at its end (projected), its stage increments
+    z (3, len(y0)), Y_i = y + z_i): the step sequence that the sensitivities
+    (`radau_sensitivity.py`) differentiate. Raises RadauStop."""
+    from ._radau_numba import (
+        F0_OK,
+        FACCON,
+        FIRST,
+        H_OLD,
+        N_ST,
+        NEXT_OUT,
+        SEG,
+        H,
+        X,
+        radau_advance,
+    )
+
+    if np.size(y0) == 0 and loop is None:  # every coordinate known: nothing to integrate
+        return np.empty((t_out.size, 0)), dict.fromkeys(
+            ("steps", "rejected_steps", "rhs_evaluations", "jacobians", "factorisations"), 0)
+    t0, t1 = float(t_out[0]), float(t_out[-1])
+    scale = 1e-9 * max(1.0, abs(t1))
+    nodes = segment_nodes(t_out, breaks, loop)
     tab = tabulate(inputs, nodes)
     on = projection is not None and projection.active.size > 0  # type: ignore[attr-defined]
     itab = integrals(tab) if on else (np.zeros((1, 1, 1)), np.zeros((1, 1)))
@@ -127,10 +142,22 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         if loop is not None:
             held_values[:] = loop.update(k, y[z])
             st[F0_OK] = 0.0  # the held voltages changed: f at the step's start too
-        status = radau_advance(d, w, M, identity, tab, nodes, held_values, held_columns,
-                               float(stop) - (0.0 if stop == t1 else 0.5 * scale), hmax,
-                               rtol_local, atol_local, groups, peak, t_out, states, y, st, ws,
-                               cont, project)
+        t_stop = float(stop) - (0.0 if stop == t1 else 0.5 * scale)
+        if steps is None:
+            status = radau_advance(d, w, M, identity, tab, nodes, held_values, held_columns,
+                                   t_stop, hmax, rtol_local, atol_local, groups, peak, t_out,
+                                   states, y, st, ws, cont, project)
+        else:  # one accepted step per call (the loop resumes where it stopped: same steps)
+            status = 0
+            while status == 0 and st[X] < t_stop:
+                start, seg, y_start = float(st[X]), int(st[SEG]), y.copy()
+                status = radau_advance(d, w, M, identity, tab, nodes, held_values,
+                                       held_columns, min(np.nextafter(start, np.inf), t_stop),
+                                       hmax, rtol_local, atol_local, groups, peak, t_out,
+                                       states, y, st, ws, cont, project)
+                if status == 0:  # ws[6:9]: the accepted step's stage increments z1, z2, z3
+                    steps.append((start, float(st[H_OLD]), seg, y_start, y.copy(),
+                                  np.array(ws[6:9])))
         if status != 0:
             raise RadauStop(float(st[X]), "blow-up" if status == 1 else "stalled")
         if on_progress is not None:

@@ -1,0 +1,276 @@
+"""Sensitivities of a forward run (driven joints, moving base; first-order model, compiled
+Radau IIA) to numeric scenario fields: the derivative of what the run computed, on its
+own accepted steps (`solvers.radau_sensitivity`).
+
+Pieces from differences, each at a fixed state or time, never of a run (fields moved by
+±δ as in `sensitivities.prepare_fields`):
+
+* ∂f/∂p at every stage: the compiled rates of the forward system assembled at the moved
+  field, with its own input table (a drive's torque or a servo's reference moves the
+  inputs), at the run's stage states;
+* ∂y0/∂p: the moved scenarios' initial states (an equilibrium start, a base's initial
+  velocity);
+* the projection onto the known momentum (free or pinned base, cart), after each step and
+  at each output: the moved scenario's projection of the state moved along its
+  sensitivity;
+* ∂channel/∂p: the forward path's channels (`forward.forward_run`) of the moved scenario
+  at the states moved along their sensitivities.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..model import Scenario
+from .common import PathRun, Progress
+
+
+class Refused(ValueError):
+    """A field the forward run's sensitivities cannot take (the caller reports it as a
+    `sensitivities.SensitivityError`)."""
+
+
+@dataclass
+class _Model:
+    """One scenario's forward system as the compiled kernels see it."""
+
+    scenario: Scenario
+    system: Any
+    data: Any
+    work: Any
+    projection: Any
+    y0: np.ndarray
+    table: tuple
+    integrals: tuple | None
+    loops: Any = None  # closed loops: their `dynamics.loops.LoopSystem`
+
+
+def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
+           dependent: np.ndarray | None = None) -> _Model:
+    """The model of ``scenario``; ValueError if its input segments differ from ``nodes`` or
+    its closures' dependent joints from ``dependent`` (those of the nominal model)."""
+    from ..dynamics._forward_numba import workspace
+    from ..dynamics.forward_kernel import breakpoints, inputs, pack
+    from ..dynamics.momentum_projection import projection, start_values
+    from ..solvers.input_table import integrals, tabulate
+    from ..solvers.radau import segment_nodes
+    from .forward import forward_system
+
+    system = forward_system(scenario)
+    u0 = inputs(system, t[:1])[0]
+    loops = None
+    if scenario.closures:  # the loops' rates (the tree's on states closed by Newton)
+        from ..dynamics.loops import LoopSystem
+
+        loops = LoopSystem(system, scenario.closures)
+        data, y0 = loops.data, loops.y0
+        work = loops.workspace(y0.size)
+        known = projection(system, pack(system), float(t[0]), u0.size)
+        known = known._replace(active=known.active[:0])  # the Radau loop projects nothing
+    else:
+        data = pack(system)
+        work = workspace(data, len(system.servos))
+        y0 = system.initial_state()
+        known = projection(system, data, float(t[0]), u0.size)
+        if known.active.size:
+            start_values(known, data, work, u0, y0, float(t[-1]))
+    own = segment_nodes(t, breakpoints(system))
+    if nodes is not None and not (own.shape == nodes.shape and np.all(own == nodes)):
+        raise ValueError("moves a time where an input jumps")
+    if loops is not None and dependent is not None and not np.array_equal(loops.dep,
+                                                                            dependent):
+        raise ValueError("changes which joints the closures make dependent")
+    table = tabulate(lambda times: inputs(system, times), own)
+    return _Model(scenario, system, data, work, known, y0, table,
+                  integrals(table) if known.active.size else None, loops)
+
+
+def _rates(model: _Model) -> Any:
+    from ..solvers._radau_numba import rates_at
+
+    def rates(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        out = np.empty_like(Y)
+        rates_at(model.data, model.work, np.ascontiguousarray(u), np.ascontiguousarray(Y), out)
+        return out
+    return rates
+
+
+def _project(model: _Model, t: float, u: np.ndarray, U: np.ndarray, y: np.ndarray
+             ) -> np.ndarray:
+    """y projected onto the model's known momentum at time t (s) (`model_project`), with
+    the input row u and the inputs' integrals U there."""
+    from ..dynamics._momentum_numba import project
+
+    out = np.array(y, dtype=float)
+    project(model.data, model.work, model.projection, u, U, float(t), out)
+    return out
+
+
+def _integral_rows(model: _Model, segment: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """The inputs' integrals from the start (`_radau_numba.input_integral`) at times."""
+    a, b, _, first = model.table
+    anti, offset = model.integrals  # type: ignore[misc]
+    piece = np.clip(np.searchsorted(b, times, side="left"), first[segment],
+                    first[segment + 1] - 1)
+    x = (2.0 * times - (a[piece] + b[piece])) / (b[piece] - a[piece])
+    T = np.polynomial.chebyshev.chebvander(x, anti.shape[1] - 1)
+    return offset[piece] + np.einsum("nk,nkc->nc", T, anti[piece])
+
+
+def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarray,
+                                   on_progress: Progress, shapes: bool
+                                   ) -> tuple[PathRun, dict[str, np.ndarray]]:
+    """The forward run of ``scenario`` (`forward.run_forward`, compiled Radau IIA) and,
+    per channel, its derivatives (nt, K) in the fields (`sensitivities._Field`)."""
+    from ..solvers.radau_sensitivity import (
+        NODES,
+        dense,
+        output_steps,
+        radau_tangent,
+        step_sequence,
+        table_rows,
+    )
+    from .forward import run_forward
+
+    records: list = []
+    run = run_forward(scenario, t, on_progress, shapes, steps=records)
+    nominal = _model(scenario, t, None)
+    nodes = np.array([nominal.table[0][nominal.table[3][k]]
+                      for k in range(nominal.table[3].size - 1)] + [t[-1]])
+    dependent = None if nominal.loops is None else nominal.loops.dep
+    moved: list[list[_Model]] = []
+    for f in fields:
+        try:
+            moved.append([nominal if j == 0 else _model(sc, t, nodes, dependent)
+                          for j, sc in zip(f.offsets, f.scenarios, strict=True)])
+        except ValueError as error:
+            raise Refused(f"sensitivities: {f.target.text} {error}; the computed "
+                                   "run is not differentiable in it on a fixed step "
+                                   "sequence") from None
+    if nominal.y0.size == 0:
+        raise Refused("sensitivities: this run has no state to differentiate")
+    steps = step_sequence(records)
+    K = len(fields)
+    m = nominal.y0.size
+    rates_of = [[_rates(md) for md in group] for group in moved]
+
+    def forcing(times: np.ndarray, segment: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        out = np.zeros((Y.shape[0], m, K))
+        for k, f in enumerate(fields):
+            for w, md, rates in zip(f.weights, moved[k], rates_of[k], strict=True):
+                out[:, :, k] += (w / f.step) * rates(table_rows(md.table, segment, times), Y)
+        return out
+
+    dy0 = np.zeros((m, K))
+    for k, f in enumerate(fields):
+        dy0[:, k] = sum(w * md.y0 for w, md in zip(f.weights, moved[k], strict=True)) / f.step
+    projected = nominal.projection.active.size > 0
+
+    def project_derivative(rows: list, time: float, y: np.ndarray, dy: np.ndarray
+                           ) -> np.ndarray:
+        """The derivative of the projection of y (moving along dy) at ``time``; rows: per
+        field, per offset, the moved model's (input row, input integrals) there."""
+        out = np.empty_like(dy)
+        for k, f in enumerate(fields):
+            out[:, k] = sum(w * _project(md, time, *rows[k][i], y + j * f.step * dy[:, k])
+                            for i, (j, w, md) in enumerate(zip(f.offsets, f.weights,
+                                                               moved[k], strict=True))
+                            ) / f.step
+        return out
+
+    def rows_at(segment: np.ndarray, times: np.ndarray) -> list:
+        """Per time, per field, per offset: the moved model's (u, U) there."""
+        table = [[(table_rows(md.table, segment, times), _integral_rows(md, segment, times))
+                  for md in group] for group in moved]
+        return [[[(u[n], U[n]) for u, U in group] for group in table]
+                for n in range(times.size)]
+
+    if projected:
+        step_rows = rows_at(steps.segment, steps.t + steps.h)
+
+    def project_step(s: int, y1: np.ndarray, dy1: np.ndarray) -> np.ndarray:
+        raw = steps.y0[s] + steps.z[s, 2]
+        return project_derivative(step_rows[s], float(steps.t[s] + steps.h[s]), raw, dy1)
+
+    stage_u = table_rows(nominal.table, np.repeat(steps.segment, 3),
+                         (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
+                         ).reshape(steps.h.size, 3, -1)
+    starts, dz, ends = radau_tangent(steps, _rates(nominal), stage_u, forcing, dy0,
+                                     project_step if projected else None)
+    which, s = output_steps(steps, t)
+    dstates = np.empty((t.size, m, K))
+    dstates[0] = dy0
+    dstates[1:] = dense(starts[which], dz[which], ends[which], s)
+    if projected:  # the outputs are projected too
+        raw = dense(steps.y0[which], steps.z[which], steps.y1[which], s)
+        out_rows = rows_at(steps.segment[which], t[1:])
+        for i in range(1, t.size):
+            dstates[i] = project_derivative(out_rows[i - 1], float(t[i]), raw[i - 1],
+                                            dstates[i])
+    # the states the channels are computed from: the run's outputs (projected onto the
+    # known momentum), or for closed loops the integrated ones (the channels close them)
+    states_out = _states(run, nominal)
+    if nominal.loops is not None:
+        states_out = np.vstack([nominal.y0, dense(steps.y0[which], steps.z[which],
+                                                  steps.y1[which], s)])
+    channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
+    for k, f in enumerate(fields):
+        total: dict[str, np.ndarray] = {}
+        for j, w, md in zip(f.offsets, f.weights, moved[k], strict=True):
+            y = states_out + j * f.step * dstates[:, :, k]
+            for name, v in _channels(md, t, y, run).items():
+                total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
+        for name, column in channels.items():
+            column.append(total[name] / f.step)
+    return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
+
+
+def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun
+              ) -> dict[str, np.ndarray]:
+    """The forward path's channels of ``model`` at the integrator's states (nt, m)."""
+    from ..solvers.forward import forward_solution
+    from .forward import forward_run
+
+    stats, accuracy = dict(run.solution.stats), run.solution.accuracy
+    if model.loops is None:
+        solution, outputs = forward_solution(model.data, model.work, model.system, t, states,
+                                             stats, None, accuracy, model.projection)
+        return forward_run(model.scenario, model.system, t, solution, outputs, None, {}, {},
+                           False).values
+    from ..solvers.loops import loop_run
+    from .loops import closed_loop_outputs, closure_metadata, closure_values
+
+    looped = loop_run(model.loops, t, states, stats, model.scenario.settings.rtol)
+    outputs = closed_loop_outputs(model.system, looped.solution, looped.joint_forces)
+    return forward_run(model.scenario, model.system, t, looped.solution, outputs, None,
+                       closure_values(model.scenario, model.loops, looped.multipliers),
+                       closure_metadata(model.loops, looped.residual), False).values
+
+
+def _states(run: PathRun, model: _Model) -> np.ndarray:
+    """The run's states y = [p_free, ṗ_free, z, ż, integrals] at the outputs."""
+    sol = run.solution
+    nu = len(model.system.free)
+    return np.hstack([sol.q[:, :nu], sol.q_dot[:, :nu], sol.q[:, nu:], sol.q_dot[:, nu:],
+                      sol.extra if sol.extra is not None else np.zeros((sol.t.size, 0))])
+
+
+def refused(scenario: Scenario) -> str | None:
+    """What keeps the forward run of ``scenario`` from taking sensitivities ("controllers
+    on a forward run", …), or None: they are computed on the compiled Radau IIA run without
+    sampled controllers or closed kinematic loops."""
+    from ..solvers.forward import FAST_METHOD
+
+    if scenario.controllers:
+        return "controllers on a forward run"
+    if scenario.closures:
+        # The loops' tangent (`_model`, `_channels`) gives the joints' angles and rates and
+        # the tips to 3e-7 of converged differences, but the closure forces and joint
+        # torques differ from them by 1e-3 (examples/four_bar.toml): not yet trusted.
+        return "closed kinematic loops"
+    if scenario.settings.method not in (FAST_METHOD, "lawson", "magnus"):
+        return f"a forward run with method = {scenario.settings.method!r}"
+    return None

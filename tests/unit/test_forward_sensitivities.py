@@ -1,0 +1,127 @@
+"""Sensitivities on the forward path (simulation/driven_sensitivities.py): a torque-driven
+hub–beam and a free base against converged central differences of tight-tolerance runs,
+fields of different kinds (stiffness, mass, drive torque, hub inertia, sensor position,
+a base's initial rate: through the initial state and the momentum projection)."""
+
+from __future__ import annotations
+
+import tomllib
+
+import numpy as np
+import pytest
+
+import flexlink
+from flexlink.scenario.load import scenario_from_dict
+from flexlink.simulation.sensitivities import SensitivityError, scenario_file
+
+HUB_BEAM = """
+[simulation]
+t_end = 0.6
+dt_out = 0.01
+geometric_stiffening = true
+
+[[links]]
+name = "beam"
+length = 1.0
+mass_per_length = 1.0
+EI = 10.0
+tip_mass = 0.1
+damping_ratio = 0.01
+modes = 2
+
+[[joints]]
+drive = "torque"
+motor_inertia = 1.0
+torque = [{ profile = "bang_bang", amplitude = 2.0, start = 0.0, duration = 0.4 }]
+
+[[sensors]]
+name = "root_strain"
+kind = "strain"
+link = "beam"
+x = 0.1
+thickness = 0.02
+"""
+
+FREE_BASE = """
+[simulation]
+t_end = 1.0
+dt_out = 0.01
+geometric_stiffening = true
+
+[base]
+type = "free"
+mass = 10.0
+inertia = 2.0
+rate_deg_s = 5.0
+
+[[base.loads]]
+moment = [{ profile = "bang_bang", amplitude = 1.0, start = 0.0, duration = 2.0 }]
+
+[[links]]
+name = "array"
+length = 1.5
+mass_per_length = 2.0
+EI = 50.0
+modes = 2
+
+[[joints]]
+base_point = [0.3, 0.0]
+motion = [{ profile = "hold", angle_deg = 0.0 }]
+"""
+
+
+def _differences(file, text: str) -> dict[str, np.ndarray]:
+    """Central differences of runs at rtol 1e-12, δ = 1e-3 and 2e-3 of the value,
+    Richardson."""
+    target = file.locate(text)
+    value = float(target.value)
+    out = []
+    for rel in (2e-3, 1e-3):
+        h = rel * abs(value)
+        runs = [flexlink.simulate(file.build({target.path: value + s * h,
+                                              ("simulation", "rtol"): 1e-12}), shapes=False)
+                for s in (1, -1)]
+        out.append({name: (runs[0][name] - runs[1][name]) / (2 * h) for name in runs[0].names})
+    return {name: (4 * out[1][name] - out[0][name]) / 3 for name in out[0]}
+
+
+@pytest.mark.parametrize("text, fields", [
+    (HUB_BEAM, ["links[0].EI", "joints[0].torque[0].amplitude", "joints[0].motor_inertia",
+                "sensors[0].x"]),
+    (FREE_BASE, ["base.inertia", "base.rate_deg_s", "links[0].mass_per_length"]),
+])
+def test_forward_sensitivities_match_converged_differences(text: str, fields: list[str]
+                                                           ) -> None:
+    """Every channel within 2e-5 of its peak derivative (measured: 1e-10 … 6e-7; the
+    differences' own noise is of that size)."""
+    file = scenario_file(scenario_from_dict(tomllib.loads(text)))
+    results = flexlink.simulate(file.build({("simulation", "rtol"): 1e-10}), shapes=False,
+                                sensitivities=fields)
+    for field in fields:
+        value = abs(float(file.locate(field).value))
+        largest = max(np.abs(results[name]).max() for name in results.names)
+        for channel, reference in _differences(file, field).items():
+            peak = np.abs(reference).max()
+            if np.abs(results[channel]).max() <= 1e-9 * largest:  # zero to round-off
+                assert np.abs(results.sensitivity(channel, field).values).max() * value \
+                    <= 1e-9 * largest
+                continue
+            s = results.sensitivity(channel, field).values
+            # a field that does not move the channel: its derivative is zero to round-off
+            floor = 1e-3 * np.abs(results[channel]).max() / value
+            assert np.abs(s - reference).max() < 2e-5 * max(peak, floor), (field, channel)
+
+
+def test_a_field_that_moves_an_input_breakpoint_is_refused() -> None:
+    file = scenario_file(scenario_from_dict(tomllib.loads(HUB_BEAM)))
+    with pytest.raises(SensitivityError, match="duration"):
+        flexlink.simulate(file.build(), sensitivities=["joints[0].torque[0].duration"])
+
+
+def test_closed_kinematic_loops_are_refused_before_anything_runs() -> None:
+    from pathlib import Path
+
+    closed = flexlink.load_scenario(Path(__file__).parents[2] / "examples" / "four_bar.toml")
+    with pytest.raises(SensitivityError, match="closed kinematic loops"):
+        flexlink.simulate(closed, sensitivities=["links[1].EI"])
+
