@@ -232,21 +232,26 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_base",
                "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar",
                "nonlinear_four_bar", "sensitivities")
-# The warm-up runs that also compute sensitivities, with their fields (the tangent loop).
-WARMUP_SENSITIVITIES: dict[str, list[str]] = {"sensitivities": ["links[0].EI"]}
-WARMUP_OBJECTIVE_CHANNEL = "link2_tip_deflection"  # a sensor on the modes: the reverse pass
+# The warm-up runs that also compute sensitivities, with their fields: the Lawson tangent
+# loop (prescribed) and the Radau IIA steps' batched rates (forward).
+WARMUP_SENSITIVITIES: dict[str, list[str]] = {"sensitivities": ["links[0].EI"],
+                                              "forward": ["links[0].EI"]}
+# The warm-up runs that also take an objective's gradient, with its channel (a sensor on
+# the modes: the reverse pass of the Lawson steps).
+WARMUP_OBJECTIVES: dict[str, str] = {"sensitivities": "link2_tip_deflection"}
 
 
 def warmup_run(name: str, scenario: Any) -> None:
-    """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_SENSITIVITIES`."""
+    """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_SENSITIVITIES` and
+    `WARMUP_OBJECTIVES`."""
     fields = WARMUP_SENSITIVITIES.get(name)
     if fields:
         from .simulation.objective import warm_up
         from .simulation.sensitivities import simulate_with_sensitivities
 
-        # the tangent loop, and the reverse pass of an objective on a sensor on the modes
         simulate_with_sensitivities(scenario, fields, shapes=False)
-        warm_up(scenario, fields, WARMUP_OBJECTIVE_CHANNEL)
+        if name in WARMUP_OBJECTIVES:
+            warm_up(scenario, fields, WARMUP_OBJECTIVES[name])
         return
     from .simulation import simulate
 
