@@ -20,6 +20,7 @@ from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ._lawson_numba import _delta, _gemv, _piece
+from ._lawson_sensitivity_numba import _stages
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -85,38 +86,6 @@ def _spread(G, lower, upper, p0, p1, tau, X):
     for i in range(n):
         for j in range(m):
             X[i, j] = 0.0
-
-
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
-def _stages(P, P2, D0, Dm, De, h, y, k1, k2, k3, k4, Ey, E2y, a, b, c, out):
-    """One Lawson step from y (the forward loop's, _lawson_sensitivity_numba): its stage
-    states a, b, c, slopes k1 … k4 and y⁺ in ``out``."""
-    m = y.shape[0]
-    n = k1.shape[0]
-    _gemv(D0, 0, m, y, 1.0, k1, False)
-    _gemv(P, 0, m, y, 1.0, Ey, False)
-    _gemv(P2, 0, m, y, 1.0, E2y, False)
-    for q in range(m):
-        a[q] = Ey[q]
-    _gemv(P, n, n, k1, 0.5 * h, a, True)
-    _gemv(Dm, 0, m, a, 1.0, k2, False)
-    for q in range(m):
-        b[q] = Ey[q]
-    for q in range(n):
-        b[n + q] += 0.5 * h * k2[q]
-    _gemv(Dm, 0, m, b, 1.0, k3, False)
-    for q in range(m):
-        c[q] = E2y[q]
-    _gemv(P, n, n, k3, h, c, True)
-    _gemv(De, 0, m, c, 1.0, k4, False)
-    for q in range(m):
-        out[q] = E2y[q]
-    _gemv(P2, n, n, k1, h / 6.0, out, True)
-    for q in range(n):
-        k2[q] += k3[q]  # k2 + k3, the combination y⁺ reads
-    _gemv(P, n, n, k2, h / 3.0, out, True)
-    for q in range(n):
-        out[n + q] += h / 6.0 * k4[q]
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")

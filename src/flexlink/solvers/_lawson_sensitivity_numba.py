@@ -51,6 +51,39 @@ def _slopes(DT, S, F, out):
                 out[k, i] += row[i] * x
 
 
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _stages(P, P2, D0, Dm, De, h, y, k1, k2, k3, k4, Ey, E2y, a, b, c, out):
+    """One Lawson step from y: its stage states a = Ey + h/2 E k₁, b = Ey + h/2 k₂,
+    c = E²y + h E k₃, slopes k1 … k4 (k2 then holds k₂ + k₃) and
+    y⁺ = E²y + h/6 E² k₁ + h/3 E (k₂ + k₃) + h/6 k₄ in ``out``."""
+    m = y.shape[0]
+    n = k1.shape[0]
+    _gemv(D0, 0, m, y, 1.0, k1, False)
+    _gemv(P, 0, m, y, 1.0, Ey, False)
+    _gemv(P2, 0, m, y, 1.0, E2y, False)
+    for q in range(m):
+        a[q] = Ey[q]
+    _gemv(P, n, n, k1, 0.5 * h, a, True)
+    _gemv(Dm, 0, m, a, 1.0, k2, False)
+    for q in range(m):
+        b[q] = Ey[q]
+    for q in range(n):
+        b[n + q] += 0.5 * h * k2[q]
+    _gemv(Dm, 0, m, b, 1.0, k3, False)
+    for q in range(m):
+        c[q] = E2y[q]
+    _gemv(P, n, n, k3, h, c, True)
+    _gemv(De, 0, m, c, 1.0, k4, False)
+    for q in range(m):
+        out[q] = E2y[q]
+    _gemv(P2, n, n, k1, h / 6.0, out, True)
+    for q in range(n):
+        k2[q] += k3[q]  # k2 + k3, the combination y⁺ reads
+    _gemv(P, n, n, k2, h / 3.0, out, True)
+    for q in range(n):
+        out[n + q] += h / 6.0 * k4[q]
+
+
 @njit(cache=True, error_model="numpy")
 def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, polyT, dpolyT,
                           referenceT, ET, E2T, PdT, substeps, states, accelerations, dstates,
@@ -121,23 +154,7 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, De)
                 _delta(dpolyT, lower, upper, p0, p1, zeroT, tau + 0.5 * dtau, dAm)
                 _delta(dpolyT, lower, upper, p0, p1, zeroT, tau + dtau, dAe)
-                # y's stages: a = Ey + h/2 E k₁, b = Ey + h/2 k₂, c = E²y + h E k₃
-                _gemv(D0, 0, m, y, 1.0, k1, False)
-                _gemv(P, 0, m, y, 1.0, Ey, False)
-                _gemv(P2, 0, m, y, 1.0, E2y, False)
-                for q in range(m):
-                    a[q] = Ey[q]
-                _gemv(P, n, n, k1, 0.5 * h, a, True)
-                _gemv(Dm, 0, m, a, 1.0, k2, False)
-                for q in range(m):
-                    b[q] = Ey[q]
-                for q in range(n):
-                    b[n + q] += 0.5 * h * k2[q]
-                _gemv(Dm, 0, m, b, 1.0, k3, False)
-                for q in range(m):
-                    c[q] = E2y[q]
-                _gemv(P, n, n, k3, h, c, True)
-                _gemv(De, 0, m, c, 1.0, k4, False)
+                _stages(P, P2, D0, Dm, De, h, y, k1, k2, k3, k4, Ey, E2y, a, b, c, w)
                 # the tangents' stages, with the forcing ∂A/∂p at y's stages
                 _gemv(dA0, 0, m, y, 1.0, Fa, False)
                 _slopes(D0, S, F, G1)
@@ -164,15 +181,7 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 _many(P, n, n, G3, h, SC, True)
                 _gemv(dAe, 0, m, c, 1.0, Fa, False)
                 _slopes(De, SC, F, G4)
-                # y⁺ = E²y + h/6 E² k₁ + h/3 E (k₂ + k₃) + h/6 k₄, and the same for each S
-                for q in range(n):
-                    k2[q] += k3[q]
-                for q in range(m):
-                    w[q] = E2y[q]
-                _gemv(P2, n, n, k1, h / 6.0, w, True)
-                _gemv(P, n, n, k2, h / 3.0, w, True)
-                for q in range(n):
-                    w[n + q] += h / 6.0 * k4[q]
+                # y⁺ (from _stages), and the same for each S
                 for q in range(m):
                     y[q] = w[q]
                 for k in range(K):
