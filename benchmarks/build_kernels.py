@@ -1,7 +1,8 @@
 """The kernel build's cost: setup.py's build step (`flexlink._build_kernels.main`) on a fresh
 copy of the package, with numba's own caches pointed at an empty folder.
 
-    python benchmarks/build_kernels.py [--source .] [--workers 2] [--profile RUNS]
+    python benchmarks/build_kernels.py [--source .] [--workers 2] [--opt N] [--keep DIR]
+        [--profile RUNS]
 
 Prints the wall time of the build, the CPU seconds of each worker (the sum of its warm-up
 runs, each with the run's CPU seconds, from the build's record ``_compiled/build.json``) and
@@ -10,6 +11,10 @@ longest worker plus the last pass is the wall time on an idle machine with one c
 worker. ``--profile prescribed,forward,...`` instead runs those warm-up runs in this order
 in one process on an empty cache and lists the functions numba compiled by their CPU
 seconds, exclusive of the functions compiled inside them (numba's "numba:compile" events).
+``--opt N`` sets numba's LLVM optimisation level (NUMBA_OPT) for the whole build (default:
+numba's own, 3); ``--keep DIR`` keeps the built package as ``DIR/flexlink`` (its kernels in
+``DIR/flexlink/_compiled``), to time the runs of kernels built that way with
+``PYTHONPATH=DIR``.
 The last line records the machine.
 """
 
@@ -80,11 +85,13 @@ def environment(package_parent: Path, cache: Path) -> dict[str, str]:
     return env
 
 
-def build(source: Path, workers: int) -> None:
+def build(source: Path, workers: int, opt: int | None = None, keep: Path | None = None) -> None:
     with tempfile.TemporaryDirectory(prefix="flexlink-build-bench-") as tmp:
         package = fresh_copy(source, Path(tmp))
         env = environment(package.parent, Path(tmp) / "numba-cache")
         env["FLEXLINK_BENCH_WORKERS"] = str(workers)
+        if opt is not None:
+            env["NUMBA_OPT"] = str(opt)
         start = time.perf_counter()
         done = subprocess.run(
             [sys.executable, "-c", _BUILD],
@@ -93,6 +100,10 @@ def build(source: Path, workers: int) -> None:
         if done.returncode != 0:
             raise RuntimeError(done.stderr)
         record = json.loads(done.stdout.strip().splitlines()[-1])
+        if keep is not None:
+            shutil.rmtree(keep / package.name, ignore_errors=True)
+            shutil.copytree(package, keep / package.name,
+                            ignore=shutil.ignore_patterns("__pycache__"))
     per_worker: dict[int, list[tuple[str, float]]] = {}
     last_pass = 0.0
     for name, run in record["runs"].items():
@@ -100,7 +111,8 @@ def build(source: Path, workers: int) -> None:
         per_worker.setdefault(compiled.get("worker", -1), []).append(
             (name, compiled.get("cpu", 0.0)))
         last_pass += run["last_pass"]["cpu"]
-    print(f"build: {wall:.1f} s wall, {record['workers']} workers")
+    level = "numba's default" if opt is None else opt
+    print(f"build: {wall:.1f} s wall, {record['workers']} workers, NUMBA_OPT {level}")
     total = last_pass
     for worker, runs in sorted(per_worker.items()):
         cpu = sum(c for _, c in runs)
@@ -124,12 +136,16 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--profile", default=None,
                         help="comma-separated warm-up runs to profile in one process")
+    parser.add_argument("--opt", type=int, default=None, choices=range(4),
+                        help="numba's LLVM optimisation level (NUMBA_OPT) for the build")
+    parser.add_argument("--keep", type=Path, default=None,
+                        help="keep the built package in this folder")
     args = parser.parse_args()
     load = os.getloadavg()[0]
     if args.profile:
         profile(args.source.resolve(), args.profile)
     else:
-        build(args.source.resolve(), args.workers)
+        build(args.source.resolve(), args.workers, args.opt, args.keep)
     print(f"source {args.source}; {platform.processor() or platform.machine()}, "
           f"{os.cpu_count()} cores, Python {platform.python_version()}; load average "
           f"{load:.2f} before, {os.getloadavg()[0]:.2f} after")
