@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..channels.catalogue import cart_name, closure_name, joint_name
+from ..channels.catalogue import cart_name, joint_name
 from ..channels.first_order import sensor_values, tip_values
 from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics import forward_kernel
@@ -188,6 +188,7 @@ def _readings(scenario: Scenario, loops: LoopSystem, t0: float, ys: np.ndarray,
     """Channel values (by name) of the states ys (m, ·) under the input rows us, each
     projected onto the loops as a run's outputs are (simulation/loops.py)."""
     from ..dynamics._loops_numba import closed_states, rates
+    from ..simulation.loops import closure_values
 
     system = loops.system
     nu, n = len(system.free), system.n
@@ -216,13 +217,7 @@ def _readings(scenario: Scenario, loops: LoopSystem, t0: float, ys: np.ndarray,
     for k in range(torque.shape[1]):
         out[joint_name(k, "torque")] = torque[:, k]
     out.update(elastic_joint_values(system, p, pd))
-    for i, c in enumerate(scenario.closures):
-        row = int(loops.data.row[i])
-        if c.kind == "revolute":
-            out[closure_name(c.name, "force_x")] = lam[:, row]
-            out[closure_name(c.name, "force_y")] = lam[:, row + 1]
-        else:
-            out[closure_name(c.name, "normal_force")] = lam[:, row]
+    out.update(closure_values(scenario, loops, lam))
     return {**out, **tip_values(view, view.frames, z)}
 
 
