@@ -50,16 +50,17 @@ def channel_values(scenario: Scenario, system: Any, solution: Solution,
                    names: Sequence[str]) -> tuple[dict[str, np.ndarray], bool]:
     """The channels ``names`` of a prescribed run's solution, and whether they needed the
     frames: sensors read alone (`channels.first_order.sensor_values`), any other channel
-    from the whole channel map (`prescribed.prescribed_values`)."""
+    from the channel map reading only those (`prescribed.prescribed_readings`' ``kept``)."""
     from ..channels.first_order import sensor_values
-    from .prescribed import prescribed_values
+    from .prescribed import prescribed_readings
 
     frames = _Frames(system, solution)
     sensors = tuple(s for s in scenario.sensors if s.name in names)
     out = sensor_values(system, frames, solution, sensors)  # type: ignore[arg-type]
     rest = [name for name in names if name not in out]
     if rest:
-        values, _, _ = prescribed_values(scenario, system, solution, False, checked=False)
+        values = prescribed_readings(scenario, system, solution, False, checked=False,
+                                     kept=rest)[0]
         out.update({name: np.asarray(values[name], dtype=float) for name in rest})
         return out, True
     return out, frames.used
