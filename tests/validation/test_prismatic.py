@@ -11,6 +11,8 @@ tolerance.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.integrate import cumulative_simpson, simpson
@@ -32,35 +34,43 @@ from tests.validation.brute_force import _link_positions
 AXIS, GAMMA, BLOCK = np.radians(30.0), np.radians(-20.0), 0.4
 
 
-def _scenario(modes: int, stiffening: bool, hub_deg: float | None = None) -> Scenario:
+def _scenario(modes: int, stiffening: bool, hub_deg: float | None = None,
+              at: float | None = None) -> Scenario:
     """Two links, a slider between them driven by a bang-bang force; the hub torque-driven
-    (bang-bang) or, with ``hub_deg``, prescribed (a cycloidal move of that many degrees)."""
+    (bang-bang) or, with ``hub_deg``, prescribed (a cycloidal move of that many degrees);
+    ``at`` the line's point on link a (m, None: its tip)."""
     links = (Link("a", 1.0, 1.5, 60.0, modes=modes),
              Link("b", 0.6, 0.7, 20.0, tip_mass=0.15, modes=modes))
     scale = 1.0 if hub_deg is None else hub_deg / 20.0
     hub = (TorqueDrive(BangBang(1.2, 0.0, 0.6), 0.0, 0.5) if hub_deg is None
            else Cycloidal(0.0, hub_deg, 0.0, 0.8))
     joints = (hub, PrismaticJoint(TorqueDrive(BangBang(-scale, 0.1, 0.5), 0.2, 0.1), AXIS,
-                                  GAMMA, mass=BLOCK))
+                                  GAMMA, mass=BLOCK, at=at))
     return Scenario(Chain(links, joints), settings=SimulationSettings(
         t_end=1.0, dt_out=1e-3, geometric_stiffening=stiffening, rtol=1e-9, atol=1e-13))
 
 
-def _points(modal, beta, s, z, stiffening):
-    """Grid points of both links (2, G) each, the block's position (2,)."""
+def _points(modal, beta, s, z, stiffening, at=None):
+    """Grid points of both links (2, G) each, the block's position (2,); ``at`` the line's
+    point on link a (m, None: its tip)."""
     na = modal[0].n
     xa, pa, slope = _link_positions(modal[0], np.zeros(2), beta, z[:na], stiffening)
+    line = pa[:, -1]
+    if at is not None:  # the section at x = at of the same exact kinematics
+        _, pc, slope = _link_positions(replace(modal[0], length=at), np.zeros(2), beta,
+                                       z[:na], stiffening)
+        line = pc[:, -1]
     turn = beta + slope
-    block = pa[:, -1] + s * np.array([np.cos(turn + AXIS), np.sin(turn + AXIS)])
+    block = line + s * np.array([np.cos(turn + AXIS), np.sin(turn + AXIS)])
     xb, pb, _ = _link_positions(modal[1], block, turn + GAMMA, z[na:], stiffening)
     return (xa, pa), (xb, pb), block
 
 
-def _energy(links, modal, p, pd, z, zd, stiffening, h=1e-5):
+def _energy(links, modal, p, pd, z, zd, stiffening, h=1e-5, at=None):
     """Kinetic energy of the exact kinematics (differences in time of the points) plus the
     bending energy (J), and the bending energy."""
-    samples = [_points(modal, p[0] + pd[0] * tau, p[1] + pd[1] * tau, z + zd * tau, stiffening)
-               for tau in (-2 * h, -h, h, 2 * h)]
+    samples = [_points(modal, p[0] + pd[0] * tau, p[1] + pd[1] * tau, z + zd * tau, stiffening,
+                       at) for tau in (-2 * h, -h, h, 2 * h)]
 
     def speed2(get):
         a, b, c, d = (get(smp) for smp in samples)
@@ -79,10 +89,10 @@ def _energy(links, modal, p, pd, z, zd, stiffening, h=1e-5):
     return kinetic + strain, strain
 
 
-def _balance(modes: int, stiffening: bool, hub_deg: float | None = None
-             ) -> tuple[float, float, float]:
+def _balance(modes: int, stiffening: bool, hub_deg: float | None = None,
+             at: float | None = None) -> tuple[float, float, float]:
     """(max |work − ΔE|, peak bending energy, peak energy) of a 1 s run."""
-    scenario = _scenario(modes, stiffening, hub_deg)
+    scenario = _scenario(modes, stiffening, hub_deg, at)
     t = np.linspace(0.0, 1.0, 2001)
     run = run_forward(scenario, t, lambda _: None, with_shapes=False)
     system = ForwardSystem(scenario.chain, _fixed(), stiffening)
@@ -104,7 +114,7 @@ def _balance(modes: int, stiffening: bool, hub_deg: float | None = None
                                        initial=0.0)
     every = slice(None, None, 10)
     energy, strain = np.array([
-        _energy(scenario.chain.links, system.modal, a, b, c, d, stiffening)
+        _energy(scenario.chain.links, system.modal, a, b, c, d, stiffening, at=at)
         for a, b, c, d in zip(p[every], pd[every], z[every], zd[every])]).T
     error = np.abs(work[every] - (energy - energy[0])).max()
     return float(error), float(strain.max()), float(energy.max())
@@ -116,10 +126,12 @@ def _fixed():
     return Base()
 
 
-def test_rigid_chain_energy_is_the_work_of_the_drives() -> None:
-    """Rigid links, hub and slider each under a bang-bang drive: the drives' work equals the
-    kinetic energy's change to 1e-6 of it (the integration tolerance)."""
-    error, _, kinetic = _balance(0, False)
+@pytest.mark.parametrize("at", [None, 0.45], ids=["tip", "inside"])
+def test_rigid_chain_energy_is_the_work_of_the_drives(at: float | None) -> None:
+    """Rigid links, hub and slider each under a bang-bang drive, the slider's line through
+    link a's tip or through its section at 0.45 m: the drives' work equals the kinetic
+    energy's change to 1e-6 of it (the integration tolerance)."""
+    error, _, kinetic = _balance(0, False, at=at)
     assert error < 1e-6 * kinetic
 
 
@@ -138,7 +150,7 @@ def test_flexible_chain_energy_balance_is_third_order() -> None:
 
 
 def _exact_forces(system: ForwardSystem, links, rigid, z, zd, zdd, stiffening, h=1e-3,
-                  dx=1e-6) -> np.ndarray:
+                  dx=1e-6, at=None) -> np.ndarray:
     """Σ m (∂r/∂x_i)·r̈ + (K_e z)_i over x = [β, s, z], from the exact kinematics with
     differences in time (the trajectory p + ṗτ + ½p̈τ², z + żτ + ½z̈τ²) and in x."""
     p0, pd0, pdd0 = rigid
@@ -148,7 +160,8 @@ def _exact_forces(system: ForwardSystem, links, rigid, z, zd, zdd, stiffening, h
         dp = np.zeros(2) if dp is None else dp
         dz = np.zeros(n) if dz is None else dz
         p = p0 + pd0 * tau + 0.5 * pdd0 * tau**2 + dp
-        return _points(modal, p[0], p[1], z + zd * tau + 0.5 * zdd * tau**2 + dz, stiffening)
+        return _points(modal, p[0], p[1], z + zd * tau + 0.5 * zdd * tau**2 + dz, stiffening,
+                       at)
 
     samples = [points(tau) for tau in (-2 * h, -h, 0.0, h, 2 * h)]
 
@@ -176,13 +189,16 @@ def _exact_forces(system: ForwardSystem, links, rigid, z, zd, zdd, stiffening, h
     return out
 
 
+@pytest.mark.parametrize("at", [None, 0.45], ids=["tip", "inside"])
 @pytest.mark.parametrize("stiffening", [False, True])
-def test_equations_are_the_linearisation_of_the_exact_kinematics(stiffening: bool) -> None:
+def test_equations_are_the_linearisation_of_the_exact_kinematics(stiffening: bool,
+                                                                 at: float | None) -> None:
     """At a moving rigid state (β, s, their rates and accelerations), the rows of every
     coordinate — hub, slider and elastic — of M z̈ + C ż + K z − f equal the exact
     generalized forces' part linear in z, ż, z̈ (symmetric differences of size 3e-4 leave
-    third-order terms) to 1e-4 of their size."""
-    scenario = _scenario(3, stiffening)
+    third-order terms) to 1e-4 of their size; the slider's line through link a's tip or
+    through its section at 0.45 m (where the outboard load and the line's turn act)."""
+    scenario = _scenario(3, stiffening, at=at)
     system = ForwardSystem(scenario.chain, _fixed(), stiffening)
     links, n = scenario.chain.links, system.n
     rigid = (np.array([0.3, 0.25]), np.array([1.1, 0.4]), np.array([0.7, -0.5]))
@@ -194,9 +210,9 @@ def test_equations_are_the_linearisation_of_the_exact_kinematics(stiffening: boo
         v = rng.normal(size=n)
         args = [np.zeros(n)] * 3
         args[which] = eps * v
-        plus = _exact_forces(system, links, rigid, *args, stiffening)
+        plus = _exact_forces(system, links, rigid, *args, stiffening, at=at)
         args[which] = -eps * v
-        minus = _exact_forces(system, links, rigid, *args, stiffening)
+        minus = _exact_forces(system, links, rigid, *args, stiffening, at=at)
         exact = (plus - minus) / (2 * eps)
         ours = matrix[:, zc] @ v
         np.testing.assert_allclose(ours, exact, rtol=0, atol=1e-4 * np.abs(exact).max())

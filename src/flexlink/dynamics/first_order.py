@@ -16,7 +16,7 @@ import dataclasses
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -429,10 +429,12 @@ def rigid_load(body: LinkBody, fr: FrameMotion, k: int) -> np.ndarray:
 
 
 def second_order_stiffness(
-    body: LinkBody, fr: FrameMotion, k: int, outboard: np.ndarray, geometric_stiffening: bool
+    body: LinkBody, fr: FrameMotion, k: int, outboard: np.ndarray, geometric_stiffening: bool,
+    at: Any = None,
 ) -> np.ndarray:
     """∫ (∂r₂/∂x)·a0 dm of link k plus the outboard load (outboard[:, 0], N, along frame k's x)
-    acting on its tip's r₂, (nt, n, n) over whatever coordinates fr.T[k] maps from.
+    acting on its tip's r₂, (nt, n, n) over whatever coordinates fr.T[k] maps from; ``at``
+    (a `prismatic.Hang`) the section the outboard load acts on if not the tip.
 
     r₂ in frame k is [u_x − θ1 w − x θ1²/2, 0] with foreshortening u_x = −½ qᵀS(x)q.
     """
@@ -441,8 +443,10 @@ def second_order_stiffness(
     w2 = fr.omega[:, k] ** 2
     N = outboard[:, 0]
     ay, wd = fr.origin_accel[:, k, 1], fr.alpha[:, k]
-    vec = ax[:, None] * d.phi_bar - w2[:, None] * d.phi_tilde + N[:, None] * d.tip_value
-    scal = ax * d.first_moment - w2 * d.second_moment + N * d.length
+    x_out, value_out, fore_out = ((d.length, d.tip_value, d.foreshortening_tip) if at is None
+                                  else (at.x, at.value, at.shortening))
+    vec = ax[:, None] * d.phi_bar - w2[:, None] * d.phi_tilde + N[:, None] * value_out
+    scal = ax * d.first_moment - w2 * d.second_moment + N * x_out
     if d.lateral:  # bodies' centres across the link: r₂ ∋ −½(θ1 + ψ)² c
         vec = vec + ay[:, None] * d.lateral_slope + wd[:, None] * d.lateral_tilde
         scal = scal + ay * d.lateral_moment
@@ -456,7 +460,7 @@ def second_order_stiffness(
         out[:, sl, sl] += (
             ax[:, None, None] * d.foreshortening_mass
             - w2[:, None, None] * d.foreshortening_moment
-            + N[:, None, None] * d.foreshortening_tip
+            + N[:, None, None] * fore_out
         )
         if d.lateral:
             out[:, sl, sl] += (ay[:, None, None] * d.lateral_shortening

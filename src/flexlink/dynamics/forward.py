@@ -48,7 +48,7 @@ from .first_order import (
     second_order_stiffness,
     xi_maps,
 )
-from .kinematics import TURN, FrameMotion, block_map, inertial_acceleration, rotation, tip_map
+from .kinematics import TURN, FrameMotion, block_map, inertial_acceleration, rotation
 
 
 class ForwardSystem:
@@ -75,6 +75,8 @@ class ForwardSystem:
         self.modal: list[ModalData] = (list(modal) if modal is not None
                                        else chain_modal_data(chain, base))
         n_links = len(chain.links)
+        # The section each link's successor hangs on (a slider's line point, else the tip).
+        self.hang = prismatic.hang_points(chain, self.modal)
         self.n_base = len(base.coordinates)
         # Elastic joints' motor angles follow the joint angles (dynamics/elastic_joints.py).
         self.elastic = elastic_joints.elastic_joints(chain.joints)
@@ -257,16 +259,16 @@ class ForwardSystem:
                     Tk_d[:, :2, nb - 1] = back_d @ Sc
                     Tk_dd[:, :2, nb - 1] = back_dd @ Sc
                     Tk[:, 2, nb - 1] = 1.0
-            else:  # on the deformed tip of link k − 1
-                j, data = k - 1, self.modal[k - 1]
+            else:  # on the deformed tip of link k − 1 (a slider: its line's section)
+                j, hang = k - 1, self.hang[k - 1]
                 theta[:, k] = theta[:, j] + beta[:, k]
                 omega[:, k] = omega[:, j] + beta_d[:, k]
                 alpha[:, k] = alpha[:, j] + beta_dd[:, k]
                 e_j = rotation(theta[:, j])
-                origin[:, k] = origin[:, j] + data.length * e_j[:, :, 0]
-                tip_acc = origin_accel[:, j] + data.length * np.stack(
+                origin[:, k] = origin[:, j] + hang.x * e_j[:, :, 0]
+                tip_acc = origin_accel[:, j] + hang.x * np.stack(
                     [-omega[:, j] ** 2, alpha[:, j]], -1)
-                P = tip_map(data)
+                P = prismatic.hang_map(hang)
                 U, U_d, U_dd = (np.einsum("ij,tjn->tin", P[:, :3], M) for M in
                                 (T[j], T_d[j], T_dd[j]))
                 U[:, :, self.bodies[j].slice] += P[:, 3:]
@@ -393,7 +395,8 @@ class ForwardSystem:
     def _second_order_stiffness(self, body: LinkBody, fr: FrameMotion, k: int,
                                 outboard: np.ndarray) -> np.ndarray:
         """first_order.second_order_stiffness over x (docs/derivation.md §4)."""
-        return second_order_stiffness(body, fr, k, outboard, self.geometric_stiffening)
+        return second_order_stiffness(body, fr, k, outboard, self.geometric_stiffening,
+                                      self.hang[k])
 
     # -- applied loads ----------------------------------------------------------------------
     def voltages(self, t: np.ndarray) -> np.ndarray:

@@ -49,7 +49,9 @@ ForwardData.__doc__ = ("Constant arrays of a ForwardSystem for the kernels: SI u
                        "(N,) whether joint k is a slider (its coordinate the travel, m), "
                        "slide_axis (N, 2) its line's direction in the parent's tip axes and "
                        "slide_angle (N,) the carried link's constant angle (rad): "
-                       "dynamics/prismatic.py.")
+                       "dynamics/prismatic.py; length, tip_value, tip_slope, fore_tip: x (m), "
+                       "Φ, Φ' and S at the section of link k that link k + 1 hangs on (its "
+                       "tip, or a slider's line point: `ForwardSystem.hang`).")
 
 
 def pack(system: ForwardSystem) -> ForwardData:
@@ -124,7 +126,7 @@ def pack(system: ForwardSystem) -> ForwardData:
         free=np.asarray(system.free, dtype=np.int64),
         attached=np.array([a is not None for a in system.attach]),
         point=np.array([a if a is not None else (0.0, 0.0) for a in system.attach], dtype=float),
-        length=np.array([d.length for d in modal]), mass=np.array([d.mass for d in modal]),
+        length=np.array([h.x for h in system.hang]), mass=np.array([d.mass for d in modal]),
         s1=np.array([d.first_moment for d in modal]), J=np.array([d.second_moment for d in modal]),
         Jt=np.array([d.rotary_inertia for d in modal]),
         n_modes=np.array([d.n for d in modal], dtype=np.int64),
@@ -133,13 +135,13 @@ def pack(system: ForwardSystem) -> ForwardData:
         G0=pad([b.G0 for b in bodies], (m, m)),
         phi_bar=pad([d.phi_bar for d in modal], (nm,)),
         phi_tilde=pad([d.phi_tilde for d in modal], (nm,)),
-        tip_value=pad([d.tip_value for d in modal], (nm,)),
-        tip_slope=pad([d.tip_slope for d in modal], (nm,)),
+        tip_value=pad([h.value for h in system.hang], (nm,)),
+        tip_slope=pad([h.slope for h in system.hang], (nm,)),
         stiffness=pad([d.stiffness_matrix for d in modal], (nm, nm)),
         damping=pad([d.damping_matrix for d in modal], (nm, nm)),
         fore_mass=pad([d.foreshortening_mass for d in modal], (nm, nm)),
         fore_moment=pad([d.foreshortening_moment for d in modal], (nm, nm)),
-        fore_tip=pad([d.foreshortening_tip for d in modal], (nm, nm)),
+        fore_tip=pad([h.shortening for h in system.hang], (nm, nm)),
         joint_kind=kind, motor_inertia=motor, servo_index=servo_index, torque_limit=torque_limit,
         **params,
         load_point=np.array([ld.point for ld in loads], dtype=float).reshape(len(loads), 2),

@@ -113,7 +113,8 @@ class NonlinearForwardSystem:
                 self.pivot[k] = start
                 start += 1
         # A slider's line (dynamics/prismatic.py): one node turned by the axis angle from the
-        # parent's tip section, its length the travel s (`line_weights`).
+        # parent's section at the line's point (its tip by default), its length the travel s
+        # (`line_weights`); link k's root sits at that point of the exactly deformed parent.
         self.slides = sliders(chain.joints)
         self.line_node = {}
         for k in self.slides:
@@ -145,9 +146,15 @@ class NonlinearForwardSystem:
                 self.root_W[k] = self.root_W[k - 1]
                 self.root_W[k, self.arcs[k - 1].nodes] = self.arcs[k - 1].quad.w
                 self.link_offset[k] = self.link_offset[k - 1]
+                hang = self.loads.hang[k - 1]
+                if hang.x != self.modal[k - 1].length:  # a slider's line inside the parent
+                    self.root_A[k] = self.root_A[k - 1].copy()
+                    self.root_A[k, self.arcs[k - 1].coords] += hang.slope
+                    self.root_W[k, self.arcs[k - 1].nodes] = \
+                        self.arcs[k - 1].quad.cumulative(np.array([hang.x]))[0]
             if k in self.line_node:  # link k rides its parent's line: no angle of its own
                 joint, j = chain.joints[k], self.line_node[k]
-                A[j], B[j] = self.tip_A[k - 1], self.tip_B[k - 1]
+                A[j], B[j] = self.root_A[k], self.root_B[k]
                 self.offset[j] = self.link_offset[k - 1] + joint.axis_angle
                 self.root_W[k, j] = 1.0
                 self.link_offset[k] += joint.link_angle
@@ -550,7 +557,7 @@ class NonlinearForwardSystem:
                 origin[:, k] = R + np.stack([cb * c[0] - sb * c[1], sb * c[0] + cb * c[1]], -1)
                 angle[:, k] = th_b + p[:, nb + k]
             else:
-                L = self.modal[k - 1].length
+                L = self.loads.hang[k - 1].x  # the tip, or a slider's line point
                 origin[:, k] = origin[:, k - 1] + L * np.stack(
                     [np.cos(angle[:, k - 1]), np.sin(angle[:, k - 1])], -1)
                 angle[:, k] = angle[:, k - 1] + p[:, nb + k]

@@ -2,15 +2,17 @@
 first-order model's kinematics and the one second-order term they add (numpy; the compiled
 twin is in `_forward_numba.frames` and `_prismatic_numba.py`).
 
-Slider k rides on a line fixed in the deformed tip section of link j = k − 1, through the
-tip, along u = [cos a, sin a] of that section's axes. Its coordinate s_k (m) takes the place
-of the joint angle in p = [base, β_1 … β_N, …]; link k's frame sits on the block, turned by
-the constant γ (`link_angle`) from the parent's section. With the tip's displacement and
-rotation φ = [P̃ T̂_j x]₂ (frame j axes), the block is at
+Slider k rides on a line fixed in the deformed section of link j = k − 1 at x_a
+(`PrismaticJoint.at`, m from link j's joint; its tip by default), through that section's
+point, along u = [cos a, sin a] of its axes. Its coordinate s_k (m) takes the place of the
+joint angle in p = [base, β_1 … β_N, …]; link k's frame sits on the block, turned by the
+constant γ (`link_angle`) from the parent's section. With that point's displacement and
+rotation φ = [P̃(x_a) T̂_j x]₂ (frame j axes; P̃(x_a) the point map `hang_map`, the tip map
+at x_a = L), the block is at
 
-    r = tip_j + s A(φ) u = tip_j + s u + s φ S u − ½ s φ² u + …,
+    r = r_j(x_a) + s A(φ) u = r_j(x_a) + s u + s φ S u − ½ s φ² u + …,
 
-so frame k's perturbation maps are blockdiag(A(−γ), 1) L(s) P̃ T̂_j with the lever
+so frame k's perturbation maps are blockdiag(A(−γ), 1) L(s) P̃(x_a) T̂_j with the lever
 L(s) = [[1, 0, −s u_y], [0, 1, s u_x], [0, 0, 1]] (time derivatives through ṡ, s̈: L' ṡ),
 plus the column A(−γ) u of δs; the origin's acceleration gains
 (s̈ − ω² s) u + (2 ω ṡ + ω̇ s) S u. At second order, δs φ S u − ½ s φ² u acted on by the
@@ -18,19 +20,23 @@ outboard inertia force F (frame j axes) give
 
     K ∋ (F·Su)(e_s φᵀ + φ e_sᵀ) − s (F·u) φ φᵀ,
 
-the line turning with the tip (the slider's row: F·(u + φ Su)) and the centrifugal lever
-that stiffens the parent's tip rotation, as the outboard axial force does at a revolute tip.
-The block's mass is a point body at link k's root (`with_slider_masses`), so every inertia
-term of the links carries it.
+the line turning with the section (the slider's row: F·(u + φ Su)) and the centrifugal
+lever that stiffens the section's rotation, as the outboard axial force does at a revolute
+tip. The outboard force F acts on link j at x_a: its second-order work on link j's own
+deflection takes x_a, Φ(x_a) and S(x_a) in place of the tip's L, Φ(L) and S(L)
+(`first_order.second_order_stiffness`, ``at``). The block's mass is a point body at link
+k's root (`with_slider_masses`), so every inertia term of the links carries it.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..model import Body, Chain, PrismaticJoint
+from ..modes import ModalData
+from ..modes.integrals import _shortening
 
 # 90° turn S v = ẑ × v (the same as kinematics.TURN)
 _TURN = np.array([[0.0, -1.0], [1.0, 0.0]])
@@ -39,6 +45,50 @@ _TURN = np.array([[0.0, -1.0], [1.0, 0.0]])
 def sliders(joints: tuple | list) -> list[int]:
     """Indices of the joints that are sliders."""
     return [k for k, joint in enumerate(joints) if isinstance(joint, PrismaticJoint)]
+
+
+@dataclass(frozen=True, eq=False)
+class Hang:
+    """The section of link j that link j + 1 hangs on: ``x`` (m from link j's joint along its
+    undeformed axis), Φ(x) ``value``, Φ'(x) ``slope`` (1/m) and S(x) = ∫₀ˣ Φ'ᵀΦ' ds
+    ``shortening`` (1/m, the axis' foreshortening −½ qᵀS(x)q)."""
+
+    x: float
+    value: np.ndarray
+    slope: np.ndarray
+    shortening: np.ndarray
+
+
+def hang_points(chain: Chain, modal: list[ModalData]) -> list[Hang]:
+    """Per link j the section link j + 1 hangs on: a slider's `PrismaticJoint.at`, else (a
+    revolute joint, a slider on the tip, the last link, a branch's end) the tip, whose
+    values are the modal data's own arrays (the tip case is today's arithmetic)."""
+    out = []
+    for j, data in enumerate(modal):
+        joint = chain.joints[j + 1] if j + 1 < len(chain.joints) else None
+        at = joint.at if isinstance(joint, PrismaticJoint) else None
+        if at is None or at == data.length:
+            out.append(Hang(data.length, data.tip_value, data.tip_slope,
+                            data.foreshortening_tip))
+            continue
+        x = np.array([float(at)])
+        out.append(Hang(float(at), data.shapes.evaluate(x)[0], data.shapes.evaluate(x, 1)[0],
+                        _shortening(data.shapes, float(at))))
+    return out
+
+
+def hang_map(hang: Hang) -> np.ndarray:
+    """P̃(x): ξ = [ρx, ρy, θ1, q] → the displacement (frame axes) and rotation of the section
+    ``hang``, (3, 3 + n); at the tip `kinematics.tip_map`."""
+    n = hang.value.size
+    P = np.zeros((3, 3 + n))
+    P[0, 0] = 1.0
+    P[1, 1] = 1.0
+    P[1, 2] = hang.x
+    P[1, 3:] = hang.value
+    P[2, 2] = 1.0
+    P[2, 3:] = hang.slope
+    return P
 
 
 def with_slider_masses(chain: Chain) -> Chain:

@@ -119,10 +119,11 @@ class ElasticJoint:
 @dataclass(frozen=True)
 class PrismaticJoint:
     """A slider inside a chain (docs/prismatic_joints.md): link k rides on a block that
-    slides along a straight line fixed in link k − 1's section at its tip, carried with that
-    section's deflection and slope. Its coordinate is the travel s (m) of the block from the
-    tip along the line, which points at ``axis_angle`` (rad) from the parent's section;
-    link k is fixed to the block at ``link_angle`` (rad) from the parent's section.
+    slides along a straight line fixed in link k − 1's section at ``at`` (m from link k − 1's
+    joint along its undeformed axis; None: its tip), carried with that section's deflection
+    and slope. Its coordinate is the travel s (m) of the block from that point along the
+    line, which points at ``axis_angle`` (rad) from the parent's section; link k is fixed to
+    the block at ``link_angle`` (rad) from the parent's section.
 
     ``drive`` moves s as a cart's drive moves its travel (`base.Cart`): a prescribed travel
     (a ``JointMotion`` in metres: `motion.Travel`), a force along the line (``TorqueDrive``:
@@ -133,12 +134,16 @@ class PrismaticJoint:
     is refused at load, a run that leaves it ends with an error."""
 
     drive: object  # JointMotion | TorqueDrive | VelocityServo | PositionServo, in metres
-    axis_angle: float = 0.0  # rad, the line's direction from the parent's tip section
-    link_angle: float = 0.0  # rad, link k's direction from the parent's tip section
+    axis_angle: float = 0.0  # rad, the line's direction from the parent's section
+    link_angle: float = 0.0  # rad, link k's direction from the parent's section
     travel: tuple[float, float] = (-float("inf"), float("inf"))  # m
     mass: float = 0.0  # kg, the block
+    at: float | None = None  # m from the parent's joint, the line's point; None: its tip
 
     def __post_init__(self) -> None:
+        if self.at is not None and not (math.isfinite(self.at) and self.at >= 0.0):
+            raise ValueError(f"prismatic joint at: need a point ≥ 0 m on the parent link, "
+                             f"got {self.at:g}")
         if not self.travel[0] < self.travel[1]:
             raise ValueError(f"prismatic joint travel: need lower < upper, got {self.travel}")
         if self.mass < 0.0:
@@ -167,7 +172,7 @@ class PrismaticJoint:
 
     @property
     def direction(self) -> tuple[float, float]:
-        """Unit vector of the line in the parent's tip-section axes."""
+        """Unit vector of the line in the axes of the parent's section at ``at``."""
         return (math.cos(self.axis_angle), math.sin(self.axis_angle))
 
 

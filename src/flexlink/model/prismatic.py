@@ -25,6 +25,10 @@ def check_slider(scenario: Any, k: int) -> None:
         raise ValueError(f"{where}: a slider rides on the tip of the link before it; the "
                          "first joint of a branch cannot be one (a slider on the ground is a "
                          "cart: base.type = \"cart\")")
+    length = scenario.chain.links[k - 1].length
+    if joint.at is not None and joint.at > length:
+        raise ValueError(f"{where}.line_at: {joint.at:g} m is beyond the parent link's length "
+                         f"{length:g} m; give a point in [0, {length:g}] m")
     if scenario.base is not None and scenario.base.kind != "fixed":
         raise ValueError(f"{where}: a slider inside a chain is modelled on a fixed base only "
                          f"(base.type = {scenario.base.kind!r}); use a fixed base")

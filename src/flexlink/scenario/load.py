@@ -165,7 +165,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     if closures and controllers and simulation.get("model") == "nonlinear":
         p.add("closures: controllers run with closed loops on the first-order model only; "
               "set simulation.model = \"first_order\" or drop [[controllers]]")
-    check_sliders(joint_tables, base, simulation, closures, controllers, p)
+    check_sliders(joint_tables, base, simulation, closures, controllers, p, links)
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,

@@ -31,20 +31,21 @@ def read_prismatic(table: Mapping[str, Any], path: str, base_dir: Path, t_end: f
     for message in inner.messages:
         p.add(slider_message(message, path).replace(f"{path}: the cart", f"{path}: the slider"))
     drive.pop("rail_angle_deg", None)
-    entry = {**own, **drive}
-    if inner or None in own.values():
+    entry = {**{k: v for k, v in own.items() if k != "line_at" or v is not None}, **drive}
+    if inner or None in (v for k, v in own.items() if k != "line_at"):
         return entry, None
     cart = build_cart({**drive, "rail_angle_deg": 0.0})
     return entry, model.PrismaticJoint(cart.drive, math.radians(own["axis_angle_deg"]),
                                        math.radians(own["link_angle_deg"]), cart.travel,
-                                       own["mass"])
+                                       own["mass"], own["line_at"])
 
 
 def check_sliders(joint_tables: list[tuple[str, Any]], base: Mapping[str, Any] | None,
                   simulation: Mapping[str, Any], closures: list[Any], controllers: list[Any],
-                  p: Problems) -> None:
-    """What a slider is not combined with (model.prismatic.check_slider), as problems
-    naming the joint and the field."""
+                  p: Problems, links: list[Any] = ()) -> None:
+    """What a slider is not combined with (model.prismatic.check_slider), and a line point
+    off its parent (``links``: the resolved link tables), as problems naming the joint and
+    the field."""
     for k, (path, table) in enumerate(joint_tables):
         if not isinstance(table, Mapping) or table.get("type") != "prismatic":
             continue
@@ -52,6 +53,13 @@ def check_sliders(joint_tables: list[tuple[str, Any]], base: Mapping[str, Any] |
             p.add(f"{path}: a slider rides on the tip of the link before it; the first joint "
                   "of a branch cannot be one (a slider on the ground is a cart: [base] type = "
                   "\"cart\")")
+        at = table.get("line_at")
+        parent = links[k - 1] if 0 < k <= len(links) else None
+        length = parent.get("length") if isinstance(parent, Mapping) else None
+        if (isinstance(at, int | float) and not isinstance(at, bool) and length is not None
+                and at > length):
+            p.add(f"{path}.line_at: {at:g} m is beyond the parent link's length {length:g} m "
+                  f"(links[{k - 1}].length); give a point in [0, {length:g}] m")
         if base is not None and base.get("type") not in (None, "fixed"):
             p.add(f"{path}: a slider inside a chain is modelled on a fixed base only (base.type "
                   f"= {base.get('type')!r}); use a fixed base")

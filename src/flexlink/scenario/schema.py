@@ -590,15 +590,23 @@ ELASTIC = Section("elastic", [
 
 PRISMATIC = Section("prismatic", [
     Field("type", "string", choices=("prismatic",),
-          doc="makes the joint a slider: link k rides on a block along a line through link "
-              "k − 1's deformed tip, turning with the tip's slope; the travel s (m) from the "
-              "tip along the line is the joint's coordinate; the other keys are a cart's "
-              "(`travel`, `drive`, `motion`, `force`, `servo` …: `[base.cart]`, without "
+          doc="makes the joint a slider: link k rides on a block along a line through a "
+              "point of link k − 1 (`line_at`, its tip by default), carried with that "
+              "section's deflection and slope; the travel s (m) from that point along the "
+              "line is the joint's coordinate; the other keys are a cart's (`travel`, "
+              "`drive`, `motion`, `force`, `servo` …: `[base.cart]`, without "
               "`rail_angle_deg`)"),
+    Field("line_at", unit="m", ge=0, default=None,
+          default_doc="the parent link's `length` (its tip)",
+          rule="≤ the parent link's length",
+          doc="the parent's section the line passes through, from the parent's joint along "
+              "its undeformed axis"),
     Field("axis_angle_deg", unit="deg", default=0.0,
-          doc="direction of the line from the parent link's tip section (0: along the parent)"),
+          doc="direction of the line from the parent link's section at `line_at` (0: along "
+              "the parent)"),
     Field("link_angle_deg", unit="deg", default=0.0,
-          doc="direction of the carried link from the parent link's tip section, constant"),
+          doc="direction of the carried link from the parent link's section at `line_at`, "
+              "constant"),
     Field("mass", unit="kg", ge=0, default=0.0,
           doc="the block, a point mass at the carried link's root"),
 ])
