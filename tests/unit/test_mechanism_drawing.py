@@ -123,3 +123,22 @@ def test_a_slider_inside_the_chain_is_a_block_on_a_line_turning_with_its_parent(
         col = scene.origin_px[0] + point[index, 0] / scene.metres_per_pixel
         row = scene.origin_px[1] - point[index, 1] / scene.metres_per_pixel
         assert abs(cols.mean() + 0.5 - col) < 2.0 and abs(rows.mean() + 0.5 - row) < 2.0
+
+
+def test_a_slider_line_inside_its_parent_is_drawn_through_that_section() -> None:
+    """examples/telescoping_arm.toml with the line through the boom's section at 0.6 m
+    (`line_at`): the block sits at the travel the run reports from that section, not from
+    the tip (the boom nearly rigid: within its tip's deflection plus 0.5 mm)."""
+    raw = tomllib.loads((EXAMPLES / "telescoping_arm.toml").read_text())
+    raw["simulation"].update(t_end=2.0, dt_out=0.02)
+    raw["joints"][1]["line_at"] = 0.6
+    results = flexlink.simulate(scenario_from_dict(raw))
+    (point, angle, _), = run_track(results).parts.sliders
+    beta = np.asarray(results["joint1_angle"])
+    axis = np.column_stack([np.cos(beta), np.sin(beta)])
+    bend = np.abs(np.column_stack([results["boom_tip_X"], results["boom_tip_Y"]])
+                  - axis).max()
+    direction = np.column_stack([np.cos(angle), np.sin(angle)])
+    travel = np.sum((point - 0.6 * axis) * direction, axis=1)
+    np.testing.assert_allclose(travel, results["joint2_position"], atol=bend + 5e-4)
+    assert np.abs(travel - results["joint2_position"] - 0.4).min() > 0.3  # not the tip's

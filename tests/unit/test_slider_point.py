@@ -280,3 +280,37 @@ def test_flexible_parent_both_models_agree_at_small_deflection() -> None:
         error = np.abs(exact[name] - first[name]).max()
         assert error < 5e-3 * scale, (name, error / scale)
         assert np.abs(tip[name] - first[name]).max() > 10 * error, name
+
+
+# --- the joint figure --------------------------------------------------------------------------
+
+def test_the_joint_figure_shows_the_slider_travel_and_force() -> None:
+    """The example's joint figure: the hub's angle, the slider's travel (m, its servo
+    reference dashed), the hub's torque and the slider's force (N), each panel with data;
+    the frame prepared from the channel records alone is the one drawn."""
+    from flexlink import simulate
+    from flexlink.results import plotting
+    from flexlink.results.figures import ChannelRecords, figure_stems, split_figures
+    from flexlink.scenario import scenario_from_dict
+
+    d = _example()
+    slider = {k: v for k, v in d["joints"][1].items() if k != "motion"}
+    slider.update(drive="servo", servo="position", reference=d["joints"][1]["motion"],
+                  bandwidth=30.0, rate_limit=1.0, loop_gain=200.0, line_at=0.6)
+    d["joints"][1] = slider
+    results = simulate(scenario_from_dict(d), shapes=False)
+    fig = plotting.plot_joint_angles(results)
+    assert [ax.get_ylabel() for ax in fig.axes] == [
+        "joint angle [deg]", "slider travel [m]", "joint torque [N·m]", "slider force [N]"]
+    legends = [[t.get_text() for t in ax.get_legend().get_texts()] for ax in fig.axes]
+    assert legends == [["β₁"], ["s₂", "s₂ reference"], ["τ₁"], ["F₂"]]
+    travel = fig.axes[1].get_lines()[0].get_ydata()
+    np.testing.assert_array_equal(travel, results["joint2_position"])
+    np.testing.assert_array_equal(fig.axes[3].get_lines()[0].get_ydata(), results["joint2_force"])
+    records = ChannelRecords(results.channels.values())
+    width, height = fig.get_size_inches()
+    specs = plotting.frame_specs(records, "joint_angles")
+    assert any(s[:3] == (width, height, 4) for s in specs)
+    assert figure_stems(records) == figure_stems(results) and "joint_angles" in figure_stems(
+        results)
+    assert split_figures(records) == split_figures(results)

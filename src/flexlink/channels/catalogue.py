@@ -131,7 +131,7 @@ def joint_channels(scenario: Scenario, model: str) -> list[Channel]:
             how = how.replace("torque-driven", "force-driven")
             out["angle"].append(Channel(
                 joint_name(k, "position"), ChannelKind.JOINT, Unit.METRE,
-                f"travel of slider {k + 1} along its line from the parent's tip ({how})",
+                f"travel of slider {k + 1} along its line from its point on the parent ({how})",
                 "position", subject))
             out["rate"].append(Channel(joint_name(k, "velocity"), ChannelKind.JOINT,
                                        Unit.METRE_PER_SECOND, f"speed of slider {k + 1}",

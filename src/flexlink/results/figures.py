@@ -16,12 +16,13 @@ if TYPE_CHECKING:
 
 
 def figure_stems(results: ChannelTable) -> list[str]:
-    """The figures ``results`` have channels for, in order: joint_angles, sensors (channels of
-    kind ``sensor`` only), tip_paths, base (a moving base's pose)."""
+    """The figures ``results`` have channels for, in order: joint_angles (joint angles or
+    sliders' travels), sensors (channels of kind ``sensor`` only), tip_paths, base (a
+    moving base's pose)."""
     from . import plotting
 
     stems = []
-    if plotting.joint_channels(results):
+    if plotting.joint_channels(results) or plotting.joint_channels(results, "position"):
         stems.append("joint_angles")
     if results.names_of(ChannelKind.SENSOR):
         stems.append("sensors")
@@ -91,7 +92,8 @@ def split_figures(results: ChannelTable) -> tuple[list[str], list[str]]:
     def weight(stem: str) -> int:
         if stem == "joint_angles":  # a panel per torque at most (the records alone: the
             # figures are shared out before the values exist, `prepare_figures`)
-            return 2 + len(plotting.joint_channels(results, "torque"))
+            return (1 + plotting.joint_fixed_panels(results)
+                    + len(plotting.joint_channels(results, "torque")))
         if stem == "sensors":
             return 1 + len(results.names_of(ChannelKind.SENSOR))
         if stem == "base":

@@ -13,9 +13,10 @@ results.mat keep it and a run folder is drawn as the run was):
 - ``sliders``: ``[link, x, gx, gy, angle]``, a slider closure keeping the point ``x`` of
   ``link`` on the fixed line through ``(gx, gy)`` at ``angle`` (rad from global X);
 - ``pivots``: links other than the first whose joint sits on a fixed base;
-- ``rails``: ``[link, axis]``, a slider inside the chain (`model.PrismaticJoint`): link
-  ``link`` rides on a block along the line through the tip of link ``link`` − 1 at ``axis``
-  (rad) from that tip's section, the line turning with it.
+- ``rails``: ``[link, axis]`` or ``[link, axis, at]``, a slider inside the chain
+  (`model.PrismaticJoint`): link ``link`` rides on a block along the line through the tip of
+  link ``link`` − 1 (or through its section ``at``, m from its joint) at ``axis`` (rad) from
+  that section, the line turning with it.
 
 Positions over time are read off the drawn (possibly magnified) link polylines: a point at
 ``x`` is interpolated between the stored points, the section's angle is the polyline's
@@ -49,8 +50,8 @@ def parts_metadata(scenario: Any) -> dict[str, str]:
     base = scenario.base
     pivots = ([k for k, _ in base.attachments if k != 0]
               if base is not None and base.kind == "fixed" else [])
-    rails = [[k, joint.axis_angle] for k, joint in enumerate(scenario.chain.joints)
-             if hasattr(joint, "axis_angle")]
+    rails = [[k, joint.axis_angle] + ([joint.at] if joint.at is not None else [])
+             for k, joint in enumerate(scenario.chain.joints) if hasattr(joint, "axis_angle")]
     parts = {name: value for name, value in (("bodies", bodies), ("pins", pins),
                                              ("sliders", sliders), ("pivots", pivots),
                                              ("rails", rails)) if value}
@@ -110,10 +111,10 @@ def drawn_parts(metadata: Mapping[str, Any], links: Sequence[tuple[np.ndarray, n
         ends = np.array([gx, gy]) + np.outer([along.min() - 0.25 * reach,
                                               along.max() + 0.25 * reach], direction)
         sliders.append((point, float(angle), ends))
-    for link, axis in parts.get("rails", ()):
+    for link, axis, *line_at in parts.get("rails", ()):
         X, Y = links[int(link)]
         point = np.column_stack([X[:, 0], Y[:, 0]])  # the block: the carried link's root
-        tip, tip_angle = at(int(link) - 1, lengths[int(link) - 1])
+        tip, tip_angle = at(int(link) - 1, line_at[0] if line_at else lengths[int(link) - 1])
         angle = tip_angle + float(axis)
         direction = np.column_stack([np.cos(angle), np.sin(angle)])
         along = np.sum((point - tip) * direction, axis=1)

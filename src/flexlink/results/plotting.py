@@ -152,8 +152,14 @@ def _channels_spec(panels: int) -> FrameSpec:
     return (6.4, 1.3 + 2.2 * panels, panels, 0.7, 0.5, 0.45, True)
 
 
-def _joint_spec(torque_groups: int) -> FrameSpec:
-    return (6.4, 3.0 + 1.9 * torque_groups, 1 + torque_groups, 0.45, 0.5, 0.25, True)
+def _joint_spec(panels: int) -> FrameSpec:
+    return (6.4, 1.1 + 1.9 * panels, panels, 0.45, 0.5, 0.25, True)
+
+
+def joint_fixed_panels(results: ChannelTable) -> int:
+    """The joint figure's panels besides the torques': the revolute joints' angles, the
+    sliders' travels and the sliders' forces, each if there are any."""
+    return sum(bool(joint_channels(results, q)) for q in ("angle", "position", "force"))
 
 
 _TIP_SPEC: FrameSpec = (5.6, 5.8, 1, 0.6, 1.1, 0.45, False)
@@ -162,7 +168,7 @@ _TIP_SPEC: FrameSpec = (5.6, 5.8, 1, 0.6, 1.1, 0.45, False)
 def frame_specs(results: ChannelTable, stem: str) -> list[FrameSpec]:
     """The frames figure ``stem`` may take, from ``results``' channel records alone (their
     values may not exist yet): the joint figure's torques share one panel or have one each,
-    as their sizes turn out."""
+    as their sizes turn out (its other panels: `joint_fixed_panels`)."""
     if stem == "sensors":
         return [_channels_spec(len(sensor_channels(results)))]
     if stem == "base":
@@ -170,7 +176,8 @@ def frame_specs(results: ChannelTable, stem: str) -> list[FrameSpec]:
     if stem == "tip_paths":
         return [_TIP_SPEC]
     torques = len(joint_channels(results, "torque"))
-    return [_joint_spec(torques)] + ([_joint_spec(1)] if torques > 1 else [])
+    fixed = joint_fixed_panels(results)
+    return [_joint_spec(fixed + torques)] + ([_joint_spec(fixed + 1)] if torques > 1 else [])
 
 
 def prepare_frames(specs: Sequence[FrameSpec], stop: Callable[[], bool] | None = None) -> None:
@@ -223,38 +230,50 @@ def _style(ax: Axes) -> None:
 
 def plot_joint_angles(results: ChannelTable) -> Figure:
     """Joint angles β_k in degrees against time (s), like the paper's Fig. 7, servo references
-    dashed; below, the joint torques, each joint on its own panel when their sizes differ
-    (a small torque would hide under a large one on a shared axis)."""
+    dashed; the sliders' travels s_k (m, references dashed) on a panel of their own; below,
+    the joint torques, each joint on its own panel when their sizes differ (a small torque
+    would hide under a large one on a shared axis), and the sliders' forces F_k (N)."""
     names = joint_channels(results)
-    if not names:
-        raise ValueError("no joint angle channels in the results")
+    travels = joint_channels(results, "position")
+    if not names and not travels:
+        raise ValueError("no joint angle or slider travel channels in the results")
     torques = joint_channels(results, "torque")
+    forces = joint_channels(results, "force")
     groups = torque_panels(results, torques)
     # (an elastic joint's servo reference is its motor's, motor-shaft angles: not β's)
     motors = {results.channels[n].subject for n in joint_channels(results, "motor_angle")}
     references = {results.channels[n].subject: n for n in joint_channels(results, "reference")
                   if results.channels[n].subject not in motors}
-    fig, axes = _figure(results, _joint_spec(len(groups)))
-    ax = axes[0]
-    colours = {}  # a joint's torque in its angle's colour
-    for i, name in enumerate(names):
-        subject = results.channels[name].subject
-        k = subject.removeprefix("joint")
-        (line,) = ax.plot(results.time, np.degrees(results[name]), label=_sub("β", k),
-                          linestyle=_STYLES[i % len(_STYLES)])
-        colours[name] = line.get_color()
-        if subject in references:
-            ax.plot(results.time, np.degrees(results[references[subject]]), "--",
-                    color=line.get_color(), linewidth=0.8, label=f"{_sub('β', k)} reference")
-    ax.set_ylabel("joint angle [deg]")
-    ax.legend(loc="lower right")  # "best" scans every vertex of every line
-    for panel, group in zip(axes[1:], groups):
+    fig, axes = _figure(results, _joint_spec(joint_fixed_panels(results) + len(groups)))
+    panels = iter(axes)
+    colours = {}  # a joint's torque or force in its angle's or travel's colour
+    count = 0  # the sliders' colours follow the revolute joints'
+    for chosen, symbol, scale, label in ((names, "β", 180.0 / math.pi, "joint angle [deg]"),
+                                         (travels, "s", 1.0, "slider travel [m]")):
+        if not chosen:
+            continue
+        ax = next(panels)
+        for i, name in enumerate(chosen):
+            subject = results.channels[name].subject
+            k = subject.removeprefix("joint")
+            (line,) = ax.plot(results.time, scale * results[name], label=_sub(symbol, k),
+                              linestyle=_STYLES[i % len(_STYLES)], color=f"C{count % 10}")
+            count += 1
+            colours[subject] = line.get_color()
+            if subject in references:
+                ax.plot(results.time, scale * results[references[subject]], "--",
+                        color=line.get_color(), linewidth=0.8,
+                        label=f"{_sub(symbol, k)} reference")
+        ax.set_ylabel(label)
+        ax.legend(loc="lower right")  # "best" scans every vertex of every line
+    for group, symbol, label in ([(g, "τ", "joint torque [N·m]") for g in groups]
+                                 + ([(forces, "F", "slider force [N]")] if forces else [])):
+        panel = next(panels)
         for i, name in enumerate(group):
-            k = results.channels[name].subject.removeprefix("joint")
-            angle = f"joint{k}_angle"
-            panel.plot(results.time, results[name], label=_sub("τ", k),
-                       color=colours.get(angle), linestyle=_STYLES[i % len(_STYLES)])
-        panel.set_ylabel("joint torque [N·m]")
+            subject = results.channels[name].subject
+            panel.plot(results.time, results[name], label=_sub(symbol, subject.removeprefix(
+                "joint")), color=colours.get(subject), linestyle=_STYLES[i % len(_STYLES)])
+        panel.set_ylabel(label)
         panel.legend(loc="upper right")
     axes[-1].set_xlabel("time t [s]")
     axes[-1].set_xlim(results.time[0], results.time[-1])
