@@ -1,0 +1,136 @@
+"""A geometrically exact reference for a slider whose line passes through a section inside a
+flexible parent (`PrismaticJoint.at`, scenario key `line_at`), in Exudyn.
+
+* the hub: an ``ObjectRigidBody2D`` of inertia ``hub_inertia`` on the parent beam's root node,
+  that node's centre held at the origin by two ``CoordinateConstraint``; a moment history M(t)
+  on its angle coordinate (`exudyn_forward_reference._Moment`: the step mean). The beam's
+  root node is the hub's node: the parent is clamped to the hub exactly;
+* the parent: ``ObjectBeamGeometricallyExact2D`` elements (Simo–Reissner), a node at x_a;
+* the block: an ``ObjectRigidBody2D`` of the block's mass on the carried beam's root node; a
+  ``PrismaticJoint2D`` holds it on the line through the parent's node at x_a along the
+  node-frame direction u (the line turns with that section), its rotation fixed to the
+  section's (the carried beam at γ from the section); the slider's force is an
+  ``ObjectConnectorLinearSpringDamper`` without stiffness along u whose force user function
+  returns −F(t) (tests/validation/exudyn_slider_reference.py);
+* the carried beam: Simo–Reissner elements from the block.
+
+Signals: the hub's angle, the block's travel along the line from the section, the parent's
+tip deflection in the hub frame and the carried beam's tip deflection in its root frame
+(flexlink's deflection sensors at x = L). Undamped, no gravity.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from flexlink.model import Link
+
+from .exudyn_forward_reference import _Moment
+from .exudyn_reference import default_section, solve_dynamic
+
+
+def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: float, beam: Link,
+                                 block: float, axis: float, gamma: float, s0: float,
+                                 moment: Callable[[float], float],
+                                 force: Callable[[float], float], t_end: float, dt_out: float,
+                                 elements: int, dt: float | None = None) -> dict[str, Any]:
+    """The system of the module docstring from rest, the block at travel s0 (m); ``elements``
+    per beam (the parent's mesh puts a node at ``line_at``); angles in rad from the section.
+
+    Returns ``t`` (s), ``angle`` (rad), ``travel`` (m), ``parent_deflection`` and
+    ``tip_deflection`` (m)."""
+    import exudyn as exu
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        LinearSpringDamper,
+        LoadCoordinate,
+        MarkerNodeCoordinate,
+        MarkerNodeRigid,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectBeamGeometricallyExact2D,
+        ObjectRigidBody2D,
+        PrismaticJoint2D,
+        SensorNode,
+    )
+
+    if dt is None:
+        dt = min(dt_out, 5e-4)
+    dt = dt_out / round(dt_out / dt)
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+
+    def coord(node: int, c: int) -> int:
+        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
+
+    def beam_nodes(link: Link, x: np.ndarray, root: np.ndarray, angle: float) -> list[int]:
+        e = np.array([math.cos(angle), math.sin(angle)])
+        nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(root + xi * e), angle]))
+                 for xi in x]
+        sec = default_section(link)
+        for (a, b), h in zip(itertools.pairwise(nodes), np.diff(x)):
+            mbs.AddObject(ObjectBeamGeometricallyExact2D(
+                nodeNumbers=[a, b], length=float(h), massPerLength=link.mass_per_length,
+                crossSectionInertia=sec.rhoI, bendingStiffness=link.EI, axialStiffness=sec.EA,
+                shearStiffness=sec.GA))
+        if link.tip_mass > 0.0:
+            mbs.AddObject(ObjectRigidBody2D(nodeNumber=nodes[-1], mass=link.tip_mass,
+                                            inertia=0.0))
+        return nodes
+
+    inboard = max(1, round(elements * line_at / parent.length))
+    outboard = (np.linspace(line_at, parent.length, max(1, elements - inboard) + 1)[1:]
+                if line_at < parent.length else np.empty(0))
+    x_parent = np.concatenate([np.linspace(0.0, line_at, inboard + 1), outboard])
+    hub = beam_nodes(parent, x_parent, np.zeros(2), 0.0)
+    mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub[0], mass=1.0, inertia=hub_inertia))
+    for c in (0, 1):
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(hub[0], c)]))
+    mbs.AddLoad(LoadCoordinate(markerNumber=coord(hub[0], 2), load=0.0,
+                               loadUserFunction=_Moment(moment, dt)))
+    section = hub[inboard]
+    u = np.array([math.cos(axis), math.sin(axis)])
+    carried = beam_nodes(beam, np.linspace(0.0, beam.length, elements + 1),
+                         np.array([line_at, 0.0]) + s0 * u, gamma)
+    mbs.AddObject(ObjectRigidBody2D(nodeNumber=carried[0], mass=block, inertia=0.0))
+    on_line = mbs.AddMarker(MarkerNodeRigid(nodeNumber=section))
+    on_block = mbs.AddMarker(MarkerNodeRigid(nodeNumber=carried[0]))
+    normal = [-math.sin(axis - gamma), math.cos(axis - gamma), 0.0]  # S u turned back by γ
+    mbs.AddObject(PrismaticJoint2D(markerNumbers=[on_line, on_block],
+                                   axisMarker0=[u[0], u[1], 0.0], normalMarker1=normal,
+                                   constrainRotation=True))
+    push = _Moment(force, dt)
+
+    def connector_force(mbs_: Any, t: float, item: int, *args: Any) -> float:
+        return -push(mbs_, t, item)
+
+    mbs.AddObject(LinearSpringDamper(markerNumbers=[on_line, on_block], stiffness=0.0,
+                                     damping=0.0, axisMarker0=[u[0], u[1], 0.0],
+                                     springForceUserFunction=connector_force))
+    watched = (hub[0], section, hub[-1], carried[0], carried[-1])
+    sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
+                                        outputVariableType=exu.OutputVariableType.Coordinates))
+               for n in watched]
+    _, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-6, 1e-8, 1.0)
+
+    def series(number: int, node: int) -> np.ndarray:
+        data = np.asarray(mbs.GetSensorStoredData(number))
+        out = np.stack([np.interp(t_grid, data[:, 0], data[:, c]) for c in range(1, 4)], 1)
+        return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
+
+    root, point, tip, r0, r1 = (series(s, n) for s, n in zip(sensors, watched))
+
+    def normal_of(q: np.ndarray) -> np.ndarray:
+        return np.stack([-np.sin(q[:, 2]), np.cos(q[:, 2])], 1)
+
+    line = np.stack([np.cos(point[:, 2] + axis), np.sin(point[:, 2] + axis)], 1)
+    return {"t": t_grid, "angle": root[:, 2],
+            "travel": np.sum((r0[:, :2] - point[:, :2]) * line, 1),
+            "parent_deflection": np.sum(normal_of(root) * (tip[:, :2] - root[:, :2]), 1),
+            "tip_deflection": np.sum(normal_of(r0) * (r1[:, :2] - r0[:, :2]), 1)}
