@@ -227,7 +227,10 @@ def test_line_at_reads_and_writes_back() -> None:
     joint = scenario_from_dict(d).chain.joints[1]
     assert joint.at == 0.6
     assert scenario_from_dict(tomllib.loads(dump_toml(d))).chain.joints[1] == joint
-    assert scenario_from_dict(_example()).chain.joints[1].at is None
+    d = _example()
+    assert d["joints"][1]["line_at"] == 1.0  # the example names its tip
+    del d["joints"][1]["line_at"]
+    assert scenario_from_dict(d).chain.joints[1].at is None  # the default: the tip
 
 
 @pytest.mark.parametrize("change, message", [
