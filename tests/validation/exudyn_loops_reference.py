@@ -7,14 +7,16 @@ The crank is one element of stiffness ``STIFF`` times the rod's, its root node h
 origin and turned by the prescribed angle (a ``CoordinateConstraint`` with offset user
 functions); the rod's root node shares the crank tip's position (two coordinate constraints,
 its rotation free: the crank pin), its tip node stays on the X axis (the piston: one
-coordinate constraint) and carries the piston's mass. Starts at rest in the closed rigid
-configuration, undeformed. Output: the rod's midpoint deflection from its chord,
+coordinate constraint) and carries the piston's mass. Starts undeformed in the closed
+rigid configuration, the bars turning with the crank's rate at t = 0 (at rest when it is
+zero) and the rod, if asked, with a transverse velocity of sine shapes. Output: the rod's midpoint deflection from its chord,
 n_chord · (r_mid − (r_root + r_tip)/2), the piston's X and the crank angle."""
 
 from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -29,11 +31,13 @@ CRANK_ELEMENTS = 4
 
 def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, EA: float,
                                  t_end: float, dt_out: float, elements: int = 16,
-                                 dt: float = 5e-5, newton_rel_tol: float = 1e-8
-                                 ) -> dict[str, Any]:
+                                 dt: float = 5e-5, newton_rel_tol: float = 1e-8,
+                                 sine_rates: Sequence[float] = ()) -> dict[str, Any]:
     """``crank`` (m) turned by ``motion`` (its angle from the X axis); ``rod``: the elastic
     connecting rod (its tip mass: the piston); EA (N) the rod's axial stiffness (Exudyn's
-    beams stretch). Returns t, mid_deflection (m), piston_x (m), crank_angle (rad)."""
+    beams stretch). At t = 0 the bars move rigidly with the crank's rate (the rod's rate
+    closes the loop) plus, across the rod's chord, Σ sine_rates[i-1] sin(iπx/L) (m/s).
+    Returns t, mid_deflection (m), piston_x (m), crank_angle (rad)."""
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
@@ -47,8 +51,9 @@ def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, E
 
     if elements % 2:
         raise ValueError("an even number of elements: the midpoint is a node")
-    theta0 = float(motion.evaluate(np.asarray(0.0))[0])
+    theta0, omega0 = (float(v) for v in motion.evaluate(np.asarray(0.0))[:2])
     phi0 = -math.asin(crank * math.sin(theta0) / rod.length)
+    phi_rate = -crank * math.cos(theta0) * omega0 / (rod.length * math.cos(phi0))
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
     ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
@@ -59,8 +64,11 @@ def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, E
 
     sec = default_section(rod, EA)
     pin = crank * np.array([math.cos(theta0), math.sin(theta0)])
-    c0 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, theta0]))
-    c1 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[pin[0], pin[1], theta0]))
+    pin_rate = omega0 * np.array([-pin[1], pin[0]])
+    c0 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, theta0],
+                                     initialVelocities=[0.0, 0.0, omega0]))
+    c1 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[pin[0], pin[1], theta0],
+                                     initialVelocities=[*pin_rate, omega0]))
     mbs.AddObject(ObjectBeamGeometricallyExact2D(
         nodeNumbers=[c0, c1], length=crank, massPerLength=rod.mass_per_length,
         crossSectionInertia=sec.rhoI, bendingStiffness=STIFF * rod.EI,
@@ -72,8 +80,15 @@ def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, E
                                        offsetUserFunction=keep[0], offsetUserFunction_t=keep[1]))
     e = np.array([math.cos(phi0), math.sin(phi0)])
     x = np.linspace(0.0, rod.length, elements + 1)
-    nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(pin + xi * e), phi0]))
-             for xi in x]
+    n = np.array([-e[1], e[0]])
+    nodes = []
+    for xi in x:
+        k = np.arange(1, len(sine_rates) + 1) * math.pi / rod.length
+        across = float(np.dot(sine_rates, np.sin(k * xi)))
+        turn = float(np.dot(sine_rates, k * np.cos(k * xi)))
+        v = pin_rate + (phi_rate * xi + across) * n
+        nodes.append(mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(pin + xi * e), phi0],
+                                                 initialVelocities=[*v, phi_rate + turn])))
     for a, b in itertools.pairwise(nodes):
         mbs.AddObject(ObjectBeamGeometricallyExact2D(
             nodeNumbers=[a, b], length=float(rod.length / elements),
