@@ -15,7 +15,6 @@ import pytest
 
 import flexlink
 from flexlink.scenario import scenario_from_dict
-from flexlink.scenario.errors import ScenarioError
 from tests.validation.loop_fe import four_bar_frequencies
 from tests.validation.test_closed_loops import (
     FOUR_BAR,
@@ -160,14 +159,6 @@ def test_plant_responds_as_the_simulated_mechanism() -> None:
         simulated = 2 * (one[name] - one[name][0]) / a - (two[name] - two[name][0]) / (2 * a)
         peak = np.abs(y[:, i]).max()
         assert peak > 0 and np.abs(simulated - y[:, i]).max() < 1e-4 * peak, name
-
-
-def test_an_elastic_joint_in_a_closed_loop_on_the_nonlinear_model_is_refused() -> None:
-    d = _elastic()
-    d["simulation"]["model"] = "nonlinear"
-    with pytest.raises(ScenarioError, match=r"closures: elastic joints run with closed loops "
-                                            r"on the first-order model only \(joints\[0\]"):
-        scenario_from_dict(d)
 
 
 @pytest.mark.slow

@@ -162,9 +162,6 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                              simulation, raw.get("base") if isinstance(raw.get("base"), Mapping)
                              else None, reserved | set(link_names) | sensor_names
                              | {a.get("name") for a in actuators}, p)
-    if closures and controllers and simulation.get("model") == "nonlinear":
-        p.add("closures: controllers run with closed loops on the first-order model only; "
-              "set simulation.model = \"first_order\" or drop [[controllers]]")
     check_sliders(joint_tables, base, simulation, closures, controllers, p)
     if p:
         raise ScenarioError(p.messages, source)
