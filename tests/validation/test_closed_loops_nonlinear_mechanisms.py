@@ -221,3 +221,69 @@ def test_an_over_gained_loop_on_the_nonlinear_model_is_reported_unstable() -> No
     d["simulation"]["model"] = "nonlinear"
     with pytest.raises(SimulationError, match="closed loop unstable"):
         flexlink.simulate(scenario_from_dict(d), shapes=False)
+
+
+# -- the equilibrium start ------------------------------------------------------------------
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_an_equilibrium_start_on_an_accelerating_cart_stays_at_rest_relative_to_it(
+        model: str) -> None:
+    """The four-bar (crank held, flexible coupler) on a cart accelerating at 3 m/s² from
+    t = 0: started in equilibrium relative to the cart, the coupler's deflection stays
+    constant and equals the fixed four-bar's in the equivalent gravity field (turned by
+    the cart's 20° attitude), also started in equilibrium."""
+    d = _swinging()
+    d["joints"][0] = {"motion": [{"profile": "hold", "angle_deg": 90.0}]}
+    d["links"][1]["EI"] = 2.0
+    d["simulation"].update(model=model, t_end=0.2, initial="equilibrium")
+    d["sensors"] = [{"name": "bend", "kind": "deflection", "link": "coupler", "x": 0.15}]
+    d["base"] = {"type": "cart", "mass": 5.0, "attitude_deg": 20.0,
+                 "cart": {"rail_angle_deg": math.degrees(RAIL), "drive": "prescribed",
+                          "motion": [{"profile": "hold", "position": 0.0}]}}
+    scenario = scenario_from_dict(d)
+    cart = dataclasses.replace(scenario.base.cart, drive=UniformAcceleration(ACCELERATION))
+    scenario = dataclasses.replace(scenario, base=dataclasses.replace(scenario.base, cart=cart))
+    on_cart = flexlink.simulate(scenario, shapes=False)
+    fixed = copy.deepcopy(d)
+    del fixed["base"]
+    turn = math.radians(20.0)
+    fixed["simulation"]["gravity"] = [-ACCELERATION * math.cos(RAIL - turn),
+                                      -ACCELERATION * math.sin(RAIL - turn)]
+    reference = flexlink.simulate(scenario_from_dict(fixed), shapes=False)
+    bend = np.asarray(on_cart["bend"])
+    assert abs(bend[0]) > 1e-6
+    assert np.ptp(bend) < 1e-9 * abs(bend[0])
+    assert np.abs(bend - np.asarray(reference["bend"])).max() < 1e-9 * abs(bend[0])
+    assert np.ptp(np.asarray(on_cart["joint3_angle"])) < 1e-12
+    assert on_cart.metadata["closure_residual_relative"] <= 1e-8
+
+
+def test_a_servo_held_crank_under_gravity_starts_in_equilibrium_on_the_nonlinear_model(
+        ) -> None:
+    """A position servo holds the crank of the four-bar (flexible coupler) under gravity:
+    started in equilibrium, the nonlinear run stays still; the servo's torque is the
+    weights' moment dV/dθ₁ on the rigid four-bar's kinematics (the coupler's sag apart),
+    and the coupler's sag is the stiffened first-order model's (small deflection)."""
+    from tests.validation.test_closed_loops import _four_bar_angles
+    from tests.validation.test_loop_plant import _gravity_four_bar
+
+    servo = {"drive": "servo", "servo": "position", "bandwidth": 30.0,
+             "rate_limit_deg_s": 500.0, "loop_gain": 5.0, "motor_inertia": 0.001,
+             "reference": [{"profile": "hold", "angle_deg": 90.0}]}
+    first, run = _both(_gravity_four_bar(servo))
+    crank = run["joint1_angle"][0]
+    assert crank != pytest.approx(math.pi / 2, abs=1e-5)  # the servo yields to the load
+
+    def potential(c: float) -> float:
+        b1, b2, b3 = _four_bar_angles(c)
+        return 9.81 * (MASS[0] * L1 * 0.5 * L1 * math.sin(b1)
+                       + 0.3 * L2 * (L1 * math.sin(b1) + 0.5 * L2 * math.sin(b2))
+                       + MASS[2] * L3 * 0.5 * L3 * math.sin(b3))
+
+    h = 1e-6
+    moment = (potential(crank + h) - potential(crank - h)) / (2 * h)
+    assert run["joint1_torque"][0] == pytest.approx(moment, rel=1e-4)
+    for name in ("joint1_angle", "joint3_angle", "mid"):
+        assert np.ptp(run[name]) < 1e-9 * max(1.0, abs(run[name][0])), name
+    assert run["mid"][0] == pytest.approx(first["mid"][0], rel=1e-6)  # measured 1.0e-8
+    assert run["joint1_angle"][0] == pytest.approx(first["joint1_angle"][0], abs=1e-10)

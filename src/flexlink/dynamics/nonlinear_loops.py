@@ -101,26 +101,33 @@ class NonlinearLoopSystem:
         return workspace(self.data, 2 * self.system.n_y)
 
     def _closed_start(self) -> np.ndarray:
-        """[y, ẏ] at t = 0: the first-order loops' closed start (q = 0) carried over, then
-        projected on the exact closures (a check: it moves nothing beyond round-off)."""
+        """[y, ẏ] at t = 0: the first-order loops' closed start at rest (q = 0, the servo
+        integrals zero) carried over, then projected on the exact closures (a check: it
+        moves nothing beyond round-off); with ``initial = "equilibrium"`` then moved to
+        static equilibrium on the closed loops (`loop_equilibrium`)."""
         from ._nonlinear_loops_numba import project
 
         s, nu = self.system, self.system.nu
-        y, v = s.initial_state()
-        start = self.first_order.y0
+        y, v = np.zeros(s.n_y), np.zeros(s.n_y)
+        start = self.first_order.y0  # its tree starts at rest: the equilibrium comes below
         y[s.n:s.n + nu], v[s.n:s.n + nu] = start[:nu], start[nu:2 * nu]
         Y = np.concatenate([y, v])
-        if not project(self.data, self.workspace(), inputs(s.loads, np.zeros(1))[0], Y):
+        u0 = inputs(s.loads, np.zeros(1))[0]
+        if not project(self.data, self.workspace(), u0, Y):
             raise SimulationError("closures: the loop does not close at t = 0 on the "
                                   "nonlinear model's kinematics")
+        if s.initial == "equilibrium":
+            from .loop_equilibrium import closed_nonlinear_equilibrium
+
+            return closed_nonlinear_equilibrium(self, Y, u0)
         return Y
 
 
 def closed_states(loops: NonlinearLoopSystem, t: np.ndarray, states: np.ndarray,
                   u: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """States [y, ẏ] at times t projected onto the loops (a copy) with the input rows ``u``
-    (default `forward_kernel.inputs` at t; a controlled run's carry the held voltages), ÿ (nt, n_y), the
-    multipliers λ (nt, n_c: force on each closure's point, N, global axes; a slider's along
+    (default `forward_kernel.inputs` at t; a controlled run's carry the held voltages),
+    ÿ (nt, n_y), the multipliers λ (nt, n_c: force on each closure's point, N, global axes; a slider's along
     its line's normal), the constraint forces' torque on each joint (nt, N; N·m) and the
     largest |Φ| (nt,), m."""
     from ._nonlinear_loops_numba import closed_states as kernel

@@ -64,14 +64,6 @@ def read_closures(tables: list[tuple[str, dict[str, Any]]], links: list[dict[str
     if simulation.get("model") == "nonlinear" and simulation.get("step") is not None:
         p.add("closures: closed loops on the nonlinear model run with error-controlled steps; "
               "drop simulation.step")
-    if simulation.get("model") == "nonlinear" and simulation.get("initial") == "equilibrium":
-        p.add("closures: a closed loop on the nonlinear model starts from its joints' initial "
-              "angles and rates; set simulation.initial = \"rest\" (or use the first-order "
-              "model)")
-    moving = base is not None and base.get("type") not in (None, "fixed")
-    if moving and simulation.get("initial") == "equilibrium":
-        p.add("closures: a closed loop on a moving base starts from its joints' initial "
-              "angles and rates; set simulation.initial = \"rest\" (or a fixed base)")
     movable = [i for i, j in enumerate(joints) if "drive" in j]
     equations = sum(1 if c.get("kind") == "slider" else 2 for c in out)
     if not movable:
