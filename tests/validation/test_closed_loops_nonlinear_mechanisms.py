@@ -109,6 +109,26 @@ def test_a_held_elastic_crank_rings_at_the_exact_one_dof_frequency() -> None:
     assert run.metadata["closure_residual_relative"] <= 1e-8
 
 
+def test_a_kicked_rotor_rings_at_the_exact_two_inertia_frequency() -> None:
+    """A ±10⁻³ N·m bang-bang torque on the rotor over 2 ms (no net impulse: the mechanism
+    stays where it was, rigid links): the spring's windup then rings at ω² = k (1/I_eff +
+    1/(N² J_m))."""
+    d = _driven(1e-3, t_end=0.2)
+    d["joints"][0]["torque"] = [{"profile": "bang_bang", "amplitude": 1e-3, "start": 0.0,
+                                 "duration": 0.002}]
+    d["simulation"].update(model="nonlinear", dt_out=2e-4, rtol=1e-10)
+    run = flexlink.simulate(scenario_from_dict(d), shapes=False)
+    t = np.asarray(run.time)
+    windup = np.asarray(run["joint1_spring_torque"]) / K
+    ringing = t > 0.002 + 1e-9
+    assert np.abs(windup[ringing]).max() > 1e-6
+    poles = identified_poles(t[ringing], windup[ringing], 2, 1)
+    inertia = _crank_inertia(math.radians(CRANK))
+    exact = math.sqrt(K * (1 / inertia + 1 / (GEAR**2 * ROTOR)))
+    assert np.abs(poles).max() == pytest.approx(exact, rel=1e-6)  # measured 2.3e-7
+    assert np.abs(np.asarray(run["joint1_angle"]) - math.radians(CRANK)).max() < 1e-4
+
+
 def test_an_elastic_crank_with_a_stiff_flexible_coupler_follows_the_first_order_model(
         ) -> None:
     """The coupler flexible (EI = 20 N·m², 3 modes) under the bang-bang motor torque: the

@@ -14,7 +14,7 @@ from .schema import CLOSURES, read_fields
 
 def read_closures(tables: list[tuple[str, dict[str, Any]]], links: list[dict[str, Any]],
                   joints: list[dict[str, Any]], simulation: Mapping[str, Any],
-                  base: Mapping[str, Any] | None, taken: set[str], p: Problems
+                  taken: set[str], p: Problems
                   ) -> list[dict[str, Any]]:
     """Resolved closure dicts (links by name, points filled in with the links' tips).
     ``taken``: names the closures must not reuse (links, sensors, actuators, automatic

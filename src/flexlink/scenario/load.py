@@ -159,8 +159,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                             p)
     _check_controller_samples(controllers, simulation.get("t_end"), p)
     closures = read_closures(p.table_array(raw, "closures", required=False), links, joints,
-                             simulation, raw.get("base") if isinstance(raw.get("base"), Mapping)
-                             else None, reserved | set(link_names) | sensor_names
+                             simulation, reserved | set(link_names) | sensor_names
                              | {a.get("name") for a in actuators}, p)
     check_sliders(joint_tables, base, simulation, closures, controllers, p)
     if p:
