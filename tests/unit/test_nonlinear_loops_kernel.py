@@ -16,7 +16,14 @@ from flexlink.dynamics.forward_kernel import inputs
 from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
 from flexlink.dynamics.nonlinear_loops import NonlinearLoopSystem
 from flexlink.scenario import scenario_from_dict
-from tests.validation.test_closed_loops import FOUR_BAR, L2
+from tests.validation.test_closed_loops import (
+    FOUR_BAR,
+    L2,
+    ROD,
+    SLIDER_CRANK,
+    D,
+    _four_bar_angles,
+)
 
 T = 0.13  # s: the crank is spinning up (rate and acceleration both non-zero)
 
@@ -30,6 +37,53 @@ def loops() -> NonlinearLoopSystem:
     scenario = scenario_from_dict(d)
     return NonlinearLoopSystem(NonlinearForwardSystem(scenario.chain, scenario.base),
                                scenario.closures)
+
+
+def _on_base(mechanism: str, base: dict) -> NonlinearLoopSystem:
+    """A slider-crank (flexible rod, slider line at 25° through (0.05, 0.02)) or a four-bar
+    closed by a pin to the ground (crank, flexible coupler and rocker in series, the
+    rocker's tip pinned at the base's point (D, 0)) on the ``base``."""
+    if mechanism == "slider":
+        d = copy.deepcopy(SLIDER_CRANK)
+        d["links"][1] = {"name": "rod", "length": ROD, "mass_per_length": 0.2, "EI": 5.0,
+                         "modes": 2, "tip_mass": 0.1}
+        d["joints"][1]["initial_angle_deg"] = -40.0
+        d["closures"][0].update(ground=[0.05, 0.02], angle_deg=25.0)
+    else:
+        d = copy.deepcopy(FOUR_BAR)
+        d["links"][1] = {"name": "coupler", "length": L2, "mass_per_length": 0.3, "EI": 2.0,
+                         "modes": 3}
+        a, b, c = _four_bar_angles(np.pi / 2)
+        d["joints"][1]["initial_angle_deg"] = np.degrees(b - a)
+        d["joints"][2] = {"drive": "free", "initial_angle_deg": np.degrees(c + np.pi - b)}
+        d["closures"] = [{"name": "pin", "link": "rocker", "ground": [D, 0.0]}]
+    d["joints"][0] = {"drive": "free", "initial_angle_deg": 80.0, "initial_rate_deg_s": 90.0}
+    d["base"] = base
+    d["simulation"]["model"] = "nonlinear"
+    scenario = scenario_from_dict(d)
+    return NonlinearLoopSystem(NonlinearForwardSystem(scenario.chain, scenario.base,
+                                                      gravity=(0.0, -9.81)),
+                               scenario.closures)
+
+
+MOVING = {
+    "pinned": {"type": "pinned", "inertia": 0.01, "attitude_deg": 10.0},
+    "free": {"type": "free", "mass": 2.0, "inertia": 0.01, "attitude_deg": -15.0},
+    "cart": {"type": "cart", "mass": 3.0, "attitude_deg": 20.0,
+             "cart": {"rail_angle_deg": 30.0, "drive": "force",
+                      "force": [{"profile": "step", "amplitude": 1.0}]}},
+    "cart-prescribed": {"type": "cart", "mass": 3.0, "attitude_deg": 20.0,
+                        "cart": {"rail_angle_deg": 30.0, "drive": "prescribed",
+                                 "motion": [{"profile": "cycloidal", "from": 0.0, "to": 0.2,
+                                             "start": 0.0, "duration": 0.5}]}},
+}
+CASES = [(m, b) for m in ("slider", "pin") for b in MOVING]
+
+
+@pytest.fixture(scope="module", params=CASES, ids=[f"{m}-{b}" for m, b in CASES])
+def moving(request) -> NonlinearLoopSystem:
+    mechanism, base = request.param
+    return _on_base(mechanism, MOVING[base])
 
 
 def _state(loops: NonlinearLoopSystem) -> np.ndarray:
@@ -49,6 +103,16 @@ def _phi(loops, w, t: float, Y: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 def test_jacobian_and_velocity_terms_are_the_closure_equations_derivatives(loops) -> None:
+    _check_derivatives(loops)
+
+
+def test_jacobian_and_velocity_terms_on_a_moving_base(moving) -> None:
+    """A turning base turns the ground point and the slider's line: their terms on the
+    attitude; a cart's travel moves the ground point with the mechanism."""
+    _check_derivatives(moving)
+
+
+def _check_derivatives(loops: NonlinearLoopSystem) -> None:
     w = loops.workspace()
     Y = _state(loops)
     ny = loops.system.n_y
@@ -121,3 +185,34 @@ def test_the_start_is_closed_and_projection_closes_a_bent_state(loops) -> None:
     assert np.abs(phid).max() > 1e-2
     assert np.abs(phi).max() < 1e-12 * loops.size
     assert np.abs(G @ Y[ny:] + phid).max() < 1e-10
+
+
+def test_constrained_accelerations_solve_the_models_equations_on_a_moving_base(moving
+                                                                                ) -> None:
+    """The kernel's ÿ and λ (the mass matrix with the base's translation columns) satisfy
+    the model's residual r(ÿ) = Gᵀλ (`_nonlinear_forward_numba.residual`, gravity on) and
+    G ÿ + γ = 0 at a projected, bent, moving state; Φ invariant under a rigid motion of the
+    whole system (the base's coordinates with the mechanism)."""
+    from flexlink.dynamics._nonlinear_forward_numba import residual
+
+    loops = moving
+    w = loops.workspace()
+    Y = _state(loops)
+    ny = loops.system.n_y
+    u = inputs(loops.system.loads, np.array([T]))[0]
+    assert kernels.project(loops.data, w, u, Y)
+    dY = np.empty_like(Y)
+    kernels.rates(loops.data, w, u, Y, dY)
+    a, lam = w.rhs[:ny].copy(), w.rhs[ny:].copy()
+    _, G, gam, _ = _phi(loops, w, T, Y)
+    r = np.empty(ny)
+    residual(loops.data.fwd, Y[:ny], Y[ny:], a.copy(), w.ang, w.rate, w.acc, w.rot_acc, u, r)
+    scale = np.abs(G.T @ lam).max() + np.abs(r).max()
+    np.testing.assert_allclose(r, G.T @ lam, atol=1e-10 * scale)
+    np.testing.assert_allclose(G @ a, -gam, atol=1e-10 * np.abs(gam).max())
+    assert np.abs(dY[ny:] - a).max() == 0.0
+    s = loops.system
+    if s.base.turns:  # turning the base (and so everything on it) leaves Φ unchanged
+        Z = Y.copy()
+        Z[s.n + s.free.index(s.n_base - 1)] += 0.7
+        assert np.abs(_phi(loops, w, T, Z)[0] - _phi(loops, w, T, Y)[0]).max() < 1e-12

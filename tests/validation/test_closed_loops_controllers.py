@@ -20,7 +20,6 @@ from flexlink.dynamics.controllers import discretize
 from flexlink.errors import SimulationError
 from flexlink.model import Step, Sum
 from flexlink.scenario import scenario_from_dict
-from flexlink.scenario.errors import ScenarioError
 from tests.validation.test_closed_loops import FOUR_BAR, _four_bar_angles
 from tests.validation.test_ppf import ZETA_F, identified_poles
 
@@ -146,14 +145,6 @@ def test_an_over_gained_loop_on_a_closed_mechanism_is_reported_unstable() -> Non
     d["controllers"] = [_ppf(f1, gain)]
     with pytest.raises(SimulationError, match="unstable"):
         flexlink.simulate(scenario_from_dict(d), shapes=False)
-
-
-def test_controllers_on_a_closed_loop_of_the_nonlinear_model_are_refused() -> None:
-    d = _damped([_ppf(25.0, 1.0)])
-    d["simulation"]["model"] = "nonlinear"
-    with pytest.raises(ScenarioError, match=r"closures: controllers run with closed loops on "
-                                            r"the first-order model only"):
-        scenario_from_dict(d)
 
 
 def test_the_held_voltages_drive_the_closures_forces_at_the_outputs() -> None:

@@ -112,23 +112,6 @@ def test_a_four_bar_on_a_free_base_keeps_its_momentum_and_energy() -> None:
     assert r.metadata["closure_residual_relative"] <= 1e-8
 
 
-def test_what_a_closed_loop_on_a_moving_base_still_refuses() -> None:
-    """The nonlinear model and the equilibrium start: refused at load, naming the field."""
-    from flexlink.scenario.errors import ScenarioError
-
-    d = _swinging(flexible=False)
-    d["base"] = {"type": "free", "mass": 2.0, "inertia": 0.01}
-    d["simulation"]["model"] = "nonlinear"
-    with pytest.raises(ScenarioError, match=r"closures: closed loops on a moving base "
-                                            r"\(base.type = 'free'\) run on the first-order"):
-        scenario_from_dict(d)
-    d["simulation"]["model"] = "first_order"
-    d["simulation"]["initial"] = "equilibrium"
-    with pytest.raises(ScenarioError, match=r"set simulation.initial = \"rest\""):
-        scenario_from_dict(d)
-
-
-
 def test_an_elastic_crank_on_a_free_cart_sets_the_reduced_inertia_frequency() -> None:
     """Rigid four-bar, crank joint elastic with its motor held, on a free cart (1 kg) on a
     rail at 30°: T = ½ M ṡ² + c ṡ β̇₁ + ½ I_eff β̇₁², so ω² = k / (I_eff − c²/M), c the bars'

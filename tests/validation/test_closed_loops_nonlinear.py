@@ -136,14 +136,6 @@ def test_a_fixed_step_with_closures_is_refused() -> None:
         scenario_from_dict(d)
 
 
-def test_an_equilibrium_start_with_closures_on_the_nonlinear_model_is_refused() -> None:
-    """The closed mechanism's static start is solved on the first-order equations only."""
-    d = _nonlinear(FOUR_BAR)
-    d["simulation"]["initial"] = "equilibrium"
-    with pytest.raises(ScenarioError, match="closures.*simulation.initial"):
-        scenario_from_dict(d)
-
-
 @pytest.mark.parametrize("drive", ["torque", "servo"])
 def test_driven_crank_under_gravity_does_the_work_of_its_torque(drive: str) -> None:
     """A driven crank (a torque step; a velocity servo with an integrator) turns the flexible

@@ -15,6 +15,16 @@ deformed link is a constant row W of cumulative arc weights, so with D = W_link 
 exact for the inextensible links: the loop closes on the deformed links' arcs, with no
 expansion in the deflection (a bent link's shortening is part of Σ D e(α)).
 
+A moving base. Ground points and slider lines are fixed in the base: positions are measured
+from the base's point R_b, so its translation (a free base, a cart) cancels from Φ; a cart's
+constant attitude turns the ground point g and the line's normal n₀ once (`NonlinearLoopSystem`);
+a turning base (pinned, free) turns them with its attitude θ_b (a coordinate of y):
+Φ = n·(Σ D e(α) − a), a = A(θ_b) g, n = A(θ_b) n₀ (a revolute's n: the global axes), with
+ä = θ̈_b a⊥ − θ̇_b² a, ṅ = θ̇_b n⊥, n̈ = θ̈_b n⊥ − θ̇_b² n: the θ̈_b terms join G's attitude
+column, the rest γ. The base's translation moves no node angle, so the mass matrix's columns
+of a free base's x, y or a cart's free travel are the residual's changes under unit
+accelerations of those coordinates.
+
 Dynamics. With r(ÿ) = M ÿ + r₀ the model's residual (`_nonlinear_forward_numba.residual`:
 inertia + damping + elastic − applied on y = [q, p_free, σ]; affine in ÿ, so M's columns
 are its changes under unit accelerations), the constrained accelerations solve
@@ -43,7 +53,7 @@ from ._nonlinear_numba import mass_matrix
 
 NonlinearLoopWork = namedtuple("NonlinearLoopWork", [
     "yp", "c", "s", "ad", "ang", "rate", "acc", "rot_acc", "Phi", "Phid", "G", "gam", "GJ",
-    "Gd", "step", "X", "r0", "H", "HA", "K", "rhs"])
+    "Gd", "step", "X", "r0", "r1", "H", "HA", "K", "rhs"])
 NonlinearLoopWork.__doc__ = ("Scratch arrays of the kernels (allocated once per run: see "
                              "workspace).")
 
@@ -57,7 +67,7 @@ def workspace(d, n_state: int) -> NonlinearLoopWork:
     e = np.empty
     return NonlinearLoopWork(e(n_state), e(nodes), e(nodes), e(nodes), e(nodes), e(nodes),
                              e(nodes), e(f.rot_J.shape[0]), e(nc), e(nc), e((nc, ny)), e(nc),
-                             e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e((nodes, nodes)),
+                             e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e(ny), e((nodes, nodes)),
                              e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc))
 
 
@@ -99,16 +109,27 @@ def constraints(d, w, Y):
                 a += x * Y[i]
                 ad += x * Y[ny + i]
         w.c[j], w.s[j], w.ad[j] = np.cos(a), np.sin(a), ad
+    # a turning base (pinned, free): its attitude θ_b turns the ground points and lines
+    turn = d.turn
+    th, om = (Y[turn], Y[ny + turn]) if turn >= 0 else (0.0, 0.0)
+    cb, sb = np.cos(th), np.sin(th)
     for c in range(d.kind.shape[0]):
         row = d.row[c]
         rows = 2 if d.kind[c] == REVOLUTE else 1
+        # the ground point a = A(θ_b) g (m, from the base's point) and the slider line's
+        # normal n = A(θ_b) n₀
+        ax = cb * d.ground[c, 0] - sb * d.ground[c, 1]
+        ay = sb * d.ground[c, 0] + cb * d.ground[c, 1]
+        nx_ = cb * d.normal[c, 0] - sb * d.normal[c, 1]
+        ny_ = sb * d.normal[c, 0] + cb * d.normal[c, 1]
         for e in range(rows):
             # the component of Φ: x, y (revolute) or along the slider line's normal
-            ex = 1.0 if (rows == 2 and e == 0) else (0.0 if rows == 2 else d.normal[c, 0])
-            ey = 0.0 if (rows == 2 and e == 0) else (1.0 if rows == 2 else d.normal[c, 1])
-            phi = -(ex * d.ground[c, 0] + ey * d.ground[c, 1])
+            ex = 1.0 if (rows == 2 and e == 0) else (0.0 if rows == 2 else nx_)
+            ey = 0.0 if (rows == 2 and e == 0) else (1.0 if rows == 2 else ny_)
+            phi = -(ex * ax + ey * ay)
             gam = 0.0
             phid = 0.0
+            dx, dy, vx, vy = 0.0, 0.0, 0.0, 0.0  # Σ D e(α_j), Σ D e⊥(α_j) α̇_j
             w.G[row + e, :] = 0.0
             w.GJ[row + e, :] = 0.0
             for j in range(nodes):
@@ -120,12 +141,28 @@ def constraints(d, w, Y):
                 phi += D * along
                 phid += D * across * w.rate[j]
                 gam += D * (across * w.acc[j] - along * w.ad[j] * w.ad[j])
+                if turn >= 0:
+                    dx += D * w.c[j]
+                    dy += D * w.s[j]
+                    vx -= D * w.s[j] * w.ad[j]
+                    vy += D * w.c[j] * w.ad[j]
                 for i in range(Ay.shape[1]):
                     if Ay[j, i] != 0.0:
                         w.G[row + e, i] += D * across * Ay[j, i]
                 for k in range(d.B_joint.shape[1]):
                     if d.B_joint[j, k] != 0.0:
                         w.GJ[row + e, k] += D * across * d.B_joint[j, k]
+            if turn >= 0:
+                # Φ = n·(Σ D e(α) − a) (a = 0 between two links): ä = θ̈_b a⊥ − θ̇_b² a; a
+                # slider's n turns too, ṅ = θ̇_b n⊥, n̈ = θ̈_b n⊥ − θ̇_b² n (the θ̈_b parts
+                # in G's attitude column)
+                w.G[row + e, turn] -= ey * ax - ex * ay  # n·a⊥
+                gam += om * om * (ex * ax + ey * ay)
+                if rows == 1:
+                    rx, ry = dx - ax, dy - ay  # d
+                    wx, wy = vx + om * ay, vy - om * ax  # ḋ
+                    w.G[row + e, turn] += ex * ry - ey * rx  # n⊥·d
+                    gam += 2.0 * om * (ex * wy - ey * wx) - om * om * (ex * rx + ey * ry)
             w.Phi[row + e], w.gam[row + e], w.Phid[row + e] = phi, gam, phid
 
 
@@ -196,6 +233,16 @@ def solve_constrained(d, w, u, Y):
     for i in range(ny):
         for k in range(ny):
             K[i, k] = M[i, k]
+    # a translating base (free: x, y; a cart with a free travel: s) moves no node angle, so
+    # mass_matrix leaves its columns out: they are the residual's change under a unit
+    # acceleration (it is affine in ÿ), its rows their transposes (M symmetric)
+    for k in d.moving:
+        X[k] = 1.0
+        residual(f, y, v, X, w.ang, w.rate, w.acc, w.rot_acc, u, w.r1)
+        X[k] = 0.0
+        for i in range(f.n + f.nu):
+            K[i, k] = w.r1[i] - r0[i]
+            K[k, i] = K[i, k]
     for i in range(f.n + f.nu, ny):
         K[i, i] = 1.0
     for i in range(ny):

@@ -4,7 +4,9 @@ on the constrained equations. The elastic coordinates, and the angle or integral
 holding an independent joint, are moved until their accelerations vanish at rest, the loops
 closed at every trial (the compiled closed-loop rates project the dependent joints and carry
 the constraint forces); Newton's method of `equilibrium.solve`. Torque-driven and free
-independent joints keep their given state, as in the open tree.
+independent joints keep their given state, as in the open tree; on a moving base the base's
+coordinates too (equilibrium relative to the base, which may accelerate). One solver serves
+both models (`closed_equilibrium`: first order; `closed_nonlinear_equilibrium`).
 """
 
 from __future__ import annotations
@@ -24,22 +26,52 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
 
     system = loops.system
     nu, n = len(system.free), system.n
-    dependent = set(loops.dep.tolist())
     unknowns = list(range(2 * nu, 2 * nu + n))
     rows = list(range(2 * nu + n, 2 * nu + 2 * n))  # z̈ in the rates
     for s, k in enumerate(system.servos):
         j = system.free.index(system.drive_index(k))
-        if j in dependent:
-            raise SimulationError(
-                f"simulation.initial = \"equilibrium\": joint {k + 1}'s servo drives a joint "
-                "the closures determine (a dependent joint of the loop); drive an independent "
-                "joint (the crank), or use initial = \"rest\"")
+        _independent(k, j, loops.dep)
         rows.append(nu + j)
         unknowns.append(2 * nu + 2 * n + s if system.chain.joints[k].integrator else j)
+    rest = list(range(nu, 2 * nu)) + list(range(2 * nu + n, 2 * nu + 2 * n))
+    return _solve(rates, project, loops.data, loops.workspace(y.size), u, y, unknowns, rows,
+                  rest)
+
+
+def closed_nonlinear_equilibrium(loops, Y: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The same on the nonlinear model: ``loops`` a `NonlinearLoopSystem`, Y = [y, ẏ] with
+    y = [q, p_free, σ] (a servo's integral is σ̇, a rate)."""
+    from ._nonlinear_loops_numba import project, rates
+
+    system = loops.system
+    n, nu, ny = system.n, system.nu, system.n_y
+    unknowns = list(range(n))
+    rows = list(range(ny, ny + n))  # q̈ in the rates
+    for s, k in enumerate(system.servos):
+        servo, i = system.loads.servo_of(k)
+        j = system.free.index(i)
+        _independent(k, j, loops.data.dep - n)
+        rows.append(ny + n + j)
+        unknowns.append(ny + n + nu + s if servo.integrator else n + j)
+    rest = list(range(ny, ny + n + nu))
+    return _solve(rates, project, loops.data, loops.workspace(), u, Y, unknowns, rows, rest)
+
+
+def _independent(k: int, j: int, dependent: np.ndarray) -> None:
+    """Refuses a servo (joint k + 1, free coordinate j) on a dependent joint."""
+    if j in set(np.asarray(dependent).tolist()):
+        raise SimulationError(
+            f"simulation.initial = \"equilibrium\": joint {k + 1}'s servo drives a joint "
+            "the closures determine (a dependent joint of the loop); drive an independent "
+            "joint (the crank), or use initial = \"rest\"")
+
+
+def _solve(rates, project, data, work, u: np.ndarray, y: np.ndarray, unknowns: list[int],
+           rows: list[int], rest: list[int]) -> np.ndarray:
+    """State y with its ``rest`` entries (rates) zeroed and its ``unknowns`` moved until
+    the compiled closed-loop ``rates`` vanish on ``rows``, then projected on the loops."""
     start = np.asarray(y, dtype=float).copy()
-    start[nu:2 * nu] = 0.0
-    start[2 * nu + n:2 * nu + 2 * n] = 0.0
-    work = loops.workspace(start.size)
+    start[rest] = 0.0
     out = np.empty_like(start)
 
     def residuals(x: np.ndarray) -> np.ndarray:
@@ -47,13 +79,13 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         for i in range(x.shape[0]):
             trial = start.copy()
             trial[unknowns] = x[i]
-            rates(loops.data, work, u, trial, out)
+            rates(data, work, u, trial, out)
             r[i] = out[rows]
         return r
 
     closed = start.copy()
     closed[unknowns] = equilibrium.solve(residuals, start[unknowns])
-    if not project(loops.data, work, u, closed):
+    if not project(data, work, u, closed):
         raise SimulationError("simulation.initial = \"equilibrium\": the deflected mechanism "
                               "does not close (a singular configuration at t = 0)")
     return closed

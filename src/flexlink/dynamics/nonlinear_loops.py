@@ -2,9 +2,9 @@
 and the joints that close its loops (`model.loops.Closure`), as data for the compiled kernels
 (`_nonlinear_loops_numba.py`, where the exact closure equations are written out).
 
-The checks before anything runs (a fixed base: the exact closure kernels start the branches
-at fixed points; enough free joints, independent closure equations), the choice of the dependent joints and the closed start at t = 0 are the
-first-order loops' (`loops.LoopSystem` on the tree's first-order twin ``system.loads``): a
+The checks before anything runs (enough free joints, independent closure equations), the
+choice of the dependent joints and the closed start at t = 0 are the first-order loops'
+(`loops.LoopSystem` on the tree's first-order twin ``system.loads``): a
 closed loop starts from rest undeformed (q = 0), where the first-order positions are the
 exact ones, so the same joint angles close both models.
 """
@@ -24,7 +24,7 @@ from .nonlinear_forward import NonlinearForwardSystem
 
 NonlinearLoopData = namedtuple("NonlinearLoopData", [
     "fwd", "At", "kind", "D", "ground", "normal", "row", "dep", "tol", "B_pres", "offset", "rot_pres",
-    "B_joint"])
+    "B_joint", "turn", "moving"])
 NonlinearLoopData.__doc__ = (
     "Constant arrays of the closures on the nonlinear model: fwd the tree's "
     "NonlinearForwardData; At its Ay transposed (contiguous); per closure its kind (REVOLUTE, SLIDER), D (nodes,) the arc "
@@ -34,25 +34,23 @@ NonlinearLoopData.__doc__ = (
     "(nodes, N) and offset (nodes,) the node angles' prescribed part (coefficients on the "
     "prescribed joints' angles, zero columns for the free ones; constant offsets, rad); "
     "rot_pres (n_rot, N) the rotary inertias' coefficients on the prescribed joints; "
-    "B_joint (nodes, N) every joint angle's coefficients in the node angles.")
+    "B_joint (nodes, N) every joint angle's coefficients in the node angles; turn the "
+    "column of a turning base's attitude θ_b in y (−1: none), which turns the ground points "
+    "and slider lines (given in the base's axes); moving the columns of y that translate "
+    "the base (a free base's x, y; a cart's free travel).")
 
-
-MOVING_BASE = ("closures: closed loops on a moving base (base.type = {kind!r}) run on the "
-               "first-order model only; set simulation.model = \"first_order\" or a fixed base")
 
 
 class NonlinearLoopSystem:
     """The nonlinear tree ``system`` with its loop-closing ``closures``.
 
-    Raises SimulationError naming ``closures[i]`` when the loops cannot be held: a moving
-    base, or (as `loops.LoopSystem`) too few free joints, dependent equations, a loop that
+    Raises SimulationError naming ``closures[i]`` when the loops cannot be held (as
+    `loops.LoopSystem`): too few free joints, dependent equations, a loop that
     does not close at t = 0, with its residual in metres)."""
 
     def __init__(self, system: NonlinearForwardSystem, closures: Sequence[Closure]) -> None:
         self.system = system
         self.closures = tuple(closures)
-        if system.loads.base.kind != "fixed":
-            raise SimulationError(MOVING_BASE.format(kind=system.loads.base.kind))
         self.first_order = LoopSystem(system.loads, self.closures)
         self.n_c = self.first_order.n_c
         self.size = self.first_order.size
@@ -78,14 +76,24 @@ class NonlinearLoopSystem:
         nc = len(self.closures)
         ground = np.array([c.ground if c.to_link is None else (0.0, 0.0)
                            for c in self.closures], dtype=float).reshape(nc, 2)
+        normal = np.array(lo.data.normal, dtype=float).reshape(nc, 2)
+        # Ground points and lines are fixed in the base: a cart's constant attitude turns
+        # them once here, a turning base's attitude in the kernel.
+        c0, s0 = np.cos(s.root_offset), np.sin(s.root_offset)
+        turn = np.array([[c0, -s0], [s0, c0]])
+        ground, normal = ground @ turn.T, normal @ turn.T
+        base = s.base
+        attitude = (s.n + s.free.index(s.n_base - 1)) if base.turns else -1
+        moving = ([s.n, s.n + 1] if s.translation else [s.n] if s.cart_free else [])
         return NonlinearLoopData(
             fwd=s.kernel_data(), At=np.ascontiguousarray(s.kernel_data().Ay.T), kind=np.asarray(lo.data.kind, dtype=np.int64),
             D=D, ground=ground,
-            normal=np.ascontiguousarray(lo.data.normal, dtype=float),
+            normal=np.ascontiguousarray(normal),
             row=np.asarray(lo.data.row, dtype=np.int64),
             dep=np.asarray(s.n + lo.dep, dtype=np.int64), tol=float(lo.data.tol),
             B_pres=B_pres, offset=np.ascontiguousarray(s.offset, dtype=float),
-            rot_pres=rot_pres, B_joint=B_joint)
+            rot_pres=rot_pres, B_joint=B_joint, turn=int(attitude),
+            moving=np.array(moving, dtype=np.int64))
 
     def workspace(self):
         from ._nonlinear_loops_numba import workspace
@@ -93,26 +101,33 @@ class NonlinearLoopSystem:
         return workspace(self.data, 2 * self.system.n_y)
 
     def _closed_start(self) -> np.ndarray:
-        """[y, ẏ] at t = 0: the first-order loops' closed start (q = 0) carried over, then
-        projected on the exact closures (a check: it moves nothing beyond round-off)."""
-        from ..errors import SimulationError
+        """[y, ẏ] at t = 0: the first-order loops' closed start at rest (q = 0, the servo
+        integrals zero) carried over, then projected on the exact closures (a check: it
+        moves nothing beyond round-off); with ``initial = "equilibrium"`` then moved to
+        static equilibrium on the closed loops (`loop_equilibrium`)."""
         from ._nonlinear_loops_numba import project
 
         s, nu = self.system, self.system.nu
-        y, v = s.initial_state()
-        start = self.first_order.y0
+        y, v = np.zeros(s.n_y), np.zeros(s.n_y)
+        start = self.first_order.y0  # its tree starts at rest: the equilibrium comes below
         y[s.n:s.n + nu], v[s.n:s.n + nu] = start[:nu], start[nu:2 * nu]
         Y = np.concatenate([y, v])
-        if not project(self.data, self.workspace(), inputs(s.loads, np.zeros(1))[0], Y):
+        u0 = inputs(s.loads, np.zeros(1))[0]
+        if not project(self.data, self.workspace(), u0, Y):
             raise SimulationError("closures: the loop does not close at t = 0 on the "
                                   "nonlinear model's kinematics")
+        if s.initial == "equilibrium":
+            from .loop_equilibrium import closed_nonlinear_equilibrium
+
+            return closed_nonlinear_equilibrium(self, Y, u0)
         return Y
 
 
-def closed_states(loops: NonlinearLoopSystem, t: np.ndarray, states: np.ndarray
-                  ) -> tuple[np.ndarray, ...]:
-    """States [y, ẏ] at times t projected onto the loops (a copy), ÿ (nt, n_y), the
-    multipliers λ (nt, n_c: force on each closure's point, N, global axes; a slider's along
+def closed_states(loops: NonlinearLoopSystem, t: np.ndarray, states: np.ndarray,
+                  u: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    """States [y, ẏ] at times t projected onto the loops (a copy) with the input rows ``u``
+    (default `forward_kernel.inputs` at t; a controlled run's carry the held voltages),
+    ÿ (nt, n_y), the multipliers λ (nt, n_c: force on each closure's point, N, global axes; a slider's along
     its line's normal), the constraint forces' torque on each joint (nt, N; N·m) and the
     largest |Φ| (nt,), m."""
     from ._nonlinear_loops_numba import closed_states as kernel
@@ -123,7 +138,7 @@ def closed_states(loops: NonlinearLoopSystem, t: np.ndarray, states: np.ndarray
     lam = np.empty((nt, loops.n_c))
     joint = np.empty((nt, len(loops.system.chain.links)))
     residual = np.empty(nt)
-    kernel(loops.data, loops.workspace(), inputs(loops.system.loads, t), out, acc, lam, joint,
-           residual)
+    u = inputs(loops.system.loads, t) if u is None else np.ascontiguousarray(u, dtype=float)
+    kernel(loops.data, loops.workspace(), u, out, acc, lam, joint, residual)
     return out, acc, lam, joint, residual
 

@@ -14,7 +14,7 @@ from .schema import CLOSURES, read_fields
 
 def read_closures(tables: list[tuple[str, dict[str, Any]]], links: list[dict[str, Any]],
                   joints: list[dict[str, Any]], simulation: Mapping[str, Any],
-                  base: Mapping[str, Any] | None, taken: set[str], p: Problems
+                  taken: set[str], p: Problems
                   ) -> list[dict[str, Any]]:
     """Resolved closure dicts (links by name, points filled in with the links' tips).
     ``taken``: names the closures must not reuse (links, sensors, actuators, automatic
@@ -64,23 +64,6 @@ def read_closures(tables: list[tuple[str, dict[str, Any]]], links: list[dict[str
     if simulation.get("model") == "nonlinear" and simulation.get("step") is not None:
         p.add("closures: closed loops on the nonlinear model run with error-controlled steps; "
               "drop simulation.step")
-    if simulation.get("model") == "nonlinear" and simulation.get("initial") == "equilibrium":
-        p.add("closures: a closed loop on the nonlinear model starts from its joints' initial "
-              "angles and rates; set simulation.initial = \"rest\" (or use the first-order "
-              "model)")
-    moving = base is not None and base.get("type") not in (None, "fixed")
-    if moving and simulation.get("model") == "nonlinear":
-        p.add(f"closures: closed loops on a moving base (base.type = {base.get('type')!r}) run "
-              "on the first-order model only; set simulation.model = \"first_order\" or a "
-              "fixed base")
-    if moving and simulation.get("initial") == "equilibrium":
-        p.add("closures: a closed loop on a moving base starts from its joints' initial "
-              "angles and rates; set simulation.initial = \"rest\" (or a fixed base)")
-    elastic = [i for i, j in enumerate(joints) if "spring_stiffness" in j]
-    if elastic and simulation.get("model") == "nonlinear":
-        p.add(f"closures: elastic joints run with closed loops on the first-order model only "
-              f"(joints[{elastic[0]}] has spring_stiffness); set simulation.model = "
-              "\"first_order\", drop the spring (a rigid joint) or the [[closures]]")
     movable = [i for i, j in enumerate(joints) if "drive" in j]
     equations = sum(1 if c.get("kind") == "slider" else 2 for c in out)
     if not movable:

@@ -159,12 +159,8 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                             p)
     _check_controller_samples(controllers, simulation.get("t_end"), p)
     closures = read_closures(p.table_array(raw, "closures", required=False), links, joints,
-                             simulation, raw.get("base") if isinstance(raw.get("base"), Mapping)
-                             else None, reserved | set(link_names) | sensor_names
+                             simulation, reserved | set(link_names) | sensor_names
                              | {a.get("name") for a in actuators}, p)
-    if closures and controllers and simulation.get("model") == "nonlinear":
-        p.add("closures: controllers run with closed loops on the first-order model only; "
-              "set simulation.model = \"first_order\" or drop [[controllers]]")
     check_sliders(joint_tables, base, simulation, closures, controllers, p, links)
     if p:
         raise ScenarioError(p.messages, source)

@@ -51,10 +51,11 @@ def path_function(name: str) -> PathFunction:
 
 def model_path(scenario: Scenario) -> str:
     """The path that runs ``scenario``: one of PATHS."""
-    if scenario.controllers and scenario.is_forward and scenario.settings.model == "nonlinear":
+    if scenario.controllers and scenario.is_forward and scenario.settings.model == "nonlinear" \
+            and not scenario.closures:
         raise ValueError("controllers with a moving base or a driven joint run with the first-"
                          "order model for now (model = \"first_order\"); the nonlinear model "
-                         "runs them with prescribed joints")
+                         "runs them with prescribed joints or in closed loops")
     if scenario.controllers and scenario.settings.model != "nonlinear" \
             and not scenario.is_forward:
         return "closed_loop"

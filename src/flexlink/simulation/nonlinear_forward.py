@@ -23,11 +23,15 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
     system.stage_inputs(t)  # fails early if a measured motion or table does not cover t
     closures: dict = {}
     constraint_torques = None
+    loop = None
     if scenario.closures:  # loops closed by constraints (simulation/nonlinear_loops.py)
+        from .forward import sampled_loop
         from .nonlinear_loops import nonlinear_loop_solution
 
+        if scenario.controllers:  # sensors read as rows over q: the first-order twin's modes
+            loop = sampled_loop(scenario, system.loads, t, "nonlinear")
         solution, closure_values, constraint_torques, closures = nonlinear_loop_solution(
-            scenario, system, t, on_progress)
+            scenario, system, t, on_progress, loop)
     else:
         solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
                                            on_progress=on_progress, atol=settings.atol)
@@ -40,9 +44,16 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
     values = forward_values(system, t, y, v, a, scenario.sensors, constraint_torques)
     if scenario.closures:
         values.update(closure_values)
-    volts = system.loads.voltages(t)  # open loop: the commanded voltages, clipped
-    values.update({voltage_name(a.name): volts[:, j] for j, a in enumerate(system.actuators)})
+    if loop is None:
+        volts = system.loads.voltages(t)  # open loop: the commanded voltages, clipped
+        values.update({voltage_name(a.name): volts[:, j]
+                       for j, a in enumerate(system.actuators)})
+    else:
+        from .forward import loop_values
+
+        values.update(loop_values(scenario, loop, t))
     shapes = forward_shapes(system, t, y) if with_shapes else ()
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "forward", "elastic_coordinates": system.n,
-        "rigid_coordinates": system.n_rigid, **closures})
+        "rigid_coordinates": system.n_rigid,
+        **({"controllers": len(scenario.controllers)} if loop else {}), **closures})

@@ -12,19 +12,22 @@ from ..dynamics.nonlinear_forward import NonlinearForwardSystem
 from ..dynamics.nonlinear_loops import NonlinearLoopSystem
 from ..model import Scenario
 from ..solvers import Solution
+from ..solvers.gauss_sampled import SampledLoop
 from ..solvers.nonlinear_loops import integrate_nonlinear_loops
 from .common import Progress
 from .loops import closure_metadata, closure_values
 
 
 def nonlinear_loop_solution(scenario: Scenario, system: NonlinearForwardSystem,
-                            t: np.ndarray, on_progress: Progress
+                            t: np.ndarray, on_progress: Progress,
+                            loop: SampledLoop | None = None
                             ) -> tuple[Solution, dict[str, np.ndarray], np.ndarray, dict]:
     """The Solution on the closed loops, the closures' channel values, the constraint
     forces' torque on each joint (nt, N; N·m: left out of the motor torques) and metadata
-    (the largest closure residual, m, and relative to the loop's size)."""
+    (the largest closure residual, m, and relative to the loop's size); ``loop``: the
+    scenario's sampled controllers."""
     loops = NonlinearLoopSystem(system, scenario.closures)
     settings = scenario.settings
-    run = integrate_nonlinear_loops(loops, t, settings.rtol, settings.atol, on_progress)
+    run = integrate_nonlinear_loops(loops, t, settings.rtol, settings.atol, on_progress, loop)
     return (run.solution, closure_values(scenario, loops.first_order, run.multipliers),
             run.joint_forces, closure_metadata(loops.first_order, run.residual))
