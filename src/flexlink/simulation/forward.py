@@ -24,6 +24,7 @@ from .cart import check_travel
 from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress, check_tip_deflection
 from .prismatic import check_travel as check_slider_travel
+from .slider_drift import slider_drift_metadata
 
 
 def forward_system(scenario: Scenario) -> ForwardSystem:
@@ -80,6 +81,10 @@ def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, soluti
         if loop is None:
             raise
         raise SimulationError(f"closed loop unstable: {exc}") from None  # the tips ran away
+    drift = slider_drift_metadata(system, t, p, z, zd, zdd)
+    if "validity_warning" in drift and "validity_warning" in validity:
+        drift["validity_warning"] = f"{validity['validity_warning']}; {drift['validity_warning']}"
+    validity.update(drift)
     elastic = Solution(t, z, zd, zdd, solution.method)
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
     values.update(pose_and_joint_values(system, t, p, pd, solution.extra, outputs.torques,
