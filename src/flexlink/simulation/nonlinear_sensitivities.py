@@ -1,18 +1,20 @@
-"""Sensitivities of a nonlinear run with prescribed joints (Gauss collocation) to numeric
-scenario fields: the derivative of what the run computed, on its own accepted steps
-(`solvers.gauss_sensitivity`).
+"""Sensitivities of a nonlinear run (Gauss collocation; prescribed joints, or driven joints
+and a moving base) to numeric scenario fields: the derivative of what the run computed, on
+its own accepted steps (`solvers.gauss_sensitivity`).
 
 Pieces from differences, each at a fixed state or time, never of a run (fields moved by
 ±δ as in `sensitivities.prepare_fields`):
 
 * ∂R/∂p at every stage: the compiled residual of the system built at the moved field,
-  with its own stage inputs (a motion's angle moves the prescribed node angles), at the
-  replayed stage states;
-* ∂q0/∂p: the moved systems' initial coordinates (a static equilibrium start);
+  with its own stage inputs (a motion's angle moves the prescribed node angles, a drive's
+  amplitude the input rows), at the replayed stage states;
+* ∂y0/∂p: the moved systems' initial states (a static equilibrium start, a base's initial
+  rate);
 * ∂channel/∂p: the outputs (the quintic Hermite interpolant of the step ends with the
-  moved system's accelerations there, `gauss.node_solution`) and the channels
-  (`nonlinear.nonlinear_values`) of the moved scenario at the step ends moved along their
-  sensitivities.
+  moved system's accelerations there: `gauss.node_solution`, `gauss_forward.node_solution`)
+  and the channels (`nonlinear.nonlinear_values`,
+  `nonlinear_forward.nonlinear_forward_values`) of the moved scenario at the step ends
+  moved along their sensitivities.
 """
 
 from __future__ import annotations
@@ -31,48 +33,156 @@ class Refused(ValueError):
     `sensitivities.SensitivityError`)."""
 
 
-def _system(scenario: Scenario) -> Any:
-    from ..dynamics.nonlinear import NonlinearSystem
+class _Prescribed:
+    """The nonlinear model with every joint prescribed (`NonlinearSystem`, unknowns q)."""
 
-    settings = scenario.settings
-    return NonlinearSystem(scenario.chain, actuators=scenario.actuators,
-                           gravity=settings.gravity, initial=settings.initial)
+    @staticmethod
+    def system(scenario: Scenario) -> Any:
+        from ..dynamics.nonlinear import NonlinearSystem
+
+        settings = scenario.settings
+        return NonlinearSystem(scenario.chain, actuators=scenario.actuators,
+                               gravity=settings.gravity, initial=settings.initial)
+
+    @staticmethod
+    def run(scenario: Scenario, t: np.ndarray, on_progress: Progress, shapes: bool,
+            step_ends: list) -> PathRun:
+        from .nonlinear import run_nonlinear
+
+        return run_nonlinear(scenario, t, on_progress, shapes, step_ends=step_ends)
+
+    @staticmethod
+    def newton(system: Any) -> Any:
+        from ..solvers.gauss import NEWTON_MAX, NEWTON_TOL, ROUND_OFF
+        from ..solvers.gauss_steps import newton_settings
+
+        return newton_settings(NEWTON_TOL, NEWTON_MAX, ROUND_OFF * system.max_frequency**2,
+                               False)
+
+    @staticmethod
+    def size(system: Any) -> int:
+        return int(system.n)
+
+    @staticmethod
+    def stage_inputs(system: Any, times: np.ndarray) -> Any:
+        return system.node_inputs(times).stage_inputs()
+
+    @staticmethod
+    def initial(system: Any) -> tuple[np.ndarray, np.ndarray]:
+        return system.initial_coordinates(), np.zeros(system.n)
+
+    @staticmethod
+    def inputs_jump(system: Any) -> np.ndarray:
+        from ..dynamics.histories import input_breakpoints
+
+        return np.asarray(input_breakpoints(system.chain.joints, system.actuators),
+                          dtype=float)
+
+    @staticmethod
+    def values(scenario: Scenario, system: Any, t_nodes: np.ndarray, y: np.ndarray,
+               v: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
+        from ..solvers.gauss import node_solution
+        from .nonlinear import nonlinear_values
+
+        solution = Solution(t, *node_solution(system, t_nodes, y, v, t), "gauss")
+        return nonlinear_values(scenario, system, solution, system.joint_history(t))
+
+
+class _Forward(_Prescribed):
+    """The nonlinear model with rigid coordinates (`NonlinearForwardSystem`, unknowns
+    [q, p_free, servo integrals])."""
+
+    @staticmethod
+    def system(scenario: Scenario) -> Any:
+        from ..dynamics.nonlinear_forward import NonlinearForwardSystem
+
+        settings = scenario.settings
+        return NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators,
+                                      gravity=settings.gravity, initial=settings.initial)
+
+    @staticmethod
+    def run(scenario: Scenario, t: np.ndarray, on_progress: Progress, shapes: bool,
+            step_ends: list) -> PathRun:
+        from .nonlinear_forward import run_nonlinear_forward
+
+        return run_nonlinear_forward(scenario, t, on_progress, shapes, step_ends=step_ends)
+
+    @staticmethod
+    def newton(system: Any) -> Any:
+        from ..solvers.gauss import NEWTON_MAX, ROUND_OFF
+        from ..solvers.gauss_forward import NEWTON_TOL_FORWARD
+        from ..solvers.gauss_steps import newton_settings
+
+        return newton_settings(NEWTON_TOL_FORWARD, NEWTON_MAX,
+                               ROUND_OFF * system.max_frequency**2, True)
+
+    @staticmethod
+    def size(system: Any) -> int:
+        return int(system.n_y)
+
+    @staticmethod
+    def stage_inputs(system: Any, times: np.ndarray) -> Any:
+        from ..dynamics.nonlinear_kernel import stage_rows
+
+        return stage_rows(*system.stage_inputs(times))
+
+    @staticmethod
+    def initial(system: Any) -> tuple[np.ndarray, np.ndarray]:
+        return system.initial_state()
+
+    @staticmethod
+    def inputs_jump(system: Any) -> np.ndarray:
+        from ..dynamics.forward_kernel import breakpoints
+
+        return np.asarray(breakpoints(system.loads), dtype=float)
+
+    @staticmethod
+    def values(scenario: Scenario, system: Any, t_nodes: np.ndarray, y: np.ndarray,
+               v: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
+        from ..solvers.gauss_forward import node_solution
+        from .nonlinear_forward import nonlinear_forward_values
+
+        return nonlinear_forward_values(scenario, system,
+                                        node_solution(system, t_nodes, y, v, t))
 
 
 def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.ndarray,
                                      on_progress: Progress, shapes: bool
                                      ) -> tuple[PathRun, dict[str, np.ndarray]]:
-    """The nonlinear prescribed run of ``scenario`` (`nonlinear.run_nonlinear`) and, per
-    channel, its derivatives (nt, K) in the fields (`sensitivities._Field`)."""
+    """The nonlinear run of ``scenario`` (prescribed joints: `nonlinear.run_nonlinear`;
+    rigid coordinates: `nonlinear_forward.run_nonlinear_forward`) and, per channel, its
+    derivatives (nt, K) in the fields (`sensitivities._Field`)."""
     from ..solvers._gauss_sensitivity_numba import residuals
-    from ..solvers.gauss import NEWTON_MAX, NEWTON_TOL, ROUND_OFF, node_solution
     from ..solvers.gauss_sensitivity import gauss_tangent, replay
-    from ..solvers.gauss_steps import NODES, newton_settings
-    from .nonlinear import nonlinear_values, run_nonlinear
+    from ..solvers.gauss_steps import NODES
     from .sensitivities import _same_model
 
+    path = _Forward if scenario.is_forward else _Prescribed
     nodes: list = []
-    run = run_nonlinear(scenario, t, on_progress, shapes, step_ends=nodes)
+    run = path.run(scenario, t, on_progress, shapes, nodes)
     if not nodes:
         raise Refused("sensitivities: every link is rigid: there is nothing to differentiate "
                       "through the integrator")
-    t_nodes, q, v, parts = nodes[0]
-    nominal = _system(scenario)
-    systems = [[nominal if j == 0 or _same_model(sc, scenario) else _system(sc)
+    t_nodes, y, v, parts = nodes[0]
+    nominal = path.system(scenario)
+    same = _same_forward if scenario.is_forward else _same_model
+    systems = [[nominal if j == 0 or same(sc, scenario) else path.system(sc)
                 for j, sc in zip(f.offsets, f.scenarios, strict=True)] for f in fields]
+    jumps = path.inputs_jump(nominal)
     for f, group in zip(fields, systems, strict=True):
-        if any(s.n != nominal.n for s in group):
-            raise Refused(f"sensitivities: {f.target.text} changes the number of elastic "
-                          "coordinates")
+        if any(path.size(s) != path.size(nominal) for s in group):
+            raise Refused(f"sensitivities: {f.target.text} changes the number of unknowns")
+        if any(not np.array_equal(path.inputs_jump(s), jumps) for s in group):
+            raise Refused(f"sensitivities: {f.target.text} moves a time where an input jumps; "
+                          "the computed run is not differentiable in it on a fixed step "
+                          "sequence")
     data = nominal.kernel_data()
-    newton = newton_settings(NEWTON_TOL, NEWTON_MAX, ROUND_OFF * nominal.max_frequency**2,
-                             False)
-    steps = replay(data, lambda times: nominal.node_inputs(times).stage_inputs(), t_nodes, q,
-                   v, parts, newton)
+    steps = replay(data, lambda times: path.stage_inputs(nominal, times), t_nodes, y, v,
+                   parts, path.newton(nominal))
     stage_times = (steps.t[:, None] + NODES[None, :] * steps.h[:, None]).ravel()
-    moved_rows = [[None if s is nominal else s.node_inputs(stage_times).stage_inputs()
+    moved_rows = [[None if s is nominal else path.stage_inputs(s, stage_times)
                    for s in group] for group in systems]
-    K, n = len(fields), nominal.n
+    K, n = len(fields), path.size(nominal)
 
     def forcing(index: np.ndarray, Q: np.ndarray, V: np.ndarray, X: np.ndarray
                 ) -> np.ndarray:
@@ -87,20 +197,21 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
                 out[:, :, k] += (w / f.step) * r
         return out
 
-    q0 = nominal.initial_coordinates()
-    dy0 = np.zeros((n, K))
+    start = path.initial(nominal)
+    dy0, dv0 = np.zeros((n, K)), np.zeros((n, K))
     for k, f in enumerate(fields):
         if any(s is not nominal for s in systems[k]):
-            dy0[:, k] = sum(w * (s.initial_coordinates() if s is not nominal else q0)
-                            for w, s in zip(f.weights, systems[k], strict=True)) / f.step
-    dq, dv = gauss_tangent(steps, data, forcing, dy0, np.zeros((n, K)))
+            for w, s in zip(f.weights, systems[k], strict=True):
+                y0, v0 = start if s is nominal else path.initial(s)
+                dy0[:, k] += w * y0 / f.step
+                dv0[:, k] += w * v0 / f.step
+    dy, dv = gauss_tangent(steps, data, forcing, dy0, dv0)
     channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
         for j, w, sc, s in zip(f.offsets, f.weights, f.scenarios, systems[k], strict=True):
-            moved = Solution(t, *node_solution(s, t_nodes, q + j * f.step * dq[:, :, k],
-                                               v + j * f.step * dv[:, :, k], t), "gauss")
-            values = nonlinear_values(sc, s, moved, s.joint_history(t))
+            values = path.values(sc, s, t_nodes, y + j * f.step * dy[:, :, k],
+                                 v + j * f.step * dv[:, :, k], t)
             for name, value in values.items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(value, dtype=float)
         for name, column in channels.items():
@@ -108,9 +219,20 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
     return run, {name: np.stack(value, axis=-1) for name, value in channels.items()}
 
 
+def _same_forward(moved: Scenario, scenario: Scenario) -> bool:
+    """Whether a moved scenario's forward equations are the scenario's (a sensor's field)."""
+    from .sensitivities import _same_model
+
+    try:
+        return _same_model(moved, scenario) and bool(moved.base == scenario.base)
+    except ValueError:  # values holding arrays: compared as different
+        return False
+
+
 def refused(scenario: Scenario) -> str | None:
-    """What keeps the nonlinear prescribed run of ``scenario`` from taking sensitivities,
-    or None."""
+    """What keeps the nonlinear run of ``scenario`` from taking sensitivities, or None."""
     if scenario.controllers:
         return "controllers on the nonlinear model"
+    if scenario.closures:
+        return "closed kinematic loops on the nonlinear model"
     return None

@@ -45,7 +45,8 @@ SUPPORTED = ('prescribed joints with the first-order model and method = "lawson"
              "default of prescribed runs), and driven joints or a moving base with the "
              'first-order model, the compiled Radau IIA (method = "radau5", "lawson" or '
              '"magnus"), without controllers or closed kinematic loops; and the nonlinear '
-             "model with prescribed joints, without controllers")
+             "model (prescribed or driven joints, moving base) without controllers or "
+             "closed kinematic loops")
 
 
 class SensitivityError(ValueError):
@@ -94,7 +95,7 @@ def check_path(scenario: Scenario) -> None:
             return
         raise SensitivityError(f"sensitivities: {what} do not compute sensitivities yet; "
                                f"they are computed on {SUPPORTED}")
-    if path == "nonlinear":
+    if path in ("nonlinear", "nonlinear_forward"):
         from .nonlinear_sensitivities import refused as nonlinear_refused
 
         what = nonlinear_refused(scenario)
@@ -323,7 +324,7 @@ def path_with_sensitivities(scenario: Scenario) -> Any:
     if path == "forward":
         from . import driven_sensitivities as module
         chosen = module.run_with_forward_sensitivities
-    elif path == "nonlinear":
+    elif path in ("nonlinear", "nonlinear_forward"):
         from . import nonlinear_sensitivities as module  # type: ignore[no-redef]
         chosen = module.run_with_nonlinear_sensitivities
     else:
