@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ._gauss_numba import _advance, model_residual, solve_stages
 
 

@@ -278,13 +278,22 @@ def node_solution(system: NonlinearSystem, t_nodes: np.ndarray, q: np.ndarray, v
         return system.accelerations(t, q, v, load=loop.held_voltages(t, before)
                                     @ system.actuator_B.T)
 
-    a = accelerations(t_nodes, q, v)
+    a = np.zeros_like(q)
+    used = interpolated_nodes(t_nodes, t_out)  # the others' accelerations are not read
+    a[used] = accelerations(t_nodes[used], q[used], v[used])
     breaks = input_breakpoints(system.chain.joints, system.actuators)
     if loop is not None:
         breaks = np.union1d(breaks, loop.grid)
     a_end = end_accelerations(lambda t, q, v: accelerations(t, q, v, True), t_nodes, q, v,
                               a, breaks)
     return hermite_quintic(t_nodes, q, v, a, t_out, a_end)
+
+
+def interpolated_nodes(t_nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The nodes (sorted indices) whose data `hermite_quintic` reads for times t: the ends
+    of each time's interval."""
+    i = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, max(t_nodes.size - 2, 0))
+    return np.unique(np.concatenate([i, np.minimum(i + 1, t_nodes.size - 1)]))
 
 
 def solve_nonlinear(

@@ -30,6 +30,7 @@ from .gauss import (
     end_accelerations,
     fixed_steps,
     hermite_quintic,
+    interpolated_nodes,
     numpy_fixed_steps,
 )
 from .gauss_steps import newton_settings
@@ -103,7 +104,9 @@ def node_solution(system: NonlinearForwardSystem, t_nodes: np.ndarray, y: np.nda
     from ..dynamics.forward_kernel import breakpoints
 
     n, nu = system.n, system.nu
-    a = system.accelerations(t_nodes, y, v)
+    a = np.zeros_like(y)
+    used = interpolated_nodes(t_nodes, t_out)  # the others' accelerations are not read
+    a[used] = system.accelerations(t_nodes[used], y[used], v[used])
     a_end = end_accelerations(system.accelerations, t_nodes, y, v, a,
                               breakpoints(system.loads))
     y, v, a = hermite_quintic(t_nodes, y, v, a, t_out, a_end)
