@@ -172,3 +172,11 @@ def test_driven_adaptive_runs_match_converged_differences(text: str, fields: lis
         value = _value(file, field)
         assert _worst(results, field, reference, value, second=False) < 2e-6, field
         assert _worst(results, field, reference, value, second=True) < 5e-5, field
+
+
+def test_a_field_that_moves_an_input_breakpoint_is_refused() -> None:
+    from flexlink.simulation.sensitivities import SensitivityError
+
+    file = _driven(HUB_BEAM)
+    with pytest.raises(SensitivityError, match="duration"):
+        flexlink.simulate(file.build(), sensitivities=["joints[0].torque[0].duration"])
