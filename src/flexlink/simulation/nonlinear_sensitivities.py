@@ -82,6 +82,12 @@ class _Prescribed:
                           dtype=float)
 
     @staticmethod
+    def jacobians(data: Any, rows: Any) -> Any:
+        from ..solvers.gauss_sensitivity import prescribed_jacobians
+
+        return prescribed_jacobians(data, rows)
+
+    @staticmethod
     def values(scenario: Scenario, system: Any, t_nodes: np.ndarray, y: np.ndarray,
                v: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
         from ..solvers.gauss import node_solution
@@ -138,6 +144,10 @@ class _Forward(_Prescribed):
         from ..dynamics.forward_kernel import breakpoints
 
         return np.asarray(breakpoints(system.loads), dtype=float)
+
+    @staticmethod
+    def jacobians(data: Any, rows: Any) -> Any:
+        return None  # differences of the residual (applied loads on the rigid state)
 
     @staticmethod
     def values(scenario: Scenario, system: Any, t_nodes: np.ndarray, y: np.ndarray,
@@ -208,7 +218,7 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
                 y0, v0 = start if s is nominal else path.initial(s)
                 dy0[:, k] += w * y0 / f.step
                 dv0[:, k] += w * v0 / f.step
-    dy, dv = gauss_tangent(steps, data, forcing, dy0, dv0)
+    dy, dv = gauss_tangent(steps, data, forcing, dy0, dv0, path.jacobians(data, steps.rows))
     channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
     nominal_values = None
     for k, f in enumerate(fields):

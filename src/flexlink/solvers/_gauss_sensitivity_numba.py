@@ -63,3 +63,60 @@ def replay(d, rows, y0, v0, H, parts, tab, newton, starts_y, starts_v, stages, e
         ends_y[i] = y
         ends_v[i] = v
     return -1
+
+
+@njit(cache=True)
+def prescribed_jacobians(d, rows, index, Q, V, X, RQ, RV, RX):
+    """∂R/∂q, ∂R/∂q̇, ∂R/∂q̈ (b, n, n) of the residual of the model with every joint
+    prescribed (d: NonlinearData without sliders) at b stage states, in place. With
+    α = ang + Ay q (rates and accelerations alike) the nodes' inertia moments are
+    u_j = Σ_k G_jk [cos(α_j − α_k) α̈_k + sin(α_j − α_k) α̇_k²] + lift_j (c_j r_y − s_j r_x)
+    (r = −g): ∂u_j/∂α̈_k = G_jk cos(α_j − α_k), ∂u_j/∂α̇_k = 2 G_jk sin(α_j − α_k) α̇_k,
+    ∂u_j/∂α_k = G_jk [sin(α_j − α_k) α̈_k − cos(α_j − α_k) α̇_k²] (k ≠ j) and the diagonal
+    minus their sum plus the gravity term; R = Ayᵀu + (tips' rotary inertia) + D q̇ + K q
+    − load, so each Jacobian is Ayᵀ (∂u/∂·) Ay plus D, K or the tips' Jᵣ aᵣ aᵣᵀ."""
+    Ay, G, lift = d.Ay, d.G, d.s
+    nodes, n = Ay.shape[0], d.n
+    angle, rate, acc = rows[0], rows[1], rows[2]
+    rx, ry = -d.gravity[0], -d.gravity[1]
+    al = np.empty(nodes)
+    ad = np.empty(nodes)
+    aa = np.empty(nodes)
+    UA = np.empty((nodes, nodes))
+    UD = np.empty((nodes, nodes))
+    UX = np.empty((nodes, nodes))
+    rot = np.zeros((n, n))
+    for r in range(d.rot_J.shape[0]):
+        for i in range(n):
+            for m in range(n):
+                rot[i, m] += d.rot_J[r] * d.rot_y[r, i] * d.rot_y[r, m]
+    for b in range(Q.shape[0]):
+        w = index[b]
+        for j in range(nodes):
+            al[j] = angle[w, j]
+            ad[j] = rate[w, j]
+            aa[j] = acc[w, j]
+            for i in range(n):
+                a = Ay[j, i]
+                if a != 0.0:
+                    al[j] += a * Q[b, i]
+                    ad[j] += a * V[b, i]
+                    aa[j] += a * X[b, i]
+        c = np.cos(al)
+        s = np.sin(al)
+        for j in range(nodes):
+            diagonal = 0.0
+            for k in range(nodes):
+                g = G[j, k]
+                cjk = c[j] * c[k] + s[j] * s[k]  # cos(α_j − α_k)
+                sjk = s[j] * c[k] - c[j] * s[k]  # sin(α_j − α_k)
+                UX[j, k] = g * cjk
+                UD[j, k] = 2.0 * g * sjk * ad[k]
+                if k != j:
+                    t = g * (sjk * aa[k] - cjk * ad[k] * ad[k])
+                    UA[j, k] = t
+                    diagonal -= t
+            UA[j, j] = diagonal + lift[j] * (-s[j] * ry - c[j] * rx)
+        RQ[b] = Ay.T @ (UA @ Ay) + d.Kq
+        RV[b] = Ay.T @ (UD @ Ay) + d.Dq
+        RX[b] = Ay.T @ (UX @ Ay) + rot

@@ -15,11 +15,12 @@ matrix):
         = −(R_Q,i (dy0 + c_i h dv0) + R_V,i dv0 + ∂R/∂p(stage i)),
     dy1 = dy0 + h dv0 + h² Σ (bᵀa)_j dX_j,   dv1 = dv0 + h Σ b_j dX_j,
 
-for every parameter at once. The Jacobians are central differences of the compiled
-residual (`radau_sensitivity.stage_jacobians`, the differences the Radau IIA tangent
-takes), so the derivative equals the exact derivative of the computed run up to those
-(~1e-10 relative) and the run's Newton residual, and approaches the continuous
-sensitivity as the run's tolerance does.
+for every parameter at once. The Jacobians are analytic for the model with every joint
+prescribed (`prescribed_jacobians`), else central differences of the compiled residual
+(`radau_sensitivity.stage_jacobians`, the differences the Radau IIA tangent takes, ~1e-10
+relative), so the derivative equals the exact derivative of the computed run up to those
+and the run's Newton residual, and approaches the continuous sensitivity as the run's
+tolerance does.
 """
 
 from __future__ import annotations
@@ -37,6 +38,9 @@ from .radau_sensitivity import CHUNK, stage_jacobians
 StageRows = Callable[[np.ndarray], Any]
 # forcing(stage rows (b,) of the replayed steps, Q, V, X (b, n)) → ∂R/∂p (b, n, K)
 Forcing = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+# jacobians(stage rows (b,), Q, V, X (b, n)) → ∂R/∂Q, ∂R/∂V, ∂R/∂X (b, n, n) each
+Jacobians = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+                     tuple[np.ndarray, np.ndarray, np.ndarray]]
 
 REPLAY_TOL = 1e-12  # Newton's tolerance of the replay, relative to the stage accelerations
 REPLAY_MAX = 50
@@ -115,15 +119,50 @@ def residual_function(data: Any, rows: Any) -> Callable[[np.ndarray, np.ndarray]
     return residual
 
 
+def difference_jacobians(data: Any, rows: Any) -> Jacobians:
+    """R_Q, R_V, R_X of the model by central differences of its compiled residual
+    (`stage_jacobians`): any nonlinear model."""
+    residual = residual_function(data, rows)
+
+    def jacobians(index: np.ndarray, Q: np.ndarray, V: np.ndarray, X: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        n = Q.shape[1]
+        J = stage_jacobians(residual, index[:, None].astype(float),
+                            np.concatenate([Q, V, X], axis=1))
+        return J[..., :n], J[..., n:2 * n], J[..., 2 * n:]
+    return jacobians
+
+
+def prescribed_jacobians(data: Any, rows: Any) -> Jacobians | None:
+    """R_Q, R_V, R_X of the model with every joint prescribed, analytic
+    (`_gauss_sensitivity_numba.prescribed_jacobians`), or None for a model they do not
+    cover (sliders, a moving base: `difference_jacobians`)."""
+    if data.translation or data.cart or data.line_node.size or data.nu:
+        return None
+    from ._gauss_sensitivity_numba import prescribed_jacobians as compiled
+
+    def jacobians(index: np.ndarray, Q: np.ndarray, V: np.ndarray, X: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        b, n = Q.shape
+        RQ, RV, RX = np.empty((b, n, n)), np.empty((b, n, n)), np.empty((b, n, n))
+        c = np.ascontiguousarray
+        compiled(data, rows, index.astype(np.int64), c(Q), c(V), c(X), RQ, RV, RX)
+        return RQ, RV, RX
+    return jacobians
+
+
 def gauss_tangent(steps: GaussSteps, data: Any, forcing: Forcing, dy0: np.ndarray,
-                  dv0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  dv0: np.ndarray, jacobians: Jacobians | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """The derivatives of the accepted steps' end states dy, dv (S+1, n, K) (row 0 the
-    start: dy0, dv0 (n, K)) in K parameters; ``forcing``: ∂R/∂p at the stages."""
+    start: dy0, dv0 (n, K)) in K parameters; ``forcing``: ∂R/∂p at the stages;
+    ``jacobians``: R_Q, R_V, R_X at the stages (default: `difference_jacobians`)."""
     G, _, n = steps.X.shape
     K = dy0.shape[1]
     a, a2 = GAUSS2.coeffs, GAUSS2.coeffs2
     b, w2 = GAUSS2.weights, GAUSS2.weights2
-    residual = residual_function(data, steps.rows)
+    if jacobians is None:
+        jacobians = difference_jacobians(data, steps.rows)
     Q, V = steps.stages()
     S = G // steps.parts
     out_y, out_v = np.empty((S + 1, n, K)), np.empty((S + 1, n, K))
@@ -133,12 +172,11 @@ def gauss_tangent(steps: GaussSteps, data: Any, forcing: Forcing, dy0: np.ndarra
     for lo in range(0, G, CHUNK):
         hi = min(G, lo + CHUNK)
         m = hi - lo
-        index = np.arange(2 * lo, 2 * hi, dtype=float)[:, None]
-        args = np.concatenate([Q[lo:hi], V[lo:hi], steps.X[lo:hi]], axis=2).reshape(-1, 3 * n)
-        J = stage_jacobians(residual, index, args).reshape(m, 2, n, 3 * n)
-        RQ, RV, RX = J[..., :n], J[..., n:2 * n], J[..., 2 * n:]
-        Rp = forcing(index[:, 0].astype(np.int64), Q[lo:hi].reshape(-1, n),
-                     V[lo:hi].reshape(-1, n), steps.X[lo:hi].reshape(-1, n)).reshape(m, 2, n, K)
+        index = np.arange(2 * lo, 2 * hi, dtype=np.int64)
+        stage = (Q[lo:hi].reshape(-1, n), V[lo:hi].reshape(-1, n),
+                 steps.X[lo:hi].reshape(-1, n))
+        RQ, RV, RX = (J.reshape(m, 2, n, n) for J in jacobians(index, *stage))
+        Rp = forcing(index, *stage).reshape(m, 2, n, K)
         h = steps.h[lo:hi, None, None, None, None]
         M = (np.eye(2)[None, :, None, :, None] * RX[:, :, :, None, :]
              + h**2 * a2[None, :, None, :, None] * RQ[:, :, :, None, :]
