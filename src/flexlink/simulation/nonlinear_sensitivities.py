@@ -168,8 +168,6 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
     from ..solvers._gauss_sensitivity_numba import residuals
     from ..solvers.gauss_sensitivity import gauss_tangent, replay
     from ..solvers.gauss_steps import NODES
-    from .sensitivities import _same_model
-
     path = _Forward if scenario.is_forward else _Prescribed
     nodes: list = []
     run = path.run(scenario, t, on_progress, shapes, nodes)
@@ -178,8 +176,7 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
                       "through the integrator")
     t_nodes, y, v, parts = nodes[0]
     nominal = path.system(scenario)
-    same = _same_forward if scenario.is_forward else _same_model
-    systems = [[nominal if j == 0 or same(sc, scenario) else path.system(sc)
+    systems = [[nominal if j == 0 or _same_system(sc, scenario) else path.system(sc)
                 for j, sc in zip(f.offsets, f.scenarios, strict=True)] for f in fields]
     jumps = path.inputs_jump(nominal)
     for f, group in zip(fields, systems, strict=True):
@@ -254,13 +251,15 @@ def _accumulate(total: dict[str, np.ndarray], weight: float,
         total[name] = total.get(name, 0.0) + weight * np.asarray(value, dtype=float)
 
 
-def _same_forward(moved: Scenario, scenario: Scenario) -> bool:
-    """Whether a moved scenario's forward equations are the scenario's (a sensor's field)."""
-    from .sensitivities import _same_model
-
+def _same_system(moved: Scenario, scenario: Scenario) -> bool:
+    """Whether a moved scenario's nonlinear equations are the scenario's (a field of the
+    sensors): the same chain, base, actuators, gravity and initial state."""
+    a, b = moved.settings, scenario.settings
     try:
-        return _same_model(moved, scenario) and bool(moved.base == scenario.base)
-    except ValueError:  # values holding arrays: compared as different
+        return bool(moved.chain == scenario.chain and moved.base == scenario.base
+                    and moved.actuators == scenario.actuators and a.gravity == b.gravity
+                    and a.initial == b.initial)
+    except ValueError:  # values holding arrays (a measured motion): compared as different
         return False
 
 
