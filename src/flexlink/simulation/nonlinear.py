@@ -8,10 +8,11 @@ import numpy as np
 
 from ..channels.catalogue import joint_name, voltage_name
 from ..channels.nonlinear import sensor_values, shape_values, tip_values
+from ..dynamics.kinematics import JointHistory
 from ..dynamics.nonlinear import NonlinearSystem
 from ..errors import SimulationError
 from ..model import Scenario
-from ..solvers import rigid_solution
+from ..solvers import Solution, rigid_solution
 from ..solvers.gauss import solve_nonlinear
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
 from .closed_loop import control_values, sensor_rows
@@ -19,15 +20,28 @@ from .common import PathRun, Progress
 
 
 def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
-                  with_shapes: bool = True) -> PathRun:
+                  with_shapes: bool = True, step_ends: list | None = None) -> PathRun:
+    """The nonlinear model's run with prescribed joints; ``step_ends`` as `solve_nonlinear`'s."""
     settings = scenario.settings
     system = NonlinearSystem(scenario.chain, actuators=scenario.actuators,
                              gravity=settings.gravity, initial=settings.initial)
     hist = system.joint_history(t)  # fails early if a measured motion does not cover t
     loop = _sampled_loop(scenario, system, t) if scenario.controllers else None
     solution = (solve_nonlinear(system, t, settings.rtol, settings.step, on_progress=on_progress,
-                                loop=loop, atol=settings.atol)
+                                loop=loop, atol=settings.atol, step_ends=step_ends)
                 if system.n else rigid_solution(t, "gauss"))
+    values = nonlinear_values(scenario, system, solution, hist, loop)
+    shapes = shape_values(system, solution, hist) if with_shapes else ()
+    return PathRun(solution, values, shapes=shapes,
+                   metadata={"path": "prescribed", "elastic_coordinates": system.n,
+                             **({"controllers": len(scenario.controllers)} if loop else {})})
+
+
+def nonlinear_values(scenario: Scenario, system: NonlinearSystem, solution: Solution,
+                     hist: JointHistory, loop: SampledLoop | None = None
+                     ) -> dict[str, np.ndarray]:
+    """The channels of a prescribed nonlinear run from its solution at the output times."""
+    t = solution.t
     torque = system.joint_torques(t, solution.q, solution.q_dot, solution.q_ddot, hist)
     values = sensor_values(system, solution, scenario.sensors, hist)
     for k in range(len(scenario.chain.links)):
@@ -43,10 +57,7 @@ def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         run = SimpleNamespace(work=loop.work, python_commands=loop.commands)
         values.update(control_values(scenario, run, np.clip(held, 0, loop.grid.size - 1),
                                       loop.python_index))
-    shapes = shape_values(system, solution, hist) if with_shapes else ()
-    return PathRun(solution, values, shapes=shapes,
-                   metadata={"path": "prescribed", "elastic_coordinates": system.n,
-                             **({"controllers": len(scenario.controllers)} if loop else {})})
+    return values
 
 
 def _sampled_loop(scenario: Scenario, system: NonlinearSystem, t: np.ndarray) -> SampledLoop:

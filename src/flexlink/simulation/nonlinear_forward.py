@@ -9,6 +9,7 @@ from ..channels.catalogue import voltage_name
 from ..channels.nonlinear_forward import forward_shapes, forward_values
 from ..dynamics.nonlinear_forward import NonlinearForwardSystem
 from ..model import Scenario
+from ..solvers import Solution
 from ..solvers.gauss_forward import solve_nonlinear_forward
 from .cart import check_travel
 from .common import PathRun, Progress
@@ -16,7 +17,8 @@ from .prismatic import check_travel as check_slider_travel
 
 
 def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
-                          with_shapes: bool = True) -> PathRun:
+                          with_shapes: bool = True, step_ends: list | None = None) -> PathRun:
+    """The nonlinear model's forward run; ``step_ends`` as `solve_nonlinear_forward`'s."""
     settings = scenario.settings
     system = NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators,
                                     gravity=settings.gravity, initial=settings.initial)
@@ -34,21 +36,18 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
             scenario, system, t, on_progress, loop)
     else:
         solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
-                                           on_progress=on_progress, atol=settings.atol)
+                                           on_progress=on_progress, atol=settings.atol,
+                                           step_ends=step_ends)
     y, v, a = system.from_solution(solution)
     if system.rail is not None:
         check_travel(scenario.base, t, system.rigid_state(t, y, v, a)[0][:, 0])
     if system.slides:
         check_slider_travel(system.chain.joints, t, system.rigid_state(t, y, v, a)[0],
                             system.n_base)
-    values = forward_values(system, t, y, v, a, scenario.sensors, constraint_torques)
+    values = nonlinear_forward_values(scenario, system, solution, constraint_torques)
     if scenario.closures:
         values.update(closure_values)
-    if loop is None:
-        volts = system.loads.voltages(t)  # open loop: the commanded voltages, clipped
-        values.update({voltage_name(a.name): volts[:, j]
-                       for j, a in enumerate(system.actuators)})
-    else:
+    if loop is not None:  # the held voltages replace the commanded ones
         from .forward import loop_values
 
         values.update(loop_values(scenario, loop, t))
@@ -57,3 +56,16 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
         "path": "forward", "elastic_coordinates": system.n,
         "rigid_coordinates": system.n_rigid,
         **({"controllers": len(scenario.controllers)} if loop else {}), **closures})
+
+
+def nonlinear_forward_values(scenario: Scenario, system: NonlinearForwardSystem,
+                             solution: Solution, constraint_torques: np.ndarray | None = None
+                             ) -> dict[str, np.ndarray]:
+    """The channels of a nonlinear forward run from its solution at the output times
+    (without the closures' own channels)."""
+    t = solution.t
+    y, v, a = system.from_solution(solution)
+    values = forward_values(system, t, y, v, a, scenario.sensors, constraint_torques)
+    volts = system.loads.voltages(t)  # open loop: the commanded voltages, clipped
+    values.update({voltage_name(a.name): volts[:, j] for j, a in enumerate(system.actuators)})
+    return values

@@ -44,7 +44,9 @@ _STENCILS = (((1, -1), (0.5, -0.5)), ((0, 1, 2), (-1.5, 2.0, -0.5)),
 SUPPORTED = ('prescribed joints with the first-order model and method = "lawson" (the '
              "default of prescribed runs), and driven joints or a moving base with the "
              'first-order model, the compiled Radau IIA (method = "radau5", "lawson" or '
-             '"magnus"), without controllers or closed kinematic loops')
+             '"magnus"), without controllers or closed kinematic loops; and the nonlinear '
+             "model (prescribed or driven joints, moving base) without controllers or "
+             "closed kinematic loops")
 
 
 class SensitivityError(ValueError):
@@ -89,6 +91,14 @@ def check_path(scenario: Scenario) -> None:
         from .driven_sensitivities import refused
 
         what = refused(scenario)
+        if what is None:
+            return
+        raise SensitivityError(f"sensitivities: {what} do not compute sensitivities yet; "
+                               f"they are computed on {SUPPORTED}")
+    if path in ("nonlinear", "nonlinear_forward"):
+        from .nonlinear_sensitivities import refused as nonlinear_refused
+
+        what = nonlinear_refused(scenario)
         if what is None:
             return
         raise SensitivityError(f"sensitivities: {what} do not compute sensitivities yet; "
@@ -310,14 +320,20 @@ def path_with_sensitivities(scenario: Scenario) -> Any:
     """The run-with-sensitivities function of the scenario's path."""
     from . import model_path
 
-    if model_path(scenario) != "forward":
+    path = model_path(scenario)
+    if path == "forward":
+        from . import driven_sensitivities as module
+        chosen = module.run_with_forward_sensitivities
+    elif path in ("nonlinear", "nonlinear_forward"):
+        from . import nonlinear_sensitivities as module  # type: ignore[no-redef]
+        chosen = module.run_with_nonlinear_sensitivities
+    else:
         return run_with_sensitivities
-    from .driven_sensitivities import Refused, run_with_forward_sensitivities
 
     def run(*args: Any) -> Any:
         try:
-            return run_with_forward_sensitivities(*args)
-        except Refused as error:
+            return chosen(*args)
+        except module.Refused as error:
             raise SensitivityError(str(error)) from None
     return run
 

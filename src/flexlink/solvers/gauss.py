@@ -263,9 +263,43 @@ def end_accelerations(accelerations: Callable[[np.ndarray, np.ndarray, np.ndarra
     return a_end
 
 
+def node_solution(system: NonlinearSystem, t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray,
+                  t_out: np.ndarray, loop: Any = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, q̇, q̈ at t_out from the step ends t_nodes, q, q̇ there: the quintic Hermite
+    interpolant with the equations' accelerations at the step ends (`end_accelerations`
+    at the inputs' breakpoints). ``loop``: a gauss_sampled.SampledLoop whose held forces
+    the accelerations take."""
+    def accelerations(t: np.ndarray, q: np.ndarray, v: np.ndarray,
+                      before: bool = False) -> np.ndarray:
+        if loop is None:
+            return system.accelerations(t, q, v)
+        # sampled controllers (gauss_sampled.SampledLoop): the held forces
+        return system.accelerations(t, q, v, load=loop.held_voltages(t, before)
+                                    @ system.actuator_B.T)
+
+    a = np.zeros_like(q)
+    used = interpolated_nodes(t_nodes, t_out)  # the others' accelerations are not read
+    a[used] = accelerations(t_nodes[used], q[used], v[used])
+    breaks = input_breakpoints(system.chain.joints, system.actuators)
+    if loop is not None:
+        breaks = np.union1d(breaks, loop.grid)
+    a_end = end_accelerations(lambda t, q, v: accelerations(t, q, v, True), t_nodes, q, v,
+                              a, breaks)
+    return hermite_quintic(t_nodes, q, v, a, t_out, a_end)
+
+
+def interpolated_nodes(t_nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The nodes (sorted indices) whose data `hermite_quintic` reads for times t: the ends
+    of each time's interval."""
+    i = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, max(t_nodes.size - 2, 0))
+    return np.unique(np.concatenate([i, np.minimum(i + 1, t_nodes.size - 1)]))
+
+
 def solve_nonlinear(
     system: NonlinearSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
     on_progress: Callable[[float], None] | None = None, loop: Any = None, atol: float = 0.0,
+    step_ends: list | None = None,
 ) -> Solution:
     """q, q̇, q̈ at t_out (from rest at t_out[0] = 0), method "gauss", with its step
     statistics, the tolerance asked for and the error estimate reached. q̈ interpolates the
@@ -275,26 +309,16 @@ def solve_nonlinear(
     steps (gauss_steps.py): each step's local error, estimated by step doubling, within
     atol + rtol · the peak |q| (and |q̇|) so far; steps end at the inputs' breakpoints.
     ``loop``: a gauss_sampled.SampledLoop — sampled controllers, updated at their sample
-    instants (where steps end too), the actuators' forces held in between."""
+    instants (where steps end too), the actuators' forces held in between. ``step_ends``:
+    a list that receives the step ends (t, q, q̇) and the Gauss steps per step (2: step
+    doubling keeps two half steps; 1: uniform steps), what sensitivities replay."""
     t_end = float(t_out[-1])
 
     def finish(t_nodes: np.ndarray, q: np.ndarray, v: np.ndarray, stats: dict[str, float],
                accuracy: Accuracy) -> Solution:
-        def accelerations(t: np.ndarray, q: np.ndarray, v: np.ndarray,
-                          before: bool = False) -> np.ndarray:
-            if loop is None:
-                return system.accelerations(t, q, v)
-            # sampled controllers (gauss_sampled.SampledLoop): the held forces
-            return system.accelerations(t, q, v, load=loop.held_voltages(t, before)
-                                        @ system.actuator_B.T)
-
-        a = accelerations(t_nodes, q, v)
-        breaks = input_breakpoints(system.chain.joints, system.actuators)
-        if loop is not None:
-            breaks = np.union1d(breaks, loop.grid)
-        a_end = end_accelerations(lambda t, q, v: accelerations(t, q, v, True), t_nodes, q, v,
-                                  a, breaks)
-        return Solution(t_out, *hermite_quintic(t_nodes, q, v, a, t_out, a_end), "gauss",
+        if step_ends is not None:
+            step_ends.append((t_nodes, q, v, 1 if step is not None else 2))
+        return Solution(t_out, *node_solution(system, t_nodes, q, v, t_out, loop), "gauss",
                         stats, accuracy=accuracy)
 
     if step is not None:

@@ -30,6 +30,7 @@ from .gauss import (
     end_accelerations,
     fixed_steps,
     hermite_quintic,
+    interpolated_nodes,
     numpy_fixed_steps,
 )
 from .gauss_steps import newton_settings
@@ -93,9 +94,31 @@ def integrate_gauss_forward(
     return t_ends, y, v
 
 
+def node_solution(system: NonlinearForwardSystem, t_nodes: np.ndarray, y: np.ndarray,
+                  v: np.ndarray, t_out: np.ndarray, stats: dict[str, float] | None = None,
+                  accuracy: Accuracy | None = None) -> Solution:
+    """The Solution at t_out from the step ends t_nodes, y, ẏ there (n_y unknowns): the
+    quintic Hermite interpolant with the equations' accelerations at the step ends
+    (`end_accelerations` at the loads' breakpoints), coordinates reordered [p_free, q],
+    the servo integrals as ``extra``."""
+    from ..dynamics.forward_kernel import breakpoints
+
+    n, nu = system.n, system.nu
+    a = np.zeros_like(y)
+    used = interpolated_nodes(t_nodes, t_out)  # the others' accelerations are not read
+    a[used] = system.accelerations(t_nodes[used], y[used], v[used])
+    a_end = end_accelerations(system.accelerations, t_nodes, y, v, a,
+                              breakpoints(system.loads))
+    y, v, a = hermite_quintic(t_nodes, y, v, a, t_out, a_end)
+    order = np.r_[n:n + nu, 0:n]
+    return Solution(t_out, y[:, order], v[:, order], a[:, order], "gauss", stats or {},
+                    extra=v[:, n + nu:], accuracy=accuracy)
+
+
 def solve_nonlinear_forward(
     system: NonlinearForwardSystem, t_out: np.ndarray, rtol: float, step: float | None = None,
     on_progress: Callable[[float], None] | None = None, atol: float = 0.0,
+    step_ends: list | None = None,
 ) -> Solution:
     """Coordinates [p_free, q], rates and accelerations at t_out (the first-order forward
     path's order), the servo integrals as ``extra``, method "gauss", with its step
@@ -104,21 +127,15 @@ def solve_nonlinear_forward(
     With ``step`` given: uniform steps of at most that (s). Otherwise adaptive steps
     (gauss_steps.py) as solve_nonlinear's, the local error measured against the peak so far
     of each group (elastic q, free rigid p) and of its rates; steps end at the inputs'
-    breakpoints (bang-bang switches, table samples, ends of reference moves)."""
+    breakpoints (bang-bang switches, table samples, ends of reference moves). ``step_ends``
+    as `gauss.solve_nonlinear`'s."""
     t_end = float(t_out[-1])
-    n, nu = system.n, system.nu
 
     def solution(t_nodes: np.ndarray, y: np.ndarray, v: np.ndarray, stats: dict[str, float],
                  accuracy: Accuracy) -> Solution:
-        from ..dynamics.forward_kernel import breakpoints
-
-        a = system.accelerations(t_nodes, y, v)
-        a_end = end_accelerations(system.accelerations, t_nodes, y, v, a,
-                                  breakpoints(system.loads))
-        y, v, a = hermite_quintic(t_nodes, y, v, a, t_out, a_end)
-        order = np.r_[n:n + nu, 0:n]
-        return Solution(t_out, y[:, order], v[:, order], a[:, order], "gauss", stats,
-                        extra=v[:, n + nu:], accuracy=accuracy)
+        if step_ends is not None:
+            step_ends.append((t_nodes, y, v, 1 if step is not None else 2))
+        return node_solution(system, t_nodes, y, v, t_out, stats, accuracy)
 
     if step is not None:
         t_nodes, y, v = integrate_gauss_forward(system, t_end, step, on_progress)

@@ -77,7 +77,9 @@ def step_sequence(records: list) -> StepSequence:
 
 
 def stage_jacobians(rates: Rates, u: np.ndarray, Y: np.ndarray) -> np.ndarray:
-    """∂f/∂y (n, m, m) at states Y (n, m) with input rows u (n, columns): central
+    """∂f/∂y (n, r, m) at states Y (n, m) with input rows u (n, columns), f of r rows
+    (r = m for rates; the Gauss stage residuals take more arguments than they return):
+    central
     differences of the rates with steps of JACOBIAN_STEP · max(1, |y_j|). Central, with
     steps far above √ε: a model's rates may close the state by an iteration that stops at a
     tolerance (closed loops: |Φ| ≤ 1e-12 of the loop's size), whose jitter a step of √ε
@@ -89,7 +91,7 @@ def stage_jacobians(rates: Rates, u: np.ndarray, Y: np.ndarray) -> np.ndarray:
     moved[:, 0, idx, idx] += eps
     moved[:, 1, idx, idx] -= eps
     span = moved[:, 0, idx, idx] - moved[:, 1, idx, idx]  # the steps as represented
-    f = rates(np.repeat(u, 2 * m, axis=0), moved.reshape(-1, m)).reshape(n, 2, m, m)
+    f = rates(np.repeat(u, 2 * m, axis=0), moved.reshape(-1, m)).reshape(n, 2, m, -1)
     return np.swapaxes((f[:, 0] - f[:, 1]) / span[:, :, None], 1, 2)
 
 
