@@ -23,6 +23,8 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+
 SAFETY = 0.9
 SHRINK = 0.2  # the smallest factor h_new / h
 KEEP_LOW, KEEP_HIGH = 1.0, 1.2  # factors in this band keep h and its factorisations
