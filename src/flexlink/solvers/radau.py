@@ -13,10 +13,12 @@ columns ``held``. A model with known invariants (a forward system's momentum) pa
 them (`_radau_numba.model_project`), with the inputs' integrals from the table
 (`input_table.integrals`) for the impulse of the loads.
 
-Tolerances: component i's local error is kept below atol + rtol · its group's peak |y|
-(the running maximum over the run so far of every component in the group: displacements,
-velocities, …), with a conversion of the requested tolerance into the local one (`local_tolerances`) so
-that the global error of the coordinates and rates is about rtol.
+Tolerances: component i's local error, times its weight w_i (1 unless the model passes
+``weights``: `error_weights.py`), is kept below atol + rtol · its group's peak |y| (the
+running maximum over the run so far of every component in the group: displacements,
+velocities, …) by the step controller shared with the Gauss collocation
+(`_step_control_numba.py`), with a conversion of the requested tolerance into the local one
+(`local_tolerances`) so that the global error of the coordinates and rates is about rtol.
 """
 
 from __future__ import annotations
