@@ -17,7 +17,6 @@ from ..dynamics.forward import ForwardSystem
 from ..errors import SimulationError
 from ..model import Base, Scenario
 from ..solvers import Solution
-from ..solvers.error_weights import elastic_rate_weights
 from ..solvers.forward import FAST_METHOD, integrate_forward
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
 from .accuracy import axial_load_parameter
@@ -51,11 +50,9 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
             scenario, system, t, on_progress, loop, steps)
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
-        weights = elastic_rate_weights(system.modal, system.chain.joints, scenario.base,
-                                       scenario.sensors, scenario.controllers)
         solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol, method,
                                               on_progress, loop=loop, with_outputs=True,
-                                              steps=steps, rate_weights=weights)
+                                              steps=steps)
     return forward_run(scenario, system, t, solution, outputs, loop, closure_values, closures,
                        with_shapes)
 

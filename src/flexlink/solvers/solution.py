@@ -27,9 +27,7 @@ STEP_DOUBLING = ("step doubling: the largest local error of one step, |two steps
 FIXED_STEP = "none: a fixed step (simulation.step), no error estimate"
 LOCAL_CONTROL = ("none reported: Radau IIA keeps each step's local error (its embedded "
                  "estimate) such that the global error of the coordinates and rates stays near "
-                 "rtol of their peaks (measured 0.65–0.93 rtol: benchmarks/forward_integrators.py)"
-                 "; where every channel reads displacements, an elastic rate's error counts "
-                 "by the displacement it makes (weight ω₁/ω_j: solvers/error_weights.py)")
+                 "rtol of their peaks (measured 0.65–0.93 rtol: benchmarks/forward_integrators.py)")
 SCIPY = "none: scipy solve_ivp controls its local error by rtol and atol, without a reported estimate"
 
 
