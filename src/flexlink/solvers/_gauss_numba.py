@@ -26,6 +26,7 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 from ..dynamics._nonlinear_forward_numba import residual as forward_residual
 from ..dynamics._nonlinear_numba import residual as prescribed_residual
 from ..dynamics.nonlinear_kernel import NonlinearData, NonlinearForwardData
+from ._step_control_numba import error_norm, tolerances, update_peaks
 
 # kernel-data record class → its compiled residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out)
 _RESIDUALS = {NonlinearData: prescribed_residual, NonlinearForwardData: forward_residual}
@@ -180,7 +181,7 @@ def gauss_doubling(d, rows, y, v, X, h_prev, H, tab, newton, control, errors, in
     (``step_doubling`` in gauss_steps.py). Stage inputs: six rows per step (the H step's two
     stages, then the two H/2 steps'). X (2, n): the stage accelerations of the last step,
     of length h_prev (s), on return those of the last accepted step. ``control``: a
-    gauss_steps.StepControl; ``errors`` (count,): each step's error as a fraction of its
+    `gauss_steps.step_control`; ``errors`` (count,): each step's error as a fraction of its
     tolerance (doubling_error). ``inverse`` (2, 2n, 2n) and ``have`` (2,): the iteration
     matrices for H and H/2, kept across calls while H is unchanged; ``peak`` as in
     `solve_stages`. Returns (status, accepted steps): status 0 all accepted, 1 a step's error
@@ -211,9 +212,7 @@ def gauss_doubling(d, rows, y, v, X, h_prev, H, tab, newton, control, errors, in
                             have[1:2], counts, peak):
             return 2, i
         _advance(y_mid, v_mid, fine, h, tab, y[i + 1], v[i + 1])
-        errors[i] = doubling_error(y_big, v_big, y[i + 1], v[i + 1], control.group,
-                                   control.peak_q, control.peak_v, control.rtol, control.atol,
-                                   control.rate_floor)
+        errors[i] = doubling_error(y_big, v_big, y[i + 1], v[i + 1], control)
         if errors[i] > 1.0:
             return 1, i
         X[:, :] = fine
@@ -222,35 +221,23 @@ def gauss_doubling(d, rows, y, v, X, h_prev, H, tab, newton, control, errors, in
 
 
 @njit(cache=True)
-def doubling_error(q_big, v_big, q_fine, v_fine, group, peak_q, peak_v, rtol, atol,
-                   rate_floor):
+def doubling_error(q_big, v_big, q_fine, v_fine, control):
     """The step-doubling estimate of one step's local error, |fine − big| / 15 (fourth
-    order), as a fraction of the tolerance atol + rtol · peak of its group (``group``: the
-    component's group, −1 for none; ``peak_q``, ``peak_v``: each group's largest |q|, |q̇|
-    so far, updated here with the fine state). The rates' peak is at least ``rate_floor``
-    (1/s) times the coordinates' (a run at rest in static equilibrium, whose rates are
-    round-off)."""
-    for m in range(q_fine.size):
-        g = group[m]
-        if g >= 0:
-            peak_q[g] = max(peak_q[g], abs(q_fine[m]))
-            peak_v[g] = max(peak_v[g], abs(v_fine[m]))
-    err = 0.0
-    for m in range(q_fine.size):
-        g = group[m]
-        if g >= 0:
-            err = max(err, _ratio(abs(q_fine[m] - q_big[m]), atol + rtol * peak_q[g]),
-                      _ratio(abs(v_fine[m] - v_big[m]),
-                             atol + rtol * max(peak_v[g], rate_floor * peak_q[g])))
-    return err / 15.0
-
-
-@njit(cache=True)
-def _ratio(difference, tolerance):
-    """difference / tolerance, 0 where both vanish (a state still at rest)."""
-    if difference == 0.0:
-        return 0.0
-    return difference / tolerance if tolerance > 0.0 else np.inf
+    order), in the step controller's norm (`_step_control_numba.error_norm`) of [q, q̇]:
+    ``control`` a StepControl of 2n components (`gauss_steps.step_control`: the rates'
+    groups floored by their coordinates'), its peaks updated here with the fine state."""
+    n = q_fine.size
+    e = np.empty(2 * n)
+    y = np.empty(2 * n)
+    for m in range(n):
+        e[m] = (q_fine[m] - q_big[m]) / 15.0
+        e[n + m] = (v_fine[m] - v_big[m]) / 15.0
+        y[m] = q_fine[m]
+        y[n + m] = v_fine[m]
+    update_peaks(control, y)
+    scal = np.empty(2 * n)
+    tolerances(control, y, scal)
+    return error_norm(control, e, scal)
 
 
 @njit(cache=True)

@@ -2,7 +2,8 @@
 and Wanner's RADAU5 (Solving ODEs II, §IV.8) — three-stage collocation, simplified Newton on
 the transformed stage system (one real and one complex linear system per iteration, the
 Jacobian and its factorisations reused across steps while Newton converges fast), the
-embedded error estimate filtered by (γ₀/h M − J)⁻¹, Gustafsson's predictive step control,
+embedded error estimate filtered by (γ₀/h M − J)⁻¹, the step controller shared with the
+Gauss collocation (`_step_control_numba`: weighted max norm, Gustafsson's predictive factor),
 and the collocation polynomial as dense output.
 
 The model is reached through `model_rates(d, w, u, y, dy)`: dy = f(t, y) for the model whose
@@ -36,6 +37,15 @@ from ..dynamics._nonlinear_loops_numba import rates as nonlinear_loop_rates
 from ..dynamics.forward_kernel import ForwardData
 from ..dynamics.loops import LoopData
 from ..dynamics.nonlinear_loops import NonlinearLoopData
+from ._step_control_numba import (
+    SAFETY,
+    error_norm,
+    keeps,
+    next_factor,
+    predictive_factor,
+    tolerances,
+    update_peaks,
+)
 from .solution import BLOW_UP
 
 LinearData = namedtuple("LinearData", ["A", "B"])
@@ -118,9 +128,9 @@ TI21, TI22, TI23 = -4.1787185915519047273, -0.32768282076106238708, 0.4766235545
 TI31, TI32, TI33 = -0.50287263494578687595, 2.5719269498556054292, -0.59603920482822492497
 
 NEWTON_MAX = 7  # iterations per step
-SAFE = 0.9
-FAC_MIN, FAC_MAX = 0.2, 8.0  # bounds of h_new / h
-KEEP_LOW, KEEP_HIGH = 1.0, 1.2  # h_new / h in this range: keep h and the factorisations
+# The step controller (`_step_control_numba`): the embedded estimate is of order 3, so the
+# factor goes as err^(−1/4); a step may grow 8× (RADAU5's bound).
+EXPONENT, GROW = 0.25, 8.0
 # Newton contraction θ below which the Jacobian is kept for the next step. Hairer's default
 # is 0.001 for cheap Jacobians; ours costs one rate evaluation per state component.
 THETA_KEEP = 0.1
@@ -261,26 +271,15 @@ def _mass_times(mass, identity, x, out):
 
 
 @njit(cache=True)
-def _norm(e, scal):
-    """max |e_i| / scal_i: the largest error of any component against its own weight
-    (RADAU5's root mean square would let the many components that hardly move dilute
-    the error of the few that do)."""
-    acc = 0.0
-    for i in range(e.shape[0]):
-        acc = max(acc, abs(e[i]) / scal[i])
-    return acc
-
-
-@njit(cache=True)
-def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, rtol,
-                  atol, group, peak, t_out, states, y, st, ws, cont, projection):
+def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, control,
+                  t_out, states, y, st, ws, cont, projection):
     """Advance y (in place) from st[X] until st[X] ≥ t_stop (s), storing the state at each
     output time t_out[k] (k from st[NEXT_OUT]) into states[k] from the dense output.
 
     mass (m, m) is M unless ``identity``; tab, seg_t: the input table (`input_row`) and the
-    segment boundaries (breakpoints, s); rtol, atol: the (transformed) tolerances, the error
-    of component i weighed by atol + rtol · max(|y_i|, peak[group[i]]), peak the running
-    maximum of |y| over each group of components; hmax the longest step (s); st the
+    segment boundaries (breakpoints, s); control: the step controller's record
+    (`_step_control_numba.StepControl`, its rtol and atol the local tolerances, its peaks
+    updated after each accepted step); hmax the longest step (s); st the
     persistent scalars (X, H, …), ws the work arrays and cont (m, 4) the collocation
     polynomial of the last step. projection = (on, pj, itab, U): when ``on``, each accepted
     step's end and each output state are put onto the model's known invariants
@@ -291,6 +290,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
     m = y.shape[0]
     n_seg = seg_t.shape[0] - 1
     # Newton's stopping tolerance (Hairer's default)
+    rtol = control.rtol
     fnewt = max(10.0 * UROUND / rtol, min(0.03, math.sqrt(rtol)))
     while st[X] < t_stop:
         seg = int(st[SEG])
@@ -302,8 +302,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
             model_rates(d, w, u, y, y0)
             st[RATES] += 1
             st[F0_OK] = 1.0
-        for i in range(m):
-            scal[i] = atol + rtol * max(abs(y[i]), peak[group[i]])
+        tolerances(control, y, scal)
         h = min(h, hmax)
         h_natural = h
         last = False
@@ -448,7 +447,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
         for i in range(m):
             tmp[i] = f2[i] + y0[i]
         _lu_solve(E1, piv1, tmp)
-        err = max(_norm(tmp, scal), 1e-10)
+        err = max(error_norm(control, tmp, scal), 1e-10)
         if err >= 1.0 and (st[FIRST] != 0.0 or st[REJECT] != 0.0):
             for i in range(m):
                 yp[i] = y[i] + tmp[i]
@@ -458,17 +457,15 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
             for i in range(m):
                 tmp[i] = f1[i] + f2[i]
             _lu_solve(E1, piv1, tmp)
-            err = max(_norm(tmp, scal), 1e-10)
-        fac = min(SAFE, SAFE * (1 + 2 * NEWTON_MAX) / (newt + 2 * NEWTON_MAX))
-        quot = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err ** 0.25 / fac))
-        hnew = h / quot
+            err = max(error_norm(control, tmp, scal), 1e-10)
+        # many Newton iterations: a more cautious factor (RADAU5)
+        safety = min(SAFETY, SAFETY * (1 + 2 * NEWTON_MAX) / (newt + 2 * NEWTON_MAX))
+        factor = next_factor(control, err, safety, st[REJECT] != 0.0)
         if err < 1.0:
             st[ACCEPTED] += 1
-            if st[FIRST] == 0.0 and st[FRESH] == 0.0:  # Gustafsson's predictive controller
-                facgus = (st[H_ACC] / h) * (err * err / st[ERR_ACC]) ** 0.25 / SAFE
-                facgus = max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, facgus))
-                quot = max(quot, facgus)
-                hnew = h / quot
+            if st[FIRST] == 0.0 and st[FRESH] == 0.0:
+                factor = predictive_factor(control, factor, err, h, st[H_ACC], st[ERR_ACC])
+            hnew = h * factor
             st[H_ACC] = h
             st[ERR_ACC] = max(1e-2, err)
             st[FIRST] = 0.0
@@ -486,8 +483,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
                 acont3 = (ak - z1i / C1) / C2
                 cont[i, 2] = (ak - cont[i, 1]) / C1M1
                 cont[i, 3] = cont[i, 2] - acont3
-                g = group[i]
-                peak[g] = max(peak[g], abs(y[i]))
+            update_peaks(control, y)
             st[X] = x
             st[H_OLD] = h
             if bad:
@@ -514,8 +510,6 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
                     model_project(d, w, pj, u, U, t_out[k], states[k])
                 k += 1
             st[NEXT_OUT] = k
-            if st[REJECT] != 0.0:
-                hnew = min(hnew, h)
             st[REJECT] = 0.0
             if last:
                 if seg + 1 < n_seg:
@@ -530,12 +524,12 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
                 st[JAC_OK] = 0.0
             if last:
                 st[H] = max(hnew, h_natural)
-            elif not (theta <= THETA_KEEP and KEEP_LOW <= hnew / h <= KEEP_HIGH):
+            elif not (theta <= THETA_KEEP and keeps(factor)):
                 st[H] = hnew  # otherwise the same h: the same factorisations
         else:
             st[REJECTED] += 1
             st[REJECT] = 1.0
-            st[H] = 0.1 * h if st[FIRST] != 0.0 else hnew
+            st[H] = 0.1 * h if st[FIRST] != 0.0 else h * factor
             # Newton converged: the Jacobian is good enough for the smaller step (RADAU5
             # takes a fresh one here; ours costs a rate evaluation per state component).
     return 0

@@ -38,7 +38,8 @@ MAX_STEP_OUTPUTS = 10  # longest solve_ivp step, in output intervals (simulation
 def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
                       method: str = DEFAULT_METHOD, on_progress: Progress | None = None,
                       compiled: bool = True, loop: SampledLoop | None = None,
-                      with_outputs: bool = False, steps: list | None = None
+                      with_outputs: bool = False, steps: list | None = None,
+                      rate_weights: np.ndarray | None = None
                       ) -> Solution | tuple[Solution, ForwardOutputs]:
     """Coordinates [p_free, z], their rates and accelerations at t_out from the system's
     initial state; the servo integrals as ``extra``. ``method``: FAST_METHOD (the compiled
@@ -53,14 +54,16 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
 
     ``loop``: sampled controllers driving the actuators, compiled integrator only; a
     blow-up is then reported as an unstable closed loop. ``steps``: a list that receives
-    the compiled integrator's accepted steps (`radau.integrate_radau`)."""
+    the compiled integrator's accepted steps (`radau.integrate_radau`). ``rate_weights``
+    (n,): the compiled integrator's error weights of the elastic rates
+    (`error_weights.elastic_rate_weights`; None: 1)."""
     if loop is not None and method != FAST_METHOD:
         raise ValueError(f"controllers on a forward run need the compiled integrator: method "
                          f"= {method!r} cannot hold sampled voltages; use \"lawson\"")
     max_step = MAX_STEP_OUTPUTS * float(np.min(np.diff(t_out))) if t_out.size > 1 else np.inf
     if method == FAST_METHOD:
         solution, outputs = _integrate_compiled(system, t_out, rtol, atol, np.inf, on_progress,
-                                                loop, steps)
+                                                loop, steps, rate_weights)
         return (solution, outputs) if with_outputs else solution
     nu, n = len(system.free), system.n
     if compiled:
@@ -103,7 +106,8 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
 
 def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, atol: float,
                         max_step: float, on_progress: Progress | None,
-                        loop: SampledLoop | None, steps: list | None = None
+                        loop: SampledLoop | None, steps: list | None = None,
+                        rate_weights: np.ndarray | None = None
                         ) -> tuple[Solution, ForwardOutputs]:
     """integrate_forward with the compiled Radau IIA integrator."""
     from ..dynamics._forward_numba import workspace
@@ -122,7 +126,8 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
             data, work, y0, t_out, lambda t: inputs(system, t), breakpoints(system), rtol,
             atol, groups, max_step, on_progress=on_progress, loop=loop,
             held=voltage_columns(system) if loop is not None else slice(0, 0),
-            z=slice(2 * nu, 2 * nu + n), projection=known, steps=steps)
+            z=slice(2 * nu, 2 * nu + n), projection=known, steps=steps,
+            weights=state_weights(system, y0.size, rate_weights))
     except RadauStop as exc:
         why = ("the state grew without bound" if exc.why == "blow-up"
                else "the time step collapsed")
@@ -165,6 +170,18 @@ def error_groups(system: ForwardSystem, size: int) -> np.ndarray:
     return np.concatenate([np.arange(2 * nu), 2 * nu + links,
                            2 * nu + len(system.modal) + links,
                            2 * nu + 2 * len(system.modal) + np.arange(size - 2 * nu - 2 * n)])
+
+
+def state_weights(system: ForwardSystem, size: int, rate_weights: np.ndarray | None
+                  ) -> np.ndarray | None:
+    """The error weight of each of the ``size`` state components: ``rate_weights`` (n,) on
+    the elastic rates (`error_weights.elastic_rate_weights`), 1 elsewhere; None: all 1."""
+    if rate_weights is None:
+        return None
+    nu, n = len(system.free), system.n
+    weights = np.ones(size)
+    weights[2 * nu + n:2 * nu + 2 * n] = rate_weights
+    return weights
 
 
 def split_state(system: ForwardSystem, y: np.ndarray) -> tuple[np.ndarray, ...]:

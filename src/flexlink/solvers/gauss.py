@@ -377,7 +377,8 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
     q0, v0 = system.initial_coordinates(), np.zeros(n)
     X = np.repeat(system.accelerations(np.zeros(1), q0[None], v0[None]), 2, axis=0)
     try:
-        record = step_doubling(advance, q0, v0, X, t_end, breaks, FIRST_STEP, on_progress)
+        record = step_doubling(advance, q0, v0, X, t_end, breaks, FIRST_STEP,
+                               doubling.control, on_progress)
     except SimulationError as exc:
         if loop is None or isinstance(exc, UnstableLoop):
             raise

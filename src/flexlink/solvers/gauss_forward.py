@@ -172,7 +172,7 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     y0, v0 = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y0[None], v0[None]), 2, axis=0)
     record = step_doubling(advance, y0, v0, X, t_end, breakpoints(system.loads), FIRST_STEP,
-                           on_progress)
+                           doubling.control, on_progress)
     if not (np.all(np.isfinite(record.y)) and np.all(np.isfinite(record.v))):
         raise SimulationError("the nonlinear forward integration produced non-finite values")
     return record

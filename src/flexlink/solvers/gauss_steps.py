@@ -10,8 +10,10 @@ order of its (small) amplitude. The estimate is measured against atol + rtol · 
 |y| (and |ẏ|) of its group so far — elastic coordinates, free rigid coordinates — the
 norm of the uniform-step control before it (docs/nonlinear.md §4).
 
-Control: a step is accepted when its estimate is within the tolerance; the next step size is
-H · 0.9 · err^(−1/5), between 0.2× and 4×. The compiled loop (`_gauss_numba.gauss_doubling`,
+Control: the step controller shared with Radau IIA (`_step_control_numba`): a step is
+accepted when its estimate is within the tolerance; the next step size is H · 0.9 ·
+err^(−1/5), between 0.2× and 4×, not above H after a rejection, and H itself while the
+factor is within [1, 1.2] (its Newton matrices kept). The compiled loop (`_gauss_numba.gauss_doubling`,
 either model) takes batches of equal steps, whose inputs are evaluated in one vectorised call; a batch stops at the first rejected step, and the step size
 changes between batches. Batches end exactly at every input breakpoint (the switch of a
 bang-bang torque, the end of a move), so no step straddles a jump.
@@ -64,27 +66,29 @@ def newton_settings(tol: float, max_iterations: int, floor: float,
                           STATE_ROUND_OFF)
 
 
-StepControl = namedtuple("StepControl", ["group", "peak_q", "peak_v", "rtol", "atol",
-                                         "rate_floor"])
-StepControl.__doc__ = (
-    "The step-doubling test of the compiled loop (`_gauss_numba.doubling_error`): each "
-    "unknown's group (int64, −1: none), each group's running peak |y| and |ẏ| (updated in "
-    "place), rtol, atol, and the rates' floor relative to the coordinates' peak, 1/s.")
+def step_control(group: np.ndarray, rtol: float, atol: float, rate_floor: float,
+                 weight: np.ndarray | None = None) -> Any:
+    """The step controller's record (`_step_control_numba.StepControl`) of the doubling
+    test of n unknowns and their rates, [q, q̇]: ``group`` (n,) each unknown's group (−1:
+    none), its rate in group G + g whose peak is at least ``rate_floor`` (1/s) times group
+    g's (a run at rest in static equilibrium, whose rates are round-off); ``weight`` (2n,)
+    the error weights of [q, q̇] (None: all 1)."""
+    from ._step_control_numba import step_control as control
 
+    group = np.asarray(group, dtype=np.int64)
+    groups = max(int(group.max(initial=-1)) + 1, 1)
+    both = np.concatenate([group, np.where(group >= 0, group + groups, -1)])
+    floor_of = np.concatenate([np.full(groups, -1), np.arange(groups)])
+    return control(both, weight, 2 * groups, rtol, atol, EXPONENT, GROW, floor_of,
+                   rate_floor)
 
-def step_control(group: np.ndarray, rtol: float, atol: float, rate_floor: float
-                 ) -> StepControl:
-    """A StepControl with zero peaks for ``group`` (n,) (one compiled signature)."""
-    group = np.ascontiguousarray(group, dtype=np.int64)
-    groups = int(group.max(initial=-1)) + 1
-    return StepControl(group, np.zeros(max(groups, 1)), np.zeros(max(groups, 1)), float(rtol),
-                       float(atol), float(rate_floor))
 
 # Stage times of one doubled step, as fractions of H: the H step's two stages, then those of
 # the first and the second H/2 step.
 DOUBLING_STAGES = np.concatenate([NODES, 0.5 * NODES, 0.5 + 0.5 * NODES])
-SAFETY = 0.9
-SHRINK, GROW = 0.2, 4.0
+# The step controller (`_step_control_numba`): the doubling estimate is of order 4, so the
+# factor goes as err^(−1/5); a step may grow 4× (the batch after a growing one is short).
+EXPONENT, GROW = 0.2, 4.0
 BATCH = 64  # steps per compiled call while the step size is steady
 BATCH_GROWING = 4  # … while it is still growing (the controller may take the next one 4× longer)
 MAX_STEPS = 2_000_000
@@ -109,7 +113,7 @@ class DoublingLoop:
     and what the loop keeps across batches (the iteration matrices for H and H/2, Newton's
     counts, the run's largest stage acceleration)."""
 
-    def __init__(self, data: Any, n: int, newton: NewtonSettings, control: StepControl) -> None:
+    def __init__(self, data: Any, n: int, newton: NewtonSettings, control: Any) -> None:
         self.data, self.n, self.newton, self.control = data, n, newton, control
         self.inverse = np.zeros((2, 2 * n, 2 * n))
         self.have = np.zeros(2, dtype=np.int64)
@@ -166,11 +170,14 @@ class StepRecord:
 
 
 def step_doubling(advance: Advance, y0: np.ndarray, v0: np.ndarray, X: np.ndarray,
-                  t_end: float, breakpoints: np.ndarray, first_step: float,
+                  t_end: float, breakpoints: np.ndarray, first_step: float, control: Any,
                   on_progress: Callable[[float], None] | None = None) -> StepRecord:
     """Step ends from y0, v0 at t = 0 to t_end (s), each step accepted by its step-doubling
     estimate (``advance``: the model's compiled batch), batches ending at every breakpoint
-    (s) inside (0, t_end)."""
+    (s) inside (0, t_end); ``control``: the batches' StepControl (`step_control`), whose
+    factor sets the next step."""
+    from ._step_control_numba import SAFETY, keeps, next_factor
+
     inner = np.asarray(breakpoints, dtype=float)
     eps = 1e-12 * max(1.0, t_end)
     ends = np.append(np.unique(inner[(inner > eps) & (inner < t_end - eps)]), t_end)
@@ -178,6 +185,7 @@ def step_doubling(advance: Advance, y0: np.ndarray, v0: np.ndarray, X: np.ndarra
     t, y, v = 0.0, y0.copy(), v0.copy()
     H, h_prev, last_H = min(first_step, t_end), min(first_step, t_end), -1.0
     count_max, rejected, largest, window, steps = BATCH_GROWING, 0, 0.0, 0, 0
+    rejected_before = False
     while t < t_end - eps:
         while ends[window] <= t + eps:
             window += 1
@@ -203,15 +211,14 @@ def step_doubling(advance: Advance, y0: np.ndarray, v0: np.ndarray, X: np.ndarra
         if batch.status == 2:  # Newton did not converge: a shorter step
             rejected += 1
             H = 0.5 * Hb
+            rejected_before = True
         else:
             err = float(batch.errors[:k + (batch.status == 1)].max(initial=0.0))
-            factor = SAFETY * err ** -0.2 if err > 0.0 else GROW
-            if batch.status == 1:
-                rejected += 1
-                factor = min(factor, SAFETY)
-            factor = min(GROW, max(SHRINK, factor))
+            factor = next_factor(control, err, SAFETY, rejected_before)
+            rejected_before = batch.status == 1
+            rejected += int(rejected_before)
             # a steady step keeps its Newton matrices: change it only when it pays
-            H = Hb * factor if factor < 1.0 or factor > 1.25 else Hb
+            H = Hb if keeps(factor) else Hb * factor
             count_max = BATCH_GROWING if factor > 2.0 else BATCH
         if H < 1e-12 * max(1.0, t_end) or steps > MAX_STEPS:
             raise SimulationError(

@@ -13,10 +13,12 @@ columns ``held``. A model with known invariants (a forward system's momentum) pa
 them (`_radau_numba.model_project`), with the inputs' integrals from the table
 (`input_table.integrals`) for the impulse of the loads.
 
-Tolerances: component i's local error is kept below atol + rtol · its group's peak |y|
-(the running maximum over the run so far of every component in the group: displacements,
-velocities, …), with a conversion of the requested tolerance into the local one (`local_tolerances`) so
-that the global error of the coordinates and rates is about rtol.
+Tolerances: component i's local error, times its weight w_i (1 unless the model passes
+``weights``: `error_weights.py`), is kept below atol + rtol · its group's peak |y| (the
+running maximum over the run so far of every component in the group: displacements,
+velocities, …) by the step controller shared with the Gauss collocation
+(`_step_control_numba.py`), with a conversion of the requested tolerance into the local one
+(`local_tolerances`) so that the global error of the coordinates and rates is about rtol.
 """
 
 from __future__ import annotations
@@ -75,12 +77,14 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     mass: np.ndarray | None = None, on_progress: Progress | None = None,
                     loop: SampledLoop | None = None, held: slice = slice(0, 0),
                     z: slice = slice(0, 0), projection: object | None = None,
-                    steps: list | None = None) -> tuple[np.ndarray, dict[str, int]]:
+                    steps: list | None = None, weights: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, dict[str, int]]:
     """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
 
     inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
     smooth; groups (len(y0),) the group index of each component (its error is relative to
-    the group's peak); mass: M (None: the identity); hmax: the longest step (s);
+    the group's peak), weights (len(y0),) its error weight (None: all 1;
+    `error_weights.py`); mass: M (None: the identity); hmax: the longest step (s);
     projection: the model's record of known invariants (`_radau_numba.model_project`; its
     ``active`` components empty: none), onto which every accepted step and output state is
     put. ``steps``: a list to which every accepted step is appended as (t (s) at its start,
@@ -88,9 +92,11 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     z (3, len(y0)), Y_i = y + z_i): the step sequence that the sensitivities
     (`radau_sensitivity.py`) differentiate. Raises RadauStop."""
     from ._radau_numba import (
+        EXPONENT,
         F0_OK,
         FACCON,
         FIRST,
+        GROW,
         H_OLD,
         N_ST,
         NEXT_OUT,
@@ -99,6 +105,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         X,
         radau_advance,
     )
+    from ._step_control_numba import step_control
 
     if np.size(y0) == 0 and loop is None:  # every coordinate known: nothing to integrate
         return np.empty((t_out.size, 0)), dict.fromkeys(
@@ -113,9 +120,10 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                np.empty(tab[2].shape[2]))
     m = y0.size
     groups = np.ascontiguousarray(groups, dtype=np.int64)
-    peak = np.zeros(int(groups.max(initial=0)) + 1)
-    np.maximum.at(peak, groups, np.abs(y0))
     rtol_local, atol_local = local_tolerances(rtol, atol)
+    control = step_control(groups, weights, int(groups.max(initial=0)) + 1, rtol_local,
+                           atol_local, EXPONENT, GROW)
+    np.maximum.at(control.peak, groups, np.abs(y0))
     st = np.zeros(N_ST)
     st[X], st[H], st[FACCON], st[FIRST], st[NEXT_OUT] = t0, min(1e-5, hmax), 1.0, 1.0, 1.0
     st[F0_OK] = 0.0
@@ -145,16 +153,15 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         t_stop = float(stop) - (0.0 if stop == t1 else 0.5 * scale)
         if steps is None:
             status = radau_advance(d, w, M, identity, tab, nodes, held_values, held_columns,
-                                   t_stop, hmax, rtol_local, atol_local, groups, peak, t_out,
-                                   states, y, st, ws, cont, project)
+                                   t_stop, hmax, control, t_out, states, y, st, ws, cont,
+                                   project)
         else:  # one accepted step per call (the loop resumes where it stopped: same steps)
             status = 0
             while status == 0 and st[X] < t_stop:
                 start, seg, y_start = float(st[X]), int(st[SEG]), y.copy()
                 status = radau_advance(d, w, M, identity, tab, nodes, held_values,
                                        held_columns, min(np.nextafter(start, np.inf), t_stop),
-                                       hmax, rtol_local, atol_local, groups, peak, t_out,
-                                       states, y, st, ws, cont, project)
+                                       hmax, control, t_out, states, y, st, ws, cont, project)
                 if status == 0:  # ws[6:9]: the accepted step's stage increments z1, z2, z3
                     steps.append((start, float(st[H_OLD]), seg, y_start, y.copy(),
                                   np.array(ws[6:9])))
