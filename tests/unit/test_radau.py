@@ -130,3 +130,30 @@ def test_the_inputs_integrals_follow_the_table() -> None:
     for seg, t in [(0, 0.0), (0, 0.37), (0, 1.0), (1, 1.0), (1, 1.9), (1, 2.5)]:
         input_integral(tab, itab, seg, t, U)
         np.testing.assert_allclose(U, exact(t), rtol=0, atol=1e-10)
+
+
+def test_the_model_is_named_by_its_record_type() -> None:
+    """The loop reaches a model's compiled rates by the class of its kernel data: data of no
+    known model is refused by name before anything runs."""
+    from collections import namedtuple
+
+    from flexlink.solvers._radau_numba import model_functions
+
+    Unknown = namedtuple("Unknown", ["A"])
+    with pytest.raises(TypeError, match="Unknown"):
+        model_functions(Unknown(np.eye(2)), ())
+    rates, project, context = model_functions(LinearData(A_OSC, B_OSC), ())
+    assert rates > 0 and context[0] > 0  # the trampoline's and the model's compiled code
+    assert project == 0 and context[1] == 0  # the linear test model has no invariants
+
+
+def test_rates_at_any_memory_layout() -> None:
+    """rates_at evaluates f row by row whatever the layout of its arrays (the compiled loop
+    takes contiguous rows): a Fortran-ordered output and transposed states give A y + B u."""
+    from flexlink.solvers._radau_numba import rates_at
+
+    states = np.asfortranarray(np.arange(10.0).reshape(5, 2))
+    u = np.linspace(-1.0, 1.0, 5)[:, None]
+    out = np.asfortranarray(np.zeros((5, 2)))
+    rates_at(LinearData(A_OSC, B_OSC), (), u, states, out)
+    assert np.allclose(out, states @ A_OSC.T + u @ B_OSC.T, rtol=1e-14, atol=0.0)

@@ -164,13 +164,15 @@ def frames(f, w):
             base_point(f, w, f.point[k, 0], f.point[k, 1], w.r, w.rd, w.g, w.Jr)
             for a in range(2):
                 w.o[k, a], w.od[k, a], w.og[k, a] = w.r[a], w.rd[a], w.g[a]
-                w.Jo[k, a, :] = w.Jr[a, :]
+                for i in range(w.Jr.shape[1]):
+                    w.Jo[k, a, i] = w.Jr[a, i]
         else:
             j = k - 1
             point(f, j, f.length[j], f.tip_value[j], f.fore_tip[j], w, w.r, w.rd, w.g, w.Jr)
             o, nj = f.offset[j], f.n_modes[j]
             th, om = w.th[j] + w.q[nb + k], w.om[j] + w.v[nb + k]
-            w.Jth[k, :] = w.Jth[j, :]
+            for i in range(w.Jth.shape[1]):
+                w.Jth[k, i] = w.Jth[j, i]
             for i in range(nj):
                 th += f.tip_slope[j, i] * w.q[o + i]
                 om += f.tip_slope[j, i] * w.v[o + i]
@@ -178,7 +180,8 @@ def frames(f, w):
             w.th[k], w.om[k] = th, om
             for a in range(2):
                 w.o[k, a], w.od[k, a], w.og[k, a] = w.r[a], w.rd[a], w.g[a]
-                w.Jo[k, a, :] = w.Jr[a, :]
+                for i in range(w.Jr.shape[1]):
+                    w.Jo[k, a, i] = w.Jr[a, i]
         w.Jth[k, nb + k] += 1.0
 
 
@@ -199,7 +202,8 @@ def constraints(d, w):
             for a in range(2):
                 w.Phi[row + a] = w.r[a] - w.r2[a]
                 w.gam[row + a] = w.g[a] - w.g2[a]
-                w.G[row + a, :] = w.Jr[a, :] - w.Jr2[a, :]
+                for i in range(w.G.shape[1]):
+                    w.G[row + a, i] = w.Jr[a, i] - w.Jr2[a, i]
         else:
             # Φ = n·(r − r2), n = A(θ_b) n₀ turning with the base: ṅ = ω_b n⊥, and n̈ has
             # −ω_b² n besides its θ̈_b part (in G through n⊥·(r − r2) on the attitude)
@@ -213,7 +217,8 @@ def constraints(d, w):
                           + 2.0 * om_b * (-ny_ * (w.rd[0] - w.rd2[0])
                                           + nx_ * (w.rd[1] - w.rd2[1]))
                           - om_b * om_b * (nx_ * dx + ny_ * dy))
-            w.G[row, :] = nx_ * (w.Jr[0, :] - w.Jr2[0, :]) + ny_ * (w.Jr[1, :] - w.Jr2[1, :])
+            for i in range(w.G.shape[1]):
+                w.G[row, i] = nx_ * (w.Jr[0, i] - w.Jr2[0, i]) + ny_ * (w.Jr[1, i] - w.Jr2[1, i])
             if att >= 0:
                 w.G[row, att] += -ny_ * dx + nx_ * dy
 
@@ -297,7 +302,8 @@ def solve_constrained(d, w, u, y):
     m = nu + n
     nc = d.dep.shape[0]
     yp = w.yp
-    yp[:] = y
+    for i in range(y.shape[0]):
+        yp[i] = y[i]
     if not project(d, w, u, yp):
         w.rhs[:] = np.nan
         return False
@@ -347,7 +353,8 @@ def closed_states(d, w, u, states, lam, joint_forces, residual):
     nc = d.dep.shape[0]
     for t in range(states.shape[0]):
         ok = solve_constrained(d, w, u[t], states[t])
-        states[t, :] = w.yp
+        for i in range(states.shape[1]):
+            states[t, i] = w.yp[i]
         big = 0.0
         for c in range(nc):
             lam[t, c] = w.rhs[m + c]

@@ -218,7 +218,8 @@ def solve_constrained(d, w, u, Y):
     ny = Y.shape[0] // 2
     nc = d.dep.shape[0]
     yp = w.yp
-    yp[:] = Y
+    for i in range(Y.shape[0]):
+        yp[i] = Y[i]
     if not project(d, w, u, yp):
         w.rhs[:] = np.nan
         return False
@@ -281,7 +282,8 @@ def closed_states(d, w, u, states, accelerations, lam, joint_forces, residual_ou
     nc = d.dep.shape[0]
     for t in range(states.shape[0]):
         ok = solve_constrained(d, w, u[t], states[t])
-        states[t, :] = w.yp
+        for i in range(states.shape[1]):
+            states[t, i] = w.yp[i]
         big = 0.0
         for c in range(nc):
             lam[t, c] = w.rhs[ny + c]

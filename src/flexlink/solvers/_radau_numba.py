@@ -6,12 +6,10 @@ embedded error estimate filtered by (γ₀/h M − J)⁻¹, the step controller 
 Gauss collocation (`_step_control_numba`: weighted max norm, Gustafsson's predictive factor),
 and the collocation polynomial as dense output.
 
-The model is reached through `model_rates(d, w, u, y, dy)`: dy = f(t, y) for the model whose
-kernel data ``d`` is, ``w`` its workspace, ``u`` the input row at t. Which kernel runs is
-decided at compile time by the type of ``d`` (`_KERNELS`: kernel-data record class →
-compiled rates function), so one compiled integrator serves every model and stays
-cacheable. A model adds its record class and rates function to `_KERNELS`, and, if it has
-invariants to keep (a forward system's momentum), its projection to `_PROJECTIONS`.
+The model is reached through `model_rates(model, u, y, dy)`: dy = f(t, y), ``u`` the input
+row at t, ``model`` the addresses of the model's compiled code and its records
+(`_radau_model.model_functions`): the loop is compiled once for every model, without the
+model's code inside it.
 
 Inputs are piecewise polynomials between breakpoints (`input_table.py`): u(t) is read in
 the compiled loop from Chebyshev coefficients, and the columns ``held[0]:held[1]`` are
@@ -24,19 +22,12 @@ input's jump).
 from __future__ import annotations
 
 import math
-from collections import namedtuple
 
+import numpy as np
 from numba import njit
-from numba.extending import overload
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ..dynamics._forward_numba import rates as forward_rates
-from ..dynamics._loops_numba import rates as loop_rates
-from ..dynamics._momentum_numba import project as forward_project
-from ..dynamics._nonlinear_loops_numba import rates as nonlinear_loop_rates
-from ..dynamics.forward_kernel import ForwardData
-from ..dynamics.loops import LoopData
-from ..dynamics.nonlinear_loops import NonlinearLoopData
+from ._radau_model import LinearData, model_functions, model_project, model_rates
 from ._step_control_numba import (
     SAFETY,
     error_norm,
@@ -48,66 +39,7 @@ from ._step_control_numba import (
 )
 from .solution import BLOW_UP
 
-LinearData = namedtuple("LinearData", ["A", "B"])
-LinearData.__doc__ = ("The linear model f = A y + B u (A (m, m), B (m, columns)): the "
-                      "integrator's own test model, against exact solutions.")
-
-
-@njit  # the tests' model only: no run of flexlink calls it, so nothing compiles it at install
-def linear_rates(d, w, u, y, dy):
-    """dy = A y + B u (w unused)."""
-    for i in range(y.shape[0]):
-        acc = 0.0
-        for j in range(y.shape[0]):
-            acc += d.A[i, j] * y[j]
-        for j in range(u.shape[0]):
-            acc += d.B[i, j] * u[j]
-        dy[i] = acc
-
-
-# kernel-data record class → its compiled rates(d, w, u, y, dy)
-_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates, LoopData: loop_rates,
-            NonlinearLoopData: nonlinear_loop_rates}
-
-
-def model_rates(d, w, u, y, dy):
-    """dy = f(t, y) of the model whose kernel data ``d`` is (input row u at t)."""
-    _KERNELS[type(d)](d, w, u, y, dy)
-
-
-@overload(model_rates)
-def _model_rates(d, w, u, y, dy):
-    kernel = _KERNELS.get(getattr(d, "instance_class", None))
-    if kernel is None:
-        return None
-
-    def impl(d, w, u, y, dy):
-        kernel(d, w, u, y, dy)
-    return impl
-
-
-# kernel-data record class → its compiled projection onto known invariants
-# project(d, w, pj, u, U, t, y) (a model without one is not projected)
-_PROJECTIONS = {ForwardData: forward_project}
-
-
-def model_project(d, w, pj, u, U, t, y):
-    """Correct y (in place) onto the model's known invariants at time t (s): pj the
-    model's projection record, u the input row and U the inputs' integrals from the start."""
-    _PROJECTIONS[type(d)](d, w, pj, u, U, t, y)
-
-
-@overload(model_project)
-def _model_project(d, w, pj, u, U, t, y):
-    project = _PROJECTIONS.get(getattr(d, "instance_class", None))
-    if project is None:
-        def none(d, w, pj, u, U, t, y):
-            return None
-        return none
-
-    def impl(d, w, pj, u, U, t, y):
-        project(d, w, pj, u, U, t, y)
-    return impl
+__all__ = ["LinearData", "model_functions", "radau_advance", "rates_at"]
 
 
 # Radau IIA (s = 3) and its transformation T⁻¹ A⁻¹ T = diag(γ, [[α, −β], [β, α]]).
@@ -244,14 +176,15 @@ def _lu_solve(LU, piv, b):
 # Inlined into the loop rather than compiled on its own: as a kernel of its own it would
 # optimise and emit the whole model it calls once more for each record type.
 @njit(inline="always")
-def _jacobian(d, w, u, y, f0, J, yp, f1):
+def _jacobian(model, u, y, f0, J, yp, f1):
     """J = ∂f/∂y at y by one-sided differences (f0 = f(y) given)."""
     m = y.shape[0]
-    yp[:] = y
+    for j in range(m):
+        yp[j] = y[j]
     for j in range(m):
         step = 1e-7 * max(1.0, abs(y[j]))
         yp[j] = y[j] + step
-        model_rates(d, w, u, yp, f1)
+        model_rates(model, u, yp, f1)
         yp[j] = y[j]
         for i in range(m):
             J[i, j] = (f1[i] - f0[i]) / step
@@ -261,7 +194,8 @@ def _jacobian(d, w, u, y, f0, J, yp, f1):
 def _mass_times(mass, identity, x, out):
     """out = M x."""
     if identity:
-        out[:] = x
+        for i in range(x.shape[0]):
+            out[i] = x[i]
         return
     for i in range(x.shape[0]):
         acc = 0.0
@@ -271,22 +205,23 @@ def _mass_times(mass, identity, x, out):
 
 
 @njit(cache=True)
-def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, control,
+def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, control,
                   t_out, states, y, st, ws, cont, projection):
     """Advance y (in place) from st[X] until st[X] ≥ t_stop (s), storing the state at each
     output time t_out[k] (k from st[NEXT_OUT]) into states[k] from the dense output.
 
-    mass (m, m) is M unless ``identity``; tab, seg_t: the input table (`input_row`) and the
-    segment boundaries (breakpoints, s); control: the step controller's record
-    (`_step_control_numba.StepControl`, its rtol and atol the local tolerances, its peaks
-    updated after each accepted step); hmax the longest step (s); st the
+    model: `model_functions` of the model's records, its compiled code; mass (m, m) is M
+    unless ``identity``; tab, seg_t: the input table (`input_row`) and the segment boundaries
+    (breakpoints, s); control: the step controller's record (`_step_control_numba.StepControl`,
+    its rtol and atol the local tolerances, its peaks updated after each accepted step); hmax
+    the longest step (s); st the
     persistent scalars (X, H, …), ws the work arrays and cont (m, 4) the collocation
-    polynomial of the last step. projection = (on, pj, itab, U): when ``on``, each accepted
+    polynomial of the last step. projection = (on, itab, U): when ``on``, each accepted
     step's end and each output state are put onto the model's known invariants
     (`model_project`; itab the inputs' integral table, U its scratch row). Returns 0 (reached t_stop), 1 (blow-up: |y| > BLOW_UP),
     2 (step size collapsed), 3 (singular iteration matrix)."""
     J, E1, E2, piv1, piv2, y0, z1, z2, z3, f1, f2, f3, scal, tmp, yp, fp, cw, u = ws
-    on, pj, itab, U = projection
+    on, itab, U = projection
     m = y.shape[0]
     n_seg = seg_t.shape[0] - 1
     # Newton's stopping tolerance (Hairer's default)
@@ -299,7 +234,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
         h = st[H]
         if st[F0_OK] == 0.0:  # f at the step's start (new segment: the inputs' right side)
             input_row(tab, held_values, held, seg, x, u)
-            model_rates(d, w, u, y, y0)
+            model_rates(model, u, y, y0)
             st[RATES] += 1
             st[F0_OK] = 1.0
         tolerances(control, y, scal)
@@ -314,7 +249,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
         caljac = st[JAC_OK] == 0.0
         if caljac:
             input_row(tab, held_values, held, seg, x, u)
-            _jacobian(d, w, u, y, y0, J, yp, fp)
+            _jacobian(model, u, y, y0, J, yp, fp)
             st[RATES] += m
             st[JACOBIANS] += 1
             st[JAC_OK] = 1.0
@@ -369,15 +304,15 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
             for i in range(m):
                 tmp[i] = y[i] + z1[i]
             input_row(tab, held_values, held, seg, x + C1 * h, u)
-            model_rates(d, w, u, tmp, z1)
+            model_rates(model, u, tmp, z1)
             for i in range(m):
                 tmp[i] = y[i] + z2[i]
             input_row(tab, held_values, held, seg, x + C2 * h, u)
-            model_rates(d, w, u, tmp, z2)
+            model_rates(model, u, tmp, z2)
             for i in range(m):
                 tmp[i] = y[i] + z3[i]
             input_row(tab, held_values, held, seg, x + h, u)
-            model_rates(d, w, u, tmp, z3)
+            model_rates(model, u, tmp, z3)
             st[RATES] += 3
             for i in range(m):
                 a1, a2, a3 = z1[i], z2[i], z3[i]
@@ -452,7 +387,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
             for i in range(m):
                 yp[i] = y[i] + tmp[i]
             input_row(tab, held_values, held, seg, x, u)
-            model_rates(d, w, u, yp, f1)
+            model_rates(model, u, yp, f1)
             st[RATES] += 1
             for i in range(m):
                 tmp[i] = f1[i] + f2[i]
@@ -493,7 +428,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
                     yp[i] = y[i]
                 input_row(tab, held_values, held, seg, x, u)
                 input_integral(tab, itab, seg, x, U)
-                model_project(d, w, pj, u, U, x, y)
+                model_project(model, u, U, x, y)
                 for i in range(m):
                     delta = y[i] - yp[i]
                     cont[i, 0] = y[i]
@@ -507,7 +442,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
                 if on:
                     input_row(tab, held_values, held, seg, t_out[k], u)
                     input_integral(tab, itab, seg, t_out[k], U)
-                    model_project(d, w, pj, u, U, t_out[k], states[k])
+                    model_project(model, u, U, t_out[k], states[k])
                 k += 1
             st[NEXT_OUT] = k
             st[REJECT] = 0.0
@@ -518,7 +453,7 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
                 st[F0_OK] = 0.0
             else:
                 input_row(tab, held_values, held, seg, x, u)
-                model_rates(d, w, u, y, y0)
+                model_rates(model, u, y, y0)
                 st[RATES] += 1
             if theta > THETA_KEEP:
                 st[JAC_OK] = 0.0
@@ -536,8 +471,18 @@ def radau_advance(d, w, mass, identity, tab, seg_t, held_values, held, t_stop, h
 
 
 @njit(cache=True)
-def rates_at(d, w, u, states, out):
-    """out[i] = f at states[i] with input row u[i] (the accelerations at the outputs of a
-    model without an outputs pass of its own: closed loops)."""
+def _rates_at(model, u, states, out):
+    """out[i] = f at states[i] with input row u[i] (``model``: `model_functions`)."""
     for i in range(states.shape[0]):
-        model_rates(d, w, u[i], states[i], out[i])
+        model_rates(model, u[i], states[i], out[i])
+
+
+def rates_at(d, w, u: np.ndarray, states: np.ndarray, out: np.ndarray) -> None:
+    """out[i] = f at states[i] with input row u[i], for the model whose kernel data ``d`` is
+    (``w`` its workspace): the accelerations at the outputs of a model without an outputs
+    pass of its own (closed loops)."""
+    rows = out if out.flags.c_contiguous and out.dtype == np.float64 else np.empty(out.shape)
+    _rates_at(model_functions(d, w), np.ascontiguousarray(u, dtype=float),
+              np.ascontiguousarray(states, dtype=float), rows)
+    if rows is not out:
+        out[...] = rows

@@ -103,6 +103,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         SEG,
         H,
         X,
+        model_functions,
         radau_advance,
     )
     from ._step_control_numba import step_control
@@ -116,8 +117,8 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     tab = tabulate(inputs, nodes)
     on = projection is not None and projection.active.size > 0  # type: ignore[attr-defined]
     itab = integrals(tab) if on else (np.zeros((1, 1, 1)), np.zeros((1, 1)))
-    project = (on, () if projection is None else projection, itab,
-               np.empty(tab[2].shape[2]))
+    project = (on, itab, np.empty(tab[2].shape[2]))
+    model = model_functions(d, w, projection if on else ())  # d, w, projection: kept alive
     m = y0.size
     groups = np.ascontiguousarray(groups, dtype=np.int64)
     rtol_local, atol_local = local_tolerances(rtol, atol)
@@ -152,14 +153,14 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
             st[F0_OK] = 0.0  # the held voltages changed: f at the step's start too
         t_stop = float(stop) - (0.0 if stop == t1 else 0.5 * scale)
         if steps is None:
-            status = radau_advance(d, w, M, identity, tab, nodes, held_values, held_columns,
+            status = radau_advance(model, M, identity, tab, nodes, held_values, held_columns,
                                    t_stop, hmax, control, t_out, states, y, st, ws, cont,
                                    project)
         else:  # one accepted step per call (the loop resumes where it stopped: same steps)
             status = 0
             while status == 0 and st[X] < t_stop:
                 start, seg, y_start = float(st[X]), int(st[SEG]), y.copy()
-                status = radau_advance(d, w, M, identity, tab, nodes, held_values,
+                status = radau_advance(model, M, identity, tab, nodes, held_values,
                                        held_columns, min(np.nextafter(start, np.inf), t_stop),
                                        hmax, control, t_out, states, y, st, ws, cont, project)
                 if status == 0:  # ws[6:9]: the accepted step's stage increments z1, z2, z3

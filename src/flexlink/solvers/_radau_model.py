@@ -1,0 +1,256 @@
+"""How the compiled Radau IIA loop (`_radau_numba.py`) reaches a model: its rates
+dy = f(t, y) and its projection onto known invariants, through pointers to their compiled
+code, so that the loop is compiled once for every model.
+
+numba optimises and emits every function it calls by name again inside the caller, and
+compiles a caller once per type of its arguments: a loop that took each model's records and
+called its rates by name was compiled (a large part of the kernel build) once per model, each
+time with the whole model inside. Here the loop takes only `model_functions`' ``model`` =
+(address of the rates trampoline, address of the projection trampoline (0: none), context):
+the context is an int64 array holding the addresses of the model's compiled rates and
+projection and its records (kernel data, workspace, projection record) as numba stores
+them, with the arrays' reference-count and owner pointers cleared, so that the loop's types
+do not depend on the model. A trampoline (one small kernel per record type) reads the
+records back and calls the model's compiled code. The records' arrays are not owned by the
+context: the caller keeps the records alive while the loop runs.
+
+A model adds its kernel-data record class and compiled rates(d, w, u, y, dy) to
+`_KERNELS`, and, if it has invariants to keep (a forward system's momentum), its compiled
+project(d, w, pj, u, U, t, y) to `_PROJECTIONS`; both return nothing.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+from typing import Any
+
+import numpy as np
+from numba import njit, typeof, types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
+
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from ..dynamics._forward_numba import rates as forward_rates
+from ..dynamics._loops_numba import rates as loop_rates
+from ..dynamics._momentum_numba import project as forward_project
+from ..dynamics._nonlinear_loops_numba import rates as nonlinear_loop_rates
+from ..dynamics.forward_kernel import ForwardData
+from ..dynamics.loops import LoopData
+from ..dynamics.nonlinear_loops import NonlinearLoopData
+
+LinearData = namedtuple("LinearData", ["A", "B"])
+LinearData.__doc__ = ("The linear model f = A y + B u (A (m, m), B (m, columns)): the "
+                      "integrator's own test model, against exact solutions.")
+
+
+@njit  # the tests' model only: no run of flexlink calls it, so nothing compiles it at install
+def linear_rates(d, w, u, y, dy):
+    """dy = A y + B u (w unused)."""
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for j in range(y.shape[0]):
+            acc += d.A[i, j] * y[j]
+        for j in range(u.shape[0]):
+            acc += d.B[i, j] * u[j]
+        dy[i] = acc
+
+
+# kernel-data record class → its compiled rates(d, w, u, y, dy)
+_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates, LoopData: loop_rates,
+            NonlinearLoopData: nonlinear_loop_rates}
+# kernel-data record class → its compiled projection onto known invariants
+# project(d, w, pj, u, U, t, y) (a model without one is not projected)
+_PROJECTIONS = {ForwardData: forward_project}
+
+ROW = types.Array(types.float64, 1, "C")  # every row the loop hands the model
+CONTEXT = types.Array(types.int64, 1, "C")
+_HEAD = 2  # words of the context before the records: the rates' and projection's addresses
+_ADDRESSES: dict[tuple, int] = {}  # (kernel, argument types) → address of its compiled code
+
+
+def _address(kernel: Any, argument_types: tuple) -> int:
+    """The address of `kernel`'s compiled code (numba's own calling convention) for these
+    argument types, compiled or loaded from its cache first."""
+    key = (kernel, argument_types)
+    if key not in _ADDRESSES:
+        kernel.compile(argument_types)
+        result = kernel.get_compile_result(types.none(*argument_types))
+        if result.signature.return_type != types.none:
+            raise TypeError(f"{kernel.py_func.__qualname__} must return nothing: the "
+                            "integrator calls it as a procedure")
+        _ADDRESSES[key] = result.library.get_pointer_to_function(result.fndesc.llvm_func_name)
+    return _ADDRESSES[key]
+
+
+def model_functions(d: Any, w: Any, pj: Any = ()) -> tuple[int, int, np.ndarray]:
+    """The ``model`` argument of the compiled loops for kernel data ``d``, workspace ``w``
+    and projection record ``pj`` (``()``: none): (address of the rates trampoline, address
+    of the projection trampoline or 0, context). The records must outlive every use of it."""
+    kernel = _KERNELS.get(type(d))
+    if kernel is None:
+        raise TypeError(f"no compiled rates for kernel data {type(d).__name__}: add its "
+                        "record class and rates to _radau_model._KERNELS")
+    records = (d, w, pj)
+    d_type, w_type = typeof(d), typeof(w)
+    records_type = types.TypeRef(typeof(records))
+    rates = _address(kernel, (d_type, w_type, ROW, ROW, ROW))
+    project = _PROJECTIONS.get(type(d))
+    if project is None or len(pj) == 0:
+        return (_address(_rates_from, (CONTEXT, ROW, ROW, ROW, records_type)), 0,
+                _pack(records, rates, 0))
+    project = _address(project, (d_type, w_type, typeof(pj), ROW, ROW, types.float64, ROW))
+    return (_address(_rates_from, (CONTEXT, ROW, ROW, ROW, records_type)),
+            _address(_project_from, (CONTEXT, ROW, ROW, types.float64, ROW, records_type)),
+            _pack(records, rates, project))
+
+
+def _cleared(context, builder, typ, value):
+    """``value`` of numba type ``typ`` with every array's reference-count (meminfo) and
+    owner (parent) pointers NULL: a borrowed view that numba neither counts nor frees."""
+    if isinstance(typ, types.Array):
+        array = cgutils.create_struct_proxy(typ)(context, builder, value=value)
+        array.meminfo = cgutils.get_null_value(array.meminfo.type)
+        array.parent = cgutils.get_null_value(array.parent.type)
+        return array._getvalue()
+    if isinstance(typ, types.BaseTuple):
+        for k, member in enumerate(typ.types):
+            inner = _cleared(context, builder, member, builder.extract_value(value, k))
+            value = builder.insert_value(value, inner, k)
+        return value
+    if isinstance(typ, (types.Number, types.Boolean)):
+        return value
+    raise TypingError(f"a model record holds {typ}: only arrays, numbers and tuples of them "
+                      "can be handed to the compiled integrator")
+
+
+def _records_pointer(context, builder, records, array):
+    """Pointer to the records stored in the context array after its head."""
+    data = cgutils.create_struct_proxy(CONTEXT)(context, builder, value=array).data
+    start = builder.gep(data, [context.get_constant(types.intp, _HEAD)])
+    return builder.bitcast(start, context.get_value_type(records).as_pointer())
+
+
+@intrinsic
+def _context_words(typingctx, records):
+    """Words (int64) of a context holding ``records``."""
+    def codegen(context, builder, signature, args):
+        size = context.get_abi_sizeof(context.get_value_type(records))
+        return context.get_constant(types.intp, _HEAD + (size + 7) // 8)
+    return types.intp(records), codegen
+
+
+@intrinsic
+def _store(typingctx, array, records):
+    """Store ``records`` (their arrays cleared: `_cleared`) into the context ``array``."""
+    if array != CONTEXT:
+        raise TypingError(f"the context is {CONTEXT}, not {array}")
+
+    def codegen(context, builder, signature, args):
+        value = _cleared(context, builder, records, args[1])
+        builder.store(value, _records_pointer(context, builder, records, args[0]))
+        return context.get_dummy_value()
+    return types.none(array, records), codegen
+
+
+@intrinsic
+def _load(typingctx, array, records_type):
+    """The records of type ``records_type`` stored in the context ``array``."""
+    records = records_type.instance_type
+    if array != CONTEXT:
+        raise TypingError(f"the context is {CONTEXT}, not {array}")
+
+    def codegen(context, builder, signature, args):
+        return builder.load(_records_pointer(context, builder, records, args[0]))
+    return records(array, records_type), codegen
+
+
+@njit(cache=True)
+def _pack(records, rates, project):
+    """A context: the addresses of the model's compiled rates and projection, then the
+    records (d, w, pj)."""
+    context = np.zeros(_context_words(records), dtype=np.int64)
+    context[0] = rates
+    context[1] = project
+    _store(context, records)
+    return context
+
+
+def _call_codegen(opaque: int):
+    """Code of a call of the compiled procedure at the address in the first argument with
+    the other arguments, then ``opaque`` NULL pointers (the callee's type-reference
+    arguments); an error the callee raises is raised on."""
+    def codegen(context, builder, signature, args):
+        argument_types = signature.args[1:] + (types.voidptr,) * opaque
+        values = list(args[1:]) + [cgutils.voidptr_t(None)] * opaque
+        function = context.call_conv.get_function_type(types.none, argument_types)
+        pointer = builder.inttoptr(args[0], function.as_pointer())
+        status, _ = context.call_conv.call_function(builder, pointer, types.none,
+                                                    argument_types, values)
+        with cgutils.if_unlikely(builder, status.is_error):
+            context.call_conv.return_status_propagate(builder, status)
+        return context.get_dummy_value()
+    return codegen
+
+
+def _check(name: str, got: tuple, wanted: tuple) -> None:
+    """A call's argument types against those the callee was compiled for."""
+    if got != wanted:
+        raise TypingError(f"{name} takes {wanted}, got {got}")
+
+
+@intrinsic
+def _call_rates(typingctx, address, d, w, u, y, dy):
+    """The model's compiled rates(d, w, u, y, dy) at ``address``."""
+    _check("the model's rates", (u, y, dy), (ROW, ROW, ROW))
+    return types.none(address, d, w, u, y, dy), _call_codegen(0)
+
+
+@intrinsic
+def _call_project(typingctx, address, d, w, pj, u, U, t, y):
+    """The model's compiled project(d, w, pj, u, U, t, y) at ``address``."""
+    _check("the model's projection", (u, U, t, y), (ROW, ROW, types.float64, ROW))
+    return types.none(address, d, w, pj, u, U, t, y), _call_codegen(0)
+
+
+@intrinsic
+def _call_rates_from(typingctx, address, context, u, y, dy):
+    """The rates trampoline (`_rates_from`) at ``address``."""
+    _check("the rates trampoline", (context, u, y, dy), (CONTEXT, ROW, ROW, ROW))
+    return types.none(address, context, u, y, dy), _call_codegen(1)
+
+
+@intrinsic
+def _call_project_from(typingctx, address, context, u, U, t, y):
+    """The projection trampoline (`_project_from`) at ``address``."""
+    _check("the projection trampoline", (context, u, U, t, y),
+           (CONTEXT, ROW, ROW, types.float64, ROW))
+    return types.none(address, context, u, U, t, y), _call_codegen(1)
+
+
+@njit(cache=True)
+def _rates_from(context, u, y, dy, records_type):
+    """dy = f(t, y) of the model whose records the context holds (their type given)."""
+    d, w, _ = _load(context, records_type)
+    _call_rates(context[0], d, w, u, y, dy)
+
+
+@njit(cache=True)
+def _project_from(context, u, U, t, y, records_type):
+    """y (in place) onto the invariants of the model whose records the context holds."""
+    d, w, pj = _load(context, records_type)
+    _call_project(context[1], d, w, pj, u, U, t, y)
+
+
+@njit(inline="always")
+def model_rates(model, u, y, dy):
+    """dy = f(t, y) of ``model`` (`model_functions`) with the input row u at t."""
+    _call_rates_from(model[0], model[2], u, y, dy)
+
+
+@njit(inline="always")
+def model_project(model, u, U, t, y):
+    """Correct y (in place) onto the model's known invariants at time t (s): u the input
+    row and U the inputs' integrals from the start (only where ``model`` has a
+    projection)."""
+    _call_project_from(model[1], model[2], u, U, t, y)
