@@ -98,6 +98,31 @@ def _rates(model: _Model) -> Any:
     return rates
 
 
+def _same_rates(a: _Model, b: _Model) -> bool:
+    """Whether two models' rates are the same function: equal kernel data and input tables
+    (a field read only by the channels, such as a sensor's place)."""
+    if a.loops is not None or b.loops is not None:
+        return a is b
+    return (all(np.array_equal(x, y) for x, y in zip(a.data, b.data, strict=True))
+            and all(np.array_equal(x, y) for x, y in zip(a.table, b.table, strict=True)))
+
+
+def _jacobians(model: _Model) -> Any:
+    """∂f/∂y of the model's rates (`dynamics._forward_jacobian_numba`: exact along the
+    elastic coordinates); closed loops: central differences of their rates."""
+    if model.loops is not None:
+        return None
+    from ..dynamics._forward_jacobian_numba import forward_jacobians
+    from ..solvers.radau_sensitivity import JACOBIAN_STEP
+
+    def jacobians(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        out = np.empty((Y.shape[0], Y.shape[1], Y.shape[1]))
+        forward_jacobians(model.data, model.work, np.ascontiguousarray(u),
+                          np.ascontiguousarray(Y), JACOBIAN_STEP, out)
+        return out
+    return jacobians
+
+
 def _project(model: _Model, t: float, u: np.ndarray, U: np.ndarray, y: np.ndarray
              ) -> np.ndarray:
     """y projected onto the model's known momentum at time t (s) (`model_project`), with
@@ -157,9 +182,14 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     m = nominal.y0.size
     rates_of = [[_rates(md) for md in group] for group in moved]
 
+    # a field the rates do not read: its forcing is zero (no evaluations)
+    reads = [not all(_same_rates(md, nominal) for md in group) for group in moved]
+
     def forcing(times: np.ndarray, segment: np.ndarray, Y: np.ndarray) -> np.ndarray:
         out = np.zeros((Y.shape[0], m, K))
         for k, f in enumerate(fields):
+            if not reads[k]:
+                continue
             for w, md, rates in zip(f.weights, moved[k], rates_of[k], strict=True):
                 out[:, :, k] += (w / f.step) * rates(table_rows(md.table, segment, times), Y)
         return out
@@ -199,7 +229,8 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
                          (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
                          ).reshape(steps.h.size, 3, -1)
     starts, dz, ends = radau_tangent(steps, _rates(nominal), stage_u, forcing, dy0,
-                                     project_step if projected else None)
+                                     project_step if projected else None,
+                                     _jacobians(nominal))
     which, s = output_steps(steps, t)
     dstates = np.empty((t.size, m, K))
     dstates[0] = dy0
