@@ -107,20 +107,50 @@ def _same_rates(a: _Model, b: _Model) -> bool:
             and all(np.array_equal(x, y) for x, y in zip(a.table, b.table, strict=True)))
 
 
-def _jacobians(model: _Model) -> Any:
-    """∂f/∂y of the model's rates (`dynamics._forward_jacobian_numba`: exact along the
-    elastic coordinates); closed loops: central differences of their rates."""
-    if model.loops is not None:
-        return None
-    from ..dynamics._forward_jacobian_numba import forward_jacobians
-    from ..solvers.radau_sensitivity import JACOBIAN_STEP
+def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
+                   reads: list[bool]) -> tuple:
+    """(jacobians, forcing) of `radau_tangent` from the compiled equations
+    (`dynamics._forward_jacobian_numba`): ∂f/∂y at the stages, exact along the elastic
+    coordinates, and per field ∂f/∂p = −A⁻¹ ∂E/∂p from the moved models' equations at the
+    nominal accelerations (forcing takes the stage states jacobians was last given)."""
+    from ..dynamics._forward_jacobian_numba import forward_equations, forward_jacobians
+    from ..solvers.radau_sensitivity import JACOBIAN_STEP, table_rows
+
+    d = nominal.data
+    nu, n, m = d.free.shape[0], d.n_x - d.n_rigid, nominal.y0.size
+    q, ns, K = nu + n, m - 2 * nu - 2 * n, len(fields)
+    last: dict = {}
 
     def jacobians(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        out = np.empty((Y.shape[0], Y.shape[1], Y.shape[1]))
-        forward_jacobians(model.data, model.work, np.ascontiguousarray(u),
-                          np.ascontiguousarray(Y), JACOBIAN_STEP, out)
+        rows = Y.shape[0]
+        J, A, acc = np.empty((rows, m, m)), np.empty((rows, q, q)), np.empty((rows, q))
+        forward_jacobians(d, nominal.work, np.ascontiguousarray(u), np.ascontiguousarray(Y),
+                          JACOBIAN_STEP, J, A, acc)
+        last.update(Y=Y, A=A, acc=acc)
+        return J
+
+    def forcing(times: np.ndarray, segment: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        if last.get("Y") is not Y:
+            jacobians(table_rows(nominal.table, segment, times), Y)
+        rows = Y.shape[0]
+        dE, dS = np.zeros((rows, q, K)), np.zeros((rows, ns, K))
+        E, S = np.empty((rows, q)), np.empty((rows, ns))
+        states = np.ascontiguousarray(Y)
+        for k, f in enumerate(fields):
+            if not reads[k]:
+                continue
+            for w, md in zip(f.weights, moved[k], strict=True):
+                forward_equations(md.data, md.work, table_rows(md.table, segment, times),
+                                  states, last["acc"], E, S)
+                dE[:, :, k] += (w / f.step) * E
+                dS[:, :, k] += (w / f.step) * S
+        da = -np.linalg.solve(last["A"], dE)
+        out = np.zeros((rows, m, K))
+        out[:, nu:2 * nu] = da[:, :nu]
+        out[:, 2 * nu + n:2 * nu + 2 * n] = da[:, nu:]
+        out[:, 2 * nu + 2 * n:] = dS
         return out
-    return jacobians
+    return jacobians, forcing
 
 
 def _project(model: _Model, t: float, u: np.ndarray, U: np.ndarray, y: np.ndarray
@@ -228,9 +258,11 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     stage_u = table_rows(nominal.table, np.repeat(steps.segment, 3),
                          (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
                          ).reshape(steps.h.size, 3, -1)
+    jacobians = None
+    if nominal.loops is None:
+        jacobians, forcing = _linearization(nominal, moved, fields, reads)
     starts, dz, ends = radau_tangent(steps, _rates(nominal), stage_u, forcing, dy0,
-                                     project_step if projected else None,
-                                     _jacobians(nominal))
+                                     project_step if projected else None, jacobians)
     which, s = output_steps(steps, t)
     dstates = np.empty((t.size, m, K))
     dstates[0] = dy0
@@ -248,27 +280,42 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         states_out = np.vstack([nominal.y0, dense(steps.y0[which], steps.z[which],
                                                   steps.y1[which], s)])
     channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
+    unmoved: list = []  # the nominal model's outputs pass at states_out, once
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
+        # a field only the channels read (a sensor's place): the outputs pass is the
+        # nominal one at the run's own states; only the channels differ
+        same = nominal.loops is None and not reads[k] and not np.any(dstates[:, :, k])
+        if same and not unmoved:
+            unmoved.append(_outputs_pass(nominal, t, states_out, run))
         for j, w, md in zip(f.offsets, f.weights, moved[k], strict=True):
             y = states_out + j * f.step * dstates[:, :, k]
-            for name, v in _channels(md, t, y, run).items():
+            for name, v in _channels(md, t, y, run, unmoved[0] if same else None).items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
             column.append(total[name] / f.step)
     return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
-def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun
-              ) -> dict[str, np.ndarray]:
-    """The forward path's channels of ``model`` at the integrator's states (nt, m)."""
+def _outputs_pass(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun
+                  ) -> tuple:
+    """The Solution and the compiled outputs of ``model`` at the states (nt, m)."""
     from ..solvers.forward import forward_solution
+
+    return forward_solution(model.data, model.work, model.system, t, states,
+                            dict(run.solution.stats), None, run.solution.accuracy,
+                            model.projection)
+
+
+def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
+              passed: tuple | None = None) -> dict[str, np.ndarray]:
+    """The forward path's channels of ``model`` at the integrator's states (nt, m);
+    ``passed``: its outputs pass there (`_outputs_pass`), if already made."""
     from .forward import forward_run
 
-    stats, accuracy = dict(run.solution.stats), run.solution.accuracy
+    stats = dict(run.solution.stats)
     if model.loops is None:
-        solution, outputs = forward_solution(model.data, model.work, model.system, t, states,
-                                             stats, None, accuracy, model.projection)
+        solution, outputs = passed or _outputs_pass(model, t, states, run)
         return forward_run(model.scenario, model.system, t, solution, outputs, None, {}, {},
                            False).values
     from ..solvers.loops import loop_run
