@@ -62,3 +62,44 @@ def test_linearization_matches_central_differences(example: str, t_end: float,
                         zip(f.weights, rates, moved[k], strict=True)) / f.step
         assert np.abs(Fp[:, :, k] - reference).max() <= 1e-6 * np.abs(reference).max(), \
             f.target.text
+
+
+def test_outputs_with_given_accelerations() -> None:
+    """The outputs pass with accelerations given equals the one that solves for them (to
+    the bit, given those it solved for), and a moved model's accelerations from one Newton
+    step off the nominal ones (`_moved_accelerations`) match its solved ones to second
+    order in the move."""
+    from flexlink.dynamics.forward_kernel import inputs
+    from flexlink.dynamics.forward_outputs import forward_outputs
+    from flexlink.simulation.driven_sensitivities import _accelerations, _moved_accelerations
+
+    file = scenario_file(flexlink.load_scenario("examples/paper_servo.toml"))
+    scenario = file.build({("simulation", "t_end"): 1.2})
+    t = np.linspace(0.0, 1.2, 61)
+    records: list = []
+    run_forward(scenario, t, None, False, steps=records)
+    steps = step_sequence(records)
+    model = _model(scenario, t, None)
+    states = np.vstack([model.y0, steps.y1[np.linspace(0, steps.h.size - 1, 60).astype(int)]])
+    u = inputs(model.system, t)
+    solved = forward_outputs(model.system, model.data, model.work, u, states)
+    nu, n = len(model.system.free), model.system.n
+    acc = np.hstack([solved.rates[:, nu:2 * nu], solved.rates[:, 2 * nu + n:2 * nu + 2 * n]])
+    given = forward_outputs(model.system, model.data, model.work, u, states,
+                            accelerations=acc)
+    assert np.array_equal(given.rates, solved.rates)
+    assert np.array_equal(given.torques, solved.torques)
+    assert np.array_equal(given.frames.alpha, solved.frames.alpha)
+    A, a0 = _accelerations(model, t, states)
+    assert np.array_equal(a0, acc)
+    direction = np.random.default_rng(0).standard_normal(states.shape) * 1e-3
+    for rel in (1e-3, 1e-4):
+        moved = _model(file.build({("simulation", "t_end"): 1.2,
+                                   ("links", 0, "E"): 30e9 * (1 + rel)}), t, None)
+        y = states + rel * direction
+        exact = forward_outputs(moved.system, moved.data, moved.work,
+                                inputs(moved.system, t), y).rates
+        exact = np.hstack([exact[:, nu:2 * nu], exact[:, 2 * nu + n:2 * nu + 2 * n]])
+        step = _moved_accelerations(moved, t, y, A, a0)
+        error = np.abs(step - exact).max() / np.abs(exact - a0).max()
+        assert error < 0.3 * rel, (rel, error)  # second order: relative error ∝ the move

@@ -170,3 +170,17 @@ def forward_equations(d, w_, u, states, acc, E, srates):
         _equations(d, w_, u[i], states[i], acc[i], E[i])
         for s in range(srates.shape[1]):
             srates[i, s] = w_.srates[s]
+
+
+@njit(cache=True)
+def forward_accelerations(d, w_, u, states, A, acc):
+    """A[i] = ∂E/∂a (q, q) and the accelerations acc[i] = a (q,) the rates solve for at
+    states[i] with input rows u[i] (`_equations`)."""
+    q = acc.shape[1]
+    for i in range(states.shape[0]):
+        assemble(d, w_, u[i], states[i])
+        for r in range(q):
+            acc[i, r] = w_.b[r]
+            for c in range(q):
+                A[i, r, c] = w_.A[r, c]
+        _solve(w_.A, acc[i])

@@ -281,6 +281,7 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
                                                   steps.y1[which], s)])
     channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
     unmoved: list = []  # the nominal model's outputs pass at states_out, once
+    solved = None if nominal.loops is not None else _accelerations(nominal, t, states_out)
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
         # a field only the channels read (a sensor's place): the outputs pass is the
@@ -290,21 +291,55 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
             unmoved.append(_outputs_pass(nominal, t, states_out, run))
         for j, w, md in zip(f.offsets, f.weights, moved[k], strict=True):
             y = states_out + j * f.step * dstates[:, :, k]
-            for name, v in _channels(md, t, y, run, unmoved[0] if same else None).items():
+            passed = unmoved[0] if same else None
+            if passed is None and solved is not None:
+                passed = _outputs_pass(md, t, y, run, _moved_accelerations(md, t, y, *solved))
+            for name, v in _channels(md, t, y, run, passed).items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
             column.append(total[name] / f.step)
     return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
-def _outputs_pass(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun
-                  ) -> tuple:
-    """The Solution and the compiled outputs of ``model`` at the states (nt, m)."""
+def _outputs_pass(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
+                  accelerations: np.ndarray | None = None) -> tuple:
+    """The Solution and the compiled outputs of ``model`` at the states (nt, m), with the
+    given ``accelerations`` (p̈_free, z̈) (nt, ·) or those the rates solve for."""
     from ..solvers.forward import forward_solution
 
     return forward_solution(model.data, model.work, model.system, t, states,
                             dict(run.solution.stats), None, run.solution.accuracy,
-                            model.projection)
+                            model.projection, accelerations)
+
+
+def _accelerations(model: _Model, t: np.ndarray, states: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The equations' matrix A (nt, q, q) and the accelerations a (nt, q) that the rates
+    of ``model`` solve for at the states (nt, m), times t (`_forward_jacobian_numba`)."""
+    from ..dynamics._forward_jacobian_numba import forward_accelerations
+    from ..dynamics.forward_kernel import inputs
+
+    q = model.data.free.shape[0] + model.data.n_x - model.data.n_rigid
+    A, acc = np.empty((t.size, q, q)), np.empty((t.size, q))
+    forward_accelerations(model.data, model.work, inputs(model.system, t),
+                          np.ascontiguousarray(states), A, acc)
+    return A, acc
+
+
+def _moved_accelerations(model: _Model, t: np.ndarray, states: np.ndarray, A: np.ndarray,
+                         acc: np.ndarray) -> np.ndarray:
+    """The accelerations of a moved ``model`` at states (nt, m) near those where the nominal
+    model's are acc with matrix A (`_accelerations`): one Newton step from them,
+    a − A⁻¹ E(a). Its error, second order in the move, is even in it: a central difference
+    of the channels keeps its order."""
+    from ..dynamics._forward_jacobian_numba import forward_equations
+    from ..dynamics.forward_kernel import inputs
+
+    E = np.empty_like(acc)
+    S = np.empty((t.size, states.shape[1] - 2 * acc.shape[1]))
+    forward_equations(model.data, model.work, inputs(model.system, t),
+                      np.ascontiguousarray(states), acc, E, S)
+    return acc - np.linalg.solve(A, E[:, :, None])[:, :, 0]
 
 
 def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
