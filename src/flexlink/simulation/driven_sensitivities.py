@@ -314,8 +314,9 @@ def _outputs_pass(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun
 
 def _accelerations(model: _Model, t: np.ndarray, states: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """The equations' matrix A (nt, q, q) and the accelerations a (nt, q) that the rates
-    of ``model`` solve for at the states (nt, m), times t (`_forward_jacobian_numba`)."""
+    """The inverse of the equations' matrix A⁻¹ (nt, q, q) and the accelerations a (nt, q)
+    that the rates of ``model`` solve for at the states (nt, m), times t
+    (`_forward_jacobian_numba`)."""
     from ..dynamics._forward_jacobian_numba import forward_accelerations
     from ..dynamics.forward_kernel import inputs
 
@@ -323,13 +324,13 @@ def _accelerations(model: _Model, t: np.ndarray, states: np.ndarray
     A, acc = np.empty((t.size, q, q)), np.empty((t.size, q))
     forward_accelerations(model.data, model.work, inputs(model.system, t),
                           np.ascontiguousarray(states), A, acc)
-    return A, acc
+    return np.linalg.inv(A), acc
 
 
-def _moved_accelerations(model: _Model, t: np.ndarray, states: np.ndarray, A: np.ndarray,
-                         acc: np.ndarray) -> np.ndarray:
+def _moved_accelerations(model: _Model, t: np.ndarray, states: np.ndarray,
+                         inverse: np.ndarray, acc: np.ndarray) -> np.ndarray:
     """The accelerations of a moved ``model`` at states (nt, m) near those where the nominal
-    model's are acc with matrix A (`_accelerations`): one Newton step from them,
+    model's are acc with matrix A = inverse⁻¹ (`_accelerations`): one Newton step from them,
     a − A⁻¹ E(a). Its error, second order in the move, is even in it: a central difference
     of the channels keeps its order."""
     from ..dynamics._forward_jacobian_numba import forward_equations
@@ -339,7 +340,7 @@ def _moved_accelerations(model: _Model, t: np.ndarray, states: np.ndarray, A: np
     S = np.empty((t.size, states.shape[1] - 2 * acc.shape[1]))
     forward_equations(model.data, model.work, inputs(model.system, t),
                       np.ascontiguousarray(states), acc, E, S)
-    return acc - np.linalg.solve(A, E[:, :, None])[:, :, 0]
+    return acc - np.einsum("nij,nj->ni", inverse, E)
 
 
 def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
