@@ -8,7 +8,7 @@ For each case and field: the sensitivities of every channel at rtol 1e-10 agains
 Richardson (fourth order; at rtol 1e-11 or δ = 1e-4 the differences' own noise reaches
 1e-6); the error is max |S − D| over time, relative to max |D| of the
 channel, the worst channel reported. Then the wall time of the run with ten
-sensitivities over the run alone (best of three each, default tolerance); with --against
+sensitivities over the run alone (best of five each, default tolerance); with --against
 REV, first the same timing of the package as committed at git revision REV (exported to a
 temporary folder, run in a child process), so that before and after come from one run.
 """
@@ -165,7 +165,7 @@ def cost(name: str, path: str, fields: list[str], overrides: dict) -> None:
 
     def best(f):
         times = []
-        for _ in range(3):
+        for _ in range(5):
             t = time.perf_counter()
             f()
             times.append(time.perf_counter() - t)
