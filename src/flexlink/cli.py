@@ -233,9 +233,11 @@ WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_bas
                "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar",
                "nonlinear_four_bar", "sensitivities")
 # The warm-up runs that also compute sensitivities, with their fields: the Lawson tangent
-# loop (prescribed) and the Radau IIA steps' batched rates (forward).
+# loop (prescribed), the Radau IIA steps' linearization (forward) and the derivative of the
+# momentum projection (free_base).
 WARMUP_SENSITIVITIES: dict[str, list[str]] = {"sensitivities": ["links[0].EI"],
-                                              "forward": ["links[0].EI"]}
+                                              "forward": ["links[0].EI"],
+                                              "free_base": ["links[0].EI"]}
 # The warm-up runs that also take an objective's gradient, with its channel (a sensor on
 # the modes: the reverse pass of the Lawson steps).
 WARMUP_OBJECTIVES: dict[str, str] = {"sensitivities": "link2_tip_deflection"}

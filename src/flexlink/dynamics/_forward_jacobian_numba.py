@@ -15,7 +15,8 @@ exactly for a unit step (likewise ż_j): one residual per column, not two evalua
 rates (each 1 + free-coordinate residuals). The rigid coordinates, their rates and the servo
 integrals (trigonometric, saturating) take central differences of E at fixed a (one
 residual each), ∂a/∂y_c = −A⁻¹ ∂E/∂y_c; a model parameter likewise (`forward_equations`
-of the moved model at the nominal a).
+of the moved model at the nominal a). `project_rows`: the momentum projection of many
+states in one call.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ._forward_numba import _solve, applied, assemble, load_state, residual
+from ._momentum_numba import project
 
 
 @njit(cache=True)
@@ -184,3 +186,11 @@ def forward_accelerations(d, w_, u, states, A, acc):
             for c in range(q):
                 A[i, r, c] = w_.A[r, c]
         _solve(w_.A, acc[i])
+
+
+@njit(cache=True)
+def project_rows(d, w_, pj, u, U, t, states):
+    """Each of states[i] projected in place onto the known momentum at time t[i]
+    (`_momentum_numba.project`) with input row u[i] and the inputs' integrals U[i]."""
+    for i in range(states.shape[0]):
+        project(d, w_, pj, u[i], U[i], t[i], states[i])

@@ -153,14 +153,17 @@ def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
     return jacobians, forcing
 
 
-def _project(model: _Model, t: float, u: np.ndarray, U: np.ndarray, y: np.ndarray
-             ) -> np.ndarray:
-    """y projected onto the model's known momentum at time t (s) (`model_project`), with
-    the input row u and the inputs' integrals U there."""
-    from ..dynamics._momentum_numba import project
+def _projected(model: _Model, segment: np.ndarray, times: np.ndarray, Y: np.ndarray
+               ) -> np.ndarray:
+    """The states Y (n, m) projected onto the model's known momentum at times (n,) inside
+    their input segments (n,) (`_momentum_numba.project`)."""
+    from ..dynamics._forward_jacobian_numba import project_rows
+    from ..solvers.radau_sensitivity import table_rows
 
-    out = np.array(y, dtype=float)
-    project(model.data, model.work, model.projection, u, U, float(t), out)
+    out = np.array(Y, dtype=float)
+    project_rows(model.data, model.work, model.projection, table_rows(model.table, segment,
+                                                                      times),
+                 _integral_rows(model, segment, times), np.ascontiguousarray(times), out)
     return out
 
 
@@ -229,31 +232,37 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         dy0[:, k] = sum(w * md.y0 for w, md in zip(f.weights, moved[k], strict=True)) / f.step
     projected = nominal.projection.active.size > 0
 
-    def project_derivative(rows: list, time: float, y: np.ndarray, dy: np.ndarray
-                           ) -> np.ndarray:
-        """The derivative of the projection of y (moving along dy) at ``time``; rows: per
-        field, per offset, the moved model's (input row, input integrals) there."""
-        out = np.empty_like(dy)
-        for k, f in enumerate(fields):
-            out[:, k] = sum(w * _project(md, time, *rows[k][i], y + j * f.step * dy[:, k])
-                            for i, (j, w, md) in enumerate(zip(f.offsets, f.weights,
-                                                               moved[k], strict=True))
-                            ) / f.step
-        return out
+    def projection_tangent(segment: np.ndarray, times: np.ndarray, Y: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray]:
+        """The derivative of the projection of states Y (n, m) moving along dy (m, K) at
+        times (n,), as J (n, m, m) and c (n, m, K): J[i] dy + c[i]. J: the nominal
+        projection's Jacobian (central differences); c: per field, the projections of the
+        moved models at Y combined by its stencil. Equal to the stencil applied to the moved
+        projections at Y moved along dy to second order in the step (both stencils: their
+        weights w_j at offsets j have Σ w_j = Σ w_j j² = 0, Σ w_j j = 1)."""
+        from ..solvers.radau_sensitivity import JACOBIAN_STEP
 
-    def rows_at(segment: np.ndarray, times: np.ndarray) -> list:
-        """Per time, per field, per offset: the moved model's (u, U) there."""
-        table = [[(table_rows(md.table, segment, times), _integral_rows(md, segment, times))
-                  for md in group] for group in moved]
-        return [[[(u[n], U[n]) for u, U in group] for group in table]
-                for n in range(times.size)]
+        n = Y.shape[0]
+        c = np.zeros((n, m, K))
+        for k, f in enumerate(fields):
+            for w, md in zip(f.weights, moved[k], strict=True):
+                c[:, :, k] += (w / f.step) * _projected(md, segment, times, Y)
+        eps = JACOBIAN_STEP * np.maximum(1.0, np.abs(Y))
+        shifted = np.repeat(Y[:, None, None, :], 2, axis=1).repeat(m, axis=2)
+        idx = np.arange(m)
+        shifted[:, 0, idx, idx] += eps
+        shifted[:, 1, idx, idx] -= eps
+        span = shifted[:, 0, idx, idx] - shifted[:, 1, idx, idx]
+        P = _projected(nominal, np.repeat(segment, 2 * m), np.repeat(times, 2 * m),
+                       shifted.reshape(-1, m)).reshape(n, 2, m, m)
+        return np.swapaxes((P[:, 0] - P[:, 1]) / span[:, :, None], 1, 2), c
 
     if projected:
-        step_rows = rows_at(steps.segment, steps.t + steps.h)
+        step_J, step_c = projection_tangent(steps.segment, steps.t + steps.h,
+                                            steps.y0 + steps.z[:, 2])
 
     def project_step(s: int, y1: np.ndarray, dy1: np.ndarray) -> np.ndarray:
-        raw = steps.y0[s] + steps.z[s, 2]
-        return project_derivative(step_rows[s], float(steps.t[s] + steps.h[s]), raw, dy1)
+        return step_J[s] @ dy1 + step_c[s]
 
     stage_u = table_rows(nominal.table, np.repeat(steps.segment, 3),
                          (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
@@ -269,10 +278,8 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     dstates[1:] = dense(starts[which], dz[which], ends[which], s)
     if projected:  # the outputs are projected too
         raw = dense(steps.y0[which], steps.z[which], steps.y1[which], s)
-        out_rows = rows_at(steps.segment[which], t[1:])
-        for i in range(1, t.size):
-            dstates[i] = project_derivative(out_rows[i - 1], float(t[i]), raw[i - 1],
-                                            dstates[i])
+        out_J, out_c = projection_tangent(steps.segment[which], t[1:], raw)
+        dstates[1:] = np.einsum("nij,njk->nik", out_J, dstates[1:]) + out_c
     # the states the channels are computed from: the run's outputs (projected onto the
     # known momentum), or for closed loops the integrated ones (the channels close them)
     states_out = _states(run, nominal)
