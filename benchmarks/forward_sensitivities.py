@@ -1,21 +1,28 @@
 """Forward-run sensitivities (driven joints, moving base; compiled Radau IIA) against
 converged central differences of tight-tolerance runs, and their cost against the run alone.
 
-    python benchmarks/forward_sensitivities.py [--quick]
+    python benchmarks/forward_sensitivities.py [--quick] [--against REV]
 
 For each case and field: the sensitivities of every channel at rtol 1e-10 against
 (c(p + δ) − c(p − δ)) / 2δ of runs at rtol 1e-12, δ = 1e-3 |p| and 2e-3 |p| combined by
 Richardson (fourth order; at rtol 1e-11 or δ = 1e-4 the differences' own noise reaches
 1e-6); the error is max |S − D| over time, relative to max |D| of the
 channel, the worst channel reported. Then the wall time of the run with ten
-sensitivities over the run alone (best of three each, default tolerance).
+sensitivities over the run alone (best of five each, default tolerance); with --against
+REV, first the same timing of the package as committed at git revision REV (exported to a
+temporary folder, run in a child process), so that before and after come from one run.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import subprocess
+import sys
+import tempfile
 import time
 import tomllib
+from pathlib import Path
 
 import numpy as np
 
@@ -158,7 +165,7 @@ def cost(name: str, path: str, fields: list[str], overrides: dict) -> None:
 
     def best(f):
         times = []
-        for _ in range(3):
+        for _ in range(5):
             t = time.perf_counter()
             f()
             times.append(time.perf_counter() - t)
@@ -169,18 +176,36 @@ def cost(name: str, path: str, fields: list[str], overrides: dict) -> None:
           f"{both / alone:.1f}x", flush=True)
 
 
+def _export(revision: str, folder: str) -> str:
+    """The package's src/ as of git ``revision``, unpacked under ``folder``."""
+    root = Path(__file__).resolve().parent.parent
+    archive = subprocess.run(["git", "-C", str(root), "archive", revision, "src"],
+                             check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", folder], input=archive, check=True)
+    return os.path.join(folder, "src")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="cost only")
     parser.add_argument("--case", choices=list(CASES), action="append",
                         help="only these cases (default: all)")
+    parser.add_argument("--against", metavar="REV",
+                        help="also time the package at git revision REV (before)")
     args = parser.parse_args()
-    for name in args.case or list(CASES):
-        path, fields = CASES[name]
-        overrides = OVERRIDES.get(name, {})
-        if not args.quick:
-            check(name, path, fields, 1e-10, overrides)
-        cost(name, path, fields, overrides)
+    with tempfile.TemporaryDirectory() as folder:
+        before = _export(args.against, folder) if args.against else None
+        for name in args.case or list(CASES):
+            path, fields = CASES[name]
+            overrides = OVERRIDES.get(name, {})
+            if not args.quick:
+                check(name, path, fields, 1e-10, overrides)
+            if before is not None:
+                print(f"before ({args.against}):", flush=True)
+                subprocess.run([sys.executable, __file__, "--quick", "--case", name],
+                               env={**os.environ, "PYTHONPATH": before}, check=True)
+                print("after:", flush=True)
+            cost(name, path, fields, overrides)
 
 
 if __name__ == "__main__":

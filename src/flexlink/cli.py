@@ -233,10 +233,12 @@ WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_bas
                "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar",
                "nonlinear_four_bar", "sensitivities")
 # The warm-up runs that also compute sensitivities, with their fields: the Lawson tangent
-# loop (prescribed), the Radau IIA steps' batched rates (forward) and the Gauss steps'
-# replay and batched residuals (both nonlinear paths).
+# loop (prescribed), the Radau IIA steps' linearization (forward), the derivative of the
+# momentum projection (free_base) and the Gauss steps' replay and batched residuals (both
+# nonlinear paths).
 WARMUP_SENSITIVITIES: dict[str, list[str]] = {"sensitivities": ["links[0].EI"],
                                               "forward": ["links[0].EI"],
+                                              "free_base": ["links[0].EI"],
                                               "nonlinear": ["links[0].EI"],
                                               "nonlinear_forward": ["links[0].EI"]}
 # The warm-up runs that also take an objective's gradient, with its channel (a sensor on

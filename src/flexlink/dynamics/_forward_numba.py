@@ -500,14 +500,10 @@ def state_rates(d, w_, y, acc, dy):
         dy[2 * nu + 2 * n + s] = w_.srates[s]
 
 
-# Inlined into its callers (these rates, the closed loops' solve_constrained) rather than
-# compiled on its own: a kernel of its own is optimised again inside each caller.
 @njit(inline="always")
-def assemble(d, w_, u, y):
-    """The linear equations of `rates` in (p̈_free, z̈) at state y and input row u: their
-    matrix into w_.A, right-hand side into w_.b, the servo integrals' rates into w_.srates
-    (w_.p, w_.pd, w_.pdd hold the rigid state, w_.M the mass matrix, w_.Q the applied
-    forces, w_.r0 the residual at p̈_free = 0)."""
+def load_state(d, w_, u, y):
+    """The rigid state (w_.p, w_.pd, w_.pdd with p̈_free = 0) and x = [0; z], ẋ = [0; ż]
+    (w_.x, w_.xd) at state y and input row u."""
     N = d.length.shape[0]
     nb, nr, nx = d.n_base, d.n_rigid, d.n_x
     free = d.free
@@ -529,6 +525,22 @@ def assemble(d, w_, u, y):
     for i in range(n):
         x[nr + i] = y[2 * nu + i]
         xd[nr + i] = y[2 * nu + n + i]
+
+
+# Inlined into its callers (these rates, the closed loops' solve_constrained) rather than
+# compiled on its own: a kernel of its own is optimised again inside each caller.
+@njit(inline="always")
+def assemble(d, w_, u, y):
+    """The linear equations of `rates` in (p̈_free, z̈) at state y and input row u: their
+    matrix into w_.A, right-hand side into w_.b, the servo integrals' rates into w_.srates
+    (w_.p, w_.pd, w_.pdd hold the rigid state, w_.M the mass matrix, w_.Q the applied
+    forces, w_.r0 the residual at p̈_free = 0)."""
+    nr, nx = d.n_rigid, d.n_x
+    free = d.free
+    nu = free.shape[0]
+    n = nx - nr
+    p, pd, pdd, x, xd = w_.p, w_.pd, w_.pdd, w_.x, w_.xd
+    load_state(d, w_, u, y)
     integral = y[2 * nu + 2 * n:]
     # bool(): a plain bool, not a literal, so that both calls share one compiled residual
     want = bool(1)

@@ -9,14 +9,26 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import CART, FIXED, FREE, PRESCRIBED, frames, joint_torques, rates
+from ._forward_numba import (
+    CART,
+    FIXED,
+    FREE,
+    PRESCRIBED,
+    applied,
+    frames,
+    joint_torques,
+    load_state,
+    rates,
+    state_rates,
+)
 from ._momentum_numba import momentum
 
 
 @njit(cache=True)
 def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd, torques,
-            momenta, pj):
-    """Fill, per output i: dy[i] = the rates at states[i] (input row u[i]); the frames at
+            momenta, pj, given):
+    """Fill, per output i: dy[i] = the rates at states[i] (input row u[i]; with rows in
+    ``given``, their accelerations (p̈_free, z̈) are given[i], not solved for); the frames at
     the solved rigid state (angles, rates, accelerations (nt, N), origins (global) and their
     accelerations (frame axes) (nt, N, 2), maps (nt, N, 3, n_x)); torques[i, k] = joint k's
     row of M ẍ + C ẋ + K x − f with x = [0; z] (ForwardSystem.joint_torques: for a driven
@@ -37,7 +49,13 @@ def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd,
             prescribed = True
     for i in range(states.shape[0]):
         y = states[i]
-        rates(d, w_, u[i], y, dy[i])
+        if given.shape[0] > 0:
+            load_state(d, w_, u[i], y)
+            w_.srates[:] = 0.0
+            applied(d, u[i], w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
+            state_rates(d, w_, y, given[i], dy[i])
+        else:
+            rates(d, w_, u[i], y, dy[i])
         # rates left p, ṗ, x, ẋ and M at this state in the workspace, p̈_free = 0
         for j in range(nu):
             w_.pdd[free[j]] = dy[i, nu + j]

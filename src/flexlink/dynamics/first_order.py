@@ -26,7 +26,6 @@ from ..model.joints import initial_angle
 from ..model.prismatic import guide
 from ..modes import (
     ModalData,
-    ModeShapes,
     highest_frequency,
     hub_loaded_modes,
     modal_data,
@@ -114,26 +113,33 @@ def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float
     return mass, inertia
 
 
-def _outboard_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShapes:
-    """Cantilever modes of link k carrying its tip body plus the links its tip carries
-    (`outboard_body`)."""
+def _outboard_loaded_shapes(chain: Chain, k: int, base: Base | None) -> tuple[float, ...]:
+    """The `tip_loaded_modes` arguments of link k's cantilever modes carrying its tip body
+    plus the links its tip carries (`outboard_body`)."""
     link = chain.links[k]
     mass, inertia = outboard_body(chain, k, base)
-    return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
+    return (link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
 
 
-def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> ModeShapes:
-    """Modes of link k on its free hub (`model.basis.free_hub`) with its tip body, or with
-    what its tip carries (`outboard_body`). A link clamped to a prescribed joint is the limit
-    of an infinite hub inertia: its tip- or outboard-loaded modes."""
+def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> tuple[float, ...]:
+    """The arguments of link k's modes on its free hub (`model.basis.free_hub`; those of
+    `hub_loaded_modes`) with its tip body, or with what its tip carries (`outboard_body`). A
+    link clamped to a prescribed joint is the limit of an infinite hub inertia: its tip- or
+    outboard-loaded modes (the arguments of `tip_loaded_modes`, two fewer)."""
     link, hub = chain.links[k], free_hub(chain, k, base)
     mass, inertia = (outboard_body(chain, k, base) if carries_links(chain, k, base)
                      else link.tip_body()[:2])
-    if hub is None:
-        return tip_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass,
-                                inertia)
-    return hub_loaded_modes(link.length, link.modes, link.mass_per_length, link.EI, mass,
-                            inertia, *hub)
+    own = (link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
+    return own if hub is None else own + tuple(hub)
+
+
+@functools.lru_cache(maxsize=64)
+def _loaded_modal_data(link: Link, shapes: tuple[float, ...]) -> ModalData:
+    """`modal_data` of a link on the modes of `tip_loaded_modes(*shapes)` or, with a hub's
+    inertia and radius after them, `hub_loaded_modes(*shapes)`: cached per process, since a
+    run's sensitivities and a sweep's cases assemble the same link on the same loads again."""
+    modes = hub_loaded_modes(*shapes) if len(shapes) == 8 else tip_loaded_modes(*shapes)
+    return modal_data(link, shapes=modes)
 
 
 @functools.lru_cache(maxsize=64)
@@ -153,9 +159,9 @@ def chain_modal_data(chain: Chain, base: Base | None = None) -> list[ModalData]:
         if kind != link.mode_shapes:
             link = dataclasses.replace(link, mode_shapes=kind)
         if kind == "outboard_loaded":
-            out.append(modal_data(link, shapes=_outboard_loaded_shapes(chain, k, base)))
+            out.append(_loaded_modal_data(link, _outboard_loaded_shapes(chain, k, base)))
         elif kind == "hub_loaded":
-            out.append(modal_data(link, shapes=_hub_loaded_shapes(chain, k, base)))
+            out.append(_loaded_modal_data(link, _hub_loaded_shapes(chain, k, base)))
         else:
             out.append(_link_modal_data(link))
     return out

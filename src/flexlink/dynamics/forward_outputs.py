@@ -31,9 +31,11 @@ class ForwardOutputs:
 
 
 def forward_outputs(system: ForwardSystem, data: ForwardData, work: tuple, u: np.ndarray,
-                    states: np.ndarray, scratch: Projection | None = None) -> ForwardOutputs:
+                    states: np.ndarray, scratch: Projection | None = None,
+                    accelerations: np.ndarray | None = None) -> ForwardOutputs:
     """The outputs at states (nt, len(y)) with input rows u (nt, columns); ``scratch``: a
-    projection record of the system (`momentum_projection.projection`) to work in."""
+    projection record of the system (`momentum_projection.projection`) to work in;
+    ``accelerations``: (p̈_free, z̈) (nt, ·) to take instead of solving for them."""
     from ._forward_numba import FIXED
     from ._forward_outputs_numba import outputs
 
@@ -50,7 +52,9 @@ def forward_outputs(system: ForwardSystem, data: ForwardData, work: tuple, u: np
         scratch = projection(system, data, 0.0, u.shape[1])
     outputs(data, work, np.ascontiguousarray(u, dtype=float),
             np.ascontiguousarray(states, dtype=float), rates, theta, omega, alpha, origin,
-            oacc, T, Td, Tdd, torques, momenta, scratch)
+            oacc, T, Td, Tdd, torques, momenta, scratch,
+            np.ascontiguousarray(accelerations, dtype=float) if accelerations is not None
+            else np.empty((0, len(system.free) + system.n)))
     frames = FrameMotion(theta, omega, alpha, origin, oacc, [T[:, k] for k in range(N)],
                          [Td[:, k] for k in range(N)], [Tdd[:, k] for k in range(N)])
     return ForwardOutputs(rates, frames, torques,

@@ -98,14 +98,72 @@ def _rates(model: _Model) -> Any:
     return rates
 
 
-def _project(model: _Model, t: float, u: np.ndarray, U: np.ndarray, y: np.ndarray
-             ) -> np.ndarray:
-    """y projected onto the model's known momentum at time t (s) (`model_project`), with
-    the input row u and the inputs' integrals U there."""
-    from ..dynamics._momentum_numba import project
+def _same_rates(a: _Model, b: _Model) -> bool:
+    """Whether two models' rates are the same function: equal kernel data and input tables
+    (a field read only by the channels, such as a sensor's place)."""
+    if a.loops is not None or b.loops is not None:
+        return a is b
+    return (all(np.array_equal(x, y) for x, y in zip(a.data, b.data, strict=True))
+            and all(np.array_equal(x, y) for x, y in zip(a.table, b.table, strict=True)))
 
-    out = np.array(y, dtype=float)
-    project(model.data, model.work, model.projection, u, U, float(t), out)
+
+def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
+                   reads: list[bool]) -> tuple:
+    """(jacobians, forcing) of `radau_tangent` from the compiled equations
+    (`dynamics._forward_jacobian_numba`): ∂f/∂y at the stages, exact along the elastic
+    coordinates, and per field ∂f/∂p = −A⁻¹ ∂E/∂p from the moved models' equations at the
+    nominal accelerations (forcing takes the stage states jacobians was last given)."""
+    from ..dynamics._forward_jacobian_numba import forward_equations, forward_jacobians
+    from ..solvers.radau_sensitivity import JACOBIAN_STEP, table_rows
+
+    d = nominal.data
+    nu, n, m = d.free.shape[0], d.n_x - d.n_rigid, nominal.y0.size
+    q, ns, K = nu + n, m - 2 * nu - 2 * n, len(fields)
+    last: dict = {}
+
+    def jacobians(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        rows = Y.shape[0]
+        J, A, acc = np.empty((rows, m, m)), np.empty((rows, q, q)), np.empty((rows, q))
+        forward_jacobians(d, nominal.work, np.ascontiguousarray(u), np.ascontiguousarray(Y),
+                          JACOBIAN_STEP, J, A, acc)
+        last.update(Y=Y, A=A, acc=acc)
+        return J
+
+    def forcing(times: np.ndarray, segment: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        if last.get("Y") is not Y:
+            jacobians(table_rows(nominal.table, segment, times), Y)
+        rows = Y.shape[0]
+        dE, dS = np.zeros((rows, q, K)), np.zeros((rows, ns, K))
+        E, S = np.empty((rows, q)), np.empty((rows, ns))
+        states = np.ascontiguousarray(Y)
+        for k, f in enumerate(fields):
+            if not reads[k]:
+                continue
+            for w, md in zip(f.weights, moved[k], strict=True):
+                forward_equations(md.data, md.work, table_rows(md.table, segment, times),
+                                  states, last["acc"], E, S)
+                dE[:, :, k] += (w / f.step) * E
+                dS[:, :, k] += (w / f.step) * S
+        da = -np.linalg.solve(last["A"], dE)
+        out = np.zeros((rows, m, K))
+        out[:, nu:2 * nu] = da[:, :nu]
+        out[:, 2 * nu + n:2 * nu + 2 * n] = da[:, nu:]
+        out[:, 2 * nu + 2 * n:] = dS
+        return out
+    return jacobians, forcing
+
+
+def _projected(model: _Model, segment: np.ndarray, times: np.ndarray, Y: np.ndarray
+               ) -> np.ndarray:
+    """The states Y (n, m) projected onto the model's known momentum at times (n,) inside
+    their input segments (n,) (`_momentum_numba.project`)."""
+    from ..dynamics._forward_jacobian_numba import project_rows
+    from ..solvers.radau_sensitivity import table_rows
+
+    out = np.array(Y, dtype=float)
+    project_rows(model.data, model.work, model.projection, table_rows(model.table, segment,
+                                                                      times),
+                 _integral_rows(model, segment, times), np.ascontiguousarray(times), out)
     return out
 
 
@@ -157,9 +215,14 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     m = nominal.y0.size
     rates_of = [[_rates(md) for md in group] for group in moved]
 
+    # a field the rates do not read: its forcing is zero (no evaluations)
+    reads = [not all(_same_rates(md, nominal) for md in group) for group in moved]
+
     def forcing(times: np.ndarray, segment: np.ndarray, Y: np.ndarray) -> np.ndarray:
         out = np.zeros((Y.shape[0], m, K))
         for k, f in enumerate(fields):
+            if not reads[k]:
+                continue
             for w, md, rates in zip(f.weights, moved[k], rates_of[k], strict=True):
                 out[:, :, k] += (w / f.step) * rates(table_rows(md.table, segment, times), Y)
         return out
@@ -169,47 +232,54 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         dy0[:, k] = sum(w * md.y0 for w, md in zip(f.weights, moved[k], strict=True)) / f.step
     projected = nominal.projection.active.size > 0
 
-    def project_derivative(rows: list, time: float, y: np.ndarray, dy: np.ndarray
-                           ) -> np.ndarray:
-        """The derivative of the projection of y (moving along dy) at ``time``; rows: per
-        field, per offset, the moved model's (input row, input integrals) there."""
-        out = np.empty_like(dy)
-        for k, f in enumerate(fields):
-            out[:, k] = sum(w * _project(md, time, *rows[k][i], y + j * f.step * dy[:, k])
-                            for i, (j, w, md) in enumerate(zip(f.offsets, f.weights,
-                                                               moved[k], strict=True))
-                            ) / f.step
-        return out
+    def projection_tangent(segment: np.ndarray, times: np.ndarray, Y: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray]:
+        """The derivative of the projection of states Y (n, m) moving along dy (m, K) at
+        times (n,), as J (n, m, m) and c (n, m, K): J[i] dy + c[i]. J: the nominal
+        projection's Jacobian (central differences); c: per field, the projections of the
+        moved models at Y combined by its stencil. Equal to the stencil applied to the moved
+        projections at Y moved along dy to second order in the step (both stencils: their
+        weights w_j at offsets j have Σ w_j = Σ w_j j² = 0, Σ w_j j = 1)."""
+        from ..solvers.radau_sensitivity import JACOBIAN_STEP
 
-    def rows_at(segment: np.ndarray, times: np.ndarray) -> list:
-        """Per time, per field, per offset: the moved model's (u, U) there."""
-        table = [[(table_rows(md.table, segment, times), _integral_rows(md, segment, times))
-                  for md in group] for group in moved]
-        return [[[(u[n], U[n]) for u, U in group] for group in table]
-                for n in range(times.size)]
+        n = Y.shape[0]
+        c = np.zeros((n, m, K))
+        for k, f in enumerate(fields):
+            for w, md in zip(f.weights, moved[k], strict=True):
+                c[:, :, k] += (w / f.step) * _projected(md, segment, times, Y)
+        eps = JACOBIAN_STEP * np.maximum(1.0, np.abs(Y))
+        shifted = np.repeat(Y[:, None, None, :], 2, axis=1).repeat(m, axis=2)
+        idx = np.arange(m)
+        shifted[:, 0, idx, idx] += eps
+        shifted[:, 1, idx, idx] -= eps
+        span = shifted[:, 0, idx, idx] - shifted[:, 1, idx, idx]
+        P = _projected(nominal, np.repeat(segment, 2 * m), np.repeat(times, 2 * m),
+                       shifted.reshape(-1, m)).reshape(n, 2, m, m)
+        return np.swapaxes((P[:, 0] - P[:, 1]) / span[:, :, None], 1, 2), c
 
     if projected:
-        step_rows = rows_at(steps.segment, steps.t + steps.h)
+        step_J, step_c = projection_tangent(steps.segment, steps.t + steps.h,
+                                            steps.y0 + steps.z[:, 2])
 
     def project_step(s: int, y1: np.ndarray, dy1: np.ndarray) -> np.ndarray:
-        raw = steps.y0[s] + steps.z[s, 2]
-        return project_derivative(step_rows[s], float(steps.t[s] + steps.h[s]), raw, dy1)
+        return step_J[s] @ dy1 + step_c[s]
 
     stage_u = table_rows(nominal.table, np.repeat(steps.segment, 3),
                          (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
                          ).reshape(steps.h.size, 3, -1)
+    jacobians = None
+    if nominal.loops is None:
+        jacobians, forcing = _linearization(nominal, moved, fields, reads)
     starts, dz, ends = radau_tangent(steps, _rates(nominal), stage_u, forcing, dy0,
-                                     project_step if projected else None)
+                                     project_step if projected else None, jacobians)
     which, s = output_steps(steps, t)
     dstates = np.empty((t.size, m, K))
     dstates[0] = dy0
     dstates[1:] = dense(starts[which], dz[which], ends[which], s)
     if projected:  # the outputs are projected too
         raw = dense(steps.y0[which], steps.z[which], steps.y1[which], s)
-        out_rows = rows_at(steps.segment[which], t[1:])
-        for i in range(1, t.size):
-            dstates[i] = project_derivative(out_rows[i - 1], float(t[i]), raw[i - 1],
-                                            dstates[i])
+        out_J, out_c = projection_tangent(steps.segment[which], t[1:], raw)
+        dstates[1:] = np.einsum("nij,njk->nik", out_J, dstates[1:]) + out_c
     # the states the channels are computed from: the run's outputs (projected onto the
     # known momentum), or for closed loops the integrated ones (the channels close them)
     states_out = _states(run, nominal)
@@ -217,27 +287,78 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         states_out = np.vstack([nominal.y0, dense(steps.y0[which], steps.z[which],
                                                   steps.y1[which], s)])
     channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
+    unmoved: list = []  # the nominal model's outputs pass at states_out, once
+    solved = None if nominal.loops is not None else _accelerations(nominal, t, states_out)
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
+        # a field only the channels read (a sensor's place): the outputs pass is the
+        # nominal one at the run's own states; only the channels differ
+        same = nominal.loops is None and not reads[k] and not np.any(dstates[:, :, k])
+        if same and not unmoved:
+            unmoved.append(_outputs_pass(nominal, t, states_out, run))
         for j, w, md in zip(f.offsets, f.weights, moved[k], strict=True):
             y = states_out + j * f.step * dstates[:, :, k]
-            for name, v in _channels(md, t, y, run).items():
+            passed = unmoved[0] if same else None
+            if passed is None and solved is not None:
+                passed = _outputs_pass(md, t, y, run, _moved_accelerations(md, t, y, *solved))
+            for name, v in _channels(md, t, y, run, passed).items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
             column.append(total[name] / f.step)
     return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
-def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun
-              ) -> dict[str, np.ndarray]:
-    """The forward path's channels of ``model`` at the integrator's states (nt, m)."""
+def _outputs_pass(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
+                  accelerations: np.ndarray | None = None) -> tuple:
+    """The Solution and the compiled outputs of ``model`` at the states (nt, m), with the
+    given ``accelerations`` (p̈_free, z̈) (nt, ·) or those the rates solve for."""
     from ..solvers.forward import forward_solution
+
+    return forward_solution(model.data, model.work, model.system, t, states,
+                            dict(run.solution.stats), None, run.solution.accuracy,
+                            model.projection, accelerations)
+
+
+def _accelerations(model: _Model, t: np.ndarray, states: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The inverse of the equations' matrix A⁻¹ (nt, q, q) and the accelerations a (nt, q)
+    that the rates of ``model`` solve for at the states (nt, m), times t
+    (`_forward_jacobian_numba`)."""
+    from ..dynamics._forward_jacobian_numba import forward_accelerations
+    from ..dynamics.forward_kernel import inputs
+
+    q = model.data.free.shape[0] + model.data.n_x - model.data.n_rigid
+    A, acc = np.empty((t.size, q, q)), np.empty((t.size, q))
+    forward_accelerations(model.data, model.work, inputs(model.system, t),
+                          np.ascontiguousarray(states), A, acc)
+    return np.linalg.inv(A), acc
+
+
+def _moved_accelerations(model: _Model, t: np.ndarray, states: np.ndarray,
+                         inverse: np.ndarray, acc: np.ndarray) -> np.ndarray:
+    """The accelerations of a moved ``model`` at states (nt, m) near those where the nominal
+    model's are acc with matrix A = inverse⁻¹ (`_accelerations`): one Newton step from them,
+    a − A⁻¹ E(a). Its error, second order in the move, is even in it: a central difference
+    of the channels keeps its order."""
+    from ..dynamics._forward_jacobian_numba import forward_equations
+    from ..dynamics.forward_kernel import inputs
+
+    E = np.empty_like(acc)
+    S = np.empty((t.size, states.shape[1] - 2 * acc.shape[1]))
+    forward_equations(model.data, model.work, inputs(model.system, t),
+                      np.ascontiguousarray(states), acc, E, S)
+    return acc - np.einsum("nij,nj->ni", inverse, E)
+
+
+def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
+              passed: tuple | None = None) -> dict[str, np.ndarray]:
+    """The forward path's channels of ``model`` at the integrator's states (nt, m);
+    ``passed``: its outputs pass there (`_outputs_pass`), if already made."""
     from .forward import forward_run
 
-    stats, accuracy = dict(run.solution.stats), run.solution.accuracy
+    stats = dict(run.solution.stats)
     if model.loops is None:
-        solution, outputs = forward_solution(model.data, model.work, model.system, t, states,
-                                             stats, None, accuracy, model.projection)
+        solution, outputs = passed or _outputs_pass(model, t, states, run)
         return forward_run(model.scenario, model.system, t, solution, outputs, None, {}, {},
                            False).values
     from ..solvers.loops import loop_run

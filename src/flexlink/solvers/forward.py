@@ -140,17 +140,19 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
 
 def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_out: np.ndarray,
                      states: np.ndarray, stats: dict, loop: SampledLoop | None = None,
-                     accuracy: Accuracy | None = None, scratch: Projection | None = None
+                     accuracy: Accuracy | None = None, scratch: Projection | None = None,
+                     accelerations: np.ndarray | None = None
                      ) -> tuple[Solution, ForwardOutputs]:
     """The Solution from the states at t_out, and the outputs there (accelerations, frames,
     joint torques, momentum: one compiled pass) with the inputs there (with a ``loop``: its
     held voltages); ``accuracy``: what the integrator was asked for; ``scratch``: the run's
-    projection record (its scratch arrays), if there is one."""
+    projection record (its scratch arrays), if there is one; ``accelerations``: (p̈_free,
+    z̈) (nt, ·) to take instead of solving for them."""
     nu, n = len(system.free), system.n
     u = inputs(system, t_out)
     if loop is not None:
         u[:, voltage_columns(system)] = loop.held_voltages(t_out)
-    outputs = forward_outputs(system, data, work, u, states, scratch)
+    outputs = forward_outputs(system, data, work, u, states, scratch, accelerations)
     rates = outputs.rates
     p, pd = states[:, :nu], states[:, nu:2 * nu]
     z, zd = states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n]

@@ -41,6 +41,8 @@ CHUNK = 128  # steps whose Jacobians and stage systems are formed at once (memor
 
 # rates(u (n, columns), Y (n, m)) → f (n, m) of the nominal model
 Rates = Callable[[np.ndarray, np.ndarray], np.ndarray]
+# jacobians(u (n, columns), Y (n, m)) → ∂f/∂y (n, m, m) of the nominal model
+Jacobians = Callable[[np.ndarray, np.ndarray], np.ndarray]
 # forcing(stage times (n,), segments (n,), Y (n, m)) → ∂f/∂p (n, m, K)
 Forcing = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 # project(step index, y1 (m,), dy1 (m, K)) → the derivative of the projected y1 (m, K)
@@ -96,12 +98,17 @@ def stage_jacobians(rates: Rates, u: np.ndarray, Y: np.ndarray) -> np.ndarray:
 
 
 def radau_tangent(steps: StepSequence, rates: Rates, stage_inputs: np.ndarray,
-                  forcing: Forcing, dy0: np.ndarray, project: Projector | None = None
+                  forcing: Forcing, dy0: np.ndarray, project: Projector | None = None,
+                  jacobians: Jacobians | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The derivatives of each step's start state, stage increments and end state in K
     parameters: dy0 (S, m, K), dz (S, 3, m, K), dy1 (S, m, K), from the derivative of the
     initial state ``dy0`` (m, K); stage_inputs (S, 3, columns) the input rows the run's
-    stages used."""
+    stages used; ``jacobians``: the model's own ∂f/∂y (default: `stage_jacobians` of
+    ``rates``)."""
+    if jacobians is None:
+        def jacobians(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
+            return stage_jacobians(rates, u, Y)
     S, _, m = steps.z.shape
     K = dy0.shape[1]
     h = steps.h
@@ -114,7 +121,7 @@ def radau_tangent(steps: StepSequence, rates: Rates, stage_inputs: np.ndarray,
         n = b - a
         Y = (steps.y0[a:b, None, :] + steps.z[a:b]).reshape(-1, m)  # (n·3, m)
         u = stage_inputs[a:b].reshape(n * 3, -1)
-        J = stage_jacobians(rates, u, Y).reshape(n, 3, m, m)
+        J = jacobians(u, Y).reshape(n, 3, m, m)
         times = (steps.t[a:b, None] + NODES[None, :] * h[a:b, None]).ravel()
         Fp = forcing(times, np.repeat(steps.segment[a:b], 3), Y).reshape(n, 3, m, K)
         hA = h[a:b, None, None] * COEFFICIENTS[None]  # (n, 3, 3)

@@ -1,0 +1,196 @@
+"""Compiled (numba) Jacobian ∂f/∂y of the forward rates (`_forward_numba.rates`) at many
+states, for the sensitivities of a forward run (`solvers.radau_sensitivity`).
+
+The state is y = [p_free, ṗ_free, z, ż, servo integrals]. The rates solve
+
+    E(a; y) = M[:, z] z̈ + r(p̈_free; x, ẋ) − Q = 0   (free and z rows),   a = (p̈_free, z̈),
+
+where M and Q depend on the rigid state only and r = C ẋ + K(p̈) x − f(p̈) is affine in
+x = [0; z] and ẋ = [0; ż] at a fixed rigid state and p̈ (docs/derivation.md §10). So along
+an elastic coordinate the accelerations move by
+
+    ∂a/∂z_j = −A⁻¹ [r(p̈ = a; x + e_j, ẋ) − r(p̈ = a; x, ẋ)],   A = ∂E/∂a,
+
+exactly for a unit step (likewise ż_j): one residual per column, not two evaluations of the
+rates (each 1 + free-coordinate residuals). The rigid coordinates, their rates and the servo
+integrals (trigonometric, saturating) take central differences of E at fixed a (one
+residual each), ∂a/∂y_c = −A⁻¹ ∂E/∂y_c; a model parameter likewise (`forward_equations`
+of the moved model at the nominal a). `project_rows`: the momentum projection of many
+states in one call.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from ._forward_numba import _solve, applied, assemble, load_state, residual
+from ._momentum_numba import project
+
+
+@njit(cache=True)
+def _solve_columns(A, B):
+    """Solve A X = B in place (B ← X, A destroyed) by Gaussian elimination with partial
+    pivoting, for all of B's columns."""
+    n, k = B.shape
+    for c in range(n):
+        piv = c
+        big = abs(A[c, c])
+        for i in range(c + 1, n):
+            if abs(A[i, c]) > big:
+                big, piv = abs(A[i, c]), i
+        if piv != c:
+            for j in range(n):
+                A[c, j], A[piv, j] = A[piv, j], A[c, j]
+            for j in range(k):
+                B[c, j], B[piv, j] = B[piv, j], B[c, j]
+        if A[c, c] == 0.0:
+            B[:, :] = np.nan
+            return
+        inv = 1.0 / A[c, c]
+        for i in range(c + 1, n):
+            f = A[i, c] * inv
+            if f != 0.0:
+                for j in range(c, n):
+                    A[i, j] -= f * A[c, j]
+                for j in range(k):
+                    B[i, j] -= f * B[c, j]
+    for j in range(k):
+        for i in range(n - 1, -1, -1):
+            acc = B[i, j]
+            for c in range(i + 1, n):
+                acc -= A[i, c] * B[c, j]
+            B[i, j] = acc / A[i, i]
+
+
+@njit(inline="always")
+def _equations(d, w_, u, y, acc, E):
+    """E = M[:, z] z̈ + r(p̈_free) − Q (free and z rows) at state y, input row u and
+    accelerations acc = (p̈_free, z̈): zero at the rates' own accelerations. The servo
+    integrals' rates into w_.srates."""
+    nr = d.n_rigid
+    n = d.n_x - nr
+    free = d.free
+    nu = free.shape[0]
+    load_state(d, w_, u, y)
+    for j in range(nu):
+        w_.pdd[free[j]] = acc[j]
+    want = bool(1)
+    residual(d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.r0, w_.M, want)
+    w_.srates[:] = 0.0
+    applied(d, u, w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
+    for row in range(nu + n):
+        a = free[row] if row < nu else nr + row - nu
+        e = w_.r0[a] - w_.Q[a]
+        for i in range(n):
+            e += w_.M[a, nr + i] * acc[nu + i]
+        E[row] = e
+
+
+@njit(cache=True)
+def forward_jacobians(d, w_, u, states, step, J, A, acc):
+    """J[i] = ∂f/∂y (m, m) of the forward rates at states[i] (n, m) with input rows u[i];
+    A[i] = ∂E/∂a (q, q) and acc[i] = a there (`_equations`, q = free + elastic
+    coordinates). The rigid coordinates, their rates and the servo integrals: central
+    differences of E at fixed a (steps of step · max(1, |y_c|)), ∂a/∂y_c = −A⁻¹ ∂E/∂y_c."""
+    nu = d.free.shape[0]
+    nr = d.n_rigid
+    n = d.n_x - nr
+    m = states.shape[1]
+    q = nu + n
+    free = d.free
+    yp = np.empty(m)
+    E1, E2 = np.empty(q), np.empty(q)
+    s1 = np.empty(w_.srates.shape[0])
+    a = np.empty(q)
+    A0 = np.empty((q, q))
+    base = np.empty(d.n_x)
+    R = np.empty((q, m))
+    for i in range(states.shape[0]):
+        y = states[i]
+        ui = u[i]
+        J[i, :, :] = 0.0
+        assemble(d, w_, ui, y)  # A and b of the accelerations at y
+        for r in range(q):
+            a[r] = w_.b[r]
+            for c in range(q):
+                A0[r, c] = w_.A[r, c]
+                A[i, r, c] = w_.A[r, c]
+        _solve(w_.A, a)
+        for r in range(q):
+            acc[i, r] = a[r]
+        for c in range(m):  # rigid coordinates, their rates, servo integrals
+            if 2 * nu <= c < 2 * nu + 2 * n:
+                continue
+            yp[:] = y
+            h = step * max(1.0, abs(y[c]))
+            yp[c] = y[c] + h
+            hi = yp[c]
+            _equations(d, w_, ui, yp, a, E1)
+            s1[:] = w_.srates
+            yp[c] = y[c] - h
+            span = hi - yp[c]
+            _equations(d, w_, ui, yp, a, E2)
+            for r in range(q):
+                R[r, c] = (E2[r] - E1[r]) / span
+            for s in range(m - 2 * nu - 2 * n):
+                J[i, 2 * nu + 2 * n + s, c] = (s1[s] - w_.srates[s]) / span
+        # elastic coordinates and rates: exact (r is affine in them at fixed p̈)
+        load_state(d, w_, ui, y)
+        for j in range(nu):
+            w_.pdd[free[j]] = a[j]
+        want = bool(0)
+        residual(d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, base, w_.M, want)
+        for j in range(n):
+            for s in range(2):
+                v = w_.x if s == 0 else w_.xd
+                v[nr + j] += 1.0
+                residual(d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.rj, w_.M, want)
+                v[nr + j] -= 1.0
+                for row in range(q):
+                    b = free[row] if row < nu else nr + row - nu
+                    R[row, 2 * nu + s * n + j] = base[b] - w_.rj[b]
+        _solve_columns(A0, R)
+        for c in range(m):
+            for r in range(nu):
+                J[i, nu + r, c] = R[r, c]
+            for r in range(n):
+                J[i, 2 * nu + n + r, c] = R[nu + r, c]
+        for j in range(nu):
+            J[i, j, nu + j] = 1.0  # dp/dt = ṗ
+        for j in range(n):
+            J[i, 2 * nu + j, 2 * nu + n + j] = 1.0  # dz/dt = ż
+
+
+@njit(cache=True)
+def forward_equations(d, w_, u, states, acc, E, srates):
+    """E[i] (`_equations`) and the servo integrals' rates srates[i] at states[i] with input
+    rows u[i] and accelerations acc[i] (those of another model: E's change with the model
+    at fixed accelerations gives their derivative, −A⁻¹ ∂E/∂p)."""
+    for i in range(states.shape[0]):
+        _equations(d, w_, u[i], states[i], acc[i], E[i])
+        for s in range(srates.shape[1]):
+            srates[i, s] = w_.srates[s]
+
+
+@njit(cache=True)
+def forward_accelerations(d, w_, u, states, A, acc):
+    """A[i] = ∂E/∂a (q, q) and the accelerations acc[i] = a (q,) the rates solve for at
+    states[i] with input rows u[i] (`_equations`)."""
+    q = acc.shape[1]
+    for i in range(states.shape[0]):
+        assemble(d, w_, u[i], states[i])
+        for r in range(q):
+            acc[i, r] = w_.b[r]
+            for c in range(q):
+                A[i, r, c] = w_.A[r, c]
+        _solve(w_.A, acc[i])
+
+
+@njit(cache=True)
+def project_rows(d, w_, pj, u, U, t, states):
+    """Each of states[i] projected in place onto the known momentum at time t[i]
+    (`_momentum_numba.project`) with input row u[i] and the inputs' integrals U[i]."""
+    for i in range(states.shape[0]):
+        project(d, w_, pj, u[i], U[i], t[i], states[i])
