@@ -198,8 +198,11 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     stage_u = table_rows(nominal.table, np.repeat(steps.segment, 3),
                          (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
                          ).reshape(steps.h.size, 3, -1)
+    # closed loops: fourth-order stage Jacobians (their rates are nonlinear in a light
+    # link's elastic coordinates on a scale near the second-order step)
     starts, dz, ends = radau_tangent(steps, _rates(nominal), stage_u, forcing, dy0,
-                                     project_step if projected else None)
+                                     project_step if projected else None,
+                                     2 if nominal.loops is None else 4)
     which, s = output_steps(steps, t)
     dstates = np.empty((t.size, m, K))
     dstates[0] = dy0
@@ -259,18 +262,17 @@ def _states(run: PathRun, model: _Model) -> np.ndarray:
 
 
 def refused(scenario: Scenario) -> str | None:
-    """What keeps the forward run of ``scenario`` from taking sensitivities ("controllers
-    on a forward run", …), or None: they are computed on the compiled Radau IIA run without
-    sampled controllers or closed kinematic loops."""
+    """What keeps the forward run of ``scenario`` from taking sensitivities ("sampled
+    controllers on a forward run (controllers[0] …)", …), or None: they are computed on
+    the compiled Radau IIA run, closed kinematic loops included, without sampled
+    controllers (their held voltages would need each sample's update differentiated)."""
     from ..solvers.forward import FAST_METHOD
 
     if scenario.controllers:
-        return "controllers on a forward run"
-    if scenario.closures:
-        # The loops' tangent (`_model`, `_channels`) gives the joints' angles and rates and
-        # the tips to 3e-7 of converged differences, but the closure forces and joint
-        # torques differ from them by 1e-3 (examples/four_bar.toml): not yet trusted.
-        return "closed kinematic loops"
+        named = ", ".join(f"controllers[{i}] ({c.name!r})"
+                          for i, c in enumerate(scenario.controllers))
+        return (f"sampled controllers on a forward run ({named}; remove the [[controllers]] "
+                "tables for the open-loop sensitivities)")
     if scenario.settings.method not in (FAST_METHOD, "lawson", "magnus"):
         return f"a forward run with method = {scenario.settings.method!r}"
     return None
