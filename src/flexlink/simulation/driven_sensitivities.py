@@ -77,7 +77,14 @@ def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
         known = projection(system, data, float(t[0]), u0.size)
         if known.active.size:
             start_values(known, data, work, u0, y0, float(t[-1]))
-    own = segment_nodes(t, breakpoints(system))
+    samples = None
+    if scenario.controllers:  # the run's steps also end on their sample instants
+        from types import SimpleNamespace
+
+        from ..solvers.gauss_sampled import sample_grid
+
+        samples = SimpleNamespace(grid=sample_grid(scenario.controllers, float(t[-1])))
+    own = segment_nodes(t, breakpoints(system), samples)
     if nodes is not None and not (own.shape == nodes.shape and np.all(own == nodes)):
         raise ValueError("moves a time where an input jumps")
     if loops is not None and dependent is not None and not np.array_equal(loops.dep,
@@ -156,13 +163,41 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     K = len(fields)
     m = nominal.y0.size
     rates_of = [[_rates(md) for md in group] for group in moved]
+    held = None
+    if scenario.controllers:  # the voltages they hold between samples
+        from .held_sensitivities import HeldVoltages
+
+        try:
+            held = HeldVoltages(nominal, moved, fields, steps, t)
+        except ValueError as error:
+            raise Refused(f"sensitivities: a field {error}; the computed run is not "
+                          "differentiable in it on a fixed step sequence") from None
+
+    def inputs_at(md: _Model, segment: np.ndarray, times: np.ndarray) -> np.ndarray:
+        rows = table_rows(md.table, segment, times)
+        if held is not None:
+            rows[:, held.columns] = held.voltages_at(times)
+        return rows
 
     def forcing(times: np.ndarray, segment: np.ndarray, Y: np.ndarray) -> np.ndarray:
         out = np.zeros((Y.shape[0], m, K))
         for k, f in enumerate(fields):
             for w, md, rates in zip(f.weights, moved[k], rates_of[k], strict=True):
-                out[:, :, k] += (w / f.step) * rates(table_rows(md.table, segment, times), Y)
-        return out
+                out[:, :, k] += (w / f.step) * rates(inputs_at(md, segment, times), Y)
+        if held is None:
+            return out
+        # ∂f/∂V of the held voltages: the rates are affine in them (piezo moments)
+        u = inputs_at(nominal, segment, times)
+        columns = range(u.shape[1])[held.columns]
+        dV = np.empty((Y.shape[0], m, len(columns)))
+        for c, col in enumerate(columns):
+            up, down = u.copy(), u.copy()
+            up[:, col] += 1.0
+            down[:, col] -= 1.0
+            dV[:, :, c] = 0.5 * (rates_of_nominal(up, Y) - rates_of_nominal(down, Y))
+        return np.concatenate([out, dV], axis=2)
+
+    rates_of_nominal = _rates(nominal)
 
     dy0 = np.zeros((m, K))
     for k, f in enumerate(fields):
@@ -195,14 +230,16 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         raw = steps.y0[s] + steps.z[s, 2]
         return project_derivative(step_rows[s], float(steps.t[s] + steps.h[s]), raw, dy1)
 
-    stage_u = table_rows(nominal.table, np.repeat(steps.segment, 3),
-                         (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
-                         ).reshape(steps.h.size, 3, -1)
+    stage_u = inputs_at(nominal, np.repeat(steps.segment, 3),
+                        (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
+                        ).reshape(steps.h.size, 3, -1)
     # closed loops: fourth-order stage Jacobians (their rates are nonlinear in a light
     # link's elastic coordinates on a scale near the second-order step)
     starts, dz, ends = radau_tangent(steps, _rates(nominal), stage_u, forcing, dy0,
                                      project_step if projected else None,
-                                     2 if nominal.loops is None else 4)
+                                     2 if nominal.loops is None else 4, held)
+    if held is not None:
+        held.finish(ends[-1])
     which, s = output_steps(steps, t)
     dstates = np.empty((t.size, m, K))
     dstates[0] = dy0
@@ -224,24 +261,26 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         total: dict[str, np.ndarray] = {}
         for j, w, md in zip(f.offsets, f.weights, moved[k], strict=True):
             y = states_out + j * f.step * dstates[:, :, k]
-            for name, v in _channels(md, t, y, run).items():
+            loop = None if held is None else held.shifted(k, j * f.step)
+            for name, v in _channels(md, t, y, run, loop).items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
             column.append(total[name] / f.step)
     return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
-def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun
-              ) -> dict[str, np.ndarray]:
-    """The forward path's channels of ``model`` at the integrator's states (nt, m)."""
+def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
+              loop: Any = None) -> dict[str, np.ndarray]:
+    """The forward path's channels of ``model`` at the integrator's states (nt, m);
+    ``loop``: the sampled controllers' records (`held_sensitivities.HeldVoltages.shifted`)."""
     from ..solvers.forward import forward_solution
     from .forward import forward_run
 
     stats, accuracy = dict(run.solution.stats), run.solution.accuracy
     if model.loops is None:
         solution, outputs = forward_solution(model.data, model.work, model.system, t, states,
-                                             stats, None, accuracy, model.projection)
-        return forward_run(model.scenario, model.system, t, solution, outputs, None, {}, {},
+                                             stats, loop, accuracy, model.projection)
+        return forward_run(model.scenario, model.system, t, solution, outputs, loop, {}, {},
                            False).values
     from ..solvers.loops import loop_run
     from .loops import closed_loop_outputs, closure_metadata, closure_values
@@ -269,10 +308,11 @@ def refused(scenario: Scenario) -> str | None:
     from ..solvers.forward import FAST_METHOD
 
     if scenario.controllers:
-        named = ", ".join(f"controllers[{i}] ({c.name!r})"
-                          for i, c in enumerate(scenario.controllers))
-        return (f"sampled controllers on a forward run ({named}; remove the [[controllers]] "
-                "tables for the open-loop sensitivities)")
+        from .held_sensitivities import refused as controllers_refused
+
+        what = controllers_refused(scenario)
+        if what is not None:
+            return what
     if scenario.settings.method not in (FAST_METHOD, "lawson", "magnus"):
         return f"a forward run with method = {scenario.settings.method!r}"
     return None

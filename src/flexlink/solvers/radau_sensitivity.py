@@ -47,6 +47,8 @@ Rates = Callable[[np.ndarray, np.ndarray], np.ndarray]
 Forcing = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 # project(step index, y1 (m,), dy1 (m, K)) → the derivative of the projected y1 (m, K)
 Projector = Callable[[int, np.ndarray, np.ndarray], np.ndarray]
+# held(step index, dy at its start (m, K)) → the held inputs' derivative (a, K) over it
+Held = Callable[[int, np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -111,12 +113,16 @@ def _central(rates: Rates, u: np.ndarray, Y: np.ndarray, relative: float) -> np.
 
 def radau_tangent(steps: StepSequence, rates: Rates, stage_inputs: np.ndarray,
                   forcing: Forcing, dy0: np.ndarray, project: Projector | None = None,
-                  jacobian_order: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  jacobian_order: int = 2, held: Held | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The derivatives of each step's start state, stage increments and end state in K
     parameters: dy0 (S, m, K), dz (S, 3, m, K), dy1 (S, m, K), from the derivative of the
     initial state ``dy0`` (m, K); stage_inputs (S, 3, columns) the input rows the run's
     stages used; jacobian_order: that of the stage Jacobians' differences
-    (`stage_jacobians`)."""
+    (`stage_jacobians`). ``held``: inputs held over each step whose values depend on the
+    state (sampled controllers' voltages): held(step, dy at its start) gives their
+    derivative (a, K) over the step, and ``forcing`` returns K + a columns, the last a
+    being ∂f/∂(held inputs)."""
     S, _, m = steps.z.shape
     K = dy0.shape[1]
     h = steps.h
@@ -131,17 +137,19 @@ def radau_tangent(steps: StepSequence, rates: Rates, stage_inputs: np.ndarray,
         u = stage_inputs[a:b].reshape(n * 3, -1)
         J = stage_jacobians(rates, u, Y, jacobian_order).reshape(n, 3, m, m)
         times = (steps.t[a:b, None] + NODES[None, :] * h[a:b, None]).ravel()
-        Fp = forcing(times, np.repeat(steps.segment[a:b], 3), Y).reshape(n, 3, m, K)
+        Fp = forcing(times, np.repeat(steps.segment[a:b], 3), Y).reshape(n, 3, m, -1)
         hA = h[a:b, None, None] * COEFFICIENTS[None]  # (n, 3, 3)
         G = eye - np.einsum("sij,sjab->siajb", hA, J).reshape(n, 3 * m, 3 * m)
         rhs = np.concatenate([np.einsum("sij,sjab->siab", hA, J).reshape(n, 3 * m, m),
-                              np.einsum("sij,sjak->siak", hA, Fp).reshape(n, 3 * m, K)],
+                              np.einsum("sij,sjak->siak", hA, Fp).reshape(n, 3 * m, -1)],
                              axis=2)
         X = np.linalg.solve(G, rhs)  # dz = Φ dy0 + Ψ per step
         Phi, Psi = X[:, :, :m], X[:, :, m:]
         for s in range(n):
             starts[a + s] = dy
-            d = Phi[s] @ dy + Psi[s]
+            d = Phi[s] @ dy + Psi[s, :, :K]
+            if held is not None:
+                d = d + Psi[s, :, K:] @ held(a + s, dy)
             dz[a + s] = d.reshape(3, m, K)
             dy = dy + d[2 * m:]
             if project is not None:
