@@ -14,7 +14,9 @@ Pieces from differences, each at a fixed state or time, never of a run (fields m
   at each output: the moved scenario's projection of the state moved along its
   sensitivity;
 * ∂channel/∂p: the forward path's channels (`forward.forward_run`) of the moved scenario
-  at the states moved along their sensitivities.
+  at the states moved along their sensitivities;
+* sampled controllers: the voltages held between samples, differentiated sample by
+  sample (`held_sensitivities.py`).
 """
 
 from __future__ import annotations
@@ -301,10 +303,10 @@ def _states(run: PathRun, model: _Model) -> np.ndarray:
 
 
 def refused(scenario: Scenario) -> str | None:
-    """What keeps the forward run of ``scenario`` from taking sensitivities ("sampled
-    controllers on a forward run (controllers[0] …)", …), or None: they are computed on
-    the compiled Radau IIA run, closed kinematic loops included, without sampled
-    controllers (their held voltages would need each sample's update differentiated)."""
+    """What keeps the forward run of ``scenario`` from taking sensitivities ("controllers[0]
+    ('ppf') with quantization …", …), or None: they are computed on the compiled Radau IIA
+    run, closed kinematic loops and sampled controllers included
+    (`held_sensitivities.refused` names the controllers that cannot take them)."""
     from ..solvers.forward import FAST_METHOD
 
     if scenario.controllers:

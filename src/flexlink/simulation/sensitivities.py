@@ -44,7 +44,7 @@ _STENCILS = (((1, -1), (0.5, -0.5)), ((0, 1, 2), (-1.5, 2.0, -0.5)),
 SUPPORTED = ('prescribed joints with the first-order model and method = "lawson" (the '
              "default of prescribed runs), and driven joints or a moving base with the "
              'first-order model, the compiled Radau IIA (method = "radau5", "lawson" or '
-             '"magnus"; closed kinematic loops included), without sampled controllers')
+             '"magnus"; closed kinematic loops and sampled controllers included)')
 
 
 class SensitivityError(ValueError):
