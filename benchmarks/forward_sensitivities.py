@@ -80,11 +80,24 @@ CASES = {
         "links[0].E", "links[1].mass_per_length", "links[0].tip_mass", "links[1].damping_ratio",
         "joints[0].P", "joints[0].D", "joints[0].loop_gain", "joints[1].bandwidth",
         "joints[0].motor_inertia", "joints[0].rate_per_volt_deg_s"]),
+    "four_bar": ("examples/four_bar.toml", [
+        "links[1].EI", "links[1].mass_per_length", "links[1].damping_ratio",
+        "links[0].mass_per_length", "links[2].mass_per_length", "links[1].length",
+        "links[2].length", "joints[2].base_point[0]", "joints[2].base_point[1]",
+        "joints[0].motion[0].to_rate_deg_s"]),
+    "slider_crank": ("examples/slider_crank.toml", [
+        "links[1].EI", "links[1].mass_per_length", "links[1].tip_mass",
+        "links[0].mass_per_length", "links[1].length", "links[0].length",
+        "closures[0].ground[1]", "closures[0].angle_deg", "joints[0].motion[0].from_deg",
+        "joints[0].motion[0].to_rate_deg_s"]),
 }
 
 # the satellite's first 8 s (the bang-bang's switch at 10 s stays outside): the
 # differences' runs at rtol 1e-12 over its 30 s would take minutes each
-OVERRIDES = {"satellite": {("simulation", "t_end"): 8.0}}
+OVERRIDES = {"satellite": {("simulation", "t_end"): 8.0},
+             # the closed loops' first half second (four-bar: the crank's spin-up)
+             "four_bar": {("simulation", "t_end"): 0.5},
+             "slider_crank": {("simulation", "t_end"): 0.1}}
 
 
 def _run(file, path_values: dict, rtol: float) -> flexlink.Results:

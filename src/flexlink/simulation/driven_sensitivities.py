@@ -14,7 +14,9 @@ Pieces from differences, each at a fixed state or time, never of a run (fields m
   at each output: the moved scenario's projection of the state moved along its
   sensitivity;
 * ∂channel/∂p: the forward path's channels (`forward.forward_run`) of the moved scenario
-  at the states moved along their sensitivities.
+  at the states moved along their sensitivities;
+* sampled controllers: the voltages held between samples, differentiated sample by
+  sample (`held_sensitivities.py`).
 """
 
 from __future__ import annotations
@@ -77,7 +79,14 @@ def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
         known = projection(system, data, float(t[0]), u0.size)
         if known.active.size:
             start_values(known, data, work, u0, y0, float(t[-1]))
-    own = segment_nodes(t, breakpoints(system))
+    samples = None
+    if scenario.controllers:  # the run's steps also end on their sample instants
+        from types import SimpleNamespace
+
+        from ..solvers.gauss_sampled import sample_grid
+
+        samples = SimpleNamespace(grid=sample_grid(scenario.controllers, float(t[-1])))
+    own = segment_nodes(t, breakpoints(system), samples)
     if nodes is not None and not (own.shape == nodes.shape and np.all(own == nodes)):
         raise ValueError("moves a time where an input jumps")
     if loops is not None and dependent is not None and not np.array_equal(loops.dep,
@@ -214,6 +223,21 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     K = len(fields)
     m = nominal.y0.size
     rates_of = [[_rates(md) for md in group] for group in moved]
+    held = None
+    if scenario.controllers:  # the voltages they hold between samples
+        from .held_sensitivities import HeldVoltages
+
+        try:
+            held = HeldVoltages(nominal, moved, fields, steps, t)
+        except ValueError as error:
+            raise Refused(f"sensitivities: a field {error}; the computed run is not "
+                          "differentiable in it on a fixed step sequence") from None
+
+    def inputs_at(md: _Model, segment: np.ndarray, times: np.ndarray) -> np.ndarray:
+        rows = table_rows(md.table, segment, times)
+        if held is not None:
+            rows[:, held.columns] = held.voltages_at(times)
+        return rows
 
     # a field the rates do not read: its forcing is zero (no evaluations)
     reads = [not all(_same_rates(md, nominal) for md in group) for group in moved]
@@ -224,8 +248,21 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
             if not reads[k]:
                 continue
             for w, md, rates in zip(f.weights, moved[k], rates_of[k], strict=True):
-                out[:, :, k] += (w / f.step) * rates(table_rows(md.table, segment, times), Y)
-        return out
+                out[:, :, k] += (w / f.step) * rates(inputs_at(md, segment, times), Y)
+        if held is None:
+            return out
+        # ∂f/∂V of the held voltages: the rates are affine in them (piezo moments)
+        u = inputs_at(nominal, segment, times)
+        columns = range(u.shape[1])[held.columns]
+        dV = np.empty((Y.shape[0], m, len(columns)))
+        for c, col in enumerate(columns):
+            up, down = u.copy(), u.copy()
+            up[:, col] += 1.0
+            down[:, col] -= 1.0
+            dV[:, :, c] = 0.5 * (rates_of_nominal(up, Y) - rates_of_nominal(down, Y))
+        return np.concatenate([out, dV], axis=2)
+
+    rates_of_nominal = _rates(nominal)
 
     dy0 = np.zeros((m, K))
     for k, f in enumerate(fields):
@@ -264,14 +301,20 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     def project_step(s: int, y1: np.ndarray, dy1: np.ndarray) -> np.ndarray:
         return step_J[s] @ dy1 + step_c[s]
 
-    stage_u = table_rows(nominal.table, np.repeat(steps.segment, 3),
-                         (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
-                         ).reshape(steps.h.size, 3, -1)
+    stage_u = inputs_at(nominal, np.repeat(steps.segment, 3),
+                        (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
+                        ).reshape(steps.h.size, 3, -1)
+    # the compiled linearization where the model is one ForwardData without held inputs;
+    # closed loops: fourth-order stage Jacobians (their rates are nonlinear in a light
+    # link's elastic coordinates on a scale near the second-order step)
     jacobians = None
-    if nominal.loops is None:
+    if nominal.loops is None and held is None:
         jacobians, forcing = _linearization(nominal, moved, fields, reads)
     starts, dz, ends = radau_tangent(steps, _rates(nominal), stage_u, forcing, dy0,
-                                     project_step if projected else None, jacobians)
+                                     project_step if projected else None, jacobians,
+                                     2 if nominal.loops is None else 4, held)
+    if held is not None:
+        held.finish(ends[-1])
     which, s = output_steps(steps, t)
     dstates = np.empty((t.size, m, K))
     dstates[0] = dy0
@@ -288,20 +331,23 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
                                                   steps.y1[which], s)])
     channels: dict[str, list[np.ndarray]] = {name: [] for name in run.values}
     unmoved: list = []  # the nominal model's outputs pass at states_out, once
-    solved = None if nominal.loops is not None else _accelerations(nominal, t, states_out)
+    solved = (None if nominal.loops is not None or held is not None
+              else _accelerations(nominal, t, states_out))
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
         # a field only the channels read (a sensor's place): the outputs pass is the
         # nominal one at the run's own states; only the channels differ
-        same = nominal.loops is None and not reads[k] and not np.any(dstates[:, :, k])
+        same = (nominal.loops is None and held is None and not reads[k]
+                and not np.any(dstates[:, :, k]))
         if same and not unmoved:
             unmoved.append(_outputs_pass(nominal, t, states_out, run))
         for j, w, md in zip(f.offsets, f.weights, moved[k], strict=True):
             y = states_out + j * f.step * dstates[:, :, k]
+            loop = None if held is None else held.shifted(k, j * f.step)
             passed = unmoved[0] if same else None
             if passed is None and solved is not None:
                 passed = _outputs_pass(md, t, y, run, _moved_accelerations(md, t, y, *solved))
-            for name, v in _channels(md, t, y, run, passed).items():
+            for name, v in _channels(md, t, y, run, passed, loop).items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
             column.append(total[name] / f.step)
@@ -309,13 +355,14 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
 
 
 def _outputs_pass(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
-                  accelerations: np.ndarray | None = None) -> tuple:
+                  accelerations: np.ndarray | None = None, loop: Any = None) -> tuple:
     """The Solution and the compiled outputs of ``model`` at the states (nt, m), with the
-    given ``accelerations`` (p̈_free, z̈) (nt, ·) or those the rates solve for."""
+    given ``accelerations`` (p̈_free, z̈) (nt, ·) or those the rates solve for; ``loop``: the
+    sampled controllers' records (`held_sensitivities.HeldVoltages.shifted`)."""
     from ..solvers.forward import forward_solution
 
     return forward_solution(model.data, model.work, model.system, t, states,
-                            dict(run.solution.stats), None, run.solution.accuracy,
+                            dict(run.solution.stats), loop, run.solution.accuracy,
                             model.projection, accelerations)
 
 
@@ -351,15 +398,16 @@ def _moved_accelerations(model: _Model, t: np.ndarray, states: np.ndarray,
 
 
 def _channels(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,
-              passed: tuple | None = None) -> dict[str, np.ndarray]:
+              passed: tuple | None = None, loop: Any = None) -> dict[str, np.ndarray]:
     """The forward path's channels of ``model`` at the integrator's states (nt, m);
-    ``passed``: its outputs pass there (`_outputs_pass`), if already made."""
+    ``passed``: its outputs pass there (`_outputs_pass`), if already made; ``loop``: the
+    sampled controllers' records (`held_sensitivities.HeldVoltages.shifted`)."""
     from .forward import forward_run
 
     stats = dict(run.solution.stats)
     if model.loops is None:
-        solution, outputs = passed or _outputs_pass(model, t, states, run)
-        return forward_run(model.scenario, model.system, t, solution, outputs, None, {}, {},
+        solution, outputs = passed or _outputs_pass(model, t, states, run, loop=loop)
+        return forward_run(model.scenario, model.system, t, solution, outputs, loop, {}, {},
                            False).values
     from ..solvers.loops import loop_run
     from .loops import closed_loop_outputs, closure_metadata, closure_values
@@ -380,18 +428,18 @@ def _states(run: PathRun, model: _Model) -> np.ndarray:
 
 
 def refused(scenario: Scenario) -> str | None:
-    """What keeps the forward run of ``scenario`` from taking sensitivities ("controllers
-    on a forward run", …), or None: they are computed on the compiled Radau IIA run without
-    sampled controllers or closed kinematic loops."""
+    """What keeps the forward run of ``scenario`` from taking sensitivities ("controllers[0]
+    ('ppf') with quantization …", …), or None: they are computed on the compiled Radau IIA
+    run, closed kinematic loops and sampled controllers included
+    (`held_sensitivities.refused` names the controllers that cannot take them)."""
     from ..solvers.forward import FAST_METHOD
 
     if scenario.controllers:
-        return "controllers on a forward run"
-    if scenario.closures:
-        # The loops' tangent (`_model`, `_channels`) gives the joints' angles and rates and
-        # the tips to 3e-7 of converged differences, but the closure forces and joint
-        # torques differ from them by 1e-3 (examples/four_bar.toml): not yet trusted.
-        return "closed kinematic loops"
+        from .held_sensitivities import refused as controllers_refused
+
+        what = controllers_refused(scenario)
+        if what is not None:
+            return what
     if scenario.settings.method not in (FAST_METHOD, "lawson", "magnus"):
         return f"a forward run with method = {scenario.settings.method!r}"
     return None

@@ -44,9 +44,9 @@ _STENCILS = (((1, -1), (0.5, -0.5)), ((0, 1, 2), (-1.5, 2.0, -0.5)),
 SUPPORTED = ('prescribed joints with the first-order model and method = "lawson" (the '
              "default of prescribed runs), and driven joints or a moving base with the "
              'first-order model, the compiled Radau IIA (method = "radau5", "lawson" or '
-             '"magnus"), without controllers or closed kinematic loops; and the nonlinear '
-             "model (prescribed or driven joints, moving base) without controllers or "
-             "closed kinematic loops")
+             '"magnus"; closed kinematic loops and sampled controllers included); and the '
+             "nonlinear model (prescribed or driven joints, moving base) without controllers "
+             "or closed kinematic loops")
 
 
 class SensitivityError(ValueError):
