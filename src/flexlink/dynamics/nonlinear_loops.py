@@ -108,8 +108,11 @@ class NonlinearLoopSystem:
         from ._nonlinear_loops_numba import project
 
         s, nu = self.system, self.system.nu
-        y, v = np.zeros(s.n_y), np.zeros(s.n_y)
-        start = self.first_order.y0  # its tree starts at rest: the equilibrium comes below
+        # the tree's own start at rest (its elastic coordinates and rates as the system
+        # gives them); with an equilibrium start the closed loop's equilibrium comes below
+        y, v = ((np.zeros(s.n_y), np.zeros(s.n_y)) if s.initial == "equilibrium"
+                else s.initial_state())
+        start = self.first_order.y0
         y[s.n:s.n + nu], v[s.n:s.n + nu] = start[:nu], start[nu:2 * nu]
         Y = np.concatenate([y, v])
         u0 = inputs(s.loads, np.zeros(1))[0]
