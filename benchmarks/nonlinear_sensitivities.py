@@ -16,6 +16,7 @@ from __future__ import annotations
 import sys
 import time
 import tomllib
+from pathlib import Path
 
 import numpy as np
 
@@ -25,60 +26,8 @@ from flexlink.scenario.fields import ScenarioFile
 from flexlink.scenario.load import scenario_from_dict
 from flexlink.simulation.sensitivities import scenario_file, simulate_with_derivatives
 
-HUB_BEAM = """
-[simulation]
-t_end = 0.6
-dt_out = 0.01
-geometric_stiffening = true
-
-[[links]]
-name = "beam"
-length = 1.0
-mass_per_length = 1.0
-EI = 10.0
-tip_mass = 0.1
-damping_ratio = 0.01
-modes = 2
-
-[[joints]]
-drive = "torque"
-motor_inertia = 1.0
-torque = [{ profile = "bang_bang", amplitude = 2.0, start = 0.0, duration = 0.4 }]
-
-[[sensors]]
-name = "root_strain"
-kind = "strain"
-link = "beam"
-x = 0.1
-thickness = 0.02
-"""
-
-FREE_BASE = """
-[simulation]
-t_end = 1.0
-dt_out = 0.01
-geometric_stiffening = true
-
-[base]
-type = "free"
-mass = 10.0
-inertia = 2.0
-rate_deg_s = 5.0
-
-[[base.loads]]
-moment = [{ profile = "bang_bang", amplitude = 1.0, start = 0.0, duration = 2.0 }]
-
-[[links]]
-name = "array"
-length = 1.5
-mass_per_length = 2.0
-EI = 50.0
-modes = 2
-
-[[joints]]
-base_point = [0.3, 0.0]
-motion = [{ profile = "hold", angle_deg = 0.0 }]
-"""
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the cases live with the tests
+from tests.unit.test_forward_sensitivities import FREE_BASE, HUB_BEAM
 
 PAPER = ["links[0].EI", "links[1].EI", "links[0].mass_per_length", "links[0].tip_mass",
          "links[0].damping_ratio", "links[1].damping_ratio", "links[1].length",
