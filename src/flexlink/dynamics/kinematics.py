@@ -233,14 +233,21 @@ TURN = np.array([[0.0, -1.0], [1.0, 0.0]])  # 90° turn: S v = ẑ × v
 
 def tip_map(data: ModalData) -> np.ndarray:
     """P̃: ξ = [ρx, ρy, θ1, q] → tip displacement (frame axes) and tip rotation, (3, 3+n)."""
-    n = data.n
+    return section_map(data.length, data.tip_value, data.tip_slope)
+
+
+def section_map(x: float, value: np.ndarray, slope: np.ndarray) -> np.ndarray:
+    """P̃(x): ξ = [ρx, ρy, θ1, q] → displacement (frame axes) and rotation of the section at
+    x (m) along the link, whose mode shapes there are ``value`` (n,) and their slopes
+    ``slope`` (n,, 1/m); (3, 3 + n)."""
+    n = value.size
     P = np.zeros((3, 3 + n))
     P[0, 0] = 1.0
     P[1, 1] = 1.0
-    P[1, 2] = data.length
-    P[1, 3:] = data.tip_value
+    P[1, 2] = x
+    P[1, 3:] = value
     P[2, 2] = 1.0
-    P[2, 3:] = data.tip_slope
+    P[2, 3:] = slope
     return P
 
 

@@ -37,6 +37,7 @@ import numpy as np
 from ..model import Body, Chain, PrismaticJoint
 from ..modes import ModalData
 from ..modes.integrals import _shortening
+from .kinematics import section_map
 
 # 90° turn S v = ẑ × v (the same as kinematics.TURN)
 _TURN = np.array([[0.0, -1.0], [1.0, 0.0]])
@@ -80,15 +81,7 @@ def hang_points(chain: Chain, modal: list[ModalData]) -> list[Hang]:
 def hang_map(hang: Hang) -> np.ndarray:
     """P̃(x): ξ = [ρx, ρy, θ1, q] → the displacement (frame axes) and rotation of the section
     ``hang``, (3, 3 + n); at the tip `kinematics.tip_map`."""
-    n = hang.value.size
-    P = np.zeros((3, 3 + n))
-    P[0, 0] = 1.0
-    P[1, 1] = 1.0
-    P[1, 2] = hang.x
-    P[1, 3:] = hang.value
-    P[2, 2] = 1.0
-    P[2, 3:] = hang.slope
-    return P
+    return section_map(hang.x, hang.value, hang.slope)
 
 
 def with_slider_masses(chain: Chain) -> Chain:
