@@ -19,12 +19,18 @@ from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress
 
 
+def nonlinear_system(scenario: Scenario) -> NonlinearSystem:
+    """The nonlinear model of ``scenario`` with every joint prescribed."""
+    settings = scenario.settings
+    return NonlinearSystem(scenario.chain, actuators=scenario.actuators,
+                           gravity=settings.gravity, initial=settings.initial)
+
+
 def run_nonlinear(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True, step_ends: list | None = None) -> PathRun:
     """The nonlinear model's run with prescribed joints; ``step_ends`` as `solve_nonlinear`'s."""
     settings = scenario.settings
-    system = NonlinearSystem(scenario.chain, actuators=scenario.actuators,
-                             gravity=settings.gravity, initial=settings.initial)
+    system = nonlinear_system(scenario)
     hist = system.joint_history(t)  # fails early if a measured motion does not cover t
     loop = _sampled_loop(scenario, system, t) if scenario.controllers else None
     solution = (solve_nonlinear(system, t, settings.rtol, settings.step, on_progress=on_progress,

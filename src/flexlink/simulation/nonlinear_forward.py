@@ -16,12 +16,19 @@ from .common import PathRun, Progress
 from .prismatic import check_travel as check_slider_travel
 
 
+def nonlinear_forward_system(scenario: Scenario) -> NonlinearForwardSystem:
+    """The nonlinear model of ``scenario`` with its rigid coordinates (driven joints, a
+    moving base)."""
+    settings = scenario.settings
+    return NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators,
+                                  gravity=settings.gravity, initial=settings.initial)
+
+
 def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                           with_shapes: bool = True, step_ends: list | None = None) -> PathRun:
     """The nonlinear model's forward run; ``step_ends`` as `solve_nonlinear_forward`'s."""
     settings = scenario.settings
-    system = NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators,
-                                    gravity=settings.gravity, initial=settings.initial)
+    system = nonlinear_forward_system(scenario)
     system.stage_inputs(t)  # fails early if a measured motion or table does not cover t
     closures: dict = {}
     constraint_torques = None

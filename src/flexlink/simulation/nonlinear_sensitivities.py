@@ -41,11 +41,9 @@ class _Prescribed:
 
     @staticmethod
     def system(scenario: Scenario) -> Any:
-        from ..dynamics.nonlinear import NonlinearSystem
+        from .nonlinear import nonlinear_system
 
-        settings = scenario.settings
-        return NonlinearSystem(scenario.chain, actuators=scenario.actuators,
-                               gravity=settings.gravity, initial=settings.initial)
+        return nonlinear_system(scenario)
 
     @staticmethod
     def run(scenario: Scenario, t: np.ndarray, on_progress: Progress, shapes: bool,
@@ -103,11 +101,9 @@ class _Forward(_Prescribed):
 
     @staticmethod
     def system(scenario: Scenario) -> Any:
-        from ..dynamics.nonlinear_forward import NonlinearForwardSystem
+        from .nonlinear_forward import nonlinear_forward_system
 
-        settings = scenario.settings
-        return NonlinearForwardSystem(scenario.chain, scenario.base, scenario.actuators,
-                                      gravity=settings.gravity, initial=settings.initial)
+        return nonlinear_forward_system(scenario)
 
     @staticmethod
     def run(scenario: Scenario, t: np.ndarray, on_progress: Progress, shapes: bool,
