@@ -10,9 +10,9 @@ rigid crank at 150 rad/s, the rod's deflection across its chord in sin(πx/L) an
 (amplitudes q1, q2: q1 is the midpoint deflection, q2 half the difference of the quarter
 points'), its stretch in two quadratic-element nodes, linear elasticity (no effect of the
 axial load on bending: the test set's default "linear stiffness term") and no damping. Its
-initial state has the rod vibrating already (q̇1, q̇2 below). flexlink's runs start with the
-elastic coordinates at rest, so these tests start them at the published rates: flexlink's
-pinned–pinned modes are √2 sin(iπx/L), their coordinates q_i/√2.
+initial state has the rod vibrating already (q̇1, q̇2 below): the example starts the rod's
+modal coordinates at those rates (`links[1].initial_modal_rates`); flexlink's pinned–pinned
+modes are √2 sin(iπx/L), so their coordinates' rates are q̇_i/√2.
 
 Slow; the geometrically exact reference is skipped where Exudyn is not installed.
 """
@@ -26,8 +26,6 @@ import numpy as np
 import pytest
 
 from flexlink import simulate
-from flexlink.dynamics.forward import ForwardSystem
-from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
 from flexlink.scenario import resolve_scenario_dict, scenario_from_dict
 
 pytestmark = pytest.mark.slow
@@ -57,34 +55,18 @@ def benchmark_scenario(model: str, stiffening: bool, modes: int):
     else:
         d["simulation"]["geometric_stiffening"] = stiffening
     d["simulation"]["rtol"] = 1e-9
-    d["links"][1]["modes"] = modes
+    rod = d["links"][1]
+    rod["modes"] = modes
+    rod["initial_modal_rates"] = (rod["initial_modal_rates"] + [0.0] * modes)[:modes]
     return scenario_from_dict(d)
 
 
-@pytest.fixture
-def published_start(monkeypatch):
-    """Both models start with the rod's modal rates at the published q̇1, q̇2 (the rod is the
-    only flexible link: its coordinates are the first elastic ones)."""
-    rates = np.asarray(START_RATES) / math.sqrt(2.0)
-    rest = ForwardSystem._rest_state
-
-    def first_order(self):
-        y = rest(self)
-        nu = len(self.free)
-        nz = (y.size - 2 * nu) // 2
-        assert y.size == 2 * (nu + nz)  # no servo integrals
-        y[2 * nu + nz:2 * nu + nz + rates.size] = rates
-        return y
-
-    start = NonlinearForwardSystem.initial_state
-
-    def nonlinear(self):
-        y, v = start(self)
-        v[:rates.size] = rates
-        return y, v
-
-    monkeypatch.setattr(ForwardSystem, "_rest_state", first_order)
-    monkeypatch.setattr(NonlinearForwardSystem, "initial_state", nonlinear)
+def test_the_example_starts_at_the_published_rates() -> None:
+    """The example's `initial_modal_rates` are the published q̇1, q̇2 on the rod's modes
+    √2 sin(iπx/L), the rest at rest."""
+    rates = resolve_scenario_dict(EXAMPLE)["links"][1]["initial_modal_rates"]
+    assert rates == pytest.approx([*(np.asarray(START_RATES) / math.sqrt(2.0)), 0.0, 0.0],
+                                  rel=1e-15, abs=0.0)
 
 
 def at_end(run) -> dict[str, float]:
@@ -100,7 +82,7 @@ def at_end(run) -> dict[str, float]:
 
 @pytest.mark.parametrize("modes, q_tol", [(2, 2e-7), (4, 1e-6)])
 def test_the_linear_model_from_the_published_start_gives_the_published_state(
-        published_start, modes: int, q_tol: float) -> None:
+        modes: int, q_tol: float) -> None:
     """First order without geometric stiffening (the published model's physics). Measured,
     2 modes (the published shapes): q1 within 1.2e-7 m of the published 1.8932e-4 m (7e-5 of
     the 1.65 mm peak), q2 within 5e-9 m; 4 modes: q1 within 8.6e-7 m. The rod's angle, its
@@ -123,7 +105,7 @@ def test_the_linear_model_from_the_published_start_gives_the_published_state(
     assert np.abs(run["rod_mid"]).max() > 1.6e-3
 
 
-def test_the_axial_load_moves_the_rod_away_from_the_published_state(published_start) -> None:
+def test_the_axial_load_moves_the_rod_away_from_the_published_state() -> None:
     """With the rod's axial load in its bending stiffness (first order stiffened, and the
     nonlinear model), both 4 modes, q1 at 0.1 s is 2.32e-4 m against the published
     1.89e-4 m: 2.6% of the peak; the two models agree to 1.3e-7 m."""
@@ -134,7 +116,7 @@ def test_the_axial_load_moves_the_rod_away_from_the_published_state(published_st
         assert got["q1"] - AT_0_1["q1"] > 3.5e-5
 
 
-def test_the_geometrically_exact_model_sides_with_the_axial_load(published_start) -> None:
+def test_the_geometrically_exact_model_sides_with_the_axial_load() -> None:
     """Exudyn's Simo–Reissner rod (64 elements, steps 1.25e-5 s; 128 and 6.25e-6 s move its
     peak by 0.1%) from the published start (rigid motion plus the published q̇1, q̇2 across
     the chord, unstretched). Measured: the rod's midpoint over the run within 0.91% of its

@@ -23,40 +23,62 @@ LAMBDA_PER_PANEL = 12.0
 
 @dataclass(frozen=True, eq=False)
 class ArcQuadrature:
-    """Nodes x (m) and weights w (m) of a composite Gauss–Legendre rule on [0, length]."""
+    """Nodes x (m) and weights w (m) of a composite Gauss–Legendre rule on [0, length]:
+    ``panels`` equal panels, each split where one of ``breaks`` (m) falls inside it (a
+    section where the shapes' derivatives jump: `modes.section_loaded`)."""
 
     length: float
     panels: int
     points_per_panel: int
+    breaks: tuple[float, ...] = ()
     x: np.ndarray = field(init=False, repr=False)
     w: np.ndarray = field(init=False, repr=False)
     _antiderivative: np.ndarray = field(init=False, repr=False)  # Legendre coefficients
+    _edges: np.ndarray | None = field(init=False, repr=False)  # with breaks: panel edges (m)
 
     def __post_init__(self) -> None:
         if self.panels < 1 or self.points_per_panel < 1:
             raise ValueError("quadrature needs at least one panel of one point")
         g, wg = legendre.leggauss(self.points_per_panel)
-        h = self.length / self.panels
-        starts = np.arange(self.panels) * h
-        object.__setattr__(self, "x", (starts[:, None] + 0.5 * h * (g + 1.0)[None, :]).ravel())
-        object.__setattr__(self, "w", np.tile(0.5 * h * wg, self.panels))
+        inside = [b for b in self.breaks if 0.0 < b < self.length]
+        if inside:
+            edges = np.unique(np.concatenate([np.linspace(0.0, self.length, self.panels + 1),
+                                              inside]))
+            half = 0.5 * np.diff(edges)[:, None]
+            object.__setattr__(self, "_edges", edges)
+            object.__setattr__(self, "x", (edges[:-1, None] + half * (g + 1.0)[None, :]).ravel())
+            object.__setattr__(self, "w", (half * wg[None, :]).ravel())
+        else:
+            h = self.length / self.panels
+            starts = np.arange(self.panels) * h
+            object.__setattr__(self, "_edges", None)
+            object.__setattr__(self, "x",
+                               (starts[:, None] + 0.5 * h * (g + 1.0)[None, :]).ravel())
+            object.__setattr__(self, "w", np.tile(0.5 * h * wg, self.panels))
         # Column j: Legendre coefficients of ∫₋₁^η ℓ_j, ℓ_j the Lagrange basis of the nodes g.
         basis = np.linalg.inv(legendre.legvander(g, self.points_per_panel - 1))
         object.__setattr__(self, "_antiderivative", legendre.legint(basis, lbnd=-1.0, axis=0))
 
     @property
     def size(self) -> int:
-        return self.panels * self.points_per_panel
+        return self.x.size
 
     def cumulative(self, s: np.ndarray) -> np.ndarray:
         """Rows R (len(s), size) with ∫₀ˢ f dσ ≈ R @ f(x), for 0 ≤ s ≤ length (m)."""
         s = np.atleast_1d(np.asarray(s, dtype=float))
         if np.any(s < -1e-12 * self.length) or np.any(s > self.length * (1 + 1e-12)):
             raise ValueError(f"positions must lie in [0, {self.length:g}] m")
-        h = self.length / self.panels
         p = self.points_per_panel
-        panel = np.clip((s // h).astype(int), 0, self.panels - 1)
-        eta = np.clip(2.0 * (s - panel * h) / h - 1.0, -1.0, 1.0)
+        if self._edges is None:
+            h = self.length / self.panels
+            panel = np.clip((s // h).astype(int), 0, self.panels - 1)
+            eta = np.clip(2.0 * (s - panel * h) / h - 1.0, -1.0, 1.0)
+        else:
+            edges = self._edges
+            panel = np.clip(np.searchsorted(edges, s, side="right") - 1, 0, edges.size - 2)
+            h = np.diff(edges)[panel]
+            eta = np.clip(2.0 * (s - edges[panel]) / h - 1.0, -1.0, 1.0)
+            h = h[:, None]
         rows = np.where(np.arange(self.size)[None, :] < (panel * p)[:, None], self.w[None, :], 0.0)
         partial = 0.5 * h * legendre.legval(eta, self._antiderivative).T  # (len(s), p)
         columns = panel[:, None] * p + np.arange(p)[None, :]
@@ -66,8 +88,10 @@ class ArcQuadrature:
 
 @functools.lru_cache(maxsize=128)
 def arc_quadrature(length: float, beta_l_max: float, panels: int | None = None,
-                   points_per_panel: int = POINTS_PER_PANEL) -> ArcQuadrature:
-    """The default rule for a link whose highest mode has βL = ``beta_l_max``."""
+                   points_per_panel: int = POINTS_PER_PANEL,
+                   breaks: tuple[float, ...] = ()) -> ArcQuadrature:
+    """The default rule for a link whose highest mode has βL = ``beta_l_max``; ``breaks``:
+    its shapes' sections of jumping derivatives (`ArcQuadrature`)."""
     if panels is None:
         panels = max(1, int(np.ceil(beta_l_max / LAMBDA_PER_PANEL)))
-    return ArcQuadrature(length, panels, points_per_panel)
+    return ArcQuadrature(length, panels, points_per_panel, tuple(breaks))

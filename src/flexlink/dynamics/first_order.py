@@ -32,6 +32,7 @@ from ..modes import (
     modal_data_for_stiffness,
     tip_loaded_modes,
 )
+from ..modes.section_loaded import section_loaded_modes
 from .actuators import actuator_matrix
 from .histories import input_breakpoints
 from .kinematics import FrameMotion, JointHistory, frame_motion, joint_history, rotation
@@ -113,20 +114,53 @@ def outboard_body(chain: Chain, k: int, base: Base | None = None) -> tuple[float
     return mass, inertia
 
 
-def _outboard_loaded_shapes(chain: Chain, k: int, base: Base | None) -> tuple[float, ...]:
+def carried_section(chain: Chain, k: int) -> float | None:
+    """The section x_a (m) inside link k (0 ≤ x_a < L) where the next link hangs: a slider's
+    line through it (`PrismaticJoint.at`); None when the next link hangs on the tip."""
+    joint = chain.joints[k + 1] if k + 1 < len(chain.joints) else None
+    at = joint.at if isinstance(joint, PrismaticJoint) else None
+    return None if at is None or at >= chain.links[k].length else float(at)
+
+
+def _section_loaded_shapes(chain: Chain, k: int, base: Base | None,
+                           hub: tuple[float, float] | None) -> tuple:
+    """The `section_loaded_modes` arguments of link k, whose next link hangs inside its span
+    (`carried_section`): what it carries (`outboard_body` less its own tip body) at that
+    section, its own tip body at its tip, clamped or on its free ``hub``. Carried at the
+    joint itself (x_a = 0), the body only adds to the hub's inertia."""
+    link, at = chain.links[k], carried_section(chain, k)
+    own_mass, own_inertia, _ = link.tip_body()
+    mass, inertia = outboard_body(chain, k, base)
+    mass, inertia = mass - own_mass, inertia - own_inertia
+    if at > 0.0:
+        return ("section", link.length, link.modes, link.mass_per_length, at, mass, inertia,
+                own_mass, own_inertia) + (() if hub is None else tuple(hub))
+    own = (link.length, link.modes, link.mass_per_length, link.EI, own_mass, own_inertia)
+    if hub is None:
+        return own
+    return own + (hub[0] + inertia + mass * hub[1] ** 2, hub[1])
+
+
+def _outboard_loaded_shapes(chain: Chain, k: int, base: Base | None) -> tuple:
     """The `tip_loaded_modes` arguments of link k's cantilever modes carrying its tip body
-    plus the links its tip carries (`outboard_body`)."""
+    plus the links its tip carries (`outboard_body`); those of `section_loaded_modes` when
+    the next link hangs inside its span (`carried_section`)."""
     link = chain.links[k]
+    if carried_section(chain, k) is not None:
+        return _section_loaded_shapes(chain, k, base, None)
     mass, inertia = outboard_body(chain, k, base)
     return (link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
 
 
-def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> tuple[float, ...]:
+def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> tuple:
     """The arguments of link k's modes on its free hub (`model.basis.free_hub`; those of
-    `hub_loaded_modes`) with its tip body, or with what its tip carries (`outboard_body`). A
-    link clamped to a prescribed joint is the limit of an infinite hub inertia: its tip- or
-    outboard-loaded modes (the arguments of `tip_loaded_modes`, two fewer)."""
+    `hub_loaded_modes`) with its tip body, or with what its tip carries (`outboard_body`;
+    inside its span: `section_loaded_modes`). A link clamped to a prescribed joint is the
+    limit of an infinite hub inertia: its tip- or outboard-loaded modes (the arguments of
+    `tip_loaded_modes`, two fewer)."""
     link, hub = chain.links[k], free_hub(chain, k, base)
+    if carries_links(chain, k, base) and carried_section(chain, k) is not None:
+        return _section_loaded_shapes(chain, k, base, hub)
     mass, inertia = (outboard_body(chain, k, base) if carries_links(chain, k, base)
                      else link.tip_body()[:2])
     own = (link.length, link.modes, link.mass_per_length, link.EI, mass, inertia)
@@ -134,11 +168,15 @@ def _hub_loaded_shapes(chain: Chain, k: int, base: Base | None) -> tuple[float, 
 
 
 @functools.lru_cache(maxsize=64)
-def _loaded_modal_data(link: Link, shapes: tuple[float, ...]) -> ModalData:
+def _loaded_modal_data(link: Link, shapes: tuple) -> ModalData:
     """`modal_data` of a link on the modes of `tip_loaded_modes(*shapes)` or, with a hub's
     inertia and radius after them, `hub_loaded_modes(*shapes)`: cached per process, since a
-    run's sensitivities and a sweep's cases assemble the same link on the same loads again."""
-    modes = hub_loaded_modes(*shapes) if len(shapes) == 8 else tip_loaded_modes(*shapes)
+    run's sensitivities and a sweep's cases assemble the same link on the same loads again.
+    A tuple that starts with "section": `section_loaded_modes(*shapes[1:])`."""
+    if shapes[0] == "section":
+        modes = section_loaded_modes(*shapes[1:])
+    else:
+        modes = hub_loaded_modes(*shapes) if len(shapes) == 8 else tip_loaded_modes(*shapes)
     return modal_data(link, shapes=modes)
 
 
@@ -165,6 +203,20 @@ def chain_modal_data(chain: Chain, base: Base | None = None) -> list[ModalData]:
         else:
             out.append(_link_modal_data(link))
     return out
+
+
+def initial_modal_rates(chain: Chain, modal: Sequence[ModalData]) -> np.ndarray:
+    """ż(0) (m/s): every link's `Link.initial_modal_rates` in its basis, zeros for a link
+    without them (at rest); ValueError naming the link when their count is not its modes'."""
+    out = []
+    for k, (link, data) in enumerate(zip(chain.links, modal, strict=True)):
+        rates = np.asarray(link.initial_modal_rates, dtype=float)
+        if rates.size and (rates.shape != (data.n,) or not np.all(np.isfinite(rates))):
+            raise ValueError(f"links[{k}].initial_modal_rates: need {data.n} finite rates "
+                             f"(m/s, one per mode of link {link.name!r}), got "
+                             f"{list(link.initial_modal_rates)}")
+        out.append(rates if rates.size else np.zeros(data.n))
+    return np.concatenate(out) if out else np.zeros(0)
 
 
 class FirstOrderSystem:

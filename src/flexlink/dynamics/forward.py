@@ -43,6 +43,7 @@ from .first_order import (
     LinkBody,
     add_link_terms,
     chain_modal_data,
+    initial_modal_rates,
     link_body,
     rigid_load,
     second_order_stiffness,
@@ -149,7 +150,8 @@ class ForwardSystem:
         return y
 
     def _rest_state(self) -> np.ndarray:
-        """initial_state with the links undeformed at rest."""
+        """initial_state with the links undeformed, at rest but for their initial modal
+        rates (`Link.initial_modal_rates`)."""
         b = self.base
         p0, v0 = {"free": ([*b.position, b.attitude], [*b.velocity, b.rate]),
                   "pinned": ([b.attitude], [b.rate]), "fixed": ([], []), "cart": ([], [])}[b.kind]
@@ -166,7 +168,8 @@ class ForwardSystem:
             angle, rate = elastic_joints.start(self.chain.joints[k].motor)  # type: ignore
             p.append(angle)
             v.append(rate)
-        return np.concatenate([p, v, np.zeros(2 * self.n + len(self.servos))])
+        return np.concatenate([p, v, np.zeros(self.n), initial_modal_rates(self.chain, self.modal),
+                               np.zeros(len(self.servos))])
 
     def joint_index(self, k: int) -> int:
         return self.n_base + k

@@ -101,7 +101,7 @@ class NonlinearForwardSystem:
             # moments up to ∫x² dm, which two Gauss points integrate exactly.
             quad = arc_quadrature(d.length, float(d.shapes.beta_l.max(initial=0.0)),
                                   points_per_panel=RIGID_POINTS if d.n == 0 else
-                                  POINTS_PER_PANEL)
+                                  POINTS_PER_PANEL, breaks=getattr(d.shapes, "breaks", ()))
             self.arcs.append(ForwardArc(quad, slice(start, start + quad.size),
                                         slice(int(offsets[k]), int(offsets[k + 1])),
                                         d.shapes.evaluate(quad.x, 1)))
@@ -261,11 +261,13 @@ class NonlinearForwardSystem:
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         """y and ẏ at t = 0: the rigid coordinates as given (servos on their reference), the
-        links undeformed at rest, the servo integrals zero."""
+        links undeformed, at rest but for their initial modal rates, the servo integrals
+        zero."""
         start = self.loads.initial_state()
         y, v = np.zeros(self.n_y), np.zeros(self.n_y)
         y[self.n:self.n + self.nu] = start[:self.nu]
         v[self.n:self.n + self.nu] = start[self.nu:2 * self.nu]
+        v[:self.n] = start[2 * self.nu + self.n:2 * (self.nu + self.n)]  # initial modal rates
         if self.initial == "equilibrium":
             y, v = self._equilibrium(y, v)
         return y, v

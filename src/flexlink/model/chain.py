@@ -63,6 +63,9 @@ class Link:
     mode_shapes: ModeShapes = "clamped_free"
     thickness: float | None = None  # m, section depth in the bending plane (strain sensors)
     bodies: tuple[Body, ...] = ()  # rigid bodies on the link besides the tip mass (`Body`)
+    # m/s, the rates q̇(0) of the link's modal coordinates in its basis (one per mode); ():
+    # at rest. Forward runs only (`ForwardSystem`, `NonlinearForwardSystem`).
+    initial_modal_rates: tuple[float, ...] = ()
 
     def all_bodies(self) -> tuple[Body, ...]:
         """Every rigid body on the link: the tip mass and inertia as the body at x = length

@@ -69,13 +69,14 @@ class ModalData:
     natural_frequencies_hz: np.ndarray  # (n,) Hz, clamped link, ascending
 
 
-def _gauss_legendre(length: float, beta_l_max: float, points: int | None) -> tuple[np.ndarray,
-                                                                                   np.ndarray]:
+def _gauss_legendre(length: float, beta_l_max: float, points: int | None,
+                    breaks: tuple[float, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Composite Gauss–Legendre nodes (m) and weights (m) on [0, length].
 
     Default: panels of 20 points, each at most 3/β_n wide, so that products of mode
     functions (spatial rates up to 2β_n) are integrated to round-off.  ``points`` overrides
-    the total node count (split into panels of ≤ 20 points).
+    the total node count (split into panels of ≤ 20 points). ``breaks`` (m): sections inside
+    where the shapes' derivatives jump (`SectionLoadedModes`), made panel edges.
     """
     if points is None:
         panels = max(2, int(np.ceil(beta_l_max / _LAMBDA_PER_PANEL)))
@@ -87,6 +88,9 @@ def _gauss_legendre(length: float, beta_l_max: float, points: int | None) -> tup
         per_panel = int(np.ceil(points / panels))
     g, w = np.polynomial.legendre.leggauss(per_panel)
     edges = np.linspace(0.0, length, panels + 1)
+    inside = [b for b in breaks if 0.0 < b < length]
+    if inside:
+        edges = np.unique(np.concatenate([edges, inside]))
     half = 0.5 * np.diff(edges)[:, None]
     x = (edges[:-1, None] + half + half * g[None, :]).ravel()
     return x, (half * w[None, :]).ravel()
@@ -125,7 +129,8 @@ def _stiffness_free(link: Link, quadrature_points: int | None,
                     shapes: ModeShapes | None) -> UnitStiffnessModes:
     shapes = mode_shapes_for(link) if shapes is None else shapes
     L, m = link.length, link.mass_per_length
-    x, w = _gauss_legendre(L, float(shapes.beta_l.max(initial=0.0)), quadrature_points)
+    x, w = _gauss_legendre(L, float(shapes.beta_l.max(initial=0.0)), quadrature_points,
+                           getattr(shapes, "breaks", ()))
     phi = shapes.evaluate(x)
     dphi = shapes.evaluate(x, 1)
     ddphi = shapes.evaluate(x, 2)
@@ -179,7 +184,8 @@ def _shortening(shapes: ModeShapes, at: float) -> np.ndarray:
     """S(at) = ∫₀^at Φ'ᵀΦ' ds (1/m), (n, n)."""
     if at <= 0.0:
         return np.zeros((shapes.n, shapes.n))
-    x, w = _gauss_legendre(at, float(shapes.beta_l.max(initial=0.0)) * at / shapes.length, None)
+    x, w = _gauss_legendre(at, float(shapes.beta_l.max(initial=0.0)) * at / shapes.length, None,
+                           getattr(shapes, "breaks", ()))
     return _weighted_gram(shapes.evaluate(x, 1), w)
 
 
@@ -288,7 +294,8 @@ def unit_stiffness_modal_data(link: Link) -> UnitStiffnessModes:
     dimensionless frequency equation), nor does any modal integral but the stiffness matrix:
     a sweep over EI, E or the damping ratio evaluates the shapes and integrates once, then per
     case only forms K (one small product) and solves the 4 × 4 eigenproblem."""
-    key = dataclasses.replace(link, name="", EI=1.0, damping_ratio=0.0, thickness=None)
+    key = dataclasses.replace(link, name="", EI=1.0, damping_ratio=0.0, thickness=None,
+                              initial_modal_rates=())
     if key != link:
         return unit_stiffness_modal_data(key)
     return _stiffness_free(link, None, None)

@@ -36,6 +36,7 @@ from .controllers import build_controller, read_controllers
 from .drives import build_base, build_drive, read_base, read_driven_joint
 from .elastic import read_elastic_joint
 from .errors import Problems, ScenarioError, describe
+from .initial_rates import check_rates_on_forward_runs, read_modal_rates
 from .prismatic import check_sliders, read_prismatic
 from .schema import (
     BODIES,
@@ -61,7 +62,7 @@ _LINK_HEAD = LINKS.pick("name", "length", "mass_per_length", "width", "thickness
 _LINK_TAIL = LINKS.pick("tip_mass", "tip_inertia", "damping_ratio", "modes", "mode_shapes")
 _RIGID_TAIL = LINKS.pick("tip_mass", "tip_inertia")
 _BODY_KEYS = BODIES.pick("mass", "offset", "inertia")
-_ELASTIC_ONLY = ("damping_ratio", "modes", "mode_shapes")
+_ELASTIC_ONLY = ("damping_ratio", "modes", "mode_shapes", "initial_modal_rates")
 
 
 flexlink_version = package_version
@@ -162,6 +163,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
                              simulation, reserved | set(link_names) | sensor_names
                              | {a.get("name") for a in actuators}, p)
     check_sliders(joint_tables, base, simulation, closures, controllers, p, links)
+    check_rates_on_forward_runs(links, joints, base, p)
     if p:
         raise ScenarioError(p.messages, source)
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
@@ -201,6 +203,7 @@ def _link(table: dict[str, Any], path: str, p: Problems) -> dict[str, Any]:
     else:
         out["EI"] = _bending_stiffness(table, path, out["width"], out["thickness"], p)
         out.update(read_fields(table, _LINK_TAIL, path, p))
+        out["initial_modal_rates"] = read_modal_rates(table, path, out.get("modes"), p)
         _check_frequencies(out, table, path, p)
     _check_inertia(out, path, p)
     bodies = _bodies(table, path, out.get("length"), p)
@@ -492,6 +495,8 @@ def _link_model(entry: dict[str, Any]) -> Link:
     if "bodies" in fields:
         fields["bodies"] = tuple(Body(b["at"], b["mass"], tuple(b["offset"]), b["inertia"])
                                  for b in fields["bodies"])
+    if "initial_modal_rates" in fields:
+        fields["initial_modal_rates"] = tuple(fields["initial_modal_rates"])
     if entry.get("rigid"):
         fields.update(modes=0, EI=fields.get("EI", math.inf))
     return Link(**fields)

@@ -242,7 +242,9 @@ LINKS = Section("links", [
         "clamped_free": "cantilever modes",
         "tip_loaded": "exact modes of a cantilever carrying the tip mass and tip inertia",
         "outboard_loaded": "modes of the cantilever whose tip body is its tip mass plus the "
-                           "rest of the chain, rigid, as at t = 0",
+                           "rest of the chain, rigid, as at t = 0; when a slider's line "
+                           "passes through a section inside it (`line_at`), the exact modes "
+                           "with that body at that section",
         "hub_loaded": "the natural modes of the link on its free hub (motor or base inertia) "
                       "with its tip body or what its tip carries, less their rigid rotation; "
                       "on a prescribed joint the loaded modes above",
@@ -254,6 +256,13 @@ LINKS = Section("links", [
             "carrying a heavy outer link converges slowly (~1/N) with them; the loaded modes "
             "converge fast there. Every run reports the estimated error of its frequencies in "
             "the assumed modes (docs/modes.md)"),
+    Field("initial_modal_rates", "vector", unit="m/s", default=None,
+          default_doc="none: the link starts at rest",
+          rule="one finite number per mode (`modes`); forward runs only",
+          doc="the rates q̇_i(0) of the link's modal coordinates at t = 0, in its basis "
+              "(`mode_shapes`, as resolved; docs/modes.md: w(x) = Σ φ_i(x) q_i, φ_i "
+              "dimensionless): the link starts vibrating. For `pinned_pinned` modes "
+              "φ_i = √2 sin(iπx/L), so an amplitude rate a_i of sin(iπx/L) is a_i/√2"),
     Field("rigid", "boolean", default=False, notes={
         "true": "no assumed modes: the link keeps its mass, tip mass and tip inertia and does "
                 "not bend (its sensors read zero deflection, slope and strain); `EI`/`E` may "

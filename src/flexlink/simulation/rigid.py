@@ -33,7 +33,7 @@ DEFLECTION_FACTOR = 2.0
 
 def rigid_body(link: Link) -> Link:
     """The link without modes (rigid): same mass, tip mass and tip inertia."""
-    return dataclasses.replace(link, modes=0)
+    return dataclasses.replace(link, modes=0, initial_modal_rates=())
 
 
 def peak_accelerations(scenario: Scenario, t: np.ndarray) -> np.ndarray:
