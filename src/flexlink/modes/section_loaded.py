@@ -92,7 +92,8 @@ class SectionLoadedModes:
     at: float  # m, the loaded section
     coefficients: np.ndarray = field(repr=False)  # (n, 9): the null vectors of `_matrix`
     scale: np.ndarray = field(repr=False)  # (n,)
-    kind: str = "outboard_loaded"
+    kind: str = "outboard_loaded"  # or "hub_loaded" on a free hub
+    hub_radius: float = 0.0  # m
 
     @property
     def breaks(self) -> tuple[float, ...]:
@@ -124,8 +125,6 @@ class SectionLoadedModes:
             value = value - c[:, 8] / self.length * (((self.hub_radius + x), 1.0)[k])
         return value * self.scale[None, :]
 
-    hub_radius: float = 0.0  # m
-
 
 def section_loaded_modes(length: float, n: int, mass_per_length: float, at: float,
                          mass: float, inertia: float, tip_mass: float = 0.0,
@@ -154,7 +153,8 @@ def section_loaded_modes(length: float, n: int, mass_per_length: float, at: floa
     for i in range(n):
         coefficients[i, :size] = np.linalg.svd(_matrix(lam[i], *args))[2][-1]
     r = 0.0 if hub is None else radius
-    raw = SectionLoadedModes(length, n, lam, at, coefficients, np.ones(n), hub_radius=r)
+    kind = "outboard_loaded" if hub is None else "hub_loaded"
+    raw = SectionLoadedModes(length, n, lam, at, coefficients, np.ones(n), kind, r)
     if n == 0:
         return raw
     # m∫φ² + the bodies' inertia, per mL; panels break at the section
@@ -169,5 +169,4 @@ def section_loaded_modes(length: float, n: int, mass_per_length: float, at: floa
     norm = (wx @ raw.evaluate(x) ** 2 / length + (mass * value[0] ** 2 + inertia * slope[0] ** 2
             + tip_mass * value[1] ** 2 + tip_inertia * slope[1] ** 2) / mL)
     sign = np.where(value[1] != 0.0, np.sign(value[1]), 1.0)
-    return SectionLoadedModes(length, n, lam, at, coefficients, sign / np.sqrt(norm),
-                              hub_radius=r)
+    return SectionLoadedModes(length, n, lam, at, coefficients, sign / np.sqrt(norm), kind, r)
