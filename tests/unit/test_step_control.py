@@ -181,9 +181,9 @@ def test_a_ringing_top_mode_no_longer_lets_the_hub_drift() -> None:
     50 ω₁) rings after the bang-bang switches. Counted plainly, that mode's error passed
     whenever it sat in its displacement (tolerance ω₄/ω₁ times looser in amplitude than its
     rate's): a third of the steps were rejected and the hub angle drifted to 1.1e-3 of its
-    peak from the rtol-1e-9 run, beyond the model's own error against the FE model (7e-4,
-    docs/validation.md Case 23). With the displacement weights: few rejections, and the
-    angle, travel and tip within a tenth of that."""
+    peak from the rtol-1e-9 run, twice the model's own error against the FE model (5.4e-4,
+    docs/performance.md). With the displacement weights: few rejections, and the angle,
+    travel and tip within about a tenth of that."""
     from flexlink.modes import modal_data
     from flexlink.simulation.forward import forward_system
     from flexlink.solvers.forward import integrate_forward
