@@ -25,6 +25,7 @@ from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, vo
 from ..dynamics.forward_outputs import ForwardOutputs, forward_outputs
 from ..dynamics.momentum_projection import Projection, projection, start_values
 from ..errors import SimulationError, UnstableLoop
+from .error_weights import displacement_weights
 from .gauss_sampled import SampledLoop
 from .ode import Stalled, integrate_ivp
 from .radau import RadauStop, integrate_radau
@@ -56,7 +57,8 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
     blow-up is then reported as an unstable closed loop. ``steps``: a list that receives
     the compiled integrator's accepted steps (`radau.integrate_radau`). ``rate_weights``
     (n,): the compiled integrator's error weights of the elastic rates
-    (`error_weights.elastic_rate_weights`; None: 1)."""
+    (`error_weights.elastic_rate_weights`; None: 1); its elastic coordinates weigh ω_j/ω₁
+    times their rate's (`state_weights`)."""
     if loop is not None and method != FAST_METHOD:
         raise ValueError(f"controllers on a forward run need the compiled integrator: method "
                          f"= {method!r} cannot hold sampled voltages; use \"lawson\"")
@@ -175,14 +177,16 @@ def error_groups(system: ForwardSystem, size: int) -> np.ndarray:
 
 
 def state_weights(system: ForwardSystem, size: int, rate_weights: np.ndarray | None
-                  ) -> np.ndarray | None:
+                  ) -> np.ndarray:
     """The error weight of each of the ``size`` state components: ``rate_weights`` (n,) on
-    the elastic rates (`error_weights.elastic_rate_weights`), 1 elsewhere; None: all 1."""
-    if rate_weights is None:
-        return None
+    the elastic rates (`error_weights.elastic_rate_weights`; None: 1), ω_j/ω₁ times that on
+    the elastic coordinates (`error_weights.displacement_weights`: an amplitude error counts
+    the same at every phase), 1 elsewhere."""
     nu, n = len(system.free), system.n
     weights = np.ones(size)
-    weights[2 * nu + n:2 * nu + 2 * n] = rate_weights
+    rates = np.ones(n) if rate_weights is None else np.asarray(rate_weights, dtype=float)
+    weights[2 * nu:2 * nu + n] = displacement_weights(system.modal, rates)
+    weights[2 * nu + n:2 * nu + 2 * n] = rates
     return weights
 
 
