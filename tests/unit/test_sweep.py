@@ -470,6 +470,29 @@ def test_workers_load_the_compiled_code_while_the_cases_are_checked(
     assert len({line.split()[2] for line in loads}) == 2 and str(os.getpid()) not in lines[0]
 
 
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
+def test_forked_workers_inherit_the_compiled_code_loaded_once_before_the_fork(
+        tmp_path: Path, forked_workers, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sweep process loads the compiled code once, before it forks: the workers inherit
+    it instead of each loading numba and the cached kernels again."""
+    import multiprocessing
+    import os
+
+    log = tmp_path / "log"
+    loaded = executors.load_compiled_code
+
+    def loading(scenario) -> None:
+        with log.open("a") as fh:
+            fh.write(f"{os.getpid()} {len(multiprocessing.active_children())}\n")
+        loaded(scenario)
+
+    monkeypatch.setattr(executors, "load_compiled_code", loading)
+    dataset = sweep(spin_file(tmp_path), grid={RATE: [100.0, 200.0]}, workers=2)
+    assert (dataset.status.values == "ok").all()
+    # once, in this process, while it had no worker yet
+    assert log.read_text().split() == [str(os.getpid()), "0"]
+
+
 def test_a_refused_sweep_ends_the_workers_it_started(tmp_path: Path) -> None:
     import multiprocessing
 

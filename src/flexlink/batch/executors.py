@@ -24,6 +24,7 @@ from .worker import (
     Kept,
     SharedResults,
     init_local_worker,
+    load_compiled_code,
     run_chunk,
     thread_runner,
 )
@@ -85,13 +86,20 @@ def in_process(chunks: Sequence[Chunk], kept: Kept) -> Iterator[ChunkResult]:
 
 def local_processes(workers: int, shared: SharedResults | None = None,
                     preload: Scenario | None = None) -> PoolResults:
-    """Start a pool of ``workers`` processes on this machine now, one BLAS thread each; each
-    loads the compiled code a run of ``preload`` needs while this process goes on (checking
-    the cases). `PoolResults.submit` queues the chunks; iterate over it for their results
+    """Start a pool of ``workers`` processes on this machine now, one BLAS thread each, with
+    the compiled code a run of ``preload`` needs: loaded here and inherited by forked
+    workers, loaded by each worker otherwise while this process goes on (checking the
+    cases). `PoolResults.submit` queues the chunks; iterate over it for their results
     and close it (``contextlib.closing``) to end the pool. Forked workers write their results
     into ``shared``; others send them back."""
     context = start_context()
-    inherited = shared if context.get_start_method() == "fork" else None
+    forked = context.get_start_method() == "fork"
+    inherited = shared if forked else None
+    if forked and preload is not None:
+        # Loaded once here, before the fork: every worker inherits it (its own load then
+        # finds it loaded), so the sweep pays numba's import and the cached kernels once
+        # instead of once per worker.
+        load_compiled_code(preload)
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
                                initializer=init_local_worker, initargs=(inherited, preload))
     try:

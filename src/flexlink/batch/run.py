@@ -92,7 +92,7 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
             shared = SharedResults.allocate(probed, table.count, time_.size)
     with contextlib.ExitStack() as stack:
         pool = None
-        if local > 1:  # started now: they load the compiled code while the cases are checked
+        if local > 1:  # started now, with the compiled code, before the cases are checked
             pool = stack.enter_context(contextlib.closing(
                 executors.local_processes(local, shared, preload=template)))
         scenarios, invalid = _cases(scenario_base, table, skip_invalid, lazy=not histories)
