@@ -34,9 +34,10 @@ def check_slider(scenario: Any, k: int) -> None:
         raise ValueError(f"{where}: a slider inside a chain on a moving base (base.type = "
                          f"{scenario.base.kind!r}) runs on the nonlinear model only; set "
                          "simulation.model = \"nonlinear\" or use a fixed base")
-    if scenario.closures:
-        raise ValueError(f"{where}: a slider inside a chain does not run with closed loops "
-                         "([[closures]]) yet")
+    if scenario.closures and scenario.settings.model != "nonlinear":
+        raise ValueError(f"{where}: a slider inside a chain with closed loops ([[closures]]) "
+                         "runs on the nonlinear model only; set simulation.model = "
+                         "\"nonlinear\"")
     try:
         guide(joint).check_travel(scenario.settings.t_end)
     except ValueError as exc:

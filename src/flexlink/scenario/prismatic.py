@@ -65,8 +65,9 @@ def check_sliders(joint_tables: list[tuple[str, Any]], base: Mapping[str, Any] |
             p.add(f"{path}: a slider inside a chain on a moving base (base.type = "
                   f"{base.get('type')!r}) runs on the nonlinear model only; set "
                   "simulation.model = \"nonlinear\" or use a fixed base")
-        if closures:
-            p.add(f"{path}: a slider inside a chain does not run with [[closures]] yet")
+        if closures and simulation.get("model") != "nonlinear":
+            p.add(f"{path}: a slider inside a chain with [[closures]] runs on the nonlinear "
+                  "model only; set simulation.model = \"nonlinear\"")
 
 
 __all__ = ["check_sliders", "read_prismatic"]
