@@ -112,12 +112,3 @@ def test_unstable_loop_on_a_driven_hub_is_reported() -> None:
     d["controllers"] = [ppf(w / (2 * np.pi), 3.0 * unit)]  # PPF is unstable above gain 1
     with pytest.raises(SimulationError, match=r"closed loop unstable: .* t = "):
         simulate(scenario_from_dict(d), shapes=False)
-
-
-def test_nonlinear_forward_still_refuses_controllers() -> None:
-    d, w, unit = plant()
-    d["joints"] = hub(0.01)
-    d["controllers"] = [ppf(w / (2 * np.pi), 0.3 * unit)]
-    d["simulation"]["model"] = "nonlinear"
-    with pytest.raises(ValueError, match="first-order model"):
-        model_path(scenario_from_dict(d))

@@ -15,6 +15,12 @@ deformed link is a constant row W of cumulative arc weights, so with D = W_link 
 exact for the inextensible links: the loop closes on the deformed links' arcs, with no
 expansion in the deflection (a bent link's shortening is part of Σ D e(α)).
 
+A slider inside the chain. Its line node's length is the travel s (ρ_j = s there, 1
+elsewhere): Φ = Σ_j D_j ρ_j e(α_j) − ground, whose rate ρ α̇ e⊥ + ρ̇ e and acceleration
+ρ(α̈ e⊥ − α̇² e) + 2ρ̇α̇ e⊥ + ρ̈ e give G the factor ρ_j on the angle columns and a travel
+column D_j n·e(α_j) (a free travel; a prescribed one's ρ̇, ρ̈ are inputs, in Φ̇ₚ and γ), and
+the closure forces' share along the line (the slider's joint force) the same column.
+
 A moving base. Ground points and slider lines are fixed in the base: positions are measured
 from the base's point R_b, so its translation (a free base, a cart) cancels from Φ; a cart's
 constant attitude turns the ground point g and the line's normal n₀ once (`NonlinearLoopSystem`);
@@ -53,7 +59,7 @@ from ._nonlinear_numba import mass_matrix
 
 NonlinearLoopWork = namedtuple("NonlinearLoopWork", [
     "yp", "c", "s", "ad", "ang", "rate", "acc", "rot_acc", "Phi", "Phid", "G", "gam", "GJ",
-    "Gd", "step", "X", "r0", "r1", "H", "HA", "K", "rhs"])
+    "Gd", "step", "X", "r0", "r1", "H", "HA", "K", "rhs", "rho", "rhod", "rhop", "rhodd"])
 NonlinearLoopWork.__doc__ = ("Scratch arrays of the kernels (allocated once per run: see "
                              "workspace).")
 
@@ -68,7 +74,8 @@ def workspace(d, n_state: int) -> NonlinearLoopWork:
     return NonlinearLoopWork(e(n_state), e(nodes), e(nodes), e(nodes), e(nodes), e(nodes),
                              e(nodes), e(f.rot_J.shape[0]), e(nc), e(nc), e((nc, ny)), e(nc),
                              e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e(ny), e((nodes, nodes)),
-                             e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc))
+                             e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc), e(nodes),
+                             e(nodes), e(nodes), e(nodes))
 
 
 @njit(cache=True)
@@ -86,6 +93,16 @@ def prescribed(d, w, u):
                 r += b * u[N + k]
                 c += b * u[2 * N + k]
         w.ang[j], w.rate[j], w.acc[j] = a, r, c
+        w.rho[j], w.rhod[j], w.rhop[j], w.rhodd[j] = 1.0, 0.0, 0.0, 0.0
+    # a slider's line node has the travel s as its length ρ: a prescribed travel's s, ṡ, s̈
+    # from its input columns (a free one's from the state, `constraints`)
+    f = d.fwd
+    for i in range(f.line_node.shape[0]):
+        if f.line_col[i] < 0:
+            j = f.line_node[i]
+            w.rho[j] = u[f.line_u[i, 0]]
+            w.rhod[j] = w.rhop[j] = u[f.line_u[i, 1]]
+            w.rhodd[j] = u[f.line_u[i, 2]]
     for i in range(w.rot_acc.shape[0]):
         acc = 0.0
         for k in range(N):
@@ -109,6 +126,10 @@ def constraints(d, w, Y):
                 a += x * Y[i]
                 ad += x * Y[ny + i]
         w.c[j], w.s[j], w.ad[j] = np.cos(a), np.sin(a), ad
+    for i in range(f.line_node.shape[0]):  # a free travel: ρ, ρ̇ from the state
+        col = f.line_col[i]
+        if col >= 0:
+            w.rho[f.line_node[i]], w.rhod[f.line_node[i]] = Y[col], Y[ny + col]
     # a turning base (pinned, free): its attitude θ_b turns the ground points and lines
     turn = d.turn
     th, om = (Y[turn], Y[ny + turn]) if turn >= 0 else (0.0, 0.0)
@@ -138,20 +159,33 @@ def constraints(d, w, Y):
                     continue
                 along = ex * w.c[j] + ey * w.s[j]  # n·e(α_j)
                 across = ey * w.c[j] - ex * w.s[j]  # n·e⊥(α_j)
-                phi += D * along
-                phid += D * across * w.rate[j]
-                gam += D * (across * w.acc[j] - along * w.ad[j] * w.ad[j])
+                # the node's share ρ e(α) (ρ = 1 but on a slider's line, ρ = its travel s):
+                # its rate ρ α̇ e⊥ + ρ̇ e, its acceleration ρ(α̈ e⊥ − α̇² e) + 2ρ̇α̇ e⊥ + ρ̈ e
+                rho, rhod = w.rho[j], w.rhod[j]
+                Dr = D * rho
+                phi += Dr * along
+                phid += Dr * across * w.rate[j] + D * along * w.rhop[j]
+                gam += Dr * (across * w.acc[j] - along * w.ad[j] * w.ad[j]) + D * (
+                    2.0 * rhod * w.ad[j] * across + along * w.rhodd[j])
                 if turn >= 0:
-                    dx += D * w.c[j]
-                    dy += D * w.s[j]
-                    vx -= D * w.s[j] * w.ad[j]
-                    vy += D * w.c[j] * w.ad[j]
+                    dx += Dr * w.c[j]
+                    dy += Dr * w.s[j]
+                    vx += D * (rhod * w.c[j] - rho * w.s[j] * w.ad[j])
+                    vy += D * (rhod * w.s[j] + rho * w.c[j] * w.ad[j])
                 for i in range(Ay.shape[1]):
                     if Ay[j, i] != 0.0:
-                        w.G[row + e, i] += D * across * Ay[j, i]
+                        w.G[row + e, i] += Dr * across * Ay[j, i]
                 for k in range(d.B_joint.shape[1]):
                     if d.B_joint[j, k] != 0.0:
-                        w.GJ[row + e, k] += D * across * d.B_joint[j, k]
+                        w.GJ[row + e, k] += Dr * across * d.B_joint[j, k]
+            for i in range(f.line_node.shape[0]):  # ∂Φ/∂s of each slider's travel
+                D = d.D[c, f.line_node[i]]
+                if D != 0.0:
+                    j = f.line_node[i]
+                    along = D * (ex * w.c[j] + ey * w.s[j])
+                    if f.line_col[i] >= 0:
+                        w.G[row + e, f.line_col[i]] += along
+                    w.GJ[row + e, f.line_u[i, 0]] += along
             if turn >= 0:
                 # Φ = n·(Σ D e(α) − a) (a = 0 between two links): ä = θ̈_b a⊥ − θ̇_b² a; a
                 # slider's n turns too, ṅ = θ̇_b n⊥, n̈ = θ̈_b n⊥ − θ̇_b² n (the θ̈_b parts

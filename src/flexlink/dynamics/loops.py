@@ -19,6 +19,7 @@ from ..errors import SimulationError
 from ..model import Closure
 from .forward import ForwardSystem
 from .forward_kernel import ForwardData, inputs, pack
+from .prismatic import sliders
 
 LoopData = namedtuple("LoopData", [
     "fwd", "kind", "link", "x", "phi", "fore", "to_link", "x_to", "phi_to", "fore_to",
@@ -42,9 +43,19 @@ class LoopSystem:
     free joints than closure equations, dependent equations, or a loop that
     does not close at t = 0 from the joints' initial angles (the residual in metres)."""
 
-    def __init__(self, system: ForwardSystem, closures: Sequence[Closure]) -> None:
+    def __init__(self, system: ForwardSystem, closures: Sequence[Closure],
+                 start: bool = True) -> None:
+        """``start``: choose the dependent joints and close the loops at t = 0 here (False:
+        the caller does, `y0` None; the nonlinear model with a slider in the chain, whose
+        travel this model's closure kinematics leave out)."""
         self.system = system
         self.closures = tuple(closures)
+        slides = sliders(system.chain.joints)
+        if start and slides and self.closures:
+            raise SimulationError(
+                f"joints[{slides[0]}]: a slider inside a chain with closed loops ([[closures]]) "
+                "runs on the nonlinear model's forward path only; the first-order loops (and "
+                "their linearised plants and frozen modes) leave its travel out")
         rows = np.cumsum([0] + [c.equations for c in self.closures])
         self.n_c = int(rows[-1])
         if len(system.free) < self.n_c:
@@ -60,7 +71,7 @@ class LoopSystem:
         self._rows = rows
         self.dep = np.zeros(0, dtype=np.int64)
         self.data = self._pack(np.arange(self.n_c, dtype=np.int64))
-        self.y0 = self._closed_start()
+        self.y0 = self._closed_start() if start else None
 
     def _pack(self, dep: np.ndarray) -> LoopData:
         from ._loops_numba import REVOLUTE, SLIDER

@@ -36,8 +36,9 @@ NonlinearLoopData.__doc__ = (
     "rot_pres (n_rot, N) the rotary inertias' coefficients on the prescribed joints; "
     "B_joint (nodes, N) every joint angle's coefficients in the node angles; turn the "
     "column of a turning base's attitude θ_b in y (−1: none), which turns the ground points "
-    "and slider lines (given in the base's axes); moving the columns of y that translate "
-    "the base (a free base's x, y; a cart's free travel).")
+    "and slider lines (given in the base's axes); moving the columns of y whose mass-matrix "
+    "columns come from the residual: those that translate the base (a free base's x, y; a "
+    "cart's free travel), every column of q and p_free when the tree has a slider.")
 
 
 
@@ -51,11 +52,21 @@ class NonlinearLoopSystem:
     def __init__(self, system: NonlinearForwardSystem, closures: Sequence[Closure]) -> None:
         self.system = system
         self.closures = tuple(closures)
-        self.first_order = LoopSystem(system.loads, self.closures)
-        self.n_c = self.first_order.n_c
-        self.size = self.first_order.size
+        # no closures: the open tree on the same kernel (what a sampled controller's run on
+        # the nonlinear forward path integrates), from the tree's own initial state
+        # with a slider in the chain the first-order loops' kinematics leave its travel out:
+        # the dependent joints and the closed start are this model's (`_own_dependent`)
+        own = bool(self.closures) and bool(system.slides)
+        self.first_order = (LoopSystem(system.loads, self.closures, start=not own)
+                            if self.closures else None)
+        self.n_c = self.first_order.n_c if self.first_order is not None else 0
+        self.size = (self.first_order.size if self.first_order is not None
+                     else float(sum(d.length for d in system.modal)))
+        if own:
+            self._own_dependent()
         self.data = self._pack()
-        self.y0 = self._closed_start()
+        self.y0 = self._closed_start() if self.first_order is not None else np.concatenate(
+            system.initial_state())
 
     def _pack(self) -> NonlinearLoopData:
         s, lo = self.system, self.first_order
@@ -76,7 +87,11 @@ class NonlinearLoopSystem:
         nc = len(self.closures)
         ground = np.array([c.ground if c.to_link is None else (0.0, 0.0)
                            for c in self.closures], dtype=float).reshape(nc, 2)
-        normal = np.array(lo.data.normal, dtype=float).reshape(nc, 2)
+        empty = np.zeros(0, dtype=np.int64)
+        kind, rows, dep, tol, normal = ((lo.data.kind, lo.data.row, lo.dep, lo.data.tol,
+                                         lo.data.normal) if lo is not None else (empty, empty, empty, 1.0,
+                                                                     ()))
+        normal = np.array(normal, dtype=float).reshape(nc, 2)
         # Ground points and lines are fixed in the base: a cart's constant attitude turns
         # them once here, a turning base's attitude in the kernel.
         c0, s0 = np.cos(s.root_offset), np.sin(s.root_offset)
@@ -85,15 +100,42 @@ class NonlinearLoopSystem:
         base = s.base
         attitude = (s.n + s.free.index(s.n_base - 1)) if base.turns else -1
         moving = ([s.n, s.n + 1] if s.translation else [s.n] if s.cart_free else [])
+        if s.slides:  # a travel scales its line's node (mass_matrix's are of unit length):
+            moving = list(range(s.n + s.nu))  # every column from the residual
         return NonlinearLoopData(
-            fwd=s.kernel_data(), At=np.ascontiguousarray(s.kernel_data().Ay.T), kind=np.asarray(lo.data.kind, dtype=np.int64),
+            fwd=s.kernel_data(), At=np.ascontiguousarray(s.kernel_data().Ay.T), kind=np.asarray(kind, dtype=np.int64),
             D=D, ground=ground,
             normal=np.ascontiguousarray(normal),
-            row=np.asarray(lo.data.row, dtype=np.int64),
-            dep=np.asarray(s.n + lo.dep, dtype=np.int64), tol=float(lo.data.tol),
+            row=np.asarray(rows, dtype=np.int64),
+            dep=np.asarray(s.n + dep, dtype=np.int64), tol=float(tol),
             B_pres=B_pres, offset=np.ascontiguousarray(s.offset, dtype=float),
             rot_pres=rot_pres, B_joint=B_joint, turn=int(attitude),
             moving=np.array(moving, dtype=np.int64))
+
+    def _own_dependent(self) -> None:
+        """The dependent joints chosen on this model's G at the tree's initial guesses (as
+        `LoopSystem._dependent` on the first-order one's)."""
+        from ._nonlinear_loops_numba import constraints, prescribed
+
+        s, lo = self.system, self.first_order
+        lo.dep = np.arange(self.n_c, dtype=np.int64)  # a placeholder for packing
+        self.data = self._pack()
+        work = self.workspace()
+        prescribed(self.data, work, inputs(s.loads, np.zeros(1))[0])
+        Y = np.zeros(2 * s.n_y)
+        start = self._rigid_start()
+        Y[s.n:s.n + s.nu], Y[s.n_y + s.n:s.n_y + s.n + s.nu] = start[:s.nu], start[s.nu:2 * s.nu]
+        constraints(self.data, work, Y)
+        G = np.zeros((self.n_c, s.n_rigid))
+        G[:, s.free] = work.G[:, s.n:s.n + s.nu]
+        lo.dep = lo._dependent(G)
+        lo.data = lo._pack(lo.dep)
+
+    def _rigid_start(self) -> np.ndarray:
+        """The free rigid coordinates and rates at t = 0 before the nonlinear projection:
+        the first-order loops' closed start, or (own start) the tree's as given."""
+        lo = self.first_order
+        return lo.y0 if lo.y0 is not None else self.system.loads.initial_state()
 
     def workspace(self):
         from ._nonlinear_loops_numba import workspace
@@ -112,11 +154,16 @@ class NonlinearLoopSystem:
         # gives them); with an equilibrium start the closed loop's equilibrium comes below
         y, v = ((np.zeros(s.n_y), np.zeros(s.n_y)) if s.initial == "equilibrium"
                 else s.initial_state())
-        start = self.first_order.y0
+        start = self._rigid_start()
         y[s.n:s.n + nu], v[s.n:s.n + nu] = start[:nu], start[nu:2 * nu]
         Y = np.concatenate([y, v])
         u0 = inputs(s.loads, np.zeros(1))[0]
-        if not project(self.data, self.workspace(), u0, Y):
+        work = self.workspace()
+        if not project(self.data, work, u0, Y):
+            if self.first_order.y0 is None:  # its own start: named with the residual
+                raise SimulationError(self.first_order._open_message(
+                    work.Phi.copy(), "does not close at t = 0 (the residual left by Newton's "
+                    "method from the free joints' initial angles)"))
             raise SimulationError("closures: the loop does not close at t = 0 on the "
                                   "nonlinear model's kinematics")
         if s.initial == "equilibrium":

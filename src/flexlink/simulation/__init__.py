@@ -10,7 +10,8 @@ assembles the `Results`. One module per path, sharing `common`:
 * ``closed_loop`` — controllers sampled with zero-order hold, prescribed joints, first-order
   model (the Lawson loop with the held voltages as states); with the nonlinear model the
   ``nonlinear`` path runs them (solvers/gauss_sampled.py), the ``forward`` path with driven
-  joints or a moving base (solvers/radau.py; not yet ``nonlinear_forward``).
+  joints or a moving base (solvers/radau.py), ``nonlinear_forward`` on the closed loops'
+  kernel (solvers/nonlinear_loops.py).
 Open-loop piezo actuators run in every path.
 """
 
@@ -52,10 +53,10 @@ def path_function(name: str) -> PathFunction:
 def model_path(scenario: Scenario) -> str:
     """The path that runs ``scenario``: one of PATHS."""
     if scenario.controllers and scenario.is_forward and scenario.settings.model == "nonlinear" \
-            and not scenario.closures:
-        raise ValueError("controllers with a moving base or a driven joint run with the first-"
-                         "order model for now (model = \"first_order\"); the nonlinear model "
-                         "runs them with prescribed joints or in closed loops")
+            and scenario.settings.step is not None:
+        raise ValueError("simulation.step: controllers with a moving base or a driven joint "
+                         "run on the nonlinear model with error-controlled steps; drop "
+                         "simulation.step")
     if scenario.controllers and scenario.settings.model != "nonlinear" \
             and not scenario.is_forward:
         return "closed_loop"

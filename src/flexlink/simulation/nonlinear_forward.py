@@ -33,7 +33,8 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
     closures: dict = {}
     constraint_torques = None
     loop = None
-    if scenario.closures:  # loops closed by constraints (simulation/nonlinear_loops.py)
+    if scenario.closures or scenario.controllers:
+        # loops closed by constraints or sampled controllers (simulation/nonlinear_loops.py)
         from .forward import sampled_loop
         from .nonlinear_loops import nonlinear_loop_solution
 

@@ -25,9 +25,13 @@ def nonlinear_loop_solution(scenario: Scenario, system: NonlinearForwardSystem,
     """The Solution on the closed loops, the closures' channel values, the constraint
     forces' torque on each joint (nt, N; N·m: left out of the motor torques) and metadata
     (the largest closure residual, m, and relative to the loop's size); ``loop``: the
-    scenario's sampled controllers."""
+    scenario's sampled controllers. Without closures (controllers on an open tree) the
+    same kernel integrates the tree alone: no closure channels or metadata, zero
+    constraint torques."""
     loops = NonlinearLoopSystem(system, scenario.closures)
     settings = scenario.settings
     run = integrate_nonlinear_loops(loops, t, settings.rtol, settings.atol, on_progress, loop)
+    if loops.first_order is None:  # an open tree under sampled controllers: no closures
+        return run.solution, {}, run.joint_forces, {}
     return (run.solution, closure_values(scenario, loops.first_order, run.multipliers),
             run.joint_forces, closure_metadata(loops.first_order, run.residual))
