@@ -61,7 +61,9 @@ class SensitivityError(ValueError):
 @dataclass(frozen=True)
 class _Field:
     """One field: its target in the file, the unit of its values (UDUNITS), and the offsets
-    (multiples of ``step``) and weights of its difference stencil."""
+    (multiples of ``step``) and weights of its difference stencil; on the nonlinear model
+    also the scenarios at ±``wide_step``, ±2 ``wide_step`` (`WIDE_OFFSETS`), for the
+    field's own part of its channels (`nonlinear_sensitivities`), or none."""
 
     target: Target
     unit: str
@@ -69,6 +71,15 @@ class _Field:
     offsets: tuple[int, ...]
     weights: tuple[float, ...]
     scenarios: tuple[Scenario, ...]
+    wide_step: float = 0.0
+    wide: tuple[Scenario, ...] = ()
+
+    def mapped(self, change: Callable[[Scenario], Scenario]) -> _Field:
+        """The field with ``change`` applied to each of its moved scenarios."""
+        from dataclasses import replace
+
+        return replace(self, scenarios=tuple(change(s) for s in self.scenarios),
+                       wide=tuple(change(s) for s in self.wide))
 
 
 def scenario_file(scenario: Scenario | ScenarioFile) -> ScenarioFile:
@@ -175,9 +186,31 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
                     "(a motion's start or end); the computed run is not differentiable in it "
                     "on a fixed discretisation. Fields that keep those times (angles, link, "
                     "sensor and damping properties) take sensitivities")
+        wide = _wide(file, scenario, target, value, step)
         out.append(_Field(target, unit, step, stencil[0], stencil[1],
-                          scenarios))
+                          scenarios, WIDE_STEP * step if wide else 0.0, wide))
     return out
+
+
+# The nonlinear model's channels read accelerations solved from the moved equations, whose
+# round-off (~1e-11 of a held joint's torque on a free base) a difference over `field_step`
+# amplifies to 1e-5 of the torque's derivative: the field's own part of its channels takes
+# a fourth-order central stencil over WIDE_STEP times that step (its truncation ~1e-12).
+WIDE_STEP = 100.0
+WIDE_OFFSETS = ((1, 8.0 / 12.0), (-1, -8.0 / 12.0), (2, -1.0 / 12.0), (-2, 1.0 / 12.0))
+
+
+def _wide(file: ScenarioFile, scenario: Scenario, target: Target, value: float,
+          step: float) -> tuple[Scenario, ...]:
+    """The scenarios of `WIDE_OFFSETS` for a field of the nonlinear model, or none (another
+    model, or a move the scenario refuses: then the field's own stencil serves)."""
+    if scenario.settings.model != "nonlinear":
+        return ()
+    try:
+        return tuple(file.build({target.path: value + j * WIDE_STEP * step})
+                     for j, _ in WIDE_OFFSETS)
+    except ValueError:
+        return ()
 
 
 def field_step(value: float, unit: str) -> float:
@@ -498,21 +531,15 @@ def sensitivity_run(scenario: Scenario | ScenarioFile, fields: Sequence[str], pr
     check_path(scenario)
     prepared = prepare_fields(file, scenario, fields)
     if drive is not None:
-        from dataclasses import replace
-
         scenario = drive(scenario)
-        prepared = [replace(f, scenarios=tuple(drive(s) for s in f.scenarios))
-                    for f in prepared]
+        prepared = [f.mapped(drive) for f in prepared]
         check_path(scenario)
     check_run_memory(scenario)
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
     stiff = quasi_rigid_links(scenario, t)
     if stiff:  # the links the run makes rigid are rigid in every moved scenario too
-        from dataclasses import replace
-
-        prepared = [replace(f, scenarios=tuple(with_rigid_links(s, stiff)
-                                               for s in f.scenarios)) for f in prepared]
+        prepared = [f.mapped(lambda s: with_rigid_links(s, stiff)) for f in prepared]
         base = with_rigid_links(scenario, stiff)
     else:
         base = scenario
