@@ -2,7 +2,7 @@
 mass. The torque reads accelerations solved from the moved equations; their round-off
 over the field's difference step (1e-5 of the mass) showed as 2.5e-5 of the derivative,
 so the field's own part of the channels is differenced over a wider, fourth-order stencil
-(`sensitivities.WIDE_STEP`)."""
+(`nonlinear_sensitivities.WIDE_STEP`)."""
 
 from __future__ import annotations
 

@@ -121,7 +121,7 @@ def spectra_figure(data: FigureData) -> Figure:
 # Margins of the figures, in inches: room for the y axis' labels at the left, the time or
 # frequency axis at the bottom; fixed, as `flexlink run`'s figures (results/plotting.py):
 # matplotlib's constrained layout took two thirds of drawing them.
-_LEFT, _RIGHT, _TOP, _BOTTOM, _GAP = 0.95, 0.15, 0.25, 0.55, 0.12
+_LEFT, _RIGHT, _TOP, _BOTTOM, _GAP = 0.95, 0.25, 0.25, 0.55, 0.12
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 

@@ -15,7 +15,7 @@ Pieces from differences, each at a fixed state or time, never of a run (fields m
   and the channels (`nonlinear.nonlinear_values`,
   `nonlinear_forward.nonlinear_forward_values`) of the moved scenario at the step ends
   moved along their sensitivities; the field's own part (at the run's states) over a
-  fourth-order stencil 100 times wider (`sensitivities.WIDE_STEP`), since the solved
+  fourth-order stencil 100 times wider (`WIDE_STEP`), since the solved
   accelerations' round-off over δ would show in a held joint's torque.
 """
 
@@ -31,6 +31,13 @@ from ..solvers import Solution
 from .common import PathRun, Progress
 
 STATE_STEP = 1e-3  # of the states' size: the step of the channel map's state derivative
+# The channels read accelerations solved from the moved equations, whose round-off (~1e-11
+# of a held joint's torque on a free base) a difference over the field's step amplifies to
+# 1e-5 of the torque's derivative: the field's own part of its channels takes a fourth-order
+# central stencil (offset, weight) over WIDE_STEP times that step (its truncation ~1e-12),
+# on scenarios `sensitivities.prepare_fields` builds for the nonlinear model.
+WIDE_STEP = 100.0
+WIDE_OFFSETS = ((1, 8.0 / 12.0), (-1, -8.0 / 12.0), (2, -1.0 / 12.0), (-2, 1.0 / 12.0))
 
 
 class Refused(ValueError):
@@ -166,7 +173,6 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
     from ..solvers._gauss_sensitivity_numba import residuals
     from ..solvers.gauss_sensitivity import gauss_tangent, replay
     from ..solvers.gauss_steps import NODES
-    from .sensitivities import WIDE_OFFSETS
     path = _Forward if scenario.is_forward else _Prescribed
     nodes: list = []
     run = path.run(scenario, t, on_progress, shapes, nodes)
@@ -221,7 +227,7 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
         total: dict[str, np.ndarray] = {}
         add = partial(_accumulate, total)
         # the field's own part, at the run's states (a link's shape functions, a sensor):
-        # over the wide stencil where there is one (`sensitivities.WIDE_STEP`)
+        # over the wide stencil where there is one (`WIDE_STEP`)
         if f.wide and not all(s is nominal for s in systems[k]):
             for (_, w), sc in zip(WIDE_OFFSETS, f.wide, strict=True):
                 add(w / f.wide_step, path.values(sc, path.system(sc), t_nodes, y, v, t))

@@ -62,8 +62,9 @@ class SensitivityError(ValueError):
 class _Field:
     """One field: its target in the file, the unit of its values (UDUNITS), and the offsets
     (multiples of ``step``) and weights of its difference stencil; on the nonlinear model
-    also the scenarios at ±``wide_step``, ±2 ``wide_step`` (`WIDE_OFFSETS`), for the
-    field's own part of its channels (`nonlinear_sensitivities`), or none."""
+    also the scenarios at ±``wide_step``, ±2 ``wide_step``
+    (`nonlinear_sensitivities.WIDE_OFFSETS`), for the field's own part of its channels, or
+    none."""
 
     target: Target
     unit: str
@@ -186,31 +187,26 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
                     "(a motion's start or end); the computed run is not differentiable in it "
                     "on a fixed discretisation. Fields that keep those times (angles, link, "
                     "sensor and damping properties) take sensitivities")
-        wide = _wide(file, scenario, target, value, step)
-        out.append(_Field(target, unit, step, stencil[0], stencil[1],
-                          scenarios, WIDE_STEP * step if wide else 0.0, wide))
+        out.append(_Field(target, unit, step, stencil[0], stencil[1], scenarios,
+                          *_wide(file, scenario, target, value, step)))
     return out
 
 
-# The nonlinear model's channels read accelerations solved from the moved equations, whose
-# round-off (~1e-11 of a held joint's torque on a free base) a difference over `field_step`
-# amplifies to 1e-5 of the torque's derivative: the field's own part of its channels takes
-# a fourth-order central stencil over WIDE_STEP times that step (its truncation ~1e-12).
-WIDE_STEP = 100.0
-WIDE_OFFSETS = ((1, 8.0 / 12.0), (-1, -8.0 / 12.0), (2, -1.0 / 12.0), (-2, 1.0 / 12.0))
-
-
 def _wide(file: ScenarioFile, scenario: Scenario, target: Target, value: float,
-          step: float) -> tuple[Scenario, ...]:
-    """The scenarios of `WIDE_OFFSETS` for a field of the nonlinear model, or none (another
-    model, or a move the scenario refuses: then the field's own stencil serves)."""
+          step: float) -> tuple[float, tuple[Scenario, ...]]:
+    """The wide stencil's step and scenarios (`nonlinear_sensitivities.WIDE_OFFSETS` times
+    WIDE_STEP × ``step``) of a field of the nonlinear model; none (0, ()) on another model,
+    or where the scenario refuses a move (the field's own stencil then serves)."""
     if scenario.settings.model != "nonlinear":
-        return ()
+        return 0.0, ()
+    from .nonlinear_sensitivities import WIDE_OFFSETS, WIDE_STEP
+
+    wide = WIDE_STEP * step
     try:
-        return tuple(file.build({target.path: value + j * WIDE_STEP * step})
-                     for j, _ in WIDE_OFFSETS)
+        return wide, tuple(file.build({target.path: value + j * wide})
+                           for j, _ in WIDE_OFFSETS)
     except ValueError:
-        return ()
+        return 0.0, ()
 
 
 def field_step(value: float, unit: str) -> float:
