@@ -79,9 +79,9 @@ def _start_figures(args: argparse.Namespace) -> Any:
     return FigureWorker.start()
 
 
-def _start_up_imports(args: argparse.Namespace) -> None:
-    """Import what loading, comparing and fitting use within the block `cli.main` gives
-    (``args.start_up``: `cli.withheld_imports` of optional modules of numba and scipy that
+def _start_up_imports(args: argparse.Namespace, fitting: bool = False) -> None:
+    """Import what loading, comparing and (``fitting``) fitting use within the block
+    `cli.main` gives (``args.start_up``: `cli.withheld_imports` of optional modules of numba and scipy that
     they never use), then resume the garbage collector it paused, as `flexlink run` does
     (ARCHITECTURE.md, "Start-up of `flexlink run`"); without ``start_up`` (a caller of the
     handler itself) just the imports."""
@@ -97,6 +97,10 @@ def _start_up_imports(args: argparse.Namespace) -> None:
             import scipy.optimize  # noqa: F401
 
             from . import identification, loading, report  # noqa: F401
+
+            if fitting:  # its first runs, the first computing the sensitivities
+                from ..simulation import prescribed, sensitivities  # noqa: F401
+                from ..solvers import _lawson_sensitivity_numba, lawson_sensitivity  # noqa: F401
         except ImportError:
             pass  # a library needs a withheld module after all: imported again on use
         finally:
@@ -170,7 +174,7 @@ def run_fit(args: argparse.Namespace) -> int:
 
 
 def _fit_command(args: argparse.Namespace, worker: Any) -> int:
-    _start_up_imports(args)
+    _start_up_imports(args, fitting=True)
     from .identification import fit
     from .parameters import model_values, parse_parameter_option, parse_parameter_table
     from .report import metrics_table, write_fit

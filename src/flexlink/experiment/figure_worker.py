@@ -13,11 +13,15 @@ import contextlib
 import os
 import pickle
 import signal
+import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from ..results import figure_worker as _base
+
+_THREE_D = "mpl_toolkits.mplot3d"  # not imported by the drawing processes
 
 
 class FigureWorker(_base.FigureWorker):
@@ -38,9 +42,14 @@ def _child(jobs: int, replies: int) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, 1)  # nothing of the child's on the command's output
         os.dup2(devnull, 2)
-        # loaded while the parent works
-        import matplotlib.backends.backend_agg
-        import matplotlib.figure  # noqa: F401
+        # loaded while the parent works; without the 3-D axes, which matplotlib imports to
+        # register them (optional to it: a warning, to the null device) and these figures
+        # never draw
+        sys.modules.setdefault(_THREE_D, None)  # type: ignore[arg-type]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            import matplotlib.backends.backend_agg
+            import matplotlib.figure  # noqa: F401
 
         from . import figures
 

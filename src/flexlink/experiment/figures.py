@@ -5,9 +5,10 @@ and their free-vibration spectra. They draw from `FigureData`, plain arrays take
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -63,11 +64,8 @@ def write_figures(data: FigureData, folder: Path, stems: list[str] | None = None
 
 def overlay_figure(data: FigureData) -> Figure:
     """Measured and simulated signals, one panel per channel (like the paper's Figs. 8–9)."""
-    from matplotlib.figure import Figure
-
     names, t = data.names, data.time
-    fig = Figure(figsize=(7.0, 1.2 + 2.0 * len(names)), dpi=DPI, layout="constrained")
-    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    fig, axes = _frame(len(names), 2.0)
     for ax, name in zip(axes, names, strict=True):
         factor, unit = display_scale(data.units[name])
         ax.plot(t, data.measured[name] * factor, color="0.55", linewidth=0.8,
@@ -86,17 +84,17 @@ def overlay_figure(data: FigureData) -> Figure:
 
 def spectra_figure(data: FigureData) -> Figure:
     """Amplitude spectra of the free vibration, measured and simulated."""
-    from matplotlib.figure import Figure
-
     names, t = data.names, data.time
     window = t >= (data.free_start or t[0])
     dt = float(t[1] - t[0])
-    fig = Figure(figsize=(7.0, 1.2 + 1.8 * len(names)), dpi=DPI, layout="constrained")
-    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    fig, axes = _frame(len(names), 1.8)
     n = 1 << 16
     freqs = np.fft.rfftfreq(n, dt)
     top = max([4 * f for name in names for f in data.frequencies[name] if f] or [1.0])
     shown = freqs <= min(top, freqs[-1])
+    # the lines end one frequency past the axis: beyond it they would only be clipped away,
+    # at most of the drawing's cost
+    drawn = min(int(np.count_nonzero(shown)) + 1, freqs.size)
     for ax, name in zip(axes, names, strict=True):
         highest = 0.0
         for values, label, style in ((data.measured[name], "measured", "0.55"),
@@ -104,15 +102,50 @@ def spectra_figure(data: FigureData) -> Figure:
             y = values[window] - np.mean(values[window])
             amplitude = np.abs(np.fft.rfft(y * np.hanning(y.size), n)) + 1e-300
             highest = max(highest, float(amplitude[shown].max()))
-            ax.semilogy(freqs, amplitude, color=style, linewidth=0.9, label=label)
+            ax.semilogy(freqs[:drawn], amplitude[:drawn], color=style, linewidth=0.9,
+                        label=label)
         for f in data.frequencies[name]:
             if f:
                 ax.axvline(f, color="k", linestyle=":", linewidth=0.7)
         if highest > 0:  # four decades below the highest peak: the noise floor, not 1e-10
             ax.set_ylim(highest * SPECTRUM_DECADES, highest * 2.0)
+        ax.yaxis.set_major_formatter(_power_of_ten())
         ax.set_ylabel(f"|FFT| {name}")
         ax.grid(True, linewidth=0.5, alpha=0.6)
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlim(0, min(top, freqs[-1]))
     axes[-1].set_xlabel("frequency [Hz]  (dotted: estimated dominant frequencies)")
     return fig
+
+
+# Margins of the figures, in inches: room for the y axis' labels at the left, the time or
+# frequency axis at the bottom; fixed, as `flexlink run`'s figures (results/plotting.py):
+# matplotlib's constrained layout took two thirds of drawing them.
+_LEFT, _RIGHT, _TOP, _BOTTOM, _GAP = 0.95, 0.25, 0.25, 0.55, 0.12
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def _frame(panels: int, panel_height: float) -> tuple[Figure, list[Any]]:
+    """A figure of ``panels`` panels of ``panel_height`` inches, 7 in wide, sharing the
+    horizontal axis."""
+    from matplotlib.figure import Figure
+
+    width, height = 7.0, _TOP + _BOTTOM + panels * panel_height
+    fig = Figure(figsize=(width, height), dpi=DPI)
+    fig.subplots_adjust(left=_LEFT / width, right=1 - _RIGHT / width, bottom=_BOTTOM / height,
+                        top=1 - _TOP / height, hspace=_GAP / (panel_height - _GAP))
+    return fig, list(fig.subplots(panels, 1, sharex=True, squeeze=False)[:, 0])
+
+
+def _power_of_ten() -> Any:
+    """Log-axis labels 10⁻³ in plain text (matplotlib writes them in mathtext, whose parser
+    costs as much as drawing the rest of the figure); minor ticks unlabelled, as there."""
+    from matplotlib.ticker import FuncFormatter
+
+    def label(value: float, _: int) -> str:
+        exponent = round(math.log10(value)) if value > 0 else None
+        if exponent is None or not math.isclose(value, 10.0 ** exponent, rel_tol=1e-9):
+            return ""
+        return "10" + str(exponent).translate(_SUPERSCRIPT)
+
+    return FuncFormatter(label)

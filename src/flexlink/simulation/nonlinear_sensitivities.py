@@ -14,7 +14,9 @@ Pieces from differences, each at a fixed state or time, never of a run (fields m
   moved system's accelerations there: `gauss.node_solution`, `gauss_forward.node_solution`)
   and the channels (`nonlinear.nonlinear_values`,
   `nonlinear_forward.nonlinear_forward_values`) of the moved scenario at the step ends
-  moved along their sensitivities.
+  moved along their sensitivities; the field's own part (at the run's states) over a
+  fourth-order stencil 100 times wider (`WIDE_STEP`), since the solved
+  accelerations' round-off over δ would show in a held joint's torque.
 """
 
 from __future__ import annotations
@@ -29,6 +31,13 @@ from ..solvers import Solution
 from .common import PathRun, Progress
 
 STATE_STEP = 1e-3  # of the states' size: the step of the channel map's state derivative
+# The channels read accelerations solved from the moved equations, whose round-off (~1e-11
+# of a held joint's torque on a free base) a difference over the field's step amplifies to
+# 1e-5 of the torque's derivative: the field's own part of its channels takes a fourth-order
+# central stencil (offset, weight) over WIDE_STEP times that step (its truncation ~1e-12),
+# on scenarios `sensitivities.prepare_fields` builds for the nonlinear model.
+WIDE_STEP = 100.0
+WIDE_OFFSETS = ((1, 8.0 / 12.0), (-1, -8.0 / 12.0), (2, -1.0 / 12.0), (-2, 1.0 / 12.0))
 
 
 class Refused(ValueError):
@@ -217,14 +226,20 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
         add = partial(_accumulate, total)
-        # the field's own part, at the run's states (a link's shape functions, a sensor)
-        for j, w, sc, s in zip(f.offsets, f.weights, f.scenarios, systems[k], strict=True):
-            if j == 0:
-                if nominal_values is None:
-                    nominal_values = path.values(scenario, nominal, t_nodes, y, v, t)
-                add(w / f.step, nominal_values)
-            else:
-                add(w / f.step, path.values(sc, s, t_nodes, y, v, t))
+        # the field's own part, at the run's states (a link's shape functions, a sensor):
+        # over the wide stencil where there is one (`WIDE_STEP`)
+        if f.wide and not all(s is nominal for s in systems[k]):
+            for (_, w), sc in zip(WIDE_OFFSETS, f.wide, strict=True):
+                add(w / f.wide_step, path.values(sc, path.system(sc), t_nodes, y, v, t))
+        else:
+            for j, w, sc, s in zip(f.offsets, f.weights, f.scenarios, systems[k],
+                                   strict=True):
+                if j == 0:
+                    if nominal_values is None:
+                        nominal_values = path.values(scenario, nominal, t_nodes, y, v, t)
+                    add(w / f.step, nominal_values)
+                else:
+                    add(w / f.step, path.values(sc, s, t_nodes, y, v, t))
         # the states' part: a fourth-order central stencil along the sensitivity, with a
         # step of STATE_STEP of the states' size (the channel maps lose about 1e-10 of a
         # joint torque to cancellation, which a step of the field's δ would amplify)

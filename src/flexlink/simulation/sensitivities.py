@@ -10,8 +10,8 @@ propagators. Two pieces come from differences, both at a fixed state or fixed ti
 a run:
 
 * ∂A/∂p, A = M⁻¹[−K, −C, f] the state matrix, by central differences of the assembly of the
-  scenario with the field moved by ±δ (δ = `RELATIVE_STEP` × |value|) at the table's
-  sampling times; a field whose lower bound the step would cross takes a one-sided
+  scenario with the field moved by ±δ (`field_step`: δ = `RELATIVE_STEP` × |value|, an
+  angle's at least 1e-5 rad) at the table's sampling times; a field whose lower bound the step would cross takes a one-sided
   second-order difference. The assembly is smooth in every numeric field (modes and
   frequencies from roots found to adjacent floating-point numbers), so the difference's
   error (δ² terms, round-off / δ) is ~1e-9 relative or less.
@@ -22,6 +22,7 @@ a run:
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -36,7 +37,10 @@ from ..solvers import Solution
 from .common import PathRun, Progress
 
 RELATIVE_STEP = 1e-5  # of a field's magnitude: the step of the differences of the assembly
-ABSOLUTE_STEP = 1e-6  # the step of a field whose value is zero, in its unit
+ABSOLUTE_STEP = 1e-6  # the step of a field whose value is zero, in its unit (`field_step`)
+# The natural size of a field in these units, in the unit: an angle's is the radian, the
+# scale on which the trigonometric functions the model takes of it vary (`field_step`).
+NATURAL_SIZE = {"degree": 180.0 / math.pi, "degree s-1": 180.0 / math.pi}
 _SETTINGS = ("rtol", "atol", "step")  # [simulation] keys of the integrator, not the model
 # (offsets in steps, weights): central, then forward and backward one-sided, second order
 _STENCILS = (((1, -1), (0.5, -0.5)), ((0, 1, 2), (-1.5, 2.0, -0.5)),
@@ -57,7 +61,10 @@ class SensitivityError(ValueError):
 @dataclass(frozen=True)
 class _Field:
     """One field: its target in the file, the unit of its values (UDUNITS), and the offsets
-    (multiples of ``step``) and weights of its difference stencil."""
+    (multiples of ``step``) and weights of its difference stencil; on the nonlinear model
+    also the scenarios at ±``wide_step``, ±2 ``wide_step``
+    (`nonlinear_sensitivities.WIDE_OFFSETS`), for the field's own part of its channels, or
+    none."""
 
     target: Target
     unit: str
@@ -65,6 +72,15 @@ class _Field:
     offsets: tuple[int, ...]
     weights: tuple[float, ...]
     scenarios: tuple[Scenario, ...]
+    wide_step: float = 0.0
+    wide: tuple[Scenario, ...] = ()
+
+    def mapped(self, change: Callable[[Scenario], Scenario]) -> _Field:
+        """The field with ``change`` applied to each of its moved scenarios."""
+        from dataclasses import replace
+
+        return replace(self, scenarios=tuple(change(s) for s in self.scenarios),
+                       wide=tuple(change(s) for s in self.wide))
 
 
 def scenario_file(scenario: Scenario | ScenarioFile) -> ScenarioFile:
@@ -148,7 +164,8 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
             raise SensitivityError(f"sensitivities: {text} is a setting of the integrator, "
                                    "not of the model; choose a field of the model")
         value = float(target.value)
-        step = RELATIVE_STEP * abs(value) if value else ABSOLUTE_STEP
+        unit = field_unit(target)
+        step = field_step(value, unit)
         problem: Exception | None = None
         for stencil in _STENCILS:  # central; at a bound, one-sided (second order)
             try:
@@ -170,9 +187,38 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
                     "(a motion's start or end); the computed run is not differentiable in it "
                     "on a fixed discretisation. Fields that keep those times (angles, link, "
                     "sensor and damping properties) take sensitivities")
-        out.append(_Field(target, field_unit(target), step, stencil[0], stencil[1],
-                          scenarios))
+        out.append(_Field(target, unit, step, stencil[0], stencil[1], scenarios,
+                          *_wide(file, scenario, target, value, step)))
     return out
+
+
+def _wide(file: ScenarioFile, scenario: Scenario, target: Target, value: float,
+          step: float) -> tuple[float, tuple[Scenario, ...]]:
+    """The wide stencil's step and scenarios (`nonlinear_sensitivities.WIDE_OFFSETS` times
+    WIDE_STEP × ``step``) of a field of the nonlinear model; none (0, ()) on another model,
+    or where the scenario refuses a move (the field's own stencil then serves)."""
+    if scenario.settings.model != "nonlinear":
+        return 0.0, ()
+    from .nonlinear_sensitivities import WIDE_OFFSETS, WIDE_STEP
+
+    wide = WIDE_STEP * step
+    try:
+        return wide, tuple(file.build({target.path: value + j * wide})
+                           for j, _ in WIDE_OFFSETS)
+    except ValueError:
+        return 0.0, ()
+
+
+def field_step(value: float, unit: str) -> float:
+    """The difference step of a field of ``value`` in ``unit`` (UDUNITS): RELATIVE_STEP of its
+    magnitude, and of at least its natural size where its unit has one (`NATURAL_SIZE`:
+    an angle, or angular rate, of zero or a few degrees is stepped by 1e-5 rad, not by a
+    fraction of its value, which would leave the round-off of the rates it moves in the
+    difference); a zero field of another unit by ABSOLUTE_STEP."""
+    natural = NATURAL_SIZE.get(unit)
+    if natural is not None:
+        return RELATIVE_STEP * max(abs(value), natural)
+    return RELATIVE_STEP * abs(value) if value else ABSOLUTE_STEP
 
 
 def _same_breaks(a: np.ndarray, b: np.ndarray) -> bool:
@@ -481,21 +527,15 @@ def sensitivity_run(scenario: Scenario | ScenarioFile, fields: Sequence[str], pr
     check_path(scenario)
     prepared = prepare_fields(file, scenario, fields)
     if drive is not None:
-        from dataclasses import replace
-
         scenario = drive(scenario)
-        prepared = [replace(f, scenarios=tuple(drive(s) for s in f.scenarios))
-                    for f in prepared]
+        prepared = [f.mapped(drive) for f in prepared]
         check_path(scenario)
     check_run_memory(scenario)
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
     stiff = quasi_rigid_links(scenario, t)
     if stiff:  # the links the run makes rigid are rigid in every moved scenario too
-        from dataclasses import replace
-
-        prepared = [replace(f, scenarios=tuple(with_rigid_links(s, stiff)
-                                               for s in f.scenarios)) for f in prepared]
+        prepared = [f.mapped(lambda s: with_rigid_links(s, stiff)) for f in prepared]
         base = with_rigid_links(scenario, stiff)
     else:
         base = scenario
