@@ -103,3 +103,41 @@ def test_outputs_with_given_accelerations() -> None:
         step = _moved_accelerations(moved, t, y, A, a0)
         error = np.abs(step - exact).max() / np.abs(exact - a0).max()
         assert error < 0.3 * rel, (rel, error)  # second order: relative error ∝ the move
+
+
+@pytest.mark.parametrize("example", ["examples/satellite_slew.toml",
+                                     "examples/cart_beam.toml"])
+def test_projection_is_affine_in_the_rates(example: str) -> None:
+    """The momentum projection of a state (free base, cart) is affine in the rates at a fixed
+    configuration (the momentum is linear in them, and so is the correction that restores
+    it): what lets the sensitivities take its Jacobian's rate columns from one unit step.
+    Checked at run states: a unit step and a double one, and central differences."""
+    from flexlink.simulation.driven_sensitivities import _Bases, _projected
+
+    scenario = scenario_file(flexlink.load_scenario(example)).build(
+        {("simulation", "t_end"): 0.5})
+    t = np.linspace(0.0, 0.5, 6)
+    records: list = []
+    run_forward(scenario, t, None, False, steps=records)
+    steps = step_sequence(records)
+    model = _model(scenario, t, None)
+    assert model.projection.active.size > 0
+    nu, n = model.data.free.shape[0], model.data.n_x - model.data.n_rigid
+    Y = steps.y0[::max(1, steps.h.size // 8)]
+    times = steps.t[::max(1, steps.h.size // 8)]
+    segment = steps.segment[::max(1, steps.h.size // 8)]
+    bases = _Bases(segment, times)
+    base = _projected(model, Y, times, bases)
+    corrected = 0.0
+    for j in [*range(nu, 2 * nu), 2 * nu + n, 2 * nu + 2 * n - 1]:  # rigid and elastic rates
+        moved = [Y.copy() for _ in range(4)]
+        for s, y in zip([1.0, 2.0, 1e-5, -1e-5], moved, strict=True):
+            y[:, j] += s
+        one, two, up, down = (_projected(model, y, times, bases) for y in moved)
+        unit = one - base  # a column of the Jacobian (per unit of the rate)
+        unit[:, j] -= 1.0  # what the projection corrects
+        corrected = max(corrected, np.abs(unit).max())
+        unit[:, j] += 1.0
+        assert np.abs((two - base) - 2.0 * unit).max() <= 1e-12
+        assert np.abs((up - down) / 2e-5 - unit).max() <= 1e-7
+    assert corrected > 1e-3  # the rates moved the momentum, and the projection restored it

@@ -29,7 +29,7 @@ from ._forward_numba import _solve, applied, assemble, load_state, residual
 from ._momentum_numba import project
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _solve_columns(A, B):
     """Solve A X = B in place (B ← X, A destroyed) by Gaussian elimination with partial
     pivoting, for all of B's columns."""
@@ -88,25 +88,28 @@ def _equations(d, w_, u, y, acc, E):
         E[row] = e
 
 
-@njit(cache=True)
-def forward_jacobians(d, w_, u, states, step, J, A, acc):
+def jacobian_scratch(d, w_, m: int) -> tuple:
+    """Scratch arrays of `forward_jacobians` for ForwardData d, its Workspace w_ and
+    states of m entries (allocated by the caller: the kernel allocates nothing)."""
+    q = d.free.shape[0] + d.n_x - d.n_rigid
+    e = np.empty
+    return (e(m), e(q), e(q), e(w_.srates.shape[0]), e(q), e((q, q)), e(d.n_x), e((q, m)))
+
+
+@njit(cache=True, _nrt=False)
+def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
     """J[i] = ∂f/∂y (m, m) of the forward rates at states[i] (n, m) with input rows u[i];
     A[i] = ∂E/∂a (q, q) and acc[i] = a there (`_equations`, q = free + elastic
     coordinates). The rigid coordinates, their rates and the servo integrals: central
-    differences of E at fixed a (steps of step · max(1, |y_c|)), ∂a/∂y_c = −A⁻¹ ∂E/∂y_c."""
+    differences of E at fixed a (steps of step · max(1, |y_c|)), ∂a/∂y_c = −A⁻¹ ∂E/∂y_c.
+    scratch: `jacobian_scratch`."""
     nu = d.free.shape[0]
     nr = d.n_rigid
     n = d.n_x - nr
     m = states.shape[1]
     q = nu + n
     free = d.free
-    yp = np.empty(m)
-    E1, E2 = np.empty(q), np.empty(q)
-    s1 = np.empty(w_.srates.shape[0])
-    a = np.empty(q)
-    A0 = np.empty((q, q))
-    base = np.empty(d.n_x)
-    R = np.empty((q, m))
+    yp, E1, E2, s1, a, A0, base, R = scratch
     for i in range(states.shape[0]):
         y = states[i]
         ui = u[i]
@@ -123,12 +126,14 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc):
         for c in range(m):  # rigid coordinates, their rates, servo integrals
             if 2 * nu <= c < 2 * nu + 2 * n:
                 continue
-            yp[:] = y
+            for e in range(m):
+                yp[e] = y[e]
             h = step * max(1.0, abs(y[c]))
             yp[c] = y[c] + h
             hi = yp[c]
             _equations(d, w_, ui, yp, a, E1)
-            s1[:] = w_.srates
+            for e in range(s1.shape[0]):
+                s1[e] = w_.srates[e]
             yp[c] = y[c] - h
             span = hi - yp[c]
             _equations(d, w_, ui, yp, a, E2)
@@ -163,7 +168,7 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc):
             J[i, 2 * nu + j, 2 * nu + n + j] = 1.0  # dz/dt = ż
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def forward_equations(d, w_, u, states, acc, E, srates):
     """E[i] (`_equations`) and the servo integrals' rates srates[i] at states[i] with input
     rows u[i] and accelerations acc[i] (those of another model: E's change with the model
@@ -174,7 +179,7 @@ def forward_equations(d, w_, u, states, acc, E, srates):
             srates[i, s] = w_.srates[s]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def forward_accelerations(d, w_, u, states, A, acc):
     """A[i] = ∂E/∂a (q, q) and the accelerations acc[i] = a (q,) the rates solve for at
     states[i] with input rows u[i] (`_equations`)."""
@@ -188,7 +193,7 @@ def forward_accelerations(d, w_, u, states, A, acc):
         _solve(w_.A, acc[i])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def project_rows(d, w_, pj, u, U, t, states):
     """Each of states[i] projected in place onto the known momentum at time t[i]
     (`_momentum_numba.project`) with input row u[i] and the inputs' integrals U[i]."""

@@ -24,9 +24,9 @@ from ._forward_numba import (
 from ._momentum_numba import momentum
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd, torques,
-            momenta, pj, given):
+            momenta, pj, given, rows):
     """Fill, per output i: dy[i] = the rates at states[i] (input row u[i]; with rows in
     ``given``, their accelerations (p̈_free, z̈) are given[i], not solved for); the frames at
     the solved rigid state (angles, rates, accelerations (nt, N), origins (global) and their
@@ -34,7 +34,8 @@ def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd,
     row of M ẍ + C ẋ + K x − f with x = [0; z] (ForwardSystem.joint_torques: for a driven
     joint, the applied torque its row was solved for); momenta[i] =
     L_x, L_y, H about the origin (when momenta has rows). pj: a momentum-projection record
-    (its scratch arrays)."""
+    (its scratch arrays); rows: six scratch arrays, three (1, n_rigid) and three (1, n) (the
+    kernel allocates nothing)."""
     N = d.length.shape[0]
     nb, nr, nx = d.n_base, d.n_rigid, d.n_x
     free = d.free
@@ -42,8 +43,7 @@ def outputs(d, w_, u, states, dy, theta, omega, alpha, origin, oacc, T, Td, Tdd,
     n = nx - nr
     out = pj.c0
     prescribed = False
-    p1, pd1, pdd1 = np.empty((1, nr)), np.empty((1, nr)), np.empty((1, nr))
-    z1, zd1, zdd1 = np.empty((1, n)), np.empty((1, n)), np.empty((1, n))
+    p1, pd1, pdd1, z1, zd1, zdd1 = rows
     for k in range(N):
         if d.joint_kind[k] == PRESCRIBED:
             prescribed = True

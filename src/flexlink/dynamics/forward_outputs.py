@@ -54,7 +54,8 @@ def forward_outputs(system: ForwardSystem, data: ForwardData, work: tuple, u: np
             np.ascontiguousarray(states, dtype=float), rates, theta, omega, alpha, origin,
             oacc, T, Td, Tdd, torques, momenta, scratch,
             np.ascontiguousarray(accelerations, dtype=float) if accelerations is not None
-            else np.empty((0, len(system.free) + system.n)))
+            else np.empty((0, len(system.free) + system.n)),
+            tuple(np.empty((1, c)) for c in (system.n_rigid,) * 3 + (system.n,) * 3))
     frames = FrameMotion(theta, omega, alpha, origin, oacc, [T[:, k] for k in range(N)],
                          [Td[:, k] for k in range(N)], [Tdd[:, k] for k in range(N)])
     return ForwardOutputs(rates, frames, torques,

@@ -122,25 +122,31 @@ def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
     (`dynamics._forward_jacobian_numba`): ∂f/∂y at the stages, exact along the elastic
     coordinates, and per field ∂f/∂p = −A⁻¹ ∂E/∂p from the moved models' equations at the
     nominal accelerations (forcing takes the stage states jacobians was last given)."""
-    from ..dynamics._forward_jacobian_numba import forward_equations, forward_jacobians
-    from ..solvers.radau_sensitivity import JACOBIAN_STEP, table_rows
+    from ..dynamics._forward_jacobian_numba import (
+        forward_equations,
+        forward_jacobians,
+        jacobian_scratch,
+    )
+    from ..solvers.radau_sensitivity import JACOBIAN_STEP
 
     d = nominal.data
     nu, n, m = d.free.shape[0], d.n_x - d.n_rigid, nominal.y0.size
     q, ns, K = nu + n, m - 2 * nu - 2 * n, len(fields)
     last: dict = {}
+    scratch = jacobian_scratch(d, nominal.work, m)
 
     def jacobians(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
         rows = Y.shape[0]
         J, A, acc = np.empty((rows, m, m)), np.empty((rows, q, q)), np.empty((rows, q))
         forward_jacobians(d, nominal.work, np.ascontiguousarray(u), np.ascontiguousarray(Y),
-                          JACOBIAN_STEP, J, A, acc)
+                          JACOBIAN_STEP, J, A, acc, scratch)
         last.update(Y=Y, A=A, acc=acc)
         return J
 
     def forcing(times: np.ndarray, segment: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        bases = _Bases(segment, times)
         if last.get("Y") is not Y:
-            jacobians(table_rows(nominal.table, segment, times), Y)
+            jacobians(bases.rows(nominal.table), Y)
         rows = Y.shape[0]
         dE, dS = np.zeros((rows, q, K)), np.zeros((rows, ns, K))
         E, S = np.empty((rows, q)), np.empty((rows, ns))
@@ -149,8 +155,8 @@ def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
             if not reads[k]:
                 continue
             for w, md in zip(f.weights, moved[k], strict=True):
-                forward_equations(md.data, md.work, table_rows(md.table, segment, times),
-                                  states, last["acc"], E, S)
+                forward_equations(md.data, md.work, bases.rows(md.table), states, last["acc"],
+                                  E, S)
                 dE[:, :, k] += (w / f.step) * E
                 dS[:, :, k] += (w / f.step) * S
         da = -np.linalg.solve(last["A"], dE)
@@ -162,29 +168,60 @@ def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
     return jacobians, forcing
 
 
-def _projected(model: _Model, segment: np.ndarray, times: np.ndarray, Y: np.ndarray
-               ) -> np.ndarray:
-    """The states Y (n, m) projected onto the model's known momentum at times (n,) inside
-    their input segments (n,) (`_momentum_numba.project`)."""
+class _Bases:
+    """Input rows and the inputs' integrals of many models' input tables at the same times
+    (`radau_sensitivity.table_rows`, `_radau_numba.input_integral`): the piece lookup and
+    the Chebyshev polynomials made once per distinct set of pieces (the moved models'
+    tables mostly have the nominal one's)."""
+
+    def __init__(self, segment: np.ndarray, times: np.ndarray) -> None:
+        self.segment, self.times = segment, times
+        self.made: list[tuple[tuple, tuple, dict]] = []  # (table, (piece, x), {degree: T})
+
+    def _basis(self, table: tuple, degree: int) -> tuple[np.ndarray, np.ndarray]:
+        from ..solvers.radau_sensitivity import table_piece
+
+        for other, located, polynomials in self.made:
+            if other is table or all(np.array_equal(x, y) for x, y in
+                                     zip((table[0], table[1], table[3]),
+                                         (other[0], other[1], other[3]), strict=True)):
+                break
+        else:
+            located, polynomials = table_piece(table, self.segment, self.times), {}
+            self.made.append((table, located, polynomials))
+        if degree not in polynomials:
+            polynomials[degree] = np.polynomial.chebyshev.chebvander(located[1], degree)
+        return located[0], polynomials[degree]
+
+    def rows(self, table: tuple) -> np.ndarray:
+        """The input rows (n, columns) of ``table``."""
+        from ..solvers.radau_sensitivity import table_rows
+
+        return table_rows(table, self.segment, self.times,
+                          self._basis(table, table[2].shape[1] - 1))
+
+    def integrals(self, model: _Model) -> np.ndarray:
+        """The inputs' integrals from the start (n, columns) of ``model``
+        (`_radau_numba.input_integral`)."""
+        anti, offset = model.integrals  # type: ignore[misc]
+        piece, T = self._basis(model.table, anti.shape[1] - 1)
+        return offset[piece] + np.einsum("nk,nkc->nc", T, anti[piece])
+
+
+def _projected(model: _Model, Y: np.ndarray, times: np.ndarray, bases: _Bases,
+               repeat: int = 1) -> np.ndarray:
+    """The states Y (n · repeat, m) projected onto the model's known momentum at times (n,)
+    (each repeated ``repeat`` times in a row) inside the input segments of ``bases``
+    (`_momentum_numba.project`)."""
     from ..dynamics._forward_jacobian_numba import project_rows
-    from ..solvers.radau_sensitivity import table_rows
 
     out = np.array(Y, dtype=float)
-    project_rows(model.data, model.work, model.projection, table_rows(model.table, segment,
-                                                                      times),
-                 _integral_rows(model, segment, times), np.ascontiguousarray(times), out)
+    u, U = bases.rows(model.table), bases.integrals(model)
+    if repeat > 1:
+        u, U, times = (np.repeat(v, repeat, axis=0) for v in (u, U, times))
+    project_rows(model.data, model.work, model.projection, np.ascontiguousarray(u),
+                 np.ascontiguousarray(U), np.ascontiguousarray(times), out)
     return out
-
-
-def _integral_rows(model: _Model, segment: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """The inputs' integrals from the start (`_radau_numba.input_integral`) at times."""
-    a, b, _, first = model.table
-    anti, offset = model.integrals  # type: ignore[misc]
-    piece = np.clip(np.searchsorted(b, times, side="left"), first[segment],
-                    first[segment + 1] - 1)
-    x = (2.0 * times - (a[piece] + b[piece])) / (b[piece] - a[piece])
-    T = np.polynomial.chebyshev.chebvander(x, anti.shape[1] - 1)
-    return offset[piece] + np.einsum("nk,nkc->nc", T, anti[piece])
 
 
 def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarray,
@@ -273,7 +310,7 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
                            ) -> tuple[np.ndarray, np.ndarray]:
         """The derivative of the projection of states Y (n, m) moving along dy (m, K) at
         times (n,), as J (n, m, m) and c (n, m, K): J[i] dy + c[i]. J: the nominal
-        projection's Jacobian (central differences); c: per field, the projections of the
+        projection's Jacobian (below); c: per field, the projections of the
         moved models at Y combined by its stencil. Equal to the stencil applied to the moved
         projections at Y moved along dy to second order in the step (both stencils: their
         weights w_j at offsets j have Σ w_j = Σ w_j j² = 0, Σ w_j j = 1)."""
@@ -281,18 +318,36 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
 
         n = Y.shape[0]
         c = np.zeros((n, m, K))
+        bases = _Bases(segment, times)
         for k, f in enumerate(fields):
             for w, md in zip(f.weights, moved[k], strict=True):
-                c[:, :, k] += (w / f.step) * _projected(md, segment, times, Y)
-        eps = JACOBIAN_STEP * np.maximum(1.0, np.abs(Y))
-        shifted = np.repeat(Y[:, None, None, :], 2, axis=1).repeat(m, axis=2)
-        idx = np.arange(m)
-        shifted[:, 0, idx, idx] += eps
-        shifted[:, 1, idx, idx] -= eps
-        span = shifted[:, 0, idx, idx] - shifted[:, 1, idx, idx]
-        P = _projected(nominal, np.repeat(segment, 2 * m), np.repeat(times, 2 * m),
-                       shifted.reshape(-1, m)).reshape(n, 2, m, m)
-        return np.swapaxes((P[:, 0] - P[:, 1]) / span[:, :, None], 1, 2), c
+                c[:, :, k] += (w / f.step) * _projected(md, Y, times, bases)
+        # the projection reads the configuration and the rates, not the servo integrals
+        # (their columns: the identity); it is affine in the rates (the momentum is linear
+        # in them at a fixed configuration, and so are its corrections): one unit step
+        # each, exact; central differences along the configuration
+        a, v = len(position), len(rate)
+        eps = JACOBIAN_STEP * np.maximum(1.0, np.abs(Y[:, position]))
+        shifted = np.repeat(Y[:, None, :], 2 * a + v + 1, axis=1)
+        ia, iv = np.arange(a), np.arange(v)
+        shifted[:, ia, position] += eps
+        shifted[:, a + ia, position] -= eps
+        shifted[:, 2 * a + iv, rate] += 1.0
+        span = shifted[:, ia, position] - shifted[:, a + ia, position]
+        unit = shifted[:, 2 * a + iv, rate] - Y[:, rate]
+        P = _projected(nominal, shifted.reshape(-1, m), times, bases, 2 * a + v + 1
+                       ).reshape(n, 2 * a + v + 1, m)
+        J = np.zeros((n, m, m))
+        J[:, :, position] = np.swapaxes((P[:, :a] - P[:, a:2 * a]) / span[:, :, None], 1, 2)
+        J[:, :, rate] = np.swapaxes((P[:, 2 * a:2 * a + v] - P[:, -1:]) / unit[:, :, None],
+                                    1, 2)
+        J[:, integral, integral] = 1.0
+        return J, c
+
+    nu, ne = len(nominal.system.free), nominal.system.n
+    position = np.r_[0:nu, 2 * nu:2 * nu + ne]
+    rate = np.r_[nu:2 * nu, 2 * nu + ne:2 * nu + 2 * ne]
+    integral = np.arange(2 * nu + 2 * ne, m)
 
     if projected:
         step_J, step_c = projection_tangent(steps.segment, steps.t + steps.h,

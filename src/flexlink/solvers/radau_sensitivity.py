@@ -189,13 +189,25 @@ def dense(y0: np.ndarray, z: np.ndarray, y1: np.ndarray, s: np.ndarray) -> np.nd
     return y1 + ss * (c1 + (ss - C2M1) * (c2 + (ss - C1M1) * c3))
 
 
-def table_rows(table: tuple, segment: np.ndarray, times: np.ndarray) -> np.ndarray:
+def table_rows(table: tuple, segment: np.ndarray, times: np.ndarray,
+               basis: tuple | None = None) -> np.ndarray:
     """Input rows (n, columns) of an input table (`input_table.tabulate`) at ``times``
     (n,) inside their ``segment`` (n,), as the compiled loop reads them
-    (`_radau_numba.input_row`: a segment's pieces continued up to its ends)."""
-    a, b, coef, first = table
+    (`_radau_numba.input_row`: a segment's pieces continued up to its ends); ``basis``:
+    the pieces read (n,) and the Chebyshev polynomials there (n, degree + 1), if already
+    made for a table with the same pieces at the same times."""
+    if basis is None:
+        piece, x = table_piece(table, segment, times)
+        basis = piece, np.polynomial.chebyshev.chebvander(x, table[2].shape[1] - 1)
+    piece, T = basis
+    return np.einsum("nk,nkc->nc", T, table[2][piece])
+
+
+def table_piece(table: tuple, segment: np.ndarray, times: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The piece (n,) of an input table that each of ``times`` (n,) inside its ``segment``
+    (n,) reads, and the time's abscissa in it (n,), in [−1, 1] inside the piece."""
+    a, b, _, first = table
     piece = np.searchsorted(b, times, side="left")
     piece = np.clip(piece, first[segment], first[segment + 1] - 1)
-    x = (2.0 * times - (a[piece] + b[piece])) / (b[piece] - a[piece])
-    T = np.polynomial.chebyshev.chebvander(x, coef.shape[1] - 1)  # (n, degree + 1)
-    return np.einsum("nk,nkc->nc", T, coef[piece])
+    return piece, (2.0 * times - (a[piece] + b[piece])) / (b[piece] - a[piece])
