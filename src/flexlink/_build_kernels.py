@@ -52,8 +52,9 @@ COMPILE_CPU = {"prescribed": 21, "nonlinear": 9, "nonlinear_step": 2, "forward":
                "free_base": 2, "nonlinear_forward": 28, "nonlinear_forward_step": 4,
                "closed_loop": 5, "four_bar": 59, "nonlinear_four_bar": 53, "sensitivities": 5}
 # Model paths whose runs integrate with another path's compiled loop (the closed loop's
-# Lawson loop is the prescribed path's): one family, one worker.
-_SHARES = {"closed_loop": "prescribed"}
+# Lawson loop is the prescribed path's; the nonlinear path's Gauss loops, compiled once for
+# both nonlinear models, are the nonlinear forward path's): one family, one worker.
+_SHARES = {"closed_loop": "prescribed", "nonlinear": "nonlinear_forward"}
 _CACHED_KERNEL = re.compile(r"jit\([^)]*\bcache\s*=\s*True")
 _INDEX_DATA = r"\.\d+\.nbc"  # numba's data files beside an index <stem>.nbi: <stem>.<n>.nbc
 
