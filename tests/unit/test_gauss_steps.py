@@ -41,13 +41,14 @@ def test_the_doubling_kernel_keeps_the_two_half_steps() -> None:
     """One doubled step H from a state ends where two plain steps of H/2 end (the uniform
     loop, the same Newton tolerance): the half steps are the solution, the H step only
     the estimate."""
-    from flexlink.solvers._gauss_numba import gauss_doubling, gauss_loop
+    from flexlink.solvers._gauss_numba import gauss_doubling, gauss_loop, residual_model
     from flexlink.solvers.gauss_steps import GAUSS2, newton_settings, step_control
 
     system = NonlinearSystem(_swing())
     n, H, t0 = system.n, 0.02, 0.15
     q0, v0 = np.linspace(0.01, -0.02, n), np.linspace(-0.3, 0.2, n)
     data = system.kernel_data()
+    model = residual_model(data)
     newton = newton_settings(NEWTON_TOL, NEWTON_MAX, ROUND_OFF * system.max_frequency**2, False)
     X0 = np.repeat(system.accelerations(np.array([t0]), q0[None], v0[None]), 2, axis=0)
 
@@ -57,13 +58,13 @@ def test_the_doubling_kernel_keeps_the_two_half_steps() -> None:
     q, v = np.array([q0, q0]), np.array([v0, v0])
     errors = np.zeros(1)
     status, accepted = gauss_doubling(
-        data, rows(t0 + H * DOUBLING_STAGES), q, v, X0.copy(), H, H, GAUSS2, newton,
+        model, rows(t0 + H * DOUBLING_STAGES), q, v, X0.copy(), H, H, GAUSS2, newton,
         step_control(np.zeros(n), 1.0, 1.0, 0.0), errors, np.zeros((2, 2 * n, 2 * n)),
         np.zeros(2, np.int64), np.zeros(2, np.int64), np.zeros(1))
     assert (status, accepted) == (0, 1)
     qh, vh = np.array([q0, q0, q0]), np.array([v0, v0, v0])
     half = t0 + 0.5 * H * (np.arange(2)[:, None] + NODES[None, :]).ravel()
-    failed, _, _ = gauss_loop(data, rows(half), qh, vh, X0.copy(), 0.5 * H, GAUSS2, newton,
+    failed, _, _ = gauss_loop(model, rows(half), qh, vh, X0.copy(), 0.5 * H, GAUSS2, newton,
                               False, np.zeros(1))
     assert failed == -1
     scale = np.abs(qh).max()
@@ -160,3 +161,24 @@ def test_the_cli_summary_says_what_was_asked_for_and_reached(tmp_path) -> None:
     assert "rtol 1e-05 asked for" in line and "(step doubling)" in line
     fixed = summary(simulate(_scenario("nonlinear", step=0.01)), tmp_path, "beam")
     assert "rtol 1e-05 asked for, no error estimate" in fixed
+
+
+def test_both_nonlinear_models_reach_one_compiled_loop() -> None:
+    """The compiled Gauss loops take a model of the same type for both nonlinear records
+    (each record's residual behind a pointer), so numba compiles each loop once for both;
+    a record without a compiled residual is refused by name."""
+    from numba import typeof
+
+    from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
+    from flexlink.solvers._gauss_numba import residual_model
+
+    prescribed = NonlinearSystem(_swing()).kernel_data()
+    driven = NonlinearForwardSystem(Chain((BEAM,), (TorqueDrive(BangBang(1.0, 0.2, 0.5),
+                                                                motor_inertia=0.5),))
+                                    ).kernel_data()
+    assert type(prescribed) is not type(driven)
+    models = residual_model(prescribed), residual_model(driven)
+    assert typeof(models[0]) == typeof(models[1])
+    assert models[0][0] != models[1][0] and models[0][2] == prescribed.n
+    with pytest.raises(TypeError, match="no compiled residual for kernel data tuple"):
+        residual_model((1.0, 2.0))

@@ -81,5 +81,6 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
                 M[i, k] = r1[i] - r0[i]
         rhs = -r0
         _solve(M, rhs)
-        out[t] = rhs
+        for i in range(ny):  # (a loop: a slice assignment links numba's shape error in)
+            out[t, i] = rhs[i]
     return out

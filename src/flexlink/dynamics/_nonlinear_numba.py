@@ -154,7 +154,9 @@ def accelerations(d, q, qd, ang, rate, acc, rot_acc, load):
         c = np.cos(np.dot(A, q[t]) + ang[t])
         s = np.sin(np.dot(A, q[t]) + ang[t])
         M = mass_matrix(A, At, d.G, d.rot_y, d.rot_J, c, s, H, HA)
-        out[t] = np.linalg.solve(M, -f)
+        solved = np.linalg.solve(M, -f)
+        for i in range(n):  # (a loop: a slice assignment links numba's shape error in)
+            out[t, i] = solved[i]
     return out
 
 
@@ -168,7 +170,10 @@ def mass_matrix(A, At, G, rot_y, rot_J, c, s, H, HA):
     for j in range(nodes):
         for m in range(nodes):
             H[j, m] = G[j, m] * (c[j] * c[m] + s[j] * s[m])
-    HA[:, :] = np.dot(H, A)
+    product = np.dot(H, A)
+    for j in range(nodes):  # (a loop: a slice assignment links numba's shape error in)
+        for m in range(n):
+            HA[j, m] = product[j, m]
     M = np.dot(At, HA)
     for k in range(rot_J.shape[0]):
         for i in range(n):

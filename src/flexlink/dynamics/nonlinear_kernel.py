@@ -6,8 +6,8 @@ is α_j = Ay_j y + (prescribed part), y the unknowns. With every rigid coordinat
 (`NonlinearSystem`) y = q and the prescribed joint angles are inputs; with free base
 coordinates or driven joints (`NonlinearForwardData`) those join y. The compiled residual's
 inertia and elastic part (`_nonlinear_numba.inertia_elastic`) is the same code for both;
-the record's type decides, at compile time, which applied forces follow it
-(`solvers/_gauss_numba.model_residual`): the given load rows on q, or the first-order
+the record's type decides which compiled residual, and so which applied forces, follow it
+(`solvers/_gauss_numba.residual_model`): the given load rows on q, or the first-order
 forward model's drive torques, servo laws and base loads.
 """
 

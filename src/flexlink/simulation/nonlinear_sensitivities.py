@@ -170,6 +170,7 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
     """The nonlinear run of ``scenario`` (prescribed joints: `nonlinear.run_nonlinear`;
     rigid coordinates: `nonlinear_forward.run_nonlinear_forward`) and, per channel, its
     derivatives (nt, K) in the fields (`sensitivities._Field`)."""
+    from ..solvers._gauss_numba import residual_model
     from ..solvers._gauss_sensitivity_numba import residuals
     from ..solvers.gauss_sensitivity import gauss_tangent, replay
     from ..solvers.gauss_steps import NODES
@@ -207,8 +208,9 @@ def run_with_nonlinear_sensitivities(scenario: Scenario, fields: list, t: np.nda
             if all(s is nominal for s in systems[k]):
                 continue  # a field the equations do not read
             for w, s, rows in zip(f.weights, systems[k], moved_rows[k], strict=True):
-                residuals(s.kernel_data(), steps.rows if rows is None else rows, index, Q, V,
-                          X, r)
+                data_s = s.kernel_data()  # alive while its model (borrowed arrays) is used
+                residuals(residual_model(data_s), steps.rows if rows is None else rows, index,
+                          Q, V, X, r)
                 out[:, :, k] += (w / f.step) * r
         return out
 

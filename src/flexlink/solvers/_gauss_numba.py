@@ -3,13 +3,15 @@ algorithm as the numpy loop in ``gauss.py`` (which the tests compare them with),
 Python overhead per step: the Newton stage solver (`solve_stages`), the uniform-step loop
 (`gauss_loop`) and the step-doubling loop (`gauss_doubling`), each written once.
 
-The model is its kernel-data record ``d`` (`dynamics/nonlinear_kernel.py`), reached through
-`model_residual`, which dispatches at compile time on the record's type (`_RESIDUALS`:
-NonlinearData → the prescribed-joint residual, NonlinearForwardData → the residual with
-rigid coordinates): one compiled loop per model, each cacheable on disk (a residual passed
-as an argument is not). Stage inputs are a `StageInputs` record of rows, two per step (six
-per doubled step); the tableau, Newton's settings and the step control are records of
-`gauss_steps.py`.
+The model is its residual, reached through `model_residual` from the ``model`` that
+`residual_model` makes of its kernel-data record ``d`` (`dynamics/nonlinear_kernel.py`):
+(address of a residual trampoline, context, d.n), the context holding the address of the
+record type's compiled residual (`_RESIDUALS`: NonlinearData → the prescribed-joint
+residual, NonlinearForwardData → the residual with rigid coordinates) and the record, as
+`_radau_model` does for Radau IIA. The loops' types do not depend on the model, so each is
+compiled (and cached on disk) once for both models, without the model's code inside. Stage
+inputs are a `StageInputs` record of rows, two per step (six per doubled step); the
+tableau, Newton's settings and the step control are records of `gauss_steps.py`.
 
 Why numba: one step costs a few small matrix–vector products (~10⁴ flops); in numpy each call
 costs more in dispatch than in arithmetic, an order of magnitude more per Newton iteration
@@ -18,35 +20,74 @@ than the compiled loop (benchmarks/nonlinear_vs_fe.py).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
-from numba import njit
-from numba.extending import overload
+from numba import njit, typeof, types
+from numba.extending import intrinsic
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._nonlinear_forward_numba import residual as forward_residual
 from ..dynamics._nonlinear_numba import residual as prescribed_residual
 from ..dynamics.nonlinear_kernel import NonlinearData, NonlinearForwardData
+from ._radau_model import CONTEXT, ROW, _address, _call_codegen, _check, _load, _pack
 from ._step_control_numba import error_norm, tolerances, update_peaks
 
 # kernel-data record class → its compiled residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out)
 _RESIDUALS = {NonlinearData: prescribed_residual, NonlinearForwardData: forward_residual}
+_ROWS = (ROW,) * 9  # Y, V, X, ang, rate, acc, rot_acc, u, out: every row a residual takes
 
 
-def model_residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
-    """The residual of one state into ``out`` for the model whose kernel data ``d`` is."""
-    _RESIDUALS[type(d)](d, Y, V, X, ang, rate, acc, rot_acc, u, out)
+def residual_model(d: Any) -> tuple[int, np.ndarray, int]:
+    """The ``model`` argument of the compiled loops for kernel data ``d``: (address of the
+    residual trampoline, context, d.n elastic coordinates). ``d`` must outlive every use
+    of it (the context borrows its arrays)."""
+    kernel = _RESIDUALS.get(type(d))
+    if kernel is None:
+        raise TypeError(f"no compiled residual for kernel data {type(d).__name__}: add its "
+                        "record class and residual to _gauss_numba._RESIDUALS")
+    records = (d,)
+    residual = _address(kernel, (typeof(d),) + _ROWS)
+    trampoline = _address(_residual_from, (CONTEXT,) + _ROWS
+                          + (types.TypeRef(typeof(records)),))
+    return trampoline, _pack(records, residual, 0), int(d.n)
 
 
-@overload(model_residual)
-def _model_residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
-    kernel = _RESIDUALS.get(getattr(d, "instance_class", None))
-    # the kernel's own Python function as the implementation: no forwarding call between
-    # the loop and the residual (each call takes the record's arrays one by one)
-    return None if kernel is None else kernel.py_func
+@intrinsic
+def _call_residual(typingctx, address, d, Y, V, X, ang, rate, acc, rot_acc, u, out):
+    """The model's compiled residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out) at
+    ``address``."""
+    _check("the model's residual", (Y, V, X, ang, rate, acc, rot_acc, u, out), _ROWS)
+    return (types.none(address, d, Y, V, X, ang, rate, acc, rot_acc, u, out),
+            _call_codegen(0))
+
+
+@intrinsic
+def _call_residual_from(typingctx, address, context, Y, V, X, ang, rate, acc, rot_acc, u,
+                        out):
+    """The residual trampoline (`_residual_from`) at ``address``."""
+    _check("the residual trampoline", (context, Y, V, X, ang, rate, acc, rot_acc, u, out),
+           (CONTEXT,) + _ROWS)
+    return (types.none(address, context, Y, V, X, ang, rate, acc, rot_acc, u, out),
+            _call_codegen(1))
 
 
 @njit(cache=True)
-def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, peak):
+def _residual_from(context, Y, V, X, ang, rate, acc, rot_acc, u, out, records_type):
+    """The residual of one state into ``out`` for the model whose record the context holds
+    (its type given)."""
+    (d,) = _load(context, records_type)
+    _call_residual(context[0], d, Y, V, X, ang, rate, acc, rot_acc, u, out)
+
+
+@njit(inline="always")
+def model_residual(model, Y, V, X, ang, rate, acc, rot_acc, u, out):
+    """The residual of one state into ``out`` for ``model`` (`residual_model`)."""
+    _call_residual_from(model[0], model[1], Y, V, X, ang, rate, acc, rot_acc, u, out)
+
+
+@njit(cache=True)
+def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, peak):
     """The stage accelerations X (2, n) of one step of h (s) from y0, v0, solved in place by
     simplified Newton from the guess in X; stage inputs in rows k, k + 1. ``inverse`` (2n, 2n)
     is the iteration matrix for h, rebuilt when ``have[0]`` is 0 or when an iteration
@@ -54,7 +95,7 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
     newton.tol of the largest stage acceleration (and of ``peak[0]``, the largest of the run
     so far, kept up to date when newton.running_peak: a rigid arm coasting has vanishing
     accelerations that no elastic term keeps finite) or within newton.floor (1/s²) ·
-    max|q| (the first d.n unknowns): the round-off of the elastic forces (at a static
+    max|q| (the first model[2] unknowns, the elastic coordinates): the round-off of the elastic forces (at a static
     equilibrium under a constant load the accelerations vanish and no relative test can be
     met), or within newton.state_round_off · max|y| / h² (every unknown, rigid ones too): a
     correction that moves no stage position beyond its round-off (a chain of rigid links
@@ -68,11 +109,13 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
     R = np.empty(2 * n)
     r0 = np.empty(n)
     r1 = np.empty(n)
+    dq = np.empty(n)
+    dv = np.empty(n)
     eps = 1e-7
     previous = np.inf
     fresh = False
     q_size = 0.0
-    for m in range(d.n):
+    for m in range(model[2]):
         q_size = max(q_size, abs(y0[m]))
     state_floor = 0.0
     for m in range(n):
@@ -81,43 +124,54 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
     for _ in range(newton.max_iterations):
         counts[1] += 1
         for st in range(2):
-            V[st] = v0 + h * (coeffs[st, 0] * X[0] + coeffs[st, 1] * X[1])
-            Q[st] = y0 + nodes[st] * h * v0 + h * h * (coeffs2[st, 0] * X[0]
-                                                          + coeffs2[st, 1] * X[1])
+            # (explicit loops, here and below: an array assigned to a slice links numba's
+            # shape-mismatch error into the kernel, several times its compile time)
+            for m in range(n):
+                V[st, m] = v0[m] + h * (coeffs[st, 0] * X[0, m] + coeffs[st, 1] * X[1, m])
+                Q[st, m] = y0[m] + nodes[st] * h * v0[m] + h * h * (coeffs2[st, 0] * X[0, m]
+                                                                    + coeffs2[st, 1] * X[1, m])
         if have[0] == 0:
             Jm = np.zeros((2 * n, 2 * n))
             for st in range(2):
                 r = k + st
-                model_residual(d, Q[st], V[st], X[st], angle[r], rate[r], acc[r], rot[r], u[r],
-                               r0)
+                model_residual(model, Q[st], V[st], X[st], angle[r], rate[r], acc[r], rot[r],
+                               u[r], r0)
                 for m in range(n):
                     Qp = Q[st].copy()
                     Qp[m] += eps
-                    model_residual(d, Qp, V[st], X[st], angle[r], rate[r], acc[r], rot[r], u[r],
-                               r1)
-                    dq = (r1 - r0) / eps
+                    model_residual(model, Qp, V[st], X[st], angle[r], rate[r], acc[r], rot[r],
+                                   u[r], r1)
+                    for i in range(n):
+                        dq[i] = (r1[i] - r0[i]) / eps
                     Vp = V[st].copy()
                     Vp[m] += eps
-                    model_residual(d, Q[st], Vp, X[st], angle[r], rate[r], acc[r], rot[r], u[r],
-                               r1)
-                    dv = (r1 - r0) / eps
+                    model_residual(model, Q[st], Vp, X[st], angle[r], rate[r], acc[r], rot[r],
+                                   u[r], r1)
+                    for i in range(n):
+                        dv[i] = (r1[i] - r0[i]) / eps
                     Xp = X[st].copy()
                     Xp[m] += 1.0
-                    model_residual(d, Q[st], V[st], Xp, angle[r], rate[r], acc[r], rot[r], u[r],
-                               r1)
-                    dx = r1 - r0
+                    model_residual(model, Q[st], V[st], Xp, angle[r], rate[r], acc[r], rot[r],
+                                   u[r], r1)
                     for j in range(2):
-                        Jm[st * n:(st + 1) * n, j * n + m] = (
-                            h * h * coeffs2[st, j] * dq + h * coeffs[st, j] * dv)
-                    Jm[st * n:(st + 1) * n, st * n + m] += dx
-            inverse[:, :] = np.linalg.inv(Jm)
+                        for i in range(n):
+                            Jm[st * n + i, j * n + m] = (h * h * coeffs2[st, j] * dq[i]
+                                                         + h * coeffs[st, j] * dv[i])
+                    for i in range(n):
+                        Jm[st * n + i, st * n + m] += r1[i] - r0[i]
+            inverse_h = np.linalg.inv(Jm)
+            for i in range(2 * n):
+                for j in range(2 * n):
+                    inverse[i, j] = inverse_h[i, j]
             have[0] = 1
             fresh = True
             counts[0] += 1
         for st in range(2):
             r = k + st
-            model_residual(d, Q[st], V[st], X[st], angle[r], rate[r], acc[r], rot[r], u[r], r0)
-            R[st * n:(st + 1) * n] = r0
+            model_residual(model, Q[st], V[st], X[st], angle[r], rate[r], acc[r], rot[r], u[r],
+                           r0)
+            for m in range(n):
+                R[st * n + m] = r0[m]
         dX = np.dot(inverse, R)
         size = 0.0
         largest = 0.0
@@ -145,12 +199,13 @@ def solve_stages(d, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, p
 def _advance(y0, v0, X, h, tab, y1, v1):
     """The step's end y1, v1 from its start y0, v0 and stage accelerations X (2, n)."""
     w, w2 = tab.weights, tab.weights2
-    v1[:] = v0 + h * (w[0] * X[0] + w[1] * X[1])
-    y1[:] = y0 + h * v0 + h * h * (w2[0] * X[0] + w2[1] * X[1])
+    for m in range(v0.size):  # (loops: see solve_stages)
+        v1[m] = v0[m] + h * (w[0] * X[0, m] + w[1] * X[1, m])
+        y1[m] = y0[m] + h * v0[m] + h * h * (w2[0] * X[0, m] + w2[1] * X[1, m])
 
 
 @njit(cache=True)
-def gauss_loop(d, rows, y, v, X, h, tab, newton, predict_first, peak):
+def gauss_loop(model, rows, y, v, X, h, tab, newton, predict_first, peak):
     """Advance y, v (steps+1, n) in place from row 0 by uniform steps h (s); X (2, n) holds
     the stage accelerations of the step before (extrapolated first if ``predict_first``,
     else the guess itself). Stage inputs: two rows per step; ``peak`` as in
@@ -163,10 +218,11 @@ def gauss_loop(d, rows, y, v, X, h, tab, newton, predict_first, peak):
     counts = np.zeros(2, np.int64)
     for i in range(steps):
         if i > 0 or predict_first:
-            slope = (X[1] - X[0]) / (nodes[1] - nodes[0])
-            X[0] += slope
-            X[1] += slope
-        if not solve_stages(d, rows, 2 * i, y[i], v[i], X, h, tab, newton, inverse, have,
+            for m in range(n):
+                slope = (X[1, m] - X[0, m]) / (nodes[1] - nodes[0])
+                X[0, m] += slope
+                X[1, m] += slope
+        if not solve_stages(model, rows, 2 * i, y[i], v[i], X, h, tab, newton, inverse, have,
                             counts, peak):
             return i, counts[0], counts[1]
         _advance(y[i], v[i], X, h, tab, y[i + 1], v[i + 1])
@@ -174,7 +230,7 @@ def gauss_loop(d, rows, y, v, X, h, tab, newton, predict_first, peak):
 
 
 @njit(cache=True)
-def gauss_doubling(d, rows, y, v, X, h_prev, H, tab, newton, control, errors, inverse, have,
+def gauss_doubling(model, rows, y, v, X, h_prev, H, tab, newton, control, errors, inverse, have,
                    counts, peak):
     """Advance y, v (count+1, n) in place from row 0 by steps H, each checked by step
     doubling: one step H and two steps H/2 from the same state, the two H/2 steps kept
@@ -198,24 +254,26 @@ def gauss_doubling(d, rows, y, v, X, h_prev, H, tab, newton, control, errors, in
     h = 0.5 * H
     for i in range(count):
         predict(big, X, h_prev, h_prev, H, nodes)
-        if not solve_stages(d, rows, 6 * i, y[i], v[i], big, H, tab, newton, inverse[0],
+        if not solve_stages(model, rows, 6 * i, y[i], v[i], big, H, tab, newton, inverse[0],
                             have[0:1], counts, peak):
             return 2, i
         _advance(y[i], v[i], big, H, tab, y_big, v_big)
         predict(fine, big, H, 0.0, h, nodes)
-        if not solve_stages(d, rows, 6 * i + 2, y[i], v[i], fine, h, tab, newton, inverse[1],
+        if not solve_stages(model, rows, 6 * i + 2, y[i], v[i], fine, h, tab, newton, inverse[1],
                             have[1:2], counts, peak):
             return 2, i
         _advance(y[i], v[i], fine, h, tab, y_mid, v_mid)
         predict(fine, big, H, h, h, nodes)
-        if not solve_stages(d, rows, 6 * i + 4, y_mid, v_mid, fine, h, tab, newton, inverse[1],
+        if not solve_stages(model, rows, 6 * i + 4, y_mid, v_mid, fine, h, tab, newton, inverse[1],
                             have[1:2], counts, peak):
             return 2, i
         _advance(y_mid, v_mid, fine, h, tab, y[i + 1], v[i + 1])
         errors[i] = doubling_error(y_big, v_big, y[i + 1], v[i + 1], control)
         if errors[i] > 1.0:
             return 1, i
-        X[:, :] = fine
+        for st in range(2):
+            for m in range(n):
+                X[st, m] = fine[st, m]
         h_prev = h
     return 0, count
 
@@ -248,4 +306,5 @@ def predict(X, X_prev, h_prev, start, h, nodes):
     for st in range(2):
         s = (start + nodes[st] * h) / h_prev
         w = (s - nodes[0]) / (nodes[1] - nodes[0])
-        X[st] = X_prev[0] + w * (X_prev[1] - X_prev[0])
+        for m in range(X.shape[1]):
+            X[st, m] = X_prev[0, m] + w * (X_prev[1, m] - X_prev[0, m])

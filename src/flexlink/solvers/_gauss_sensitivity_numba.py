@@ -2,7 +2,7 @@
 stage residuals of a batch of states, and the replay of a run's accepted steps that
 recovers each Gauss step's converged stage accelerations (the run keeps its step ends
 only). Both reach the model through `_gauss_numba.model_residual` (either nonlinear
-model, by its kernel-data record)."""
+model, by the ``model`` `_gauss_numba.residual_model` makes of its kernel-data record)."""
 
 from __future__ import annotations
 
@@ -14,17 +14,17 @@ from ._gauss_numba import _advance, model_residual, solve_stages
 
 
 @njit(cache=True)
-def residuals(d, rows, index, Q, V, X, out):
+def residuals(model, rows, index, Q, V, X, out):
     """The residuals out (b, n) of b stage states Q, V, X (b, n) with stage inputs in rows
     ``index`` (b,) of ``rows`` (a StageInputs)."""
     angle, rate, acc, rot, u = rows
     for b in range(Q.shape[0]):
         r = index[b]
-        model_residual(d, Q[b], V[b], X[b], angle[r], rate[r], acc[r], rot[r], u[r], out[b])
+        model_residual(model, Q[b], V[b], X[b], angle[r], rate[r], acc[r], rot[r], u[r], out[b])
 
 
 @njit(cache=True)
-def replay(d, rows, y0, v0, H, parts, tab, newton, starts_y, starts_v, stages, ends_y, ends_v):
+def replay(model, rows, y0, v0, H, parts, tab, newton, starts_y, starts_v, stages, ends_y, ends_v):
     """Each accepted step i from y0[i], v0[i] (S, n) of length H[i] (s) taken again as
     ``parts`` Gauss steps of H/parts (stage rows 2g, 2g + 1 for Gauss step g): their start
     states starts_y, starts_v (S·parts, n), converged stage accelerations stages
@@ -44,24 +44,29 @@ def replay(d, rows, y0, v0, H, parts, tab, newton, starts_y, starts_v, stages, e
     g = 0
     for i in range(y0.shape[0]):
         h = H[i] / parts
-        y[:] = y0[i]
-        v[:] = v0[i]
+        for m in range(n):  # (loops, not slice copies: `_gauss_numba.solve_stages`)
+            y[m] = y0[i, m]
+            v[m] = v0[i, m]
         for _ in range(parts):
             if h != h_last:
                 have[0] = 0
                 h_last = h
-            if not solve_stages(d, rows, 2 * g, y, v, X, h, tab, newton, inverse, have,
+            if not solve_stages(model, rows, 2 * g, y, v, X, h, tab, newton, inverse, have,
                                 counts, peak):
                 return g
-            starts_y[g] = y
-            starts_v[g] = v
-            stages[g] = X
+            for m in range(n):
+                starts_y[g, m] = y[m]
+                starts_v[g, m] = v[m]
+                stages[g, 0, m] = X[0, m]
+                stages[g, 1, m] = X[1, m]
             _advance(y, v, X, h, tab, y1, v1)
-            y[:] = y1
-            v[:] = v1
+            for m in range(n):
+                y[m] = y1[m]
+                v[m] = v1[m]
             g += 1
-        ends_y[i] = y
-        ends_v[i] = v
+        for m in range(n):
+            ends_y[i, m] = y[m]
+            ends_v[i, m] = v[m]
     return -1
 
 
@@ -117,6 +122,11 @@ def prescribed_jacobians(d, rows, index, Q, V, X, RQ, RV, RX):
                     UA[j, k] = t
                     diagonal -= t
             UA[j, j] = diagonal + lift[j] * (-s[j] * ry - c[j] * rx)
-        RQ[b] = Ay.T @ (UA @ Ay) + d.Kq
-        RV[b] = Ay.T @ (UD @ Ay) + d.Dq
-        RX[b] = Ay.T @ (UX @ Ay) + rot
+        JQ = Ay.T @ (UA @ Ay)
+        JV = Ay.T @ (UD @ Ay)
+        JX = Ay.T @ (UX @ Ay)
+        for i in range(n):  # (loops, not slice assignments: `_gauss_numba.solve_stages`)
+            for m in range(n):
+                RQ[b, i, m] = JQ[i, m] + d.Kq[i, m]
+                RV[b, i, m] = JV[i, m] + d.Dq[i, m]
+                RX[b, i, m] = JX[i, m] + rot[i, m]

@@ -93,14 +93,15 @@ def fixed_steps(data: Any, rows: StageInputs, y: np.ndarray, v: np.ndarray, X: n
     loop of the model whose kernel data ``data`` is (`_gauss_numba.gauss_loop`), in chunks
     of CHUNK steps; rows: two stage rows per step; X (2, n): the stage accelerations' guess
     for the first step. Raises SimulationError at a step whose Newton iteration fails."""
-    from ._gauss_numba import gauss_loop  # numba's import is slow: only when used
+    from ._gauss_numba import gauss_loop, residual_model  # numba's import is slow: only when used
 
     steps = y.shape[0] - 1
     peak = np.zeros(1)  # the run's largest stage acceleration, across chunks
+    model = residual_model(data)
     for start in range(0, steps, CHUNK):
         end = min(start + CHUNK, steps)
         stage = slice(2 * start, 2 * end)
-        failed, _, _ = gauss_loop(data, StageInputs(*(a[stage] for a in rows)),
+        failed, _, _ = gauss_loop(model, StageInputs(*(a[stage] for a in rows)),
                                   y[start:end + 1], v[start:end + 1], X, h, GAUSS2, newton,
                                   start > 0, peak)
         if failed >= 0:

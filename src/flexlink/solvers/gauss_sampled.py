@@ -118,7 +118,7 @@ def integrate_gauss_sampled(system: NonlinearSystem, loop: SampledLoop, step: fl
                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Step ends t, q and q̇ there from rest: each sample interval of ``loop.grid`` cut into
     equal steps ≤ ``step`` (s), the actuators' forces B V held over it."""
-    from ._gauss_numba import gauss_loop
+    from ._gauss_numba import gauss_loop, residual_model
 
     grid = loop.grid
     counts = np.maximum(1, np.ceil(np.diff(grid) / step - 1e-9).astype(np.int64))
@@ -135,6 +135,7 @@ def integrate_gauss_sampled(system: NonlinearSystem, loop: SampledLoop, step: fl
     v = np.zeros_like(q)
     load = np.zeros((stage_t.size, n))
     data = system.kernel_data()
+    model = residual_model(data)
     rows = inputs.stage_inputs(load)
     B = system.actuator_B
     newton = newton_settings(NEWTON_TOL, NEWTON_MAX, ROUND_OFF * system.max_frequency**2,
@@ -148,7 +149,7 @@ def integrate_gauss_sampled(system: NonlinearSystem, loop: SampledLoop, step: fl
         rows.u[2 * a:2 * b] = B @ V
         if i == 0:
             X[:] = system.accelerations(np.zeros(1), q[:1], v[:1])  # (open-loop load: V(0))
-        failed, _, _ = gauss_loop(data, StageInputs(*(r[2 * a:2 * b] for r in rows)),
+        failed, _, _ = gauss_loop(model, StageInputs(*(r[2 * a:2 * b] for r in rows)),
                                   q[a:b + 1], v[a:b + 1], X, float(h_of[i]), GAUSS2, newton,
                                   i > 0, peak)
         if failed >= 0 or not np.all(np.isfinite(q[b])):

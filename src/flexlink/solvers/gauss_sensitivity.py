@@ -79,6 +79,7 @@ def replay(data: Any, stage_inputs: StageRows, t_nodes: np.ndarray, y: np.ndarra
     (S+1, n) there (`gauss.solve_nonlinear`'s ``step_ends``), each taken again from its
     recorded start with the compiled Newton (``newton``: the run's settings, tolerance
     REPLAY_TOL)."""
+    from ._gauss_numba import residual_model
     from ._gauss_sensitivity_numba import replay as compiled_replay
 
     S, n = t_nodes.size - 1, y.shape[1]
@@ -91,7 +92,7 @@ def replay(data: Any, stage_inputs: StageRows, t_nodes: np.ndarray, y: np.ndarra
     X = np.empty((G, 2, n))
     ends_y, ends_v = np.empty((S, n)), np.empty((S, n))
     tight = newton._replace(tol=REPLAY_TOL, max_iterations=REPLAY_MAX)
-    failed = compiled_replay(data, rows, np.ascontiguousarray(y[:-1]),
+    failed = compiled_replay(residual_model(data), rows, np.ascontiguousarray(y[:-1]),
                              np.ascontiguousarray(v[:-1]), H, parts, GAUSS2, tight, starts_y,
                              starts_v, X, ends_y, ends_v)
     if failed >= 0:
@@ -107,13 +108,16 @@ def replay(data: Any, stage_inputs: StageRows, t_nodes: np.ndarray, y: np.ndarra
 def residual_function(data: Any, rows: Any) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """R(u, Y) (b, n) of the model at stage rows u (b, 1) (float row numbers of ``rows``)
     and arguments Y = [Q, V, X] (b, 3n): the form `stage_jacobians` differentiates."""
+    from ._gauss_numba import residual_model
     from ._gauss_sensitivity_numba import residuals
+
+    model = residual_model(data)  # (data stays alive with this closure)
 
     def residual(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
         n = Y.shape[1] // 3
         out = np.empty((Y.shape[0], n))
         c = np.ascontiguousarray
-        residuals(data, rows, u[:, 0].astype(np.int64), c(Y[:, :n]), c(Y[:, n:2 * n]),
+        residuals(model, rows, u[:, 0].astype(np.int64), c(Y[:, :n]), c(Y[:, n:2 * n]),
                   c(Y[:, 2 * n:]), out)
         return out
     return residual

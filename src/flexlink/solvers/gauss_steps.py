@@ -114,7 +114,10 @@ class DoublingLoop:
     counts, the run's largest stage acceleration)."""
 
     def __init__(self, data: Any, n: int, newton: NewtonSettings, control: Any) -> None:
+        from ._gauss_numba import residual_model  # numba's import is slow: only when used
+
         self.data, self.n, self.newton, self.control = data, n, newton, control
+        self.model = residual_model(data)  # borrows data's arrays: kept alive by self.data
         self.inverse = np.zeros((2, 2 * n, 2 * n))
         self.have = np.zeros(2, dtype=np.int64)
         self.counts = np.zeros(2, dtype=np.int64)
@@ -133,7 +136,7 @@ class DoublingLoop:
         errors = np.zeros(count)
         if new_step:
             self.have[:] = 0
-        status, k = gauss_doubling(self.data, rows, y, v, X, h_prev, H, GAUSS2, self.newton,
+        status, k = gauss_doubling(self.model, rows, y, v, X, h_prev, H, GAUSS2, self.newton,
                                    self.control, errors, self.inverse, self.have, self.counts,
                                    self.peak)
         return Batch(int(status), y[:k + 1], v[:k + 1], errors, self.counts)
