@@ -93,59 +93,60 @@ def prescribed(d, w, u):
         w.rot_acc[i] = acc
 
 
+@njit(inline="always")
+def _row_axes(d, c, e, cb, sb):
+    """Closure c's equation row e: the direction (ex, ey) its component of Φ is taken along
+    (x or y for a revolute, the line's normal n = A(θ_b) n₀ for a slider) and the ground
+    point a = A(θ_b) g (m, from the base's point); cb, sb: cos, sin of the base's attitude."""
+    ax = cb * d.ground[c, 0] - sb * d.ground[c, 1]
+    ay = sb * d.ground[c, 0] + cb * d.ground[c, 1]
+    if d.kind[c] == REVOLUTE:
+        return (1.0, 0.0, ax, ay) if e == 0 else (0.0, 1.0, ax, ay)
+    return (cb * d.normal[c, 0] - sb * d.normal[c, 1], sb * d.normal[c, 0] + cb * d.normal[c, 1],
+            ax, ay)
+
+
 @njit(cache=True)
-def constraints(d, w, Y):
-    """Φ (w.Phi), G = ∂Φ/∂y (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the
-    prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ] (the
-    prescribed parts already in w: `prescribed`)."""
+def positions(d, w, Y):
+    """The node angles' cos, sin (w.c, w.s), Φ (w.Phi), G = ∂Φ/∂y (w.G), the joints' columns
+    ∂Φ/∂β (w.GJ) and the prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the
+    coordinates of Y = [y, ẏ] (the prescribed parts already in w: `prescribed`): what the
+    closure's Newton iteration and its rates need, without the rates of y."""
     f = d.fwd
     Ay = f.Ay
     nodes, ny = Ay.shape[0], Y.shape[0] // 2
     for j in range(nodes):
-        a, ad = w.ang[j], w.rate[j]
+        a = w.ang[j]
         for i in range(Ay.shape[1]):
             x = Ay[j, i]
             if x != 0.0:
                 a += x * Y[i]
-                ad += x * Y[ny + i]
-        w.c[j], w.s[j], w.ad[j] = np.cos(a), np.sin(a), ad
+        w.c[j], w.s[j] = np.cos(a), np.sin(a)
     # a turning base (pinned, free): its attitude θ_b turns the ground points and lines
     turn = d.turn
-    th, om = (Y[turn], Y[ny + turn]) if turn >= 0 else (0.0, 0.0)
+    th = Y[turn] if turn >= 0 else 0.0
     cb, sb = np.cos(th), np.sin(th)
     for c in range(d.kind.shape[0]):
         row = d.row[c]
         rows = 2 if d.kind[c] == REVOLUTE else 1
-        # the ground point a = A(θ_b) g (m, from the base's point) and the slider line's
-        # normal n = A(θ_b) n₀
-        ax = cb * d.ground[c, 0] - sb * d.ground[c, 1]
-        ay = sb * d.ground[c, 0] + cb * d.ground[c, 1]
-        nx_ = cb * d.normal[c, 0] - sb * d.normal[c, 1]
-        ny_ = sb * d.normal[c, 0] + cb * d.normal[c, 1]
         for e in range(rows):
-            # the component of Φ: x, y (revolute) or along the slider line's normal
-            ex = 1.0 if (rows == 2 and e == 0) else (0.0 if rows == 2 else nx_)
-            ey = 0.0 if (rows == 2 and e == 0) else (1.0 if rows == 2 else ny_)
+            ex, ey, ax, ay = _row_axes(d, c, e, cb, sb)
             phi = -(ex * ax + ey * ay)
-            gam = 0.0
             phid = 0.0
-            dx, dy, vx, vy = 0.0, 0.0, 0.0, 0.0  # Σ D e(α_j), Σ D e⊥(α_j) α̇_j
-            w.G[row + e, :] = 0.0
-            w.GJ[row + e, :] = 0.0
+            dx, dy = 0.0, 0.0  # Σ D e(α_j)
+            for i in range(ny):
+                w.G[row + e, i] = 0.0
+            for k in range(d.B_joint.shape[1]):
+                w.GJ[row + e, k] = 0.0
             for j in range(nodes):
                 D = d.D[c, j]
                 if D == 0.0:
                     continue
-                along = ex * w.c[j] + ey * w.s[j]  # n·e(α_j)
+                phi += D * (ex * w.c[j] + ey * w.s[j])  # n·e(α_j)
                 across = ey * w.c[j] - ex * w.s[j]  # n·e⊥(α_j)
-                phi += D * along
                 phid += D * across * w.rate[j]
-                gam += D * (across * w.acc[j] - along * w.ad[j] * w.ad[j])
-                if turn >= 0:
-                    dx += D * w.c[j]
-                    dy += D * w.s[j]
-                    vx -= D * w.s[j] * w.ad[j]
-                    vy += D * w.c[j] * w.ad[j]
+                dx += D * w.c[j]
+                dy += D * w.s[j]
                 for i in range(Ay.shape[1]):
                     if Ay[j, i] != 0.0:
                         w.G[row + e, i] += D * across * Ay[j, i]
@@ -153,17 +154,66 @@ def constraints(d, w, Y):
                     if d.B_joint[j, k] != 0.0:
                         w.GJ[row + e, k] += D * across * d.B_joint[j, k]
             if turn >= 0:
-                # Φ = n·(Σ D e(α) − a) (a = 0 between two links): ä = θ̈_b a⊥ − θ̇_b² a; a
-                # slider's n turns too, ṅ = θ̇_b n⊥, n̈ = θ̈_b n⊥ − θ̇_b² n (the θ̈_b parts
-                # in G's attitude column)
+                # Φ = n·(Σ D e(α) − a) (a = 0 between two links): the θ̈_b parts of ä = θ̈_b a⊥
+                # − θ̇_b² a and of a slider's n̈ = θ̈_b n⊥ − θ̇_b² n in G's attitude column
                 w.G[row + e, turn] -= ey * ax - ex * ay  # n·a⊥
+                if rows == 1:
+                    w.G[row + e, turn] += ex * (dy - ay) - ey * (dx - ax)  # n⊥·d
+            w.Phi[row + e], w.Phid[row + e] = phi, phid
+
+
+@njit(cache=True)
+def curvature(d, w, Y):
+    """The node rates (w.ad) and γ (w.gam: Φ̈ = G ÿ + γ) at Y = [y, ẏ], after `positions`
+    at Y's coordinates."""
+    f = d.fwd
+    Ay = f.Ay
+    nodes, ny = Ay.shape[0], Y.shape[0] // 2
+    for j in range(nodes):
+        ad = w.rate[j]
+        for i in range(Ay.shape[1]):
+            x = Ay[j, i]
+            if x != 0.0:
+                ad += x * Y[ny + i]
+        w.ad[j] = ad
+    turn = d.turn
+    th, om = (Y[turn], Y[ny + turn]) if turn >= 0 else (0.0, 0.0)
+    cb, sb = np.cos(th), np.sin(th)
+    for c in range(d.kind.shape[0]):
+        row = d.row[c]
+        rows = 2 if d.kind[c] == REVOLUTE else 1
+        for e in range(rows):
+            ex, ey, ax, ay = _row_axes(d, c, e, cb, sb)
+            gam = 0.0
+            dx, dy, vx, vy = 0.0, 0.0, 0.0, 0.0  # Σ D e(α_j), Σ D e⊥(α_j) α̇_j
+            for j in range(nodes):
+                D = d.D[c, j]
+                if D == 0.0:
+                    continue
+                along = ex * w.c[j] + ey * w.s[j]  # n·e(α_j)
+                across = ey * w.c[j] - ex * w.s[j]  # n·e⊥(α_j)
+                gam += D * (across * w.acc[j] - along * w.ad[j] * w.ad[j])
+                dx += D * w.c[j]
+                dy += D * w.s[j]
+                vx -= D * w.s[j] * w.ad[j]
+                vy += D * w.c[j] * w.ad[j]
+            if turn >= 0:
+                # ä = θ̈_b a⊥ − θ̇_b² a; a slider's n turns too, ṅ = θ̇_b n⊥, n̈ = θ̈_b n⊥ − θ̇_b² n
                 gam += om * om * (ex * ax + ey * ay)
                 if rows == 1:
                     rx, ry = dx - ax, dy - ay  # d
                     wx, wy = vx + om * ay, vy - om * ax  # ḋ
-                    w.G[row + e, turn] += ex * ry - ey * rx  # n⊥·d
                     gam += 2.0 * om * (ex * wy - ey * wx) - om * om * (ex * rx + ey * ry)
-            w.Phi[row + e], w.gam[row + e], w.Phid[row + e] = phi, gam, phid
+            w.gam[row + e] = gam
+
+
+@njit(cache=True)
+def constraints(d, w, Y):
+    """Φ (w.Phi), G = ∂Φ/∂y (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the
+    prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ] (the
+    prescribed parts already in w: `prescribed`)."""
+    positions(d, w, Y)
+    curvature(d, w, Y)
 
 
 @njit(cache=True)
@@ -176,7 +226,7 @@ def project(d, w, u, Y):
     prescribed(d, w, u)
     closed = False
     for _ in range(NEWTON_ITERATIONS):
-        constraints(d, w, Y)
+        positions(d, w, Y)
         big = 0.0
         for c in range(nc):
             big = max(big, abs(w.Phi[c]))
@@ -193,7 +243,7 @@ def project(d, w, u, Y):
     if not closed:
         return False
     # rates: Φ̇ = G ẏ + Phid = 0 is linear in the dependent ones (one solve); then γ at those
-    # rates
+    # rates (the coordinates, and so w's positions, unchanged)
     for c in range(nc):
         acc = w.Phid[c]
         for i in range(ny):
@@ -204,7 +254,7 @@ def project(d, w, u, Y):
     _solve(w.Gd, w.step)
     for j in range(nc):
         Y[ny + d.dep[j]] += w.step[j]
-    constraints(d, w, Y)
+    curvature(d, w, Y)
     return True
 
 
