@@ -107,21 +107,23 @@ def _row_axes(d, c, e, cb, sb):
 
 
 @njit(cache=True)
-def positions(d, w, Y):
+def positions(d, w, Y, fresh):
     """The node angles' cos, sin (w.c, w.s), Φ (w.Phi), G = ∂Φ/∂y (w.G), the joints' columns
     ∂Φ/∂β (w.GJ) and the prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the
     coordinates of Y = [y, ẏ] (the prescribed parts already in w: `prescribed`): what the
-    closure's Newton iteration and its rates need, without the rates of y."""
+    closure's Newton iteration and its rates need, without the rates of y. ``fresh``: cos
+    and sin from the angles; otherwise w.c, w.s already hold them (`_turn`)."""
     f = d.fwd
     Ay = f.Ay
     nodes, ny = Ay.shape[0], Y.shape[0] // 2
-    for j in range(nodes):
-        a = w.ang[j]
-        for i in range(Ay.shape[1]):
-            x = Ay[j, i]
-            if x != 0.0:
-                a += x * Y[i]
-        w.c[j], w.s[j] = np.cos(a), np.sin(a)
+    if fresh:
+        for j in range(nodes):
+            a = w.ang[j]
+            for i in range(Ay.shape[1]):
+                x = Ay[j, i]
+                if x != 0.0:
+                    a += x * Y[i]
+            w.c[j], w.s[j] = np.cos(a), np.sin(a)
     # a turning base (pinned, free): its attitude θ_b turns the ground points and lines
     turn = d.turn
     th = Y[turn] if turn >= 0 else 0.0
@@ -212,8 +214,42 @@ def constraints(d, w, Y):
     """Φ (w.Phi), G = ∂Φ/∂y (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the
     prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ] (the
     prescribed parts already in w: `prescribed`)."""
-    positions(d, w, Y)
+    positions(d, w, Y, True)
     curvature(d, w, Y)
+
+
+# Node angles that a Newton step moves by at most this (rad) have their cos and sin turned by
+# the step (Taylor terms to Δα⁴: the first neglected, Δα⁵/120, is below 1e-22) instead of
+# evaluated again: the step near a closed state is ~1e-9 rad, and the transcendental
+# functions of every node are a large part of a rate evaluation.
+SMALL_TURN = 1e-4
+
+
+@njit(inline="always")
+def _turn(d, w):
+    """After a Newton step w.step on the dependent angles: turn w.c, w.s by the node angles'
+    change Δα = Ay[:, dep] step (scratch: w.ad) and return True, unless some |Δα| exceeds
+    SMALL_TURN (then w.c, w.s are left for `positions` to evaluate afresh)."""
+    Ay = d.fwd.Ay
+    nodes, nc = Ay.shape[0], d.dep.shape[0]
+    big = 0.0
+    for j in range(nodes):
+        da = 0.0
+        for k in range(nc):
+            da += Ay[j, d.dep[k]] * w.step[k]
+        w.ad[j] = da
+        big = max(big, abs(da))
+    if big > SMALL_TURN:
+        return False
+    for j in range(nodes):
+        da = w.ad[j]
+        d2 = da * da
+        cd = 1.0 - d2 * (0.5 - d2 / 24.0)
+        sd = da * (1.0 - d2 / 6.0)
+        c, s = w.c[j], w.s[j]
+        w.c[j] = c * cd - s * sd
+        w.s[j] = s * cd + c * sd
+    return True
 
 
 @njit(cache=True)
@@ -225,8 +261,9 @@ def project(d, w, u, Y):
     nc = d.dep.shape[0]
     prescribed(d, w, u)
     closed = False
+    fresh = True
     for _ in range(NEWTON_ITERATIONS):
-        positions(d, w, Y)
+        positions(d, w, Y, fresh)
         big = 0.0
         for c in range(nc):
             big = max(big, abs(w.Phi[c]))
@@ -240,6 +277,7 @@ def project(d, w, u, Y):
         _solve(w.Gd, w.step)
         for j in range(nc):
             Y[d.dep[j]] += w.step[j]
+        fresh = not _turn(d, w)
     if not closed:
         return False
     # rates: Φ̇ = G ẏ + Phid = 0 is linear in the dependent ones (one solve); then γ at those
