@@ -285,3 +285,19 @@ def test_projection_turns_cos_and_sin_by_small_newton_steps(moving) -> None:
             break
         Z[dep] += np.linalg.solve(fresh.G[:, dep], -fresh.Phi)
     np.testing.assert_allclose(Y[:ny], Z[:ny], rtol=0, atol=1e-14)
+
+
+def test_compiled_joint_torques_equal_the_numpy_ones(moving) -> None:
+    """`NonlinearForwardSystem.joint_torques`: the compiled kernel (the model's inertia with
+    the joints' columns appended) against the numpy equations, on every moving base under
+    gravity, at bent and moving states."""
+    system = moving.system
+    rng = np.random.default_rng(11)
+    t = np.array([0.0, 0.07, T])
+    y, v, a = (rng.standard_normal((t.size, system.n_y)) for _ in range(3))
+    y[:, :system.n] *= 1e-2
+    compiled = system.joint_torques(t, y, v, a)
+    reference = system.joint_torques(t, y, v, a, compiled=False)
+    assert np.abs(reference).max() > 1e-3
+    np.testing.assert_allclose(compiled, reference, rtol=0,
+                               atol=1e-12 * np.abs(reference).max())
