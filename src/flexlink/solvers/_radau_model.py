@@ -85,7 +85,8 @@ def _address(kernel: Any, argument_types: tuple) -> int:
 
 def _type_key(x: Any) -> Any:
     """A hashable key that determines numba's type of ``x`` (arrays, numbers, tuples of
-    them), built without numba's typeof: records of dozens of arrays take ~1 ms to type."""
+    them), built without numba's typeof, which on records of dozens of arrays costs more
+    than a short run's integration: equal keys, equal types (the key may separate more)."""
     if isinstance(x, np.ndarray):
         f = x.flags
         return (x.dtype, x.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
