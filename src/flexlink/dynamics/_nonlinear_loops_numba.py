@@ -209,7 +209,7 @@ def curvature(d, w, Y):
             w.gam[row + e] = gam
 
 
-@njit(cache=True)
+@njit  # tests only: the runs call its two parts (no warm-up reaches it at install)
 def constraints(d, w, Y):
     """Φ (w.Phi), G = ∂Φ/∂y (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the
     prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ] (the
