@@ -216,3 +216,88 @@ def test_constrained_accelerations_solve_the_models_equations_on_a_moving_base(m
         Z = Y.copy()
         Z[s.n + s.free.index(s.n_base - 1)] += 0.7
         assert np.abs(_phi(loops, w, T, Z)[0] - _phi(loops, w, T, Y)[0]).max() < 1e-12
+
+
+def test_positions_need_no_rates_and_curvature_completes_them(moving) -> None:
+    """The closure's Newton iteration evaluates `positions` alone: Φ, G, ∂Φ/∂β and the
+    prescribed joints' share of Φ̇ do not depend on the rates of y, and `curvature` then
+    gives the γ of the whole `constraints` (on every moving base)."""
+    w = moving.workspace()
+    Y = _state(moving)
+    ny = moving.system.n_y
+    Phi, G, gam, phid = _phi(moving, w, T, Y)
+    GJ = w.GJ.copy()
+    other = Y.copy()
+    other[ny:] = np.random.default_rng(5).standard_normal(ny)
+    kernels.positions(moving.data, w, other, True)
+    for got, want in ((w.Phi, Phi), (w.G, G), (w.GJ, GJ), (w.Phid, phid)):
+        np.testing.assert_array_equal(got, want)
+    kernels.positions(moving.data, w, Y, True)
+    kernels.curvature(moving.data, w, Y)
+    np.testing.assert_array_equal(w.gam, gam)
+
+
+def test_nonlinear_closed_loops_default_to_the_radau_tolerance() -> None:
+    """Closed loops on the nonlinear model run on Radau IIA, whose rtol is a global error
+    as on first-order forward runs: without an rtol they take that path's default; the
+    Gauss collocation's nonlinear runs keep theirs, and an rtol given is kept."""
+    from flexlink.model.settings import DEFAULT_RTOL, FORWARD_RTOL
+
+    d = copy.deepcopy(FOUR_BAR)
+    d["simulation"]["model"] = "nonlinear"
+    d["simulation"].pop("rtol", None)
+    assert scenario_from_dict(d).settings.rtol == FORWARD_RTOL != DEFAULT_RTOL["nonlinear"]
+    d["simulation"]["rtol"] = 1e-7
+    assert scenario_from_dict(d).settings.rtol == 1e-7
+    d = copy.deepcopy(FOUR_BAR)
+    d["simulation"]["model"] = "nonlinear"
+    d["simulation"].pop("rtol", None)
+    del d["closures"]
+    d["joints"] = [{"drive": "torque", "torque": [{"profile": "step", "amplitude": 0.1}]}]
+    d["links"] = d["links"][:1]
+    assert scenario_from_dict(d).settings.rtol == DEFAULT_RTOL["nonlinear"]
+
+
+def test_projection_turns_cos_and_sin_by_small_newton_steps(moving) -> None:
+    """Near a closed state the projection turns the nodes' cos and sin by each Newton step
+    instead of evaluating them again: they stay those of the closed angles to round-off, and
+    the state closes as from a fresh evaluation."""
+    w = moving.workspace()
+    u = inputs(moving.system.loads, np.array([T]))[0]
+    Y = _state(moving)
+    assert kernels.project(moving.data, w, u, Y)  # closed, then moved by a small step
+    ny, dep = moving.system.n_y, moving.data.dep
+    Y[dep] += 3e-7
+    Z = Y.copy()
+    assert kernels.project(moving.data, w, u, Y)
+    alpha = w.ang + moving.data.fwd.Ay @ Y[:ny]
+    np.testing.assert_allclose(w.c, np.cos(alpha), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(w.s, np.sin(alpha), rtol=0, atol=1e-15)
+    assert np.abs(w.Phi).max() <= moving.data.tol
+    kernels.constraints(moving.data, w, Y)  # everything afresh at the projected state
+    assert np.abs(w.Phi).max() <= moving.data.tol
+    # the same projection with the steps' cos and sin evaluated afresh: one closed state
+    fresh = moving.workspace()
+    kernels.prescribed(moving.data, fresh, u)
+    for _ in range(kernels.NEWTON_ITERATIONS):
+        kernels.positions(moving.data, fresh, Z, True)
+        if np.abs(fresh.Phi).max() <= moving.data.tol:
+            break
+        Z[dep] += np.linalg.solve(fresh.G[:, dep], -fresh.Phi)
+    np.testing.assert_allclose(Y[:ny], Z[:ny], rtol=0, atol=1e-14)
+
+
+def test_compiled_joint_torques_equal_the_numpy_ones(moving) -> None:
+    """`NonlinearForwardSystem.joint_torques`: the compiled kernel (the model's inertia with
+    the joints' columns appended) against the numpy equations, on every moving base under
+    gravity, at bent and moving states."""
+    system = moving.system
+    rng = np.random.default_rng(11)
+    t = np.array([0.0, 0.07, T])
+    y, v, a = (rng.standard_normal((t.size, system.n_y)) for _ in range(3))
+    y[:, :system.n] *= 1e-2
+    compiled = system.joint_torques(t, y, v, a)
+    reference = system.joint_torques(t, y, v, a, compiled=False)
+    assert np.abs(reference).max() > 1e-3
+    np.testing.assert_allclose(compiled, reference, rtol=0,
+                               atol=1e-12 * np.abs(reference).max())

@@ -95,7 +95,7 @@ def prescribed(d, w, u):
         w.ang[j], w.rate[j], w.acc[j] = a, r, c
         w.rho[j], w.rhod[j], w.rhop[j], w.rhodd[j] = 1.0, 0.0, 0.0, 0.0
     # a slider's line node has the travel s as its length ρ: a prescribed travel's s, ṡ, s̈
-    # from its input columns (a free one's from the state, `constraints`)
+    # from its input columns (a free one's from the state, `positions`, `curvature`)
     f = d.fwd
     for i in range(f.line_node.shape[0]):
         if f.line_col[i] < 0:
@@ -110,49 +110,57 @@ def prescribed(d, w, u):
         w.rot_acc[i] = acc
 
 
+@njit(inline="always")
+def _row_axes(d, c, e, cb, sb):
+    """Closure c's equation row e: the direction (ex, ey) its component of Φ is taken along
+    (x or y for a revolute, the line's normal n = A(θ_b) n₀ for a slider) and the ground
+    point a = A(θ_b) g (m, from the base's point); cb, sb: cos, sin of the base's attitude."""
+    ax = cb * d.ground[c, 0] - sb * d.ground[c, 1]
+    ay = sb * d.ground[c, 0] + cb * d.ground[c, 1]
+    if d.kind[c] == REVOLUTE:
+        return (1.0, 0.0, ax, ay) if e == 0 else (0.0, 1.0, ax, ay)
+    return (cb * d.normal[c, 0] - sb * d.normal[c, 1], sb * d.normal[c, 0] + cb * d.normal[c, 1],
+            ax, ay)
+
+
 @njit(cache=True)
-def constraints(d, w, Y):
-    """Φ (w.Phi), G = ∂Φ/∂y (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the
-    prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ] (the
-    prescribed parts already in w: `prescribed`)."""
+def positions(d, w, Y, fresh):
+    """The node angles' cos, sin (w.c, w.s), Φ (w.Phi), G = ∂Φ/∂y (w.G), the joints' columns
+    ∂Φ/∂β (w.GJ) and the prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the
+    coordinates of Y = [y, ẏ] (the prescribed parts already in w: `prescribed`): what the
+    closure's Newton iteration and its rates need, without the rates of y. ``fresh``: cos
+    and sin from the angles; otherwise w.c, w.s already hold them (`_turn`)."""
     f = d.fwd
     Ay = f.Ay
     nodes, ny = Ay.shape[0], Y.shape[0] // 2
-    for j in range(nodes):
-        a, ad = w.ang[j], w.rate[j]
-        for i in range(Ay.shape[1]):
-            x = Ay[j, i]
-            if x != 0.0:
-                a += x * Y[i]
-                ad += x * Y[ny + i]
-        w.c[j], w.s[j], w.ad[j] = np.cos(a), np.sin(a), ad
-    for i in range(f.line_node.shape[0]):  # a free travel: ρ, ρ̇ from the state
+    if fresh:
+        for j in range(nodes):
+            a = w.ang[j]
+            for i in range(Ay.shape[1]):
+                x = Ay[j, i]
+                if x != 0.0:
+                    a += x * Y[i]
+            w.c[j], w.s[j] = np.cos(a), np.sin(a)
+    for i in range(f.line_node.shape[0]):  # a free travel: ρ from the state
         col = f.line_col[i]
         if col >= 0:
-            w.rho[f.line_node[i]], w.rhod[f.line_node[i]] = Y[col], Y[ny + col]
+            w.rho[f.line_node[i]] = Y[col]
     # a turning base (pinned, free): its attitude θ_b turns the ground points and lines
     turn = d.turn
-    th, om = (Y[turn], Y[ny + turn]) if turn >= 0 else (0.0, 0.0)
+    th = Y[turn] if turn >= 0 else 0.0
     cb, sb = np.cos(th), np.sin(th)
     for c in range(d.kind.shape[0]):
         row = d.row[c]
         rows = 2 if d.kind[c] == REVOLUTE else 1
-        # the ground point a = A(θ_b) g (m, from the base's point) and the slider line's
-        # normal n = A(θ_b) n₀
-        ax = cb * d.ground[c, 0] - sb * d.ground[c, 1]
-        ay = sb * d.ground[c, 0] + cb * d.ground[c, 1]
-        nx_ = cb * d.normal[c, 0] - sb * d.normal[c, 1]
-        ny_ = sb * d.normal[c, 0] + cb * d.normal[c, 1]
         for e in range(rows):
-            # the component of Φ: x, y (revolute) or along the slider line's normal
-            ex = 1.0 if (rows == 2 and e == 0) else (0.0 if rows == 2 else nx_)
-            ey = 0.0 if (rows == 2 and e == 0) else (1.0 if rows == 2 else ny_)
+            ex, ey, ax, ay = _row_axes(d, c, e, cb, sb)
             phi = -(ex * ax + ey * ay)
-            gam = 0.0
             phid = 0.0
-            dx, dy, vx, vy = 0.0, 0.0, 0.0, 0.0  # Σ D e(α_j), Σ D e⊥(α_j) α̇_j
-            w.G[row + e, :] = 0.0
-            w.GJ[row + e, :] = 0.0
+            dx, dy = 0.0, 0.0  # Σ D e(α_j)
+            for i in range(ny):
+                w.G[row + e, i] = 0.0
+            for k in range(d.B_joint.shape[1]):
+                w.GJ[row + e, k] = 0.0
             for j in range(nodes):
                 D = d.D[c, j]
                 if D == 0.0:
@@ -160,18 +168,12 @@ def constraints(d, w, Y):
                 along = ex * w.c[j] + ey * w.s[j]  # n·e(α_j)
                 across = ey * w.c[j] - ex * w.s[j]  # n·e⊥(α_j)
                 # the node's share ρ e(α) (ρ = 1 but on a slider's line, ρ = its travel s):
-                # its rate ρ α̇ e⊥ + ρ̇ e, its acceleration ρ(α̈ e⊥ − α̇² e) + 2ρ̇α̇ e⊥ + ρ̈ e
-                rho, rhod = w.rho[j], w.rhod[j]
-                Dr = D * rho
+                # its rate ρ α̇ e⊥ + ρ̇ e (its acceleration in `curvature`)
+                Dr = D * w.rho[j]
                 phi += Dr * along
                 phid += Dr * across * w.rate[j] + D * along * w.rhop[j]
-                gam += Dr * (across * w.acc[j] - along * w.ad[j] * w.ad[j]) + D * (
-                    2.0 * rhod * w.ad[j] * across + along * w.rhodd[j])
-                if turn >= 0:
-                    dx += Dr * w.c[j]
-                    dy += Dr * w.s[j]
-                    vx += D * (rhod * w.c[j] - rho * w.s[j] * w.ad[j])
-                    vy += D * (rhod * w.s[j] + rho * w.c[j] * w.ad[j])
+                dx += Dr * w.c[j]
+                dy += Dr * w.s[j]
                 for i in range(Ay.shape[1]):
                     if Ay[j, i] != 0.0:
                         w.G[row + e, i] += Dr * across * Ay[j, i]
@@ -187,17 +189,108 @@ def constraints(d, w, Y):
                         w.G[row + e, f.line_col[i]] += along
                     w.GJ[row + e, f.line_u[i, 0]] += along
             if turn >= 0:
-                # Φ = n·(Σ D e(α) − a) (a = 0 between two links): ä = θ̈_b a⊥ − θ̇_b² a; a
-                # slider's n turns too, ṅ = θ̇_b n⊥, n̈ = θ̈_b n⊥ − θ̇_b² n (the θ̈_b parts
-                # in G's attitude column)
+                # Φ = n·(Σ D e(α) − a) (a = 0 between two links): the θ̈_b parts of ä = θ̈_b a⊥
+                # − θ̇_b² a and of a slider's n̈ = θ̈_b n⊥ − θ̇_b² n in G's attitude column
                 w.G[row + e, turn] -= ey * ax - ex * ay  # n·a⊥
+                if rows == 1:
+                    w.G[row + e, turn] += ex * (dy - ay) - ey * (dx - ax)  # n⊥·d
+            w.Phi[row + e], w.Phid[row + e] = phi, phid
+
+
+@njit(cache=True)
+def curvature(d, w, Y):
+    """The node rates (w.ad) and γ (w.gam: Φ̈ = G ÿ + γ) at Y = [y, ẏ], after `positions`
+    at Y's coordinates."""
+    f = d.fwd
+    Ay = f.Ay
+    nodes, ny = Ay.shape[0], Y.shape[0] // 2
+    for j in range(nodes):
+        ad = w.rate[j]
+        for i in range(Ay.shape[1]):
+            x = Ay[j, i]
+            if x != 0.0:
+                ad += x * Y[ny + i]
+        w.ad[j] = ad
+    for i in range(f.line_node.shape[0]):  # a free travel: ρ̇ from the state
+        col = f.line_col[i]
+        if col >= 0:
+            w.rhod[f.line_node[i]] = Y[ny + col]
+    turn = d.turn
+    th, om = (Y[turn], Y[ny + turn]) if turn >= 0 else (0.0, 0.0)
+    cb, sb = np.cos(th), np.sin(th)
+    for c in range(d.kind.shape[0]):
+        row = d.row[c]
+        rows = 2 if d.kind[c] == REVOLUTE else 1
+        for e in range(rows):
+            ex, ey, ax, ay = _row_axes(d, c, e, cb, sb)
+            gam = 0.0
+            dx, dy, vx, vy = 0.0, 0.0, 0.0, 0.0  # Σ D e(α_j), Σ D e⊥(α_j) α̇_j
+            for j in range(nodes):
+                D = d.D[c, j]
+                if D == 0.0:
+                    continue
+                along = ex * w.c[j] + ey * w.s[j]  # n·e(α_j)
+                across = ey * w.c[j] - ex * w.s[j]  # n·e⊥(α_j)
+                # the acceleration of ρ e(α): ρ(α̈ e⊥ − α̇² e) + 2ρ̇α̇ e⊥ + ρ̈ e
+                rho, rhod = w.rho[j], w.rhod[j]
+                Dr = D * rho
+                gam += Dr * (across * w.acc[j] - along * w.ad[j] * w.ad[j]) + D * (
+                    2.0 * rhod * w.ad[j] * across + along * w.rhodd[j])
+                dx += Dr * w.c[j]
+                dy += Dr * w.s[j]
+                vx += D * (rhod * w.c[j] - rho * w.s[j] * w.ad[j])
+                vy += D * (rhod * w.s[j] + rho * w.c[j] * w.ad[j])
+            if turn >= 0:
+                # ä = θ̈_b a⊥ − θ̇_b² a; a slider's n turns too, ṅ = θ̇_b n⊥, n̈ = θ̈_b n⊥ − θ̇_b² n
                 gam += om * om * (ex * ax + ey * ay)
                 if rows == 1:
                     rx, ry = dx - ax, dy - ay  # d
                     wx, wy = vx + om * ay, vy - om * ax  # ḋ
-                    w.G[row + e, turn] += ex * ry - ey * rx  # n⊥·d
                     gam += 2.0 * om * (ex * wy - ey * wx) - om * om * (ex * rx + ey * ry)
-            w.Phi[row + e], w.gam[row + e], w.Phid[row + e] = phi, gam, phid
+            w.gam[row + e] = gam
+
+
+@njit  # tests only: the runs call its two parts (no warm-up reaches it at install)
+def constraints(d, w, Y):
+    """Φ (w.Phi), G = ∂Φ/∂y (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the
+    prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ] (the
+    prescribed parts already in w: `prescribed`)."""
+    positions(d, w, Y, True)
+    curvature(d, w, Y)
+
+
+# Node angles that a Newton step moves by at most this (rad) have their cos and sin turned by
+# the step (Taylor terms to Δα⁴: the first neglected, Δα⁵/120, is below 1e-22) instead of
+# evaluated again: the step near a closed state is ~1e-9 rad, and the transcendental
+# functions of every node are a large part of a rate evaluation.
+SMALL_TURN = 1e-4
+
+
+@njit(inline="always")
+def _turn(d, w):
+    """After a Newton step w.step on the dependent angles: turn w.c, w.s by the node angles'
+    change Δα = Ay[:, dep] step (scratch: w.ad) and return True, unless some |Δα| exceeds
+    SMALL_TURN (then w.c, w.s are left for `positions` to evaluate afresh)."""
+    Ay = d.fwd.Ay
+    nodes, nc = Ay.shape[0], d.dep.shape[0]
+    big = 0.0
+    for j in range(nodes):
+        da = 0.0
+        for k in range(nc):
+            da += Ay[j, d.dep[k]] * w.step[k]
+        w.ad[j] = da
+        big = max(big, abs(da))
+    if big > SMALL_TURN:
+        return False
+    for j in range(nodes):
+        da = w.ad[j]
+        d2 = da * da
+        cd = 1.0 - d2 * (0.5 - d2 / 24.0)
+        sd = da * (1.0 - d2 / 6.0)
+        c, s = w.c[j], w.s[j]
+        w.c[j] = c * cd - s * sd
+        w.s[j] = s * cd + c * sd
+    return True
 
 
 @njit(cache=True)
@@ -209,8 +302,9 @@ def project(d, w, u, Y):
     nc = d.dep.shape[0]
     prescribed(d, w, u)
     closed = False
+    fresh = True
     for _ in range(NEWTON_ITERATIONS):
-        constraints(d, w, Y)
+        positions(d, w, Y, fresh)
         big = 0.0
         for c in range(nc):
             big = max(big, abs(w.Phi[c]))
@@ -224,10 +318,11 @@ def project(d, w, u, Y):
         _solve(w.Gd, w.step)
         for j in range(nc):
             Y[d.dep[j]] += w.step[j]
+        fresh = not _turn(d, w)
     if not closed:
         return False
     # rates: Φ̇ = G ẏ + Phid = 0 is linear in the dependent ones (one solve); then γ at those
-    # rates
+    # rates (the coordinates, and so w's positions, unchanged)
     for c in range(nc):
         acc = w.Phid[c]
         for i in range(ny):
@@ -238,7 +333,7 @@ def project(d, w, u, Y):
     _solve(w.Gd, w.step)
     for j in range(nc):
         Y[ny + d.dep[j]] += w.step[j]
-    constraints(d, w, Y)
+    curvature(d, w, Y)
     return True
 
 

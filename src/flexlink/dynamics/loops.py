@@ -10,6 +10,7 @@ others at every evaluation (coordinate partitioning).
 
 from __future__ import annotations
 
+import functools
 from collections import namedtuple
 from collections.abc import Sequence
 
@@ -34,6 +35,12 @@ LoopData.__doc__ = ("Constant arrays of the closures for the kernels: fwd the tr
 # |Φ| the projection reaches, relative to the loop's size (the links' total length)
 CLOSURE_TOLERANCE = 1e-12
 FORE_POINTS = 48  # Gauss points of ∫₀ˣΦ'ᵀΦ' at a closure's point (the modes: ≤ 20 half-waves)
+
+
+@functools.cache
+def _fore_rule() -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Legendre nodes and weights on [−1, 1] of FORE_POINTS points (computed once)."""
+    return np.polynomial.legendre.leggauss(FORE_POINTS)
 
 
 class LoopSystem:
@@ -88,7 +95,7 @@ class LoopSystem:
         def fore(link: int, x: float) -> np.ndarray:
             out = np.zeros((nm, nm))
             if link >= 0 and modal[link].n:
-                g, wg = np.polynomial.legendre.leggauss(FORE_POINTS)
+                g, wg = _fore_rule()
                 s = 0.5 * x * (g + 1.0)
                 slope = modal[link].shapes.evaluate(s, 1)
                 n = modal[link].n
@@ -132,7 +139,7 @@ class LoopSystem:
         load_state(self.data, work, u0, y)
         constraints(self.data, work)
         self.dep = self._dependent(work.G)
-        self.data = self._pack(self.dep)
+        self.data = self.data._replace(dep=np.asarray(self.dep, dtype=np.int64))
         start = y.copy()
         if not project(self.data, work, u0, y):
             raise SimulationError(self._open_message(

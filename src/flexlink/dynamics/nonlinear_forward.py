@@ -454,13 +454,25 @@ class NonlinearForwardSystem:
         return self._kernel_data
 
     # -- readings -----------------------------------------------------------------------------
-    def joint_torques(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
-                      ) -> np.ndarray:
+    def joint_torques(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray,
+                      compiled: bool = True) -> np.ndarray:
         """Torque each joint's motor applies (b, N), N·m: the generalized inertia force of β_k
         (with the motor inertia; for a driven joint equal to its drive torque); a slider's
-        column: the force along its line, N (the drive's, or what a prescribed travel takes)."""
-        u, _, rot, _, line = self._inertia(y, v, a, self.stage_inputs(t))
+        column: the force along its line, N (the drive's, or what a prescribed travel takes).
+        ``compiled``: the numba kernel (a tree without sliders), else numpy."""
         joints = slice(self.n_base, self.n_base + len(self.chain.links))
+        inp = self.stage_inputs(t)
+        if compiled and not self.slides:
+            from ._nonlinear_forward_numba import joint_torques
+
+            m, c = self.n + self.nu, np.ascontiguousarray
+            out = np.empty((y.shape[0], len(self.chain.links)))
+            joint_torques(self.kernel_data(), c(np.hstack([self.Ay[:, :m], self.B[:, joints]])),
+                          c(np.hstack([self.rot_y[:, :m], self.rot_B[:, joints]])),
+                          c(y, dtype=float), c(v, dtype=float), c(a, dtype=float),
+                          *stage_rows(*inp), out)
+            return out
+        u, _, rot, _, line = self._inertia(y, v, a, inp)
         out = u @ self.B[:, joints] + rot @ self.rot_B[:, joints]
         out[:, self.slides] = line
         return out

@@ -37,7 +37,8 @@ class Scenario:
     def __post_init__(self) -> None:
         if self.settings.rtol is None:  # the default of the run's model and path
             object.__setattr__(self, "settings", replace(
-                self.settings, rtol=default_rtol(self.settings.model, self.is_forward)))
+                self.settings, rtol=default_rtol(self.settings.model, self.is_forward,
+                                                 bool(self.closures))))
         if self.base is not None and self.base.cart is not None:
             self.base.cart.check_travel(self.settings.t_end)
         for k, joint in enumerate(self.chain.joints):

@@ -166,7 +166,8 @@ SIMULATION = Section("simulation", [
                  "docs/validation.md)"}),
     Field("rtol", default=None, gt=0, le=1e-2,
           default_doc="1e-6 (`first_order`), 1e-4 (`first_order` forward runs: driven joints, "
-                      "moving base), 1e-5 (`nonlinear`)",
+                      "moving base; `nonlinear` closed loops, `[[closures]]`, which run on the "
+                      "same Radau IIA), 1e-5 (`nonlinear`)",
           doc="error of the time integration relative to the peak displacements and "
               "velocities (the nonlinear model: of each step); each default keeps it at about "
               "a tenth of the model's own error or less (docs/nonlinear.md §4, "

@@ -83,26 +83,55 @@ def _address(kernel: Any, argument_types: tuple) -> int:
     return _ADDRESSES[key]
 
 
+def _type_key(x: Any) -> Any:
+    """A hashable key that determines numba's type of ``x`` (arrays, numbers, tuples of
+    them), built without numba's typeof, which on records of dozens of arrays costs more
+    than a short run's integration: equal keys, equal types (the key may separate more)."""
+    if isinstance(x, np.ndarray):
+        f = x.flags
+        return (x.dtype, x.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
+    if isinstance(x, tuple):
+        return (type(x), *map(_type_key, x))
+    if isinstance(x, int) and not isinstance(x, bool):
+        return (int, x.bit_length() > 62)  # typeof widens very large ints
+    return type(x)
+
+
+_MODELS: dict[Any, tuple[int, int, int, int]] = {}  # _type_key(records) → `_addresses`
+
+
 def model_functions(d: Any, w: Any, pj: Any = ()) -> tuple[int, int, np.ndarray]:
     """The ``model`` argument of the compiled loops for kernel data ``d``, workspace ``w``
     and projection record ``pj`` (``()``: none): (address of the rates trampoline, address
     of the projection trampoline or 0, context). The records must outlive every use of it."""
+    records = (d, w, pj)
+    key = _type_key(records)
+    found = _MODELS.get(key)
+    if found is None:
+        found = _MODELS[key] = _addresses(records)
+    rates_from, project_from, rates, project = found
+    return rates_from, project_from, _pack(records, rates, project)
+
+
+def _addresses(records: tuple) -> tuple[int, int, int, int]:
+    """The addresses of the rates and projection trampolines for these records' types and
+    of the model's compiled rates and projection (0: none)."""
+    d, w, pj = records
     kernel = _KERNELS.get(type(d))
     if kernel is None:
         raise TypeError(f"no compiled rates for kernel data {type(d).__name__}: add its "
                         "record class and rates to _radau_model._KERNELS")
-    records = (d, w, pj)
     d_type, w_type = typeof(d), typeof(w)
     records_type = types.TypeRef(typeof(records))
     rates = _address(kernel, (d_type, w_type, ROW, ROW, ROW))
+    rates_from = _address(_rates_from, (CONTEXT, ROW, ROW, ROW, records_type))
     project = _PROJECTIONS.get(type(d))
     if project is None or len(pj) == 0:
-        return (_address(_rates_from, (CONTEXT, ROW, ROW, ROW, records_type)), 0,
-                _pack(records, rates, 0))
+        return rates_from, 0, rates, 0
     project = _address(project, (d_type, w_type, typeof(pj), ROW, ROW, types.float64, ROW))
-    return (_address(_rates_from, (CONTEXT, ROW, ROW, ROW, records_type)),
+    return (rates_from,
             _address(_project_from, (CONTEXT, ROW, ROW, types.float64, ROW, records_type)),
-            _pack(records, rates, project))
+            rates, project)
 
 
 def _cleared(context, builder, typ, value):
