@@ -16,7 +16,11 @@ from flexlink.dynamics import forward_kernel
 from flexlink.dynamics.forward import ForwardSystem
 from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
 from flexlink.model import Base, Chain, Step, TorqueDrive
-from tests.unit.test_nonlinear_prismatic import _chain, _random_states
+from tests.unit.test_nonlinear_prismatic import (
+    _chain,
+    _random_states,
+    assert_rigid_models_agree,
+)
 
 AT = 0.55  # m, on the 0.9 m parent
 
@@ -74,21 +78,7 @@ def test_nonlinear_kernel_matches_the_numpy_equations(drive: str) -> None:
 def test_rigid_links_both_models_agree(drive: str, gravity) -> None:
     """Rigid links (both models exact): free accelerations and every joint's torque or force
     agree to round-off with the line through the parent's section at 0.55 m."""
-    chain = _at(_chain(drive, modes=0), AT)
-    system = NonlinearForwardSystem(chain, Base(), gravity=gravity)
-    first = ForwardSystem(chain, Base(), gravity=gravity)
-    t, y, v, _ = _random_states(system, seed=5)
-    nu = system.nu
-    got = system.accelerations(t, y, v, compiled=True)
-    none = np.zeros((t.size, 0))
-    expected = first.accelerations(t, y[:, :nu], v[:, :nu], none, none, v[:, nu:])[0]
-    np.testing.assert_allclose(got[:, :nu], expected, rtol=0,
-                               atol=1e-12 * np.abs(expected).max())
-    p, pd, pdd = system.rigid_state(t, y, v, got)
-    torques = system.joint_torques(t, y, v, got)
-    reference = first.joint_torques(p, pd, pdd, none, none, none)
-    np.testing.assert_allclose(torques, reference, rtol=0,
-                               atol=1e-12 * np.abs(reference).max())
+    assert_rigid_models_agree(_at(_chain(drive, modes=0), AT), gravity)
 
 
 @pytest.mark.parametrize("model", ["first_order", "nonlinear"])
