@@ -176,28 +176,34 @@ def test_a_rigid_four_bar_on_a_free_base_is_the_first_order_mechanism() -> None:
     assert run.metadata["closure_residual_relative"] <= 1e-8
 
 
-def test_a_uniformly_accelerated_cart_is_the_equivalent_gravity_field() -> None:
-    """The four-bar with a flexible coupler on a cart accelerating at 3 m/s² along a 30°
-    rail against the fixed four-bar in gravity −a along the rail, both on the nonlinear
-    model (the equivalence principle holds exactly in it)."""
-    d = _swinging()
-    d["simulation"].update(model="nonlinear", t_end=0.3)
+def _on_cart_and_in_gravity(d: dict) -> tuple:
+    """The mechanism of ``d`` (a coupler sensor "bend" added) on a cart turned by 20°
+    accelerating at ACCELERATION along the rail at RAIL, and fixed in the equivalent
+    gravity: the cart's attitude turns the mechanism, so the fixed one is turned by it, in
+    the field turned back. Both runs' results."""
+    d["sensors"] = [{"name": "bend", "kind": "deflection", "link": "coupler", "x": 0.15}]
     d["base"] = {"type": "cart", "mass": 5.0, "attitude_deg": 20.0,
                  "cart": {"rail_angle_deg": math.degrees(RAIL), "drive": "prescribed",
                           "motion": [{"profile": "hold", "position": 0.0}]}}
-    d["sensors"] = [{"name": "bend", "kind": "deflection", "link": "coupler", "x": 0.15}]
     scenario = scenario_from_dict(d)
     cart = dataclasses.replace(scenario.base.cart, drive=UniformAcceleration(ACCELERATION))
     scenario = dataclasses.replace(scenario, base=dataclasses.replace(scenario.base, cart=cart))
     on_cart = flexlink.simulate(scenario, shapes=False)
     fixed = copy.deepcopy(d)
     del fixed["base"]
-    # the cart's attitude turns the mechanism: the fixed one turned by it, in the field
-    # turned back
     turn = math.radians(20.0)
     fixed["simulation"]["gravity"] = [-ACCELERATION * math.cos(RAIL - turn),
                                       -ACCELERATION * math.sin(RAIL - turn)]
-    reference = flexlink.simulate(scenario_from_dict(fixed), shapes=False)
+    return on_cart, flexlink.simulate(scenario_from_dict(fixed), shapes=False)
+
+
+def test_a_uniformly_accelerated_cart_is_the_equivalent_gravity_field() -> None:
+    """The four-bar with a flexible coupler on a cart accelerating at 3 m/s² along a 30°
+    rail against the fixed four-bar in gravity −a along the rail, both on the nonlinear
+    model (the equivalence principle holds exactly in it)."""
+    d = _swinging()
+    d["simulation"].update(model="nonlinear", t_end=0.3)
+    on_cart, reference = _on_cart_and_in_gravity(d)
     for name in ("joint1_angle", "joint2_angle", "joint3_angle", "joint1_rate", "bend"):
         ref = np.asarray(reference[name])
         scale = np.abs(ref - ref[0]).max()
@@ -274,20 +280,7 @@ def test_an_equilibrium_start_on_an_accelerating_cart_stays_at_rest_relative_to_
     d["joints"][0] = {"motion": [{"profile": "hold", "angle_deg": 90.0}]}
     d["links"][1]["EI"] = 2.0
     d["simulation"].update(model=model, t_end=0.2, initial="equilibrium")
-    d["sensors"] = [{"name": "bend", "kind": "deflection", "link": "coupler", "x": 0.15}]
-    d["base"] = {"type": "cart", "mass": 5.0, "attitude_deg": 20.0,
-                 "cart": {"rail_angle_deg": math.degrees(RAIL), "drive": "prescribed",
-                          "motion": [{"profile": "hold", "position": 0.0}]}}
-    scenario = scenario_from_dict(d)
-    cart = dataclasses.replace(scenario.base.cart, drive=UniformAcceleration(ACCELERATION))
-    scenario = dataclasses.replace(scenario, base=dataclasses.replace(scenario.base, cart=cart))
-    on_cart = flexlink.simulate(scenario, shapes=False)
-    fixed = copy.deepcopy(d)
-    del fixed["base"]
-    turn = math.radians(20.0)
-    fixed["simulation"]["gravity"] = [-ACCELERATION * math.cos(RAIL - turn),
-                                      -ACCELERATION * math.sin(RAIL - turn)]
-    reference = flexlink.simulate(scenario_from_dict(fixed), shapes=False)
+    on_cart, reference = _on_cart_and_in_gravity(d)
     bend = np.asarray(on_cart["bend"])
     assert abs(bend[0]) > 1e-6
     assert np.ptp(bend) < 1e-9 * abs(bend[0])
