@@ -13,8 +13,9 @@ Exudyn: a flexible beam on a block sliding along a line at the tip of a rotating
   out along u);
 * the beam: ``ObjectBeamGeometricallyExact2D`` elements (Simo–Reissner) from the block.
 
-Signals: the link's angle, the block's travel s along the line, and the beam's tip deflection
-n_root · (r_tip − r_root) in the clamped root frame (flexlink's deflection sensor at x = L).
+Signals: the link's angle and its rate, the block's travel s along the line and its rate, and
+the beam's tip deflection n_root · (r_tip − r_root) in the clamped root frame (flexlink's
+deflection sensor at x = L).
 Undamped, no gravity.
 """
 
@@ -43,7 +44,8 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
     """The system of the module docstring from rest, the block at travel s0 (m); angles in
     rad (axis: the line's direction, gamma: the beam's, both from the rigid link).
 
-    Returns ``t`` (s), ``angle`` (rad), ``travel`` (m), ``tip_deflection`` (m),
+    Returns ``t`` (s), ``angle`` (rad), ``rate`` (rad/s), ``travel`` (m), ``travel_rate``
+    (m/s), ``tip_deflection`` (m),
     ``wall_time_s`` (the solver's), ``cpu_time_s`` (the process's during the solve)."""
     import time
 
@@ -119,13 +121,17 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
     s_hub = sensor(hub_node, exu.OutputVariableType.Coordinates)
     s_root = sensor(chain[0], exu.OutputVariableType.Coordinates)
     s_tip = sensor(chain[-1], exu.OutputVariableType.Coordinates)
+    v_hub = sensor(hub_node, exu.OutputVariableType.Coordinates_t)
+    v_root = sensor(chain[0], exu.OutputVariableType.Coordinates_t)
     cpu = time.process_time()
     wall, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-6, 1e-8, 1.0, verbose=VERBOSE)
     cpu = time.process_time() - cpu
 
-    def series(number: int, node: int) -> np.ndarray:
+    def series(number: int, node: int | None) -> np.ndarray:
         data = np.asarray(mbs.GetSensorStoredData(number))
         out = np.stack([np.interp(t_grid, data[:, 0], data[:, c]) for c in range(1, 4)], 1)
+        if node is None:  # rates: no reference part
+            return out
         return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
 
     hub_q, r0, r1 = series(s_hub, hub_node), series(s_root, chain[0]), series(s_tip, chain[-1])
@@ -133,7 +139,12 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
     tip_point = link_length * np.stack([np.cos(angle), np.sin(angle)], 1)
     line = np.stack([np.cos(angle + axis), np.sin(angle + axis)], 1)
     normal_root = np.stack([-np.sin(r0[:, 2]), np.cos(r0[:, 2])], 1)
-    return {"t": t_grid, "angle": angle,
+    rate, root_velocity = series(v_hub, None)[:, 2], series(v_root, None)[:, :2]
+    across = np.stack([-np.sin(angle + axis), np.cos(angle + axis)], 1)  # d line / d angle
+    tip_velocity = link_length * rate[:, None] * np.stack([-np.sin(angle), np.cos(angle)], 1)
+    travel_rate = (np.sum((root_velocity - tip_velocity) * line, 1)
+                   + rate * np.sum((r0[:, :2] - tip_point) * across, 1))
+    return {"t": t_grid, "angle": angle, "rate": rate, "travel_rate": travel_rate,
             "travel": np.sum((r0[:, :2] - tip_point) * line, 1),
             "tip_deflection": np.sum(normal_root * (r1[:, :2] - r0[:, :2]), 1),
             "wall_time_s": wall, "cpu_time_s": cpu, "coordinates": mbs.systemData.ODE2Size()}

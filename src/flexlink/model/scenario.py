@@ -38,7 +38,8 @@ class Scenario:
         if self.settings.rtol is None:  # the default of the run's model and path
             object.__setattr__(self, "settings", replace(
                 self.settings, rtol=default_rtol(self.settings.model, self.is_forward,
-                                                 bool(self.closures))))
+                                                 bool(self.closures),
+                                                 self.slides_on_fixed_base)))
         if self.base is not None and self.base.cart is not None:
             self.base.cart.check_travel(self.settings.t_end)
         for k, joint in enumerate(self.chain.joints):
@@ -46,6 +47,13 @@ class Scenario:
                 from .prismatic import check_slider
 
                 check_slider(self, k)
+
+    @property
+    def slides_on_fixed_base(self) -> bool:
+        """True if a slider is in the chain, the base does not move and no controller runs
+        (the nonlinear model then integrates it by Gauss collocation: `default_rtol`)."""
+        return (not self.controllers and (self.base is None or self.base.kind == "fixed")
+                and any(isinstance(j, PrismaticJoint) for j in self.chain.joints))
 
     @property
     def is_forward(self) -> bool:

@@ -167,7 +167,8 @@ SIMULATION = Section("simulation", [
     Field("rtol", default=None, gt=0, le=1e-2,
           default_doc="1e-6 (`first_order`), 1e-4 (`first_order` forward runs: driven joints, "
                       "moving base; `nonlinear` closed loops, `[[closures]]`, which run on the "
-                      "same Radau IIA), 1e-5 (`nonlinear`)",
+                      "same Radau IIA; `nonlinear` runs with a slider on a fixed base and no "
+                      "controller), 1e-5 (`nonlinear` otherwise)",
           doc="error of the time integration relative to the peak displacements and "
               "velocities (the nonlinear model: of each step); each default keeps it at about "
               "a tenth of the model's own error or less (docs/nonlinear.md §4, "

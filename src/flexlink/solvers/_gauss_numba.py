@@ -30,7 +30,16 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 from ..dynamics._nonlinear_forward_numba import residual as forward_residual
 from ..dynamics._nonlinear_numba import residual as prescribed_residual
 from ..dynamics.nonlinear_kernel import NonlinearData, NonlinearForwardData
-from ._radau_model import CONTEXT, ROW, _address, _call_codegen, _check, _load, _pack
+from ._radau_model import (
+    CONTEXT,
+    ROW,
+    _address,
+    _call_codegen,
+    _check,
+    _load,
+    _pack,
+    _type_key,
+)
 from ._step_control_numba import error_norm, tolerances, update_peaks
 
 # kernel-data record class → its compiled residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out)
@@ -47,10 +56,27 @@ def residual_model(d: Any) -> tuple[int, np.ndarray, int]:
         raise TypeError(f"no compiled residual for kernel data {type(d).__name__}: add its "
                         "record class and residual to _gauss_numba._RESIDUALS")
     records = (d,)
+    key = _type_key(records)
+    found = _MODELS.get(key)
+    if found is None:
+        found = _MODELS[key] = _addresses(kernel, records)
+    trampoline, residual = found
+    return trampoline, _pack(records, residual, 0), int(d.n)
+
+
+# _type_key(records) → (trampoline, residual) addresses: numba's typeof of a record of dozens
+# of arrays costs milliseconds, more than a short run's step loop
+_MODELS: dict[Any, tuple[int, int]] = {}
+
+
+def _addresses(kernel: Any, records: tuple) -> tuple[int, int]:
+    """The addresses of the residual trampoline for these records' types and of the
+    model's compiled residual ``kernel``."""
+    (d,) = records
     residual = _address(kernel, (typeof(d),) + _ROWS)
     trampoline = _address(_residual_from, (CONTEXT,) + _ROWS
                           + (types.TypeRef(typeof(records)),))
-    return trampoline, _pack(records, residual, 0), int(d.n)
+    return trampoline, residual
 
 
 @intrinsic
