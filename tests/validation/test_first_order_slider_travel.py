@@ -160,3 +160,33 @@ def test_rigid_energy_equals_the_drives_work_on_a_spinning_free_base() -> None:
     gap = np.abs(kinetic - kinetic[0] - work).max() / kinetic.max()
     print(f"energy − work: {gap:.3g} of the peak {kinetic.max():.4g} J")
     assert kinetic.max() > 0.01 and gap < 1e-8
+
+
+@pytest.mark.slow
+def test_a_beam_on_a_slider_on_a_free_cart_against_exudyn() -> None:
+    """test_prismatic.slider_fe_case (a rigid link turned by a bang-bang moment, a
+    force-driven block along it carrying a flexible beam) with the link's pin on a free
+    1 kg cart along x, against Exudyn's geometrically exact beam (16 elements) on the same
+    cart (exudyn_slider_reference with ``cart_mass``): the link's angle, the travel and the
+    cart's position within 1e-3 of their peaks, the beam's tip deflection within 3%
+    (stiffened first order, 6 modes)."""
+    import dataclasses
+
+    from flexlink.model import Base, Cart
+
+    from .exudyn_slider_reference import simulate_slider_exudyn
+    from .test_prismatic import slider_fe_case
+
+    pytest.importorskip("exudyn")
+    scenario, args = slider_fe_case()
+    scenario = dataclasses.replace(scenario, base=Base("cart", mass=1.0, cart=Cart()))
+    exact = simulate_slider_exudyn(**args, elements=16, cart_mass=1.0, link_mass=1.0)
+    r = flexlink.simulate(scenario, shapes=False)
+    for ours, theirs, bound in (("joint1_angle", "angle", 1e-3),
+                                ("joint2_position", "travel", 1e-3),
+                                ("cart_position", "cart", 1e-3),
+                                ("tip", "tip_deflection", 0.03)):
+        reference = exact[theirs]
+        error = np.abs(np.asarray(r[ours]) - reference).max() / np.abs(reference).max()
+        print(f"{ours}: peak {np.abs(reference).max():.4g}, error {error:.3g} of it")
+        assert error < bound, ours
