@@ -190,3 +190,16 @@ def test_a_beam_on_a_slider_on_a_free_cart_against_exudyn() -> None:
         error = np.abs(np.asarray(r[ours]) - reference).max() / np.abs(reference).max()
         print(f"{ours}: peak {np.abs(reference).max():.4g}, error {error:.3g} of it")
         assert error < bound, ours
+
+
+def test_the_space_gantry_example_keeps_zero_momentum() -> None:
+    """examples/space_gantry.toml: the carriage's prescribed move and the boom's slew are
+    internal, so the free hub's momentum stays zero (below 1e-12 N·s) while it turns."""
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "space_gantry.toml"
+    r = flexlink.simulate(flexlink.load_scenario(example), shapes=False)
+    for name in ("momentum_x", "momentum_y", "angular_momentum"):
+        assert np.abs(np.asarray(r[name])).max() < 1e-12, name
+    assert np.ptp(np.asarray(r["base_attitude"])) > 0.1
+    assert np.ptp(np.asarray(r["joint2_position"])) == pytest.approx(1.4, rel=1e-9)
