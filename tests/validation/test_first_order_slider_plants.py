@@ -79,3 +79,31 @@ def test_the_plant_at_rest_is_the_nonlinear_response_to_a_small_step(case: str) 
     gaps = [_gap(case, scale * torque) for scale in (1.0, 0.5)]
     print(f"{case}: gaps {gaps}")
     assert gaps[0] < 1e-3 and 1.6 < gaps[0] / gaps[1] < 2.4
+
+
+def test_frozen_modes_of_the_space_gantry_interlace_with_the_clamped_hub() -> None:
+    """examples/space_gantry.toml at rest (t = 0) and along its move: the free hub's i-th
+    elastic frequency lies between the i-th and the (i+3)-th of the same mechanism with its
+    hub clamped (three constraints added: Rayleigh's interlacing), and a slider's column of
+    the configurations is its link angle (90°), not its travel."""
+    import dataclasses
+    from pathlib import Path
+
+    from flexlink.control.modes import frozen_modes
+    from flexlink.model import Base
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "space_gantry.toml"
+    free = flexlink.load_scenario(example)
+    clamped = dataclasses.replace(free, base=Base())
+    at_rest = frozen_modes(free, [0.0])
+    f_free = at_rest.frequency_hz[0]
+    f_clamped = frozen_modes(clamped, [0.0]).frequency_hz[0]
+    n = f_free.size - 3
+    assert n >= 2
+    print(f"free {f_free}, clamped {f_clamped}")
+    assert np.all(f_free[:n] >= f_clamped[:n] * (1 - 1e-9))
+    assert np.all(f_free[:n] <= f_clamped[3:3 + n] * (1 + 1e-9))
+    moving = frozen_modes(free, [0.0, 2.0, 4.0])
+    np.testing.assert_allclose(moving.configurations[:, 1], 90.0)
+    np.testing.assert_allclose(moving.configurations[:, 0], [0.0, 30.0, 60.0], atol=1e-9)
+    assert np.all(np.abs(np.diff(moving.frequency_hz[:, 0])) > 1e-3)  # the carriage moved
