@@ -17,6 +17,12 @@ Signals: the link's angle and its rate, the block's travel s along the line and 
 the beam's tip deflection n_root · (r_tip − r_root) in the clamped root frame (flexlink's
 deflection sensor at x = L).
 Undamped, no gravity.
+
+On a cart (``cart_mass``): the pin rides on a free cart (an ``ObjectRigidBody2D`` held to the
+x axis, its y and rotation fixed by ``CoordinateConstraint``), the rigid link is a body of
+``link_mass`` centred at half its length, pinned to the cart by a ``RevoluteJoint2D``; the
+moment still turns the link (the cart's fixed rotation takes the reaction). The cart's
+position is one more signal.
 """
 
 from __future__ import annotations
@@ -40,13 +46,16 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
                            axis: float, gamma: float, s0: float,
                            moment: Callable[[float], float], force: Callable[[float], float],
                            t_end: float, dt_out: float, elements: int,
-                           dt: float | None = None) -> dict[str, Any]:
+                           dt: float | None = None, cart_mass: float | None = None,
+                           link_mass: float = 0.0) -> dict[str, Any]:
     """The system of the module docstring from rest, the block at travel s0 (m); angles in
-    rad (axis: the line's direction, gamma: the beam's, both from the rigid link).
+    rad (axis: the line's direction, gamma: the beam's, both from the rigid link);
+    ``cart_mass`` (kg): the pin on a free cart along x (None: fixed), the link then of
+    ``link_mass`` (kg) centred at half its length, ``link_inertia`` still about the pin.
 
     Returns ``t`` (s), ``angle`` (rad), ``rate`` (rad/s), ``travel`` (m), ``travel_rate``
-    (m/s), ``tip_deflection`` (m),
-    ``wall_time_s`` (the solver's), ``cpu_time_s`` (the process's during the solve)."""
+    (m/s), ``tip_deflection`` (m), on a cart ``cart`` (m), ``wall_time_s`` (the solver's),
+    ``cpu_time_s`` (the process's during the solve)."""
     import time
 
     import exudyn as exu
@@ -62,6 +71,7 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
         ObjectBeamGeometricallyExact2D,
         ObjectRigidBody2D,
         PrismaticJoint2D,
+        RevoluteJoint2D,
         SensorNode,
     )
 
@@ -75,10 +85,28 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
     def coord(node: int, c: int) -> int:
         return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
 
-    hub_node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0]))
-    hub = mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub_node, mass=1.0, inertia=link_inertia))
-    for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(hub_node, c)]))
+    # the link's body: about the pin (fixed hub), or centred at half its length on a cart
+    centre = 0.0 if cart_mass is None else 0.5 * link_length
+    hub_node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[centre, 0.0, 0.0]))
+    if cart_mass is None:
+        hub = mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub_node, mass=1.0,
+                                              inertia=link_inertia))
+        for c in (0, 1):
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0),
+                                                              coord(hub_node, c)]))
+    else:
+        hub = mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub_node, mass=link_mass,
+                                              inertia=link_inertia - link_mass * centre**2))
+        cart_node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0]))
+        cart = mbs.AddObject(ObjectRigidBody2D(nodeNumber=cart_node, mass=cart_mass,
+                                               inertia=1.0))
+        for c in (1, 2):
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0),
+                                                              coord(cart_node, c)]))
+        mbs.AddObject(RevoluteJoint2D(markerNumbers=[
+            mbs.AddMarker(MarkerBodyRigid(bodyNumber=cart, localPosition=[0.0, 0.0, 0.0])),
+            mbs.AddMarker(MarkerBodyRigid(bodyNumber=hub, localPosition=[-centre, 0.0,
+                                                                         0.0]))]))
     turn = _Moment(moment, dt)
     mbs.AddLoad(LoadCoordinate(markerNumber=coord(hub_node, 2), load=0.0,
                                loadUserFunction=turn))
@@ -97,8 +125,8 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
     if beam.tip_mass > 0.0:
         mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[-1], mass=beam.tip_mass, inertia=0.0))
     mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[0], mass=block, inertia=0.0))
-    on_link = mbs.AddMarker(MarkerBodyRigid(bodyNumber=hub, localPosition=[link_length, 0.0,
-                                                                             0.0]))
+    on_link = mbs.AddMarker(MarkerBodyRigid(bodyNumber=hub, localPosition=[
+        link_length - centre, 0.0, 0.0]))
     on_block = mbs.AddMarker(MarkerNodeRigid(nodeNumber=chain[0]))
     # The normal to the line in the block's frame: S u turned back by γ.
     normal = [-math.sin(axis - gamma), math.cos(axis - gamma), 0.0]
@@ -136,15 +164,19 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
 
     hub_q, r0, r1 = series(s_hub, hub_node), series(s_root, chain[0]), series(s_tip, chain[-1])
     angle = hub_q[:, 2]
-    tip_point = link_length * np.stack([np.cos(angle), np.sin(angle)], 1)
+    pin = hub_q[:, :2] - centre * np.stack([np.cos(angle), np.sin(angle)], 1)
+    tip_point = pin + link_length * np.stack([np.cos(angle), np.sin(angle)], 1)
     line = np.stack([np.cos(angle + axis), np.sin(angle + axis)], 1)
     normal_root = np.stack([-np.sin(r0[:, 2]), np.cos(r0[:, 2])], 1)
-    rate, root_velocity = series(v_hub, None)[:, 2], series(v_root, None)[:, :2]
+    hub_v, root_velocity = series(v_hub, None), series(v_root, None)[:, :2]
+    rate = hub_v[:, 2]
     across = np.stack([-np.sin(angle + axis), np.cos(angle + axis)], 1)  # d line / d angle
-    tip_velocity = link_length * rate[:, None] * np.stack([-np.sin(angle), np.cos(angle)], 1)
+    tip_velocity = hub_v[:, :2] + (link_length - centre) * rate[:, None] * np.stack(
+        [-np.sin(angle), np.cos(angle)], 1)
     travel_rate = (np.sum((root_velocity - tip_velocity) * line, 1)
                    + rate * np.sum((r0[:, :2] - tip_point) * across, 1))
     return {"t": t_grid, "angle": angle, "rate": rate, "travel_rate": travel_rate,
             "travel": np.sum((r0[:, :2] - tip_point) * line, 1),
             "tip_deflection": np.sum(normal_root * (r1[:, :2] - r0[:, :2]), 1),
+            **({} if cart_mass is None else {"cart": pin[:, 0]}),
             "wall_time_s": wall, "cpu_time_s": cpu, "coordinates": mbs.systemData.ODE2Size()}

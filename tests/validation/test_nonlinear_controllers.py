@@ -286,11 +286,3 @@ def test_a_slider_on_a_free_base_under_control_keeps_momentum_and_gains_the_work
     gap = np.abs(energy - energy[0] - work).max() / energy.max()
     print(f"energy - work: {gap:.3g} of the peak energy {energy.max():.4g} J")
     assert gap < 1e-7
-
-
-def test_a_slider_on_a_moving_base_is_refused_on_the_first_order_model() -> None:
-    d = _slider_loop(0.0, 1.0, FREE)
-    from flexlink.scenario import ScenarioError
-
-    with pytest.raises(ScenarioError, match=r"joints\[1\]: .*base\.type = 'free'.*nonlinear"):
-        scenario_from_dict(d)

@@ -2,8 +2,8 @@
 carries a slider along its axis; on the block a post (0.3 m) stands at 90° to the line; a
 rod (0.4 m) on a free joint at the post's tip is pinned to the ground at (1.0, 0.3) m. The
 closure rows carry the travel s as the length of the slider's line node
-(`_nonlinear_loops_numba.constraints`). The first-order model refuses a slider with closures
-(its loop kinematics leave the travel out), so the checks are independent of it: the exact
+(`_nonlinear_loops_numba.constraints`). The checks are independent of the first-order
+model (which runs the mechanism too: test_first_order_slider_loops.py): the exact
 kinematics of the rigid mechanism with a prescribed travel (one equation in the crank
 angle), the energy against the drives' work with rigid and with flexible links, the closure
 residual and the constraint forces' share on each joint."""
@@ -15,7 +15,7 @@ import pytest
 from scipy.optimize import brentq
 
 import flexlink
-from flexlink.scenario import ScenarioError, scenario_from_dict
+from flexlink.scenario import scenario_from_dict
 from flexlink.simulation import output_times
 from flexlink.simulation.nonlinear_forward import nonlinear_forward_system, run_nonlinear_forward
 
@@ -117,12 +117,6 @@ def test_energy_equals_the_work_of_the_crank_torque_and_the_slider_force(flexibl
         assert strain.max() > 1e-4 * energy.max()
 
 
-def test_a_slider_with_closures_is_refused_on_the_first_order_model() -> None:
-    d = slider_loop_case()
-    d["simulation"]["model"] = "first_order"
-    with pytest.raises(ScenarioError, match=r"joints\[1\]: .*closures.*nonlinear"):
-        scenario_from_dict(d)
-
 
 def test_a_loop_with_a_slider_that_cannot_close_is_refused_with_its_residual() -> None:
     """The travel prescribed at 0.1 m and the pin 2 m away, beyond the mechanism's reach
@@ -132,15 +126,3 @@ def test_a_loop_with_a_slider_that_cannot_close_is_refused_with_its_residual() -
     with pytest.raises(flexlink.errors.SimulationError,
                        match=r"does not close at t = 0.*closures\[0\] \('pin', residual "):
         flexlink.simulate(scenario_from_dict(d), shapes=False)
-
-
-def test_the_first_order_loops_refuse_a_slider_in_the_chain() -> None:
-    """What builds the first-order loops (a linearised plant, frozen modes) on a scenario the
-    nonlinear model runs: refused, naming the joint."""
-    from flexlink.dynamics.loops import LoopSystem
-    from flexlink.errors import SimulationError
-    from flexlink.simulation.forward import forward_system
-
-    scenario = scenario_from_dict(slider_loop_case())
-    with pytest.raises(SimulationError, match=r"joints\[1\]: .*nonlinear model"):
-        LoopSystem(forward_system(scenario), scenario.closures)

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..channels.catalogue import cart_name, joint_name
+from ..channels.catalogue import cart_name, coordinate_name, joint_name
 from ..channels.first_order import sensor_values, tip_values
 from ..channels.forward import SolvedMotion, elastic_joint_values
 from ..dynamics import forward_kernel
@@ -84,8 +84,9 @@ def loop_plant(scenario: Scenario, t0: float, point: float | Configuration,
                    ).max(initial=0.0) <= 1e-9 * scale
     equilibrium = not moving and bool(still)
     op = _describe(scenario, point, equilibrium)
-    op.update({joint_name(k, "angle"): float(p[0, system.joint_index(k)])
-               for k in range(len(scenario.chain.joints))})
+    joints = scenario.chain.joints
+    op.update({coordinate_name(joints[k], k, "angle"): float(p[0, system.joint_index(k)])
+               for k in range(len(joints))})
     op["dependent_joints"] = " ".join(joint_name(system.free[j] - system.n_base, "angle")
                                       .removesuffix("_angle") for j in loops.dep)
     return _plant(scenario, A, B, C, D, _elastic_names(scenario), rigid, in_names, out_names,
@@ -119,14 +120,17 @@ def loop_states(scenario: Scenario, loops: LoopSystem, times: np.ndarray) -> lis
 
 def _coordinate_name(system: ForwardSystem, i: int) -> str:
     """The channel name of rigid coordinate i: the base's (``base_x``, ``cart_position``
-    …), a joint's angle, an elastic joint's motor angle (after the joints' in p)."""
+    …), a joint's angle (a slider's position), an elastic joint's motor angle (after the
+    joints' in p)."""
     k = i - system.n_base
     N = len(system.chain.links)
     if k < 0:
         base = system.base
         return (cart_name("position") if base.cart is not None
                 else f"base_{base.coordinates[i]}")
-    return joint_name(k, "angle") if k < N else joint_name(system.elastic[k - N], "motor_angle")
+    if k < N:
+        return coordinate_name(system.chain.joints[k], k, "angle")
+    return joint_name(system.elastic[k - N], "motor_angle")
 
 
 def _rigid(system: ForwardSystem, t0: float, ys: np.ndarray, pdd_free: np.ndarray | None = None
@@ -210,12 +214,13 @@ def _readings(scenario: Scenario, loops: LoopSystem, t0: float, ys: np.ndarray,
     out = sensor_values(view, view.frames, Solution(tt, z, zd, zdd, "linearize"),
                         scenario.sensors)
     torque = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd) - joint_forces
-    for k in range(len(scenario.chain.joints)):
+    joints = scenario.chain.joints
+    for k in range(len(joints)):
         if system.joint_index(k) in system.free:
-            out[joint_name(k, "angle")] = p[:, system.joint_index(k)]
-            out[joint_name(k, "rate")] = pd[:, system.joint_index(k)]
+            out[coordinate_name(joints[k], k, "angle")] = p[:, system.joint_index(k)]
+            out[coordinate_name(joints[k], k, "rate")] = pd[:, system.joint_index(k)]
     for k in range(torque.shape[1]):
-        out[joint_name(k, "torque")] = torque[:, k]
+        out[coordinate_name(joints[k], k, "torque")] = torque[:, k]
     out.update(elastic_joint_values(system, p, pd))
     out.update(closure_values(scenario, loops, lam))
     return {**out, **tip_values(view, view.frames, z)}

@@ -36,7 +36,8 @@ class FrozenModes:
 
     frequency_hz, damping_ratio: (n_points, n_modes); shapes: (n_points, n_modes, n_links,
     POINTS) deflections, largest |w| = 1; x: (n_links, POINTS) m from each joint; links: names.
-    ``configurations``: the joint angles (deg) at each point, (n_points, n_joints)."""
+    ``configurations``: the joint angles (deg) at each point, (n_points, n_joints); a
+    slider's: its constant link angle."""
 
     coordinate: str
     values: np.ndarray
@@ -192,19 +193,22 @@ def _shape(plant: LinearPlant, vector: np.ndarray, links: Sequence[Any],
 
 
 def _angles_deg(scenario: Scenario, plant: LinearPlant) -> np.ndarray:
-    """The joint angles (deg) the plant is about, from its operating point description."""
+    """The joint angles (deg) the plant is about, from its operating point description; a
+    slider's is its constant angle γ (`PrismaticJoint.link_angle`: its travel is no angle)."""
     op = plant.operating_point
     n = len(scenario.chain.joints)
     if "time_s" not in op:
         return np.array([op[f"joint{k + 1}_deg"] for k in range(n)])
     point = parse_at(scenario, float(op["time_s"]))
     assert not isinstance(point, Configuration)
-    from ..model import is_driven
+    from ..model import PrismaticJoint, is_driven
 
     out = np.zeros(n)
     for k, joint in enumerate(scenario.chain.joints):
         name = f"joint{k + 1}_angle"
-        if name in op:
+        if isinstance(joint, PrismaticJoint):
+            out[k] = math.degrees(joint.link_angle)
+        elif name in op:
             out[k] = math.degrees(op[name])
         elif not is_driven(joint):
             out[k] = math.degrees(float(np.ravel(joint.evaluate(np.array([point]))[0])[0]))

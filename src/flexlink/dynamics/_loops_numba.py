@@ -5,7 +5,9 @@ projection of a state onto them, and the forward rates with the constraint force
 `dynamics/loops.py`.
 
 Positions. Frame k (link k's joint) turns by θ_k = θ_parent + Φ'_parent(L) q_parent + β_k and
-sits at the parent's deformed tip; a point at x on link k is
+sits at the parent's deformed tip (L: the section x_a of a slider's line; a slider's frame
+sits on its block at the travel s along the line, turned by the constant γ from the
+section: `slide`); a point at x on link k is
 
     r = o_k + A(θ_k) [x − ½ q_kᵀ F_k(x) q_k, Φ_k(x) q_k],   F_k(x) = ∫₀ˣ Φ_k'ᵀ Φ_k' ds
 
@@ -170,7 +172,9 @@ def frames(f, w):
             j = k - 1
             point(f, j, f.length[j], f.tip_value[j], f.fore_tip[j], w, w.r, w.rd, w.g, w.Jr)
             o, nj = f.offset[j], f.n_modes[j]
-            th, om = w.th[j] + w.q[nb + k], w.om[j] + w.v[nb + k]
+            th, om = w.th[j], w.om[j]
+            if not f.slide[k]:  # a slider's coordinate is its travel (`slide`)
+                th, om = th + w.q[nb + k], om + w.v[nb + k]
             for i in range(w.Jth.shape[1]):
                 w.Jth[k, i] = w.Jth[j, i]
             for i in range(nj):
@@ -182,7 +186,36 @@ def frames(f, w):
                 w.o[k, a], w.od[k, a], w.og[k, a] = w.r[a], w.rd[a], w.g[a]
                 for i in range(w.Jr.shape[1]):
                     w.Jo[k, a, i] = w.Jr[a, i]
+            if f.slide[k]:
+                slide(f, w, k, nb + k, th, om)
+                continue
         w.Jth[k, nb + k] += 1.0
+
+
+@njit(inline="always")
+def slide(f, w, k, i, th, om):
+    """Frame k on a slider's block: the line through the section (w.o[k] as `frames`
+    left it) turns with it (angle th, rate om; Jacobian w.Jth[k], without q[i]), and the block
+    sits at s = q[i] along e = A(th) u: o += s e, ȯ += ṡ e + s om S e, γ += 2 ṡ om S e −
+    s om² e, the Jacobian gains e on the travel and s S e times the line's angle row; link k
+    turns by the constant slide_angle from the line's section."""
+    c, sn = np.cos(th), np.sin(th)
+    ex = c * f.slide_axis[k, 0] - sn * f.slide_axis[k, 1]
+    ey = sn * f.slide_axis[k, 0] + c * f.slide_axis[k, 1]
+    s, sd = w.q[i], w.v[i]
+    w.o[k, 0] += s * ex
+    w.o[k, 1] += s * ey
+    w.od[k, 0] += sd * ex - s * om * ey
+    w.od[k, 1] += sd * ey + s * om * ex
+    w.og[k, 0] += -2.0 * sd * om * ey - s * om * om * ex
+    w.og[k, 1] += 2.0 * sd * om * ex - s * om * om * ey
+    for col in range(w.Jth.shape[1]):
+        w.Jo[k, 0, col] -= s * ey * w.Jth[k, col]
+        w.Jo[k, 1, col] += s * ex * w.Jth[k, col]
+    w.Jo[k, 0, i] += ex
+    w.Jo[k, 1, i] += ey
+    w.th[k] = th + f.slide_angle[k]
+    w.om[k] = om
 
 
 @njit(cache=True)

@@ -24,7 +24,8 @@ from ._forward_numba import CART, FREE, PINNED, frames
 def momentum(d, w_, p, pd, x, xd, pj, out):
     """out[:] = [L_x, L_y (N·s), H about the origin (N·m·s), first moment S_x, S_y (kg·m)] of
     base and links at rigid state p, ṗ (n_rigid,) and x = [0; z], ẋ = [0; ż] (n_x,), global
-    axes, to first order in z (dynamics.forward.momentum; S = ∫r dm, so L = dS/dt)."""
+    axes, to first order in z (dynamics.forward.momentum; S = ∫r dm, so L = dS/dt). A link
+    hangs on its parent's section at d.length (x_a), a slider's block at s along its line."""
     frames(d, p, pd, pj.zero_rigid, w_.theta, w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td, w_.Tdd)
     theta, omega, T, Td = w_.theta, w_.omega, w_.T, w_.Td
     origin, vel = pj.origin, pj.velocity
@@ -62,6 +63,12 @@ def momentum(d, w_, p, pd, x, xd, pj, out):
             cj, sj = np.cos(theta[j]), np.sin(theta[j])
             ox, oy = origin[j, 0] + L * cj, origin[j, 1] + L * sj
             vx, vy = vel[j, 0] - L * omega[j] * sj, vel[j, 1] + L * omega[j] * cj
+            if d.slide[k]:  # the block at s along its line u (frame j axes)
+                s, sd = p[nb + k], pd[nb + k]
+                gx = cj * d.slide_axis[k, 0] - sj * d.slide_axis[k, 1]
+                gy = sj * d.slide_axis[k, 0] + cj * d.slide_axis[k, 1]
+                ox, oy = ox + s * gx, oy + s * gy
+                vx, vy = vx + sd * gx - s * omega[j] * gy, vy + sd * gy + s * omega[j] * gx
         origin[k, 0], origin[k, 1] = ox, oy
         vel[k, 0], vel[k, 1] = vx, vy
         nk, o = d.n_modes[k], d.offset[k]

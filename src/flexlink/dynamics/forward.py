@@ -568,10 +568,13 @@ def momentum(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, z: np.ndarray
         if system.attach[k] is not None:
             c = fr.origin[:, k] - base_pos
             velocity[:, k] = base_vel + w_b[:, None] * (c @ TURN.T)
-        else:
-            e = rotation(fr.theta[:, k - 1])
-            velocity[:, k] = (velocity[:, k - 1]
-                              + system.modal[k - 1].length * fr.omega[:, k - 1, None] * e[:, :, 1])
+        else:  # the parent's section at hang.x, and a slider's block along its line
+            e, w_j = rotation(fr.theta[:, k - 1]), fr.omega[:, k - 1, None]
+            velocity[:, k] = velocity[:, k - 1] + system.hang[k - 1].x * w_j * e[:, :, 1]
+            if k in system.slides:
+                i, u = system.joint_index(k), np.array(system.chain.joints[k].direction)
+                velocity[:, k] += np.einsum("tij,tj->ti", e, pd[:, i, None] * u
+                                            + w_j * p[:, i, None] * (TURN @ u))
         Th, Th_d, _ = system.xi_maps(fr, k)
         xi = np.einsum("tai,ti->ta", Th, x)
         xi_d = np.einsum("tai,ti->ta", Th, xd) + np.einsum("tai,ti->ta", Th_d, x)

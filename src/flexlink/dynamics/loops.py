@@ -20,7 +20,6 @@ from ..errors import SimulationError
 from ..model import Closure
 from .forward import ForwardSystem
 from .forward_kernel import ForwardData, inputs, pack
-from .prismatic import sliders
 
 LoopData = namedtuple("LoopData", [
     "fwd", "kind", "link", "x", "phi", "fore", "to_link", "x_to", "phi_to", "fore_to",
@@ -53,16 +52,10 @@ class LoopSystem:
     def __init__(self, system: ForwardSystem, closures: Sequence[Closure],
                  start: bool = True) -> None:
         """``start``: choose the dependent joints and close the loops at t = 0 here (False:
-        the caller does, `y0` None; the nonlinear model with a slider in the chain, whose
-        travel this model's closure kinematics leave out)."""
+        the caller does, `y0` None: the nonlinear model with a slider in the chain, which
+        closes its loops on its own kinematics)."""
         self.system = system
         self.closures = tuple(closures)
-        slides = sliders(system.chain.joints)
-        if start and slides and self.closures:
-            raise SimulationError(
-                f"joints[{slides[0]}]: a slider inside a chain with closed loops ([[closures]]) "
-                "runs on the nonlinear model's forward path only; the first-order loops (and "
-                "their linearised plants and frozen modes) leave its travel out")
         rows = np.cumsum([0] + [c.equations for c in self.closures])
         self.n_c = int(rows[-1])
         if len(system.free) < self.n_c:

@@ -29,15 +29,6 @@ def check_slider(scenario: Any, k: int) -> None:
     if joint.at is not None and joint.at > length:
         raise ValueError(f"{where}.line_at: {joint.at:g} m is beyond the parent link's length "
                          f"{length:g} m; give a point in [0, {length:g}] m")
-    if (scenario.base is not None and scenario.base.kind != "fixed"
-            and scenario.settings.model != "nonlinear"):
-        raise ValueError(f"{where}: a slider inside a chain on a moving base (base.type = "
-                         f"{scenario.base.kind!r}) runs on the nonlinear model only; set "
-                         "simulation.model = \"nonlinear\" or use a fixed base")
-    if scenario.closures and scenario.settings.model != "nonlinear":
-        raise ValueError(f"{where}: a slider inside a chain with closed loops ([[closures]]) "
-                         "runs on the nonlinear model only; set simulation.model = "
-                         "\"nonlinear\"")
     try:
         guide(joint).check_travel(scenario.settings.t_end)
     except ValueError as exc:

@@ -60,14 +60,6 @@ def check_sliders(joint_tables: list[tuple[str, Any]], base: Mapping[str, Any] |
                 and at > length):
             p.add(f"{path}.line_at: {at:g} m is beyond the parent link's length {length:g} m "
                   f"(links[{k - 1}].length); give a point in [0, {length:g}] m")
-        if (base is not None and base.get("type") not in (None, "fixed")
-                and simulation.get("model") != "nonlinear"):
-            p.add(f"{path}: a slider inside a chain on a moving base (base.type = "
-                  f"{base.get('type')!r}) runs on the nonlinear model only; set "
-                  "simulation.model = \"nonlinear\" or use a fixed base")
-        if closures and simulation.get("model") != "nonlinear":
-            p.add(f"{path}: a slider inside a chain with [[closures]] runs on the nonlinear "
-                  "model only; set simulation.model = \"nonlinear\"")
 
 
 __all__ = ["check_sliders", "read_prismatic"]
