@@ -11,10 +11,11 @@ run relative to the loop's size.
 
     python benchmarks/loops_vs_fe.py [--repeat 3]
     python benchmarks/loops_vs_fe.py --before /path/to/old/src   # an old tree's rows too
+    python benchmarks/loops_vs_fe.py --cases four-bar            # one case
 
 ``--before`` is the ``src`` folder of another checkout (e.g. ``git archive <commit> src |
-tar -x -C /tmp/old``): its rows (each model's default) run in a child process that imports
-flexlink from there, this tree's in another, between the same Exudyn runs.
+tar -x -C /tmp/old``): its rows (each model's default) run in a spawned process that
+imports flexlink from there, this tree's in another, before the same Exudyn runs.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import argparse
 import copy
 import math
+import multiprocessing
 import os
 import platform
 import statistics
@@ -112,7 +114,9 @@ def _runs(case: str, labels: tuple[str, ...], repeat: int) -> dict[str, tuple]:
 
 
 def _child(src: str, *args: Any) -> Any:
-    with ProcessPoolExecutor(1, initializer=_use, initargs=(src,)) as pool:
+    # spawned, not forked: a fork would inherit the flexlink this process has imported
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_use, initargs=(src,)) as pool:
         return pool.submit(_runs, *args).result()
 
 
@@ -152,10 +156,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--before", help="src folder of the tree to compare with")
+    parser.add_argument("--cases", nargs="+", choices=tuple(CASES), default=tuple(CASES))
     args = parser.parse_args()
     print(f"# {platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, "
           f"numpy {np.__version__}, load average {os.getloadavg()[0]:.1f}")
-    for case in CASES:
+    for case in args.cases:
         runs = {}
         if args.before:
             before = _child(args.before, case, BEFORE_ROWS, args.repeat)
