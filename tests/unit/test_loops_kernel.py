@@ -235,3 +235,29 @@ def test_constrained_accelerations_on_a_moving_base_satisfy_the_numpy_equations(
     assert np.abs(residual[rows]).max() < 1e-9 * np.abs(f).max()
     q_dd = np.concatenate([pdd[0], zdd])
     assert np.abs(work.G @ q_dd + work.gam).max() < 1e-9 * np.abs(work.gam).max()
+
+
+def test_the_outputs_pass_returns_the_rates_of_its_projected_states() -> None:
+    """closed_states projects each state and takes its rates from the same constrained
+    solve: equal to the bit to `rates` of the state, which projects it again."""
+    from flexlink.dynamics._loops_numba import rates
+    from flexlink.dynamics.loops import closed_states
+
+    loops = _four_bar(True)
+    states = np.array([_state(loops, seed)[0] for seed in (7, 8, 9)])
+    nu = len(loops.system.free)
+    states[:, loops.dep] += 1e-3  # off the loop: the pass must close them
+    states[:, nu + loops.dep] += 0.1
+    t = np.array([0.1, 0.2, 0.3])
+    u = inputs(loops.system, t)
+    closed, dy, lam, _, residual = closed_states(loops, t, states, u)
+    assert np.all(residual <= loops.data.tol)
+    assert np.abs(closed[:, loops.dep] - states[:, loops.dep]).min() > 1e-6
+    work = loops.workspace(states.shape[1])
+    for i in range(t.size):
+        expected = np.empty(states.shape[1])
+        rates(loops.data, work, u[i], states[i], expected)
+        assert np.array_equal(dy[i], expected)
+        assert solve_constrained(loops.data, work, u[i], states[i])
+        assert np.array_equal(work.yp, closed[i])
+        assert np.array_equal(work.rhs[nu + loops.system.n:], lam[i])

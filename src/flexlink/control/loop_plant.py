@@ -191,7 +191,7 @@ def _readings(scenario: Scenario, loops: LoopSystem, t0: float, ys: np.ndarray,
               us: np.ndarray) -> dict[str, np.ndarray]:
     """Channel values (by name) of the states ys (m, ·) under the input rows us, each
     projected onto the loops as a run's outputs are (simulation/loops.py)."""
-    from ..dynamics._loops_numba import closed_states, rates
+    from ..dynamics._loops_numba import closed_states
     from ..simulation.loops import closure_values
 
     system = loops.system
@@ -202,10 +202,8 @@ def _readings(scenario: Scenario, loops: LoopSystem, t0: float, ys: np.ndarray,
     joint_forces = np.empty((m, len(system.chain.links)))
     residual = np.empty(m)
     work = loops.workspace(states.shape[1])
-    closed_states(loops.data, work, us, states, lam, joint_forces, residual)
     dy = np.empty_like(states)
-    for i in range(m):
-        rates(loops.data, work, us[i], states[i], dy[i])
+    closed_states(loops.data, work, us, states, dy, lam, joint_forces, residual)
     p, pd, pdd = _rigid(system, t0, states, dy[:, nu:2 * nu])
     z, zd = states[:, 2 * nu:2 * nu + n], states[:, 2 * nu + n:2 * nu + 2 * n]
     zdd = dy[:, 2 * nu + n:2 * nu + 2 * n]

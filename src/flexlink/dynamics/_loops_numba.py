@@ -30,6 +30,11 @@ Coordinate partitioning keeps Φ = 0 to round-off: `project` solves the dependen
 coordinates (`LoopData.dep`) and their rates from the others by Newton's method at every
 evaluation, so the state the rates see is always closed and the integrated copies of the
 dependent coordinates are overwritten after the run.
+
+The kernels allocate nothing and are compiled with ``_nrt=False``, as the forward model's
+(`_forward_numba`'s docstring): with numba's runtime every call of `frames`, `point` or
+`constraints` increfs and decrefs each array of the ForwardData and workspace records it is
+handed, which cost several times their arithmetic.
 """
 
 from __future__ import annotations
@@ -65,7 +70,7 @@ def workspace(d, n_servos: int, n_state: int) -> LoopWork:
                     e((nc, nc)), e(nc), e(n_state), e((m + nc, m + nc)), e(m + nc))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def point(f, k, s, phi, fore, w, r, rd, g, Jr):
     """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x) of the point
     at s (m) on link k whose mode values there are phi, from the frames in w (`frames`).
@@ -148,7 +153,7 @@ def base_point(f, w, px, py, r, rd, g, Jr):
         Jr[1, att] = ax
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def frames(f, w):
     """Every frame's angle, rate, Jacobian of the angle, origin, its velocity, γ and
     Jacobian from q = w.q, q̇ = w.v (a branch starts at its point of the base, which moves
@@ -218,7 +223,7 @@ def slide(f, w, k, i, th, om):
     w.om[k] = om
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def constraints(d, w):
     """Φ (w.Phi), G = ∂Φ/∂q (w.G) and γ (w.gam) at q = w.q, q̇ = w.v."""
     f = d.fwd
@@ -256,7 +261,7 @@ def constraints(d, w):
                 w.G[row, att] += -ny_ * dx + nx_ * dy
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def load_state(d, w, u, y):
     """w.q, w.v from the input row u (prescribed joints) and the state y (free, elastic)."""
     f = d.fwd
@@ -276,7 +281,7 @@ def load_state(d, w, u, y):
         w.q[nr + i], w.v[nr + i] = y[2 * nu + i], y[2 * nu + n + i]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def project(d, w, u, y):
     """Overwrite the dependent coordinates of y (`LoopData.dep`, indices into the free ones)
     and their rates with those that close the loops, Newton's method from y's values; True
@@ -364,7 +369,7 @@ def solve_constrained(d, w, u, y):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rates(d, w, u, y, dy):
     """dy/dt of y = [p_free, ṗ_free, z, ż, servo integrals] on the closed loops (the
     dependent coordinates' entries of y are not read: see `project`)."""
@@ -374,11 +379,12 @@ def rates(d, w, u, y, dy):
     state_rates(d.fwd, w.fw, w.yp, w.rhs, dy)
 
 
-@njit(cache=True)
-def closed_states(d, w, u, states, lam, joint_forces, residual):
-    """After a run: each state (nt, ·) projected onto the loops in place, the multipliers
-    λ (nt, n_c), the constraint forces' torques on the joints' rows (G^T λ, nt × N) and the
-    largest |Φ| of the projected state (nt,; NaN where it does not close)."""
+@njit(cache=True, _nrt=False)
+def closed_states(d, w, u, states, dy, lam, joint_forces, residual):
+    """After a run: each state (nt, ·) projected onto the loops in place, its rates dy
+    (nt, ·; `rates` of the projected state, from the same solve), the multipliers λ (nt, n_c),
+    the constraint forces' torques on the joints' rows (G^T λ, nt × N) and the largest |Φ|
+    of the projected state (nt,; NaN where it does not close)."""
     f = d.fwd
     N = f.length.shape[0]
     nu = f.free.shape[0]
@@ -388,6 +394,7 @@ def closed_states(d, w, u, states, lam, joint_forces, residual):
         ok = solve_constrained(d, w, u[t], states[t])
         for i in range(states.shape[1]):
             states[t, i] = w.yp[i]
+        state_rates(f, w.fw, w.yp, w.rhs, dy[t])
         big = 0.0
         for c in range(nc):
             lam[t, c] = w.rhs[m + c]

@@ -9,8 +9,8 @@ import numpy as np
 
 from ..channels.catalogue import closure_name
 from ..dynamics import forward_kernel
-from ..dynamics.forward import ForwardSystem, momentum
-from ..dynamics.forward_outputs import ForwardOutputs
+from ..dynamics.forward import ForwardSystem
+from ..dynamics.forward_outputs import ForwardOutputs, forward_outputs
 from ..dynamics.loops import LoopSystem
 from ..model import Scenario
 from ..solvers import Solution
@@ -61,18 +61,26 @@ def closure_metadata(loops: LoopSystem, residual: np.ndarray) -> dict:
 
 def closed_loop_outputs(system: ForwardSystem, solution: Solution, joint_forces: np.ndarray
                         ) -> ForwardOutputs:
-    """The forward outputs of a closed-loop run at its solved states: the frames at the
-    solved rigid motion and each joint's motor torque, its joint row of M ẍ + C ẋ + K x − f
-    at the solved accelerations less the constraint forces' torque ``joint_forces`` (nt, N)
-    on it. The tree's compiled outputs pass cannot serve: its rates leave the closures'
-    forces out. A moving base's momentum is the kinematics' (`dynamics.forward.momentum`):
-    the constraint forces do not enter it."""
+    """The forward outputs of a closed-loop run at its solved states, from the tree's
+    compiled outputs pass (`dynamics.forward_outputs`) at the solved accelerations (the
+    tree's rates leave the closures' forces out, so they are given, not solved for): the
+    frames at the solved rigid motion, the momentum of a moving base (the kinematics': the
+    constraint forces do not enter it) and each joint's motor torque. With a prescribed
+    joint the pass returns every joint's row of M ẍ + C ẋ + K x − f at the solved
+    accelerations, less the constraint forces' torque ``joint_forces`` (nt, N) on it here;
+    otherwise every joint row was solved for and the pass returns its applied torque, which
+    that difference equals."""
+    from ..dynamics._forward_numba import PRESCRIBED, workspace
+
     nu = len(system.free)
     t = solution.t
-    p, pd, pdd = system.rigid_state(t, solution.q[:, :nu], solution.q_dot[:, :nu],
-                                    solution.q_ddot[:, :nu])
-    z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
-    torques = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd) - joint_forces
-    rates = np.hstack([solution.q_dot[:, :nu], solution.q_ddot[:, :nu], zd, zdd])
-    momenta = None if system.base.kind == "fixed" else momentum(system, p, pd, z, zd)
-    return ForwardOutputs(rates, system.frames(p, pd, pdd), torques, momenta)
+    data = forward_kernel.pack(system)
+    states = np.hstack([solution.q[:, :nu], solution.q_dot[:, :nu], solution.q[:, nu:],
+                        solution.q_dot[:, nu:], solution.extra])
+    outputs = forward_outputs(system, data, workspace(data, len(system.servos)),
+                              forward_kernel.inputs(system, t), states,
+                              accelerations=solution.q_ddot)
+    torques = outputs.torques
+    if np.any(data.joint_kind[:len(system.chain.links)] == PRESCRIBED):
+        torques -= joint_forces
+    return outputs

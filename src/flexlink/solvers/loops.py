@@ -72,15 +72,11 @@ def loop_run(loops: LoopSystem, t_out: np.ndarray, states: np.ndarray, stats: di
     nu, n = len(system.free), system.n
     if u is None:
         u = inputs(system, t_out)
-    closed, lam, joint, residual = closed_states(loops, t_out, states, u)
+    closed, rates, lam, joint, residual = closed_states(loops, t_out, states, u)
     if not np.all(np.isfinite(residual)):
         at = float(t_out[np.argmax(~np.isfinite(residual))])
         raise SimulationError(f"the closed loops could not be closed at t = {at:.6g} s: "
                               "the mechanism reached a singular configuration")
-    from ._radau_numba import rates_at
-
-    rates = np.empty_like(closed)
-    rates_at(loops.data, loops.workspace(closed.shape[1]), u, closed, rates)
     p, pd = closed[:, :nu], closed[:, nu:2 * nu]
     z, zd = closed[:, 2 * nu:2 * nu + n], closed[:, 2 * nu + n:2 * nu + 2 * n]
     solution = Solution(t_out, np.hstack([p, z]), np.hstack([pd, zd]),
