@@ -58,6 +58,7 @@ class Objective:
         self.metric = metric
         built = self.file.build()
         self._targets = [f.target for f in prepare_fields(self.file, built, self.fields)]
+        _check_channels(built, metric)
         self.x0 = np.array([float(t.value) for t in self._targets])
         self._last: tuple[np.ndarray, float, np.ndarray] | None = None
         self.runs = 0
@@ -80,9 +81,10 @@ class Objective:
 
     def __call__(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """(f(x), ∇f(x)): the metric and its derivative in each field, in field order. The
-        gradient comes from one reverse pass of the run's steps when the metric's channels
-        are sensors on the modes, else from the fields' tangents (simulation/adjoint.py);
-        ``method`` says which the last call took."""
+        gradient comes from one reverse pass of the run's steps (the prescribed path's
+        Lawson steps, the forward path's Radau IIA steps) when the metric's channels are
+        sensors on the modes, else from the fields' tangents (simulation/adjoint.py,
+        simulation/forward_adjoint.py); ``method`` says which the last call took."""
         from .adjoint import adjoint_run, objective_gradient
         from .sensitivities import sensitivity_run
 
@@ -97,6 +99,19 @@ class Objective:
         gradient, self.method = objective_gradient(settled, prepared, results.time, slopes)
         self._last = (x, float(value), gradient)
         return float(value), gradient.copy()
+
+
+def _check_channels(scenario: Scenario, metric: Metric) -> None:
+    """SensitivityError before anything runs if the metric names (``channel`` or
+    ``channels``) a channel that runs of ``scenario`` do not produce."""
+    from ..channels.catalogue import catalogue
+
+    named = getattr(metric, "channels", None) or [getattr(metric, "channel", None)]
+    names = [c.name for c in catalogue(scenario)]
+    for name in named:
+        if isinstance(name, str) and name not in names:
+            raise SensitivityError(f"the metric's channel {name!r} is not a channel of this "
+                                   f"run; channels: {', '.join(names)}")
 
 
 def warm_up(scenario: Scenario, fields: Sequence[str], channel: str) -> None:
