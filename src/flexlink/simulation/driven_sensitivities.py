@@ -50,10 +50,41 @@ class _Model:
     loops: Any = None  # closed loops: their `dynamics.loops.LoopSystem`
 
 
+def _equal(a: Any, b: Any) -> bool:
+    """a == b for scenario parts, False where a comparison is ambiguous (arrays inside)."""
+    try:
+        return bool(a == b)
+    except ValueError:
+        return False
+
+
+def _moved_model(scenario: Scenario, nominal: _Model, t: np.ndarray, nodes: np.ndarray,
+                 dependent: np.ndarray | None) -> _Model:
+    """The model of a moved ``scenario`` (`_model`): the nominal one with the moved
+    scenario where only what the equations do not read moved (a sensor), the nominal input
+    table where the inputs did not move (drives, base loads, actuators, controllers)."""
+    from dataclasses import replace
+
+    other = nominal.scenario
+    base, own = other.base, scenario.base
+    inputs_same = (_equal(scenario.chain.joints, other.chain.joints)
+                   and _equal(scenario.actuators, other.actuators)
+                   and _equal(scenario.controllers, other.controllers)
+                   and _equal(scenario.settings, other.settings)
+                   and _equal(None if own is None else (own.kind, own.loads, own.cart),
+                              None if base is None else (base.kind, base.loads, base.cart)))
+    if inputs_same and _equal(scenario.chain, other.chain) and _equal(own, base) \
+            and _equal(scenario.closures, other.closures):
+        return replace(nominal, scenario=scenario)
+    return _model(scenario, t, nodes, dependent,
+                  nominal.table if inputs_same and nominal.loops is None else None)
+
+
 def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
-           dependent: np.ndarray | None = None) -> _Model:
+           dependent: np.ndarray | None = None, table: tuple | None = None) -> _Model:
     """The model of ``scenario``; ValueError if its input segments differ from ``nodes`` or
-    its closures' dependent joints from ``dependent`` (those of the nominal model)."""
+    its closures' dependent joints from ``dependent`` (those of the nominal model);
+    ``table``: its input table where known to be another model's (the same inputs)."""
     from ..dynamics._forward_numba import workspace
     from ..dynamics.forward_kernel import breakpoints, inputs, pack
     from ..dynamics.momentum_projection import projection, start_values
@@ -86,13 +117,15 @@ def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
         from ..solvers.gauss_sampled import sample_grid
 
         samples = SimpleNamespace(grid=sample_grid(scenario.controllers, float(t[-1])))
-    own = segment_nodes(t, breakpoints(system), samples)
-    if nodes is not None and not (own.shape == nodes.shape and np.all(own == nodes)):
-        raise ValueError("moves a time where an input jumps")
+    if table is None:
+        own = segment_nodes(t, breakpoints(system), samples)
+        if nodes is not None and not (own.shape == nodes.shape and np.all(own == nodes)):
+            raise ValueError("moves a time where an input jumps")
     if loops is not None and dependent is not None and not np.array_equal(loops.dep,
                                                                             dependent):
         raise ValueError("changes which joints the closures make dependent")
-    table = tabulate(lambda times: inputs(system, times), own)
+    if table is None:
+        table = tabulate(lambda times: inputs(system, times), own)
     return _Model(scenario, system, data, work, known, y0, table,
                   integrals(table) if known.active.size else None, loops)
 
@@ -258,7 +291,7 @@ def forward_settled(scenario: Scenario, fields: list, t: np.ndarray, on_progress
     moved: list[list[_Model]] = []
     for f in fields:
         try:
-            moved.append([nominal if j == 0 else _model(sc, t, nodes, dependent)
+            moved.append([nominal if j == 0 else _moved_model(sc, nominal, t, nodes, dependent)
                           for j, sc in zip(f.offsets, f.scenarios, strict=True)])
         except ValueError as error:
             raise Refused(f"sensitivities: {f.target.text} {error}; the computed "
