@@ -189,3 +189,21 @@ def test_a_metric_over_a_channel_the_run_does_not_produce_is_refused_naming_it()
     scenario = _scenario("hub_beam")
     with pytest.raises(SensitivityError, match="'tip_strain'.*root_strain"):
         flexlink.Objective(scenario, ["links[0].EI"], flexlink.MeanSquare("tip_strain"))
+
+
+def test_sampled_controllers_take_the_tangents() -> None:
+    """PPF on the hub–beam, sampled: the held voltages' derivative is not in the reverse
+    pass, so the objective's gradient comes from the fields' tangents, equal to theirs."""
+    from .test_forward_sensitivities import PPF
+
+    scenario = scenario_file(scenario_from_dict(tomllib.loads(PPF))).build(
+        {("simulation", "t_end"): 0.3})
+    fields = ["controllers[0].gain", "links[0].EI"]
+    metric = flexlink.MeanSquare("root_strain", after=0.1)
+    objective = flexlink.Objective(scenario, fields, metric)
+    _, gradient = objective(objective.x0)
+    assert objective.method == "tangents"
+    results = flexlink.simulate(scenario, shapes=False, sensitivities=fields)
+    _, slopes = metric(results)
+    tangents = slopes["root_strain"] @ results.sensitivities.sel(channel="root_strain").values
+    assert np.allclose(gradient, tangents, rtol=1e-12, atol=0)
