@@ -185,10 +185,19 @@ def test_an_accelerometer_metric_takes_the_tangents() -> None:
     assert np.allclose(gradient, tangents, rtol=1e-12, atol=0)
 
 
-def test_a_metric_over_a_channel_the_run_does_not_produce_is_refused_naming_it() -> None:
+def test_a_metric_over_a_channel_the_run_does_not_produce_is_refused_naming_it(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Refused before the run: the run is never started."""
+    from flexlink.simulation import sensitivities
+
     scenario = _scenario("hub_beam")
+    objective = flexlink.Objective(scenario, ["links[0].EI"], flexlink.MeanSquare("tip_strain"))
+
+    def no_run(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the run started")
+    monkeypatch.setattr(sensitivities, "sensitivity_run", no_run)
     with pytest.raises(SensitivityError, match="'tip_strain'.*root_strain"):
-        flexlink.Objective(scenario, ["links[0].EI"], flexlink.MeanSquare("tip_strain"))
+        objective(objective.x0)
 
 
 def test_sampled_controllers_take_the_tangents() -> None:

@@ -30,6 +30,8 @@ from .driven_sensitivities import (
     _states,
 )
 
+CHUNK = 512  # steps whose stage Jacobians are held at once (memory)
+
 
 def sensor_rows(model: _Model, names: Sequence[str]) -> dict[str, np.ndarray] | None:
     """Per channel of ``names``, the row r (m,) with channel(t) = r · y(t) over the forward
@@ -93,37 +95,46 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
         g = np.zeros_like(g)
         g[kept] = np.einsum("nij,ni->nj", out_J, seeds[1:][kept])
         gradient += np.einsum("ni,nik->k", seeds[1:][kept], out_c)
-        step_J, step_c = _projection_tangent(nominal, moved, fields, steps.segment,
-                                             steps.t + steps.h, steps.y0 + steps.z[:, 2])
-    # the stage Jacobians, equations' matrices and accelerations (the tangents' own)
-    times = (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
-    Y = np.ascontiguousarray((steps.y0[:, None, :] + steps.z).reshape(-1, m))
-    bases = _Bases(np.repeat(steps.segment, 3), times)
-    J, A, acc = np.empty((3 * S, m, m)), np.empty((3 * S, q, q)), np.empty((3 * S, q))
-    forward_jacobians(d, nominal.work, np.ascontiguousarray(bases.rows(nominal.table)), Y,
-                      JACOBIAN_STEP, J, A, acc, jacobian_scratch(d, nominal.work, m))
-    W, lam_end, lam = radau_adjoint(steps, J.reshape(S, 3, m, m),
-                                    step_J if projected else None, *output_seeds(steps, t, g))
-    gradient += lam @ settled.dy0
-    if projected:
-        gradient += np.einsum("si,sik->k", lam_end, step_c)
-    # ∂f/∂p at every stage, contracted with the stage weights: f's accelerations are
-    # −A⁻¹ ∂E/∂p, its servo integrals' rates ∂S/∂p
-    W = W.reshape(-1, m)
-    wa = np.concatenate([W[:, nu:2 * nu], W[:, 2 * nu + n:2 * nu + 2 * n]], axis=1)
-    mu = np.linalg.solve(np.swapaxes(A, 1, 2), wa[:, :, None])[:, :, 0]
-    ws = W[:, 2 * q:]
-    E, Sr = np.empty((3 * S, q)), np.empty((3 * S, m - 2 * q))
-    for k, f in enumerate(fields):
-        if not settled.reads[k]:
-            continue
-        for wt, md in zip(f.weights, moved[k], strict=True):
-            if wt == 0.0:
+    gy0, gz, gy1 = output_seeds(steps, t, g)
+    lam = np.zeros(m)
+    scratch = jacobian_scratch(d, nominal.work, m)
+    # backwards in pieces of CHUNK steps (the stage Jacobians take 3 m² numbers a step)
+    for b in range(S, 0, -CHUNK):
+        a = max(0, b - CHUNK)
+        rows = 3 * (b - a)
+        # the stage Jacobians, equations' matrices and accelerations (the tangents' own)
+        times = (steps.t[a:b, None] + steps.h[a:b, None] * NODES).ravel()
+        Y = np.ascontiguousarray((steps.y0[a:b, None, :] + steps.z[a:b]).reshape(-1, m))
+        bases = _Bases(np.repeat(steps.segment[a:b], 3), times)
+        J, A, acc = np.empty((rows, m, m)), np.empty((rows, q, q)), np.empty((rows, q))
+        forward_jacobians(d, nominal.work, np.ascontiguousarray(bases.rows(nominal.table)),
+                          Y, JACOBIAN_STEP, J, A, acc, scratch)
+        step_J = None
+        if projected:
+            step_J, step_c = _projection_tangent(nominal, moved, fields, steps.segment[a:b],
+                                                 steps.t[a:b] + steps.h[a:b],
+                                                 steps.y0[a:b] + steps.z[a:b, 2])
+        W, lam_end = radau_adjoint(steps.h[a:b], J.reshape(b - a, 3, m, m), step_J,
+                                   gy0[a:b], gz[a:b], gy1[a:b], lam)
+        if projected:
+            gradient += np.einsum("si,sik->k", lam_end, step_c)
+        # ∂f/∂p at every stage, contracted with the stage weights: f's accelerations are
+        # −A⁻¹ ∂E/∂p, its servo integrals' rates ∂S/∂p
+        W = W.reshape(-1, m)
+        wa = np.concatenate([W[:, nu:2 * nu], W[:, 2 * nu + n:2 * nu + 2 * n]], axis=1)
+        mu = np.linalg.solve(np.swapaxes(A, 1, 2), wa[:, :, None])[:, :, 0]
+        ws = W[:, 2 * q:]
+        E, Sr = np.empty((rows, q)), np.empty((rows, m - 2 * q))
+        for k, f in enumerate(fields):
+            if not settled.reads[k]:
                 continue
-            forward_equations(md.data, md.work, np.ascontiguousarray(bases.rows(md.table)),
-                              Y, acc, E, Sr)
-            gradient[k] += (wt / f.step) * (np.sum(ws * Sr) - np.sum(mu * E))
-    return gradient
+            for wt, md in zip(f.weights, moved[k], strict=True):
+                if wt == 0.0:
+                    continue
+                forward_equations(md.data, md.work,
+                                  np.ascontiguousarray(bases.rows(md.table)), Y, acc, E, Sr)
+                gradient[k] += (wt / f.step) * (np.sum(ws * Sr) - np.sum(mu * E))
+    return gradient + lam @ settled.dy0
 
 
 def forward_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,

@@ -58,7 +58,7 @@ class Objective:
         self.metric = metric
         built = self.file.build()
         self._targets = [f.target for f in prepare_fields(self.file, built, self.fields)]
-        _check_channels(built, metric)
+        self._channels = _channel_names(built)
         self.x0 = np.array([float(t.value) for t in self._targets])
         self._last: tuple[np.ndarray, float, np.ndarray] | None = None
         self.runs = 0
@@ -91,6 +91,7 @@ class Objective:
         x = np.array(x, dtype=float)
         if self._last is not None and np.array_equal(self._last[0], x):
             return self._last[1], self._last[2].copy()
+        _check_channels(self._channels, self.metric)
         file = self._file_at(x)
         self.runs += 1
         results, prepared, settled = sensitivity_run(file, self.fields, False, False,
@@ -101,13 +102,17 @@ class Objective:
         return float(value), gradient.copy()
 
 
-def _check_channels(scenario: Scenario, metric: Metric) -> None:
-    """SensitivityError before anything runs if the metric names (``channel`` or
-    ``channels``) a channel that runs of ``scenario`` do not produce."""
+def _channel_names(scenario: Scenario) -> list[str]:
+    """The channels runs of ``scenario`` produce (`channels.catalogue`)."""
     from ..channels.catalogue import catalogue
 
+    return [c.name for c in catalogue(scenario)]
+
+
+def _check_channels(names: list[str], metric: Metric) -> None:
+    """SensitivityError, before the run, if the metric names (``channel`` or ``channels``)
+    a channel not among ``names``."""
     named = getattr(metric, "channels", None) or [getattr(metric, "channel", None)]
-    names = [c.name for c in catalogue(scenario)]
     for name in named:
         if isinstance(name, str) and name not in names:
             raise SensitivityError(f"the metric's channel {name!r} is not a channel of this "

@@ -54,14 +54,14 @@ def radau_reverse(h, coef, J, P, gy0, gz, gy1, W, lam_end, lam, G, rhs, tmp):
     (3, 3), the stage Jacobians J (S, 3, m, m) and the projection's Jacobians P (S, m, m;
     (0, m, m) if the run does not project). Seeds: ∂J/∂(step start) gy0 (S, m), ∂J/∂(stage
     increments) gz (S, 3, m) and ∂J/∂(step end, projected) gy1 (S, m) from the outputs the
-    steps' dense output gives. Writes the stage weights W (S, 3, m), the adjoint of each
-    step's projected end lam_end (S, m) and that of the initial state lam (m,). Scratch: G
+    steps' dense output gives. lam (m,): on entry the adjoint of the last step's end from
+    the steps after it (zero at a run's end), on exit that of the first step's start (the
+    steps may be a run's in consecutive pieces, last first). Writes the stage weights W
+    (S, 3, m) and the adjoint of each step's projected end lam_end (S, m). Scratch: G
     (3m, 3m), rhs (3m,), tmp (m,)."""
     S = h.size
     m = lam.size
     projected = P.shape[0] > 0
-    for i in range(m):
-        lam[i] = 0.0
     for s in range(S - 1, -1, -1):
         for i in range(m):
             lam[i] += gy1[s, i]

@@ -48,19 +48,21 @@ def output_seeds(steps: StepSequence, t: np.ndarray, seeds: np.ndarray
     return gy0, gz, gy1
 
 
-def radau_adjoint(steps: StepSequence, jacobians: np.ndarray, projection: np.ndarray | None,
-                  gy0: np.ndarray, gz: np.ndarray, gy1: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The stage weights W (S, 3, m), the adjoint of each step's projected end (S, m) and
-    that of the initial state (m,), from the stage Jacobians (S, 3, m, m), the projection's
-    Jacobian after each step (S, m, m) or None, and the seeds of `output_seeds`."""
+def radau_adjoint(h: np.ndarray, jacobians: np.ndarray, projection: np.ndarray | None,
+                  gy0: np.ndarray, gz: np.ndarray, gy1: np.ndarray, lam: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The stage weights W (S, 3, m) and the adjoint of each step's projected end (S, m) of
+    S consecutive steps of sizes h (S,), from their stage Jacobians (S, 3, m, m), the
+    projection's Jacobian after each (S, m, m) or None, and their seeds (`output_seeds`);
+    ``lam`` (m,): the adjoint of the last step's end from the steps after it, replaced by
+    that of the first step's start (a run's steps may go in pieces, last first)."""
     from ._radau_adjoint_numba import radau_reverse
 
-    S, _, m = steps.z.shape
-    W, lam_end, lam = np.empty((S, 3, m)), np.empty((S, m)), np.empty(m)
+    S, _, m = gz.shape
+    W, lam_end = np.empty((S, 3, m)), np.empty((S, m))
     P = np.zeros((0, m, m)) if projection is None else np.ascontiguousarray(projection)
-    radau_reverse(np.ascontiguousarray(steps.h, dtype=float), COEFFICIENTS,
+    radau_reverse(np.ascontiguousarray(h, dtype=float), COEFFICIENTS,
                   np.ascontiguousarray(jacobians), P, np.ascontiguousarray(gy0),
                   np.ascontiguousarray(gz), np.ascontiguousarray(gy1), W, lam_end, lam,
                   np.empty((3 * m, 3 * m)), np.empty(3 * m), np.empty(m))
-    return W, lam_end, lam
+    return W, lam_end
