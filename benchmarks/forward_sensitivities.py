@@ -8,7 +8,9 @@ For each case and field: the sensitivities of every channel at rtol 1e-10 agains
 Richardson (fourth order; at rtol 1e-11 or δ = 1e-4 the differences' own noise reaches
 1e-6); the error is max |S − D| over time, relative to max |D| of the
 channel, the worst channel reported. Then the CPU time of the run with ten
-sensitivities over the run alone (best of five each, default tolerance); with --against
+sensitivities over the run alone (best of five each, default tolerance), and of an
+objective's value and gradient in the same fields (`OBJECTIVES`: by the reverse pass of the
+run's steps); with --against
 REV, first the same timing of the package as committed at git revision REV (exported to a
 temporary folder, run in a child process), so that before and after come from one run.
 """
@@ -171,6 +173,46 @@ def check(name: str, path: str, fields: list[str], rtol: float, overrides: dict)
     return worst_all
 
 
+# the objective per case: the mean square of a sensor on the modes after 30% of the run
+OBJECTIVES = {"hub_beam": "root_strain", "satellite": "right_root_strain",
+              "paper_servo": "link2_tip_deflection", "flexible_joint": "arm_tip_deflection"}
+
+
+def objective_cost(name: str, path: str, fields: list[str], overrides: dict) -> None:
+    """Print the CPU time of `flexlink.Objective`'s value and gradient in the fields (the
+    mean square of `OBJECTIVES`' channel after 30% of the run) over the run alone, how the
+    gradient was computed, and its largest difference from the tangents' gradient
+    (relative to its largest component)."""
+    sc = scenario_file(_scenario(path)).build(overrides)
+    channel = OBJECTIVES[name]
+    metric = flexlink.MeanSquare(channel, after=0.3 * sc.settings.t_end)
+    objective = flexlink.Objective(sc, fields, metric)
+
+    def gradient() -> None:
+        objective._last = None  # a new evaluation each time, not the remembered one
+        objective(objective.x0)
+
+    gradient()
+    results = flexlink.simulate(sc, shapes=False, sensitivities=fields)
+    _, slopes = metric(results)
+    tangents = slopes[channel] @ results.sensitivities.sel(channel=channel).values
+    _, g = objective(objective.x0)
+    alone = _best(lambda: flexlink.simulate(sc, shapes=False))
+    both = _best(gradient)
+    print(f"{name:12s} run {alone:.3f} s, objective + gradient ({objective.method}, "
+          f"{len(fields)} fields) {both:.3f} s (CPU): {both / alone:.1f}x; against the "
+          f"tangents {np.abs(g - tangents).max() / np.abs(tangents).max():.1e}", flush=True)
+
+
+def _best(f) -> float:
+    times = []
+    for _ in range(5):
+        t = time.process_time()
+        f()
+        times.append(time.process_time() - t)
+    return min(times)
+
+
 def cost(name: str, path: str, fields: list[str], overrides: dict) -> None:
     """Print the CPU time of the run with the sensitivities over the run alone (the
     process's CPU time: on a loaded machine wall time counts the other processes too)."""
@@ -220,6 +262,8 @@ def main() -> None:
                                env={**os.environ, "PYTHONPATH": before}, check=True)
                 print("after:", flush=True)
             cost(name, path, fields, overrides)
+            if name in OBJECTIVES:
+                objective_cost(name, path, fields, overrides)
 
 
 if __name__ == "__main__":

@@ -242,8 +242,11 @@ WARMUP_SENSITIVITIES: dict[str, list[str]] = {"sensitivities": ["links[0].EI"],
                                               "nonlinear": ["links[0].EI"],
                                               "nonlinear_forward": ["links[0].EI"]}
 # The warm-up runs that also take an objective's gradient, with its channel (a sensor on
-# the modes: the reverse pass of the Lawson steps).
-WARMUP_OBJECTIVES: dict[str, str] = {"sensitivities": "link2_tip_deflection"}
+# the modes: the reverse pass of the Lawson steps, and of the Radau IIA steps on the
+# forward path, with the projection's derivative on the free base).
+WARMUP_OBJECTIVES: dict[str, str] = {"sensitivities": "link2_tip_deflection",
+                                     "forward": "link2_tip_deflection",
+                                     "free_base": "link2_tip_deflection"}
 
 
 def warmup_run(name: str, scenario: Any) -> None:

@@ -1,5 +1,7 @@
 """The gradient of a scalar objective over a run's channels by one reverse pass of the run's
-Lawson steps (`solvers.lawson_adjoint`), for `Objective` (docs/sensitivities.md).
+Lawson steps (`solvers.lawson_adjoint`), for `Objective` (docs/sensitivities.md); a forward
+run's by the reverse pass of its Radau IIA steps (`simulation.forward_adjoint`); the
+nonlinear paths' from the fields' tangents.
 
 J = metric(channels) depends on the fields p through the run's state and directly through the
 channel map (a sensor's gain, a link's shapes): dJ/dp = Σ_t ∂J/∂x(t) ∂x(t)/∂p + ∂J/∂p|x, with
@@ -27,26 +29,70 @@ from ..results import Results
 from ..solvers import Solution
 from .channel_subset import State, channel_values
 from .common import PathRun, Progress
-from .sensitivities import SettledRun, _Field, settled_run
+from .sensitivities import SensitivityError, SettledRun, _Field, settled_run
 
 Metric = Callable[[Results], tuple[float, Mapping[str, np.ndarray]]]
 
 
 def adjoint_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
-                on_progress: Progress, shapes: bool) -> tuple[PathRun, SettledRun]:
-    """The prescribed run and what its gradient needs (`sensitivity_run`'s compute)."""
+                on_progress: Progress, shapes: bool) -> tuple[PathRun, Any]:
+    """The run and what its gradient needs (`sensitivity_run`'s compute): a prescribed
+    run's `SettledRun`, a forward run's `driven_sensitivities.ForwardSettled`, else (the
+    nonlinear paths) every channel's derivatives from the fields' tangents."""
+    from . import model_path
+
+    path = model_path(scenario)
+    if path == "forward":
+        from .driven_sensitivities import Refused, forward_settled
+
+        try:
+            settled = forward_settled(scenario, fields, t, on_progress, shapes)
+        except Refused as error:
+            raise SensitivityError(str(error)) from None
+        return settled.run, settled
+    if path != "prescribed":
+        from .sensitivities import run_on_path
+
+        return run_on_path(scenario, fields, t, on_progress, shapes)
     settled = settled_run(scenario, fields, t, on_progress, shapes)
     return settled.run, settled
 
 
-def objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray,
+def objective_gradient(settled: Any, fields: list[_Field], t: np.ndarray,
                        slopes: Mapping[str, np.ndarray]) -> tuple[np.ndarray, str]:
-    """dJ/dp (K,) of J with ∂J/∂channel = ``slopes`` (nt each) along the settled run, and
-    how it was computed ("adjoint" or "tangents")."""
+    """dJ/dp (K,) of J with ∂J/∂channel = ``slopes`` (nt each) along the settled run
+    (`adjoint_run`'s extra), and how it was computed ("adjoint" or "tangents")."""
     from ..solvers.threads import single_threaded
+    from .driven_sensitivities import ForwardSettled
 
     with single_threaded():  # small arrays: BLAS threads would only spin
+        if isinstance(settled, ForwardSettled):
+            return _forward_gradient(settled, fields, t, slopes)
+        if isinstance(settled, dict):  # every channel's derivatives (the tangents)
+            return _contracted(settled, fields, slopes), "tangents"
         return _objective_gradient(settled, fields, t, slopes)
+
+
+def _forward_gradient(settled: Any, fields: list[_Field], t: np.ndarray,
+                      slopes: Mapping[str, np.ndarray]) -> tuple[np.ndarray, str]:
+    """A forward run's gradient: the reverse pass of its Radau IIA steps where it applies
+    (`forward_adjoint.forward_gradient`), else the fields' tangents."""
+    from .driven_sensitivities import forward_tangents
+    from .forward_adjoint import forward_gradient
+
+    gradient = forward_gradient(settled, fields, t, slopes)
+    if gradient is not None:
+        return gradient, "adjoint"
+    return _contracted(forward_tangents(settled, fields, t), fields, slopes), "tangents"
+
+
+def _contracted(derivatives: Mapping[str, np.ndarray], fields: list[_Field],
+                slopes: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Σ_c ∂J/∂c · ∂c/∂p (K,) from every channel's derivatives (nt, K)."""
+    gradient = np.zeros(len(fields))
+    for name, weight in slopes.items():
+        gradient += np.asarray(weight, dtype=float) @ derivatives[name]
+    return gradient
 
 
 def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray,

@@ -50,10 +50,41 @@ class _Model:
     loops: Any = None  # closed loops: their `dynamics.loops.LoopSystem`
 
 
+def _equal(a: Any, b: Any) -> bool:
+    """a == b for scenario parts, False where a comparison is ambiguous (arrays inside)."""
+    try:
+        return bool(a == b)
+    except ValueError:
+        return False
+
+
+def _moved_model(scenario: Scenario, nominal: _Model, t: np.ndarray, nodes: np.ndarray,
+                 dependent: np.ndarray | None) -> _Model:
+    """The model of a moved ``scenario`` (`_model`): the nominal one with the moved
+    scenario where only what the equations do not read moved (a sensor), the nominal input
+    table where the inputs did not move (drives, base loads, actuators, controllers)."""
+    from dataclasses import replace
+
+    other = nominal.scenario
+    base, own = other.base, scenario.base
+    inputs_same = (_equal(scenario.chain.joints, other.chain.joints)
+                   and _equal(scenario.actuators, other.actuators)
+                   and _equal(scenario.controllers, other.controllers)
+                   and _equal(scenario.settings, other.settings)
+                   and _equal(None if own is None else (own.kind, own.loads, own.cart),
+                              None if base is None else (base.kind, base.loads, base.cart)))
+    if inputs_same and _equal(scenario.chain, other.chain) and _equal(own, base) \
+            and _equal(scenario.closures, other.closures):
+        return replace(nominal, scenario=scenario)
+    return _model(scenario, t, nodes, dependent,
+                  nominal.table if inputs_same and nominal.loops is None else None)
+
+
 def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
-           dependent: np.ndarray | None = None) -> _Model:
+           dependent: np.ndarray | None = None, table: tuple | None = None) -> _Model:
     """The model of ``scenario``; ValueError if its input segments differ from ``nodes`` or
-    its closures' dependent joints from ``dependent`` (those of the nominal model)."""
+    its closures' dependent joints from ``dependent`` (those of the nominal model);
+    ``table``: its input table where known to be another model's (the same inputs)."""
     from ..dynamics._forward_numba import workspace
     from ..dynamics.forward_kernel import breakpoints, inputs, pack
     from ..dynamics.momentum_projection import projection, start_values
@@ -86,13 +117,15 @@ def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
         from ..solvers.gauss_sampled import sample_grid
 
         samples = SimpleNamespace(grid=sample_grid(scenario.controllers, float(t[-1])))
-    own = segment_nodes(t, breakpoints(system), samples)
-    if nodes is not None and not (own.shape == nodes.shape and np.all(own == nodes)):
-        raise ValueError("moves a time where an input jumps")
+    if table is None:
+        own = segment_nodes(t, breakpoints(system), samples)
+        if nodes is not None and not (own.shape == nodes.shape and np.all(own == nodes)):
+            raise ValueError("moves a time where an input jumps")
     if loops is not None and dependent is not None and not np.array_equal(loops.dep,
                                                                             dependent):
         raise ValueError("changes which joints the closures make dependent")
-    table = tabulate(lambda times: inputs(system, times), own)
+    if table is None:
+        table = tabulate(lambda times: inputs(system, times), own)
     return _Model(scenario, system, data, work, known, y0, table,
                   integrals(table) if known.active.size else None, loops)
 
@@ -224,19 +257,29 @@ def _projected(model: _Model, Y: np.ndarray, times: np.ndarray, bases: _Bases,
     return out
 
 
-def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarray,
-                                   on_progress: Progress, shapes: bool
-                                   ) -> tuple[PathRun, dict[str, np.ndarray]]:
-    """The forward run of ``scenario`` (`forward.run_forward`, compiled Radau IIA) and,
-    per channel, its derivatives (nt, K) in the fields (`sensitivities._Field`)."""
-    from ..solvers.radau_sensitivity import (
-        NODES,
-        dense,
-        output_steps,
-        radau_tangent,
-        step_sequence,
-        table_rows,
-    )
+@dataclass
+class ForwardSettled:
+    """A forward run with its accepted steps (`radau_sensitivity.StepSequence`), the nominal
+    model and, per field, the models of its stencil (the nominal one where the offset is
+    0): what its tangents (`forward_tangents`) and an objective's reverse pass
+    (`simulation.forward_adjoint`) start from."""
+
+    run: PathRun
+    scenario: Scenario
+    nominal: _Model
+    moved: list[list[_Model]]
+    steps: Any
+    reads: list[bool]  # per field: whether the rates read it
+    held: Any  # sampled controllers' held voltages (`HeldVoltages`), or None
+    dy0: np.ndarray  # the initial state's derivative (m, K)
+
+
+def forward_settled(scenario: Scenario, fields: list, t: np.ndarray, on_progress: Progress,
+                    shapes: bool) -> ForwardSettled:
+    """The forward run of ``scenario`` (`forward.run_forward`, compiled Radau IIA) with its
+    steps and the fields' moved models; Refused for a field the computed run is not
+    differentiable in."""
+    from ..solvers.radau_sensitivity import step_sequence
     from .forward import run_forward
 
     records: list = []
@@ -248,7 +291,7 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     moved: list[list[_Model]] = []
     for f in fields:
         try:
-            moved.append([nominal if j == 0 else _model(sc, t, nodes, dependent)
+            moved.append([nominal if j == 0 else _moved_model(sc, nominal, t, nodes, dependent)
                           for j, sc in zip(f.offsets, f.scenarios, strict=True)])
         except ValueError as error:
             raise Refused(f"sensitivities: {f.target.text} {error}; the computed "
@@ -257,9 +300,6 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
     if nominal.y0.size == 0:
         raise Refused("sensitivities: this run has no state to differentiate")
     steps = step_sequence(records)
-    K = len(fields)
-    m = nominal.y0.size
-    rates_of = [[_rates(md) for md in group] for group in moved]
     held = None
     if scenario.controllers:  # the voltages they hold between samples
         from .held_sensitivities import HeldVoltages
@@ -269,15 +309,90 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         except ValueError as error:
             raise Refused(f"sensitivities: a field {error}; the computed run is not "
                           "differentiable in it on a fixed step sequence") from None
+    # a field the rates do not read: its forcing is zero (no evaluations)
+    reads = [not all(_same_rates(md, nominal) for md in group) for group in moved]
+    dy0 = np.zeros((nominal.y0.size, len(fields)))
+    for k, f in enumerate(fields):
+        dy0[:, k] = sum(w * md.y0 for w, md in zip(f.weights, moved[k], strict=True)) / f.step
+    return ForwardSettled(run, scenario, nominal, moved, steps, reads, held, dy0)
+
+
+def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarray,
+                                   on_progress: Progress, shapes: bool
+                                   ) -> tuple[PathRun, dict[str, np.ndarray]]:
+    """The forward run of ``scenario`` (`forward.run_forward`, compiled Radau IIA) and,
+    per channel, its derivatives (nt, K) in the fields (`sensitivities._Field`)."""
+    settled = forward_settled(scenario, fields, t, on_progress, shapes)
+    return settled.run, forward_tangents(settled, fields, t)
+
+
+def _projection_tangent(nominal: _Model, moved: list[list[_Model]], fields: list,
+                        segment: np.ndarray, times: np.ndarray, Y: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """The derivative of the projection of states Y (n, m) moving along dy (m, K) at
+    times (n,), as J (n, m, m) and c (n, m, K): J[i] dy + c[i]. J: the nominal
+    projection's Jacobian (below); c: per field, the projections of the
+    moved models at Y combined by its stencil. Equal to the stencil applied to the moved
+    projections at Y moved along dy to second order in the step (both stencils: their
+    weights w_j at offsets j have Σ w_j = Σ w_j j² = 0, Σ w_j j = 1)."""
+    from ..solvers.radau_sensitivity import JACOBIAN_STEP
+
+    n, m = Y.shape
+    K = len(fields)
+    nu, ne = len(nominal.system.free), nominal.system.n
+    position = np.r_[0:nu, 2 * nu:2 * nu + ne]
+    rate = np.r_[nu:2 * nu, 2 * nu + ne:2 * nu + 2 * ne]
+    integral = np.arange(2 * nu + 2 * ne, m)
+    c = np.zeros((n, m, K))
+    bases = _Bases(segment, times)
+    for k, f in enumerate(fields):
+        for w, md in zip(f.weights, moved[k], strict=True):
+            c[:, :, k] += (w / f.step) * _projected(md, Y, times, bases)
+    # the projection reads the configuration and the rates, not the servo integrals
+    # (their columns: the identity); it is affine in the rates (the momentum is linear
+    # in them at a fixed configuration, and so are its corrections): one unit step
+    # each, exact; central differences along the configuration
+    a, v = len(position), len(rate)
+    eps = JACOBIAN_STEP * np.maximum(1.0, np.abs(Y[:, position]))
+    shifted = np.repeat(Y[:, None, :], 2 * a + v + 1, axis=1)
+    ia, iv = np.arange(a), np.arange(v)
+    shifted[:, ia, position] += eps
+    shifted[:, a + ia, position] -= eps
+    shifted[:, 2 * a + iv, rate] += 1.0
+    span = shifted[:, ia, position] - shifted[:, a + ia, position]
+    unit = shifted[:, 2 * a + iv, rate] - Y[:, rate]
+    P = _projected(nominal, shifted.reshape(-1, m), times, bases, 2 * a + v + 1
+                   ).reshape(n, 2 * a + v + 1, m)
+    J = np.zeros((n, m, m))
+    J[:, :, position] = np.swapaxes((P[:, :a] - P[:, a:2 * a]) / span[:, :, None], 1, 2)
+    J[:, :, rate] = np.swapaxes((P[:, 2 * a:2 * a + v] - P[:, -1:]) / unit[:, :, None],
+                                1, 2)
+    J[:, integral, integral] = 1.0
+    return J, c
+
+
+def state_tangents(settled: ForwardSettled, fields: list, t: np.ndarray) -> np.ndarray:
+    """The derivatives (nt, m, K) of the states the run's outputs hold (projected onto the
+    known momentum if the run projects) in the fields, from the fields' tangents."""
+    from ..solvers.radau_sensitivity import (
+        NODES,
+        dense,
+        output_steps,
+        radau_tangent,
+        table_rows,
+    )
+
+    nominal, moved, steps = settled.nominal, settled.moved, settled.steps
+    held, reads, dy0 = settled.held, settled.reads, settled.dy0
+    K = len(fields)
+    m = nominal.y0.size
+    rates_of = [[_rates(md) for md in group] for group in moved]
 
     def inputs_at(md: _Model, segment: np.ndarray, times: np.ndarray) -> np.ndarray:
         rows = table_rows(md.table, segment, times)
         if held is not None:
             rows[:, held.columns] = held.voltages_at(times)
         return rows
-
-    # a field the rates do not read: its forcing is zero (no evaluations)
-    reads = [not all(_same_rates(md, nominal) for md in group) for group in moved]
 
     def forcing(times: np.ndarray, segment: np.ndarray, Y: np.ndarray) -> np.ndarray:
         out = np.zeros((Y.shape[0], m, K))
@@ -300,54 +415,11 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         return np.concatenate([out, dV], axis=2)
 
     rates_of_nominal = _rates(nominal)
-
-    dy0 = np.zeros((m, K))
-    for k, f in enumerate(fields):
-        dy0[:, k] = sum(w * md.y0 for w, md in zip(f.weights, moved[k], strict=True)) / f.step
     projected = nominal.projection.active.size > 0
 
     def projection_tangent(segment: np.ndarray, times: np.ndarray, Y: np.ndarray
                            ) -> tuple[np.ndarray, np.ndarray]:
-        """The derivative of the projection of states Y (n, m) moving along dy (m, K) at
-        times (n,), as J (n, m, m) and c (n, m, K): J[i] dy + c[i]. J: the nominal
-        projection's Jacobian (below); c: per field, the projections of the
-        moved models at Y combined by its stencil. Equal to the stencil applied to the moved
-        projections at Y moved along dy to second order in the step (both stencils: their
-        weights w_j at offsets j have Σ w_j = Σ w_j j² = 0, Σ w_j j = 1)."""
-        from ..solvers.radau_sensitivity import JACOBIAN_STEP
-
-        n = Y.shape[0]
-        c = np.zeros((n, m, K))
-        bases = _Bases(segment, times)
-        for k, f in enumerate(fields):
-            for w, md in zip(f.weights, moved[k], strict=True):
-                c[:, :, k] += (w / f.step) * _projected(md, Y, times, bases)
-        # the projection reads the configuration and the rates, not the servo integrals
-        # (their columns: the identity); it is affine in the rates (the momentum is linear
-        # in them at a fixed configuration, and so are its corrections): one unit step
-        # each, exact; central differences along the configuration
-        a, v = len(position), len(rate)
-        eps = JACOBIAN_STEP * np.maximum(1.0, np.abs(Y[:, position]))
-        shifted = np.repeat(Y[:, None, :], 2 * a + v + 1, axis=1)
-        ia, iv = np.arange(a), np.arange(v)
-        shifted[:, ia, position] += eps
-        shifted[:, a + ia, position] -= eps
-        shifted[:, 2 * a + iv, rate] += 1.0
-        span = shifted[:, ia, position] - shifted[:, a + ia, position]
-        unit = shifted[:, 2 * a + iv, rate] - Y[:, rate]
-        P = _projected(nominal, shifted.reshape(-1, m), times, bases, 2 * a + v + 1
-                       ).reshape(n, 2 * a + v + 1, m)
-        J = np.zeros((n, m, m))
-        J[:, :, position] = np.swapaxes((P[:, :a] - P[:, a:2 * a]) / span[:, :, None], 1, 2)
-        J[:, :, rate] = np.swapaxes((P[:, 2 * a:2 * a + v] - P[:, -1:]) / unit[:, :, None],
-                                    1, 2)
-        J[:, integral, integral] = 1.0
-        return J, c
-
-    nu, ne = len(nominal.system.free), nominal.system.n
-    position = np.r_[0:nu, 2 * nu:2 * nu + ne]
-    rate = np.r_[nu:2 * nu, 2 * nu + ne:2 * nu + 2 * ne]
-    integral = np.arange(2 * nu + 2 * ne, m)
+        return _projection_tangent(nominal, moved, fields, segment, times, Y)
 
     if projected:
         step_J, step_c = projection_tangent(steps.segment, steps.t + steps.h,
@@ -378,6 +450,19 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
         raw = dense(steps.y0[which], steps.z[which], steps.y1[which], s)
         out_J, out_c = projection_tangent(steps.segment[which], t[1:], raw)
         dstates[1:] = np.einsum("nij,njk->nik", out_J, dstates[1:]) + out_c
+    return dstates
+
+
+def forward_tangents(settled: ForwardSettled, fields: list, t: np.ndarray
+                     ) -> dict[str, np.ndarray]:
+    """Per channel, the derivatives (nt, K) in the fields along a settled forward run, from
+    the fields' tangents."""
+    from ..solvers.radau_sensitivity import dense, output_steps
+
+    run, nominal, moved, steps = settled.run, settled.nominal, settled.moved, settled.steps
+    held, reads = settled.held, settled.reads
+    dstates = state_tangents(settled, fields, t)
+    which, s = output_steps(steps, t)
     # the states the channels are computed from: the run's outputs (projected onto the
     # known momentum), or for closed loops the integrated ones (the channels close them)
     states_out = _states(run, nominal)
@@ -406,7 +491,7 @@ def run_with_forward_sensitivities(scenario: Scenario, fields: list, t: np.ndarr
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
         for name, column in channels.items():
             column.append(total[name] / f.step)
-    return run, {name: np.stack(v, axis=-1) for name, v in channels.items()}
+    return {name: np.stack(v, axis=-1) for name, v in channels.items()}
 
 
 def _outputs_pass(model: _Model, t: np.ndarray, states: np.ndarray, run: PathRun,

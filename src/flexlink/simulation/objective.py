@@ -58,6 +58,7 @@ class Objective:
         self.metric = metric
         built = self.file.build()
         self._targets = [f.target for f in prepare_fields(self.file, built, self.fields)]
+        self._channels = _channel_names(built)
         self.x0 = np.array([float(t.value) for t in self._targets])
         self._last: tuple[np.ndarray, float, np.ndarray] | None = None
         self.runs = 0
@@ -80,15 +81,17 @@ class Objective:
 
     def __call__(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """(f(x), ∇f(x)): the metric and its derivative in each field, in field order. The
-        gradient comes from one reverse pass of the run's steps when the metric's channels
-        are sensors on the modes, else from the fields' tangents (simulation/adjoint.py);
-        ``method`` says which the last call took."""
+        gradient comes from one reverse pass of the run's steps (the prescribed path's
+        Lawson steps, the forward path's Radau IIA steps) when the metric's channels are
+        sensors on the modes, else from the fields' tangents (simulation/adjoint.py,
+        simulation/forward_adjoint.py); ``method`` says which the last call took."""
         from .adjoint import adjoint_run, objective_gradient
         from .sensitivities import sensitivity_run
 
         x = np.array(x, dtype=float)
         if self._last is not None and np.array_equal(self._last[0], x):
             return self._last[1], self._last[2].copy()
+        _check_channels(self._channels, self.metric)
         file = self._file_at(x)
         self.runs += 1
         results, prepared, settled = sensitivity_run(file, self.fields, False, False,
@@ -97,6 +100,23 @@ class Objective:
         gradient, self.method = objective_gradient(settled, prepared, results.time, slopes)
         self._last = (x, float(value), gradient)
         return float(value), gradient.copy()
+
+
+def _channel_names(scenario: Scenario) -> list[str]:
+    """The channels runs of ``scenario`` produce (`channels.catalogue`)."""
+    from ..channels.catalogue import catalogue
+
+    return [c.name for c in catalogue(scenario)]
+
+
+def _check_channels(names: list[str], metric: Metric) -> None:
+    """SensitivityError, before the run, if the metric names (``channel`` or ``channels``)
+    a channel not among ``names``."""
+    named = getattr(metric, "channels", None) or [getattr(metric, "channel", None)]
+    for name in named:
+        if isinstance(name, str) and name not in names:
+            raise SensitivityError(f"the metric's channel {name!r} is not a channel of this "
+                                   f"run; channels: {', '.join(names)}")
 
 
 def warm_up(scenario: Scenario, fields: Sequence[str], channel: str) -> None:
