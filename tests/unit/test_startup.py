@@ -180,7 +180,7 @@ def test_warmup_scenarios_take_every_path() -> None:
         **{name: name for name in PATHS}, "free_base": "forward",
         "nonlinear_step": "nonlinear", "nonlinear_forward_step": "nonlinear_forward",
         "four_bar": "forward", "nonlinear_four_bar": "nonlinear_forward",
-        "sensitivities": "prescribed"}
+        "sensitivities": "prescribed", "batched": "prescribed"}
     assert scenarios["four_bar"].closures  # the closed-loop kernels (dynamics/_loops_numba.py)
     # … and on the nonlinear model (dynamics/_nonlinear_loops_numba.py)
     assert scenarios["nonlinear_four_bar"].closures

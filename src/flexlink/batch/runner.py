@@ -22,6 +22,7 @@ import numpy as np
 from ..channels import Channel
 from ..model import Scenario
 from ..simulation.common import PathRun, catalogue_values
+from .grouped import Integrated
 
 
 @dataclass(frozen=True)
@@ -52,11 +53,13 @@ class CaseRunner:
     def __init__(self) -> None:
         self._last: tuple[Scenario, PathRun, frozenset[str] | None] | None = None
 
-    def run(self, scenario: Scenario, kept: Collection[str] | None = None) -> CaseRun:
+    def run(self, scenario: Scenario, kept: Collection[str] | None = None,
+            integrated: Integrated | None = None) -> CaseRun:
         """The case's channel values (``kept``: of these channels only, the only ones its run
         computes where its path can leave the others out; None: all); a failure raises as
         `flexlink.simulate` would. The run is `flexlink.simulation.run_scenario`, looked up
-        when called (what a test replaces to make a case fail)."""
+        when called (what a test replaces to make a case fail); ``integrated``: its system
+        and solution, integrated with other cases' (grouped.py)."""
         from .. import simulation  # a worker imports the simulation on first use
 
         names = None if kept is None else frozenset(kept)
@@ -70,7 +73,8 @@ class CaseRunner:
                 s for s in scenario.sensors if s.name in names))
             run = dataclasses.replace(previous, values={**previous.values, **read})
         else:  # a sweep keeps no shapes
-            run = simulation.run_scenario(scenario, shapes=False, channels=names)[0]
+            more = {} if integrated is None else {"prescribed": integrated.arguments()}
+            run = simulation.run_scenario(scenario, shapes=False, channels=names, **more)[0]
         checked = catalogue_values(scenario, run, names)
         self._last = (scenario, run, names)
         return CaseRun(run.solution.t, {c.name: c for c, _ in checked},
