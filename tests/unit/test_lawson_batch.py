@@ -62,6 +62,7 @@ def starts(raws: list[dict[str, Any]]) -> list[lawson.Start]:
 def test_the_batched_first_pass_equals_each_single_first_pass_bit_for_bit() -> None:
     runs = starts(variants(CASES))
     assert lawson_batch.groups(runs) == [list(range(CASES))]  # one discretisation
+    assert not any(np.array_equal(runs[0].ET, run.ET) for run in runs[1:])
     together = lawson_batch.first_passes(runs)
     for start, batched in zip(runs, together):
         assert batched is not None
@@ -69,6 +70,30 @@ def test_the_batched_first_pass_equals_each_single_first_pass_bit_for_bit() -> N
             assert np.array_equal(a, b)
     # the variants differ
     assert not np.array_equal(together[0][0], together[1][0])
+
+
+def test_the_block_exponentials_of_many_runs_equal_each_runs_own_bit_for_bit() -> None:
+    from flexlink.solvers.batched_expm import _balancing, pade_degree
+    from flexlink.solvers.lawson import propagator_stacks
+
+    raws = variants(3) + variants(2, seed=7, durations=True)
+    coarse = variants(1)[0]
+    coarse["simulation"]["dt_out"] = 0.02
+    raws.append(coarse)
+    bare, own = [], []
+    for raw in raws:
+        case = scenario(raw)
+        t = output_times(case.settings.t_end, case.settings.dt_out)
+        system = prescribed_system(case, t)
+        own.append(lawson.prepare(system, t, case.settings.rtol, case.settings.atol))
+        bare.append(lawson.prepare(system, t, case.settings.rtol, case.settings.atol,
+                                   propagators=False))
+    degrees = {pade_degree(omega * _balancing(omega.shape[-1], n, scale))
+               for run in bare for where, (omega, n, scale) in
+               propagator_stacks(run.table, run.n, run.t_out, run.substeps) if where.any()}
+    assert len(degrees) > 1  # stacks of several Padé degrees, each its own call
+    for together, alone in zip(lawson_batch.with_propagators(bare), own):
+        assert np.array_equal(together.ET, alone.ET)
 
 
 def test_runs_on_different_discretisations_are_not_advanced_together() -> None:

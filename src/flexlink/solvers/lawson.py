@@ -139,12 +139,14 @@ class Start:
     atol: float
     table: CoefficientTable
     substeps: int
-    ET: np.ndarray
+    ET: np.ndarray | None
 
 
-def prepare(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float) -> Start:
+def prepare(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
+            propagators: bool = True) -> Start:
     """The table and first steps of an adaptive run (RoughCoefficients: the coefficients are
-    too rough to tabulate; Magnus then runs instead)."""
+    too rough to tabulate; Magnus then runs instead), with their block propagators unless
+    ``propagators`` is false (ET None: `with_propagators` adds them)."""
     n, matrices = system.n, system.matrices
     first_step = initial_step(system.max_frequency)
     # A fourth-order error goes as h⁴: tighter tolerances start with shorter steps (the paper
@@ -165,8 +167,14 @@ def prepare(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float) -
     # exp(h Ã_ref) = E² is what the fine steps use for E(E y) too, its E⁴ the square of
     # that; a static block's exp(Δt Ã) does not depend on h. One Padé exponential per
     # block and pass with a new h.
-    return Start(n, t_out, rtol, atol, table, substeps,
-                 _block_propagators(table, n, t_out, substeps))
+    start = Start(n, t_out, rtol, atol, table, substeps, None)
+    return with_propagators(start) if propagators else start
+
+
+def with_propagators(start: Start) -> Start:
+    """The start with its block propagators (`_block_propagators`)."""
+    return replace(start, ET=_block_propagators(start.table, start.n, start.t_out,
+                                                start.substeps))
 
 
 def first_pass(start: Start, on_progress: Progress | None = None
@@ -327,17 +335,38 @@ def _block_propagators(
     """Per block (or per selected block: ``blocks``, a mask), transposed for the compiled
     loop, (blocks, 2n+1, 2n+1): exp(Δt Ã)ᵀ of one output interval Δt for a static block,
     exp(h/2 Ã_ref)ᵀ for a moving one, h = Δt / substeps."""
+    stacks = propagator_stacks(table, n, t_out, substeps, blocks)
+    return assemble_propagators(stacks, [expm_balanced(*stack) if where.any() else None
+                                         for where, stack in stacks])
+
+
+def propagator_stacks(
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
+    blocks: np.ndarray | None = None,
+) -> list[tuple[np.ndarray, tuple[np.ndarray, int, float]]]:
+    """What `_block_propagators` exponentiates: per stack, where its blocks go among the
+    selected ones (a mask) and `expm_balanced`'s arguments (Ω, n, scale)."""
     dt = (t_out[table.last] - t_out[table.first]) / (table.last - table.first)
     factor = np.where(table.static, dt, 0.5 * dt / substeps)
     A = augmented(table.reference)
     # The balancing scale from every block, selected or not: the same exponentials either way.
     scale = np.sqrt(max(np.abs(table.reference[:, :, :n]).max(), 1.0))
     selected = np.ones(len(table), dtype=bool) if blocks is None else blocks
-    E = np.empty((int(selected.sum()), *A.shape[1:]))
+    stacks = []
     # Static and moving blocks apart: the Padé degree and squarings are chosen per stack, and
     # a static block's full output interval (4 × h/2 at two steps) would raise them for all.
     for group in (selected & table.static, selected & ~table.static):
         where = group[selected]
-        if where.any():
-            E[where] = expm_balanced(A[group] * factor[group, None, None], n, scale)
+        stacks.append((where, (A[group] * factor[group, None, None], n, scale)))
+    return stacks
+
+
+def assemble_propagators(stacks: list[tuple[np.ndarray, tuple[np.ndarray, int, float]]],
+                         exponentials: list[np.ndarray | None]) -> np.ndarray:
+    """`_block_propagators` from its stacks (`propagator_stacks`) and their exponentials
+    (None for a stack without blocks)."""
+    E = np.empty((stacks[0][0].size, *stacks[0][1][0].shape[1:]))
+    for (where, _), exponential in zip(stacks, exponentials):
+        if exponential is not None:
+            E[where] = exponential
     return np.ascontiguousarray(np.swapaxes(E, 1, 2))

@@ -15,10 +15,12 @@ with copies of its last variant, a smaller one runs alone (it would not pay).
 from __future__ import annotations
 
 from collections.abc import Hashable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
-from .lawson import Start, static_accelerations
+from .batched_expm import expm_balanced_many
+from .lawson import Start, assemble_propagators, propagator_stacks, static_accelerations
 
 MIN_GROUP = 24  # fewer variants on one discretisation run faster one by one
 MAX_GROUP = 32  # one call of the loop (its `LANES`; a smaller group is filled up to it)
@@ -46,6 +48,18 @@ def groups(starts: Sequence[Start | None]) -> list[list[int]]:
     return [members[lo: lo + MAX_GROUP] for members in by_key.values()
             for lo in range(0, len(members), MAX_GROUP)
             if len(members[lo: lo + MAX_GROUP]) >= MIN_GROUP]
+
+
+def with_propagators(starts: Sequence[Start]) -> list[Start]:
+    """`lawson.with_propagators` of each run, the exponentials of every run that need the
+    same Padé degree in one call (`batched_expm.expm_balanced_many`): each equal to its
+    single run's bit for bit."""
+    stacks = [propagator_stacks(s.table, s.n, s.t_out, s.substeps) for s in starts]
+    flat = [stack for run in stacks for where, stack in run if where.any()]
+    exponentials = iter(expm_balanced_many(flat))
+    return [replace(start, ET=assemble_propagators(run, [
+        next(exponentials) if where.any() else None for where, _ in run]))
+        for start, run in zip(starts, stacks)]
 
 
 def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
