@@ -22,32 +22,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..model import Scenario
-from ..solvers import Solution
+from .runner import Integrated, equal_but_sensors
 
 if TYPE_CHECKING:
     from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem
-
-
-@dataclass(frozen=True)
-class Integrated:
-    """A case's system and its solution (in the integrated coordinates, before the
-    system's `shift_solution`), and its share of the time it took (s)."""
-
-    system: CompiledFirstOrderSystem
-    solution: Solution
-    wall: float
-    cpu: float
-
-    def arguments(self) -> dict[str, object]:
-        """`run_prescribed`'s arguments that hand it this system and solution."""
-        solution = self.solution
-        return {"system": self.system, "integrate": lambda *_: solution}
 
 
 def integrate_together(scenarios: Sequence[Scenario | None]) -> dict[int, Integrated]:
@@ -136,12 +119,10 @@ def _system(scenario: Scenario, t: np.ndarray) -> CompiledFirstOrderSystem | Non
 def _shares_run(scenarios: Sequence[Scenario | None], i: int) -> bool:
     """Whether case i equals the case before it but for its sensors (its run is that
     case's, `runner.CaseRunner`)."""
-    from .runner import _equal_but_sensors
-
     previous = scenarios[i - 1] if i else None
     current = scenarios[i]
     return previous is not None and current is not None \
-        and _equal_but_sensors(previous, current)
+        and equal_but_sensors(previous, current)
 
 
 def warm_up(scenario: Scenario) -> None:
