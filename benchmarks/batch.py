@@ -1,13 +1,16 @@
 """Batch throughput: N variants of the paper experiment through `flexlink.sweep` on all cores.
 
     python benchmarks/batch.py [--cases 1000] [--workers N] [--channels a,b] [--scheduler ADDR]
-                               [--vary model|sensors] [--summaries-only] [--output FILE]
-                               [--before SRC [--vary model,sensors]]
+                               [--vary model|numbers|sensors] [--summaries-only]
+                               [--output FILE] [--before SRC [--vary model,numbers,sensors]]
 
 The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) and both joint
-move durations (0.8-1.2 s) at random (seed 1); ``--vary sensors`` draws the sensors'
-numbers instead (the accelerometer's position 1.0-1.37 m, the PZT amplifier's capacitance
-0.5-2 µF), cases that share one motion. Prints one line per quantity: wall time of the
+move durations (0.8-1.2 s) at random (seed 1); ``--vary numbers`` draws the model's numbers
+but not its motion's timing (E, link 1's tip mass, both damping ratios, the PZT amplifier's
+capacitance and joint 1's end angle), variants that share a discretisation and are advanced
+together 32 at a time; ``--vary sensors`` draws the sensors' numbers instead (the
+accelerometer's position 1.0-1.37 m, the PZT amplifier's capacitance 0.5-2 µF), cases that
+share one motion. Prints one line per quantity: wall time of the
 whole sweep (validation, worker start-up, runs, collection), runs per second, the sum of the
 cases' own run times (their serial cost), the parallel efficiency, the median wall and CPU
 time of one case (on a shared machine CPU time shows the work, wall time the wait), and the
@@ -40,6 +43,14 @@ RANDOM = {
     "joints[0].motion[0].duration": "uniform:0.8:1.2",
     "joints[1].motion[0].duration": "uniform:0.8:1.2",
 }
+NUMBERS = {
+    "links[0].E": "uniform:20e9:40e9",
+    "links[0].tip_mass": "uniform:0.1:0.16",
+    "links[0].damping_ratio": "uniform:0.01:0.03",
+    "links[1].damping_ratio": "uniform:0.005:0.02",
+    "sensors[pzt].capacitance": "uniform:0.5e-6:2e-6",
+    "joints[0].motion[0].to_deg": "uniform:80:100",
+}
 SENSORS = {
     "sensors[0].x": "uniform:1.0:1.37",
     "sensors[pzt].capacitance": "uniform:0.5e-6:2e-6",
@@ -48,6 +59,10 @@ SUMMARIES = ["peak:link2_tip_deflection", "residual:link2_tip_deflection:after=3
              "peak:joint1_torque", "peak:joint2_torque"]
 SENSOR_SUMMARIES = ["peak:link1_tip_acceleration", "residual:link1_tip_acceleration:after=3",
                     "peak:pzt", "rms:pzt"]
+
+
+KINDS = {"model": (RANDOM, SUMMARIES, "model"), "numbers": (NUMBERS, SUMMARIES, "number"),
+         "sensors": (SENSORS, SENSOR_SUMMARIES, "sensor")}
 
 
 def peak_memory_mb() -> tuple[float, float]:
@@ -132,8 +147,9 @@ def main() -> None:
     parser.add_argument("--channels", default=None, help="comma-separated (default: all)")
     parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
     parser.add_argument("--vary", default="model",
-                        help="draw link 1's E and the durations (model) or the sensors' numbers "
-                             "(sensors); with --before a comma-separated list, each side by side")
+                        help="draw link 1's E and the durations (model), the model's numbers "
+                             "but not its timing (numbers) or the sensors' numbers (sensors); "
+                             "with --before a comma-separated list, each side by side")
     parser.add_argument("--summaries-only", action="store_true",
                         help="keep summary metrics instead of the histories")
     parser.add_argument("--machinery-only", action="store_true",
@@ -154,12 +170,12 @@ def main() -> None:
                 at = argv.index(option)
                 argv = argv[:at] + argv[at + 2:]
         varied = args.vary.split(",")
-        if not set(varied) <= {"model", "sensors"}:
-            parser.error(f"--vary: model, sensors or both, got {args.vary!r}")
+        if not set(varied) <= set(KINDS):
+            parser.error(f"--vary: some of {', '.join(KINDS)}, got {args.vary!r}")
         side_by_side(args.before, argv, varied)
         return
-    if args.vary not in ("model", "sensors"):
-        parser.error(f"--vary: model or sensors, got {args.vary!r}")
+    if args.vary not in KINDS:
+        parser.error(f"--vary: one of {', '.join(KINDS)}, got {args.vary!r}")
     if args.machinery_only:
         machinery_only()
     channels = args.channels.split(",") if args.channels else None
@@ -169,8 +185,7 @@ def main() -> None:
 
     load = os.getloadavg()[0]
     started = time.perf_counter()
-    random, summaries = (SENSORS, SENSOR_SUMMARIES) if args.vary == "sensors" \
-        else (RANDOM, SUMMARIES)
+    random, summaries, drawn = KINDS[args.vary]
     dataset = sweep(paper_experiment_path(), random=random, samples=args.cases, seed=1,
                     channels=channels, workers=None if args.scheduler else workers,
                     scheduler=args.scheduler, progress=True,
@@ -184,7 +199,6 @@ def main() -> None:
     where = args.scheduler or f"{workers} local worker processes"
     if args.machinery_only:
         where += " (machinery only: runs replaced by a stored result)"
-    drawn = "sensor" if args.vary == "sensors" else "model"
     kept = (f"{len(SUMMARIES)} summary metrics" if args.summaries_only else
             f"{dataset.sizes['time']} samples of "
             f"{sum(1 for v in dataset.data_vars.values() if v.dims == ('case', 'time'))} "

@@ -50,7 +50,8 @@ _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
 # longest first. A run missing here counts as the mean of those listed.
 COMPILE_CPU = {"prescribed": 26, "nonlinear": 18, "nonlinear_step": 1, "forward": 82,
                "free_base": 14, "nonlinear_forward": 11, "nonlinear_forward_step": 0,
-               "closed_loop": 5, "four_bar": 89, "nonlinear_four_bar": 67, "sensitivities": 11}
+               "closed_loop": 5, "four_bar": 89, "nonlinear_four_bar": 67, "sensitivities": 11,
+               "batched": 9}
 # Model paths whose runs integrate with another path's compiled loop (the closed loop's
 # Lawson loop is the prescribed path's; the nonlinear path's Gauss loops, compiled once for
 # both nonlinear models, are the nonlinear forward path's): one family, one worker.

@@ -228,10 +228,11 @@ def _cmd_show_paper(args: argparse.Namespace) -> int:
 
 
 # The warm-up runs: one per path (simulation.PATHS), and a free base moved by its loads with every joint
-# prescribed (the forward path's inputs then come from the base loads only).
+# prescribed (the forward path's inputs then come from the base loads only); "batched": the
+# sweeps' Lawson loop over many variants at once.
 WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_base",
                "nonlinear_forward", "nonlinear_forward_step", "closed_loop", "four_bar",
-               "nonlinear_four_bar", "sensitivities")
+               "nonlinear_four_bar", "sensitivities", "batched")
 # The warm-up runs that also compute sensitivities, with their fields: the Lawson tangent
 # loop (prescribed), the Radau IIA steps' linearization (forward), the derivative of the
 # momentum projection (free_base) and the Gauss steps' replay and batched residuals (both
@@ -251,7 +252,7 @@ WARMUP_OBJECTIVES: dict[str, str] = {"sensitivities": "link2_tip_deflection",
 
 def warmup_run(name: str, scenario: Any) -> None:
     """`simulate` of one warm-up run (`WARMUP_RUNS`), with its `WARMUP_SENSITIVITIES` and
-    `WARMUP_OBJECTIVES`."""
+    `WARMUP_OBJECTIVES`; "batched" also runs a sweep's batched Lawson loop."""
     fields = WARMUP_SENSITIVITIES.get(name)
     if fields:
         from .simulation.objective import warm_up
@@ -264,6 +265,10 @@ def warmup_run(name: str, scenario: Any) -> None:
     from .simulation import simulate
 
     simulate(scenario, shapes=False)
+    if name == "batched":
+        from .batch.grouped import warm_up as warm_up_batched
+
+        warm_up_batched(scenario)
 
 
 def warmup_scenarios() -> dict[str, Any]:
@@ -272,8 +277,8 @@ def warmup_scenarios() -> dict[str, Any]:
     with a fixed `step`), the forward kernel with its Radau IIA integrator (driven joints; a
     free base), the nonlinear model's forward collocation (adaptive, and with a fixed `step`)
     the closed-loop Lawson loop, the kernels of mechanisms with closed loops (a
-    four-bar, in both models) and the tangent loop of sensitivities (the prescribed run,
-    with `WARMUP_SENSITIVITIES`)."""
+    four-bar, in both models), the tangent loop of sensitivities (the prescribed run,
+    with `WARMUP_SENSITIVITIES`) and a sweep's batched Lawson loop (the prescribed run)."""
     import copy
 
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
@@ -317,7 +322,7 @@ def warmup_scenarios() -> dict[str, Any]:
     return {name: scenario_from_dict(d) for name, d in zip(
         WARMUP_RUNS, (base, nonlinear, nonlinear_step, forward, free_base, nonlinear_forward,
                       nonlinear_forward_step, closed_loop, four_bar, nonlinear_four_bar,
-                      base), strict=True)}
+                      base, base), strict=True)}
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:

@@ -180,7 +180,7 @@ def test_warmup_scenarios_take_every_path() -> None:
         **{name: name for name in PATHS}, "free_base": "forward",
         "nonlinear_step": "nonlinear", "nonlinear_forward_step": "nonlinear_forward",
         "four_bar": "forward", "nonlinear_four_bar": "nonlinear_forward",
-        "sensitivities": "prescribed"}
+        "sensitivities": "prescribed", "batched": "prescribed"}
     assert scenarios["four_bar"].closures  # the closed-loop kernels (dynamics/_loops_numba.py)
     # … and on the nonlinear model (dynamics/_nonlinear_loops_numba.py)
     assert scenarios["nonlinear_four_bar"].closures
@@ -228,6 +228,7 @@ def test_warmup_does_nothing_where_the_installation_compiled_every_loop(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
         tmp_path: Path) -> None:
     import flexlink._compiled_cache
+    import flexlink.batch.grouped
     import flexlink.simulation
     import flexlink.simulation.objective
     import flexlink.simulation.sensitivities
@@ -247,6 +248,8 @@ def test_warmup_does_nothing_where_the_installation_compiled_every_loop(
                         lambda scenario, fields, **options: ran(scenario))
     # the sensitivities' warm-up run also takes one gradient by the reverse pass
     monkeypatch.setattr(flexlink.simulation.objective, "warm_up", lambda *args: None)
+    # … and the batched one runs a sweep's batched loop
+    monkeypatch.setattr(flexlink.batch.grouped, "warm_up", lambda *args: None)
     assert main(["warmup"]) == 0
     out = capsys.readouterr().out
     assert "nothing to do" in out and "ran" not in out.split()

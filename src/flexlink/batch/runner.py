@@ -16,12 +16,17 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..channels import Channel
 from ..model import Scenario
 from ..simulation.common import PathRun, catalogue_values
+
+if TYPE_CHECKING:
+    from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem
+    from ..solvers import Solution
 
 
 @dataclass(frozen=True)
@@ -45,6 +50,22 @@ class CaseRun:
         return list(self.channels)
 
 
+@dataclass(frozen=True)
+class Integrated:
+    """A case's system and its solution (in the integrated coordinates, before the
+    system's `shift_solution`), and its share of the time it took (s)."""
+
+    system: CompiledFirstOrderSystem
+    solution: Solution
+    wall: float
+    cpu: float
+
+    def arguments(self) -> dict[str, object]:
+        """`run_prescribed`'s arguments that hand it this system and solution."""
+        solution = self.solution
+        return {"system": self.system, "integrate": lambda *_: solution}
+
+
 class CaseRunner:
     """Runs a worker's cases one after the other, keeping the last case's run for the next
     case if that one differs from it only in its sensors."""
@@ -52,17 +73,19 @@ class CaseRunner:
     def __init__(self) -> None:
         self._last: tuple[Scenario, PathRun, frozenset[str] | None] | None = None
 
-    def run(self, scenario: Scenario, kept: Collection[str] | None = None) -> CaseRun:
+    def run(self, scenario: Scenario, kept: Collection[str] | None = None,
+            integrated: Integrated | None = None) -> CaseRun:
         """The case's channel values (``kept``: of these channels only, the only ones its run
         computes where its path can leave the others out; None: all); a failure raises as
         `flexlink.simulate` would. The run is `flexlink.simulation.run_scenario`, looked up
-        when called (what a test replaces to make a case fail)."""
+        when called (what a test replaces to make a case fail); ``integrated``: its system
+        and solution, integrated with other cases' (grouped.py)."""
         from .. import simulation  # a worker imports the simulation on first use
 
         names = None if kept is None else frozenset(kept)
         last, self._last = self._last, None  # a failing case keeps nothing
         shared = last is not None and last[1].read_sensors is not None \
-            and last[2] == names and _equal_but_sensors(last[0], scenario)
+            and last[2] == names and equal_but_sensors(last[0], scenario)
         if shared:
             assert last is not None and last[1].read_sensors is not None
             previous = last[1]
@@ -70,7 +93,8 @@ class CaseRunner:
                 s for s in scenario.sensors if s.name in names))
             run = dataclasses.replace(previous, values={**previous.values, **read})
         else:  # a sweep keeps no shapes
-            run = simulation.run_scenario(scenario, shapes=False, channels=names)[0]
+            more = {} if integrated is None else {"prescribed": integrated.arguments()}
+            run = simulation.run_scenario(scenario, shapes=False, channels=names, **more)[0]
         checked = catalogue_values(scenario, run, names)
         self._last = (scenario, run, names)
         return CaseRun(run.solution.t, {c.name: c for c, _ in checked},
@@ -81,7 +105,7 @@ class CaseRunner:
         self._last = None
 
 
-def _equal_but_sensors(a: Scenario, b: Scenario) -> bool:
+def equal_but_sensors(a: Scenario, b: Scenario) -> bool:
     """Whether ``a`` and ``b`` are equal in everything but their sensors (False where a
     field cannot be compared, such as a measured motion's arrays)."""
     if a is b:

@@ -1,5 +1,6 @@
 """What a worker runs: a chunk of cases, each through `flexlink.simulate` up to its channel
-values (`runner.CaseRunner`), one at a time.
+values (`runner.CaseRunner`), one at a time after the integrations of those that share a
+discretisation ran together (`grouped.integrate_together`).
 
 A case that raises is recorded with its error message and the chunk goes on: one bad case
 never costs the others. Runs in a local worker process or on a Dask worker (which must be
@@ -21,6 +22,7 @@ import numpy as np
 from ..channels import Channel
 from ..model import Scenario
 from ..scenario.fields import FieldPath, ScenarioFile
+from .grouped import integrate_together
 from .runner import CaseRunner
 from .summaries import Summary
 
@@ -93,11 +95,29 @@ def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept(),
     channels, summaries = kept.channels, kept.summaries
     needed = kept.needed()
     out = ChunkResult()
-    for index, case in cases:
+    cases = list(cases)
+    built, build_times = [], []
+    for _, case in cases:  # every case first: those that share a discretisation run together
         started, cpu_started = time.perf_counter(), time.thread_time()
         try:
-            scenario = case.build() if isinstance(case, LazyCase) else case
-            results = runner.run(scenario, needed)
+            built.append(case.build() if isinstance(case, LazyCase) else case)
+        except Exception as exc:  # noqa: BLE001 — reported as the case's failure below
+            built.append(exc)
+        build_times.append((time.perf_counter() - started, time.thread_time() - cpu_started))
+    integrated = integrate_together([s if isinstance(s, Scenario) else None for s in built])
+    for k, (index, _) in enumerate(cases):
+        started, cpu_started = time.perf_counter(), time.thread_time()
+        together = integrated.get(k)
+        if together is not None:
+            started -= together.wall
+            cpu_started -= together.cpu
+        started -= build_times[k][0]
+        cpu_started -= build_times[k][1]
+        try:
+            scenario = built[k]
+            if isinstance(scenario, Exception):
+                raise scenario
+            results = runner.run(scenario, needed, together)
             names = (list(channels) if channels is not None else results.names) \
                 if kept.histories else []
             missing = [n for n in [*names, *(s.channel for s in summaries)] if n not in results]
@@ -179,8 +199,10 @@ def load_compiled_code(scenario: Scenario) -> None:
         path_function(path)
         if path == "prescribed" and scenario.settings.method == "lawson":
             from ..solvers.lawson import load_compiled_loop
+            from ..solvers.lawson_batch import load as load_batched_loop
 
             load_compiled_loop()
+            load_batched_loop()  # for the cases that share a discretisation (grouped.py)
     except Exception:  # noqa: BLE001, S110 — every case runs the same code and reports it
         pass
 

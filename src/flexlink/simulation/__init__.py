@@ -17,10 +17,11 @@ Open-loop piezo actuators run in every path.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import replace
 from functools import partial
 from importlib import import_module
+from typing import Any
 
 import numpy as np
 
@@ -82,17 +83,22 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True,
 
 
 def run_scenario(scenario: Scenario, progress: bool = False, shapes: bool = True,
-                 channels: Collection[str] | None = None) -> tuple[PathRun, float]:
+                 channels: Collection[str] | None = None,
+                 prescribed: Mapping[str, Any] | None = None) -> tuple[PathRun, float]:
     """`simulate` up to its `Results`: the path's run and its wall time (s). A sweep's
     worker reads the channels it keeps from the run's values. ``channels``: the only
     channels the caller reads (None: all); the prescribed path then computes those alone
-    and its validity check without the accuracy metadata, other paths every channel."""
+    and its validity check without the accuracy metadata, other paths every channel.
+    ``prescribed``: more arguments of `prescribed.run_prescribed` on that path (a sweep's
+    system and solution integrated with other cases', batch/grouped.py)."""
     check_run_memory(scenario)
     warning = stiff_forward_links(scenario)  # may refuse: before anything runs
     name = model_path(scenario)
     path = path_function(name)
     if channels is not None and name == "prescribed":
         path = partial(path, kept=frozenset(channels))
+    if prescribed and name == "prescribed":
+        path = partial(path, **prescribed)
     settings = scenario.settings
     t = output_times(settings.t_end, settings.dt_out)
     # Small matrices and batched products over time: BLAS threads only add overhead.

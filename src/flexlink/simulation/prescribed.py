@@ -21,18 +21,16 @@ from .common import PathRun, Progress, check_tip_deflection
 
 def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                   with_shapes: bool = True, integrate: LinearIntegrator | None = None,
-                  channels: bool = True, kept: Collection[str] | None = None) -> PathRun:
+                  channels: bool = True, kept: Collection[str] | None = None,
+                  system: CompiledFirstOrderSystem | None = None) -> PathRun:
     """``integrate``: the integrator instead of the one ``simulation.method`` names (the
     optimiser's runs on a fixed discretisation); ``channels``: False for the solution alone
     (no channels; the tip-deflection check that a diverged run fails still made); ``kept``:
-    the only channels to compute (None: all), as `prescribed_readings`."""
+    the only channels to compute (None: all), as `prescribed_readings`; ``system``: the
+    scenario's `prescribed_system` if already built."""
     settings = scenario.settings
-    system = CompiledFirstOrderSystem(scenario.chain, settings.geometric_stiffening,
-                                      scenario.actuators, settings.gravity)
-    system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
+    system = system or prescribed_system(scenario, t)
     if system.n:
-        if settings.initial == "equilibrium":
-            system.start_from(system.equilibrium(float(t[0])))
         integrate = integrate or PRESCRIBED_METHODS[settings.method]
         solution = system.shift_solution(
             integrate(system, t, settings.rtol, settings.atol, on_progress))
@@ -52,6 +50,18 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     return PathRun(solution, values, shapes=shapes, metadata={
         "path": "prescribed", "geometric_stiffening": settings.geometric_stiffening,
         "elastic_coordinates": system.n, **validity}, read_sensors=read_sensors)
+
+
+def prescribed_system(scenario: Scenario, t: np.ndarray) -> CompiledFirstOrderSystem:
+    """The scenario's first-order system, started as its settings say, for output times t
+    (s)."""
+    settings = scenario.settings
+    system = CompiledFirstOrderSystem(scenario.chain, settings.geometric_stiffening,
+                                      scenario.actuators, settings.gravity)
+    system.joint_history(t)  # fail early if a measured motion does not cover [0, t_end]
+    if system.n and settings.initial == "equilibrium":
+        system.start_from(system.equilibrium(float(t[0])))
+    return system
 
 
 def prescribed_values(scenario: Scenario, system: FirstOrderSystem, solution: Solution,

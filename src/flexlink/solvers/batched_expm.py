@@ -9,6 +9,7 @@ number of squarings per matrix, and all arithmetic done on the whole stack.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from math import factorial
 
 import numpy as np
@@ -27,15 +28,16 @@ def _pade_coefficients(m: int) -> list[float]:
 _COEFFICIENTS = {m: _pade_coefficients(m) for m in _THETA}
 
 
-def expm_stack(A: np.ndarray) -> np.ndarray:
-    """exp(A[i]) for a stack A of shape (m, d, d)."""
+def expm_stack(A: np.ndarray, degree: int | None = None) -> np.ndarray:
+    """exp(A[i]) for a stack A of shape (m, d, d); ``degree``: the Padé degree (default:
+    the one the stack's largest 1-norm needs, `pade_degree`)."""
     A = np.asarray(A, dtype=float)
     if A.shape[0] == 0:
         return A.copy()
     norm = np.abs(A).sum(axis=1).max(axis=1)  # 1-norm of every matrix
     if not np.all(np.isfinite(norm)):
         raise FloatingPointError("matrix exponential of a non-finite matrix")
-    degree = next((m for m, theta in _THETA.items() if norm.max() <= theta), 13)
+    degree = degree or next((m for m, theta in _THETA.items() if norm.max() <= theta), 13)
     squarings = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / _THETA[degree])))
     squarings = squarings.astype(int)
     X = A * np.ldexp(1.0, -squarings)[:, None, None]
@@ -76,12 +78,45 @@ def _pade_terms(X: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
     return X @ odd, even
 
 
+def pade_degree(A: np.ndarray) -> int:
+    """The Padé degree `expm_stack` chooses for the stack A (m, d, d)."""
+    norm = np.abs(A).sum(axis=1).max(axis=1)
+    top = norm.max() if norm.size else 0.0
+    return next((m for m, theta in _THETA.items() if top <= theta), 13)
+
+
+def expm_balanced_many(stacks: Sequence[tuple[np.ndarray, int, float]]) -> list[np.ndarray]:
+    """`expm_balanced` of each (Ω, n, scale), the stacks that need the same Padé degree in
+    one `expm_stack` call: numpy multiplies and solves each matrix of a stack on its own and
+    the squarings are per matrix, so each result equals its own call's bit for bit, for
+    fewer numpy calls."""
+    balanced, ratios = [], []
+    for omega, n, scale in stacks:
+        ratio = _balancing(omega.shape[-1], n, scale)
+        balanced.append(omega * ratio)
+        ratios.append(ratio)
+    degrees = [pade_degree(b) for b in balanced]
+    out: list[np.ndarray] = [np.empty(0)] * len(stacks)
+    for degree in set(degrees):
+        members = [i for i, d in enumerate(degrees) if d == degree]
+        E = expm_stack(np.concatenate([balanced[i] for i in members]), degree)
+        ends = np.cumsum([balanced[i].shape[0] for i in members])
+        for i, part in zip(members, np.split(E, ends[:-1])):
+            out[i] = part * ratios[i].T
+    return out
+
+
+def _balancing(size: int, n: int, scale: float) -> np.ndarray:
+    """D_i / D_j of `expm_balanced`'s D = diag(scale·I, I, 1) (size entries, n scaled)."""
+    d = np.concatenate([np.full(n, scale), np.ones(size - n)])
+    return d[:, None] / d[None, :]
+
+
 def expm_balanced(omega: np.ndarray, n: int, scale: float) -> np.ndarray:
     """exp(Ω) for a stack of augmented generators Ω ~ h·[[0, I, 0], [−ω², ·, ·], [0, 0, 0]] of
     state [z (n), ż (n), 1]: computed as D⁻¹ exp(D Ω D⁻¹) D with D = diag(scale·I, I, 1) and
     scale ~ the highest natural frequency (rad/s). Unbalanced, the ω² entries make ‖Ω‖ ~ h·ω²
     and the exponential needs many squarings; balanced, ‖Ω‖ ~ h·ω."""
-    d = np.concatenate([np.full(n, scale), np.ones(omega.shape[-1] - n)])
-    ratio = d[:, None] / d[None, :]  # one pass over the stack each way, not two
+    ratio = _balancing(omega.shape[-1], n, scale)  # one pass over the stack each way
     E = expm_stack(omega * ratio)
     return E * ratio.T

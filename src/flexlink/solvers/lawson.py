@@ -119,6 +119,34 @@ def integrate_lawson_discretised(system: LinearSystem, t_out: np.ndarray, rtol: 
                                  ) -> tuple[Solution, Discretisation | None]:
     """`integrate_lawson`, and the discretisation it settled on (None when it handed the
     run to Magnus)."""
+    with single_threaded():
+        try:
+            start = prepare(system, t_out, rtol, atol)
+        except RoughCoefficients:
+            # Magnus assembles A where it needs it, which then costs less than a table.
+            return integrate_magnus(system, t_out, rtol, atol, on_progress), None
+        return finish(start, *first_pass(start, on_progress), on_progress)
+
+
+@dataclass(frozen=True)
+class Start:
+    """An adaptive Lawson run up to its first pass: the table, the steps per output interval
+    it starts with (even) and their block propagators (`_block_propagators`)."""
+
+    n: int
+    t_out: np.ndarray
+    rtol: float
+    atol: float
+    table: CoefficientTable
+    substeps: int
+    ET: np.ndarray | None
+
+
+def prepare(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
+            propagators: bool = True) -> Start:
+    """The table and first steps of an adaptive run (RoughCoefficients: the coefficients are
+    too rough to tabulate; Magnus then runs instead), with their block propagators unless
+    ``propagators`` is false (ET None: `with_propagators` adds them)."""
     n, matrices = system.n, system.matrices
     first_step = initial_step(system.max_frequency)
     # A fourth-order error goes as h⁴: tighter tolerances start with shorter steps (the paper
@@ -127,43 +155,62 @@ def integrate_lawson_discretised(system: LinearSystem, t_out: np.ndarray, rtol: 
     # An even number of steps per output interval, so that the first error estimate can
     # compare with half as many on every interval, a block of one interval included.
     substeps = 2 * max(1, int(np.ceil(np.diff(t_out).max() / (2 * first_step))))
-    with single_threaded():
-        try:  # more than Magnus' 2 assemblies per step and pass would not pay
-            # A system may bring its own (compiled) state rows M⁻¹[−K, −C, f].
-            rows = getattr(system, "state_rows", None) or (
-                lambda times: state_rows(matrices, times))
-            table = tabulate(rows, t_out,
-                             system.coefficient_keys, tolerance=rtol,
-                             budget=_ASSEMBLIES_PER_STEP * substeps,
-                             breaks=system.breakpoints())
-        except RoughCoefficients:
-            # Magnus assembles A where it needs it, which then costs less than a table.
-            return integrate_magnus(system, t_out, rtol, atol, on_progress), None
-        # The coarse pass (h doubled) runs alongside the fine one in the compiled loop: its
-        # exp(h Ã_ref) = E² is what the fine steps use for E(E y) too, its E⁴ the square of
-        # that; a static block's exp(Δt Ã) does not depend on h. One Padé exponential per
-        # block and pass with a new h.
-        moving = ~table.static
-        ET = _block_propagators(table, n, t_out, substeps)
-        # The first comparison from the loop's running maxima (no coarse states kept).
-        states, acc, _, peak, spread = _run(table, n, t_out, substeps, on_progress, ET,
-                                            coarse=True, keep_coarse=False)
-        accepted = agree_maxima(peak[:-1], spread[:-1], n, rtol, atol)
-        estimate = richardson_error_maxima(peak[:-1], spread[:-1], n)
-        for _ in range(_MAX_HALVINGS):
-            if accepted:
-                stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
-                return (Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson",
-                                 stats, accuracy=Accuracy(rtol, estimate, RICHARDSON)),
-                        Discretisation(layout(table, t_out.size), substeps, rtol,
-                                       table.reference, ET))
-            coarse = states
-            substeps *= 2
-            ET = ET.copy()
-            ET[moving] = _block_propagators(table, n, t_out, substeps, moving)
-            states, acc = _solve(table, n, t_out, substeps, on_progress, ET)
-            accepted = agree(states[:, :-1], states[:, :-1], coarse[:, :-1], n, rtol, atol)
-            estimate = richardson_error(states[:, :-1], coarse[:, :-1], n)
+    # more than Magnus' 2 assemblies per step and pass would not pay
+    # A system may bring its own (compiled) state rows M⁻¹[−K, −C, f].
+    rows = getattr(system, "state_rows", None) or (
+        lambda times: state_rows(matrices, times))
+    table = tabulate(rows, t_out,
+                     system.coefficient_keys, tolerance=rtol,
+                     budget=_ASSEMBLIES_PER_STEP * substeps,
+                     breaks=system.breakpoints())
+    # The coarse pass (h doubled) runs alongside the fine one in the compiled loop: its
+    # exp(h Ã_ref) = E² is what the fine steps use for E(E y) too, its E⁴ the square of
+    # that; a static block's exp(Δt Ã) does not depend on h. One Padé exponential per
+    # block and pass with a new h.
+    start = Start(n, t_out, rtol, atol, table, substeps, None)
+    return with_propagators(start) if propagators else start
+
+
+def with_propagators(start: Start) -> Start:
+    """The start with its block propagators (`_block_propagators`)."""
+    return replace(start, ET=_block_propagators(start.table, start.n, start.t_out,
+                                                start.substeps))
+
+
+def first_pass(start: Start, on_progress: Progress | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """States, z̈ and the running maxima of the run's first pass (fine and coarse steps):
+    what `finish` takes."""
+    # The first comparison from the loop's running maxima (no coarse states kept).
+    states, acc, _, peak, spread = _run(start.table, start.n, start.t_out, start.substeps,
+                                        on_progress, start.ET, coarse=True, keep_coarse=False)
+    return states, acc, peak, spread
+
+
+def finish(start: Start, states: np.ndarray, acc: np.ndarray, peak: np.ndarray,
+           spread: np.ndarray, on_progress: Progress | None = None
+           ) -> tuple[Solution, Discretisation]:
+    """The adaptive run from its first pass (states, z̈ and the running maxima of `_run`
+    with the coarse pass): accepted, or steps halved until the Richardson check passes."""
+    n, t_out, rtol, atol, table = start.n, start.t_out, start.rtol, start.atol, start.table
+    substeps, ET = start.substeps, start.ET
+    moving = ~table.static
+    accepted = agree_maxima(peak[:-1], spread[:-1], n, rtol, atol)
+    estimate = richardson_error_maxima(peak[:-1], spread[:-1], n)
+    for _ in range(_MAX_HALVINGS):
+        if accepted:
+            stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
+            return (Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson",
+                             stats, accuracy=Accuracy(rtol, estimate, RICHARDSON)),
+                    Discretisation(layout(table, t_out.size), substeps, rtol,
+                                   table.reference, ET))
+        coarse = states
+        substeps *= 2
+        ET = ET.copy()
+        ET[moving] = _block_propagators(table, n, t_out, substeps, moving)
+        states, acc = _solve(table, n, t_out, substeps, on_progress, ET)
+        accepted = agree(states[:, :-1], states[:, :-1], coarse[:, :-1], n, rtol, atol)
+        estimate = richardson_error(states[:, :-1], coarse[:, :-1], n)
     raise SimulationError(
         f"the integration did not reach rtol = {rtol:g}, atol = {atol:g} with {substeps} steps "
         "per output interval; loosen the tolerances or check the model"
@@ -228,16 +275,7 @@ def _run(
         raise ValueError(f"the coarse pass needs an even number of steps, got {substeps}")
     if ET is None:
         ET = _block_propagators(table, n, t_out, substeps)
-    moving = ~table.static
-    # exp(h Ã_ref) = E² and (coarse) E⁴, transposed: (E²)ᵀ = (Eᵀ)².
-    E2T = ET.copy()
-    E2T[moving] = ET[moving] @ ET[moving]
-    E4T = E2T  # read by the coarse steps only
-    if coarse:
-        E4T = E2T.copy()
-        E4T[moving] = E2T[moving] @ E2T[moving]
-    polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))  # the loop takes transposes
-    referenceT = np.ascontiguousarray(np.swapaxes(table.reference, 1, 2))
+    E2T, E4T, polyT, referenceT = loop_matrices(table, ET, coarse)
     m = 2 * n + 1
     states = np.empty((t_out.size, m))
     coarse_states = np.empty((t_out.size if coarse and keep_coarse else 0, m))
@@ -262,10 +300,32 @@ def _run(
                 f"the state became non-finite near t = {t_out[table.last[sl][-1]]:.4g} s")
         if on_progress is not None:
             on_progress(float(t_out[table.last[sl][-1]]))
+    static_accelerations(table, states, acc)
+    return states, acc, coarse_states, peak, spread
+
+
+def loop_matrices(table: CoefficientTable, ET: np.ndarray, coarse: bool
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What the compiled loop reads besides ET, transposed: (E²)ᵀ, (coarse) (E⁴)ᵀ (else
+    (E²)ᵀ again), the table's polynomials and references."""
+    moving = ~table.static
+    # exp(h Ã_ref) = E² and (coarse) E⁴, transposed: (E²)ᵀ = (Eᵀ)².
+    E2T = ET.copy()
+    E2T[moving] = ET[moving] @ ET[moving]
+    E4T = E2T  # read by the coarse steps only
+    if coarse:
+        E4T = E2T.copy()
+        E4T[moving] = E2T[moving] @ E2T[moving]
+    polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))  # the loop takes transposes
+    referenceT = np.ascontiguousarray(np.swapaxes(table.reference, 1, 2))
+    return E2T, E4T, polyT, referenceT
+
+
+def static_accelerations(table: CoefficientTable, states: np.ndarray, acc: np.ndarray) -> None:
+    """z̈ on the static blocks (the loop writes the moving ones'), in place."""
     for a, b, A in zip(table.first[table.static], table.last[table.static],
                        table.reference[table.static]):
         acc[a + 1: b + 1] = states[a + 1: b + 1] @ A.T  # resting: z̈ = A y, A constant
-    return states, acc, coarse_states, peak, spread
 
 
 def _block_propagators(
@@ -275,17 +335,38 @@ def _block_propagators(
     """Per block (or per selected block: ``blocks``, a mask), transposed for the compiled
     loop, (blocks, 2n+1, 2n+1): exp(Δt Ã)ᵀ of one output interval Δt for a static block,
     exp(h/2 Ã_ref)ᵀ for a moving one, h = Δt / substeps."""
+    stacks = propagator_stacks(table, n, t_out, substeps, blocks)
+    return assemble_propagators(stacks, [expm_balanced(*stack) if where.any() else None
+                                         for where, stack in stacks])
+
+
+def propagator_stacks(
+    table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
+    blocks: np.ndarray | None = None,
+) -> list[tuple[np.ndarray, tuple[np.ndarray, int, float]]]:
+    """What `_block_propagators` exponentiates: per stack, where its blocks go among the
+    selected ones (a mask) and `expm_balanced`'s arguments (Ω, n, scale)."""
     dt = (t_out[table.last] - t_out[table.first]) / (table.last - table.first)
     factor = np.where(table.static, dt, 0.5 * dt / substeps)
     A = augmented(table.reference)
     # The balancing scale from every block, selected or not: the same exponentials either way.
     scale = np.sqrt(max(np.abs(table.reference[:, :, :n]).max(), 1.0))
     selected = np.ones(len(table), dtype=bool) if blocks is None else blocks
-    E = np.empty((int(selected.sum()), *A.shape[1:]))
+    stacks = []
     # Static and moving blocks apart: the Padé degree and squarings are chosen per stack, and
     # a static block's full output interval (4 × h/2 at two steps) would raise them for all.
     for group in (selected & table.static, selected & ~table.static):
         where = group[selected]
-        if where.any():
-            E[where] = expm_balanced(A[group] * factor[group, None, None], n, scale)
+        stacks.append((where, (A[group] * factor[group, None, None], n, scale)))
+    return stacks
+
+
+def assemble_propagators(stacks: list[tuple[np.ndarray, tuple[np.ndarray, int, float]]],
+                         exponentials: list[np.ndarray | None]) -> np.ndarray:
+    """`_block_propagators` from its stacks (`propagator_stacks`) and their exponentials
+    (None for a stack without blocks)."""
+    E = np.empty((stacks[0][0].size, *stacks[0][1][0].shape[1:]))
+    for (where, _), exponential in zip(stacks, exponentials):
+        if exponential is not None:
+            E[where] = exponential
     return np.ascontiguousarray(np.swapaxes(E, 1, 2))

@@ -1,0 +1,320 @@
+"""Compiled (numba) Lawson step loop for several systems on one discretisation at once
+(``lawson_batch.py``): the loop of ``_lawson_numba.py`` with a trailing variant axis on every
+matrix and vector.
+
+Variants that share the table's layout, the output times and the steps per interval share
+every scalar of the loop (step, local times, pieces); only their matrices and states differ.
+The variant axis is innermost and contiguous, so each element-wise loop of the single-system
+kernel becomes a loop over (entry, variant) whose inner loop runs over variants and
+vectorises across them. Each variant sees the operations of its own single run in the same
+order (the same four-column grouping of the sums, the same Horner sequence, no fused
+multiply-adds): its states equal its single run's bit for bit (tests/unit/test_lawson_batch.py).
+
+Only the first, Richardson-checked pass of an adaptive run is batched (fine and coarse pass
+together, running maxima kept, coarse states not kept); a variant that needs shorter steps
+continues alone (``lawson.finish``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import boolean, float64, int64, njit
+
+from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+
+# Variants per call: a constant trip count lets LLVM unroll and vectorise each inner loop
+# without a scalar remainder or run-time checks (a variable count vectorised only from about
+# 32 variants on).
+LANES = 32
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _copy(a, b):
+    """b[:, :] = a."""
+    for i in range(a.shape[0]):
+        for v in range(LANES):
+            b[i, v] = a[i, v]
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _zero2(a, b):
+    """a[:, :] = b[:, :] = 0."""
+    for i in range(a.shape[0]):
+        for v in range(LANES):
+            a[i, v] = 0.0
+            b[i, v] = 0.0
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _add(w, n, scale, k):
+    """w[n:2n] += scale · k."""
+    for i in range(k.shape[0]):
+        for v in range(LANES):
+            w[n + i, v] += scale * k[i, v]
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _gemv(PT, j0, nj, x, scale, out, accumulate, xs):
+    """out (+)= scale · P[:, j0:j0+nj] x[:nj] per variant, from Pᵀ (entries, entries,
+    variants); xs: scratch (8, variants). The single kernel's `_gemv`, entry for entry."""
+    m = out.shape[0]
+    if not accumulate:
+        for i in range(m):
+            for v in range(LANES):
+                out[i, v] = 0.0
+    q = 0
+    while q + 4 <= nj:
+        j = j0 + q
+        for r in range(4):
+            for v in range(LANES):
+                xs[r, v] = scale * x[q + r, v]
+        for i in range(m):
+            for v in range(LANES):
+                out[i, v] += (PT[j, i, v] * xs[0, v] + PT[j + 1, i, v] * xs[1, v]) + (
+                    PT[j + 2, i, v] * xs[2, v] + PT[j + 3, i, v] * xs[3, v])
+        q += 4
+    while q < nj:
+        for v in range(LANES):
+            xs[0, v] = scale * x[q, v]
+        for i in range(m):
+            for v in range(LANES):
+                out[i, v] += PT[j0 + q, i, v] * xs[0, v]
+        q += 1
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _gemv2(PT, j0, nj, x, sx, out, z, sz, out2, xs):
+    """out += sx · P[:, j0:j0+nj] x and out2 += sz · P[:, j0:j0+nj] z in one pass over Pᵀ
+    (the single kernel's `_gemv2`); xs: scratch (8, variants)."""
+    m = out.shape[0]
+    q = 0
+    while q + 4 <= nj:
+        j = j0 + q
+        for r in range(4):
+            for v in range(LANES):
+                xs[r, v] = sx * x[q + r, v]
+                xs[4 + r, v] = sz * z[q + r, v]
+        for i in range(m):
+            for v in range(LANES):
+                p0, p1, p2, p3 = PT[j, i, v], PT[j + 1, i, v], PT[j + 2, i, v], PT[j + 3, i, v]
+                out[i, v] += (p0 * xs[0, v] + p1 * xs[1, v]) + (p2 * xs[2, v] + p3 * xs[3, v])
+                out2[i, v] += (p0 * xs[4, v] + p1 * xs[5, v]) + (p2 * xs[6, v]
+                                                                 + p3 * xs[7, v])
+        q += 4
+    while q < nj:
+        for v in range(LANES):
+            xs[0, v] = sx * x[q, v]
+            xs[4, v] = sz * z[q, v]
+        for i in range(m):
+            for v in range(LANES):
+                out[i, v] += PT[j0 + q, i, v] * xs[0, v]
+                out2[i, v] += PT[j0 + q, i, v] * xs[4, v]
+        q += 1
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _piece(lower, upper, p0, p1, tau):
+    """The piece p0 … p1−1 of a block that holds its local time τ, and τ in that piece."""
+    p = p0
+    while p < p1 - 1 and tau > upper[p]:
+        p += 1
+    return p, (tau - lower[p]) / (upper[p] - lower[p])
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):
+    """outT = (A(τ) − A_ref)ᵀ per variant (the single kernel's `_delta`)."""
+    p, local = _piece(lower, upper, p0, p1, tau)
+    degree = polyT.shape[1] - 1
+    for j in range(outT.shape[0]):
+        for i in range(outT.shape[1]):
+            for v in range(LANES):
+                outT[j, i, v] = polyT[p, degree, j, i, v]
+    for d in range(degree - 1, -1, -1):
+        for j in range(outT.shape[0]):
+            for i in range(outT.shape[1]):
+                for v in range(LANES):
+                    outT[j, i, v] = outT[j, i, v] * local + polyT[p, d, j, i, v]
+    for j in range(outT.shape[0]):
+        for i in range(outT.shape[1]):
+            for v in range(LANES):
+                outT[j, i, v] -= referenceT[j, i, v]
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _deltas(polyT, lower, upper, p0, p1, referenceT, tau, dtau, out):
+    """out[r] = (A(τ + (r+1)/2 · dτ) − A_ref)ᵀ, r = 0 … 3, per variant (the single kernel's
+    `_deltas`)."""
+    pa, la = _piece(lower, upper, p0, p1, tau + 0.5 * dtau)
+    pb, lb = _piece(lower, upper, p0, p1, tau + dtau)
+    pc, lc = _piece(lower, upper, p0, p1, tau + 1.5 * dtau)
+    pd, ld = _piece(lower, upper, p0, p1, tau + 2.0 * dtau)
+    if polyT.shape[1] != 6 or pa != pd or pb != pd or pc != pd:
+        for r in range(4):
+            _delta(polyT, lower, upper, p0, p1, referenceT, tau + 0.5 * (r + 1) * dtau, out[r])
+        return
+    P = polyT[pd]
+    for j in range(out.shape[1]):
+        for i in range(out.shape[2]):
+            for v in range(LANES):
+                c0, c1, c2 = P[0, j, i, v], P[1, j, i, v], P[2, j, i, v]
+                c3, c4, c5 = P[3, j, i, v], P[4, j, i, v], P[5, j, i, v]
+                ref = referenceT[j, i, v]
+                out[0, j, i, v] = (((((c5 * la + c4) * la + c3) * la + c2) * la + c1) * la
+                                   + c0) - ref
+                out[1, j, i, v] = (((((c5 * lb + c4) * lb + c3) * lb + c2) * lb + c1) * lb
+                                   + c0) - ref
+                out[2, j, i, v] = (((((c5 * lc + c4) * lc + c3) * lc + c2) * lc + c1) * lc
+                                   + c0) - ref
+                out[3, j, i, v] = (((((c5 * ld + c4) * ld + c3) * ld + c2) * ld + c1) * ld
+                                   + c0) - ref
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w, xs):
+    """The single kernel's `_stages_ab` per variant."""
+    n = k1.shape[0]
+    m = Ey.shape[0]
+    _gemv(ET, n, n, k1, 0.5 * h, w, False, xs)
+    _zero2(k2, k3)
+    _gemv2(Dm, 0, m, Ey, 1.0, k3, w, 1.0, k2, xs)
+    for q in range(n):
+        for v in range(LANES):
+            k2[q, v] += k3[q, v]
+    _gemv(Dm, n, n, k2, 0.5 * h, k3, True, xs)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _fine_step(ET, E2T, Da, Db, h, y, k1, Ey, E2y, u, w, k2, k3, k4, cin, cscale, wc, cout,
+               xs):
+    """The single kernel's `_fine_step` per variant."""
+    m = y.shape[0]
+    n = k1.shape[0]
+    _copy(E2y, u)
+    _gemv2(E2T, n, n, k1, h / 6.0, u, cin, cscale, wc, xs)
+    _stages_ab(Da, ET, h, Ey, k1, k2, k3, w, xs)
+    for q in range(n):
+        for v in range(LANES):
+            k2[q, v] += k3[q, v]
+    _copy(E2y, w)
+    _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u, xs)
+    _zero2(k4, cout)
+    _gemv2(Db, 0, m, w, 1.0, k4, wc, 1.0, cout, xs)
+    _add(u, n, h / 6.0, k4)
+    _copy(u, y)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u, w, Ecy,
+          E4y, wc, xs):
+    """The single kernel's `_pair` (two fine steps of h, one coarse step of 2h) per variant."""
+    m = y.shape[0]
+    n = k1.shape[0]
+    H = 2.0 * h
+    _zero2(E2y, Ecy)
+    _gemv2(E2T, 0, m, y, 1.0, E2y, yc, 1.0, Ecy, xs)
+    _gemv(ET, 0, m, y, 1.0, Ey, False, xs)
+    _gemv(E4T, 0, m, yc, 1.0, E4y, False, xs)
+    _copy(Ecy, wc)
+    _fine_step(ET, E2T, D[0], D[1], h, y, k1, Ey, E2y, u, w, k2, k3, k4, c1, 0.5 * H, wc, b2,
+               xs)
+    _copy(Ecy, wc)
+    _add(wc, n, 0.5 * H, b2)
+    _zero2(k1, b3)
+    _gemv2(D[1], 0, m, y, 1.0, k1, wc, 1.0, b3, xs)
+    _gemv(ET, 0, m, y, 1.0, Ey, False, xs)
+    _gemv(E2T, 0, m, y, 1.0, E2y, False, xs)
+    _copy(E4y, wc)
+    _fine_step(ET, E2T, D[2], D[3], h, y, k1, Ey, E2y, u, w, k2, k3, k4, b3, H, wc, b4, xs)
+    for q in range(n):
+        for v in range(LANES):
+            b2[q, v] += b3[q, v]
+    _copy(E4y, yc)
+    _gemv(E4T, n, n, c1, H / 6.0, yc, True, xs)
+    _gemv(E2T, n, n, b2, H / 3.0, yc, True, xs)
+    _add(yc, n, H / 6.0, b4)
+    _zero2(k1, c1)
+    _gemv2(D[3], 0, m, y, 1.0, k1, yc, 1.0, c1, xs)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _record(i, y, yc, states, peak, spread):
+    """The single kernel's `_record` with the coarse pass, coarse states not kept."""
+    for q in range(y.shape[0]):
+        for v in range(LANES):
+            a = y[q, v]
+            states[v, i, q] = a
+            a = abs(a)
+            if a > peak[q, v] or np.isnan(a):
+                peak[q, v] = a
+    for q in range(y.shape[0]):
+        for v in range(LANES):
+            a = abs(y[q, v] - yc[q, v])
+            if a > spread[q, v] or np.isnan(a):
+                spread[q, v] = a
+
+
+@njit(cache=True, error_model="numpy")
+def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper, polyT,
+                        referenceT, ET, E2T, E4T, substeps, states, accelerations, peak,
+                        spread):
+    """`_lawson_numba.lawson_blocks` with ``coarse`` and no coarse states, for V = `LANES`
+    variants at once: y, yc (m, V); polyT (pieces, degree+1, m, n, V); referenceT (blocks, m, n, V);
+    ET, E2T, E4T (blocks, m, m, V); states (V, nt, m); accelerations (V, nt, n) (each
+    variant's contiguous, as its single run's); peak, spread (m, V). The layout (first … upper), t_out and substeps (even) are shared."""
+    m, nv = y.shape
+    if nv != LANES:  # the inner loops run over LANES variants, unchecked
+        raise ValueError("lawson_blocks_batch advances LANES variants")
+    n = (m - 1) // 2
+    D = np.empty((4, m, n, nv))
+    k1, k2, k3, k4 = (np.empty((n, nv)), np.empty((n, nv)), np.empty((n, nv)),
+                      np.empty((n, nv)))
+    c1, b2, b3, b4 = (np.empty((n, nv)), np.empty((n, nv)), np.empty((n, nv)),
+                      np.empty((n, nv)))
+    r = np.empty((n, nv))
+    Ey, E2y, w, u = np.empty((m, nv)), np.empty((m, nv)), np.empty((m, nv)), np.empty((m, nv))
+    Ecy, E4y, wc = np.empty((m, nv)), np.empty((m, nv)), np.empty((m, nv))
+    xs = np.empty((8, nv))
+    for b in range(first.size):
+        i0, i1 = first[b], last[b]
+        A_ref = referenceT[b]
+        P, P2, P4 = ET[b], E2T[b], E4T[b]
+        if static[b]:
+            for i in range(i0, i1):
+                _zero2(w, wc)
+                _gemv2(P, 0, m, y, 1.0, w, yc, 1.0, wc, xs)
+                _copy(wc, yc)
+                _copy(w, y)
+                _record(i + 1, y, yc, states, peak, spread)
+            continue
+        span = t_out[i1] - t_out[i0]
+        p0, p1 = pieces[b], pieces[b + 1]
+        _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, D[3])
+        _gemv(D[3], 0, m, y, 1.0, k1, False, xs)
+        _gemv(D[3], 0, m, yc, 1.0, c1, False, xs)
+        for i in range(i0, i1):
+            h = (t_out[i + 1] - t_out[i]) / substeps
+            dtau = h / span
+            for j in range(0, substeps, 2):
+                tau = (t_out[i] - t_out[i0] + j * h) / span
+                _deltas(polyT, lower, upper, p0, p1, A_ref, tau, dtau, D)
+                _pair(P, P2, P4, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
+                      w, Ecy, E4y, wc, xs)
+            _record(i + 1, y, yc, states, peak, spread)
+            _gemv(A_ref, 0, m, y, 1.0, r, False, xs)
+            for q in range(n):
+                for v in range(LANES):
+                    accelerations[v, i + 1, q] = r[q, v] + k1[q, v]
+
+
+# The one signature `lawson_batch.advance` calls lawson_blocks_batch with (C-contiguous).
+SIGNATURE = (float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], int64[::1],
+             boolean[::1], int64[::1], float64[::1], float64[::1], float64[:, :, :, :, ::1],
+             float64[:, :, :, ::1], float64[:, :, :, ::1], float64[:, :, :, ::1],
+             float64[:, :, :, ::1], int64, float64[:, :, ::1], float64[:, :, ::1],
+             float64[:, ::1], float64[:, ::1])
+
+
+def load() -> None:
+    """Make lawson_blocks_batch ready for `SIGNATURE` (numba's cache, or compile it)."""
+    lawson_blocks_batch.compile(SIGNATURE)

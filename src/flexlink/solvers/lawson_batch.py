@@ -1,0 +1,131 @@
+"""Adaptive Lawson runs of several systems advanced together: one compiled call for the first
+pass of every system whose table shares its layout (``lawson.py``).
+
+Each run is its own up to its first pass (`lawson.prepare`: its own table, refinement and
+first steps) and after it (`lawson.finish`: its own Richardson check, and shorter steps alone
+if it needs them). Between them, the runs whose tables have the same blocks, pieces, output
+times and steps per interval — variants of one scenario that differ in its numbers, not its
+motion's timing — cross them in one call of the batched loop (_lawson_batch_numba.py), each
+with its own matrices and states and the same operations as its single run: each result
+equals its single run's bit for bit. The loop's products then vectorise across a call's 32
+variants instead of across a 2n+1 row; a group of `MIN_GROUP` or more is filled up to 32
+with copies of its last variant, a smaller one runs alone (it would not pay).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from .batched_expm import expm_balanced_many
+from .lawson import Start, assemble_propagators, propagator_stacks, static_accelerations
+
+MIN_GROUP = 24  # fewer variants on one discretisation run faster one by one
+MAX_GROUP = 32  # one call of the loop (its `LANES`; a smaller group is filled up to it)
+
+FirstPass = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # states, z̈, peak, spread
+
+
+def shared_key(start: Start) -> Hashable:
+    """What runs advanced together must share: the state size, the output times, the steps
+    per interval and the table's layout (blocks, pieces and their local time ranges, the
+    polynomials' degree). Equal keys mean equal scalars throughout the loop."""
+    table = start.table
+    return (start.n, start.substeps, table.poly.shape[1], start.t_out.tobytes(),
+            table.first.tobytes(), table.last.tobytes(), table.static.tobytes(),
+            table.pieces.tobytes(), table.lower.tobytes(), table.upper.tobytes())
+
+
+def groups(starts: Sequence[Start | None]) -> list[list[int]]:
+    """Indices of ``starts`` in groups of `MIN_GROUP` … `MAX_GROUP` sharing their key, in
+    order of first appearance; the others (and None) are left out."""
+    by_key: dict[Hashable, list[int]] = {}
+    for i, start in enumerate(starts):
+        if start is not None:
+            by_key.setdefault(shared_key(start), []).append(i)
+    return [members[lo: lo + MAX_GROUP] for members in by_key.values()
+            for lo in range(0, len(members), MAX_GROUP)
+            if len(members[lo: lo + MAX_GROUP]) >= MIN_GROUP]
+
+
+def with_propagators(starts: Sequence[Start]) -> list[Start]:
+    """`lawson.with_propagators` of each run, the exponentials of every run that need the
+    same Padé degree in one call (`batched_expm.expm_balanced_many`): each equal to its
+    single run's bit for bit."""
+    stacks = [propagator_stacks(s.table, s.n, s.t_out, s.substeps) for s in starts]
+    flat = [stack for run in stacks for where, stack in run if where.any()]
+    exponentials = iter(expm_balanced_many(flat))
+    return [replace(start, ET=assemble_propagators(run, [
+        next(exponentials) if where.any() else None for where, _ in run]))
+        for start, run in zip(starts, stacks)]
+
+
+def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
+    """The first pass (fine and coarse steps, running maxima) of each run in one call; the
+    runs share `shared_key`. None for a run whose state became non-finite (its single run
+    then reports where)."""
+    from ._lawson_batch_numba import lawson_blocks_batch  # numba's import: only when used
+
+    first = starts[0]
+    if any(shared_key(s) != shared_key(first) for s in starts[1:]):
+        raise ValueError("runs advanced together must share their table's layout and steps")
+    from ._lawson_batch_numba import LANES
+
+    table, n, t_out, nv = first.table, first.n, first.t_out, len(starts)
+    tiles = -(-nv // LANES)
+    padded = [*starts, *[starts[-1]] * (tiles * LANES - nv)]  # a last tile filled up
+    m = 2 * n + 1
+    # The single run's E², E⁴ (lawson.loop_matrices) for every variant in one matmul call:
+    # numpy multiplies each matrix of a stack on its own, so each is the single run's.
+    moving = ~table.static
+    ET = np.stack([s.ET for s in padded])  # (V, blocks, m, m)
+    E2T = ET.copy()
+    E2T[:, moving] = ET[:, moving] @ ET[:, moving]
+    E4T = E2T.copy()
+    E4T[:, moving] = E2T[:, moving] @ E2T[:, moving]
+
+    def lanes_last(a: np.ndarray, order: tuple[int, ...]) -> np.ndarray:
+        """(V, …) → (tiles, …, LANES) in the given order of the other axes."""
+        tiled = a.reshape(tiles, LANES, *a.shape[1:])
+        return np.ascontiguousarray(np.transpose(tiled, (0, *(k + 1 for k in order), 1)))
+
+    polyT = lanes_last(np.stack([s.table.poly for s in padded]), (1, 2, 4, 3))
+    referenceT = lanes_last(np.stack([s.table.reference for s in padded]), (1, 3, 2))
+    ET, E2T, E4T = (lanes_last(a, (1, 2, 3)) for a in (ET, E2T, E4T))
+    states = np.empty((tiles, LANES, t_out.size, m))
+    acc = np.empty((tiles, LANES, t_out.size, n))
+    peak = np.empty((tiles, m, LANES))
+    spread = np.zeros((tiles, m, LANES))
+    for k in range(tiles):
+        y = np.zeros((m, LANES))
+        y[-1] = 1.0
+        yc = y.copy()
+        states[k, :, 0] = y.T
+        peak[k] = np.abs(y)
+        lawson_blocks_batch(y, yc, t_out, table.first, table.last, table.static,
+                            table.pieces, table.lower, table.upper, polyT[k], referenceT[k],
+                            ET[k], E2T[k], E4T[k], first.substeps, states[k], acc[k],
+                            peak[k], spread[k])
+    out: list[FirstPass | None] = []
+    for v, start in enumerate(starts):
+        k, lane = divmod(v, LANES)
+        top, gap = peak[k, :, lane], spread[k, :, lane]
+        # |y| and |y − yc| keep a NaN or an infinity once met (the loop's maxima): finite
+        # maxima mean every state was finite.
+        if not (np.all(np.isfinite(top)) and np.all(np.isfinite(gap))):
+            out.append(None)
+            continue
+        s, a = states[k, lane], acc[k, lane]
+        a[0] = start.table.poly[0, 0] @ s[0]  # A at τ = 0 of the first block
+        static_accelerations(start.table, s, a)
+        out.append((s, a, top.copy(), gap.copy()))
+    return out
+
+
+def load() -> None:
+    """Load (or compile) the batched loop."""
+    from ._lawson_batch_numba import load as load_loop
+
+    load_loop()
