@@ -88,7 +88,7 @@ def _start_up_imports(args: argparse.Namespace, fitting: bool = False) -> None:
     block, imports_done = getattr(args, "start_up", (contextlib.nullcontext(), None))
     preload = None
     with block:
-        if _own_process():
+        if getattr(args, "own_process", False):  # the command's own process (`cli.main`)
             from .._light_start import defer_unused_submodules, load_cached_kernels_only
 
             defer_unused_submodules()
@@ -113,14 +113,6 @@ def _start_up_imports(args: argparse.Namespace, fitting: bool = False) -> None:
                 preload.join()  # compiled code must not run while it loads
     if imports_done is not None:
         imports_done()
-
-
-def _own_process() -> bool:
-    """Whether this is the command's own process (`cli.main` without arguments), which ends
-    with the command: `flexlink._light_start`'s measures are for it only."""
-    from ..cli import _start_up
-
-    return _start_up["command"]
 
 
 def _run(args: argparse.Namespace, work: Any) -> int:
