@@ -10,11 +10,13 @@ Rows, each measured in fresh processes for each version of the code (``--before 
 sources of REV unpacked next to the system's temporary files, numba's caches warmed there by
 one untimed run of each kind first):
 
-- ``fit command``: `flexlink fit examples/lab_arm.toml examples/lab_run3.csv` with the README's
-  six parameters (figures and report written; and again with ``--no-figures``), wall time and
-  CPU time (user + system) of the whole process and its children (the figures' worker):
-  start-up, loading, fit and writing;
-- ``fit <case>``: `flexlink.experiment.fit` alone, in process, of the lab record, of the
+- ``command``: `flexlink fit examples/lab_arm.toml` (its record examples/lab_run3.csv) with
+  the README's six parameters (figures and report written; and again with
+  ``--no-figures``), then the same command (with figures) of every other case below: wall
+  time and CPU time (user + system) of the whole process and its children (the figures'
+  worker): start-up, loading, fit and writing; the estimates and intervals it wrote
+  (fit.json), and with ``--before`` whether both versions' agree to the printed digits;
+- ``fit() <case>``: `flexlink.experiment.fit` alone, in process, of the lab record, of the
   synthetic lab manoeuvres of tests/experiment/synthetic.py (seven parameters each, with the
   truth known) and of the one-link arm of tests/experiment/test_compare_fit.py: wall and CPU
   time, simulations, how the Jacobians were computed (exact from the runs' sensitivities, or
@@ -67,12 +69,14 @@ def _cpu(children: bool = False) -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def child_fit() -> dict[str, Any]:
-    """fit() of the lab record and of every synthetic manoeuvre, timed in this process."""
+Case = tuple[str, Path, tuple[str, ...], "dict[str, float] | None"]
+
+
+def fit_cases() -> list[Case]:
+    """(name, scenario file, parameters, truth or None) of every case: the lab record (its
+    CSV named in its file), the synthetic manoeuvres and the one-link arm, their files
+    written to a new temporary folder."""
     sys.path.insert(0, str(ROOT))
-    from flexlink.experiment.identification import fit
-    from flexlink.experiment.loading import load_experiment
-    from flexlink.experiment.parameters import parse_parameter_option
     from tests.experiment.synthetic import (
         MANOEUVRES,
         MAPPING,
@@ -84,9 +88,7 @@ def child_fit() -> dict[str, Any]:
         write_csv,
     )
 
-    out: dict[str, Any] = {}
-    cases: list[tuple[str, Path, tuple[str, ...], dict[str, float] | None]] = [
-        ("lab_run3", ROOT / "examples" / "lab_arm.toml", FIT_PARAMS, None)]
+    cases: list[Case] = [("lab_run3", ROOT / "examples" / "lab_arm.toml", FIT_PARAMS, None)]
     folder = Path(tempfile.mkdtemp(prefix="flexlink-fit-bench-"))
     for name, truth in MANOEUVRES.items():
         columns, _ = measured_columns(truth)
@@ -106,7 +108,29 @@ def child_fit() -> dict[str, Any]:
         encoding="utf-8")
     cases.append(("one link", folder / "single.toml", SINGLE_PARAMS,
                   {"links[0].EI": 262.0, "links[0].damping_ratio": 0.03, "strain:gain": 0.9}))
-    for name, toml, paths, true in cases:
+    return cases
+
+
+def _judged(path: str, value: float, low: float, high: float,
+            true: dict[str, float] | None) -> dict[str, Any]:
+    """An estimate's row: value and interval, with its error against the truth if known."""
+    row: dict[str, Any] = {"value": value, "low": low, "high": high}
+    if true is not None:
+        row["error"] = value / true[path] - 1.0 if true[path] else None
+        row["covers"] = bool(low <= true[path] <= high)
+        row["within"] = (abs(row["error"]) <= TOLERANCE[path]
+                         if path in TOLERANCE else None)
+    return row
+
+
+def child_fit() -> dict[str, Any]:
+    """fit() of the lab record and of every synthetic manoeuvre, timed in this process."""
+    from flexlink.experiment.identification import fit
+    from flexlink.experiment.loading import load_experiment
+    from flexlink.experiment.parameters import parse_parameter_option
+
+    out: dict[str, Any] = {}
+    for name, toml, paths, true in fit_cases():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             experiment = load_experiment(toml)
@@ -115,15 +139,8 @@ def child_fit() -> dict[str, Any]:
             wall, cpu = time.perf_counter(), _cpu()
             result = fit(experiment.file, experiment.measurement, params)
             wall, cpu = time.perf_counter() - wall, _cpu() - cpu
-        estimates = {}
-        for e in result.estimates:
-            row: dict[str, Any] = {"value": e.value, "low": e.ci_low, "high": e.ci_high}
-            if true is not None:
-                row["error"] = e.value / true[e.path] - 1.0 if true[e.path] else None
-                row["covers"] = bool(e.ci_low <= true[e.path] <= e.ci_high)
-                row["within"] = (abs(row["error"]) <= TOLERANCE[e.path]
-                                 if e.path in TOLERANCE else None)
-            estimates[e.path] = row
+        estimates = {e.path: _judged(e.path, e.value, e.ci_low, e.ci_high, true)
+                     for e in result.estimates}
         out[name] = {"wall": wall, "cpu": cpu, "simulations": result.simulations,
                      "estimates": estimates, "load": os.getloadavg()[0],
                      "jacobian": result.info.get("jacobian", "differences")}
@@ -164,23 +181,30 @@ def child_optimize() -> dict[str, Any]:
             "peaks": peaks, "message": result.message, "load": os.getloadavg()[0]}
 
 
-def child_command(src: Path, figures: bool = True) -> dict[str, Any]:
-    """The whole `flexlink fit` command in a fresh process: wall and CPU time."""
+def child_command(src: Path, figures: bool = True, case: Case | None = None
+                  ) -> dict[str, Any]:
+    """The whole `flexlink fit` command in a fresh process (of ``case``, default the lab
+    record): wall and CPU time, and the estimates it wrote (fit.json)."""
+    name, toml, paths, true = case or ("lab_run3", ROOT / "examples" / "lab_arm.toml",
+                                       FIT_PARAMS, None)
     out = Path(tempfile.mkdtemp(prefix="flexlink-fit-cmd-")) / "fitted"
-    args = [sys.executable, "-m", "flexlink", "fit", str(ROOT / "examples" / "lab_arm.toml"),
-            str(ROOT / "examples" / "lab_run3.csv"), "-o", str(out), "-q"]
+    args = [sys.executable, "-m", "flexlink", "fit", str(toml), "-o", str(out), "-q"]
     if not figures:
         args.append("--no-figures")
-    for p in FIT_PARAMS:
+    for p in paths:
         args += ["-p", p]
     env = {**os.environ, "PYTHONPATH": str(src)}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     wall = time.perf_counter()
-    subprocess.run(args, env=env, check=True, capture_output=True)
+    subprocess.run(args, env=env, check=True, capture_output=True, cwd=toml.parent)
     wall = time.perf_counter() - wall
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return {"wall": wall, "cpu": cpu, "load": os.getloadavg()[0]}
+    fitted = json.loads((out / "fit.json").read_text(encoding="utf-8"))
+    estimates = {e["path"]: _judged(e["path"], e["value"], e["ci_low"], e["ci_high"], true)
+                 for e in fitted["parameters"]}
+    return {"wall": wall, "cpu": cpu, "load": os.getloadavg()[0], "estimates": estimates,
+            "case": name}
 
 
 # -- parent ------------------------------------------------------------------------------
@@ -205,9 +229,10 @@ def source_of(rev: str) -> Path:
     return folder / "src"
 
 
-def run_child(kind: str, src: Path, repeat: int = 1) -> dict[str, Any]:
+def run_child(kind: str, src: Path, repeat: int = 1, case: Case | None = None
+              ) -> dict[str, Any]:
     if kind in ("command", "no figures"):  # the median run by CPU time of ``repeat``
-        runs = sorted((child_command(src, kind == "command") for _ in range(repeat)),
+        runs = sorted((child_command(src, kind == "command", case) for _ in range(repeat)),
                       key=lambda r: r["cpu"])
         return {**runs[len(runs) // 2], "runs": runs}
     env = {**os.environ, "PYTHONPATH": str(src)}
@@ -257,11 +282,14 @@ def main() -> None:
                         "flexlink.simulate(flexlink.load_paper_experiment(), shapes=False)")
                 subprocess.run([sys.executable, "-c", warm], env=env, check=True,
                                capture_output=True)
-    results = {label: {} for label in versions}
+    results: dict[str, dict[str, Any]] = {label: {} for label in versions}
+    cases = fit_cases() if "fit" in kinds else []
     for label, src in versions.items():
         if "fit" in kinds:
             results[label]["command"] = run_child("command", src, args.repeat)
             results[label]["no figures"] = run_child("no figures", src, args.repeat)
+            results[label]["commands"] = [run_child("command", src, args.repeat, case)
+                                          for case in cases[1:]]
             results[label]["fit"] = run_child("fit", src)
         if "optimize" in kinds:
             results[label]["optimize"] = run_child("optimize", src)
@@ -274,7 +302,21 @@ def main() -> None:
                       f"wall, {c['cpu']:.2f} s CPU (load {c['load']:.1f})"
                       + ("; runs: " + ", ".join(f"{r['wall']:.2f}/{r['cpu']:.2f} s"
                                                  for r in c["runs"]) if len(c["runs"]) > 1
-                         else ""))
+                         else "") + (f"\n  {'':<22}   {_estimates(c)}" if not what else ""))
+        for i in range(len(cases) - 1):
+            for label, res in results.items():
+                c = res["commands"][i]
+                print(f"  {label:<22} command, {c['case']}: {c['wall']:.2f} s wall, "
+                      f"{c['cpu']:.2f} s CPU (load {c['load']:.1f})"
+                      + ("; runs: " + ", ".join(f"{r['wall']:.2f}/{r['cpu']:.2f} s"
+                                                 for r in c["runs"]) if len(c["runs"]) > 1
+                         else "") + f"\n  {'':<22}   {_estimates(c)}")
+        if len(versions) > 1:  # the printed digits of both versions' commands
+            shown = {label: [_estimates(c) for c in (res["command"], *res["commands"])]
+                     for label, res in results.items()}
+            first, second = shown.values()
+            print("  estimates and intervals of every command identical to the printed "
+                  f"digits: {'yes' if first == second else 'NO'}")
         for case in results["after"]["fit"]:
             for label, res in results.items():
                 row = res["fit"][case]

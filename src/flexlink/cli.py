@@ -209,6 +209,7 @@ def _main(argv: Sequence[str] | None) -> int:
     if getattr(args, "paused_start_up", False):
         # the command imports within the block, then calls the function (experiment/commands.py)
         args.start_up = (withheld_imports(_optional_imports()), _collect_from_here)
+        args.own_process = _start_up["command"]  # flexlink/_light_start.py's measures: only here
     elif args.handler is not _cmd_run and args.handler is not _cmd_paper:
         _collect_from_here()  # only `run` and `paper` keep it paused through their imports
     if args.command == "run" and (args.paper == (args.scenario is not None)):

@@ -88,6 +88,11 @@ def _start_up_imports(args: argparse.Namespace, fitting: bool = False) -> None:
     block, imports_done = getattr(args, "start_up", (contextlib.nullcontext(), None))
     preload = None
     with block:
+        if getattr(args, "own_process", False):  # the command's own process (`cli.main`)
+            from .._light_start import defer_unused_submodules, load_cached_kernels_only
+
+            defer_unused_submodules()
+            load_cached_kernels_only()
         try:
             # the measured angles drive a Lawson run: its compiled loop loads meanwhile
             from ..solvers.lawson import preload_compiled_loop

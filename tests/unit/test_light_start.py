@@ -1,0 +1,90 @@
+"""`flexlink fit`'s own process goes without what it never uses (flexlink/_light_start.py):
+numpy's testing and f2py packages stay lazy, numba's typing and lowering registries are not
+installed to load cached kernels, matplotlib stays in the figures' processes — and it
+estimates what the same command run in-process (without those measures) estimates."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from flexlink.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+PARAMS = ("links[0].EI", "links[0].damping_ratio", "links[1].damping_ratio", "pzt:gain",
+          "pzt:offset", "link1_tip_acceleration:gain")
+# modules numba imports to install its registries (CPUContext.load_additional_registries,
+# the typing context's), which loading a cached kernel does not need
+REGISTRY_MODULES = ("numba.np.linalg", "numba.np.arraymath", "numba.np.npyimpl",
+                    "numba.np.random.generator_methods", "numba.cpython.listobj",
+                    "numba.core.typing.arraydecl", "numba.experimental.jitclass.base")
+# the command's process, recording at its exit (after its atexit handlers' turn: `cli._exit`
+# runs them) which modules it imported and which of them stayed lazy
+PROBE = """
+import atexit, json, sys
+path = sys.argv.pop(1)
+def record():
+    modules = {n: type(m).__name__ for n, m in sys.modules.items() if m is not None}
+    with open(path, "w") as f:
+        json.dump(modules, f)
+atexit.register(record)
+from flexlink.cli import command
+command()
+"""
+
+
+def fit_args(out: Path) -> list[str]:
+    args = ["fit", str(ROOT / "examples" / "lab_arm.toml"), str(ROOT / "examples" / "lab_run3.csv"),
+            "-o", str(out), "-q"]
+    for p in PARAMS:
+        args += ["-p", p]
+    return args
+
+
+def test_the_fit_command_imports_only_what_it_uses_and_estimates_the_same(tmp_path: Path) -> None:
+    record = tmp_path / "modules.json"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(ROOT / "src"), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    done = subprocess.run([sys.executable, "-c", PROBE, str(record),
+                           *fit_args(tmp_path / "command")], env=env, capture_output=True,
+                          text=True, timeout=600, check=False)
+    assert done.returncode == 0, done.stderr
+    modules = json.loads(record.read_text())
+    for name in ("numpy.testing", "numpy.f2py", "numpy.ctypeslib"):
+        assert modules.get(name) == "_LazyModule", f"{name}: {modules.get(name)}"
+    installed = [name for name in REGISTRY_MODULES if name in modules]
+    assert not installed, f"numba's registries were installed: {installed}"
+    assert "matplotlib" not in modules  # drawn by the figure processes
+    assert (tmp_path / "command" / "figures" / "overlay.png").is_file()
+
+    # the same command in this process: numba's registries and numpy's packages as they were
+    assert main(fit_args(tmp_path / "in_process") + ["--no-figures"]) == 0
+    command, in_process = (json.loads((tmp_path / folder / "fit.json").read_text())["parameters"]
+                           for folder in ("command", "in_process"))
+    assert [p["path"] for p in command] == list(PARAMS)
+    for ours, theirs in zip(command, in_process, strict=True):
+        for key in ("value", "ci_low", "ci_high"):  # round-off apart at most (BLAS threads)
+            assert math.isclose(ours[key], theirs[key], rel_tol=1e-9, abs_tol=1e-12), (
+                ours["path"], key, ours[key], theirs[key])
+
+
+def test_deferred_packages_load_on_first_use() -> None:
+    script = ("import sys, numpy\n"
+              "from flexlink._light_start import defer_unused_submodules\n"
+              "deferred = ['numpy.testing', 'numpy.f2py', 'numpy.ctypeslib']\n"
+              "assert defer_unused_submodules() == deferred\n"
+              "assert type(sys.modules['numpy.testing']).__name__ == '_LazyModule'\n"
+              "import scipy.linalg\n"  # copies numpy's namespace: the packages stay lazy
+              "assert type(sys.modules['numpy.testing']).__name__ == '_LazyModule'\n"
+              "from numpy.testing import assert_allclose\n"
+              "assert_allclose(scipy.linalg.expm(numpy.zeros((2, 2))), numpy.eye(2))\n"
+              "assert type(sys.modules['numpy.testing']).__name__ == 'module'\n"
+              "assert numpy.testing.assert_allclose is assert_allclose\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                          text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
