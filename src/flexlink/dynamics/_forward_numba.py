@@ -11,8 +11,10 @@ their products with ż and z enter, so it forms
     r(p̈) = C ẋ + K(p̈) x − f(p̈)   (n_x,)
 
 link by link from ξ = T̂ z, ξ̇ = Ṫ̂ z + T̂ ż, … (mat-vec, not mat-mat), M once, and the columns
-∂r/∂p̈_j by one more evaluation of r per free coordinate (r is affine in p̈, §10). The
-attachment-turn term of K (ForwardSystem._attachment_turn) multiplies δθ_b = 0 and drops out.
+∂r/∂p̈_j (r is affine in p̈, §10) as differences of the terms p̈ enters (`acceleration_terms`,
+with the frames' accelerations) at unit p̈_j and at p̈ = 0: the terms it does not enter
+(`velocity_terms`, the larger part) are evaluated once. The attachment-turn term of K
+(ForwardSystem._attachment_turn) multiplies δθ_b = 0 and drops out.
 
 The kernels that allocate nothing (these, and their helpers in _elastic_numba,
 _prismatic_numba, _momentum_numba) are compiled with ``_nrt=False``, numba's flag for code
@@ -35,7 +37,8 @@ from ._prismatic_numba import lever_stiffness
 
 Workspace = namedtuple("Workspace", [
     "theta", "omega", "alpha", "oacc", "T", "Td", "Tdd", "own", "out", "xi", "xi_d", "xi_dd", "v", "TM",
-    "p", "pd", "pdd", "x", "xd", "r0", "rj", "M", "Q", "srates", "A", "b"])
+    "p", "pd", "pdd", "x", "xd", "r0", "rj", "M", "Q", "srates", "A", "b", "ra", "g0xi", "t1x",
+    "foreq"])
 Workspace.__doc__ = "Scratch arrays of the kernels (allocated once per run: see workspace)."
 
 
@@ -49,7 +52,8 @@ def workspace(d, n_servos: int) -> Workspace:
     return Workspace(e(N), e(N), e(N), e((N, 2)), e((N, 3, nx)), e((N, 3, nx)), e((N, 3, nx)),
                      e((N, 2)), e((N, 2)), e(m), e(m), e(m), e(m), e((m, nx)),
                      e(nr), e(nr), e(nr), e(nx), e(nx), e(nx), e(nx), e((nx, nx)), e(nx),
-                     e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr))
+                     e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr),
+                     e(nx), e((N, m)), e(N), e((N, 4, m - 3)))
 
 # Joint kinds in ForwardData.joint_kind.
 PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO, ELASTIC = 0, 1, 2, 3, 4
@@ -212,72 +216,67 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     (want_M) the mass matrix M (n_x, n_x): ForwardSystem.matrices through its products.
 
     Per link (first_order.add_link_terms, docs/derivation.md §3–4), with ξ = T̂x:
-    T̂ᵀ[M_t(ξ̈ + 2ξ̇) + 2ω G₀(ξ̇ + ξ) + (ω̇ G₀ − ω² M₀)ξ + load] − S₂x + K_e q + D q̇."""
-    N = d.length.shape[0]
-    omega, alpha, oacc, T, Td, Tdd = w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td, w_.Tdd
-    frames(d, p, pd, pdd, w_.theta, omega, alpha, oacc, T, Td, Tdd)
-    # Outboard inertia force Σ_{j>k, same branch} ∫a0 dm along frame k's x (its x part is
-    # all the second-order stiffness needs; both components are carried for the turn).
-    own, out = w_.own, w_.out
-    out[:] = 0.0
-    for k in range(N):
-        w, wd = omega[k], alpha[k]
-        own[k, 0] = d.mass[k] * oacc[k, 0] - w * w * d.s1[k] - wd * d.sy[k]
-        own[k, 1] = d.mass[k] * oacc[k, 1] + wd * d.s1[k] - w * w * d.sy[k]
-    for k in range(N - 2, -1, -1):
-        if d.attached[k + 1]:
-            continue
-        fx, fy = out[k + 1, 0] + own[k + 1, 0], out[k + 1, 1] + own[k + 1, 1]
-        beta = p[d.n_base + k + 1]  # θ_{k+1} − θ_k
-        if d.slide[k + 1]:
-            beta = d.slide_angle[k + 1]
-        cb, sb = np.cos(beta), np.sin(beta)
-        out[k, 0] = cb * fx - sb * fy
-        out[k, 1] = sb * fx + cb * fy
+    T̂ᵀ[M_t(ξ̈ + 2ξ̇) + 2ω G₀(ξ̇ + ξ) + (ω̇ G₀ − ω² M₀)ξ + load] − S₂x + K_e q + D q̇,
+    in two parts: the terms p̈ does not enter (`velocity_terms`) and those it does
+    (`acceleration_terms`, affine in p̈)."""
+    frames(d, p, pd, pdd, w_.theta, w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td, w_.Tdd)
     r[:] = 0.0
     if want_M:
         M[:] = 0.0
+    velocity_terms(d, w_, x, xd, r, M, want_M)
+    acceleration_terms(d, w_, p, pdd, x, r, M, want_M)
+
+
+@njit(inline="always")
+def velocity_terms(d, w_, x, xd, r, M, want_M):
+    """Add to r the terms of `residual` that p̈ does not enter (the frames' maps and rates
+    from `frames`), and (want_M) T̂ᵀ M_t T̂ to M; keep per link the products with x that
+    `acceleration_terms` weighs by the accelerations (w_.g0xi: G₀ξ, w_.t1x: θ1 = T̂[2] x,
+    w_.foreq: the stiffening matrices times q)."""
+    N = d.length.shape[0]
+    omega, T, Td = w_.omega, w_.T, w_.Td
     xi = w_.xi
     xi_d = w_.xi_d  # Ṫ̂ x + T̂ ẋ
-    xi_dd = w_.xi_dd  # T̈̂ x + 2 Ṫ̂ ẋ
+    xi_dd = w_.xi_dd  # 2 Ṫ̂ ẋ: ξ̈'s part without T̈̂ x
     v = w_.v
     TM = w_.TM  # M_t T̂
+    g0xi, t1x_, foreq = w_.g0xi, w_.t1x, w_.foreq
     for k in range(N):
         nk, o = d.n_modes[k], d.offset[k]
         mk = 3 + nk
-        w, wd = omega[k], alpha[k]
+        w = omega[k]
+        w2 = w * w
         nc = map_columns(d, k)  # T̂_k's columns beyond are zero
         for a in range(3):
             s0 = s1 = s2 = 0.0
             for c in range(nc):
                 s0 += T[k, a, c] * x[c]
                 s1 += Td[k, a, c] * x[c] + T[k, a, c] * xd[c]
-                s2 += Tdd[k, a, c] * x[c] + 2.0 * Td[k, a, c] * xd[c]
+                s2 += 2.0 * Td[k, a, c] * xd[c]
             xi[a], xi_d[a], xi_dd[a] = s0, s1, s2
         for i in range(nk):
             xi[3 + i] = x[o + i]
             xi_d[3 + i] = xd[o + i]
-            xi_dd[3 + i] = 0.0
-        # Zero-order inertia load (first_order.rigid_load), then the body terms.
-        ax, ay = oacc[k, 0], oacc[k, 1]
-        mass, s1k, J, Jt = d.mass[k], d.s1[k], d.J[k], d.Jt[k]
-        v[0] = mass * ax - w * w * s1k
-        v[1] = mass * ay + wd * s1k
-        v[2] = s1k * ay + J * wd + Jt * wd
+        # Zero-order inertia load's velocity terms (first_order.rigid_load).
+        s1k, sy, lateral = d.s1[k], d.sy[k], d.lateral[k]
+        v[0] = -w2 * s1k
+        v[1] = 0.0
+        v[2] = 0.0
         for i in range(nk):
-            v[3 + i] = ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i] + wd * d.rot_slope[k, i]
-        sy, lateral = d.sy[k], d.lateral[k]
+            v[3 + i] = 0.0
         if lateral:  # bodies' centres across the link (first_order.rigid_load)
-            v[0] -= wd * sy
-            v[1] -= w * w * sy
-            v[2] -= ax * sy
+            v[1] -= w2 * sy
             for i in range(nk):
-                v[3 + i] += w * w * d.lat_tilde[k, i] - ax * d.lat_slope[k, i]
+                v[3 + i] += w2 * d.lat_tilde[k, i]
         for a in range(mk):
             acc = 0.0
+            for b in range(3):
+                acc += d.Mtot[k, a, b] * xi_dd[b]
+            g = 0.0
             for b in range(mk):
-                acc += (d.Mtot[k, a, b] * xi_dd[b] + 2.0 * w * d.G0[k, a, b] * xi_d[b]
-                        + (wd * d.G0[k, a, b] - w * w * d.M0[k, a, b]) * xi[b])
+                g += d.G0[k, a, b] * xi[b]
+                acc += 2.0 * w * d.G0[k, a, b] * xi_d[b] - w2 * d.M0[k, a, b] * xi[b]
+            g0xi[k, a] = g
             v[a] += acc
         # r += T̂ᵀ v
         for c in range(nc):
@@ -287,32 +286,32 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
             r[c] += acc
         for i in range(nk):
             r[o + i] += v[3 + i]
-        # Second-order stiffness (first_order.second_order_stiffness) times x.
-        N_out = out[k, 0]
-        w2 = w * w
-        scal = ax * s1k - w2 * J + N_out * d.length[k] + ay * sy
+        # Second-order stiffness (first_order.second_order_stiffness) times x: its
+        # velocity terms.
         t1x = 0.0
         for c in range(nc):
             t1x += T[k, 2, c] * x[c]
+        t1x_[k] = t1x
         vq = 0.0
         for i in range(nk):
-            vec_i = ax * d.phi_bar[k, i] - w2 * d.phi_tilde[k, i] + N_out * d.tip_value[k, i]
-            if lateral:
-                vec_i += ay * d.lat_slope[k, i] + wd * d.lat_tilde[k, i]
+            vec_i = -w2 * d.phi_tilde[k, i]
             vq += vec_i * x[o + i]
             r[o + i] -= vec_i * t1x
         for c in range(nc):
-            r[c] -= T[k, 2, c] * (scal * t1x + vq)
+            r[c] -= T[k, 2, c] * (-w2 * d.J[k] * t1x + vq)
         for i in range(nk):
             acc = 0.0
+            fm = ft = lf = lm = 0.0
             for j in range(nk):
                 if d.stiffening:
-                    acc -= (ax * d.fore_mass[k, i, j] - w2 * d.fore_moment[k, i, j]
-                            + N_out * d.fore_tip[k, i, j]) * x[o + j]
+                    acc += w2 * d.fore_moment[k, i, j] * x[o + j]
+                    fm += d.fore_mass[k, i, j] * x[o + j]
+                    ft += d.fore_tip[k, i, j] * x[o + j]
                     if lateral:
-                        acc -= (ay * d.lat_fore[k, i, j]
-                                + wd * d.lat_fore_moment[k, i, j]) * x[o + j]
+                        lf += d.lat_fore[k, i, j] * x[o + j]
+                        lm += d.lat_fore_moment[k, i, j] * x[o + j]
                 acc += d.stiffness[k, i, j] * x[o + j] + d.damping[k, i, j] * xd[o + j]
+            foreq[k, 0, i], foreq[k, 1, i], foreq[k, 2, i], foreq[k, 3, i] = fm, ft, lf, lm
             r[o + i] += acc
         if want_M:  # M += T̂ᵀ M_t T̂ (TM's columns beyond its own modes are zero)
             nt = max(nc, o + nk)
@@ -333,6 +332,93 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
             for i in range(nk):
                 for c2 in range(nt):
                     M[o + i, c2] += TM[3 + i, c2]
+
+
+@njit(inline="always")
+def acceleration_terms(d, w_, p, pdd, x, r, M, want_M):
+    """Add to r the terms of `residual` that p̈ enters (affine in it: the frames'
+    accelerations from `frames` at p̈, the products `velocity_terms` kept at the same
+    state), and (want_M) the rigid base's and the motors' inertia to M."""
+    N = d.length.shape[0]
+    omega, alpha, oacc, T, Tdd = w_.omega, w_.alpha, w_.oacc, w_.T, w_.Tdd
+    # Outboard inertia force Σ_{j>k, same branch} ∫a0 dm along frame k's x (its x part is
+    # all the second-order stiffness needs; both components are carried for the turn).
+    own, out = w_.own, w_.out
+    out[:] = 0.0
+    for k in range(N):
+        w, wd = omega[k], alpha[k]
+        own[k, 0] = d.mass[k] * oacc[k, 0] - w * w * d.s1[k] - wd * d.sy[k]
+        own[k, 1] = d.mass[k] * oacc[k, 1] + wd * d.s1[k] - w * w * d.sy[k]
+    for k in range(N - 2, -1, -1):
+        if d.attached[k + 1]:
+            continue
+        fx, fy = out[k + 1, 0] + own[k + 1, 0], out[k + 1, 1] + own[k + 1, 1]
+        beta = p[d.n_base + k + 1]  # θ_{k+1} − θ_k
+        if d.slide[k + 1]:
+            beta = d.slide_angle[k + 1]
+        cb, sb = np.cos(beta), np.sin(beta)
+        out[k, 0] = cb * fx - sb * fy
+        out[k, 1] = sb * fx + cb * fy
+    xi_dd = w_.xi_dd  # T̈̂ x
+    v = w_.v
+    g0xi, t1x_, foreq = w_.g0xi, w_.t1x, w_.foreq
+    for k in range(N):
+        nk, o = d.n_modes[k], d.offset[k]
+        mk = 3 + nk
+        wd = alpha[k]
+        nc = map_columns(d, k)  # T̂_k's columns beyond are zero
+        for a in range(3):
+            s2 = 0.0
+            for c in range(nc):
+                s2 += Tdd[k, a, c] * x[c]
+            xi_dd[a] = s2
+        # Zero-order inertia load (first_order.rigid_load), then the body terms.
+        ax, ay = oacc[k, 0], oacc[k, 1]
+        mass, s1k, J, Jt = d.mass[k], d.s1[k], d.J[k], d.Jt[k]
+        v[0] = mass * ax
+        v[1] = mass * ay + wd * s1k
+        v[2] = s1k * ay + J * wd + Jt * wd
+        for i in range(nk):
+            v[3 + i] = ay * d.phi_bar[k, i] + wd * d.phi_tilde[k, i] + wd * d.rot_slope[k, i]
+        sy, lateral = d.sy[k], d.lateral[k]
+        if lateral:  # bodies' centres across the link (first_order.rigid_load)
+            v[0] -= wd * sy
+            v[2] -= ax * sy
+            for i in range(nk):
+                v[3 + i] -= ax * d.lat_slope[k, i]
+        for a in range(mk):
+            acc = wd * g0xi[k, a]
+            for b in range(3):
+                acc += d.Mtot[k, a, b] * xi_dd[b]
+            v[a] += acc
+        # r += T̂ᵀ v
+        for c in range(nc):
+            acc = 0.0
+            for a in range(3):
+                acc += T[k, a, c] * v[a]
+            r[c] += acc
+        for i in range(nk):
+            r[o + i] += v[3 + i]
+        # Second-order stiffness (first_order.second_order_stiffness) times x: the terms
+        # of the accelerations.
+        N_out = out[k, 0]
+        scal = ax * s1k + N_out * d.length[k] + ay * sy
+        t1x = t1x_[k]
+        vq = 0.0
+        for i in range(nk):
+            vec_i = ax * d.phi_bar[k, i] + N_out * d.tip_value[k, i]
+            if lateral:
+                vec_i += ay * d.lat_slope[k, i] + wd * d.lat_tilde[k, i]
+            vq += vec_i * x[o + i]
+            r[o + i] -= vec_i * t1x
+        for c in range(nc):
+            r[c] -= T[k, 2, c] * (scal * t1x + vq)
+        if d.stiffening:
+            for i in range(nk):
+                acc = ax * foreq[k, 0, i] + N_out * foreq[k, 1, i]
+                if lateral:
+                    acc += ay * foreq[k, 2, i] + wd * foreq[k, 3, i]
+                r[o + i] -= acc
     lever_stiffness(d, p, T, out, x, r)
     # The rigid base's mass and inertia and their zero-order load (ForwardSystem._base_inertia).
     nb = d.n_base
@@ -544,8 +630,17 @@ def assemble(d, w_, u, y):
     integral = y[2 * nu + 2 * n:]
     # bool(): a plain bool, not a literal, so that both calls share one compiled residual
     want = bool(1)
-    r0, rj, M, Q, srates, A, b = w_.r0, w_.rj, w_.M, w_.Q, w_.srates, w_.A, w_.b
-    residual(d, w_, p, pd, pdd, x, xd, r0, M, want)
+    r0, ra, rj, M, Q, srates, A, b = w_.r0, w_.ra, w_.rj, w_.M, w_.Q, w_.srates, w_.A, w_.b
+    # `residual` in its two parts: the terms p̈ does not enter once, those it enters (affine
+    # in it) at p̈_free = 0 and at each unit p̈_free, whose differences are ∂r/∂p̈_free
+    frames(d, p, pd, pdd, w_.theta, w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td, w_.Tdd)
+    r0[:] = 0.0
+    M[:] = 0.0
+    velocity_terms(d, w_, x, xd, r0, M, want)
+    ra[:] = 0.0
+    acceleration_terms(d, w_, p, pdd, x, ra, M, want)
+    for i in range(nx):
+        r0[i] += ra[i]
     srates[:] = 0.0
     applied(d, u, p, pd, integral, Q, srates)
     m = nu + n
@@ -556,11 +651,13 @@ def assemble(d, w_, u, y):
             A[row, nu + i] = M[a, nr + i]
     for j in range(nu):
         pdd[free[j]] = 1.0
-        residual(d, w_, p, pd, pdd, x, xd, rj, M, not want)
+        frames(d, p, pd, pdd, w_.theta, w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td, w_.Tdd)
+        rj[:] = 0.0
+        acceleration_terms(d, w_, p, pdd, x, rj, M, not want)
         pdd[free[j]] = 0.0
         for row in range(m):
             a = free[row] if row < nu else nr + row - nu
-            A[row, j] = rj[a] - r0[a]
+            A[row, j] = rj[a] - ra[a]
 
 
 @njit(cache=True, _nrt=False)
