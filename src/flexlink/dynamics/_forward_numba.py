@@ -27,16 +27,19 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof, types
+from numba.extending import intrinsic
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from .._compiled_calls import MATRIX, ROW, address, call_codegen, check, type_key
 from . import _elastic_numba as elastic
 from ._prismatic_numba import lever_stiffness
 
 Workspace = namedtuple("Workspace", [
     "theta", "omega", "alpha", "oacc", "T", "Td", "Tdd", "own", "out", "xi", "xi_d", "xi_dd", "v", "TM",
-    "p", "pd", "pdd", "x", "xd", "r0", "rj", "M", "Q", "srates", "A", "b"])
-Workspace.__doc__ = "Scratch arrays of the kernels (allocated once per run: see workspace)."
+    "p", "pd", "pdd", "x", "xd", "r0", "rj", "M", "Q", "srates", "A", "b", "calls"])
+Workspace.__doc__ = ("Scratch arrays of the kernels (allocated once per run: see workspace); "
+                     "calls: the addresses of the compiled code they call (`_call_residual`).")
 
 
 def workspace(d, n_servos: int) -> Workspace:
@@ -46,10 +49,25 @@ def workspace(d, n_servos: int) -> Workspace:
     m = 3 + d.phi_bar.shape[1]
     nu = d.free.shape[0]
     e = np.empty
-    return Workspace(e(N), e(N), e(N), e((N, 2)), e((N, 3, nx)), e((N, 3, nx)), e((N, 3, nx)),
-                     e((N, 2)), e((N, 2)), e(m), e(m), e(m), e(m), e((m, nx)),
-                     e(nr), e(nr), e(nr), e(nx), e(nx), e(nx), e(nx), e((nx, nx)), e(nx),
-                     e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr))
+    w = Workspace(e(N), e(N), e(N), e((N, 2)), e((N, 3, nx)), e((N, 3, nx)), e((N, 3, nx)),
+                  e((N, 2)), e((N, 2)), e(m), e(m), e(m), e(m), e((m, nx)),
+                  e(nr), e(nr), e(nr), e(nx), e(nx), e(nx), e(nx), e((nx, nx)), e(nx),
+                  e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr),
+                  np.zeros(1, dtype=np.int64))
+    w.calls[0] = _residual_address(d, w)
+    return w
+
+
+_RESIDUALS: dict[object, int] = {}  # type_key of (d, w) → address of their compiled residual
+
+
+def _residual_address(d, w: Workspace) -> int:
+    """The address of `residual` compiled for ForwardData d and Workspace w."""
+    key = type_key((d, w))
+    found = _RESIDUALS.get(key)
+    if found is None:
+        found = _RESIDUALS[key] = address(residual, (typeof(d), typeof(w)) + _RESIDUAL_ROWS)
+    return found
 
 # Joint kinds in ForwardData.joint_kind.
 PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO, ELASTIC = 0, 1, 2, 3, 4
@@ -57,7 +75,7 @@ PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO, ELASTIC = 0, 1, 2, 3, 4
 FIXED, PINNED, FREE, CART = 0, 1, 2, 3
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def base_acceleration(d, pdd):
     """The base reference point's acceleration minus gravity, global axes (m/s²): where
     gravity enters the compiled first-order model (kinematics.inertial_acceleration: by the
@@ -70,7 +88,7 @@ def base_acceleration(d, pdd):
     return -d.gravity[0], -d.gravity[1]
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def map_columns(d, k):
     """How many leading columns of x = [δp; z] frame k's maps T̂_k can have nonzero (s):
     the rigid coordinates' and the modes of the links it hangs on, which come before its
@@ -83,7 +101,7 @@ def map_columns(d, k):
     return columns
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
     """Fill the zero-order frame angles, rates, accelerations, origin accelerations (frame
     axes) and the maps x → [ρx, ρy, θ1] of every link with their time derivatives
@@ -206,7 +224,7 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
             T[k, 2, nb + k] += 1.0  # δβ_k turns frame k
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     """r = C ẋ + K x − f (n_x,) at rigid state (p, ṗ, p̈) for x = [0; z], ẋ = [0; ż], and
     (want_M) the mass matrix M (n_x, n_x): ForwardSystem.matrices through its products.
@@ -360,7 +378,20 @@ def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     elastic.rotor_inertia(d, pdd, r, M, want_M)
 
 
-@njit(cache=True, _nrt=False)
+# residual's arguments after (d, w_): p, pd, pdd, x, xd, r, M, want_M
+_RESIDUAL_ROWS = (ROW, ROW, ROW, ROW, ROW, ROW, MATRIX, types.boolean)
+
+
+@intrinsic
+def _call_residual(typingctx, at, d, w_, p, pd, pdd, x, xd, r, M, want_M):
+    """`residual` through the address ``at`` of its code compiled for (d, w_) (w_.calls[0]):
+    the kernels that evaluate the model hold this call, not a copy of it
+    (`_compiled_calls`)."""
+    check("the compiled residual", (p, pd, pdd, x, xd, r, M, want_M), _RESIDUAL_ROWS)
+    return types.none(at, d, w_, p, pd, pdd, x, xd, r, M, want_M), call_codegen(0)
+
+
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def applied(d, u, p, pd, integral, Q, rates):
     """Generalized applied forces Q (n_x,) and servo integral rates at one time
     (ForwardSystem.applied, dynamics/servos.py). u is the input row (forward_kernel.inputs):
@@ -414,7 +445,7 @@ def applied(d, u, p, pd, integral, Q, rates):
             Q[nr + i] += acc
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _drive(d, k, kind, ref, ref_rate, torque, pos, rate, integral, rates):
     """The torque (force) of drive k (joint k, or the cart's at k = N) of the given kind (an
     elastic joint's: its motor's) from its input columns (reference or motion, its rate, a
@@ -440,7 +471,7 @@ def _drive(d, k, kind, ref, ref_rate, torque, pos, rate, integral, rates):
     return min(max(tau, -d.torque_limit[k]), d.torque_limit[k])
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _solve(A, b):
     """Solve A y = b in place (b ← y) by Gaussian elimination with partial pivoting."""
     n = b.shape[0]
@@ -483,7 +514,7 @@ def rates(d, w_, u, y, dy):
     state_rates(d, w_, y, w_.b, dy)
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def state_rates(d, w_, y, acc, dy):
     """dy from the state y and the accelerations acc = (p̈_free, z̈) (the servo integrals'
     rates from the last `assemble`)."""
@@ -500,7 +531,7 @@ def state_rates(d, w_, y, acc, dy):
         dy[2 * nu + 2 * n + s] = w_.srates[s]
 
 
-@njit(inline="always")
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def load_state(d, w_, u, y):
     """The rigid state (w_.p, w_.pd, w_.pdd with p̈_free = 0) and x = [0; z], ẋ = [0; ż]
     (w_.x, w_.xd) at state y and input row u."""
@@ -527,9 +558,7 @@ def load_state(d, w_, u, y):
         xd[nr + i] = y[2 * nu + n + i]
 
 
-# Inlined into its callers (these rates, the closed loops' solve_constrained) rather than
-# compiled on its own: a kernel of its own is optimised again inside each caller.
-@njit(inline="always")
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def assemble(d, w_, u, y):
     """The linear equations of `rates` in (p̈_free, z̈) at state y and input row u: their
     matrix into w_.A, right-hand side into w_.b, the servo integrals' rates into w_.srates
@@ -545,7 +574,7 @@ def assemble(d, w_, u, y):
     # bool(): a plain bool, not a literal, so that both calls share one compiled residual
     want = bool(1)
     r0, rj, M, Q, srates, A, b = w_.r0, w_.rj, w_.M, w_.Q, w_.srates, w_.A, w_.b
-    residual(d, w_, p, pd, pdd, x, xd, r0, M, want)
+    _call_residual(w_.calls[0], d, w_, p, pd, pdd, x, xd, r0, M, want)
     srates[:] = 0.0
     applied(d, u, p, pd, integral, Q, srates)
     m = nu + n
@@ -556,7 +585,7 @@ def assemble(d, w_, u, y):
             A[row, nu + i] = M[a, nr + i]
     for j in range(nu):
         pdd[free[j]] = 1.0
-        residual(d, w_, p, pd, pdd, x, xd, rj, M, not want)
+        _call_residual(w_.calls[0], d, w_, p, pd, pdd, x, xd, rj, M, not want)
         pdd[free[j]] = 0.0
         for row in range(m):
             a = free[row] if row < nu else nr + row - nu
@@ -577,7 +606,7 @@ def joint_torques(d, w_, p, pd, pdd, z, zd, zdd, out):
         for i in range(nx - nr):
             x[nr + i] = z[t, i]
             xd[nr + i] = zd[t, i]
-        residual(d, w_, p[t], pd[t], pdd[t], x, xd, r, M, bool(1))  # assemble's version
+        _call_residual(w_.calls[0], d, w_, p[t], pd[t], pdd[t], x, xd, r, M, bool(1))
         for k in range(N):
             row = nb + k
             acc = r[row]

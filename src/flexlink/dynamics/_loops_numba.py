@@ -63,7 +63,7 @@ def workspace(d, n_servos: int, n_state: int) -> LoopWork:
                     e((nc, nc)), e(nc), e(n_state), e((m + nc, m + nc)), e(m + nc))
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def point(f, k, s, phi, fore, w, r, rd, g, Jr):
     """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x) of the point
     at s (m) on link k whose mode values there are phi, from the frames in w (`frames`).
@@ -108,7 +108,7 @@ def point(f, k, s, phi, fore, w, r, rd, g, Jr):
             Jr[1, o + i] -= sn * fq
 
 
-@njit(inline="always")
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def base_pose(f, w):
     """The base's reference point (m), its velocity, its attitude (rad) and rate, and the
     coordinate of the attitude (−1: constant): a fixed base at the origin; a pinned base
@@ -125,7 +125,7 @@ def base_pose(f, w):
     return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1
 
 
-@njit(inline="always")
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def base_point(f, w, px, py, r, rd, g, Jr):
     """Position, velocity, γ and Jacobian (2, n_x) of the point (px, py) fixed in the base
     (m, base axes): a branch's joint, a closure's ground pivot."""
@@ -146,7 +146,7 @@ def base_point(f, w, px, py, r, rd, g, Jr):
         Jr[1, att] = ax
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def frames(f, w):
     """Every frame's angle, rate, Jacobian of the angle, origin, its velocity, γ and
     Jacobian from q = w.q, q̇ = w.v (a branch starts at its point of the base, which moves
@@ -287,9 +287,7 @@ def project(d, w, u, y):
     return True
 
 
-# Inlined into `rates` and `closed_states` rather than compiled on its own: a kernel of its
-# own is optimised again, with the whole forward model it calls, inside each caller.
-@njit(inline="always")
+@njit(cache=True)
 def solve_constrained(d, w, u, y):
     """Project y (w.yp ← y closed) and solve the constrained equations: accelerations
     (p̈_free, z̈) in w.rhs[:m], multipliers λ in w.rhs[m:]. False when the loop does not
