@@ -531,7 +531,8 @@ def state_rates(d, w_, y, acc, dy):
         dy[2 * nu + 2 * n + s] = w_.srates[s]
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def load_state(d, w_, u, y):
     """The rigid state (w_.p, w_.pd, w_.pdd with p̈_free = 0) and x = [0; z], ẋ = [0; ż]
     (w_.x, w_.xd) at state y and input row u."""
@@ -558,7 +559,10 @@ def load_state(d, w_, u, y):
         xd[nr + i] = y[2 * nu + n + i]
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# A kernel of its own, inlined by LLVM (forceinline) rather than by numba: numba's inlining
+# would copy the records into new variables of each caller, costly to compile.
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def assemble(d, w_, u, y):
     """The linear equations of `rates` in (p̈_free, z̈) at state y and input row u: their
     matrix into w_.A, right-hand side into w_.b, the servo integrals' rates into w_.srates
