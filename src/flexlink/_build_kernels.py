@@ -48,9 +48,9 @@ _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
 # CPU seconds each warm-up run compiled for in a two-worker build (``_compiled/build.json``,
 # "compile"), after the runs of its family before it: the build hands the families out
 # longest first. A run missing here counts as the mean of those listed.
-COMPILE_CPU = {"prescribed": 26, "nonlinear": 18, "nonlinear_step": 1, "forward": 82,
-               "free_base": 14, "nonlinear_forward": 11, "nonlinear_forward_step": 0,
-               "closed_loop": 5, "four_bar": 89, "nonlinear_four_bar": 67, "sensitivities": 11,
+COMPILE_CPU = {"prescribed": 20, "nonlinear": 19, "nonlinear_step": 1, "forward": 42,
+               "free_base": 12, "nonlinear_forward": 10, "nonlinear_forward_step": 0,
+               "closed_loop": 5, "four_bar": 43, "nonlinear_four_bar": 66, "sensitivities": 10,
                "batched": 9}
 # Model paths whose runs integrate with another path's compiled loop (the closed loop's
 # Lawson loop is the prescribed path's; the nonlinear path's Gauss loops, compiled once for

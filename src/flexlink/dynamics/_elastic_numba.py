@@ -15,7 +15,7 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 MOTOR_PRESCRIBED = 0  # equals _forward_numba.PRESCRIBED
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def prescribed_motors(d, u, p, pd, pdd):
     """Writes each prescribed motor's angle, rate and acceleration from the input row u."""
     N = d.motor_row.shape[0]
@@ -25,7 +25,7 @@ def prescribed_motors(d, u, p, pd, pdd):
             p[m], pd[m], pdd[m] = u[k], u[N + k], u[2 * N + k]
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def spring_torques(d, u, p, pd, Q):
     """Adds τ_s = k (θ_m/N − β) + c (θ̇_m/N − β̇) on each link angle and −τ_s/N on its motor
     angle to Q (a prescribed motor's angle and rate from the input row u)."""
@@ -45,7 +45,7 @@ def spring_torques(d, u, p, pd, Q):
         Q[m] -= tau / g
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def rotor_inertia(d, pdd, r, M, want_M):
     """Adds J_m θ̈_m to the residual r on each motor row (and J_m to M's diagonal)."""
     for k in range(d.motor_row.shape[0]):

@@ -25,11 +25,11 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import _solve, applied, assemble, load_state, residual
+from ._forward_numba import _call_residual, _solve, applied, assemble, load_state
 from ._momentum_numba import project
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _solve_columns(A, B):
     """Solve A X = B in place (B ← X, A destroyed) by Gaussian elimination with partial
     pivoting, for all of B's columns."""
@@ -64,7 +64,7 @@ def _solve_columns(A, B):
             B[i, j] = acc / A[i, i]
 
 
-@njit(inline="always")
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _equations(d, w_, u, y, acc, E):
     """E = M[:, z] z̈ + r(p̈_free) − Q (free and z rows) at state y, input row u and
     accelerations acc = (p̈_free, z̈): zero at the rates' own accelerations. The servo
@@ -77,7 +77,7 @@ def _equations(d, w_, u, y, acc, E):
     for j in range(nu):
         w_.pdd[free[j]] = acc[j]
     want = bool(1)
-    residual(d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.r0, w_.M, want)
+    _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.r0, w_.M, want)
     w_.srates[:] = 0.0
     applied(d, u, w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
     for row in range(nu + n):
@@ -146,12 +146,13 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
         for j in range(nu):
             w_.pdd[free[j]] = a[j]
         want = bool(0)
-        residual(d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, base, w_.M, want)
+        _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, base, w_.M, want)
         for j in range(n):
             for s in range(2):
                 v = w_.x if s == 0 else w_.xd
                 v[nr + j] += 1.0
-                residual(d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.rj, w_.M, want)
+                _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.rj,
+                               w_.M, want)
                 v[nr + j] -= 1.0
                 for row in range(q):
                     b = free[row] if row < nu else nr + row - nu

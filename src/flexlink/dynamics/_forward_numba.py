@@ -29,17 +29,20 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof, types
+from numba.extending import intrinsic
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from .._compiled_calls import MATRIX, ROW, address, call_codegen, check, type_key
 from . import _elastic_numba as elastic
 from ._prismatic_numba import lever_stiffness
 
 Workspace = namedtuple("Workspace", [
     "theta", "omega", "alpha", "oacc", "T", "Td", "Tdd", "own", "out", "xi", "xi_d", "xi_dd", "v", "TM",
     "p", "pd", "pdd", "x", "xd", "r0", "rj", "M", "Q", "srates", "A", "b", "ra", "g0xi", "t1x",
-    "foreq"])
-Workspace.__doc__ = "Scratch arrays of the kernels (allocated once per run: see workspace)."
+    "foreq", "calls"])
+Workspace.__doc__ = ("Scratch arrays of the kernels (allocated once per run: see workspace); "
+                     "calls: the addresses of the compiled code they call (`_call_residual`).")
 
 
 def workspace(d, n_servos: int) -> Workspace:
@@ -49,11 +52,25 @@ def workspace(d, n_servos: int) -> Workspace:
     m = 3 + d.phi_bar.shape[1]
     nu = d.free.shape[0]
     e = np.empty
-    return Workspace(e(N), e(N), e(N), e((N, 2)), e((N, 3, nx)), e((N, 3, nx)), e((N, 3, nx)),
-                     e((N, 2)), e((N, 2)), e(m), e(m), e(m), e(m), e((m, nx)),
-                     e(nr), e(nr), e(nr), e(nx), e(nx), e(nx), e(nx), e((nx, nx)), e(nx),
-                     e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr),
-                     e(nx), e((N, m)), e(N), e((N, 4, m - 3)))
+    w = Workspace(e(N), e(N), e(N), e((N, 2)), e((N, 3, nx)), e((N, 3, nx)), e((N, 3, nx)),
+                  e((N, 2)), e((N, 2)), e(m), e(m), e(m), e(m), e((m, nx)),
+                  e(nr), e(nr), e(nr), e(nx), e(nx), e(nx), e(nx), e((nx, nx)), e(nx),
+                  e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr),
+                  e(nx), e((N, m)), e(N), e((N, 4, m - 3)), np.zeros(1, dtype=np.int64))
+    w.calls[0] = _residual_address(d, w)
+    return w
+
+
+_RESIDUALS: dict[object, int] = {}  # type_key of (d, w) → address of their compiled residual
+
+
+def _residual_address(d, w: Workspace) -> int:
+    """The address of `residual` compiled for ForwardData d and Workspace w."""
+    key = type_key((d, w))
+    found = _RESIDUALS.get(key)
+    if found is None:
+        found = _RESIDUALS[key] = address(residual, (typeof(d), typeof(w)) + _RESIDUAL_ROWS)
+    return found
 
 # Joint kinds in ForwardData.joint_kind.
 PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO, ELASTIC = 0, 1, 2, 3, 4
@@ -61,7 +78,7 @@ PRESCRIBED, TORQUE, VELOCITY_SERVO, POSITION_SERVO, ELASTIC = 0, 1, 2, 3, 4
 FIXED, PINNED, FREE, CART = 0, 1, 2, 3
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def base_acceleration(d, pdd):
     """The base reference point's acceleration minus gravity, global axes (m/s²): where
     gravity enters the compiled first-order model (kinematics.inertial_acceleration: by the
@@ -74,7 +91,7 @@ def base_acceleration(d, pdd):
     return -d.gravity[0], -d.gravity[1]
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def map_columns(d, k):
     """How many leading columns of x = [δp; z] frame k's maps T̂_k can have nonzero (s):
     the rigid coordinates' and the modes of the links it hangs on, which come before its
@@ -87,7 +104,7 @@ def map_columns(d, k):
     return columns
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
     """Fill the zero-order frame angles, rates, accelerations, origin accelerations (frame
     axes) and the maps x → [ρx, ρy, θ1] of every link with their time derivatives
@@ -210,7 +227,7 @@ def frames(d, p, pd, pdd, theta, omega, alpha, oacc, T, Td, Tdd):
             T[k, 2, nb + k] += 1.0  # δβ_k turns frame k
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def residual(d, w_, p, pd, pdd, x, xd, r, M, want_M):
     """r = C ẋ + K x − f (n_x,) at rigid state (p, ṗ, p̈) for x = [0; z], ẋ = [0; ż], and
     (want_M) the mass matrix M (n_x, n_x): ForwardSystem.matrices through its products.
@@ -446,7 +463,20 @@ def acceleration_terms(d, w_, p, pdd, x, r, M, want_M):
     elastic.rotor_inertia(d, pdd, r, M, want_M)
 
 
-@njit(cache=True, _nrt=False)
+# residual's arguments after (d, w_): p, pd, pdd, x, xd, r, M, want_M
+_RESIDUAL_ROWS = (ROW, ROW, ROW, ROW, ROW, ROW, MATRIX, types.boolean)
+
+
+@intrinsic
+def _call_residual(typingctx, at, d, w_, p, pd, pdd, x, xd, r, M, want_M):
+    """`residual` through the address ``at`` of its code compiled for (d, w_) (w_.calls[0]):
+    the kernels that evaluate the model hold this call, not a copy of it
+    (`_compiled_calls`)."""
+    check("the compiled residual", (p, pd, pdd, x, xd, r, M, want_M), _RESIDUAL_ROWS)
+    return types.none(at, d, w_, p, pd, pdd, x, xd, r, M, want_M), call_codegen(0)
+
+
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def applied(d, u, p, pd, integral, Q, rates):
     """Generalized applied forces Q (n_x,) and servo integral rates at one time
     (ForwardSystem.applied, dynamics/servos.py). u is the input row (forward_kernel.inputs):
@@ -500,7 +530,7 @@ def applied(d, u, p, pd, integral, Q, rates):
             Q[nr + i] += acc
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _drive(d, k, kind, ref, ref_rate, torque, pos, rate, integral, rates):
     """The torque (force) of drive k (joint k, or the cart's at k = N) of the given kind (an
     elastic joint's: its motor's) from its input columns (reference or motion, its rate, a
@@ -526,7 +556,7 @@ def _drive(d, k, kind, ref, ref_rate, torque, pos, rate, integral, rates):
     return min(max(tau, -d.torque_limit[k]), d.torque_limit[k])
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _solve(A, b):
     """Solve A y = b in place (b ← y) by Gaussian elimination with partial pivoting."""
     n = b.shape[0]
@@ -569,7 +599,7 @@ def rates(d, w_, u, y, dy):
     state_rates(d, w_, y, w_.b, dy)
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def state_rates(d, w_, y, acc, dy):
     """dy from the state y and the accelerations acc = (p̈_free, z̈) (the servo integrals'
     rates from the last `assemble`)."""
@@ -586,7 +616,8 @@ def state_rates(d, w_, y, acc, dy):
         dy[2 * nu + 2 * n + s] = w_.srates[s]
 
 
-@njit(inline="always")
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def load_state(d, w_, u, y):
     """The rigid state (w_.p, w_.pd, w_.pdd with p̈_free = 0) and x = [0; z], ẋ = [0; ż]
     (w_.x, w_.xd) at state y and input row u."""
@@ -613,9 +644,10 @@ def load_state(d, w_, u, y):
         xd[nr + i] = y[2 * nu + n + i]
 
 
-# Inlined into its callers (these rates, the closed loops' solve_constrained) rather than
-# compiled on its own: a kernel of its own is optimised again inside each caller.
-@njit(inline="always")
+# A kernel of its own, inlined by LLVM (forceinline) rather than by numba: numba's inlining
+# would copy the records into new variables of each caller, costly to compile.
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def assemble(d, w_, u, y):
     """The linear equations of `rates` in (p̈_free, z̈) at state y and input row u: their
     matrix into w_.A, right-hand side into w_.b, the servo integrals' rates into w_.srates
@@ -674,7 +706,7 @@ def joint_torques(d, w_, p, pd, pdd, z, zd, zdd, out):
         for i in range(nx - nr):
             x[nr + i] = z[t, i]
             xd[nr + i] = zd[t, i]
-        residual(d, w_, p[t], pd[t], pdd[t], x, xd, r, M, bool(1))  # assemble's version
+        _call_residual(w_.calls[0], d, w_, p[t], pd[t], pdd[t], x, xd, r, M, bool(1))
         for k in range(N):
             row = nb + k
             acc = r[row]

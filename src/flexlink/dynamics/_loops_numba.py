@@ -70,7 +70,7 @@ def workspace(d, n_servos: int, n_state: int) -> LoopWork:
                     e((nc, nc)), e(nc), e(n_state), e((m + nc, m + nc)), e(m + nc))
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def point(f, k, s, phi, fore, w, r, rd, g, Jr):
     """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x) of the point
     at s (m) on link k whose mode values there are phi, from the frames in w (`frames`).
@@ -115,7 +115,7 @@ def point(f, k, s, phi, fore, w, r, rd, g, Jr):
             Jr[1, o + i] -= sn * fq
 
 
-@njit(inline="always")
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def base_pose(f, w):
     """The base's reference point (m), its velocity, its attitude (rad) and rate, and the
     coordinate of the attitude (−1: constant): a fixed base at the origin; a pinned base
@@ -132,7 +132,7 @@ def base_pose(f, w):
     return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1
 
 
-@njit(inline="always")
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def base_point(f, w, px, py, r, rd, g, Jr):
     """Position, velocity, γ and Jacobian (2, n_x) of the point (px, py) fixed in the base
     (m, base axes): a branch's joint, a closure's ground pivot."""
@@ -153,7 +153,7 @@ def base_point(f, w, px, py, r, rd, g, Jr):
         Jr[1, att] = ax
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def frames(f, w):
     """Every frame's angle, rate, Jacobian of the angle, origin, its velocity, γ and
     Jacobian from q = w.q, q̇ = w.v (a branch starts at its point of the base, which moves
@@ -197,7 +197,7 @@ def frames(f, w):
         w.Jth[k, nb + k] += 1.0
 
 
-@njit(inline="always")
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def slide(f, w, k, i, th, om):
     """Frame k on a slider's block: the line through the section (w.o[k] as `frames`
     left it) turns with it (angle th, rate om; Jacobian w.Jth[k], without q[i]), and the block
@@ -325,9 +325,7 @@ def project(d, w, u, y):
     return True
 
 
-# Inlined into `rates` and `closed_states` rather than compiled on its own: a kernel of its
-# own is optimised again, with the whole forward model it calls, inside each caller.
-@njit(inline="always")
+@njit(cache=True, _nrt=False)
 def solve_constrained(d, w, u, y):
     """Project y (w.yp ← y closed) and solve the constrained equations: accelerations
     (p̈_free, z̈) in w.rhs[:m], multipliers λ in w.rhs[m:]. False when the loop does not

@@ -20,7 +20,7 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 from ._forward_numba import CART, FREE, PINNED, frames
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def momentum(d, w_, p, pd, x, xd, pj, out):
     """out[:] = [L_x, L_y (N·s), H about the origin (N·m·s), first moment S_x, S_y (kg·m)] of
     base and links at rigid state p, ṗ (n_rigid,) and x = [0; z], ẋ = [0; ż] (n_x,), global
@@ -158,7 +158,7 @@ def invariants(d, w_, pj, u, y, out):
     out[0], out[1], out[2] = pj.c0[0], pj.c0[1], pj.c0[2]
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def project(d, w_, pj, u, U, t, y):
     """Correct the free rigid rates of y (in place) so that each projected component of the
     momentum equals pj.start + pj.rate · (t − pj.t0) + pj.impulse @ U (U: the inputs'

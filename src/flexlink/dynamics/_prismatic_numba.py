@@ -9,7 +9,7 @@ from numba import njit
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def lever_stiffness(d, p, T, out, x, r):
     """r −= S x for each slider k on link j = k − 1's tip, with the outboard force
     F = out[j] (frame j axes), φ = T[k, 2] (the tip's rotation map):

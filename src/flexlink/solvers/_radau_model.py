@@ -31,6 +31,11 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from .._compiled_calls import ROW
+from .._compiled_calls import address as _address
+from .._compiled_calls import call_codegen as _call_codegen
+from .._compiled_calls import check as _check
+from .._compiled_calls import type_key as _type_key
 from ..dynamics._forward_numba import rates as forward_rates
 from ..dynamics._loops_numba import rates as loop_rates
 from ..dynamics._momentum_numba import project as forward_project
@@ -63,38 +68,8 @@ _KERNELS = {ForwardData: forward_rates, LinearData: linear_rates, LoopData: loop
 # project(d, w, pj, u, U, t, y) (a model without one is not projected)
 _PROJECTIONS = {ForwardData: forward_project}
 
-ROW = types.Array(types.float64, 1, "C")  # every row the loop hands the model
 CONTEXT = types.Array(types.int64, 1, "C")
 _HEAD = 2  # words of the context before the records: the rates' and projection's addresses
-_ADDRESSES: dict[tuple, int] = {}  # (kernel, argument types) → address of its compiled code
-
-
-def _address(kernel: Any, argument_types: tuple) -> int:
-    """The address of `kernel`'s compiled code (numba's own calling convention) for these
-    argument types, compiled or loaded from its cache first."""
-    key = (kernel, argument_types)
-    if key not in _ADDRESSES:
-        kernel.compile(argument_types)
-        result = kernel.get_compile_result(types.none(*argument_types))
-        if result.signature.return_type != types.none:
-            raise TypeError(f"{kernel.py_func.__qualname__} must return nothing: the "
-                            "integrator calls it as a procedure")
-        _ADDRESSES[key] = result.library.get_pointer_to_function(result.fndesc.llvm_func_name)
-    return _ADDRESSES[key]
-
-
-def _type_key(x: Any) -> Any:
-    """A hashable key that determines numba's type of ``x`` (arrays, numbers, tuples of
-    them), built without numba's typeof, which on records of dozens of arrays costs more
-    than a short run's integration: equal keys, equal types (the key may separate more)."""
-    if isinstance(x, np.ndarray):
-        f = x.flags
-        return (x.dtype, x.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
-    if isinstance(x, tuple):
-        return (type(x), *map(_type_key, x))
-    if isinstance(x, int) and not isinstance(x, bool):
-        return (int, x.bit_length() > 62)  # typeof widens very large ints
-    return type(x)
 
 
 _MODELS: dict[Any, tuple[int, int, int, int]] = {}  # _type_key(records) → `_addresses`
@@ -203,29 +178,6 @@ def _pack(records, rates, project):
     context[1] = project
     _store(context, records)
     return context
-
-
-def _call_codegen(opaque: int):
-    """Code of a call of the compiled procedure at the address in the first argument with
-    the other arguments, then ``opaque`` NULL pointers (the callee's type-reference
-    arguments); an error the callee raises is raised on."""
-    def codegen(context, builder, signature, args):
-        argument_types = signature.args[1:] + (types.voidptr,) * opaque
-        values = list(args[1:]) + [cgutils.voidptr_t(None)] * opaque
-        function = context.call_conv.get_function_type(types.none, argument_types)
-        pointer = builder.inttoptr(args[0], function.as_pointer())
-        status, _ = context.call_conv.call_function(builder, pointer, types.none,
-                                                    argument_types, values)
-        with cgutils.if_unlikely(builder, status.is_error):
-            context.call_conv.return_status_propagate(builder, status)
-        return context.get_dummy_value()
-    return codegen
-
-
-def _check(name: str, got: tuple, wanted: tuple) -> None:
-    """A call's argument types against those the callee was compiled for."""
-    if got != wanted:
-        raise TypingError(f"{name} takes {wanted}, got {got}")
 
 
 @intrinsic

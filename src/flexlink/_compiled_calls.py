@@ -1,0 +1,75 @@
+"""Calls of compiled numba procedures through the address of their code rather than by name.
+
+numba optimises and emits every function a kernel calls by name again inside that kernel
+(ARCHITECTURE.md, "What a kernel costs to compile"): a large function that many kernels
+call is compiled many times over. Called through its address, it is compiled once, as a
+kernel of its own, and its callers hold only the call. The address is data (a kernel
+cached on disk cannot hold one): the caller gets it in an argument, found for the
+argument types it will pass (`address`). The integrators reach the models this way
+(`solvers/_radau_model.py`, `solvers/_gauss_numba.py`), and the forward model's kernels
+their residual (`dynamics/_forward_numba.py`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+
+ROW = types.Array(types.float64, 1, "C")  # a float row, as the callers pass them
+MATRIX = types.Array(types.float64, 2, "C")
+_ADDRESSES: dict[tuple, int] = {}  # (kernel, argument types) → address of its compiled code
+
+
+def address(kernel: Any, argument_types: tuple) -> int:
+    """The address of `kernel`'s compiled code (numba's own calling convention) for these
+    argument types, compiled or loaded from its cache first."""
+    key = (kernel, argument_types)
+    if key not in _ADDRESSES:
+        kernel.compile(argument_types)
+        result = kernel.get_compile_result(types.none(*argument_types))
+        if result.signature.return_type != types.none:
+            raise TypeError(f"{kernel.py_func.__qualname__} must return nothing: it is "
+                            "called as a procedure")
+        _ADDRESSES[key] = result.library.get_pointer_to_function(result.fndesc.llvm_func_name)
+    return _ADDRESSES[key]
+
+
+def type_key(x: Any) -> Any:
+    """A hashable key that determines numba's type of ``x`` (arrays, numbers, tuples of
+    them), built without numba's typeof, which on records of dozens of arrays costs more
+    than a short run's integration: equal keys, equal types (the key may separate more)."""
+    if isinstance(x, np.ndarray):
+        f = x.flags
+        return (x.dtype, x.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
+    if isinstance(x, tuple):
+        return (type(x), *map(type_key, x))
+    if isinstance(x, int) and not isinstance(x, bool):
+        return (int, x.bit_length() > 62)  # typeof widens very large ints
+    return type(x)
+
+
+def call_codegen(opaque: int):
+    """Code of a call of the compiled procedure at the address in the first argument with
+    the other arguments, then ``opaque`` NULL pointers (the callee's type-reference
+    arguments); an error the callee raises is raised on."""
+    def codegen(context, builder, signature, args):
+        argument_types = signature.args[1:] + (types.voidptr,) * opaque
+        values = list(args[1:]) + [cgutils.voidptr_t(None)] * opaque
+        function = context.call_conv.get_function_type(types.none, argument_types)
+        pointer = builder.inttoptr(args[0], function.as_pointer())
+        status, _ = context.call_conv.call_function(builder, pointer, types.none,
+                                                    argument_types, values)
+        with cgutils.if_unlikely(builder, status.is_error):
+            context.call_conv.return_status_propagate(builder, status)
+        return context.get_dummy_value()
+    return codegen
+
+
+def check(name: str, got: tuple, wanted: tuple) -> None:
+    """A call's argument types against those the callee was compiled for."""
+    if got != wanted:
+        raise TypingError(f"{name} takes {wanted}, got {got}")
