@@ -270,6 +270,10 @@ def warmup_run(name: str, scenario: Any) -> None:
         from .batch.grouped import warm_up as warm_up_batched
 
         warm_up_batched(scenario)
+    if name == "four_bar":
+        from .simulation.driven_sensitivities import warm_up_rates
+
+        warm_up_rates(scenario)
 
 
 def warmup_scenarios() -> dict[str, Any]:
