@@ -17,35 +17,7 @@ from __future__ import annotations
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-
-
-@njit(cache=True, _nrt=False, error_model="numpy")
-def _solve_in_place(G, x):
-    """x ← G⁻¹ x by Gaussian elimination with partial pivoting; G is overwritten."""
-    n = x.size
-    for k in range(n):
-        p = k
-        big = abs(G[k, k])
-        for r in range(k + 1, n):
-            v = abs(G[r, k])
-            if v > big:
-                big, p = v, r
-        if p != k:
-            for c in range(k, n):
-                G[k, c], G[p, c] = G[p, c], G[k, c]
-            x[k], x[p] = x[p], x[k]
-        pivot = G[k, k]
-        for r in range(k + 1, n):
-            f = G[r, k] / pivot
-            if f != 0.0:
-                for c in range(k + 1, n):
-                    G[r, c] -= f * G[k, c]
-                x[r] -= f * x[k]
-    for k in range(n - 1, -1, -1):
-        s = x[k]
-        for c in range(k + 1, n):
-            s -= G[k, c] * x[c]
-        x[k] = s / G[k, k]
+from ..dynamics._forward_numba import _solve
 
 
 @njit(cache=True, _nrt=False, error_model="numpy")
@@ -90,7 +62,7 @@ def radau_reverse(h, coef, J, P, gy0, gz, gy1, W, lam_end, lam, G, rhs, tmp):
                         G[j * m + b, i * m + a] = -f * J[s, j, a, b]
         for r in range(3 * m):
             G[r, r] += 1.0
-        _solve_in_place(G, rhs)
+        _solve(G, rhs)
         for j in range(3):
             for b in range(m):
                 acc = 0.0
