@@ -152,3 +152,44 @@ def test_a_forked_sweep_of_variants_equals_single_runs(monkeypatch) -> None:
         reference = simulate(scenario(raw_case))
         for name in reference.names:
             assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)
+
+
+def test_chunks_are_large_enough_to_advance_together_where_each_worker_gets_two() -> None:
+    from flexlink.batch import executors
+
+    assert executors.BATCH_CHUNK == lawson_batch.MIN_GROUP
+    for cases, workers in ((100, 2), (200, 2), (1000, 2), (48, 1), (400, 4)):
+        chunks = executors.make_chunks(list(range(cases)), workers)
+        assert len(chunks) >= 2 * workers
+        assert all(len(chunk) >= lawson_batch.MIN_GROUP for chunk in chunks[:-1])
+    assert executors.make_chunks(list(range(3)), 1).size == 1  # small sweeps: one at a time
+
+
+def test_an_in_process_sweep_of_variants_advances_them_together_and_equals_single_runs(
+        monkeypatch) -> None:
+    calls = []
+    first_passes = lawson_batch.first_passes
+
+    def counted(runs):
+        calls.append(len(runs))
+        return first_passes(runs)
+
+    monkeypatch.setattr(lawson_batch, "first_passes", counted)
+    raw = short_paper()
+    random = {"links[0].EI": "uniform:250:350", "links[1].tip_mass": "uniform:0:0.03",
+              "joints[0].motion[0].to_deg": "uniform:15:25"}
+    dataset = sweep(raw, random=random, samples=2 * CASES, seed=4, workers=1,
+                    base_dir=paper_experiment_path().parent)
+    assert calls == [CASES, CASES]  # two chunks of 26, each one call
+    assert dataset.status.values.tolist() == ["ok"] * 2 * CASES
+    for case in (0, 27, 2 * CASES - 1):
+        raw_case = copy.deepcopy(raw)
+        link1 = raw_case["links"][0]
+        del link1["E"]
+        link1["EI"] = float(dataset["links[0].EI"][case])
+        raw_case["links"][1]["tip_mass"] = float(dataset["links[1].tip_mass"][case])
+        raw_case["joints"][0]["motion"][0]["to_deg"] = float(
+            dataset["joints[0].motion[0].to_deg"][case])
+        reference = simulate(scenario(raw_case))
+        for name in reference.names:
+            assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)

@@ -201,3 +201,16 @@ def test_a_sensor_point_s_shape_row_is_remembered_as_evaluated() -> None:
         row = shape_row(shapes, 0.37, derivative)
         np.testing.assert_array_equal(row, shapes.evaluate(np.array([0.37]), derivative)[0])
         assert shape_row(shapes, 0.37, derivative) is row and not row.flags.writeable
+
+
+def test_the_gauss_rule_is_numpys_computed_once_and_read_only() -> None:
+    """The modes and modal integrals take their Gauss–Legendre rules from one cache: the
+    same nodes and weights as numpy's leggauss, bit for bit, which no caller can change."""
+    from flexlink.modes.shapes import gauss_rule
+
+    for points in (3, 20, 40):
+        nodes, weights = gauss_rule(points)
+        expected = np.polynomial.legendre.leggauss(points)
+        assert np.array_equal(nodes, expected[0]) and np.array_equal(weights, expected[1])
+        assert gauss_rule(points)[0] is nodes
+        assert not nodes.flags.writeable and not weights.flags.writeable

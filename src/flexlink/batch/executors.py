@@ -32,6 +32,9 @@ from .worker import (
 Chunk = list[tuple[int, Case]]
 CHUNKS_PER_WORKER = 8  # enough chunks to balance the load and move the progress bar
 MAX_CHUNK = 32  # cases per chunk: bounds the result message size and the wait on Ctrl-C
+# The fewest cases of a chunk that can advance together: solvers/lawson_batch.MIN_GROUP
+# (not imported: this module is on the sweep's start-up path; a test checks they agree).
+BATCH_CHUNK = 24
 IN_FLIGHT_PER_WORKER = 3  # chunks queued or running per worker: none idles between chunks
 CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
 STOP_TIMEOUT = 5.0  # s to wait for a terminated worker to exit
@@ -47,8 +50,13 @@ def available_cores() -> int:
 def make_chunks(indexed: Sequence[tuple[int, Case]], workers: int) -> Sequence[Chunk]:
     """Consecutive cases in chunks of equal size: few enough tasks that the per-task overhead
     (one message each way) is small, enough of them to keep every worker busy to the end.
+    Where every worker gets two chunks of `BATCH_CHUNK` or more, chunks are made that large
+    at least: their cases that share a discretisation then advance together (grouped.py).
     Each chunk is sliced from ``indexed`` when it is read (cases made on demand stay so)."""
-    size = max(1, min(MAX_CHUNK, math.ceil(len(indexed) / (workers * CHUNKS_PER_WORKER))))
+    cases = len(indexed)
+    size = max(1, min(MAX_CHUNK, math.ceil(cases / (workers * CHUNKS_PER_WORKER))))
+    if cases >= 2 * workers * BATCH_CHUNK:
+        size = max(size, min(MAX_CHUNK, math.ceil(cases / (2 * workers))))
     return _Chunks(indexed, size)
 
 
@@ -75,9 +83,13 @@ def failed_chunk(chunk: Chunk, exc: BaseException) -> ChunkResult:
 
 def in_process(chunks: Sequence[Chunk], kept: Kept) -> Iterator[ChunkResult]:
     """One worker: run the cases here, in order (no process start-up, same code path); one
-    case at a time, as there is no per-task overhead to amortise."""
+    case at a time, as there is no per-task overhead to amortise, but a chunk of
+    `BATCH_CHUNK` or more whole: its cases that share a discretisation advance together."""
     try:
         for chunk in chunks:
+            if len(chunk) >= BATCH_CHUNK:
+                yield run_chunk(chunk, kept)
+                continue
             for case in chunk:
                 yield run_chunk([case], kept)
     finally:  # the last case's run is not kept in this process after the sweep

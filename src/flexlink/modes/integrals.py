@@ -19,7 +19,7 @@ import numpy as np
 from scipy.linalg import eigh
 
 from flexlink.model import Link
-from flexlink.modes.shapes import ModeShapes, mode_shapes_for
+from flexlink.modes.shapes import ModeShapes, gauss_rule, mode_shapes_for
 
 __all__ = ["ModalData", "highest_frequency", "modal_data", "modal_data_for_stiffness",
            "unit_stiffness_modal_data"]
@@ -86,7 +86,7 @@ def _gauss_legendre(length: float, beta_l_max: float, points: int | None,
             raise ValueError("quadrature_points must be positive")
         panels = int(np.ceil(points / _POINTS_PER_PANEL))
         per_panel = int(np.ceil(points / panels))
-    g, w = np.polynomial.legendre.leggauss(per_panel)
+    g, w = gauss_rule(per_panel)
     edges = np.linspace(0.0, length, panels + 1)
     inside = [b for b in breaks if 0.0 < b < length]
     if inside:

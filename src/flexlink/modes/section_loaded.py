@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .shapes import _determinant_roots
+from .shapes import _determinant_roots, gauss_rule
 
 __all__ = ["SectionLoadedModes", "section_loaded_modes"]
 
@@ -158,7 +158,7 @@ def section_loaded_modes(length: float, n: int, mass_per_length: float, at: floa
     if n == 0:
         return raw
     # m∫φ² + the bodies' inertia, per mL; panels break at the section
-    g, w = np.polynomial.legendre.leggauss(_POINTS)
+    g, w = gauss_rule(_POINTS)
     panels = max(2, int(np.ceil(0.5 * lam.max())))
     edges = np.unique(np.concatenate([np.linspace(0.0, length, panels + 1), [at]]))
     half = 0.5 * np.diff(edges)

@@ -121,6 +121,17 @@ def _coefficients(lam: np.ndarray, mu: float) -> tuple[np.ndarray, np.ndarray]:
     return c, 0.5 * one_plus_c_exp
 
 
+@functools.lru_cache(maxsize=16)
+def gauss_rule(points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Legendre nodes and weights on [−1, 1] (`numpy.polynomial.legendre.leggauss`),
+    read-only, computed once per count: each link's modes and integrals ask for the same few
+    counts again (an eigenvalue problem each time)."""
+    nodes, weights = np.polynomial.legendre.leggauss(points)
+    nodes.flags.writeable = False
+    weights.flags.writeable = False
+    return nodes, weights
+
+
 def _build(length: float, lam: np.ndarray, mu: float, j: float, kind: str) -> ModeShapes:
     """Mode shapes for eigenvalues ``lam``, normalised and signed (see ModeShapes)."""
     lam = np.asarray(lam, dtype=float)
@@ -136,7 +147,7 @@ def _scale(raw: ModeShapes, mu: float, j: float) -> np.ndarray:
     = 1 by composite Gauss–Legendre, φ(L) > 0."""
     length, lam = raw.length, raw.beta_l
     panels = max(2, int(np.ceil(_NORM_PANELS_PER_LAMBDA * lam.max())))
-    g, w = np.polynomial.legendre.leggauss(_GAUSS_POINTS)
+    g, w = gauss_rule(_GAUSS_POINTS)
     edges = np.linspace(0.0, length, panels + 1)
     half = 0.5 * np.diff(edges)
     x = ((edges[:-1] + half)[:, None] + half[:, None] * g[None, :]).ravel()
