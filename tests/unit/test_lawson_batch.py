@@ -154,19 +154,12 @@ def test_a_forked_sweep_of_variants_equals_single_runs(monkeypatch) -> None:
             assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)
 
 
-def test_chunks_are_large_enough_to_advance_together_where_each_worker_gets_two() -> None:
-    from flexlink.batch import executors
-
-    assert executors.BATCH_CHUNK == lawson_batch.MIN_GROUP
-    for cases, workers in ((100, 2), (200, 2), (1000, 2), (48, 1), (400, 4)):
-        chunks = executors.make_chunks(list(range(cases)), workers)
-        assert len(chunks) >= 2 * workers
-        assert all(len(chunk) >= lawson_batch.MIN_GROUP for chunk in chunks[:-1])
-    assert executors.make_chunks(list(range(3)), 1).size == 1  # small sweeps: one at a time
-
-
 def test_an_in_process_sweep_of_variants_advances_them_together_and_equals_single_runs(
         monkeypatch) -> None:
+    from flexlink.batch import executors
+
+    monkeypatch.setattr(executors, "CHUNKS_PER_WORKER", 2)  # chunks of 26: one group each
+    assert executors.BATCH_CHUNK == lawson_batch.MIN_GROUP
     calls = []
     first_passes = lawson_batch.first_passes
 

@@ -50,13 +50,8 @@ def available_cores() -> int:
 def make_chunks(indexed: Sequence[tuple[int, Case]], workers: int) -> Sequence[Chunk]:
     """Consecutive cases in chunks of equal size: few enough tasks that the per-task overhead
     (one message each way) is small, enough of them to keep every worker busy to the end.
-    Where every worker gets two chunks of `BATCH_CHUNK` or more, chunks are made that large
-    at least: their cases that share a discretisation then advance together (grouped.py).
     Each chunk is sliced from ``indexed`` when it is read (cases made on demand stay so)."""
-    cases = len(indexed)
-    size = max(1, min(MAX_CHUNK, math.ceil(cases / (workers * CHUNKS_PER_WORKER))))
-    if cases >= 2 * workers * BATCH_CHUNK:
-        size = max(size, min(MAX_CHUNK, math.ceil(cases / (2 * workers))))
+    size = max(1, min(MAX_CHUNK, math.ceil(len(indexed) / (workers * CHUNKS_PER_WORKER))))
     return _Chunks(indexed, size)
 
 
