@@ -9,8 +9,10 @@ Prints the wall and CPU time (user + system of all processes) of ``pip install S
 every path in that environment — ``flexlink run --paper``, every ``examples/*.toml``, the
 paper arm with the nonlinear model, paper_servo with the nonlinear model (nonlinear forward),
 active_damping with the nonlinear model and on servo-driven joints (closed loop on those
-paths), a free base under torque-driven joints, ``flexlink linearize`` and ``flexlink
-modes`` — each with how many functions numba compiled in its first run (``NUMBA_DEBUG_CACHE``'s
+paths), a free base under torque-driven joints, ``flexlink linearize``, ``flexlink
+modes``, and ``flexlink.simulate(..., sensitivities=...)`` and an objective's value and
+gradient on the closed loops of examples/four_bar.toml and on held inputs (the servo-driven
+PPF variant) — each with how many functions numba compiled in its first run (``NUMBA_DEBUG_CACHE``'s
 "data saved" lines; 0 when the wheel carried every kernel it needs: then the order of the rows
 does not matter), and the median of ``--runs`` later ``flexlink run --paper``. Packages come
 from pip's configured index and cache (``--system-site-packages``: the running Python's
@@ -64,6 +66,23 @@ _SERVO_PPF = {  # active_damping's actuator and controller on paper_servo's driv
     "append:controllers": [{"name": "ppf", "kind": "ppf", "sensor": "pzt",
                             "actuator": "pzt_actuator", "frequency_hz": 2.483,
                             "damping": 0.3, "gain": 1029.0, "sample_rate": 1000.0}]}
+
+
+# Sensitivities in the new environment: argv = scenario file, JSON of the fields, an
+# objective's channel ("": none): flexlink.simulate(..., sensitivities=fields), then the
+# objective's value and gradient (`simulation.objective`).
+_SENSITIVITIES = """
+import json, sys
+import flexlink
+from flexlink.scenario import load_scenario
+from flexlink.simulation.objective import MeanSquare, Objective
+scenario, fields = load_scenario(sys.argv[1]), json.loads(sys.argv[2])
+if sys.argv[3]:
+    objective = Objective(scenario, fields, MeanSquare(sys.argv[3]))
+    objective(objective.x0)
+else:
+    flexlink.simulate(scenario, shapes=False, sensitivities=fields)
+"""
 
 
 def _variants(examples: Path) -> list[tuple[str, str, dict]]:
@@ -143,11 +162,23 @@ def measure(source: Path, kernels: str | None = None, runs: int = 3,
         for example in sorted(examples.glob("*.toml")):
             rows.append(_first_run(f"examples/{example.name}",
                                    [flexlink, "run", str(example)] + out, env, tmp))
+        written = {}
         for number, (label, scenario, changes) in enumerate(_variants(examples)):
-            target = str(Path(tmp) / f"variant{number}.toml")
+            target = written[label] = str(Path(tmp) / f"variant{number}.toml")
             subprocess.run([python, "-c", _VARIANT, scenario, target, json.dumps(changes)],
                            env=env, cwd=tmp, check=True)
             rows.append(_first_run(label, [flexlink, "run", target] + out, env, tmp))
+        four_bar = str(examples / "four_bar.toml")
+        coupler = json.dumps(["links[1].EI", "links[1].mass_per_length"])
+        held = written["paper_servo with active_damping's PPF (closed loop, driven)"]
+        for label, argv in (
+                ("four_bar: sensitivities to the coupler's EI and mass (closed loop)",
+                 [four_bar, coupler, ""]),
+                ("four_bar: an objective's value and gradient (pin_force_x)",
+                 [four_bar, coupler, "pin_force_x"]),
+                ("paper_servo with PPF: sensitivities to link 2's EI, the gain (held inputs)",
+                 [held, json.dumps(["links[1].EI", "controllers[0].gain"]), ""])):
+            rows.append(_first_run(label, [python, "-c", _SENSITIVITIES, *argv], env, tmp))
         servo = str(examples / "paper_servo.toml")
         rows.append(_first_run("flexlink linearize examples/paper_servo.toml --at 1.0",
                                [flexlink, "linearize", servo, "--at", "1.0"] + out, env, tmp))

@@ -236,11 +236,13 @@ WARMUP_RUNS = ("prescribed", "nonlinear", "nonlinear_step", "forward", "free_bas
                "nonlinear_four_bar", "sensitivities", "batched")
 # The warm-up runs that also compute sensitivities, with their fields: the Lawson tangent
 # loop (prescribed), the Radau IIA steps' linearization (forward), the derivative of the
-# momentum projection (free_base) and the Gauss steps' replay and batched residuals (both
-# nonlinear paths).
+# momentum projection (free_base), the closed loops' rates at given states and their
+# outputs at moved states (four_bar; also what held inputs' sensitivities evaluate) and the
+# Gauss steps' replay and batched residuals (both nonlinear paths).
 WARMUP_SENSITIVITIES: dict[str, list[str]] = {"sensitivities": ["links[0].EI"],
                                               "forward": ["links[0].EI"],
                                               "free_base": ["links[0].EI"],
+                                              "four_bar": ["links[1].EI"],
                                               "nonlinear": ["links[0].EI"],
                                               "nonlinear_forward": ["links[0].EI"]}
 # The warm-up runs that also take an objective's gradient, with its channel (a sensor on
@@ -270,10 +272,6 @@ def warmup_run(name: str, scenario: Any) -> None:
         from .batch.grouped import warm_up as warm_up_batched
 
         warm_up_batched(scenario)
-    if name == "four_bar":
-        from .simulation.driven_sensitivities import warm_up_rates
-
-        warm_up_rates(scenario)
 
 
 def warmup_scenarios() -> dict[str, Any]:

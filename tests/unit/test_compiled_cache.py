@@ -273,20 +273,71 @@ def test_the_installation_compiled_every_kernel() -> None:
     assert record["kernels"] == len(_build_kernels.kernels())
 
 
+# After every warm-up run: the uncompiled kernels, then the paths argv[1] names — (scenario
+# as JSON, fields, an objective's channel or None): sensitivities, and the objective's value
+# and gradient — and the kernels that compiled a version in them (numba's cache misses).
+_FIRST_USES = """
+import json, sys
+import flexlink._compiled_cache as c
+c.cache_root = lambda package_dir=None: None
+import flexlink
+from flexlink._build_kernels import kernels, unreached_kernels
+from flexlink.scenario import scenario_from_dict
+from flexlink.simulation.objective import MeanSquare, Objective
+
+unreached = unreached_kernels()
+found = kernels()
+misses = {name: sum(k.stats.cache_misses.values()) for name, k in found.items()}
+for path, fields, channel in json.loads(sys.argv[1]):
+    scenario = scenario_from_dict(json.load(open(path)))
+    flexlink.simulate(scenario, shapes=False, sensitivities=fields)
+    if channel:
+        objective = Objective(scenario, fields, MeanSquare(channel))
+        objective(objective.x0)
+print(json.dumps([unreached, sorted(name for name, k in found.items()
+                                    if sum(k.stats.cache_misses.values()) > misses[name])]))
+"""
+
+
+def _first_uses(folder: Path) -> list[tuple[str, list[str], str | None]]:
+    """Paths no warm-up run takes as they are, their scenarios written into ``folder``:
+    the sensitivities and an objective of closed loops (the four-bar's pin, the
+    slider-crank's piston) and of held inputs (PPF sampled on a torque-driven arm)."""
+    import tomllib
+
+    from tests.unit.test_forward_sensitivities import PPF
+
+    examples = Path(__file__).parents[2] / "examples"
+    cases = [(tomllib.loads((examples / "four_bar.toml").read_text()), 0.05,
+              ["links[1].EI", "links[1].mass_per_length"], "pin_force_x"),
+             (tomllib.loads((examples / "slider_crank.toml").read_text()), 0.01,
+              ["links[1].EI"], "rod_mid"),
+             (tomllib.loads(PPF), 0.1, ["links[0].EI", "controllers[0].gain"], None)]
+    runs = []
+    for k, (data, t_end, fields, channel) in enumerate(cases):
+        data["simulation"]["t_end"] = t_end
+        path = folder / f"case{k}.json"
+        path.write_text(json.dumps(data))
+        runs.append((str(path), fields, channel))
+    return runs
+
+
 @pytest.mark.slow
 def test_the_warmup_runs_reach_every_kernel(tmp_path: Path) -> None:
     """What `pip install` compiles is every kernel: a kernel that no warm-up run
     (cli.warmup_scenarios) calls would compile at its first use. Every warm-up run in a new
-    process whose numba cache is empty (a new NUMBA_CACHE_DIR, the package's folder off)."""
-    code = ("import json; import flexlink._compiled_cache as c; "
-            "c.cache_root = lambda package_dir=None: None; "
-            "from flexlink._build_kernels import unreached_kernels; "
-            "print(json.dumps(unreached_kernels()))")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+    process whose numba cache is empty (a new NUMBA_CACHE_DIR, the package's folder off);
+    then the sensitivities and objectives of closed loops and held inputs, which no warm-up
+    run takes as they are, compile no version of any kernel."""
+    cache = tmp_path / "cache"
+    done = subprocess.run([sys.executable, "-c", _FIRST_USES,
+                           json.dumps(_first_uses(tmp_path))], capture_output=True, text=True,
                           check=True, timeout=3600,
-                          env=dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path)))
-    assert json.loads(done.stdout.strip().splitlines()[-1]) == []
-    assert any(tmp_path.rglob("*.nbi"))
+                          env=dict(os.environ, NUMBA_CACHE_DIR=str(cache)))
+    unreached, compiled = json.loads(done.stdout.strip().splitlines()[-1])
+    assert unreached == []
+    assert compiled == []
+    assert any(cache.rglob("*.nbi"))
 
 
 def test_a_worker_keeps_to_its_path_and_two_workers_to_different_ones() -> None:

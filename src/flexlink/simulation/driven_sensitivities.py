@@ -140,16 +140,6 @@ def _rates(model: _Model) -> Any:
     return rates
 
 
-def warm_up_rates(scenario: Scenario) -> None:
-    """Compile `_rates` (the rates at given states, which the sensitivities of closed loops
-    and of held inputs evaluate) on ``scenario``'s forward model at its start, for an
-    installation's build."""
-    from ..dynamics.forward_kernel import inputs
-
-    model = _model(scenario, np.array([0.0, scenario.settings.t_end]), None)
-    _rates(model)(inputs(model.system, np.zeros(1)), model.y0[None, :].copy())
-
-
 def _same_rates(a: _Model, b: _Model) -> bool:
     """Whether two models' rates are the same function: equal kernel data and input tables
     (a field read only by the channels, such as a sensor's place)."""
