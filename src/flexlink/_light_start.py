@@ -1,4 +1,4 @@
-"""Two start-up measures for a command's own process, which ends when the command does
+"""Three start-up measures for a command's own process, which ends when the command does
 (`flexlink fit` and `flexlink compare`: ARCHITECTURE.md, "Start-up of `flexlink run`"):
 
 - `defer_unused_submodules`: numpy's ``testing``, ``f2py`` and ``ctypeslib`` packages made
@@ -12,6 +12,11 @@
   only compiling needs. numba still starts its runtime (NRT) there, which loaded code calls;
   a kernel missing from the cache is compiled as before (numba's compiler installs the
   registries itself).
+- `keep_docstrings_unparsed`: scipy's ``xp_capabilities`` decorator (``scipy._lib._array_api``),
+  applied at import to a few hundred functions of scipy.special, optimize, linalg, …,
+  parses each docstring (numpydoc's ``FunctionDoc``) to append a table of array backends
+  to its Notes. Here the docstring is kept as written: nothing a command runs reads it, and
+  the decorator still records the capabilities it also keeps.
 
 Each leaves the library untouched where the private parts it relies on are missing (another
 numpy or numba), and neither is for a caller whose interpreter goes on (a library user's
@@ -74,4 +79,34 @@ def load_cached_kernels_only() -> bool:
 
     load_overload.registries_skipped = True  # type: ignore[attr-defined]
     cache.load_overload = load_overload
+    return True
+
+
+class _UnparsedDoc:
+    """Stands in for numpydoc's ``FunctionDoc`` in scipy's ``xp_capabilities``: its sections
+    take the note and drop it, and its text is the docstring as written."""
+
+    def __init__(self, function: Any) -> None:
+        self._doc = getattr(function, "__doc__", None) or ""
+
+    def __getitem__(self, section: str) -> list[str]:
+        return []
+
+    def __str__(self) -> str:
+        return "\n" + self._doc  # the decorator drops the first line (a signature)
+
+
+def keep_docstrings_unparsed() -> bool:
+    """Let scipy's ``xp_capabilities`` leave docstrings unparsed (see the module doc), for
+    scipy modules imported from now on; False (nothing changed) where scipy lacks the
+    private parts this needs."""
+    try:
+        from scipy._lib import _array_api
+    except ImportError:
+        return False
+    if getattr(_array_api, "FunctionDoc", None) is _UnparsedDoc:
+        return True
+    if not (hasattr(_array_api, "FunctionDoc") and hasattr(_array_api, "xp_capabilities")):
+        return False
+    _array_api.FunctionDoc = _UnparsedDoc
     return True
