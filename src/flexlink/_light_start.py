@@ -12,11 +12,12 @@
   only compiling needs. numba still starts its runtime (NRT) there, which loaded code calls;
   a kernel missing from the cache is compiled as before (numba's compiler installs the
   registries itself).
-- `keep_docstrings_unparsed`: scipy's ``xp_capabilities`` decorator (``scipy._lib._array_api``),
-  applied at import to a few hundred functions of scipy.special, optimize, linalg, …,
-  parses each docstring (numpydoc's ``FunctionDoc``) to append a table of array backends
-  to its Notes. Here the docstring is kept as written: nothing a command runs reads it, and
-  the decorator still records the capabilities it also keeps.
+- `keep_docstrings_unparsed`: scipy's decorators ``xp_capabilities`` (``scipy._lib._array_api``)
+  and ``_apply_over_batch``, ``_transition_to_rng`` (``scipy._lib._util``), applied at import
+  to some 300 functions of scipy.special, optimize, linalg, …, parse each docstring
+  (numpydoc's ``FunctionDoc``) to add a note on array backends, batches or the ``rng``
+  argument. Here the docstring is kept as written: nothing a command runs reads it, and the
+  decorators still do everything else (the capabilities table, the wrappers).
 
 Each leaves the library untouched where the private parts it relies on are missing (another
 numpy or numba), and neither is for a caller whose interpreter goes on (a library user's
@@ -83,30 +84,34 @@ def load_cached_kernels_only() -> bool:
 
 
 class _UnparsedDoc:
-    """Stands in for numpydoc's ``FunctionDoc`` in scipy's ``xp_capabilities``: its sections
-    take the note and drop it, and its text is the docstring as written."""
+    """Stands in for numpydoc's ``FunctionDoc`` in scipy's decorators: its sections take
+    what is added and drop it, and its text is the docstring as written."""
 
     def __init__(self, function: Any) -> None:
         self._doc = getattr(function, "__doc__", None) or ""
 
-    def __getitem__(self, section: str) -> list[str]:
+    def __getitem__(self, section: str) -> list[Any]:
         return []
 
     def __str__(self) -> str:
-        return "\n" + self._doc  # the decorator drops the first line (a signature)
+        return "\n" + self._doc  # the decorators drop the first line (a signature)
 
 
-def keep_docstrings_unparsed() -> bool:
-    """Let scipy's ``xp_capabilities`` leave docstrings unparsed (see the module doc), for
-    scipy modules imported from now on; False (nothing changed) where scipy lacks the
-    private parts this needs."""
-    try:
-        from scipy._lib import _array_api
-    except ImportError:
-        return False
-    if getattr(_array_api, "FunctionDoc", None) is _UnparsedDoc:
-        return True
-    if not (hasattr(_array_api, "FunctionDoc") and hasattr(_array_api, "xp_capabilities")):
-        return False
-    _array_api.FunctionDoc = _UnparsedDoc
-    return True
+SCIPY_DOC_PARSERS = ("scipy._lib._array_api", "scipy._lib._util")  # modules calling FunctionDoc
+
+
+def keep_docstrings_unparsed(modules: tuple[str, ...] = SCIPY_DOC_PARSERS) -> list[str]:
+    """Let scipy's decorators in ``modules`` leave docstrings unparsed (see the module doc)
+    for the scipy modules imported from now on; returns the modules changed (none where
+    scipy lacks them or their ``FunctionDoc``)."""
+    changed = []
+    for name in modules:
+        try:
+            module = importlib.import_module(name)
+        except ImportError:
+            continue
+        if not hasattr(module, "FunctionDoc"):
+            continue
+        module.FunctionDoc = _UnparsedDoc
+        changed.append(name)
+    return changed
