@@ -20,7 +20,7 @@
   decorators still do everything else (the capabilities table, the wrappers).
 
 Each leaves the library untouched where the private parts it relies on are missing (another
-numpy or numba), and neither is for a caller whose interpreter goes on (a library user's
+numpy, numba or scipy), and none is for a caller whose interpreter goes on (a library user's
 process): the module objects and numba's cache loading stay changed until the process ends.
 """
 

@@ -69,7 +69,7 @@ class CoefficientTable:
 
     def evaluate(self, block: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """A at local times τ of the given blocks (arrays of equal shape), (…, n, 2n+1)."""
-        p = self.pieces[block].copy()
+        p = self.pieces[block]  # a new array (an index array picks)
         split = np.flatnonzero(self.pieces[block + 1] - p > 1)  # blocks of several pieces
         for i, a, b in zip(split, p[split], self.pieces[block + 1][split]):
             p[i] = min(a + np.searchsorted(self.upper[a:b], tau[i]), b - 1)
