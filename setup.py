@@ -64,12 +64,33 @@ def compile_kernels(package_dir: Path, seed: Path | None, choice: str) -> None:
           f"{time.perf_counter() - start:.0f} s: {detail}")
 
 
+def compile_bytecode(package_dir: Path) -> None:
+    """The package's modules compiled to bytecode beside them (``__pycache__``), for an
+    editable install, whose source tree pip compiles nothing of: a Python that writes no
+    bytecode (PYTHONDONTWRITEBYTECODE, a read-only tree) would otherwise compile every
+    flexlink module it imports from source at each start of a command. A note instead of a
+    failure; a module edited later is compiled from source again until Python rewrites it."""
+    import compileall
+
+    try:
+        ok = compileall.compile_dir(str(package_dir), quiet=1)
+    except OSError as exc:
+        ok, detail = False, str(exc)
+    else:
+        detail = "a module did not compile"
+    if not ok:
+        print(f"flexlink: note: bytecode not written into {package_dir} ({detail})",
+              file=sys.stderr)
+
+
 class BuildPyWithKernels(build_py):
     """build_py, then the kernels compiled into the package that is installed: build_lib's
-    for a wheel, the source tree's for an editable install."""
+    for a wheel, the source tree's for an editable install (with its bytecode)."""
 
     def run(self) -> None:
         super().run()
+        if getattr(self, "editable_mode", False):
+            compile_bytecode(HERE / "src" / "flexlink")
         choice = os.environ.get("FLEXLINK_BUILD_KERNELS", "all").strip()
         if choice == "none":
             return

@@ -16,6 +16,9 @@ one untimed run of each kind first):
   time and CPU time (user + system) of the whole process and its children (the figures'
   worker): start-up, loading, fit and writing; the estimates and intervals it wrote
   (fit.json), and with ``--before`` whether both versions' agree to the printed digits;
+  also the CPU time of the command's own process and of its main thread (the figures are
+  drawn in other processes, numba's cache loaded in another thread): on an idle machine
+  the wall time lies near the main thread's, plus the last figure's drawing;
 - ``fit() <case>``: `flexlink.experiment.fit` alone, in process, of the lab record, of the
   synthetic lab manoeuvres of tests/experiment/synthetic.py (seven parameters each, with the
   truth known) and of the one-link arm of tests/experiment/test_compare_fit.py: wall and CPU
@@ -181,14 +184,32 @@ def child_optimize() -> dict[str, Any]:
             "peaks": peaks, "message": result.message, "load": os.getloadavg()[0]}
 
 
+# `python -m flexlink` that also writes, at its exit (its atexit handlers run: cli._exit), the
+# CPU time of its main thread and of its whole process: the command's critical path lies
+# between the two on an idle machine (the other threads, the preload's, run beside it)
+PROBE = """
+import atexit, json, resource, sys, time
+path = sys.argv.pop(1)
+def record():
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    with open(path, "w") as f:
+        json.dump({"main": time.thread_time(), "process": usage.ru_utime + usage.ru_stime}, f)
+atexit.register(record)
+from flexlink.cli import command
+command()
+"""
+
+
 def child_command(src: Path, figures: bool = True, case: Case | None = None
                   ) -> dict[str, Any]:
     """The whole `flexlink fit` command in a fresh process (of ``case``, default the lab
-    record): wall and CPU time, and the estimates it wrote (fit.json)."""
+    record): wall and CPU time (all its processes; its own process and main thread), and
+    the estimates it wrote (fit.json)."""
     name, toml, paths, true = case or ("lab_run3", ROOT / "examples" / "lab_arm.toml",
                                        FIT_PARAMS, None)
     out = Path(tempfile.mkdtemp(prefix="flexlink-fit-cmd-")) / "fitted"
-    args = [sys.executable, "-m", "flexlink", "fit", str(toml), "-o", str(out), "-q"]
+    record = out.parent / "cpu.json"
+    args = [sys.executable, "-c", PROBE, str(record), "fit", str(toml), "-o", str(out), "-q"]
     if not figures:
         args.append("--no-figures")
     for p in paths:
@@ -203,8 +224,9 @@ def child_command(src: Path, figures: bool = True, case: Case | None = None
     fitted = json.loads((out / "fit.json").read_text(encoding="utf-8"))
     estimates = {e["path"]: _judged(e["path"], e["value"], e["ci_low"], e["ci_high"], true)
                  for e in fitted["parameters"]}
+    own = json.loads(record.read_text(encoding="utf-8"))
     return {"wall": wall, "cpu": cpu, "load": os.getloadavg()[0], "estimates": estimates,
-            "case": name}
+            "case": name, "cpu_process": own["process"], "cpu_main": own["main"]}
 
 
 # -- parent ------------------------------------------------------------------------------
@@ -253,6 +275,11 @@ def _estimates(row: dict[str, Any]) -> str:
     return "; ".join(parts)
 
 
+def _own(row: dict[str, Any]) -> str:
+    """The command's own process and main thread, CPU s."""
+    return f"own process {row['cpu_process']:.2f}, its main thread {row['cpu_main']:.2f}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", metavar="REV",
@@ -299,7 +326,7 @@ def main() -> None:
             for label, res in results.items():
                 c = res[kind]
                 print(f"  {label:<22} command{what}, lab_run3, 6 parameters: {c['wall']:.2f} s "
-                      f"wall, {c['cpu']:.2f} s CPU (load {c['load']:.1f})"
+                      f"wall, {c['cpu']:.2f} s CPU ({_own(c)}; load {c['load']:.1f})"
                       + ("; runs: " + ", ".join(f"{r['wall']:.2f}/{r['cpu']:.2f} s"
                                                  for r in c["runs"]) if len(c["runs"]) > 1
                          else "") + (f"\n  {'':<22}   {_estimates(c)}" if not what else ""))
@@ -307,7 +334,7 @@ def main() -> None:
             for label, res in results.items():
                 c = res["commands"][i]
                 print(f"  {label:<22} command, {c['case']}: {c['wall']:.2f} s wall, "
-                      f"{c['cpu']:.2f} s CPU (load {c['load']:.1f})"
+                      f"{c['cpu']:.2f} s CPU ({_own(c)}; load {c['load']:.1f})"
                       + ("; runs: " + ", ".join(f"{r['wall']:.2f}/{r['cpu']:.2f} s"
                                                  for r in c["runs"]) if len(c["runs"]) > 1
                          else "") + f"\n  {'':<22}   {_estimates(c)}")

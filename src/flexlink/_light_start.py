@@ -1,4 +1,4 @@
-"""Two start-up measures for a command's own process, which ends when the command does
+"""Three start-up measures for a command's own process, which ends when the command does
 (`flexlink fit` and `flexlink compare`: ARCHITECTURE.md, "Start-up of `flexlink run`"):
 
 - `defer_unused_submodules`: numpy's ``testing``, ``f2py`` and ``ctypeslib`` packages made
@@ -12,9 +12,15 @@
   only compiling needs. numba still starts its runtime (NRT) there, which loaded code calls;
   a kernel missing from the cache is compiled as before (numba's compiler installs the
   registries itself).
+- `keep_docstrings_unparsed`: scipy's decorators ``xp_capabilities`` (``scipy._lib._array_api``)
+  and ``_apply_over_batch``, ``_transition_to_rng`` (``scipy._lib._util``), applied at import
+  to some 300 functions of scipy.special, optimize, linalg, …, parse each docstring
+  (numpydoc's ``FunctionDoc``) to add a note on array backends, batches or the ``rng``
+  argument. Here the docstring is kept as written: nothing a command runs reads it, and the
+  decorators still do everything else (the capabilities table, the wrappers).
 
 Each leaves the library untouched where the private parts it relies on are missing (another
-numpy or numba), and neither is for a caller whose interpreter goes on (a library user's
+numpy, numba or scipy), and none is for a caller whose interpreter goes on (a library user's
 process): the module objects and numba's cache loading stay changed until the process ends.
 """
 
@@ -75,3 +81,37 @@ def load_cached_kernels_only() -> bool:
     load_overload.registries_skipped = True  # type: ignore[attr-defined]
     cache.load_overload = load_overload
     return True
+
+
+class _UnparsedDoc:
+    """Stands in for numpydoc's ``FunctionDoc`` in scipy's decorators: its sections take
+    what is added and drop it, and its text is the docstring as written."""
+
+    def __init__(self, function: Any) -> None:
+        self._doc = getattr(function, "__doc__", None) or ""
+
+    def __getitem__(self, section: str) -> list[Any]:
+        return []
+
+    def __str__(self) -> str:
+        return "\n" + self._doc  # the decorators drop the first line (a signature)
+
+
+SCIPY_DOC_PARSERS = ("scipy._lib._array_api", "scipy._lib._util")  # modules calling FunctionDoc
+
+
+def keep_docstrings_unparsed(modules: tuple[str, ...] = SCIPY_DOC_PARSERS) -> list[str]:
+    """Let scipy's decorators in ``modules`` leave docstrings unparsed (see the module doc)
+    for the scipy modules imported from now on; returns the modules changed (none where
+    scipy lacks them or their ``FunctionDoc``)."""
+    changed = []
+    for name in modules:
+        try:
+            module = importlib.import_module(name)
+        except ImportError:
+            continue
+        if not hasattr(module, "FunctionDoc"):
+            continue
+        module.FunctionDoc = _UnparsedDoc
+        changed.append(name)
+    return changed

@@ -1,6 +1,7 @@
 """`flexlink fit`'s own process goes without what it never uses (flexlink/_light_start.py):
 numpy's testing and f2py packages stay lazy, numba's typing and lowering registries are not
-installed to load cached kernels, matplotlib stays in the figures' processes — and it
+installed to load cached kernels, scipy's docstrings are not parsed at import, matplotlib
+stays in the figures' processes — and it
 estimates what the same command run in-process (without those measures) estimates."""
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ import atexit, json, sys
 path = sys.argv.pop(1)
 def record():
     modules = {n: type(m).__name__ for n, m in sys.modules.items() if m is not None}
+    # scipy's array-backend note, which parsing the docstring at import would have appended
+    modules["(notes appended)"] = "Array API" in sys.modules["scipy.linalg"].block_diag.__doc__
     with open(path, "w") as f:
         json.dump(modules, f)
 atexit.register(record)
@@ -59,6 +62,7 @@ def test_the_fit_command_imports_only_what_it_uses_and_estimates_the_same(tmp_pa
     installed = [name for name in REGISTRY_MODULES if name in modules]
     assert not installed, f"numba's registries were installed: {installed}"
     assert "matplotlib" not in modules  # drawn by the figure processes
+    assert modules["(notes appended)"] is False  # scipy's docstrings left unparsed
     assert (tmp_path / "command" / "figures" / "overlay.png").is_file()
 
     # the same command in this process: numba's registries and numpy's packages as they were
@@ -88,3 +92,26 @@ def test_deferred_packages_load_on_first_use() -> None:
     done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
                           text=True, timeout=300, check=False)
     assert done.returncode == 0, done.stderr
+
+
+def test_scipy_keeps_its_docstrings_and_capabilities_unparsed() -> None:
+    script = ("import math, sys\n"
+              "from flexlink._light_start import keep_docstrings_unparsed\n"
+              "measure = sys.argv[1] == 'measure'\n"
+              "if measure:\n"
+              "    assert keep_docstrings_unparsed() == ['scipy._lib._array_api', "
+              "'scipy._lib._util']\n"
+              "import scipy.linalg, scipy.special\n"
+              "from scipy._lib._array_api import xp_capabilities_table\n"
+              "f = scipy.special.logsumexp\n"
+              "assert f in xp_capabilities_table\n"
+              "assert f.__doc__.startswith('Compute the log of the sum'), f.__doc__[:80]\n"
+              "assert ('Array API' in f.__doc__) is not measure\n"
+              "assert ('\"batch\" dimensions' in scipy.linalg.cholesky.__doc__) is not measure\n"
+              "assert math.isclose(f([0.0, 0.0]), math.log(2.0), rel_tol=1e-15)\n"
+              "assert scipy.linalg.expm([[0.0]])[0, 0] == 1.0\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    for argument in ("measure", "none"):  # the notes are there without the measure
+        done = subprocess.run([sys.executable, "-c", script, argument], env=env,
+                              capture_output=True, text=True, timeout=300, check=False)
+        assert done.returncode == 0, (argument, done.stderr)

@@ -82,7 +82,9 @@ def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
 
 
 _HISTORIES: OrderedDict[tuple[object, ...], JointHistory] = OrderedDict()
-_HISTORIES_KEPT = 8  # a run asks for ~6 time grids
+# a run asks for ~6 time grids, and its coefficient table ~8 more (one per refinement level),
+# the same ones in every run of a fit (its runs differ in link properties only)
+_HISTORIES_KEPT = 32
 # What the remembered histories may hold together: a paper run's grids take ~1 MB; a long run's
 # histories (10⁶ samples × 10 joints: 240 MB) are not kept beyond their run.
 _HISTORY_BYTES_KEPT = 32_000_000

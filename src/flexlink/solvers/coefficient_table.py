@@ -69,10 +69,10 @@ class CoefficientTable:
 
     def evaluate(self, block: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """A at local times τ of the given blocks (arrays of equal shape), (…, n, 2n+1)."""
-        p = self.pieces[block] + np.array([np.searchsorted(self.upper[a:b], x)
-                                           for a, b, x in zip(self.pieces[block],
-                                                              self.pieces[block + 1], tau)])
-        p = np.minimum(p, self.pieces[block + 1] - 1)
+        p = self.pieces[block]  # a new array (an index array picks)
+        split = np.flatnonzero(self.pieces[block + 1] - p > 1)  # blocks of several pieces
+        for i, a, b in zip(split, p[split], self.pieces[block + 1][split]):
+            p[i] = min(a + np.searchsorted(self.upper[a:b], tau[i]), b - 1)
         local = (tau - self.lower[p]) / (self.upper[p] - self.lower[p])
         powers = local[:, None, None] ** np.arange(DEGREE + 1)
         values = np.matmul(powers, self.poly[p].reshape(p.size, DEGREE + 1, -1))
