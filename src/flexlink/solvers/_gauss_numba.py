@@ -145,22 +145,24 @@ def stage_partials(model, rows, r, Q, V, X, partials):
 
 
 @njit(cache=True)
-def iteration_inverse(partials, h, tab, inverse):
+def iteration_inverse(partials, shared, h, tab, inverse):
     """The inverse of the stage system's iteration matrix for steps of h (s) into ``inverse``
-    (2n, 2n): J_ij = h² (a²)_ij ∂R/∂q + h a_ij ∂R/∂q̇ + δ_ij ∂R/∂q̈ (stages i, j), the
-    partials (`stage_partials`) shared by both stages."""
-    n = partials.shape[0]
+    (2n, 2n): J_ij = h² (a²)_ij ∂R_i/∂q + h a_ij ∂R_i/∂q̇ + δ_ij ∂R_i/∂q̈ (stages i, j), the
+    partials (`stage_partials`) of stage i in partials[i] (2, n, 3n), or partials[0] for
+    both when ``shared``."""
+    n = partials.shape[1]
     coeffs, coeffs2 = tab.coeffs, tab.coeffs2
     Jm = np.empty((2 * n, 2 * n))
     for st in range(2):
+        p = partials[0] if shared else partials[st]
         for j in range(2):
             cq = h * h * coeffs2[st, j]
             cv = h * coeffs[st, j]
             cx = 1.0 if st == j else 0.0
             for i in range(n):
                 for m in range(n):
-                    Jm[st * n + i, j * n + m] = (cq * partials[i, m] + cv * partials[i, n + m]
-                                                 + cx * partials[i, 2 * n + m])
+                    Jm[st * n + i, j * n + m] = (cq * p[i, m] + cv * p[i, n + m]
+                                                 + cx * p[i, 2 * n + m])
     inverse_h = np.linalg.inv(Jm)
     for i in range(2 * n):
         for j in range(2 * n):
@@ -174,12 +176,13 @@ def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, which
     simplified Newton from the guess in X; stage inputs in rows k, k + 1.
 
     ``inverse`` (2n, 2n) is the iteration matrix for h (`iteration_inverse`), assembled
-    again when ``have[which]`` is 0 from the partial derivatives ``partials`` (n, 3n), which
-    are evaluated again (`stage_partials`, at the first stage's iterate) when ``have[-1]``
-    is 0 or when an iteration's contraction rate exceeds newton.slow_contraction; ``have``
+    again when ``have[which]`` is 0 from the partial derivatives ``partials`` (2, n, 3n) of
+    each stage's residual at its iterate (with newton.shared_partials the first stage's
+    only, for both), which are evaluated again (`stage_partials`) when ``have[-1]`` is 0 or
+    when an iteration's contraction rate exceeds newton.slow_contraction; ``have``
     (k + 1,) flags each of the caller's k matrices (one per step size it keeps) and, last, the
-    partials: an evaluation clears every matrix's flag. A change of step size reuses the
-    partials (the matrices' inverses cost no residual).
+    partials: an evaluation clears every matrix's flag. A caller may keep the partials
+    across step sizes (the matrices' inverses cost no residual).
 
     Newton stops when its remaining error (the last correction times θ/(1 − θ), θ the
     contraction rate; the first correction itself) is within newton.tol of the largest
@@ -219,14 +222,15 @@ def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, which
                 Q[st, m] = y0[m] + nodes[st] * h * v0[m] + h * h * (coeffs2[st, 0] * X[0, m]
                                                                     + coeffs2[st, 1] * X[1, m])
         if have[last] == 0:
-            stage_partials(model, rows, k, Q[0], V[0], X[0], partials)
+            for st in range(1 if newton.shared_partials else 2):
+                stage_partials(model, rows, k + st, Q[st], V[st], X[st], partials[st])
             for i in range(last + 1):
                 have[i] = 0
             have[last] = 1
             fresh = True
             counts[0] += 1
         if have[which] == 0:
-            iteration_inverse(partials, h, tab, inverse)
+            iteration_inverse(partials, newton.shared_partials, h, tab, inverse)
             have[which] = 1
         for st in range(2):
             r = k + st
@@ -277,7 +281,7 @@ def gauss_loop(model, rows, y, v, X, h, tab, newton, predict_first, peak):
     nodes = tab.nodes
     inverse = np.zeros((2 * n, 2 * n))
     have = np.zeros(2, np.int64)
-    partials = np.empty((n, 3 * n))
+    partials = np.empty((2, n, 3 * n))
     counts = np.zeros(2, np.int64)
     for i in range(steps):
         if i > 0 or predict_first:
@@ -302,9 +306,8 @@ def gauss_doubling(model, rows, y, v, X, h_prev, H, tab, newton, control, errors
     of length h_prev (s), on return those of the last accepted step. ``control``: a
     `gauss_steps.step_control`; ``errors`` (count,): each step's error as a fraction of its
     tolerance (doubling_error). ``inverse`` (2, 2n, 2n), ``have`` (3,) and ``partials``
-    (n, 3n): the iteration matrices for H and H/2, kept across calls while H is unchanged,
-    and the partial derivatives they are assembled from, kept across step sizes
-    (`solve_stages`); ``peak`` as in `solve_stages`. Returns (status, accepted steps): status 0 all accepted, 1 a step's error
+    (2, n, 3n): the iteration matrices for H and H/2, kept across calls while H is
+    unchanged, and the partial derivatives they are assembled from (`solve_stages`); ``peak`` as in `solve_stages`. Returns (status, accepted steps): status 0 all accepted, 1 a step's error
     above its tolerance, 2 a step whose Newton iteration did not converge."""
     n = y.shape[1]
     count = y.shape[0] - 1

@@ -33,7 +33,7 @@ def replay(model, rows, y0, v0, H, parts, tab, newton, starts_y, starts_v, stage
     n = y0.shape[1]
     inverse = np.zeros((2 * n, 2 * n))
     have = np.zeros(2, np.int64)
-    partials = np.empty((n, 3 * n))
+    partials = np.empty((2, n, 3 * n))
     counts = np.zeros(2, np.int64)
     peak = np.zeros(1)
     X = np.zeros((2, n))

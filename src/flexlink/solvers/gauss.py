@@ -32,7 +32,6 @@ from .gauss_steps import (
     COEFFS2,
     GAUSS2,
     NODES,
-    SLOW_CONTRACTION,
     STATE_ROUND_OFF,
     WEIGHTS,
     WEIGHTS2,
@@ -181,7 +180,7 @@ class _Newton:
                 if self.running_peak:
                     self.peak = max(self.peak, largest)
                 return X
-            if size > SLOW_CONTRACTION * previous and not fresh:
+            if size > 0.1 * previous and not fresh:
                 self.inverse = None  # slow convergence: rebuild the matrix at the next iterate
             previous = size
             fresh = False
@@ -190,20 +189,22 @@ class _Newton:
             f"(h = {h:.3g} s): reduce the step")
 
     def _rebuild(self, Q: np.ndarray, V: np.ndarray, X: np.ndarray, inputs: NodeInputs) -> None:
-        """J_ij = δ_ij ∂R/∂X + h² (a²)_ij ∂R/∂Q + h a_ij ∂R/∂V, the partials of the first
-        stage's residual R(Q₁, V₁, X₁) shared by both stages (`_gauss_numba.stage_partials`),
-        by finite differences (exact in X: R is linear in it)."""
+        """J_ij = δ_ij ∂R_i/∂X_i + h² (a²)_ij ∂R_i/∂Q_i + h a_ij ∂R_i/∂V_i for the stage
+        residuals R_i(Q_i, V_i, X_i), by finite differences (exact in X: R is linear in it)."""
         h, n = self.h, self.system.n
         eps = 1e-7
         count = 3 * n + 1
         shift = np.zeros((count, 3 * n))
         shift[1:] = np.eye(3 * n)
         shift[1:2 * n + 1] *= eps
-        R = self.system.residual(Q[0] + shift[:, :n], V[0] + shift[:, n:2 * n],
-                                 X[0] + shift[:, 2 * n:], inputs[np.zeros(count, dtype=int)])
-        dR = (R[1:] - R[0]).T  # (n, 3n): ∂R/∂Q·ε, ∂R/∂V·ε, ∂R/∂X
+        Qb = (Q[:, None, :] + shift[None, :, :n]).reshape(-1, n)
+        Vb = (V[:, None, :] + shift[None, :, n:2 * n]).reshape(-1, n)
+        Xb = (X[:, None, :] + shift[None, :, 2 * n:]).reshape(-1, n)
+        index = np.repeat(np.arange(2), count)
+        R = self.system.residual(Qb, Vb, Xb, inputs[index]).reshape(2, count, n)
         J = np.zeros((2 * n, 2 * n))
         for i in range(2):
+            dR = (R[i, 1:] - R[i, 0]).T  # (n, 3n): ∂R_i/∂Q·ε, ∂R_i/∂V·ε, ∂R_i/∂X
             for j in range(2):
                 J[i * n:(i + 1) * n, j * n:(j + 1) * n] = (
                     h**2 * COEFFS2[i, j] * dR[:, :n] + h * COEFFS[i, j] * dR[:, n:2 * n]) / eps
@@ -340,14 +341,7 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
     (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord. ``loop``: a
     gauss_sampled.SampledLoop, whose controllers are updated from the state at each of their
     sample instants (every one a step end), their voltages held until the next."""
-    from .gauss_steps import (
-        DOUBLING_SLOW_CONTRACTION,
-        DOUBLING_STAGES,
-        Batch,
-        DoublingLoop,
-        step_control,
-        step_doubling,
-    )
+    from .gauss_steps import DOUBLING_STAGES, Batch, DoublingLoop, step_control, step_doubling
 
     n = system.n
     # Newton's error a thousandth of the step's tolerance: tighter buys nothing (the
@@ -356,7 +350,7 @@ def integrate_adaptive(system: NonlinearSystem, t_end: float, rtol: float, atol:
     doubling = DoublingLoop(
         system.kernel_data(), n,
         newton_settings(max(NEWTON_TOL, 1e-3 * rtol), NEWTON_MAX,
-                        ROUND_OFF * system.max_frequency**2, False, DOUBLING_SLOW_CONTRACTION),
+                        ROUND_OFF * system.max_frequency**2, False),
         step_control(np.zeros(n), rtol, atol, RATE_FLOOR * system.max_frequency))
 
     breaks = input_breakpoints(system.chain.joints, system.actuators)

@@ -164,8 +164,8 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord."""
     from ..dynamics.forward_kernel import breakpoints
     from .gauss_steps import (
-        DOUBLING_SLOW_CONTRACTION,
         DOUBLING_STAGES,
+        FORWARD_SLOW_CONTRACTION,
         Batch,
         DoublingLoop,
         step_control,
@@ -179,7 +179,8 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     doubling = DoublingLoop(
         system.kernel_data(), n_y,
         newton_settings(forward_newton_tol(system, rtol), NEWTON_MAX,
-                        ROUND_OFF * system.max_frequency**2, True, DOUBLING_SLOW_CONTRACTION),
+                        ROUND_OFF * system.max_frequency**2, True, FORWARD_SLOW_CONTRACTION,
+                        shared_partials=True),
         step_control(group, rtol, atol, RATE_FLOOR * system.max_frequency))
 
     def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,
