@@ -74,7 +74,7 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
     under unit accelerations, then M ÿ = −r(ÿ = 0). The step ends of a run have nearly the
     same M from one to the next: each state first iterates ÿ ← ÿ − M₀⁻¹ r(ÿ) from the last
     state's ÿ with M₀ the last mass matrix built, until the remaining error (the correction
-    times θ/(1 − θ), θ its contraction) is below 1e-12 of ÿ, and builds its own M when
+    times θ/(1 − θ), θ its contraction) is below 1e-13 of ÿ, and builds its own M when
     that takes more than MASS_REUSE iterations or θ exceeds MASS_CONTRACTION."""
     b, ny = Y.shape
     out = np.empty((b, ny))
@@ -105,7 +105,7 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
                 theta = size / previous
                 # (first iteration: no θ yet, the correction itself must be small)
                 remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-                if remaining <= 1e-12 * largest:
+                if remaining <= 1e-13 * largest:
                     done = True
                     break
                 if theta > MASS_CONTRACTION:
