@@ -60,7 +60,7 @@ def test_the_doubling_kernel_keeps_the_two_half_steps() -> None:
     status, accepted = gauss_doubling(
         model, rows(t0 + H * DOUBLING_STAGES), q, v, X0.copy(), H, H, GAUSS2, newton,
         step_control(np.zeros(n), 1.0, 1.0, 0.0), errors, np.zeros((2, 2 * n, 2 * n)),
-        np.zeros(2, np.int64), np.zeros(2, np.int64), np.zeros(1))
+        np.zeros(3, np.int64), np.empty((2, n, 3 * n)), np.zeros(2, np.int64), np.zeros(1))
     assert (status, accepted) == (0, 1)
     qh, vh = np.array([q0, q0, q0]), np.array([v0, v0, v0])
     half = t0 + 0.5 * H * (np.arange(2)[:, None] + NODES[None, :]).ravel()

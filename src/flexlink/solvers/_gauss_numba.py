@@ -113,31 +113,96 @@ def model_residual(model, Y, V, X, ang, rate, acc, rot_acc, u, out):
 
 
 @njit(cache=True)
-def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, counts, peak):
+def stage_partials(model, rows, r, Q, V, X, partials):
+    """The residual's partial derivatives at one stage state Q, V, X (stage inputs in row r)
+    into ``partials`` (n, 3n) = [∂R/∂q | ∂R/∂q̇ | ∂R/∂q̈]: forward differences in q and q̇,
+    unit steps in q̈ (exact: R is affine in q̈)."""
+    n = Q.size
+    angle, rate, acc, rot, u = rows
+    eps = 1e-7
+    r0 = np.empty(n)
+    r1 = np.empty(n)
+    Qp = Q.copy()
+    Vp = V.copy()
+    Xp = X.copy()
+    model_residual(model, Q, V, X, angle[r], rate[r], acc[r], rot[r], u[r], r0)
+    for m in range(n):
+        Qp[m] += eps
+        model_residual(model, Qp, V, X, angle[r], rate[r], acc[r], rot[r], u[r], r1)
+        Qp[m] = Q[m]
+        for i in range(n):
+            partials[i, m] = (r1[i] - r0[i]) / eps
+        Vp[m] += eps
+        model_residual(model, Q, Vp, X, angle[r], rate[r], acc[r], rot[r], u[r], r1)
+        Vp[m] = V[m]
+        for i in range(n):
+            partials[i, n + m] = (r1[i] - r0[i]) / eps
+        Xp[m] += 1.0
+        model_residual(model, Q, V, Xp, angle[r], rate[r], acc[r], rot[r], u[r], r1)
+        Xp[m] = X[m]
+        for i in range(n):
+            partials[i, 2 * n + m] = r1[i] - r0[i]
+
+
+@njit(cache=True)
+def iteration_inverse(partials, shared, h, tab, inverse):
+    """The inverse of the stage system's iteration matrix for steps of h (s) into ``inverse``
+    (2n, 2n): J_ij = h² (a²)_ij ∂R_i/∂q + h a_ij ∂R_i/∂q̇ + δ_ij ∂R_i/∂q̈ (stages i, j), the
+    partials (`stage_partials`) of stage i in partials[i] (2, n, 3n), or partials[0] for
+    both when ``shared``."""
+    n = partials.shape[1]
+    coeffs, coeffs2 = tab.coeffs, tab.coeffs2
+    Jm = np.empty((2 * n, 2 * n))
+    for st in range(2):
+        p = partials[0] if shared else partials[st]
+        for j in range(2):
+            cq = h * h * coeffs2[st, j]
+            cv = h * coeffs[st, j]
+            cx = 1.0 if st == j else 0.0
+            for i in range(n):
+                for m in range(n):
+                    Jm[st * n + i, j * n + m] = (cq * p[i, m] + cv * p[i, n + m]
+                                                 + cx * p[i, 2 * n + m])
+    inverse_h = np.linalg.inv(Jm)
+    for i in range(2 * n):
+        for j in range(2 * n):
+            inverse[i, j] = inverse_h[i, j]
+
+
+@njit(cache=True)
+def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, which, partials,
+                 counts, peak):
     """The stage accelerations X (2, n) of one step of h (s) from y0, v0, solved in place by
-    simplified Newton from the guess in X; stage inputs in rows k, k + 1. ``inverse`` (2n, 2n)
-    is the iteration matrix for h, rebuilt when ``have[0]`` is 0 or when an iteration
-    contracts by less than 10×. Newton stops when its remaining error is within
-    newton.tol of the largest stage acceleration (and of ``peak[0]``, the largest of the run
-    so far, kept up to date when newton.running_peak: a rigid arm coasting has vanishing
-    accelerations that no elastic term keeps finite) or within newton.floor (1/s²) ·
-    max|q| (the first model[2] unknowns, the elastic coordinates): the round-off of the elastic forces (at a static
+    simplified Newton from the guess in X; stage inputs in rows k, k + 1.
+
+    ``inverse`` (2n, 2n) is the iteration matrix for h (`iteration_inverse`), assembled
+    again when ``have[which]`` is 0 from the partial derivatives ``partials`` (2, n, 3n) of
+    each stage's residual at its iterate (with newton.shared_partials the first stage's
+    only, for both), which are evaluated again (`stage_partials`) when ``have[-1]`` is 0 or
+    when an iteration's contraction rate exceeds newton.slow_contraction; ``have``
+    (k + 1,) flags each of the caller's k matrices (one per step size it keeps) and, last, the
+    partials: an evaluation clears every matrix's flag. A caller may keep the partials
+    across step sizes (the matrices' inverses cost no residual).
+
+    Newton stops when its remaining error (the last correction times θ/(1 − θ), θ the
+    contraction rate; the first correction itself) is within newton.tol of the largest
+    stage acceleration (and of ``peak[0]``, the largest of the run so far, kept up to date
+    when newton.running_peak: a rigid arm coasting has vanishing accelerations that no
+    elastic term keeps finite) or within newton.floor (1/s²) · max|q| (the first model[2]
+    unknowns, the elastic coordinates): the round-off of the elastic forces (at a static
     equilibrium under a constant load the accelerations vanish and no relative test can be
     met), or within newton.state_round_off · max|y| / h² (every unknown, rigid ones too): a
-    correction that moves no stage position beyond its round-off (a chain of rigid links
-    in exact equilibrium has no elastic coordinate to set the floor). counts[0] += matrix
-    rebuilds, counts[1] += iterations. Returns whether it converged."""
+    correction that moves no stage position beyond its round-off (a chain of rigid links in
+    exact equilibrium has no elastic coordinate to set the floor). counts[0] += evaluations
+    of the partials, counts[1] += iterations. Returns whether it converged."""
     n = y0.size
     nodes, coeffs, coeffs2 = tab.nodes, tab.coeffs, tab.coeffs2
-    angle, rate, acc, rot, u = rows
+    angle, rates, acc, rot, u = rows
+    last = have.size - 1
     Q = np.empty((2, n))
     V = np.empty((2, n))
     R = np.empty(2 * n)
     r0 = np.empty(n)
-    r1 = np.empty(n)
-    dq = np.empty(n)
-    dv = np.empty(n)
-    eps = 1e-7
     previous = np.inf
     fresh = False
     q_size = 0.0
@@ -156,45 +221,20 @@ def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, count
                 V[st, m] = v0[m] + h * (coeffs[st, 0] * X[0, m] + coeffs[st, 1] * X[1, m])
                 Q[st, m] = y0[m] + nodes[st] * h * v0[m] + h * h * (coeffs2[st, 0] * X[0, m]
                                                                     + coeffs2[st, 1] * X[1, m])
-        if have[0] == 0:
-            Jm = np.zeros((2 * n, 2 * n))
-            for st in range(2):
-                r = k + st
-                model_residual(model, Q[st], V[st], X[st], angle[r], rate[r], acc[r], rot[r],
-                               u[r], r0)
-                for m in range(n):
-                    Qp = Q[st].copy()
-                    Qp[m] += eps
-                    model_residual(model, Qp, V[st], X[st], angle[r], rate[r], acc[r], rot[r],
-                                   u[r], r1)
-                    for i in range(n):
-                        dq[i] = (r1[i] - r0[i]) / eps
-                    Vp = V[st].copy()
-                    Vp[m] += eps
-                    model_residual(model, Q[st], Vp, X[st], angle[r], rate[r], acc[r], rot[r],
-                                   u[r], r1)
-                    for i in range(n):
-                        dv[i] = (r1[i] - r0[i]) / eps
-                    Xp = X[st].copy()
-                    Xp[m] += 1.0
-                    model_residual(model, Q[st], V[st], Xp, angle[r], rate[r], acc[r], rot[r],
-                                   u[r], r1)
-                    for j in range(2):
-                        for i in range(n):
-                            Jm[st * n + i, j * n + m] = (h * h * coeffs2[st, j] * dq[i]
-                                                         + h * coeffs[st, j] * dv[i])
-                    for i in range(n):
-                        Jm[st * n + i, st * n + m] += r1[i] - r0[i]
-            inverse_h = np.linalg.inv(Jm)
-            for i in range(2 * n):
-                for j in range(2 * n):
-                    inverse[i, j] = inverse_h[i, j]
-            have[0] = 1
+        if have[last] == 0:
+            for st in range(1 if newton.shared_partials else 2):
+                stage_partials(model, rows, k + st, Q[st], V[st], X[st], partials[st])
+            for i in range(last + 1):
+                have[i] = 0
+            have[last] = 1
             fresh = True
             counts[0] += 1
+        if have[which] == 0:
+            iteration_inverse(partials, newton.shared_partials, h, tab, inverse)
+            have[which] = 1
         for st in range(2):
             r = k + st
-            model_residual(model, Q[st], V[st], X[st], angle[r], rate[r], acc[r], rot[r], u[r],
+            model_residual(model, Q[st], V[st], X[st], angle[r], rates[r], acc[r], rot[r], u[r],
                            r0)
             for m in range(n):
                 R[st * n + m] = r0[m]
@@ -214,8 +254,8 @@ def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, count
             if newton.running_peak:
                 peak[0] = max(peak[0], largest)
             return True
-        if size > 0.1 * previous and not fresh:
-            have[0] = 0
+        if theta > newton.slow_contraction and not fresh:
+            have[last] = 0
         previous = size
         fresh = False
     return False
@@ -240,7 +280,8 @@ def gauss_loop(model, rows, y, v, X, h, tab, newton, predict_first, peak):
     steps = y.shape[0] - 1
     nodes = tab.nodes
     inverse = np.zeros((2 * n, 2 * n))
-    have = np.zeros(1, np.int64)
+    have = np.zeros(2, np.int64)
+    partials = np.empty((2, n, 3 * n))
     counts = np.zeros(2, np.int64)
     for i in range(steps):
         if i > 0 or predict_first:
@@ -249,7 +290,7 @@ def gauss_loop(model, rows, y, v, X, h, tab, newton, predict_first, peak):
                 X[0, m] += slope
                 X[1, m] += slope
         if not solve_stages(model, rows, 2 * i, y[i], v[i], X, h, tab, newton, inverse, have,
-                            counts, peak):
+                            0, partials, counts, peak):
             return i, counts[0], counts[1]
         _advance(y[i], v[i], X, h, tab, y[i + 1], v[i + 1])
     return -1, counts[0], counts[1]
@@ -257,16 +298,16 @@ def gauss_loop(model, rows, y, v, X, h, tab, newton, predict_first, peak):
 
 @njit(cache=True)
 def gauss_doubling(model, rows, y, v, X, h_prev, H, tab, newton, control, errors, inverse, have,
-                   counts, peak):
+                   partials, counts, peak):
     """Advance y, v (count+1, n) in place from row 0 by steps H, each checked by step
     doubling: one step H and two steps H/2 from the same state, the two H/2 steps kept
     (``step_doubling`` in gauss_steps.py). Stage inputs: six rows per step (the H step's two
     stages, then the two H/2 steps'). X (2, n): the stage accelerations of the last step,
     of length h_prev (s), on return those of the last accepted step. ``control``: a
     `gauss_steps.step_control`; ``errors`` (count,): each step's error as a fraction of its
-    tolerance (doubling_error). ``inverse`` (2, 2n, 2n) and ``have`` (2,): the iteration
-    matrices for H and H/2, kept across calls while H is unchanged; ``peak`` as in
-    `solve_stages`. Returns (status, accepted steps): status 0 all accepted, 1 a step's error
+    tolerance (doubling_error). ``inverse`` (2, 2n, 2n), ``have`` (3,) and ``partials``
+    (2, n, 3n): the iteration matrices for H and H/2, kept across calls while H is
+    unchanged, and the partial derivatives they are assembled from (`solve_stages`); ``peak`` as in `solve_stages`. Returns (status, accepted steps): status 0 all accepted, 1 a step's error
     above its tolerance, 2 a step whose Newton iteration did not converge."""
     n = y.shape[1]
     count = y.shape[0] - 1
@@ -281,17 +322,17 @@ def gauss_doubling(model, rows, y, v, X, h_prev, H, tab, newton, control, errors
     for i in range(count):
         predict(big, X, h_prev, h_prev, H, nodes)
         if not solve_stages(model, rows, 6 * i, y[i], v[i], big, H, tab, newton, inverse[0],
-                            have[0:1], counts, peak):
+                            have, 0, partials, counts, peak):
             return 2, i
         _advance(y[i], v[i], big, H, tab, y_big, v_big)
         predict(fine, big, H, 0.0, h, nodes)
         if not solve_stages(model, rows, 6 * i + 2, y[i], v[i], fine, h, tab, newton, inverse[1],
-                            have[1:2], counts, peak):
+                            have, 1, partials, counts, peak):
             return 2, i
         _advance(y[i], v[i], fine, h, tab, y_mid, v_mid)
         predict(fine, big, H, h, h, nodes)
         if not solve_stages(model, rows, 6 * i + 4, y_mid, v_mid, fine, h, tab, newton, inverse[1],
-                            have[1:2], counts, peak):
+                            have, 1, partials, counts, peak):
             return 2, i
         _advance(y_mid, v_mid, fine, h, tab, y[i + 1], v[i + 1])
         errors[i] = doubling_error(y_big, v_big, y[i + 1], v[i + 1], control)

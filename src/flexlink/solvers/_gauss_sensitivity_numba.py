@@ -32,7 +32,8 @@ def replay(model, rows, y0, v0, H, parts, tab, newton, starts_y, starts_v, stage
     the Gauss step whose Newton iteration failed, or −1."""
     n = y0.shape[1]
     inverse = np.zeros((2 * n, 2 * n))
-    have = np.zeros(1, np.int64)
+    have = np.zeros(2, np.int64)
+    partials = np.empty((2, n, 3 * n))
     counts = np.zeros(2, np.int64)
     peak = np.zeros(1)
     X = np.zeros((2, n))
@@ -52,7 +53,7 @@ def replay(model, rows, y0, v0, H, parts, tab, newton, starts_y, starts_v, stage
                 have[0] = 0
                 h_last = h
             if not solve_stages(model, rows, 2 * g, y, v, X, h, tab, newton, inverse, have,
-                                counts, peak):
+                                0, partials, counts, peak):
                 return g
             for m in range(n):
                 starts_y[g, m] = y[m]

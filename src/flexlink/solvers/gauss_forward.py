@@ -163,7 +163,14 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     """Step ends from the system's initial state to t_end (s) with error-controlled steps
     (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord."""
     from ..dynamics.forward_kernel import breakpoints
-    from .gauss_steps import DOUBLING_STAGES, Batch, DoublingLoop, step_control, step_doubling
+    from .gauss_steps import (
+        DOUBLING_STAGES,
+        FORWARD_SLOW_CONTRACTION,
+        Batch,
+        DoublingLoop,
+        step_control,
+        step_doubling,
+    )
 
     n_y, n, nu = system.n_y, system.n, system.nu
     group = np.full(n_y, -1, dtype=np.int64)  # the servo integrals set no step
@@ -172,7 +179,8 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     doubling = DoublingLoop(
         system.kernel_data(), n_y,
         newton_settings(forward_newton_tol(system, rtol), NEWTON_MAX,
-                        ROUND_OFF * system.max_frequency**2, True),
+                        ROUND_OFF * system.max_frequency**2, True, FORWARD_SLOW_CONTRACTION,
+                        shared_partials=True),
         step_control(group, rtol, atol, RATE_FLOOR * system.max_frequency))
 
     def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,

@@ -50,20 +50,41 @@ GAUSS2 = Tableau(NODES, COEFFS, COEFFS2, WEIGHTS, WEIGHTS2)
 # NewtonSettings).
 STATE_ROUND_OFF = 1e-15
 
+# A Newton iteration whose contraction rate θ (the ratio of successive corrections) exceeds
+# this has an iteration matrix too far from the stage Jacobian: its partial derivatives are
+# evaluated again (`_gauss_numba.solve_stages` through NewtonSettings).
+SLOW_CONTRACTION = 0.1
+# … in the forward model's step-doubling loop (`gauss_forward.integrate_forward_adaptive`),
+# whose partials are the first stage's for both stages, serve the matrices of H and H/2 and
+# outlive changes of the step size: an evaluation costs 3n + 1 residuals, an iteration two.
+# On the slider cases of benchmarks/slider_vs_fe.py 0.03 costs the least (0.1: a third more
+# iterations, solves of four and five at θ ~ 0.05; 0.01: as cheap on Case 23, but 1.4–1.9×
+# the evaluations at large deflection). The other loops keep each stage's partials, 0.1 and
+# new partials at each step size: uniform steps because Newton then stops further below its
+# tolerance, which the derivatives of their sensitivities, checked against differences of
+# moved runs, need; the prescribed model's doubling loop because its steps would change
+# (Newton no longer fails where its step is halved: the paper arm's strain signal at the
+# default rtol would be a ninth of its model error instead of a fourteenth).
+FORWARD_SLOW_CONTRACTION = 0.03
+
 NewtonSettings = namedtuple("NewtonSettings", ["tol", "max_iterations", "floor",
-                                               "running_peak", "state_round_off"])
+                                               "running_peak", "state_round_off",
+                                               "slow_contraction", "shared_partials"])
 NewtonSettings.__doc__ = (
     "Newton's stopping test in the compiled loops (`_gauss_numba.solve_stages`): tol relative "
     "to the largest stage acceleration (of the run so far if running_peak), at most "
     "max_iterations, the absolute floor (1/s²) times max|q|, and state_round_off times "
-    "max|y| / h² (STATE_ROUND_OFF).")
+    "max|y| / h² (STATE_ROUND_OFF); the contraction rate above which the iteration matrix's "
+    "partial derivatives are evaluated again (SLOW_CONTRACTION), and whether they are the "
+    "first stage's for both stages, kept across step sizes by DoublingLoop.")
 
 
-def newton_settings(tol: float, max_iterations: int, floor: float,
-                    running_peak: bool) -> NewtonSettings:
+def newton_settings(tol: float, max_iterations: int, floor: float, running_peak: bool,
+                    slow_contraction: float = SLOW_CONTRACTION,
+                    shared_partials: bool = False) -> NewtonSettings:
     """A NewtonSettings of fixed field types (one compiled signature)."""
     return NewtonSettings(float(tol), int(max_iterations), float(floor), bool(running_peak),
-                          STATE_ROUND_OFF)
+                          STATE_ROUND_OFF, float(slow_contraction), bool(shared_partials))
 
 
 def step_control(group: np.ndarray, rtol: float, atol: float, rate_floor: float,
@@ -119,7 +140,8 @@ class DoublingLoop:
         self.data, self.n, self.newton, self.control = data, n, newton, control
         self.model = residual_model(data)  # borrows data's arrays: kept alive by self.data
         self.inverse = np.zeros((2, 2 * n, 2 * n))
-        self.have = np.zeros(2, dtype=np.int64)
+        self.have = np.zeros(3, dtype=np.int64)  # the two matrices', then the partials'
+        self.partials = np.empty((2, n, 3 * n))
         self.counts = np.zeros(2, dtype=np.int64)
         self.peak = np.zeros(1)
 
@@ -134,11 +156,11 @@ class DoublingLoop:
         v = np.empty((count + 1, self.n))
         y[0], v[0] = y0, v0
         errors = np.zeros(count)
-        if new_step:
-            self.have[:] = 0
+        if new_step:  # the matrices for the new H (shared partials: from the same ones)
+            self.have[:2 if self.newton.shared_partials else 3] = 0
         status, k = gauss_doubling(self.model, rows, y, v, X, h_prev, H, GAUSS2, self.newton,
-                                   self.control, errors, self.inverse, self.have, self.counts,
-                                   self.peak)
+                                   self.control, errors, self.inverse, self.have,
+                                   self.partials, self.counts, self.peak)
         return Batch(int(status), y[:k + 1], v[:k + 1], errors, self.counts)
 
 
