@@ -3,6 +3,7 @@ geometrically exact FE model (Exudyn), timed side by side in one run.
 
     python benchmarks/slider_vs_fe.py
     python benchmarks/slider_vs_fe.py --before /path/to/old/src --repeat 5
+    python benchmarks/slider_vs_fe.py --only case23 --model first_order   # some rows
 
 Two cases. Case 23 (tests/validation/test_prismatic.py `slider_fe_case`): a rigid link turned
 by a bang-bang moment carries, at its tip, a block sliding along its axis under a bang-bang
