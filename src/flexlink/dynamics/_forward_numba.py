@@ -603,12 +603,13 @@ def rates_in(context, u, y, dy, records_type):
     state_rates(d, w_, y, w_.b, dy)
 
 
-def rates(d, w_, u: np.ndarray, y: np.ndarray, dy: np.ndarray) -> None:
+@njit(cache=True, _nrt=False)
+def rates(d, w_, u, y, dy):
     """dy (in place) = `rates_in` of kernel data d and Workspace w_ at state y with input
-    row u, from Python."""
-    from ..solvers._radau_numba import rates_at
-
-    rates_at(d, w_, u[None], y[None], dy[None])
+    row u: for Python and for kernels that hold the records."""
+    assemble(d, w_, u, y)
+    _solve(w_.A, w_.b)
+    state_rates(d, w_, y, w_.b, dy)
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)

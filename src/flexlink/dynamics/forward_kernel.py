@@ -239,8 +239,7 @@ def accelerations(system: ForwardSystem, t: np.ndarray, p_free: np.ndarray, pd_f
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ForwardSystem.accelerations through the compiled kernel: p̈_free, z̈, servo integral
     rates at times t (same shapes)."""
-    from ..solvers._radau_numba import rates_at
-    from ._forward_numba import workspace
+    from ._forward_numba import rates, workspace
 
     data = pack(system) if data is None else data
     work = workspace(data, len(system.servos))
@@ -248,7 +247,8 @@ def accelerations(system: ForwardSystem, t: np.ndarray, p_free: np.ndarray, pd_f
     nu, n = len(system.free), system.n
     y = np.hstack([p_free, pd_free, z, zd, integral])
     dy = np.empty_like(y)
-    rates_at(data, work, u, y, dy)
+    for i in range(t.size):
+        rates(data, work, u[i], y[i], dy[i])
     return dy[:, nu:2 * nu], dy[:, 2 * nu + n:2 * nu + 2 * n], dy[:, 2 * nu + 2 * n:]
 
 

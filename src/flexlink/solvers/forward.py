@@ -69,21 +69,19 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
         return (solution, outputs) if with_outputs else solution
     nu, n = len(system.free), system.n
     if compiled:
+        from ..dynamics._forward_numba import rates as kernel
         from ..dynamics._forward_numba import workspace
-        from ._radau_numba import _rates_at, model_functions
 
         data = forward_kernel.pack(system)
         work = workspace(data, len(system.servos))
-        model = model_functions(data, work)  # data, work: kept alive
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         if on_progress is not None:
             on_progress(t)
         if compiled:
-            dy = np.empty((1, y.size))
-            _rates_at(model, np.ascontiguousarray(forward_kernel.inputs(system, np.array([t]))),
-                      np.ascontiguousarray(y, dtype=float)[None], dy)
-            return dy[0]
+            dy = np.empty_like(y)
+            kernel(data, work, forward_kernel.inputs(system, np.array([t]))[0], y, dy)
+            return dy
         parts = split_state(system, y[None])
         pdd, zdd, rates = system.accelerations(np.array([t]), *parts)
         return np.concatenate([y[nu:2 * nu], pdd[0], y[2 * nu + n:2 * nu + 2 * n], zdd[0],
