@@ -3,6 +3,7 @@ geometrically exact FE model (Exudyn), timed side by side in one run.
 
     python benchmarks/slider_vs_fe.py
     python benchmarks/slider_vs_fe.py --before /path/to/old/src --repeat 5
+    python benchmarks/slider_vs_fe.py --only case23 --model first_order   # some rows
 
 Two cases. Case 23 (tests/validation/test_prismatic.py `slider_fe_case`): a rigid link turned
 by a bang-bang moment carries, at its tip, a block sliding along its axis under a bang-bang
@@ -103,9 +104,10 @@ def error_of_peak(ours: dict[str, np.ndarray], reference: dict[str, Any]) -> flo
 
 
 def compare(title: str, name: str, rows: list[tuple[str, int, float | None]],
-            trees: list[tuple[str, str]], repeat: int) -> None:
+            trees: list[tuple[str, str]], repeat: int, only: str | None = None) -> None:
     """Exudyn's meshes of case ``name`` and flexlink's ``rows`` (model, modes, rtol; None:
-    the model's default) of each tree, timed in this run."""
+    the model's default) of each tree, timed in this run (only model ``only``'s rows if set)."""
+    rows = [row for row in rows if only in (None, row[0])]
     print(f"\n== {title}")
     here = str(ROOT / "src")
     fine = _child(here, "_exudyn", name, *REFERENCE)
@@ -139,6 +141,8 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--before", help="src folder of the tree to compare with")
     parser.add_argument("--only", choices=("case23", "large"), help="one case")
+    parser.add_argument("--model", choices=("first_order", "nonlinear"),
+                        help="only this model's rows")
     args = parser.parse_args()
     trees = ([("before", args.before)] if args.before else []) + [("after", str(ROOT / "src"))]
     print(f"# python {platform.python_version()}, {platform.processor() or platform.machine()}"
@@ -147,11 +151,12 @@ def main() -> None:
         first = [("first_order", modes, rtol) for modes in (4, 6) for rtol in (None, 1e-6)]
         compare("Case 23: tip deflection 1% of the beam's length", "case23",
                 first + [("nonlinear", modes, rtol) for modes in (3, 4, 6)
-                         for rtol in (None, 1e-3)], trees, args.repeat)
+                         for rtol in (None, 1e-3)], trees, args.repeat, args.model)
     if args.only in (None, "large"):
         compare("large deflection (tip 36% of the beam's length)", "large",
                 [("nonlinear", modes, rtol) for modes in (3, 4, 6) for rtol in (1e-3, None)]
-                + [("nonlinear", 6, 1e-6), ("first_order", 6, 1e-6)], trees, args.repeat)
+                + [("nonlinear", 6, 1e-6), ("first_order", 6, 1e-6)], trees, args.repeat,
+                args.model)
 
 
 if __name__ == "__main__":

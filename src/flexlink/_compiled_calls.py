@@ -18,9 +18,13 @@ import numpy as np
 from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
+from numba.extending import intrinsic
 
 ROW = types.Array(types.float64, 1, "C")  # a float row, as the callers pass them
 MATRIX = types.Array(types.float64, 2, "C")
+# A compiled loop's context (solvers/_radau_model.py): HEAD words of addresses, then records
+CONTEXT = types.Array(types.int64, 1, "C")
+HEAD = 2
 _ADDRESSES: dict[tuple, int] = {}  # (kernel, argument types) → address of its compiled code
 
 
@@ -73,3 +77,23 @@ def check(name: str, got: tuple, wanted: tuple) -> None:
     """A call's argument types against those the callee was compiled for."""
     if got != wanted:
         raise TypingError(f"{name} takes {wanted}, got {got}")
+
+
+def records_pointer(context, builder, records, array):
+    """Pointer to the records stored in the context array after its head."""
+    data = cgutils.create_struct_proxy(CONTEXT)(context, builder, value=array).data
+    start = builder.gep(data, [context.get_constant(types.intp, HEAD)])
+    return builder.bitcast(start, context.get_value_type(records).as_pointer())
+
+
+@intrinsic
+def load(typingctx, array, records_type):
+    """The records of type ``records_type`` stored in the context ``array`` (or its leading
+    records: a tuple's members lie at the same places in any tuple it begins)."""
+    records = records_type.instance_type
+    if array != CONTEXT:
+        raise TypingError(f"the context is {CONTEXT}, not {array}")
+
+    def codegen(context, builder, signature, args):
+        return builder.load(records_pointer(context, builder, records, args[0]))
+    return records(array, records_type), codegen

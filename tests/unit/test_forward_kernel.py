@@ -197,7 +197,7 @@ def test_the_rates_kernels_run_without_reference_counting() -> None:
 
     kernels = [getattr(_forward_numba, name) for name in (
         "base_acceleration", "map_columns", "frames", "residual", "applied", "_drive", "_solve",
-        "rates", "state_rates", "joint_torques")]
+        "rates", "rates_in", "state_rates", "joint_torques")]
     kernels += [_elastic_numba.prescribed_motors, _elastic_numba.spring_torques,
                 _elastic_numba.rotor_inertia, _prismatic_numba.lever_stiffness,
                 _momentum_numba.momentum, _momentum_numba.project]

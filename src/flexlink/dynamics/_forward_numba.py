@@ -33,7 +33,7 @@ from numba import njit, typeof, types
 from numba.extending import intrinsic
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from .._compiled_calls import MATRIX, ROW, address, call_codegen, check, type_key
+from .._compiled_calls import MATRIX, ROW, address, call_codegen, check, load, type_key
 from . import _elastic_numba as elastic
 from ._prismatic_numba import lever_stiffness
 
@@ -587,13 +587,26 @@ def _solve(A, b):
         b[i] = acc / A[i, i]
 
 
-@njit(cache=True, _nrt=False)
-def rates(d, w_, u, y, dy):
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def rates_in(context, u, y, dy, records_type):
     """dy/dt of the state y = [p_free, ṗ_free, z, ż, servo integrals] at one time with input
-    row u (ForwardSystem.accelerations); w_ is a Workspace. The equations are linear in
+    row u (ForwardSystem.accelerations) for the kernel data d and Workspace w_ that the
+    compiled loops' context holds (solvers/_radau_model.py; (d, w_)'s type given): the
+    loops call it through its address, and it reads only the fields it uses (a call that
+    took the records would hand over every array of both). The equations are linear in
     (p̈_free, z̈),
 
         [∂r/∂p̈_free | M[:, z]] (p̈_free, z̈) = Q − r(p̈_free = 0)   on the free and z rows."""
+    d, w_ = load(context, records_type)
+    assemble(d, w_, u, y)
+    _solve(w_.A, w_.b)
+    state_rates(d, w_, y, w_.b, dy)
+
+
+@njit(cache=True, _nrt=False)
+def rates(d, w_, u, y, dy):
+    """dy (in place) = `rates_in` of kernel data d and Workspace w_ at state y with input
+    row u: for Python and for kernels that hold the records."""
     assemble(d, w_, u, y)
     _solve(w_.A, w_.b)
     state_rates(d, w_, y, w_.b, dy)

@@ -15,8 +15,12 @@ records back and calls the model's compiled code. The records' arrays are not ow
 context: the caller keeps the records alive while the loop runs.
 
 A model adds its kernel-data record class and compiled rates(d, w, u, y, dy) to
-`_KERNELS`, and, if it has invariants to keep (a forward system's momentum), its compiled
-project(d, w, pj, u, U, t, y) to `_PROJECTIONS`; both return nothing.
+`_KERNELS` (the trampoline's call hands over every array of the records, field by field), or
+a compiled entry(context, u, y, dy, records_type) that reads the records (d, w) from the
+context itself, only the fields it uses, to `_ENTRIES` (the loop calls it in the
+trampoline's place: the forward model's, whose records are large), and, if it has
+invariants to keep (a forward system's momentum), its compiled project(d, w, pj, u, U, t, y)
+to `_PROJECTIONS`; all return nothing.
 """
 
 from __future__ import annotations
@@ -31,12 +35,15 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from .._compiled_calls import ROW
+from .._compiled_calls import CONTEXT, ROW
+from .._compiled_calls import HEAD as _HEAD
 from .._compiled_calls import address as _address
 from .._compiled_calls import call_codegen as _call_codegen
 from .._compiled_calls import check as _check
+from .._compiled_calls import load as _load
+from .._compiled_calls import records_pointer as _records_pointer
 from .._compiled_calls import type_key as _type_key
-from ..dynamics._forward_numba import rates as forward_rates
+from ..dynamics._forward_numba import rates_in as forward_rates_in
 from ..dynamics._loops_numba import rates as loop_rates
 from ..dynamics._momentum_numba import project as forward_project
 from ..dynamics._nonlinear_loops_numba import rates as nonlinear_loop_rates
@@ -62,15 +69,16 @@ def linear_rates(d, w, u, y, dy):
 
 
 # kernel-data record class → its compiled rates(d, w, u, y, dy)
-_KERNELS = {ForwardData: forward_rates, LinearData: linear_rates, LoopData: loop_rates,
+_KERNELS = {LinearData: linear_rates, LoopData: loop_rates,
             NonlinearLoopData: nonlinear_loop_rates}
 # kernel-data record class → its compiled projection onto known invariants
 # project(d, w, pj, u, U, t, y) (a model without one is not projected)
 _PROJECTIONS = {ForwardData: forward_project}
-
-CONTEXT = types.Array(types.int64, 1, "C")
-_HEAD = 2  # words of the context before the records: the rates' and projection's addresses
-
+# kernel-data record class → its compiled rates that read the records (d, w) from the context
+# themselves, entry(context, u, y, dy, records_type) (the trampoline's signature; the loop
+# calls it in the trampoline's place): a large record is then not handed over field by
+# field on every evaluation
+_ENTRIES = {ForwardData: forward_rates_in}
 
 _MODELS: dict[Any, tuple[int, int, int, int]] = {}  # _type_key(records) → `_addresses`
 
@@ -92,14 +100,19 @@ def _addresses(records: tuple) -> tuple[int, int, int, int]:
     """The addresses of the rates and projection trampolines for these records' types and
     of the model's compiled rates and projection (0: none)."""
     d, w, pj = records
-    kernel = _KERNELS.get(type(d))
-    if kernel is None:
+    kernel, entry = _KERNELS.get(type(d)), _ENTRIES.get(type(d))
+    if kernel is None and entry is None:
         raise TypeError(f"no compiled rates for kernel data {type(d).__name__}: add its "
                         "record class and rates to _radau_model._KERNELS")
     d_type, w_type = typeof(d), typeof(w)
     records_type = types.TypeRef(typeof(records))
-    rates = _address(kernel, (d_type, w_type, ROW, ROW, ROW))
-    rates_from = _address(_rates_from, (CONTEXT, ROW, ROW, ROW, records_type))
+    if entry is not None:
+        rates = 0
+        rates_from = _address(entry, (CONTEXT, ROW, ROW, ROW,
+                                      types.TypeRef(types.Tuple((d_type, w_type)))))
+    else:
+        rates = _address(kernel, (d_type, w_type, ROW, ROW, ROW))
+        rates_from = _address(_rates_from, (CONTEXT, ROW, ROW, ROW, records_type))
     project = _PROJECTIONS.get(type(d))
     if project is None or len(pj) == 0:
         return rates_from, 0, rates, 0
@@ -128,13 +141,6 @@ def _cleared(context, builder, typ, value):
                       "can be handed to the compiled integrator")
 
 
-def _records_pointer(context, builder, records, array):
-    """Pointer to the records stored in the context array after its head."""
-    data = cgutils.create_struct_proxy(CONTEXT)(context, builder, value=array).data
-    start = builder.gep(data, [context.get_constant(types.intp, _HEAD)])
-    return builder.bitcast(start, context.get_value_type(records).as_pointer())
-
-
 @intrinsic
 def _context_words(typingctx, records):
     """Words (int64) of a context holding ``records``."""
@@ -155,18 +161,6 @@ def _store(typingctx, array, records):
         builder.store(value, _records_pointer(context, builder, records, args[0]))
         return context.get_dummy_value()
     return types.none(array, records), codegen
-
-
-@intrinsic
-def _load(typingctx, array, records_type):
-    """The records of type ``records_type`` stored in the context ``array``."""
-    records = records_type.instance_type
-    if array != CONTEXT:
-        raise TypingError(f"the context is {CONTEXT}, not {array}")
-
-    def codegen(context, builder, signature, args):
-        return builder.load(_records_pointer(context, builder, records, args[0]))
-    return records(array, records_type), codegen
 
 
 @njit(cache=True)

@@ -32,7 +32,7 @@ from .gauss_sampled import SampledLoop
 from .input_table import integrals, tabulate
 from .solution import Progress
 
-CHUNKS = 20  # calls of the compiled loop without controllers: progress between them
+CHUNKS = 20  # calls of the compiled loop without controllers, progress reported between them
 
 
 @dataclass
@@ -142,8 +142,10 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         loop.start()
         at = np.searchsorted(nodes, loop.grid[:-1] - scale)  # sample k starts at nodes[at[k]]
         stops = [(nodes[at[k + 1]] if k + 1 < at.size else t1) for k in range(at.size)]
-    else:
+    elif on_progress is not None:
         stops = list(np.linspace(t0, t1, CHUNKS + 1)[1:])
+    else:  # one call: the steps do not depend on where a call stops
+        stops = [t1]
     held_columns = np.array([held.start or 0, held.stop or 0] if loop is not None else [0, 0],
                             dtype=np.int64)
     held_values = np.zeros(max(1, held_columns[1] - held_columns[0]))
