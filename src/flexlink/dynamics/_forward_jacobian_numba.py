@@ -25,7 +25,16 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import _call_residual, _solve, applied, assemble, load_state
+from ._forward_numba import (
+    _call_residual,
+    _solve,
+    acceleration_terms,
+    applied,
+    assemble,
+    frames,
+    load_state,
+    velocity_terms,
+)
 from ._momentum_numba import project
 
 
@@ -65,10 +74,11 @@ def _solve_columns(A, B):
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _equations(d, w_, u, y, acc, E):
+def _equations(d, w_, u, y, acc, E, want):
     """E = M[:, z] z̈ + r(p̈_free) − Q (free and z rows) at state y, input row u and
     accelerations acc = (p̈_free, z̈): zero at the rates' own accelerations. The servo
-    integrals' rates into w_.srates."""
+    integrals' rates into w_.srates. ``want``: the mass matrix made at y; else w_.M's
+    (M reads the configuration only: valid where only rates or integrals moved)."""
     nr = d.n_rigid
     n = d.n_x - nr
     free = d.free
@@ -76,7 +86,6 @@ def _equations(d, w_, u, y, acc, E):
     load_state(d, w_, u, y)
     for j in range(nu):
         w_.pdd[free[j]] = acc[j]
-    want = bool(1)
     _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.r0, w_.M, want)
     w_.srates[:] = 0.0
     applied(d, u, w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
@@ -93,7 +102,20 @@ def jacobian_scratch(d, w_, m: int) -> tuple:
     states of m entries (allocated by the caller: the kernel allocates nothing)."""
     q = d.free.shape[0] + d.n_x - d.n_rigid
     e = np.empty
-    return (e(m), e(q), e(q), e(w_.srates.shape[0]), e(q), e((q, q)), e(d.n_x), e((q, m)))
+    return (e(m), e(q), e(q), e(w_.srates.shape[0]), e(q), e((q, q)), e(d.n_x), e(d.n_x),
+            e((q, m)))
+
+
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _residual_parts(d, w_, r, accelerations):
+    """r = `residual` at w_.x, w_.xd without the mass matrix, at the frames of the last
+    `frames` into w_ (they read the rigid state only): the terms p̈ does not enter and,
+    if ``accelerations``, those it does (at w_.p, w_.pdd)."""
+    r[:] = 0.0
+    want = bool(0)
+    velocity_terms(d, w_, w_.x, w_.xd, r, w_.M, want)
+    if accelerations:
+        acceleration_terms(d, w_, w_.p, w_.pdd, w_.x, r, w_.M, want)
 
 
 @njit(cache=True, _nrt=False)
@@ -109,7 +131,7 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
     m = states.shape[1]
     q = nu + n
     free = d.free
-    yp, E1, E2, s1, a, A0, base, R = scratch
+    yp, E1, E2, s1, a, A0, base, base_v, R = scratch
     for i in range(states.shape[0]):
         y = states[i]
         ui = u[i]
@@ -123,40 +145,47 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
         _solve(w_.A, a)
         for r in range(q):
             acc[i, r] = a[r]
-        for c in range(m):  # rigid coordinates, their rates, servo integrals
-            if 2 * nu <= c < 2 * nu + 2 * n:
-                continue
+        # rigid rates and servo integrals first, at the mass matrix assemble made at y
+        # (M reads the configuration only), then the rigid coordinates with theirs
+        for k in range(m - 2 * n):
+            c = nu + k if k < m - 2 * n - nu else k - (m - 2 * n - nu)
+            if c >= 2 * nu:
+                c += 2 * n
             for e in range(m):
                 yp[e] = y[e]
             h = step * max(1.0, abs(y[c]))
             yp[c] = y[c] + h
             hi = yp[c]
-            _equations(d, w_, ui, yp, a, E1)
+            moves = c < nu
+            _equations(d, w_, ui, yp, a, E1, moves)
             for e in range(s1.shape[0]):
                 s1[e] = w_.srates[e]
             yp[c] = y[c] - h
             span = hi - yp[c]
-            _equations(d, w_, ui, yp, a, E2)
+            _equations(d, w_, ui, yp, a, E2, moves)
             for r in range(q):
                 R[r, c] = (E2[r] - E1[r]) / span
             for s in range(m - 2 * nu - 2 * n):
                 J[i, 2 * nu + 2 * n + s, c] = (s1[s] - w_.srates[s]) / span
-        # elastic coordinates and rates: exact (r is affine in them at fixed p̈)
+        # elastic coordinates and rates: exact (r is affine in them at fixed p̈), at the
+        # frames of y made once; a rate moves only the terms p̈ does not enter
         load_state(d, w_, ui, y)
         for j in range(nu):
             w_.pdd[free[j]] = a[j]
-        want = bool(0)
-        _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, base, w_.M, want)
+        frames(d, w_.p, w_.pd, w_.pdd, w_.theta, w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td,
+               w_.Tdd)
+        _residual_parts(d, w_, base, bool(1))
+        _residual_parts(d, w_, base_v, bool(0))
         for j in range(n):
             for s in range(2):
                 v = w_.x if s == 0 else w_.xd
                 v[nr + j] += 1.0
-                _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.rj,
-                               w_.M, want)
+                _residual_parts(d, w_, w_.rj, s == 0)
                 v[nr + j] -= 1.0
+                ref = base if s == 0 else base_v
                 for row in range(q):
                     b = free[row] if row < nu else nr + row - nu
-                    R[row, 2 * nu + s * n + j] = base[b] - w_.rj[b]
+                    R[row, 2 * nu + s * n + j] = ref[b] - w_.rj[b]
         _solve_columns(A0, R)
         for c in range(m):
             for r in range(nu):
@@ -175,7 +204,7 @@ def forward_equations(d, w_, u, states, acc, E, srates):
     rows u[i] and accelerations acc[i] (those of another model: E's change with the model
     at fixed accelerations gives their derivative, −A⁻¹ ∂E/∂p)."""
     for i in range(states.shape[0]):
-        _equations(d, w_, u[i], states[i], acc[i], E[i])
+        _equations(d, w_, u[i], states[i], acc[i], E[i], bool(1))
         for s in range(srates.shape[1]):
             srates[i, s] = w_.srates[s]
 
@@ -200,3 +229,23 @@ def project_rows(d, w_, pj, u, U, t, states):
     (`_momentum_numba.project`) with input row u[i] and the inputs' integrals U[i]."""
     for i in range(states.shape[0]):
         project(d, w_, pj, u[i], U[i], t[i], states[i])
+
+
+@njit(cache=True, _nrt=False)
+def forward_applied(d, w_, u, states, Q, srates):
+    """The applied forces Q[i] on the free and elastic rows (q,) and the servo integrals'
+    rates srates[i] at states[i] with input rows u[i] (`_forward_numba.applied`): the part
+    of E (`_equations`, −Q) that a drive's gains move."""
+    nu = d.free.shape[0]
+    nr = d.n_rigid
+    n = d.n_x - nr
+    free = d.free
+    for i in range(states.shape[0]):
+        y = states[i]
+        load_state(d, w_, u[i], y)
+        w_.srates[:] = 0.0
+        applied(d, u[i], w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
+        for row in range(nu + n):
+            Q[i, row] = w_.Q[free[row] if row < nu else nr + row - nu]
+        for s in range(srates.shape[1]):
+            srates[i, s] = w_.srates[s]
