@@ -107,6 +107,21 @@ def jacobian_scratch(d, w_, m: int) -> tuple:
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _applied_rows(d, w_, u, y, Q):
+    """Q (q,): the applied forces on the free and elastic rows at state y and input row u;
+    the servo integrals' rates into w_.srates."""
+    nu = d.free.shape[0]
+    nr = d.n_rigid
+    n = d.n_x - nr
+    free = d.free
+    load_state(d, w_, u, y)
+    w_.srates[:] = 0.0
+    applied(d, u, w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
+    for row in range(nu + n):
+        Q[row] = w_.Q[free[row] if row < nu else nr + row - nu]
+
+
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _residual_parts(d, w_, r, accelerations):
     """r = `residual` at w_.x, w_.xd without the mass matrix, at the frames of the last
     `frames` into w_ (they read the rigid state only): the terms p̈ does not enter and,
@@ -157,14 +172,23 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
             yp[c] = y[c] + h
             hi = yp[c]
             moves = c < nu
-            _equations(d, w_, ui, yp, a, E1, moves)
+            drives = c >= 2 * nu + 2 * n  # a servo integral: only the drives read it
+            if drives:
+                _applied_rows(d, w_, ui, yp, E1)
+            else:
+                _equations(d, w_, ui, yp, a, E1, moves)
             for e in range(s1.shape[0]):
                 s1[e] = w_.srates[e]
             yp[c] = y[c] - h
             span = hi - yp[c]
-            _equations(d, w_, ui, yp, a, E2, moves)
-            for r in range(q):
-                R[r, c] = (E2[r] - E1[r]) / span
+            if drives:  # E = r + M z̈ − Q: its change, Q's
+                _applied_rows(d, w_, ui, yp, E2)
+                for r in range(q):
+                    R[r, c] = (E1[r] - E2[r]) / span
+            else:
+                _equations(d, w_, ui, yp, a, E2, moves)
+                for r in range(q):
+                    R[r, c] = (E2[r] - E1[r]) / span
             for s in range(m - 2 * nu - 2 * n):
                 J[i, 2 * nu + 2 * n + s, c] = (s1[s] - w_.srates[s]) / span
         # elastic coordinates and rates: exact (r is affine in them at fixed p̈), at the
@@ -236,16 +260,7 @@ def forward_applied(d, w_, u, states, Q, srates):
     """The applied forces Q[i] on the free and elastic rows (q,) and the servo integrals'
     rates srates[i] at states[i] with input rows u[i] (`_forward_numba.applied`): the part
     of E (`_equations`, −Q) that a drive's gains move."""
-    nu = d.free.shape[0]
-    nr = d.n_rigid
-    n = d.n_x - nr
-    free = d.free
     for i in range(states.shape[0]):
-        y = states[i]
-        load_state(d, w_, u[i], y)
-        w_.srates[:] = 0.0
-        applied(d, u[i], w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
-        for row in range(nu + n):
-            Q[i, row] = w_.Q[free[row] if row < nu else nr + row - nu]
+        _applied_rows(d, w_, u[i], states[i], Q[i])
         for s in range(srates.shape[1]):
             srates[i, s] = w_.srates[s]

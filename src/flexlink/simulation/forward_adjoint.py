@@ -112,7 +112,7 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
                                                  steps.t[a:b] + steps.h[a:b],
                                                  steps.y0[a:b] + steps.z[a:b, 2])
         W, lam_end = radau_adjoint(steps.h[a:b], J.reshape(b - a, 3, m, m), step_J,
-                                   gy0[a:b], gz[a:b], gy1[a:b], lam)
+                                   gy0[a:b], gz[a:b], gy1[a:b], lam, nu, n)
         if projected:
             gradient += np.einsum("si,sik->k", lam_end, step_c)
         # ∂f/∂p at every stage, contracted with the stage weights: f's accelerations are
