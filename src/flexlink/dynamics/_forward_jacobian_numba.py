@@ -25,16 +25,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import (
-    _call_residual,
-    _solve,
-    acceleration_terms,
-    applied,
-    assemble,
-    frames,
-    load_state,
-    velocity_terms,
-)
+from ._forward_numba import _call_residual, _solve, applied, assemble, load_state
 from ._momentum_numba import project
 
 
@@ -102,8 +93,7 @@ def jacobian_scratch(d, w_, m: int) -> tuple:
     states of m entries (allocated by the caller: the kernel allocates nothing)."""
     q = d.free.shape[0] + d.n_x - d.n_rigid
     e = np.empty
-    return (e(m), e(q), e(q), e(w_.srates.shape[0]), e(q), e((q, q)), e(d.n_x), e(d.n_x),
-            e((q, m)))
+    return (e(m), e(q), e(q), e(w_.srates.shape[0]), e(q), e((q, q)), e(d.n_x), e((q, m)))
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
@@ -121,18 +111,6 @@ def _applied_rows(d, w_, u, y, Q):
         Q[row] = w_.Q[free[row] if row < nu else nr + row - nu]
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _residual_parts(d, w_, r, accelerations):
-    """r = `residual` at w_.x, w_.xd without the mass matrix, at the frames of the last
-    `frames` into w_ (they read the rigid state only): the terms p̈ does not enter and,
-    if ``accelerations``, those it does (at w_.p, w_.pdd)."""
-    r[:] = 0.0
-    want = bool(0)
-    velocity_terms(d, w_, w_.x, w_.xd, r, w_.M, want)
-    if accelerations:
-        acceleration_terms(d, w_, w_.p, w_.pdd, w_.x, r, w_.M, want)
-
-
 @njit(cache=True, _nrt=False)
 def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
     """J[i] = ∂f/∂y (m, m) of the forward rates at states[i] (n, m) with input rows u[i];
@@ -146,7 +124,7 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
     m = states.shape[1]
     q = nu + n
     free = d.free
-    yp, E1, E2, s1, a, A0, base, base_v, R = scratch
+    yp, E1, E2, s1, a, A0, base, R = scratch
     for i in range(states.shape[0]):
         y = states[i]
         ui = u[i]
@@ -191,25 +169,22 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
                     R[r, c] = (E2[r] - E1[r]) / span
             for s in range(m - 2 * nu - 2 * n):
                 J[i, 2 * nu + 2 * n + s, c] = (s1[s] - w_.srates[s]) / span
-        # elastic coordinates and rates: exact (r is affine in them at fixed p̈), at the
-        # frames of y made once; a rate moves only the terms p̈ does not enter
+        # elastic coordinates and rates: exact (r is affine in them at fixed p̈)
         load_state(d, w_, ui, y)
         for j in range(nu):
             w_.pdd[free[j]] = a[j]
-        frames(d, w_.p, w_.pd, w_.pdd, w_.theta, w_.omega, w_.alpha, w_.oacc, w_.T, w_.Td,
-               w_.Tdd)
-        _residual_parts(d, w_, base, bool(1))
-        _residual_parts(d, w_, base_v, bool(0))
+        want = bool(0)
+        _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, base, w_.M, want)
         for j in range(n):
             for s in range(2):
                 v = w_.x if s == 0 else w_.xd
                 v[nr + j] += 1.0
-                _residual_parts(d, w_, w_.rj, s == 0)
+                _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.rj,
+                               w_.M, want)
                 v[nr + j] -= 1.0
-                ref = base if s == 0 else base_v
                 for row in range(q):
                     b = free[row] if row < nu else nr + row - nu
-                    R[row, 2 * nu + s * n + j] = ref[b] - w_.rj[b]
+                    R[row, 2 * nu + s * n + j] = base[b] - w_.rj[b]
         _solve_columns(A0, R)
         for c in range(m):
             for r in range(nu):

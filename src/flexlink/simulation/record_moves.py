@@ -17,9 +17,12 @@ without the round-off of E itself. The momentum projection reads none of those a
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from .driven_sensitivities import _Model
+# a forward model (`driven_sensitivities._Model`; that module imports this one)
+_Model = Any
 
 DRIVE_ARRAYS = frozenset({"P", "I", "D", "saturation", "rate_per_volt", "loop_gain",
                           "torque_limit", "bandwidth", "rate_limit"})
