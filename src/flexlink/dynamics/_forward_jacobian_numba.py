@@ -65,10 +65,11 @@ def _solve_columns(A, B):
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _equations(d, w_, u, y, acc, E):
+def _equations(d, w_, u, y, acc, E, want):
     """E = M[:, z] z̈ + r(p̈_free) − Q (free and z rows) at state y, input row u and
     accelerations acc = (p̈_free, z̈): zero at the rates' own accelerations. The servo
-    integrals' rates into w_.srates."""
+    integrals' rates into w_.srates. ``want``: the mass matrix made at y; else w_.M's
+    (M reads the configuration only: valid where only rates or integrals moved)."""
     nr = d.n_rigid
     n = d.n_x - nr
     free = d.free
@@ -76,7 +77,6 @@ def _equations(d, w_, u, y, acc, E):
     load_state(d, w_, u, y)
     for j in range(nu):
         w_.pdd[free[j]] = acc[j]
-    want = bool(1)
     _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.r0, w_.M, want)
     w_.srates[:] = 0.0
     applied(d, u, w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
@@ -94,6 +94,21 @@ def jacobian_scratch(d, w_, m: int) -> tuple:
     q = d.free.shape[0] + d.n_x - d.n_rigid
     e = np.empty
     return (e(m), e(q), e(q), e(w_.srates.shape[0]), e(q), e((q, q)), e(d.n_x), e((q, m)))
+
+
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _applied_rows(d, w_, u, y, Q):
+    """Q (q,): the applied forces on the free and elastic rows at state y and input row u;
+    the servo integrals' rates into w_.srates."""
+    nu = d.free.shape[0]
+    nr = d.n_rigid
+    n = d.n_x - nr
+    free = d.free
+    load_state(d, w_, u, y)
+    w_.srates[:] = 0.0
+    applied(d, u, w_.p, w_.pd, y[2 * nu + 2 * n:], w_.Q, w_.srates)
+    for row in range(nu + n):
+        Q[row] = w_.Q[free[row] if row < nu else nr + row - nu]
 
 
 @njit(cache=True, _nrt=False)
@@ -123,22 +138,35 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
         _solve(w_.A, a)
         for r in range(q):
             acc[i, r] = a[r]
-        for c in range(m):  # rigid coordinates, their rates, servo integrals
-            if 2 * nu <= c < 2 * nu + 2 * n:
-                continue
+        # rigid rates and servo integrals first, at the mass matrix assemble made at y
+        # (M reads the configuration only), then the rigid coordinates with theirs
+        for k in range(m - 2 * n):
+            c = nu + k if k < m - 2 * n - nu else k - (m - 2 * n - nu)
+            if c >= 2 * nu:
+                c += 2 * n
             for e in range(m):
                 yp[e] = y[e]
             h = step * max(1.0, abs(y[c]))
             yp[c] = y[c] + h
             hi = yp[c]
-            _equations(d, w_, ui, yp, a, E1)
+            moves = c < nu
+            drives = c >= 2 * nu + 2 * n  # a servo integral: only the drives read it
+            if drives:
+                _applied_rows(d, w_, ui, yp, E1)
+            else:
+                _equations(d, w_, ui, yp, a, E1, moves)
             for e in range(s1.shape[0]):
                 s1[e] = w_.srates[e]
             yp[c] = y[c] - h
             span = hi - yp[c]
-            _equations(d, w_, ui, yp, a, E2)
-            for r in range(q):
-                R[r, c] = (E2[r] - E1[r]) / span
+            if drives:  # E = r + M z̈ − Q: its change, Q's
+                _applied_rows(d, w_, ui, yp, E2)
+                for r in range(q):
+                    R[r, c] = (E1[r] - E2[r]) / span
+            else:
+                _equations(d, w_, ui, yp, a, E2, moves)
+                for r in range(q):
+                    R[r, c] = (E2[r] - E1[r]) / span
             for s in range(m - 2 * nu - 2 * n):
                 J[i, 2 * nu + 2 * n + s, c] = (s1[s] - w_.srates[s]) / span
         # elastic coordinates and rates: exact (r is affine in them at fixed p̈)
@@ -175,7 +203,7 @@ def forward_equations(d, w_, u, states, acc, E, srates):
     rows u[i] and accelerations acc[i] (those of another model: E's change with the model
     at fixed accelerations gives their derivative, −A⁻¹ ∂E/∂p)."""
     for i in range(states.shape[0]):
-        _equations(d, w_, u[i], states[i], acc[i], E[i])
+        _equations(d, w_, u[i], states[i], acc[i], E[i], bool(1))
         for s in range(srates.shape[1]):
             srates[i, s] = w_.srates[s]
 
@@ -200,3 +228,14 @@ def project_rows(d, w_, pj, u, U, t, states):
     (`_momentum_numba.project`) with input row u[i] and the inputs' integrals U[i]."""
     for i in range(states.shape[0]):
         project(d, w_, pj, u[i], U[i], t[i], states[i])
+
+
+@njit(cache=True, _nrt=False)
+def forward_applied(d, w_, u, states, Q, srates):
+    """The applied forces Q[i] on the free and elastic rows (q,) and the servo integrals'
+    rates srates[i] at states[i] with input rows u[i] (`_forward_numba.applied`): the part
+    of E (`_equations`, −Q) that a drive's gains move."""
+    for i in range(states.shape[0]):
+        _applied_rows(d, w_, u[i], states[i], Q[i])
+        for s in range(srates.shape[1]):
+            srates[i, s] = w_.srates[s]

@@ -155,18 +155,16 @@ def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
     (`dynamics._forward_jacobian_numba`): ∂f/∂y at the stages, exact along the elastic
     coordinates, and per field ∂f/∂p = −A⁻¹ ∂E/∂p from the moved models' equations at the
     nominal accelerations (forcing takes the stage states jacobians was last given)."""
-    from ..dynamics._forward_jacobian_numba import (
-        forward_equations,
-        forward_jacobians,
-        jacobian_scratch,
-    )
+    from ..dynamics._forward_jacobian_numba import forward_jacobians, jacobian_scratch
     from ..solvers.radau_sensitivity import JACOBIAN_STEP
+    from .record_moves import applied_forces, moved_arrays, moved_equations
 
     d = nominal.data
     nu, n, m = d.free.shape[0], d.n_x - d.n_rigid, nominal.y0.size
     q, ns, K = nu + n, m - 2 * nu - 2 * n, len(fields)
     last: dict = {}
     scratch = jacobian_scratch(d, nominal.work, m)
+    parts = [moved_arrays(nominal, group) for group in moved]
 
     def jacobians(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
         rows = Y.shape[0]
@@ -184,12 +182,14 @@ def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
         dE, dS = np.zeros((rows, q, K)), np.zeros((rows, ns, K))
         E, S = np.empty((rows, q)), np.empty((rows, ns))
         states = np.ascontiguousarray(Y)
+        applied0 = (applied_forces(nominal, bases.rows(nominal.table), states)
+                    if any(names is not None for names in parts) else None)
         for k, f in enumerate(fields):
             if not reads[k]:
                 continue
             for w, md in zip(f.weights, moved[k], strict=True):
-                forward_equations(md.data, md.work, bases.rows(md.table), states, last["acc"],
-                                  E, S)
+                moved_equations(md, nominal, parts[k], applied0, bases.rows(md.table), states,
+                                last["acc"], E, S)
                 dE[:, :, k] += (w / f.step) * E
                 dS[:, :, k] += (w / f.step) * S
         da = -np.linalg.solve(last["A"], dE)
@@ -336,6 +336,7 @@ def _projection_tangent(nominal: _Model, moved: list[list[_Model]], fields: list
     projections at Y moved along dy to second order in the step (both stencils: their
     weights w_j at offsets j have Σ w_j = Σ w_j j² = 0, Σ w_j j = 1)."""
     from ..solvers.radau_sensitivity import JACOBIAN_STEP
+    from .record_moves import same_projection
 
     n, m = Y.shape
     K = len(fields)
@@ -346,6 +347,8 @@ def _projection_tangent(nominal: _Model, moved: list[list[_Model]], fields: list
     c = np.zeros((n, m, K))
     bases = _Bases(segment, times)
     for k, f in enumerate(fields):
+        if same_projection(nominal, moved[k]):  # c = 0: the stencil of one projection
+            continue
         for w, md in zip(f.weights, moved[k], strict=True):
             c[:, :, k] += (w / f.step) * _projected(md, Y, times, bases)
     # the projection reads the configuration and the rates, not the servo integrals

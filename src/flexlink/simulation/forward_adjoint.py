@@ -32,7 +32,6 @@ from .driven_sensitivities import (
 
 CHUNK = 512  # steps whose stage Jacobians are held at once (memory)
 
-
 def sensor_rows(model: _Model, names: Sequence[str]) -> dict[str, np.ndarray] | None:
     """Per channel of ``names``, the row r (m,) with channel(t) = r · y(t) over the forward
     state y, or None if one of them is not a sensor read linearly from the modal
@@ -69,13 +68,10 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
     """dJ/dp (K,) of J = Σ_t seeds(t) · y(t) over the output states y (nt, m; projected if
     the run projects) along the settled run, by the reverse pass: equal to Σ_t seeds(t) ·
     `state_tangents`(t) to round-off."""
-    from ..dynamics._forward_jacobian_numba import (
-        forward_equations,
-        forward_jacobians,
-        jacobian_scratch,
-    )
+    from ..dynamics._forward_jacobian_numba import forward_jacobians, jacobian_scratch
     from ..solvers.radau_adjoint import output_seeds, radau_adjoint
     from ..solvers.radau_sensitivity import JACOBIAN_STEP, NODES, dense, output_steps
+    from .record_moves import applied_forces, moved_arrays, moved_equations
 
     nominal, moved, steps = settled.nominal, settled.moved, settled.steps
     d = nominal.data
@@ -98,6 +94,7 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
     gy0, gz, gy1 = output_seeds(steps, t, g)
     lam = np.zeros(m)
     scratch = jacobian_scratch(d, nominal.work, m)
+    parts = [moved_arrays(nominal, group) for group in moved]
     # backwards in pieces of CHUNK steps (the stage Jacobians take 3 m² numbers a step)
     for b in range(S, 0, -CHUNK):
         a = max(0, b - CHUNK)
@@ -115,7 +112,7 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
                                                  steps.t[a:b] + steps.h[a:b],
                                                  steps.y0[a:b] + steps.z[a:b, 2])
         W, lam_end = radau_adjoint(steps.h[a:b], J.reshape(b - a, 3, m, m), step_J,
-                                   gy0[a:b], gz[a:b], gy1[a:b], lam)
+                                   gy0[a:b], gz[a:b], gy1[a:b], lam, nu, n)
         if projected:
             gradient += np.einsum("si,sik->k", lam_end, step_c)
         # ∂f/∂p at every stage, contracted with the stage weights: f's accelerations are
@@ -125,14 +122,16 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
         mu = np.linalg.solve(np.swapaxes(A, 1, 2), wa[:, :, None])[:, :, 0]
         ws = W[:, 2 * q:]
         E, Sr = np.empty((rows, q)), np.empty((rows, m - 2 * q))
+        applied0 = (applied_forces(nominal, bases.rows(nominal.table), Y)
+                    if any(names is not None for names in parts) else None)
         for k, f in enumerate(fields):
             if not settled.reads[k]:
                 continue
             for wt, md in zip(f.weights, moved[k], strict=True):
                 if wt == 0.0:
                     continue
-                forward_equations(md.data, md.work,
-                                  np.ascontiguousarray(bases.rows(md.table)), Y, acc, E, Sr)
+                moved_equations(md, nominal, parts[k], applied0, bases.rows(md.table), Y, acc,
+                                E, Sr)
                 gradient[k] += (wt / f.step) * (np.sum(ws * Sr) - np.sum(mu * E))
     return gradient + lam @ settled.dy0
 

@@ -41,28 +41,38 @@ def output_seeds(steps: StepSequence, t: np.ndarray, seeds: np.ndarray
     which, s = output_steps(steps, t)
     weights = dense_weights(s)
     gy0, gz, gy1 = np.zeros((S, m)), np.zeros((S, 3, m)), np.zeros((S, m))
-    np.add.at(gy0, which, weights[:, :1] * seeds)
+    if which.size == 0:
+        return gy0, gz, gy1
+    # each step's seeds summed as one run of rows (outputs in time order: a no-op sort)
+    order = np.argsort(which, kind="stable")
+    which, weights, seeds = which[order], weights[order], seeds[order]
+    first = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    steps_of = which[first]
+    gy0[steps_of] = np.add.reduceat(weights[:, :1] * seeds, first, axis=0)
     for k in range(3):
-        np.add.at(gz[:, k], which, weights[:, 1 + k:2 + k] * seeds)
-    np.add.at(gy1, which, weights[:, 4:] * seeds)
+        gz[steps_of, k] = np.add.reduceat(weights[:, 1 + k:2 + k] * seeds, first, axis=0)
+    gy1[steps_of] = np.add.reduceat(weights[:, 4:] * seeds, first, axis=0)
     return gy0, gz, gy1
 
 
 def radau_adjoint(h: np.ndarray, jacobians: np.ndarray, projection: np.ndarray | None,
-                  gy0: np.ndarray, gz: np.ndarray, gy1: np.ndarray, lam: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  gy0: np.ndarray, gz: np.ndarray, gy1: np.ndarray, lam: np.ndarray,
+                  nu: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """The stage weights W (S, 3, m) and the adjoint of each step's projected end (S, m) of
     S consecutive steps of sizes h (S,), from their stage Jacobians (S, 3, m, m), the
     projection's Jacobian after each (S, m, m) or None, and their seeds (`output_seeds`);
     ``lam`` (m,): the adjoint of the last step's end from the steps after it, replaced by
-    that of the first step's start (a run's steps may go in pieces, last first)."""
+    that of the first step's start (a run's steps may go in pieces, last first); nu, n:
+    the state's free rigid and elastic coordinates (y = [p, ṗ, z, ż, integrals])."""
     from ._radau_adjoint_numba import radau_reverse
 
     S, _, m = gz.shape
     W, lam_end = np.empty((S, 3, m)), np.empty((S, m))
     P = np.zeros((0, m, m)) if projection is None else np.ascontiguousarray(projection)
+    r = m - nu - n
     radau_reverse(np.ascontiguousarray(h, dtype=float), COEFFICIENTS,
-                  np.ascontiguousarray(jacobians), P, np.ascontiguousarray(gy0),
-                  np.ascontiguousarray(gz), np.ascontiguousarray(gy1), W, lam_end, lam,
-                  np.empty((3 * m, 3 * m)), np.empty(3 * m), np.empty(m))
+                  COEFFICIENTS @ COEFFICIENTS, np.ascontiguousarray(jacobians), P,
+                  np.ascontiguousarray(gy0), np.ascontiguousarray(gz),
+                  np.ascontiguousarray(gy1), W, lam_end, lam, nu, n,
+                  np.empty((3 * r, 3 * r)), np.empty(3 * m), np.empty(3 * r), np.empty(m))
     return W, lam_end
