@@ -7,12 +7,13 @@ exudyn_slider_reference.py.
   position held by two ``CoordinateConstraint``, carrying the hub's inertia (a motor's) and
   turned by a torque history τ(t) on its rotation (`exudyn_forward_reference._Moment`: the
   step mean);
-* the block: on the line through the crank's tip node along its tangent (`add_slider`: a
-  ``PrismaticJoint2D`` holding the post's root node, its rotation fixed at 90° from the line,
-  and the force history F(t) along it);
-* the post: rigid, beam elements ``STIFF`` times stiffer than the rod's;
-* the rod: Simo–Reissner elements from the post's tip (a pin: two coordinate constraints on
-  the two nodes' positions, the rotation free), its tip node pinned to the ground point.
+* the block and the rigid post: one ``ObjectRigidBody2D`` (their mass, centre of mass and
+  inertia), held on the line through the crank's tip node along its tangent (`add_slider`:
+  a ``PrismaticJoint2D`` at the block's point, the post at 90° from the line, and the force
+  history F(t) along it). A post of stiff beam elements is not rigid enough: its bending
+  under the rod's pin force moved the crank's and the rod's deflections by percents;
+* the rod: Simo–Reissner elements from the post's tip (a ``RevoluteJoint2D``), its tip node
+  pinned to the ground point (two coordinate constraints).
 
 Starts at rest and undeformed in the closed configuration of the rigid mechanism with the
 crank along X: the post's tip at (L_crank + s0, L_post) and the rod along X from it, so the
@@ -32,7 +33,6 @@ import numpy as np
 from flexlink.model import Link
 
 from .exudyn_forward_reference import _Moment
-from .exudyn_loops_reference import STIFF
 from .exudyn_reference import default_section, solve_dynamic
 from .exudyn_slider_reference import add_slider, beam_nodes
 
@@ -57,10 +57,13 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
     from exudyn.itemInterface import (
         CoordinateConstraint,
         LoadCoordinate,
+        MarkerBodyRigid,
         MarkerNodeCoordinate,
         MarkerNodeRigid,
         NodePointGround,
+        NodeRigidBody2D,
         ObjectRigidBody2D,
+        RevoluteJoint2D,
         SensorNode,
     )
 
@@ -87,17 +90,28 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
         mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(cn[0], c)]))
     mbs.AddLoad(LoadCoordinate(markerNumber=coord(cn[0], 2), load=0.0,
                                loadUserFunction=_Moment(torque, dt)))
-    stiff_post = Link(post.name, post.length, post.mass_per_length, rod.EI)
-    pn = beam_nodes(mbs, stiff_post, mesh(post, 2), np.array([crank.length + s0, 0.0]),
-                    0.5 * math.pi, section(stiff_post), STIFF)
-    add_slider(mbs, mbs.AddMarker(MarkerNodeRigid(nodeNumber=cn[-1])), pn[0], block, 0.0,
-               0.5 * math.pi, force, dt)
-    rn = beam_nodes(mbs, rod, mesh(rod, elements), np.array([crank.length + s0, post.length]),
-                    0.0, section(rod))
-    for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(pn[-1], c), coord(rn[0], c)]))
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(rn[-1], c)]))
-    watched = (cn[0], cn[-1], pn[0], rn[0], rn[elements // 2], rn[-1])
+    # the block and the rigid post: one body, its node at their centre of mass, c along the
+    # post from the block
+    m_post = post.mass_per_length * post.length
+    c = m_post * 0.5 * post.length / (block + m_post)
+    inertia = (block * c**2 + m_post * post.length**2 / 12.0
+               + m_post * (0.5 * post.length - c) ** 2)
+    root = np.array([crank.length + s0, 0.0])
+    pn = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[root[0], c, 0.5 * math.pi]))
+    body = mbs.AddObject(ObjectRigidBody2D(nodeNumber=pn, mass=block + m_post,
+                                           inertia=inertia))
+    add_slider(mbs, mbs.AddMarker(MarkerNodeRigid(nodeNumber=cn[-1])),
+               mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[-c, 0.0, 0.0])),
+               0.0, 0.5 * math.pi, force, dt)
+    rn = beam_nodes(mbs, rod, mesh(rod, elements), root + np.array([0.0, post.length]), 0.0,
+                    section(rod))
+    mbs.AddObject(RevoluteJoint2D(markerNumbers=[
+        mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[post.length - c, 0.0,
+                                                                      0.0])),
+        mbs.AddMarker(MarkerNodeRigid(nodeNumber=rn[0]))]))
+    for k in (0, 1):
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(rn[-1], k)]))
+    watched = (cn[0], cn[-1], pn, rn[0], rn[elements // 2], rn[-1])
     sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
                                         outputVariableType=exu.OutputVariableType.Coordinates))
                for n in watched]
@@ -110,13 +124,14 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
         out = np.stack([np.interp(t_grid, data[:, 0], data[:, c]) for c in range(1, 4)], 1)
         return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
 
-    root, tip, on_block, r0, mid, r1 = (series(s, n) for s, n in zip(sensors, watched))
+    root, tip, centre, r0, mid, r1 = (series(s, n) for s, n in zip(sensors, watched))
+    on_block = centre[:, :2] - c * np.stack([np.cos(centre[:, 2]), np.sin(centre[:, 2])], 1)
     line = np.stack([np.cos(tip[:, 2]), np.sin(tip[:, 2])], 1)
     normal_root = np.stack([-np.sin(root[:, 2]), np.cos(root[:, 2])], 1)
     chord = r1[:, :2] - r0[:, :2]
     normal = np.stack([-chord[:, 1], chord[:, 0]], 1) / np.linalg.norm(chord, axis=1)[:, None]
     return {"t": t_grid, "crank_angle": root[:, 2],
-            "travel": np.sum((on_block[:, :2] - tip[:, :2]) * line, 1),
+            "travel": np.sum((on_block - tip[:, :2]) * line, 1),
             "crank_deflection": np.sum(normal_root * (tip[:, :2] - root[:, :2]), 1),
             "rod_deflection": np.sum(normal * (mid[:, :2] - 0.5 * (r0[:, :2] + r1[:, :2])), 1),
             "wall_time_s": wall, "cpu_time_s": cpu, "coordinates": mbs.systemData.ODE2Size()}

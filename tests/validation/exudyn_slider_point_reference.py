@@ -31,7 +31,7 @@ from flexlink.model import Link
 
 from .exudyn_forward_reference import _Moment
 from .exudyn_reference import solve_dynamic
-from .exudyn_slider_reference import add_slider, beam_nodes
+from .exudyn_slider_reference import add_slider, beam_nodes, point_mass
 
 
 def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: float, beam: Link,
@@ -79,8 +79,8 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
     u = np.array([math.cos(axis), math.sin(axis)])
     carried = beam_nodes(mbs, beam, np.linspace(0.0, beam.length, elements + 1),
                          np.array([line_at, 0.0]) + s0 * u, gamma)
-    add_slider(mbs, mbs.AddMarker(MarkerNodeRigid(nodeNumber=section)), carried[0], block,
-               axis, gamma, force, dt)
+    add_slider(mbs, mbs.AddMarker(MarkerNodeRigid(nodeNumber=section)),
+               point_mass(mbs, carried[0], block), axis, gamma, force, dt)
     watched = (hub[0], section, hub[-1], carried[0], carried[-1])
     sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
                                         outputVariableType=exu.OutputVariableType.Coordinates))

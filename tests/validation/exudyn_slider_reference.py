@@ -68,24 +68,25 @@ def beam_nodes(mbs: Any, link: Link, x: np.ndarray, root: np.ndarray, angle: flo
     return nodes
 
 
-def add_slider(mbs: Any, on_line: int, block_node: int, block: float, axis: float,
-               gamma: float, force: Callable[[float], float], dt: float) -> None:
-    """The block (a point mass of ``block`` kg on ``block_node``, the carried link's root
-    node) held on the line through the rigid marker ``on_line`` along ``axis`` (rad, in that
-    marker's frame) by a ``PrismaticJoint2D``, its rotation fixed at ``gamma`` (rad) from the
-    line's frame, and pushed along the line by F(t) (N; `_Moment`: the mean over each step
-    of ``dt`` s) through a connector without stiffness (a positive connector force pulls
-    the markers together: it returns −F)."""
-    from exudyn.itemInterface import (
-        LinearSpringDamper,
-        MarkerNodeRigid,
-        ObjectRigidBody2D,
-        PrismaticJoint2D,
-    )
+def point_mass(mbs: Any, node: int, mass: float) -> int:
+    """A point mass of ``mass`` kg (no rotary inertia) on ``node``; returns the node's rigid
+    marker."""
+    from exudyn.itemInterface import MarkerNodeRigid, ObjectRigidBody2D
 
-    mbs.AddObject(ObjectRigidBody2D(nodeNumber=block_node, mass=block, inertia=0.0))
+    mbs.AddObject(ObjectRigidBody2D(nodeNumber=node, mass=mass, inertia=0.0))
+    return mbs.AddMarker(MarkerNodeRigid(nodeNumber=node))
+
+
+def add_slider(mbs: Any, on_line: int, on_block: int, axis: float, gamma: float,
+               force: Callable[[float], float], dt: float) -> None:
+    """Hold the rigid marker ``on_block`` (the block) on the line through the rigid marker
+    ``on_line`` along ``axis`` (rad, in that marker's frame) by a ``PrismaticJoint2D``, its
+    rotation fixed at ``gamma`` (rad) from the line's frame, and push it along the line by
+    F(t) (N; `_Moment`: the mean over each step of ``dt`` s) through a connector without
+    stiffness (a positive connector force pulls the markers together: it returns −F)."""
+    from exudyn.itemInterface import LinearSpringDamper, PrismaticJoint2D
+
     u = [math.cos(axis), math.sin(axis), 0.0]
-    on_block = mbs.AddMarker(MarkerNodeRigid(nodeNumber=block_node))
     # The normal to the line in the block's frame: S u turned back by γ.
     normal = [-math.sin(axis - gamma), math.cos(axis - gamma), 0.0]
     mbs.AddObject(PrismaticJoint2D(markerNumbers=[on_line, on_block], axisMarker0=u,
@@ -169,7 +170,7 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
     chain = beam_nodes(mbs, beam, np.linspace(0.0, beam.length, elements + 1), root, gamma)
     on_link = mbs.AddMarker(MarkerBodyRigid(bodyNumber=hub, localPosition=[
         link_length - centre, 0.0, 0.0]))
-    add_slider(mbs, on_link, chain[0], block, axis, gamma, force, dt)
+    add_slider(mbs, on_link, point_mass(mbs, chain[0], block), axis, gamma, force, dt)
 
     def sensor(node: int, kind: Any) -> int:
         return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, writeToFile=False,
