@@ -55,9 +55,9 @@ def _loop_on_a_cart(torque: float) -> dict:
 CASES = {"open": (_open_chain, ["base_attitude", "joint1_angle", "joint2_position"], 1e-3),
          "loop": (_loop, ["joint1_angle", "joint2_position", "joint3_angle", "pin_force_x"],
                   5e-5),
-         "loop base pose": (_loop, ["base_x", "base_y", "base_attitude", "base_x_rate",
+         "loop_base_pose": (_loop, ["base_x", "base_y", "base_attitude", "base_x_rate",
                                     "base_y_rate", "base_attitude_rate"], 5e-5),
-         "loop cart": (_loop_on_a_cart, ["cart_position", "cart_velocity", "joint1_angle"],
+         "loop_cart": (_loop_on_a_cart, ["cart_position", "cart_velocity", "joint1_angle"],
                        5e-5)}
 
 
