@@ -219,3 +219,35 @@ def test_the_animation_draws_the_cart_on_its_rail(tmp_path) -> None:
     offset = track.rail[0] - track.base[0, :2]  # on the root's line
     assert abs(offset[0] * d[1] - offset[1] * d[0]) < 1e-9
     assert results.animate(tmp_path / "cart.gif").is_file()
+
+
+@pytest.mark.parametrize("case", ["force", "servo with an integral"])
+def test_a_driven_carts_force_channel_is_the_travel_row_of_the_equations(case: str) -> None:
+    """The run's cart_force of a driven cart (its drive's law at the solved state) equals the
+    travel row of the numpy equations at the run's solved accelerations (`cart_force`) to
+    1e-8 of its peak: examples/cart_beam.toml (bang-bang force) and the velocity-PID servo
+    with an integral of tests/validation/test_cart_servo_integral.py."""
+    from pathlib import Path
+
+    from flexlink import load_scenario
+    from flexlink.scenario import scenario_from_dict
+    from flexlink.simulation import output_times
+    from flexlink.simulation.forward import forward_system, run_forward
+
+    if case == "force":
+        scenario = load_scenario(Path(__file__).resolve().parents[2] / "examples"
+                                 / "cart_beam.toml")
+    else:
+        from tests.validation.test_cart_servo_integral import _scenario
+
+        scenario = scenario_from_dict(_scenario("first_order", 4.0))
+    t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
+    run = run_forward(scenario, t, None, False)
+    system = forward_system(scenario)
+    sol, nu = run.solution, len(system.free)
+    p, pd, pdd = system.rigid_state(t, sol.q[:, :nu], sol.q_dot[:, :nu], sol.q_ddot[:, :nu])
+    row = system.cart_force(t, p, pd, pdd, sol.q[:, nu:], sol.q_dot[:, nu:],
+                            sol.q_ddot[:, nu:])
+    force = np.asarray(run.values["cart_force"])
+    assert np.ptp(force) > 0
+    np.testing.assert_allclose(force, row, rtol=0, atol=1e-8 * np.abs(row).max())

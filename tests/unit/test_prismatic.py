@@ -156,6 +156,11 @@ def test_the_example_reads_runs_and_names_its_slider_channels() -> None:
      (r"joints\[1\].motion: the prescribed slider travel leaves its travel \[0, 0.5\] m "
       r"\(joints\[1\].travel\) at t = 1.3275 s")),
     (lambda d: d["joints"][1].update(mass=-1.0), r"joints\[1\].mass"),
+    # a misspelt key of the slider is matched against the slider's keys, not the cart's rail
+    (lambda d: d["joints"][1].update(axis_angle=10.0),
+     r"joints\[1\]: unknown key 'axis_angle' \(did you mean 'axis_angle_deg'\?\)"),
+    (lambda d: d["joints"][1].update(masss=0.5),
+     r"joints\[1\]: unknown key 'masss' \(did you mean 'mass'\?\)"),
     (lambda d: d["joints"].reverse(), r"joints\[0\]: a slider rides on the tip"),
 ])
 def test_bad_slider_input_is_refused_at_load(change, message: str) -> None:

@@ -21,7 +21,6 @@ tip deflection in the hub frame and the carried beam's tip deflection in its roo
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Callable
 from typing import Any
@@ -31,7 +30,8 @@ import numpy as np
 from flexlink.model import Link
 
 from .exudyn_forward_reference import _Moment
-from .exudyn_reference import default_section, solve_dynamic
+from .exudyn_reference import solve_dynamic
+from .exudyn_slider_reference import add_slider, beam_nodes, point_mass
 
 
 def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: float, beam: Link,
@@ -47,15 +47,11 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
-        LinearSpringDamper,
         LoadCoordinate,
         MarkerNodeCoordinate,
         MarkerNodeRigid,
         NodePointGround,
-        NodeRigidBody2D,
-        ObjectBeamGeometricallyExact2D,
         ObjectRigidBody2D,
-        PrismaticJoint2D,
         SensorNode,
     )
 
@@ -69,26 +65,11 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
     def coord(node: int, c: int) -> int:
         return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
 
-    def beam_nodes(link: Link, x: np.ndarray, root: np.ndarray, angle: float) -> list[int]:
-        e = np.array([math.cos(angle), math.sin(angle)])
-        nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(root + xi * e), angle]))
-                 for xi in x]
-        sec = default_section(link)
-        for (a, b), h in zip(itertools.pairwise(nodes), np.diff(x)):
-            mbs.AddObject(ObjectBeamGeometricallyExact2D(
-                nodeNumbers=[a, b], length=float(h), massPerLength=link.mass_per_length,
-                crossSectionInertia=sec.rhoI, bendingStiffness=link.EI, axialStiffness=sec.EA,
-                shearStiffness=sec.GA))
-        if link.tip_mass > 0.0:
-            mbs.AddObject(ObjectRigidBody2D(nodeNumber=nodes[-1], mass=link.tip_mass,
-                                            inertia=0.0))
-        return nodes
-
     inboard = max(1, round(elements * line_at / parent.length))
     outboard = (np.linspace(line_at, parent.length, max(1, elements - inboard) + 1)[1:]
                 if line_at < parent.length else np.empty(0))
     x_parent = np.concatenate([np.linspace(0.0, line_at, inboard + 1), outboard])
-    hub = beam_nodes(parent, x_parent, np.zeros(2), 0.0)
+    hub = beam_nodes(mbs, parent, x_parent, np.zeros(2), 0.0)
     mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub[0], mass=1.0, inertia=hub_inertia))
     for c in (0, 1):
         mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(hub[0], c)]))
@@ -96,23 +77,10 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
                                loadUserFunction=_Moment(moment, dt)))
     section = hub[inboard]
     u = np.array([math.cos(axis), math.sin(axis)])
-    carried = beam_nodes(beam, np.linspace(0.0, beam.length, elements + 1),
+    carried = beam_nodes(mbs, beam, np.linspace(0.0, beam.length, elements + 1),
                          np.array([line_at, 0.0]) + s0 * u, gamma)
-    mbs.AddObject(ObjectRigidBody2D(nodeNumber=carried[0], mass=block, inertia=0.0))
-    on_line = mbs.AddMarker(MarkerNodeRigid(nodeNumber=section))
-    on_block = mbs.AddMarker(MarkerNodeRigid(nodeNumber=carried[0]))
-    normal = [-math.sin(axis - gamma), math.cos(axis - gamma), 0.0]  # S u turned back by γ
-    mbs.AddObject(PrismaticJoint2D(markerNumbers=[on_line, on_block],
-                                   axisMarker0=[u[0], u[1], 0.0], normalMarker1=normal,
-                                   constrainRotation=True))
-    push = _Moment(force, dt)
-
-    def connector_force(mbs_: Any, t: float, item: int, *args: Any) -> float:
-        return -push(mbs_, t, item)
-
-    mbs.AddObject(LinearSpringDamper(markerNumbers=[on_line, on_block], stiffness=0.0,
-                                     damping=0.0, axisMarker0=[u[0], u[1], 0.0],
-                                     springForceUserFunction=connector_force))
+    add_slider(mbs, mbs.AddMarker(MarkerNodeRigid(nodeNumber=section)),
+               point_mass(mbs, carried[0], block), axis, gamma, force, dt)
     watched = (hub[0], section, hub[-1], carried[0], carried[-1])
     sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
                                         outputVariableType=exu.OutputVariableType.Coordinates))

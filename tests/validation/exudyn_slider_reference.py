@@ -37,9 +37,68 @@ import numpy as np
 from flexlink.model import Link
 
 from .exudyn_forward_reference import _Moment
-from .exudyn_reference import default_section, solve_dynamic
+from .exudyn_reference import BeamSection, default_section, solve_dynamic
 
 VERBOSE = 0
+
+
+def beam_nodes(mbs: Any, link: Link, x: np.ndarray, root: np.ndarray, angle: float,
+               section: BeamSection | None = None, stiff: float = 1.0) -> list[int]:
+    """Simo–Reissner elements of ``link`` between nodes at ``x`` (m from ``root``, m, along
+    ``angle``, rad), undeformed; its tip mass on the last node (a point mass). ``section``:
+    Exudyn's section (default: `default_section` of the link); ``stiff`` multiplies its
+    stiffnesses (a rigid member). Returns the nodes."""
+    from exudyn.itemInterface import (
+        NodeRigidBody2D,
+        ObjectBeamGeometricallyExact2D,
+        ObjectRigidBody2D,
+    )
+
+    e = np.array([math.cos(angle), math.sin(angle)])
+    sec = section or default_section(link)
+    nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(root + xi * e), angle]))
+             for xi in x]
+    for (a, b), h in zip(itertools.pairwise(nodes), np.diff(x)):
+        mbs.AddObject(ObjectBeamGeometricallyExact2D(
+            nodeNumbers=[a, b], length=float(h), massPerLength=link.mass_per_length,
+            crossSectionInertia=sec.rhoI, bendingStiffness=stiff * link.EI,
+            axialStiffness=stiff * sec.EA, shearStiffness=stiff * sec.GA))
+    if link.tip_mass > 0.0:
+        mbs.AddObject(ObjectRigidBody2D(nodeNumber=nodes[-1], mass=link.tip_mass, inertia=0.0))
+    return nodes
+
+
+def point_mass(mbs: Any, node: int, mass: float) -> int:
+    """A point mass of ``mass`` kg (no rotary inertia) on ``node``; returns the node's rigid
+    marker."""
+    from exudyn.itemInterface import MarkerNodeRigid, ObjectRigidBody2D
+
+    mbs.AddObject(ObjectRigidBody2D(nodeNumber=node, mass=mass, inertia=0.0))
+    return mbs.AddMarker(MarkerNodeRigid(nodeNumber=node))
+
+
+def add_slider(mbs: Any, on_line: int, on_block: int, axis: float, gamma: float,
+               force: Callable[[float], float], dt: float) -> None:
+    """Hold the rigid marker ``on_block`` (the block) on the line through the rigid marker
+    ``on_line`` along ``axis`` (rad, in that marker's frame) by a ``PrismaticJoint2D``, its
+    rotation fixed at ``gamma`` (rad) from the line's frame, and push it along the line by
+    F(t) (N; `_Moment`: the mean over each step of ``dt`` s) through a connector without
+    stiffness (a positive connector force pulls the markers together: it returns −F)."""
+    from exudyn.itemInterface import LinearSpringDamper, PrismaticJoint2D
+
+    u = [math.cos(axis), math.sin(axis), 0.0]
+    # The normal to the line in the block's frame: S u turned back by γ.
+    normal = [-math.sin(axis - gamma), math.cos(axis - gamma), 0.0]
+    mbs.AddObject(PrismaticJoint2D(markerNumbers=[on_line, on_block], axisMarker0=u,
+                                   normalMarker1=normal, constrainRotation=True))
+    push = _Moment(force, dt)
+
+    def connector_force(mbs_: Any, t: float, item: int, *args: Any) -> float:
+        return -push(mbs_, t, item)
+
+    mbs.AddObject(LinearSpringDamper(markerNumbers=[on_line, on_block], stiffness=0.0,
+                                     damping=0.0, axisMarker0=u,
+                                     springForceUserFunction=connector_force))
 
 
 def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, block: float,
@@ -61,16 +120,12 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
-        LinearSpringDamper,
         LoadCoordinate,
         MarkerBodyRigid,
         MarkerNodeCoordinate,
-        MarkerNodeRigid,
         NodePointGround,
         NodeRigidBody2D,
-        ObjectBeamGeometricallyExact2D,
         ObjectRigidBody2D,
-        PrismaticJoint2D,
         RevoluteJoint2D,
         SensorNode,
     )
@@ -112,35 +167,10 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
                                loadUserFunction=turn))
     u = np.array([math.cos(axis), math.sin(axis)])
     root = np.array([link_length, 0.0]) + s0 * u
-    e = np.array([math.cos(gamma), math.sin(gamma)])
-    sec = default_section(beam)
-    x = np.linspace(0.0, beam.length, elements + 1)
-    chain = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(root + xi * e), gamma]))
-             for xi in x]
-    for a, b in itertools.pairwise(chain):
-        mbs.AddObject(ObjectBeamGeometricallyExact2D(
-            nodeNumbers=[a, b], length=float(beam.length / elements),
-            massPerLength=beam.mass_per_length, crossSectionInertia=sec.rhoI,
-            bendingStiffness=beam.EI, axialStiffness=sec.EA, shearStiffness=sec.GA))
-    if beam.tip_mass > 0.0:
-        mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[-1], mass=beam.tip_mass, inertia=0.0))
-    mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[0], mass=block, inertia=0.0))
+    chain = beam_nodes(mbs, beam, np.linspace(0.0, beam.length, elements + 1), root, gamma)
     on_link = mbs.AddMarker(MarkerBodyRigid(bodyNumber=hub, localPosition=[
         link_length - centre, 0.0, 0.0]))
-    on_block = mbs.AddMarker(MarkerNodeRigid(nodeNumber=chain[0]))
-    # The normal to the line in the block's frame: S u turned back by γ.
-    normal = [-math.sin(axis - gamma), math.cos(axis - gamma), 0.0]
-    mbs.AddObject(PrismaticJoint2D(markerNumbers=[on_link, on_block],
-                                   axisMarker0=[u[0], u[1], 0.0], normalMarker1=normal,
-                                   constrainRotation=True))
-    push = _Moment(force, dt)
-
-    def connector_force(mbs_: Any, t: float, item: int, *args: Any) -> float:
-        return -push(mbs_, t, item)
-
-    mbs.AddObject(LinearSpringDamper(markerNumbers=[on_link, on_block], stiffness=0.0,
-                                     damping=0.0, axisMarker0=[u[0], u[1], 0.0],
-                                     springForceUserFunction=connector_force))
+    add_slider(mbs, on_link, point_mass(mbs, chain[0], block), axis, gamma, force, dt)
 
     def sensor(node: int, kind: Any) -> int:
         return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, writeToFile=False,

@@ -13,7 +13,8 @@ the constrained equations on the projected state) over the independent component
 over the input row's columns of the drives and actuators (B); C and D by central differences
 of the run's channel functions on projected states (the dependent joints' angles and rates,
 the joints' motor torques without the constraint forces, the closures' forces, sensors and
-tips). At rest without loads this is the linearisation about an equilibrium; elsewhere it is
+tips, and a moving base's pose and rates: `base_x`, `base_x_rate` …, `cart_position`,
+`cart_velocity`, as the open chain's plant names them). At rest without loads this is the linearisation about an equilibrium; elsewhere it is
 frozen-time (docs/control.md).
 """
 
@@ -212,6 +213,11 @@ def _readings(scenario: Scenario, loops: LoopSystem, t0: float, ys: np.ndarray,
     out = sensor_values(view, view.frames, Solution(tt, z, zd, zdd, "linearize"),
                         scenario.sensors)
     torque = forward_kernel.joint_torques(system, p, pd, pdd, z, zd, zdd) - joint_forces
+    for i in system.free:  # the moving base's pose and rates, named as the open chain's
+        if i < system.n_base:
+            name = _coordinate_name(system, i)
+            rate = cart_name("velocity") if name == cart_name("position") else f"{name}_rate"
+            out[name], out[rate] = p[:, i], pd[:, i]
     joints = scenario.chain.joints
     for k in range(len(joints)):
         if system.joint_index(k) in system.free:

@@ -522,6 +522,16 @@ class ForwardSystem:
         return out - self.rail_loads(t)
 
 
+def drive_force(system: ForwardSystem, t: np.ndarray, p: np.ndarray, pd: np.ndarray,
+                integral: np.ndarray) -> np.ndarray:
+    """The force (nt,), N, of a driven (not prescribed) cart's drive at the solved rigid
+    states p, ṗ (nt, n_rigid) and servo integrals (nt, n_servos): its law, as the equations
+    apply it (`ForwardSystem.applied`). At accelerations that solve the equations it is the
+    travel row `ForwardSystem.cart_force` gives, without assembling the matrices."""
+    Q, _ = system.applied(t, p, pd, integral)
+    return Q[:, 0] - system.rail_loads(t)
+
+
 def _cart_force(drive: object, t: np.ndarray, s: np.ndarray, sd: np.ndarray) -> np.ndarray:
     """The force (nt,), N, of a driven cart's drive at travel s (m) and speed ṡ (m/s): its
     force history, or its servo law on the travel without an integral state (one with an

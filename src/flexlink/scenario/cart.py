@@ -29,9 +29,11 @@ _REQUIRED = {"force", "motion", "servo", "reference", "loop_gain", "bandwidth", 
 
 
 def read_cart(table: Any, path: str, base_dir: Path, t_end: float | None,
-              p: Problems) -> dict[str, Any]:
+              p: Problems, rail_keys: tuple[str, ...] = ("rail_angle_deg",)
+              ) -> dict[str, Any]:
     """The resolved ``[base.cart]`` table; a prescribed travel (or a start) outside
-    ``travel`` over [0, t_end] is a problem naming the field."""
+    ``travel`` over [0, t_end] is a problem naming the field. ``rail_keys``: the keys an
+    unknown key is matched against in place of ``rail_angle_deg`` (a slider's own)."""
     if not isinstance(table, Mapping):
         p.add(f"{path}: expected a table [base.cart] with the rail and the drive, got "
               f"{describe(table)}")
@@ -43,7 +45,7 @@ def read_cart(table: Any, path: str, base_dir: Path, t_end: float | None,
     if drive == "servo":
         servo = read_field(table, CART["servo"], path, p, default=REQUIRED)
         own = own + _SERVO_OWN.get(servo, ())
-    p.unknown_keys(table, (*_COMMON, *own), path)
+    p.unknown_keys(table, (*rail_keys, *_COMMON[1:], *own), path)
     if drive is None:
         return out
     if servo is not None:

@@ -27,7 +27,7 @@ def read_prismatic(table: Mapping[str, Any], path: str, base_dir: Path, t_end: f
               "from the parent link's tip section)")
     rest = {k: v for k, v in table.items() if k not in (*PRISMATIC.keys, "rail_angle_deg")}
     inner = Problems()
-    drive = read_cart(rest, path, base_dir, t_end, inner)
+    drive = read_cart(rest, path, base_dir, t_end, inner, PRISMATIC.keys)
     for message in inner.messages:
         p.add(slider_message(message, path).replace(f"{path}: the cart", f"{path}: the slider"))
     drive.pop("rail_angle_deg", None)

@@ -13,7 +13,7 @@ from ..channels.catalogue import cart_name, voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.forward import SolvedMotion, pose_and_joint_values
 from ..channels.shapes import LazyShapes
-from ..dynamics.forward import ForwardSystem
+from ..dynamics.forward import ForwardSystem, drive_force
 from ..errors import SimulationError
 from ..model import Base, Scenario
 from ..solvers import Solution
@@ -89,8 +89,11 @@ def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, soluti
     values = sensor_values(view, view.frames, elastic, scenario.sensors)
     values.update(pose_and_joint_values(system, t, p, pd, solution.extra, outputs.torques,
                                         outputs.momenta))
-    if system.base.cart is not None:
-        values[cart_name("force")] = system.cart_force(t, p, pd, pdd, z, zd, zdd)
+    if system.base.cart is not None:  # a driven cart's force is its drive's law
+        values[cart_name("force")] = (
+            system.cart_force(t, p, pd, pdd, z, zd, zdd) if system.base.cart.prescribed
+            else drive_force(system, t, p, pd, np.zeros((t.size, 0)) if solution.extra is None
+                             else solution.extra))
     values.update(tip_values(view, view.frames, z))
     if scenario.closures:
         values.update(closure_values)
