@@ -49,11 +49,9 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit, typeof, types
-from numba.extending import intrinsic
+from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from .._compiled_calls import ROW, address, call_codegen, check, type_key
 from ._forward_numba import _solve
 from ._loops_numba import NEWTON_ITERATIONS, REVOLUTE
 from ._nonlinear_forward_numba import residual
@@ -62,11 +60,10 @@ from ._nonlinear_numba import mass_matrix
 NonlinearLoopWork = namedtuple("NonlinearLoopWork", [
     "yp", "c", "s", "ad", "ang", "rate", "acc", "rot_acc", "Phi", "Phid", "G", "gam", "GJ",
     "Gd", "step", "X", "r0", "r1", "H", "HA", "K", "rhs", "rho", "rhod", "rhop", "rhodd",
-    "closed", "calls"])
+    "closed"])
 NonlinearLoopWork.__doc__ = (
     "Scratch arrays of the kernels (allocated once per run: see workspace); closed: 1 when "
-    "the last `solve_constrained` closed the loops, else 0; calls: the addresses of the "
-    "compiled `solve_constrained` and tree residual the kernels call (`_compiled_calls`).")
+    "the last `solve_constrained` closed the loops, else 0.")
 
 
 def workspace(d, n_state: int) -> NonlinearLoopWork:
@@ -80,41 +77,8 @@ def workspace(d, n_state: int) -> NonlinearLoopWork:
                           e(nodes), e(f.rot_J.shape[0]), e(nc), e(nc), e((nc, ny)), e(nc),
                           e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e(ny), e((nodes, nodes)),
                           e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc), e(nodes),
-                          e(nodes), e(nodes), e(nodes), np.zeros(1, dtype=np.int64),
-                          np.zeros(2, dtype=np.int64))
-    w.calls[:] = _addresses(d, w)
+                          e(nodes), e(nodes), e(nodes), np.zeros(1, dtype=np.int64))
     return w
-
-
-_ADDRESSES: dict[object, tuple[int, int]] = {}  # type_key of (d, w) → `_addresses`
-
-
-def _addresses(d, w: NonlinearLoopWork) -> tuple[int, int]:
-    """The addresses of `solve_constrained` compiled for (d, w) and of the tree's residual
-    compiled for d.fwd (the one the nonlinear forward path's Gauss loops call)."""
-    key = type_key((d, w))
-    found = _ADDRESSES.get(key)
-    if found is None:
-        found = _ADDRESSES[key] = (
-            address(solve_constrained, (typeof(d), typeof(w), ROW, ROW)),
-            address(residual, (typeof(d.fwd),) + (ROW,) * 9))
-    return found
-
-
-@intrinsic
-def _call_solve(typingctx, at, d, w_, u, Y):
-    """`solve_constrained` through the address ``at`` of its code compiled for (d, w_)
-    (w_.calls[0]): `rates` and `closed_states` hold this call, not a copy of it."""
-    check("the compiled solve_constrained", (u, Y), (ROW, ROW))
-    return types.none(at, d, w_, u, Y), call_codegen(0)
-
-
-@intrinsic
-def _call_residual(typingctx, at, f, Y, V, X, ang, rate, acc, rot_acc, u, out):
-    """The tree's residual (`_nonlinear_forward_numba.residual`) through the address ``at``
-    of its code compiled for f (w.calls[1])."""
-    check("the compiled tree residual", (Y, V, X, ang, rate, acc, rot_acc, u, out), (ROW,) * 9)
-    return types.none(at, f, Y, V, X, ang, rate, acc, rot_acc, u, out), call_codegen(0)
 
 
 @njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
@@ -383,9 +347,9 @@ def project(d, w, u, Y):
     return True
 
 
-# A kernel of its own that `rates` and `closed_states` reach through its address (w.calls[0]),
-# as it reaches the tree's residual (w.calls[1]): each is emitted once, not inside every caller.
-@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# Inlined by numba into `rates` and `closed_states` (its records' fields are read, not copied
+# into new records): called, as a kernel of its own, it made each rate evaluation ~7% slower.
+@njit(inline="always")
 def solve_constrained(d, w, u, Y):
     """Project Y (w.yp ← Y closed) and solve the constrained equations: ÿ in w.rhs[:n_y],
     λ in w.rhs[n_y:]; w.closed[0] = 0 when the loop does not close (w.rhs is then NaN),
@@ -404,7 +368,7 @@ def solve_constrained(d, w, u, Y):
     y, v = yp[:ny], yp[ny:]
     X, r0 = w.X, w.r0
     X[:] = 0.0
-    _call_residual(w.calls[1], f, y, v, X, w.ang, w.rate, w.acc, w.rot_acc, u, r0)
+    residual(f, y, v, X, w.ang, w.rate, w.acc, w.rot_acc, u, r0)
     # the residual is affine in ÿ: M ÿ + r0, M the inertia's (a fixed base: no translation
     # rows) and 1 on each servo integral's row (σ̈ − its rate)
     M = mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, w.c, w.s, w.H, w.HA)
@@ -417,7 +381,7 @@ def solve_constrained(d, w, u, Y):
     # acceleration (it is affine in ÿ), its rows their transposes (M symmetric)
     for k in d.moving:
         X[k] = 1.0
-        _call_residual(w.calls[1], f, y, v, X, w.ang, w.rate, w.acc, w.rot_acc, u, w.r1)
+        residual(f, y, v, X, w.ang, w.rate, w.acc, w.rot_acc, u, w.r1)
         X[k] = 0.0
         for i in range(f.n + f.nu):
             K[i, k] = w.r1[i] - r0[i]
@@ -440,7 +404,7 @@ def solve_constrained(d, w, u, Y):
 def rates(d, w, u, Y, dY):
     """dY/dt of Y = [y, ẏ] on the closed loops (the dependent joints' entries of Y are not
     read: see `project`)."""
-    _call_solve(w.calls[0], d, w, u, Y)
+    solve_constrained(d, w, u, Y)
     if w.closed[0] == 0:
         dY[:] = np.nan
         return
@@ -459,7 +423,7 @@ def closed_states(d, w, u, states, accelerations, lam, joint_forces, residual_ou
     ny = states.shape[1] // 2
     nc = d.dep.shape[0]
     for t in range(states.shape[0]):
-        _call_solve(w.calls[0], d, w, u[t], states[t])
+        solve_constrained(d, w, u[t], states[t])
         ok = w.closed[0] == 1
         for i in range(states.shape[1]):
             states[t, i] = w.yp[i]
