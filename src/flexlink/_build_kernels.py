@@ -50,7 +50,7 @@ _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
 # longest first. A run missing here counts as the mean of those listed.
 COMPILE_CPU = {"prescribed": 20, "nonlinear": 19, "nonlinear_step": 1, "forward": 42,
                "free_base": 12, "nonlinear_forward": 10, "nonlinear_forward_step": 0,
-               "closed_loop": 5, "four_bar": 43, "nonlinear_four_bar": 66, "sensitivities": 10,
+               "closed_loop": 5, "four_bar": 43, "nonlinear_four_bar": 45, "sensitivities": 10,
                "batched": 9}
 # Model paths whose runs integrate with another path's compiled loop (the closed loop's
 # Lawson loop is the prescribed path's; the nonlinear path's Gauss loops, compiled once for

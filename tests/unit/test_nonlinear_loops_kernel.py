@@ -10,6 +10,7 @@ import copy
 
 import numpy as np
 import pytest
+from numba import njit
 
 from flexlink.dynamics import _nonlinear_loops_numba as kernels
 from flexlink.dynamics.forward_kernel import inputs
@@ -26,6 +27,23 @@ from tests.validation.test_closed_loops import (
 )
 
 T = 0.13  # s: the crank is spinning up (rate and acceleration both non-zero)
+
+
+# The kernels' parts have no Python wrappers (only kernels call them): reached from here
+# through these.
+@njit
+def _prescribed(d, w, u):
+    kernels.prescribed(d, w, u)
+
+
+@njit
+def _positions(d, w, Y):
+    kernels.positions(d, w, Y, bool(1))
+
+
+@njit
+def _curvature(d, w, Y):
+    kernels.curvature(d, w, Y)
 
 
 @pytest.fixture(scope="module")
@@ -97,8 +115,7 @@ def _state(loops: NonlinearLoopSystem) -> np.ndarray:
 
 
 def _phi(loops, w, t: float, Y: np.ndarray) -> tuple[np.ndarray, ...]:
-    kernels.prescribed(loops.data, w, inputs(loops.system.loads, np.array([t]))[0])
-    kernels.constraints(loops.data, w, Y)
+    kernels.constraints(loops.data, w, inputs(loops.system.loads, np.array([t]))[0], Y)
     return w.Phi.copy(), w.G.copy(), w.gam.copy(), w.Phid.copy()
 
 
@@ -166,7 +183,7 @@ def test_mass_matrix_is_the_residuals_change_under_unit_accelerations(loops) -> 
 def test_prescribed_parts_are_the_models_stage_inputs(loops) -> None:
     w = loops.workspace()
     t = np.array([T])
-    kernels.prescribed(loops.data, w, inputs(loops.system.loads, t)[0])
+    kernels.constraints(loops.data, w, inputs(loops.system.loads, t)[0], loops.y0)
     stage = loops.system.stage_inputs(t)
     np.testing.assert_allclose(w.ang, stage.angle[0], atol=1e-14)
     np.testing.assert_allclose(w.rate, stage.rate[0], atol=1e-14)
@@ -229,11 +246,11 @@ def test_positions_need_no_rates_and_curvature_completes_them(moving) -> None:
     GJ = w.GJ.copy()
     other = Y.copy()
     other[ny:] = np.random.default_rng(5).standard_normal(ny)
-    kernels.positions(moving.data, w, other, True)
+    _positions(moving.data, w, other)
     for got, want in ((w.Phi, Phi), (w.G, G), (w.GJ, GJ), (w.Phid, phid)):
         np.testing.assert_array_equal(got, want)
-    kernels.positions(moving.data, w, Y, True)
-    kernels.curvature(moving.data, w, Y)
+    _positions(moving.data, w, Y)
+    _curvature(moving.data, w, Y)
     np.testing.assert_array_equal(w.gam, gam)
 
 
@@ -274,13 +291,13 @@ def test_projection_turns_cos_and_sin_by_small_newton_steps(moving) -> None:
     np.testing.assert_allclose(w.c, np.cos(alpha), rtol=0, atol=1e-15)
     np.testing.assert_allclose(w.s, np.sin(alpha), rtol=0, atol=1e-15)
     assert np.abs(w.Phi).max() <= moving.data.tol
-    kernels.constraints(moving.data, w, Y)  # everything afresh at the projected state
+    kernels.constraints(moving.data, w, u, Y)  # everything afresh at the projected state
     assert np.abs(w.Phi).max() <= moving.data.tol
     # the same projection with the steps' cos and sin evaluated afresh: one closed state
     fresh = moving.workspace()
-    kernels.prescribed(moving.data, fresh, u)
+    _prescribed(moving.data, fresh, u)
     for _ in range(kernels.NEWTON_ITERATIONS):
-        kernels.positions(moving.data, fresh, Z, True)
+        _positions(moving.data, fresh, Z)
         if np.abs(fresh.Phi).max() <= moving.data.tol:
             break
         Z[dep] += np.linalg.solve(fresh.G[:, dep], -fresh.Phi)

@@ -45,9 +45,10 @@ Workspace.__doc__ = ("Scratch arrays of the kernels (allocated once per run: see
                      "calls: the addresses of the compiled code they call (`_call_residual`).")
 
 
-def workspace(d, n_servos: int) -> Workspace:
+def workspace(d, n_servos: int, calls: bool = True) -> Workspace:
     """Scratch arrays for ForwardData d: allocation inside the kernels cost more than the
-    arithmetic of the tiny matrices."""
+    arithmetic of the tiny matrices. ``calls`` False: w.calls left 0 (nothing compiled), for
+    kernels that never evaluate the model (a closed loop's kinematics)."""
     N, nx, nr = d.length.shape[0], d.n_x, d.n_rigid
     m = 3 + d.phi_bar.shape[1]
     nu = d.free.shape[0]
@@ -57,7 +58,8 @@ def workspace(d, n_servos: int) -> Workspace:
                   e(nr), e(nr), e(nr), e(nx), e(nx), e(nx), e(nx), e((nx, nx)), e(nx),
                   e(max(n_servos, 1)), e((nu + nx - nr, nu + nx - nr)), e(nu + nx - nr),
                   e(nx), e((N, m)), e(N), e((N, 4, m - 3)), np.zeros(1, dtype=np.int64))
-    w.calls[0] = _residual_address(d, w)
+    if calls:
+        w.calls[0] = _residual_address(d, w)
     return w
 
 

@@ -57,14 +57,15 @@ LoopWork = namedtuple("LoopWork", [
 LoopWork.__doc__ = "Scratch arrays of the loop kernels (allocated once per run: see workspace)."
 
 
-def workspace(d, n_servos: int, n_state: int) -> LoopWork:
-    """Scratch arrays for LoopData d and states of n_state entries."""
+def workspace(d, n_servos: int, n_state: int, calls: bool = True) -> LoopWork:
+    """Scratch arrays for LoopData d and states of n_state entries (``calls`` False: for the
+    kinematics kernels only, `_forward_numba.workspace`)."""
     f = d.fwd
     N, nx = f.length.shape[0], f.n_x
     nc = d.dep.shape[0]
     m = f.free.shape[0] + nx - f.n_rigid
     e = np.empty
-    return LoopWork(forward_workspace(f, n_servos), e(N), e(N), e((N, nx)), e((N, 2)),
+    return LoopWork(forward_workspace(f, n_servos, calls), e(N), e(N), e((N, nx)), e((N, 2)),
                     e((N, 2)), e((N, 2)), e((N, 2, nx)), e(2), e(2), e(2), e((2, nx)),
                     e(2), e(2), e(2), e((2, nx)), e(nx), e(nx), e(nc), e((nc, nx)), e(nc),
                     e((nc, nc)), e(nc), e(n_state), e((m + nc, m + nc)), e(m + nc))

@@ -59,9 +59,11 @@ from ._nonlinear_numba import mass_matrix
 
 NonlinearLoopWork = namedtuple("NonlinearLoopWork", [
     "yp", "c", "s", "ad", "ang", "rate", "acc", "rot_acc", "Phi", "Phid", "G", "gam", "GJ",
-    "Gd", "step", "X", "r0", "r1", "H", "HA", "K", "rhs", "rho", "rhod", "rhop", "rhodd"])
-NonlinearLoopWork.__doc__ = ("Scratch arrays of the kernels (allocated once per run: see "
-                             "workspace).")
+    "Gd", "step", "X", "r0", "r1", "H", "HA", "K", "rhs", "rho", "rhod", "rhop", "rhodd",
+    "closed"])
+NonlinearLoopWork.__doc__ = (
+    "Scratch arrays of the kernels (allocated once per run: see workspace); closed: 1 when "
+    "the last `solve_constrained` closed the loops, else 0.")
 
 
 def workspace(d, n_state: int) -> NonlinearLoopWork:
@@ -71,14 +73,15 @@ def workspace(d, n_state: int) -> NonlinearLoopWork:
     ny = n_state // 2
     nc = d.dep.shape[0]
     e = np.empty
-    return NonlinearLoopWork(e(n_state), e(nodes), e(nodes), e(nodes), e(nodes), e(nodes),
-                             e(nodes), e(f.rot_J.shape[0]), e(nc), e(nc), e((nc, ny)), e(nc),
-                             e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e(ny), e((nodes, nodes)),
-                             e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc), e(nodes),
-                             e(nodes), e(nodes), e(nodes))
+    w = NonlinearLoopWork(e(n_state), e(nodes), e(nodes), e(nodes), e(nodes), e(nodes),
+                          e(nodes), e(f.rot_J.shape[0]), e(nc), e(nc), e((nc, ny)), e(nc),
+                          e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e(ny), e((nodes, nodes)),
+                          e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc), e(nodes),
+                          e(nodes), e(nodes), e(nodes), np.zeros(1, dtype=np.int64))
+    return w
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def prescribed(d, w, u):
     """The prescribed parts of the node angles, rates, accelerations and of the rotary
     inertias' accelerations from the forward input row u (joint k: u[k], u[N + k],
@@ -110,20 +113,23 @@ def prescribed(d, w, u):
         w.rot_acc[i] = acc
 
 
+# Inlined helpers take arrays and numbers, not records: numba copies an inlined record
+# argument into a new record variable, which costs LLVM seconds per call site to split again.
 @njit(inline="always")
-def _row_axes(d, c, e, cb, sb):
+def _row_axes(kind, ground, normal, c, e, cb, sb):
     """Closure c's equation row e: the direction (ex, ey) its component of Φ is taken along
     (x or y for a revolute, the line's normal n = A(θ_b) n₀ for a slider) and the ground
-    point a = A(θ_b) g (m, from the base's point); cb, sb: cos, sin of the base's attitude."""
-    ax = cb * d.ground[c, 0] - sb * d.ground[c, 1]
-    ay = sb * d.ground[c, 0] + cb * d.ground[c, 1]
-    if d.kind[c] == REVOLUTE:
+    point a = A(θ_b) g (m, from the base's point); cb, sb: cos, sin of the base's attitude;
+    kind, ground, normal: NonlinearLoopData's."""
+    ax = cb * ground[c, 0] - sb * ground[c, 1]
+    ay = sb * ground[c, 0] + cb * ground[c, 1]
+    if kind[c] == REVOLUTE:
         return (1.0, 0.0, ax, ay) if e == 0 else (0.0, 1.0, ax, ay)
-    return (cb * d.normal[c, 0] - sb * d.normal[c, 1], sb * d.normal[c, 0] + cb * d.normal[c, 1],
+    return (cb * normal[c, 0] - sb * normal[c, 1], sb * normal[c, 0] + cb * normal[c, 1],
             ax, ay)
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def positions(d, w, Y, fresh):
     """The node angles' cos, sin (w.c, w.s), Φ (w.Phi), G = ∂Φ/∂y (w.G), the joints' columns
     ∂Φ/∂β (w.GJ) and the prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the
@@ -153,7 +159,7 @@ def positions(d, w, Y, fresh):
         row = d.row[c]
         rows = 2 if d.kind[c] == REVOLUTE else 1
         for e in range(rows):
-            ex, ey, ax, ay = _row_axes(d, c, e, cb, sb)
+            ex, ey, ax, ay = _row_axes(d.kind, d.ground, d.normal, c, e, cb, sb)
             phi = -(ex * ax + ey * ay)
             phid = 0.0
             dx, dy = 0.0, 0.0  # Σ D e(α_j)
@@ -197,7 +203,7 @@ def positions(d, w, Y, fresh):
             w.Phi[row + e], w.Phid[row + e] = phi, phid
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def curvature(d, w, Y):
     """The node rates (w.ad) and γ (w.gam: Φ̈ = G ÿ + γ) at Y = [y, ẏ], after `positions`
     at Y's coordinates."""
@@ -222,7 +228,7 @@ def curvature(d, w, Y):
         row = d.row[c]
         rows = 2 if d.kind[c] == REVOLUTE else 1
         for e in range(rows):
-            ex, ey, ax, ay = _row_axes(d, c, e, cb, sb)
+            ex, ey, ax, ay = _row_axes(d.kind, d.ground, d.normal, c, e, cb, sb)
             gam = 0.0
             dx, dy, vx, vy = 0.0, 0.0, 0.0, 0.0  # Σ D e(α_j), Σ D e⊥(α_j) α̇_j
             for j in range(nodes):
@@ -250,12 +256,16 @@ def curvature(d, w, Y):
             w.gam[row + e] = gam
 
 
-@njit  # tests only: the runs call its two parts (no warm-up reaches it at install)
-def constraints(d, w, Y):
-    """Φ (w.Phi), G = ∂Φ/∂y (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the
-    prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ] (the
-    prescribed parts already in w: `prescribed`)."""
-    positions(d, w, Y, True)
+# Python's entry to the closure equations (the tests; the choice of a slider loop's dependent
+# joints): `prescribed`, `positions` and `curvature` have no Python wrappers (only kernels
+# call them). Not cached: no warm-up run reaches it at installation.
+@njit
+def constraints(d, w, u, Y):
+    """The prescribed parts at the input row u (`prescribed`), then Φ (w.Phi), G = ∂Φ/∂y
+    (w.G), γ (w.gam), the joints' columns ∂Φ/∂β (w.GJ) and the prescribed joints' share of
+    Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the state Y = [y, ẏ]."""
+    prescribed(d, w, u)
+    positions(d, w, Y, bool(1))
     curvature(d, w, Y)
 
 
@@ -267,29 +277,29 @@ SMALL_TURN = 1e-4
 
 
 @njit(inline="always")
-def _turn(d, w):
-    """After a Newton step w.step on the dependent angles: turn w.c, w.s by the node angles'
-    change Δα = Ay[:, dep] step (scratch: w.ad) and return True, unless some |Δα| exceeds
-    SMALL_TURN (then w.c, w.s are left for `positions` to evaluate afresh)."""
-    Ay = d.fwd.Ay
-    nodes, nc = Ay.shape[0], d.dep.shape[0]
+def _turn(Ay, dep, step, ad, cos, sin):
+    """After a Newton step ``step`` on the dependent angles ``dep``: turn the nodes' cos, sin
+    (w.c, w.s) by the node angles' change Δα = Ay[:, dep] step (scratch: ad) and return True,
+    unless some |Δα| exceeds SMALL_TURN (then cos, sin are left for `positions` to evaluate
+    afresh)."""
+    nodes, nc = Ay.shape[0], dep.shape[0]
     big = 0.0
     for j in range(nodes):
         da = 0.0
         for k in range(nc):
-            da += Ay[j, d.dep[k]] * w.step[k]
-        w.ad[j] = da
+            da += Ay[j, dep[k]] * step[k]
+        ad[j] = da
         big = max(big, abs(da))
     if big > SMALL_TURN:
         return False
     for j in range(nodes):
-        da = w.ad[j]
+        da = ad[j]
         d2 = da * da
         cd = 1.0 - d2 * (0.5 - d2 / 24.0)
         sd = da * (1.0 - d2 / 6.0)
-        c, s = w.c[j], w.s[j]
-        w.c[j] = c * cd - s * sd
-        w.s[j] = s * cd + c * sd
+        c, s = cos[j], sin[j]
+        cos[j] = c * cd - s * sd
+        sin[j] = s * cd + c * sd
     return True
 
 
@@ -302,7 +312,7 @@ def project(d, w, u, Y):
     nc = d.dep.shape[0]
     prescribed(d, w, u)
     closed = False
-    fresh = True
+    fresh = bool(1)  # a plain bool: a literal True would compile `positions` once more
     for _ in range(NEWTON_ITERATIONS):
         positions(d, w, Y, fresh)
         big = 0.0
@@ -318,7 +328,7 @@ def project(d, w, u, Y):
         _solve(w.Gd, w.step)
         for j in range(nc):
             Y[d.dep[j]] += w.step[j]
-        fresh = not _turn(d, w)
+        fresh = not _turn(d.fwd.Ay, d.dep, w.step, w.ad, w.c, w.s)
     if not closed:
         return False
     # rates: Φ̇ = G ẏ + Phid = 0 is linear in the dependent ones (one solve); then γ at those
@@ -337,12 +347,13 @@ def project(d, w, u, Y):
     return True
 
 
-# Inlined into `rates` and `closed_states` rather than compiled on its own: a kernel of its
-# own is optimised again, with the whole nonlinear model it calls, inside each caller.
+# Inlined by numba into `rates` and `closed_states` (its records' fields are read, not copied
+# into new records): called, as a kernel of its own, it made each rate evaluation ~7% slower.
 @njit(inline="always")
 def solve_constrained(d, w, u, Y):
     """Project Y (w.yp ← Y closed) and solve the constrained equations: ÿ in w.rhs[:n_y],
-    λ in w.rhs[n_y:]. False when the loop does not close (w.rhs is then NaN)."""
+    λ in w.rhs[n_y:]; w.closed[0] = 0 when the loop does not close (w.rhs is then NaN),
+    else 1."""
     f = d.fwd
     ny = Y.shape[0] // 2
     nc = d.dep.shape[0]
@@ -351,7 +362,9 @@ def solve_constrained(d, w, u, Y):
         yp[i] = Y[i]
     if not project(d, w, u, yp):
         w.rhs[:] = np.nan
-        return False
+        w.closed[0] = 0
+        return
+    w.closed[0] = 1
     y, v = yp[:ny], yp[ny:]
     X, r0 = w.X, w.r0
     X[:] = 0.0
@@ -385,14 +398,14 @@ def solve_constrained(d, w, u, Y):
         for e in range(nc):
             K[ny + c, ny + e] = 0.0
     _solve(K, rhs)
-    return True
 
 
 @njit(cache=True)
 def rates(d, w, u, Y, dY):
     """dY/dt of Y = [y, ẏ] on the closed loops (the dependent joints' entries of Y are not
     read: see `project`)."""
-    if not solve_constrained(d, w, u, Y):
+    solve_constrained(d, w, u, Y)
+    if w.closed[0] == 0:
         dY[:] = np.nan
         return
     ny = Y.shape[0] // 2
@@ -410,7 +423,8 @@ def closed_states(d, w, u, states, accelerations, lam, joint_forces, residual_ou
     ny = states.shape[1] // 2
     nc = d.dep.shape[0]
     for t in range(states.shape[0]):
-        ok = solve_constrained(d, w, u[t], states[t])
+        solve_constrained(d, w, u[t], states[t])
+        ok = w.closed[0] == 1
         for i in range(states.shape[1]):
             states[t, i] = w.yp[i]
         big = 0.0

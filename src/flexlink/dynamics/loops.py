@@ -116,10 +116,12 @@ class LoopSystem:
             row=self._rows[:-1].astype(np.int64), dep=np.asarray(dep, dtype=np.int64),
             tol=CLOSURE_TOLERANCE * self.size)
 
-    def workspace(self, n_state: int):
+    def workspace(self, n_state: int, calls: bool = True):
+        """The kernels' scratch arrays (``calls`` False: for the kinematics kernels only,
+        which then compile without the model's residual: `_forward_numba.workspace`)."""
         from ._loops_numba import workspace
 
-        return workspace(self.data, len(self.system.servos), n_state)
+        return workspace(self.data, len(self.system.servos), n_state, calls)
 
     def _closed_start(self) -> np.ndarray:
         """The initial state with the dependent joints (chosen here) closing the loops."""
@@ -128,7 +130,9 @@ class LoopSystem:
         equilibrium = self.system.initial == "equilibrium"  # the tree's would leave the loop
         y = self.system._rest_state() if equilibrium else self.system.initial_state()
         u0 = inputs(self.system, np.array([0.0]))[0]
-        work = self.workspace(y.size)
+        # kinematics only: the nonlinear model's loops, which start here, never compile
+        # this model's residual
+        work = self.workspace(y.size, calls=False)
         load_state(self.data, work, u0, y)
         constraints(self.data, work)
         self.dep = self._dependent(work.G)

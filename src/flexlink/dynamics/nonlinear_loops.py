@@ -115,17 +115,16 @@ class NonlinearLoopSystem:
     def _own_dependent(self) -> None:
         """The dependent joints chosen on this model's G at the tree's initial guesses (as
         `LoopSystem._dependent` on the first-order one's)."""
-        from ._nonlinear_loops_numba import constraints, prescribed
+        from ._nonlinear_loops_numba import constraints
 
         s, lo = self.system, self.first_order
         lo.dep = np.arange(self.n_c, dtype=np.int64)  # a placeholder for packing
         self.data = self._pack()
         work = self.workspace()
-        prescribed(self.data, work, inputs(s.loads, np.zeros(1))[0])
         Y = np.zeros(2 * s.n_y)
         start = self._rigid_start()
         Y[s.n:s.n + s.nu], Y[s.n_y + s.n:s.n_y + s.n + s.nu] = start[:s.nu], start[s.nu:2 * s.nu]
-        constraints(self.data, work, Y)
+        constraints(self.data, work, inputs(s.loads, np.zeros(1))[0], Y)
         G = np.zeros((self.n_c, s.n_rigid))
         G[:, s.free] = work.G[:, s.n:s.n + s.nu]
         lo.dep = lo._dependent(G)
