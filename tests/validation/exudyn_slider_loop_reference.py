@@ -47,8 +47,10 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
     crank turned by ``torque`` (N·m) on a hub of ``hub_inertia`` (kg·m², a motor's) and the
     block pushed by ``force`` (N); ``elements`` per
     flexible member (even: the rod's midpoint is a node); ``thickness`` (m): the sections'
-    depth, which sets Exudyn's axial stiffness EA = 12 EI / h² (flexlink's links are
-    inextensible). Returns ``t`` (s), ``crank_angle`` (rad), ``travel`` (m),
+    depth h, which sets Exudyn's axial stiffness EA = 12 EI / h², its shear stiffness and
+    rotary inertia (`default_section`); flexlink's links are inextensible Euler–Bernoulli
+    beams, the limit h → 0, and the stretch, shear and rotary inertia lower the loop's
+    frequencies by terms in (h/L)². Returns ``t`` (s), ``crank_angle`` (rad), ``travel`` (m),
     ``crank_deflection``, ``rod_deflection`` (m), ``cpu_time_s`` (the process's during the
     solve), ``coordinates``."""
     import time
