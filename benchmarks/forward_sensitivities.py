@@ -218,16 +218,8 @@ def cost(name: str, path: str, fields: list[str], overrides: dict) -> None:
     process's CPU time: on a loaded machine wall time counts the other processes too)."""
     sc = scenario_file(_scenario(path)).build(overrides)
     flexlink.simulate(sc, shapes=False, sensitivities=fields)
-
-    def best(f):
-        times = []
-        for _ in range(5):
-            t = time.process_time()
-            f()
-            times.append(time.process_time() - t)
-        return min(times)
-    alone = best(lambda: flexlink.simulate(sc, shapes=False))
-    both = best(lambda: flexlink.simulate(sc, shapes=False, sensitivities=fields))
+    alone = _best(lambda: flexlink.simulate(sc, shapes=False))
+    both = _best(lambda: flexlink.simulate(sc, shapes=False, sensitivities=fields))
     print(f"{name:12s} run {alone:.3f} s, with {len(fields)} sensitivities {both:.3f} s "
           f"(CPU): {both / alone:.1f}x", flush=True)
 

@@ -59,6 +59,37 @@ def starts(raws: list[dict[str, Any]]) -> list[lawson.Start]:
     return out
 
 
+def count_batched_calls(monkeypatch) -> list[int]:
+    """The sizes of the batched first passes made while the test runs, in call order."""
+    calls: list[int] = []
+    first_passes = lawson_batch.first_passes
+
+    def counted(runs):
+        calls.append(len(runs))
+        return first_passes(runs)
+
+    monkeypatch.setattr(lawson_batch, "first_passes", counted)
+    return calls
+
+
+def assert_case_equals_single_run(raw: dict[str, Any], dataset, case: int) -> None:
+    """Case `case` of a sweep of `raw` equals, bit for bit, the single run of its drawn values."""
+    raw_case = copy.deepcopy(raw)
+    link1 = raw_case["links"][0]
+    del link1["E"]
+    link1["EI"] = float(dataset["links[0].EI"][case])
+    raw_case["links"][1]["tip_mass"] = float(dataset["links[1].tip_mass"][case])
+    raw_case["joints"][0]["motion"][0]["to_deg"] = float(
+        dataset["joints[0].motion[0].to_deg"][case])
+    if "links[0].damping_ratio" in dataset:
+        link1["damping_ratio"] = float(dataset["links[0].damping_ratio"][case])
+    if "sensors[pzt].capacitance" in dataset:
+        raw_case["sensors"][2]["capacitance"] = float(dataset["sensors[pzt].capacitance"][case])
+    reference = simulate(scenario(raw_case))
+    for name in reference.names:
+        assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)
+
+
 def test_the_batched_first_pass_equals_each_single_first_pass_bit_for_bit() -> None:
     runs = starts(variants(CASES))
     assert lawson_batch.groups(runs) == [list(range(CASES))]  # one discretisation
@@ -107,14 +138,7 @@ def test_runs_on_different_discretisations_are_not_advanced_together() -> None:
 
 
 def test_a_chunk_of_variants_runs_together_and_equals_single_runs(monkeypatch) -> None:
-    calls = []
-    first_passes = lawson_batch.first_passes
-
-    def counted(runs):
-        calls.append(len(runs))
-        return first_passes(runs)
-
-    monkeypatch.setattr(lawson_batch, "first_passes", counted)
+    calls = count_batched_calls(monkeypatch)
     raws = variants(CASES) + variants(3, seed=5, durations=True)  # these three run alone
     cases = [scenario(raw) for raw in raws]
     result = run_chunk(list(enumerate(cases)), Kept(), runner=None)
@@ -140,18 +164,7 @@ def test_a_forked_sweep_of_variants_equals_single_runs(monkeypatch) -> None:
                     base_dir=paper_experiment_path().parent)
     assert dataset.status.values.tolist() == ["ok"] * 2 * CASES
     for case in range(0, 2 * CASES, 5):
-        raw_case = copy.deepcopy(raw)
-        link1 = raw_case["links"][0]
-        del link1["E"]
-        link1["EI"] = float(dataset["links[0].EI"][case])
-        raw_case["links"][1]["tip_mass"] = float(dataset["links[1].tip_mass"][case])
-        link1["damping_ratio"] = float(dataset["links[0].damping_ratio"][case])
-        raw_case["sensors"][2]["capacitance"] = float(dataset["sensors[pzt].capacitance"][case])
-        raw_case["joints"][0]["motion"][0]["to_deg"] = float(
-            dataset["joints[0].motion[0].to_deg"][case])
-        reference = simulate(scenario(raw_case))
-        for name in reference.names:
-            assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)
+        assert_case_equals_single_run(raw, dataset, case)
 
 
 def test_an_in_process_sweep_of_variants_advances_them_together_and_equals_single_runs(
@@ -160,14 +173,7 @@ def test_an_in_process_sweep_of_variants_advances_them_together_and_equals_singl
 
     monkeypatch.setattr(executors, "CHUNKS_PER_WORKER", 2)  # chunks of 26: one group each
     assert executors.BATCH_CHUNK == lawson_batch.MIN_GROUP
-    calls = []
-    first_passes = lawson_batch.first_passes
-
-    def counted(runs):
-        calls.append(len(runs))
-        return first_passes(runs)
-
-    monkeypatch.setattr(lawson_batch, "first_passes", counted)
+    calls = count_batched_calls(monkeypatch)
     raw = short_paper()
     random = {"links[0].EI": "uniform:250:350", "links[1].tip_mass": "uniform:0:0.03",
               "joints[0].motion[0].to_deg": "uniform:15:25"}
@@ -176,13 +182,4 @@ def test_an_in_process_sweep_of_variants_advances_them_together_and_equals_singl
     assert calls == [CASES, CASES]  # two chunks of 26, each one call
     assert dataset.status.values.tolist() == ["ok"] * 2 * CASES
     for case in (0, 27, 2 * CASES - 1):
-        raw_case = copy.deepcopy(raw)
-        link1 = raw_case["links"][0]
-        del link1["E"]
-        link1["EI"] = float(dataset["links[0].EI"][case])
-        raw_case["links"][1]["tip_mass"] = float(dataset["links[1].tip_mass"][case])
-        raw_case["joints"][0]["motion"][0]["to_deg"] = float(
-            dataset["joints[0].motion[0].to_deg"][case])
-        reference = simulate(scenario(raw_case))
-        for name in reference.names:
-            assert np.array_equal(dataset[name].values[case], reference[name]), (case, name)
+        assert_case_equals_single_run(raw, dataset, case)
