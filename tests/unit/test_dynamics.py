@@ -90,6 +90,31 @@ def test_joint_histories_are_shared_read_only_and_equal_to_a_fresh_evaluation() 
     assert unique.angle.shape[0] < t.size  # the rest phases collapse to one state each
 
 
+def test_a_systems_first_time_grid_outlives_the_grids_asked_for_after_it(monkeypatch) -> None:
+    """A run asks for its output times first and again for its channels, after its table
+    sampled other grids: those first times are evaluated once (not again after three others)."""
+    from flexlink.dynamics import first_order
+
+    calls: list[int] = []
+    evaluate = first_order.joint_history
+
+    def counted(joints, t):
+        calls.append(np.size(t))
+        return evaluate(joints, t)
+
+    monkeypatch.setattr(first_order, "joint_history", counted)
+    system = FirstOrderSystem(chain_of(LINKS, [CubicMotion(0.3), CubicMotion(-1.0),
+                                                CubicMotion(2.0)]))
+    t = np.linspace(0.0, 1.0, 11)
+    first = system.joint_history(t)
+    for size in (3, 4, 5, 6):  # more grids than the recent ones kept
+        system.joint_history(np.linspace(0.0, 1.0, size))
+    assert system.joint_history(t.copy()) is first
+    assert calls == [11, 3, 4, 5, 6]
+    system.joint_history(np.linspace(0.0, 1.0, 3))  # beyond the last three: evaluated anew
+    assert calls == [11, 3, 4, 5, 6, 3]
+
+
 def test_distinct_joint_states_are_the_runs_of_equal_rows() -> None:
     """JointHistory.distinct: a new run wherever any angle, rate or acceleration differs
     from the previous time's (one differing entry of one joint is enough), revisits

@@ -75,9 +75,10 @@ def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
     history = JointHistory(out[0], out[1], out[2])
     if key is not None and out.nbytes <= _HISTORY_BYTES_KEPT:
         _HISTORIES[key] = history
-        while (len(_HISTORIES) > _HISTORIES_KEPT
-               or sum(h.angle.base.nbytes for h in _HISTORIES.values()) > _HISTORY_BYTES_KEPT):
-            _HISTORIES.popitem(last=False)
+        # the bytes held: summed once, then less each entry dropped
+        held = sum(h.angle.base.nbytes for h in _HISTORIES.values())
+        while len(_HISTORIES) > _HISTORIES_KEPT or held > _HISTORY_BYTES_KEPT:
+            held -= _HISTORIES.popitem(last=False)[1].angle.base.nbytes
     return history
 
 
