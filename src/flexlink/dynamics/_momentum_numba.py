@@ -198,12 +198,18 @@ def project(d, w_, pj, u, U, t, y):
                 dirs[a, 1] = w_.p[0] - cmx
         else:  # on a cart, component 0's direction is the travel's rate: index 0 too
             dirs[a, comp] = 1.0
-    for b in range(na):
-        for i in range(nr):
-            pj.pd1[i] = pd[i] + dirs[b, i]
-        components(d, w_, pj, pj.pd1, c1)
-        for a in range(na):
-            A[a, b] = c1[pj.active[a]] - c0[pj.active[a]]
+    if d.base_kind == CART:
+        # the momentum along the rail, the one component a cart projects: a unit travel rate
+        # carries every mass along the (unit) rail, so A = the total mass (the difference of
+        # two momenta, the other bases' way, gives it to round-off at twice the cost)
+        A[0, 0] = pj.total_mass
+    else:
+        for b in range(na):
+            for i in range(nr):
+                pj.pd1[i] = pd[i] + dirs[b, i]
+            components(d, w_, pj, pj.pd1, c1)
+            for a in range(na):
+                A[a, b] = c1[pj.active[a]] - c0[pj.active[a]]
     # A λ = target − c (na ≤ 3, A ≈ the rigid body's mass and inertia: Gauss without pivots
     # would do; partial pivoting for safety)
     for col in range(na):

@@ -34,6 +34,7 @@ from ._step_control_numba import (
     keeps,
     next_factor,
     predictive_factor,
+    step_factor,
     tolerances,
     update_peaks,
 )
@@ -73,7 +74,16 @@ UROUND = 2.2e-16
 X, H, H_OLD, H_ACC, ERR_ACC, FACCON, THETA, SEG, NEXT_OUT = 0, 1, 2, 3, 4, 5, 6, 7, 8
 FIRST, REJECT, JAC_OK, LU_OK, FRESH, F0_OK, H_LU = 9, 10, 11, 12, 13, 14, 15
 STEPS, ACCEPTED, REJECTED, RATES, JACOBIANS, LUS = 16, 17, 18, 19, 20, 21
-N_ST = 22
+# The sizes and errors of the MEMORY accepted steps before the last (MEMORY_H + k,
+# MEMORY_ERR + k), oldest first. An undamped mode that the step does not resolve makes the
+# error estimate swing tenfold and more with its phase from one step to the next at the same
+# h: a step sized from a small error alone was rejected a step or two later. The next step
+# is sized from the largest of the recent errors, each scaled to the present h (err ∝
+# h^(1/exponent)).
+MEMORY = 2
+RECENT = 22  # 1: size the steps from the recent errors too (a run's choice: integrate_radau)
+MEMORY_H, MEMORY_ERR = 23, 23 + MEMORY
+N_ST = 23 + 2 * MEMORY
 
 
 @njit(cache=True)
@@ -202,6 +212,22 @@ def _mass_times(mass, identity, x, out):
         for j in range(x.shape[0]):
             acc += mass[i, j] * x[j]
         out[i] = acc
+
+
+@njit(cache=True)
+def _recent_factor(control, st, h, err):
+    """h_new / h from the largest error of this accepted step (h, err) and the MEMORY
+    accepted before it, each scaled to h; this step joins the memory, the oldest leaves."""
+    top = err
+    power = 1.0 / control.exponent
+    for k in range(MEMORY):
+        h_k, err_k = st[MEMORY_H + k], st[MEMORY_ERR + k]
+        if h_k > 0.0:
+            top = max(top, err_k * (h / h_k) ** power)
+    for k in range(MEMORY - 1):
+        st[MEMORY_H + k], st[MEMORY_ERR + k] = st[MEMORY_H + k + 1], st[MEMORY_ERR + k + 1]
+    st[MEMORY_H + MEMORY - 1], st[MEMORY_ERR + MEMORY - 1] = h, err
+    return step_factor(control, top, SAFETY)
 
 
 @njit(cache=True)
@@ -400,6 +426,8 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
             st[ACCEPTED] += 1
             if st[FIRST] == 0.0 and st[FRESH] == 0.0:
                 factor = predictive_factor(control, factor, err, h, st[H_ACC], st[ERR_ACC])
+            if st[RECENT] != 0.0:
+                factor = min(factor, _recent_factor(control, st, h, err))
             hnew = h * factor
             st[H_ACC] = h
             st[ERR_ACC] = max(1e-2, err)

@@ -48,7 +48,7 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
         states, stats = integrate_radau(
             loops.data, loops.workspace(y0.size), y0, t_out, lambda t: inputs(system, t),
             breakpoints(system), rtol, atol, groups, np.inf, on_progress=on_progress,
-            loop=loop, held=held, z=slice(2 * nu, 2 * nu + n), steps=steps)
+            loop=loop, held=held, z=slice(2 * nu, 2 * nu + n), steps=steps, recent=True)
     except RadauStop as exc:
         if loop is not None:
             raise UnstableLoop(exc.t, "the state grew without bound" if exc.why == "blow-up"

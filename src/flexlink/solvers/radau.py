@@ -77,8 +77,8 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     mass: np.ndarray | None = None, on_progress: Progress | None = None,
                     loop: SampledLoop | None = None, held: slice = slice(0, 0),
                     z: slice = slice(0, 0), projection: object | None = None,
-                    steps: list | None = None, weights: np.ndarray | None = None
-                    ) -> tuple[np.ndarray, dict[str, int]]:
+                    steps: list | None = None, weights: np.ndarray | None = None,
+                    recent: bool = False) -> tuple[np.ndarray, dict[str, int]]:
     """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
 
     inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
@@ -87,9 +87,12 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     `error_weights.py`); mass: M (None: the identity); hmax: the longest step (s);
     projection: the model's record of known invariants (`_radau_numba.model_project`; its
     ``active`` components empty: none), onto which every accepted step and output state is
-    put. ``steps``: a list to which every accepted step is appended as (t (s) at its start,
-    h (s), segment index, y at its start, y at its end (projected), its stage increments
-    z (3, len(y0)), Y_i = y + z_i): the step sequence that the sensitivities
+    put. ``recent``: each step sized from the largest error of the last three accepted
+    steps (each scaled to its size), not of the last alone (`_radau_numba.MEMORY`: for runs
+    where a mode the step does not resolve makes the estimate swing with its phase).
+    ``steps``: a list to which every accepted step is appended as (t (s) at its start, h
+    (s), segment index, y at its start, y at its end (projected), its stage increments z
+    (3, len(y0)), Y_i = y + z_i): the step sequence that the sensitivities
     (`radau_sensitivity.py`) differentiate. Raises RadauStop."""
     from ._radau_numba import (
         EXPONENT,
@@ -100,6 +103,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         H_OLD,
         N_ST,
         NEXT_OUT,
+        RECENT,
         SEG,
         H,
         X,
@@ -128,6 +132,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     st = np.zeros(N_ST)
     st[X], st[H], st[FACCON], st[FIRST], st[NEXT_OUT] = t0, min(1e-5, hmax), 1.0, 1.0, 1.0
     st[F0_OK] = 0.0
+    st[RECENT] = 1.0 if recent else 0.0
     ws = (np.empty((m, m)), np.empty((m, m)), np.empty((m, m), dtype=np.complex128),
           np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
           *(np.empty(m) for _ in range(11)), np.empty(m, dtype=np.complex128),
