@@ -40,10 +40,10 @@ from flexlink.model import Link
 
 from .exudyn_pieces import (
     BeamSection,
-    StepMean,
     coord,
     fix,
     integration_step,
+    load_history,
     new_system,
     node_sensor,
     node_series,
@@ -77,7 +77,6 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
     from exudyn.itemInterface import (
         CoordinateConstraint,
         CoordinateSpringDamper,
-        LoadCoordinate,
         LoadForceVector,
         MarkerBodyPosition,
         MarkerNodePosition,
@@ -110,10 +109,8 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
         fix(mbs, m_ground, hub_node, (1, 2))
     keep: list[Any] = []
     if moment is not None:
-        uf = StepMean(moment, dt)
-        keep.append(uf)
         driven = coord(mbs, hub_node, 0) if rail else m_driven
-        mbs.AddLoad(LoadCoordinate(markerNumber=driven, load=0.0, loadUserFunction=uf))
+        keep.append(load_history(mbs, driven, moment, dt))
     nodes: list[list[int]] = []
     for app in appendages:
         link = app.link

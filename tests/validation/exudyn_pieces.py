@@ -184,6 +184,17 @@ class StepMean:
         return v
 
 
+def load_history(mbs: Any, marker: int, history: Callable[[float], float], dt: float
+                 ) -> StepMean:
+    """Load the coordinate ``marker`` (`coord`) by a history (N·m on a rotation, N on a
+    position), its mean over each step of ``dt`` s (`StepMean`); returns the user function."""
+    from exudyn.itemInterface import LoadCoordinate
+
+    mean = StepMean(history, dt)
+    mbs.AddLoad(LoadCoordinate(markerNumber=marker, load=0.0, loadUserFunction=mean))
+    return mean
+
+
 def add_slider(mbs: Any, on_line: int, on_block: int, axis: float, gamma: float,
                force: Callable[[float], float], dt: float) -> None:
     """Hold the rigid marker ``on_block`` (the block) on the line through the rigid marker

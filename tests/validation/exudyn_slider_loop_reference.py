@@ -33,13 +33,13 @@ import numpy as np
 from flexlink.model import Link
 
 from .exudyn_pieces import (
-    StepMean,
     add_slider,
     beam_nodes,
     coord,
     default_section,
     fix,
     integration_step,
+    load_history,
     new_system,
     node_sensor,
     node_series,
@@ -67,7 +67,6 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
 
     import exudyn as exu
     from exudyn.itemInterface import (
-        LoadCoordinate,
         MarkerBodyRigid,
         MarkerNodeRigid,
         NodeRigidBody2D,
@@ -90,8 +89,7 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
     if hub_inertia > 0.0:
         mbs.AddObject(ObjectRigidBody2D(nodeNumber=cn[0], mass=1.0, inertia=hub_inertia))
     fix(mbs, ground, cn[0])
-    mbs.AddLoad(LoadCoordinate(markerNumber=coord(mbs, cn[0], 2), load=0.0,
-                               loadUserFunction=StepMean(torque, dt)))
+    load_history(mbs, coord(mbs, cn[0], 2), torque, dt)
     # the block and the rigid post: one body, its node at their centre of mass, c along the
     # post from the block
     m_post = post.mass_per_length * post.length

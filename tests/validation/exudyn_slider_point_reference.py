@@ -30,12 +30,12 @@ import numpy as np
 from flexlink.model import Link
 
 from .exudyn_pieces import (
-    StepMean,
     add_slider,
     beam_nodes,
     coord,
     fix,
     integration_step,
+    load_history,
     new_system,
     node_sensor,
     node_series,
@@ -55,7 +55,7 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
     Returns ``t`` (s), ``angle`` (rad), ``travel`` (m), ``parent_deflection`` and
     ``tip_deflection`` (m)."""
     import exudyn as exu
-    from exudyn.itemInterface import LoadCoordinate, MarkerNodeRigid, ObjectRigidBody2D
+    from exudyn.itemInterface import MarkerNodeRigid, ObjectRigidBody2D
 
     dt = integration_step(dt_out, dt)
     _container, mbs, ground = new_system()
@@ -67,8 +67,7 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
     hub = beam_nodes(mbs, parent, x_parent, np.zeros(2), 0.0)
     mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub[0], mass=1.0, inertia=hub_inertia))
     fix(mbs, ground, hub[0])
-    mbs.AddLoad(LoadCoordinate(markerNumber=coord(mbs, hub[0], 2), load=0.0,
-                               loadUserFunction=StepMean(moment, dt)))
+    load_history(mbs, coord(mbs, hub[0], 2), moment, dt)
     section = hub[inboard]
     u = np.array([math.cos(axis), math.sin(axis)])
     carried = beam_nodes(mbs, beam, np.linspace(0.0, beam.length, elements + 1),

@@ -36,12 +36,12 @@ import numpy as np
 from flexlink.model import Link
 
 from .exudyn_pieces import (
-    StepMean,
     add_slider,
     beam_nodes,
     coord,
     fix,
     integration_step,
+    load_history,
     new_system,
     node_sensor,
     node_series,
@@ -70,7 +70,6 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
 
     import exudyn as exu
     from exudyn.itemInterface import (
-        LoadCoordinate,
         MarkerBodyRigid,
         NodeRigidBody2D,
         ObjectRigidBody2D,
@@ -98,9 +97,7 @@ def simulate_slider_exudyn(link_length: float, link_inertia: float, beam: Link, 
             mbs.AddMarker(MarkerBodyRigid(bodyNumber=cart, localPosition=[0.0, 0.0, 0.0])),
             mbs.AddMarker(MarkerBodyRigid(bodyNumber=hub, localPosition=[-centre, 0.0,
                                                                          0.0]))]))
-    turn = StepMean(moment, dt)
-    mbs.AddLoad(LoadCoordinate(markerNumber=coord(mbs, hub_node, 2), load=0.0,
-                               loadUserFunction=turn))
+    load_history(mbs, coord(mbs, hub_node, 2), moment, dt)
     u = np.array([math.cos(axis), math.sin(axis)])
     root = np.array([link_length, 0.0]) + s0 * u
     chain = beam_nodes(mbs, beam, np.linspace(0.0, beam.length, elements + 1), root, gamma)
