@@ -15,14 +15,14 @@ T = TypeVar("T")
 
 def median_cpu(run: Callable[[], T], repeat: int) -> tuple[float, T]:
     """The median CPU (process) seconds of ``repeat`` calls of ``run`` after one call to warm
-    up (imports, numba's compilation), and the last call's result."""
+    up (imports, numba's compilation; 0 if ``repeat`` is 0), and the last call's result."""
     out = run()
     cpus = []
     for _ in range(repeat):
         cpu = time.process_time()
         out = run()
         cpus.append(time.process_time() - cpu)
-    return statistics.median(cpus), out
+    return (statistics.median(cpus) if cpus else 0.0), out
 
 
 def use_tree(src: str) -> None:
