@@ -30,22 +30,16 @@ import dataclasses
 import os
 import platform
 import statistics
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _timing import use_tree
 
 ROOT = Path(__file__).resolve().parents[1]
 RTOLS = (1e-3, 1e-4, 1e-5, 1e-6)
-
-
-def _use(src: str) -> None:
-    """Child initializer: import flexlink from ``src`` (and the tests from this tree)."""
-    sys.path.insert(0, str(ROOT))
-    sys.path.insert(0, src)
 
 
 def _cpu(scenario: Any, repeat: int) -> tuple[float, Any]:
@@ -118,7 +112,7 @@ def _momentum() -> tuple[float, float]:
 
 
 def _child(src: str, what: str, *args: Any) -> Any:
-    with ProcessPoolExecutor(1, initializer=_use, initargs=(src,)) as pool:
+    with ProcessPoolExecutor(1, initializer=use_tree, initargs=(src,)) as pool:
         return pool.submit(globals()[what], *args).result()
 
 

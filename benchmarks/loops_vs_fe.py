@@ -26,7 +26,6 @@ import math
 import multiprocessing
 import os
 import platform
-import statistics
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -34,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _timing import median_cpu, use_tree
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -50,22 +50,6 @@ ROWS = (("first_order", "first_order", None, False),
         ("nonlinear, rtol 1e-5", "nonlinear", 1e-5, False),
         ("nonlinear, rtol 1e-3", "nonlinear", 1e-3, False))
 BEFORE_ROWS = ("first_order", "nonlinear")
-
-
-def _use(src: str) -> None:
-    """Child initializer: import flexlink from ``src`` (and the tests from this tree)."""
-    sys.path.insert(0, str(ROOT))
-    sys.path.insert(0, src)
-
-
-def _cpu(fn, repeat: int) -> tuple[float, Any]:
-    fn()
-    times, out = [], None
-    for _ in range(repeat):
-        start = time.process_time()
-        out = fn()
-        times.append(time.process_time() - start)
-    return statistics.median(times), out
 
 
 def _slider_crank() -> dict:
@@ -106,8 +90,8 @@ def _runs(case: str, labels: tuple[str, ...], repeat: int) -> dict[str, tuple]:
         if rtol is not None:
             e["simulation"]["rtol"] = rtol
         scenario = scenario_from_dict(e)
-        cpu, run = _cpu(lambda scenario=scenario, shapes=shapes:
-                        simulate(scenario, shapes=shapes), repeat)
+        cpu, run = median_cpu(lambda scenario=scenario, shapes=shapes:
+                              simulate(scenario, shapes=shapes), repeat)
         out[label] = (cpu, np.asarray(run[channel]),
                       float(run.metadata.get("closure_residual_relative", math.nan)))
     return out
@@ -116,7 +100,7 @@ def _runs(case: str, labels: tuple[str, ...], repeat: int) -> dict[str, tuple]:
 def _child(src: str, *args: Any) -> Any:
     # spawned, not forked: a fork would inherit the flexlink this process has imported
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_use, initargs=(src,)) as pool:
+                             initializer=use_tree, initargs=(src,)) as pool:
         return pool.submit(_runs, *args).result()
 
 

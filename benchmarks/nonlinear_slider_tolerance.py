@@ -31,14 +31,13 @@ import argparse
 import dataclasses
 import os
 import platform
-import statistics
 import sys
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _timing import median_cpu
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # the tests' Exudyn helper and cases
@@ -84,13 +83,8 @@ def run(name: str, modes: int, rtol: float, repeat: int) -> tuple[Any, float]:
     scenario, _ = CASES[name](modes)
     scenario = dataclasses.replace(scenario, settings=dataclasses.replace(
         scenario.settings, model="nonlinear", rtol=rtol))
-    r = simulate(scenario, shapes=False)
-    cpus = []
-    for _ in range(repeat):
-        cpu = time.process_time()
-        r = simulate(scenario, shapes=False)
-        cpus.append(time.process_time() - cpu)
-    return r, statistics.median(cpus) if cpus else 0.0
+    cpu, r = median_cpu(lambda: simulate(scenario, shapes=False), repeat)
+    return r, cpu
 
 
 def error(ours: np.ndarray, reference: np.ndarray) -> float:

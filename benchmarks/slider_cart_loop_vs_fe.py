@@ -32,14 +32,13 @@ import math
 import multiprocessing
 import os
 import platform
-import statistics
 import sys
-import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _timing import median_cpu, use_tree
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -141,12 +140,6 @@ CASES: dict[str, dict[str, Any]] = {
 }
 
 
-def _use(src: str) -> None:
-    """Child initializer: import flexlink from ``src`` (and the tests from this tree)."""
-    sys.path.insert(0, str(ROOT))
-    sys.path.insert(0, src)
-
-
 def _flexlink(case: str, model: str, modes: int, repeat: int
               ) -> tuple[float, dict[str, np.ndarray], float]:
     """CPU seconds (median of ``repeat`` after a warm-up), the compared channels and the
@@ -155,20 +148,15 @@ def _flexlink(case: str, model: str, modes: int, repeat: int
 
     spec = CASES[case]
     scenario = spec["flexlink"](model, modes)
-    run = simulate(scenario, shapes=False)  # warm-up
-    cpus = []
-    for _ in range(repeat):
-        cpu = time.process_time()
-        run = simulate(scenario, shapes=False)
-        cpus.append(time.process_time() - cpu)
-    return (statistics.median(cpus), {a: np.asarray(run[a]) for a, _, _ in spec["signals"]},
+    cpu, run = median_cpu(lambda: simulate(scenario, shapes=False), repeat)
+    return (cpu, {a: np.asarray(run[a]) for a, _, _ in spec["signals"]},
             float(run.metadata.get("closure_residual_relative", math.nan)))
 
 
 def _child(*args: Any) -> Any:
     # spawned, not forked: nothing of this process's imports
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_use, initargs=(str(ROOT / "src"),)) as pool:
+                             initializer=use_tree, initargs=(str(ROOT / "src"),)) as pool:
         return pool.submit(_flexlink, *args).result()
 
 

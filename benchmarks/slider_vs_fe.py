@@ -32,14 +32,12 @@ import dataclasses
 import multiprocessing
 import os
 import platform
-import statistics
-import sys
-import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _timing import median_cpu, use_tree
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -47,12 +45,6 @@ ROOT = Path(__file__).resolve().parents[1]
 SIGNALS = (("joint1_angle", "angle"), ("joint2_position", "travel"), ("tip", "tip_deflection"))
 REFERENCE = (64, 1.25e-4)  # elements, step (s)
 MESHES = ((8, 5e-4), (16, 5e-4), (16, 2.5e-4), (32, 5e-4))
-
-
-def _use(src: str) -> None:
-    """Child initializer: import flexlink from ``src`` (and the tests from this tree)."""
-    sys.path.insert(0, str(ROOT))
-    sys.path.insert(0, src)
 
 
 def _case(name: str, modes: int) -> tuple[Any, dict]:
@@ -74,13 +66,8 @@ def _flexlink(name: str, model: str, modes: int, rtol: float | None,
     scenario, _ = _case(name, modes)
     scenario = dataclasses.replace(scenario, settings=dataclasses.replace(
         scenario.settings, model=model, rtol=rtol))
-    r = simulate(scenario, shapes=False)  # warm-up
-    cpus = []
-    for _ in range(repeat):
-        cpu = time.process_time()
-        r = simulate(scenario, shapes=False)
-        cpus.append(time.process_time() - cpu)
-    return statistics.median(cpus), {a: np.asarray(r[a]) for a, _ in SIGNALS}
+    cpu, r = median_cpu(lambda: simulate(scenario, shapes=False), repeat)
+    return cpu, {a: np.asarray(r[a]) for a, _ in SIGNALS}
 
 
 def _exudyn(name: str, elements: int, dt: float) -> dict[str, Any]:
@@ -92,7 +79,7 @@ def _exudyn(name: str, elements: int, dt: float) -> dict[str, Any]:
 
 def _child(src: str, what: str, *args: Any) -> Any:
     context = multiprocessing.get_context("spawn")  # nothing of the parent's flexlink
-    with ProcessPoolExecutor(1, mp_context=context, initializer=_use,
+    with ProcessPoolExecutor(1, mp_context=context, initializer=use_tree,
                              initargs=(src,)) as pool:
         return pool.submit(globals()[what], *args).result()
 

@@ -17,6 +17,7 @@ from flexlink.dynamics.forward_kernel import inputs
 from flexlink.dynamics.loops import LoopSystem
 from flexlink.model import ZERO, Base, Chain, Closure, Link, TorqueDrive
 from flexlink.motion.profiles import Spinup
+from tests.unit._loops_checks import closure_differences, numpy_equations, phi_at, random_state
 from tests.validation.brute_force import chain_points
 
 CRANK, COUPLER, ROCKER, D = 0.1, 0.3, 0.25, (0.3, 0.05)
@@ -33,32 +34,13 @@ def _four_bar(stiffening: bool, x: float = COUPLER) -> LoopSystem:
     return LoopSystem(system, [Closure("pin", "revolute", 1, x, 2, ROCKER)])
 
 
-def _state(loops: LoopSystem, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """A closed state with random deflections and rates (rates not closing the loop: the
-    kinematics do not need it)."""
-    rng = np.random.default_rng(seed)
-    y = loops.y0.copy()
-    nu, n = len(loops.system.free), loops.system.n
-    y[2 * nu:2 * nu + n] = 2e-3 * rng.standard_normal(n)
-    y[nu:2 * nu] = rng.standard_normal(nu)
-    y[2 * nu + n:2 * nu + 2 * n] = 0.3 * rng.standard_normal(n)
-    return y, inputs(loops.system, np.array([0.2]))[0]
-
-
-def _phi(loops: LoopSystem, work, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    work.q[:] = q
-    work.v[:] = v
-    constraints(loops.data, work)
-    return work.Phi.copy()
-
-
 @pytest.mark.parametrize("stiffening", [False, True])
 def test_closure_positions_are_the_exact_kinematics(stiffening: bool) -> None:
     loops = _four_bar(stiffening)
-    y, u = _state(loops, 1)
+    y, u = random_state(loops, 1)
     work = loops.workspace(y.size)
     load_state(loops.data, work, u, y)
-    phi = _phi(loops, work, work.q.copy(), work.v.copy())
+    phi = phi_at(loops, work, work.q.copy(), work.v.copy())
     q = work.q
     modal = loops.system.modal
     nr = loops.system.n_rigid
@@ -73,24 +55,17 @@ def test_closure_positions_are_the_exact_kinematics(stiffening: bool) -> None:
 def test_jacobian_and_acceleration_terms_are_derivatives_of_the_closure(stiffening: bool
                                                                         ) -> None:
     loops = _four_bar(stiffening, x=0.21)  # a point inside the coupler, not its tip
-    y, u = _state(loops, 2)
+    y, u = random_state(loops, 2)
     work = loops.workspace(y.size)
     load_state(loops.data, work, u, y)
     q0, v0 = work.q.copy(), work.v.copy()
     constraints(loops.data, work)
     G, gamma = work.G.copy(), work.gam.copy()
-    h = 1e-6
+    fd, second, first = closure_differences(loops, work, q0, v0)
     for c in range(q0.size):
-        e = np.zeros_like(q0)
-        e[c] = h
-        fd = (_phi(loops, work, q0 + e, v0) - _phi(loops, work, q0 - e, v0)) / (2 * h)
-        assert np.abs(fd - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
-    tau = 1e-4
-    samples = [_phi(loops, work, q0 + v0 * s, v0) for s in (-2 * tau, -tau, 0.0, tau, 2 * tau)]
-    a, b, c_, d, e = samples
-    second = (-a + 16 * b - 30 * c_ + 16 * d - e) / (12 * tau**2)
+        assert np.abs(fd[:, c] - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
     assert np.abs(second - gamma).max() < 1e-5 * max(1.0, np.abs(gamma).max())
-    assert np.abs(G @ v0 - (a - 8 * b + 8 * d - e) / (12 * tau)).max() < 1e-8
+    assert np.abs(G @ v0 - first).max() < 1e-8
 
 
 @pytest.mark.parametrize("stiffening", [False, True])
@@ -98,33 +73,13 @@ def test_constrained_accelerations_satisfy_the_numpy_equations(stiffening: bool)
     """M ẍ + r = Q + Gᵀλ on the free and elastic rows (ForwardSystem.matrices, the
     reference) and G ẍ + γ = 0, at the kernel's accelerations and multipliers."""
     loops = _four_bar(stiffening)
-    y, u = _state(loops, 3)
+    y, u = random_state(loops, 3)
     work = loops.workspace(y.size)
     assert solve_constrained(loops.data, work, u, y)
-    system = loops.system
-    nu, n, nr = len(system.free), system.n, system.n_rigid
-    yp = work.yp
-    m = nu + n
-    acc, lam = work.rhs[:m].copy(), work.rhs[m:].copy()
-    t = np.array([0.2])
-    p_free, pd_free = yp[None, :nu], yp[None, nu:2 * nu]
-    pdd_free = acc[None, :nu]
-    p, pd, pdd = system.rigid_state(t, p_free, pd_free, pdd_free)
-    M, C, K, f = (a[0] for a in system.matrices(p, pd, pdd))
-    z, zd, zdd = yp[2 * nu:2 * nu + n], yp[2 * nu + n:2 * nu + 2 * n], acc[nu:]
-    x_dd = np.concatenate([np.zeros(nr), zdd])  # δp̈ = 0: the rigid ones are in f(p̈)
-    x_d = np.concatenate([np.zeros(nr), zd])
-    x = np.concatenate([np.zeros(nr), z])
-    Q, _ = system.applied(t, p, pd, np.zeros((1, 0)))
-    load_state(loops.data, work, u, yp)
-    work.v[:nr] = pd[0]
-    constraints(loops.data, work)
-    residual = M @ x_dd + C @ x_d + K @ x - f - Q[0] - work.G.T @ lam
-    rows = system.free + list(range(nr, nr + n))
+    residual, f, closure = numpy_equations(loops, work, u)
     scale = np.abs(f).max()
-    assert np.abs(residual[rows]).max() < 1e-9 * scale
-    q_dd = np.concatenate([pdd[0], zdd])
-    assert np.abs(work.G @ q_dd + work.gam).max() < 1e-9 * np.abs(work.gam).max()
+    assert np.abs(residual).max() < 1e-9 * scale
+    assert np.abs(closure).max() < 1e-9 * np.abs(work.gam).max()
 
 
 def _moving(kind: str, closure: str) -> LoopSystem:
@@ -163,7 +118,7 @@ def test_a_moving_base_carries_the_closures_ground_and_its_derivatives(kind: str
     (a slider's line turns with a pinned or free base), and a closure to the ground in the
     base frame: Φ unchanged by a rigid motion of the whole mechanism with its base."""
     loops = _moving(kind, closure)
-    y, u = _state(loops, 4)
+    y, u = random_state(loops, 4)
     work = loops.workspace(y.size)
     load_state(loops.data, work, u, y)
     if kind != "cart":  # the base's own rates: random too
@@ -173,22 +128,15 @@ def test_a_moving_base_carries_the_closures_ground_and_its_derivatives(kind: str
     constraints(loops.data, work)
     G, gamma, phi0 = work.G.copy(), work.gam.copy(), work.Phi.copy()
     assert np.abs(phi0).max() > 1e-3  # a state off the closure: the terms do not vanish
-    h = 1e-6
+    fd, second, _ = closure_differences(loops, work, q0, v0)
     for c in range(q0.size):
-        e = np.zeros_like(q0)
-        e[c] = h
-        fd = (_phi(loops, work, q0 + e, v0) - _phi(loops, work, q0 - e, v0)) / (2 * h)
-        assert np.abs(fd - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
-    tau = 1e-4
-    samples = [_phi(loops, work, q0 + v0 * s, v0) for s in (-2 * tau, -tau, 0.0, tau, 2 * tau)]
-    a, b, c_, d, e = samples
-    second = (-a + 16 * b - 30 * c_ + 16 * d - e) / (12 * tau**2)
+        assert np.abs(fd[:, c] - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
     assert np.abs(second - gamma).max() < 1e-5 * max(1.0, np.abs(gamma).max())
     if kind == "free":  # translate and turn the base: every point, pivot and line with it
         moved = q0.copy()
         moved[0] += 0.3
         moved[1] -= 0.2
-        shifted = _phi(loops, work, moved, v0)
+        shifted = phi_at(loops, work, moved, v0)
         assert np.abs(shifted - phi0).max() < 1e-12
     if kind != "cart":
         turned = q0.copy()
@@ -196,7 +144,7 @@ def test_a_moving_base_carries_the_closures_ground_and_its_derivatives(kind: str
         if kind == "free":  # about the base's reference point
             c, s = np.cos(0.4), np.sin(0.4)
             turned[0], turned[1] = c * q0[0] - s * q0[1], s * q0[0] + c * q0[1]
-        rotated = _phi(loops, work, turned, v0)
+        rotated = phi_at(loops, work, turned, v0)
         if closure == "slider":  # a distance to the line: unchanged
             assert abs(rotated[0] - phi0[0]) < 1e-12
         else:  # the gap turns with the mechanism
@@ -211,30 +159,12 @@ def test_constrained_accelerations_on_a_moving_base_satisfy_the_numpy_equations(
     """M ẍ + r = Q + Gᵀλ on the free rows (the base's too) and G ẍ + γ = 0 on a moving
     base, as on a fixed one."""
     loops = _moving(kind, "revolute")
-    y, u = _state(loops, 6)
+    y, u = random_state(loops, 6)
     work = loops.workspace(y.size)
     assert solve_constrained(loops.data, work, u, y)
-    system = loops.system
-    nu, n, nr = len(system.free), system.n, system.n_rigid
-    yp = work.yp
-    m = nu + n
-    acc, lam = work.rhs[:m].copy(), work.rhs[m:].copy()
-    t = np.array([0.2])
-    p, pd, pdd = system.rigid_state(t, yp[None, :nu], yp[None, nu:2 * nu], acc[None, :nu])
-    M, C, K, f = (a[0] for a in system.matrices(p, pd, pdd))
-    z, zd, zdd = yp[2 * nu:2 * nu + n], yp[2 * nu + n:2 * nu + 2 * n], acc[nu:]
-    x_dd = np.concatenate([np.zeros(nr), zdd])
-    x_d = np.concatenate([np.zeros(nr), zd])
-    x = np.concatenate([np.zeros(nr), z])
-    Q, _ = system.applied(t, p, pd, np.zeros((1, 0)))
-    load_state(loops.data, work, u, yp)
-    work.v[:nr] = pd[0]
-    constraints(loops.data, work)
-    residual = M @ x_dd + C @ x_d + K @ x - f - Q[0] - work.G.T @ lam
-    rows = system.free + list(range(nr, nr + n))
-    assert np.abs(residual[rows]).max() < 1e-9 * np.abs(f).max()
-    q_dd = np.concatenate([pdd[0], zdd])
-    assert np.abs(work.G @ q_dd + work.gam).max() < 1e-9 * np.abs(work.gam).max()
+    residual, f, closure = numpy_equations(loops, work, u)
+    assert np.abs(residual).max() < 1e-9 * np.abs(f).max()
+    assert np.abs(closure).max() < 1e-9 * np.abs(work.gam).max()
 
 
 def test_the_outputs_pass_returns_the_rates_of_its_projected_states() -> None:
@@ -244,7 +174,7 @@ def test_the_outputs_pass_returns_the_rates_of_its_projected_states() -> None:
     from flexlink.dynamics.loops import closed_states
 
     loops = _four_bar(True)
-    states = np.array([_state(loops, seed)[0] for seed in (7, 8, 9)])
+    states = np.array([random_state(loops, seed)[0] for seed in (7, 8, 9)])
     nu = len(loops.system.free)
     states[:, loops.dep] += 1e-3  # off the loop: the pass must close them
     states[:, nu + loops.dep] += 0.1

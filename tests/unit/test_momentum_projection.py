@@ -7,13 +7,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flexlink.dynamics._forward_numba import workspace
-from flexlink.dynamics._momentum_numba import _state, components
-from flexlink.dynamics.forward import ForwardSystem, momentum
+from flexlink.dynamics.forward import ForwardSystem
 from flexlink.dynamics.forward_kernel import inputs, pack
 from flexlink.dynamics.momentum_projection import projection
 from flexlink.model import BangBang, Base, BaseLoad, Chain, Link, Step, TorqueDrive
 from flexlink.motion import Cycloidal, Hold
+from tests.unit._momentum_checks import (
+    compiled_components,
+    first_moment_rate,
+    numpy_momentum,
+    packed,
+)
 
 LINKS = (Link("a", 2.0, 1.0, 50.0, tip_mass=0.3, tip_inertia=0.01, modes=2),
          Link("b", 1.5, 1.0, 40.0, modes=3), Link("c", 0.8, 0.5, 30.0, modes=2))
@@ -32,21 +36,13 @@ def _system(kind: str, loads: tuple = (), gravity: tuple = (0.0, 0.0)) -> Forwar
 def test_compiled_momentum_equals_the_numpy_one(kind: str) -> None:
     """Random states (the prescribed joint moving: its rate enters), about the origin."""
     system = _system(kind)
-    d = pack(system)
-    w = workspace(d, 0)
+    d, w, pj = packed(system)
     rng = np.random.default_rng(3)
-    nu, n = len(system.free), system.n
-    t = np.array([0.4])
-    u = inputs(system, t)[0]
-    pj = projection(system, d, 0.0, u.size)._replace(about_cm=False)
-    out = np.zeros(5)
+    pj = pj._replace(about_cm=False)
     for _ in range(3):
         y = system.initial_state() + 0.1 * rng.normal(size=system.initial_state().size)
-        _state(d, w, u, y)
-        components(d, w, pj, w.pd, out)
-        p, pd, _ = system.rigid_state(t, y[None, :nu], y[None, nu:2 * nu], np.zeros((1, nu)))
-        lin, ang = momentum(system, p, pd, y[None, 2 * nu:2 * nu + n],
-                            y[None, 2 * nu + n:2 * nu + 2 * n])
+        out = compiled_components(system, d, w, pj, 0.4, y)
+        lin, ang, _ = numpy_momentum(system, 0.4, y)
         np.testing.assert_allclose(out[:3], [*lin[0], ang[0]], rtol=1e-13, atol=1e-13)
 
 
@@ -73,32 +69,12 @@ def test_first_moment_changes_at_the_linear_momentum(kind: str) -> None:
     """S = ∫r dm (the centre of mass of the gravity projection) against the numpy linear
     momentum: dS/dt along the motion (central differences of the compiled S) equals L."""
     system = _system(kind)
-    d = pack(system)
-    w = workspace(d, 0)
+    d, w, pj = packed(system)
     rng = np.random.default_rng(4)
-    nu, n = len(system.free), system.n
     y = system.initial_state() + 0.1 * rng.normal(size=system.initial_state().size)
-    rates = np.empty_like(y)
-    from flexlink.dynamics._forward_numba import rates as kernel
-
-    t, eps = 0.4, 1e-6
-    kernel(d, w, inputs(system, np.array([t]))[0], y, rates)
-    pj = projection(system, d, 0.0, inputs(system, np.zeros(1)).shape[1])
-    out = np.zeros(5)
-    moments = []
-    for sign in (1.0, -1.0):
-        ys = y.copy()
-        ys[:nu] += sign * eps * rates[:nu]  # positions move with their rates
-        ys[2 * nu:2 * nu + n] += sign * eps * rates[2 * nu:2 * nu + n]
-        u = inputs(system, np.array([t + sign * eps]))[0]
-        _state(d, w, u, ys)
-        components(d, w, pj, w.pd, out)
-        moments.append(out[3:5].copy())
-    p, pd, _ = system.rigid_state(np.array([t]), y[None, :nu], y[None, nu:2 * nu],
-                                  np.zeros((1, nu)))
-    linear = momentum(system, p, pd, y[None, 2 * nu:2 * nu + n],
-                      y[None, 2 * nu + n:2 * nu + 2 * n])[0][0]
-    np.testing.assert_allclose((moments[0] - moments[1]) / (2 * eps), linear, rtol=1e-6,
+    rate = first_moment_rate(system, d, w, pj, 0.4, y)
+    linear = numpy_momentum(system, 0.4, y)[0][0]
+    np.testing.assert_allclose(rate, linear, rtol=1e-6,
                                atol=1e-6 * np.abs(linear).max())
 
 

@@ -13,7 +13,8 @@ from flexlink.dynamics.forward_kernel import inputs
 from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
 from flexlink.dynamics.nonlinear_loops import NonlinearLoopSystem
 from flexlink.model import Base, Cart, Step, TorqueDrive
-from tests.unit.test_nonlinear_prismatic import _chain, _random_states
+from tests.unit._slider_cases import telescope
+from tests.unit.test_nonlinear_prismatic import _random_states
 
 BASES = {
     "fixed": Base(),
@@ -46,7 +47,7 @@ def test_the_open_tree_on_the_loop_kernel_has_the_forward_models_accelerations(
         drive: str, base: str) -> None:
     """Random states, gravity on: ÿ of the loop kernel with no closures equals the forward
     model's to 1e-9 of its size (two solves' round-off)."""
-    system = NonlinearForwardSystem(_chain(drive), BASES[base], gravity=(1.0, -9.81))
+    system = NonlinearForwardSystem(telescope(drive), BASES[base], gravity=(1.0, -9.81))
     loops = NonlinearLoopSystem(system, ())
     assert loops.n_c == 0 and loops.first_order is None
     t, y, v, _ = _random_states(system, seed=3)
@@ -56,6 +57,6 @@ def test_the_open_tree_on_the_loop_kernel_has_the_forward_models_accelerations(
 
 
 def test_the_open_tree_starts_from_the_trees_own_state() -> None:
-    system = NonlinearForwardSystem(_chain("force"), BASES["free"])
+    system = NonlinearForwardSystem(telescope("force"), BASES["free"])
     y, v = system.initial_state()
     np.testing.assert_array_equal(NonlinearLoopSystem(system, ()).y0, np.concatenate([y, v]))

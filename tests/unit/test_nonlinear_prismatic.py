@@ -15,30 +15,10 @@ from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
 from flexlink.model import (
     Base,
     Chain,
-    Link,
-    PositionServo,
-    PrismaticJoint,
     Step,
     TorqueDrive,
 )
-from flexlink.motion import Cycloidal, Travel
-
-
-def _chain(drive: str = "force", modes: int = 2, torques=(0.8, 1.5, -0.1)) -> Chain:
-    """A flexible link turned by a torque, a slider at its tip (line at 20°, carried link at
-    −15°, a 0.35 kg block) carrying a flexible link with a tip mass, then a third link on a
-    revolute joint (test_prismatic.py's telescope)."""
-    links = (Link("a", 0.9, 1.4, 40.0, modes=modes, damping_ratio=0.01),
-             Link("b", 0.6, 0.8, 25.0, tip_mass=0.2, modes=modes),
-             Link("c", 0.4, 0.5, 15.0, modes=min(modes, 1)))
-    slider_drive = {"force": TorqueDrive(Step(torques[1], 0.0, 0.7), 0.1, 0.2),
-                    "prescribed": Travel(Cycloidal(0.05, 0.4, 0.1, 1.0)),
-                    "servo": PositionServo(Travel(Cycloidal(0.05, 0.4, 0.1, 1.0)), 8.0, 0.5,
-                                           30.0, 20.0)}[drive]
-    joints = (TorqueDrive(Step(torques[0], 0.0, 0.5), 0.2, 0.3),
-              PrismaticJoint(slider_drive, np.radians(20.0), np.radians(-15.0), mass=0.35),
-              TorqueDrive(Step(torques[2]), 0.1))
-    return Chain(links, joints)
+from tests.unit._slider_cases import telescope, telescoping_arm
 
 
 def _random_states(system: NonlinearForwardSystem, seed: int = 1, b: int = 6):
@@ -54,7 +34,7 @@ def _random_states(system: NonlinearForwardSystem, seed: int = 1, b: int = 6):
 def test_compiled_residual_matches_the_numpy_equations(drive: str, gravity) -> None:
     """Random states: the compiled accelerations equal the numpy ones to 1e-9 of their size
     (the round-off of the two solves), with the slider's travel free or an input."""
-    system = NonlinearForwardSystem(_chain(drive), Base(), gravity=gravity)
+    system = NonlinearForwardSystem(telescope(drive), Base(), gravity=gravity)
     assert len(system.lines) == 1 and (system.line_col[0] >= 0) == (drive != "prescribed")
     t, y, v, _ = _random_states(system)
     got = system.accelerations(t, y, v, compiled=True)
@@ -66,7 +46,7 @@ def test_equations_are_the_lagrangian_of_the_point_masses() -> None:
     """The residual's inertia part on every free coordinate equals d/dt ∂T/∂ẏ − ∂T/∂y of
     the kinetic energy from the exact positions (`point_motion`), by central differences,
     along a random motion y(t) = y0 + v0 t + ½ a0 t² (undamped, no gravity, no loads)."""
-    chain = _chain("force", torques=(0.0, 0.0, 0.0))
+    chain = telescope("force", torques=(0.0, 0.0, 0.0))
     chain = Chain(tuple(replace(link, damping_ratio=0.0) for link in chain.links), chain.joints)
     system = NonlinearForwardSystem(chain, Base())
     rng = np.random.default_rng(7)
@@ -120,7 +100,7 @@ def assert_rigid_models_agree(chain: Chain, gravity) -> None:
 def test_rigid_limit_equals_the_first_order_model(drive: str, gravity) -> None:
     """Rigid links (no modes): both models are exact, so the free rigid coordinates'
     accelerations and every joint's torque or force agree to round-off."""
-    assert_rigid_models_agree(_chain(drive, modes=0), gravity)
+    assert_rigid_models_agree(telescope(drive, modes=0), gravity)
 
 
 def test_energy_equals_the_drives_work() -> None:
@@ -130,7 +110,7 @@ def test_energy_equals_the_drives_work() -> None:
     from flexlink.solvers.gauss_forward import solve_nonlinear_forward
 
     tau, force, tau3 = 0.8, 1.5, -0.1
-    chain = _chain("force", torques=(tau, force, tau3))
+    chain = telescope("force", torques=(tau, force, tau3))
     links = tuple(replace(link, damping_ratio=0.0) for link in chain.links)
     joints = (TorqueDrive(Step(tau), 0.2, 0.3), replace(
         chain.joints[1], drive=TorqueDrive(Step(force), 0.1, 0.2)), chain.joints[2])
@@ -150,14 +130,7 @@ def test_energy_equals_the_drives_work() -> None:
 # --- scenario path -----------------------------------------------------------------------------
 
 def _example() -> dict:
-    from pathlib import Path
-
-    from flexlink.scenario import resolve_scenario_dict
-
-    path = Path(__file__).resolve().parents[2] / "examples" / "telescoping_arm.toml"
-    d = resolve_scenario_dict(path)
-    d["simulation"].update(t_end=0.5, model="nonlinear")
-    return d
+    return telescoping_arm(t_end=0.5, model="nonlinear")
 
 
 def test_the_example_runs_on_the_nonlinear_model_with_the_slider_channels() -> None:

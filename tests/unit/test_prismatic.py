@@ -12,29 +12,18 @@ from flexlink.model import (
     Base,
     Chain,
     Link,
-    PositionServo,
     PrismaticJoint,
     Step,
     TorqueDrive,
 )
 from flexlink.motion import Cycloidal, Spinup, Travel
+from tests.unit._slider_cases import telescope, telescoping_arm
 
 
 def _telescope(stiffening: bool, drive: str = "force", gravity=(0.0, 0.0),
                modes: int = 2) -> ForwardSystem:
-    """A flexible link turned by a torque, a slider at its tip (line at 20°, carried link at
-    −15°) carrying a flexible link with a tip mass, then a third link on a revolute joint."""
-    links = (Link("a", 0.9, 1.4, 40.0, modes=modes, damping_ratio=0.01),
-             Link("b", 0.6, 0.8, 25.0, tip_mass=0.2, modes=modes),
-             Link("c", 0.4, 0.5, 15.0, modes=1))
-    slider_drive = {"force": TorqueDrive(Step(1.5, 0.0, 0.7), 0.1, 0.2),
-                    "prescribed": Travel(Cycloidal(0.05, 0.4, 0.1, 1.0)),
-                    "servo": PositionServo(Travel(Cycloidal(0.05, 0.4, 0.1, 1.0)), 8.0, 0.5,
-                                           30.0, 20.0)}[drive]
-    joints = (TorqueDrive(Step(0.8, 0.0, 0.5), 0.2, 0.3),
-              PrismaticJoint(slider_drive, np.radians(20.0), np.radians(-15.0), mass=0.35),
-              TorqueDrive(Step(-0.1), 0.1))
-    return ForwardSystem(Chain(links, joints), Base(), stiffening, gravity=gravity)
+    """`telescope` on a fixed base."""
+    return ForwardSystem(telescope(drive, modes), Base(), stiffening, gravity=gravity)
 
 
 @pytest.mark.parametrize("gravity", [(0.0, 0.0), (0.0, -9.81)])
@@ -111,14 +100,7 @@ def test_a_slider_outside_its_travel_is_refused_at_load() -> None:
 # --- scenario keys, channels and travel, end to end ------------------------------------------
 
 def _example() -> dict:
-    from pathlib import Path
-
-    from flexlink.scenario import resolve_scenario_dict
-
-    path = Path(__file__).resolve().parents[2] / "examples" / "telescoping_arm.toml"
-    d = resolve_scenario_dict(path)
-    d["simulation"]["t_end"] = 0.4
-    return d
+    return telescoping_arm(t_end=0.4)
 
 
 def test_the_example_reads_runs_and_names_its_slider_channels() -> None:

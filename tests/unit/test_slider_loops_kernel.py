@@ -17,7 +17,7 @@ from flexlink.dynamics.forward_kernel import inputs
 from flexlink.dynamics.loops import LoopSystem
 from flexlink.scenario import scenario_from_dict
 from flexlink.simulation.forward import forward_system
-from tests.unit.test_loops_kernel import _phi, _state
+from tests.unit._loops_checks import closure_differences, numpy_equations, random_state
 from tests.unit.test_nonlinear_loops_kernel import MOVING
 from tests.validation.test_nonlinear_slider_loops import slider_loop_case
 
@@ -35,7 +35,7 @@ def loops(request) -> LoopSystem:
 
 
 def test_jacobian_and_acceleration_terms_carry_the_travel(loops) -> None:
-    y, u = _state(loops, 2)
+    y, u = random_state(loops, 2)
     work = loops.workspace(y.size)
     load_state(loops.data, work, u, y)
     system = loops.system
@@ -47,43 +47,22 @@ def test_jacobian_and_acceleration_terms_carry_the_travel(loops) -> None:
     constraints(loops.data, work)
     G, gamma = work.G.copy(), work.gam.copy()
     assert np.abs(G[:, travel]).max() > 0.1
-    h = 1e-6
+    fd, second, first = closure_differences(loops, work, q0, v0)
     for c in range(q0.size):
-        e = np.zeros_like(q0)
-        e[c] = h
-        fd = (_phi(loops, work, q0 + e, v0) - _phi(loops, work, q0 - e, v0)) / (2 * h)
-        assert np.abs(fd - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
-    tau = 1e-4
-    a, b, _, d, e = (_phi(loops, work, q0 + v0 * s, v0)
-                     for s in (-2 * tau, -tau, 0.0, tau, 2 * tau))
-    second = (-a + 16 * b - 30 * _phi(loops, work, q0, v0) + 16 * d - e) / (12 * tau**2)
+        assert np.abs(fd[:, c] - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
     assert np.abs(second - gamma).max() < 1e-5 * max(1.0, np.abs(gamma).max())
-    assert np.abs(G @ v0 - (a - 8 * b + 8 * d - e) / (12 * tau)).max() < 1e-8
+    assert np.abs(G @ v0 - first).max() < 1e-8
 
 
 def test_constrained_accelerations_satisfy_the_numpy_equations(loops) -> None:
     """M ẍ + r = Q + Gᵀλ on the free and elastic rows (ForwardSystem.matrices) and
     G ẍ + γ = 0, at the kernel's accelerations and multipliers."""
-    y, u = _state(loops, 3)
+    y, u = random_state(loops, 3)
     work = loops.workspace(y.size)
     assert solve_constrained(loops.data, work, u, y)
-    system = loops.system
-    nu, n, nr = len(system.free), system.n, system.n_rigid
-    yp, m = work.yp, nu + n
-    acc, lam = work.rhs[:m].copy(), work.rhs[m:].copy()
-    t = np.array([0.2])
-    p, pd, pdd = system.rigid_state(t, yp[None, :nu], yp[None, nu:2 * nu], acc[None, :nu])
-    M, C, K, f = (a[0] for a in system.matrices(p, pd, pdd))
-    z, zd, zdd = yp[2 * nu:2 * nu + n], yp[2 * nu + n:2 * nu + 2 * n], acc[nu:]
-    Q, _ = system.applied(t, p, pd, np.zeros((1, len(system.servos))))
-    load_state(loops.data, work, u, yp)
-    work.v[:nr] = pd[0]
-    constraints(loops.data, work)
-    x = [np.concatenate([np.zeros(nr), a]) for a in (z, zd, zdd)]
-    residual = M @ x[2] + C @ x[1] + K @ x[0] - f - Q[0] - work.G.T @ lam
-    rows = system.free + list(range(nr, nr + n))
-    assert np.abs(residual[rows]).max() < 1e-9 * np.abs(f).max()
-    assert np.abs(work.G @ np.concatenate([pdd[0], zdd]) + work.gam).max() < \
+    residual, f, closure = numpy_equations(loops, work, u)
+    assert np.abs(residual).max() < 1e-9 * np.abs(f).max()
+    assert np.abs(closure).max() < \
         1e-9 * max(np.abs(work.gam).max(), 1e-12)
 
 

@@ -8,12 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flexlink.dynamics._forward_numba import rates as kernel
-from flexlink.dynamics._forward_numba import workspace
-from flexlink.dynamics._momentum_numba import _state, components
-from flexlink.dynamics.forward import ForwardSystem, momentum
-from flexlink.dynamics.forward_kernel import inputs, pack
-from flexlink.dynamics.momentum_projection import projection
+from flexlink.dynamics.forward import ForwardSystem
 from flexlink.model import (
     BangBang,
     Base,
@@ -24,6 +19,12 @@ from flexlink.model import (
     TorqueDrive,
 )
 from flexlink.motion import Cycloidal, Travel
+from tests.unit._momentum_checks import (
+    compiled_components,
+    first_moment_rate,
+    numpy_momentum,
+    packed,
+)
 
 
 def slider_system(kind: str, prescribed: bool = False) -> ForwardSystem:
@@ -58,20 +59,12 @@ def _random_state(system: ForwardSystem, seed: int) -> np.ndarray:
 def test_compiled_momentum_equals_the_numpy_one_with_a_slider(kind: str, prescribed: bool
                                                               ) -> None:
     system = slider_system(kind, prescribed)
-    d = pack(system)
-    w = workspace(d, 0)
-    nu, n = len(system.free), system.n
-    t = np.array([0.4])
-    u = inputs(system, t)[0]
-    pj = projection(system, d, 0.0, u.size)._replace(about_cm=False)
-    out = np.zeros(5)
+    d, w, pj = packed(system)
+    pj = pj._replace(about_cm=False)
     for seed in range(3):
         y = _random_state(system, seed)
-        _state(d, w, u, y)
-        components(d, w, pj, w.pd, out)
-        p, pd, _ = system.rigid_state(t, y[None, :nu], y[None, nu:2 * nu], np.zeros((1, nu)))
-        lin, ang = momentum(system, p, pd, y[None, 2 * nu:2 * nu + n],
-                            y[None, 2 * nu + n:2 * nu + 2 * n])
+        out = compiled_components(system, d, w, pj, 0.4, y)
+        lin, ang, _ = numpy_momentum(system, 0.4, y)
         if kind == "cart":  # the compiled component 0 is the momentum along the rail
             lin[0, 0] = lin[0] @ np.array(system.base.cart.direction)
         np.testing.assert_allclose(out[:3], [lin[0, 0], lin[0, 1], ang[0]], rtol=1e-13,
@@ -85,28 +78,12 @@ def test_the_first_moment_changes_at_the_linear_momentum_with_a_slider(
     differenced along the motion equals the numpy linear momentum, which a slider's ṡ and
     s ω enter: without them it misses by the block's and the arm's mass times that speed."""
     system = slider_system(kind, prescribed)
-    d = pack(system)
-    w = workspace(d, 0)
-    nu, n = len(system.free), system.n
+    d, w, pj = packed(system)
     y = _random_state(system, 7)
-    rates = np.empty_like(y)
-    t, eps = 0.4, 1e-6
-    kernel(d, w, inputs(system, np.array([t]))[0], y, rates)
-    pj = projection(system, d, 0.0, inputs(system, np.zeros(1)).shape[1])
-    out = np.zeros(5)
-    moments = []
-    for sign in (1.0, -1.0):
-        ys = y.copy()
-        ys[:nu] += sign * eps * rates[:nu]
-        ys[2 * nu:2 * nu + n] += sign * eps * rates[2 * nu:2 * nu + n]
-        _state(d, w, inputs(system, np.array([t + sign * eps]))[0], ys)
-        components(d, w, pj, w.pd, out)
-        moments.append(out[3:5].copy())
-    p, pd, _ = system.rigid_state(np.array([t]), y[None, :nu], y[None, nu:2 * nu],
-                                  np.zeros((1, nu)))
-    linear = momentum(system, p, pd, y[None, 2 * nu:2 * nu + n],
-                      y[None, 2 * nu + n:2 * nu + 2 * n])[0][0]
+    rate = first_moment_rate(system, d, w, pj, 0.4, y)
+    lin, _, pd = numpy_momentum(system, 0.4, y)
+    linear = lin[0]
     i = system.joint_index(1)
     assert abs(pd[0, i]) > 0.01  # the travel moves
-    np.testing.assert_allclose((moments[0] - moments[1]) / (2 * eps), linear, rtol=1e-6,
+    np.testing.assert_allclose(rate, linear, rtol=1e-6,
                                atol=1e-6 * np.abs(linear).max())

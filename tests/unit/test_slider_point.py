@@ -16,11 +16,8 @@ from flexlink.dynamics import forward_kernel
 from flexlink.dynamics.forward import ForwardSystem
 from flexlink.dynamics.nonlinear_forward import NonlinearForwardSystem
 from flexlink.model import Base, Chain, Step, TorqueDrive
-from tests.unit.test_nonlinear_prismatic import (
-    _chain,
-    _random_states,
-    assert_rigid_models_agree,
-)
+from tests.unit._slider_cases import telescope, telescoping_arm
+from tests.unit.test_nonlinear_prismatic import _random_states, assert_rigid_models_agree
 
 AT = 0.55  # m, on the 0.9 m parent
 
@@ -46,7 +43,7 @@ def _first_order_states(system: ForwardSystem, seed: int = 3, nt: int = 8):
 def test_first_order_kernel_matches_the_numpy_equations(drive: str) -> None:
     """Flexible links, stiffened, under gravity: the compiled accelerations and joint rows
     equal ForwardSystem's to the tolerances of the tip case (test_prismatic.py)."""
-    system = ForwardSystem(_at(_chain(drive), AT), Base(), True, gravity=(0.0, -9.81))
+    system = ForwardSystem(_at(telescope(drive), AT), Base(), True, gravity=(0.0, -9.81))
     assert system.hang[0].x == AT and system.hang[1].x == system.modal[1].length
     args = _first_order_states(system)
     expected = system.accelerations(*args)
@@ -66,7 +63,7 @@ def test_first_order_kernel_matches_the_numpy_equations(drive: str) -> None:
 
 @pytest.mark.parametrize("drive", ["force", "prescribed", "servo"])
 def test_nonlinear_kernel_matches_the_numpy_equations(drive: str) -> None:
-    system = NonlinearForwardSystem(_at(_chain(drive), AT), Base(), gravity=(0.0, -9.81))
+    system = NonlinearForwardSystem(_at(telescope(drive), AT), Base(), gravity=(0.0, -9.81))
     t, y, v, _ = _random_states(system)
     expected = system.accelerations(t, y, v, compiled=False)
     got = system.accelerations(t, y, v, compiled=True)
@@ -78,7 +75,7 @@ def test_nonlinear_kernel_matches_the_numpy_equations(drive: str) -> None:
 def test_rigid_links_both_models_agree(drive: str, gravity) -> None:
     """Rigid links (both models exact): free accelerations and every joint's torque or force
     agree to round-off with the line through the parent's section at 0.55 m."""
-    assert_rigid_models_agree(_at(_chain(drive, modes=0), AT), gravity)
+    assert_rigid_models_agree(_at(telescope(drive, modes=0), AT), gravity)
 
 
 @pytest.mark.parametrize("model", ["first_order", "nonlinear"])
@@ -86,7 +83,7 @@ def test_rigid_parent_line_inside_is_the_tip_line_shifted(model: str) -> None:
     """A line along a rigid parent (axis 0) through its section at x_a is the line through
     its tip with the travel shifted by L − x_a: with s_tip = s − (L − x_a) the free
     accelerations and every joint's torque or force are the same to round-off."""
-    chain = _chain("force", modes=0)
+    chain = telescope("force", modes=0)
     inside, tip = _at(chain, AT, 0.0), _at(chain, None, 0.0)
     shift = chain.links[0].length - AT
     rng = np.random.default_rng(9)
@@ -116,7 +113,7 @@ def test_rigid_parent_line_inside_is_the_tip_line_shifted(model: str) -> None:
 def test_the_tip_given_as_a_point_is_the_default_bit_for_bit() -> None:
     """``at`` = the parent's length takes the tip's own arrays: accelerations identical to
     the bit on both models (flexible links, gravity)."""
-    chain = _chain("force")
+    chain = telescope("force")
     tip, given = _at(chain, None), _at(chain, chain.links[0].length)
     a, b = (ForwardSystem(c, Base(), True, gravity=(0.0, -9.81)) for c in (tip, given))
     args = _first_order_states(a)
@@ -135,7 +132,7 @@ def test_nonlinear_equations_are_the_lagrangian_of_the_point_masses() -> None:
     """The nonlinear residual's inertia part equals d/dt ∂T/∂ẏ − ∂T/∂y of the kinetic energy
     of the exact positions (`energy`), by central differences, with the line inside the
     parent (test_nonlinear_prismatic.py's check for the tip)."""
-    chain = _at(_chain("force", torques=(0.0, 0.0, 0.0)), AT)
+    chain = _at(telescope("force", torques=(0.0, 0.0, 0.0)), AT)
     chain = Chain(tuple(replace(link, damping_ratio=0.0) for link in chain.links), chain.joints)
     system = NonlinearForwardSystem(chain, Base())
     rng = np.random.default_rng(7)
@@ -175,7 +172,7 @@ def test_nonlinear_energy_equals_the_drives_work() -> None:
     from flexlink.solvers.gauss_forward import solve_nonlinear_forward
 
     tau, force, tau3 = 0.8, 1.5, -0.1
-    chain = _chain("force", torques=(tau, force, tau3))
+    chain = telescope("force", torques=(tau, force, tau3))
     links = tuple(replace(link, damping_ratio=0.0) for link in chain.links)
     joints = (TorqueDrive(Step(tau), 0.2, 0.3),
               replace(chain.joints[1], drive=TorqueDrive(Step(force), 0.1, 0.2), at=AT),
@@ -196,14 +193,7 @@ def test_nonlinear_energy_equals_the_drives_work() -> None:
 # --- scenario key -------------------------------------------------------------------------------
 
 def _example() -> dict:
-    from pathlib import Path
-
-    from flexlink.scenario import resolve_scenario_dict
-
-    path = Path(__file__).resolve().parents[2] / "examples" / "telescoping_arm.toml"
-    d = resolve_scenario_dict(path)
-    d["simulation"]["t_end"] = 0.4
-    return d
+    return telescoping_arm(t_end=0.4)
 
 
 def test_line_at_reads_and_writes_back() -> None:
@@ -245,7 +235,7 @@ def test_a_model_line_point_off_the_parent_is_refused() -> None:
     from flexlink.model import PrismaticJoint, Scenario, SimulationSettings
     from flexlink.motion import Hold
 
-    chain = _chain("force")
+    chain = telescope("force")
     with pytest.raises(ValueError, match=r"joints\[1\].line_at: 1.3 m is beyond"):
         Scenario(_at(chain, 1.3), settings=SimulationSettings(t_end=1.0, dt_out=0.01))
     with pytest.raises(ValueError, match=r"prismatic joint at: need a point ≥ 0 m"):

@@ -30,8 +30,6 @@ gravity. ``hub_beam_eigenfrequencies`` gives the linearised frequencies of the s
 
 from __future__ import annotations
 
-import itertools
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -40,7 +38,18 @@ import numpy as np
 
 from flexlink.model import Link
 
-from .exudyn_reference import BeamSection, default_section, solve_dynamic
+from .exudyn_pieces import (
+    BeamSection,
+    coord,
+    fix,
+    integration_step,
+    load_history,
+    new_system,
+    node_sensor,
+    node_series,
+    solve_dynamic,
+    uniform_beam,
+)
 
 
 @dataclass(frozen=True)
@@ -54,27 +63,6 @@ class Appendage:
     section: BeamSection | None = None
 
 
-class _Moment:
-    """M (N·m) for Exudyn's load user function: the mean of M(t) over the step ending at t.
-
-    Generalized-α evaluates the load at the step's end: a bang-bang switch on the step grid
-    would then act one step early (an impulse error of 2 M dt per switch, 0.4% of the slew
-    angle at dt = 1 ms); the step mean (midpoint rule on 8 panels) gives the exact impulse of a
-    piecewise-constant history whose switches lie on the grid."""
-
-    def __init__(self, moment: Callable[[float], float], dt: float) -> None:
-        self.moment, self.dt, self.cache = moment, dt, {}
-        self.offsets = (np.arange(8) + 0.5) / 8 * dt - dt
-
-    def __call__(self, mbs: Any, t: float, load: Any) -> float:
-        v = self.cache.get(t)
-        if v is None:
-            if len(self.cache) > 64:
-                self.cache.clear()
-            v = self.cache[t] = float(np.mean([self.moment(t + o) for o in self.offsets]))
-        return v
-
-
 def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float, pinned: bool,
            elements: int, moment: Callable[[float], float] | None, dt: float = 0.0,
            gravity: tuple[float, float] = (0.0, 0.0),
@@ -86,29 +74,18 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
     nodes, the tip masses' on the tip node and (free hub) the hub's on the hub. ``rotor``:
     (reflected inertia N² J_m kg·m², stiffness N·m/rad, damping N·m·s/rad) of an elastic
     joint between a pinned rotor, which the moment turns, and the hub."""
-    import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
         CoordinateSpringDamper,
-        LoadCoordinate,
         LoadForceVector,
         MarkerBodyPosition,
-        MarkerNodeCoordinate,
         MarkerNodePosition,
-        NodePointGround,
         NodeRigidBody2D,
-        ObjectBeamGeometricallyExact2D,
         ObjectRigidBody2D,
         RevoluteJoint2D,
     )
 
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
-
-    def coord(node: int, c: int) -> int:
-        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
-
+    SC, mbs, m_ground = new_system()
     hub_node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0]))
     # A pinned hub's mass does nothing but must not make the mass matrix singular.
     hub = mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub_node, mass=hub_mass if hub_mass > 0
@@ -117,45 +94,28 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
         mbs.AddLoad(LoadForceVector(
             markerNumber=mbs.AddMarker(MarkerNodePosition(nodeNumber=hub_node)),
             loadVector=[hub_mass * gravity[0], hub_mass * gravity[1], 0.0]))
-    m_ground = coord(ground, 0)
     if pinned:
-        for c in (0, 1):
-            mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(hub_node, c)]))
-    m_hub_angle = coord(hub_node, 2)
+        fix(mbs, m_ground, hub_node)
+    m_hub_angle = coord(mbs, hub_node, 2)
     m_driven, rotor_node = m_hub_angle, None
     if rotor is not None:
         rotor_node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0]))
         mbs.AddObject(ObjectRigidBody2D(nodeNumber=rotor_node, mass=1.0, inertia=rotor[0]))
-        for c in (0, 1):
-            mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(rotor_node, c)]))
-        m_driven = coord(rotor_node, 2)
+        fix(mbs, m_ground, rotor_node)
+        m_driven = coord(mbs, rotor_node, 2)
         mbs.AddObject(CoordinateSpringDamper(markerNumbers=[m_hub_angle, m_driven],
                                              stiffness=rotor[1], damping=rotor[2]))
     if rail:
-        for c in (1, 2):
-            mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(hub_node, c)]))
+        fix(mbs, m_ground, hub_node, (1, 2))
     keep: list[Any] = []
     if moment is not None:
-        uf = _Moment(moment, dt)
-        keep.append(uf)
-        driven = coord(hub_node, 0) if rail else m_driven
-        mbs.AddLoad(LoadCoordinate(markerNumber=driven, load=0.0, loadUserFunction=uf))
+        driven = coord(mbs, hub_node, 0) if rail else m_driven
+        keep.append(load_history(mbs, driven, moment, dt))
     nodes: list[list[int]] = []
     for app in appendages:
         link = app.link
-        sec = app.section or default_section(link)
-        e = np.array([math.cos(app.angle), math.sin(app.angle)])
-        x = np.linspace(0.0, link.length, elements + 1)
-        chain = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[
-            app.point[0] + xi * e[0], app.point[1] + xi * e[1], app.angle])) for xi in x]
-        for a, b in itertools.pairwise(chain):
-            mbs.AddObject(ObjectBeamGeometricallyExact2D(
-                nodeNumbers=[a, b], length=float(link.length / elements),
-                massPerLength=link.mass_per_length, crossSectionInertia=sec.rhoI,
-                bendingStiffness=link.EI, axialStiffness=sec.EA, shearStiffness=sec.GA))
-        if link.tip_mass > 0.0 or link.tip_inertia > 0.0:
-            mbs.AddObject(ObjectRigidBody2D(nodeNumber=chain[-1], mass=link.tip_mass,
-                                            inertia=link.tip_inertia))
+        chain = uniform_beam(mbs, link, elements, np.asarray(app.point, dtype=float),
+                             app.angle, app.section)
         if any(gravity):
             element = link.mass_per_length * link.length / elements
             for i, node in enumerate(chain):
@@ -169,7 +129,7 @@ def _build(appendages: Sequence[Appendage], hub_mass: float, hub_inertia: float,
                                                    localPosition=[*app.point, 0.0]))
         mbs.AddObject(RevoluteJoint2D(markerNumbers=[
             m_point, mbs.AddMarker(MarkerNodePosition(nodeNumber=chain[0]))]))
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_hub_angle, coord(chain[0], 2)]))
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_hub_angle, coord(mbs, chain[0], 2)]))
         nodes.append(chain)
     return {"SC": SC, "mbs": mbs, "hub_node": hub_node, "nodes": nodes, "keep": keep,
             "rotor_node": rotor_node}
@@ -224,51 +184,33 @@ def simulate_hub_exudyn(
     (n×2, m, inertial); ``wall_time_s`` (solver only), ``coordinates``, ``dt``.
     """
     import exudyn as exu
-    from exudyn.itemInterface import SensorNode
 
-    if dt is None:
-        dt = min(dt_out, 5e-4)
-    ratio = dt_out / dt
-    if abs(ratio - round(ratio)) > 1e-6:
-        raise ValueError(f"dt = {dt} must divide dt_out = {dt_out}")
-    dt = dt_out / round(ratio)
+    dt = integration_step(dt_out, dt)
     built = _build(appendages, hub_mass, hub_inertia, pinned and not rail, elements, moment,
                    dt, gravity, rotor=rotor, rail=rail)
     mbs, nodes = built["mbs"], built["nodes"]
 
-    def sensor(node: int, kind: Any) -> int:
-        return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, writeToFile=False,
-                                        outputVariableType=kind))
-
-    hub_pos = sensor(built["hub_node"], exu.OutputVariableType.Coordinates)
-    hub_vel = sensor(built["hub_node"], exu.OutputVariableType.Coordinates_t)
+    hub_pos = node_sensor(mbs, built["hub_node"], exu.OutputVariableType.Coordinates)
+    hub_vel = node_sensor(mbs, built["hub_node"], exu.OutputVariableType.Coordinates_t)
     rotor_node = built["rotor_node"]
-    rotor_pos = (sensor(rotor_node, exu.OutputVariableType.Coordinates)
+    rotor_pos = (node_sensor(mbs, rotor_node, exu.OutputVariableType.Coordinates)
                  if rotor_node is not None else None)
-    ends = [(sensor(c[0], exu.OutputVariableType.Coordinates),
-             sensor(c[-1], exu.OutputVariableType.Coordinates)) for c in nodes]
+    ends = [(node_sensor(mbs, c[0], exu.OutputVariableType.Coordinates),
+             node_sensor(mbs, c[-1], exu.OutputVariableType.Coordinates)) for c in nodes]
     wall, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, newton_abs_tol, newton_rel_tol,
                                  spectral_radius)
 
-    def series(sensor_number: int, node: int | None = None) -> np.ndarray:
-        """The sensor on the output grid; with ``node``: plus its reference coordinates."""
-        data = np.asarray(mbs.GetSensorStoredData(sensor_number))
-        out = np.stack([np.interp(t_grid, data[:, 0], data[:, c])
-                        for c in range(1, data.shape[1])], axis=1)
-        if node is not None:
-            out = out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
-        return out
-
-    hub = series(hub_pos, built["hub_node"])
+    hub = node_series(mbs, hub_pos, t_grid, built["hub_node"])
     result: dict[str, Any] = {"t": t_grid, "hub_angle": hub[:, 2],
-                              "hub_rate": series(hub_vel)[:, 2], "hub_position": hub[:, :2],
-                              "tip_deflection": [], "tip_position": []}
+                              "hub_rate": node_series(mbs, hub_vel, t_grid)[:, 2],
+                              "hub_position": hub[:, :2], "tip_deflection": [],
+                              "tip_position": []}
     for chain, (s0, s1) in zip(nodes, ends):
-        r0, r1 = series(s0, chain[0]), series(s1, chain[-1])
+        r0, r1 = node_series(mbs, s0, t_grid, chain[0]), node_series(mbs, s1, t_grid, chain[-1])
         normal = np.stack([-np.sin(r0[:, 2]), np.cos(r0[:, 2])], axis=1)
         result["tip_deflection"].append(np.sum(normal * (r1[:, :2] - r0[:, :2]), axis=1))
         result["tip_position"].append(r1[:, :2])
     if rotor_pos is not None:
-        result["rotor_angle"] = series(rotor_pos, rotor_node)[:, 2]
+        result["rotor_angle"] = node_series(mbs, rotor_pos, t_grid, rotor_node)[:, 2]
     result.update(wall_time_s=wall, coordinates=mbs.systemData.ODE2Size(), dt=dt)
     return result

@@ -23,7 +23,19 @@ import numpy as np
 
 from flexlink.model import JointMotion, Link
 
-from .exudyn_reference import _Memo, default_section, solve_dynamic
+from .exudyn_pieces import (
+    coord,
+    coupler_and_rocker,
+    default_section,
+    fix,
+    new_system,
+    node_sensor,
+    node_series,
+    pin,
+    solve_dynamic,
+    uniform_beam,
+)
+from .exudyn_reference import _Memo
 
 STIFF = 1e3  # the crank's bending and axial stiffness, times the rod's: rigid
 CRANK_ELEMENTS = 4
@@ -41,12 +53,9 @@ def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, E
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
-        MarkerNodeCoordinate,
-        NodePointGround,
         NodeRigidBody2D,
         ObjectBeamGeometricallyExact2D,
         ObjectRigidBody2D,
-        SensorNode,
     )
 
     if elements % 2:
@@ -54,29 +63,21 @@ def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, E
     theta0, omega0 = (float(v) for v in motion.evaluate(np.asarray(0.0))[:2])
     phi0 = -math.asin(crank * math.sin(theta0) / rod.length)
     phi_rate = -crank * math.cos(theta0) * omega0 / (rod.length * math.cos(phi0))
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
-    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
-
-    def coord(node: int, c: int) -> int:
-        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
-
+    _container, mbs, m_ground = new_system()
     sec = default_section(rod, EA)
-    pin = crank * np.array([math.cos(theta0), math.sin(theta0)])
-    pin_rate = omega0 * np.array([-pin[1], pin[0]])
+    crank_tip = crank * np.array([math.cos(theta0), math.sin(theta0)])
+    pin_rate = omega0 * np.array([-crank_tip[1], crank_tip[0]])
     c0 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, theta0],
                                      initialVelocities=[0.0, 0.0, omega0]))
-    c1 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[pin[0], pin[1], theta0],
+    c1 = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[crank_tip[0], crank_tip[1], theta0],
                                      initialVelocities=[*pin_rate, omega0]))
     mbs.AddObject(ObjectBeamGeometricallyExact2D(
         nodeNumbers=[c0, c1], length=crank, massPerLength=rod.mass_per_length,
         crossSectionInertia=sec.rhoI, bendingStiffness=STIFF * rod.EI,
         axialStiffness=STIFF * EA, shearStiffness=STIFF * sec.GA))
     keep = [_Memo(motion, 0, theta0), _Memo(motion, 1, 0.0)]
-    for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(c0, c)]))
-    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(c0, 2)],
+    fix(mbs, m_ground, c0)
+    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(mbs, c0, 2)],
                                        offsetUserFunction=keep[0], offsetUserFunction_t=keep[1]))
     e = np.array([math.cos(phi0), math.sin(phi0)])
     x = np.linspace(0.0, rod.length, elements + 1)
@@ -87,32 +88,22 @@ def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, E
         across = float(np.dot(sine_rates, np.sin(k * xi)))
         turn = float(np.dot(sine_rates, k * np.cos(k * xi)))
         v = pin_rate + (phi_rate * xi + across) * n
-        nodes.append(mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(pin + xi * e), phi0],
+        nodes.append(mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(crank_tip + xi * e), phi0],
                                                  initialVelocities=[*v, phi_rate + turn])))
     for a, b in itertools.pairwise(nodes):
         mbs.AddObject(ObjectBeamGeometricallyExact2D(
             nodeNumbers=[a, b], length=float(rod.length / elements),
             massPerLength=rod.mass_per_length, crossSectionInertia=sec.rhoI,
             bendingStiffness=rod.EI, axialStiffness=EA, shearStiffness=sec.GA))
-    for c in (0, 1):  # the crank pin
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(c1, c), coord(nodes[0], c)]))
-    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(nodes[-1], 1)]))
+    pin(mbs, c1, nodes[0])  # the crank pin
+    fix(mbs, m_ground, nodes[-1], (1,))
     if rod.tip_mass > 0.0:  # the piston: a point mass (a vanishing rotary inertia)
         mbs.AddObject(ObjectRigidBody2D(nodeNumber=nodes[-1], mass=rod.tip_mass,
                                         inertia=1e-9))
-    sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
-                                        outputVariableType=exu.OutputVariableType.Coordinates))
-               for n in (c0, nodes[0], nodes[elements // 2], nodes[-1])]
+    watched = (c0, nodes[0], nodes[elements // 2], nodes[-1])
+    sensors = [node_sensor(mbs, n) for n in watched]
     wall, t = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-5, newton_rel_tol, 1.0)
-
-    def series(sensor: int, node: int) -> np.ndarray:
-        data = np.asarray(mbs.GetSensorStoredData(sensor))
-        out = np.stack([np.interp(t, data[:, 0], data[:, c]) for c in range(1, data.shape[1])],
-                       axis=1)
-        return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
-
-    crank_c, root, mid, tip = (series(s, n) for s, n in
-                               zip(sensors, (c0, nodes[0], nodes[elements // 2], nodes[-1])))
+    crank_c, root, mid, tip = (node_series(mbs, s, t, n) for s, n in zip(sensors, watched))
     chord = tip[:, :2] - root[:, :2]
     normal = np.stack([-chord[:, 1], chord[:, 0]], 1) / np.linalg.norm(chord, axis=1)[:, None]
     deflection = np.sum(normal * (mid[:, :2] - 0.5 * (root[:, :2] + tip[:, :2])), 1)
@@ -137,53 +128,20 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
     t, mid_deflection (the coupler's midpoint from its chord, m), rocker_angle (rad, of the
     rocker's chord), crank_angle (rad, of the crank's root section)."""
     import exudyn as exu
-    from exudyn.itemInterface import (
-        CoordinateConstraint,
-        MarkerNodeCoordinate,
-        NodePointGround,
-        NodeRigidBody2D,
-        ObjectBeamGeometricallyExact2D,
-        SensorNode,
-    )
+    from exudyn.itemInterface import CoordinateConstraint
 
     if elements % 2:
         raise ValueError("an even number of elements: the midpoint is a node")
     theta0 = float(motion.evaluate(np.asarray(0.0))[0])
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
-    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
-
-    def coord(node: int, c: int) -> int:
-        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
-
-    def beam(start: np.ndarray, angle: float, link: Link, n: int, stiff: float) -> list[int]:
-        sec = default_section(link, EA)
-        e = np.array([math.cos(angle), math.sin(angle)])
-        x = np.linspace(0.0, link.length, n + 1)
-        nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(start + xi * e), angle]))
-                 for xi in x]
-        for a, b in itertools.pairwise(nodes):
-            mbs.AddObject(ObjectBeamGeometricallyExact2D(
-                nodeNumbers=[a, b], length=float(link.length / n),
-                massPerLength=link.mass_per_length, crossSectionInertia=sec.rhoI,
-                bendingStiffness=stiff * link.EI, axialStiffness=stiff * EA,
-                shearStiffness=stiff * sec.GA))
-        return nodes
-
-    def pin(a: int, b: int) -> None:
-        for c in (0, 1):
-            mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(a, c), coord(b, c)]))
-
+    _container, mbs, m_ground = new_system()
     crank_link = Link("crank", crank, crank_mass_per_length or coupler.mass_per_length,
                       coupler.EI)
     # a turning crank's inertia is felt through a spring: elements enough for its mass's
     # distribution (one element lumps it at the ends)
-    cn = beam(np.zeros(2), theta0, crank_link, CRANK_ELEMENTS if crank_spring > 0.0 else 1,
-              STIFF)
+    cn = uniform_beam(mbs, crank_link, CRANK_ELEMENTS if crank_spring > 0.0 else 1,
+                      np.zeros(2), theta0, default_section(crank_link, EA), STIFF)
+    fix(mbs, m_ground, cn[0])
     keep = [_Memo(motion, 0, theta0), _Memo(motion, 1, 0.0)]
-    for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(cn[0], c)]))
     if crank_spring > 0.0:
         from exudyn.itemInterface import CoordinateSpringDamper
 
@@ -191,37 +149,20 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
                    offset: float) -> float:  # k (β − θ_m/N) on the root's rotation
             return k * (u - keep[0](mbs, t, item, 0.0)) + d * (v - keep[1](mbs, t, item, 0.0))
 
-        mbs.AddObject(CoordinateSpringDamper(markerNumbers=[m_ground, coord(cn[0], 2)],
+        mbs.AddObject(CoordinateSpringDamper(markerNumbers=[m_ground, coord(mbs, cn[0], 2)],
                                              stiffness=crank_spring,
                                              springForceUserFunction=spring))
     else:
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(cn[0], 2)],
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(mbs, cn[0], 2)],
                                            offsetUserFunction=keep[0],
                                            offsetUserFunction_t=keep[1]))
-    tip = crank * np.array([math.cos(theta0), math.sin(theta0)])
-    kn = beam(tip, angles[1], coupler, elements, 1.0)
-    pin(cn[-1], kn[0])
-    rigid_rocker = not math.isfinite(rocker.EI)
-    rocker_beam = Link("rocker", rocker.length, rocker.mass_per_length,
-                       coupler.EI if rigid_rocker else rocker.EI)
-    rn = beam(np.asarray(pivot, dtype=float), angles[2], rocker_beam,
-              2 if rigid_rocker else elements, STIFF if rigid_rocker else 1.0)
-    for c in (0, 1):  # the rocker's pivot: its root node stays where it is
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(rn[0], c)]))
-    pin(kn[-1], rn[-1])
-    sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
-                                        outputVariableType=exu.OutputVariableType.Coordinates))
-               for n in (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1], cn[0])]
+    kn, rn = coupler_and_rocker(mbs, m_ground, cn[-1],
+                                crank * np.array([math.cos(theta0), math.sin(theta0)]), coupler,
+                                rocker, pivot, angles[1:], EA, elements, STIFF)
+    watched = (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1], cn[0])
+    sensors = [node_sensor(mbs, n) for n in watched]
     wall, t = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-5, newton_rel_tol, 1.0)
-
-    def series(sensor: int, node: int) -> np.ndarray:
-        data = np.asarray(mbs.GetSensorStoredData(sensor))
-        out = np.stack([np.interp(t, data[:, 0], data[:, c]) for c in range(1, data.shape[1])],
-                       axis=1)
-        return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
-
-    root, mid, end, r0, r1, c0 = (series(s, n) for s, n in zip(
-        sensors, (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1], cn[0])))
+    root, mid, end, r0, r1, c0 = (node_series(mbs, s, t, n) for s, n in zip(sensors, watched))
     chord = end[:, :2] - root[:, :2]
     normal = np.stack([-chord[:, 1], chord[:, 0]], 1) / np.linalg.norm(chord, axis=1)[:, None]
     deflection = np.sum(normal * (mid[:, :2] - 0.5 * (root[:, :2] + end[:, :2])), 1)

@@ -1,10 +1,10 @@
 """Natural frequencies of a chain with locked joints from a geometrically exact FE model (Exudyn).
 
 Each link is a chain of ``ObjectBeamGeometricallyExact2D`` elements (Simo–Reissner, as in
-exudyn_reference.py, with its sections: EA from the rectangular section, shear GA, and the
-section's rotary inertia ρI = ρA·h²/12 that flexlink's Euler–Bernoulli links leave out: the FE
-mass matrix needs it, and it lowers the frequencies by ~(h/L)²(βL)²/24, below 1e-5 for the
-paper's arm's lower modes). Link 1's
+exudyn_reference.py, with the sections of exudyn_pieces.py: EA from the rectangular section,
+shear GA, and the section's rotary inertia ρI = ρA·h²/12 that flexlink's Euler–Bernoulli links
+leave out: the FE mass matrix needs it, and it lowers the frequencies by ~(h/L)²(βL)²/24,
+below 1e-5 for the paper's arm's lower modes). Link 1's
 root node is clamped to the ground; link k's root node sits on link k−1's tip node (two
 position constraints) with its section angle locked at β_k from the tip section (one
 coordinate constraint on the angle increments). Tip masses and rotary inertias are
@@ -15,64 +15,36 @@ configuration and returns ω² of the constrained system.
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 
 import numpy as np
 
 from flexlink.model import Link
-from tests.validation.exudyn_reference import default_section
+from tests.validation.exudyn_pieces import coord, new_system, uniform_beam
 
 
 def locked_chain_frequencies(links: Sequence[Link], angles: Sequence[float], elements: int,
                              count: int) -> np.ndarray:
     """The lowest ``count`` natural frequencies (Hz) of the chain clamped at the hub with
     joint k locked at angles[k] (rad), ``elements`` per link."""
-    import exudyn as exu
-    from exudyn.itemInterface import (
-        CoordinateConstraint,
-        MarkerNodeCoordinate,
-        NodePointGround,
-        NodeRigidBody2D,
-        ObjectBeamGeometricallyExact2D,
-        ObjectRigidBody2D,
-    )
+    from exudyn.itemInterface import CoordinateConstraint
 
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
-    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
-
-    def coord(node: int, c: int) -> int:
-        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
-
+    _container, mbs, m_ground = new_system()
     root = np.zeros(2)
     theta = 0.0
     previous_tip = None
     for link, beta in zip(links, angles):
         theta += beta
-        sec = default_section(link)
-        e = np.array([math.cos(theta), math.sin(theta)])
-        x = np.linspace(0.0, link.length, elements + 1)
-        nodes = [mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[*(root + xi * e), theta]))
-                 for xi in x]
-        for a, b in itertools.pairwise(nodes):
-            mbs.AddObject(ObjectBeamGeometricallyExact2D(
-                nodeNumbers=[a, b], length=float(x[1] - x[0]),
-                massPerLength=link.mass_per_length, crossSectionInertia=sec.rhoI,
-                bendingStiffness=link.EI, axialStiffness=sec.EA, shearStiffness=sec.GA))
-        if link.tip_mass > 0.0 or link.tip_inertia > 0.0:
-            mbs.AddObject(ObjectRigidBody2D(nodeNumber=nodes[-1], mass=link.tip_mass,
-                                            inertia=link.tip_inertia))
+        nodes = uniform_beam(mbs, link, elements, root, theta)
         for c in range(3):  # coordinates are increments from the reference: lock them
             if previous_tip is None:
-                markers = [m_ground, coord(nodes[0], c)]
+                markers = [m_ground, coord(mbs, nodes[0], c)]
             else:
-                markers = [coord(previous_tip, c), coord(nodes[0], c)]
+                markers = [coord(mbs, previous_tip, c), coord(mbs, nodes[0], c)]
             mbs.AddObject(CoordinateConstraint(markerNumbers=markers))
         previous_tip = nodes[-1]
-        root = root + link.length * e
+        root = root + link.length * np.array([math.cos(theta), math.sin(theta)])
     mbs.Assemble()
     values, _ = mbs.ComputeODE2Eigenvalues(ignoreAlgebraicEquations=False,
                                           useAbsoluteValues=True)

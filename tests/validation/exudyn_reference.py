@@ -38,38 +38,25 @@ docs/exudyn_reference.md describes the model, its convergence and the comparison
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from flexlink.model import JointMotion, Link
 
-POISSON = 0.3  # for the default shear stiffness only (its effect is ~EI/(GA L²) ≈ 1e-6)
-
-
-@dataclass(frozen=True)
-class BeamSection:
-    """The beam properties Exudyn needs beyond flexlink's Link (Euler–Bernoulli, inextensible)."""
-
-    EA: float  # N, axial stiffness
-    GA: float  # N, shear stiffness (incl. shear correction factor)
-    rhoI: float  # kg·m, rotary inertia of the cross section per length
-
-
-def default_section(link: Link, EA: float | None = None, rotary_inertia: bool = True) -> BeamSection:
-    """EA from the rectangular section (12 EI / h²) unless given, GA = κ G A with ν = 0.3,
-    ρI = ρA · EI / EA (the homogeneous section's rotary inertia; flexlink neglects it)."""
-    if EA is None:
-        if link.thickness is None:
-            raise ValueError(f"{link.name}: give EA (no thickness to derive it from)")
-        EA = 12.0 * link.EI / link.thickness**2
-    kappa = 10.0 * (1.0 + POISSON) / (12.0 + 11.0 * POISSON)
-    GA = kappa * EA / (2.0 * (1.0 + POISSON))
-    rhoI = link.mass_per_length * link.EI / EA if rotary_inertia else 0.0
-    return BeamSection(EA=EA, GA=GA, rhoI=rhoI)
+from .exudyn_pieces import (
+    BeamSection,
+    coord,
+    default_section,
+    fix,
+    integration_step,
+    new_system,
+    node_sensor,
+    node_series,
+    pin,
+    solve_dynamic,
+)
 
 
 def _mesh(length: float, elements: int, extra: Sequence[float]) -> np.ndarray:
@@ -173,11 +160,8 @@ def simulate_chain_exudyn(
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
-        MarkerNodeCoordinate,
-        NodePointGround,
         NodeRigidBody2D,
         ObjectBeamGeometricallyExact2D,
-        SensorNode,
     )
 
     n_links = len(links)
@@ -188,24 +172,12 @@ def simulate_chain_exudyn(
     if sections is None:
         sections = [default_section(link) for link in links]
     slope_positions = dict(slope_positions or {})
-    if dt is None:
-        dt = min(dt_out, 5e-4)
-    ratio = dt_out / dt
-    if abs(ratio - round(ratio)) > 1e-6:
-        raise ValueError(f"dt = {dt} must divide dt_out = {dt_out}")
-    dt = dt_out / round(ratio)
+    dt = integration_step(dt_out, dt)
 
     beta0 = [float(j.evaluate(np.asarray(0.0))[0]) for j in joints]
     rate0 = [float(j.evaluate(np.asarray(0.0))[1]) for j in joints]
 
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
-    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
-
-    def coord(node: int, c: int) -> int:
-        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
-
+    _container, mbs, m_ground = new_system()
     user_functions = []  # keep references alive
     link_nodes: list[list[int]] = []
     link_x: list[np.ndarray] = []
@@ -240,17 +212,14 @@ def simulate_chain_exudyn(
         uf_t = _Memo(joints[k], 1, 0.0)
         user_functions += [uf, uf_t]
         if k == 0:
-            for c in (0, 1):
-                mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(nodes[0], c)]))
-            mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, coord(nodes[0], 2)],
-                                               offsetUserFunction=uf, offsetUserFunction_t=uf_t))
+            fix(mbs, m_ground, nodes[0])
+            held = m_ground
         else:
             prev = link_nodes[-1][-1]
-            for c in (0, 1):
-                mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(prev, c),
-                                                                  coord(nodes[0], c)]))
-            mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(prev, 2), coord(nodes[0], 2)],
-                                               offsetUserFunction=uf, offsetUserFunction_t=uf_t))
+            pin(mbs, prev, nodes[0])
+            held = coord(mbs, prev, 2)
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[held, coord(mbs, nodes[0], 2)],
+                                           offsetUserFunction=uf, offsetUserFunction_t=uf_t))
         link_nodes.append(nodes)
         link_x.append(x)
         joint_pos.append(root.copy())
@@ -265,32 +234,14 @@ def simulate_chain_exudyn(
         for xs in slope_positions.get(k, ()):
             wanted.add(int(np.argmin(np.abs(link_x[k] - xs))))
         for i in sorted(wanted):
-            pos_sensors[(k, i)] = mbs.AddSensor(SensorNode(
-                nodeNumber=nodes[i], storeInternal=True, writeToFile=False,
-                outputVariableType=exu.OutputVariableType.Coordinates))
-        acc_sensors[k] = mbs.AddSensor(SensorNode(
-            nodeNumber=nodes[-1], storeInternal=True, writeToFile=False,
-            outputVariableType=exu.OutputVariableType.Coordinates_tt))
+            pos_sensors[(k, i)] = node_sensor(mbs, nodes[i])
+        acc_sensors[k] = node_sensor(mbs, nodes[-1], exu.OutputVariableType.Coordinates_tt)
 
     wall, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, newton_abs_tol, newton_rel_tol,
                                  spectral_radius, verbose)
-    n_out = t_grid.size
-
-    def series(sensor: int) -> np.ndarray:
-        data = np.asarray(mbs.GetSensorStoredData(sensor))
-        tt, vals = data[:, 0], data[:, 1:]
-        # the sensor writes at t = 0 and after each write period; map onto the exact grid
-        out = np.empty((n_out, vals.shape[1]))
-        for c in range(vals.shape[1]):
-            out[:, c] = np.interp(t_grid, tt, vals[:, c])
-        return out
-
-    ref = {}  # reference coordinates of each node, by (k, i)
-    for (k, i) in pos_sensors:
-        ref[(k, i)] = np.asarray(mbs.GetNodeParameter(link_nodes[k][i], "referenceCoordinates"))
 
     def total(k: int, i: int) -> np.ndarray:
-        return series(pos_sensors[(k, i)]) + ref[(k, i)][None, :]
+        return node_series(mbs, pos_sensors[(k, i)], t_grid, link_nodes[k][i])
 
     result: dict[str, Any] = {
         "t": t_grid, "tip_deflection": [], "tip_acceleration_normal": [], "slope": [],
@@ -304,7 +255,7 @@ def simulate_chain_exudyn(
         d = r1[:, :2] - r0[:, :2]
         n0 = np.stack([-np.sin(psi0), np.cos(psi0)], axis=1)
         t0 = np.stack([np.cos(psi0), np.sin(psi0)], axis=1)
-        acc = series(acc_sensors[k])
+        acc = node_series(mbs, acc_sensors[k], t_grid)
         n1 = np.stack([-np.sin(psi1), np.cos(psi1)], axis=1)
         slopes = {}
         for xs in slope_positions.get(k, ()):
@@ -355,28 +306,3 @@ def simulate_krb_exudyn(omega: float, elements: int = 16, t_end: float = 20.0,
     section = default_section(link, EA=KRB_EA)
     return simulate_chain_exudyn([link], [krb_motion(omega)], t_end, dt_out, elements, dt=dt,
                                  sections=[section], **kw)
-
-
-def solve_dynamic(exu: Any, mbs: Any, t_end: float, dt: float, dt_out: float,
-                  newton_abs_tol: float, newton_rel_tol: float, spectral_radius: float,
-                  verbose: int = 0) -> tuple[float, np.ndarray]:
-    """Assemble and run Exudyn's generalized-α solver; its wall time (s, solver only) and the
-    sensors' output times (s)."""
-    mbs.Assemble()
-    s = exu.SimulationSettings()
-    s.timeIntegration.numberOfSteps = round(t_end / dt)
-    s.timeIntegration.endTime = t_end
-    s.timeIntegration.verboseMode = verbose
-    s.timeIntegration.newton.absoluteTolerance = newton_abs_tol
-    s.timeIntegration.newton.relativeTolerance = newton_rel_tol
-    s.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
-    s.solution.file.write = False
-    s.solution.sensors.writePeriod = dt_out
-    s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
-    started = time.perf_counter()
-    ok = mbs.SolveDynamic(s)
-    wall = time.perf_counter() - started
-    if not ok:
-        raise RuntimeError("Exudyn dynamic solver failed")
-    n_out = int(np.floor(t_end / dt_out + 1e-9)) + 1
-    return wall, np.arange(n_out) * dt_out

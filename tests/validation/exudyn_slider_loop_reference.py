@@ -1,11 +1,11 @@
 """A geometrically exact reference for a slider inside a closed loop, in Exudyn: the mechanism
 of tests/validation/test_nonlinear_slider_loops.py (a crank carrying a slider along its axis,
 a post on the block, a rod pinned to the ground), built from the pieces of
-exudyn_slider_reference.py.
+exudyn_pieces.py, as exudyn_slider_reference.py.
 
 * the crank: Simo–Reissner elements (`beam_nodes`) from the origin along X, its root node's
   position held by two ``CoordinateConstraint``, carrying the hub's inertia (a motor's) and
-  turned by a torque history τ(t) on its rotation (`exudyn_forward_reference._Moment`: the
+  turned by a torque history τ(t) on its rotation (`exudyn_pieces.StepMean`: the
   step mean);
 * the block and the rigid post: one ``ObjectRigidBody2D`` (their mass, centre of mass and
   inertia), held on the line through the crank's tip node along its tangent (`add_slider`:
@@ -32,9 +32,19 @@ import numpy as np
 
 from flexlink.model import Link
 
-from .exudyn_forward_reference import _Moment
-from .exudyn_reference import default_section, solve_dynamic
-from .exudyn_slider_reference import add_slider, beam_nodes
+from .exudyn_pieces import (
+    add_slider,
+    beam_nodes,
+    coord,
+    default_section,
+    fix,
+    integration_step,
+    load_history,
+    new_system,
+    node_sensor,
+    node_series,
+    solve_dynamic,
+)
 
 
 def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float, s0: float,
@@ -57,27 +67,17 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
 
     import exudyn as exu
     from exudyn.itemInterface import (
-        CoordinateConstraint,
-        LoadCoordinate,
         MarkerBodyRigid,
-        MarkerNodeCoordinate,
         MarkerNodeRigid,
-        NodePointGround,
         NodeRigidBody2D,
         ObjectRigidBody2D,
         RevoluteJoint2D,
-        SensorNode,
     )
 
     if elements % 2:
         raise ValueError("an even number of elements: the rod's midpoint is a node")
-    dt = dt_out / round(dt_out / dt)
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
-
-    def coord(node: int, c: int) -> int:
-        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
+    dt = integration_step(dt_out, dt)
+    _container, mbs, ground = new_system()
 
     def section(link: Link) -> Any:
         return default_section(link, 12.0 * link.EI / thickness**2)
@@ -88,10 +88,8 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
     cn = beam_nodes(mbs, crank, mesh(crank, elements), np.zeros(2), 0.0, section(crank))
     if hub_inertia > 0.0:
         mbs.AddObject(ObjectRigidBody2D(nodeNumber=cn[0], mass=1.0, inertia=hub_inertia))
-    for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(cn[0], c)]))
-    mbs.AddLoad(LoadCoordinate(markerNumber=coord(cn[0], 2), load=0.0,
-                               loadUserFunction=_Moment(torque, dt)))
+    fix(mbs, ground, cn[0])
+    load_history(mbs, coord(mbs, cn[0], 2), torque, dt)
     # the block and the rigid post: one body, its node at their centre of mass, c along the
     # post from the block
     m_post = post.mass_per_length * post.length
@@ -111,22 +109,14 @@ def simulate_slider_loop_exudyn(crank: Link, post: Link, rod: Link, block: float
         mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[post.length - c, 0.0,
                                                                       0.0])),
         mbs.AddMarker(MarkerNodeRigid(nodeNumber=rn[0]))]))
-    for k in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(rn[-1], k)]))
+    fix(mbs, ground, rn[-1])
     watched = (cn[0], cn[-1], pn, rn[0], rn[elements // 2], rn[-1])
-    sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
-                                        outputVariableType=exu.OutputVariableType.Coordinates))
-               for n in watched]
+    sensors = [node_sensor(mbs, n) for n in watched]
     cpu = time.process_time()
     wall, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-6, 1e-8, 1.0)
     cpu = time.process_time() - cpu
-
-    def series(number: int, node: int) -> np.ndarray:
-        data = np.asarray(mbs.GetSensorStoredData(number))
-        out = np.stack([np.interp(t_grid, data[:, 0], data[:, c]) for c in range(1, 4)], 1)
-        return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
-
-    root, tip, centre, r0, mid, r1 = (series(s, n) for s, n in zip(sensors, watched))
+    root, tip, centre, r0, mid, r1 = (node_series(mbs, s, t_grid, n)
+                                      for s, n in zip(sensors, watched))
     on_block = centre[:, :2] - c * np.stack([np.cos(centre[:, 2]), np.sin(centre[:, 2])], 1)
     line = np.stack([np.cos(tip[:, 2]), np.sin(tip[:, 2])], 1)
     normal_root = np.stack([-np.sin(root[:, 2]), np.cos(root[:, 2])], 1)

@@ -3,7 +3,7 @@ flexible parent (`PrismaticJoint.at`, scenario key `line_at`), in Exudyn.
 
 * the hub: an ``ObjectRigidBody2D`` of inertia ``hub_inertia`` on the parent beam's root node,
   that node's centre held at the origin by two ``CoordinateConstraint``; a moment history M(t)
-  on its angle coordinate (`exudyn_forward_reference._Moment`: the step mean). The beam's
+  on its angle coordinate (`exudyn_pieces.StepMean`: the step mean). The beam's
   root node is the hub's node: the parent is clamped to the hub exactly;
 * the parent: ``ObjectBeamGeometricallyExact2D`` elements (Simo–Reissner), a node at x_a;
 * the block: an ``ObjectRigidBody2D`` of the block's mass on the carried beam's root node; a
@@ -29,9 +29,19 @@ import numpy as np
 
 from flexlink.model import Link
 
-from .exudyn_forward_reference import _Moment
-from .exudyn_reference import solve_dynamic
-from .exudyn_slider_reference import add_slider, beam_nodes, point_mass
+from .exudyn_pieces import (
+    add_slider,
+    beam_nodes,
+    coord,
+    fix,
+    integration_step,
+    load_history,
+    new_system,
+    node_sensor,
+    node_series,
+    point_mass,
+    solve_dynamic,
+)
 
 
 def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: float, beam: Link,
@@ -45,25 +55,10 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
     Returns ``t`` (s), ``angle`` (rad), ``travel`` (m), ``parent_deflection`` and
     ``tip_deflection`` (m)."""
     import exudyn as exu
-    from exudyn.itemInterface import (
-        CoordinateConstraint,
-        LoadCoordinate,
-        MarkerNodeCoordinate,
-        MarkerNodeRigid,
-        NodePointGround,
-        ObjectRigidBody2D,
-        SensorNode,
-    )
+    from exudyn.itemInterface import MarkerNodeRigid, ObjectRigidBody2D
 
-    if dt is None:
-        dt = min(dt_out, 5e-4)
-    dt = dt_out / round(dt_out / dt)
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
-
-    def coord(node: int, c: int) -> int:
-        return mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))
+    dt = integration_step(dt_out, dt)
+    _container, mbs, ground = new_system()
 
     inboard = max(1, round(elements * line_at / parent.length))
     outboard = (np.linspace(line_at, parent.length, max(1, elements - inboard) + 1)[1:]
@@ -71,10 +66,8 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
     x_parent = np.concatenate([np.linspace(0.0, line_at, inboard + 1), outboard])
     hub = beam_nodes(mbs, parent, x_parent, np.zeros(2), 0.0)
     mbs.AddObject(ObjectRigidBody2D(nodeNumber=hub[0], mass=1.0, inertia=hub_inertia))
-    for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[coord(ground, 0), coord(hub[0], c)]))
-    mbs.AddLoad(LoadCoordinate(markerNumber=coord(hub[0], 2), load=0.0,
-                               loadUserFunction=_Moment(moment, dt)))
+    fix(mbs, ground, hub[0])
+    load_history(mbs, coord(mbs, hub[0], 2), moment, dt)
     section = hub[inboard]
     u = np.array([math.cos(axis), math.sin(axis)])
     carried = beam_nodes(mbs, beam, np.linspace(0.0, beam.length, elements + 1),
@@ -82,17 +75,10 @@ def simulate_slider_point_exudyn(parent: Link, line_at: float, hub_inertia: floa
     add_slider(mbs, mbs.AddMarker(MarkerNodeRigid(nodeNumber=section)),
                point_mass(mbs, carried[0], block), axis, gamma, force, dt)
     watched = (hub[0], section, hub[-1], carried[0], carried[-1])
-    sensors = [mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
-                                        outputVariableType=exu.OutputVariableType.Coordinates))
-               for n in watched]
+    sensors = [node_sensor(mbs, n) for n in watched]
     _, t_grid = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-6, 1e-8, 1.0)
-
-    def series(number: int, node: int) -> np.ndarray:
-        data = np.asarray(mbs.GetSensorStoredData(number))
-        out = np.stack([np.interp(t_grid, data[:, 0], data[:, c]) for c in range(1, 4)], 1)
-        return out + np.asarray(mbs.GetNodeParameter(node, "referenceCoordinates"))[None, :]
-
-    root, point, tip, r0, r1 = (series(s, n) for s, n in zip(sensors, watched))
+    root, point, tip, r0, r1 = (node_series(mbs, s, t_grid, n)
+                                for s, n in zip(sensors, watched))
 
     def normal_of(q: np.ndarray) -> np.ndarray:
         return np.stack([-np.sin(q[:, 2]), np.cos(q[:, 2])], 1)
