@@ -1,9 +1,11 @@
 """Error-controlled step sizes of the Gauss collocation, shared by both nonlinear paths
 (prescribed joints, `gauss.py`; rigid coordinates, `gauss_forward.py`).
 
-Error estimate: step doubling. Each step H is also taken as two steps H/2 from the same
-state; the two H/2 steps are kept and |y_{H/2,H/2} − y_H| / 15 (fourth order) estimates
-their local error. An embedded lower-order formula would cost less, but it multiplies the
+Error estimate: step doubling. A checked step H is also taken as two steps H/2 from the
+same state; the two H/2 steps are kept and |y_{H/2,H/2} − y_H| / 15 (fourth order) estimates
+their local error. The prescribed model's loop checks every step, the forward model's the
+first of each batch and every FORWARD_CHECK_EVERY-th after it (the others are their two H/2
+steps alone). An embedded lower-order formula would cost less, but it multiplies the
 stage accelerations by h², and the stiff high modes (ω h ≫ 1, integrated stably but not
 resolved) would dominate it by (ω h)²; the doubling difference of a stiff mode stays of the
 order of its (small) amplitude. The estimate is measured against atol + rtol · the largest
