@@ -182,3 +182,45 @@ def test_both_nonlinear_models_reach_one_compiled_loop() -> None:
     assert models[0][0] != models[1][0] and models[0][2] == prescribed.n
     with pytest.raises(TypeError, match="no compiled residual for kernel data tuple"):
         residual_model((1.0, 2.0))
+
+
+def test_unchecked_doubling_steps_are_two_half_steps() -> None:
+    """With every = 3, steps 0 and 3 of a batch are checked (H and two H/2 steps), steps 1
+    and 2 are their two H/2 steps alone: the batch ends where uniform steps of H/2 end
+    (within Newton's tolerance), with errors only for the checked steps and fewer Newton
+    iterations than checking every step."""
+    from flexlink.solvers._gauss_numba import gauss_doubling, gauss_loop, residual_model
+    from flexlink.solvers.gauss_steps import GAUSS2, newton_settings, step_control
+
+    system = NonlinearSystem(_swing())
+    n, H, t0, count = system.n, 0.01, 0.15, 4
+    q0, v0 = np.linspace(0.01, -0.02, n), np.linspace(-0.3, 0.2, n)
+    model = residual_model(system.kernel_data())
+    newton = newton_settings(NEWTON_TOL, NEWTON_MAX, ROUND_OFF * system.max_frequency**2, False)
+    X0 = np.repeat(system.accelerations(np.array([t0]), q0[None], v0[None]), 2, axis=0)
+    stages = (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel()
+    rows = system.node_inputs(stages).stage_inputs()
+
+    def doubled(every: int):
+        q, v = np.repeat(q0[None], count + 1, axis=0), np.repeat(v0[None], count + 1, axis=0)
+        errors, counts = np.zeros(count), np.zeros(2, np.int64)
+        status, accepted = gauss_doubling(
+            model, rows, q, v, X0.copy(), H, H, GAUSS2, newton,
+            step_control(np.zeros(n), 1.0, 1.0, 0.0), errors, np.zeros((2, 2 * n, 2 * n)),
+            np.zeros(3, np.int64), np.empty((2, n, 3 * n)), counts, np.zeros(1), every)
+        assert (status, accepted) == (0, count)
+        return q, v, errors, counts[1]
+
+    q, v, errors, iterations = doubled(3)
+    _, _, every_step, all_iterations = doubled(1)
+    assert np.all(errors[[0, 3]] > 0.0) and np.all(errors[[1, 2]] == 0.0)
+    np.testing.assert_array_equal(errors[[0, 3]] > 0.0, every_step[[0, 3]] > 0.0)
+    assert iterations < all_iterations
+    half = t0 + 0.5 * H * (np.arange(2 * count)[:, None] + NODES[None, :]).ravel()
+    qh = np.repeat(q0[None], 2 * count + 1, axis=0)
+    vh = np.repeat(v0[None], 2 * count + 1, axis=0)
+    failed, _, _ = gauss_loop(model, system.node_inputs(half).stage_inputs(), qh, vh,
+                              X0.copy(), 0.5 * H, GAUSS2, newton, False, np.zeros(1))
+    assert failed == -1
+    np.testing.assert_allclose(q, qh[::2], rtol=0, atol=1e-8 * np.abs(qh).max())
+    np.testing.assert_allclose(v, vh[::2], rtol=0, atol=1e-8 * np.abs(vh).max())

@@ -15,7 +15,6 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._forward_numba import _solve
 from ._forward_numba import applied as _applied
 from ._nonlinear_numba import inertia_elastic
 
@@ -75,14 +74,15 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
     same M from one to the next: each state first iterates ÿ ← ÿ − M₀⁻¹ r(ÿ) from the last
     state's ÿ with M₀ the last mass matrix built, until the remaining error (the correction
     times θ/(1 − θ), θ its contraction) is below 1e-13 of ÿ, and builds its own M when
-    that takes more than MASS_REUSE iterations or θ exceeds MASS_CONTRACTION."""
+    θ exceeds MASS_CONTRACTION or the corrections, shrinking by θ, would not reach that
+    within MASS_REUSE iterations."""
     b, ny = Y.shape
     out = np.empty((b, ny))
     X = np.zeros(ny)
     r0 = np.empty(ny)
     r1 = np.empty(ny)
     M = np.empty((ny, ny))
-    M0 = np.empty((ny, ny))
+    M0 = np.empty((ny, ny))  # M₀⁻¹
     reuse = False
     for t in range(b):
         done = False
@@ -90,17 +90,16 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
             for i in range(ny):
                 X[i] = out[t - 1, i]
             previous = np.inf
-            for _ in range(MASS_REUSE):
+            for j in range(MASS_REUSE):
                 residual(d, Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], r1)
-                for i in range(ny):
-                    for k in range(ny):
-                        M[i, k] = M0[i, k]
-                _solve(M, r1)
                 size = 0.0
                 largest = 0.0
                 for i in range(ny):
-                    X[i] -= r1[i]
-                    size = max(size, abs(r1[i]))
+                    c = 0.0
+                    for k in range(ny):
+                        c += M0[i, k] * r1[k]
+                    X[i] -= c
+                    size = max(size, abs(c))
                     largest = max(largest, abs(X[i]))
                 theta = size / previous
                 # (first iteration: no θ yet, the correction itself must be small)
@@ -109,6 +108,10 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
                     done = True
                     break
                 if theta > MASS_CONTRACTION:
+                    break
+                # iterations still needed at this rate: more than are left, build now
+                if 0.0 < theta < 1.0 and remaining * theta ** (MASS_REUSE - 1 - j) > (
+                        1e-13 * largest):
                     break
                 previous = size
         if not done:
@@ -120,10 +123,13 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
                 X[k] = 0.0
                 for i in range(ny):
                     M[i, k] = r1[i] - r0[i]
-                    M0[i, k] = M[i, k]
+            inverse = np.linalg.inv(M)
             for i in range(ny):
-                X[i] = -r0[i]
-            _solve(M, X)
+                c = 0.0
+                for k in range(ny):
+                    M0[i, k] = inverse[i, k]
+                    c -= inverse[i, k] * r0[k]
+                X[i] = c
             reuse = True
         for i in range(ny):  # (a loop: a slice assignment links numba's shape error in)
             out[t, i] = X[i]

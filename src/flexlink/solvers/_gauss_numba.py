@@ -298,46 +298,62 @@ def gauss_loop(model, rows, y, v, X, h, tab, newton, predict_first, peak):
 
 @njit(cache=True)
 def gauss_doubling(model, rows, y, v, X, h_prev, H, tab, newton, control, errors, inverse, have,
-                   partials, counts, peak):
-    """Advance y, v (count+1, n) in place from row 0 by steps H, each checked by step
-    doubling: one step H and two steps H/2 from the same state, the two H/2 steps kept
-    (``step_doubling`` in gauss_steps.py). Stage inputs: six rows per step (the H step's two
-    stages, then the two H/2 steps'). X (2, n): the stage accelerations of the last step,
-    of length h_prev (s), on return those of the last accepted step. ``control``: a
-    `gauss_steps.step_control`; ``errors`` (count,): each step's error as a fraction of its
-    tolerance (doubling_error). ``inverse`` (2, 2n, 2n), ``have`` (3,) and ``partials``
-    (2, n, 3n): the iteration matrices for H and H/2, kept across calls while H is
-    unchanged, and the partial derivatives they are assembled from (`solve_stages`); ``peak`` as in `solve_stages`. Returns (status, accepted steps): status 0 all accepted, 1 a step's error
-    above its tolerance, 2 a step whose Newton iteration did not converge."""
+                   partials, counts, peak, every=1):
+    """Advance y, v (count+1, n) in place from row 0 by steps H, checked by step doubling:
+    one step H and two steps H/2 from the same state, the two H/2 steps kept
+    (``step_doubling`` in gauss_steps.py). Steps 0, ``every``, 2·``every``, … are checked;
+    the others are their two H/2 steps alone (error 0), Newton's guess for the first
+    extrapolated from the step before. Stage inputs: six rows per step (the H step's two
+    stages, then the two H/2 steps'; an unchecked step reads the last four). X (2, n): the
+    stage accelerations of the last step, of length h_prev (s), on return those of the last
+    accepted step. ``control``: a `gauss_steps.step_control`; ``errors`` (count,): each
+    step's error as a fraction of its tolerance (doubling_error). ``inverse`` (2, 2n, 2n),
+    ``have`` (3,) and ``partials`` (2, n, 3n): the iteration matrices for H and H/2, kept
+    across calls while H is unchanged, and the partial derivatives they are assembled from
+    (`solve_stages`); ``peak`` as in `solve_stages`. Returns (status, accepted steps):
+    status 0 all accepted, 1 a step's error above its tolerance, 2 a step whose Newton
+    iteration did not converge."""
     n = y.shape[1]
     count = y.shape[0] - 1
     nodes = tab.nodes
     big = np.empty((2, n))
     fine = np.empty((2, n))
+    last = np.empty((2, n))
     y_big = np.empty(n)
     v_big = np.empty(n)
     y_mid = np.empty(n)
     v_mid = np.empty(n)
     h = 0.5 * H
     for i in range(count):
-        predict(big, X, h_prev, h_prev, H, nodes)
-        if not solve_stages(model, rows, 6 * i, y[i], v[i], big, H, tab, newton, inverse[0],
-                            have, 0, partials, counts, peak):
-            return 2, i
-        _advance(y[i], v[i], big, H, tab, y_big, v_big)
-        predict(fine, big, H, 0.0, h, nodes)
+        checked = i % every == 0
+        if checked:
+            predict(big, X, h_prev, h_prev, H, nodes)
+            if not solve_stages(model, rows, 6 * i, y[i], v[i], big, H, tab, newton,
+                                inverse[0], have, 0, partials, counts, peak):
+                return 2, i
+            _advance(y[i], v[i], big, H, tab, y_big, v_big)
+            predict(fine, big, H, 0.0, h, nodes)
+        else:
+            predict(fine, X, h_prev, h_prev, h, nodes)
         if not solve_stages(model, rows, 6 * i + 2, y[i], v[i], fine, h, tab, newton, inverse[1],
                             have, 1, partials, counts, peak):
             return 2, i
         _advance(y[i], v[i], fine, h, tab, y_mid, v_mid)
-        predict(fine, big, H, h, h, nodes)
+        if checked:
+            predict(fine, big, H, h, h, nodes)
+        else:
+            for st in range(2):
+                for m in range(n):
+                    last[st, m] = fine[st, m]
+            predict(fine, last, h, h, h, nodes)
         if not solve_stages(model, rows, 6 * i + 4, y_mid, v_mid, fine, h, tab, newton, inverse[1],
                             have, 1, partials, counts, peak):
             return 2, i
         _advance(y_mid, v_mid, fine, h, tab, y[i + 1], v[i + 1])
-        errors[i] = doubling_error(y_big, v_big, y[i + 1], v[i + 1], control)
-        if errors[i] > 1.0:
-            return 1, i
+        if checked:
+            errors[i] = doubling_error(y_big, v_big, y[i + 1], v[i + 1], control)
+            if errors[i] > 1.0:
+                return 1, i
         for st in range(2):
             for m in range(n):
                 X[st, m] = fine[st, m]

@@ -165,6 +165,7 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     from ..dynamics.forward_kernel import breakpoints
     from .gauss_steps import (
         DOUBLING_STAGES,
+        FORWARD_CHECK_EVERY,
         FORWARD_SLOW_CONTRACTION,
         Batch,
         DoublingLoop,
@@ -181,7 +182,8 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
         newton_settings(forward_newton_tol(system, rtol), NEWTON_MAX,
                         ROUND_OFF * system.max_frequency**2, True, FORWARD_SLOW_CONTRACTION,
                         shared_partials=True),
-        step_control(group, rtol, atol, RATE_FLOOR * system.max_frequency))
+        step_control(group, rtol, atol, RATE_FLOOR * system.max_frequency),
+        FORWARD_CHECK_EVERY)
 
     def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,
                 X: np.ndarray, h_prev: float, new_step: bool) -> Batch:

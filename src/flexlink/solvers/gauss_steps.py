@@ -1,9 +1,11 @@
 """Error-controlled step sizes of the Gauss collocation, shared by both nonlinear paths
 (prescribed joints, `gauss.py`; rigid coordinates, `gauss_forward.py`).
 
-Error estimate: step doubling. Each step H is also taken as two steps H/2 from the same
-state; the two H/2 steps are kept and |y_{H/2,H/2} − y_H| / 15 (fourth order) estimates
-their local error. An embedded lower-order formula would cost less, but it multiplies the
+Error estimate: step doubling. A checked step H is also taken as two steps H/2 from the
+same state; the two H/2 steps are kept and |y_{H/2,H/2} − y_H| / 15 (fourth order) estimates
+their local error. The prescribed model's loop checks every step, the forward model's the
+first of each batch and every FORWARD_CHECK_EVERY-th after it (the others are their two H/2
+steps alone). An embedded lower-order formula would cost less, but it multiplies the
 stage accelerations by h², and the stiff high modes (ω h ≫ 1, integrated stably but not
 resolved) would dominate it by (ω h)²; the doubling difference of a stiff mode stays of the
 order of its (small) amplitude. The estimate is measured against atol + rtol · the largest
@@ -66,6 +68,16 @@ SLOW_CONTRACTION = 0.1
 # (Newton no longer fails where its step is halved: the paper arm's strain signal at the
 # default rtol would be a ninth of its model error instead of a fourteenth).
 FORWARD_SLOW_CONTRACTION = 0.03
+
+# The forward model's doubling loop checks the first step of each batch (a batch has one step
+# size and ends at the inputs' breakpoints) and every FORWARD_CHECK_EVERY-th after it; the
+# steps between are its two H/2 steps without the H step: 2⅓ collocation solves a step
+# instead of 3. On the slider cases of benchmarks/slider_vs_fe.py (3, 4, 6 modes) the step
+# sizes stay those of checking every step and so does each channel's integration error
+# against the converged run, to its second digit (benchmarks/nonlinear_slider_tolerance.py);
+# 4 let the large-deflection case's steps grow (its 4-mode hub rate at a seventh of its
+# model error instead of an eighth). The prescribed model's loop checks every step.
+FORWARD_CHECK_EVERY = 3
 
 NewtonSettings = namedtuple("NewtonSettings", ["tol", "max_iterations", "floor",
                                                "running_peak", "state_round_off",
@@ -131,13 +143,19 @@ class Batch:
 class DoublingLoop:
     """The compiled step-doubling loop of one run (`_gauss_numba.gauss_doubling`), for the
     model whose kernel data ``data`` is (n unknowns): Newton's settings, the step control,
-    and what the loop keeps across batches (the iteration matrices for H and H/2, Newton's
-    counts, the run's largest stage acceleration)."""
+    how often a batch's steps are checked (``check_every``: the first of each batch and
+    every that many after it; the others are its two H/2 steps alone), and what the loop
+    keeps across batches (the iteration matrices for H and H/2, Newton's counts, the run's
+    largest stage acceleration)."""
 
-    def __init__(self, data: Any, n: int, newton: NewtonSettings, control: Any) -> None:
+    def __init__(self, data: Any, n: int, newton: NewtonSettings, control: Any,
+                 check_every: int = 1) -> None:
         from ._gauss_numba import residual_model  # numba's import is slow: only when used
 
+        if check_every < 1:
+            raise ValueError(f"check_every must be at least 1, got {check_every}")
         self.data, self.n, self.newton, self.control = data, n, newton, control
+        self.check_every = int(check_every)
         self.model = residual_model(data)  # borrows data's arrays: kept alive by self.data
         self.inverse = np.zeros((2, 2 * n, 2 * n))
         self.have = np.zeros(3, dtype=np.int64)  # the two matrices', then the partials'
@@ -160,7 +178,7 @@ class DoublingLoop:
             self.have[:2 if self.newton.shared_partials else 3] = 0
         status, k = gauss_doubling(self.model, rows, y, v, X, h_prev, H, GAUSS2, self.newton,
                                    self.control, errors, self.inverse, self.have,
-                                   self.partials, self.counts, self.peak)
+                                   self.partials, self.counts, self.peak, self.check_every)
         return Batch(int(status), y[:k + 1], v[:k + 1], errors, self.counts)
 
 
