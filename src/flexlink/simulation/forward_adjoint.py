@@ -94,7 +94,7 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
     gy0, gz, gy1 = output_seeds(steps, t, g)
     lam = np.zeros(m)
     scratch = jacobian_scratch(d, nominal.work, m)
-    parts = [moved_arrays(nominal, group) for group in moved]
+    parts = [moved_arrays(nominal, group, more=True) for group in moved]
     # backwards in pieces of CHUNK steps (the stage Jacobians take 3 m² numbers a step)
     for b in range(S, 0, -CHUNK):
         a = max(0, b - CHUNK)
