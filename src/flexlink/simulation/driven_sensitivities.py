@@ -251,6 +251,8 @@ class _Bases:
     def __init__(self, segment: np.ndarray, times: np.ndarray) -> None:
         self.segment, self.times = segment, times
         self.made: list[tuple[tuple, tuple, dict]] = []  # (table, (piece, x), {degree: T})
+        # (table, its rows), not written to (numba compiles read-only arrays apart)
+        self.read: list[tuple[tuple, np.ndarray]] = []
 
     def _basis(self, table: tuple, degree: int) -> tuple[np.ndarray, np.ndarray]:
         from ..solvers.radau_sensitivity import table_piece
@@ -269,11 +271,17 @@ class _Bases:
         return located[0], polynomials[degree]
 
     def rows(self, table: tuple) -> np.ndarray:
-        """The input rows (n, columns) of ``table``."""
+        """The input rows (n, columns) of ``table`` (made once per table object: not to be
+        written to)."""
         from ..solvers.radau_sensitivity import table_rows
 
-        return table_rows(table, self.segment, self.times,
+        for other, rows in self.read:
+            if other is table:
+                return rows
+        rows = table_rows(table, self.segment, self.times,
                           self._basis(table, table[2].shape[1] - 1))
+        self.read.append((table, rows))
+        return rows
 
     def integrals(self, model: _Model) -> np.ndarray:
         """The inputs' integrals from the start (n, columns) of ``model``
