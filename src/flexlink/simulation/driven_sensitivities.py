@@ -67,7 +67,8 @@ def _moved_model(scenario: Scenario, nominal: _Model, t: np.ndarray, nodes: np.n
 
     other = nominal.scenario
     base, own = other.base, scenario.base
-    inputs_same = (_equal(scenario.chain.joints, other.chain.joints)
+    inputs_same = (_equal(_input_sources(scenario.chain.joints),
+                          _input_sources(other.chain.joints))
                    and _equal(scenario.actuators, other.actuators)
                    and _equal(scenario.controllers, other.controllers)
                    and _equal(scenario.settings, other.settings)
@@ -77,14 +78,36 @@ def _moved_model(scenario: Scenario, nominal: _Model, t: np.ndarray, nodes: np.n
             and _equal(scenario.closures, other.closures):
         return replace(nominal, scenario=scenario)
     return _model(scenario, t, nodes, dependent,
-                  nominal.table if inputs_same and nominal.loops is None else None)
+                  nominal.table if inputs_same and nominal.loops is None else None, nominal)
+
+
+def _input_sources(joints: Any) -> tuple:
+    """What the input rows and their breakpoints read of each joint
+    (`forward_kernel.inputs`, `histories.input_breakpoints`): a torque drive's torque, a
+    servo's reference, else the joint's (its motor's) whole prescribed motion; a servo's
+    gains, a motor's inertia or a joint's start are not among them."""
+    from ..model import PositionServo, TorqueDrive, VelocityServo
+    from ..model.joints import drive_side
+
+    out = []
+    for joint in map(drive_side, joints):
+        if isinstance(joint, TorqueDrive):
+            out.append((TorqueDrive, joint.torque))
+        elif isinstance(joint, VelocityServo | PositionServo):
+            out.append((type(joint), joint.reference))
+        else:
+            out.append(joint)
+    return tuple(out)
 
 
 def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
-           dependent: np.ndarray | None = None, table: tuple | None = None) -> _Model:
+           dependent: np.ndarray | None = None, table: tuple | None = None,
+           like: _Model | None = None) -> _Model:
     """The model of ``scenario``; ValueError if its input segments differ from ``nodes`` or
     its closures' dependent joints from ``dependent`` (those of the nominal model);
-    ``table``: its input table where known to be another model's (the same inputs)."""
+    ``table``: its input table where known to be another model's (the same inputs);
+    ``like``: a model whose scratch workspace it shares where its records have the same
+    shapes and types (the kernels hold nothing in it between calls)."""
     from ..dynamics._forward_numba import workspace
     from ..dynamics.forward_kernel import breakpoints, inputs, pack
     from ..dynamics.momentum_projection import projection, start_values
@@ -105,7 +128,9 @@ def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
         known = known._replace(active=known.active[:0])  # the Radau loop projects nothing
     else:
         data = pack(system)
-        work = workspace(data, len(system.servos))
+        work = (like.work if like is not None and like.loops is None
+                and len(system.servos) == len(like.system.servos)
+                and _same_layout(data, like.data) else workspace(data, len(system.servos)))
         y0 = system.initial_state()
         known = projection(system, data, float(t[0]), u0.size)
         if known.active.size:
@@ -130,6 +155,19 @@ def _model(scenario: Scenario, t: np.ndarray, nodes: np.ndarray | None,
                   integrals(table) if known.active.size else None, loops)
 
 
+def _same_layout(a: Any, b: Any) -> bool:
+    """Whether two ForwardData records have arrays of the same shapes and types and scalars
+    of the same types (so the same compiled code and workspace serve both)."""
+    for x, y in zip(a, b, strict=True):
+        if isinstance(x, np.ndarray):
+            if not (isinstance(y, np.ndarray) and x.shape == y.shape and x.dtype == y.dtype
+                    and x.flags.c_contiguous == y.flags.c_contiguous):
+                return False
+        elif type(x) is not type(y):
+            return False
+    return True
+
+
 def _rates(model: _Model) -> Any:
     from ..solvers._radau_numba import rates_at
 
@@ -145,8 +183,11 @@ def _same_rates(a: _Model, b: _Model) -> bool:
     (a field read only by the channels, such as a sensor's place)."""
     if a.loops is not None or b.loops is not None:
         return a is b
-    return (all(np.array_equal(x, y) for x, y in zip(a.data, b.data, strict=True))
-            and all(np.array_equal(x, y) for x, y in zip(a.table, b.table, strict=True)))
+    from .record_moves import same
+
+    return ((a.data is b.data or all(same(x, y) for x, y in zip(a.data, b.data, strict=True)))
+            and (a.table is b.table
+                 or all(same(x, y) for x, y in zip(a.table, b.table, strict=True))))
 
 
 def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
@@ -164,7 +205,7 @@ def _linearization(nominal: _Model, moved: list[list[_Model]], fields: list,
     q, ns, K = nu + n, m - 2 * nu - 2 * n, len(fields)
     last: dict = {}
     scratch = jacobian_scratch(d, nominal.work, m)
-    parts = [moved_arrays(nominal, group) for group in moved]
+    parts = [moved_arrays(nominal, group, more=True) for group in moved]
 
     def jacobians(u: np.ndarray, Y: np.ndarray) -> np.ndarray:
         rows = Y.shape[0]
@@ -210,12 +251,15 @@ class _Bases:
     def __init__(self, segment: np.ndarray, times: np.ndarray) -> None:
         self.segment, self.times = segment, times
         self.made: list[tuple[tuple, tuple, dict]] = []  # (table, (piece, x), {degree: T})
+        # (table, its rows), not written to (numba compiles read-only arrays apart)
+        self.read: list[tuple[tuple, np.ndarray]] = []
 
     def _basis(self, table: tuple, degree: int) -> tuple[np.ndarray, np.ndarray]:
         from ..solvers.radau_sensitivity import table_piece
+        from .record_moves import same
 
         for other, located, polynomials in self.made:
-            if other is table or all(np.array_equal(x, y) for x, y in
+            if other is table or all(same(x, y) for x, y in
                                      zip((table[0], table[1], table[3]),
                                          (other[0], other[1], other[3]), strict=True)):
                 break
@@ -227,11 +271,17 @@ class _Bases:
         return located[0], polynomials[degree]
 
     def rows(self, table: tuple) -> np.ndarray:
-        """The input rows (n, columns) of ``table``."""
+        """The input rows (n, columns) of ``table`` (made once per table object: not to be
+        written to)."""
         from ..solvers.radau_sensitivity import table_rows
 
-        return table_rows(table, self.segment, self.times,
+        for other, rows in self.read:
+            if other is table:
+                return rows
+        rows = table_rows(table, self.segment, self.times,
                           self._basis(table, table[2].shape[1] - 1))
+        self.read.append((table, rows))
+        return rows
 
     def integrals(self, model: _Model) -> np.ndarray:
         """The inputs' integrals from the start (n, columns) of ``model``

@@ -78,11 +78,14 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
     nu, n, m = d.free.shape[0], d.n_x - d.n_rigid, nominal.y0.size
     q, S = nu + n, steps.h.size
     gradient = seeds[0] @ settled.dy0
-    # the output seeds, through the outputs' projection if the run projects
+    # the output seeds, through the outputs' projection if the run projects; it moves
+    # the free rigid rates alone (`_momentum_numba.project`), so seeds on the other
+    # entries (the sensors' modal coordinates) pass it as they are: its Jacobian's rows
+    # there are the identity's, its field term's zero
     projected = nominal.projection.active.size > 0
     which, s = output_steps(steps, t)
     g = seeds[1:]
-    if projected:
+    if projected and np.any(g[:, nu:2 * nu]):
         kept = np.flatnonzero(np.any(g != 0.0, axis=1))
         w = which[kept]
         raw = dense(steps.y0[w], steps.z[w], steps.y1[w], s[kept])
@@ -94,7 +97,7 @@ def state_gradient(settled: ForwardSettled, fields: list, t: np.ndarray,
     gy0, gz, gy1 = output_seeds(steps, t, g)
     lam = np.zeros(m)
     scratch = jacobian_scratch(d, nominal.work, m)
-    parts = [moved_arrays(nominal, group) for group in moved]
+    parts = [moved_arrays(nominal, group, more=True) for group in moved]
     # backwards in pieces of CHUNK steps (the stage Jacobians take 3 m² numbers a step)
     for b in range(S, 0, -CHUNK):
         a = max(0, b - CHUNK)
