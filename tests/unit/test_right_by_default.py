@@ -1,0 +1,80 @@
+"""Right by default: input a user may well give that used to be accepted and then ignored,
+or that produced a wrong result without a word."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from flexlink.cli import main
+from flexlink.scenario import ScenarioError, load_paper_experiment, scenario_from_dict
+from flexlink.simulation import simulate
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def test_an_output_grid_coarser_than_the_move_keeps_the_links_flexible() -> None:
+    """dt_out longer than the whole move: the output samples see no acceleration, yet the
+    links vibrate after it; the quasi-rigid check must look at the motion, not the samples
+    (it made both links rigid: zero deflection at every sample)."""
+    base = load_paper_experiment()
+
+    def run(dt_out: float) -> np.ndarray:
+        settings = dataclasses.replace(base.settings, t_end=6.0, dt_out=dt_out)
+        results = simulate(dataclasses.replace(base, settings=settings), shapes=False)
+        assert "rigid_links" not in results.metadata
+        return results.to_pandas().loc[[3.0, 6.0], "link2_tip_deflection"].to_numpy()
+
+    fine, coarse = run(1.0), run(3.0)
+    assert np.all(np.abs(fine) > 1e-3)  # m: the arm rings after its move
+    np.testing.assert_allclose(coarse, fine, rtol=1e-4)
+
+
+def _servo_dict() -> dict[str, Any]:
+    with open(EXAMPLES / "paper_servo.toml", "rb") as file:
+        return tomllib.load(file)
+
+
+def test_a_fixed_step_on_the_first_order_model_is_refused() -> None:
+    """simulation.step is the nonlinear model's; the first-order model used to ignore it."""
+    d = _servo_dict()
+    d["simulation"]["step"] = 1e-3
+    with pytest.raises(ScenarioError, match=r"simulation\.step: .*model = \"nonlinear\""):
+        scenario_from_dict(d)
+    d["simulation"]["model"] = "nonlinear"
+    assert scenario_from_dict(d).settings.step == 1e-3
+
+
+@pytest.mark.parametrize("name", ["../escaped", "runs/arm", "a\\b"])
+def test_a_scenario_name_with_a_path_separator_is_refused(name: str) -> None:
+    """The name makes default output names (a sweep's `<name>_sweep.nc`): '../x' wrote
+    outside the working folder."""
+    d = _servo_dict()
+    d["simulation"]["name"] = name
+    with pytest.raises(ScenarioError, match=r"simulation\.name .*no '/'"):
+        scenario_from_dict(d)
+
+
+def test_a_sweep_with_a_path_in_the_scenario_name_writes_nothing(tmp_path: Path,
+                                                                monkeypatch: pytest.MonkeyPatch
+                                                                ) -> None:
+    text = (EXAMPLES / "paper_servo.toml").read_text()
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "s.toml").write_text(text.replace('name = "paper-servo"', 'name = "../escaped"'))
+    monkeypatch.chdir(work)
+    assert main(["sweep", "s.toml", "--grid", "links[0].E=30e9", "-q"]) == 2
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["s.toml", "work"]
+
+
+def test_a_pair_with_a_nan_or_a_third_number_shows_it() -> None:
+    d = _servo_dict()
+    d["simulation"]["gravity"] = [0.0, math.nan]
+    with pytest.raises(ScenarioError, match=r"simulation\.gravity: .*finite, got \[0\.0, nan\]"):
+        scenario_from_dict(d)
