@@ -15,6 +15,7 @@ beyond the Nyquist frequency, refuses it (`stiff_forward_links`).
 from __future__ import annotations
 
 import dataclasses
+from itertools import pairwise
 
 import numpy as np
 
@@ -62,7 +63,7 @@ def motion_times(scenario: Scenario, t: np.ndarray) -> np.ndarray:
     edges = input_breakpoints(scenario.chain.joints)
     inside = edges[(edges > t[0]) & (edges < t_end)]
     edges = np.unique(np.concatenate([[float(t[0]), t_end], inside]))
-    parts = [t] + [np.linspace(a, b, SAMPLES_PER_INTERVAL) for a, b in zip(edges[:-1], edges[1:])]
+    parts = [t] + [np.linspace(a, b, SAMPLES_PER_INTERVAL) for a, b in pairwise(edges)]
     for joint in scenario.chain.joints:
         samples = getattr(joint, "time_s", None)
         if samples is not None:
