@@ -113,14 +113,14 @@ class Limits:
         values = np.atleast_1d(np.asarray(value, dtype=float))
         if values.size == 1:
             values = np.full(joints, values[0])
-        label = f"{name} ({LIMIT_OPTIONS[name]})"
+        option = f" ({LIMIT_OPTIONS[name]} on the command line)"
         if values.size != joints:
-            raise InfeasibleMove(f"{label}: give one limit for all joints or one per joint "
-                                 f"({joints}), got {values.size}")
+            raise InfeasibleMove(f"{name}: give one limit for all joints or one per joint "
+                                 f"({joints}), got {values.size}{option}")
         for k, v in enumerate(values):
             if not (math.isfinite(v) and v > 0.0):
-                raise InfeasibleMove(f"{label} of joint {k + 1} must be > 0, got {v:g}: a "
-                                     "limit ≤ 0 allows no move")
+                raise InfeasibleMove(f"{name} of joint {k + 1} must be > 0, got {v:g}: a "
+                                     f"limit ≤ 0 allows no move{option}")
         return values
 
 
