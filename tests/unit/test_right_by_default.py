@@ -15,6 +15,8 @@ import pytest
 from flexlink.cli import main
 from flexlink.scenario import ScenarioError, load_paper_experiment, scenario_from_dict
 from flexlink.simulation import simulate
+from flexlink.simulation.objective import MeanSquare, Objective
+from flexlink.simulation.sensitivities import SensitivityError
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
@@ -78,3 +80,20 @@ def test_a_pair_with_a_nan_or_a_third_number_shows_it() -> None:
     d["simulation"]["gravity"] = [0.0, math.nan]
     with pytest.raises(ScenarioError, match=r"simulation\.gravity: .*finite, got \[0\.0, nan\]"):
         scenario_from_dict(d)
+
+
+@pytest.mark.parametrize("keys", [{"after": math.nan}, {"target": math.inf}, {"after": "1.5"}])
+def test_a_mean_square_metric_refuses_a_value_that_makes_it_nan(keys: dict[str, Any]) -> None:
+    """MeanSquare(target=nan) made every objective value NaN, silently."""
+    with pytest.raises(ValueError, match=r"MeanSquare\.(after|target) must be a finite number"):
+        MeanSquare("link2_tip_deflection", **keys)
+
+
+def test_an_objective_refuses_one_field_by_two_paths() -> None:
+    """x would set links[0].damping_ratio twice, the last value winning, while the gradient
+    reports both as independent."""
+    with pytest.raises(SensitivityError, match=r"'links\[0\]\.damping_ratio' and "
+                       r"'links\[link1\]\.damping_ratio' are the same field"):
+        Objective(load_paper_experiment(), ["links[0].damping_ratio",
+                                            "links[link1].damping_ratio"],
+                  MeanSquare("link2_tip_deflection", after=1.5))
