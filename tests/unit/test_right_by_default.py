@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from flexlink.batch.summaries import parse_summary
 from flexlink.cli import main
 from flexlink.scenario import ScenarioError, load_paper_experiment, scenario_from_dict
 from flexlink.simulation import simulate
@@ -97,3 +98,13 @@ def test_an_objective_refuses_one_field_by_two_paths() -> None:
         Objective(load_paper_experiment(), ["links[0].damping_ratio",
                                             "links[link1].damping_ratio"],
                   MeanSquare("link2_tip_deflection", after=1.5))
+
+
+def test_a_settling_time_not_reached_in_the_run_is_nan() -> None:
+    """Still ringing at the end: the band held only at the last sample (trivially, the final
+    value is its own reference), which read as a settling time of t_end."""
+    t = np.linspace(0.0, 1.0, 101)
+    ringing = np.sin(2 * np.pi * 7.3 * t)
+    assert math.isnan(parse_summary("settling:x:band=1e-3").evaluate(t, ringing))
+    settled = np.where(t < 0.5, ringing, 0.0)
+    assert parse_summary("settling:x:band=1e-3").evaluate(t, settled) == pytest.approx(0.5)
