@@ -108,3 +108,13 @@ def test_a_settling_time_not_reached_in_the_run_is_nan() -> None:
     assert math.isnan(parse_summary("settling:x:band=1e-3").evaluate(t, ringing))
     settled = np.where(t < 0.5, ringing, 0.0)
     assert parse_summary("settling:x:band=1e-3").evaluate(t, settled) == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("name", ["study.csv", "study", "study.txt"])
+def test_a_sweep_output_that_is_neither_netcdf_nor_matlab_is_refused(
+        tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """-o study.csv wrote a netCDF file named .csv."""
+    assert main(["sweep", "--paper", "--grid", "links[0].EI=300", "-o",
+                 str(tmp_path / name), "-q"]) == 2
+    assert "name a netCDF file (.nc) or a MATLAB file (.mat)" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
