@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from flexlink.batch.summaries import parse_summary
@@ -118,3 +119,16 @@ def test_a_sweep_output_that_is_neither_netcdf_nor_matlab_is_refused(
                  str(tmp_path / name), "-q"]) == 2
     assert "name a netCDF file (.nc) or a MATLAB file (.mat)" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_compare_states_the_units_of_its_simulated_columns(tmp_path: Path) -> None:
+    """simulated.csv of compare and fit had no units anywhere in the folder."""
+    out = tmp_path / "cmp"
+    assert main(["compare", str(EXAMPLES / "lab_arm.toml"), str(EXAMPLES / "lab_run3.csv"),
+                 "-o", str(out), "-q", "--no-figures"]) == 0
+    columns = (out / "simulated.csv").read_text().splitlines()[0].split(",")
+    table = pd.read_csv(out / "simulated_channels.csv")
+    assert list(table["name"]) == columns
+    units = dict(zip(table["name"], table["unit"], strict=True))
+    assert units["t"] == "s" and units["link1_tip_acceleration"] == "m s-2"
+    assert table["unit"].notna().all()
