@@ -13,9 +13,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from flexlink.batch import SweepError, sweep
 from flexlink.batch.summaries import parse_summary
 from flexlink.cli import main
-from flexlink.scenario import ScenarioError, load_paper_experiment, scenario_from_dict
+from flexlink.scenario import (
+    ScenarioError,
+    load_paper_experiment,
+    paper_experiment_path,
+    scenario_from_dict,
+)
 from flexlink.simulation import simulate
 from flexlink.simulation.objective import MeanSquare, Objective
 from flexlink.simulation.sensitivities import SensitivityError
@@ -132,3 +138,16 @@ def test_compare_states_the_units_of_its_simulated_columns(tmp_path: Path) -> No
     units = dict(zip(table["name"], table["unit"], strict=True))
     assert units["t"] == "s" and units["link1_tip_acceleration"] == "m s-2"
     assert table["unit"].notna().all()
+
+
+@pytest.mark.parametrize(("kind", "value", "message"), [
+    ("grid", 300.0, r"grid links\[0\]\.EI: expected a list of numbers or a rule"),
+    ("grid", {"from": 1}, r"grid links\[0\]\.EI: expected a list of numbers or a rule"),
+    ("random", 300.0, r"random links\[0\]\.EI: expected uniform:low:high"),
+])
+def test_a_sweep_value_that_is_a_lone_number_is_refused(kind: str, value: Any,
+                                                        message: str) -> None:
+    """`"links[0].EI" = 300.0` in a sweep file's [grid] ended in a TypeError traceback."""
+    with pytest.raises(SweepError, match=message):
+        sweep(paper_experiment_path(), **{kind: {"links[0].EI": value}}, samples=1 if
+              kind == "random" else None, workers=1)
