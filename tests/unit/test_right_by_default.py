@@ -151,3 +151,13 @@ def test_a_sweep_value_that_is_a_lone_number_is_refused(kind: str, value: Any,
     with pytest.raises(SweepError, match=message):
         sweep(paper_experiment_path(), **{kind: {"links[0].EI": value}}, samples=1 if
               kind == "random" else None, workers=1)
+
+
+@pytest.mark.parametrize("at", ["1.2", "12"])
+def test_a_linearisation_point_given_as_text_is_refused(at: str) -> None:
+    """at="12" on a two-joint arm was read as joint angles 1 deg and 2 deg, one per
+    character; at="1.2" as three angles."""
+    from flexlink.control import linearize
+
+    with pytest.raises(TypeError, match=r"at: give a time in s, joint angles in degrees"):
+        linearize(load_paper_experiment(), at=at)
