@@ -161,3 +161,18 @@ def test_a_linearisation_point_given_as_text_is_refused(at: str) -> None:
 
     with pytest.raises(TypeError, match=r"at: give a time in s, joint angles in degrees"):
         linearize(load_paper_experiment(), at=at)
+
+
+@pytest.mark.parametrize("command", [["animate"], ["report"]])
+def test_a_matlab_sweep_file_is_not_called_damaged(tmp_path: Path, command: list[str],
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """A sweep written with -o sweep.mat was reported as 'damaged or not written by
+    flexlink'."""
+    from scipy.io import savemat
+
+    savemat(tmp_path / "sweep.mat", {"t": np.zeros(3)})
+    assert main([*command, str(tmp_path / "sweep.mat")]) == 2
+    err = capsys.readouterr().err
+    assert "is a MATLAB file; animate and report read a sweep's netCDF file" in err
+    assert "damaged" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.mat"]
