@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 from flexlink.batch import SweepError, sweep
+from flexlink.batch.dataset import parameter_unit
 from flexlink.batch.summaries import parse_summary
 from flexlink.cli import main
 from flexlink.scenario import (
@@ -22,9 +23,10 @@ from flexlink.scenario import (
     paper_experiment_path,
     scenario_from_dict,
 )
+from flexlink.scenario.fields import Target, parse
 from flexlink.simulation import simulate
 from flexlink.simulation.objective import MeanSquare, Objective
-from flexlink.simulation.sensitivities import SensitivityError
+from flexlink.simulation.sensitivities import SensitivityError, field_unit
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
@@ -176,3 +178,22 @@ def test_a_matlab_sweep_file_is_not_called_damaged(tmp_path: Path, command: list
     assert "is a MATLAB file; animate and report read a sweep's netCDF file" in err
     assert "damaged" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.mat"]
+
+
+@pytest.mark.parametrize(("path", "unit"), [
+    ("joints[0].torque[0].amplitude", "N m"), ("base.loads[0].moment[0].amplitude", "N m"),
+    ("base.loads[0].force_x[1].amplitude", "N"), ("actuators[0].voltage[0].amplitude", "V"),
+    ("base.cart.force[0].values[2]", "N"), ("base.mass", "kg"), ("joints[0].P", "V rad-1"),
+    ("links[0].EI", "N m2"), ("joints[1].motion[0].to_deg", "degree"),
+])
+def test_a_swept_field_has_its_unit(path: str, unit: str) -> None:
+    """A sweep's parameter coordinates took their units from a short table of link, motion
+    and sensor keys (base.mass, servo gains, loads had none), and a history's amplitude
+    read as dimensionless ("1") in the sensitivities."""
+    assert parameter_unit(path) == unit
+    steps = parse(path)
+    assert field_unit(Target(path, steps, None, False)) == unit
+
+
+def test_a_cart_servo_gain_has_the_cart_unit() -> None:
+    assert parameter_unit("base.cart.P") == "V m-1"
