@@ -216,6 +216,16 @@ CASES = {
 }
 CASES["animate: csv only"] = (["animate", "{run}", "-o", "{out}/a.gif"], 2,
                               "holds no link shapes")
+CASES.update({
+    "fit -p initial outside its bounds": (["fit", "{in}/measured.toml", "-p", "links[1].EI=1:5:50", "-o", "{out}"], 2, "the initial value 50 must lie within its bounds, 1 to 5"),
+    "fit -p one field by index and name": (["fit", "{in}/measured.toml", "-p", "links[1].EI", "-p", "links[link2].EI", "-o", "{out}"], 2, "--param: 'links[1].EI' and 'links[link2].EI' are the same field"),
+    "optimize --torque-limit 0": (["optimize", "{in}/scenario.toml", "--torque-limit", "1,0", "-o", "{out}"], 2, "torque_Nm of joint 2 must be > 0, got 0: a limit ≤ 0 allows no move (--torque-limit on the command line)"),
+    "optimize --rate-limit count": (["optimize", "{in}/scenario.toml", "--rate-limit", "1,2,3", "-o", "{out}"], 2, "rate_deg_s: give one limit for all joints or one per joint (2), got 3 (--rate-limit on the command line)"),
+    "compare --time-offset after the data's start": (["compare", "{in}/measured.toml", "--time-offset", "0.2", "-o", "{out}"], 2, "the data start at t = 0.2 s on the simulation clock, but the simulation starts at 0 s; set time_offset = 0 (s)"),
+    "compare --time-offset past the data's end": (["compare", "{in}/measured.toml", "--time-offset", "-100", "-o", "{out}"], 2, "the data end at t = -99.5 s on the simulation clock, before the simulation starts at 0 s; set time_offset = 0 (s)"),
+    "modes --times names the option": (["modes", "{in}/scenario.toml", "--times", "0,7", "-o", "{out}"], 2, "times (--times): 7.0 s is outside the run [0, 0.5] s"),
+    "fit --window past the data": (["fit", "{in}/measured.toml", "--window", "0.1:30", "-o", "{out}"], 2, "fit window end 30 s is past the measured data"),
+})
 DAMAGES = ("random bytes", "truncated", "bad header", "no shapes", "half a shape",
            "time not increasing", "csv only, truncated", "csv only, unknown kind")
 for _how in DAMAGES:

@@ -199,9 +199,15 @@ def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str
     for name, variable in dataset.data_vars.items():
         if "metric" in variable.attrs and ok_cases.any():
             values = variable.values[ok_cases]
+            unset = int(np.isnan(values).sum())  # a settling time not reached in the run
+            why = "not settled by t_end" if variable.attrs["metric"] == "settling" else "no value"
+            note = f" ({unset} ok cases NaN: {why})" if unset else ""
+            if unset == values.size:
+                lines.append(f"  {name}: NaN in every ok case: {why}")
+                continue
             lines.append(f"  {name}: min {np.nanmin(values):.4g}, median "
                          f"{np.nanmedian(values):.4g}, max {np.nanmax(values):.4g} "
-                         f"{variable.attrs.get('units', '')}")
+                         f"{variable.attrs.get('units', '')}{note}")
     for index in [int(i) for i in dataset.case[dataset.status == "failed"].values][:max_errors]:
         values = ", ".join(f"{p} = {dataset[p].values[index]:g}" for p in parameters)
         lines.append(f"  case {index} ({values}): {dataset.error.values[index]}")

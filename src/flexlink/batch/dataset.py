@@ -20,7 +20,7 @@ import numpy as np
 from ..channels import Channel
 from ..results.layout import parameter_variable, sweep_layout
 from ..results.variables import Layout, Variable
-from ..scenario.fields import parse
+from ..scenario.fields import Target, parse
 from .parameters import CaseTable
 from .summaries import Summary
 from .worker import ChunkResult, SharedResults, labels
@@ -29,15 +29,14 @@ if TYPE_CHECKING:
     import xarray as xr
 
 STATUSES = ("ok", "failed", "not_run")
-# units of the scenario fields a sweep can vary, by key, in UDUNITS spelling
-PARAMETER_UNITS = {
-    "length": "m", "mass_per_length": "kg m-1", "EI": "N m2", "E": "Pa", "width": "m",
-    "thickness": "m", "tip_mass": "kg", "tip_inertia": "kg m2", "damping_ratio": "1",
-    "modes": "1", "from_deg": "degree", "to_deg": "degree", "angle_deg": "degree",
-    "to_rate_deg_s": "degree s-1", "start": "s", "duration": "s", "lowpass_hz": "Hz",
-    "x": "m", "x_start": "m", "x_end": "m", "E_p": "Pa", "d31": "m V-1", "capacitance": "F",
-    "rtol": "1", "atol": "1",
-}
+
+
+def parameter_unit(path: str) -> str | None:
+    """The UDUNITS unit of a swept field, from the schema (as a sensitivity's field unit);
+    None where the schema spells none."""
+    from ..simulation.sensitivities import field_unit
+
+    return field_unit(Target(path, parse(path), None, False)) or None
 
 
 class SweepCollector:
@@ -108,10 +107,9 @@ class SweepCollector:
         """Everything collected so far in the one layout of flexlink's files."""
         parameters = {}
         for parameter in self.table.parameters:
-            key = next(step for step in reversed(parse(parameter.path)) if isinstance(step, str))
             parameters[parameter.path] = parameter_variable(
                 parameter.path, self.table.values[parameter.path], parameter.description,
-                PARAMETER_UNITS.get(key))
+                parameter_unit(parameter.path))
         values = self._values
         if self._unsettled and values is not None:  # a copy: workers may still write
             values = np.where((self.status == "ok")[None, :, None], values, np.nan)

@@ -123,6 +123,9 @@ def grid_values(path: str, spec: str | Sequence[float | int]) -> GridParameter:
                                "geomspace:start:stop:count")])
         else:
             values = [_number(v, where) for v in spec.split(",")]
+    elif not isinstance(spec, Sequence | np.ndarray):  # a lone number, a table
+        raise SweepError([f"{where}: expected a list of numbers or a rule, e.g. [{spec!r}] "
+                          "or 'linspace:200:400:5', got " + repr(spec)])
     else:
         values = []
         for v in spec:
@@ -139,7 +142,8 @@ def random_distribution(path: str, spec: str | Sequence[Any]) -> RandomParameter
     ``'normal:mean:std'``, or the same as a tuple ``('uniform', low, high)``."""
     where = f"random {path}"
     parse_path(path)
-    parts = spec.split(":") if isinstance(spec, str) else list(spec)
+    parts = (spec.split(":") if isinstance(spec, str)
+             else list(spec) if isinstance(spec, Sequence) else [])  # a lone number: refused
     name = parts[0] if parts else None
     if name not in DISTRIBUTIONS or len(parts) != 3:
         raise SweepError([(f"{where}: expected uniform:low:high, loguniform:low:high or "

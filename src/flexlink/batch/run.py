@@ -71,6 +71,9 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     of range), run the valid ones and record the others as failed with their problems.
     Returns the Dataset described in `flexlink.batch.dataset`.
     """
+    if output is not None and Path(output).suffix.lower() not in (".nc", ".mat"):
+        raise SweepError([(f"output {output}: name a netCDF file (.nc) or a MATLAB file "
+                           "(.mat); the sweep writes no other format")])
     grids, randoms = _parameters(grid, random)
     table = case_table(grids, randoms, samples, seed, sampler)
     scenario_base = load_base(base, base_dir)

@@ -9,7 +9,7 @@ A summary is written ``METRIC:CHANNEL`` or ``METRIC:CHANNEL:OPTION=VALUE``:
 | ``max``, ``min``, ``mean`` | of x(t) | ``after`` |
 | ``final`` | x at the last output time | |
 | ``residual`` | max abs x(t) for t >= after: the vibration left after a manoeuvre | ``after`` (required) |
-| ``settling`` | first time after which abs(x(t) - x_final) stays <= band (s) | ``band`` (required, the channel's unit) |
+| ``settling`` | first time after which abs(x(t) - x_final) stays <= band (s); NaN if the last sample but one is outside the band (not settled by the end of the run) | ``band`` (required, the channel's unit) |
 
 The summary's variable in the sweep's Dataset is named after the text, e.g.
 ``peak_link2_tip_deflection``, ``residual_link2_tip_deflection_after_3s``; its unit is the
@@ -36,7 +36,8 @@ DESCRIPTIONS = {
     "peak": "peak absolute value", "rms": "root mean square", "max": "maximum",
     "min": "minimum", "mean": "mean", "final": "value at the last output time",
     "residual": "peak absolute value after the manoeuvre",
-    "settling": "settling time to within the band of the final value",
+    "settling": "settling time to within the band of the final value (NaN: not settled "
+                "by the end of the run)",
 }
 EXAMPLE = "peak:link2_tip_deflection, residual:link2_tip_deflection:after=3"
 
@@ -78,7 +79,9 @@ class Summary:
             return float(x[-1])
         if self.metric == "settling":
             outside = np.flatnonzero(np.abs(x - x[-1]) > self.band)
-            return float(t[0] if outside.size == 0 else t[min(outside[-1] + 1, t.size - 1)])
+            if outside.size and outside[-1] >= t.size - 2:
+                return math.nan  # inside only at the last sample, trivially: not settled
+            return float(t[0] if outside.size == 0 else t[outside[-1] + 1])
         if self.after is not None:
             x = x[t >= self.after - 1e-12 * max(1.0, abs(self.after))]
             if x.size == 0:

@@ -97,7 +97,10 @@ def frozen_modes(scenario: Scenario, times: Sequence[float] | np.ndarray | None 
             raise ValueError("times: give a non-empty list of times in s")
         check_size("times", values.size, MAX_POINTS, "points (one linearisation each)")
         for t in values:
-            parse_at(scenario, float(t))  # the range check, before any run
+            try:
+                parse_at(scenario, float(t))  # the range check, before any run
+            except ValueError as exc:  # named as the caller gave it: times (--times)
+                raise ValueError(f"times (--times): {exc}".replace(": at = ", ": ")) from None
         coordinate, plants = "time", _over_times(scenario, values)
     return _collect(scenario, coordinate, values, plants, count)
 

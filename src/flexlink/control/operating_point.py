@@ -82,8 +82,9 @@ BASE_KEYS = ("base_x", "base_y", "base_attitude")
 def parse_at(scenario: Scenario, at: At) -> float | Configuration:
     """A time (s) or a Configuration from ``at``; errors name the offending entry."""
     joints = scenario.chain.joints
-    if isinstance(at, bool):
-        raise TypeError("at: give a time in s, joint angles in degrees or a mapping")
+    if isinstance(at, bool | str | bytes):  # a text would be read as one angle per character
+        raise TypeError("at: give a time in s, joint angles in degrees or a mapping "
+                        f"(at=1.2, at=[0, 45], at={{'joint2': 45}}), got {at!r}")
     if isinstance(at, int | float | np.floating | np.integer):
         t = float(at)
         t_end = scenario.settings.t_end

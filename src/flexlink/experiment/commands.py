@@ -186,7 +186,12 @@ def run_fit(args: argparse.Namespace) -> int:
 def _fit_command(args: argparse.Namespace, worker: Any) -> int:
     _start_up_imports(args, fitting=True)
     from .identification import fit
-    from .parameters import model_values, parse_parameter_option, parse_parameter_table
+    from .parameters import (
+        check_distinct,
+        model_values,
+        parse_parameter_option,
+        parse_parameter_table,
+    )
     from .report import metrics_table, write_fit
 
     def work(out_dir: Path) -> int:
@@ -216,6 +221,7 @@ def _fit_command(args: argparse.Namespace, worker: Any) -> int:
                       for i, e in enumerate(entries)]
         check_unique("--param" if args.param else "[fit] parameters",
                      [p.path for p in params])
+        check_distinct(params, "--param" if args.param else "[fit] parameters")
         if not params:
             raise MeasurementError("no parameters to fit: give -p links[0].EI (repeatable) or "
                                    "[[fit.parameters]] path = \"links[0].EI\" in the scenario")
@@ -225,6 +231,11 @@ def _fit_command(args: argparse.Namespace, worker: Any) -> int:
                 or (window[1] is not None and window[1] <= span[0])):
             raise MeasurementError(f"fit window {window[0]}:{window[1]} s lies outside the "
                                    f"measured data, {span[0]:g} to {span[1]:g} s")
+        step = float(measurement.time[-1] - measurement.time[-2])
+        if window[1] is not None and window[1] > span[1] + 0.5 * step:
+            raise MeasurementError(f"fit window end {window[1]:g} s is past the measured data, "
+                                   f"{span[0]:g} to {span[1]:g} s; give END <= {span[1]:g} or "
+                                   "leave it out (the end of the data)")
         budget = (args.max_simulations if args.max_simulations is not None
                   else table.get("max_simulations", 60))
         if isinstance(budget, bool) or not isinstance(budget, int) or budget < 3:

@@ -607,6 +607,10 @@ def _window(window: tuple[float | None, float | None], measurement: Measurement,
                 "window explicitly (--window START:END or [fit] window = [START, END]) or "
                 "free_vibration_start in [measurement]")
     end = float(t[-1]) if end is None else end
+    if end > t[-1] + 0.5 * (t[-1] - t[-2]):  # not clipped: a typo (30 for 3) would pass
+        raise MeasurementError(f"fit window end {end:g} s is past the simulated span "
+                               f"{t[0]:g} … {t[-1]:g} s; give END <= {t[-1]:g} or leave it "
+                               "out (the end of the data)")
     if not t[0] <= start < end:
         raise MeasurementError(f"fit window {start:g} … {end:g} s is empty or outside the "
                                f"simulated span {t[0]:g} … {t[-1]:g} s")

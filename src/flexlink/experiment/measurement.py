@@ -277,11 +277,17 @@ def condition(columns: Mapping[str, np.ndarray], spec: MeasurementSpec, scenario
     t, data = _clean_time(t, data, spec.time_column, source, warn)
     data = {name: _fill_nan(t, values, name, source, warn) for name, values in data.items()}
     t, data = _uniform(t, data, source, warn, notes)
+    # the offset that puts the first sample at 0, whatever offset is already applied
+    fix = (f"set time_offset = {spec.time_offset - t[0]:g} (s) in [measurement] or "
+           "--time-offset to shift them")
     if t[0] > 1e-9 * max(1.0, abs(t[-1])):
         raise MeasurementError(
             f"{source}: the data start at t = {t[0]:g} s on the simulation clock, but the "
-            f"simulation starts at 0 s; set time_offset = {-t[0]:g} (s) in [measurement] or "
-            "--time-offset to shift them")
+            f"simulation starts at 0 s; {fix}")
+    if t[-1] <= 0.0:
+        raise MeasurementError(
+            f"{source}: the data end at t = {t[-1]:g} s on the simulation clock, before the "
+            f"simulation starts at 0 s; {fix}")
     free = spec.free_vibration_start
     if free is not None and not t[0] <= free < t[-1]:
         raise MeasurementError(

@@ -23,7 +23,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..scenario import ScenarioError
-from ..scenario.fields import FieldPath, FieldPathError, ScenarioFile, Target, is_time_grid
+from ..scenario.fields import (
+    FieldPath,
+    FieldPathError,
+    ScenarioFile,
+    Target,
+    format_path,
+    is_time_grid,
+)
 from .files import MeasurementError
 
 CALIBRATION = ("gain", "offset", "drift", "delay")
@@ -73,7 +80,23 @@ def parse_parameter(text: str, scenario: ScenarioFile, channels: Mapping[str, st
         for bound, given in ((lo, bounds[0]), (hi, bounds[1])):
             if given is not None:
                 _check_value(scenario, param, bound, "bound ")
+    if initial is not None and not lo <= initial <= hi:  # also NaN
+        raise MeasurementError(f"parameter {path!r}: the initial value {initial:g} must lie "
+                               f"within its bounds, {lo:g} to {hi:g}")
     return dataclasses.replace(param, lower=lo, upper=hi, initial=initial)
+
+
+def check_distinct(params: list[Parameter], option: str) -> None:
+    """MeasurementError naming two parameters that are one field of the scenario
+    (``links[0].EI`` and ``links[link1].EI``)."""
+    seen: dict[Any, str] = {}
+    for param in params:
+        key = param.target if param.target is not None else param.path
+        if key in seen:
+            raise MeasurementError(f"{option}: {seen[key]!r} and {param.path!r} are the same "
+                                   f"field ({format_path(key) if param.target else key}); "
+                                   "give it once")
+        seen[key] = param.path
 
 
 def _calibration(path: str, channels: Mapping[str, str]) -> Parameter:

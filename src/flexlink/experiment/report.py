@@ -14,7 +14,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..results.writers import RESOLVED_NAME, atomic_folder, resolved_toml, write_results_csv
+from ..results.writers import (
+    RESOLVED_NAME,
+    atomic_folder,
+    resolved_toml,
+    write_channels_csv,
+    write_results_csv,
+)
 from .comparison import Comparison, SignalMetrics
 from .figures import FigureData, write_figures
 from .identification import FitResult
@@ -31,7 +37,8 @@ METRIC_COLUMNS = ("name", "unit", "nrmse", "correlation", "peak_measured", "peak
 def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[str, Any],
                      overwrite: bool = False, figures: bool = True,
                      figure_worker: FigureWorker | None = None) -> Path:
-    """metrics.csv, metrics.json, simulated.csv, scenario.resolved.toml, figures, report.md;
+    """metrics.csv, metrics.json, simulated.csv with simulated_channels.csv (its units),
+    scenario.resolved.toml, figures, report.md;
     the figures drawn by ``figure_worker`` where given (`figure_worker.FigureWorker`)."""
     with atomic_folder(out_dir, overwrite) as folder:
         drawing = _common(comparison, folder, resolved, figures, figure_worker)
@@ -116,6 +123,8 @@ def _common(comparison: Comparison, folder: Path, resolved: Mapping[str, Any],
     (folder / "metrics.json").write_text(json.dumps(_clean(meta), indent=2) + "\n",
                                          encoding="utf-8")
     write_results_csv(comparison.results, folder / "simulated.csv")
+    # its columns' units, kinds and descriptions, as channels.csv beside a run's results.csv
+    write_channels_csv(comparison.results, folder / "simulated_channels.csv")
     (folder / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
 
     def drawing() -> None:

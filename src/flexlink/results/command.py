@@ -64,6 +64,14 @@ def _input_errors() -> tuple[type[BaseException], ...]:
     return AnimationInputError, NotARunFolderError, ValueError, OSError
 
 
+def _check_sweep_file(source: Path) -> None:
+    """ValueError for a sweep written as MATLAB (-o sweep.mat): readable, but not by these
+    commands, which read the netCDF layout (a .mat file is not damaged)."""
+    if source.suffix.lower() == ".mat":
+        raise ValueError(f"{source} is a MATLAB file; animate and report read a sweep's "
+                         "netCDF file: run the sweep again with -o NAME.nc")
+
+
 def run_animate(args: argparse.Namespace) -> int:
     from .animation import animate, animate_sweep
     from .arm_tracks import AnimationInputError
@@ -71,6 +79,7 @@ def run_animate(args: argparse.Namespace) -> int:
     source: Path = args.source
     try:
         if source.is_file():
+            _check_sweep_file(source)
             out = args.output or source.with_name(f"{source.stem}_animation.gif")
             check_output_file(out)
             animate_sweep(source, out, fps=args.fps, speed=args.speed, trail=args.trail)
@@ -102,6 +111,7 @@ def run_report(args: argparse.Namespace) -> int:
         if source.is_file():
             from .report_html import write_sweep_report
 
+            _check_sweep_file(source)
             check_writable(source.with_suffix(".html"))
             out = write_sweep_report(source, animation=args.animate)
         else:

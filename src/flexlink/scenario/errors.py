@@ -226,7 +226,9 @@ class Problems:
               and all(isinstance(v, int | float) and not isinstance(v, bool)
                       and math.isfinite(v) for v in value))
         if not ok:
-            self.add(f"{path}.{key}: expected two numbers [x, y] ({unit}), got {describe(value)}")
+            shown = (repr(value) if isinstance(value, list) and len(value) <= 4
+                     else describe(value))  # the entries show a NaN or a third number
+            self.add(f"{path}.{key}: expected two numbers [x, y] ({unit}), finite, got {shown}")
             return None
         return [float(v) for v in value]
 

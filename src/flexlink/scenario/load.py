@@ -191,6 +191,14 @@ def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[
     if out["t_end"] is not None and out["dt_out"] is not None and out["dt_out"] > out["t_end"]:
         p.add(f"simulation.dt_out must be <= simulation.t_end ({out['t_end']!r} s), "
               f"got {out['dt_out']!r}")
+    if out.get("step") is not None and out["model"] == "first_order":
+        p.add("simulation.step: a fixed step is the nonlinear model's; the first-order model "
+              "controls its steps by rtol. Leave step out, or set model = \"nonlinear\"")
+    name = out.get("name")
+    if isinstance(name, str) and ("/" in name or "\\" in name):
+        p.add(f"simulation.name {name!r} names the run's files and folders: no '/' or '\\' "
+              "(give e.g. " + repr(name.replace("/", "-").replace("\\", "-").strip(".-"))
+              + ")")
     # unusable values are reported (no resolved scenario then); an unset step stays absent
     return {k: v for k, v in out.items() if v is not None}
 

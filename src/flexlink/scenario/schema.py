@@ -154,7 +154,8 @@ def _fresh(default: Any) -> Any:
 
 SIMULATION = Section("simulation", [
     Field("name", "string", default=None, default_doc="the file name without `.toml` "
-          "(`\"scenario\"` from a dict)", doc="names the run and its results folder"),
+          "(`\"scenario\"` from a dict)", rule="no `/` or `\\`",
+          doc="names the run and its results folder"),
     Field("t_end", unit="s", gt=0, doc="end of the simulated time span"),
     Field("dt_out", unit="s", gt=0, rule="≤ `t_end`",
           doc="output samples are 0, dt_out, 2·dt_out, … up to and including t_end"),
@@ -189,7 +190,7 @@ SIMULATION = Section("simulation", [
         "nonlinear": "large deflections and rotations of every link, exact kinematics with "
                      "the same assumed modes (docs/nonlinear.md); `geometric_stiffening` and "
                      "`method` are then ignored"}),
-    Field("step", unit="s", default=None, gt=0,
+    Field("step", unit="s", default=None, gt=0, rule="`model = \"nonlinear\"` only",
           doc="nonlinear model only: fixed time step of its Gauss collocation solver, "
               "without error control. Without it each step is chosen so that its estimated "
               "error is within `rtol` of the peak coordinates and rates (docs/nonlinear.md §4)"),

@@ -89,6 +89,11 @@ class InfeasibleMove(ValueError):
     """The request cannot be met: a limit ≤ 0, or a duration the limits do not allow."""
 
 
+# the command-line option of each limit, named with the field in messages
+LIMIT_OPTIONS = {"rate_deg_s": "--rate-limit", "acceleration_deg_s2": "--acceleration-limit",
+                 "torque_Nm": "--torque-limit"}
+
+
 @dataclass(frozen=True)
 class Limits:
     """Joint limits, one value for all joints or one per joint; None: no limit.
@@ -108,13 +113,14 @@ class Limits:
         values = np.atleast_1d(np.asarray(value, dtype=float))
         if values.size == 1:
             values = np.full(joints, values[0])
+        option = f" ({LIMIT_OPTIONS[name]} on the command line)"
         if values.size != joints:
             raise InfeasibleMove(f"{name}: give one limit for all joints or one per joint "
-                                 f"({joints}), got {values.size}")
+                                 f"({joints}), got {values.size}{option}")
         for k, v in enumerate(values):
             if not (math.isfinite(v) and v > 0.0):
                 raise InfeasibleMove(f"{name} of joint {k + 1} must be > 0, got {v:g}: a "
-                                     "limit ≤ 0 allows no move")
+                                     f"limit ≤ 0 allows no move{option}")
         return values
 
 

@@ -8,6 +8,7 @@ or from the fields' tangents (`simulation.adjoint`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -30,6 +31,15 @@ class MeanSquare:
     channel: str
     after: float = 0.0
     target: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("after", "target"):  # NaN would make the objective NaN for every x
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float) \
+                    or not math.isfinite(value):
+                raise ValueError(f"MeanSquare.{name} must be a finite number "
+                                 f"({'s' if name == 'after' else 'the channel unit'}), "
+                                 f"got {value!r}")
 
     def __call__(self, results: Results) -> tuple[float, dict[str, np.ndarray]]:
         if self.channel not in results:
@@ -58,6 +68,12 @@ class Objective:
         self.metric = metric
         built = self.file.build()
         self._targets = [f.target for f in prepare_fields(self.file, built, self.fields)]
+        paths = [t.path for t in self._targets]
+        for i, path in enumerate(paths):  # x would set one field twice
+            if path in paths[:i]:
+                first = self.fields[paths.index(path)]
+                raise SensitivityError(f"fields {first!r} and {self.fields[i]!r} are the same "
+                                       "field of the scenario; give it once")
         self._channels = _channel_names(built)
         self.x0 = np.array([float(t.value) for t in self._targets])
         self._last: tuple[np.ndarray, float, np.ndarray] | None = None

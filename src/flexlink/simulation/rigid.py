@@ -15,10 +15,12 @@ beyond the Nyquist frequency, refuses it (`stiff_forward_links`).
 from __future__ import annotations
 
 import dataclasses
+from itertools import pairwise
 
 import numpy as np
 
 from ..dynamics.first_order import chain_modal_data
+from ..dynamics.histories import input_breakpoints
 from ..dynamics.kinematics import frame_motion, joint_history
 from ..model import Link, Scenario
 from ..modes import modal_data
@@ -48,6 +50,27 @@ def peak_accelerations(scenario: Scenario, t: np.ndarray) -> np.ndarray:
     return (np.linalg.norm(fr.origin_accel, axis=-1) + spin).max(axis=0)
 
 
+# Samples of each interval between the motions' breakpoints at which the peak accelerations
+# are sought: the output grid alone can miss a whole move (dt_out longer than the move).
+SAMPLES_PER_INTERVAL = 65
+
+
+def motion_times(scenario: Scenario, t: np.ndarray) -> np.ndarray:
+    """The output times ``t`` (s) with the instants that resolve every prescribed motion: each
+    interval between its breakpoints (a move's start and end) sampled SAMPLES_PER_INTERVAL
+    times, and a measured motion's own samples, within the run."""
+    t_end = float(t[-1])
+    edges = input_breakpoints(scenario.chain.joints)
+    inside = edges[(edges > t[0]) & (edges < t_end)]
+    edges = np.unique(np.concatenate([[float(t[0]), t_end], inside]))
+    parts = [t] + [np.linspace(a, b, SAMPLES_PER_INTERVAL) for a, b in pairwise(edges)]
+    for joint in scenario.chain.joints:
+        samples = getattr(joint, "time_s", None)
+        if samples is not None:
+            parts.append(samples[(samples >= t[0]) & (samples <= t_end)])
+    return np.unique(np.concatenate(parts))
+
+
 def quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
     """Indices of the flexible links whose first frequency is above UNRESOLVED_FACTOR × the
     output grid's Nyquist frequency and whose estimated quasi-static deflection is below
@@ -61,7 +84,7 @@ def quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
                   if d.n and d.natural_frequencies_hz[0] > UNRESOLVED_FACTOR * nyquist]
     if not candidates:
         return []
-    acceleration = peak_accelerations(scenario, t)
+    acceleration = peak_accelerations(scenario, motion_times(scenario, t))
     out = []
     for k in candidates:
         omega1 = 2 * np.pi * modal[k].natural_frequencies_hz[0]

@@ -422,8 +422,13 @@ def field_unit(target: Target) -> str:
     from ..scenario import schema
 
     key = target.key
+    names = [step for step in target.path if isinstance(step, str)]
+    if key in ("amplitude", "values") and len(names) >= 2:  # a history's profile: its unit
+        key = names[-2]  # is the history's (joints[0].torque, base.loads[0].moment)
     head = str(target.path[0])
-    sections = list(schema.SECTIONS.values()) + list(schema.PROFILES.values()) + \
+    # a cart's and a slider's keys (their servo gains per m) only under their own tables
+    own = {"base": [schema.CART], "joints": [schema.PRISMATIC]}.get(head, [])
+    sections = [*schema.SECTIONS.values(), *own] + list(schema.PROFILES.values()) + \
         list(schema.CART_PROFILES.values()) + list(schema.HISTORIES.values())
     found = [s[key].unit for s in sections if key in s.keys]
     preferred = [s[key].unit for s in sections

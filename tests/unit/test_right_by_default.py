@@ -1,0 +1,199 @@
+"""Right by default: input a user may well give that used to be accepted and then ignored,
+or that produced a wrong result without a word."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from flexlink.batch import SweepError, sweep
+from flexlink.batch.dataset import parameter_unit
+from flexlink.batch.summaries import parse_summary
+from flexlink.cli import main
+from flexlink.scenario import (
+    ScenarioError,
+    load_paper_experiment,
+    paper_experiment_path,
+    scenario_from_dict,
+)
+from flexlink.scenario.fields import Target, parse
+from flexlink.simulation import simulate
+from flexlink.simulation.objective import MeanSquare, Objective
+from flexlink.simulation.sensitivities import SensitivityError, field_unit
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def test_an_output_grid_coarser_than_the_move_keeps_the_links_flexible() -> None:
+    """dt_out longer than the whole move: the output samples see no acceleration, yet the
+    links vibrate after it; the quasi-rigid check must look at the motion, not the samples
+    (it made both links rigid: zero deflection at every sample)."""
+    base = load_paper_experiment()
+
+    def run(dt_out: float) -> np.ndarray:
+        settings = dataclasses.replace(base.settings, t_end=6.0, dt_out=dt_out)
+        results = simulate(dataclasses.replace(base, settings=settings), shapes=False)
+        assert "rigid_links" not in results.metadata
+        return results.to_pandas().loc[[3.0, 6.0], "link2_tip_deflection"].to_numpy()
+
+    fine, coarse = run(1.0), run(3.0)
+    assert np.all(np.abs(fine) > 1e-3)  # m: the arm rings after its move
+    np.testing.assert_allclose(coarse, fine, rtol=1e-4)
+
+
+def _servo_dict() -> dict[str, Any]:
+    with open(EXAMPLES / "paper_servo.toml", "rb") as file:
+        return tomllib.load(file)
+
+
+def test_a_fixed_step_on_the_first_order_model_is_refused() -> None:
+    """simulation.step is the nonlinear model's; the first-order model used to ignore it."""
+    d = _servo_dict()
+    d["simulation"]["step"] = 1e-3
+    with pytest.raises(ScenarioError, match=r"simulation\.step: .*model = \"nonlinear\""):
+        scenario_from_dict(d)
+    d["simulation"]["model"] = "nonlinear"
+    assert scenario_from_dict(d).settings.step == 1e-3
+
+
+@pytest.mark.parametrize("name", ["../escaped", "runs/arm", "a\\b"])
+def test_a_scenario_name_with_a_path_separator_is_refused(name: str) -> None:
+    """The name makes default output names (a sweep's `<name>_sweep.nc`): '../x' wrote
+    outside the working folder."""
+    d = _servo_dict()
+    d["simulation"]["name"] = name
+    with pytest.raises(ScenarioError, match=r"simulation\.name .*no '/'"):
+        scenario_from_dict(d)
+
+
+def test_a_sweep_with_a_path_in_the_scenario_name_writes_nothing(tmp_path: Path,
+                                                                monkeypatch: pytest.MonkeyPatch
+                                                                ) -> None:
+    text = (EXAMPLES / "paper_servo.toml").read_text()
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "s.toml").write_text(text.replace('name = "paper-servo"', 'name = "../escaped"'))
+    monkeypatch.chdir(work)
+    assert main(["sweep", "s.toml", "--grid", "links[0].E=30e9", "-q"]) == 2
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["s.toml", "work"]
+
+
+def test_a_pair_with_a_nan_or_a_third_number_shows_it() -> None:
+    d = _servo_dict()
+    d["simulation"]["gravity"] = [0.0, math.nan]
+    with pytest.raises(ScenarioError, match=r"simulation\.gravity: .*finite, got \[0\.0, nan\]"):
+        scenario_from_dict(d)
+
+
+@pytest.mark.parametrize("keys", [{"after": math.nan}, {"target": math.inf}, {"after": "1.5"}])
+def test_a_mean_square_metric_refuses_a_value_that_makes_it_nan(keys: dict[str, Any]) -> None:
+    """MeanSquare(target=nan) made every objective value NaN, silently."""
+    with pytest.raises(ValueError, match=r"MeanSquare\.(after|target) must be a finite number"):
+        MeanSquare("link2_tip_deflection", **keys)
+
+
+def test_an_objective_refuses_one_field_by_two_paths() -> None:
+    """x would set links[0].damping_ratio twice, the last value winning, while the gradient
+    reports both as independent."""
+    with pytest.raises(SensitivityError, match=r"'links\[0\]\.damping_ratio' and "
+                       r"'links\[link1\]\.damping_ratio' are the same field"):
+        Objective(load_paper_experiment(), ["links[0].damping_ratio",
+                                            "links[link1].damping_ratio"],
+                  MeanSquare("link2_tip_deflection", after=1.5))
+
+
+def test_a_settling_time_not_reached_in_the_run_is_nan() -> None:
+    """Still ringing at the end: the band held only at the last sample (trivially, the final
+    value is its own reference), which read as a settling time of t_end."""
+    t = np.linspace(0.0, 1.0, 101)
+    ringing = np.sin(2 * np.pi * 7.3 * t)
+    assert math.isnan(parse_summary("settling:x:band=1e-3").evaluate(t, ringing))
+    settled = np.where(t < 0.5, ringing, 0.0)
+    assert parse_summary("settling:x:band=1e-3").evaluate(t, settled) == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("name", ["study.csv", "study", "study.txt"])
+def test_a_sweep_output_that_is_neither_netcdf_nor_matlab_is_refused(
+        tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """-o study.csv wrote a netCDF file named .csv."""
+    assert main(["sweep", "--paper", "--grid", "links[0].EI=300", "-o",
+                 str(tmp_path / name), "-q"]) == 2
+    assert "name a netCDF file (.nc) or a MATLAB file (.mat)" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_compare_states_the_units_of_its_simulated_columns(tmp_path: Path) -> None:
+    """simulated.csv of compare and fit had no units anywhere in the folder."""
+    out = tmp_path / "cmp"
+    assert main(["compare", str(EXAMPLES / "lab_arm.toml"), str(EXAMPLES / "lab_run3.csv"),
+                 "-o", str(out), "-q", "--no-figures"]) == 0
+    columns = (out / "simulated.csv").read_text().splitlines()[0].split(",")
+    table = pd.read_csv(out / "simulated_channels.csv")
+    assert list(table["name"]) == columns
+    units = dict(zip(table["name"], table["unit"], strict=True))
+    assert units["t"] == "s" and units["link1_tip_acceleration"] == "m s-2"
+    assert table["unit"].notna().all()
+
+
+@pytest.mark.parametrize(("kind", "value", "message"), [
+    ("grid", 300.0, r"grid links\[0\]\.EI: expected a list of numbers or a rule"),
+    ("grid", {"from": 1}, r"grid links\[0\]\.EI: expected a list of numbers or a rule"),
+    ("random", 300.0, r"random links\[0\]\.EI: expected uniform:low:high"),
+])
+def test_a_sweep_value_that_is_a_lone_number_is_refused(kind: str, value: Any,
+                                                        message: str) -> None:
+    """`"links[0].EI" = 300.0` in a sweep file's [grid] ended in a TypeError traceback."""
+    with pytest.raises(SweepError, match=message):
+        sweep(paper_experiment_path(), **{kind: {"links[0].EI": value}}, samples=1 if
+              kind == "random" else None, workers=1)
+
+
+@pytest.mark.parametrize("at", ["1.2", "12"])
+def test_a_linearisation_point_given_as_text_is_refused(at: str) -> None:
+    """at="12" on a two-joint arm was read as joint angles 1 deg and 2 deg, one per
+    character; at="1.2" as three angles."""
+    from flexlink.control import linearize
+
+    with pytest.raises(TypeError, match=r"at: give a time in s, joint angles in degrees"):
+        linearize(load_paper_experiment(), at=at)
+
+
+@pytest.mark.parametrize("command", [["animate"], ["report"]])
+def test_a_matlab_sweep_file_is_not_called_damaged(tmp_path: Path, command: list[str],
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """A sweep written with -o sweep.mat was reported as 'damaged or not written by
+    flexlink'."""
+    from scipy.io import savemat
+
+    savemat(tmp_path / "sweep.mat", {"t": np.zeros(3)})
+    assert main([*command, str(tmp_path / "sweep.mat")]) == 2
+    err = capsys.readouterr().err
+    assert "is a MATLAB file; animate and report read a sweep's netCDF file" in err
+    assert "damaged" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.mat"]
+
+
+@pytest.mark.parametrize(("path", "unit"), [
+    ("joints[0].torque[0].amplitude", "N m"), ("base.loads[0].moment[0].amplitude", "N m"),
+    ("base.loads[0].force_x[1].amplitude", "N"), ("actuators[0].voltage[0].amplitude", "V"),
+    ("base.cart.force[0].values[2]", "N"), ("base.mass", "kg"), ("joints[0].P", "V rad-1"),
+    ("links[0].EI", "N m2"), ("joints[1].motion[0].to_deg", "degree"),
+])
+def test_a_swept_field_has_its_unit(path: str, unit: str) -> None:
+    """A sweep's parameter coordinates took their units from a short table of link, motion
+    and sensor keys (base.mass, servo gains, loads had none), and a history's amplitude
+    read as dimensionless ("1") in the sensitivities."""
+    assert parameter_unit(path) == unit
+    steps = parse(path)
+    assert field_unit(Target(path, steps, None, False)) == unit
+
+
+def test_a_cart_servo_gain_has_the_cart_unit() -> None:
+    assert parameter_unit("base.cart.P") == "V m-1"
