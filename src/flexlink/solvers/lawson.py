@@ -70,6 +70,8 @@ class Discretisation:
     rtol: float  # what the adaptive run was asked for
     reference: np.ndarray  # (blocks, n, 2n+1)
     propagators: np.ndarray  # (blocks, 2n+1, 2n+1), transposed as the compiled loop takes them
+    # the settling run's own table: what `tabulate_on` of its system on the layout gives
+    table: CoefficientTable | None = None
 
 
 def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
@@ -203,7 +205,7 @@ def finish(start: Start, states: np.ndarray, acc: np.ndarray, peak: np.ndarray,
             return (Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson",
                              stats, accuracy=Accuracy(rtol, estimate, RICHARDSON)),
                     Discretisation(layout(table, t_out.size), substeps, rtol,
-                                   table.reference, ET))
+                                   table.reference, ET, table))
         coarse = states
         substeps *= 2
         ET = ET.copy()
