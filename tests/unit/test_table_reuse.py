@@ -17,6 +17,7 @@ from flexlink.scenario.fields import ScenarioFile
 from flexlink.simulation import output_times
 from flexlink.simulation.sensitivities import prepare_fields, scenario_file, settled_run
 from flexlink.solvers.coefficient_table import CoefficientTable, layout, tabulate, tabulate_on
+from flexlink.solvers.lawson import integrate_lawson_discretised
 from flexlink.solvers.lawson_sensitivity import lawson_sensitivities, steps_on
 from flexlink.solvers.magnus import state_rows
 from tests.helpers import chain_of, paper_links
@@ -64,6 +65,10 @@ def test_sensitivities_take_the_settled_table_and_the_same_numbers() -> None:
     settled = settled_run(scenario, fields, t, lambda _: None, False)
     disc = settled.discretisation
     assert disc.table is not None
+    # a discretisation that others get (the optimiser's workers) does not carry the table
+    _, plain = integrate_lawson_discretised(settled.nominal, t, scenario.settings.rtol,
+                                            scenario.settings.atol)
+    assert plain is not None and plain.table is None and plain.layout == disc.layout
     kept = steps_on(settled.nominal, t, disc, settled_system=True)
     anew = steps_on(settled.nominal, t, disc)
     assert kept[0] is disc.table and _same(kept[0], anew[0])
@@ -75,3 +80,33 @@ def test_sensitivities_take_the_settled_table_and_the_same_numbers() -> None:
     for a, b in zip(with_kept[1:], with_new[1:], strict=True):
         assert np.array_equal(a, b)
     np.testing.assert_array_equal(with_kept[0].q, with_new[0].q)
+
+
+def test_state_rows_on_two_threads_are_the_same_numbers(monkeypatch: pytest.MonkeyPatch
+                                                        ) -> None:
+    """`split_state_rows` (the fit command's process): a large request computed in two
+    halves on two threads gives the rows of one thread, bit for bit; off by default."""
+    from flexlink.dynamics import prescribed_kernel
+    from flexlink.dynamics.prescribed_kernel import CompiledFirstOrderSystem
+
+    assert not prescribed_kernel._second_thread  # a library user's process: one thread
+    system = CompiledFirstOrderSystem(chain_of(paper_links(2), [
+        Cycloidal(0.0, 60.0, 0.2, 0.3), Cycloidal(20.0, -40.0, 0.7, 0.2)]), True)
+    times = np.linspace(0.21, 0.49, 2 * prescribed_kernel._SPLIT_ROWS + 1)  # all moving
+    alone = system.state_rows(times)
+    monkeypatch.setattr(prescribed_kernel, "_second_thread", [])
+    monkeypatch.setattr(prescribed_kernel.os, "cpu_count", lambda: 2)
+    prescribed_kernel.split_state_rows()
+    executor = prescribed_kernel._second_thread[0]
+    calls: list[int] = []
+    submit = executor.submit
+
+    def counted(fn: object, *args: np.ndarray) -> object:
+        calls.append(args[-1].shape[0])
+        return submit(fn, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(executor, "submit", counted)
+    split = system.state_rows(times)
+    executor.shutdown()
+    assert calls == [times.size - times.size // 2]
+    assert np.array_equal(split, alone)

@@ -116,6 +116,10 @@ def _start_up_imports(args: argparse.Namespace, fitting: bool = False) -> None:
         finally:
             if preload is not None:
                 preload.join()  # compiled code must not run while it loads
+        if getattr(args, "own_process", False):  # the figures wait for the fit: a free core
+            from ..dynamics.prescribed_kernel import split_state_rows
+
+            split_state_rows()
     if imports_done is not None:
         imports_done()
 

@@ -253,7 +253,7 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
     def adaptive(system: Any, times: np.ndarray, rtol: float, atol: float,
                  progress: Any) -> Solution:
         solution, settled[0] = integrate_lawson_discretised(system, times, rtol, atol,
-                                                            progress)
+                                                            progress, keep_table=True)
         return solution
 
     # the run's own system is the nominal one: the sensitivities reuse its settled table

@@ -334,8 +334,8 @@ def _assemble_table(
     rank[order] = np.arange(size)
     poly = np.zeros((size, DEGREE + 1, *shape))
     if moving:  # each polynomial copied once, to its place
-        poly[rank[:len(moving)]] = np.concatenate(moving_poly).reshape(
-            len(moving), DEGREE + 1, *shape)
+        stacked = moving_poly[0] if len(moving_poly) == 1 else np.concatenate(moving_poly)
+        poly[rank[:len(moving)]] = stacked.reshape(len(moving), DEGREE + 1, *shape)
     poly[rank[len(moving):], 0] = static_values
     first, last, lower, upper = first[order], last[order], lower[order], upper[order]
     new_block = np.ones(size, dtype=bool)
