@@ -149,6 +149,13 @@ def split_state_rows() -> None:
                                              thread_name_prefix="flexlink-state-rows"))
 
 
+def end_split_state_rows() -> None:
+    """Back to one thread: the second one ended (the command's end; a process whose other
+    threads have ended exits without tearing its modules down, `cli._exit`)."""
+    while _second_thread:
+        _second_thread.pop().shutdown(wait=True)
+
+
 def joint_torques(system: FirstOrderSystem, frames: SolvedFrames) -> np.ndarray:
     """Motor torque of every joint (nt, N), N·m, along the solution ``frames`` were built for:
     dynamics/torques.joint_torques compiled (`_prescribed_numba.joint_torques`), computed

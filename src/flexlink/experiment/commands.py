@@ -159,6 +159,10 @@ def _with_figure_worker(command: Callable[[argparse.Namespace, Any], int],
     finally:
         if worker is not None:
             worker.close()
+        if getattr(args, "own_process", False):  # its second thread (`_start_up_imports`)
+            from ..dynamics.prescribed_kernel import end_split_state_rows
+
+            end_split_state_rows()
 
 
 def run_compare(args: argparse.Namespace) -> int:
