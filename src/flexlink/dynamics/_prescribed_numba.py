@@ -190,7 +190,7 @@ def _link_matrices(o, nk, mass, s1, J, Jt, length, stiffening, Mtot, M0, G0, phi
             C[o + i, o + j] += damping[i, j]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)  # nogil: `split_state_rows`
 def state_rows(d, angle, rate, acc, out):
     """out[i] = M⁻¹[−K, −C, f] (n, 2n+1) of the first-order model at joint states angle, rate,
     acc (nt, N) (magnus.state_rows of FirstOrderSystem.matrices, without actuators)."""

@@ -11,7 +11,9 @@ outboard-loaded modes included) as `ForwardData` of a fixed base.
 
 from __future__ import annotations
 
+import os
 from collections import OrderedDict
+from typing import Any
 
 import numpy as np
 
@@ -114,9 +116,44 @@ def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:
     unique, inverse = system.joint_history(t).distinct
     c = np.ascontiguousarray
     out = np.empty((unique.angle.shape[0], system.n, 2 * system.n + 1))
-    kernel(data, c(unique.angle, dtype=float), c(unique.rate, dtype=float),
-           c(unique.acceleration, dtype=float), out)
+    states = (c(unique.angle, dtype=float), c(unique.rate, dtype=float),
+              c(unique.acceleration, dtype=float))
+    if _second_thread and out.shape[0] >= _SPLIT_ROWS:  # each row as on one thread
+        half = out.shape[0] // 2
+        other = _second_thread[0].submit(kernel, data, *(a[half:] for a in states), out[half:])
+        kernel(data, *(a[:half] for a in states), out[:half])
+        other.result()
+    else:
+        kernel(data, *states, out)
     return out if out.shape[0] == inverse.size else out[inverse]
+
+
+# Distinct joint states above which `split_state_rows` splits a call (a thread's hand-over
+# costs about as much as a few dozen rows).
+_SPLIT_ROWS = 1024
+_second_thread: list[Any] = []  # the executor, once `split_state_rows` asked for it
+
+
+def split_state_rows() -> None:
+    """From now on in this process, compute `state_rows` of many joint states on two
+    threads (the compiled kernel releases the interpreter lock): for a command's own
+    process whose other core is idle while it runs (`flexlink fit`, `flexlink compare`,
+    whose figures are drawn after). Each row is computed as on one thread: the same
+    numbers. Nothing on a machine with one core; not for a process pool's workers, which
+    already keep every core busy."""
+    if _second_thread or (os.cpu_count() or 1) < 2:
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    _second_thread.append(ThreadPoolExecutor(max_workers=1,
+                                             thread_name_prefix="flexlink-state-rows"))
+
+
+def end_split_state_rows() -> None:
+    """Back to one thread: the second one ended (the command's end; a process whose other
+    threads have ended exits without tearing its modules down, `cli._exit`)."""
+    while _second_thread:
+        _second_thread.pop().shutdown(wait=True)
 
 
 def joint_torques(system: FirstOrderSystem, frames: SolvedFrames) -> np.ndarray:

@@ -116,6 +116,10 @@ def _start_up_imports(args: argparse.Namespace, fitting: bool = False) -> None:
         finally:
             if preload is not None:
                 preload.join()  # compiled code must not run while it loads
+        if getattr(args, "own_process", False):  # the figures wait for the fit: a free core
+            from ..dynamics.prescribed_kernel import split_state_rows
+
+            split_state_rows()
     if imports_done is not None:
         imports_done()
 
@@ -155,6 +159,10 @@ def _with_figure_worker(command: Callable[[argparse.Namespace, Any], int],
     finally:
         if worker is not None:
             worker.close()
+        if getattr(args, "own_process", False):  # its second thread (`_start_up_imports`)
+            from ..dynamics.prescribed_kernel import end_split_state_rows
+
+            end_split_state_rows()
 
 
 def run_compare(args: argparse.Namespace) -> int:

@@ -246,17 +246,19 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
     its discretisation and the systems of the fields' stencils."""
     from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem
     from ..solvers.lawson import integrate_lawson_discretised
-    from .prescribed import run_prescribed
+    from .prescribed import prescribed_system, run_prescribed
 
     settled: list[Any] = [None]
 
     def adaptive(system: Any, times: np.ndarray, rtol: float, atol: float,
                  progress: Any) -> Solution:
         solution, settled[0] = integrate_lawson_discretised(system, times, rtol, atol,
-                                                            progress)
+                                                            progress, keep_table=True)
         return solution
 
-    run = run_prescribed(scenario, t, on_progress, shapes, adaptive)
+    # the run's own system is the nominal one: the sensitivities reuse its settled table
+    nominal = prescribed_system(scenario, t)
+    run = run_prescribed(scenario, t, on_progress, shapes, adaptive, system=nominal)
     if run.solution.q.shape[1] == 0:
         raise SensitivityError("sensitivities: every link is rigid: there is nothing to "
                                "differentiate through the integrator")
@@ -273,20 +275,27 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
             s.start_from(s.equilibrium(float(t[0])))
         return s
 
-    nominal = system_of(scenario)
     for f in fields:
         systems.append([nominal if j == 0 or _same_model(sc, scenario) else system_of(sc)
                         for j, sc in zip(f.offsets, f.scenarios, strict=True)])
 
     def derivative_rows(times: np.ndarray) -> np.ndarray:
-        rows0 = nominal.state_rows(times)
-        out = np.zeros((rows0.shape[0], len(fields), *rows0.shape[1:]))
+        rows0 = None  # the nominal rows, where a stencil reads them (not a central one)
+        out = None
         for k, (f, moved) in enumerate(zip(fields, systems, strict=True)):
             if all(s is nominal for s in moved):  # a field the equations do not read
                 continue
             for w, s in zip(f.weights, moved, strict=True):
+                if s is nominal:
+                    rows0 = nominal.state_rows(times) if rows0 is None else rows0
+                rows = rows0 if s is nominal else s.state_rows(times)
+                if out is None:
+                    out = np.zeros((rows.shape[0], len(fields), *rows.shape[1:]))
                 # written in place: no per-field temporaries to stack
-                out[:, k] += (w / f.step) * (rows0 if s is nominal else s.state_rows(times))
+                out[:, k] += (w / f.step) * rows
+        if out is None:
+            rows0 = nominal.state_rows(times)
+            out = np.zeros((rows0.shape[0], len(fields), *rows0.shape[1:]))
         return out
 
     return SettledRun(run, scenario, settled[0], nominal, systems, derivative_rows)
@@ -330,7 +339,7 @@ def forward_derivatives(settled: SettledRun, fields: list[_Field], t: np.ndarray
     if active:
         _, dq[active], dqd[active], dqdd[active] = lawson_sensitivities(
             nominal, lambda times: settled.derivative_rows(times)[:, active], t,
-            settled.discretisation)
+            settled.discretisation, settled_system=True)
     if nominal.z_start is not None:
         for k, moved in enumerate(systems):
             f = fields[k]

@@ -122,8 +122,8 @@ def tabulate_on(rows: RowsFunction, t_out: np.ndarray, where: TableLayout) -> Co
     # the entries' count spelled out: -1 cannot be inferred on a layout with no moving block
     poly = np.matmul(_FIT, samples.reshape(len(where.moving), DEGREE + 1,
                                            int(np.prod(values.shape[1:])))).reshape(samples.shape)
-    done = [(*piece, p) for piece, p in zip(where.moving, poly, strict=True)]
-    return _assemble_table(done, list(where.static), values[nodes.size:], sampler.count)
+    return _assemble_table(list(where.moving), [poly], list(where.static), values[nodes.size:],
+                           sampler.count)
 
 
 class RoughCoefficients(Exception):
@@ -152,7 +152,8 @@ def tabulate(
     static_times = np.array([t_out[a] for a, _ in static], dtype=float)
     static_values = None
     scale = None
-    done: list[tuple[int, int, float, float, np.ndarray]] = []
+    done: list[tuple[int, int, float, float]] = []  # the table's moving pieces, by level
+    done_poly: list[np.ndarray] = []  # their polynomials, one array per level
     while moving or static_values is None:
         span = np.array([[t_out[a], t_out[b], lo, hi] for a, b, lo, hi in moving]).reshape(-1, 4)
         starts = span[:, :1] + (span[:, 1:2] - span[:, :1]) * span[:, 2:3]
@@ -181,19 +182,22 @@ def tabulate(
         miss /= scale.reshape(1, 1, -1)
         miss = miss.max(axis=(1, 2))
         refine = []
-        for (a, b, lo, hi), p, m in zip(moving, poly, miss):
+        kept = np.zeros(len(moving), dtype=bool)
+        for i, ((a, b, lo, hi), m) in enumerate(zip(moving, miss)):
             if m <= tolerance or hi - lo <= _MIN_PIECE:
-                done.append((a, b, lo, hi, p))
+                done.append((a, b, lo, hi))
+                kept[i] = True
             elif b - a > 1:
                 mid = (a + b) // 2
                 refine += [(a, mid, 0.0, 1.0), (mid, b, 0.0, 1.0)]
             else:  # one output interval: split its time range
                 refine += [(a, b, lo, 0.5 * (lo + hi)), (a, b, 0.5 * (lo + hi), hi)]
+        done_poly.append(poly[kept])
         moving = refine
         if sampler.count > limit:
             raise RoughCoefficients(f"{sampler.count} assemblies and still refining")
     assert static_values is not None
-    return _assemble_table(done, static, static_values, sampler.count)
+    return _assemble_table(done, done_poly, static, static_values, sampler.count)
 
 
 def _entry_scale(*samples: np.ndarray) -> np.ndarray:
@@ -275,46 +279,78 @@ def _initial_blocks(
 
 
 class _Sampler:
-    """A(t) at any times, counting the assemblies (one call per refinement level)."""
+    """A(t) at any times, counting the instants asked for (one call per refinement level).
+
+    A time asked for again in the next call, bit for bit, is not assembled again: a
+    piece's halves share three of their six nodes with it (τ = 0, ½ and the first or
+    last check, (x₁/2) of its nodes x), and equal times give equal A. ``count`` still
+    counts them, so the budget of `tabulate` decides as if each were assembled."""
 
     def __init__(self, rows: RowsFunction) -> None:
         self._rows = rows
         self.count = 0
+        self._last: tuple[np.ndarray, np.ndarray] | None = None  # the last call's (times, A)
 
     def at(self, times: np.ndarray) -> np.ndarray:
         unique, inverse = np.unique(times, return_inverse=True)
         self.count += unique.size
-        values = self._rows(unique)
+        values = None
+        if self._last is not None and unique.size:
+            before, known_values = self._last
+            where = np.minimum(np.searchsorted(before, unique), max(before.size - 1, 0))
+            known = (before[where] == unique) if before.size else np.zeros(unique.size, bool)
+            if known.any():
+                values = np.empty((unique.size, *known_values.shape[1:]))
+                values[known] = known_values[where[known]]
+                if not known.all():
+                    values[~known] = self._assembled(unique[~known])
+        if values is None:
+            values = self._assembled(unique)
+        self._last = unique, values
+        return values[inverse.ravel()]
+
+    def _assembled(self, times: np.ndarray) -> np.ndarray:
+        values = self._rows(times)
         if not np.all(np.isfinite(values)):
             raise FloatingPointError("the equations of motion have non-finite coefficients")
-        return values[inverse.ravel()]
+        return values
 
 
 def _assemble_table(
-    moving: list[tuple[int, int, float, float, np.ndarray]], static: list[tuple[int, int]],
-    static_values: np.ndarray, assemblies: int,
+    moving: list[tuple[int, int, float, float]], moving_poly: list[np.ndarray],
+    static: list[tuple[int, int]], static_values: np.ndarray, assemblies: int,
 ) -> CoefficientTable:
+    """The table of the moving pieces (first, last, τ lower, τ upper), whose polynomials
+    are ``moving_poly`` stacked in their order, and of the static blocks (first, last) with
+    A = ``static_values`` there, in time order."""
     shape = static_values.shape[1:]
-    entries = list(moving)
-    for (a, b), value in zip(static, static_values):
-        p = np.zeros((DEGREE + 1, *shape))
-        p[0] = value
-        entries.append((a, b, 0.0, 1.0, p))
-    entries.sort(key=lambda e: (e[0], e[2]))
-    firsts = np.array([e[0] for e in entries], dtype=np.int64)
-    new_block = np.ones(len(entries), dtype=bool)
-    new_block[1:] = firsts[1:] != firsts[:-1]
-    pieces = np.append(np.flatnonzero(new_block), len(entries)).astype(np.int64)
-    static_firsts = {a for a, _ in static}
+    size = len(moving) + len(static)
+    first = np.array([e[0] for e in moving] + [a for a, _ in static], dtype=np.int64)
+    last = np.array([e[1] for e in moving] + [b for _, b in static], dtype=np.int64)
+    lower = np.array([e[2] for e in moving] + [0.0] * len(static), dtype=float)
+    upper = np.array([e[3] for e in moving] + [1.0] * len(static), dtype=float)
+    order = np.lexsort((lower, first))  # by first output, then τ
+    rank = np.empty(size, dtype=np.int64)
+    rank[order] = np.arange(size)
+    poly = np.zeros((size, DEGREE + 1, *shape))
+    if moving:  # each polynomial copied once, to its place
+        stacked = moving_poly[0] if len(moving_poly) == 1 else np.concatenate(moving_poly)
+        poly[rank[:len(moving)]] = stacked.reshape(len(moving), DEGREE + 1, *shape)
+    poly[rank[len(moving):], 0] = static_values
+    first, last, lower, upper = first[order], last[order], lower[order], upper[order]
+    new_block = np.ones(size, dtype=bool)
+    new_block[1:] = first[1:] != first[:-1]
+    pieces = np.append(np.flatnonzero(new_block), size).astype(np.int64)
+    is_static = np.zeros(size, dtype=np.bool_)
+    is_static[rank[len(moving):]] = True
     table = CoefficientTable(
-        first=firsts[new_block],
-        last=np.array([e[1] for e in entries], dtype=np.int64)[new_block],
-        static=np.array([a in static_firsts for a in firsts[new_block]], dtype=np.bool_),
+        first=first[new_block],
+        last=last[new_block],
+        static=is_static[new_block],
         pieces=pieces,
-        lower=np.array([e[2] for e in entries]),
-        upper=np.array([e[3] for e in entries]),
-        poly=np.ascontiguousarray(np.array([e[4] for e in entries]).reshape(
-            len(entries), DEGREE + 1, *shape)),
+        lower=lower,
+        upper=upper,
+        poly=poly,
         reference=np.empty((0, *shape)),
         assemblies=assemblies,
     )

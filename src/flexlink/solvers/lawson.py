@@ -70,6 +70,9 @@ class Discretisation:
     rtol: float  # what the adaptive run was asked for
     reference: np.ndarray  # (blocks, n, 2n+1)
     propagators: np.ndarray  # (blocks, 2n+1, 2n+1), transposed as the compiled loop takes them
+    # the settling run's own table (what `tabulate_on` of its system on the layout gives),
+    # where its caller asked to keep it (`integrate_lawson_discretised`)
+    table: CoefficientTable | None = None
 
 
 def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
@@ -115,17 +118,20 @@ def integrate_lawson_on(system: LinearSystem, t_out: np.ndarray,
 
 
 def integrate_lawson_discretised(system: LinearSystem, t_out: np.ndarray, rtol: float,
-                                 atol: float, on_progress: Progress | None = None
+                                 atol: float, on_progress: Progress | None = None,
+                                 keep_table: bool = False
                                  ) -> tuple[Solution, Discretisation | None]:
     """`integrate_lawson`, and the discretisation it settled on (None when it handed the
-    run to Magnus)."""
+    run to Magnus); ``keep_table``: with the run's table (`Discretisation.table`, for the
+    same system's sensitivities; not for discretisations handed to other processes)."""
     with single_threaded():
         try:
             start = prepare(system, t_out, rtol, atol)
         except RoughCoefficients:
             # Magnus assembles A where it needs it, which then costs less than a table.
             return integrate_magnus(system, t_out, rtol, atol, on_progress), None
-        return finish(start, *first_pass(start, on_progress), on_progress)
+        solution, discretisation = finish(start, *first_pass(start, on_progress), on_progress)
+    return solution, replace(discretisation, table=start.table) if keep_table else discretisation
 
 
 @dataclass(frozen=True)

@@ -35,16 +35,19 @@ DerivativeRows = Callable[[np.ndarray], np.ndarray]  # times (nt,) → ∂A/∂p
 
 
 def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
-                         t_out: np.ndarray, discretisation: Discretisation
+                         t_out: np.ndarray, discretisation: Discretisation,
+                         settled_system: bool = False
                          ) -> tuple[Solution, np.ndarray, np.ndarray, np.ndarray]:
     """The system's solution on ``discretisation`` (as `integrate_lawson_on`) and its
     derivatives ∂q, ∂q̇, ∂q̈ in each of K parameters, (K, nt, n) each, from rest at
-    t_out[0]; ``derivative_rows``: ∂A/∂p_k of A = M⁻¹[−K, −C, f] at given times."""
+    t_out[0]; ``derivative_rows``: ∂A/∂p_k of A = M⁻¹[−K, −C, f] at given times;
+    ``settled_system``: the system is the one whose run settled the discretisation (its
+    table is then the one the discretisation keeps)."""
     from ._lawson_sensitivity_numba import lawson_tangent_blocks
 
     n = system.n
     with single_threaded():
-        table, reference, ET, E2T = steps_on(system, t_out, discretisation)
+        table, reference, ET, E2T = steps_on(system, t_out, discretisation, settled_system)
         dtable = tabulate_on(derivative_rows, t_out, discretisation.layout)
         K = dtable.poly.shape[2]
         static = table.static
@@ -79,16 +82,20 @@ def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
     return solution, dstates[:, :, :n], dstates[:, :, n: 2 * n], dacc
 
 
-def steps_on(system: LinearSystem, t_out: np.ndarray, discretisation: Discretisation
+def steps_on(system: LinearSystem, t_out: np.ndarray, discretisation: Discretisation,
+             settled_system: bool = False
              ) -> tuple[CoefficientTable, np.ndarray, np.ndarray, np.ndarray]:
     """The system's table on the discretisation's layout, each block's reference (the
     settled one on moving blocks, the system's own on static ones) and the propagators the
     steps read, transposed: E = exp(h/2 Ã_ref) and E² on moving blocks, exp(Δt Ã) on static
-    ones (E² unused there)."""
+    ones (E² unused there). ``settled_system``: the system whose run settled the
+    discretisation, whose table it keeps (the same numbers as tabulating it anew)."""
     n = system.n
     rows = getattr(system, "state_rows", None) or (
         lambda times: state_rows(system.matrices, times))
-    table = tabulate_on(rows, t_out, discretisation.layout)
+    table = discretisation.table if settled_system else None
+    if table is None:
+        table = tabulate_on(rows, t_out, discretisation.layout)
     static = table.static
     reference = np.where(static[:, None, None], table.reference, discretisation.reference)
     ET = discretisation.propagators.copy()
