@@ -12,12 +12,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flexlink.dynamics._loops_numba import constraints, load_state, solve_constrained
 from flexlink.dynamics.forward_kernel import inputs
 from flexlink.dynamics.loops import LoopSystem
 from flexlink.scenario import scenario_from_dict
 from flexlink.simulation.forward import forward_system
-from tests.unit.test_loops_kernel import _phi, _state
+from tests.unit.test_loops_kernel import (
+    _phi,
+    _state,
+    constraints,
+    load_state,
+    solve_constrained,
+)
 from tests.unit.test_nonlinear_loops_kernel import MOVING
 from tests.validation.test_nonlinear_slider_loops import slider_loop_case
 
