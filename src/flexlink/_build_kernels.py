@@ -12,7 +12,9 @@ therefore compiled without editing anything here; a new path or compiled loop ne
 warm-up run in `cli.warmup_scenarios`.
 
 The runs are shared among worker processes (one per core), each on its own copy of the
-package so that no two processes write one cache file; their cache files are then moved into
+package so that no two processes write one cache file (before each run a worker's copy takes
+the kernels the others have compiled so far, which it then loads instead of compiling them
+again: `_share`, `_AFTER`); their cache files are then moved into
 the package's folder (a kernel that two workers compiled for different types keeps every
 version; one they both compiled keeps the first copy), and a last pass in one process runs
 every warm-up again: it loads every kernel, compiles whatever the merge left out and checks
@@ -50,12 +52,17 @@ _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
 # longest first. A run missing here counts as the mean of those listed.
 COMPILE_CPU = {"prescribed": 20, "nonlinear": 19, "nonlinear_step": 1, "forward": 42,
                "free_base": 12, "nonlinear_forward": 10, "nonlinear_forward_step": 0,
-               "closed_loop": 5, "four_bar": 43, "nonlinear_four_bar": 45, "sensitivities": 10,
+               "closed_loop": 5, "four_bar": 27, "nonlinear_four_bar": 40, "sensitivities": 10,
                "batched": 9}
 # Model paths whose runs integrate with another path's compiled loop (the closed loop's
 # Lawson loop is the prescribed path's; the nonlinear path's Gauss loops, compiled once for
 # both nonlinear models, are the nonlinear forward path's): one family, one worker.
 _SHARES = {"closed_loop": "prescribed", "nonlinear": "nonlinear_forward"}
+# Runs that take kernels a run of another family compiles (run → that run), held back until
+# it is done: a worker starts each run with every kernel the other workers have compiled
+# (`_share`), so these compile once. The first-order loops' closed start (`loops.LoopSystem`:
+# `_loops_numba.close` and the kinematics under it) is also the nonlinear four-bar's.
+_AFTER = {"four_bar": "nonlinear_four_bar"}
 _CACHED_KERNEL = re.compile(r"jit\([^)]*\bcache\s*=\s*True")
 _INDEX_DATA = r"\.\d+\.nbc"  # numba's data files beside an index <stem>.nbi: <stem>.<n>.nbc
 
@@ -151,21 +158,24 @@ def worker() -> None:
 
 
 def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
-             worker: int) -> str | None:
-    """Take from `queue` the next run for `worker`: the next of the family (model path, or
-    the path whose compiled loop it uses) it is on, else the first whose family no other
-    worker is on. Runs of one family share most kernels, so one worker compiles them: None
-    when every run left is of a family another worker is on (it takes them next) or none is
-    left. `working` (worker → family) is updated."""
+             worker: int, held: set[str] | frozenset[str] = frozenset()) -> str | None:
+    """Take from `queue` the next run for `worker`, leaving the `held` ones (waiting for a
+    run of `_AFTER`): the next of the family (model path, or the path whose compiled loop it
+    uses) it is on, else the first whose family no other worker is on. Runs of one family
+    share most kernels, so one worker compiles them: None when every run left is held, of a
+    family another worker is on (it takes them next), or none is left. `working` (worker →
+    family) is updated."""
     others = {f for k, f in working.items() if k != worker}
-    for wanted in ([n for n in queue if family[n] == working.get(worker)],
-                   [n for n in queue if family[n] not in others]):
+    free = [n for n in queue if n not in held]
+    for wanted in ([n for n in free if family[n] == working.get(worker)],
+                   [n for n in free if family[n] not in others]):
         if wanted:
             name = wanted[0]
             queue.remove(name)
             working[worker] = family[name]
             return name
-    working.pop(worker, None)
+    if not any(family[n] == working.get(worker) for n in queue):  # its family's held: kept
+        working.pop(worker, None)
     return None
 
 
@@ -199,8 +209,13 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
     paths = {name: model_path(scenarios[name]) for name in names}
     family = {name: _SHARES.get(path, path) for name, path in paths.items()}
     queue = queue_order(names, family)
-    lock = threading.Lock()
+    lock = threading.Condition()
     working: dict[int, str] = {}  # worker → the family (model path) of its current run
+    running: set[str] = set()
+
+    def held() -> set[str]:  # runs whose `_AFTER` run is still to come or running
+        waiting = set(queue) | running
+        return {n for n in queue if _AFTER.get(n) in waiting}
 
     root = PACKAGE_DIR / CACHE_FOLDER
     with tempfile.TemporaryDirectory(prefix="flexlink-build-") as tmp:
@@ -220,9 +235,17 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
             try:
                 while True:
                     with lock:
-                        name = next_run(queue, family, working, worker)
+                        name = next_run(queue, family, working, worker, held())
+                        while name is None and held():  # its own family's, once done
+                            lock.wait()
+                            name = next_run(queue, family, working, worker, held())
+                        if name is not None:
+                            running.add(name)
                     if name is None:
                         break
+                    for k, other in enumerate(copies):  # the idle worker's copy only
+                        if k != worker:
+                            _share(other / CACHE_FOLDER, copy / CACHE_FOLDER)
                     process.stdin.write(name + "\n")
                     process.stdin.flush()
                     for line in process.stdout:
@@ -232,8 +255,15 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
                             break
                     else:  # the worker died: its run (and the rest) go to the last pass
                         results[name] = {"error": f"worker ended ({process.wait()})"}
+                    with lock:
+                        running.discard(name)
+                        lock.notify_all()
+                    if process.poll() is not None:
                         break
             finally:
+                with lock:  # its family's runs left go to the others
+                    working.pop(worker, None)
+                    lock.notify_all()
                 process.stdin.close()
                 process.wait()
 
@@ -279,32 +309,47 @@ def _read_index(path: Path) -> tuple[Any, Any, dict[Any, str]]:
     return version, stamp, overloads
 
 
-def _merge_index(index: Path, into: Path) -> None:
+def _share(source: Path, target: Path) -> None:
+    """Copy into the cache folder `target` (of a worker between two runs) the compiled
+    versions of the cache folder `source` (of a worker that may be compiling) that it lacks.
+    numba writes a kernel's index before the data file it names, each whole (a new file
+    renamed into place): a version whose data file is not there yet is left out."""
+    for index in sorted(source.rglob("*.nbi")):
+        into = target / index.parent.relative_to(source) / index.name
+        into.parent.mkdir(parents=True, exist_ok=True)
+        _merge_index(index, into, copy=True)
+
+
+def _merge_index(index: Path, into: Path, copy: bool = False) -> None:
     """Add the compiled versions of the index file `index` that the index file `into` (of
-    the same kernel, in another folder) lacks, moving their data files beside `into` under
-    free numbers; nothing when the two were written by another numba or for another source
-    (their versions could not be loaded together)."""
+    the same kernel, in another folder; absent: none) lacks, moving (``copy``: copying)
+    their data files beside `into` under free numbers; nothing when the two were written by
+    another numba or for another source (their versions could not be loaded together)."""
     import pickle
 
     from numba.core.serialize import dumps
 
     version, stamp, overloads = _read_index(index)
-    into_version, into_stamp, into_overloads = _read_index(into)
+    into_version, into_stamp, into_overloads = (_read_index(into) if into.exists()
+                                                else (version, stamp, {}))
     if (version, stamp) != (into_version, into_stamp):
         return
     stem = into.name[:-len(".nbi")]
     taken = set(into_overloads.values())
-    number = 0
+    number, added = 0, False
     for key, name in overloads.items():
-        if key in into_overloads:
+        if key in into_overloads or not (index.parent / name).is_file():
             continue
+        added = True
         number += 1
         while f"{stem}.{number}.nbc" in taken:
             number += 1
         fresh = f"{stem}.{number}.nbc"
         taken.add(fresh)
-        shutil.move(index.parent / name, into.parent / fresh)
+        (shutil.copyfile if copy else shutil.move)(index.parent / name, into.parent / fresh)
         into_overloads[key] = fresh
+    if not added:
+        return
     temporary = into.with_name(into.name + ".merging")
     with open(temporary, "wb") as f:
         pickle.dump(into_version, f, protocol=-1)

@@ -8,10 +8,28 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numba import njit
 
-from flexlink.dynamics._loops_numba import constraints, load_state
+from flexlink.dynamics import _loops_numba as kernels
 from flexlink.dynamics.forward_kernel import inputs
 from flexlink.dynamics.loops import LoopSystem
+
+
+# The kernels below carry no Python wrapper (only other kernels call them): reached here
+# through these.
+@njit
+def constraints(d, w) -> None:
+    kernels.constraints(d, w)
+
+
+@njit
+def load_state(d, w, u, y) -> None:
+    kernels.load_state(d, w, u, y)
+
+
+@njit
+def solve_constrained(d, w, u, y) -> bool:
+    return kernels.solve_constrained(d, w, u, y)
 
 
 def random_state(loops: LoopSystem, seed: int) -> tuple[np.ndarray, np.ndarray]:

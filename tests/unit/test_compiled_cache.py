@@ -204,6 +204,24 @@ def test_merge_joins_each_kernels_versions_from_every_worker(tmp_path: Path) -> 
         "m.f-10.py311.1.nbc", "m.f-10.py311.nbi"]  # b, left where it was
 
 
+def test_share_copies_the_versions_a_worker_lacks_whose_data_is_written(
+        tmp_path: Path) -> None:
+    """Between two runs a worker's copy takes what the others compiled: each version it
+    lacks, copied; one whose data file numba has not written yet (it writes the index
+    first) is left out, and the source folder is left as it was."""
+    source, target = tmp_path / "source", tmp_path / "target"
+    files = _kernel_files(source, "m.f-10.py311", {"a": "src a", "b": "src b", "c": "src c"})
+    _kernel_files(source, "m.g-5.py311", {"a": "g a"})
+    _kernel_files(target, "m.f-10.py311", {"c": "own c"})
+    (source / "sub" / files._load_index()["b"]).unlink()
+    before = sorted(p.name for p in (source / "sub").iterdir())
+    _build_kernels._share(source, target)
+    shared = _kernel_files(target, "m.f-10.py311", {})
+    assert {key: shared.load(key) for key in "abc"} == {"a": "src a", "b": None, "c": "own c"}
+    assert _kernel_files(target, "m.g-5.py311", {}).load("a") == "g a"
+    assert sorted(p.name for p in (source / "sub").iterdir()) == before
+
+
 def test_merge_leaves_an_index_of_another_source_alone(tmp_path: Path) -> None:
     from numba.core.caching import IndexDataCacheFile
 
@@ -353,6 +371,20 @@ def test_a_worker_keeps_to_its_path_and_two_workers_to_different_ones() -> None:
     assert take(queue, family, working, 0) is None  # fb is worker 1's next
     assert take(queue, family, working, 1) == "fb" and queue == []
     assert take(queue, family, working, 1) is None and working == {}
+
+
+def test_a_held_run_waits_and_its_worker_keeps_its_family() -> None:
+    """A run of `_AFTER` is not taken while the run it loads kernels from is to come; its
+    worker keeps its family meanwhile, so the other worker does not take it over."""
+    family = {"f": "forward", "fb": "forward", "n": "nonlinear"}
+    queue, working = ["f", "fb", "n"], {}
+    take = _build_kernels.next_run
+    assert take(queue, family, working, 0, {"fb"}) == "f"
+    assert take(queue, family, working, 1) == "n"
+    assert take(queue, family, working, 0, {"fb"}) is None and working[0] == "forward"
+    assert take(queue, family, working, 1) is None  # fb stays worker 0's
+    assert take(queue, family, working, 0) == "fb" and queue == []
+    assert _build_kernels._AFTER["four_bar"] == "nonlinear_four_bar"
 
 
 def test_the_families_longest_to_compile_go_first() -> None:

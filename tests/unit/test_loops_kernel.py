@@ -11,13 +11,20 @@ import math
 import numpy as np
 import pytest
 
-from flexlink.dynamics._loops_numba import constraints, load_state, solve_constrained
 from flexlink.dynamics.forward import ForwardSystem
 from flexlink.dynamics.forward_kernel import inputs
 from flexlink.dynamics.loops import LoopSystem
 from flexlink.model import ZERO, Base, Chain, Closure, Link, TorqueDrive
 from flexlink.motion.profiles import Spinup
-from tests.unit._loops_checks import closure_differences, numpy_equations, phi_at, random_state
+from tests.unit._loops_checks import (
+    closure_differences,
+    constraints,
+    load_state,
+    numpy_equations,
+    phi_at,
+    random_state,
+    solve_constrained,
+)
 from tests.validation.brute_force import chain_points
 
 CRANK, COUPLER, ROCKER, D = 0.1, 0.3, 0.25, (0.3, 0.05)

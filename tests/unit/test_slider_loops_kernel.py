@@ -12,12 +12,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flexlink.dynamics._loops_numba import constraints, load_state, solve_constrained
 from flexlink.dynamics.forward_kernel import inputs
 from flexlink.dynamics.loops import LoopSystem
 from flexlink.scenario import scenario_from_dict
 from flexlink.simulation.forward import forward_system
-from tests.unit._loops_checks import closure_differences, numpy_equations, random_state
+from tests.unit._loops_checks import (
+    closure_differences,
+    constraints,
+    load_state,
+    numpy_equations,
+    random_state,
+    solve_constrained,
+)
 from tests.unit.test_nonlinear_loops_kernel import MOVING
 from tests.validation.test_nonlinear_slider_loops import slider_loop_case
 

@@ -224,7 +224,7 @@ def slide(f, w, k, i, th, om):
     w.om[k] = om
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def constraints(d, w):
     """Φ (w.Phi), G = ∂Φ/∂q (w.G) and γ (w.gam) at q = w.q, q̇ = w.v."""
     f = d.fwd
@@ -262,7 +262,7 @@ def constraints(d, w):
                 w.G[row, att] += -ny_ * dx + nx_ * dy
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def load_state(d, w, u, y):
     """w.q, w.v from the input row u (prescribed joints) and the state y (free, elastic)."""
     f = d.fwd
@@ -282,7 +282,7 @@ def load_state(d, w, u, y):
         w.q[nr + i], w.v[nr + i] = y[2 * nu + i], y[2 * nu + n + i]
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def project(d, w, u, y):
     """Overwrite the dependent coordinates of y (`LoopData.dep`, indices into the free ones)
     and their rates with those that close the loops, Newton's method from y's values; True
@@ -327,6 +327,20 @@ def project(d, w, u, y):
 
 
 @njit(cache=True, _nrt=False)
+def close(d, w, u, y, newton):
+    """The closed start's kinematics, the one entry from Python to them (the kernels it
+    calls carry no Python wrapper: unboxing LoopData and LoopWork is compiled once, here).
+    ``newton`` 0: w.q, w.v from the input row u and the state y, then Φ, G, γ there
+    (`load_state`, `constraints`; returns True); 1: `project` y in place (True when the
+    loops close)."""
+    if newton == 0:
+        load_state(d, w, u, y)
+        constraints(d, w)
+        return True
+    return project(d, w, u, y)
+
+
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def solve_constrained(d, w, u, y):
     """Project y (w.yp ← y closed) and solve the constrained equations: accelerations
     (p̈_free, z̈) in w.rhs[:m], multipliers λ in w.rhs[m:]. False when the loop does not

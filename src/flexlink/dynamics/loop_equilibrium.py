@@ -22,7 +22,10 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
     the input row u (t = 0); ``loops`` a `LoopSystem` whose dependent coordinates are
     chosen. Raises SimulationError naming a servo on a dependent joint (its angle is the
     loop's, not the servo's to hold)."""
-    from ._loops_numba import project, rates
+    from ._loops_numba import close, rates
+
+    def project(data, work, u: np.ndarray, y: np.ndarray) -> bool:
+        return close(data, work, u, y, 1)
 
     system = loops.system
     nu, n = len(system.free), system.n

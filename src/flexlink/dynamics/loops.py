@@ -125,7 +125,7 @@ class LoopSystem:
 
     def _closed_start(self) -> np.ndarray:
         """The initial state with the dependent joints (chosen here) closing the loops."""
-        from ._loops_numba import constraints, load_state, project
+        from ._loops_numba import close
 
         equilibrium = self.system.initial == "equilibrium"  # the tree's would leave the loop
         y = self.system._rest_state() if equilibrium else self.system.initial_state()
@@ -133,12 +133,11 @@ class LoopSystem:
         # kinematics only: the nonlinear model's loops, which start here, never compile
         # this model's residual
         work = self.workspace(y.size, calls=False)
-        load_state(self.data, work, u0, y)
-        constraints(self.data, work)
+        close(self.data, work, u0, y, 0)
         self.dep = self._dependent(work.G)
         self.data = self.data._replace(dep=np.asarray(self.dep, dtype=np.int64))
         start = y.copy()
-        if not project(self.data, work, u0, y):
+        if not close(self.data, work, u0, y, 1):
             raise SimulationError(self._open_message(
                 self._closest(work, u0, start), "does not close at t = 0 (the residual is "
                 "the least its free joints reach from their initial angles)"))
@@ -152,15 +151,14 @@ class LoopSystem:
         """Φ (m) where the free joints bring it closest to zero (least squares from y)."""
         from scipy.optimize import least_squares
 
-        from ._loops_numba import constraints, load_state
+        from ._loops_numba import close
 
         free = self.system.free
 
         def residual(angles: np.ndarray) -> np.ndarray:
             trial = y.copy()
             trial[:len(free)] = angles
-            load_state(self.data, work, u0, trial)
-            constraints(self.data, work)
+            close(self.data, work, u0, trial, 0)
             return work.Phi.copy()
 
         def jacobian(angles: np.ndarray) -> np.ndarray:
