@@ -14,6 +14,7 @@ import gc
 import math
 import os
 import sys
+import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -493,8 +494,13 @@ def _load(path: Path | None) -> tuple[Any, dict[str, Any]]:
     from .scenario import paper_experiment_path, resolve_scenario_dict, scenario_from_dict
 
     source = paper_experiment_path() if path is None else path
-    resolved = resolve_scenario_dict(source)
-    return scenario_from_dict(resolved, source=str(source)), resolved
+    with warnings.catch_warnings(record=True) as caught:  # the scenario's, as "warning: ..."
+        warnings.simplefilter("always")
+        resolved = resolve_scenario_dict(source)
+        scenario = scenario_from_dict(resolved, source=str(source))
+    for message in dict.fromkeys(str(w.message) for w in caught):  # each once
+        print(f"warning: {message}", file=sys.stderr)
+    return scenario, resolved
 
 
 def _fail(message: str, status: int = 2) -> int:

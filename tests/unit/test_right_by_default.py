@@ -197,3 +197,82 @@ def test_a_swept_field_has_its_unit(path: str, unit: str) -> None:
 
 def test_a_cart_servo_gain_has_the_cart_unit() -> None:
     assert parameter_unit("base.cart.P") == "V m-1"
+
+
+@pytest.mark.parametrize(("path", "unit"), [
+    ("joints[0].D", "V s rad-1"), ("joints[1].rate_per_volt_deg_s", "degree s-1 V-1"),
+    ("base.cart.D", "V s m-1"), ("base.cart.rate_per_volt", "m s-1 V-1"),
+])
+def test_a_swept_servo_gain_has_the_unit_of_its_table(path: str, unit: str) -> None:
+    """joints[k].D had none (the schema's D is also a controller's LTI matrix, unitless) and
+    "deg/s per V" was not spelt in UDUNITS."""
+    assert parameter_unit(path) == unit
+    assert field_unit(Target(path, parse(path), None, False)) == unit
+
+
+def _paper_dict() -> dict[str, Any]:
+    with open(paper_experiment_path(), "rb") as file:
+        return tomllib.load(file)
+
+
+@pytest.mark.parametrize(("make", "field"), [(_paper_dict, "motion"),
+                                             (_servo_dict, "reference")])
+def test_a_move_that_starts_at_or_after_t_end_is_warned(make: Any, field: str) -> None:
+    """A joint whose move starts at t_end or later holds still in the whole run: it was
+    accepted without a word."""
+    d = make()
+    d["simulation"].update(t_end=0.5, dt_out=0.01)  # both moves start at 0.5 s
+    with pytest.warns(UserWarning) as caught:
+        scenario_from_dict(d)
+    assert [str(w.message) for w in caught] == [
+        f"joints[{k}].{field}[0].start = 0.5 s is at or after simulation.t_end = 0.5 s: the "
+        "joint does not move in the run; start the move earlier or raise t_end"
+        for k in (0, 1)]
+    d["simulation"]["t_end"] = 0.6  # the moves start within the run: no warning (an error)
+    scenario_from_dict(d)
+
+
+def test_run_prints_the_warning_of_a_move_after_t_end(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    text = (EXAMPLES / "paper_servo.toml").read_text()
+    (tmp_path / "s.toml").write_text(text.replace("t_end = 3.0", "t_end = 0.05").replace(
+        "dt_out = 0.001", "dt_out = 0.05"))
+    assert main(["run", str(tmp_path / "s.toml"), "--no-figures", "-o",
+                 str(tmp_path / "out")]) == 0
+    assert ("warning: joints[0].reference[0].start = 0.5 s is at or after simulation.t_end "
+            "= 0.05 s") in capsys.readouterr().err
+
+
+def _four_bar(**rocker: Any) -> dict[str, Any]:
+    with open(EXAMPLES / "four_bar.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=0.02, dt_out=0.01)
+    d["joints"][2].update(rocker)
+    return d
+
+
+def test_a_sweep_of_a_mechanism_that_cannot_close_is_refused(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The rocker's pivot 3 m away: every case failed with the same reason; now the sweep is
+    refused before any case runs, with the run's message."""
+    d = _four_bar(base_point=[3.0, 0.0])
+    message = r"the base scenario cannot run: the mechanism does not close at t = 0"
+    with pytest.raises(SweepError, match=message):
+        sweep(d, grid={"links[1].EI": [20.0, 30.0]}, workers=1)
+    with open(EXAMPLES / "four_bar.toml") as file:
+        text = file.read()
+    (tmp_path / "s.toml").write_text(text.replace("base_point = [0.3, 0.0]",
+                                                  "base_point = [3.0, 0.0]"))
+    monkeypatch.chdir(tmp_path)
+    assert main(["sweep", "s.toml", "--grid", "links[1].EI=20,30", "-q"]) == 2
+    assert "the base scenario cannot run: the mechanism does not close" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+def test_a_case_whose_values_open_the_loop_fails_alone() -> None:
+    """A rocker too long to reach the coupler (2 m) fails its case; the nominal one closes."""
+    result = sweep(_four_bar(), grid={"links[2].length": [0.25, 2.0]}, workers=1)
+    assert result.status.values.tolist() == ["ok", "failed"]
+    assert "does not close at t = 0" in str(result.error.values[1])

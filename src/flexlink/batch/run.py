@@ -81,6 +81,7 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
     # What every case shares (numeric fields change neither the channels nor the time axis
     # nor the model path), from the base scenario, so that the workers can start first.
     template = scenario_base.build()
+    _check_loops_close(template)
     selected = _check_channels(template, channels)
     metrics = _check_summaries(template, summaries, histories)
     kept = Kept(None if selected is None else tuple(selected), tuple(metrics), histories)
@@ -233,6 +234,19 @@ def _import_xarray_meanwhile() -> None:
             pass
 
     threading.Thread(target=warm, name="flexlink-import-xarray", daemon=True).start()
+
+
+def _check_loops_close(template: Scenario) -> None:
+    """Refuse the sweep when the base scenario's loops cannot be held at t = 0 (the check of
+    its run): every case would fail with that reason. Cases whose drawn values open the
+    loop fail on their own."""
+    from ..errors import SimulationError
+    from ..simulation.loops import check_loops_close
+
+    try:
+        check_loops_close(template)
+    except SimulationError as exc:
+        raise SweepError([f"the base scenario cannot run: {exc}"]) from None
 
 
 def _probe_channels(scenario: Scenario, channels: list[str] | None) -> tuple[Channel, ...]:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+import warnings
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -166,6 +167,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     check_rates_on_forward_runs(links, joints, base, p)
     if p:
         raise ScenarioError(p.messages, source)
+    _warn_of_moves_after_the_end(joints, simulation["t_end"])
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
                 "links": links, "joints": joints, "sensors": sensors}
     if base is not None:
@@ -323,6 +325,23 @@ def _bending_stiffness(table: dict[str, Any], path: str, width: float | None,
         p.add(f"{path}: missing bending stiffness: give EI (N·m²), or E (Pa) with width "
               "and thickness (m)")
     return None
+
+
+def _warn_of_moves_after_the_end(joints: list[dict[str, Any]], t_end: float) -> None:
+    """A warning for each joint whose moves (its motion's or servo reference's profiles with
+    a start) all start at or after t_end: the run shows it held at its start. Not refused: a
+    run that ends before the move (the state it starts from) is a run one may want."""
+    for k, joint in enumerate(joints):
+        for key in ("motion", "reference"):
+            profiles = joint.get(key)
+            starts = [(float(profile["start"]), i) for i, profile in enumerate(profiles)
+                      if isinstance(profile, Mapping) and profile.get("start") is not None
+                      ] if isinstance(profiles, list) else []
+            if starts and min(starts)[0] >= t_end:
+                start, i = min(starts)
+                warnings.warn(f"joints[{k}].{key}[{i}].start = {start:g} s is at or after "
+                              f"simulation.t_end = {t_end:g} s: the joint does not move in "
+                              "the run; start the move earlier or raise t_end", stacklevel=4)
 
 
 def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None,

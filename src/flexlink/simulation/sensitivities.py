@@ -423,6 +423,10 @@ def labelled(results: Results, fields: list[_Field], derivatives: dict[str, np.n
 
 _SUPERSCRIPTS = str.maketrans("²³⁻¹", "23-1")
 _SYMBOLS = {"deg": "degree"}
+# the kinds of [[joints]] table whose keys sit under joints[k] (a servo's D gain there, not
+# a controller's LTI matrix D)
+_TABLE_OF = {name: "joints" for name in ("torque", "velocity_pid", "position", "elastic",
+                                         "prismatic")}
 
 
 def field_unit(target: Target) -> str:
@@ -441,7 +445,7 @@ def field_unit(target: Target) -> str:
         list(schema.CART_PROFILES.values()) + list(schema.HISTORIES.values())
     found = [s[key].unit for s in sections if key in s.keys]
     preferred = [s[key].unit for s in sections
-                 if key in s.keys and s.name.split(".")[0] == head]
+                 if key in s.keys and _TABLE_OF.get(s.name, s.name.split(".")[0]) == head]
     units = set(preferred) or set(found)
     if len(units) != 1:
         return ""
@@ -449,11 +453,20 @@ def field_unit(target: Target) -> str:
 
 
 def udunits(text: str) -> str:
-    """A schema unit (N·m², kg/m, m/s², 1/s, deg) in UDUNITS spelling (N m2, kg m-1, m s-2,
-    s-1, degree); "" where it is not a plain product of powers."""
+    """A schema unit (N·m², kg/m, m/s², 1/s, deg, deg/s per V) in UDUNITS spelling (N m2,
+    kg m-1, m s-2, s-1, degree, degree s-1 V-1); "" where it is not a plain product of
+    powers."""
     text = text.split(",")[0].split(" (")[0].strip()
     if not text:
         return "1"
+    if " per " in text:  # "deg/s per V": the first unit divided by the second
+        top, per = (udunits(part) for part in text.split(" per ", 1))
+        powers, divisor = _powers(top), _powers(per)
+        if not top or not per or powers is None or divisor is None:
+            return ""
+        for base, power in divisor.items():
+            powers[base] = powers.get(base, 0) - power
+        return _spell(powers)
     if re.search(r"[^A-Za-zΩ°·/²³()]", text):
         return ""
     numerator, _, denominator = text.partition("/")
