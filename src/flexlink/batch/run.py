@@ -240,11 +240,21 @@ def _check_loops_close(template: Scenario) -> None:
     """Refuse the sweep when the base scenario's loops cannot be held at t = 0 (the check of
     its run): every case would fail with that reason. Cases whose drawn values open the
     loop fail on their own."""
+    if not template.closures:
+        return
+    from ..dynamics.loops import LoopSystem
     from ..errors import SimulationError
-    from ..simulation.loops import check_loops_close
 
-    try:
-        check_loops_close(template)
+    try:  # the loop system of the base's model, as its run builds it
+        if template.settings.model == "nonlinear":
+            from ..dynamics.nonlinear_loops import NonlinearLoopSystem
+            from ..simulation.nonlinear_forward import nonlinear_forward_system
+
+            NonlinearLoopSystem(nonlinear_forward_system(template), template.closures)
+        else:
+            from ..simulation.forward import forward_system
+
+            LoopSystem(forward_system(template), template.closures)
     except SimulationError as exc:
         raise SweepError([f"the base scenario cannot run: {exc}"]) from None
 

@@ -35,23 +35,6 @@ def closed_loop_solution(scenario: Scenario, system: ForwardSystem, t: np.ndarra
             closure_metadata(loops, run.residual))
 
 
-def check_loops_close(scenario: Scenario) -> None:
-    """Raise the SimulationError a run of ``scenario`` raises at t = 0 when its loops cannot
-    be held (too few free joints, dependent equations, a residual its free joints' initial
-    angles leave), from the loop system of its model; nothing without closures."""
-    if not scenario.closures:
-        return
-    if scenario.settings.model == "nonlinear":
-        from ..dynamics.nonlinear_loops import NonlinearLoopSystem
-        from .nonlinear_forward import nonlinear_forward_system
-
-        NonlinearLoopSystem(nonlinear_forward_system(scenario), scenario.closures)
-    else:
-        from .forward import forward_system
-
-        LoopSystem(forward_system(scenario), scenario.closures)
-
-
 def closure_values(scenario: Scenario, loops: LoopSystem, multipliers: np.ndarray
                    ) -> dict[str, np.ndarray]:
     """The closures' force channels (N) from the multipliers λ (nt, n_c) of either model."""
