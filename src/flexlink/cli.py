@@ -498,7 +498,8 @@ def _load(path: Path | None) -> tuple[Any, dict[str, Any]]:
         warnings.simplefilter("always")
         resolved = resolve_scenario_dict(source)
         scenario = scenario_from_dict(resolved, source=str(source))
-    for message in dict.fromkeys(str(w.message) for w in caught):  # each once
+    for message in dict.fromkeys(str(w.message) for w in caught  # each once
+                                 if not issubclass(w.category, DeprecationWarning)):
         print(f"warning: {message}", file=sys.stderr)
     return scenario, resolved
 
