@@ -216,92 +216,15 @@ def test_sampled_controllers_take_the_tangents() -> None:
     _assert_the_gradient_is_the_tangents(scenario, fields, "root_strain")
 
 
-def test_a_field_of_the_drives_or_the_modal_stiffness_moves_e_by_those_terms_alone() -> None:
-    """Fields that move only the drives' gains and limits or the links' modal stiffness
-    and damping (`record_moves.moved_arrays`) take E's change from those terms alone:
-    equal to the moved models' full equations at the run's stage states; a link's mass
-    or a motor's inertia is not such a field."""
+def _assert_moved_equations_are_the_full_ones(prepared, settled, parts) -> None:
+    """At the run's stage states, `record_moves.moved_equations` of each field whose moves
+    ``parts`` names (None: the full equations) equals the moved models' full equations,
+    E to 1e-9 of its size (plus the full equations' own round-off), the servo integrals'
+    rows to 1e-12."""
     from flexlink.dynamics._forward_jacobian_numba import forward_accelerations, forward_equations
-    from flexlink.simulation.record_moves import applied_forces, moved_arrays, moved_equations
+    from flexlink.simulation.record_moves import applied_forces, moved_equations
 
-    scenario = _scenario("servo")
-    fields = ["links[1].mass_per_length", "joints[0].motor_inertia", "joints[0].P",
-              "joints[0].D", "joints[1].bandwidth", "joints[0].rate_per_volt_deg_s",
-              "links[0].E", "links[1].damping_ratio"]
-    prepared = prepare_fields(scenario_file(scenario), scenario, fields)
-    t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
-    settled = ds.forward_settled(scenario, prepared, t, lambda *_: None, False)
     nominal = settled.nominal
-    parts = [moved_arrays(nominal, group) for group in settled.moved]
-    assert parts[:2] == [None, None]
-    assert parts[2] == {"P"} and parts[6] == {"stiffness", "damping"} and parts[7] == {"damping"}
-    steps = settled.steps
-    Y = np.ascontiguousarray((steps.y0[:, None, :] + steps.z).reshape(-1, nominal.y0.size))
-    times = (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
-    bases = ds._Bases(np.repeat(steps.segment, 3), times)
-    d = nominal.data
-    q = d.free.shape[0] + d.n_x - d.n_rigid
-    acc = np.empty((Y.shape[0], q))
-    forward_accelerations(d, nominal.work, np.ascontiguousarray(bases.rows(nominal.table)), Y,
-                          np.empty((Y.shape[0], q, q)), acc)
-    ns = nominal.y0.size - 2 * q
-    applied0 = applied_forces(nominal, bases.rows(nominal.table), Y)
-    for k in range(2, len(fields)):
-        full, part = np.zeros((Y.shape[0], q)), np.zeros((Y.shape[0], q))
-        full_s, part_s = np.zeros((Y.shape[0], ns)), np.zeros((Y.shape[0], ns))
-        for w, md in zip(prepared[k].weights, settled.moved[k], strict=True):
-            u = np.ascontiguousarray(bases.rows(md.table))
-            E, S = np.empty((Y.shape[0], q)), np.empty((Y.shape[0], ns))
-            forward_equations(md.data, md.work, u, Y, acc, E, S)
-            full += w * E
-            full_s += w * S
-            moved_equations(md, nominal, parts[k], applied0, u, Y, acc, E, S)
-            part += w * E
-            part_s += w * S
-        scale = np.abs(full).max()
-        assert scale > 0.0
-        # the full equations' own round-off: ε of the forces they balance
-        noise = 1e-14 * np.abs(applied0[0]).max()
-        assert np.abs(part - full).max() <= 1e-9 * scale + noise
-        assert np.abs(part_s - full_s).max() <= 1e-12 * max(np.abs(full_s).max(), 1.0)
-
-
-@pytest.mark.parametrize("name, fields, expected", [
-    # the hub–beam's modes are those of a beam on its hub: the motor's inertia moves them
-    ("hub_beam", ["links[0].mass_per_length", "joints[0].torque[0].amplitude",
-                  "joints[0].motor_inertia", "links[0].EI"],
-     [None, {"inputs"}, None, {"stiffness", "damping"}]),
-    ("servo", ["joints[0].motor_inertia", "links[0].E"],
-     [{"motor_inertia"}, {"stiffness", "damping"}]),
-    ("free_base", ["links[0].mass_per_length", "base.loads[0].moment[0].amplitude"],
-     [None, {"inputs"}]),
-])
-def test_a_motor_inertia_or_an_applied_input_moves_e_by_its_own_term(
-        name: str, fields: list[str], expected: list) -> None:
-    """With ``more``, a motor's inertia (ΔJ_m p̈ on its row) and a drive's torque or a base
-    load (Q with the moved inputs) are moves `record_moves.moved_equations` takes from
-    their own terms: equal to the moved models' full equations at the run's stage states;
-    a link's mass (or a hub's inertia that moves the modes) still takes the full equations,
-    and without ``more`` neither is such a move; the projection keeps their field term."""
-    from flexlink.dynamics._forward_jacobian_numba import forward_accelerations, forward_equations
-    from flexlink.simulation.record_moves import (
-        applied_forces,
-        moved_arrays,
-        moved_equations,
-        same_projection,
-    )
-
-    scenario = _scenario(name)
-    prepared = prepare_fields(scenario_file(scenario), scenario, fields)
-    t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
-    settled = ds.forward_settled(scenario, prepared, t, lambda *_: None, False)
-    nominal = settled.nominal
-    parts = [moved_arrays(nominal, group, more=True) for group in settled.moved]
-    assert parts == expected
-    for k, part in enumerate(parts):
-        if part is not None and not part <= {"stiffness", "damping"}:
-            assert moved_arrays(nominal, settled.moved[k]) is None
-            assert not same_projection(nominal, settled.moved[k])
     steps = settled.steps
     Y = np.ascontiguousarray((steps.y0[:, None, :] + steps.z).reshape(-1, nominal.y0.size))
     times = (steps.t[:, None] + steps.h[:, None] * NODES).ravel()
@@ -333,3 +256,63 @@ def test_a_motor_inertia_or_an_applied_input_moves_e_by_its_own_term(
         assert np.abs(mine - full).max() <= 1e-9 * scale + noise
         if ns:  # servo integrals
             assert np.abs(mine_s - full_s).max() <= 1e-12 * max(np.abs(full_s).max(), 1.0)
+
+
+def test_a_field_of_the_drives_or_the_modal_stiffness_moves_e_by_those_terms_alone() -> None:
+    """Fields that move only the drives' gains and limits or the links' modal stiffness
+    and damping (`record_moves.moved_arrays`) take E's change from those terms alone:
+    equal to the moved models' full equations at the run's stage states; a link's mass
+    or a motor's inertia is not such a field."""
+    from flexlink.simulation.record_moves import moved_arrays
+
+    scenario = _scenario("servo")
+    fields = ["links[1].mass_per_length", "joints[0].motor_inertia", "joints[0].P",
+              "joints[0].D", "joints[1].bandwidth", "joints[0].rate_per_volt_deg_s",
+              "links[0].E", "links[1].damping_ratio"]
+    prepared = prepare_fields(scenario_file(scenario), scenario, fields)
+    t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
+    settled = ds.forward_settled(scenario, prepared, t, lambda *_: None, False)
+    nominal = settled.nominal
+    parts = [moved_arrays(nominal, group) for group in settled.moved]
+    assert parts[:2] == [None, None]
+    assert parts[2] == {"P"} and parts[6] == {"stiffness", "damping"} and parts[7] == {"damping"}
+    assert all(part is not None for part in parts[2:])
+    assert settled.nominal.y0.size > 2 * (nominal.data.free.shape[0] + nominal.data.n_x
+                                          - nominal.data.n_rigid)  # servo integrals
+    _assert_moved_equations_are_the_full_ones(prepared, settled, parts)
+
+
+@pytest.mark.parametrize("name, fields, expected", [
+    # the hub–beam's modes are those of a beam on its hub: the motor's inertia moves them
+    ("hub_beam", ["links[0].mass_per_length", "joints[0].torque[0].amplitude",
+                  "joints[0].motor_inertia", "links[0].EI"],
+     [None, {"inputs"}, None, {"stiffness", "damping"}]),
+    ("servo", ["joints[0].motor_inertia", "links[0].E"],
+     [{"motor_inertia"}, {"stiffness", "damping"}]),
+    ("free_base", ["links[0].mass_per_length", "base.loads[0].moment[0].amplitude"],
+     [None, {"inputs"}]),
+])
+def test_a_motor_inertia_or_an_applied_input_moves_e_by_its_own_term(
+        name: str, fields: list[str], expected: list) -> None:
+    """With ``more``, a motor's inertia (ΔJ_m p̈ on its row) and a drive's torque or a base
+    load (Q with the moved inputs) are moves `record_moves.moved_equations` takes from
+    their own terms: equal to the moved models' full equations at the run's stage states;
+    a link's mass (or a hub's inertia that moves the modes) still takes the full equations,
+    and without ``more`` neither is such a move; the projection keeps their field term."""
+    from flexlink.simulation.record_moves import (
+        moved_arrays,
+        same_projection,
+    )
+
+    scenario = _scenario(name)
+    prepared = prepare_fields(scenario_file(scenario), scenario, fields)
+    t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
+    settled = ds.forward_settled(scenario, prepared, t, lambda *_: None, False)
+    nominal = settled.nominal
+    parts = [moved_arrays(nominal, group, more=True) for group in settled.moved]
+    assert parts == expected
+    for k, part in enumerate(parts):
+        if part is not None and not part <= {"stiffness", "damping"}:
+            assert moved_arrays(nominal, settled.moved[k]) is None
+            assert not same_projection(nominal, settled.moved[k])
+    _assert_moved_equations_are_the_full_ones(prepared, settled, parts)
