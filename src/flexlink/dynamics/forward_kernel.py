@@ -223,6 +223,15 @@ def voltage_columns(system: ForwardSystem) -> slice:
     return slice(start, start + len(system.actuators))
 
 
+def applied_columns(n_links: int, n_loads: int, n_actuators: int) -> np.ndarray:
+    """The columns of the input rows (`inputs`' layout) that only the applied forces read
+    (`_forward_numba.applied`): the drives' torques, the base loads, the actuators'
+    voltages and a cart's drive force; not a motion or reference, which the frames or the
+    drives' errors read."""
+    N, rest = n_links, 3 * n_loads + n_actuators
+    return np.r_[3 * N:4 * N, 4 * N:4 * N + rest, 4 * N + rest + 3]
+
+
 def breakpoints(system: ForwardSystem) -> np.ndarray:
     """Sorted times (s) where an input (motion, reference, torque, base load, voltage) is not
     smooth: the compiled integrator ends steps there."""

@@ -17,8 +17,8 @@ without the round-off of E itself. The momentum projection reads none of those a
 Two more moves are as simple (``more``): the motors' inertia J_m enters r as J_m p̈ on its
 joint's row alone, so it adds ΔJ_m p̈ there (p̈ the nominal accelerations on a free joint's
 row); and input columns that only Q reads (a drive's torque, a base load, an actuator's
-voltage, a cart's force: `applied_inputs`) moved on the same table pieces add −(Q_p − Q_0)
-with the moved inputs. The projection reads both (the motors' momentum, the loads'
+voltage, a cart's force: `forward_kernel.applied_columns`) moved on the same table pieces
+add −(Q_p − Q_0) with the moved inputs. The projection reads both (the motors' momentum, the loads'
 impulse), so those fields keep its field term.
 """
 
@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ..dynamics.forward_kernel import applied_columns
+
 # a forward model (`driven_sensitivities._Model`; that module imports this one)
 _Model = Any
 
@@ -35,7 +37,7 @@ DRIVE_ARRAYS = frozenset({"P", "I", "D", "saturation", "rate_per_volt", "loop_ga
                           "torque_limit", "bandwidth", "rate_limit"})
 ELASTIC_ARRAYS = frozenset({"stiffness", "damping"})
 INERTIA_ARRAYS = frozenset({"motor_inertia"})
-INPUTS = "inputs"  # `moved_arrays`' name of a move in `applied_inputs` columns
+INPUTS = "inputs"  # `moved_arrays`' name of a move in `forward_kernel.applied_columns`
 # the Projection's fields that are not scratch
 _KNOWN = ("active", "start", "rate", "impulse", "t0", "about_cm", "total_mass", "size",
           "origin", "velocity")
@@ -57,7 +59,7 @@ def moved_arrays(nominal: _Model, group: list[_Model], more: bool = False
     """The names of the ForwardData arrays in which the models of a field's stencil
     differ from the nominal one, if all lie in DRIVE_ARRAYS | ELASTIC_ARRAYS and the input
     table is the same; else None (the moved equations are evaluated whole). ``more``: also
-    INERTIA_ARRAYS, and a table moved on the same pieces in `applied_inputs` columns
+    INERTIA_ARRAYS, and a table moved on the same pieces in `forward_kernel.applied_columns`
     alone (named INPUTS)."""
     if nominal.loops is not None:
         return None
@@ -79,24 +81,17 @@ def moved_arrays(nominal: _Model, group: list[_Model], more: bool = False
     return frozenset(names)
 
 
-def applied_inputs(d: Any, columns: int) -> np.ndarray:
-    """The input columns (of ``columns``) that only the applied forces read
-    (`_forward_numba.applied`; `forward_kernel.inputs`' layout): the drives' torques, the
-    base loads, the actuators' voltages and a cart's drive force; not a motion or
-    reference, which the frames or the drives' errors read."""
-    N, nl, na = d.length.shape[0], d.load_point.shape[0], d.actuator_B.shape[1]
-    return np.r_[3 * N:4 * N, 4 * N:4 * N + 3 * nl + na, columns - 1]
-
-
 def _applied_inputs_moved(table: tuple, other: tuple, d: Any) -> bool:
-    """Whether two input tables have the same pieces and differ in `applied_inputs` only."""
+    """Whether two input tables have the same pieces and differ in the columns only the
+    applied forces read (`forward_kernel.applied_columns`) only."""
     a, b, coef, first = table
     a0, b0, coef0, first0 = other
     if not (same(a, a0) and same(b, b0) and same(first, first0)
             and coef.shape == coef0.shape):
         return False
     rest = np.ones(coef.shape[2], dtype=bool)
-    rest[applied_inputs(d, coef.shape[2])] = False
+    rest[applied_columns(d.length.shape[0], d.load_point.shape[0],
+                         d.actuator_B.shape[1])] = False
     return bool(np.array_equal(coef[:, :, rest], coef0[:, :, rest]))
 
 
