@@ -45,6 +45,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from .._compiled_calls import load
 from ._forward_numba import CART, FREE, PINNED, PRESCRIBED, _solve, assemble, state_rates
 from ._forward_numba import workspace as forward_workspace
 
@@ -72,9 +73,10 @@ def workspace(d, n_servos: int, n_state: int, calls: bool = True) -> LoopWork:
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def point(f, k, s, phi, fore, w, r, rd, g, Jr):
-    """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x) of the point
-    at s (m) on link k whose mode values there are phi, from the frames in w (`frames`).
+def point(f, k, s, phi, fore, w, r, rd, g, Jr, jac=True):
+    """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x; only when
+    ``jac``) of the point at s (m) on link k whose mode values there are phi, from the frames
+    in w (`frames`).
     With geometric stiffening the point is drawn in by the foreshortening ½ qᵀF q along the
     link (F = ∫₀ˢ Φ'ᵀΦ' dx: ``fore``), the kinematics the stiffening terms come from."""
     c, sn = np.cos(w.th[k]), np.sin(w.th[k])
@@ -102,6 +104,8 @@ def point(f, k, s, phi, fore, w, r, rd, g, Jr):
     rd[1] = w.od[k, 1] + om * aux + ady
     g[0] = w.og[k, 0] - om * om * aux - 2.0 * om * ady + c * ax_g
     g[1] = w.og[k, 1] - om * om * auy + 2.0 * om * adx + sn * ax_g
+    if not jac:
+        return
     for col in range(Jr.shape[1]):
         Jr[0, col] = w.Jo[k, 0, col] - auy * w.Jth[k, col]
         Jr[1, col] = w.Jo[k, 1, col] + aux * w.Jth[k, col]
@@ -134,15 +138,17 @@ def base_pose(f, w):
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def base_point(f, w, px, py, r, rd, g, Jr):
-    """Position, velocity, γ and Jacobian (2, n_x) of the point (px, py) fixed in the base
-    (m, base axes): a branch's joint, a closure's ground pivot."""
+def base_point(f, w, px, py, r, rd, g, Jr, jac=True):
+    """Position, velocity, γ and Jacobian (2, n_x; only when ``jac``) of the point (px, py)
+    fixed in the base (m, base axes): a branch's joint, a closure's ground pivot."""
     bx, by, bvx, bvy, th, om, att = base_pose(f, w)
     c, sn = np.cos(th), np.sin(th)
     ax, ay = c * px - sn * py, sn * px + c * py
     r[0], r[1] = bx + ax, by + ay
     rd[0], rd[1] = bvx - om * ay, bvy + om * ax
     g[0], g[1] = -om * om * ax, -om * om * ay
+    if not jac:
+        return
     Jr[:, :] = 0.0
     if f.base_kind == FREE:
         Jr[0, 0] = 1.0
@@ -155,10 +161,10 @@ def base_point(f, w, px, py, r, rd, g, Jr):
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def frames(f, w):
-    """Every frame's angle, rate, Jacobian of the angle, origin, its velocity, γ and
-    Jacobian from q = w.q, q̇ = w.v (a branch starts at its point of the base, which moves
-    with the base's coordinates: `base_pose`)."""
+def frames(f, w, jac=True):
+    """Every frame's angle, rate, origin, its velocity and γ, and (``jac``) the Jacobians
+    of the angle and the origin, from q = w.q, q̇ = w.v (a branch starts at its point of
+    the base, which moves with the base's coordinates: `base_pose`)."""
     N = f.length.shape[0]
     nb = f.n_base
     for k in range(N):
@@ -166,45 +172,52 @@ def frames(f, w):
             _, _, _, _, th_b, om_b, att = base_pose(f, w)
             w.th[k] = th_b + w.q[nb + k]
             w.om[k] = om_b + w.v[nb + k]
-            w.Jth[k, :] = 0.0
-            if att >= 0:
-                w.Jth[k, att] = 1.0
-            base_point(f, w, f.point[k, 0], f.point[k, 1], w.r, w.rd, w.g, w.Jr)
+            base_point(f, w, f.point[k, 0], f.point[k, 1], w.r, w.rd, w.g, w.Jr, jac)
             for a in range(2):
                 w.o[k, a], w.od[k, a], w.og[k, a] = w.r[a], w.rd[a], w.g[a]
-                for i in range(w.Jr.shape[1]):
-                    w.Jo[k, a, i] = w.Jr[a, i]
+            if jac:
+                w.Jth[k, :] = 0.0
+                if att >= 0:
+                    w.Jth[k, att] = 1.0
+                for a in range(2):
+                    for i in range(w.Jr.shape[1]):
+                        w.Jo[k, a, i] = w.Jr[a, i]
         else:
             j = k - 1
-            point(f, j, f.length[j], f.tip_value[j], f.fore_tip[j], w, w.r, w.rd, w.g, w.Jr)
+            point(f, j, f.length[j], f.tip_value[j], f.fore_tip[j], w, w.r, w.rd, w.g, w.Jr,
+                  jac)
             o, nj = f.offset[j], f.n_modes[j]
             th, om = w.th[j], w.om[j]
             if not f.slide[k]:  # a slider's coordinate is its travel (`slide`)
                 th, om = th + w.q[nb + k], om + w.v[nb + k]
-            for i in range(w.Jth.shape[1]):
-                w.Jth[k, i] = w.Jth[j, i]
             for i in range(nj):
                 th += f.tip_slope[j, i] * w.q[o + i]
                 om += f.tip_slope[j, i] * w.v[o + i]
-                w.Jth[k, o + i] += f.tip_slope[j, i]
             w.th[k], w.om[k] = th, om
             for a in range(2):
                 w.o[k, a], w.od[k, a], w.og[k, a] = w.r[a], w.rd[a], w.g[a]
-                for i in range(w.Jr.shape[1]):
-                    w.Jo[k, a, i] = w.Jr[a, i]
+            if jac:
+                for i in range(w.Jth.shape[1]):
+                    w.Jth[k, i] = w.Jth[j, i]
+                for i in range(nj):
+                    w.Jth[k, o + i] += f.tip_slope[j, i]
+                for a in range(2):
+                    for i in range(w.Jr.shape[1]):
+                        w.Jo[k, a, i] = w.Jr[a, i]
             if f.slide[k]:
-                slide(f, w, k, nb + k, th, om)
+                slide(f, w, k, nb + k, th, om, jac)
                 continue
-        w.Jth[k, nb + k] += 1.0
+        if jac:
+            w.Jth[k, nb + k] += 1.0
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def slide(f, w, k, i, th, om):
+def slide(f, w, k, i, th, om, jac=True):
     """Frame k on a slider's block: the line through the section (w.o[k] as `frames`
     left it) turns with it (angle th, rate om; Jacobian w.Jth[k], without q[i]), and the block
     sits at s = q[i] along e = A(th) u: o += s e, ȯ += ṡ e + s om S e, γ += 2 ṡ om S e −
-    s om² e, the Jacobian gains e on the travel and s S e times the line's angle row; link k
-    turns by the constant slide_angle from the line's section."""
+    s om² e, the Jacobian (``jac``) gains e on the travel and s S e times the line's angle
+    row; link k turns by the constant slide_angle from the line's section."""
     c, sn = np.cos(th), np.sin(th)
     ex = c * f.slide_axis[k, 0] - sn * f.slide_axis[k, 1]
     ey = sn * f.slide_axis[k, 0] + c * f.slide_axis[k, 1]
@@ -215,34 +228,37 @@ def slide(f, w, k, i, th, om):
     w.od[k, 1] += sd * ey + s * om * ex
     w.og[k, 0] += -2.0 * sd * om * ey - s * om * om * ex
     w.og[k, 1] += 2.0 * sd * om * ex - s * om * om * ey
-    for col in range(w.Jth.shape[1]):
-        w.Jo[k, 0, col] -= s * ey * w.Jth[k, col]
-        w.Jo[k, 1, col] += s * ex * w.Jth[k, col]
-    w.Jo[k, 0, i] += ex
-    w.Jo[k, 1, i] += ey
+    if jac:
+        for col in range(w.Jth.shape[1]):
+            w.Jo[k, 0, col] -= s * ey * w.Jth[k, col]
+            w.Jo[k, 1, col] += s * ex * w.Jth[k, col]
+        w.Jo[k, 0, i] += ex
+        w.Jo[k, 1, i] += ey
     w.th[k] = th + f.slide_angle[k]
     w.om[k] = om
 
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def constraints(d, w):
-    """Φ (w.Phi), G = ∂Φ/∂q (w.G) and γ (w.gam) at q = w.q, q̇ = w.v."""
+def constraints(d, w, jac=True):
+    """Φ (w.Phi), γ (w.gam) and, when ``jac``, G = ∂Φ/∂q (w.G) at q = w.q, q̇ = w.v (without:
+    w.G is left as it was, for a change of q̇ alone at the same q)."""
     f = d.fwd
-    frames(f, w)
+    frames(f, w, jac)
     for c in range(d.kind.shape[0]):
         row = d.row[c]
-        point(f, d.link[c], d.x[c], d.phi[c], d.fore[c], w, w.r, w.rd, w.g, w.Jr)
+        point(f, d.link[c], d.x[c], d.phi[c], d.fore[c], w, w.r, w.rd, w.g, w.Jr, jac)
         if d.to_link[c] >= 0:
             point(f, d.to_link[c], d.x_to[c], d.phi_to[c], d.fore_to[c], w, w.r2, w.rd2,
-                  w.g2, w.Jr2)
+                  w.g2, w.Jr2, jac)
         else:  # the ground: a point (and a slider's line) fixed in the base
-            base_point(f, w, d.ground[c, 0], d.ground[c, 1], w.r2, w.rd2, w.g2, w.Jr2)
+            base_point(f, w, d.ground[c, 0], d.ground[c, 1], w.r2, w.rd2, w.g2, w.Jr2, jac)
         if d.kind[c] == REVOLUTE:
             for a in range(2):
                 w.Phi[row + a] = w.r[a] - w.r2[a]
                 w.gam[row + a] = w.g[a] - w.g2[a]
-                for i in range(w.G.shape[1]):
-                    w.G[row + a, i] = w.Jr[a, i] - w.Jr2[a, i]
+                if jac:
+                    for i in range(w.G.shape[1]):
+                        w.G[row + a, i] = w.Jr[a, i] - w.Jr2[a, i]
         else:
             # Φ = n·(r − r2), n = A(θ_b) n₀ turning with the base: ṅ = ω_b n⊥, and n̈ has
             # −ω_b² n besides its θ̈_b part (in G through n⊥·(r − r2) on the attitude)
@@ -256,6 +272,8 @@ def constraints(d, w):
                           + 2.0 * om_b * (-ny_ * (w.rd[0] - w.rd2[0])
                                           + nx_ * (w.rd[1] - w.rd2[1]))
                           - om_b * om_b * (nx_ * dx + ny_ * dy))
+            if not jac:
+                continue
             for i in range(w.G.shape[1]):
                 w.G[row, i] = nx_ * (w.Jr[0, i] - w.Jr2[0, i]) + ny_ * (w.Jr[1, i] - w.Jr2[1, i])
             if att >= 0:
@@ -322,7 +340,7 @@ def project(d, w, u, y):
         w.v[f.free[d.dep[j]]] += w.step[j]
         y[d.dep[j]] = w.q[f.free[d.dep[j]]]
         y[nu + d.dep[j]] = w.v[f.free[d.dep[j]]]
-    constraints(d, w)
+    constraints(d, w, False)  # γ at the closed rates; Φ and G are those of this q
     return True
 
 
@@ -380,6 +398,18 @@ def solve_constrained(d, w, u, y):
         rhs[m + c] = acc
     _solve(K, rhs)
     return True
+
+
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def rates_in(context, u, y, dy, records_type):
+    """`rates` for the kernel data d and LoopWork w that the compiled loops' context holds
+    (solvers/_radau_model.py; (d, w)'s type given): the loops call it through its address,
+    and the records are read from the context, not handed over array by array."""
+    d, w = load(context, records_type)
+    if not solve_constrained(d, w, u, y):
+        dy[:] = np.nan
+        return
+    state_rates(d.fwd, w.fw, w.yp, w.rhs, dy)
 
 
 @njit(cache=True, _nrt=False)

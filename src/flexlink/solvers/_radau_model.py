@@ -18,9 +18,9 @@ A model adds its kernel-data record class and compiled rates(d, w, u, y, dy) to
 `_KERNELS` (the trampoline's call hands over every array of the records, field by field), or
 a compiled entry(context, u, y, dy, records_type) that reads the records (d, w) from the
 context itself, only the fields it uses, to `_ENTRIES` (the loop calls it in the
-trampoline's place: the forward model's, whose records are large), and, if it has
-invariants to keep (a forward system's momentum), its compiled project(d, w, pj, u, U, t, y)
-to `_PROJECTIONS`; all return nothing.
+trampoline's place: the forward model's and the closed loops', whose records are large),
+and, if it has invariants to keep (a forward system's momentum), its compiled
+project(d, w, pj, u, U, t, y) to `_PROJECTIONS`; all return nothing.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from .._compiled_calls import load as _load
 from .._compiled_calls import records_pointer as _records_pointer
 from .._compiled_calls import type_key as _type_key
 from ..dynamics._forward_numba import rates_in as forward_rates_in
-from ..dynamics._loops_numba import rates as loop_rates
+from ..dynamics._loops_numba import rates_in as loop_rates_in
 from ..dynamics._momentum_numba import project as forward_project
 from ..dynamics._nonlinear_loops_numba import rates as nonlinear_loop_rates
 from ..dynamics.forward_kernel import ForwardData
@@ -69,16 +69,15 @@ def linear_rates(d, w, u, y, dy):
 
 
 # kernel-data record class → its compiled rates(d, w, u, y, dy)
-_KERNELS = {LinearData: linear_rates, LoopData: loop_rates,
-            NonlinearLoopData: nonlinear_loop_rates}
+_KERNELS = {LinearData: linear_rates, NonlinearLoopData: nonlinear_loop_rates}
 # kernel-data record class → its compiled projection onto known invariants
 # project(d, w, pj, u, U, t, y) (a model without one is not projected)
 _PROJECTIONS = {ForwardData: forward_project}
 # kernel-data record class → its compiled rates that read the records (d, w) from the context
 # themselves, entry(context, u, y, dy, records_type) (the trampoline's signature; the loop
-# calls it in the trampoline's place): a large record is then not handed over field by
-# field on every evaluation
-_ENTRIES = {ForwardData: forward_rates_in}
+# calls it in the trampoline's place): a large record (the forward model's, the closed
+# loops' that hold it) is then not handed over field by field on every evaluation
+_ENTRIES = {ForwardData: forward_rates_in, LoopData: loop_rates_in}
 
 _MODELS: dict[Any, tuple[int, int, int, int]] = {}  # _type_key(records) → `_addresses`
 
