@@ -2,6 +2,7 @@
 geometrically exact FE model (Exudyn), timed side by side in one run.
 
     python benchmarks/slider_cart_loop_vs_fe.py [--repeat 5] [--cases cart loop]
+    python benchmarks/slider_cart_loop_vs_fe.py --before /path/to/old/src --model first_order
 
 Two cases. ``cart``: Case 23's slider (tests/validation/test_prismatic.py `slider_fe_case`: a
 rigid link turned by a bang-bang moment, a block pushed along it by a bang-bang force,
@@ -21,6 +22,11 @@ mesh and step within 1% of it on every signal the mesh is chosen by (max error /
 reference's peak). Times: CPU (process) seconds, flexlink's whole
 ``simulate`` call without the animation's shapes (median of ``--repeat`` after a warm-up:
 numba's compilation excluded) in a spawned process importing this tree, Exudyn's solver only.
+
+``--before`` is the ``src`` folder of another checkout: each flexlink row then runs in two
+fresh child processes, one importing flexlink from that folder and one from this tree's
+``src``, one after the other, so that both share the machine's load of the moment;
+``--model`` keeps that model's rows only.
 """
 
 from __future__ import annotations
@@ -153,10 +159,10 @@ def _flexlink(case: str, model: str, modes: int, repeat: int
             float(run.metadata.get("closure_residual_relative", math.nan)))
 
 
-def _child(*args: Any) -> Any:
+def _child(src: str, *args: Any) -> Any:
     # spawned, not forked: nothing of this process's imports
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=use_tree, initargs=(str(ROOT / "src"),)) as pool:
+                             initializer=use_tree, initargs=(src,)) as pool:
         return pool.submit(_flexlink, *args).result()
 
 
@@ -166,12 +172,16 @@ def _errors(ours: dict[str, np.ndarray], reference: dict[str, Any],
                   / np.abs(reference[b]).max()) for a, b, _ in signals]
 
 
-def compare(case: str, repeat: int) -> None:
-    """Exudyn's ladder and flexlink's rows of one case, in this run."""
+def compare(case: str, repeat: int, trees: list[tuple[str, str]], only: str | None = None
+            ) -> None:
+    """Exudyn's ladder and flexlink's rows of one case (model ``only``'s if set) for each
+    (label, src folder) of ``trees``, in this run."""
     spec = CASES[case]
     signals = spec["signals"]
     print(f"\n== {spec['title']}")
-    rows = [(model, modes, _child(case, model, modes, repeat)) for model, modes in spec["rows"]]
+    rows = [(label, model, modes, _child(src, case, model, modes, repeat))
+            for model, modes in spec["rows"] if only in (None, model)
+            for label, src in trees]
     fine = spec["exudyn"](*spec["reference"])
     names = ", ".join(b + ("" if chooses else " (not choosing)") for _, b, chooses in signals)
     print(f"Exudyn reference: {spec['reference'][0]} elements, steps {spec['reference'][1]:g} s,"
@@ -187,11 +197,11 @@ def compare(case: str, repeat: int) -> None:
         if worst < 0.01 and out["cpu_time_s"] < chosen[1]:
             chosen = (f"{elements} elements, steps {dt:g} s", out["cpu_time_s"])
     print(f"compared with the cheapest within 1%: {chosen[0]}, {chosen[1]:.3f} s of CPU")
-    print("flexlink: model, modes, CPU s (median), errors of peak, closure residual, "
+    print("flexlink: tree, model, modes, CPU s (median), errors of peak, closure residual, "
           "speed-up (CPU) against that mesh")
-    for model, modes, (cpu, ours, closure) in rows:
+    for label, model, modes, (cpu, ours, closure) in rows:
         errs = _errors(ours, fine, signals)
-        print(f"  {model:11s} {modes!s:6s} {cpu:8.4f} " + " ".join(f"{e:8.2e}" for e in errs)
+        print(f"  {label:6s} {model:11s} {modes!s:6s} {cpu:8.4f} " + " ".join(f"{e:8.2e}" for e in errs)
               + f" {closure:8.1e} {chosen[1] / cpu:6.1f}x (target 20x)", flush=True)
 
 
@@ -199,11 +209,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--cases", nargs="+", choices=tuple(CASES), default=tuple(CASES))
+    parser.add_argument("--before", help="src folder of the tree to compare with")
+    parser.add_argument("--model", choices=("first_order", "nonlinear"),
+                        help="only this model's rows")
     args = parser.parse_args()
+    trees = ([("before", args.before)] if args.before else []) + [("after", str(ROOT / "src"))]
     print(f"# {platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, "
           f"numpy {np.__version__}, load average {os.getloadavg()[0]:.1f}")
     for case in args.cases:
-        compare(case, args.repeat)
+        compare(case, args.repeat, trees, args.model)
 
 
 if __name__ == "__main__":

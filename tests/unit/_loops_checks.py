@@ -23,6 +23,11 @@ def constraints(d, w) -> None:
 
 
 @njit
+def velocity_terms(d, w) -> None:
+    kernels.constraints(d, w, False)
+
+
+@njit
 def load_state(d, w, u, y) -> None:
     kernels.load_state(d, w, u, y)
 

@@ -23,6 +23,7 @@ from tests.unit._loops_checks import (
     numpy_equations,
     random_state,
     solve_constrained,
+    velocity_terms,
 )
 from tests.unit.test_nonlinear_loops_kernel import MOVING
 from tests.validation.test_nonlinear_slider_loops import slider_loop_case
@@ -58,6 +59,26 @@ def test_jacobian_and_acceleration_terms_carry_the_travel(loops) -> None:
         assert np.abs(fd[:, c] - G[:, c]).max() < 1e-7 * max(1.0, np.abs(G).max()), c
     assert np.abs(second - gamma).max() < 1e-5 * max(1.0, np.abs(gamma).max())
     assert np.abs(G @ v0 - first).max() < 1e-8
+
+
+def test_the_pass_without_jacobians_gives_the_full_passs_gamma(loops) -> None:
+    """The projection's last pass (rates changed at the same coordinates) computes Φ and γ
+    alone: the same numbers as the full pass, and G left as the full pass at those
+    coordinates made it."""
+    y, u = random_state(loops, 4)
+    work = loops.workspace(y.size)
+    load_state(loops.data, work, u, y)
+    constraints(loops.data, work)
+    G = work.G.copy()
+    work.v[:] = np.random.default_rng(6).standard_normal(work.v.size)
+    velocity_terms(loops.data, work)
+    assert np.array_equal(work.G, G)
+    gamma, phi = work.gam.copy(), work.Phi.copy()
+    assert np.abs(gamma).max() > 0.0
+    constraints(loops.data, work)
+    assert np.array_equal(work.gam, gamma)
+    assert np.array_equal(work.Phi, phi)
+    assert np.array_equal(work.G, G)
 
 
 def test_constrained_accelerations_satisfy_the_numpy_equations(loops) -> None:
