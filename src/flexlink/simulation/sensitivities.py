@@ -441,11 +441,17 @@ def field_unit(target: Target) -> str:
     head = str(target.path[0])
     # a cart's and a slider's keys (their servo gains per m) only under their own tables
     own = {"base": [schema.CART], "joints": [schema.PRISMATIC]}.get(head, [])
+    if target.slider:  # a slider's drive keys are a cart's, its profiles travel (m)
+        own = [schema.PRISMATIC, schema.CART]
     sections = [*schema.SECTIONS.values(), *own] + list(schema.PROFILES.values()) + \
         list(schema.CART_PROFILES.values()) + list(schema.HISTORIES.values())
     found = [s[key].unit for s in sections if key in s.keys]
-    preferred = [s[key].unit for s in sections
-                 if key in s.keys and _TABLE_OF.get(s.name, s.name.split(".")[0]) == head]
+    if target.slider:  # its travel profiles and force history: a cart's
+        mine = [*own, *schema.CART_PROFILES.values(), *schema.HISTORIES.values()]
+        preferred = [s[key].unit for s in mine if key in s.keys]
+    else:
+        preferred = [s[key].unit for s in sections if key in s.keys
+                     and _TABLE_OF.get(s.name, s.name.split(".")[0]) == head]
     units = set(preferred) or set(found)
     if len(units) != 1:
         return ""
