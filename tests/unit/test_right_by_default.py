@@ -408,3 +408,28 @@ def test_a_slider_travel_given_as_a_linearisation_point_is_refused(at: Any) -> N
     with pytest.raises(ValueError, match=r"at: joint2 is a slider \(joints\[1\] type = "
                        r"\"prismatic\"\): a configuration holds its travel where it starts"):
         linearize(scenario_from_dict(d), at=at)
+
+
+@pytest.mark.parametrize(("k", "kind"), [(1, "Prismatic"), (0, "revolute")])
+def test_a_joint_type_other_than_prismatic_is_one_clear_problem(k: int, kind: str) -> None:
+    """type = "revolute" (or a misspelt "Prismatic") read the table as a revolute joint's:
+    eight problems, "unknown key 'type'" among them, with the allowed keys listed three
+    times over."""
+    with open(EXAMPLES / "telescoping_arm.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["joints"][k]["type"] = kind
+    with pytest.raises(ScenarioError) as caught:
+        scenario_from_dict(d)
+    assert caught.value.problems == [(
+        f"joints[{k}].type must be \"prismatic\" (a slider), got string '{kind}'; a revolute "
+        "joint has no type: leave the key out")]
+
+
+def test_the_allowed_keys_of_an_unknown_key_are_listed_once() -> None:
+    d = _servo_dict()
+    d["joints"][0].update(drive="prescribed", xyz=1.0)  # no such drive: every drive's keys
+    with pytest.raises(ScenarioError) as caught:
+        scenario_from_dict(d)
+    message = next(m for m in caught.value.problems if "unknown key 'xyz'" in m)
+    allowed = message.split("allowed: ")[1].rstrip(")").split(", ")
+    assert len(allowed) == len(set(allowed)) > 5

@@ -354,6 +354,10 @@ def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None
            p: Problems) -> tuple[dict[str, Any], Any]:
     if table.get("type") == "prismatic":  # a slider (scenario/prismatic.py)
         return read_prismatic(table, path, base_dir, t_end, p)
+    if "type" in table:  # its other keys would be read as a revolute joint's: one problem
+        p.add(f"{path}.type must be \"prismatic\" (a slider), got {describe(table['type'])}; "
+              "a revolute joint has no type: leave the key out")
+        return {}, None
     if any(key in table for key in ELASTIC.keys):  # the rest of the table drives the motor
         return read_elastic_joint(table, path, p, lambda rest: _joint(rest, path, base_dir,
                                                                       t_end, p))
