@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import tomllib
 import warnings
 from pathlib import Path
@@ -433,3 +434,19 @@ def test_the_allowed_keys_of_an_unknown_key_are_listed_once() -> None:
     message = next(m for m in caught.value.problems if "unknown key 'xyz'" in m)
     allowed = message.split("allowed: ")[1].rstrip(")").split(", ")
     assert len(allowed) == len(set(allowed)) > 5
+
+
+@pytest.mark.parametrize(("path", "hint"), [
+    ("joints[1].mas", " (did you mean joints[1].mass?)"),
+    ("links[0].EJ", "; its numeric keys: length, mass_per_length, EI, tip_mass"),
+])
+def test_a_misspelt_sensitivity_field_is_named_with_its_neighbours(path: str, hint: str
+                                                                   ) -> None:
+    """A misspelt key said only "has no value in the scenario"."""
+    from flexlink.simulation.sensitivities import simulate_with_sensitivities
+
+    with open(EXAMPLES / "telescoping_arm.toml", "rb") as file:
+        d = tomllib.load(file)
+    with pytest.raises(SensitivityError, match=re.escape(f"{path} has no value in the "
+                                                         f"scenario{hint}")):
+        simulate_with_sensitivities(scenario_from_dict(d), [path])
