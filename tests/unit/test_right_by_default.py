@@ -450,3 +450,17 @@ def test_a_misspelt_sensitivity_field_is_named_with_its_neighbours(path: str, hi
     with pytest.raises(SensitivityError, match=re.escape(f"{path} has no value in the "
                                                          f"scenario{hint}")):
         simulate_with_sensitivities(scenario_from_dict(d), [path])
+
+
+def test_a_cart_under_a_closed_loop_pushed_off_its_travel_is_named() -> None:
+    """The four-bar on a cart pushed by 1 MN: the closed-loop run stalled after the cart
+    had left its travel, and said the mechanism may have reached a toggle position."""
+    with open(EXAMPLES / "four_bar.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=0.3, dt_out=0.01)
+    d["base"] = {"type": "cart", "mass": 1.0, "cart": {
+        "travel": [-0.5, 0.5], "drive": "force",
+        "force": [{"profile": "step", "amplitude": 1e6}]}}
+    with pytest.raises(SimulationError, match=r"the cart left its travel \[-0\.5, 0\.5\] m "
+                       r"\(base\.cart\.travel\).*\(the last state before the run stopped\)"):
+        simulate(scenario_from_dict(d))

@@ -47,8 +47,12 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     if scenario.closures:  # loops closed by constraints (simulation/loops.py)
         from .loops import closed_loop_outputs, closed_loop_solution
 
-        solution, closure_values, joint_forces, closures = closed_loop_solution(
-            scenario, system, t, on_progress, loop, steps)
+        try:
+            solution, closure_values, joint_forces, closures = closed_loop_solution(
+                scenario, system, t, on_progress, loop, steps)
+        except StoppedRun as stop:
+            check_travel_before(scenario, system, t, stop)
+            raise
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
         try:
