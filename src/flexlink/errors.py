@@ -15,6 +15,16 @@ class RunTooLarge(SimulationError, ValueError):
     error, so also a ValueError); the message gives a coarser grid that fits."""
 
 
+class StoppedRun(SimulationError):
+    """A run that stopped at ``t`` (s) before its end; ``states``: the output rows reached
+    before it (NaN after), ``y``: the last state. simulation/forward.py reads them to tell a
+    cart or slider that left its travel (the usual cause) from other blow-ups."""
+
+    def __init__(self, message: str, t: float, states: Any = None, y: Any = None) -> None:
+        self.t, self.states, self.y = t, states, y
+        super().__init__(message)
+
+
 class UnstableLoop(SimulationError):
     """A closed loop blew up at time ``t`` (s); ``why`` says how. The Lawson closed loop
     (solvers/closed_loop.py) adds the grid ``index``, the ``states`` up to it and its

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import tomllib
 import warnings
 from pathlib import Path
@@ -18,13 +19,14 @@ from flexlink.batch import SweepError, sweep
 from flexlink.batch.dataset import parameter_unit
 from flexlink.batch.summaries import parse_summary
 from flexlink.cli import main
+from flexlink.errors import SimulationError
 from flexlink.scenario import (
     ScenarioError,
     load_paper_experiment,
     paper_experiment_path,
     scenario_from_dict,
 )
-from flexlink.scenario.fields import Target, parse
+from flexlink.scenario.fields import ScenarioFile, Target, parse
 from flexlink.simulation import simulate
 from flexlink.simulation.objective import MeanSquare, Objective
 from flexlink.simulation.sensitivities import SensitivityError, field_unit
@@ -280,3 +282,185 @@ def test_a_case_whose_values_open_the_loop_fails_alone() -> None:
     result = sweep(_four_bar(), grid={"links[2].length": [0.25, 2.0]}, workers=1)
     assert result.status.values.tolist() == ["ok", "failed"]
     assert "does not close at t = 0" in str(result.error.values[1])
+
+
+def _slider_servo() -> dict[str, Any]:
+    """The telescoping arm with its slider on a velocity servo."""
+    with open(EXAMPLES / "telescoping_arm.toml", "rb") as file:
+        d = tomllib.load(file)
+    slider = d["joints"][1]
+    for key in ("drive", "motion"):
+        del slider[key]
+    slider.update(drive="servo", servo="velocity_pid", P=50.0, D=1.0, rate_per_volt=0.1,
+                  loop_gain=200.0, reference=[{"profile": "cycloidal", "from": 0.1, "to": 0.6,
+                                              "start": 0.0, "duration": 2.0}])
+    return d
+
+
+@pytest.mark.parametrize(("path", "unit"), [
+    ("joints[1].P", "V m-1"), ("joints[1].D", "V s m-1"), ("joints[1].I", "V m-1 s-1"),
+    ("joints[1].rate_per_volt", "m s-1 V-1"), ("joints[1].loop_gain", "N s m-1"),
+    ("joints[1].reference[0].to", "m"), ("joints[1].mass", "kg"),
+    ("joints[0].motion[0].to_deg", "degree"),
+])
+def test_a_swept_slider_gain_has_the_units_per_metre(path: str, unit: str) -> None:
+    """A slider's servo gains, swept or differentiated by their joints[k] path, had the
+    revolute servo's units (V rad-1, N m s rad-1 ...)."""
+    file = ScenarioFile(_slider_servo())
+    assert field_unit(file.locate(path)) == unit
+    assert parameter_unit(path, file) == unit
+
+
+def test_a_slider_sweep_records_the_gains_per_metre() -> None:
+    d = _slider_servo()
+    d["simulation"].update(t_end=0.02, dt_out=0.01)
+    result = sweep(d, grid={"joints[1].P": [40.0, 50.0], "joints[1].loop_gain": [200.0]},
+                   workers=1)
+    assert result.status.values.tolist() == ["ok", "ok"]
+    assert result["joints[1].P"].attrs["units"] == "V m-1"
+    assert result["joints[1].loop_gain"].attrs["units"] == "N s m-1"
+
+
+def _cart_prescribed(start: float) -> dict[str, Any]:
+    with open(EXAMPLES / "cart_beam.toml", "rb") as file:
+        d = tomllib.load(file)
+    cart = d["base"]["cart"]
+    del cart["force"]
+    cart.update(drive="prescribed", motion=[{"profile": "cycloidal", "from": 0.0, "to": 0.3,
+                                             "start": start, "duration": 1.0}])
+    return d
+
+
+def test_a_cart_or_slider_move_after_t_end_is_warned() -> None:
+    """A cart's (or a slider's) move starting at or after t_end was accepted without a word,
+    where a revolute joint's was warned."""
+    with pytest.warns(UserWarning) as caught:
+        scenario_from_dict(_cart_prescribed(2.0))
+    assert [str(w.message) for w in caught] == [(
+        "base.cart.motion[0].start = 2 s is at or after simulation.t_end = 2 s: the cart does "
+        "not move in the run; start the move earlier or raise t_end")]
+    d = _slider_servo()
+    d["joints"][0]["motion"][0]["start"] = 1.0  # the boom moves within the run
+    d["joints"][1]["reference"][0]["start"] = 3.5
+    with pytest.warns(UserWarning) as caught:
+        scenario_from_dict(d)
+    assert [str(w.message) for w in caught] == [(
+        "joints[1].reference[0].start = 3.5 s is at or after simulation.t_end = 3 s: the "
+        "slider does not move in the run; start the move earlier or raise t_end")]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scenario_from_dict(_cart_prescribed(1.0))
+    assert caught == []
+
+
+def _pushed_slider(force: float, model: str = "first_order") -> dict[str, Any]:
+    """The telescoping arm with its slider pushed by a constant force (N), 0.1 s."""
+    with open(EXAMPLES / "telescoping_arm.toml", "rb") as file:
+        d = tomllib.load(file)
+    del d["joints"][1]["motion"]
+    d["joints"][1].update(drive="force", force=[{"profile": "step", "amplitude": force}])
+    d["simulation"].update(t_end=0.1, dt_out=0.01, model=model)
+    return d
+
+
+def test_a_slider_pushed_off_its_travel_is_named_when_the_run_then_stops() -> None:
+    """The slider left its travel before the first output sample and the run then blew up:
+    the error said the first-order model was out of range (try method = "Radau"), not that
+    the travel was left."""
+    with pytest.raises(SimulationError, match=r"the slider of joint 2 left its travel \[0, "
+                       r"0\.7\] m \(joints\[1\]\.travel\).*\(the last state before the run "
+                       r"stopped\)\. Widen joints\[1\]\.travel"):
+        simulate(scenario_from_dict(_pushed_slider(1e6)))
+
+
+def test_a_run_whose_equations_become_singular_is_a_simulation_error() -> None:
+    """numpy's LinAlgError (a ValueError) from the nonlinear model's steps reached the user
+    as "error: Matrix is singular to machine precision." with an input error's status."""
+    with pytest.raises(SimulationError, match="its equations became singular"):
+        simulate(scenario_from_dict(_pushed_slider(1e6, "nonlinear")))
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+@pytest.mark.parametrize("limit", [{"torque_limit": 0.1}, {"saturation_V": 0.001}])
+def test_an_equilibrium_a_limited_servo_cannot_hold_is_refused(model: str,
+                                                              limit: dict[str, float]) -> None:
+    """The vertical arm needs 6.9 N·m to hold level: with its servo limited below that,
+    initial = "equilibrium" started the run anyway and the arm fell from t = 0 (Newton's
+    steps vanish where the clipped torque no longer moves; its residual did not)."""
+    with open(EXAMPLES / "vertical_arm.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=0.05, dt_out=0.01, model=model)
+    d["joints"][0].update(limit)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # the move starts after t_end
+        scenario = scenario_from_dict(d)
+    with pytest.raises(SimulationError, match='initial = "equilibrium": no static equilibrium'):
+        simulate(scenario)
+
+
+@pytest.mark.parametrize("at", [{"joint2": 0.3}, [0.0, 0.3]])
+def test_a_slider_travel_given_as_a_linearisation_point_is_refused(at: Any) -> None:
+    """`linearize --at joint2=0.3` (or `modes --grid joint2=…`) on a slider read 0.3 as
+    degrees and then held the slider where it starts: every point the same plant, silently."""
+    from flexlink.control import linearize
+
+    with open(EXAMPLES / "telescoping_arm.toml", "rb") as file:
+        d = tomllib.load(file)
+    with pytest.raises(ValueError, match=r"at: joint2 is a slider \(joints\[1\] type = "
+                       r"\"prismatic\"\): a configuration holds its travel where it starts"):
+        linearize(scenario_from_dict(d), at=at)
+
+
+@pytest.mark.parametrize(("k", "kind"), [(1, "Prismatic"), (0, "revolute")])
+def test_a_joint_type_other_than_prismatic_is_one_clear_problem(k: int, kind: str) -> None:
+    """type = "revolute" (or a misspelt "Prismatic") read the table as a revolute joint's:
+    eight problems, "unknown key 'type'" among them, with the allowed keys listed three
+    times over."""
+    with open(EXAMPLES / "telescoping_arm.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["joints"][k]["type"] = kind
+    with pytest.raises(ScenarioError) as caught:
+        scenario_from_dict(d)
+    assert caught.value.problems == [(
+        f"joints[{k}].type must be \"prismatic\" (a slider), got string '{kind}'; a revolute "
+        "joint has no type: leave the key out")]
+
+
+def test_the_allowed_keys_of_an_unknown_key_are_listed_once() -> None:
+    d = _servo_dict()
+    d["joints"][0].update(drive="prescribed", xyz=1.0)  # no such drive: every drive's keys
+    with pytest.raises(ScenarioError) as caught:
+        scenario_from_dict(d)
+    message = next(m for m in caught.value.problems if "unknown key 'xyz'" in m)
+    allowed = message.split("allowed: ")[1].rstrip(")").split(", ")
+    assert len(allowed) == len(set(allowed)) > 5
+
+
+@pytest.mark.parametrize(("path", "hint"), [
+    ("joints[1].mas", " (did you mean joints[1].mass?)"),
+    ("links[0].EJ", "; its numeric keys: length, mass_per_length, EI, tip_mass"),
+])
+def test_a_misspelt_sensitivity_field_is_named_with_its_neighbours(path: str, hint: str
+                                                                   ) -> None:
+    """A misspelt key said only "has no value in the scenario"."""
+    from flexlink.simulation.sensitivities import simulate_with_sensitivities
+
+    with open(EXAMPLES / "telescoping_arm.toml", "rb") as file:
+        d = tomllib.load(file)
+    with pytest.raises(SensitivityError, match=re.escape(f"{path} has no value in the "
+                                                         f"scenario{hint}")):
+        simulate_with_sensitivities(scenario_from_dict(d), [path])
+
+
+def test_a_cart_under_a_closed_loop_pushed_off_its_travel_is_named() -> None:
+    """The four-bar on a cart pushed by 1 MN: the closed-loop run stalled after the cart
+    had left its travel, and said the mechanism may have reached a toggle position."""
+    with open(EXAMPLES / "four_bar.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=0.3, dt_out=0.01)
+    d["base"] = {"type": "cart", "mass": 1.0, "cart": {
+        "travel": [-0.5, 0.5], "drive": "force",
+        "force": [{"profile": "step", "amplitude": 1e6}]}}
+    with pytest.raises(SimulationError, match=r"the cart left its travel \[-0\.5, 0\.5\] m "
+                       r"\(base\.cart\.travel\).*\(the last state before the run stopped\)"):
+        simulate(scenario_from_dict(d))

@@ -20,7 +20,7 @@ import numpy as np
 from ..channels import Channel
 from ..results.layout import parameter_variable, sweep_layout
 from ..results.variables import Layout, Variable
-from ..scenario.fields import Target, parse
+from ..scenario.fields import ScenarioFile, Target, parse
 from .parameters import CaseTable
 from .summaries import Summary
 from .worker import ChunkResult, SharedResults, labels
@@ -31,12 +31,14 @@ if TYPE_CHECKING:
 STATUSES = ("ok", "failed", "not_run")
 
 
-def parameter_unit(path: str) -> str | None:
+def parameter_unit(path: str, base: ScenarioFile | None = None) -> str | None:
     """The UDUNITS unit of a swept field, from the schema (as a sensitivity's field unit);
-    None where the schema spells none."""
+    None where the schema spells none. ``base``: the swept scenario file, which says whether
+    a ``joints[k]`` path is a slider's (gains per metre)."""
     from ..simulation.sensitivities import field_unit
 
-    return field_unit(Target(path, parse(path), None, False)) or None
+    target = base.locate(path) if base is not None else Target(path, parse(path), None, False)
+    return field_unit(target) or None
 
 
 class SweepCollector:
@@ -45,8 +47,10 @@ class SweepCollector:
 
     def __init__(self, table: CaseTable, time: np.ndarray | None, attrs: dict[str, Any],
                  shared: SharedResults | None = None, channels: tuple[Channel, ...] = (),
-                 summaries: Sequence[tuple[Summary, Channel]] = ()) -> None:
+                 summaries: Sequence[tuple[Summary, Channel]] = (),
+                 base: ScenarioFile | None = None) -> None:
         self.table = table
+        self.base = base  # the swept scenario file: its parameters' units
         self.time = time  # None: the sweep keeps no histories
         self.summaries = list(summaries)
         self.summary_values = np.full((len(self.summaries), table.count), np.nan)
@@ -109,7 +113,7 @@ class SweepCollector:
         for parameter in self.table.parameters:
             parameters[parameter.path] = parameter_variable(
                 parameter.path, self.table.values[parameter.path], parameter.description,
-                parameter_unit(parameter.path))
+                parameter_unit(parameter.path, self.base))
         values = self._values
         if self._unsettled and values is not None:  # a copy: workers may still write
             values = np.where((self.status == "ok")[None, :, None], values, np.nan)

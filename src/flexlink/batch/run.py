@@ -102,7 +102,7 @@ def sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None, random: R
         scenarios, invalid = _cases(scenario_base, table, skip_invalid, lazy=not histories)
         collector = SweepCollector(table, time_ if histories else None,
                                    _attributes(scenario_base, table), shared, probed,
-                                   _summary_records(template, metrics))
+                                   _summary_records(template, metrics), scenario_base)
         collector.add(ChunkResult(failed={i: invalid_message(m) for i, m in invalid.items()}))
         indexed = scenarios.indexed() if isinstance(scenarios, LazyCases) \
             else list(scenarios.items())

@@ -94,11 +94,16 @@ def parse_at(scenario: Scenario, at: At) -> float | Configuration:
     angles = [initial_angle(j) for j in joints]
     base = scenario.base or Base()
     pose = [base.position[0], base.position[1], base.attitude]
+    sliders = [k for k, j in enumerate(joints) if isinstance(j, PrismaticJoint)]
     if isinstance(at, Mapping):
         names = [f"joint{k + 1}" for k in range(len(joints))]
         for key, value in at.items():
             if key in names:
-                angles[names.index(key)] = math.radians(_number(key, value))
+                k = names.index(key)
+                angle = math.radians(_number(key, value))
+                if k in sliders and not _same(angle, angles[k]):
+                    raise ValueError(_slider_held(k))
+                angles[k] = angle
             elif key in BASE_KEYS:
                 if base.kind in ("fixed", "cart") or (base.kind == "pinned"
                                                       and key != "base_attitude"):
@@ -113,8 +118,27 @@ def parse_at(scenario: Scenario, at: At) -> float | Configuration:
         if len(values) != len(joints):
             raise ValueError(f"at: {len(values)} joint angles given, the chain has "
                              f"{len(joints)} joints")
-        angles = [math.radians(_number(f"joint{k + 1}", v)) for k, v in enumerate(values)]
+        given = [math.radians(_number(f"joint{k + 1}", v)) for k, v in enumerate(values)]
+        for k in sliders:
+            if not _same(given[k], angles[k]):
+                raise ValueError(_slider_held(k) + f"; give its link's angle there "
+                                 f"({math.degrees(angles[k]):g}), or name the other joints "
+                                 "(at={'joint1': …})")
+        angles = given
     return Configuration(tuple(angles), (pose[0], pose[1], pose[2]))
+
+
+def _same(a: float, b: float) -> bool:
+    return abs(a - b) <= 1e-9 * max(1.0, abs(b))
+
+
+def _slider_held(k: int) -> str:
+    """Why a slider's travel cannot be given in ``at`` (its entry is its link's angle,
+    which the configuration keeps: `model.joints.initial_angle`)."""
+    return (f"at: joint{k + 1} is a slider (joints[{k}] type = \"prismatic\"): a configuration "
+            f"holds its travel where it starts (joints[{k}].initial_position, or its "
+            "reference or motion at t = 0); set that in the scenario, or linearise at a time "
+            "of the run (at = T s)")
 
 
 def _number(key: str, value: object) -> float:

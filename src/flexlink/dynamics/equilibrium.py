@@ -17,6 +17,13 @@ from ..errors import SimulationError
 
 ITERATIONS = 50
 STEP = 1e-7  # finite-difference step, relative to max(1, |x|)
+# Accelerations left, relative to those at the start, above which the start is no
+# equilibrium: Newton's steps also vanish where the unknowns no longer move the
+# accelerations (a servo at its torque limit or saturated), the residual does not. Below
+# ROUND_OFF of the accelerations a unit change of the unknowns makes, they are round-off
+# (a start already in equilibrium: a hanging link).
+RESIDUAL = 1e-6
+ROUND_OFF = 1e-10
 
 
 def solve(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray) -> np.ndarray:
@@ -30,22 +37,29 @@ def solve(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray) -> np.n
         return x
     scale = max(1.0, float(np.abs(x).max()))
     step = np.full(m, np.inf)
+    first, jacobian = None, np.zeros((0, 0))
     for _ in range(ITERATIONS):
         h = STEP * np.maximum(1.0, np.abs(x))
         trial = np.repeat(x[None], m + 1, 0)
         trial[np.arange(1, m + 1), np.arange(m)] += h
         r = residuals(trial)
+        if first is None:
+            first = float(np.abs(r[0]).max()) if r.shape[1] else 0.0
         jacobian = (r[1:] - r[0]).T / h
         step = np.linalg.lstsq(jacobian, r[0], rcond=None)[0]
         x -= step
         scale = max(scale, float(np.abs(x).max()))
         if np.abs(step).max() <= 1e-12 * scale:
             break
-    if not np.all(np.isfinite(x)) or np.abs(step).max() > 1e-8 * scale:
-        r = residuals(x[None])[0]
+    r = residuals(x[None])[0]
+    left = float(np.abs(r).max()) if r.size else 0.0
+    unit = float(np.abs(jacobian).max()) * max(1.0, float(np.abs(x0).max())) \
+        if jacobian.size else 0.0
+    if (not np.all(np.isfinite(x)) or np.abs(step).max() > 1e-8 * scale
+            or not left <= max(RESIDUAL * (first or 0.0), ROUND_OFF * unit)):
         raise SimulationError(
             'simulation.initial = "equilibrium": no static equilibrium found at t = 0 '
-            f"(accelerations left up to {np.abs(r).max():.3g}); a servo may be too weak for "
+            f"(accelerations left up to {left:.3g}); a servo may be too weak for "
             "the load (torque_limit, saturation), or a standing link past its buckling load; "
             'use initial = "rest"')
     return x

@@ -87,7 +87,7 @@ class Problems:
         self, table: Mapping[str, Any], allowed: Iterable[str], path: str, noun: str = "key"
     ) -> None:
         """Report every key of ``table`` not in ``allowed``, suggesting the closest one."""
-        allowed = list(allowed)
+        allowed = list(dict.fromkeys(allowed))  # readers may pass a key twice
         for key in table:
             if key in allowed:
                 continue

@@ -223,12 +223,15 @@ def is_number(value: Any) -> bool:
 @dataclass(frozen=True)
 class Target:
     """A path checked against a scenario file: ``path`` with indices only, the value the
-    file gives (else its default, else None), and whether the field takes integers."""
+    file gives (else its default, else None), whether the field takes integers, and whether
+    it is a key of a slider's table (``joints[k]`` with type = "prismatic": its servo gains
+    are per metre, a revolute joint's of the same names per radian)."""
 
     text: str
     path: FieldPath
     value: float | int | None
     integer: bool
+    slider: bool = False
 
     @property
     def key(self) -> str:
@@ -249,7 +252,16 @@ def locate(text: str, raw: Mapping[str, Any],
         raise FieldPathError(f"{text} is {describe(value)}; only numeric fields can be swept "
                              "or fitted")
     # the resolved scenario holds numbers as float and integer fields (modes) as int
-    return Target(text, path, value, isinstance(default, int) and is_number(default))
+    return Target(text, path, value, isinstance(default, int) and is_number(default),
+                  _in_slider(raw, path))
+
+
+def _in_slider(raw: Mapping[str, Any], path: FieldPath) -> bool:
+    """Whether ``path`` (indices only) lies in a ``[[joints]]`` table of type "prismatic"."""
+    if len(path) < 2 or path[0] != "joints" or not isinstance(path[1], int):
+        return False
+    joint = find(raw, path[:2])
+    return isinstance(joint, Mapping) and joint.get("type") == "prismatic"
 
 
 @dataclass(frozen=True)

@@ -167,7 +167,7 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     check_rates_on_forward_runs(links, joints, base, p)
     if p:
         raise ScenarioError(p.messages, source)
-    _warn_of_moves_after_the_end(joints, simulation["t_end"])
+    _warn_of_moves_after_the_end(joints, base, simulation["t_end"])
     resolved = {"flexlink_version": flexlink_version(), "simulation": simulation,
                 "links": links, "joints": joints, "sensors": sensors}
     if base is not None:
@@ -327,20 +327,26 @@ def _bending_stiffness(table: dict[str, Any], path: str, width: float | None,
     return None
 
 
-def _warn_of_moves_after_the_end(joints: list[dict[str, Any]], t_end: float) -> None:
-    """A warning for each joint whose moves (its motion's or servo reference's profiles with
-    a start) all start at or after t_end: the run shows it held at its start. Not refused: a
-    run that ends before the move (the state it starts from) is a run one may want."""
-    for k, joint in enumerate(joints):
+def _warn_of_moves_after_the_end(joints: list[dict[str, Any]], base: dict[str, Any] | None,
+                                 t_end: float) -> None:
+    """A warning for each joint or cart whose moves (its motion's or servo reference's
+    profiles with a start) all start at or after t_end: the run shows it held at its start.
+    Not refused: a run that ends before the move (the state it starts from) is a run one may
+    want."""
+    tables = [(f"joints[{k}]", "slider" if joint.get("type") == "prismatic" else "joint",
+               joint) for k, joint in enumerate(joints)]
+    if base is not None and isinstance(base.get("cart"), Mapping):
+        tables.append(("base.cart", "cart", base["cart"]))
+    for where, noun, table in tables:
         for key in ("motion", "reference"):
-            profiles = joint.get(key)
+            profiles = table.get(key)
             starts = [(float(profile["start"]), i) for i, profile in enumerate(profiles)
                       if isinstance(profile, Mapping) and profile.get("start") is not None
                       ] if isinstance(profiles, list) else []
             if starts and min(starts)[0] >= t_end:
                 start, i = min(starts)
-                warnings.warn(f"joints[{k}].{key}[{i}].start = {start:g} s is at or after "
-                              f"simulation.t_end = {t_end:g} s: the joint does not move in "
+                warnings.warn(f"{where}.{key}[{i}].start = {start:g} s is at or after "
+                              f"simulation.t_end = {t_end:g} s: the {noun} does not move in "
                               "the run; start the move earlier or raise t_end", stacklevel=4)
 
 
@@ -348,6 +354,10 @@ def _joint(table: dict[str, Any], path: str, base_dir: Path, t_end: float | None
            p: Problems) -> tuple[dict[str, Any], Any]:
     if table.get("type") == "prismatic":  # a slider (scenario/prismatic.py)
         return read_prismatic(table, path, base_dir, t_end, p)
+    if "type" in table:  # its other keys would be read as a revolute joint's: one problem
+        p.add(f"{path}.type must be \"prismatic\" (a slider), got {describe(table['type'])}; "
+              "a revolute joint has no type: leave the key out")
+        return {}, None
     if any(key in table for key in ELASTIC.keys):  # the rest of the table drives the motor
         return read_elastic_joint(table, path, p, lambda rest: _joint(rest, path, base_dir,
                                                                       t_end, p))

@@ -205,7 +205,8 @@ SIMULATION = Section("simulation", [
         "equilibrium": "the elastic coordinates, the joints held by servos and the links "
                        "on elastic joints start at rest in static equilibrium with the loads "
                        "at t = 0 (gravity, held joints): a run without motion then stays at "
-                       "rest"},
+                       "rest; a start no equilibrium exists for (a servo that cannot hold the "
+                       "load within its torque_limit or saturation) is refused"},
         doc="the state at t = 0"),
 ])
 

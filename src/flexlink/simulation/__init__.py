@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import SimulationError
 from ..model import Scenario
 from ..results import Results
 from ..solvers.threads import single_threaded
@@ -103,8 +104,15 @@ def run_scenario(scenario: Scenario, progress: bool = False, shapes: bool = True
     t = output_times(settings.t_end, settings.dt_out)
     # Small matrices and batched products over time: BLAS threads only add overhead.
     with single_threaded(), ProgressBar(settings.t_end, enabled=progress) as bar:
-        run, wall_time = timed(lambda: _run_path(path, scenario, t, bar.update, shapes,
-                                                 warning))
+        try:
+            run, wall_time = timed(lambda: _run_path(path, scenario, t, bar.update, shapes,
+                                                     warning))
+        except np.linalg.LinAlgError as exc:  # a ValueError, which callers read as bad input
+            raise SimulationError(
+                f"the {name} run failed: its equations became singular ({exc}); the state "
+                "left the range where the model holds. Check for loads, gains or drive "
+                "forces far too large, or a cart or slider driven far past its travel"
+            ) from None
         if scenario.controllers:
             run = _with_loop_warnings(scenario, t, run)
     return run, wall_time

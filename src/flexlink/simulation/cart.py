@@ -7,10 +7,14 @@ import numpy as np
 from ..errors import SimulationError
 from ..model import Base
 
+SAMPLE = "the first output sample outside it"
 
-def check_travel(base: Base | None, t: np.ndarray, s: np.ndarray) -> None:
+
+def check_travel(base: Base | None, t: np.ndarray, s: np.ndarray, where: str = SAMPLE,
+                 then: str = "") -> None:
     """SimulationError if the cart's travel s (m) at the output times t (s) leaves the
-    allowed range (`model.Cart.travel`), naming the first time and travel outside it."""
+    allowed range (`model.Cart.travel`), naming the first time and travel outside it
+    (``where``: what that time is; ``then``: what followed, for a run that stopped)."""
     if base is None or base.cart is None:
         return
     exit_ = base.cart.first_exit(t, s)
@@ -18,5 +22,5 @@ def check_travel(base: Base | None, t: np.ndarray, s: np.ndarray) -> None:
         lo, hi = base.cart.travel
         raise SimulationError(
             f"the cart left its travel [{lo:g}, {hi:g}] m (base.cart.travel): "
-            f"s = {exit_[1]:.6g} m at t = {exit_[0]:.6g} s (the first output sample outside "
-            "it). Widen base.cart.travel or change the cart's drive")
+            f"s = {exit_[1]:.6g} m at t = {exit_[0]:.6g} s ({where}){then}. Widen "
+            "base.cart.travel or change the cart's drive")

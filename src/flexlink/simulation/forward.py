@@ -14,13 +14,13 @@ from ..channels.first_order import sensor_values, shape_values, tip_deflections,
 from ..channels.forward import SolvedMotion, pose_and_joint_values
 from ..channels.shapes import LazyShapes
 from ..dynamics.forward import ForwardSystem, drive_force
-from ..errors import SimulationError
+from ..errors import SimulationError, StoppedRun
 from ..model import Base, Scenario
 from ..solvers import Solution
 from ..solvers.forward import FAST_METHOD, integrate_forward
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
 from .accuracy import axial_load_parameter
-from .cart import check_travel
+from .cart import SAMPLE, check_travel
 from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress, check_tip_deflection
 from .prismatic import check_travel as check_slider_travel
@@ -47,15 +47,45 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
     if scenario.closures:  # loops closed by constraints (simulation/loops.py)
         from .loops import closed_loop_outputs, closed_loop_solution
 
-        solution, closure_values, joint_forces, closures = closed_loop_solution(
-            scenario, system, t, on_progress, loop, steps)
+        try:
+            solution, closure_values, joint_forces, closures = closed_loop_solution(
+                scenario, system, t, on_progress, loop, steps)
+        except StoppedRun as stop:
+            check_travel_before(scenario, system, t, stop)
+            raise
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
-        solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol, method,
-                                              on_progress, loop=loop, with_outputs=True,
-                                              steps=steps)
+        try:
+            solution, outputs = integrate_forward(system, t, settings.rtol, settings.atol,
+                                                  method, on_progress, loop=loop,
+                                                  with_outputs=True, steps=steps)
+        except StoppedRun as stop:
+            check_travel_before(scenario, system, t, stop)
+            raise
     return forward_run(scenario, system, t, solution, outputs, loop, closure_values, closures,
                        with_shapes)
+
+
+def check_travel_before(scenario: Scenario, system: ForwardSystem, t: np.ndarray,
+                        stop: StoppedRun) -> None:
+    """A run that stopped (its state grew without bound, or its step collapsed) after a cart
+    or a slider had left its travel: the travel's error, which names the cause and the field,
+    in place of the stop's. Read on the output samples reached, then on the last state."""
+    if stop.states is None or stop.y is None:
+        return
+    nu = len(system.free)
+    then = f"; the run then stopped at t = {stop.t:.6g} s"
+    reached = np.all(np.isfinite(stop.states[:, :2 * nu]), axis=1)
+    for times, rows, where in ((t[reached], stop.states[reached], SAMPLE),
+                               (np.array([stop.t]), stop.y[None, :],
+                                "the last state before the run stopped")):
+        if not np.all(np.isfinite(rows[:, :2 * nu])):
+            continue
+        p = system.rigid_state(times, rows[:, :nu], rows[:, nu:2 * nu],
+                               np.zeros((times.size, nu)))[0]
+        tail = then if where == SAMPLE else ""
+        check_travel(scenario.base, times, p[:, 0], where, tail)
+        check_slider_travel(system.chain.joints, times, p, system.n_base, where, tail)
 
 
 def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, solution: Solution,

@@ -22,9 +22,10 @@ a run:
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,7 +33,15 @@ import numpy as np
 
 from ..model import Scenario
 from ..results import Results
-from ..scenario.fields import FieldPathError, ScenarioFile, Target, is_time_grid
+from ..scenario.fields import (
+    FieldPathError,
+    ScenarioFile,
+    Target,
+    find,
+    format_path,
+    is_number,
+    is_time_grid,
+)
 from ..solvers import Solution
 from .common import PathRun, Progress
 
@@ -153,7 +162,8 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
         except FieldPathError as error:
             raise SensitivityError(f"sensitivities: {error}") from None
         if target.value is None:
-            raise SensitivityError(f"sensitivities: {text} has no value in the scenario")
+            raise SensitivityError(f"sensitivities: {text} has no value in the scenario"
+                                   + _numeric_keys(file, target))
         if target.integer:
             raise SensitivityError(f"sensitivities: {text} takes integers; a derivative needs "
                                    "a real-valued field")
@@ -393,6 +403,19 @@ def path_with_sensitivities(scenario: Scenario) -> Any:
     return run
 
 
+def _numeric_keys(file: ScenarioFile, target: Target) -> str:
+    """The closest numeric key of the table a valueless path ends in (a misspelt key),
+    or that table's numeric keys: the tail of its message."""
+    table = find(file.defaults, target.path[:-1])
+    if not isinstance(table, Mapping) or not isinstance(target.path[-1], str):
+        return ""
+    keys = [k for k, v in table.items() if is_number(v)]
+    close = difflib.get_close_matches(target.path[-1], keys, n=1, cutoff=0.6)
+    if close:
+        return f" (did you mean {format_path((*target.path[:-1], close[0]))}?)"
+    return f"; its numeric keys: {', '.join(keys)}" if keys else ""
+
+
 def run_on_path(scenario: Scenario, fields: list[_Field], t: np.ndarray, on_progress: Any,
                 shapes: bool) -> Any:
     """`run_with_sensitivities` on the scenario's path (prescribed Lawson or forward)."""
@@ -441,11 +464,17 @@ def field_unit(target: Target) -> str:
     head = str(target.path[0])
     # a cart's and a slider's keys (their servo gains per m) only under their own tables
     own = {"base": [schema.CART], "joints": [schema.PRISMATIC]}.get(head, [])
+    if target.slider:  # a slider's drive keys are a cart's, its profiles travel (m)
+        own = [schema.PRISMATIC, schema.CART]
     sections = [*schema.SECTIONS.values(), *own] + list(schema.PROFILES.values()) + \
         list(schema.CART_PROFILES.values()) + list(schema.HISTORIES.values())
     found = [s[key].unit for s in sections if key in s.keys]
-    preferred = [s[key].unit for s in sections
-                 if key in s.keys and _TABLE_OF.get(s.name, s.name.split(".")[0]) == head]
+    if target.slider:  # its travel profiles and force history: a cart's
+        mine = [*own, *schema.CART_PROFILES.values(), *schema.HISTORIES.values()]
+        preferred = [s[key].unit for s in mine if key in s.keys]
+    else:
+        preferred = [s[key].unit for s in sections if key in s.keys
+                     and _TABLE_OF.get(s.name, s.name.split(".")[0]) == head]
     units = set(preferred) or set(found)
     if len(units) != 1:
         return ""

@@ -24,7 +24,7 @@ from ..dynamics.forward import ForwardSystem
 from ..dynamics.forward_kernel import ForwardData, breakpoints, inputs, pack, voltage_columns
 from ..dynamics.forward_outputs import ForwardOutputs, forward_outputs
 from ..dynamics.momentum_projection import Projection, projection, start_values
-from ..errors import SimulationError, UnstableLoop
+from ..errors import SimulationError, StoppedRun, UnstableLoop
 from .error_weights import displacement_weights
 from .gauss_sampled import SampledLoop
 from .ode import Stalled, integrate_ivp
@@ -135,7 +135,8 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
                else "the time step collapsed")
         if loop is not None:
             raise UnstableLoop(exc.t, why) from None
-        raise SimulationError(_stall_message(system, exc.t, why)) from None
+        raise StoppedRun(_stall_message(system, exc.t, why), exc.t, exc.states,
+                         exc.y) from None
     return forward_solution(data, work, system, t_out, states, stats, loop,
                             Accuracy(rtol, None, LOCAL_CONTROL), known)
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..dynamics.forward_kernel import breakpoints, inputs, voltage_columns
 from ..dynamics.loops import LoopSystem, closed_states
-from ..errors import SimulationError, UnstableLoop
+from ..errors import SimulationError, StoppedRun, UnstableLoop
 from .forward import error_groups
 from .gauss_sampled import SampledLoop
 from .radau import RadauStop, integrate_radau
@@ -53,10 +53,10 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
         if loop is not None:
             raise UnstableLoop(exc.t, "the state grew without bound" if exc.why == "blow-up"
                                else "the time step collapsed") from None
-        raise SimulationError(
+        raise StoppedRun(
             f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
             "have reached a singular configuration (a toggle position) or left the "
-            "first-order model's range") from None
+            "first-order model's range", exc.t, exc.states, exc.y) from None
     u = inputs(system, t_out)
     if loop is not None:
         u[:, held] = loop.held_voltages(t_out)

@@ -38,10 +38,13 @@ CHUNKS = 20  # calls of the compiled loop without controllers, progress reported
 @dataclass
 class RadauStop(Exception):
     """The run stopped at ``t`` (s): ``why`` is "blow-up" (|y| beyond BLOW_UP) or "stalled"
-    (the step collapsed)."""
+    (the step collapsed); ``states``: the output rows reached before it (NaN after), ``y``:
+    the last state (what a travel check reads to tell why it stopped)."""
 
     t: float
     why: str
+    states: np.ndarray | None = None
+    y: np.ndarray | None = None
 
 
 def local_tolerances(rtol: float, atol: float) -> tuple[float, float]:
@@ -174,7 +177,8 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     steps.append((start, float(st[H_OLD]), seg, y_start, y.copy(),
                                   np.array(ws[6:9])))
         if status != 0:
-            raise RadauStop(float(st[X]), "blow-up" if status == 1 else "stalled")
+            raise RadauStop(float(st[X]), "blow-up" if status == 1 else "stalled", states,
+                            y.copy())
         if on_progress is not None:
             on_progress(float(st[X]))
     if loop is not None:
