@@ -76,7 +76,7 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
     blocks = max(len(s.table) for s in padded)
     polys = max(s.table.poly.shape[0] for s in padded)
 
-    def stacked(values: list[np.ndarray], size: int, fill: float | int | bool = 0
+    def stacked(values: list[np.ndarray], size: int, fill: float = 0
                 ) -> np.ndarray:
         """(V, size, …): each run's array padded along its first axis to ``size``."""
         out = np.full((len(values), size, *values[0].shape[1:]), fill,
