@@ -253,23 +253,25 @@ def _lane_deltas(W, ref, piece, local, out):
 
 
 @njit(cache=True, error_model="numpy")
-def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper, polyT,
-                        referenceT, ET, E2T, E4T, substeps, states, accelerations, peak,
+def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper, poly,
+                        reference, ET, E2T, E4T, substeps, states, accelerations, peak,
                         spread):
     """`_lawson_numba.lawson_blocks` with ``coarse`` and no coarse states, for V = `LANES`
     variants at once, each on its own table (blocks, pieces, polynomials): y, yc (m, V);
-    per lane v, its table's first, last, static (V, blocks) and pieces (V, blocks+1) (rows
-    padded past its own blocks), lower, upper (V, polynomials); polyT (polynomials, degree+1,
-    m, n, V), referenceT (blocks, m, n, V), ET, E2T, E4T (blocks, m, m, V) with lane v's
-    at [..., v]; states (V, nt, m); accelerations (V, nt, n) (each variant's contiguous, as its
-    single run's); peak, spread (m, V). t_out and substeps (even) are shared, so is the step
-    h of every output interval.
+    per lane v, padded past its own blocks and polynomials: its table's first, last, static
+    (V, blocks), pieces (V, blocks+1), lower, upper (V, polynomials), poly (V, polynomials,
+    degree+1, n, m) and reference (V, blocks, n, m) as in the table (not transposed), its
+    ET, E2T, E4T (V, blocks, m, m) (transposed, as the single loop takes them); states
+    (V, nt, m); accelerations (V, nt, n) (each variant's contiguous, as its single run's);
+    peak, spread (m, V). t_out and substeps (even) are shared, so is the step h of every
+    output interval.
 
     Output interval by output interval, every lane in the block of its own table that holds
     it: the lanes in moving blocks cross it in Lawson steps (those in static blocks take the
     same steps, thrown away), then the lanes in static blocks in one product with their
-    exp(Δt Ã). Each lane's block matrices and polynomials are copied lanes-last when it
-    enters the block, so that every product and polynomial runs across the lanes."""
+    exp(Δt Ã). Each lane's block matrices and polynomials are copied lanes-last (and the
+    table's transposed) when it enters the block, so that every product and polynomial runs
+    across the lanes."""
     m, nv = y.shape
     if nv != LANES:  # the inner loops run over LANES variants, unchecked
         raise ValueError("lawson_blocks_batch advances LANES variants")
@@ -279,7 +281,7 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
     for v in range(nv):
         for b in range(first.shape[1]):
             most = max(most, pieces[v, b + 1] - pieces[v, b])
-    degree1 = polyT.shape[1]
+    degree1 = poly.shape[2]
     W = np.zeros((most, degree1, m, n, nv))  # each lane's current block's polynomials
     lo, hi = np.zeros((most, nv)), np.ones((most, nv))
     count = np.ones(nv, dtype=np.int64)
@@ -321,16 +323,17 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
                 for p in range(count[v]):
                     lo[p, v], hi[p, v] = lower[v, p0 + p], upper[v, p0 + p]
                     for d in range(degree1):
-                        for j in range(m):
-                            for q in range(n):
-                                W[p, d, j, q, v] = polyT[p0 + p, d, j, q, v]
+                        for q in range(n):
+                            for j in range(m):
+                                W[p, d, j, q, v] = poly[v, p0 + p, d, q, j]
+                for q in range(n):
+                    for j in range(m):
+                        Ar[j, q, v] = reference[v, b, q, j]
                 for j in range(m):
-                    for q in range(n):
-                        Ar[j, q, v] = referenceT[b, j, q, v]
                     for q in range(m):
-                        P[j, q, v] = ET[b, j, q, v]
-                        P2[j, q, v] = E2T[b, j, q, v]
-                        P4[j, q, v] = E4T[b, j, q, v]
+                        P[j, q, v] = ET[v, b, j, q]
+                        P2[j, q, v] = E2T[v, b, j, q]
+                        P4[j, q, v] = E4T[v, b, j, q]
                 starts[v] = not at_rest[v]
                 entering = entering or starts[v]
             if at_rest[v]:

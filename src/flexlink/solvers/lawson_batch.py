@@ -85,11 +85,6 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
             out[v, :a.shape[0]] = a
         return out
 
-    def lanes_last(a: np.ndarray, order: tuple[int, ...]) -> np.ndarray:
-        """(V, …) → (tiles, …, LANES) in the given order of the other axes."""
-        tiled = a.reshape(tiles, LANES, *a.shape[1:])
-        return np.ascontiguousarray(np.transpose(tiled, (0, *(k + 1 for k in order), 1)))
-
     def per_lane(a: np.ndarray) -> np.ndarray:
         """(V, …) → (tiles, LANES, …)."""
         return np.ascontiguousarray(a.reshape(tiles, LANES, *a.shape[1:]))
@@ -110,9 +105,10 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
     E2T[moving] = ET[moving] @ ET[moving]
     E4T = E2T.copy()
     E4T[moving] = E2T[moving] @ E2T[moving]
-    polyT = lanes_last(stacked([t.poly for t in tables], polys), (1, 2, 4, 3))
-    referenceT = lanes_last(stacked([t.reference for t in tables], blocks), (1, 3, 2))
-    ET, E2T, E4T = (lanes_last(a, (1, 2, 3)) for a in (ET, E2T, E4T))
+    # The loop copies each lane's block lanes-last (transposing the table's) as it enters it.
+    poly = per_lane(stacked([t.poly for t in tables], polys))
+    reference = per_lane(stacked([t.reference for t in tables], blocks))
+    ET, E2T, E4T = (per_lane(a) for a in (ET, E2T, E4T))
     states = np.empty((tiles, LANES, t_out.size, m))
     acc = np.empty((tiles, LANES, t_out.size, n))
     peak = np.empty((tiles, m, LANES))
@@ -124,7 +120,7 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
         states[k, :, 0] = y.T
         peak[k] = np.abs(y)
         lawson_blocks_batch(y, yc, t_out, first_[k], last_[k], static[k], pieces[k],
-                            lower[k], upper[k], polyT[k], referenceT[k], ET[k], E2T[k],
+                            lower[k], upper[k], poly[k], reference[k], ET[k], E2T[k],
                             E4T[k], first.substeps, states[k], acc[k], peak[k], spread[k])
     out: list[FirstPass | None] = []
     for v, start in enumerate(starts):
