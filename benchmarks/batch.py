@@ -5,10 +5,10 @@
                                [--output FILE] [--before SRC [--vary model,numbers,sensors]]
 
 The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) and both joint
-move durations (0.8-1.2 s) at random (seed 1); ``--vary numbers`` draws the model's numbers
-but not its motion's timing (E, link 1's tip mass, both damping ratios, the PZT amplifier's
-capacitance and joint 1's end angle), variants that share a discretisation and are advanced
-together 32 at a time; ``--vary sensors`` draws the sensors' numbers instead (the
+move durations (0.8-1.2 s) at random (seed 1), variants advanced together 32 at a time, each
+on its own coefficient table; ``--vary numbers`` draws the model's numbers but not its
+motion's timing (E, link 1's tip mass, both damping ratios, the PZT amplifier's capacitance
+and joint 1's end angle), variants that also share their tables' layout; ``--vary sensors`` draws the sensors' numbers instead (the
 accelerometer's position 1.0-1.37 m, the PZT amplifier's capacitance 0.5-2 µF), cases that
 share one motion. Prints one line per quantity: wall time of the
 whole sweep (validation, worker start-up, runs, collection), runs per second, the sum of the

@@ -103,6 +103,21 @@ def test_the_batched_first_pass_equals_each_single_first_pass_bit_for_bit() -> N
     assert not np.array_equal(together[0][0], together[1][0])
 
 
+def test_variants_on_their_own_tables_advance_together_bit_for_bit() -> None:
+    """Other move durations: other blocks, static phases and pieces around the move's end
+    in every run, the same output times and steps; one call, each run its own."""
+    runs = starts(variants(CASES, seed=8, durations=True))
+    assert len({(r.table.first.tobytes(), r.table.lower.tobytes()) for r in runs}) == CASES
+    assert any(np.diff(r.table.pieces).max() > 1 for r in runs)  # a block of several pieces
+    assert all(r.table.static.any() and not r.table.static.all() for r in runs)
+    assert lawson_batch.groups(runs) == [list(range(CASES))]
+    together = lawson_batch.first_passes(runs)
+    for start, batched in zip(runs, together):
+        assert batched is not None
+        for a, b in zip(batched, lawson.first_pass(start)):  # states, z̈, maxima
+            assert np.array_equal(a, b)
+
+
 def test_the_block_exponentials_of_many_runs_equal_each_runs_own_bit_for_bit() -> None:
     from flexlink.solvers.batched_expm import _balancing, pade_degree
     from flexlink.solvers.lawson import propagator_stacks
@@ -131,7 +146,7 @@ def test_runs_on_different_discretisations_are_not_advanced_together() -> None:
     runs = starts(variants(2))
     other = starts([{**variants(1)[0], "simulation": {
         **short_paper()["simulation"], "dt_out": 0.02}}])
-    with pytest.raises(ValueError, match="share their table's layout"):
+    with pytest.raises(ValueError, match="must share their output times"):
         lawson_batch.first_passes([runs[0], other[0]])
     assert lawson_batch.groups(runs * 12 + other) == [list(range(24))]
     assert lawson_batch.groups(runs * 11) == []  # too few to pay
@@ -139,10 +154,14 @@ def test_runs_on_different_discretisations_are_not_advanced_together() -> None:
 
 def test_a_chunk_of_variants_runs_together_and_equals_single_runs(monkeypatch) -> None:
     calls = count_batched_calls(monkeypatch)
-    raws = variants(CASES) + variants(3, seed=5, durations=True)  # these three run alone
+    # Three with other move durations (their own tables) join them; one with other output
+    # times (other steps) runs alone.
+    alone = variants(1, seed=6)[0]
+    alone["simulation"] = {**alone["simulation"], "dt_out": 0.02}
+    raws = variants(CASES) + variants(3, seed=5, durations=True) + [alone]
     cases = [scenario(raw) for raw in raws]
     result = run_chunk(list(enumerate(cases)), Kept(), runner=None)
-    assert calls == [CASES]
+    assert calls == [CASES + 3]
     assert result.done == list(range(len(cases))) and not result.failed
     for values, case in zip(result.values, cases):
         reference = simulate(case)

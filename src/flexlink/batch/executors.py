@@ -79,7 +79,7 @@ def failed_chunk(chunk: Chunk, exc: BaseException) -> ChunkResult:
 def in_process(chunks: Sequence[Chunk], kept: Kept) -> Iterator[ChunkResult]:
     """One worker: run the cases here, in order (no process start-up, same code path); one
     case at a time, as there is no per-task overhead to amortise, but a chunk of
-    `BATCH_CHUNK` or more whole: its cases that share a discretisation advance together."""
+    `BATCH_CHUNK` or more whole: its cases that share their output times and steps advance together."""
     try:
         for chunk in chunks:
             if len(chunk) >= BATCH_CHUNK:

@@ -1,14 +1,14 @@
 """A worker's prescribed-joint Lawson cases integrated together where they share their
-discretisation (solvers/lawson_batch.py), before each case's channels are read as in its own
-run.
+output times and steps (solvers/lawson_batch.py), before each case's channels are read as in
+its own run.
 
 Each case builds its own system and table (`prescribed.prescribed_system`,
 `lawson.prepare`) exactly as its single run does; their block exponentials are computed
 together, a few numpy calls for the chunk (`lawson_batch.with_propagators`), each the same
-as its single run's. Cases whose tables share their layout and
-steps per interval — variants of one scenario's numbers (stiffness, masses, damping, a
-motion's amplitude) that keep its motion's timing — then cross their first pass in one
-compiled call, groups of at least `lawson_batch.MIN_GROUP`; the rest run theirs alone. Each
+as its single run's. Cases with the same output times and steps per interval — variants
+of one scenario's numbers (stiffness, masses, damping, a motion's amplitude or timing), each
+on its own table — then cross their first pass in one compiled call, groups of at least
+`lawson_batch.MIN_GROUP`; the rest run theirs alone. Each
 case then finishes alone (its own Richardson check and halvings) and its run takes that
 system and solution (`simulation.run_scenario`'s ``prescribed``): its channels equal its
 single `simulate`'s bit for bit (tests/unit/test_lawson_batch.py).

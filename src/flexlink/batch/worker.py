@@ -97,7 +97,7 @@ def run_chunk(cases: Sequence[tuple[int, Case]], kept: Kept = Kept(),
     out = ChunkResult()
     cases = list(cases)
     built, build_times = [], []
-    for _, case in cases:  # every case first: those that share a discretisation run together
+    for _, case in cases:  # every case first: those that share output times and steps run together
         started, cpu_started = time.perf_counter(), time.thread_time()
         try:
             built.append(case.build() if isinstance(case, LazyCase) else case)
@@ -202,7 +202,7 @@ def load_compiled_code(scenario: Scenario) -> None:
             from ..solvers.lawson_batch import load as load_batched_loop
 
             load_compiled_loop()
-            load_batched_loop()  # for the cases that share a discretisation (grouped.py)
+            load_batched_loop()  # for the cases that share output times and steps (grouped.py)
     except Exception:  # noqa: BLE001, S110 — every case runs the same code and reports it
         pass
 

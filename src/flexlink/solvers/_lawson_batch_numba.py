@@ -1,9 +1,8 @@
-"""Compiled (numba) Lawson step loop for several systems on one discretisation at once
-(``lawson_batch.py``): the loop of ``_lawson_numba.py`` with a trailing variant axis on every
-matrix and vector.
+"""Compiled (numba) Lawson step loop for several systems at once (``lawson_batch.py``): the
+loop of ``_lawson_numba.py`` with a trailing variant axis on every matrix and vector.
 
-Variants that share the table's layout, the output times and the steps per interval share
-every scalar of the loop (step, local times, pieces); only their matrices and states differ.
+Variants that share the output times and the steps per interval share the step h of every
+output interval; each keeps its own table (blocks, pieces, polynomials), matrices and state.
 The variant axis is innermost and contiguous, so each element-wise loop of the single-system
 kernel becomes a loop over (entry, variant) whose inner loop runs over variants and
 vectorises across them. Each variant sees the operations of its own single run in the same
@@ -113,64 +112,6 @@ def _gemv2(PT, j0, nj, x, sx, out, z, sz, out2, xs):
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
-def _piece(lower, upper, p0, p1, tau):
-    """The piece p0 … p1−1 of a block that holds its local time τ, and τ in that piece."""
-    p = p0
-    while p < p1 - 1 and tau > upper[p]:
-        p += 1
-    return p, (tau - lower[p]) / (upper[p] - lower[p])
-
-
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
-def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):
-    """outT = (A(τ) − A_ref)ᵀ per variant (the single kernel's `_delta`)."""
-    p, local = _piece(lower, upper, p0, p1, tau)
-    degree = polyT.shape[1] - 1
-    for j in range(outT.shape[0]):
-        for i in range(outT.shape[1]):
-            for v in range(LANES):
-                outT[j, i, v] = polyT[p, degree, j, i, v]
-    for d in range(degree - 1, -1, -1):
-        for j in range(outT.shape[0]):
-            for i in range(outT.shape[1]):
-                for v in range(LANES):
-                    outT[j, i, v] = outT[j, i, v] * local + polyT[p, d, j, i, v]
-    for j in range(outT.shape[0]):
-        for i in range(outT.shape[1]):
-            for v in range(LANES):
-                outT[j, i, v] -= referenceT[j, i, v]
-
-
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
-def _deltas(polyT, lower, upper, p0, p1, referenceT, tau, dtau, out):
-    """out[r] = (A(τ + (r+1)/2 · dτ) − A_ref)ᵀ, r = 0 … 3, per variant (the single kernel's
-    `_deltas`)."""
-    pa, la = _piece(lower, upper, p0, p1, tau + 0.5 * dtau)
-    pb, lb = _piece(lower, upper, p0, p1, tau + dtau)
-    pc, lc = _piece(lower, upper, p0, p1, tau + 1.5 * dtau)
-    pd, ld = _piece(lower, upper, p0, p1, tau + 2.0 * dtau)
-    if polyT.shape[1] != 6 or pa != pd or pb != pd or pc != pd:
-        for r in range(4):
-            _delta(polyT, lower, upper, p0, p1, referenceT, tau + 0.5 * (r + 1) * dtau, out[r])
-        return
-    P = polyT[pd]
-    for j in range(out.shape[1]):
-        for i in range(out.shape[2]):
-            for v in range(LANES):
-                c0, c1, c2 = P[0, j, i, v], P[1, j, i, v], P[2, j, i, v]
-                c3, c4, c5 = P[3, j, i, v], P[4, j, i, v], P[5, j, i, v]
-                ref = referenceT[j, i, v]
-                out[0, j, i, v] = (((((c5 * la + c4) * la + c3) * la + c2) * la + c1) * la
-                                   + c0) - ref
-                out[1, j, i, v] = (((((c5 * lb + c4) * lb + c3) * lb + c2) * lb + c1) * lb
-                                   + c0) - ref
-                out[2, j, i, v] = (((((c5 * lc + c4) * lc + c3) * lc + c2) * lc + c1) * lc
-                                   + c0) - ref
-                out[3, j, i, v] = (((((c5 * ld + c4) * ld + c3) * ld + c2) * ld + c1) * ld
-                                   + c0) - ref
-
-
-@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w, xs):
     """The single kernel's `_stages_ab` per variant."""
     n = k1.shape[0]
@@ -254,65 +195,211 @@ def _record(i, y, yc, states, peak, spread):
                 spread[q, v] = a
 
 
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _lane_piece(lo, hi, count, v, tau):
+    """The piece (of the lane's current block, `count` pieces) that holds its local time τ,
+    and τ in that piece (the single kernel's `_piece`)."""
+    p = 0
+    while p < count - 1 and tau > hi[p, v]:
+        p += 1
+    return p, (tau - lo[p, v]) / (hi[p, v] - lo[p, v])
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _lane_delta(W, ref, p, local, v, outT):
+    """outT[:, :, v] = (A(τ) − A_ref)ᵀ of lane v from its piece p at local time ``local``:
+    the single kernel's `_delta` (Horner, the degree outermost), entry for entry."""
+    degree = W.shape[1] - 1
+    for j in range(outT.shape[0]):
+        for i in range(outT.shape[1]):
+            acc = W[p, degree, j, i, v]
+            for d in range(degree - 1, -1, -1):
+                acc = acc * local + W[p, d, j, i, v]
+            outT[j, i, v] = acc - ref[j, i, v]
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _lane_deltas(W, ref, piece, local, out):
+    """out[r] = (A − A_ref)ᵀ at the four instants of a pair of fine steps, every lane at its
+    own piece[r, v] and local time local[r, v] (the single kernel's `_deltas`; its fast path
+    and `_delta` give the same numbers). Across lanes in one pass where every lane is in its
+    block's first piece (a block of several pieces is one output interval around a kink)."""
+    nv = out.shape[3]
+    first = True
+    for r in range(4):
+        for v in range(nv):
+            if piece[r, v] != 0:
+                first = False
+    if not first or W.shape[1] != 6:
+        for r in range(4):
+            for v in range(nv):
+                _lane_delta(W, ref, piece[r, v], local[r, v], v, out[r])
+        return
+    for j in range(out.shape[1]):
+        for i in range(out.shape[2]):
+            for v in range(LANES):
+                c0, c1, c2 = W[0, 0, j, i, v], W[0, 1, j, i, v], W[0, 2, j, i, v]
+                c3, c4, c5 = W[0, 3, j, i, v], W[0, 4, j, i, v], W[0, 5, j, i, v]
+                rf = ref[j, i, v]
+                la, lb, lc, ld = local[0, v], local[1, v], local[2, v], local[3, v]
+                out[0, j, i, v] = (((((c5 * la + c4) * la + c3) * la + c2) * la + c1) * la
+                                   + c0) - rf
+                out[1, j, i, v] = (((((c5 * lb + c4) * lb + c3) * lb + c2) * lb + c1) * lb
+                                   + c0) - rf
+                out[2, j, i, v] = (((((c5 * lc + c4) * lc + c3) * lc + c2) * lc + c1) * lc
+                                   + c0) - rf
+                out[3, j, i, v] = (((((c5 * ld + c4) * ld + c3) * ld + c2) * ld + c1) * ld
+                                   + c0) - rf
+
+
 @njit(cache=True, error_model="numpy")
-def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper, polyT,
-                        referenceT, ET, E2T, E4T, substeps, states, accelerations, peak,
+def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper, poly,
+                        reference, ET, E2T, E4T, substeps, states, accelerations, peak,
                         spread):
     """`_lawson_numba.lawson_blocks` with ``coarse`` and no coarse states, for V = `LANES`
-    variants at once: y, yc (m, V); polyT (pieces, degree+1, m, n, V); referenceT (blocks, m, n, V);
-    ET, E2T, E4T (blocks, m, m, V); states (V, nt, m); accelerations (V, nt, n) (each
-    variant's contiguous, as its single run's); peak, spread (m, V). The layout (first … upper), t_out and substeps (even) are shared."""
+    variants at once, each on its own table (blocks, pieces, polynomials): y, yc (m, V);
+    per lane v, padded past its own blocks and polynomials: its table's first, last, static
+    (V, blocks), pieces (V, blocks+1), lower, upper (V, polynomials), poly (V, polynomials,
+    degree+1, n, m) and reference (V, blocks, n, m) as in the table (not transposed), its
+    ET, E2T, E4T (V, blocks, m, m) (transposed, as the single loop takes them); states
+    (V, nt, m); accelerations (V, nt, n) (each variant's contiguous, as its single run's);
+    peak, spread (m, V). t_out and substeps (even) are shared, so is the step h of every
+    output interval.
+
+    Output interval by output interval, every lane in the block of its own table that holds
+    it: the lanes in moving blocks cross it in Lawson steps (those in static blocks take the
+    same steps, thrown away), then the lanes in static blocks in one product with their
+    exp(Δt Ã). Each lane's block matrices and polynomials are copied lanes-last (and the
+    table's transposed) when it enters the block, so that every product and polynomial runs
+    across the lanes."""
     m, nv = y.shape
     if nv != LANES:  # the inner loops run over LANES variants, unchecked
         raise ValueError("lawson_blocks_batch advances LANES variants")
     n = (m - 1) // 2
-    D = np.empty((4, m, n, nv))
-    k1, k2, k3, k4 = (np.empty((n, nv)), np.empty((n, nv)), np.empty((n, nv)),
-                      np.empty((n, nv)))
-    c1, b2, b3, b4 = (np.empty((n, nv)), np.empty((n, nv)), np.empty((n, nv)),
-                      np.empty((n, nv)))
-    r = np.empty((n, nv))
-    Ey, E2y, w, u = np.empty((m, nv)), np.empty((m, nv)), np.empty((m, nv)), np.empty((m, nv))
-    Ecy, E4y, wc = np.empty((m, nv)), np.empty((m, nv)), np.empty((m, nv))
-    xs = np.empty((8, nv))
-    for b in range(first.size):
-        i0, i1 = first[b], last[b]
-        A_ref = referenceT[b]
-        P, P2, P4 = ET[b], E2T[b], E4T[b]
-        if static[b]:
-            for i in range(i0, i1):
-                _zero2(w, wc)
-                _gemv2(P, 0, m, y, 1.0, w, yc, 1.0, wc, xs)
-                _copy(wc, yc)
-                _copy(w, y)
-                _record(i + 1, y, yc, states, peak, spread)
-            continue
-        span = t_out[i1] - t_out[i0]
-        p0, p1 = pieces[b], pieces[b + 1]
-        _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, D[3])
-        _gemv(D[3], 0, m, y, 1.0, k1, False, xs)
-        _gemv(D[3], 0, m, yc, 1.0, c1, False, xs)
-        for i in range(i0, i1):
+    nt = t_out.shape[0]
+    most = 1  # the most pieces of one block, over every lane's blocks
+    for v in range(nv):
+        for b in range(first.shape[1]):
+            most = max(most, pieces[v, b + 1] - pieces[v, b])
+    degree1 = poly.shape[2]
+    W = np.zeros((most, degree1, m, n, nv))  # each lane's current block's polynomials
+    lo, hi = np.zeros((most, nv)), np.ones((most, nv))
+    count = np.ones(nv, dtype=np.int64)
+    Ar = np.zeros((m, n, nv))
+    P, P2, P4 = np.zeros((m, m, nv)), np.zeros((m, m, nv)), np.zeros((m, m, nv))
+    block = np.full(nv, -1, dtype=np.int64)
+    i0 = np.zeros(nv, dtype=np.int64)
+    ends = np.zeros(nv, dtype=np.int64)  # the output index where the lane's block ends
+    span = np.ones(nv)
+    at_rest = np.zeros(nv, dtype=np.bool_)
+    starts = np.zeros(nv, dtype=np.bool_)
+    piece = np.zeros((4, nv), dtype=np.int64)
+    local = np.zeros((4, nv))
+    D = np.zeros((4, m, n, nv))
+    k1, k2, k3, k4 = (np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nv)),
+                      np.zeros((n, nv)))
+    c1, b2, b3, b4 = (np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nv)),
+                      np.zeros((n, nv)))
+    r, tk, tc = np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nv))
+    Ey, E2y, w, u = np.zeros((m, nv)), np.zeros((m, nv)), np.zeros((m, nv)), np.zeros((m, nv))
+    Ecy, E4y, wc = np.zeros((m, nv)), np.zeros((m, nv)), np.zeros((m, nv))
+    y0, yc0, ws, wcs = (np.zeros((m, nv)), np.zeros((m, nv)), np.zeros((m, nv)),
+                        np.zeros((m, nv)))
+    xs = np.zeros((8, nv))
+    for i in range(nt - 1):
+        moving = False
+        resting = False
+        entering = False
+        for v in range(nv):
+            starts[v] = False
+            if block[v] < 0 or i == ends[v]:  # the lane enters its next block
+                b = block[v] + 1
+                block[v] = b
+                i0[v], ends[v] = first[v, b], last[v, b]
+                span[v] = t_out[ends[v]] - t_out[i0[v]]
+                at_rest[v] = static[v, b]
+                p0 = pieces[v, b]
+                count[v] = pieces[v, b + 1] - p0
+                for p in range(count[v]):
+                    lo[p, v], hi[p, v] = lower[v, p0 + p], upper[v, p0 + p]
+                    for d in range(degree1):
+                        for q in range(n):
+                            for j in range(m):
+                                W[p, d, j, q, v] = poly[v, p0 + p, d, q, j]
+                for q in range(n):
+                    for j in range(m):
+                        Ar[j, q, v] = reference[v, b, q, j]
+                for j in range(m):
+                    for q in range(m):
+                        P[j, q, v] = ET[v, b, j, q]
+                        P2[j, q, v] = E2T[v, b, j, q]
+                        P4[j, q, v] = E4T[v, b, j, q]
+                starts[v] = not at_rest[v]
+                entering = entering or starts[v]
+            if at_rest[v]:
+                resting = True
+            else:
+                moving = True
+        if entering:  # k1, c1 = ΔÃ(τ = 0) y, yc of the lanes entering a moving block
+            for v in range(nv):
+                if starts[v]:
+                    p, tau = _lane_piece(lo, hi, count[v], v, 0.0)
+                    _lane_delta(W, Ar, p, tau, v, D[3])
+            _gemv(D[3], 0, m, y, 1.0, tk, False, xs)
+            _gemv(D[3], 0, m, yc, 1.0, tc, False, xs)
+            for v in range(nv):
+                if starts[v]:
+                    for q in range(n):
+                        k1[q, v] = tk[q, v]
+                        c1[q, v] = tc[q, v]
+        if resting and moving:  # the resting lanes' states, before the steps change them
+            _copy(y, y0)
+            _copy(yc, yc0)
+        if moving:
             h = (t_out[i + 1] - t_out[i]) / substeps
-            dtau = h / span
             for j in range(0, substeps, 2):
-                tau = (t_out[i] - t_out[i0] + j * h) / span
-                _deltas(polyT, lower, upper, p0, p1, A_ref, tau, dtau, D)
+                for v in range(nv):
+                    dtau = h / span[v]
+                    tau = (t_out[i] - t_out[i0[v]] + j * h) / span[v]
+                    piece[0, v], local[0, v] = _lane_piece(lo, hi, count[v], v,
+                                                           tau + 0.5 * dtau)
+                    piece[1, v], local[1, v] = _lane_piece(lo, hi, count[v], v, tau + dtau)
+                    piece[2, v], local[2, v] = _lane_piece(lo, hi, count[v], v,
+                                                           tau + 1.5 * dtau)
+                    piece[3, v], local[3, v] = _lane_piece(lo, hi, count[v], v,
+                                                           tau + 2.0 * dtau)
+                _lane_deltas(W, Ar, piece, local, D)
                 _pair(P, P2, P4, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
                       w, Ecy, E4y, wc, xs)
-            _record(i + 1, y, yc, states, peak, spread)
-            _gemv(A_ref, 0, m, y, 1.0, r, False, xs)
-            for q in range(n):
-                for v in range(LANES):
-                    accelerations[v, i + 1, q] = r[q, v] + k1[q, v]
+        if resting:  # y ← exp(Δt Ã) y on the static lanes, both passes in one product
+            if moving:
+                _zero2(ws, wcs)
+                _gemv2(P, 0, m, y0, 1.0, ws, yc0, 1.0, wcs, xs)
+                for v in range(nv):
+                    if at_rest[v]:
+                        for q in range(m):
+                            y[q, v] = ws[q, v]
+                            yc[q, v] = wcs[q, v]
+            else:
+                _zero2(ws, wcs)
+                _gemv2(P, 0, m, y, 1.0, ws, yc, 1.0, wcs, xs)
+                _copy(wcs, yc)
+                _copy(ws, y)
+        _record(i + 1, y, yc, states, peak, spread)
+        if moving:  # z̈ = A y on the moving lanes (the static ones': static_accelerations)
+            _gemv(Ar, 0, m, y, 1.0, r, False, xs)
+            for v in range(nv):
+                if not at_rest[v]:
+                    for q in range(n):
+                        accelerations[v, i + 1, q] = r[q, v] + k1[q, v]
 
 
-# The one signature `lawson_batch.advance` calls lawson_blocks_batch with (C-contiguous).
-SIGNATURE = (float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], int64[::1],
-             boolean[::1], int64[::1], float64[::1], float64[::1], float64[:, :, :, :, ::1],
-             float64[:, :, :, ::1], float64[:, :, :, ::1], float64[:, :, :, ::1],
-             float64[:, :, :, ::1], int64, float64[:, :, ::1], float64[:, :, ::1],
-             float64[:, ::1], float64[:, ::1])
+# The one signature `lawson_batch.first_passes` calls lawson_blocks_batch with (C-contiguous).
+SIGNATURE = (float64[:, ::1], float64[:, ::1], float64[::1], int64[:, ::1], int64[:, ::1],
+             boolean[:, ::1], int64[:, ::1], float64[:, ::1], float64[:, ::1],
+             float64[:, :, :, :, ::1], float64[:, :, :, ::1], float64[:, :, :, ::1],
+             float64[:, :, :, ::1], float64[:, :, :, ::1], int64, float64[:, :, ::1],
+             float64[:, :, ::1], float64[:, ::1], float64[:, ::1])
 
 
 def load() -> None:

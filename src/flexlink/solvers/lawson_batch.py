@@ -1,15 +1,15 @@
 """Adaptive Lawson runs of several systems advanced together: one compiled call for the first
-pass of every system whose table shares its layout (``lawson.py``).
+pass of every system with the same output times and steps per interval (``lawson.py``).
 
 Each run is its own up to its first pass (`lawson.prepare`: its own table, refinement and
 first steps) and after it (`lawson.finish`: its own Richardson check, and shorter steps alone
-if it needs them). Between them, the runs whose tables have the same blocks, pieces, output
-times and steps per interval — variants of one scenario that differ in its numbers, not its
-motion's timing — cross them in one call of the batched loop (_lawson_batch_numba.py), each
-with its own matrices and states and the same operations as its single run: each result
-equals its single run's bit for bit. The loop's products then vectorise across a call's 32
-variants instead of across a 2n+1 row; a group of `MIN_GROUP` or more is filled up to 32
-with copies of its last variant, a smaller one runs alone (it would not pay).
+if it needs them). Between them, the runs with the same output times, steps per interval and
+state size — variants of one scenario that differ in its numbers, its motion's amplitude or
+its timing — cross them in one call of the batched loop (_lawson_batch_numba.py), each on
+its own table, with its own matrices and states and the same operations as its single run:
+each result equals its single run's bit for bit. The loop's products then vectorise across a
+call's 32 variants instead of across a 2n+1 row; a group of `MIN_GROUP` or more is filled up
+to 32 with copies of its last variant, a smaller one runs alone (it would not pay).
 """
 
 from __future__ import annotations
@@ -30,12 +30,9 @@ FirstPass = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # states, z̈
 
 def shared_key(start: Start) -> Hashable:
     """What runs advanced together must share: the state size, the output times, the steps
-    per interval and the table's layout (blocks, pieces and their local time ranges, the
-    polynomials' degree). Equal keys mean equal scalars throughout the loop."""
-    table = start.table
-    return (start.n, start.substeps, table.poly.shape[1], start.t_out.tobytes(),
-            table.first.tobytes(), table.last.tobytes(), table.static.tobytes(),
-            table.pieces.tobytes(), table.lower.tobytes(), table.upper.tobytes())
+    per interval and the polynomials' degree. Equal keys mean the same step h in every output
+    interval; each run keeps its own table (blocks, pieces, polynomials)."""
+    return (start.n, start.substeps, start.table.poly.shape[1], start.t_out.tobytes())
 
 
 def groups(starts: Sequence[Start | None]) -> list[list[int]]:
@@ -66,34 +63,52 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
     """The first pass (fine and coarse steps, running maxima) of each run in one call; the
     runs share `shared_key`. None for a run whose state became non-finite (its single run
     then reports where)."""
-    from ._lawson_batch_numba import lawson_blocks_batch  # numba's import: only when used
+    from ._lawson_batch_numba import LANES, lawson_blocks_batch  # numba's import: when used
 
     first = starts[0]
     if any(shared_key(s) != shared_key(first) for s in starts[1:]):
-        raise ValueError("runs advanced together must share their table's layout and steps")
-    from ._lawson_batch_numba import LANES
-
-    table, n, t_out, nv = first.table, first.n, first.t_out, len(starts)
+        raise ValueError("runs advanced together must share their output times, steps per "
+                         "interval and polynomial degree")
+    n, t_out, nv = first.n, first.t_out, len(starts)
     tiles = -(-nv // LANES)
     padded = [*starts, *[starts[-1]] * (tiles * LANES - nv)]  # a last tile filled up
     m = 2 * n + 1
-    # The single run's E², E⁴ (lawson.loop_matrices) for every variant in one matmul call:
-    # numpy multiplies each matrix of a stack on its own, so each is the single run's.
-    moving = ~table.static
-    ET = np.stack([s.ET for s in padded])  # (V, blocks, m, m)
+    blocks = max(len(s.table) for s in padded)
+    polys = max(s.table.poly.shape[0] for s in padded)
+
+    def stacked(values: list[np.ndarray], size: int, fill: float = 0
+                ) -> np.ndarray:
+        """(V, size, …): each run's array padded along its first axis to ``size``."""
+        out = np.full((len(values), size, *values[0].shape[1:]), fill,
+                      dtype=values[0].dtype)
+        for v, a in enumerate(values):
+            out[v, :a.shape[0]] = a
+        return out
+
+    def per_lane(a: np.ndarray) -> np.ndarray:
+        """(V, …) → (tiles, LANES, …)."""
+        return np.ascontiguousarray(a.reshape(tiles, LANES, *a.shape[1:]))
+
+    tables = [s.table for s in padded]
+    # Padded rows are never reached: each lane's blocks cover every output interval.
+    first_ = per_lane(stacked([t.first for t in tables], blocks))
+    last_ = per_lane(stacked([t.last for t in tables], blocks))
+    static = per_lane(stacked([t.static for t in tables], blocks, False))
+    pieces = per_lane(stacked([t.pieces for t in tables], blocks + 1))
+    lower = per_lane(stacked([t.lower for t in tables], polys))
+    upper = per_lane(stacked([t.upper for t in tables], polys, 1.0))
+    # The single run's E², E⁴ (lawson.loop_matrices) of each run: numpy multiplies each
+    # matrix of a stack on its own, so each is the single run's.
+    ET = stacked([s.ET for s in padded], blocks)  # (V, blocks, m, m)
+    moving = ~stacked([t.static for t in tables], blocks, True)
     E2T = ET.copy()
-    E2T[:, moving] = ET[:, moving] @ ET[:, moving]
+    E2T[moving] = ET[moving] @ ET[moving]
     E4T = E2T.copy()
-    E4T[:, moving] = E2T[:, moving] @ E2T[:, moving]
-
-    def lanes_last(a: np.ndarray, order: tuple[int, ...]) -> np.ndarray:
-        """(V, …) → (tiles, …, LANES) in the given order of the other axes."""
-        tiled = a.reshape(tiles, LANES, *a.shape[1:])
-        return np.ascontiguousarray(np.transpose(tiled, (0, *(k + 1 for k in order), 1)))
-
-    polyT = lanes_last(np.stack([s.table.poly for s in padded]), (1, 2, 4, 3))
-    referenceT = lanes_last(np.stack([s.table.reference for s in padded]), (1, 3, 2))
-    ET, E2T, E4T = (lanes_last(a, (1, 2, 3)) for a in (ET, E2T, E4T))
+    E4T[moving] = E2T[moving] @ E2T[moving]
+    # The loop copies each lane's block lanes-last (transposing the table's) as it enters it.
+    poly = per_lane(stacked([t.poly for t in tables], polys))
+    reference = per_lane(stacked([t.reference for t in tables], blocks))
+    ET, E2T, E4T = (per_lane(a) for a in (ET, E2T, E4T))
     states = np.empty((tiles, LANES, t_out.size, m))
     acc = np.empty((tiles, LANES, t_out.size, n))
     peak = np.empty((tiles, m, LANES))
@@ -104,10 +119,9 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
         yc = y.copy()
         states[k, :, 0] = y.T
         peak[k] = np.abs(y)
-        lawson_blocks_batch(y, yc, t_out, table.first, table.last, table.static,
-                            table.pieces, table.lower, table.upper, polyT[k], referenceT[k],
-                            ET[k], E2T[k], E4T[k], first.substeps, states[k], acc[k],
-                            peak[k], spread[k])
+        lawson_blocks_batch(y, yc, t_out, first_[k], last_[k], static[k], pieces[k],
+                            lower[k], upper[k], poly[k], reference[k], ET[k], E2T[k],
+                            E4T[k], first.substeps, states[k], acc[k], peak[k], spread[k])
     out: list[FirstPass | None] = []
     for v, start in enumerate(starts):
         k, lane = divmod(v, LANES)
