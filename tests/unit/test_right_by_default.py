@@ -277,6 +277,19 @@ def test_a_sweep_of_a_mechanism_that_cannot_close_is_refused(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
 
 
+def test_a_far_guess_of_a_dependent_joint_still_closes_the_loop() -> None:
+    """The coupler's guess 105° off (45° for -60°): the projection's Newton steps failed and
+    the run was refused as 'does not close (residual 5e-11 m)'; the dependent joints are
+    now brought to the loop by least squares first, landing on the closed assembly."""
+    near = simulate(scenario_from_dict(_four_bar()), shapes=False)
+    d = _four_bar()
+    d["joints"][1]["initial_angle_deg"] = 45.0
+    far = simulate(scenario_from_dict(d), shapes=False)
+    assert far.metadata["closure_residual_relative"] < 1e-8
+    for name in ("joint2_angle", "joint3_angle"):
+        assert abs(far[name][0] - near[name][0]) < 1e-9
+
+
 def test_a_case_whose_values_open_the_loop_fails_alone() -> None:
     """A rocker too long to reach the coupler (2 m) fails its case; the nominal one closes."""
     result = sweep(_four_bar(), grid={"links[2].length": [0.25, 2.0]}, workers=1)

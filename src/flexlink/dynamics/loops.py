@@ -137,7 +137,7 @@ class LoopSystem:
         self.dep = self._dependent(work.G)
         self.data = self.data._replace(dep=np.asarray(self.dep, dtype=np.int64))
         start = y.copy()
-        if not close(self.data, work, u0, y, 1):
+        if not close(self.data, work, u0, y, 1) and not self._close_far(work, u0, start, y):
             raise SimulationError(self._open_message(
                 self._closest(work, u0, start), "does not close at t = 0 (the residual is "
                 "the least its free joints reach from their initial angles)"))
@@ -146,6 +146,36 @@ class LoopSystem:
 
             return closed_equilibrium(self, y, u0)
         return y
+
+    def _close_far(self, work, u0: np.ndarray, start: np.ndarray, y: np.ndarray) -> bool:
+        """Close the loops from a guess too far for the projection's Newton steps: the
+        dependent joints alone brought to the least |Φ| (trust-region least squares from
+        `start`, the other free joints keeping their angles), then projected. y ← the
+        closed state; False when even that leaves the loops open."""
+        from scipy.optimize import least_squares
+
+        from ._loops_numba import close
+
+        dep = np.asarray(self.dep, dtype=np.int64)
+        columns = np.asarray(self.system.free, dtype=np.int64)[dep]
+        trial = start.copy()
+
+        def residual(angles: np.ndarray) -> np.ndarray:
+            trial[dep] = angles
+            close(self.data, work, u0, trial, 0)
+            return work.Phi.copy()
+
+        def jacobian(angles: np.ndarray) -> np.ndarray:
+            residual(angles)
+            return work.G[:, columns].copy()
+
+        best = least_squares(residual, start[dep], jac=jacobian, xtol=1e-14, ftol=1e-14,
+                             gtol=1e-14)
+        trial[dep] = best.x
+        if not close(self.data, work, u0, trial, 1):
+            return False
+        y[:] = trial
+        return True
 
     def _closest(self, work, u0: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Φ (m) where the free joints bring it closest to zero (least squares from y)."""
