@@ -54,6 +54,10 @@ class FigureData:
         """The figures there are: the spectra only with a free vibration."""
         return [s for s in FIGURES if s != "spectra" or self.free_start is not None]
 
+    def write(self, folder: Path, stems: list[str] | None = None) -> None:
+        """`write_figures` of these data (the figure worker's entry)."""
+        write_figures(self, folder, stems)
+
 
 def write_figures(data: FigureData, folder: Path, stems: list[str] | None = None) -> None:
     """Draw the figures ``stems`` (default: all there are) into ``folder`` as PNG."""
