@@ -19,6 +19,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..experiment.figures import power_of_ten
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -50,8 +52,10 @@ def trace_figure(traces: Mapping[str, Trace], move_start: float, move_end: float
     """`residual_figure` of the manoeuvres' `Trace`s."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(3.2 * len(traces), 3.0), layout="constrained")
-    axes = fig.subplots(1, len(traces), sharey=True, squeeze=False)[0]
+    panels = len(traces)
+    fig = _framed(Figure(figsize=(3.2 * panels, 3.0)), (0.65, 0.1, 0.72 if title else 0.45, 0.5),
+                  wspace=0.12 * panels / (3.2 * panels - 0.75 - 0.12 * (panels - 1)))
+    axes = fig.subplots(1, panels, sharey=True, squeeze=False)[0]
     for ax, (label, (time, tip, peak)), colour in zip(axes, traces.items(), COLOURS,
                                                        strict=False):
         ax.axvspan(move_start, move_end, color="0.92", lw=0)
@@ -74,7 +78,7 @@ def robustness_figure(errors: Sequence[float], residual: Mapping[str, np.ndarray
     error (%); ``textbook``: curves to overlay dashed (e.g. V of a shaper at mode 1)."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(5.5, 3.6), layout="constrained")
+    fig = _framed(Figure(figsize=(5.5, 3.6)), (0.7, 0.12, 0.3 if title else 0.12, 0.5))
     ax = fig.subplots()
     e = 100.0 * np.asarray(errors)
     base = residual[reference]
@@ -85,10 +89,23 @@ def robustness_figure(errors: Sequence[float], residual: Mapping[str, np.ndarray
     ax.set_xlabel("frequency error of the plant (%)")
     ax.set_ylabel(f"residual vibration (% of {reference})")
     ax.set_yscale("log")
+    ax.yaxis.set_major_formatter(power_of_ten())
     ax.grid(True, which="both", lw=0.3)
     ax.legend(fontsize=8)
     if title:
         ax.set_title(title, fontsize=10)
+    return fig
+
+
+def _framed(fig: Figure, margins: tuple[float, float, float, float], wspace: float = 0.2
+            ) -> Figure:
+    """``fig`` with fixed margins (left, right, top, bottom; inches) around its axes: room
+    for the labels and titles, as `flexlink run`'s and `flexlink fit`'s figures
+    (matplotlib's constrained layout took half of drawing them)."""
+    width, height = fig.get_size_inches()
+    left, right, top, bottom = margins
+    fig.subplots_adjust(left=left / width, right=1 - right / width, top=1 - top / height,
+                        bottom=bottom / height, wspace=wspace)
     return fig
 
 
