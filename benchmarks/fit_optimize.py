@@ -423,6 +423,8 @@ def main() -> None:
                         "flexlink.simulate(flexlink.load_paper_experiment(), shapes=False)")
                 subprocess.run([sys.executable, "-c", warm], env=env, check=True,
                                capture_output=True)
+        if commands:  # every kernel the command's optimiser and report runs use
+            child_optimize_command(src, False)
     results: dict[str, dict[str, Any]] = {label: {} for label in versions}
     cases = fit_cases() if "fit" in kinds else []
     for label, src in versions.items():
