@@ -3,8 +3,8 @@
     python benchmarks/fit_optimize.py                    # this tree only
     python benchmarks/fit_optimize.py --before 497667b   # and the code of that commit
     python benchmarks/fit_optimize.py --before ../main   # or of that checkout
-    python benchmarks/fit_optimize.py --only fit         # or --only optimize
-    python benchmarks/fit_optimize.py --repeat 3         # the fit command's median of 3
+    python benchmarks/fit_optimize.py --only fit         # or --only optimize, --only command
+    python benchmarks/fit_optimize.py --repeat 3         # each command's median of 3
 
 Rows, each measured in fresh processes for each version of the code (``--before REV``: the
 sources of REV unpacked next to the system's temporary files, numba's caches warmed there by
@@ -32,12 +32,15 @@ one untimed run of each kind first):
   relative to the cycloid's; and the peak link-2 tip deflection over 2 s after the move
   (independent runs of the first-order model with and without stiffening, every frequency
   off by −10, 0, +10 %);
-- ``optimize command``: the whole `flexlink optimize --paper` command of that manoeuvre (the
-  README's options: --duration 1.2 and the paper's limits) in a fresh process, with its
-  figures (drawn by the figure worker while the command finishes its runs and writes) and
-  again with ``--no-figures``: wall and CPU time of all its processes, of its own process
-  and of its main thread; iterations and the optimised move's residual tip deflection
-  (summary.json), and with ``--before`` whether both versions' summaries agree.
+- ``optimize command`` (also alone: ``--only command``): the whole `flexlink optimize
+  --paper` command of that manoeuvre (the README's options: --duration 1.2 and the paper's
+  limits) in a fresh process, with its figures and again with ``--no-figures``, the versions
+  run after run (``--repeat N``: the median by wall time, and every run): wall and CPU time
+  of all its processes, of its own process and of its main thread, and the same split by
+  stage (start-up, imports and scenario, optimisation, the report's runs, figures and files,
+  exit: `STAGE_PROBE`); iterations and the optimised move's residual tip deflection
+  (summary.json), and with ``--before`` whether every run's summary.json (but its run time)
+  and printed summary agree.
 
 The machine is shared: CPU time is the figure that load moves least; the load average is
 printed with every row.
