@@ -3,8 +3,8 @@
     python benchmarks/fit_optimize.py                    # this tree only
     python benchmarks/fit_optimize.py --before 497667b   # and the code of that commit
     python benchmarks/fit_optimize.py --before ../main   # or of that checkout
-    python benchmarks/fit_optimize.py --only fit         # or --only optimize
-    python benchmarks/fit_optimize.py --repeat 3         # the fit command's median of 3
+    python benchmarks/fit_optimize.py --only fit         # or --only optimize, --only command
+    python benchmarks/fit_optimize.py --repeat 3         # each command's median of 3
 
 Rows, each measured in fresh processes for each version of the code (``--before REV``: the
 sources of REV unpacked next to the system's temporary files, numba's caches warmed there by
@@ -31,7 +31,16 @@ one untimed run of each kind first):
   iterations, evaluations (each runs every plant) and runs; the residual energy of each plant
   relative to the cycloid's; and the peak link-2 tip deflection over 2 s after the move
   (independent runs of the first-order model with and without stiffening, every frequency
-  off by −10, 0, +10 %).
+  off by −10, 0, +10 %);
+- ``optimize command`` (also alone: ``--only command``): the whole `flexlink optimize
+  --paper` command of that manoeuvre (the README's options: --duration 1.2 and the paper's
+  limits) in a fresh process, with its figures and again with ``--no-figures``, the versions
+  run after run (``--repeat N``: the median by wall time, and every run): wall and CPU time
+  of all its processes, of its own process and of its main thread, and the same split by
+  stage (start-up, imports and scenario, optimisation, the report's runs, figures and files,
+  exit: `STAGE_PROBE`); iterations and the optimised move's residual tip deflection
+  (summary.json), and with ``--before`` whether every run's summary.json (but its run time)
+  and printed summary agree.
 
 The machine is shared: CPU time is the figure that load moves least; the load average is
 printed with every row.
@@ -229,6 +238,110 @@ def child_command(src: Path, figures: bool = True, case: Case | None = None
             "case": name, "cpu_process": own["process"], "cpu_main": own["main"]}
 
 
+OPTIMIZE_OPTIONS = ("--paper", "--duration", "1.2", "--rate-limit", "200",
+                    "--acceleration-limit", "1000", "--torque-limit", "12,0.25")
+
+# PROBE with a clock at each stage of `flexlink optimize` (wall since the interpreter
+# started, CPU of the main thread, of the whole own process and of its ended children: the
+# optimiser's and the runs' pools, the figure processes): the handler called (interpreter and
+# command line started), the optimiser called (imports and scenario read), it returned, the
+# report's runs done (the last residual run in this process, or the pool of them), the
+# report written (figures drawn and files written), exit. Wrappers of module functions that
+# both versions have, or left out where a version has none.
+STAGE_PROBE = PROBE.replace("from flexlink.cli import command", """
+import os
+marks = []
+def mark(name):
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    child = resource.getrusage(resource.RUSAGE_CHILDREN)
+    marks.append((name, time.perf_counter() - START, time.thread_time(),
+                  usage.ru_utime + usage.ru_stime, child.ru_utime + child.ru_stime))
+def wrap(module, attr, start=None, end=None):
+    f = getattr(module, attr, None)
+    if f is None:
+        return
+    def timed(*a, **k):
+        if os.getpid() == PID and start:
+            mark(start)
+        try:
+            return f(*a, **k)
+        finally:
+            if os.getpid() == PID and end:
+                mark(end)
+    setattr(module, attr, timed)
+PID = os.getpid()
+import flexlink.cli as cli
+import flexlink.shaping.command as sc
+import flexlink.shaping.compare as cmp
+import flexlink.shaping.optimize as opt
+wrap(sc, "run_optimize", "handler")
+wrap(opt, "optimize_move", "optimiser", "optimised")
+wrap(sc, "write_outputs", None, "written")
+wrap(cmp, "run_residual", None, "runs done")
+wrap(cmp, "residual_runs", None, "runs done")
+build = cli.build_parser
+def parser():
+    p = build()
+    p._subparsers._group_actions[0].choices["optimize"].set_defaults(handler=sc.run_optimize)
+    return p
+cli.build_parser = parser
+def stages():
+    mark("exit")
+    with open(path + ".stages", "w") as f:
+        json.dump(marks, f)
+atexit.register(stages)
+from flexlink.cli import command""").replace("import atexit, json, resource, sys, time",
+                                             "import time\nSTART = time.perf_counter()\n"
+                                             "import atexit, json, resource, sys")
+STAGES = (("handler", "start-up"), ("optimiser", "imports, scenario"),
+          ("optimised", "optimisation"), ("runs done", "report's runs"),
+          ("written", "figures, files"), ("exit", "exit"))
+
+
+def stage_split(marks: list[list[Any]]) -> dict[str, list[float]]:
+    """Per stage: [wall, main thread CPU, own process CPU, ended children's CPU] (s) from
+    the previous stage's end (the last mark of each name)."""
+    last = {m[0]: m[1:] for m in marks}
+    out, previous = {}, [0.0, 0.0, 0.0, 0.0]
+    for name, label in STAGES:
+        if name in last:
+            out[label] = [a - b for a, b in zip(last[name], previous, strict=True)]
+            previous = last[name]
+    return out
+
+
+def child_optimize_command(src: Path, figures: bool = True) -> dict[str, Any]:
+    """The whole `flexlink optimize` command of the paper manoeuvre in a fresh process: wall
+    and CPU time (all its processes: the pool's and the figures' too; its own process and
+    main thread), per stage (`STAGE_PROBE`), and what its summary reports."""
+    out = Path(tempfile.mkdtemp(prefix="flexlink-opt-cmd-")) / "opt"
+    record = out.parent / "cpu.json"
+    args = [sys.executable, "-c", STAGE_PROBE, str(record), "optimize", *OPTIMIZE_OPTIONS,
+            "-o", str(out)]
+    if not figures:
+        args.append("--no-figures")
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    wall = time.perf_counter()
+    done = subprocess.run(args, env=env, check=True, capture_output=True, text=True)
+    wall = time.perf_counter() - wall
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    pictures = sorted(p.name for p in out.glob("*.png"))
+    own = json.loads(record.read_text(encoding="utf-8"))
+    marks = json.loads(Path(str(record) + ".stages").read_text(encoding="utf-8"))
+    summary["optimiser"].pop("wall_time_s")
+    printed = [line for line in done.stdout.splitlines()
+               if not line.startswith(("flexlink optimize:", "files in"))]
+    return {"wall": wall, "cpu": cpu, "load": os.getloadavg()[0], "cpu_process":
+            own["process"], "cpu_main": own["main"], "pictures": pictures,
+            "iterations": summary["optimiser"]["iterations"],
+            "residual": summary["residual_tip_deflection_m"],
+            "band": summary["robustness_band"], "summary": summary, "printed": printed,
+            "stages": stage_split(marks)}
+
+
 # -- parent ------------------------------------------------------------------------------
 def source_of(rev: str) -> Path:
     """The src/ folder of commit ``rev``, unpacked once into the temporary folder (its numba
@@ -284,9 +397,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", metavar="REV",
                         help="also measure the code of commit REV (or of the checkout REV)")
-    parser.add_argument("--only", choices=("fit", "optimize"))
+    parser.add_argument("--only", choices=("fit", "optimize", "command"),
+                        help="only the fit rows, the optimize rows, or of these only the "
+                             "optimize command's")
     parser.add_argument("--repeat", type=int, default=1, metavar="N",
-                        help="run the fit command N times: the median by CPU time, and all")
+                        help="run each command N times: the median (fit: by CPU time, "
+                             "optimize: by wall time), and all")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
@@ -298,9 +414,10 @@ def main() -> None:
     print(f"Python {platform.python_version()}, {os.cpu_count()} cores, "
           f"{platform.platform()}; load average {os.getloadavg()[0]:.1f}")
     kinds = [k for k in ("fit", "optimize") if args.only in (None, k)]
+    commands = args.only in (None, "optimize", "command")
     for label, src in versions.items():  # numba's caches of each version, untimed
         for kind in (["command"] if "fit" in kinds else []) + (
-                ["optimize"] if "optimize" in kinds else []):
+                ["optimize"] if "optimize" in kinds or commands else []):
             if kind == "command":
                 child_command(src)
             else:
@@ -309,6 +426,8 @@ def main() -> None:
                         "flexlink.simulate(flexlink.load_paper_experiment(), shapes=False)")
                 subprocess.run([sys.executable, "-c", warm], env=env, check=True,
                                capture_output=True)
+        if commands:  # every kernel the command's optimiser and report runs use
+            child_optimize_command(src, False)
     results: dict[str, dict[str, Any]] = {label: {} for label in versions}
     cases = fit_cases() if "fit" in kinds else []
     for label, src in versions.items():
@@ -320,6 +439,18 @@ def main() -> None:
             results[label]["fit"] = run_child("fit", src)
         if "optimize" in kinds:
             results[label]["optimize"] = run_child("optimize", src)
+    if commands:  # the versions in turn, run after run, so that both see the same load
+        runs: dict[str, dict[str, list[dict[str, Any]]]] = {
+            label: {"optimize command": [], "optimize no figures": []} for label in versions}
+        for _ in range(args.repeat):
+            for kind in ("optimize command", "optimize no figures"):
+                for label, src in versions.items():
+                    runs[label][kind].append(child_optimize_command(
+                        src, kind == "optimize command"))
+        for label in versions:
+            for kind, done in runs[label].items():  # the median by wall time, and all
+                done.sort(key=lambda r: r["wall"])
+                results[label][kind] = {**done[len(done) // 2], "runs": done}
     if "fit" in kinds:
         print("\nflexlink fit (target: at most 2 s, the same estimates)")
         for kind, what in (("command", ""), ("no figures", " --no-figures")):
@@ -369,6 +500,33 @@ def main() -> None:
                       + ", ".join(f"{100 * e:+.0f} %: {1e3 * a:.3g} mm (cycloid {1e3 * c:.3g})"
                                   for e, a, c in zip(ERRORS, peaks["optimised"],
                                                      peaks["cycloidal"], strict=True)))
+    if commands:
+        print("\nflexlink optimize --paper (the paper manoeuvre, README's options), the whole "
+              "command (target: at most 5 s)")
+        for kind, what in (("optimize command", ""), ("optimize no figures", " --no-figures")):
+            for label, res in results.items():
+                c = res[kind]
+                residual = c["residual"]
+                print(f"  {label:<22} command{what}: {c['wall']:.2f} s wall, {c['cpu']:.2f} s "
+                      f"CPU ({_own(c)}; load {c['load']:.1f}); {c['iterations']} iterations, "
+                      f"figures {', '.join(c['pictures']) or 'none'}; residual tip deflection "
+                      + ", ".join(f"{m}: optimised {1e3 * v['optimised']:.4g} mm"
+                                  for m, v in residual.items())
+                      + ("; runs (wall/CPU/own process/main thread): " + ", ".join(
+                          f"{r['wall']:.2f}/{r['cpu']:.2f}/{r['cpu_process']:.2f}/"
+                          f"{r['cpu_main']:.2f} s" for r in c["runs"])
+                         if len(c["runs"]) > 1 else ""))
+                print(f"  {'':<22}   stages (wall/main thread/own process/ended children, "
+                      "s): " + "; ".join(f"{name} {w:.2f}/{m:.2f}/{p:.2f}/{ch:.2f}"
+                                         for name, (w, m, p, ch) in c["stages"].items()))
+        if len(versions) > 1:  # every run of both versions: summary.json and printed lines
+            same = True
+            for kind in ("optimize command", "optimize no figures"):
+                seen = [(r["summary"], r["printed"]) for res in results.values()
+                        for r in res[kind]["runs"]]
+                same = same and all(x == seen[0] for x in seen)
+            print("  summary.json (but the run time) and the printed summary of every run of "
+                  f"both versions identical: {'yes' if same else 'NO'}")
 
 
 if __name__ == "__main__":

@@ -459,3 +459,90 @@ def test_runs_without_channels_keep_the_solution_and_the_divergence_check() -> N
     for channels in (True, False):
         with pytest.raises(SimulationError, match="exceeds its length"):
             run_prescribed(soft, t, lambda _t: None, False, channels=channels)
+
+
+def test_a_point_split_over_the_pool_equals_its_evaluation_here(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A single point's plants run half here, half in the pool: the same residuals, torques
+    and kept discretisations as `Problem.evaluate` here, bit for bit; a plant failing on
+    either side makes the point a failed trial."""
+    from flexlink.shaping.optimize import Evaluator
+
+    base = _arm()
+    scenario = dataclasses.replace(base, settings=dataclasses.replace(base.settings,
+                                                                      method="lawson"))
+    plants = [(1.0, False), (1.0, True), (0.9, False), (1.1, True)]
+    problem = Problem(scenario, joint_moves(scenario), 2, plants, 0.005)
+    x = np.array([0.1, -0.05, 0.08, 0.02])
+    rows, torques = problem.evaluate(x)
+    here = problem.discretisations(x)
+    split = Problem(scenario, joint_moves(scenario), 2, plants, 0.005)
+    evaluator = Evaluator(split, 2)
+    try:
+        value = evaluator.many([x])[0]
+        assert value is not None
+        np.testing.assert_array_equal(value[0], rows)
+        np.testing.assert_array_equal(value[1], torques)
+        kept = split.discretisations(x)
+        assert kept is not None and len(kept) == len(plants)
+        for a, b in zip(kept, here, strict=True):
+            assert a is not None and b is not None
+            np.testing.assert_array_equal(split.evaluate(x, kept)[0], problem.evaluate(x, here)[0])
+    finally:
+        evaluator.close()
+    run = Problem.plant_run
+
+    def third_plant_fails(self: Problem, i: int, x: np.ndarray, on=None):
+        if i == 2:
+            raise SimulationError("diverged")
+        return run(self, i, x, on)
+
+    def second_plant_fails(self: Problem, i: int, x: np.ndarray, on=None):
+        if i == 1:
+            raise SimulationError("diverged")
+        return run(self, i, x, on)
+
+    from flexlink.batch.executors import start_context
+
+    if start_context().get_start_method() != "fork":
+        pytest.skip("this process runs threads: the pool would not inherit the failure")
+    for failing in (third_plant_fails, second_plant_fails):  # here, in the pool
+        monkeypatch.setattr(Problem, "plant_run", failing)  # before the pool forks
+        evaluator = Evaluator(Problem(scenario, joint_moves(scenario), 2, plants, 0.005), 2)
+        try:
+            assert evaluator.many([x]) == [None]
+            assert evaluator.count == 1
+        finally:
+            evaluator.close()
+
+
+def test_report_runs_on_the_pool_equal_runs_here() -> None:
+    """`compare.residual_runs` on two forked processes: the peaks and kept traces of
+    `run_residual` here, bit for bit, in order; a run that fails is a NaN with its message."""
+    import threading
+
+    from flexlink.shaping import compare
+    from flexlink.shaping.plants import scale_frequencies
+
+    scenario = _arm()
+    soft = dataclasses.replace(scenario, chain=Chain(
+        (Link("beam", 1.0, 0.5, 0.05, modes=2), Link("stub", 0.2, 0.3, 1.0, modes=0)),
+        (Cycloidal(0.0, 3600.0, 0.0, 1.0), Hold(0.0))))
+    checks = [(scenario, "first_order", True), (scale_frequencies(scenario, 1.1),
+                                                 "first_order", False),
+              (soft, "first_order", False), (scenario, "first_order", False)]
+    if threading.active_count() > 1:
+        pytest.skip("this process runs threads: residual_runs would not fork")
+    assert compare._fork_pool(2) is not None
+    done = compare.residual_runs(checks, 0.7, workers=2)
+    here = compare.residual_runs(checks, 0.7, workers=1)
+    for a, b, (sc, _, keep) in zip(done, here, checks, strict=True):
+        if sc is soft:
+            assert math.isnan(a.peak) and "exceeds its length" in a.error
+            continue
+        assert a.peak == b.peak == compare.run_residual(sc, 0.7)[1] and a.error is None
+        assert (a.time is not None) == keep
+        if keep:
+            np.testing.assert_array_equal(a.time, b.time)
+            np.testing.assert_array_equal(a.tip, b.tip)
+    assert done[0].peak == done[3].peak

@@ -1,15 +1,19 @@
-"""Draw the figures of ``flexlink fit`` and ``flexlink compare`` in forked processes while
-the command loads, fits and writes its data files, as `flexlink run` does
-(`flexlink.results.figure_worker`, whose pipes and fallbacks this reuses).
+"""Draw the figures of ``flexlink fit``, ``flexlink compare`` and ``flexlink optimize`` in
+forked processes while the command computes and writes its data files, as `flexlink run`
+does (`flexlink.results.figure_worker`, whose pipes and fallbacks this reuses).
 
-The child imports matplotlib while the parent works, forks its partner, and both wait for the
-job (a pickled `figures.FigureData` and the folder): the child draws the overlay, the partner
-the spectra. Where anything fails, `wait()` returns False and the caller draws the figures
-itself."""
+The child imports matplotlib and the command's figure module while the parent works, forks
+its partner, and both wait for the job: a picklable figure record of plain arrays (such as
+`experiment.figures.FigureData` or `shaping.figures.OptimizeFigures`, with ``stems()``, the
+figures there are, and ``write(folder, stems)``) and the folder. The child draws the first
+figure, the partner the others. Where anything fails, `wait()` returns False and the caller
+draws the figures itself."""
 
 from __future__ import annotations
 
 import contextlib
+import functools
+import importlib
 import os
 import pickle
 import signal
@@ -25,16 +29,18 @@ _THREE_D = "mpl_toolkits.mplot3d"  # not imported by the drawing processes
 
 
 class FigureWorker(_base.FigureWorker):
-    """A forked child that draws a comparison's figures on request (see the module doc)."""
+    """A forked child that draws a command's figures on request (see the module doc)."""
 
     @classmethod
-    def start(cls, child: Callable[[int, int], int] | None = None) -> FigureWorker | None:
-        """Fork the worker (None where `flexlink.results.figure_worker` cannot)."""
-        worker = super().start(child or _child)
+    def start(cls, child: Callable[[int, int], int] | None = None,
+              drawing: str = "flexlink.experiment.figures") -> FigureWorker | None:
+        """Fork the worker (None where `flexlink.results.figure_worker` cannot); its child
+        imports the module ``drawing`` (of the figure record to come) while it waits."""
+        worker = super().start(child or functools.partial(_child, drawing=drawing))
         return worker if isinstance(worker, FigureWorker) else None
 
 
-def _child(jobs: int, replies: int) -> int:
+def _child(jobs: int, replies: int, drawing: str = "flexlink.experiment.figures") -> int:
     """The worker's child: its exit status (0: the figures are written)."""
     partner = None
     try:
@@ -51,7 +57,7 @@ def _child(jobs: int, replies: int) -> int:
             import matplotlib.backends.backend_agg
             import matplotlib.figure  # noqa: F401
 
-        from . import figures
+        importlib.import_module(drawing)
 
         partner = _base._fork_piped(_partner, inherited=(jobs, replies))
         message = _base._read_message(jobs)
@@ -65,9 +71,9 @@ def _child(jobs: int, replies: int) -> int:
         data, folder = _job(message)
         stems = data.stems()
         mine, theirs = (stems[:1], stems[1:]) if partner is not None else (stems, [])
-        figures.write_figures(data, folder, mine)
+        data.write(folder, mine)
         if theirs and os.read(partner[2], 1) != b"1":  # type: ignore[index]
-            figures.write_figures(data, folder, theirs)
+            data.write(folder, theirs)
         os.write(replies, b"1")
         return 0
     except BaseException:  # noqa: BLE001 — reported as a status; the parent draws again
@@ -82,14 +88,12 @@ def _child(jobs: int, replies: int) -> int:
 
 
 def _partner(jobs: int, replies: int) -> int:
-    """The partner: draws the figures after the first (`figures.FigureData.stems`)."""
-    from . import figures
-
+    """The partner: draws the figures after the first (the record's ``stems()``)."""
     message = _base._read_message(jobs)
     if message is None:
         return 0
     data, folder = _job(message)
-    figures.write_figures(data, folder, data.stems()[1:])
+    data.write(folder, data.stems()[1:])
     os.write(replies, b"1")
     return 0
 

@@ -54,6 +54,10 @@ class FigureData:
         """The figures there are: the spectra only with a free vibration."""
         return [s for s in FIGURES if s != "spectra" or self.free_start is not None]
 
+    def write(self, folder: Path, stems: list[str] | None = None) -> None:
+        """`write_figures` of these data (the figure worker's entry)."""
+        write_figures(self, folder, stems)
+
 
 def write_figures(data: FigureData, folder: Path, stems: list[str] | None = None) -> None:
     """Draw the figures ``stems`` (default: all there are) into ``folder`` as PNG."""
@@ -109,7 +113,7 @@ def spectra_figure(data: FigureData) -> Figure:
                 ax.axvline(f, color="k", linestyle=":", linewidth=0.7)
         if highest > 0:  # four decades below the highest peak: the noise floor, not 1e-10
             ax.set_ylim(highest * SPECTRUM_DECADES, highest * 2.0)
-        ax.yaxis.set_major_formatter(_power_of_ten())
+        ax.yaxis.set_major_formatter(power_of_ten())
         ax.set_ylabel(f"|FFT| {name}")
         ax.grid(True, linewidth=0.5, alpha=0.6)
         ax.legend(loc="upper right", fontsize="small")
@@ -137,7 +141,7 @@ def _frame(panels: int, panel_height: float) -> tuple[Figure, list[Any]]:
     return fig, list(fig.subplots(panels, 1, sharex=True, squeeze=False)[:, 0])
 
 
-def _power_of_ten() -> Any:
+def power_of_ten() -> Any:
     """Log-axis labels 10⁻³ in plain text (matplotlib writes them in mathtext, whose parser
     costs as much as drawing the rest of the figure); minor ticks unlabelled, as there."""
     from matplotlib.ticker import FuncFormatter

@@ -74,7 +74,8 @@ def add_commands(commands: Any) -> None:
     p.add_argument("--max-iterations", type=int, default=30, metavar="N",
                    help="iteration limit of the optimiser (default 30)")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    p.set_defaults(handler=run_optimize)
+    # paused_start_up: the collector stays paused through the imports (_start_up_imports)
+    p.set_defaults(handler=run_optimize, paused_start_up=True)
 
 
 def _check_arguments(args: argparse.Namespace) -> None:
@@ -99,6 +100,67 @@ def _limits(text: str | None, name: str) -> list[float] | None:
 
 
 def run_optimize(args: argparse.Namespace) -> int:
+    worker = _start_figures(args)
+    try:
+        _start_up_imports(args)
+        return _optimize_command(args, worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _start_figures(args: argparse.Namespace) -> Any:
+    """A forked worker that imports matplotlib while this process optimises and draws the
+    figures while it finishes its runs and writes (`experiment.figure_worker`), or None: no
+    figures, a bad call, or no fork. Forked before the heavy imports."""
+    if args.no_figures or args.paper == (args.scenario is not None):
+        return None
+    from ..experiment.figure_worker import FigureWorker
+
+    return FigureWorker.start(drawing="flexlink.shaping.figures")
+
+
+def _start_up_imports(args: argparse.Namespace) -> None:
+    """Import what the command uses within the block `cli.main` gives (``args.start_up``:
+    optional modules of numba and scipy withheld), with the start-up measures of the
+    command's own process (`flexlink._light_start`), the Lawson loop's compiled code loading
+    meanwhile; then resume the garbage collector, as `flexlink fit` does (ARCHITECTURE.md,
+    "Start-up of `flexlink run`"). Without ``start_up`` (a caller of the handler itself):
+    nothing, the command imports as it goes."""
+    if not hasattr(args, "start_up"):
+        return
+    block, imports_done = args.start_up
+    with block:
+        if getattr(args, "own_process", False):  # pool workers fork from it: theirs too
+            from .._light_start import (
+                defer_unused_submodules,
+                keep_docstrings_unparsed,
+                load_cached_kernels_only,
+            )
+
+            defer_unused_submodules()
+            load_cached_kernels_only()
+            keep_docstrings_unparsed()
+        preload = None
+        try:
+            from ..solvers.lawson import preload_compiled_loop
+
+            preload = preload_compiled_loop()
+            import scipy.linalg
+            import scipy.optimize  # noqa: F401
+
+            from ..results import writers  # noqa: F401
+            from ..scenario import toml_writer  # noqa: F401
+            from . import compare, optimize  # noqa: F401
+        except ImportError:
+            pass  # a library needs a withheld module after all: imported again on use
+        finally:
+            if preload is not None:
+                preload.join()  # compiled code must not run while it loads, nor a fork
+    imports_done()
+
+
+def _optimize_command(args: argparse.Namespace, worker: Any) -> int:
     from ..results.writers import OutputFolderError, check_output_dir
     from ..scenario import (
         ScenarioError,
@@ -137,8 +199,13 @@ def run_optimize(args: argparse.Namespace) -> int:
 
     try:
         with atomic_folder(args.output) as partial:  # nothing left behind by a failure
-            summary = write_outputs(result, resolved, partial, limits, args.shaper,
-                                    args.model or [scenario.settings.model], not args.no_figures)
+            try:
+                summary = write_outputs(result, resolved, partial, limits, args.shaper,
+                                        args.model or [scenario.settings.model],
+                                        not args.no_figures, figure_worker=worker)
+            finally:
+                if worker is not None:  # never remove the folder under a drawing child
+                    worker.close()
     except SimulationError as exc:
         print(f"flexlink optimize: a simulation failed: {exc}", file=sys.stderr)
         return 1
@@ -189,14 +256,18 @@ def optimized_scenario_dict(result: Any, resolved: dict[str, Any]) -> dict[str, 
 
 
 def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: Any,
-                  shaper: str, models: list[str], figures: bool) -> dict[str, Any]:
-    """Run the comparisons, then write DIR (module docstring); return the summary."""
+                  shaper: str, models: list[str], figures: bool,
+                  figure_worker: Any = None) -> dict[str, Any]:
+    """Run the comparisons, then write DIR (module docstring); return the summary.
+    ``figure_worker``: an `experiment.figure_worker.FigureWorker` that draws the figures
+    while the other runs and files are done (the caller closes it); drawn here if it fails."""
     import numpy as np
 
     from ..errors import SimulationError
     from ..scenario import scenario_from_dict
     from ..scenario.toml_writer import dump_toml
     from . import compare
+    from .plants import scale_frequencies
 
     data = optimized_scenario_dict(result, resolved)
     optimised = scenario_from_dict(data)  # what the file reproduces
@@ -218,33 +289,51 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
     else:
         shaped_note = ""
     versions["optimised"] = optimised
-    residual: dict[str, dict[str, float]] = {}
-    runs: dict[str, dict[str, Any]] = {}
-    for model in models:
-        runs[model] = {}
+    # every run of the report at once, on the optimiser's number of processes: per model,
+    # each version on the nominal plant (the residual; the first model's traces for the
+    # figure) and off it (the robustness: the first model's curves of every version for
+    # the figure, else the band of the cycloidal and optimised moves), 0 % being the nominal
+    pair = ("cycloidal", "optimised")
+    checks: list[compare.Check] = []
+    where: dict[tuple[str, str, float], int] = {}
+    for i, model in enumerate(models):
+        drawn = figures and i == 0
         for label, sc in versions.items():
-            try:
-                runs[model][label] = compare.run_residual(sc, result.move_end, model)
-            except SimulationError:
-                if label == "optimised":
-                    raise
-                runs[model][label] = None  # this move diverges in this model
-        residual[model] = {label: (float("nan") if run is None else run[1])
-                           for label, run in runs[model].items()}
-    # the robustness of the answer in every model compared (the first: the figure's curve)
+            where[model, label, 0.0] = len(checks)
+            checks.append((sc, model, drawn))
+        for label in (versions if drawn else pair):
+            for e in (ERRORS_PCT if drawn else BAND_PCT):
+                if e != 0.0:
+                    where[model, label, e] = len(checks)
+                    checks.append((scale_frequencies(versions[label], 1.0 + e / 100.0), model,
+                                   False))
+    done = compare.residual_runs(checks, result.move_end, result.workers)
+    for model in models:
+        failed = done[where[model, "optimised", 0.0]]
+        if failed.error is not None:
+            raise SimulationError(failed.error)
+    residual = {model: {label: done[where[model, label, 0.0]].peak for label in versions}
+                for model in models}
     band: dict[str, Any] = {}
     curves: dict[str, Any] = {}
-    pair = {"cycloidal": versions["cycloidal"], "optimised": optimised}
     for i, model in enumerate(models):
         if figures and i == 0:
-            curves = compare.residuals(versions, result.move_end,
-                                       [e / 100.0 for e in ERRORS_PCT], model)
-            picked = [ERRORS_PCT.index(e) for e in BAND_PCT]
-            values = {k: curves[k][picked] for k in pair}
-        else:
-            values = compare.residuals(pair, result.move_end, [e / 100.0 for e in BAND_PCT],
-                                       model)
-        band[model] = compare.band_summary(BAND_PCT, values["cycloidal"], values["optimised"])
+            curves = {label: np.array([done[where[model, label, e]].peak for e in ERRORS_PCT])
+                      for label in versions}
+        band[model] = compare.band_summary(
+            BAND_PCT, *(np.array([done[where[model, label, e]].peak for e in BAND_PCT])
+                        for label in pair))
+    pictures = None
+    if figures:
+        model = models[0]
+        traces = {label: (r.time, r.tip, r.peak) for label in versions
+                  if (r := done[where[model, label, 0.0]]).error is None}
+        pictures = _figures(traces, curves, start, result.move_end, model,
+                            resolved["simulation"].get("name"),
+                            optimised.settings.geometric_stiffening)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        if figure_worker is not None:
+            figure_worker.submit(pictures, out_dir)
     summary = {
         "scenario": resolved["simulation"].get("name"),
         "model": _model_label(optimised),
@@ -282,20 +371,9 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
         "machine": {"python": platform.python_version(), "processor": platform.processor()
                     or platform.machine(), "system": platform.platform()},
     }
-    pictures = {}
     if figures:
-        from . import figures as fig
-
-        model = models[0]
-        shown = {k: v for k, v in runs[model].items() if v is not None}
-        pictures["residual.png"] = fig.residual_figure(
-            shown, start, result.move_end, f"{summary['scenario']}: residual vibration "
-            f"({_model_text(model, optimised.settings.geometric_stiffening)})")
-        summary["robustness"] = {"model": model, "errors_pct": list(ERRORS_PCT),
+        summary["robustness"] = {"model": models[0], "errors_pct": list(ERRORS_PCT),
                                  **{k: v.tolist() for k, v in curves.items()}}
-        pictures["robustness.png"] = fig.robustness_figure(
-            [e / 100.0 for e in ERRORS_PCT], curves, "cycloidal",
-            title=_model_text(model, optimised.settings.geometric_stiffening))
     # everything computed: write the folder
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "optimized.toml").write_text(
@@ -303,11 +381,25 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
         + dump_toml(data), encoding="utf-8")
     np.savetxt(out_dir / "trajectory.csv", np.column_stack(list(columns.values())),
                delimiter=",", header=",".join(columns), comments="", fmt="%.10g")
-    for name, picture in pictures.items():
-        fig.save(picture, out_dir / name)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float),
                                           encoding="utf-8")
+    if pictures is not None and (figure_worker is None or not figure_worker.wait()):
+        pictures.write(out_dir)
     return summary
+
+
+def _figures(traces: dict[str, Any], curves: dict[str, Any], start: float, end: float,
+             model: str, name: str | None, stiffening: bool) -> Any:
+    """The figures' data (`figures.OptimizeFigures`) of the tip traces (`figures.Trace`) and
+    robustness curves in ``model``: the moves from ``start`` to ``end`` s."""
+    from .figures import OptimizeFigures
+
+    text = _model_text(model, stiffening)
+    return OptimizeFigures(
+        traces=traces,
+        move_start=start, move_end=end, residual_title=f"{name}: residual vibration ({text})",
+        errors=[e / 100.0 for e in ERRORS_PCT], curves=curves, reference="cycloidal",
+        robustness_title=text)
 
 
 def _model_label(scenario: Any) -> str:

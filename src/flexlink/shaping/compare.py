@@ -3,7 +3,8 @@
 `shaped_version` builds the input-shaped move of the same total duration (the base move
 shortened by the shaper's length) for the arm's modes in its final configuration;
 `residuals` runs any set of scenarios on plants with every frequency scaled by 1 + error and
-takes the residual peak of one channel after each move (`residual.residual_peak`).
+takes the residual peak of one channel after each move (`residual.residual_peak`);
+`residual_runs` makes many such runs at once on forked processes (the command's report).
 """
 
 from __future__ import annotations
@@ -11,6 +12,8 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -99,6 +102,75 @@ def residual_or_nan(scenario: Scenario, move_end: float, model: str = "first_ord
         return math.nan
 
 
+@dataclass(frozen=True)
+class Residual:
+    """One run's residual: its peak (m; NaN where the run failed: ``error`` says why) and,
+    where asked, the last link's tip deflection (m) against time (s)."""
+
+    peak: float
+    time: np.ndarray | None = None
+    tip: np.ndarray | None = None
+    error: str | None = None
+
+
+Check = tuple[Scenario, str, bool]  # (scenario, model, keep the tip trace)
+
+
+def residual_runs(checks: Sequence[Check], move_end: float, workers: int = 1,
+                  window: float = DEFAULT_WINDOW_S) -> list[Residual]:
+    """`run_residual` of every (scenario, model, keep the trace) in ``checks``, in order, on
+    ``workers`` processes forked from this one (here where it cannot fork: one worker, one
+    check, other threads running, or not Linux); a failed run (SimulationError) is a
+    `Residual` with a NaN peak and the error's message."""
+    pool = _fork_pool(workers) if len(checks) > 1 else None
+    if pool is None:
+        return [_residual(c, move_end, window) for c in checks]
+    from concurrent.futures.process import BrokenProcessPool
+
+    _CHECKS[:] = checks  # the workers fork at the first task and read them by index
+    count = len(checks)
+    try:
+        with pool:
+            return list(pool.map(_residual_of, range(count), [move_end] * count,
+                                 [window] * count))
+    except BrokenProcessPool:  # a worker died (killed, out of memory): the runs here
+        return [_residual(c, move_end, window) for c in checks]
+    finally:
+        _CHECKS.clear()
+
+
+_CHECKS: list[Check] = []  # `residual_runs`' checks while its pool runs
+
+
+def _fork_pool(workers: int) -> ProcessPoolExecutor | None:
+    """A pool of ``workers`` processes forked from this one (they inherit `_CHECKS` and the
+    loaded compiled code), or None where forking is unavailable or unsafe."""
+    import multiprocessing
+    import sys
+    import threading
+
+    if (workers < 2 or not sys.platform.startswith("linux")
+            or "fork" not in multiprocessing.get_all_start_methods()
+            or threading.active_count() > 1):
+        return None
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
+
+
+def _residual_of(index: int, move_end: float, window: float) -> Residual:
+    return _residual(_CHECKS[index], move_end, window)
+
+
+def _residual(check: Check, move_end: float, window: float) -> Residual:
+    scenario, model, keep = check
+    try:
+        results, peak = run_residual(scenario, move_end, model, window)
+    except SimulationError as exc:
+        return Residual(math.nan, error=str(exc))
+    if not keep:
+        return Residual(peak)
+    return Residual(peak, np.asarray(results.time), np.asarray(results[TIP_SENSOR]))
+
+
 def band_summary(errors_pct: Sequence[float], cycloidal: np.ndarray, optimised: np.ndarray
                  ) -> dict[str, object]:
     """The robustness of a move over a band of frequency errors: residual peaks (m) of the
@@ -115,5 +187,6 @@ def band_summary(errors_pct: Sequence[float], cycloidal: np.ndarray, optimised: 
             "worst_at_pct": None if worst is None else float(errors_pct[worst])}
 
 
-__all__ = ["TIP_SENSOR", "band_summary", "cycloidal_version", "residual_or_nan", "residuals",
-           "run_residual", "shaped_version", "with_moves", "with_tip_sensor"]
+__all__ = ["TIP_SENSOR", "Residual", "band_summary", "cycloidal_version", "residual_or_nan",
+           "residual_runs", "residuals", "run_residual", "shaped_version", "with_moves",
+           "with_tip_sensor"]

@@ -258,6 +258,12 @@ def unit_profiles(harmonics: int, tau: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return dp, ddp, D, DD
 
 
+_FAILED = (SimulationError, ArithmeticError, np.linalg.LinAlgError)  # a trial's bad point
+# one plant's run at a point: energy residual, joint torques (the nominal plant's, else
+# None), the discretisation it ran on (None for an integrator other than Lawson's)
+PlantValue = tuple[np.ndarray, "np.ndarray | None", "Discretisation | None"]
+
+
 class Problem:
     """Everything one evaluation needs (picklable: sent once to each worker process)."""
 
@@ -365,19 +371,36 @@ class Problem:
 
         ``on``: each plant's discretisation (`discretisations`) to run on without error
         control, for the finite differences around a point evaluated without it."""
-        rows, torques, settled = [], None, []
+        return self.combine(x, self.plant_values(x, range(len(self.plants)), on), on)
+
+    def plant_values(self, x: np.ndarray, plants: Sequence[int],
+                     on: Sequence[Discretisation | None] | None = None) -> list[PlantValue]:
+        """The runs of ``plants`` (indices) at x for `combine`: (energy residual, joint
+        torques (plant 0 only, else None), the run's discretisation). SimulationError when
+        a run fails."""
+        out = []
         with single_threaded():
-            for i, sc in enumerate(self.plant_scenarios):
+            for i in plants:
                 row, run, used = self.plant_run(i, x, None if on is None else on[i])
-                settled.append(used)
-                rows.append(row)
+                torques = None
                 if i == 0:
                     torques = np.stack([run.values[f"joint{k + 1}_torque"]
-                                        for k in range(len(sc.chain.joints))], axis=1)
+                                        for k in range(len(self.plant_scenarios[i].chain.joints))],
+                                       axis=1)
+                out.append((row, torques, used))
+        return out
+
+    def combine(self, x: np.ndarray, values: Sequence[PlantValue],
+                on: Sequence[Discretisation | None] | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """`evaluate`'s answer from every plant's `plant_values`, in plant order; the
+        discretisations kept for x when they were settled here (``on`` None)."""
+        torques = values[0][1]
         assert torques is not None
-        out = np.array(rows)
+        out = np.array([row for row, _, _ in values])
         if not (np.all(np.isfinite(out)) and np.all(np.isfinite(torques))):
             raise SimulationError("a trial trajectory gave a non-finite state")
+        settled = [used for _, _, used in values]
         if on is None and all(d is not None for d in settled):
             self._settled[np.asarray(x, dtype=float).tobytes()] = settled
             while len(self._settled) > _SETTLED_KEPT:
@@ -389,7 +412,7 @@ class Problem:
         """`evaluate`, or None where a run fails: a failed trial is a bad point."""
         try:
             return self.evaluate(x) if on is None else self.evaluate(x, on)
-        except (SimulationError, ArithmeticError, np.linalg.LinAlgError):
+        except _FAILED:
             return None
 
     def energies(self, x: np.ndarray) -> np.ndarray:
@@ -435,6 +458,14 @@ def _trial_in_worker(x: np.ndarray, on: Sequence[Discretisation | None] | None
     return _WORKER_PROBLEM.trial(x, on)
 
 
+def _plants_in_worker(x: np.ndarray, plants: Sequence[int]) -> list[PlantValue] | None:
+    assert _WORKER_PROBLEM is not None
+    try:
+        return _WORKER_PROBLEM.plant_values(x, plants)
+    except _FAILED:
+        return None
+
+
 class Evaluator:
     """Evaluations of a Problem at many points: in a process pool over ``workers`` cores, or
     here when workers = 1. A point whose run fails gives None."""
@@ -453,9 +484,33 @@ class Evaluator:
              ) -> list[tuple[np.ndarray, np.ndarray] | None]:
         """`Problem.trial` at every point (on the discretisations ``on`` if given)."""
         self.count += len(points)
+        if (self._pool is not None and len(points) == 1 and on is None
+                and len(self.problem.plants) > 1):
+            return [self._split(points[0])]
         if self._pool is None or len(points) == 1:
             return [self.problem.trial(x, on) for x in points]
         return list(self._pool.map(_trial_in_worker, points, [on] * len(points)))
+
+    def _split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """`Problem.trial` at one point, its plants run here and in the pool at once (every
+        second plant there: a single point would leave the other cores idle); the
+        discretisations of all of them kept here for the differences around x."""
+        assert self._pool is not None
+        plants = range(len(self.problem.plants))
+        theirs = self._pool.submit(_plants_in_worker, x, plants[1::2])
+        try:
+            mine = self.problem.plant_values(x, plants[::2])
+        except _FAILED:
+            mine = None
+        values = theirs.result()
+        if mine is None or values is None:
+            return None
+        ordered: list[PlantValue] = [*mine, *values]
+        ordered[::2], ordered[1::2] = mine, values
+        try:
+            return self.problem.combine(x, ordered)
+        except _FAILED:
+            return None
 
     def close(self) -> None:
         if self._pool is not None:
