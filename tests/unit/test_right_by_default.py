@@ -477,3 +477,14 @@ def test_a_cart_under_a_closed_loop_pushed_off_its_travel_is_named() -> None:
     with pytest.raises(SimulationError, match=r"the cart left its travel \[-0\.5, 0\.5\] m "
                        r"\(base\.cart\.travel\).*\(the last state before the run stopped\)"):
         simulate(scenario_from_dict(d))
+
+
+def test_a_loops_plant_states_the_closed_angles_not_the_guesses() -> None:
+    """`at={"joint2": -50}` on the four-bar: the coupler's angle is a guess the loop moves to
+    its closed value; the operating point said -50° where the plant was made at ~-60.7°."""
+    from flexlink import linearize
+
+    op = linearize(scenario_from_dict(_four_bar()), at={"joint2": -50.0}).operating_point
+    assert op["joint2_deg"] == pytest.approx(math.degrees(op["joint2_angle"]), abs=1e-12)
+    assert abs(op["joint2_deg"] + 50.0) > 1.0
+    assert op["joint1_deg"] == pytest.approx(90.0)

@@ -86,8 +86,11 @@ def loop_plant(scenario: Scenario, t0: float, point: float | Configuration,
     equilibrium = not moving and bool(still)
     op = _describe(scenario, point, equilibrium)
     joints = scenario.chain.joints
-    op.update({coordinate_name(joints[k], k, "angle"): float(p[0, system.joint_index(k)])
-               for k in range(len(joints))})
+    closed = {k: float(p[0, system.joint_index(k)]) for k in range(len(joints))}
+    op.update({coordinate_name(joints[k], k, "angle"): v for k, v in closed.items()})
+    if isinstance(point, Configuration):  # the loop's angles, not the guesses given in ``at``
+        op.update({f"joint{k + 1}_deg": math.degrees(v) for k, v in closed.items()
+                   if coordinate_name(joints[k], k, "angle").endswith("_angle")})
     op["dependent_joints"] = " ".join(joint_name(system.free[j] - system.n_base, "angle")
                                       .removesuffix("_angle") for j in loops.dep)
     return _plant(scenario, A, B, C, D, _elastic_names(scenario), rigid, in_names, out_names,
