@@ -82,7 +82,11 @@ def workspace(d, n_state: int) -> NonlinearLoopWork:
     return w
 
 
-@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# The kernels that allocate nothing (prescribed, positions, curvature, project) are compiled
+# without numba's runtime (``_nrt=False``, as `_forward_numba`'s): with it, every call increfs
+# and decrefs each array of the records it is passed (with the tree's NonlinearForwardData
+# and its loads' ForwardData, over a hundred), which cost as much as the closure's arithmetic.
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def prescribed(d, w, u):
     """The prescribed parts of the node angles, rates, accelerations and of the rotary
     inertias' accelerations from the forward input row u (joint k: u[k], u[N + k],
@@ -130,7 +134,7 @@ def _row_axes(kind, ground, normal, c, e, cb, sb):
             ax, ay)
 
 
-@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def positions(d, w, Y, fresh):
     """The node angles' cos, sin (w.c, w.s), Φ (w.Phi), G = ∂Φ/∂y (w.G), the joints' columns
     ∂Φ/∂β (w.GJ) and the prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the
@@ -144,9 +148,7 @@ def positions(d, w, Y, fresh):
         for j in range(nodes):
             a = w.ang[j]
             for i in range(Ay.shape[1]):
-                x = Ay[j, i]
-                if x != 0.0:
-                    a += x * Y[i]
+                a += Ay[j, i] * Y[i]
             w.c[j], w.s[j] = np.cos(a), np.sin(a)
     for i in range(f.line_node.shape[0]):  # a free travel: ρ from the state
         col = f.line_col[i]
@@ -181,12 +183,12 @@ def positions(d, w, Y, fresh):
                 phid += Dr * across * w.rate[j] + D * along * w.rhop[j]
                 dx += Dr * w.c[j]
                 dy += Dr * w.s[j]
+                # (no test for zero entries: the branch costs more than the product)
+                g = Dr * across
                 for i in range(Ay.shape[1]):
-                    if Ay[j, i] != 0.0:
-                        w.G[row + e, i] += Dr * across * Ay[j, i]
+                    w.G[row + e, i] += g * Ay[j, i]
                 for k in range(d.B_joint.shape[1]):
-                    if d.B_joint[j, k] != 0.0:
-                        w.GJ[row + e, k] += Dr * across * d.B_joint[j, k]
+                    w.GJ[row + e, k] += g * d.B_joint[j, k]
             for i in range(f.line_node.shape[0]):  # ∂Φ/∂s of each slider's travel
                 D = d.D[c, f.line_node[i]]
                 if D != 0.0:
@@ -204,7 +206,7 @@ def positions(d, w, Y, fresh):
             w.Phi[row + e], w.Phid[row + e] = phi, phid
 
 
-@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def curvature(d, w, Y):
     """The node rates (w.ad) and γ (w.gam: Φ̈ = G ÿ + γ) at Y = [y, ẏ], after `positions`
     at Y's coordinates."""
@@ -214,9 +216,7 @@ def curvature(d, w, Y):
     for j in range(nodes):
         ad = w.rate[j]
         for i in range(Ay.shape[1]):
-            x = Ay[j, i]
-            if x != 0.0:
-                ad += x * Y[ny + i]
+            ad += Ay[j, i] * Y[ny + i]
         w.ad[j] = ad
     for i in range(f.line_node.shape[0]):  # a free travel: ρ̇ from the state
         col = f.line_col[i]
@@ -304,7 +304,7 @@ def _turn(Ay, dep, step, ad, cos, sin):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def project(d, w, u, Y):
     """Overwrite the dependent joint angles of Y = [y, ẏ] (y indices ``d.dep``) and their
     rates with those that close the loops, Newton's method from Y's values; True when
