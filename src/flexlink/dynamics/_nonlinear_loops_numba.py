@@ -60,7 +60,7 @@ from ._nonlinear_numba import mass_matrix
 NonlinearLoopWork = namedtuple("NonlinearLoopWork", [
     "yp", "c", "s", "ad", "ang", "rate", "acc", "rot_acc", "Phi", "Phid", "G", "gam", "GJ",
     "Gd", "step", "X", "r0", "r1", "H", "HA", "K", "rhs", "rho", "rhod", "rhop", "rhodd",
-    "closed"])
+    "closed", "rc", "rs"])
 NonlinearLoopWork.__doc__ = (
     "Scratch arrays of the kernels (allocated once per run: see workspace); closed: 1 when "
     "the last `solve_constrained` closed the loops, else 0.")
@@ -77,11 +77,16 @@ def workspace(d, n_state: int) -> NonlinearLoopWork:
                           e(nodes), e(f.rot_J.shape[0]), e(nc), e(nc), e((nc, ny)), e(nc),
                           e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e(ny), e((nodes, nodes)),
                           e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc), e(nodes),
-                          e(nodes), e(nodes), e(nodes), np.zeros(1, dtype=np.int64))
+                          e(nodes), e(nodes), e(nodes), np.zeros(1, dtype=np.int64), e(nodes),
+                          e(nodes))
     return w
 
 
-@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# The kernels that allocate nothing (prescribed, positions, curvature, project) are compiled
+# without numba's runtime (``_nrt=False``, as `_forward_numba`'s): with it, every call increfs
+# and decrefs each array of the records it is passed (with the tree's NonlinearForwardData
+# and its loads' ForwardData, over a hundred), which cost as much as the closure's arithmetic.
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def prescribed(d, w, u):
     """The prescribed parts of the node angles, rates, accelerations and of the rotary
     inertias' accelerations from the forward input row u (joint k: u[k], u[N + k],
@@ -129,7 +134,7 @@ def _row_axes(kind, ground, normal, c, e, cb, sb):
             ax, ay)
 
 
-@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def positions(d, w, Y, fresh):
     """The node angles' cos, sin (w.c, w.s), Φ (w.Phi), G = ∂Φ/∂y (w.G), the joints' columns
     ∂Φ/∂β (w.GJ) and the prescribed joints' share of Φ̇ (w.Phid: Φ̇ = G ẏ + Phid) at the
@@ -143,9 +148,7 @@ def positions(d, w, Y, fresh):
         for j in range(nodes):
             a = w.ang[j]
             for i in range(Ay.shape[1]):
-                x = Ay[j, i]
-                if x != 0.0:
-                    a += x * Y[i]
+                a += Ay[j, i] * Y[i]
             w.c[j], w.s[j] = np.cos(a), np.sin(a)
     for i in range(f.line_node.shape[0]):  # a free travel: ρ from the state
         col = f.line_col[i]
@@ -180,12 +183,12 @@ def positions(d, w, Y, fresh):
                 phid += Dr * across * w.rate[j] + D * along * w.rhop[j]
                 dx += Dr * w.c[j]
                 dy += Dr * w.s[j]
+                # (no test for zero entries: the branch costs more than the product)
+                g = Dr * across
                 for i in range(Ay.shape[1]):
-                    if Ay[j, i] != 0.0:
-                        w.G[row + e, i] += Dr * across * Ay[j, i]
+                    w.G[row + e, i] += g * Ay[j, i]
                 for k in range(d.B_joint.shape[1]):
-                    if d.B_joint[j, k] != 0.0:
-                        w.GJ[row + e, k] += Dr * across * d.B_joint[j, k]
+                    w.GJ[row + e, k] += g * d.B_joint[j, k]
             for i in range(f.line_node.shape[0]):  # ∂Φ/∂s of each slider's travel
                 D = d.D[c, f.line_node[i]]
                 if D != 0.0:
@@ -203,7 +206,7 @@ def positions(d, w, Y, fresh):
             w.Phi[row + e], w.Phid[row + e] = phi, phid
 
 
-@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def curvature(d, w, Y):
     """The node rates (w.ad) and γ (w.gam: Φ̈ = G ÿ + γ) at Y = [y, ẏ], after `positions`
     at Y's coordinates."""
@@ -213,9 +216,7 @@ def curvature(d, w, Y):
     for j in range(nodes):
         ad = w.rate[j]
         for i in range(Ay.shape[1]):
-            x = Ay[j, i]
-            if x != 0.0:
-                ad += x * Y[ny + i]
+            ad += Ay[j, i] * Y[ny + i]
         w.ad[j] = ad
     for i in range(f.line_node.shape[0]):  # a free travel: ρ̇ from the state
         col = f.line_col[i]
@@ -303,7 +304,7 @@ def _turn(Ay, dep, step, ad, cos, sin):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def project(d, w, u, Y):
     """Overwrite the dependent joint angles of Y = [y, ẏ] (y indices ``d.dep``) and their
     rates with those that close the loops, Newton's method from Y's values; True when
@@ -347,6 +348,43 @@ def project(d, w, u, Y):
     return True
 
 
+@njit(inline="always")
+def _scaled(rho, x, out):
+    """out = ρ x elementwise (each node's cos or sin times its length)."""
+    for j in range(x.shape[0]):
+        out[j] = rho[j] * x[j]
+    return out
+
+
+@njit(inline="always")
+def _travel_columns(Ay, G, line_node, line_col, c, s, rc, rs, K):
+    """A slider's free travel s in the mass matrix K: its line node L carries the point
+    acceleration s̈ e(α_L), so with the angle columns' b_j = ρ_j e⊥(α_j) its column holds
+    Σ_j Ay_jk G_jL ρ_j e⊥_j·e_L = Σ_j Ay_jk G_jL ρ_j sin(α_L − α_j) and its entry with a
+    travel s' on node L' G_LL' cos(α_L − α_L') (the residual's change under a unit s̈;
+    rc, rs: ρ cos, ρ sin of the nodes). The angle columns themselves are `mass_matrix`'s with
+    ρ cos, ρ sin: b_j·b_l = ρ_j ρ_l cos(α_j − α_l)."""
+    nodes, m = Ay.shape[0], line_col.shape[0]
+    for a in range(m):
+        col = line_col[a]
+        if col < 0:
+            continue
+        L = line_node[a]
+        for k in range(Ay.shape[1]):
+            acc = 0.0
+            for j in range(nodes):
+                x = Ay[j, k]
+                if x != 0.0:
+                    acc += x * G[j, L] * (s[L] * rc[j] - c[L] * rs[j])
+            K[k, col] = acc
+            K[col, k] = acc
+        for b in range(m):
+            other = line_col[b]
+            if other >= 0:
+                L2 = line_node[b]
+                K[col, other] = G[L, L2] * (c[L] * c[L2] + s[L] * s[L2])
+
+
 # Inlined by numba into `rates` and `closed_states` (its records' fields are read, not copied
 # into new records): called, as a kernel of its own, it made each rate evaluation ~7% slower.
 @njit(inline="always")
@@ -371,11 +409,18 @@ def solve_constrained(d, w, u, Y):
     residual(f, y, v, X, w.ang, w.rate, w.acc, w.rot_acc, u, r0)
     # the residual is affine in ÿ: M ÿ + r0, M the inertia's (a fixed base: no translation
     # rows) and 1 on each servo integral's row (σ̈ − its rate)
-    M = mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, w.c, w.s, w.H, w.HA)
+    lines = f.line_node.shape[0]
     K, rhs = w.K, w.rhs
+    if lines == 0:
+        M = mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, w.c, w.s, w.H, w.HA)
+    else:
+        M = mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, _scaled(w.rho, w.c, w.rc),
+                        _scaled(w.rho, w.s, w.rs), w.H, w.HA)
     for i in range(ny):
         for k in range(ny):
             K[i, k] = M[i, k]
+    if lines > 0:
+        _travel_columns(f.Ay, f.G, f.line_node, f.line_col, w.c, w.s, w.rc, w.rs, K)
     # a translating base (free: x, y; a cart with a free travel: s) moves no node angle, so
     # mass_matrix leaves its columns out: they are the residual's change under a unit
     # acceleration (it is affine in ÿ), its rows their transposes (M symmetric)

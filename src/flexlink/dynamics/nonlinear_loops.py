@@ -38,7 +38,7 @@ NonlinearLoopData.__doc__ = (
     "column of a turning base's attitude θ_b in y (−1: none), which turns the ground points "
     "and slider lines (given in the base's axes); moving the columns of y whose mass-matrix "
     "columns come from the residual: those that translate the base (a free base's x, y; a "
-    "cart's free travel), every column of q and p_free when the tree has a slider.")
+    "cart's free travel).")
 
 
 
@@ -100,8 +100,6 @@ class NonlinearLoopSystem:
         base = s.base
         attitude = (s.n + s.free.index(s.n_base - 1)) if base.turns else -1
         moving = ([s.n, s.n + 1] if s.translation else [s.n] if s.cart_free else [])
-        if s.slides:  # a travel scales its line's node (mass_matrix's are of unit length):
-            moving = list(range(s.n + s.nu))  # every column from the residual
         return NonlinearLoopData(
             fwd=s.kernel_data(), At=np.ascontiguousarray(s.kernel_data().Ay.T), kind=np.asarray(kind, dtype=np.int64),
             D=D, ground=ground,
