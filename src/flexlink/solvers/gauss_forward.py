@@ -164,6 +164,7 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord."""
     from ..dynamics.forward_kernel import breakpoints
     from .gauss_steps import (
+        BATCH,
         DOUBLING_STAGES,
         FORWARD_CHECK_EVERY,
         FORWARD_SLOW_CONTRACTION,
@@ -185,10 +186,14 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
         step_control(group, rtol, atol, RATE_FLOOR * system.max_frequency),
         FORWARD_CHECK_EVERY)
 
+    # the rows of a whole batch, whose parts that do not depend on time each batch reuses
+    longest = stage_rows(*system.stage_inputs(np.zeros(BATCH * DOUBLING_STAGES.size)))
+
     def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,
                 X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
         inp = system.stage_inputs(
-            (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel())
+            (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel(),
+            reuse=longest)
         return doubling.batch(stage_rows(*inp), y0, v0, X, h_prev, H, count, new_step)
 
     y0, v0 = system.initial_state()
