@@ -170,7 +170,6 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
     (gauss_steps.step_doubling on the compiled loop): a gauss_steps.StepRecord."""
     from ..dynamics.forward_kernel import breakpoints
     from .gauss_steps import (
-        BATCH,
         DOUBLING_STAGES,
         FORWARD_CHECK_EVERY,
         FORWARD_SLOW_CONTRACTION,
@@ -192,15 +191,16 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
         step_control(group, rtol, atol, RATE_FLOOR * system.max_frequency),
         FORWARD_CHECK_EVERY)
 
-    # the rows of a whole batch, whose parts that do not depend on time each batch reuses
-    longest = stage_rows(*system.stage_inputs(np.zeros(BATCH * DOUBLING_STAGES.size)))
+    longest: list[StageInputs] = []  # the longest batch's rows so far: shorter ones reuse them
 
     def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,
                 X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
-        inp = system.stage_inputs(
+        inp = stage_rows(*system.stage_inputs(
             (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel(),
-            reuse=longest)
-        return doubling.batch(stage_rows(*inp), y0, v0, X, h_prev, H, count, new_step)
+            reuse=longest[0] if longest else None))
+        if not longest or inp.u.shape[0] > longest[0].u.shape[0]:
+            longest[:] = [inp]
+        return doubling.batch(inp, y0, v0, X, h_prev, H, count, new_step)
 
     y0, v0 = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y0[None], v0[None]), 2, axis=0)
