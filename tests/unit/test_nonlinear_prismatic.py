@@ -42,6 +42,22 @@ def test_compiled_residual_matches_the_numpy_equations(drive: str, gravity) -> N
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
 
 
+@pytest.mark.parametrize("cart", [False, True], ids=["fixed", "cart"])
+@pytest.mark.parametrize("drive", ["force", "prescribed", "servo"])
+def test_compiled_joint_torques_match_the_numpy_equations(drive: str, cart: bool) -> None:
+    """Random states, gravity on: the compiled joint torques (a slider's column the force
+    along its line) equal the numpy ones to round-off, the travel free or an input, on a
+    fixed base and on a cart."""
+    from flexlink.model import Cart
+
+    base = Base("cart", mass=1.0, cart=Cart()) if cart else Base()
+    system = NonlinearForwardSystem(telescope(drive), base, gravity=(0.0, -9.81))
+    t, y, v, a = _random_states(system)
+    got = system.joint_torques(t, y, v, a, compiled=True)
+    expected = system.joint_torques(t, y, v, a, compiled=False)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+
+
 def test_equations_are_the_lagrangian_of_the_point_masses() -> None:
     """The residual's inertia part on every free coordinate equals d/dt ∂T/∂ẏ − ∂T/∂y of
     the kinetic energy from the exact positions (`point_motion`), by central differences,

@@ -137,13 +137,15 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
 
 
 @njit(cache=True)
-def joint_torques(d, A_joint, rot_joint, Y, V, X, ang, rate, acc, rot_acc, u, out):
+def joint_torques(d, A_joint, rot_joint, line_rows, Y, V, X, ang, rate, acc, rot_acc, u, out):
     """Each joint's generalized inertia force (b, N) of b states y, ẏ, ÿ into ``out`` —
-    `NonlinearForwardSystem.joint_torques` (a tree without sliders), N·m. The model's inertia
+    `NonlinearForwardSystem.joint_torques`, N·m (a slider's: N). The model's inertia
     (`inertia_elastic`) with the joints' columns appended to the unknowns' (A_joint = [Ay's
     first n + nu columns | B's joint columns], rot_joint likewise from rot_y and rot_B) at
     zero values, rates and accelerations of those columns: the node angles are unchanged and
-    row n + nu + k is Σ_j B_jk ρ_j u_j + Σ_r rot_B_rk J_r α̈_r, joint k's torque."""
+    row n + nu + k is Σ_j B_jk ρ_j u_j + Σ_r rot_B_rk J_r α̈_r, joint k's torque; each
+    slider's line force goes to row ``line_rows`` (n_lines,) of its joint instead of its
+    travel's (whose B and rot_joint columns are zero: a travel turns nothing)."""
     b = Y.shape[0]
     m = d.n + d.nu
     N = out.shape[1]
@@ -151,16 +153,23 @@ def joint_torques(d, A_joint, rot_joint, Y, V, X, ang, rate, acc, rot_acc, u, ou
     Vj = np.zeros(m + N)
     Xj = np.zeros(m + N)
     r = np.empty(m + N)
-    no_lines = np.zeros(0, dtype=np.int64)
-    line_s = np.zeros((0, 3))
+    lines = d.line_node.shape[0]
+    line_s = np.empty((lines, 3))
     for t in range(b):
         for i in range(m):
             Yj[i], Vj[i], Xj[i] = Y[t, i], V[t, i], X[t, i]
         # a cart's s̈ along its rail: y's, or the prescribed travel's input column
         rail_acc = X[t, d.n] if d.cart == 1 else (u[t, u.shape[1] - 2] if d.cart == 2
                                                    else 0.0)
+        for i in range(lines):  # each slider's travel: y's, or its prescribed input columns
+            col = d.line_col[i]
+            if col >= 0:
+                line_s[i, 0], line_s[i, 1], line_s[i, 2] = Y[t, col], V[t, col], X[t, col]
+            else:
+                for k in range(3):
+                    line_s[i, k] = u[t, d.line_u[i, k]]
         inertia_elastic(A_joint, d.G, d.s, d.m_tot, d.translation, rot_joint, d.rot_J, d.Dq,
-                        d.Kq, d.n, d.nu + N, d.gravity, d.cart, d.rail, rail_acc, no_lines,
-                        no_lines, line_s, Yj, Vj, Xj, ang[t], rate[t], acc[t], rot_acc[t], r)
+                        d.Kq, d.n, d.nu + N, d.gravity, d.cart, d.rail, rail_acc, d.line_node,
+                        line_rows, line_s, Yj, Vj, Xj, ang[t], rate[t], acc[t], rot_acc[t], r)
         for k in range(N):
             out[t, k] = r[m + k]

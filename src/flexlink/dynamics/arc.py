@@ -19,6 +19,14 @@ POINTS_PER_PANEL = 12
 # every clamped frequency to < 1e-6 and the low ones to ~1e-11 (docs/nonlinear.md §1); the node
 # count sets the cost of every step (products with G grow as its square).
 LAMBDA_PER_PANEL = 12.0
+# Above λ = 12 and up to ONE_PANEL_LAMBDA a link without breaks takes one panel of ⌈λ⌉ +
+# ONE_PANEL_EXTRA points instead of two of 12: fewer nodes, and each clamped frequency of the
+# linearised model as close to its value with 8 panels as with two (measured on a beam with
+# tip masses 0, 0.2 and 2 kg: 5 modes 3e-11 against 1e-11, 6 modes 3e-12 against 9e-10,
+# 7 modes 2e-13 against 1e-8; a panel's Gauss rule converges faster in its point count than
+# the composite rule in its panels).
+ONE_PANEL_LAMBDA = 22.0
+ONE_PANEL_EXTRA = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,10 +96,19 @@ class ArcQuadrature:
 
 @functools.lru_cache(maxsize=128)
 def arc_quadrature(length: float, beta_l_max: float, panels: int | None = None,
-                   points_per_panel: int = POINTS_PER_PANEL,
+                   points_per_panel: int | None = None,
                    breaks: tuple[float, ...] = ()) -> ArcQuadrature:
     """The default rule for a link whose highest mode has βL = ``beta_l_max``; ``breaks``:
-    its shapes' sections of jumping derivatives (`ArcQuadrature`)."""
+    its shapes' sections of jumping derivatives (`ArcQuadrature`). Neither ``panels`` nor
+    ``points_per_panel`` given: one panel of 12 points up to λ = 12, one of ⌈λ⌉ + 2 points
+    up to λ = 22 (without breaks inside the link), else panels of 12 points, one per λ ≤ 12;
+    one of them given: the other as by that last rule (12 points a panel)."""
+    inside = any(0.0 < b < length for b in breaks)
+    if (panels is None and points_per_panel is None and not inside
+            and LAMBDA_PER_PANEL < beta_l_max <= ONE_PANEL_LAMBDA):
+        panels, points_per_panel = 1, int(np.ceil(beta_l_max)) + ONE_PANEL_EXTRA
     if panels is None:
         panels = max(1, int(np.ceil(beta_l_max / LAMBDA_PER_PANEL)))
+    if points_per_panel is None:
+        points_per_panel = POINTS_PER_PANEL
     return ArcQuadrature(length, panels, points_per_panel, tuple(breaks))

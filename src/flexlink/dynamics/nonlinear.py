@@ -31,7 +31,7 @@ from ..model import Chain, PiezoActuator
 from ..model.settings import InitialName
 from ..modes import highest_frequency
 from .actuators import actuator_matrix, open_loop_voltages
-from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
+from .arc import ArcQuadrature, arc_quadrature
 from .first_order import chain_modal_data
 from .kinematics import JointHistory, joint_history
 from .nonlinear_bodies import body_nodes, body_rows
@@ -76,7 +76,7 @@ class NonlinearSystem:
     """The assembled nonlinear model: constant matrices, evaluated on batches of states."""
 
     def __init__(self, chain: Chain, panels: int | None = None,
-                 points_per_panel: int = POINTS_PER_PANEL,
+                 points_per_panel: int | None = None,
                  actuators: Sequence[PiezoActuator] = (),
                  gravity: Sequence[float] = (0.0, 0.0), initial: InitialName = "rest") -> None:
         """``gravity``: uniform field [gx, gy] (m/s², global axes), the hub's acceleration

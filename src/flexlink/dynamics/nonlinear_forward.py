@@ -38,7 +38,7 @@ import numpy as np
 
 from ..model import Base, Chain, PiezoActuator, is_driven
 from ..model.settings import InitialName
-from .arc import POINTS_PER_PANEL, ArcQuadrature, arc_quadrature
+from .arc import ArcQuadrature, arc_quadrature
 from .elastic_joints import spring_energy, spring_frequency
 from .forward import ForwardSystem
 from .nonlinear_bodies import body_nodes, body_rows
@@ -100,8 +100,8 @@ class NonlinearForwardSystem:
             # A rigid link's nodes share one angle: its positions are x e(α) and its mass
             # moments up to ∫x² dm, which two Gauss points integrate exactly.
             quad = arc_quadrature(d.length, float(d.shapes.beta_l.max(initial=0.0)),
-                                  points_per_panel=RIGID_POINTS if d.n == 0 else
-                                  POINTS_PER_PANEL, breaks=getattr(d.shapes, "breaks", ()))
+                                  points_per_panel=RIGID_POINTS if d.n == 0 else None,
+                                  breaks=getattr(d.shapes, "breaks", ()))
             self.arcs.append(ForwardArc(quad, slice(start, start + quad.size),
                                         slice(int(offsets[k]), int(offsets[k + 1])),
                                         d.shapes.evaluate(quad.x, 1)))
@@ -316,11 +316,23 @@ class NonlinearForwardSystem:
             out.append(y)
         return out[0], out[1], out[2]
 
-    def stage_inputs(self, t: np.ndarray) -> StageInputs:
-        """The prescribed parts of the motion and the load inputs at times t (b,), s."""
+    def stage_inputs(self, t: np.ndarray, reuse: StageInputs | None = None) -> StageInputs:
+        """The prescribed parts of the motion and the load inputs at times t (b,), s.
+        ``reuse``: rows of an earlier call for at least b times, whose parts that do not
+        depend on time (every joint free: the nodes' constant angles, zero rates and
+        accelerations) are returned as views of its first b rows instead of made again (a
+        caller that only reads them, as the step loops: writing the nodes' rows of one
+        batch of steps costs more than its inputs)."""
         from .forward_kernel import inputs
 
         t = np.asarray(t, dtype=float)
+        if not self.prescribed:  # every joint free: the nodes' constant angles alone
+            u = inputs(self.loads, t)
+            if reuse is not None and reuse.u.shape[0] >= t.size:
+                return StageInputs(*(x[:t.size] for x in reuse[:4]), u)
+            shape = (t.size, self.nodes)
+            return StageInputs(np.broadcast_to(self.offset, shape).copy(), np.zeros(shape),
+                               np.zeros(shape), np.zeros((t.size, self.rot_J.size)), u)
         zero = np.zeros((t.size, self.nu))
         p, pd, pdd = self.loads.rigid_state(t, zero, zero, zero)
         Bp = self.B[:, self.prescribed]
@@ -459,18 +471,20 @@ class NonlinearForwardSystem:
         """Torque each joint's motor applies (b, N), N·m: the generalized inertia force of β_k
         (with the motor inertia; for a driven joint equal to its drive torque); a slider's
         column: the force along its line, N (the drive's, or what a prescribed travel takes).
-        ``compiled``: the numba kernel (a tree without sliders), else numpy."""
+        ``compiled``: the numba kernel, else numpy."""
         joints = slice(self.n_base, self.n_base + len(self.chain.links))
         inp = self.stage_inputs(t)
-        if compiled and not self.slides:
+        if compiled:
             from ._nonlinear_forward_numba import joint_torques
 
             m, c = self.n + self.nu, np.ascontiguousarray
+            rows = m + np.asarray(self.slides, dtype=np.int64)  # each line's force: its joint
+            rot_joint = np.hstack([self.rot_y[:, :m], self.rot_B[:, joints]])
+            rot_joint[:, rows] = 0.0  # a slider's column is its line's force alone
             out = np.empty((y.shape[0], len(self.chain.links)))
             joint_torques(self.kernel_data(), c(np.hstack([self.Ay[:, :m], self.B[:, joints]])),
-                          c(np.hstack([self.rot_y[:, :m], self.rot_B[:, joints]])),
-                          c(y, dtype=float), c(v, dtype=float), c(a, dtype=float),
-                          *stage_rows(*inp), out)
+                          c(rot_joint), rows, c(y, dtype=float), c(v, dtype=float),
+                          c(a, dtype=float), *stage_rows(*inp), out)
             return out
         u, _, rot, _, line = self._inertia(y, v, a, inp)
         out = u @ self.B[:, joints] + rot @ self.rot_B[:, joints]

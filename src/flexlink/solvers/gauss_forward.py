@@ -44,13 +44,20 @@ NEWTON_TOL_FORWARD = 1e-10
 # Without base coordinates (a fixed hub: driven joints, sliders) no momentum is conserved
 # whose drift would add up, and Newton stops as gauss.py's at a thousandth of the step's
 # tolerance: on the slider cases of benchmarks/slider_vs_fe.py a fifth to a quarter fewer
-# CPU seconds, every channel's error unchanged to its second digit.
+# CPU seconds, every channel's error unchanged to its second digit. So does a cart, whose one
+# base coordinate is its travel: its momentum along the rail drifts by 1e-9–2e-9 N·s over
+# the 2 s of Case 23's slider on a free 1 kg cart (2e-10 at 1e-10), each channel's error
+# against the converged run unchanged to its second digit (hub rate 3.0e-4, tip 4.3e-6 of
+# their peaks with 4 modes) but the cart's travel, 9e-9 → 1e-8 with 4 modes and 3e-9 →
+# 1.2e-8 with 6 (its model error 1.5e-4), for a quarter fewer Newton iterations.
 NEWTON_SHARE_OF_RTOL = 1e-3
 
 
 def forward_newton_tol(system: NonlinearForwardSystem, rtol: float) -> float:
-    """Newton's stopping tolerance of an error-controlled forward run at ``rtol``."""
-    if system.n_base:
+    """Newton's stopping tolerance of an error-controlled forward run at ``rtol``: a
+    share of it without base coordinates other than a cart's travel, else
+    NEWTON_TOL_FORWARD."""
+    if system.n_base and system.rail is None:
         return NEWTON_TOL_FORWARD
     return max(NEWTON_TOL_FORWARD, NEWTON_SHARE_OF_RTOL * rtol)
 
@@ -185,11 +192,16 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
         step_control(group, rtol, atol, RATE_FLOOR * system.max_frequency),
         FORWARD_CHECK_EVERY)
 
+    longest: list[StageInputs] = []  # the longest batch's rows so far: shorter ones reuse them
+
     def advance(t0: float, H: float, count: int, y0: np.ndarray, v0: np.ndarray,
                 X: np.ndarray, h_prev: float, new_step: bool) -> Batch:
-        inp = system.stage_inputs(
-            (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel())
-        return doubling.batch(stage_rows(*inp), y0, v0, X, h_prev, H, count, new_step)
+        inp = stage_rows(*system.stage_inputs(
+            (t0 + H * (np.arange(count)[:, None] + DOUBLING_STAGES[None, :])).ravel(),
+            reuse=longest[0] if longest else None))
+        if not longest or inp.u.shape[0] > longest[0].u.shape[0]:
+            longest[:] = [inp]
+        return doubling.batch(inp, y0, v0, X, h_prev, H, count, new_step)
 
     y0, v0 = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y0[None], v0[None]), 2, axis=0)
