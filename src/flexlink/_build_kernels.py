@@ -254,7 +254,6 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
     family = {name: _SHARES.get(path, path) for name, path in paths.items()}
     names = with_build_only(names, family)
     queue = queue_order(names, family)
-    start = time.perf_counter()
     lock = threading.Condition()
     working: dict[int, str] = {}  # worker → the family (model path) of its current run
     running: set[str] = set()
@@ -268,6 +267,7 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
         copies = [Path(tmp) / str(k) / PACKAGE_DIR.name for k in range(count)]
         for copy in copies:
             _copy_package(PACKAGE_DIR, copy)
+        start = time.perf_counter()
 
         def serve(worker: int, copy: Path) -> None:
             worker_env = dict(env, PYTHONPATH=os.pathsep.join(
