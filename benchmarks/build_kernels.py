@@ -8,10 +8,11 @@ Prints the wall time of the build, the CPU seconds of each worker (the sum of it
 runs, each with the run's CPU seconds, from the build's record ``_compiled/build.json``) and
 of the last pass; on a loaded machine the CPU seconds are the figures to compare, the
 longest worker plus the last pass is the wall time on an idle machine with one core per
-worker. ``--profile prescribed,forward,...`` instead runs those warm-up runs in this order
-in one process on an empty cache and lists the functions numba compiled by their CPU
-seconds, exclusive of the functions compiled inside them (numba's "numba:compile" events).
-``--opt N`` sets numba's LLVM optimisation level (NUMBA_OPT) for the whole build (default:
+worker. Each worker's runs are listed in the order it ran them, with the wall time at which
+each started (s after the workers started). ``--profile prescribed,forward,...`` instead
+runs those warm-up runs in this order in one process on an empty cache and lists the
+functions numba compiled by their CPU seconds, exclusive of the functions compiled inside
+them (numba's "numba:compile" events). ``--opt N`` sets numba's LLVM optimisation level (NUMBA_OPT) for the whole build (default:
 numba's own, 3); ``--keep DIR`` keeps the built package as ``DIR/flexlink`` (its kernels in
 ``DIR/flexlink/_compiled``), to time the runs of kernels built that way with
 ``PYTHONPATH=DIR``.
@@ -104,20 +105,22 @@ def build(source: Path, workers: int, opt: int | None = None, keep: Path | None 
             shutil.rmtree(keep / package.name, ignore_errors=True)
             shutil.copytree(package, keep / package.name,
                             ignore=shutil.ignore_patterns("__pycache__"))
-    per_worker: dict[int, list[tuple[str, float]]] = {}
+    per_worker: dict[int, list[tuple[float, str, float]]] = {}
     last_pass = 0.0
-    for name, run in record["runs"].items():
-        compiled = run.get("compile") or {}
+    compiles = [(name, run.get("compile") or {}) for name, run in record["runs"].items()]
+    compiles += list(record.get("build_only", {}).items())
+    for name, compiled in compiles:
         per_worker.setdefault(compiled.get("worker", -1), []).append(
-            (name, compiled.get("cpu", 0.0)))
+            (compiled.get("start", 0.0), name, compiled.get("cpu", 0.0)))
+    for run in record["runs"].values():
         last_pass += run["last_pass"]["cpu"]
     level = "numba's default" if opt is None else opt
     print(f"build: {wall:.1f} s wall, {record['workers']} workers, NUMBA_OPT {level}")
     total = last_pass
     for worker, runs in sorted(per_worker.items()):
-        cpu = sum(c for _, c in runs)
+        cpu = sum(c for _, _, c in runs)
         total += cpu
-        listed = ", ".join(f"{n} {c:.1f}" for n, c in runs)
+        listed = ", ".join(f"{n} {c:.1f} (at {s:.0f} s)" for s, n, c in sorted(runs))
         print(f"worker {worker}: {cpu:.1f} s of CPU ({listed})")
     print(f"last pass: {last_pass:.1f} s of CPU; all runs {total:.1f} s of CPU")
     print(f"failed: {record['failed']}, uncompiled: {record['uncompiled']}")

@@ -14,7 +14,8 @@ warm-up run in `cli.warmup_scenarios`.
 The runs are shared among worker processes (one per core), each on its own copy of the
 package so that no two processes write one cache file (before each run a worker's copy takes
 the kernels the others have compiled so far, which it then loads instead of compiling them
-again: `_share`, `_AFTER`); their cache files are then moved into
+again: `_share`, `_AFTER`; a loop that several families use and whose types are every model's
+is compiled first, on its own: `_BUILD_ONLY`); their cache files are then moved into
 the package's folder (a kernel that two workers compiled for different types keeps every
 version; one they both compiled keeps the first copy), and a last pass in one process runs
 every warm-up again: it loads every kernel, compiles whatever the merge left out and checks
@@ -50,10 +51,10 @@ _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
 # CPU seconds each warm-up run compiled for in a two-worker build (``_compiled/build.json``,
 # "compile"), after the runs of its family before it: the build hands the families out
 # longest first. A run missing here counts as the mean of those listed.
-COMPILE_CPU = {"prescribed": 20, "nonlinear": 19, "nonlinear_step": 1, "forward": 42,
-               "free_base": 12, "nonlinear_forward": 10, "nonlinear_forward_step": 0,
-               "closed_loop": 5, "four_bar": 27, "nonlinear_four_bar": 40, "sensitivities": 10,
-               "batched": 9}
+COMPILE_CPU = {"radau_loop": 8, "prescribed": 20, "nonlinear": 19, "nonlinear_step": 1,
+               "forward": 34, "free_base": 12, "nonlinear_forward": 10,
+               "nonlinear_forward_step": 0, "closed_loop": 5, "four_bar": 27,
+               "nonlinear_four_bar": 32, "sensitivities": 10, "batched": 9}
 # Model paths whose runs integrate with another path's compiled loop (the closed loop's
 # Lawson loop is the prescribed path's; the nonlinear path's Gauss loops, compiled once for
 # both nonlinear models, are the nonlinear forward path's): one family, one worker.
@@ -62,7 +63,13 @@ _SHARES = {"closed_loop": "prescribed", "nonlinear": "nonlinear_forward"}
 # it is done: a worker starts each run with every kernel the other workers have compiled
 # (`_share`), so these compile once. The first-order loops' closed start (`loops.LoopSystem`:
 # `_loops_numba.close` and the kinematics under it) is also the nonlinear four-bar's.
-_AFTER = {"four_bar": "nonlinear_four_bar"}
+_AFTER = {"four_bar": "nonlinear_four_bar", "nonlinear_four_bar": "radau_loop"}
+# Build-only runs (name → its family): a compiled loop whose types do not depend on the model,
+# compiled on its own at the start of a family that needs it, so that a run of another family
+# that needs it too loads it (`_AFTER`) instead of compiling it again. Radau IIA's loop
+# (`_radau_numba.radau_advance`: the model reached through the addresses of its compiled
+# code, `_radau_model`) is the forward family's and the nonlinear four-bar's.
+_BUILD_ONLY = {"radau_loop": "forward"}
 _CACHED_KERNEL = re.compile(r"jit\([^)]*\bcache\s*=\s*True")
 _INDEX_DATA = r"\.\d+\.nbc"  # numba's data files beside an index <stem>.nbi: <stem>.<n>.nbc
 
@@ -114,6 +121,33 @@ def run_warmup(name: str, scenario: Any) -> dict[str, Any]:
             "cpu": round(time.process_time() - cpu, 1)}
 
 
+def compile_radau_loop() -> None:
+    """Compile Radau IIA's loop (`_radau_numba.radau_advance`) on the integrator's own linear
+    test model (a damped oscillator, 1 ms): the loop's argument types are every model's
+    (`_radau_model.model_functions`, `radau.integrate_radau`), so this compiles the version
+    every forward and closed-loop run loads."""
+    import numpy as np
+
+    from .solvers._radau_model import LinearData
+    from .solvers.radau import integrate_radau
+
+    rates = np.array([[0.0, 1.0], [-1.0, -0.1]])
+    integrate_radau(LinearData(rates, np.zeros((2, 1))), (), np.array([1.0, 0.0]),
+                    np.array([0.0, 1e-3]), lambda t: np.zeros((t.size, 1)), np.zeros(0),
+                    1e-6, 1e-12, np.array([0, 1]))
+
+
+def run_build_only(name: str) -> dict[str, Any]:
+    """Run one build-only run (`_BUILD_ONLY`): its wall and CPU seconds, or the error."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    try:
+        {"radau_loop": compile_radau_loop}[name]()
+    except Exception as exc:  # noqa: BLE001 — what it compiles compiles at first use
+        return {"error": f"{type(exc).__name__}: {exc}"}
+    return {"seconds": round(time.perf_counter() - wall, 1),
+            "cpu": round(time.process_time() - cpu, 1)}
+
+
 def run_warmups(names: list[str] | None = None) -> dict[str, dict[str, Any]]:
     """`run_warmup` of each warm-up run named (all by default), in this process."""
     from .cli import WARMUP_RUNS, warmup_scenarios
@@ -153,7 +187,8 @@ def worker() -> None:
     scenarios = warmup_scenarios()
     for line in sys.stdin:
         name = line.strip()
-        result = run_warmup(name, scenarios[name])
+        result = (run_build_only(name) if name in _BUILD_ONLY
+                  else run_warmup(name, scenarios[name]))
         print(_RESULT + json.dumps({name: result}), flush=True)
 
 
@@ -179,6 +214,14 @@ def next_run(queue: list[str], family: dict[str, str], working: dict[int, str],
     return None
 
 
+def with_build_only(names: list[str], family: dict[str, str]) -> list[str]:
+    """`names` after the build-only runs (`_BUILD_ONLY`) of their families, which go first
+    in their family; `family` (run → family) gains theirs."""
+    added = [n for n, f in _BUILD_ONLY.items() if f in family.values() and n not in names]
+    family.update({n: _BUILD_ONLY[n] for n in added})
+    return added + names
+
+
 def queue_order(names: list[str], family: dict[str, str],
                 cost: dict[str, float] = COMPILE_CPU) -> list[str]:
     """`names` in the order the workers take them: families (runs that share kernels) by
@@ -199,8 +242,9 @@ def _copy_package(source: Path, target: Path) -> None:
 def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str, Any]:
     """Share the warm-up runs `names` among `count` worker processes, each on its own copy of
     this package, the next run going to the first worker free (`next_run`); then move the
-    cache files they made into this package's folder. The result of each run, with the
-    worker that ran it."""
+    cache files they made into this package's folder. The result of each run (and of the
+    build-only runs of their families, `with_build_only`), with the worker that ran it and
+    when it started (s after the workers started)."""
     results: dict[str, Any] = {}
     from .cli import warmup_scenarios
     from .simulation import model_path
@@ -208,6 +252,7 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
     scenarios = warmup_scenarios()
     paths = {name: model_path(scenarios[name]) for name in names}
     family = {name: _SHARES.get(path, path) for name, path in paths.items()}
+    names = with_build_only(names, family)
     queue = queue_order(names, family)
     lock = threading.Condition()
     working: dict[int, str] = {}  # worker → the family (model path) of its current run
@@ -222,6 +267,7 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
         copies = [Path(tmp) / str(k) / PACKAGE_DIR.name for k in range(count)]
         for copy in copies:
             _copy_package(PACKAGE_DIR, copy)
+        start = time.perf_counter()
 
         def serve(worker: int, copy: Path) -> None:
             worker_env = dict(env, PYTHONPATH=os.pathsep.join(
@@ -246,12 +292,13 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
                     for k, other in enumerate(copies):  # the idle worker's copy only
                         if k != worker:
                             _share(other / CACHE_FOLDER, copy / CACHE_FOLDER)
+                    began = round(time.perf_counter() - start, 1)
                     process.stdin.write(name + "\n")
                     process.stdin.flush()
                     for line in process.stdout:
                         if line.startswith(_RESULT):
                             result = json.loads(line[len(_RESULT):])
-                            results[name] = dict(result[name], worker=worker)
+                            results[name] = dict(result[name], worker=worker, start=began)
                             break
                     else:  # the worker died: its run (and the rest) go to the last pass
                         results[name] = {"error": f"worker ended ({process.wait()})"}
@@ -407,6 +454,8 @@ def build(runs: list[str] | None = None, workers: int | None = None,
             info["failed"][name] = result["error"]
         else:
             info["runs"][name] = {"compile": compiled.get(name), "last_pass": result}
+    info["build_only"] = {name: result for name, result in compiled.items()
+                          if name in _BUILD_ONLY}
     found = kernels()
     info["uncompiled"] = uncached(found)
     info["outside"] = sorted(  # cached elsewhere: a kernel module that does not import

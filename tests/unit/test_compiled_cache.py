@@ -312,8 +312,14 @@ for path, fields, channel in json.loads(sys.argv[1]):
     if channel:
         objective = Objective(scenario, fields, MeanSquare(channel))
         objective(objective.x0)
-print(json.dumps([unreached, sorted(name for name, k in found.items()
-                                    if sum(k.stats.cache_misses.values()) > misses[name])]))
+compiled = sorted(name for name, k in found.items()
+                  if sum(k.stats.cache_misses.values()) > misses[name])
+from flexlink._build_kernels import compile_radau_loop
+from flexlink.solvers._radau_numba import radau_advance
+before = sum(radau_advance.stats.cache_misses.values())
+compile_radau_loop()
+print(json.dumps([unreached, compiled,
+                  sum(radau_advance.stats.cache_misses.values()) - before]))
 """
 
 
@@ -346,15 +352,18 @@ def test_the_warmup_runs_reach_every_kernel(tmp_path: Path) -> None:
     (cli.warmup_scenarios) calls would compile at its first use. Every warm-up run in a new
     process whose numba cache is empty (a new NUMBA_CACHE_DIR, the package's folder off);
     then the sensitivities and objectives of closed loops and held inputs, which no warm-up
-    run takes as they are, compile no version of any kernel."""
+    run takes as they are, compile no version of any kernel; nor does Radau IIA's loop
+    compiled on its own as the build does (`_build_kernels.compile_radau_loop`): the runs
+    load that version."""
     cache = tmp_path / "cache"
     done = subprocess.run([sys.executable, "-c", _FIRST_USES,
                            json.dumps(_first_uses(tmp_path))], capture_output=True, text=True,
                           check=True, timeout=3600,
                           env=dict(os.environ, NUMBA_CACHE_DIR=str(cache)))
-    unreached, compiled = json.loads(done.stdout.strip().splitlines()[-1])
+    unreached, compiled, radau_versions = json.loads(done.stdout.strip().splitlines()[-1])
     assert unreached == []
     assert compiled == []
+    assert radau_versions == 0  # the build's Radau IIA loop alone is the runs' version
     assert any(cache.rglob("*.nbi"))
 
 
@@ -398,4 +407,20 @@ def test_the_families_longest_to_compile_go_first() -> None:
     cost = {"p": 20.0, "c": 5.0, "f": 60.0, "fb": 2.0, "n": 10.0}
     order = _build_kernels.queue_order(["p", "n", "new", "f", "c", "fb"], family, cost)
     assert order == ["f", "fb", "p", "c", "new", "n"]
-    assert set(_build_kernels.COMPILE_CPU) == set(WARMUP_RUNS)
+    assert set(_build_kernels.COMPILE_CPU) == set(WARMUP_RUNS) | set(_build_kernels._BUILD_ONLY)
+
+
+def test_a_build_only_run_goes_first_in_its_family() -> None:
+    """Radau IIA's loop is compiled on its own first in the forward family, when that family
+    is built, and the nonlinear four-bar (another family whose run integrates with it) waits
+    for it, so that it loads the loop instead of compiling it again."""
+    family = {"p": "prescribed", "f": "forward", "fb": "forward", "nfb": "nonlinear_four_bar"}
+    names = _build_kernels.with_build_only(["p", "nfb", "f", "fb"], family)
+    assert names == ["radau_loop", "p", "nfb", "f", "fb"] and family["radau_loop"] == "forward"
+    cost = {"p": 20.0, "f": 30.0, "fb": 10.0, "nfb": 45.0, "radau_loop": 9.0}
+    order = _build_kernels.queue_order(names, family, cost)
+    assert order == ["radau_loop", "f", "fb", "nfb", "p"]
+    assert _build_kernels._AFTER["nonlinear_four_bar"] == "radau_loop"
+    family = {"p": "prescribed", "nfb": "nonlinear_four_bar"}
+    assert _build_kernels.with_build_only(["p", "nfb"], family) == ["p", "nfb"]
+    assert "radau_loop" not in family
