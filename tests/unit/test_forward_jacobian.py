@@ -55,6 +55,19 @@ def test_linearization_matches_central_differences(example: str, t_end: float,
     # a column the rates do not depend on (a free base's position): round-off of the rest
     floor = 1e-6 * np.abs(central).max(axis=(1, 2), keepdims=True)
     assert np.all(np.abs(J - central) <= 1e-6 * np.maximum(scale, floor))
+    # the rates are affine in the elastic rates ż (the equations' matrix reads the
+    # configuration alone): a unit step of the compiled rates is their column to round-off
+    # (1e-14 of the column: a kernel that put its unit steps back by subtraction, z + 1 − 1,
+    # left the stiffness times that round-off in the later columns, up to 1e-10 of them)
+    nu, n = len(model.system.free), model.system.n
+    rates = _rates(model)
+    f0 = rates(u, Y)
+    for c in range(2 * nu + n, 2 * nu + 2 * n):
+        step = Y.copy()
+        step[:, c] += 1.0
+        unit = rates(u, step) - f0
+        bound = 1e-12 * np.maximum(scale[:, :, c], floor[:, :, 0])
+        assert np.all(np.abs(J[:, :, c] - unit) <= bound)
     Fp = forcing(times, segment, Y)
     for k, f in enumerate(prepared):
         rates = [_rates(md) for md in moved[k]]

@@ -178,10 +178,11 @@ def forward_jacobians(d, w_, u, states, step, J, A, acc, scratch):
         for j in range(n):
             for s in range(2):
                 v = w_.x if s == 0 else w_.xd
-                v[nr + j] += 1.0
+                held = v[nr + j]
+                v[nr + j] = held + 1.0
                 _call_residual(w_.calls[0], d, w_, w_.p, w_.pd, w_.pdd, w_.x, w_.xd, w_.rj,
                                w_.M, want)
-                v[nr + j] -= 1.0
+                v[nr + j] = held  # by value: z + 1 − 1 is not z, and later columns read it
                 for row in range(q):
                     b = free[row] if row < nu else nr + row - nu
                     R[row, 2 * nu + s * n + j] = base[b] - w_.rj[b]

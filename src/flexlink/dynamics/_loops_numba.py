@@ -406,10 +406,7 @@ def rates_in(context, u, y, dy, records_type):
     (solvers/_radau_model.py; (d, w)'s type given): the loops call it through its address,
     and the records are read from the context, not handed over array by array."""
     d, w = load(context, records_type)
-    if not solve_constrained(d, w, u, y):
-        dy[:] = np.nan
-        return
-    state_rates(d.fwd, w.fw, w.yp, w.rhs, dy)
+    rates(d, w, u, y, dy)
 
 
 @njit(cache=True, _nrt=False)
