@@ -54,7 +54,7 @@ _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
 COMPILE_CPU = {"radau_loop": 8, "prescribed": 20, "nonlinear": 19, "nonlinear_step": 1,
                "forward": 34, "free_base": 12, "nonlinear_forward": 10,
                "nonlinear_forward_step": 0, "closed_loop": 5, "four_bar": 27,
-               "nonlinear_four_bar": 32, "sensitivities": 10, "batched": 9}
+               "nonlinear_four_bar": 32, "sensitivities": 10, "batched": 13}
 # Model paths whose runs integrate with another path's compiled loop (the closed loop's
 # Lawson loop is the prescribed path's; the nonlinear path's Gauss loops, compiled once for
 # both nonlinear models, are the nonlinear forward path's): one family, one worker.
@@ -63,7 +63,11 @@ _SHARES = {"closed_loop": "prescribed", "nonlinear": "nonlinear_forward"}
 # it is done: a worker starts each run with every kernel the other workers have compiled
 # (`_share`), so these compile once. The first-order loops' closed start (`loops.LoopSystem`:
 # `_loops_numba.close` and the kinematics under it) is also the nonlinear four-bar's.
-_AFTER = {"four_bar": "nonlinear_four_bar", "nonlinear_four_bar": "radau_loop"}
+_AFTER = {"four_bar": "nonlinear_four_bar", "nonlinear_four_bar": "radau_loop",
+          "sensitivities": "prescribed", "batched": "prescribed"}
+# Runs of a path that compile kernels of their own on top of the path's run (held by
+# `_AFTER` until it is done): each a family of its own, so the worker free first takes it.
+_ALONE = ("sensitivities", "batched")
 # Build-only runs (name → its family): a compiled loop whose types do not depend on the model,
 # compiled on its own at the start of a family that needs it, so that a run of another family
 # that needs it too loads it (`_AFTER`) instead of compiling it again. Radau IIA's loop
@@ -251,7 +255,8 @@ def _run_workers(names: list[str], count: int, env: dict[str, str]) -> dict[str,
 
     scenarios = warmup_scenarios()
     paths = {name: model_path(scenarios[name]) for name in names}
-    family = {name: _SHARES.get(path, path) for name, path in paths.items()}
+    family = {name: name if name in _ALONE else _SHARES.get(path, path)
+              for name, path in paths.items()}
     names = with_build_only(names, family)
     queue = queue_order(names, family)
     lock = threading.Condition()

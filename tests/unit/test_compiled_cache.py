@@ -424,3 +424,22 @@ def test_a_build_only_run_goes_first_in_its_family() -> None:
     family = {"p": "prescribed", "nfb": "nonlinear_four_bar"}
     assert _build_kernels.with_build_only(["p", "nfb"], family) == ["p", "nfb"]
     assert "radau_loop" not in family
+
+
+def test_a_run_alone_goes_to_the_worker_free_first() -> None:
+    """The sensitivities' and the batched runs compile kernels of their own on top of the
+    prescribed run's: held until it is done, then each a family of its own, so a worker free
+    while the other is still on the prescribed family takes one (the build's longer worker
+    had both after the prescribed family)."""
+    from flexlink.cli import warmup_scenarios
+    from flexlink.simulation import model_path
+
+    for name in _build_kernels._ALONE:
+        assert _build_kernels._AFTER[name] == "prescribed"
+        assert model_path(warmup_scenarios()[name]) == "prescribed"
+    family = {"p": "prescribed", "c": "prescribed", "s": "s", "b": "b"}
+    queue, working = ["c", "b", "s"], {1: "prescribed"}
+    take = _build_kernels.next_run
+    assert take(queue, family, working, 0) == "b"
+    assert take(queue, family, working, 1) == "c"
+    assert take(queue, family, working, 1) == "s" and queue == []
