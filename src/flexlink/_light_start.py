@@ -115,3 +115,12 @@ def keep_docstrings_unparsed(modules: tuple[str, ...] = SCIPY_DOC_PARSERS) -> li
         module.FunctionDoc = _UnparsedDoc
         changed.append(name)
     return changed
+
+
+def start_command_process() -> None:
+    """The three measures above for a command's own process (`flexlink fit`, `optimize`):
+    submodules it never uses deferred, compiled kernels loaded from the cache only, scipy's
+    docstrings left unparsed."""
+    defer_unused_submodules()
+    load_cached_kernels_only()
+    keep_docstrings_unparsed()

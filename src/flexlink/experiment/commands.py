@@ -89,15 +89,9 @@ def _start_up_imports(args: argparse.Namespace, fitting: bool = False) -> None:
     preload = None
     with block:
         if getattr(args, "own_process", False):  # the command's own process (`cli.main`)
-            from .._light_start import (
-                defer_unused_submodules,
-                keep_docstrings_unparsed,
-                load_cached_kernels_only,
-            )
+            from .._light_start import start_command_process
 
-            defer_unused_submodules()
-            load_cached_kernels_only()
-            keep_docstrings_unparsed()
+            start_command_process()
         try:
             # the measured angles drive a Lawson run: its compiled loop loads meanwhile
             from ..solvers.lawson import preload_compiled_loop

@@ -132,15 +132,9 @@ def _start_up_imports(args: argparse.Namespace) -> None:
     block, imports_done = args.start_up
     with block:
         if getattr(args, "own_process", False):  # pool workers fork from it: theirs too
-            from .._light_start import (
-                defer_unused_submodules,
-                keep_docstrings_unparsed,
-                load_cached_kernels_only,
-            )
+            from .._light_start import start_command_process
 
-            defer_unused_submodules()
-            load_cached_kernels_only()
-            keep_docstrings_unparsed()
+            start_command_process()
         preload = None
         try:
             from ..solvers.lawson import preload_compiled_loop
