@@ -488,3 +488,17 @@ def test_a_loops_plant_states_the_closed_angles_not_the_guesses() -> None:
     assert op["joint2_deg"] == pytest.approx(math.degrees(op["joint2_angle"]), abs=1e-12)
     assert abs(op["joint2_deg"] + 50.0) > 1.0
     assert op["joint1_deg"] == pytest.approx(90.0)
+
+
+@pytest.mark.parametrize("example, named", [
+    ("four_bar.toml", r"base_point.*\[\[closures\]\].*joints\[1\], joints\[2\] are driven"),
+    ("paper_servo.toml", r"joints\[0\], joints\[1\] are driven or sliders; give joints\[0\]"),
+    ("cart_beam.toml", r"the base moves \(base.kind = 'cart'\); remove \[base\]")])
+def test_optimize_names_what_is_not_prescribed(example: str, named: str) -> None:
+    """`optimize` of a mechanism it cannot take said only 'needs prescribed joints on a fixed
+    hub (no drive, no moving base)': now the base, the loop and the joints, and the fix."""
+    from flexlink.scenario import load_scenario
+    from flexlink.shaping import InfeasibleMove, optimize_move
+
+    with pytest.raises(InfeasibleMove, match=named):
+        optimize_move(load_scenario(EXAMPLES / example))

@@ -60,7 +60,7 @@ import numpy as np
 
 from ..dynamics.first_order import FirstOrderSystem
 from ..errors import SimulationError
-from ..model import Scenario
+from ..model import PrismaticJoint, Scenario, is_driven
 from ..motion import Harmonic, Shaped
 from ..simulation.common import output_times
 from ..simulation.prescribed import run_prescribed
@@ -529,6 +529,27 @@ def fd_gradient(evaluate_many: Callable[[Sequence[np.ndarray]], list[Any]], x: n
     return values[0], values[1:1 + size], values[1 + size:]
 
 
+def _not_prescribed(scenario: Scenario) -> str:
+    """Why ``scenario`` is not one `optimize_move` takes, naming the fields and the fix."""
+    joints = [f"joints[{k}]" for k, j in enumerate(scenario.chain.joints)
+              if is_driven(j) or isinstance(j, PrismaticJoint)]
+    causes, fixes = [], []
+    if scenario.base is not None and scenario.base.kind != "fixed":
+        causes.append(f"the base moves (base.kind = {scenario.base.kind!r})")
+        fixes.append("remove [base]")
+    elif scenario.base is not None:
+        causes.append("a chain starts on the base away from the hub (base_point)")
+    if scenario.closures:
+        causes.append("[[closures]] close a loop")
+    if joints:
+        causes.append(f"{', '.join(joints)} {'is' if len(joints) == 1 else 'are'} driven or "
+                      "sliders")
+        fixes.append(f"give {', '.join(joints)} a `motion` instead of a `drive`")
+    fix = ("; " + " and ".join(fixes)) if fixes else ""
+    return ("optimize needs an open chain of prescribed revolute joints on a fixed hub: "
+            + "; ".join(causes) + fix)
+
+
 def optimize_move(scenario: Scenario, duration: float | None = None, limits: Limits = Limits(),
                   harmonics: int = DEFAULT_HARMONICS, robust: float = DEFAULT_ROBUST,
                   seed: int = 0, workers: int | None = None, fd_step: float = 1e-5,
@@ -544,8 +565,7 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
     anything runs, when a limit makes the move impossible (naming the limit and the shortest
     duration it allows), and after the search when no trajectory meets the torque limit."""
     if scenario.is_forward:
-        raise InfeasibleMove("optimize needs prescribed joints on a fixed hub (no drive, no "
-                             "moving base)")
+        raise InfeasibleMove(_not_prescribed(scenario))
     check_request(duration, harmonics, robust, workers, max_iterations)
     if stiffening not in STIFFENING:
         raise InfeasibleMove(f"stiffening must be one of {', '.join(map(repr, STIFFENING))}, "
