@@ -25,6 +25,7 @@ from flexlink.model.settings import (
     FORWARD_RTOL,
     NONLINEAR_SLIDER_RTOL,
 )
+from flexlink.results import Results
 from flexlink.simulation.nonlinear_forward import nonlinear_forward_system
 from flexlink.solvers import _gauss_numba
 from flexlink.solvers.gauss_forward import (
@@ -67,15 +68,12 @@ def test_newton_stops_at_a_share_of_rtol_only_without_base_coordinates() -> None
     assert forward_newton_tol(cart, 1e-4) == NEWTON_SHARE_OF_RTOL * 1e-4
 
 
-def test_a_cart_run_on_the_looser_newton_keeps_its_momentum_and_channels() -> None:
-    """On a free cart Newton at a thousandth of rtol: the momentum along the rail (zero,
-    from rest) drifts by less than 3× that of the run whose Newton stops at
-    NEWTON_TOL_FORWARD and than 3e-8 of the cart's peak momentum (measured 6e-9 against
-    5e-9), and every channel is within 1e-2 · rtol of that run (measured ≤ 9e-9)."""
+def _loose_and_tight(scenario: Scenario) -> tuple[Results, Results]:
+    """The run with Newton at its default share of rtol, and the same run with every step's
+    Newton to NEWTON_TOL_FORWARD."""
     from flexlink import simulate
     from flexlink.solvers import gauss_forward
 
-    scenario = _slider(base=Base("cart", mass=1.0, cart=Cart()), rtol=1e-5)
     loose = simulate(scenario, shapes=False)
     share = gauss_forward.NEWTON_SHARE_OF_RTOL
     try:
@@ -83,6 +81,16 @@ def test_a_cart_run_on_the_looser_newton_keeps_its_momentum_and_channels() -> No
         tight = simulate(dataclasses.replace(scenario), shapes=False)
     finally:
         gauss_forward.NEWTON_SHARE_OF_RTOL = share
+    return loose, tight
+
+
+def test_a_cart_run_on_the_looser_newton_keeps_its_momentum_and_channels() -> None:
+    """On a free cart Newton at a thousandth of rtol: the momentum along the rail (zero,
+    from rest) drifts by less than 3× that of the run whose Newton stops at
+    NEWTON_TOL_FORWARD and than 3e-8 of the cart's peak momentum (measured 6e-9 against
+    5e-9), and every channel is within 1e-2 · rtol of that run (measured ≤ 9e-9)."""
+    scenario = _slider(base=Base("cart", mass=1.0, cart=Cart()), rtol=1e-5)
+    loose, tight = _loose_and_tight(scenario)
     assert loose.metadata["newton_iterations"] < tight.metadata["newton_iterations"]
     peak = np.abs(np.asarray(loose["cart_velocity"])).max() * 1.0  # the cart's 1 kg
     drift = np.abs(np.asarray(loose["momentum_x"])).max()
@@ -109,17 +117,8 @@ def test_the_compiled_residual_is_looked_up_once_per_record_layout() -> None:
 
 def test_a_run_on_the_looser_newton_matches_a_tight_one() -> None:
     """Newton at a thousandth of rtol changes the slider's run by far less than rtol."""
-    from flexlink import simulate
-    from flexlink.solvers import gauss_forward
-
     scenario = _slider()
-    loose = simulate(scenario, shapes=False)
-    share = gauss_forward.NEWTON_SHARE_OF_RTOL
-    try:
-        gauss_forward.NEWTON_SHARE_OF_RTOL = 0.0  # every step to NEWTON_TOL_FORWARD
-        tight = simulate(dataclasses.replace(scenario), shapes=False)
-    finally:
-        gauss_forward.NEWTON_SHARE_OF_RTOL = share
+    loose, tight = _loose_and_tight(scenario)
     for name in ("joint1_angle", "joint1_rate", "joint2_position", "joint2_velocity"):
         ref = np.asarray(tight[name])
         gap = np.abs(np.asarray(loose[name]) - ref).max() / np.abs(ref).max()
