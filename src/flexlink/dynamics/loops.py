@@ -149,29 +149,13 @@ class LoopSystem:
 
     def _close_far(self, work, u0: np.ndarray, start: np.ndarray, y: np.ndarray) -> bool:
         """Close the loops from a guess too far for the projection's Newton steps: the
-        dependent joints alone brought to the least |Φ| (trust-region least squares from
-        `start`, the other free joints keeping their angles), then projected. y ← the
-        closed state; False when even that leaves the loops open."""
-        from scipy.optimize import least_squares
-
+        dependent joints alone brought to the least |Φ| (the other free joints keeping their
+        angles), then projected. y ← the closed state; False when even that leaves the
+        loops open."""
         from ._loops_numba import close
 
-        dep = np.asarray(self.dep, dtype=np.int64)
-        columns = np.asarray(self.system.free, dtype=np.int64)[dep]
-        trial = start.copy()
-
-        def residual(angles: np.ndarray) -> np.ndarray:
-            trial[dep] = angles
-            close(self.data, work, u0, trial, 0)
-            return work.Phi.copy()
-
-        def jacobian(angles: np.ndarray) -> np.ndarray:
-            residual(angles)
-            return work.G[:, columns].copy()
-
-        best = least_squares(residual, start[dep], jac=jacobian, xtol=1e-14, ftol=1e-14,
-                             gtol=1e-14)
-        trial[dep] = best.x
+        trial = self._least_residual(work, u0, start, np.asarray(self.dep, dtype=np.int64),
+                                     tol=1e-14, gtol=1e-14)
         if not close(self.data, work, u0, trial, 1):
             return False
         y[:] = trial
@@ -179,24 +163,36 @@ class LoopSystem:
 
     def _closest(self, work, u0: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Φ (m) where the free joints bring it closest to zero (least squares from y)."""
+        self._least_residual(work, u0, y, np.arange(len(self.system.free)), tol=1e-12,
+                             gtol=1e-8)
+        return work.Phi.copy()
+
+    def _least_residual(self, work, u0: np.ndarray, start: np.ndarray, moved: np.ndarray,
+                        tol: float, gtol: float) -> np.ndarray:
+        """``start`` with its free coordinates ``moved`` (indices into the free ones) brought
+        to the least |Φ| by trust-region least squares (x and f tolerances ``tol``, gradient
+        ``gtol``); work holds Φ and G there."""
         from scipy.optimize import least_squares
 
         from ._loops_numba import close
 
-        free = self.system.free
+        columns = np.asarray(self.system.free, dtype=np.int64)[moved]
+        trial = start.copy()
 
         def residual(angles: np.ndarray) -> np.ndarray:
-            trial = y.copy()
-            trial[:len(free)] = angles
+            trial[moved] = angles
             close(self.data, work, u0, trial, 0)
             return work.Phi.copy()
 
         def jacobian(angles: np.ndarray) -> np.ndarray:
             residual(angles)
-            return work.G[:, free].copy()
+            return work.G[:, columns].copy()
 
-        best = least_squares(residual, y[:len(free)], jac=jacobian, xtol=1e-12, ftol=1e-12)
-        return residual(best.x)
+        best = least_squares(residual, start[moved], jac=jacobian, xtol=tol, ftol=tol,
+                             gtol=gtol)
+        residual(best.x)
+        return trial
+
 
     def _dependent(self, G: np.ndarray) -> np.ndarray:
         """Indices (into the free coordinates) of the dependent ones: from the last free
