@@ -49,8 +49,10 @@ def test_damped_mode_slopes_are_the_derivatives_of_the_refit() -> None:
         z = (up[k].damping_ratio - down[k].damping_ratio) / (2 * step)
         assert d_freq[k, 0] == pytest.approx(f, rel=2e-4)
         assert d_zeta[k, 0] == pytest.approx(z, rel=2e-4)
+        # linear in y': equal up to the least-squares solves' round-off, which depends on
+        # the processor's BLAS kernels (1.6e-12 seen)
         np.testing.assert_allclose([d_freq[k, 1], d_zeta[k, 1]],
-                                   [3 * d_freq[k, 0], 3 * d_zeta[k, 0]], rtol=1e-12)
+                                   [3 * d_freq[k, 0], 3 * d_zeta[k, 0]], rtol=1e-11)
     # the residual's second-order term in H matters: Gauss–Newton's θ' = J⁺ y' gives even
     # the sign of the first component's damping slope wrong here
     fitted = vibration._fit_components(t, signal(t, 1.0), 2, guesses)

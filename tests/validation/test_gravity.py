@@ -76,7 +76,11 @@ def test_horizontal_cantilever_starts_and_stays_in_its_static_deflection(method:
     # 4 clamped-free modes: the static deflection's truncation error is ~1e-4
     np.testing.assert_allclose(tip, EXACT_DEFLECTION, rtol=2e-4)
     assert np.ptp(tip) <= 1e-9 * abs(EXACT_DEFLECTION)  # at rest: no motion at all
-    np.testing.assert_allclose(np.asarray(r["joint1_torque"]), HOLDING_MOMENT, rtol=1e-9)
+    # Lawson and Magnus are exact at rest; DOP853's long steps at rest leave a stiff mode's
+    # acceleration at its error tolerance times round-off: 2.7e-8 of the moment on some
+    # processors
+    np.testing.assert_allclose(np.asarray(r["joint1_torque"]), HOLDING_MOMENT,
+                               rtol=1e-9 if method != "DOP853" else 1e-7)
 
 
 def test_cantilever_released_from_rest_oscillates_about_the_static_deflection() -> None:
