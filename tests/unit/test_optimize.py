@@ -566,3 +566,29 @@ def test_report_runs_on_the_pool_equal_runs_here() -> None:
             np.testing.assert_array_equal(a.time, b.time)
             np.testing.assert_array_equal(a.tip, b.tip)
     assert done[0].peak == done[3].peak
+
+
+def test_a_diverging_robustness_run_is_null_in_summary_json(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A plant of the robustness band that diverges has a NaN residual: summary.json held
+    the bare token NaN, which is not JSON (strict readers, jq, JavaScript refuse the file)."""
+    from flexlink.shaping import compare
+
+    runs = compare.residual_runs
+
+    def last_diverges(checks, move_end, workers=1, window=compare.DEFAULT_WINDOW_S):  # type: ignore[no-untyped-def]
+        done = runs(checks, move_end, workers, window)
+        return [*done[:-1], compare.Residual(math.nan, error="diverged")]
+
+    monkeypatch.setattr(compare, "residual_runs", last_diverges)
+    status, out, err, folder = _cli(tmp_path, capsys, ARM_TOML, "--harmonics", "1",
+                                    "--max-iterations", "1")
+    assert status == 0, err
+
+    def refuse(token: str) -> None:
+        raise AssertionError(f"{token} in summary.json")
+
+    summary = json.loads((folder / "summary.json").read_text(), parse_constant=refuse)
+    assert summary["robustness_band"]["first_order"]["optimised_m"][-1] is None
+    assert "+10 %: diverges" in out

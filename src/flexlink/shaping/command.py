@@ -14,7 +14,6 @@ fails.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import platform
 import sys
@@ -23,6 +22,7 @@ from typing import Any
 
 from ..options import (
     check_size,
+    json_text,
     nonnegative_finite_float,
     nonnegative_int,
     positive_float,
@@ -375,8 +375,7 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
         + dump_toml(data), encoding="utf-8")
     np.savetxt(out_dir / "trajectory.csv", np.column_stack(list(columns.values())),
                delimiter=",", header=",".join(columns), comments="", fmt="%.10g")
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float),
-                                          encoding="utf-8")
+    (out_dir / "summary.json").write_text(json_text(summary), encoding="utf-8")
     if pictures is not None and (figure_worker is None or not figure_worker.wait()):
         pictures.write(out_dir)
     return summary
