@@ -592,3 +592,28 @@ def test_a_diverging_robustness_run_is_null_in_summary_json(
     summary = json.loads((folder / "summary.json").read_text(), parse_constant=refuse)
     assert summary["robustness_band"]["first_order"]["optimised_m"][-1] is None
     assert "+10 %: diverges" in out
+
+
+def test_the_pools_workers_leave_ctrl_c_to_the_command() -> None:
+    """Ctrl-C reached every worker of the optimiser's and the report's pools, each printing
+    its own KeyboardInterrupt traceback over "flexlink: interrupted"; they ignore it now
+    and the command stops them."""
+    if _ran_in_a_fresh_process("test_the_pools_workers_leave_ctrl_c_to_the_command"):
+        return
+    import signal
+
+    from flexlink.shaping.compare import _fork_pool
+    from flexlink.shaping.optimize import Evaluator
+
+    pool = _fork_pool(2)  # first: it forks only from a process without threads
+    assert pool is not None
+    with pool:
+        assert pool.submit(signal.getsignal, signal.SIGINT).result() == signal.SIG_IGN
+    scenario = _arm()
+    evaluator = Evaluator(Problem(scenario, joint_moves(scenario), 1, [(1.0, False)], 0.005), 2)
+    try:
+        assert evaluator._pool is not None
+        assert evaluator._pool.submit(signal.getsignal, signal.SIGINT).result() \
+            == signal.SIG_IGN
+    finally:
+        evaluator.close(stop=True)
