@@ -190,3 +190,8 @@ def test_a_closed_loop_s_estimate_names_the_angles_the_loop_closed_at(at: object
     where = mode_convergence(scenario, at).where  # type: ignore[arg-type]
     assert where == f"rest at joint1 = 30°; the loop closed at joint2 = {closed[0]}, " \
                     f"joint3 = {closed[1]}"
+    only_guesses = {"joint2": 20.0}
+    op = linearize(scenario, at=only_guesses, outputs=[]).operating_point
+    closed = [f"{np.degrees(op[f'joint{k}_angle']):.4g}°" for k in (2, 3)]
+    assert mode_convergence(scenario, only_guesses).where == \
+        f"rest, the loop closed at joint2 = {closed[0]}, joint3 = {closed[1]}"

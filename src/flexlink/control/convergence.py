@@ -220,5 +220,7 @@ def _rest_text(at: At, operating_point: Mapping[str, Any]) -> str:
 
     given = [f"{k} = {value(k, v)}" for k, v in pairs.items() if k not in dependent]
     closed = [f"{k} = {value(k, pairs.get(k, math.nan))}" for k in dependent]
-    return "rest at " + ", ".join(given) + (
-        f"{'; ' if given else ''}the loop closed at {', '.join(closed)}" if closed else "")
+    loop = f"the loop closed at {', '.join(closed)}" if closed else ""
+    if not given:
+        return f"rest, {loop}"
+    return f"rest at {', '.join(given)}" + (f"; {loop}" if loop else "")
