@@ -92,3 +92,5 @@ def test_a_grid_over_a_closed_loop_s_dependent_joint_is_refused() -> None:
         frozen_modes(scenario, angles={"joint2": [0.0, 30.0]})
     modes = frozen_modes(scenario, angles={"joint1": [60.0, 120.0]})
     np.testing.assert_allclose(modes.configurations[:, 0], [60.0, 120.0])
+    guessed = frozen_modes(scenario, angles={"joint1": [60.0, 120.0], "joint2": [0.0, 0.0]})
+    np.testing.assert_allclose(guessed.configurations[:, 0], [60.0, 120.0])
