@@ -617,3 +617,17 @@ def test_the_pools_workers_leave_ctrl_c_to_the_command() -> None:
             == signal.SIG_IGN
     finally:
         evaluator.close(stop=True)
+
+
+def test_an_earlier_optimize_folder_is_replaced_with_overwrite(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The refusal of a non-empty folder said "overwrite it (--overwrite)", an option
+    optimize did not have; its folder now holds scenario.resolved.toml, by which
+    --overwrite recognises it."""
+    options = ("--harmonics", "1", "--max-iterations", "1", "--robust", "0")
+    assert _cli(tmp_path, capsys, ARM_TOML, *options)[0] == 0
+    status, _, err, folder = _cli(tmp_path, capsys, ARM_TOML, *options)
+    assert status == 2 and "(--overwrite)" in err
+    status, out, err, folder = _cli(tmp_path, capsys, ARM_TOML, *options, "--overwrite")
+    assert status == 0, err
+    assert (folder / "scenario.resolved.toml").is_file() and "scenario.resolved.toml" in out

@@ -55,8 +55,8 @@ OptimizeFigures.write = write
 FigureWorker.start = classmethod(lambda cls, *a, **k: None)
 assert command("here") == 0
 files = sorted(p.name for p in (tmp / "here").iterdir())
-assert files == ["optimized.toml", "residual.png", "robustness.png", "summary.json",
-                 "trajectory.csv"], files
+assert files == ["optimized.toml", "residual.png", "robustness.png", "scenario.resolved.toml",
+                 "summary.json", "trajectory.csv"], files
 assert sorted(p.name for p in (tmp / "worker").iterdir()) == files
 for name in ("residual.png", "robustness.png", "optimized.toml", "trajectory.csv"):
     assert (tmp / "worker" / name).read_bytes() == (tmp / "here" / name).read_bytes(), name
