@@ -40,6 +40,31 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
+class CommandParser(argparse.ArgumentParser):
+    """The parser of one command: its options and positional arguments in any order
+    (``flexlink fit S.toml -p X M.csv`` as well as ``flexlink fit -p X S.toml M.csv``, where
+    argparse alone takes an optional positional only next to the one before it), and an
+    argument it does not know reported with the command's own usage."""
+
+    _parsing = False
+
+    def parse_known_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
+                         namespace: argparse.Namespace | None = None
+                         ) -> tuple[argparse.Namespace, list[str]]:
+        if self._parsing or (args is not None and "--" in args):
+            # the passes of parse_known_intermixed_args (Python 3.11, 3.12); or "--", which
+            # it mishandles there, and after which every argument is positional anyway
+            return super().parse_known_args(args, namespace)
+        self._parsing = True
+        try:
+            namespace, extras = self.parse_known_intermixed_args(args, namespace)
+        finally:
+            self._parsing = False
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace, extras
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (also used by the docs and tests)."""
     parser = argparse.ArgumentParser(
@@ -59,7 +84,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="replace DIR if it holds an earlier flexlink run")
     output.add_argument("-q", "--quiet", action="store_true",
                         help="no progress bar and no summary; print only the results folder")
-    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True,
+                                     parser_class=CommandParser)
     page = argparse.ArgumentParser(add_help=False)
     page.add_argument("--no-report", action="store_true",
                       help="skip report.html (the self-contained page of the run)")

@@ -12,7 +12,8 @@ message that names the option or file, the value and what is allowed.
 * `check_writable`, `check_output_file`: an output path under a regular file, or in a folder
   that cannot be written (or a folder where a file is to be written), is refused before any
   work;
-* `check_finite`: no result with NaN or infinity is written.
+* `check_finite`: no result with NaN or infinity is written; `json_text`: JSON files hold
+  null there (JSON has neither, and strict readers refuse Python's NaN).
 """
 
 from __future__ import annotations
@@ -140,6 +141,32 @@ def check_output_file(path: str | Path, what: str = "output") -> None:
     if Path(path).is_dir():
         raise OptionError(f"{what} {path} is a folder; give a file name")
     check_writable(path, what)
+
+
+def json_safe(value: Any) -> Any:
+    """``value`` (mappings, sequences, numbers) with NaN and ±inf as None and numpy scalars
+    and arrays as Python numbers and lists."""
+    import numpy as np
+
+    if isinstance(value, Mapping):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return json_safe(value.tolist())
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer | np.bool_):
+        return value.item()
+    return value
+
+
+def json_text(value: Any) -> str:
+    """``value`` as indented JSON text (`json_safe`: null for NaN and ±inf), ending with a
+    newline."""
+    import json
+
+    return json.dumps(json_safe(value), indent=2, allow_nan=False) + "\n"
 
 
 def check_finite(values: Mapping[str, Any], what: str) -> None:

@@ -125,7 +125,7 @@ def test_cli_compare_and_fit_write_reports(files, measured) -> None:
 @pytest.mark.parametrize(("edit", "message"), [
     (lambda c: c.pop("acc"), "no column 'acc'; available columns: t, angle, strain"),
     (lambda c: c["t"].__setitem__(500, 0.1), "time goes backwards"),
-    (lambda c: c["strain"].__setitem__(slice(100, 200), np.nan), "100 missing/NaN samples"),
+    (lambda c: c["strain"].__setitem__(slice(100, 200), np.nan), "100 missing or non-finite"),
 ])
 def test_cli_bad_measurements_exit_2_without_output(files, measured, capsys, edit,
                                                     message) -> None:
@@ -148,7 +148,7 @@ def test_cli_warns_about_repairs(files, measured, capsys) -> None:
                  str(files / "out"), "-q", "--no-figures"]) == 0
     assert "warning:" in capsys.readouterr().err
     report = (files / "out" / "report.md").read_text()
-    assert "2 missing/NaN sample(s) filled" in report
+    assert "2 missing or non-finite sample(s) filled" in report
 
 
 def test_bad_parameters_are_clear(files) -> None:

@@ -138,12 +138,14 @@ def test_duplicated_time_is_dropped_with_a_warning() -> None:
 def test_short_nan_runs_filled_long_ones_refused() -> None:
     cols = table()
     cols["b1"][[5, 6, 30]] = np.nan
-    with pytest.warns(MeasurementWarning, match="3 missing/NaN sample.*linear interpolation"):
+    with pytest.warns(MeasurementWarning,
+                      match="3 missing or non-finite sample.*linear interpolation"):
         m = condition(cols, spec(), SCENARIO, "x")
     assert m.angles[0][6] == pytest.approx(math.radians(9.0 * 6 / 49))
     cols = table()
     cols["acc_g"][10:25] = np.nan
-    with pytest.raises(MeasurementError, match="15 missing/NaN samples in a row"):
+    with pytest.raises(MeasurementError,
+                       match="15 missing or non-finite .NaN, inf. samples in a row"):
         condition(cols, spec(), SCENARIO, "x")
     cols = table()
     cols["time_ms"][3] = np.nan
@@ -308,3 +310,36 @@ def test_failed_run_names_the_noisy_column(monkeypatch) -> None:
     with pytest.raises(SimulationError) as err:
         simulate_driven(SCENARIO, clean)
     assert "Likely cause" not in str(err.value)
+
+
+def test_an_infinite_sample_is_named_as_such() -> None:
+    """±inf was filled and reported as "missing/NaN", hiding an overflow or a saturation."""
+    cols = table()
+    cols["acc_g"][[7, 8]] = [np.inf, np.nan]
+    with pytest.warns(MeasurementWarning, match=r"2 missing or non-finite sample\(s\) \(1 of "
+                                                r"them ±inf: an overflow or a saturated"):
+        condition(cols, spec(), SCENARIO, "x")
+
+
+def test_data_mostly_outside_the_run_are_refused_and_data_past_it_noted() -> None:
+    """Times in ms read as s (here: time_unit left at "s") put all but a few samples past
+    t_end; the comparison ran on those few samples without a word (NRMSE 1, no frequency),
+    and data going on past t_end were silently left out."""
+    import dataclasses
+
+    from flexlink.experiment.comparison import measured_inputs
+
+    seconds = dataclasses.replace(spec(), time_unit="s")
+    m = condition(table(), seconds, SCENARIO, "x")  # 0 to 49 "s"
+    short = dataclasses.replace(SCENARIO, settings=dataclasses.replace(SCENARIO.settings,
+                                                                        t_end=2.0))
+    with pytest.raises(MeasurementError, match=r"only 3 of the 50 samples lie within the run, "
+                                               r"0 to simulation.t_end = 2 s .*time_unit"):
+        measured_inputs(short, m)
+    m = condition(table(), spec(), SCENARIO, "x")  # 0 to 0.049 s
+    brief = dataclasses.replace(SCENARIO, settings=dataclasses.replace(SCENARIO.settings,
+                                                                        t_end=0.02))
+    with pytest.warns(MeasurementWarning, match="the data go on to t = 0.049 s, past "
+                                                "simulation.t_end = 0.02 s; compared up to"):
+        measured_inputs(brief, m)
+    assert any("the data go on to 0.049 s" in note for note in m.notes)

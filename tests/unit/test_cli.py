@@ -371,3 +371,57 @@ def test_summary_names_the_mode_basis_and_warns_when_it_is_far_from_converged(
 
     assert "mode basis (arm clamped_free ×4)" in \
         read_run(tmp_path / "b").metadata["mode_convergence_warning"]
+
+
+# Every command with options, as (positional arguments, options each with its value); the
+# parse must not depend on where the options stand among the positional arguments.
+COMMAND_LINES = {
+    "run": (["s.toml"], [["-o", "out"], ["--no-figures"], ["-q"]]),
+    "sweep": (["s.toml"], [["--grid", "links[0].EI=1,2"], ["-o", "s.nc"], ["--workers", "1"]]),
+    "compare": (["s.toml", "m.csv"], [["--map", "b=joint1"], ["-o", "out"], ["--no-hold"]]),
+    "fit": (["s.toml", "m.csv"], [["-p", "links[0].EI"], ["--time-offset", "-0.5"],
+                                  ["-o", "out"]]),
+    "optimize": (["s.toml"], [["-o", "out"], ["--rate-limit", "90"], ["--no-figures"]]),
+    "linearize": (["s.toml"], [["--at", "joint1=-5"], ["-o", "out"], ["-q"]]),
+    "modes": (["s.toml"], [["--times", "0:1:0.5"], ["-o", "out"], ["--count", "3"]]),
+    "animate": (["run_dir"], [["-o", "a.gif"], ["--fps", "5"], ["--magnify", "2"]]),
+    "report": (["run_dir"], [["--animate"]]),
+}
+
+
+def _orders(positionals: list[str], options: list[list[str]]) -> list[list[str]]:
+    """The options before, between and after the positional arguments, in turn."""
+    orders = []
+    for at in range(len(positionals) + 1):
+        for option in options:
+            others = [token for o in options if o is not option for token in o]
+            orders.append([*positionals[:at], *option, *positionals[at:], *others])
+    return orders
+
+
+@pytest.mark.parametrize("command", sorted(COMMAND_LINES))
+def test_options_and_positional_arguments_in_any_order(command: str) -> None:
+    """`flexlink fit S.toml -p X M.csv` was refused (argparse takes an optional second
+    positional only right after the first): every command parses every order alike."""
+    from flexlink.cli import build_parser
+
+    positionals, options = COMMAND_LINES[command]
+
+    parser = build_parser()
+
+    def parsed(tokens: list[str]) -> dict[str, object]:
+        return vars(parser.parse_args([command, *tokens]))
+
+    expected = parsed([*positionals, *[t for o in options for t in o]])
+    assert all(expected[k] is not None for k in ("scenario", "measured") if k in expected)
+    for tokens in _orders(positionals, options):
+        assert parsed(tokens) == expected, tokens
+
+
+def test_an_unknown_option_is_reported_with_the_command_s_usage(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["fit", "s.toml", "--bogus", "m.csv"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert "flexlink fit: error: unrecognized arguments: --bogus" in err

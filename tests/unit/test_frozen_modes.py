@@ -80,3 +80,17 @@ def test_modes_command(tmp_path: Path, capsys) -> None:
     assert main(["modes", "--grid", "joint2=0:90", "-o", str(tmp_path / "bad")]) == 2
     assert "START:STOP:STEP" in capsys.readouterr().err
     assert main(["modes", "--times", "1", "--grid", "joint2=0", "-o", str(tmp_path / "b")]) == 2
+
+
+def test_a_grid_over_a_closed_loop_s_dependent_joint_is_refused() -> None:
+    """--grid joint2=0:90:30 on the four-bar: joint2 follows from the crank, each grid value
+    only a guess the loop closes from; the command wrote four identical rows labelled
+    0, 30, 60, 90°. The crank's own grid is a grid of configurations."""
+    scenario = flexlink.load_scenario(EXAMPLES / "four_bar.toml")
+    with pytest.raises(ValueError, match=r"joint2 is a dependent joint of the closed loop, "
+                                         r"whose angles follow from joint1: .* grid joint1"):
+        frozen_modes(scenario, angles={"joint2": [0.0, 30.0]})
+    modes = frozen_modes(scenario, angles={"joint1": [60.0, 120.0]})
+    np.testing.assert_allclose(modes.configurations[:, 0], [60.0, 120.0])
+    guessed = frozen_modes(scenario, angles={"joint1": [60.0, 120.0], "joint2": [0.0, 0.0]})
+    np.testing.assert_allclose(guessed.configurations[:, 0], [60.0, 120.0])

@@ -171,3 +171,38 @@ def test_linearize_command_input_errors(tmp_path: Path, capsys, args, message) -
     assert main(["linearize", str(EXAMPLES / "paper_servo.toml"), *args, "-o", str(out)]) == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
+
+
+def _oscillator_plant() -> LinearPlant:
+    """x'' + 0.2 x' + 100 x = u; outputs: x, a row of round-off, a row of zeros, u itself."""
+    A = np.array([[0.0, 1.0], [-100.0, -0.2]])
+    C = np.array([[1.0, 0.0], [1e-33, 3e-34], [0.0, 0.0], [0.0, 0.0]])
+    D = np.array([[0.0], [0.0], [0.0], [1.0]])
+    return LinearPlant(A, np.array([[0.0], [1.0]]), C, D, ("x", "v"), ("u",),
+                       ("x", "noise", "none", "feedthrough"), ("N",), ("m", "m", "m", "N"))
+
+
+def test_zero_transfers_are_found_and_left_out_of_the_bode_plot(tmp_path: Path) -> None:
+    """A closed loop's dependent joint held by its prescribed crank has C rows of round-off:
+    the Bode plot drew it at −6000 dB (and its rate at −650 dB), crushing the real curves;
+    a flat response was drawn on an axis of 1e-11 dB with an offset."""
+    import unittest.mock
+
+    from matplotlib.figure import Figure
+
+    from flexlink.control.command import _pairs
+    from flexlink.control.figures import MIN_SPAN_DB, bode_figure
+
+    plant = _oscillator_plant()
+    assert plant.zero_transfers(np.logspace(-1, 2, 50))[:, 0].tolist() == [False, True, True,
+                                                                           False]
+    assert _pairs(None, plant) == [("u", "x"), ("u", "feedthrough")]
+    drawn: list[Figure] = []
+    with unittest.mock.patch.object(Figure, "savefig", lambda self, *a, **k: drawn.append(self)):
+        bode_figure(plant, [("u", "noise"), ("u", "feedthrough")], tmp_path / "b.png")
+    magnitude = drawn[0].axes[0]
+    assert [line.get_label() for line in magnitude.get_lines() if line.get_xdata().size] \
+        == ["u → feedthrough [N/N]"]
+    assert "u → noise: zero" in [t.get_text() for t in drawn[0].legends[0].get_texts()]
+    low, high = magnitude.get_ylim()
+    assert high - low >= MIN_SPAN_DB and low < 0.0 < high  # 0 dB in the middle

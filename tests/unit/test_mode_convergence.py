@@ -170,3 +170,28 @@ def test_hub_loaded_on_a_clamped_link_is_its_infinite_hub_limit() -> None:
     for got, want in zip(chain_modal_data(Chain(links, (HOLD, HOLD))),
                          chain_modal_data(Chain(same, (HOLD, HOLD)))):
         np.testing.assert_array_equal(got.stiffness_matrix, want.stiffness_matrix)
+
+
+@pytest.mark.parametrize("at", [{"joint1": 30.0, "joint2": 20.0}, [30.0, 20.0, 80.0]])
+def test_a_closed_loop_s_estimate_names_the_angles_the_loop_closed_at(at: object) -> None:
+    """`flexlink linearize --at joint1=30,joint2=20` on a four-bar: joint2 is a dependent
+    joint, its 20° only a guess; the line named the guess, not the configuration of the
+    plant."""
+    from pathlib import Path
+
+    from flexlink.control.linearization import linearize
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "four_bar.toml"
+    scenario = scenario_from_dict(resolve_scenario_dict(path))
+    op = linearize(scenario, at=at, outputs=[]).operating_point  # type: ignore[arg-type]
+    assert op["dependent_joints"] == "joint2 joint3"
+    closed = [f"{np.degrees(op[f'joint{k}_angle']):.4g}°" for k in (2, 3)]
+    assert closed[0] != "20°"
+    where = mode_convergence(scenario, at).where  # type: ignore[arg-type]
+    assert where == f"rest at joint1 = 30°; the loop closed at joint2 = {closed[0]}, " \
+                    f"joint3 = {closed[1]}"
+    only_guesses = {"joint2": 20.0}
+    op = linearize(scenario, at=only_guesses, outputs=[]).operating_point
+    closed = [f"{np.degrees(op[f'joint{k}_angle']):.4g}°" for k in (2, 3)]
+    assert mode_convergence(scenario, only_guesses).where == \
+        f"rest, the loop closed at joint2 = {closed[0]}, joint3 = {closed[1]}"

@@ -566,3 +566,68 @@ def test_report_runs_on_the_pool_equal_runs_here() -> None:
             np.testing.assert_array_equal(a.time, b.time)
             np.testing.assert_array_equal(a.tip, b.tip)
     assert done[0].peak == done[3].peak
+
+
+def test_a_diverging_robustness_run_is_null_in_summary_json(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A plant of the robustness band that diverges has a NaN residual: summary.json held
+    the bare token NaN, which is not JSON (strict readers, jq, JavaScript refuse the file)."""
+    from flexlink.shaping import compare
+
+    runs = compare.residual_runs
+
+    def last_diverges(checks, move_end, workers=1, window=compare.DEFAULT_WINDOW_S):  # type: ignore[no-untyped-def]
+        done = runs(checks, move_end, workers, window)
+        return [*done[:-1], compare.Residual(math.nan, error="diverged")]
+
+    monkeypatch.setattr(compare, "residual_runs", last_diverges)
+    status, out, err, folder = _cli(tmp_path, capsys, ARM_TOML, "--harmonics", "1",
+                                    "--max-iterations", "1")
+    assert status == 0, err
+
+    def refuse(token: str) -> None:
+        raise AssertionError(f"{token} in summary.json")
+
+    summary = json.loads((folder / "summary.json").read_text(), parse_constant=refuse)
+    assert summary["robustness_band"]["first_order"]["optimised_m"][-1] is None
+    assert "+10 %: diverges" in out
+
+
+def test_the_pools_workers_leave_ctrl_c_to_the_command() -> None:
+    """Ctrl-C reached every worker of the optimiser's and the report's pools, each printing
+    its own KeyboardInterrupt traceback over "flexlink: interrupted"; they ignore it now
+    and the command stops them."""
+    if _ran_in_a_fresh_process("test_the_pools_workers_leave_ctrl_c_to_the_command"):
+        return
+    import signal
+
+    from flexlink.shaping.compare import _fork_pool
+    from flexlink.shaping.optimize import Evaluator
+
+    pool = _fork_pool(2)  # first: it forks only from a process without threads
+    assert pool is not None
+    with pool:
+        assert pool.submit(signal.getsignal, signal.SIGINT).result() == signal.SIG_IGN
+    scenario = _arm()
+    evaluator = Evaluator(Problem(scenario, joint_moves(scenario), 1, [(1.0, False)], 0.005), 2)
+    try:
+        assert evaluator._pool is not None
+        assert evaluator._pool.submit(signal.getsignal, signal.SIGINT).result() \
+            == signal.SIG_IGN
+    finally:
+        evaluator.close(stop=True)
+
+
+def test_an_earlier_optimize_folder_is_replaced_with_overwrite(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The refusal of a non-empty folder said "overwrite it (--overwrite)", an option
+    optimize did not have; its folder now holds scenario.resolved.toml, by which
+    --overwrite recognises it."""
+    options = ("--harmonics", "1", "--max-iterations", "1", "--robust", "0")
+    assert _cli(tmp_path, capsys, ARM_TOML, *options)[0] == 0
+    status, _, err, folder = _cli(tmp_path, capsys, ARM_TOML, *options)
+    assert status == 2 and "(--overwrite)" in err
+    status, out, err, folder = _cli(tmp_path, capsys, ARM_TOML, *options, "--overwrite")
+    assert status == 0, err
+    assert (folder / "scenario.resolved.toml").is_file() and "scenario.resolved.toml" in out

@@ -55,8 +55,8 @@ OptimizeFigures.write = write
 FigureWorker.start = classmethod(lambda cls, *a, **k: None)
 assert command("here") == 0
 files = sorted(p.name for p in (tmp / "here").iterdir())
-assert files == ["optimized.toml", "residual.png", "robustness.png", "summary.json",
-                 "trajectory.csv"], files
+assert files == ["optimized.toml", "residual.png", "robustness.png", "scenario.resolved.toml",
+                 "summary.json", "trajectory.csv"], files
 assert sorted(p.name for p in (tmp / "worker").iterdir()) == files
 for name in ("residual.png", "robustness.png", "optimized.toml", "trajectory.csv"):
     assert (tmp / "worker" / name).read_bytes() == (tmp / "here" / name).read_bytes(), name
@@ -97,3 +97,22 @@ def test_optimize_figures_come_from_the_worker_and_failures_leave_nothing(tmp_pa
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=600, check=False)
     assert done.returncode == 0 and done.stdout.strip().endswith("ok"), done.stderr[-3000:]
+
+
+def test_the_residual_figure_keeps_its_axis_label_and_says_what_is_drawn() -> None:
+    """Tick labels of −150 mm pushed the axis label out of the figure's left edge; the grey
+    band (the move) and the dotted lines (± the residual peak) were not explained."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from flexlink.shaping.figures import trace_figure
+
+    t = np.linspace(0.0, 3.5, 200)
+    traces = {label: (t, -0.15 * np.sin(3.0 * t), 0.0184)
+              for label in ("cycloidal", "shaped (ZVD)", "optimised")}
+    fig = trace_figure(traces, 0.5, 1.5, "arm: residual vibration")
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()  # places the axis label beside the tick labels
+    label = fig.axes[0].yaxis.label.get_window_extent(canvas.get_renderer())
+    assert label.x0 >= 0.0
+    assert "grey: the move" in fig.texts[0].get_text()  # the suptitle

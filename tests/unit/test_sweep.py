@@ -357,7 +357,8 @@ def test_conflicting_places_and_an_unwritable_output_fail_before_any_case_runs(
     blocker.write_text("")
     status = main(["sweep", str(spin_file(tmp_path)), "--grid", f"{RATE}=100", "--workers", "1",
                    "-o", str(blocker / "out.nc")])
-    assert status == 2 and "could not write" in capsys.readouterr().err
+    # the option's check, naming the file in the way (was "[Errno 17] File exists")
+    assert status == 2 and f"{blocker} is a file, not a folder" in capsys.readouterr().err
 
 
 def test_a_sweep_file_defines_the_same_sweep_as_the_options(
@@ -551,3 +552,20 @@ def test_a_sweep_without_histories_holds_case_indices_and_a_few_chunks_at_a_time
     assert sorted(done) == list(range(50))
     chunked = executors.make_chunks(cases.indexed(), workers=1)
     assert [[i for i, _ in chunk] for chunk in chunked] == [[0], [2], [3]]
+
+
+def test_a_real_field_swept_over_integers_is_stored_as_float(tmp_path: Path) -> None:
+    """--grid links[0].EI=300,310 stored EI as int32 (netCDF) and int64 (MATLAB), where
+    EI / 3 is integer arithmetic; an integer field (modes) stays integer."""
+    from scipy.io import loadmat
+
+    raw = short_paper()
+    raw["simulation"]["t_end"] = 0.02
+    grid = {"links[0].EI": [300, 310], "links[1].modes": [1, 2]}
+    for out in (tmp_path / "s.nc", tmp_path / "s.mat"):
+        sweep(raw, grid=grid, workers=1, output=out)
+    with xr.open_dataset(tmp_path / "s.nc") as written:
+        assert written["links[0].EI"].dtype == np.float64
+        assert written["links[1].modes"].dtype.kind == "i"
+    mat = loadmat(tmp_path / "s.mat")
+    assert mat["links_0_EI"].dtype == np.float64 and mat["links_1_modes"].dtype.kind == "i"

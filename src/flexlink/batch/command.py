@@ -172,6 +172,12 @@ def _check_output(path: Path, overwrite: bool) -> None:
     if path.exists() and not overwrite:
         raise SweepError([(f"output file {path} already exists; choose another name or "
                            "replace it (--overwrite)")])
+    from ..options import OptionError, check_writable
+
+    try:  # before any case runs: under a file, in a folder that cannot be written
+        check_writable(path)
+    except OptionError as exc:
+        raise SweepError([str(exc)]) from None
 
 
 def _fail(message: str, status: int = 2) -> int:

@@ -107,12 +107,21 @@ class SweepCollector:
         """The Dataset of everything collected so far (see the module docstring)."""
         return self.layout().to_xarray()
 
+    def _integer_field(self, path: str) -> bool:
+        """Whether the swept field takes integers (``modes``); a real-valued field swept
+        over integer literals is stored as float, which MATLAB would otherwise compute
+        with in integer arithmetic."""
+        return self.base is None or self.base.locate(path).integer
+
     def layout(self) -> Layout:
         """Everything collected so far in the one layout of flexlink's files."""
         parameters = {}
         for parameter in self.table.parameters:
+            values = self.table.values[parameter.path]
+            if values.dtype.kind == "i" and not self._integer_field(parameter.path):
+                values = values.astype(np.float64)  # EI = 10, 20: not int32 in the files
             parameters[parameter.path] = parameter_variable(
-                parameter.path, self.table.values[parameter.path], parameter.description,
+                parameter.path, values, parameter.description,
                 parameter_unit(parameter.path, self.base))
         values = self._values
         if self._unsettled and values is not None:  # a copy: workers may still write

@@ -113,7 +113,7 @@ def local_processes(workers: int, shared: SharedResults | None = None,
         for _ in range(workers):  # a pool starts its processes with the first tasks
             pool.submit(_started)
     except BaseException:
-        _stop(pool)
+        stop_pool(pool)
         raise
     return PoolResults(pool, workers)
 
@@ -177,11 +177,20 @@ class PoolResults:
         if self.finished:
             self.pool.shutdown(wait=True)
         else:
-            _stop(self.pool)
+            stop_pool(self.pool)
 
 
-def _stop(pool: ProcessPoolExecutor) -> None:
-    """Cancel the queued chunks and end the running ones now (not after they finish)."""
+def ignore_interrupt() -> None:
+    """Initializer of a pool's worker: no SIGINT, Ctrl-C is handled once, by the parent,
+    which stops the workers (`stop_pool`); otherwise each worker prints its own traceback
+    of the KeyboardInterrupt over the command's message."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel the queued tasks and end the running ones now (not after they finish)."""
     terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
     if terminate is not None:
         terminate()

@@ -189,9 +189,16 @@ def run_linearize(args: argparse.Namespace) -> int:
 
 
 def _pairs(text: str | None, plant: Any) -> list[tuple[str, str]]:
-    if text is None:
+    if text is None:  # the first input (or the next) to up to four outputs it reaches
         if not plant.input_names or not plant.output_names:
             return []
+        from .figures import default_band
+
+        zero = plant.zero_transfers(default_band(plant))
+        for j, u in enumerate(plant.input_names):
+            reached = [y for i, y in enumerate(plant.output_names) if not zero[i, j]]
+            if reached:
+                return [(u, y) for y in reached[:4]]
         return [(plant.input_names[0], y) for y in plant.output_names[:4]]
     pairs = []
     for part in text.split(","):

@@ -195,10 +195,32 @@ def _frequencies(scenario: Scenario, at: At) -> tuple[np.ndarray, str]:
             where = "the t = 0 angles at rest"
     elif isinstance(at, int | float):
         where = f"t = {at:g} s"
-    else:
-        pairs = at.items() if isinstance(at, Mapping) else \
-            [(f"joint{i + 1}", a) for i, a in enumerate(at)]
-        where = "rest at " + ", ".join(
-            f"{k} = {v:g}" + ("°" if k.startswith("joint") or k == "base_attitude" else " m")
-            for k, v in pairs)
-    return linearize(scenario, at=at, outputs=[]).modes()[0], where
+    plant = linearize(scenario, at=at, outputs=[])
+    if not isinstance(at, int | float):
+        where = _rest_text(at, plant.operating_point)
+    return plant.modes()[0], where
+
+
+def _rest_text(at: At, operating_point: Mapping[str, Any]) -> str:
+    """``rest at joint1 = 30°, base_x = 0.1 m``: the configuration ``at`` (a mapping or one
+    angle per joint) in words; for a closed loop (``operating_point`` of its plant) the
+    angles the loop closed at (and a slider's travel), given or not, since a dependent
+    joint's value in ``at`` is only a guess."""
+    pairs = dict(at.items()) if isinstance(at, Mapping) else \
+        {f"joint{i + 1}": float(a) for i, a in enumerate(at)}  # type: ignore[union-attr]
+    dependent = str(operating_point.get("dependent_joints", "")).split()
+
+    def value(key: str, given: float) -> str:
+        if key in dependent and f"{key}_angle" in operating_point:
+            return f"{math.degrees(operating_point[f'{key}_angle']):.4g}°"
+        if key in dependent and f"{key}_position" in operating_point:
+            return f"{operating_point[f'{key}_position']:.4g} m"
+        return f"{given:g}" + ("°" if key.startswith("joint") or key == "base_attitude"
+                               else " m")
+
+    given = [f"{k} = {value(k, v)}" for k, v in pairs.items() if k not in dependent]
+    closed = [f"{k} = {value(k, pairs.get(k, math.nan))}" for k in dependent]
+    loop = f"the loop closed at {', '.join(closed)}" if closed else ""
+    if not given:
+        return f"rest, {loop}"
+    return f"rest at {', '.join(given)}" + (f"; {loop}" if loop else "")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -29,25 +30,50 @@ def default_band(plant: LinearPlant) -> np.ndarray:
 
 def bode_figure(plant: LinearPlant, pairs: Sequence[tuple[str, str]], path: Path,
                 f_hz: np.ndarray | None = None) -> Path:
-    """Magnitude (dB of output unit per input unit) and phase (deg) of each (input, output)."""
+    """Magnitude (dB of output unit per input unit) and phase (deg) of each (input, output);
+    a pair whose response is zero (`LinearPlant.zero_transfers`) is named in the legend, not
+    drawn: its round-off stretched the magnitude axis to −6000 dB."""
     f = default_band(plant) if f_hz is None else np.asarray(f_hz, dtype=float)
     fig = _figure(7.5, 5.5)
     mag, phase = fig.subplots(2, 1, sharex=True)
-    for u, y in pairs:
+    for k, (u, y) in enumerate(pairs):
         sub = plant.select([u], [y])
-        G = sub.frequency_response(f)[0, 0]
         unit = f"{sub.output_units[0]}/{sub.input_units[0]}"
-        mag.semilogx(f, 20 * np.log10(np.maximum(np.abs(G), 1e-300)), label=f"{u} → {y} [{unit}]")
-        phase.semilogx(f, np.degrees(np.unwrap(np.angle(G))))
+        if sub.zero_transfers(f)[0, 0]:
+            mag.plot([], [], color=f"C{k}", linestyle=":", label=f"{u} → {y}: zero")
+            continue
+        G = sub.frequency_response(f)[0, 0]
+        mag.semilogx(f, 20 * np.log10(np.maximum(np.abs(G), 1e-300)), color=f"C{k}",
+                     label=f"{u} → {y} [{unit}]")
+        phase.semilogx(f, np.degrees(np.unwrap(np.angle(G))), color=f"C{k}")
+    mag.set_xscale("log")
     mag.set_ylabel("magnitude (dB)")
     phase.set_ylabel("phase (deg)")
     phase.set_xlabel("frequency (Hz)")
-    mag.legend(fontsize="small")
-    for ax in (mag, phase):
+    # above the panels: inside, it hid the curves it happened to cover
+    fig.legend(loc="outside upper center", fontsize="small", ncols=2 if len(pairs) > 2 else 1)
+    for ax, span in ((mag, MIN_SPAN_DB), (phase, MIN_SPAN_DEG)):
         ax.grid(True, which="both", alpha=0.3)
+        _at_least(ax, span)
     mag.set_title(_title(plant))
     fig.savefig(path, dpi=120)
     return path
+
+
+# The shortest spans of the Bode plot's axes: a flat response (a feedthrough, a static
+# gain) would otherwise be drawn on an axis of 1e-11 dB with an offset, its round-off as
+# features.
+MIN_SPAN_DB, MIN_SPAN_DEG = 20.0, 20.0
+
+
+def _at_least(ax: Any, span: float) -> None:
+    """The axis' vertical range widened about its middle to ``span`` at least; no offset in
+    its labels."""
+    low, high = ax.get_ylim()
+    if high - low < span:
+        middle = 0.5 * (low + high)
+        ax.set_ylim(middle - 0.5 * span, middle + 0.5 * span)
+    ax.ticklabel_format(axis="y", useOffset=False)
 
 
 def _title(plant: LinearPlant) -> str:

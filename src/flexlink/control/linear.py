@@ -15,6 +15,11 @@ from typing import Any
 
 import numpy as np
 
+# A zero transfer: |G| below this fraction of its bound ‖c‖ ‖x‖ + |D| at every frequency
+# (an exact cancellation), or below ZERO_GAIN in SI units (−400 dB: an output row of C that
+# is round-off of finite differences, far below any transfer of a mechanism)
+ZERO_TRANSFER, ZERO_GAIN = 1e-12, 1e-20
+
 
 @dataclass(frozen=True)
 class LinearPlant:
@@ -63,13 +68,30 @@ class LinearPlant:
     # -- analysis ---------------------------------------------------------------------------
     def frequency_response(self, f_hz: Sequence[float] | np.ndarray) -> np.ndarray:
         """G(j 2π f) = C (j2πf I − A)⁻¹ B + D, complex (n_out, n_in, n_f)."""
+        return self._response(f_hz)[0]
+
+    def zero_transfers(self, f_hz: Sequence[float] | np.ndarray) -> np.ndarray:
+        """(n_out, n_in) booleans: the pairs whose response is zero at every frequency of
+        ``f_hz``, |G| within round-off (`ZERO_TRANSFER`) of its bound ‖cᵢ‖ ‖xⱼ‖ + |Dᵢⱼ|,
+        x = (j2πf I − A)⁻¹ B, or below `ZERO_GAIN`: an output the input does not reach (a
+        closed loop's dependent joint while its crank is prescribed), whose magnitude is
+        round-off."""
+        G, bound = self._response(f_hz)
+        magnitude = np.abs(G)
+        return np.all((magnitude <= ZERO_TRANSFER * bound) | (magnitude <= ZERO_GAIN), axis=2)
+
+    def _response(self, f_hz: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(G, the bound of |G| from the norms of C's rows and of the state responses)."""
         f = np.atleast_1d(np.asarray(f_hz, dtype=float))
         n = self.A.shape[0]
         out = np.empty((self.C.shape[0], self.B.shape[1], f.size), dtype=complex)
+        bound = np.empty(out.shape)
+        rows = np.linalg.norm(self.C, axis=1)
         for i, fi in enumerate(f):
             X = np.linalg.solve(2j * np.pi * fi * np.eye(n) - self.A, self.B)
             out[:, :, i] = self.C @ X + self.D
-        return out
+            bound[:, :, i] = np.outer(rows, np.linalg.norm(X, axis=0)) + np.abs(self.D)
+        return out, bound
 
     def poles(self) -> np.ndarray:
         """Eigenvalues of A (1/s), sorted by magnitude then imaginary part."""

@@ -121,8 +121,27 @@ def _over_angles(scenario: Scenario, angles: Mapping[str, Sequence[float]]
         assert isinstance(point, Configuration)
         held = held_scenario(scenario, point)
         plants.append((linearize(held, at=point.describe_at()), held))
+        if i == 0:
+            _check_independent(plants[0][0], list(grids), len(scenario.chain.joints))
     first = next(iter(grids))
     return first, grids[first], plants
+
+
+def _check_independent(plant: LinearPlant, gridded: list[str], joints: int) -> None:
+    """ValueError where every gridded joint is a dependent joint of a closed loop
+    (``plant``'s operating point): their angles are only guesses the loop closes from, so
+    every point of the grid would be the same configuration under other labels. Guesses
+    zipped with a grid of an independent joint are welcome."""
+    dependent = str(plant.operating_point.get("dependent_joints", "")).split()
+    bad = [k for k in gridded if k in dependent]
+    if bad and len(bad) == len(gridded):
+        free = [f"joint{k + 1}" for k in range(joints) if f"joint{k + 1}" not in dependent]
+        raise ValueError(
+            f"angles (--grid): {', '.join(bad)} {'is a' if len(bad) == 1 else 'are'} "
+            f"dependent joint{'' if len(bad) == 1 else 's'} of the closed loop, whose angles "
+            f"follow from {', '.join(free) or 'the other joints'}: every point of the grid "
+            f"would be the same configuration; grid {' or '.join(free) or 'another joint'} "
+            "(with these as the loop's guesses, zipped, if you like)")
 
 
 def _over_times(scenario: Scenario, times: np.ndarray) -> list[tuple[LinearPlant, Scenario]]:

@@ -20,7 +20,7 @@ from ..model import Scenario
 from ..motion import MeasuredMotion
 from ..results import Results
 from .files import MeasurementError
-from .measurement import Measurement, MeasurementWarning
+from .measurement import MIN_SAMPLES, Measurement, MeasurementWarning
 from .vibration import Manoeuvre, detect_manoeuvre, dominant_mode
 
 
@@ -84,12 +84,34 @@ def measured_inputs(scenario: Scenario, measurement: Measurement) -> MeasuredInp
               for k, angle in held_angles(measurement).items()}
     t_last = float(measurement.time[-1])
     t_end = scenario.settings.t_end
+    _check_overlap(measurement, t_end)
     if t_last < t_end - 1e-9:
         warnings.warn(f"{measurement.source}: the data end at t = {t_last:g} s, before "
                       f"simulation.t_end = {t_end:g} s; simulating up to {t_last:g} s",
                       MeasurementWarning, stacklevel=2)
         measurement.notes.append(f"simulated up to the end of the data, t = {t_last:g} s")
     return MeasuredInputs(joints, t_last)
+
+
+def _check_overlap(measurement: Measurement, t_end: float) -> None:
+    """Refuse data with too few samples within the run, 0 to ``t_end`` (s), most likely a
+    time column in other units; warn where the data go on past it (not compared)."""
+    t = measurement.time
+    inside = int(np.count_nonzero(t <= t_end + 1e-9 * max(1.0, t_end)))
+    if inside < MIN_SAMPLES:
+        raise MeasurementError(
+            f"{measurement.source}: only {inside} of the {t.size} samples lie within the run, "
+            f"0 to simulation.t_end = {t_end:g} s (the data span {t[0]:g} to {t[-1]:g} s "
+            f"every {t[1] - t[0]:g} s); if the time column is not in seconds set time_unit "
+            "(\"ms\", \"us\", \"min\") in [measurement], else raise simulation.t_end")
+    step = float(t[1] - t[0])
+    if t[-1] > t_end + 0.5 * step:
+        warnings.warn(f"{measurement.source}: the data go on to t = {t[-1]:g} s, past "
+                      f"simulation.t_end = {t_end:g} s; compared up to {t_end:g} s (raise "
+                      "simulation.t_end to use the rest)", MeasurementWarning, stacklevel=3)
+        note = f"compared up to simulation.t_end = {t_end:g} s; the data go on to {t[-1]:g} s"
+        if note not in measurement.notes:
+            measurement.notes.append(note)
 
 
 def driven_scenario(scenario: Scenario, measurement: Measurement) -> Scenario:

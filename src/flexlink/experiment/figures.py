@@ -80,7 +80,7 @@ def overlay_figure(data: FigureData) -> Figure:
             ax.axvline(data.free_start, color="k", linestyle=":", linewidth=0.8)
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(True, linewidth=0.5, alpha=0.6)
-        ax.legend(loc="upper right", fontsize="small")
+    _legend(axes[0])
     axes[-1].set_xlabel("time t [s]  (dotted: start of free vibration)")
     axes[-1].set_xlim(t[0], t[-1])
     return fig
@@ -100,11 +100,15 @@ def spectra_figure(data: FigureData) -> Figure:
     # at most of the drawing's cost
     drawn = min(int(np.count_nonzero(shown)) + 1, freqs.size)
     for ax, name in zip(axes, names, strict=True):
+        factor, unit = display_scale(data.units[name])
         highest = 0.0
         for values, label, style in ((data.measured[name], "measured", "0.55"),
                                      (data.simulated[name], "simulated", "C3")):
             y = values[window] - np.mean(values[window])
-            amplitude = np.abs(np.fft.rfft(y * np.hanning(y.size), n)) + 1e-300
+            taper = np.hanning(y.size)
+            # a sinusoid's amplitude in the signal's unit at its peak (Hann window)
+            amplitude = (2.0 * factor / max(taper.sum(), 1e-300)
+                         * np.abs(np.fft.rfft(y * taper, n)) + 1e-300)
             highest = max(highest, float(amplitude[shown].max()))
             ax.semilogy(freqs[:drawn], amplitude[:drawn], color=style, linewidth=0.9,
                         label=label)
@@ -114,9 +118,9 @@ def spectra_figure(data: FigureData) -> Figure:
         if highest > 0:  # four decades below the highest peak: the noise floor, not 1e-10
             ax.set_ylim(highest * SPECTRUM_DECADES, highest * 2.0)
         ax.yaxis.set_major_formatter(power_of_ten())
-        ax.set_ylabel(f"|FFT| {name}")
+        ax.set_ylabel(f"{name}\namplitude [{unit}]")
         ax.grid(True, linewidth=0.5, alpha=0.6)
-        ax.legend(loc="upper right", fontsize="small")
+    _legend(axes[0], "amplitude spectra of the free vibration")
     axes[-1].set_xlim(0, min(top, freqs[-1]))
     axes[-1].set_xlabel("frequency [Hz]  (dotted: estimated dominant frequencies)")
     return fig
@@ -125,8 +129,17 @@ def spectra_figure(data: FigureData) -> Figure:
 # Margins of the figures, in inches: room for the y axis' labels at the left, the time or
 # frequency axis at the bottom; fixed, as `flexlink run`'s figures (results/plotting.py):
 # matplotlib's constrained layout took two thirds of drawing them.
-_LEFT, _RIGHT, _TOP, _BOTTOM, _GAP = 0.95, 0.25, 0.25, 0.55, 0.12
+_LEFT, _RIGHT, _TOP, _BOTTOM, _GAP = 1.1, 0.25, 0.4, 0.55, 0.12
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def _legend(ax: Any, title: str = "") -> None:
+    """The legend of every panel above the top one (``title`` at its left): inside a panel it
+    hid the data it happened to cover."""
+    ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncols=2, fontsize="small",
+              frameon=False, borderaxespad=0.1)
+    if title:
+        ax.set_title(title, loc="left", fontsize="medium")
 
 
 def _frame(panels: int, panel_height: float) -> tuple[Figure, list[Any]]:

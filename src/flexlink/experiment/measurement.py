@@ -33,6 +33,7 @@ UNIFORM_RTOL = 1e-3  # steps within this fraction of the median step count as un
 MEASUREMENT_KEYS = ("file", "time_column", "time_unit", "time_offset", "free_vibration_start",
                     "hold_after_manoeuvre", "columns")
 COLUMN_KEYS = ("column", "joint", "sensor", "unit", "scale", "offset", "lowpass_hz")
+MIN_SAMPLES = 4  # the fewest samples a measurement (and its part within the run) may have
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0}
 # unit name → (factor to SI, SI unit in UDUNITS spelling, as the channel records give it);
 # the older spellings m/s^2 and N*m are still read
@@ -318,8 +319,8 @@ def condition(columns: Mapping[str, np.ndarray], spec: MeasurementSpec, scenario
 
 def _clean_time(t: np.ndarray, data: dict[str, np.ndarray], name: str, source: str,
                 warn: Any) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    if t.size < 4:
-        raise MeasurementError(f"{source}: need at least 4 samples, got {t.size}")
+    if t.size < MIN_SAMPLES:
+        raise MeasurementError(f"{source}: need at least {MIN_SAMPLES} samples, got {t.size}")
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise MeasurementError(f"{source}: time column {name!r} has {bad.size} missing or "
@@ -354,12 +355,15 @@ def _fill_nan(t: np.ndarray, values: np.ndarray, name: str, source: str,
     longest = int(np.argmax(ends - starts))
     if ends[longest] - starts[longest] > MAX_FILL:
         raise MeasurementError(
-            f"{source}: column {name!r} has {ends[longest] - starts[longest]} missing/NaN "
-            f"samples in a row from t = {t[starts[longest]]:g} s; at most {MAX_FILL} are "
+            f"{source}: column {name!r} has {ends[longest] - starts[longest]} missing or "
+            f"non-finite (NaN, inf) samples in a row from t = {t[starts[longest]]:g} s; at most {MAX_FILL} are "
             "interpolated. Cut the file or fix the data there")
     filled = values.copy()
     filled[bad] = np.interp(t[bad], t[~bad], values[~bad])
-    warn(f"column {name!r}: {int(bad.sum())} missing/NaN sample(s) filled by linear "
+    infinite = int(np.isinf(values).sum())
+    warn(f"column {name!r}: {int(bad.sum())} missing or non-finite sample(s)"
+         + (f" ({infinite} of them ±inf: an overflow or a saturated sensor?)" if infinite else "")
+         + " filled by linear "
          f"interpolation (first at t = {t[np.argmax(bad)]:g} s)")
     return filled
 

@@ -6,14 +6,12 @@ and renamed into place (as `flexlink.results.writers`), so a failure leaves noth
 from __future__ import annotations
 
 import csv
-import json
 import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
+from ..options import json_text
 from ..results.writers import (
     RESOLVED_NAME,
     atomic_folder,
@@ -64,8 +62,7 @@ def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
                 "cost": result.cost, "rms_normalised_residual": result.rms_residual,
                 "simulations": result.simulations, "status": result.status,
                 "correlation": result.correlation.tolist(), **result.info}
-        (folder / "fit.json").write_text(json.dumps(_clean(info), indent=2) + "\n",
-                                         encoding="utf-8")
+        (folder / "fit.json").write_text(json_text(info), encoding="utf-8")
         lines = [(f"# Fit: {resolved['simulation']['name']} to "
                  f"{result.comparison.measurement.source}"), "",
                  (f"{len(result.estimates)} parameter(s) from {', '.join(result.channels)} on "
@@ -120,8 +117,7 @@ def _common(comparison: Comparison, folder: Path, resolved: Mapping[str, Any],
     meta = {"measurement": comparison.measurement.source,
             "free_vibration_start_s": comparison.free_start,
             "notes": comparison.measurement.notes, "metrics": rows}
-    (folder / "metrics.json").write_text(json.dumps(_clean(meta), indent=2) + "\n",
-                                         encoding="utf-8")
+    (folder / "metrics.json").write_text(json_text(meta), encoding="utf-8")
     write_results_csv(comparison.results, folder / "simulated.csv")
     # its columns' units, kinds and descriptions, as channels.csv beside a run's results.csv
     write_channels_csv(comparison.results, folder / "simulated_channels.csv")
@@ -164,17 +160,6 @@ def _write_csv(path: Path, columns: list[str], rows: list[dict[str, Any]]) -> No
         writer.writeheader()
         for row in rows:
             writer.writerow({k: "" if row.get(k) is None else row.get(k) for k in columns})
-
-
-def _clean(value: Any) -> Any:
-    """JSON-safe: inf/nan → None (JSON has neither), numpy scalars → float."""
-    if isinstance(value, Mapping):
-        return {k: _clean(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
-    if isinstance(value, float | np.floating):
-        return float(value) if math.isfinite(value) else None
-    return value
 
 
 def _num(value: float | None) -> str:

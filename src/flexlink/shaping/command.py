@@ -5,8 +5,9 @@ Writes to DIR: ``optimized.toml`` (the scenario with the optimised joints as
 ``trajectory.csv`` (t in s; angle, rate, acceleration of every joint in deg, deg/s, deg/s²),
 ``summary.json`` (limits, continuous-time peaks, residual energies, residual tip
 deflection of the cycloidal, shaped and optimised moves, their robustness over a band of
-frequency errors in every model compared, run time, how the optimiser stopped) and the
-figures ``residual.png`` and ``robustness.png``. Exit status as `flexlink run`: 2 for bad
+frequency errors in every model compared, run time, how the optimiser stopped),
+``scenario.resolved.toml`` (the scenario given, every default filled in) and the figures
+``residual.png`` and ``robustness.png``. Exit status as `flexlink run`: 2 for bad
 input or an infeasible request (the message names the binding limit), 1 if a simulation
 fails.
 """
@@ -14,7 +15,6 @@ fails.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import platform
 import sys
@@ -23,6 +23,7 @@ from typing import Any
 
 from ..options import (
     check_size,
+    json_text,
     nonnegative_finite_float,
     nonnegative_int,
     positive_float,
@@ -47,6 +48,8 @@ def add_commands(commands: Any) -> None:
     p.add_argument("--paper", action="store_true", help="optimise the built-in paper scenario")
     p.add_argument("-o", "--output", type=Path, metavar="DIR", required=True,
                    help="folder to create (must not exist or be empty)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace DIR if it holds an earlier flexlink folder")
     p.add_argument("--duration", type=positive_float, metavar="S",
                    help="duration of every move, s (default: each move's own)")
     p.add_argument("--rate-limit", metavar="DEG_S[,…]",
@@ -169,7 +172,7 @@ def _optimize_command(args: argparse.Namespace, worker: Any) -> int:
         return 2
     source = paper_experiment_path() if args.paper else args.scenario
     try:
-        check_output_dir(args.output)
+        check_output_dir(args.output, args.overwrite)
         _check_arguments(args)
         check_request(args.duration, args.harmonics, args.robust / 100.0, args.workers,
                       args.max_iterations)
@@ -192,7 +195,7 @@ def _optimize_command(args: argparse.Namespace, worker: Any) -> int:
     from ..results.writers import atomic_folder
 
     try:
-        with atomic_folder(args.output) as partial:  # nothing left behind by a failure
+        with atomic_folder(args.output, args.overwrite) as partial:  # nothing left by a failure
             try:
                 summary = write_outputs(result, resolved, partial, limits, args.shaper,
                                         args.model or [scenario.settings.model],
@@ -258,6 +261,7 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
     import numpy as np
 
     from ..errors import SimulationError
+    from ..results.writers import RESOLVED_NAME, resolved_toml
     from ..scenario import scenario_from_dict
     from ..scenario.toml_writer import dump_toml
     from . import compare
@@ -368,15 +372,16 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
     if figures:
         summary["robustness"] = {"model": models[0], "errors_pct": list(ERRORS_PCT),
                                  **{k: v.tolist() for k, v in curves.items()}}
-    # everything computed: write the folder
+    # everything computed: write the folder (with the scenario as given, resolved: what
+    # --overwrite recognises a flexlink folder by)
     out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / RESOLVED_NAME).write_text(resolved_toml(resolved), encoding="utf-8")
     (out_dir / "optimized.toml").write_text(
         "# written by flexlink optimize: run it with flexlink run optimized.toml\n"
         + dump_toml(data), encoding="utf-8")
     np.savetxt(out_dir / "trajectory.csv", np.column_stack(list(columns.values())),
                delimiter=",", header=",".join(columns), comments="", fmt="%.10g")
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float),
-                                          encoding="utf-8")
+    (out_dir / "summary.json").write_text(json_text(summary), encoding="utf-8")
     if pictures is not None and (figure_worker is None or not figure_worker.wait()):
         pictures.write(out_dir)
     return summary
@@ -449,7 +454,8 @@ def summary_text(summary: dict[str, Any], out_dir: Path) -> str:
         lines.append("  " + ", ".join(
             f"{e:+g} %: " + ("diverges" if math.isnan(r) else f"{r:.3g}×")
             for e, r in zip(errors, band["ratio"], strict=True)))
-    lines.append(f"files in {out_dir}: optimized.toml, trajectory.csv, summary.json"
+    lines.append(f"files in {out_dir}: optimized.toml, trajectory.csv, summary.json, "
+                 "scenario.resolved.toml"
                  + (", residual.png, robustness.png" if "robustness" in summary else ""))
     return "\n".join(lines)
 

@@ -127,15 +127,21 @@ def residual_runs(checks: Sequence[Check], move_end: float, workers: int = 1,
         return [_residual(c, move_end, window) for c in checks]
     from concurrent.futures.process import BrokenProcessPool
 
+    from ..batch.executors import stop_pool
+
     _CHECKS[:] = checks  # the workers fork at the first task and read them by index
     count = len(checks)
     try:
-        with pool:
-            return list(pool.map(_residual_of, range(count), [move_end] * count,
-                                 [window] * count))
+        return list(pool.map(_residual_of, range(count), [move_end] * count,
+                             [window] * count))
     except BrokenProcessPool:  # a worker died (killed, out of memory): the runs here
+        pool.shutdown()
         return [_residual(c, move_end, window) for c in checks]
+    except BaseException:  # Ctrl-C: the queued runs are not waited for
+        stop_pool(pool)
+        raise
     finally:
+        pool.shutdown()  # at once after stop_pool
         _CHECKS.clear()
 
 
@@ -153,7 +159,10 @@ def _fork_pool(workers: int) -> ProcessPoolExecutor | None:
             or "fork" not in multiprocessing.get_all_start_methods()
             or threading.active_count() > 1):
         return None
-    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
+    from ..batch.executors import ignore_interrupt
+
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                               initializer=ignore_interrupt)
 
 
 def _residual_of(index: int, move_end: float, window: float) -> Residual:

@@ -53,8 +53,9 @@ def trace_figure(traces: Mapping[str, Trace], move_start: float, move_end: float
     from matplotlib.figure import Figure
 
     panels = len(traces)
-    fig = _framed(Figure(figsize=(3.2 * panels, 3.0)), (0.65, 0.1, 0.72 if title else 0.45, 0.5),
-                  wspace=0.12 * panels / (3.2 * panels - 0.75 - 0.12 * (panels - 1)))
+    # the left margin holds the tick labels (−150) and the axis label: 0.65 in cut it off
+    fig = _framed(Figure(figsize=(3.2 * panels, 3.0)), (0.85, 0.1, 0.9 if title else 0.72, 0.5),
+                  wspace=0.12 * panels / (3.2 * panels - 0.95 - 0.12 * (panels - 1)))
     axes = fig.subplots(1, panels, sharey=True, squeeze=False)[0]
     for ax, (label, (time, tip, peak)), colour in zip(axes, traces.items(), COLOURS,
                                                        strict=False):
@@ -66,8 +67,8 @@ def trace_figure(traces: Mapping[str, Trace], move_start: float, move_end: float
         ax.set_xlabel("time (s)")
         ax.grid(True, lw=0.3)
     axes[0].set_ylabel("tip deflection of the last link (mm)")
-    if title:
-        fig.suptitle(title, fontsize=10)
+    fig.suptitle(f"{title}{chr(10) if title else ''}grey: the move; dotted: ± the residual peak",
+                 fontsize=10)
     return fig
 
 

@@ -448,8 +448,11 @@ _WORKER_PROBLEM: Problem | None = None
 
 
 def _init_worker(problem: Problem) -> None:
+    from ..batch.executors import ignore_interrupt
+
     global _WORKER_PROBLEM
     _WORKER_PROBLEM = problem
+    ignore_interrupt()
 
 
 def _trial_in_worker(x: np.ndarray, on: Sequence[Discretisation | None] | None
@@ -512,9 +515,15 @@ class Evaluator:
         except _FAILED:
             return None
 
-    def close(self) -> None:
+    def close(self, stop: bool = False) -> None:
+        """End the pool: after its running trials, or (``stop``: Ctrl-C, a failure) at once."""
         if self._pool is not None:
-            self._pool.shutdown(cancel_futures=True)
+            if stop:
+                from ..batch.executors import stop_pool
+
+                stop_pool(self._pool)
+            else:
+                self._pool.shutdown(cancel_futures=True)
             self._pool = None
 
 
@@ -598,8 +607,10 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
         with single_threaded():
             result = _solve(problem, evaluator, kinematic, torque, energy0, seed, fd_step,
                             max_iterations, on_iteration)
-    finally:
-        evaluator.close()
+    except BaseException:
+        evaluator.close(stop=True)
+        raise
+    evaluator.close()
     wall = time.perf_counter() - started
     x = result["x"]
     energy = np.sum(result["rows"] ** 2, axis=1)
