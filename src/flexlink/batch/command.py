@@ -73,12 +73,14 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
                             "problems) as failed cases; default: refuse the whole sweep")
     sweep.add_argument("-q", "--quiet", action="store_true",
                        help="no progress bar and no summary; print only the file name")
-    sweep.set_defaults(handler=run_command, subparser=sweep)
+    # paused_start_up: the collector stays paused through the imports (_start_up_imports)
+    sweep.set_defaults(handler=run_command, subparser=sweep, paused_start_up=True)
     return sweep
 
 
 def run_command(args: argparse.Namespace) -> int:
     """Handle ``flexlink sweep``; returns the exit status."""
+    _start_up_imports(args)
     from ..scenario import ScenarioError
     from .errors import SweepError, SweepInterrupted
     from .run import run_sweep
@@ -117,6 +119,31 @@ def run_command(args: argparse.Namespace) -> int:
         return _fail(f"error: could not write {output}: {exc}")
     print(output if args.quiet else summary(layout, output, time.perf_counter() - started))
     return 1 if layout.attrs["cases_failed"] else 0
+
+
+def _start_up_imports(args: argparse.Namespace) -> None:
+    """Import the sweep's code (numpy, scipy, numba) within the block `cli.main` gives
+    (``args.start_up``: optional modules of numba and scipy withheld), with the start-up
+    measures of a command's own process (`flexlink._light_start`: numba loads the cached
+    kernels without its typing registries, numpy's unused submodules stay lazy), which the
+    forked workers inherit; then resume the garbage collector, as `flexlink fit` does
+    (ARCHITECTURE.md, "Start-up of `flexlink run`"). Without ``start_up`` (a caller of the
+    handler itself): nothing, the command imports as it goes."""
+    if not hasattr(args, "start_up"):
+        return
+    block, imports_done = args.start_up
+    with block:
+        if getattr(args, "own_process", False):
+            from .._light_start import start_command_process
+
+            start_command_process()
+        try:
+            import numba  # noqa: F401 — the workers' kernels load in this process
+
+            from . import run  # noqa: F401 — the simulation's modules and scipy
+        except ImportError:
+            pass  # a library needs a withheld module after all: imported again on use
+    imports_done()
 
 
 def _definition(args: argparse.Namespace) -> dict[str, Any]:
