@@ -26,10 +26,11 @@ REGISTRY_MODULES = ("numba.np.linalg", "numba.np.arraymath", "numba.np.npyimpl",
 # the command's process, recording at its exit (after its atexit handlers' turn: `cli._exit`
 # runs them) which modules it imported and which of them stayed lazy
 PROBE = """
-import atexit, json, sys
+import atexit, json, sys, threading
 path = sys.argv.pop(1)
 def record():
     modules = {n: type(m).__name__ for n, m in sys.modules.items() if m is not None}
+    modules["(threads)"] = threading.active_count()  # 1: the exit without teardown
     # scipy's array-backend note, which parsing the docstring at import would have appended
     modules["(notes appended)"] = "Array API" in sys.modules["scipy.linalg"].block_diag.__doc__
     with open(path, "w") as f:
@@ -84,7 +85,8 @@ SWEEP_SUMMARIES = ["peak:link2_tip_deflection", "peak:joint1_torque"]
 def test_the_sweep_command_takes_the_same_measures_and_its_workers_match_the_library(
         tmp_path: Path) -> None:
     """`flexlink sweep`'s own process (and so its forked workers) goes without numba's
-    registries, numpy's unused packages and xarray; its cases equal the library's bit for bit."""
+    registries, numpy's unused packages and xarray, and ends without teardown (no thread
+    left); its cases equal the library's bit for bit."""
     import numpy as np
     import xarray as xr
 
@@ -95,7 +97,7 @@ def test_the_sweep_command_takes_the_same_measures_and_its_workers_match_the_lib
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [str(ROOT / "src"), *filter(None, [os.environ.get("PYTHONPATH")])])}
     args = ["sweep", "--paper", "--samples", "4", "--seed", "3", "--no-histories",
-            "--workers", "2", "-q", "-o", str(out)]
+            "--workers", "2", "-o", str(out)]
     for path, spec in SWEEP_RANDOM.items():
         args += ["--random", f"{path}={spec}"]
     for summary in SWEEP_SUMMARIES:
@@ -109,6 +111,7 @@ def test_the_sweep_command_takes_the_same_measures_and_its_workers_match_the_lib
     installed = [name for name in REGISTRY_MODULES if name in modules]
     assert not installed, f"numba's registries were installed: {installed}"
     assert "xarray" not in modules and "pandas" not in modules
+    assert modules["(threads)"] == 1  # no progress bar's monitor thread left: no teardown
     library = flexlink.sweep(paper_experiment_path(), random=SWEEP_RANDOM, samples=4, seed=3,
                              summaries=SWEEP_SUMMARIES, histories=False, workers=1)
     with xr.open_dataset(out) as written:

@@ -329,7 +329,13 @@ def _attributes(base: BaseScenario, table: Any) -> dict[str, Any]:
 def _progress(total: int, enabled: bool) -> Iterator[Any]:
     from tqdm import tqdm
 
-    bar = tqdm(total=total, unit="case", disable=not enabled, smoothing=0.1)
+    class Bar(tqdm):  # type: ignore[misc, type-arg]
+        # No monitor thread (tqdm keeps it after the last bar closes): it would stop the
+        # command's process from ending without teardown (`cli._exit`). It only refreshes a
+        # bar left without updates for 10 s; this one moves with every chunk.
+        monitor_interval = 0
+
+    bar = Bar(total=total, unit="case", disable=not enabled, smoothing=0.1)
     try:
         yield bar
     finally:
