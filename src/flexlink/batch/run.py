@@ -23,6 +23,7 @@ from ..simulation.common import MemoryEstimate, memory_problem, output_times, ru
 from . import executors
 from .cases import (
     BaseScenario,
+    CaseChecks,
     LazyCases,
     case_problems,
     case_scenarios,
@@ -120,7 +121,8 @@ def run_sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None,
         if local > 1:  # started now, with the compiled code, before the cases are checked
             pool = stack.enter_context(contextlib.closing(
                 executors.local_processes(local, shared, preload=template)))
-        scenarios, invalid = _cases(scenario_base, table, skip_invalid, lazy=not histories)
+        scenarios, invalid = _cases(scenario_base, table, skip_invalid, lazy=not histories,
+                                    checks=None if pool is None else pool.check_cases)
         collector = SweepCollector(table, time_ if histories else None,
                                    _attributes(scenario_base, table), shared, probed,
                                    _summary_records(template, metrics), scenario_base)
@@ -171,13 +173,14 @@ def check_sweep_memory(scenario: Scenario, cases: int, channels: int | None) -> 
         raise SweepError([f"{problem}; or fewer cases or channels (--channels)"])
 
 
-def _cases(base: BaseScenario, table: Any, skip_invalid: bool, lazy: bool
+def _cases(base: BaseScenario, table: Any, skip_invalid: bool, lazy: bool,
+           checks: CaseChecks | None = None
            ) -> tuple[Mapping[int, Case], dict[int, list[str]]]:
-    """The scenario of every case to run (``lazy``: built where it runs) and, with
-    ``skip_invalid``, the problems of the invalid cases (without it an invalid case refuses
-    the sweep: SweepError)."""
+    """The scenario of every case to run (``lazy``: built where it runs, and checked by
+    ``checks``: the workers, `cases.valid_cases`) and, with ``skip_invalid``, the problems
+    of the invalid cases (without it an invalid case refuses the sweep: SweepError)."""
     if skip_invalid or lazy:
-        scenarios, invalid = valid_cases(base, table, lazy)
+        scenarios, invalid = valid_cases(base, table, lazy, checks)
         if invalid and not skip_invalid:
             raise SweepError(case_problems(invalid, table))
         return scenarios, invalid
