@@ -522,7 +522,8 @@ def test_a_refused_sweep_ends_the_workers_it_started(tmp_path: Path) -> None:
     assert multiprocessing.active_children() == []
 
 
-def test_workers_check_the_cases_as_this_process_would(tmp_path: Path) -> None:
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
+def test_workers_check_the_cases_as_this_process_would(tmp_path: Path, forked_workers) -> None:
     """A sweep without histories has its cases checked by its workers, on slices of the case
     table, before any runs: the same problems in the same order as checked here, the same
     refusal, and with skip_invalid the same cases recorded as failed."""
@@ -536,6 +537,7 @@ def test_workers_check_the_cases_as_this_process_would(tmp_path: Path) -> None:
     here = check_rows(base, table, paths)
     pool = executors.local_processes(2)
     try:
+        assert pool.forked
         workers = pool.check_cases(base, table, paths)
     finally:
         pool.close()

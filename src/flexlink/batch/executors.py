@@ -119,7 +119,7 @@ def local_processes(workers: int, shared: SharedResults | None = None,
     except BaseException:
         _stop(pool)
         raise
-    return PoolResults(pool, workers)
+    return PoolResults(pool, workers, forked)
 
 
 def _started() -> None:
@@ -142,9 +142,11 @@ class PoolResults:
     iteration never started) ends the pool: waits for it after a complete iteration, else
     cancels the queued chunks and terminates the workers."""
 
-    def __init__(self, pool: ProcessPoolExecutor, workers: int = 1) -> None:
+    def __init__(self, pool: ProcessPoolExecutor, workers: int = 1,
+                 forked: bool = False) -> None:
         self.pool = pool
         self.workers = workers
+        self.forked = forked  # started with the compiled code: idle until their first chunk
         self.futures: dict[Future[ChunkResult], Chunk] = {}
         self.finished = False
         self.window = IN_FLIGHT_PER_WORKER * workers

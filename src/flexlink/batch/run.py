@@ -121,8 +121,11 @@ def run_sweep(base: str | Path | Mapping[str, Any], grid: GridSpec = None,
         if local > 1:  # started now, with the compiled code, before the cases are checked
             pool = stack.enter_context(contextlib.closing(
                 executors.local_processes(local, shared, preload=template)))
+        # forked workers are idle until their first chunk: they check the cases; others
+        # load the compiled code meanwhile, while this process checks them
+        checks = pool.check_cases if pool is not None and pool.forked else None
         scenarios, invalid = _cases(scenario_base, table, skip_invalid, lazy=not histories,
-                                    checks=None if pool is None else pool.check_cases)
+                                    checks=checks)
         collector = SweepCollector(table, time_ if histories else None,
                                    _attributes(scenario_base, table), shared, probed,
                                    _summary_records(template, metrics), scenario_base)
