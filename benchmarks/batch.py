@@ -3,6 +3,8 @@
     python benchmarks/batch.py [--cases 1000] [--workers N] [--channels a,b] [--scheduler ADDR]
                                [--vary model|numbers|sensors] [--summaries-only]
                                [--output FILE] [--before SRC [--vary model,numbers,sensors]]
+    python benchmarks/batch.py --command [--cases 1000] [--workers N] [--repeat 2]
+                               [--vary model,numbers,sensors] [--before SRC]
 
 The variants draw link 1's unknown modulus E (20-40 GPa, the paper gives none) and both joint
 move durations (0.8-1.2 s) at random (seed 1), variants advanced together 32 at a time, each
@@ -23,7 +25,10 @@ does). ``--before SRC`` runs the same benchmark first with the flexlink found in
 folder SRC (another checkout's ``src``), then this one, each in a fresh process, and prints
 the two side by side, adding each process's wall and CPU time from start to exit (start-up,
 imports and writing included) and the 1-minute load average when it started; ``--vary
-model,sensors`` then does so for both kinds of variant in one run.
+model,sensors`` then does so for both kinds of variant in one run. ``--command`` times the
+``flexlink sweep`` command itself instead (the same variants and summaries, no histories,
+a file written): each command's process CPU, its workers' included, and wall time from start
+to exit, ``--repeat`` times each, alternating with the flexlink of ``--before`` if given.
 """
 
 from __future__ import annotations
@@ -140,6 +145,53 @@ def side_by_side(before_src: str, argv: list[str], varied: list[str]) -> None:
         print()
 
 
+def command_arguments(vary: str, cases: int, workers: int, output: str) -> list[str]:
+    """``flexlink sweep`` of ``cases`` variants of the kind ``vary`` keeping its summaries."""
+    random, summaries, _ = KINDS[vary]
+    args = ["sweep", "--paper", "--samples", str(cases), "--seed", "1", "--no-histories",
+            "--workers", str(workers), "-q", "--overwrite", "-o", output]
+    for path, spec in random.items():
+        args += ["--random", f"{path}={spec}"]
+    for summary in summaries:
+        args += ["--summary", summary]
+    return args
+
+
+def time_commands(sources: list[str], cases: int, workers: int, varied: list[str],
+                  repeats: int) -> None:
+    """The sweep command of each kind in ``varied`` run ``repeats`` times with the flexlink
+    of each folder in ``sources`` in turn; each process's CPU (its workers' included) and
+    wall time from start to exit, and the median CPU per source."""
+    import os
+    import resource
+    import subprocess
+    import sys
+    import tempfile
+
+    for vary in varied:
+        cpu: dict[str, list[float]] = {src: [] for src in sources}
+        with tempfile.TemporaryDirectory() as folder:
+            output = os.path.join(folder, "sweep.nc")
+            for repeat in range(repeats):
+                for src in sources:
+                    env = {**os.environ, "PYTHONPATH": src}
+                    load = os.getloadavg()[0]
+                    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+                    started = time.perf_counter()
+                    subprocess.run([sys.executable, "-m", "flexlink",
+                                    *command_arguments(vary, cases, workers, output)],
+                                   env=env, check=True, capture_output=True)
+                    wall = time.perf_counter() - started
+                    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                    cpu[src].append((after.ru_utime + after.ru_stime)
+                                    - (usage.ru_utime + usage.ru_stime))
+                    print(f"flexlink sweep, {cases} {KINDS[vary][2]} variants, {src}: "
+                          f"CPU {cpu[src][-1]:.3f} s, wall {wall:.2f} s (load {load:.1f}, "
+                          f"repeat {repeat + 1})", flush=True)
+        for src, values in cpu.items():
+            print(f"median CPU {float(np.median(values)):.3f} s ({vary}, {src})")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=1000)
@@ -160,7 +212,20 @@ def main() -> None:
                              "command does; a large S times the sweep without checkpoints)")
     parser.add_argument("--before", default=None, metavar="SRC",
                         help="also run with the flexlink in SRC and print both")
+    parser.add_argument("--command", action="store_true",
+                        help="time the flexlink sweep command (summaries, file) instead")
+    parser.add_argument("--repeat", type=int, default=2, help="with --command: runs of each")
     args = parser.parse_args()
+    if args.command:
+        from pathlib import Path
+
+        here = str(Path(__file__).resolve().parents[1] / "src")
+        varied = args.vary.split(",")
+        if not set(varied) <= set(KINDS):
+            parser.error(f"--vary: some of {', '.join(KINDS)}, got {args.vary!r}")
+        time_commands([*([args.before] if args.before else []), here], args.cases,
+                      args.workers or available_cores(), varied, args.repeat)
+        return
     if args.before:
         import sys
 

@@ -26,10 +26,11 @@ REGISTRY_MODULES = ("numba.np.linalg", "numba.np.arraymath", "numba.np.npyimpl",
 # the command's process, recording at its exit (after its atexit handlers' turn: `cli._exit`
 # runs them) which modules it imported and which of them stayed lazy
 PROBE = """
-import atexit, json, sys
+import atexit, json, sys, threading
 path = sys.argv.pop(1)
 def record():
     modules = {n: type(m).__name__ for n, m in sys.modules.items() if m is not None}
+    modules["(threads)"] = threading.active_count()  # 1: the exit without teardown
     # scipy's array-backend note, which parsing the docstring at import would have appended
     modules["(notes appended)"] = "Array API" in sys.modules["scipy.linalg"].block_diag.__doc__
     with open(path, "w") as f:
@@ -74,6 +75,49 @@ def test_the_fit_command_imports_only_what_it_uses_and_estimates_the_same(tmp_pa
         for key in ("value", "ci_low", "ci_high"):  # round-off apart at most (BLAS threads)
             assert math.isclose(ours[key], theirs[key], rel_tol=1e-9, abs_tol=1e-12), (
                 ours["path"], key, ours[key], theirs[key])
+
+
+SWEEP_RANDOM = {"links[0].E": "uniform:20e9:40e9",
+                "joints[0].motion[0].duration": "uniform:0.8:1.2"}
+SWEEP_SUMMARIES = ["peak:link2_tip_deflection", "peak:joint1_torque"]
+
+
+def test_the_sweep_command_takes_the_same_measures_and_its_workers_match_the_library(
+        tmp_path: Path) -> None:
+    """`flexlink sweep`'s own process (and so its forked workers) goes without numba's
+    registries, numpy's unused packages and xarray, and ends without teardown (no thread
+    left); its cases equal the library's bit for bit."""
+    import numpy as np
+    import xarray as xr
+
+    import flexlink
+    from flexlink.scenario import paper_experiment_path
+
+    record, out = tmp_path / "modules.json", tmp_path / "sweep.nc"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(ROOT / "src"), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    args = ["sweep", "--paper", "--samples", "4", "--seed", "3", "--no-histories",
+            "--workers", "2", "-o", str(out)]
+    for path, spec in SWEEP_RANDOM.items():
+        args += ["--random", f"{path}={spec}"]
+    for summary in SWEEP_SUMMARIES:
+        args += ["--summary", summary]
+    done = subprocess.run([sys.executable, "-c", PROBE, str(record), *args], env=env,
+                          capture_output=True, text=True, timeout=600, check=False)
+    assert done.returncode == 0, done.stderr
+    modules = json.loads(record.read_text())
+    for name in ("numpy.testing", "numpy.f2py", "numpy.ctypeslib"):
+        assert modules.get(name) == "_LazyModule", f"{name}: {modules.get(name)}"
+    installed = [name for name in REGISTRY_MODULES if name in modules]
+    assert not installed, f"numba's registries were installed: {installed}"
+    assert "xarray" not in modules and "pandas" not in modules
+    assert modules["(threads)"] == 1  # no progress bar's monitor thread left: no teardown
+    library = flexlink.sweep(paper_experiment_path(), random=SWEEP_RANDOM, samples=4, seed=3,
+                             summaries=SWEEP_SUMMARIES, histories=False, workers=1)
+    with xr.open_dataset(out) as written:
+        assert written.status.values.tolist() == ["ok"] * 4
+        for name in ("peak_link2_tip_deflection", "peak_joint1_torque", *SWEEP_RANDOM):
+            np.testing.assert_array_equal(written[name].values, library[name].values)
 
 
 def test_deferred_packages_load_on_first_use() -> None:

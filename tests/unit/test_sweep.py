@@ -209,6 +209,27 @@ def test_command_line_sweep_matches_the_library(tmp_path: Path,
     assert capsys.readouterr().out.strip() == str(out)
 
 
+def test_the_command_writes_and_reports_without_importing_xarray(tmp_path: Path) -> None:
+    """`flexlink sweep` writes its file and prints its summary from the sweep's layout: xarray
+    and pandas (~0.7 s of CPU at start-up) are never imported in its process."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "spin.nc"
+    code = ("import sys; from flexlink.cli import main; "
+            f"status = main(['sweep', {str(spin_file(tmp_path))!r}, '--grid', '{RATE}=100,200', "
+            f"'--summary', 'peak:tip', '--workers', '1', '-o', {str(out)!r}]); "
+            "print(status, 'xarray' in sys.modules, 'pandas' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    *report, last = done.stdout.strip().splitlines()
+    assert last == "0 False False"
+    assert "2 cases" in report[0] and "peak_tip: min" in "\n".join(report)
+    with xr.open_dataset(out) as written:
+        assert written.status.values.tolist() == ["ok", "ok"]
+        assert np.all(written.peak_tip.values > 0)
+
+
 def test_command_line_random_sweep_of_the_paper_defaults_its_file_name(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -500,6 +521,43 @@ def test_a_refused_sweep_ends_the_workers_it_started(tmp_path: Path) -> None:
     with pytest.raises(SweepError, match="length must be > 0"):
         sweep(spin_file(tmp_path), grid={"links[0].length": [0.6, -1.0]}, workers=2)
     assert multiprocessing.active_children() == []
+
+
+@pytest.mark.filterwarnings(FORK_WITH_THREADS)
+def test_workers_check_the_cases_as_this_process_would(tmp_path: Path, forked_workers) -> None:
+    """A sweep without histories has its cases checked by its workers, on slices of the case
+    table, before any runs: the same problems in the same order as checked here, the same
+    refusal, and with skip_invalid the same cases recorded as failed."""
+    from flexlink.batch.cases import check_paths, check_rows, load_base
+    from flexlink.batch.parameters import case_table, grid_values
+
+    lengths = [0.6, -1.0, 0.5, 0.0, 0.7, -2.0, 0.6, 0.55, -0.1]
+    base = load_base(spin_file(tmp_path))
+    table = case_table([grid_values("links[0].length", lengths)])
+    paths = check_paths(base, table)
+    here = check_rows(base, table, paths)
+    pool = executors.local_processes(2)
+    try:
+        assert pool.forked
+        workers = pool.check_cases(base, table, paths)
+    finally:
+        pool.close()
+    # lengths ≤ 0, and the tip sensor (x = 0.6 m) beyond a shorter link
+    assert list(workers) == list(here) == [1, 2, 3, 5, 7, 8] and workers == here
+    grid = {"links[0].length": lengths}
+    summaries = ["peak:tip"]
+    messages = []
+    for count in (1, 2):
+        with pytest.raises(SweepError) as refused:
+            sweep(spin_file(tmp_path), grid=grid, summaries=summaries, histories=False,
+                  workers=count)
+        messages.append(str(refused.value))
+    assert messages[0] == messages[1] and "length must be > 0" in messages[0]
+    one, two = (sweep(spin_file(tmp_path), grid=grid, summaries=summaries, histories=False,
+                      workers=count, skip_invalid=True) for count in (1, 2))
+    assert two.status.values.tolist() == one.status.values.tolist()
+    assert two.error.values.tolist() == one.error.values.tolist()
+    np.testing.assert_array_equal(two.peak_tip.values, one.peak_tip.values)
 
 
 def test_load_compiled_code_readies_the_prescribed_kernels() -> None:

@@ -10,7 +10,7 @@ is validated before any case runs; problems name the path, the value and the cas
 from __future__ import annotations
 
 import copy
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -78,21 +78,28 @@ def case_scenarios(base: ScenarioFile, table: CaseTable, lazy: bool = False) -> 
     return [scenarios[i] for i in range(table.count)]
 
 
-def valid_cases(base: ScenarioFile, table: CaseTable, lazy: bool = False
+CaseChecks = Callable[[ScenarioFile, CaseTable, Mapping[str, FieldPath]],
+                     dict[int, list[str]]]
+
+
+def valid_cases(base: ScenarioFile, table: CaseTable, lazy: bool = False,
+                checks: CaseChecks | None = None
                 ) -> tuple[Mapping[int, Case], dict[int, list[str]]]:
     """The `Scenario` of every valid case (``lazy``: a `LazyCase`, built again where it
     runs, so that the built scenarios are never all held at once) and the problems of every
     invalid one, by case index; a SweepError if a parameter path itself is wrong (no case
-    could run)."""
+    could run). ``checks``: where ``lazy`` cases are checked (default: here, `check_rows`;
+    a pool's workers: `executors.PoolResults.check_cases`), the same checks in the same
+    order of cases."""
     paths = check_paths(base, table)
     scenarios: dict[int, Case] = {}
     invalid: dict[int, list[str]] = {}
-    for index in range(table.count):
+    if lazy:
+        invalid = (checks or _check_here)(base, table, paths)
+    for index in () if lazy else range(table.count):
         values = {paths[p]: v for p, v in table.case(index).items()}
         try:
-            built = base.build(values)
-            if not lazy:
-                scenarios[index] = built
+            scenarios[index] = base.build(values)
         except ScenarioError as exc:
             invalid[index] = exc.problems
     if invalid and len(invalid) == table.count:  # nothing to run: refuse as a whole
@@ -101,6 +108,24 @@ def valid_cases(base: ScenarioFile, table: CaseTable, lazy: bool = False
         valid = np.setdiff1d(np.arange(table.count), np.fromiter(invalid, int, len(invalid)))
         return LazyCases(base, table, paths, valid), invalid
     return scenarios, invalid
+
+
+def check_rows(base: ScenarioFile, table: CaseTable, paths: Mapping[str, FieldPath],
+               first: int = 0) -> dict[int, list[str]]:
+    """The problems of every invalid case of ``table`` (numbered from ``first``), each case
+    built as where it runs; the cases in order."""
+    invalid = {}
+    for row in range(table.count):
+        try:
+            base.build({paths[p]: v for p, v in table.case(row).items()})
+        except ScenarioError as exc:
+            invalid[first + row] = exc.problems
+    return invalid
+
+
+def _check_here(base: ScenarioFile, table: CaseTable, paths: Mapping[str, FieldPath]
+                ) -> dict[int, list[str]]:
+    return check_rows(base, table, paths)
 
 
 class LazyCases(Mapping[int, LazyCase]):

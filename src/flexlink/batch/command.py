@@ -12,7 +12,10 @@ import contextlib
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..results.variables import Layout
 
 EXAMPLE = ("flexlink sweep --paper --grid 'links[0].EI=250,300,350' "
            "--random 'joints[0].motion[0].duration=uniform:0.8:1.2' --samples 20 --seed 1 "
@@ -70,15 +73,17 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
                             "problems) as failed cases; default: refuse the whole sweep")
     sweep.add_argument("-q", "--quiet", action="store_true",
                        help="no progress bar and no summary; print only the file name")
-    sweep.set_defaults(handler=run_command, subparser=sweep)
+    # paused_start_up: the collector stays paused through the imports (_start_up_imports)
+    sweep.set_defaults(handler=run_command, subparser=sweep, paused_start_up=True)
     return sweep
 
 
 def run_command(args: argparse.Namespace) -> int:
     """Handle ``flexlink sweep``; returns the exit status."""
+    _start_up_imports(args)
     from ..scenario import ScenarioError
     from .errors import SweepError, SweepInterrupted
-    from .run import sweep
+    from .run import run_sweep
 
     definition_options = [args.scenario, args.paper or None, args.grid or None,
                           args.random or None, args.samples, args.seed, args.sampler,
@@ -96,9 +101,9 @@ def run_command(args: argparse.Namespace) -> int:
         _check_output(output, args.overwrite)
         started = time.perf_counter()
         with _spec_errors(args.spec):
-            dataset = sweep(**definition, output=output, workers=args.workers,
-                            scheduler=args.scheduler, progress=not args.quiet,
-                            skip_invalid=args.skip_invalid)
+            layout = run_sweep(**definition, output=output, workers=args.workers,
+                               scheduler=args.scheduler, progress=not args.quiet,
+                               skip_invalid=args.skip_invalid)
     except (ScenarioError, SweepError) as exc:
         return _fail(str(exc))
     except SweepInterrupted as exc:
@@ -112,8 +117,33 @@ def run_command(args: argparse.Namespace) -> int:
                      "coarser dt_out")
     except OSError as exc:
         return _fail(f"error: could not write {output}: {exc}")
-    print(output if args.quiet else summary(dataset, output, time.perf_counter() - started))
-    return 1 if dataset.attrs["cases_failed"] else 0
+    print(output if args.quiet else summary(layout, output, time.perf_counter() - started))
+    return 1 if layout.attrs["cases_failed"] else 0
+
+
+def _start_up_imports(args: argparse.Namespace) -> None:
+    """Import the sweep's code (numpy, scipy, numba) within the block `cli.main` gives
+    (``args.start_up``: optional modules of numba and scipy withheld), with the start-up
+    measures of a command's own process (`flexlink._light_start`: numba loads the cached
+    kernels without its typing registries, numpy's unused submodules stay lazy), which the
+    forked workers inherit; then resume the garbage collector, as `flexlink fit` does
+    (ARCHITECTURE.md, "Start-up of `flexlink run`"). Without ``start_up`` (a caller of the
+    handler itself): nothing, the command imports as it goes."""
+    if not hasattr(args, "start_up"):
+        return
+    block, imports_done = args.start_up
+    with block:
+        if getattr(args, "own_process", False):
+            from .._light_start import start_command_process
+
+            start_command_process()
+        try:
+            import numba  # noqa: F401 — the workers' kernels load in this process
+
+            from . import run  # noqa: F401 — the simulation's modules and scipy
+        except ImportError:
+            pass  # a library needs a withheld module after all: imported again on use
+    imports_done()
 
 
 def _definition(args: argparse.Namespace) -> dict[str, Any]:
@@ -185,26 +215,28 @@ def _fail(message: str, status: int = 2) -> int:
     return status
 
 
-def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str:
+def summary(layout: Layout, output: Path, wall: float, max_errors: int = 5) -> str:
     """What ran, how many cases finished or failed (with the first errors), the range of each
-    summary metric, where it went."""
+    summary metric, where it went; from the sweep's `Layout` (its file's content)."""
     import numpy as np
 
-    count = dataset.sizes["case"]
-    ok, failed = int(dataset.attrs["cases_ok"]), int(dataset.attrs["cases_failed"])
-    lines = [(f"flexlink: swept {dataset.attrs['title'].removeprefix('flexlink sweep of ')!r}, "
+    attrs, data = layout.attrs, layout.data
+    status = np.asarray(data["status"].values).astype(str)
+    count = status.size
+    ok, failed = int(attrs["cases_ok"]), int(attrs["cases_failed"])
+    lines = [(f"flexlink: swept {attrs['title'].removeprefix('flexlink sweep of ')!r}, "
               f"{count} cases in {wall:.3g} s: {ok} ok, {failed} failed")]
-    running = float(dataset.attrs.get("running_time_s", 0.0))
+    running = float(attrs.get("running_time_s", 0.0))
     if running > 0:  # the progress bar's rate; the rest is start-up, checks and writing
         lines.append(f"  {count / running:.3g} cases/s while the cases ran ({running:.3g} s); "
                      f"{max(wall - running, 0.0):.2g} s to check the cases, start the workers "
                      "and write")
-    parameters = [name for name in dataset.coords if dataset[name].dims == ("case",)
+    parameters = [name for name, v in layout.coords.items() if v.dims == ("case",)
                   and name != "case"]
-    ok_cases = dataset.status.values == "ok"
-    for name, variable in dataset.data_vars.items():
+    ok_cases = status == "ok"
+    for name, variable in data.items():
         if "metric" in variable.attrs and ok_cases.any():
-            values = variable.values[ok_cases]
+            values = np.asarray(variable.values)[ok_cases]
             unset = int(np.isnan(values).sum())  # a settling time not reached in the run
             why = "not settled by t_end" if variable.attrs["metric"] == "settling" else "no value"
             note = f" ({unset} ok cases NaN: {why})" if unset else ""
@@ -214,9 +246,10 @@ def summary(dataset: Any, output: Path, wall: float, max_errors: int = 5) -> str
             lines.append(f"  {name}: min {np.nanmin(values):.4g}, median "
                          f"{np.nanmedian(values):.4g}, max {np.nanmax(values):.4g} "
                          f"{variable.attrs.get('units', '')}{note}")
-    for index in [int(i) for i in dataset.case[dataset.status == "failed"].values][:max_errors]:
-        values = ", ".join(f"{p} = {dataset[p].values[index]:g}" for p in parameters)
-        lines.append(f"  case {index} ({values}): {dataset.error.values[index]}")
+    errors = np.asarray(data["error"].values).astype(str)
+    for index in np.flatnonzero(status == "failed")[:max_errors].tolist():
+        values = ", ".join(f"{p} = {layout.coords[p].values[index]:g}" for p in parameters)
+        lines.append(f"  case {index} ({values}): {errors[index]}")
     if failed > max_errors:
         lines.append(f"  … {failed - max_errors} more failed cases (variable 'error' of the "
                      "file)")

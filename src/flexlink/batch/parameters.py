@@ -193,6 +193,11 @@ class CaseTable:
         """{path: value} of one case, as Python numbers."""
         return {path: column[index].item() for path, column in self.values.items()}
 
+    def rows(self, start: int, stop: int) -> CaseTable:
+        """The table of cases ``start`` … ``stop`` − 1 (numbered from 0 again)."""
+        return CaseTable(self.parameters, {p: v[start:stop] for p, v in self.values.items()},
+                         self.seed, self.sampler)
+
 
 def case_table(grid: Iterable[GridParameter], random: Iterable[RandomParameter] = (),
                samples: int | None = None, seed: int | None = None,
