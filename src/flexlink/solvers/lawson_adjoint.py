@@ -54,7 +54,8 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
                                        referenceT, np.ascontiguousarray(ET),
                                        np.ascontiguousarray(E2T), discretisation.substeps,
                                        seed_y, seed_acc, G, Gs, W)
-        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout)
+        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout,
+                             moving_references=False)
         # z̈ at the first output: A at the first piece's start (its constant coefficient)
         G[0, 0] += np.outer(seed_acc[0], states[0])
         gradient = np.einsum("pdkij,pdij->k", dtable.poly, G)

@@ -48,7 +48,8 @@ def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
     n = system.n
     with single_threaded():
         table, reference, ET, E2T = steps_on(system, t_out, discretisation, settled_system)
-        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout)
+        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout,
+                             moving_references=False)
         K = dtable.poly.shape[2]
         static = table.static
         PdT = _static_derivatives(table, dtable, t_out, n)
