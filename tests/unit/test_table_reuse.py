@@ -19,6 +19,7 @@ from flexlink.simulation import output_times
 from flexlink.simulation.sensitivities import prepare_fields, scenario_file, settled_run
 from flexlink.solvers.coefficient_table import CoefficientTable, layout, tabulate, tabulate_on
 from flexlink.solvers.lawson import integrate_lawson_discretised
+from flexlink.solvers.lawson_adjoint import lawson_gradient
 from flexlink.solvers.lawson_sensitivity import lawson_sensitivities, steps_on
 from flexlink.solvers.magnus import state_rows
 from tests.helpers import chain_of, paper_links
@@ -99,6 +100,12 @@ def test_sensitivities_take_the_settled_table_and_the_same_numbers() -> None:
     for a, b in zip(with_kept[1:], with_new[1:], strict=True):
         assert np.array_equal(a, b)
     np.testing.assert_array_equal(with_kept[0].q, with_new[0].q)
+    # and the reverse pass's gradient, from the kept table or a new one
+    seeds = np.random.default_rng(3).standard_normal((3, t.size, settled.nominal.n))
+    kept_gradient = lawson_gradient(settled.nominal, rows, t, disc, *seeds, settled_system=True)
+    new_gradient = lawson_gradient(settled.nominal, rows, t, disc, *seeds)
+    for a, b in zip(kept_gradient, new_gradient, strict=True):
+        assert np.array_equal(a, b)
 
 
 def test_state_rows_on_two_threads_are_the_same_numbers(monkeypatch: pytest.MonkeyPatch
