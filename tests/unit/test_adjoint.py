@@ -9,6 +9,7 @@ import pytest
 
 import flexlink
 from flexlink.scenario.fields import ScenarioFile
+from flexlink.simulation.channel_subset import State
 from flexlink.simulation.common import output_times
 from flexlink.simulation.sensitivities import prepare_fields, scenario_file, settled_run
 from flexlink.solvers.lawson_adjoint import lawson_gradient
@@ -129,6 +130,31 @@ def test_a_field_the_equations_do_not_read_assembles_nothing() -> None:
     assert all(s is not settled.nominal for s in settled.systems[1])
     rows = settled.derivative_rows(t[:5])
     assert not rows[:, 0].any() and rows[:, 1].any()
+
+
+def test_a_state_part_the_sensors_read_is_differenced() -> None:
+    """The seeds skip a part of the state (q̇, q̈) only where the metric leaves it unread:
+    a reading of the rates is seen (NaN carried), and the probed copy gets its values
+    back."""
+    from flexlink.simulation.adjoint import _unread
+
+    t = np.linspace(0.0, 1.0, 5)
+    q, qd, qdd = np.ones((5, 2)), np.full((5, 2), 2.0), np.full((5, 2), 3.0)
+
+    def reads_q(scenario: object, system: object, state: State) -> np.ndarray:
+        return state.q[:, 0] ** 2
+
+    def reads_rates(scenario: object, system: object, state: State) -> np.ndarray:
+        return state.q[:, 0] + 0.0 * state.q_dot[:, 1]
+
+    for part, values in ((1, qd), (2, qdd)):
+        arrays = [q, qd, qdd]
+        arrays[part] = values.copy()
+        assert _unread(reads_q, None, None, t, arrays, part, values)
+        assert np.array_equal(arrays[part], values)
+    arrays = [q, qd.copy(), qdd]
+    assert not _unread(reads_rates, None, None, t, arrays, 1, qd)
+    assert np.array_equal(arrays[1], qd)
 
 
 def test_objective_gradient_from_an_equilibrium_start() -> None:

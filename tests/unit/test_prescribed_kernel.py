@@ -132,3 +132,18 @@ def test_packed_data_are_shared_by_systems_of_one_chain_only() -> None:
         np.testing.assert_array_equal(value, getattr(fresh, name), err_msg=name)
     assert forward_data(_paper(True)) is not data
     assert forward_data(_three_links(False)) is not data
+
+
+def test_packed_data_are_shared_by_systems_whose_motions_alone_differ() -> None:
+    """pack reads nothing of a prescribed rotary joint's motion (the kernels take the joint
+    states as inputs): systems of the same links moved otherwise share their data (a
+    sensitivity to a joint angle packs no new model), equal to a fresh pack."""
+    first = _paper(False)
+    other = FirstOrderSystem(Chain(first.chain.links, (CubicMotion(0.2, 0.5, -0.1, 0.3),
+                                                       CubicMotion(1.0, -0.3, 0.4, -0.2))),
+                             False)
+    data = forward_data(first)
+    assert forward_data(other) is data
+    fresh = pack(forward_view(other))
+    for name, value in zip(data._fields, data):
+        np.testing.assert_array_equal(value, getattr(fresh, name), err_msg=name)

@@ -19,6 +19,7 @@ from flexlink.simulation import output_times
 from flexlink.simulation.sensitivities import prepare_fields, scenario_file, settled_run
 from flexlink.solvers.coefficient_table import CoefficientTable, layout, tabulate, tabulate_on
 from flexlink.solvers.lawson import integrate_lawson_discretised
+from flexlink.solvers.lawson_adjoint import lawson_gradient
 from flexlink.solvers.lawson_sensitivity import lawson_sensitivities, steps_on
 from flexlink.solvers.magnus import state_rows
 from tests.helpers import chain_of, paper_links
@@ -54,6 +55,24 @@ def test_refinement_assembles_no_instant_of_the_level_before_again(start2: float
                                     layout(table, t.size)))
 
 
+def test_a_table_without_moving_references_keeps_every_other_number() -> None:
+    """A table of dA/dp leaves the moving blocks' references zero (its steps read the
+    static blocks' only); its polynomials and the static blocks' references are the full
+    table's to the bit."""
+    system = FirstOrderSystem(chain_of(paper_links(2), [
+        Cycloidal(0.0, 60.0, 0.2, 0.3), Cycloidal(20.0, -40.0, 0.7, 0.2)]), True)
+    t = output_times(1.2, 0.002)
+    full = tabulate(lambda times: state_rows(system.matrices, times), t,
+                    system.coefficient_keys, 1e-7, breaks=system.breakpoints())
+    assert full.static.any() and not full.static.all()
+    lean = tabulate_on(lambda times: state_rows(system.matrices, times), t,
+                       layout(full, t.size), moving_references=False)
+    for name in FIELDS[:-1]:
+        assert np.array_equal(getattr(lean, name), getattr(full, name)), name
+    assert np.array_equal(lean.reference[full.static], full.reference[full.static])
+    assert not lean.reference[~full.static].any()
+
+
 def test_sensitivities_take_the_settled_table_and_the_same_numbers() -> None:
     file = scenario_file(flexlink.load_paper_experiment())
     raw = dict(file.raw)
@@ -81,6 +100,12 @@ def test_sensitivities_take_the_settled_table_and_the_same_numbers() -> None:
     for a, b in zip(with_kept[1:], with_new[1:], strict=True):
         assert np.array_equal(a, b)
     np.testing.assert_array_equal(with_kept[0].q, with_new[0].q)
+    # and the reverse pass's gradient, from the kept table or a new one
+    seeds = np.random.default_rng(3).standard_normal((3, t.size, settled.nominal.n))
+    kept_gradient = lawson_gradient(settled.nominal, rows, t, disc, *seeds, settled_system=True)
+    new_gradient = lawson_gradient(settled.nominal, rows, t, disc, *seeds)
+    for a, b in zip(kept_gradient, new_gradient, strict=True):
+        assert np.array_equal(a, b)
 
 
 def test_state_rows_on_two_threads_are_the_same_numbers(monkeypatch: pytest.MonkeyPatch

@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Base
+from ..model import Base, Chain
+from ..model.joints import PrismaticJoint, is_driven
 from .first_order import FirstOrderSystem
 from .forward import ForwardSystem
 from .forward_kernel import ForwardData, pack
@@ -41,8 +42,9 @@ def forward_data(system: FirstOrderSystem) -> ForwardData:
     if data is not None:
         return data
     try:  # the modal data by identity (they are cached per link), the chain by value
-        key: tuple[object, ...] | None = (system.chain, system.geometric_stiffening,
-                                          system.gravity, tuple(id(m) for m in system.modal))
+        key: tuple[object, ...] | None = (_packed_chain(system.chain),
+                                          system.geometric_stiffening, system.gravity,
+                                          tuple(id(m) for m in system.modal))
         kept = _PACKED.get(key)
     except TypeError:  # a motion that is not hashable (holds arrays): not remembered
         key, kept = None, None
@@ -57,6 +59,14 @@ def forward_data(system: FirstOrderSystem) -> ForwardData:
                 _PACKED.popitem(last=False)
     system._forward_data = data  # type: ignore[attr-defined]
     return data
+
+
+def _packed_chain(chain: Chain) -> tuple[object, ...]:
+    """What `pack` reads of a chain: its links and its joints, a rotary joint's prescribed
+    motion only as being one (the kernels take the joint states as inputs), so that systems
+    that differ in their motions alone (a sensitivity to a joint angle) share their data."""
+    return (chain.links, tuple(None if not (is_driven(j) or isinstance(j, PrismaticJoint))
+                               else j for j in chain.joints))
 
 
 _PACKED: OrderedDict[tuple[object, ...], tuple[list[object], ForwardData]] = OrderedDict()

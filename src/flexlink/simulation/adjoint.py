@@ -117,18 +117,23 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
     arrays = [solution.q, solution.q_dot, solution.q_ddot]
     seeds = [np.zeros_like(a) for a in arrays]
     for part in range(3):
+        shifted = list(arrays)
+        moving = shifted[part] = arrays[part].copy()  # one column moved at a time
+        if part and _unread(functional, nominal_scenario, settled.nominal, t, shifted, part,
+                            arrays[part]):
+            continue  # sensors that do not read the rates (accelerations): their seed is 0
         for j in range(n):
             column = arrays[part][:, j]
             step = float(np.abs(column).max()) or 1.0
             moved = []
             for sign in (1.0, -1.0):
-                shifted = [a.copy() if p == part else a for p, a in enumerate(arrays)]
-                shifted[part][:, j] += sign * step
+                moving[:, j] = column + sign * step
                 moved.append(functional(nominal_scenario, settled.nominal,
                                         State(t, *shifted)))  # type: ignore[arg-type]
+            moving[:, j] = column
             seeds[part][:, j] = (moved[0] - moved[1]) / (2.0 * step)
     gradient, _ = lawson_gradient(settled.nominal, settled.derivative_rows, t,
-                                  settled.discretisation, *seeds)
+                                  settled.discretisation, *seeds, settled_system=True)
     for k, (f, moved_systems) in enumerate(zip(fields, settled.systems, strict=True)):
         direct = 0.0
         for w, sc, system in zip(f.weights, f.scenarios, moved_systems, strict=True):
@@ -137,6 +142,21 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
                 gradient[k] += w * float(np.sum(seeds[0] @ system.z_start)) / f.step
         gradient[k] += direct / f.step
     return gradient, "adjoint"
+
+
+def _unread(functional: Callable[..., np.ndarray], scenario: Scenario, system: Any,
+            t: np.ndarray, arrays: list[np.ndarray], part: int, values: np.ndarray) -> bool:
+    """Whether the functional leaves ``arrays[part]`` (a copy of the state's q, q̇ or q̈,
+    ``values``) unread: finite with that part all NaN, which any arithmetic on it would
+    carry (the readings are linear or quadratic in the state). Its central differences
+    would then be zero to the bit. The copy is given back its values."""
+    probe = arrays[part]
+    probe.fill(np.nan)
+    try:
+        with np.errstate(invalid="ignore"):
+            return bool(np.all(np.isfinite(functional(scenario, system, State(t, *arrays)))))
+    finally:
+        probe[...] = values
 
 
 def _by_tangents(settled: SettledRun, fields: list[_Field], t: np.ndarray,

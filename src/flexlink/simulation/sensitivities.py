@@ -345,40 +345,50 @@ def forward_derivatives(settled: SettledRun, fields: list[_Field], t: np.ndarray
     sensors_only = [all(s is nominal for s in moved) for moved in systems]
     active = [k for k, only in enumerate(sensors_only) if not only]
     K, nt, n = len(fields), t.size, nominal.n
-    dq, dqd, dqdd = np.zeros((K, nt, n)), np.zeros((K, nt, n)), np.zeros((K, nt, n))
+    # per field its tangents ∂q, ∂q̇, ∂q̈ (nt, n): the active fields' rows of the tangent
+    # loop's arrays as they are (no (K, nt, n) copies), zero for the others
+    zero = np.zeros((nt, n))
+    tangents = [(zero, zero, zero)] * K
     if active:
-        _, dq[active], dqd[active], dqdd[active] = lawson_sensitivities(
+        _, aq, aqd, aqdd = lawson_sensitivities(
             nominal, lambda times: settled.derivative_rows(times)[:, active], t,
             settled.discretisation, settled_system=True)
+        for i, k in enumerate(active):
+            tangents[k] = (aq[i], aqd[i], aqdd[i])
     if nominal.z_start is not None:
         for k, moved in enumerate(systems):
             f = fields[k]
             dz0 = sum(w * s.z_start for w, s in zip(f.weights, moved, strict=True))
-            dq[k] += dz0 / f.step
+            q0 = tangents[k][0]
+            tangents[k] = (q0 + dz0 / f.step, *tangents[k][1:])
+    from .channel_subset import State
+
     run_solution = run.solution
-    channels: dict[str, list[np.ndarray]] = {
-        name: [] for name in (run.values if names is None else names)}
+    # each channel's derivatives filled a field at a time: no per-field columns to stack
+    channels = {name: np.empty((nt, K)) for name in (run.values if names is None else names)}
     for k, f in enumerate(fields):
         total: dict[str, np.ndarray] = {}
         for j, w, sc, system in zip(f.offsets, f.weights, f.scenarios, systems[k],
                                     strict=True):
             h = j * f.step
-            moved_solution = Solution(t, run_solution.q + h * dq[k],
-                                      run_solution.q_dot + h * dqd[k],
-                                      run_solution.q_ddot + h * dqdd[k], run_solution.method)
+            # the channel map reads the state alone (its finiteness checked with the tangents)
+            dq, dqd, dqdd = tangents[k]
+            moved_solution = State(t, run_solution.q + h * dq, run_solution.q_dot + h * dqd,
+                                   run_solution.q_ddot + h * dqdd)
             if names is None and not sensors_only[k]:
-                values, _, _ = prescribed_values(sc, system, moved_solution, False,
-                                                 checked=False)
+                values, _, _ = prescribed_values(sc, system, moved_solution,  # type: ignore[arg-type]
+                                                 False, checked=False)
             else:
                 from .channel_subset import channel_values
 
                 wanted = [s.name for s in sc.sensors] if names is None else names
-                values, _ = channel_values(sc, system, moved_solution, wanted)
+                values, _ = channel_values(sc, system, moved_solution,  # type: ignore[arg-type]
+                                           wanted)
             for name, v in values.items():
                 total[name] = total.get(name, 0.0) + w * np.asarray(v, dtype=float)
-        for name, column in channels.items():
-            column.append(total[name] / f.step if name in total else np.zeros(nt))
-    return {name: np.stack(v, axis=-1) for name, v in channels.items()}
+        for name, out in channels.items():
+            out[:, k] = total[name] / f.step if name in total else 0.0
+    return channels
 
 
 def path_with_sensitivities(scenario: Scenario) -> Any:

@@ -104,10 +104,13 @@ def layout(table: CoefficientTable, size: int) -> TableLayout:
     return TableLayout(tuple(moving), tuple(static), size)
 
 
-def tabulate_on(rows: RowsFunction, t_out: np.ndarray, where: TableLayout) -> CoefficientTable:
+def tabulate_on(rows: RowsFunction, t_out: np.ndarray, where: TableLayout,
+                moving_references: bool = True) -> CoefficientTable:
     """The table of A(t) on a given layout (`TableLayout`), from one call of ``rows`` at its
     nodes, without checking it against A between them: the layout of a table `tabulate`
-    built for a system close to this one."""
+    built for a system close to this one. ``moving_references=False``: the moving blocks'
+    ``reference`` left zero (a table of ∂A/∂p, whose steps read the static blocks' only;
+    evaluating them costs as much as the rest of the table there)."""
     if t_out.size != where.size:
         raise ValueError(f"the layout is for {where.size} output times, got {t_out.size}")
     span = np.array([[t_out[a], t_out[b], lo, hi] for a, b, lo, hi in where.moving],
@@ -123,7 +126,7 @@ def tabulate_on(rows: RowsFunction, t_out: np.ndarray, where: TableLayout) -> Co
     poly = np.matmul(_FIT, samples.reshape(len(where.moving), DEGREE + 1,
                                            int(np.prod(values.shape[1:])))).reshape(samples.shape)
     return _assemble_table(list(where.moving), [poly], list(where.static), values[nodes.size:],
-                           sampler.count)
+                           sampler.count, moving_references)
 
 
 class RoughCoefficients(Exception):
@@ -319,10 +322,12 @@ class _Sampler:
 def _assemble_table(
     moving: list[tuple[int, int, float, float]], moving_poly: list[np.ndarray],
     static: list[tuple[int, int]], static_values: np.ndarray, assemblies: int,
+    moving_references: bool = True,
 ) -> CoefficientTable:
     """The table of the moving pieces (first, last, τ lower, τ upper), whose polynomials
     are ``moving_poly`` stacked in their order, and of the static blocks (first, last) with
-    A = ``static_values`` there, in time order."""
+    A = ``static_values`` there, in time order; without ``moving_references``, the moving
+    blocks' references zero."""
     shape = static_values.shape[1:]
     size = len(moving) + len(static)
     first = np.array([e[0] for e in moving] + [a for a, _ in static], dtype=np.int64)
@@ -354,6 +359,10 @@ def _assemble_table(
         reference=np.empty((0, *shape)),
         assemblies=assemblies,
     )
-    blocks = np.arange(len(table))
-    reference = table.evaluate(blocks, np.full(blocks.size, 0.5))
+    if moving_references:
+        blocks = np.arange(len(table))
+        reference = table.evaluate(blocks, np.full(blocks.size, 0.5))
+    else:  # a static block's polynomial is its constant: its value at τ = 1/2 to the bit
+        reference = np.zeros((len(table), *shape))
+        reference[table.static] = poly[pieces[:-1][table.static], 0]
     return replace(table, reference=np.ascontiguousarray(reference))

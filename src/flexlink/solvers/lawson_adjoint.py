@@ -27,12 +27,14 @@ from .threads import single_threaded
 
 def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out: np.ndarray,
                     discretisation: Discretisation, seed_q: np.ndarray, seed_qd: np.ndarray,
-                    seed_qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                    seed_qdd: np.ndarray, settled_system: bool = False
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """dJ/dp_k (K,) of J with ∂J/∂q, ∂J/∂q̇, ∂J/∂q̈ = ``seed_q``, ``seed_qd``, ``seed_qdd``
     (nt, n each) along the system's run on ``discretisation`` from rest at t_out[0]
     (`lawson_sensitivity.lawson_sensitivities`' run), through its dependence on A only
     (``derivative_rows``: ∂A/∂p_k at given times, (nt, K, n, 2n+1)); and the run's augmented
-    states (nt, 2n+1)."""
+    states (nt, 2n+1). ``settled_system``: the system is the one whose run settled the
+    discretisation (its table is then the one the discretisation keeps)."""
     from ._lawson_adjoint_numba import lawson_adjoint_blocks
 
     n = system.n
@@ -43,7 +45,7 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
     seed_y[:, n: 2 * n] = seed_qd
     seed_acc = np.ascontiguousarray(seed_qdd, dtype=float)
     with single_threaded():
-        table, reference, ET, E2T = steps_on(system, t_out, discretisation)
+        table, reference, ET, E2T = steps_on(system, t_out, discretisation, settled_system)
         polyT = np.ascontiguousarray(np.swapaxes(table.poly, 2, 3))
         referenceT = np.ascontiguousarray(np.swapaxes(reference, 1, 2))
         G = np.zeros((table.poly.shape[0], table.poly.shape[1], n, m))
@@ -54,7 +56,8 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
                                        referenceT, np.ascontiguousarray(ET),
                                        np.ascontiguousarray(E2T), discretisation.substeps,
                                        seed_y, seed_acc, G, Gs, W)
-        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout)
+        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout,
+                             moving_references=False)
         # z̈ at the first output: A at the first piece's start (its constant coefficient)
         G[0, 0] += np.outer(seed_acc[0], states[0])
         gradient = np.einsum("pdkij,pdij->k", dtable.poly, G)

@@ -48,7 +48,8 @@ def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
     n = system.n
     with single_threaded():
         table, reference, ET, E2T = steps_on(system, t_out, discretisation, settled_system)
-        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout)
+        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout,
+                             moving_references=False)
         K = dtable.poly.shape[2]
         static = table.static
         PdT = _static_derivatives(table, dtable, t_out, n)
@@ -73,7 +74,10 @@ def lawson_sensitivities(system: LinearSystem, derivative_rows: DerivativeRows,
         a, e = table.first[b] + 1, table.last[b] + 1
         A, dA = table.reference[b], dtable.reference[b]
         acc[a:e] = states[a:e] @ A.T
-        dacc[:, a:e] = dstates[:, a:e] @ A.T + states[a:e] @ np.swapaxes(dA, 1, 2)
+        # written in place, a parameter at a time: no (K, steps, n) temporaries
+        np.matmul(dstates[:, a:e], A.T, out=dacc[:, a:e])
+        for k in range(dA.shape[0]):
+            dacc[k, a:e] += states[a:e] @ dA[k].T
     if not (np.all(np.isfinite(states)) and np.all(np.isfinite(dstates))):
         raise SimulationError("the state or its sensitivities became non-finite")
     stats = {"steps_per_output_interval": discretisation.substeps, "table_blocks": len(table)}
