@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Base
+from ..model import Base, PrismaticJoint, is_driven
 from .first_order import FirstOrderSystem
 from .forward import ForwardSystem
 from .forward_kernel import ForwardData, pack
@@ -35,14 +35,19 @@ def forward_view(system: FirstOrderSystem) -> ForwardSystem:
 
 def forward_data(system: FirstOrderSystem) -> ForwardData:
     """ForwardData of ``system`` (see forward_view), made once per system, and remembered
-    per process for the last few (chain, stiffening, modal data): repeated runs of a
-    scenario build a new system each, and packing is a noticeable part of a short run."""
+    per process for the last few (links, joints but their motions, stiffening, modal data):
+    repeated runs of a scenario build a new system each, and packing is a noticeable part
+    of a short run. The data of a prescribed joint say only that it is prescribed (its
+    motion enters the kernels as inputs), so runs of one arm on other motions — an
+    optimiser's trials — share them."""
     data = getattr(system, "_forward_data", None)
     if data is not None:
         return data
-    try:  # the modal data by identity (they are cached per link), the chain by value
-        key: tuple[object, ...] | None = (system.chain, system.geometric_stiffening,
-                                          system.gravity, tuple(id(m) for m in system.modal))
+    try:  # the modal data by identity (they are cached per link), the links by value
+        key: tuple[object, ...] | None = (system.chain.links,
+                                          tuple(map(_packed_joint, system.chain.joints)),
+                                          system.geometric_stiffening, system.gravity,
+                                          tuple(id(m) for m in system.modal))
         kept = _PACKED.get(key)
     except TypeError:  # a motion that is not hashable (holds arrays): not remembered
         key, kept = None, None
@@ -57,6 +62,17 @@ def forward_data(system: FirstOrderSystem) -> ForwardData:
                 _PACKED.popitem(last=False)
     system._forward_data = data  # type: ignore[attr-defined]
     return data
+
+
+_PRESCRIBED = "prescribed"  # a prescribed motion in `forward_data`'s key, whatever it is
+
+
+def _packed_joint(joint: object) -> object:
+    """What `pack` reads of a joint: the joint itself, or for a prescribed motion (no drive,
+    no spring, no slider) only that it is one."""
+    if isinstance(joint, PrismaticJoint) or is_driven(joint):
+        return joint
+    return _PRESCRIBED
 
 
 _PACKED: OrderedDict[tuple[object, ...], tuple[list[object], ForwardData]] = OrderedDict()
