@@ -58,6 +58,7 @@ from typing import Any
 
 import numpy as np
 
+from ..channels.catalogue import joint_name
 from ..dynamics.first_order import FirstOrderSystem
 from ..errors import SimulationError
 from ..model import PrismaticJoint, Scenario, is_driven
@@ -290,6 +291,11 @@ class Problem:
     def size(self) -> int:
         return 2 * self.harmonics * len(self.moves)
 
+    @property
+    def torque_channels(self) -> tuple[str, ...]:
+        """The joint-torque channels of the nominal plant's runs, in joint order."""
+        return tuple(joint_name(k, "torque") for k in range(len(self.scenario.chain.joints)))
+
     def _short(self, scenario: Scenario, stiffening: bool) -> Scenario:
         settings = dataclasses.replace(scenario.settings, t_end=self.t_end,
                                        geometric_stiffening=stiffening,
@@ -347,9 +353,10 @@ class Problem:
 
         integrate = (None if sc.settings.method != "lawson"
                      else adaptive if on is None else fixed)
-        # the torques are the nominal plant's (plant 0): the others need their state alone
+        # the torques are the nominal plant's (plant 0), its only channels read: the others
+        # need their state alone
         run = run_prescribed(self.with_coefficients(sc, x), self.t, _quiet, False, integrate,
-                             channels=i == 0)
+                             channels=i == 0, kept=self.torque_channels)
         LM, LK = self.final[i]
         z, z_dot = run.solution.q[-1], run.solution.q_dot[-1]
         return np.concatenate([LM.T @ z_dot, LK.T @ z]) / np.sqrt(2.0), run, settled[0]
@@ -384,8 +391,7 @@ class Problem:
                 row, run, used = self.plant_run(i, x, None if on is None else on[i])
                 torques = None
                 if i == 0:
-                    torques = np.stack([run.values[f"joint{k + 1}_torque"]
-                                        for k in range(len(self.plant_scenarios[i].chain.joints))],
+                    torques = np.stack([run.values[name] for name in self.torque_channels],
                                        axis=1)
                 out.append((row, torques, used))
         return out
