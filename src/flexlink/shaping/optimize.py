@@ -52,7 +52,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -168,6 +168,7 @@ class OptimizedMove:
     stopped_at_limit: bool = False
     notes: list[str] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
+    idle_results: list[Any] = field(default_factory=list)  # of `optimize_move`'s idle_work
 
     @property
     def move_end(self) -> float:
@@ -474,10 +475,17 @@ def _plants_in_worker(x: np.ndarray, plants: Sequence[int]) -> list[PlantValue] 
 
 class Evaluator:
     """Evaluations of a Problem at many points: in a process pool over ``workers`` cores, or
-    here when workers = 1. A point whose run fails gives None."""
+    here when workers = 1. A point whose run fails gives None.
 
-    def __init__(self, problem: Problem, workers: int) -> None:
+    ``idle_work``: picklable calls without arguments that the pool runs while this process
+    works alone (`idle`): the caller's work that does not depend on the answer (the command's
+    report runs of the cycloidal and shaped moves); `idle_results` has their results."""
+
+    def __init__(self, problem: Problem, workers: int,
+                 idle_work: Sequence[Callable[[], Any]] = ()) -> None:
         self.problem, self.workers, self.count = problem, workers, 0
+        self._idle_work = list(idle_work)
+        self._idle_futures: list[Future[Any]] = []
         self._pool: ProcessPoolExecutor | None = None
         if workers > 1:
             from ..batch.executors import start_context
@@ -517,6 +525,25 @@ class Evaluator:
             return self.problem.combine(x, ordered)
         except _FAILED:
             return None
+
+    def idle(self) -> None:
+        """Hand the pool one item of idle work per worker: its workers would wait while this
+        process works alone (a trust-region subproblem); what follows queues behind them."""
+        if self._pool is None:
+            return
+        for work in self._idle_work[len(self._idle_futures):][:self.workers]:
+            self._idle_futures.append(self._pool.submit(work))
+
+    def idle_results(self) -> list[Any]:
+        """The result of every item of idle work in order: None where it was not run (no
+        pool, or the search ended first: cancelled) or raised (the caller runs it again)."""
+        out: list[Any] = []
+        for future in self._idle_futures:
+            try:
+                out.append(None if future.cancel() else future.result())
+            except Exception:  # noqa: BLE001 — the caller runs it again and reports it
+                out.append(None)
+        return out + [None] * (len(self._idle_work) - len(self._idle_futures))
 
     def close(self) -> None:
         if self._pool is not None:
@@ -561,13 +588,17 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
                   seed: int = 0, workers: int | None = None, fd_step: float = 1e-5,
                   max_iterations: int = DEFAULT_MAX_ITERATIONS, torque_dt: float = 0.005,
                   stiffening: str = "both",
-                  on_iteration: Callable[[int, float], None] | None = None) -> OptimizedMove:
+                  on_iteration: Callable[[int, float], None] | None = None,
+                  idle_work: Sequence[Callable[[], Any]] = ()) -> OptimizedMove:
     """Optimise the joint trajectories of ``scenario`` (docstring of this module).
 
     ``duration`` (s): of every move (default: each move's own); ``robust``: relative
     frequency error (0.1 = ±10 %, the default; 0 = the nominal plant only) the move must
     tolerate; ``seed``: the random perturbation of the starting point (reproducible);
-    ``workers``: processes for the gradient (default all cores). InfeasibleMove, before
+    ``workers``: processes for the gradient (default all cores); ``idle_work``: picklable
+    calls without arguments run on those processes while the search works alone
+    (`Evaluator`), their results in ``OptimizedMove.idle_results`` (None where not run, or
+    where one raised: then run them again). InfeasibleMove, before
     anything runs, when a limit makes the move impossible (naming the limit and the shortest
     duration it allows), and after the search when no trajectory meets the torque limit."""
     if scenario.is_forward:
@@ -599,11 +630,12 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
     workers = workers or _cores()
     started = time.perf_counter()
     problem, energy0, notes = _usable_plants(problem)
-    evaluator = Evaluator(problem, max(1, min(workers, problem.size)))
+    evaluator = Evaluator(problem, max(1, min(workers, problem.size)), idle_work)
     try:
         with single_threaded():
             result = _solve(problem, evaluator, kinematic, torque, energy0, seed, fd_step,
                             max_iterations, on_iteration)
+        idle_results = evaluator.idle_results()
     finally:
         evaluator.close()
     wall = time.perf_counter() - started
@@ -625,7 +657,7 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
                                     "programme, then least squares with inequality "
                                     "constraints by NNLS)",
                           "grid_points": grid_size(harmonics),
-                          "grid_margin": grid_margin(harmonics)})
+                          "grid_margin": grid_margin(harmonics)}, idle_results)
 
 
 def _cores() -> int:
@@ -866,6 +898,7 @@ def _solve(problem: Problem, evaluator: Evaluator,
             message = (f"converged: the residual energy is below {RESOLVED:g} of the "
                        "cycloid's in every plant")
             break
+        evaluator.idle()  # the pool's workers would wait for this subproblem
         y, _, predicted = _subproblem(current, kinematic, radius, mu)
         if predicted <= CONVERGED * current.merit:
             message = (f"converged: the model predicts a decrease of less than "
