@@ -631,3 +631,60 @@ def test_an_earlier_optimize_folder_is_replaced_with_overwrite(
     status, out, err, folder = _cli(tmp_path, capsys, ARM_TOML, *options, "--overwrite")
     assert status == 0, err
     assert (folder / "scenario.resolved.toml").is_file() and "scenario.resolved.toml" in out
+
+
+def test_idle_work_runs_on_the_pool_between_evaluations() -> None:
+    """`Evaluator.idle` hands the pool one item of idle work per worker; `idle_results`
+    gives each item's result in order, None for those never handed over or that raised."""
+    if _ran_in_a_fresh_process("test_idle_work_runs_on_the_pool_between_evaluations"):
+        return
+    import functools
+
+    from flexlink.shaping.optimize import Evaluator
+
+    scenario = _arm()
+    problem = Problem(scenario, joint_moves(scenario), 1, [(1.0, False)], 0.005)
+    work = [functools.partial(math.sqrt, v) for v in (4.0, -1.0, 9.0)]
+    evaluator = Evaluator(problem, 2, work)
+    try:
+        evaluator.idle()  # two workers: the first two items
+        assert evaluator.many([np.zeros(problem.size)])[0] is not None
+        assert evaluator.idle_results() == [2.0, None, None]  # sqrt(-1) raised
+    finally:
+        evaluator.close()
+    here = Evaluator(problem, 1, work)  # no pool: nothing runs
+    here.idle()
+    assert here.idle_results() == [None, None, None]
+
+
+def test_early_report_runs_equal_the_report_runs_of_any_answer() -> None:
+    """The report's runs of the cycloidal and shaped moves made before the optimiser answers
+    (`early_report_runs`, from the scenario with its moves as harmonic profiles) are those
+    the report makes of the answer, whatever its coefficients: the same plan keys, and the
+    same residual peaks and traces bit for bit."""
+    from flexlink.shaping import compare
+    from flexlink.shaping.command import (
+        early_report_runs,
+        reference_versions,
+        report_plan,
+    )
+    from flexlink.shaping.plants import scale_frequencies
+
+    scenario = _arm()
+    moves = joint_moves(scenario, 0.5)
+    answer = compare.with_moves(scenario, {0: Harmonic(0.0, 30.0, 0.1, 0.5, (0.3, -0.2),
+                                                       (0.1, 0.05))})
+    keys, calls = early_report_runs(scenario, 0.5, "zv", ["first_order"], True)
+    versions, _, _ = reference_versions(answer, moves, "zv")
+    plan = report_plan([*versions, "optimised"], ["first_order"], True)
+    assert keys == [k[:3] for k in plan if k[1] != "optimised"]
+    assert len(keys) == 2 * 17
+    for i in (0, 1, 5, len(keys) - 1):  # the nominal plants (traces kept) and off them
+        model, label, e = keys[i]
+        keep = e == 0.0
+        sc = versions[label] if e == 0.0 else scale_frequencies(versions[label], 1 + e / 100)
+        expected = compare.check_residual((sc, model, keep), max(m.end for m in moves))
+        got = calls[i]()
+        assert got.peak == expected.peak
+        if keep:
+            np.testing.assert_array_equal(got.tip, expected.tip)

@@ -134,16 +134,19 @@ def test_packed_data_are_shared_by_systems_of_one_chain_only() -> None:
     assert forward_data(_three_links(False)) is not data
 
 
-def test_packed_data_are_shared_by_systems_whose_motions_alone_differ() -> None:
-    """pack reads nothing of a prescribed rotary joint's motion (the kernels take the joint
-    states as inputs): systems of the same links moved otherwise share their data (a
-    sensitivity to a joint angle packs no new model), equal to a fresh pack."""
+def test_packed_data_are_shared_by_runs_of_other_motions() -> None:
+    """A prescribed joint's motion is not part of the packed data (it enters the kernels as
+    inputs): a system of the same links on other motions (an optimiser's trial) reuses them,
+    equal to its own fresh pack, and its state rows are those of that fresh pack."""
     first = _paper(False)
-    other = FirstOrderSystem(Chain(first.chain.links, (CubicMotion(0.2, 0.5, -0.1, 0.3),
-                                                       CubicMotion(1.0, -0.3, 0.4, -0.2))),
-                             False)
     data = forward_data(first)
+    other = FirstOrderSystem(Chain(first.chain.links, (CubicMotion(-0.2, 0.4, 0.9, -0.7),
+                                                       CubicMotion(0.5, 0.3, -1.2, 0.6))))
     assert forward_data(other) is data
     fresh = pack(forward_view(other))
     for name, value in zip(data._fields, data):
         np.testing.assert_array_equal(value, getattr(fresh, name), err_msg=name)
+    t = np.linspace(0.0, 1.0, 7)
+    expected = numpy_state_rows(other.matrices, t)
+    scale = np.abs(expected).max(axis=2, keepdims=True)
+    assert (np.abs(state_rows(other, t) - expected) / scale).max() < 1e-12

@@ -32,6 +32,7 @@ from ..options import (
 
 ERRORS_PCT = tuple(2.5 * i for i in range(-8, 9))  # %, the robustness curve's plants
 BAND_PCT = (-10.0, -5.0, 0.0, 5.0, 10.0)  # %, the frequency errors of the robustness report
+BAND_PAIR = ("cycloidal", "optimised")  # the moves of the robustness report
 
 
 def add_commands(commands: Any) -> None:
@@ -182,9 +183,13 @@ def _optimize_command(args: argparse.Namespace, worker: Any) -> int:
         resolved = resolve_scenario_dict(source)
         scenario = scenario_from_dict(resolved, source=str(source))
         check_run_length(scenario, args.duration)
+        models = args.model or [scenario.settings.model]
+        keys, calls = ([], []) if scenario.is_forward else early_report_runs(
+            scenario, args.duration, args.shaper, models, not args.no_figures)
         result = optimize_move(scenario, args.duration, limits, args.harmonics,
                                args.robust / 100.0, args.seed, args.workers,
-                               max_iterations=args.max_iterations, stiffening=args.stiffening)
+                               max_iterations=args.max_iterations, stiffening=args.stiffening,
+                               idle_work=calls)
     except ScenarioError as exc:
         print(str(exc), file=sys.stderr)
         return 2
@@ -197,9 +202,11 @@ def _optimize_command(args: argparse.Namespace, worker: Any) -> int:
     try:
         with atomic_folder(args.output, args.overwrite) as partial:  # nothing left by a failure
             try:
+                early = {k: r for k, r in zip(keys, result.idle_results, strict=True)
+                         if r is not None}
                 summary = write_outputs(result, resolved, partial, limits, args.shaper,
-                                        args.model or [scenario.settings.model],
-                                        not args.no_figures, figure_worker=worker)
+                                        models, not args.no_figures, figure_worker=worker,
+                                        early=early)
             finally:
                 if worker is not None:  # never remove the folder under a drawing child
                     worker.close()
@@ -252,12 +259,82 @@ def optimized_scenario_dict(result: Any, resolved: dict[str, Any]) -> dict[str, 
     return out
 
 
+PlanKey = tuple[str, str, float]  # (model, version's label, frequency error %)
+
+
+def report_plan(labels: list[str], models: list[str], figures: bool
+                ) -> list[tuple[str, str, float, bool]]:
+    """The report's runs in order, (model, version's label, frequency error %, keep the tip
+    trace): per model, each version on the nominal plant (the residual; the first model's
+    traces for the figure) and off it (the robustness: the first model's curves of every
+    version for the figure, else the band of the cycloidal and optimised moves), 0 % being
+    the nominal."""
+    plan = []
+    for i, model in enumerate(models):
+        drawn = figures and i == 0
+        plan += [(model, label, 0.0, drawn) for label in labels]
+        plan += [(model, label, e, False) for label in (labels if drawn else BAND_PAIR)
+                 for e in (ERRORS_PCT if drawn else BAND_PCT) if e != 0.0]
+    return plan
+
+
+def reference_versions(scenario: Any, moves: list[Any], shaper: str
+                       ) -> tuple[dict[str, Any], Any, str]:
+    """({label: scenario} of the cycloidal and the shaped moves, the shaper's impulse
+    sequence or None, why there is no shaped move or "") of the moves of ``scenario``."""
+    from . import compare
+
+    versions = {"cycloidal": compare.cycloidal_version(scenario, moves)}
+    try:
+        versions[f"shaped ({shaper.upper()})"], sequence = compare.shaped_version(
+            scenario, moves, shaper)
+    except ValueError as exc:
+        return versions, None, str(exc)
+    return versions, sequence, ""
+
+
+def early_report_runs(scenario: Any, duration: float | None, shaper: str, models: list[str],
+                      figures: bool) -> tuple[list[PlanKey], list[Any]]:
+    """The report's runs that do not depend on the optimiser's answer — the cycloidal and
+    shaped moves' — as (their `report_plan` keys, picklable calls returning their
+    `compare.Residual`), for the optimiser's pool to run while it waits (`optimize_move`'s
+    ``idle_work``). The moves are those `optimize_move` makes of ``scenario``; the versions
+    are made from it with each moved joint a `Harmonic` of the move, so that they equal
+    those made from the answer, whatever its coefficients (the same end angles)."""
+    import functools
+
+    from ..motion import Harmonic
+    from . import compare
+    from .optimize import joint_moves
+    from .plants import scale_frequencies
+
+    try:
+        moves = joint_moves(scenario, duration)
+        stand_in = compare.with_moves(scenario, {m.joint: Harmonic(
+            m.from_deg, m.to_deg, m.start, m.duration) for m in moves})
+        versions = reference_versions(stand_in, moves, shaper)[0]
+    except Exception:  # noqa: BLE001 — none early: the optimiser or the report says why
+        return [], []
+    end = max(m.end for m in moves)
+    keys, calls = [], []
+    for model, label, e, keep in report_plan([*versions, "optimised"], models, figures):
+        if label in versions:
+            sc = versions[label] if e == 0.0 else scale_frequencies(versions[label],
+                                                                      1.0 + e / 100.0)
+            keys.append((model, label, e))
+            calls.append(functools.partial(compare.check_residual, (sc, model, keep), end))
+    return keys, calls
+
+
 def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: Any,
                   shaper: str, models: list[str], figures: bool,
-                  figure_worker: Any = None) -> dict[str, Any]:
+                  figure_worker: Any = None,
+                  early: dict[PlanKey, Any] | None = None) -> dict[str, Any]:
     """Run the comparisons, then write DIR (module docstring); return the summary.
     ``figure_worker``: an `experiment.figure_worker.FigureWorker` that draws the figures
-    while the other runs and files are done (the caller closes it); drawn here if it fails."""
+    while the other runs and files are done (the caller closes it); drawn here if it fails.
+    ``early``: the `compare.Residual` of report runs made already, by their `report_plan`
+    key (`early_report_runs`)."""
     import numpy as np
 
     from ..errors import SimulationError
@@ -278,34 +355,21 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
         columns[f"joint{k + 1}_acceleration_deg_s2"] = np.degrees(acc)
 
     start = min(m.start for m in result.moves)
-    versions = {"cycloidal": compare.cycloidal_version(result.scenario, result.moves)}
-    try:
-        versions[f"shaped ({shaper.upper()})"], sequence = compare.shaped_version(
-            result.scenario, result.moves, shaper)
-    except ValueError as exc:
-        sequence, shaped_note = None, str(exc)
-    else:
-        shaped_note = ""
+    versions, sequence, shaped_note = reference_versions(result.scenario, result.moves, shaper)
     versions["optimised"] = optimised
-    # every run of the report at once, on the optimiser's number of processes: per model,
-    # each version on the nominal plant (the residual; the first model's traces for the
-    # figure) and off it (the robustness: the first model's curves of every version for
-    # the figure, else the band of the cycloidal and optimised moves), 0 % being the nominal
-    pair = ("cycloidal", "optimised")
-    checks: list[compare.Check] = []
-    where: dict[tuple[str, str, float], int] = {}
-    for i, model in enumerate(models):
-        drawn = figures and i == 0
-        for label, sc in versions.items():
-            where[model, label, 0.0] = len(checks)
-            checks.append((sc, model, drawn))
-        for label in (versions if drawn else pair):
-            for e in (ERRORS_PCT if drawn else BAND_PCT):
-                if e != 0.0:
-                    where[model, label, e] = len(checks)
-                    checks.append((scale_frequencies(versions[label], 1.0 + e / 100.0), model,
-                                   False))
-    done = compare.residual_runs(checks, result.move_end, result.workers)
+    # every run of the report at once, on the optimiser's number of processes, but those
+    # run already (``early``)
+    plan = report_plan(list(versions), models, figures)
+    early = early or {}
+    checks = [(versions[label] if e == 0.0 else scale_frequencies(versions[label],
+                                                                  1.0 + e / 100.0),
+               model, keep) for model, label, e, keep in plan]
+    rest = [i for i, (model, label, e, _) in enumerate(plan) if (model, label, e) not in early]
+    ran = compare.residual_runs([checks[i] for i in rest], result.move_end, result.workers)
+    done = [early.get(key[:3]) for key in plan]
+    for i, residual in zip(rest, ran, strict=True):
+        done[i] = residual
+    where = {key[:3]: i for i, key in enumerate(plan)}
     for model in models:
         failed = done[where[model, "optimised", 0.0]]
         if failed.error is not None:
@@ -320,7 +384,7 @@ def write_outputs(result: Any, resolved: dict[str, Any], out_dir: Path, limits: 
                       for label in versions}
         band[model] = compare.band_summary(
             BAND_PCT, *(np.array([done[where[model, label, e]].peak for e in BAND_PCT])
-                        for label in pair))
+                        for label in BAND_PAIR))
     pictures = None
     if figures:
         model = models[0]

@@ -124,7 +124,7 @@ def residual_runs(checks: Sequence[Check], move_end: float, workers: int = 1,
     `Residual` with a NaN peak and the error's message."""
     pool = _fork_pool(workers) if len(checks) > 1 else None
     if pool is None:
-        return [_residual(c, move_end, window) for c in checks]
+        return [check_residual(c, move_end, window) for c in checks]
     from concurrent.futures.process import BrokenProcessPool
 
     from ..batch.executors import stop_pool
@@ -136,7 +136,7 @@ def residual_runs(checks: Sequence[Check], move_end: float, workers: int = 1,
                              [window] * count))
     except BrokenProcessPool:  # a worker died (killed, out of memory): the runs here
         pool.shutdown()
-        return [_residual(c, move_end, window) for c in checks]
+        return [check_residual(c, move_end, window) for c in checks]
     except BaseException:  # Ctrl-C: the queued runs are not waited for
         stop_pool(pool)
         raise
@@ -166,10 +166,12 @@ def _fork_pool(workers: int) -> ProcessPoolExecutor | None:
 
 
 def _residual_of(index: int, move_end: float, window: float) -> Residual:
-    return _residual(_CHECKS[index], move_end, window)
+    return check_residual(_CHECKS[index], move_end, window)
 
 
-def _residual(check: Check, move_end: float, window: float) -> Residual:
+def check_residual(check: Check, move_end: float, window: float = DEFAULT_WINDOW_S
+                   ) -> Residual:
+    """`run_residual` of one check (scenario, model, keep the trace) as a `Residual`."""
     scenario, model, keep = check
     try:
         results, peak = run_residual(scenario, move_end, model, window)
@@ -196,6 +198,6 @@ def band_summary(errors_pct: Sequence[float], cycloidal: np.ndarray, optimised: 
             "worst_at_pct": None if worst is None else float(errors_pct[worst])}
 
 
-__all__ = ["TIP_SENSOR", "Residual", "band_summary", "cycloidal_version", "residual_or_nan",
-           "residual_runs", "residuals", "run_residual", "shaped_version", "with_moves",
-           "with_tip_sensor"]
+__all__ = ["TIP_SENSOR", "Residual", "band_summary", "check_residual", "cycloidal_version",
+           "residual_or_nan", "residual_runs", "residuals", "run_residual", "shaped_version",
+           "with_moves", "with_tip_sensor"]

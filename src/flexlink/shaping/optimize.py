@@ -52,12 +52,13 @@ import math
 import os
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ..channels.catalogue import joint_name
 from ..dynamics.first_order import FirstOrderSystem
 from ..errors import SimulationError
 from ..model import PrismaticJoint, Scenario, is_driven
@@ -167,6 +168,7 @@ class OptimizedMove:
     stopped_at_limit: bool = False
     notes: list[str] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
+    idle_results: list[Any] = field(default_factory=list)  # of `optimize_move`'s idle_work
 
     @property
     def move_end(self) -> float:
@@ -290,6 +292,11 @@ class Problem:
     def size(self) -> int:
         return 2 * self.harmonics * len(self.moves)
 
+    @property
+    def torque_channels(self) -> tuple[str, ...]:
+        """The joint-torque channels of the nominal plant's runs, in joint order."""
+        return tuple(joint_name(k, "torque") for k in range(len(self.scenario.chain.joints)))
+
     def _short(self, scenario: Scenario, stiffening: bool) -> Scenario:
         settings = dataclasses.replace(scenario.settings, t_end=self.t_end,
                                        geometric_stiffening=stiffening,
@@ -347,9 +354,10 @@ class Problem:
 
         integrate = (None if sc.settings.method != "lawson"
                      else adaptive if on is None else fixed)
-        # the torques are the nominal plant's (plant 0): the others need their state alone
+        # the torques are the nominal plant's (plant 0), its only channels read: the others
+        # need their state alone
         run = run_prescribed(self.with_coefficients(sc, x), self.t, _quiet, False, integrate,
-                             channels=i == 0)
+                             channels=i == 0, kept=self.torque_channels)
         LM, LK = self.final[i]
         z, z_dot = run.solution.q[-1], run.solution.q_dot[-1]
         return np.concatenate([LM.T @ z_dot, LK.T @ z]) / np.sqrt(2.0), run, settled[0]
@@ -384,8 +392,7 @@ class Problem:
                 row, run, used = self.plant_run(i, x, None if on is None else on[i])
                 torques = None
                 if i == 0:
-                    torques = np.stack([run.values[f"joint{k + 1}_torque"]
-                                        for k in range(len(self.plant_scenarios[i].chain.joints))],
+                    torques = np.stack([run.values[name] for name in self.torque_channels],
                                        axis=1)
                 out.append((row, torques, used))
         return out
@@ -471,10 +478,17 @@ def _plants_in_worker(x: np.ndarray, plants: Sequence[int]) -> list[PlantValue] 
 
 class Evaluator:
     """Evaluations of a Problem at many points: in a process pool over ``workers`` cores, or
-    here when workers = 1. A point whose run fails gives None."""
+    here when workers = 1. A point whose run fails gives None.
 
-    def __init__(self, problem: Problem, workers: int) -> None:
+    ``idle_work``: picklable calls without arguments that the pool runs while this process
+    works alone (`idle`): the caller's work that does not depend on the answer (the command's
+    report runs of the cycloidal and shaped moves); `idle_results` has their results."""
+
+    def __init__(self, problem: Problem, workers: int,
+                 idle_work: Sequence[Callable[[], Any]] = ()) -> None:
         self.problem, self.workers, self.count = problem, workers, 0
+        self._idle_work = list(idle_work)
+        self._idle_futures: list[Future[Any]] = []
         self._pool: ProcessPoolExecutor | None = None
         if workers > 1:
             from ..batch.executors import start_context
@@ -514,6 +528,25 @@ class Evaluator:
             return self.problem.combine(x, ordered)
         except _FAILED:
             return None
+
+    def idle(self) -> None:
+        """Hand the pool one item of idle work per worker: its workers would wait while this
+        process works alone (a trust-region subproblem); what follows queues behind them."""
+        if self._pool is None:
+            return
+        for work in self._idle_work[len(self._idle_futures):][:self.workers]:
+            self._idle_futures.append(self._pool.submit(work))
+
+    def idle_results(self) -> list[Any]:
+        """The result of every item of idle work in order: None where it was not run (no
+        pool, or the search ended first: cancelled) or raised (the caller runs it again)."""
+        out: list[Any] = []
+        for future in self._idle_futures:
+            try:
+                out.append(None if future.cancel() else future.result())
+            except Exception:  # noqa: BLE001 — the caller runs it again and reports it
+                out.append(None)
+        return out + [None] * (len(self._idle_work) - len(self._idle_futures))
 
     def close(self, stop: bool = False) -> None:
         """End the pool: after its running trials, or (``stop``: Ctrl-C, a failure) at once."""
@@ -564,13 +597,17 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
                   seed: int = 0, workers: int | None = None, fd_step: float = 1e-5,
                   max_iterations: int = DEFAULT_MAX_ITERATIONS, torque_dt: float = 0.005,
                   stiffening: str = "both",
-                  on_iteration: Callable[[int, float], None] | None = None) -> OptimizedMove:
+                  on_iteration: Callable[[int, float], None] | None = None,
+                  idle_work: Sequence[Callable[[], Any]] = ()) -> OptimizedMove:
     """Optimise the joint trajectories of ``scenario`` (docstring of this module).
 
     ``duration`` (s): of every move (default: each move's own); ``robust``: relative
     frequency error (0.1 = ±10 %, the default; 0 = the nominal plant only) the move must
     tolerate; ``seed``: the random perturbation of the starting point (reproducible);
-    ``workers``: processes for the gradient (default all cores). InfeasibleMove, before
+    ``workers``: processes for the gradient (default all cores); ``idle_work``: picklable
+    calls without arguments run on those processes while the search works alone
+    (`Evaluator`), their results in ``OptimizedMove.idle_results`` (None where not run, or
+    where one raised: then run them again). InfeasibleMove, before
     anything runs, when a limit makes the move impossible (naming the limit and the shortest
     duration it allows), and after the search when no trajectory meets the torque limit."""
     if scenario.is_forward:
@@ -602,11 +639,12 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
     workers = workers or _cores()
     started = time.perf_counter()
     problem, energy0, notes = _usable_plants(problem)
-    evaluator = Evaluator(problem, max(1, min(workers, problem.size)))
+    evaluator = Evaluator(problem, max(1, min(workers, problem.size)), idle_work)
     try:
         with single_threaded():
             result = _solve(problem, evaluator, kinematic, torque, energy0, seed, fd_step,
                             max_iterations, on_iteration)
+        idle_results = evaluator.idle_results()
     except BaseException:
         evaluator.close(stop=True)
         raise
@@ -630,7 +668,7 @@ def optimize_move(scenario: Scenario, duration: float | None = None, limits: Lim
                                     "programme, then least squares with inequality "
                                     "constraints by NNLS)",
                           "grid_points": grid_size(harmonics),
-                          "grid_margin": grid_margin(harmonics)})
+                          "grid_margin": grid_margin(harmonics)}, idle_results)
 
 
 def _cores() -> int:
@@ -871,6 +909,7 @@ def _solve(problem: Problem, evaluator: Evaluator,
             message = (f"converged: the residual energy is below {RESOLVED:g} of the "
                        "cycloid's in every plant")
             break
+        evaluator.idle()  # the pool's workers would wait for this subproblem
         y, _, predicted = _subproblem(current, kinematic, radius, mu)
         if predicted <= CONVERGED * current.merit:
             message = (f"converged: the model predicts a decrease of less than "
