@@ -381,9 +381,52 @@ def test_a_slider_pushed_off_its_travel_is_named_when_the_run_then_stops() -> No
     the error said the first-order model was out of range (try method = "Radau"), not that
     the travel was left."""
     with pytest.raises(SimulationError, match=r"the slider of joint 2 left its travel \[0, "
-                       r"0\.7\] m \(joints\[1\]\.travel\).*\(the last state before the run "
-                       r"stopped\)\. Widen joints\[1\]\.travel"):
+                       r"0\.7\] m \(joints\[1\]\.travel\).*\(the end of the integrator's "
+                       r"first step outside it: the run stopped there\)\. Widen "
+                       r"joints\[1\]\.travel"):
         simulate(scenario_from_dict(_pushed_slider(1e6)))
+
+
+def _travel_error(scenario: dict[str, Any]) -> tuple[float, float]:
+    """The travel s (m) and time t (s) that a run's travel error names."""
+    with pytest.raises(SimulationError) as caught:
+        simulate(scenario_from_dict(scenario), shapes=False)
+    message = str(caught.value)
+    assert "the end of the integrator's first step outside it: the run stopped there" in message
+    found = re.search(r"s = (\S+) m at t = (\S+) s", message)
+    assert found, message
+    return float(found[1]), float(found[2])
+
+
+def _pushed_cart(force: float, model: str = "first_order", **settings: Any) -> dict[str, Any]:
+    """cart_beam with its cart pushed by a constant force (N) for 2 s."""
+    with open(EXAMPLES / "cart_beam.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["base"]["cart"]["force"] = [{"profile": "step", "amplitude": force}]
+    d["simulation"].update(model=model, dt_out=0.05, **settings)
+    return d
+
+
+@pytest.mark.parametrize(("model", "settings"), [("first_order", {}), ("nonlinear", {}),
+                                                 ("nonlinear", {"step": 2e-3})])
+def test_a_cart_that_leaves_its_travel_stops_the_run_there(model: str,
+                                                          settings: dict[str, Any]) -> None:
+    """The travel was checked on the output samples once the run had ended (or blown up): a
+    cart pushed by 1e9 N ran 77 s of CPU before the integrator stalled, 950 m past its
+    travel. The integrator now stops at its first step that ends outside the travel: s
+    just past 0.5 m, t = √(2 · 0.5 m · 3.26 kg / 100 N) ≈ 0.18 s (the beam's swing aside)."""
+    s, t = _travel_error(_pushed_cart(100.0, model, **settings))
+    assert 0.5 < s < 0.52
+    assert 0.15 < t < 0.2
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_a_slider_that_leaves_its_travel_stops_the_run_there(model: str) -> None:
+    """As for a cart: the slider pushed by 200 N leaves [0, 0.7] m between two output samples
+    (0.01 s apart) and the run stops at that step, not at the next sample."""
+    s, t = _travel_error(_pushed_slider(200.0, model))
+    assert 0.7 < s < 0.75
+    assert abs(t / 0.01 - round(t / 0.01)) > 1e-3  # a step's end, not an output sample
 
 
 def test_a_run_whose_equations_become_singular_is_a_simulation_error() -> None:
@@ -475,7 +518,8 @@ def test_a_cart_under_a_closed_loop_pushed_off_its_travel_is_named() -> None:
         "travel": [-0.5, 0.5], "drive": "force",
         "force": [{"profile": "step", "amplitude": 1e6}]}}
     with pytest.raises(SimulationError, match=r"the cart left its travel \[-0\.5, 0\.5\] m "
-                       r"\(base\.cart\.travel\).*\(the last state before the run stopped\)"):
+                       r"\(base\.cart\.travel\): s = 0\.5\d* m .*\(the end of the "
+                       r"integrator's first step outside it: the run stopped there\)"):
         simulate(scenario_from_dict(d))
 
 
@@ -502,3 +546,4 @@ def test_optimize_names_what_is_not_prescribed(example: str, named: str) -> None
 
     with pytest.raises(InfeasibleMove, match=named):
         optimize_move(load_scenario(EXAMPLES / example))
+

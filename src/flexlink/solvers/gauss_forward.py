@@ -19,7 +19,7 @@ import numpy as np
 
 from ..dynamics.nonlinear_forward import NonlinearForwardSystem
 from ..dynamics.nonlinear_kernel import StageInputs, stage_rows
-from ..errors import SimulationError
+from ..errors import SimulationError, StoppedRun
 from .gauss import (
     FIRST_STEP,
     NEWTON_MAX,
@@ -102,7 +102,9 @@ def integrate_gauss_forward(
         fixed_steps(system.kernel_data(), stage_rows(*inp), y, v, X, h,
                     newton_settings(newton_tol, NEWTON_MAX,
                                     ROUND_OFF * system.max_frequency**2, True),
-                    t_ends, on_progress)
+                    t_ends, on_progress,
+                    lambda start, end: check_travels(system, t_ends[start + 1:end + 1],
+                                                     y[start + 1:end + 1]))
     else:
         newton = _Newton(_StageResidual(system), h, newton_tol,  # type: ignore[arg-type]
                          running_peak=True, floor=ROUND_OFF * system.max_frequency**2,
@@ -111,6 +113,21 @@ def integrate_gauss_forward(
     if not (np.all(np.isfinite(y)) and np.all(np.isfinite(v))):
         raise SimulationError("the nonlinear forward integration produced non-finite values")
     return t_ends, y, v
+
+
+def check_travels(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray) -> None:
+    """StoppedRun at the first of the step ends t (s), y (·, n_y) where a cart or a slider
+    is outside its travel (`NonlinearForwardSystem.free_travels`): the run stops there, and
+    its travel check names the field (simulation/nonlinear_forward.py)."""
+    columns, lo, hi = system.free_travels()
+    if columns.size == 0 or y.shape[0] == 0:
+        return
+    s = y[:, columns]
+    out = np.flatnonzero(np.any(~((s >= lo) & (s <= hi)), axis=1))
+    if out.size:
+        i = int(out[0])
+        raise StoppedRun(f"the nonlinear run stopped at t = {t[i]:.6g} s: a cart or a slider "
+                         "left its travel", float(t[i]), None, y[i].copy(), True)
 
 
 def node_solution(system: NonlinearForwardSystem, t_nodes: np.ndarray, y: np.ndarray,
@@ -201,7 +218,9 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
             reuse=longest[0] if longest else None))
         if not longest or inp.u.shape[0] > longest[0].u.shape[0]:
             longest[:] = [inp]
-        return doubling.batch(inp, y0, v0, X, h_prev, H, count, new_step)
+        batch = doubling.batch(inp, y0, v0, X, h_prev, H, count, new_step)
+        check_travels(system, t0 + H * np.arange(1, batch.y.shape[0]), batch.y[1:])
+        return batch
 
     y0, v0 = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y0[None], v0[None]), 2, axis=0)

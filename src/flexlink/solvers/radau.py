@@ -37,8 +37,9 @@ CHUNKS = 20  # calls of the compiled loop without controllers, progress reported
 
 @dataclass
 class RadauStop(Exception):
-    """The run stopped at ``t`` (s): ``why`` is "blow-up" (|y| beyond BLOW_UP) or "stalled"
-    (the step collapsed); ``states``: the output rows reached before it (NaN after), ``y``:
+    """The run stopped at ``t`` (s): ``why`` is "blow-up" (|y| beyond BLOW_UP), "stalled"
+    (the step collapsed) or "box" (a step ended with a component outside its ``box``, at
+    ``t``: `integrate_radau`); ``states``: the output rows reached before it (NaN after), ``y``:
     the last state (what a travel check reads to tell why it stopped)."""
 
     t: float
@@ -81,7 +82,8 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     loop: SampledLoop | None = None, held: slice = slice(0, 0),
                     z: slice = slice(0, 0), projection: object | None = None,
                     steps: list | None = None, weights: np.ndarray | None = None,
-                    recent: bool = False) -> tuple[np.ndarray, dict[str, int]]:
+                    recent: bool = False, box: tuple | None = None
+                    ) -> tuple[np.ndarray, dict[str, int]]:
     """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
 
     inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
@@ -96,7 +98,9 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     ``steps``: a list to which every accepted step is appended as (t (s) at its start, h
     (s), segment index, y at its start, y at its end (projected), its stage increments z
     (3, len(y0)), Y_i = y + z_i): the step sequence that the sensitivities
-    (`radau_sensitivity.py`) differentiate. Raises RadauStop."""
+    (`radau_sensitivity.py`) differentiate. ``box``: (columns, lo, hi), components
+    y[columns[j]] that must stay in [lo[j], hi[j]] (a travel): the run stops at the first
+    accepted step that ends outside (None: no such component). Raises RadauStop."""
     from ._radau_numba import (
         EXPONENT,
         F0_OK,
@@ -125,6 +129,10 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     on = projection is not None and projection.active.size > 0  # type: ignore[attr-defined]
     itab = integrals(tab) if on else (np.zeros((1, 1, 1)), np.zeros((1, 1)))
     project = (on, itab, np.empty(tab[2].shape[2]))
+    if box is None:
+        box = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
+    box = (np.ascontiguousarray(box[0], dtype=np.int64),
+           *(np.ascontiguousarray(b, dtype=float) for b in box[1:]))
     model = model_functions(d, w, projection if on else ())  # d, w, projection: kept alive
     m = y0.size
     groups = np.ascontiguousarray(groups, dtype=np.int64)
@@ -165,20 +173,21 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         if steps is None:
             status = radau_advance(model, M, identity, tab, nodes, held_values, held_columns,
                                    t_stop, hmax, control, t_out, states, y, st, ws, cont,
-                                   project)
+                                   project, box)
         else:  # one accepted step per call (the loop resumes where it stopped: same steps)
             status = 0
             while status == 0 and st[X] < t_stop:
                 start, seg, y_start = float(st[X]), int(st[SEG]), y.copy()
                 status = radau_advance(model, M, identity, tab, nodes, held_values,
                                        held_columns, min(np.nextafter(start, np.inf), t_stop),
-                                       hmax, control, t_out, states, y, st, ws, cont, project)
+                                       hmax, control, t_out, states, y, st, ws, cont, project,
+                                       box)
                 if status == 0:  # ws[6:9]: the accepted step's stage increments z1, z2, z3
                     steps.append((start, float(st[H_OLD]), seg, y_start, y.copy(),
                                   np.array(ws[6:9])))
         if status != 0:
-            raise RadauStop(float(st[X]), "blow-up" if status == 1 else "stalled", states,
-                            y.copy())
+            why = {1: "blow-up", 4: "box"}.get(status, "stalled")
+            raise RadauStop(float(st[X]), why, states, y.copy())
         if on_progress is not None:
             on_progress(float(st[X]))
     if loop is not None:
