@@ -432,8 +432,40 @@ def test_a_slider_that_leaves_its_travel_stops_the_run_there(model: str) -> None
 def test_a_run_whose_equations_become_singular_is_a_simulation_error() -> None:
     """numpy's LinAlgError (a ValueError) from the nonlinear model's steps reached the user
     as "error: Matrix is singular to machine precision." with an input error's status."""
-    with pytest.raises(SimulationError, match="its equations became singular"):
+    with pytest.raises(SimulationError, match=r"the nonlinear run failed after t = \S+ s: its "
+                       "equations became singular"):
         simulate(scenario_from_dict(_pushed_slider(1e6, "nonlinear")))
+
+
+def test_a_travel_left_before_the_equations_became_singular_is_named() -> None:
+    """The nonlinear model kept no state when its equations became singular inside a batch
+    of steps: the slider that had left its travel a step before got the generic message.
+    The batch's step ends reached before the singular step are read for the travel."""
+    from flexlink.errors import StoppedRun
+    from flexlink.simulation.nonlinear_forward import (
+        check_travel_at_stop,
+        nonlinear_forward_system,
+    )
+    from flexlink.solvers.gauss_forward import singular_stop
+
+    scenario = scenario_from_dict(_pushed_slider(1.0, "nonlinear"))
+    system = nonlinear_forward_system(scenario)
+    column = int(system.free_travels()[0][0])
+    y = np.full((4, system.n_y), np.nan)
+    y[0], _ = system.initial_state()
+    y[1] = y[0]
+    y[2] = y[0]
+    y[2, column] = 0.75  # left [0, 0.7] m at the second step end; singular in the third step
+    with pytest.raises(StoppedRun) as caught:
+        raise singular_stop(system, np.linalg.LinAlgError("singular"),
+                            np.array([0.0, 0.001, 0.002, 0.003]), y)
+    with pytest.raises(SimulationError, match=r"joints\[1\]\.travel\): s = 0\.75 m at "
+                       r"t = 0\.002 s"):
+        check_travel_at_stop(scenario, system, caught.value)
+    y[2, column] = 0.5
+    stop = singular_stop(system, np.linalg.LinAlgError("singular"),
+                         np.array([0.0, 0.001, 0.002, 0.003]), y)
+    assert stop.t == 0.002 and stop.y[column] == 0.5
 
 
 @pytest.mark.parametrize("model", ["first_order", "nonlinear"])

@@ -57,9 +57,10 @@ def integrate_nonlinear_loops(loops: NonlinearLoopSystem, t_out: np.ndarray, rto
                              f"{stop_reason(exc)}", exc.t, exc.states, exc.y, True) from None
         if loop is not None:
             raise UnstableLoop(exc.t, stop_reason(exc)) from None
-        raise SimulationError(
+        raise StoppedRun(  # with its last state: a travel left before is named instead
             f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
-            "have reached a singular configuration (a toggle position)") from None
+            "have reached a singular configuration (a toggle position)", exc.t, exc.states,
+            exc.y) from None
     u = inputs(system.loads, t_out)
     if loop is not None:
         u[:, held] = loop.held_voltages(t_out)
