@@ -30,7 +30,7 @@ import numpy as np
 
 from .gauss_sampled import SampledLoop
 from .input_table import integrals, tabulate
-from .solution import Progress
+from .solution import BLOW_UP, Progress
 
 CHUNKS = 20  # calls of the compiled loop without controllers, progress reported between them
 
@@ -129,10 +129,12 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     on = projection is not None and projection.active.size > 0  # type: ignore[attr-defined]
     itab = integrals(tab) if on else (np.zeros((1, 1, 1)), np.zeros((1, 1)))
     project = (on, itab, np.empty(tab[2].shape[2]))
-    if box is None:
-        box = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
-    box = (np.ascontiguousarray(box[0], dtype=np.int64),
-           *(np.ascontiguousarray(b, dtype=float) for b in box[1:]))
+    limits = np.empty((2, y0.size))  # each component's range: ±BLOW_UP, a travel's ends
+    limits[0], limits[1] = -BLOW_UP, BLOW_UP
+    if box is not None:
+        columns = np.asarray(box[0], dtype=np.int64)
+        limits[0, columns] = np.maximum(-BLOW_UP, box[1])
+        limits[1, columns] = np.minimum(BLOW_UP, box[2])
     model = model_functions(d, w, projection if on else ())  # d, w, projection: kept alive
     m = y0.size
     groups = np.ascontiguousarray(groups, dtype=np.int64)
@@ -173,7 +175,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         if steps is None:
             status = radau_advance(model, M, identity, tab, nodes, held_values, held_columns,
                                    t_stop, hmax, control, t_out, states, y, st, ws, cont,
-                                   project, box)
+                                   project, limits)
         else:  # one accepted step per call (the loop resumes where it stopped: same steps)
             status = 0
             while status == 0 and st[X] < t_stop:
@@ -181,12 +183,13 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                 status = radau_advance(model, M, identity, tab, nodes, held_values,
                                        held_columns, min(np.nextafter(start, np.inf), t_stop),
                                        hmax, control, t_out, states, y, st, ws, cont, project,
-                                       box)
+                                       limits)
                 if status == 0:  # ws[6:9]: the accepted step's stage increments z1, z2, z3
                     steps.append((start, float(st[H_OLD]), seg, y_start, y.copy(),
                                   np.array(ws[6:9])))
         if status != 0:
-            why = {1: "blow-up", 4: "box"}.get(status, "stalled")
+            why = "stalled" if status != 1 else (
+                "box" if np.all(np.abs(y) < BLOW_UP) else "blow-up")  # (NaN: a blow-up)
             raise RadauStop(float(st[X]), why, states, y.copy())
         if on_progress is not None:
             on_progress(float(st[X]))
