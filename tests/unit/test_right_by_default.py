@@ -618,3 +618,20 @@ def test_a_forward_run_of_the_paper_model_under_axial_load_warns() -> None:
                      r"stiffness \(axial_load_parameter\), beyond 0\.017, .*set "
                      r"geometric_stiffening = true", run.metadata["validity_warning"])
 
+
+@pytest.mark.parametrize(("guess", "closed"), [
+    ((-60.0, 20.0), (-60.655, 98.857)), ((60.0, 100.0), (-60.655, 98.857)),
+    ((-150.0, 100.0), (-60.655, 98.857)), ((300.0, 460.0), (299.345, 458.857)),
+    ((-60.0, -100.0), (-156.215, -135.727))])
+def test_a_loop_closes_on_the_branch_nearest_the_guesses(guess: tuple[float, float],
+                                                        closed: tuple[float, float]) -> None:
+    """The four-bar's coupler and rocker guessed far off: the loop closed 2 turns away
+    ((-60°, 20°) → (-876°, -856°)) or on the other assembly branch though the guesses were
+    nearer this one ((60°, 100°) → (204°, 224°)). The dependent angles now close within half
+    a turn of their guesses, on the branch nearest them (the mirror branch (-156°, -136°)
+    where the guesses are nearer it)."""
+    d = _four_bar(initial_angle_deg=guess[1])
+    d["joints"][1]["initial_angle_deg"] = guess[0]
+    run = simulate(scenario_from_dict(d), shapes=False)
+    angles = [math.degrees(run[f"joint{k}_angle"][0]) for k in (2, 3)]
+    np.testing.assert_allclose(angles, closed, atol=1e-3)
