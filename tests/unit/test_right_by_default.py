@@ -635,3 +635,15 @@ def test_a_loop_closes_on_the_branch_nearest_the_guesses(guess: tuple[float, flo
     run = simulate(scenario_from_dict(d), shapes=False)
     angles = [math.degrees(run[f"joint{k}_angle"][0]) for k in (2, 3)]
     np.testing.assert_allclose(angles, closed, atol=1e-3)
+
+
+@pytest.mark.parametrize("example", ["gravity_release.toml", "four_bar.toml"])
+def test_a_nanosecond_run_keeps_its_two_ends(example: str) -> None:
+    """t_end = dt_out = 1e-9 s: Radau IIA merged instants closer than 1e-9 s, so the run's
+    two ends made one node and the forward run crashed with numpy's "cannot reshape array
+    of size 0" (a ValueError: an input error's status)."""
+    with open(EXAMPLES / example, "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=1e-9, dt_out=1e-9)
+    run = simulate(scenario_from_dict(d), shapes=False)
+    assert run.time.size == 2

@@ -58,12 +58,19 @@ def local_tolerances(rtol: float, atol: float) -> tuple[float, float]:
     return 0.7 * rtol ** 0.875, 0.1 * atol
 
 
+def time_scale(t0: float, t1: float) -> float:
+    """The time (s) below which two instants of a run from t0 to t1 count as one: 1e-9 of
+    max(1 s, |t1|), but at most a millionth of the run (a run of a nanosecond keeps its
+    two ends)."""
+    return min(1e-9 * max(1.0, abs(t1)), 1e-6 * (t1 - t0))
+
+
 def segment_nodes(t_out: np.ndarray, breaks: np.ndarray, loop: SampledLoop | None = None
                   ) -> np.ndarray:
     """The nodes (s) no step straddles: the run's ends, the inputs' breakpoints and the
     controllers' sample instants inside it."""
     t0, t1 = float(t_out[0]), float(t_out[-1])
-    scale = 1e-9 * max(1.0, abs(t1))
+    scale = time_scale(t0, t1)
     inner = breaks[(breaks > t0 + scale) & (breaks < t1 - scale)]
     samples = np.zeros(0)
     if loop is not None:
@@ -123,7 +130,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         return np.empty((t_out.size, 0)), dict.fromkeys(
             ("steps", "rejected_steps", "rhs_evaluations", "jacobians", "factorisations"), 0)
     t0, t1 = float(t_out[0]), float(t_out[-1])
-    scale = 1e-9 * max(1.0, abs(t1))
+    scale = time_scale(t0, t1)
     nodes = segment_nodes(t_out, breaks, loop)
     tab = tabulate(inputs, nodes)
     on = projection is not None and projection.active.size > 0  # type: ignore[attr-defined]
