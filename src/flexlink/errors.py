@@ -17,11 +17,14 @@ class RunTooLarge(SimulationError, ValueError):
 
 class StoppedRun(SimulationError):
     """A run that stopped at ``t`` (s) before its end; ``states``: the output rows reached
-    before it (NaN after), ``y``: the last state. simulation/forward.py reads them to tell a
-    cart or slider that left its travel (the usual cause) from other blow-ups."""
+    before it (NaN after), ``y``: the last state; ``left_travel``: the integrator stopped
+    because a step ended with a cart or a slider outside its travel. simulation/forward.py
+    reads them to tell a cart or slider that left its travel (the usual cause) from other
+    blow-ups."""
 
-    def __init__(self, message: str, t: float, states: Any = None, y: Any = None) -> None:
-        self.t, self.states, self.y = t, states, y
+    def __init__(self, message: str, t: float, states: Any = None, y: Any = None,
+                 left_travel: bool = False) -> None:
+        self.t, self.states, self.y, self.left_travel = t, states, y, left_travel
         super().__init__(message)
 
 

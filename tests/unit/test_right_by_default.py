@@ -381,16 +381,91 @@ def test_a_slider_pushed_off_its_travel_is_named_when_the_run_then_stops() -> No
     the error said the first-order model was out of range (try method = "Radau"), not that
     the travel was left."""
     with pytest.raises(SimulationError, match=r"the slider of joint 2 left its travel \[0, "
-                       r"0\.7\] m \(joints\[1\]\.travel\).*\(the last state before the run "
-                       r"stopped\)\. Widen joints\[1\]\.travel"):
+                       r"0\.7\] m \(joints\[1\]\.travel\).*\(the end of the integrator's "
+                       r"first step outside it: the run stopped there\)\. Widen "
+                       r"joints\[1\]\.travel"):
         simulate(scenario_from_dict(_pushed_slider(1e6)))
+
+
+def _travel_error(scenario: dict[str, Any]) -> tuple[float, float]:
+    """The travel s (m) and time t (s) that a run's travel error names."""
+    with pytest.raises(SimulationError) as caught:
+        simulate(scenario_from_dict(scenario), shapes=False)
+    message = str(caught.value)
+    assert "the end of the integrator's first step outside it: the run stopped there" in message
+    found = re.search(r"s = (\S+) m at t = (\S+) s", message)
+    assert found, message
+    return float(found[1]), float(found[2])
+
+
+def _pushed_cart(force: float, model: str = "first_order", **settings: Any) -> dict[str, Any]:
+    """cart_beam with its cart pushed by a constant force (N) for 2 s."""
+    with open(EXAMPLES / "cart_beam.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["base"]["cart"]["force"] = [{"profile": "step", "amplitude": force}]
+    d["simulation"].update(model=model, dt_out=0.05, **settings)
+    return d
+
+
+@pytest.mark.parametrize(("model", "settings"), [("first_order", {}), ("nonlinear", {}),
+                                                 ("nonlinear", {"step": 2e-3})])
+def test_a_cart_that_leaves_its_travel_stops_the_run_there(model: str,
+                                                          settings: dict[str, Any]) -> None:
+    """The travel was checked on the output samples once the run had ended (or blown up): a
+    cart pushed by 1e9 N ran 77 s of CPU before the integrator stalled, 950 m past its
+    travel. The integrator now stops at its first step that ends outside the travel: s
+    just past 0.5 m, t = √(2 · 0.5 m · 3.26 kg / 100 N) ≈ 0.18 s (the beam's swing aside)."""
+    s, t = _travel_error(_pushed_cart(100.0, model, **settings))
+    assert 0.5 < s < 0.52
+    assert 0.15 < t < 0.2
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+def test_a_slider_that_leaves_its_travel_stops_the_run_there(model: str) -> None:
+    """As for a cart: the slider pushed by 200 N leaves [0, 0.7] m between two output samples
+    (0.01 s apart) and the run stops at that step, not at the next sample."""
+    s, t = _travel_error(_pushed_slider(200.0, model))
+    assert 0.7 < s < 0.75
+    assert abs(t / 0.01 - round(t / 0.01)) > 1e-3  # a step's end, not an output sample
 
 
 def test_a_run_whose_equations_become_singular_is_a_simulation_error() -> None:
     """numpy's LinAlgError (a ValueError) from the nonlinear model's steps reached the user
     as "error: Matrix is singular to machine precision." with an input error's status."""
-    with pytest.raises(SimulationError, match="its equations became singular"):
+    with pytest.raises(SimulationError, match=r"the nonlinear run failed after t = \S+ s: its "
+                       "equations became singular"):
         simulate(scenario_from_dict(_pushed_slider(1e6, "nonlinear")))
+
+
+def test_a_travel_left_before_the_equations_became_singular_is_named() -> None:
+    """The nonlinear model kept no state when its equations became singular inside a batch
+    of steps: the slider that had left its travel a step before got the generic message.
+    The batch's step ends reached before the singular step are read for the travel."""
+    from flexlink.errors import StoppedRun
+    from flexlink.simulation.nonlinear_forward import (
+        check_travel_at_stop,
+        nonlinear_forward_system,
+    )
+    from flexlink.solvers.gauss_forward import singular_stop
+
+    scenario = scenario_from_dict(_pushed_slider(1.0, "nonlinear"))
+    system = nonlinear_forward_system(scenario)
+    column = int(system.free_travels()[0][0])
+    y = np.full((4, system.n_y), np.nan)
+    y[0], _ = system.initial_state()
+    y[1] = y[0]
+    y[2] = y[0]
+    y[2, column] = 0.75  # left [0, 0.7] m at the second step end; singular in the third step
+    with pytest.raises(StoppedRun) as caught:
+        raise singular_stop(system, np.linalg.LinAlgError("singular"),
+                            np.array([0.0, 0.001, 0.002, 0.003]), y)
+    with pytest.raises(SimulationError, match=r"joints\[1\]\.travel\): s = 0\.75 m at "
+                       r"t = 0\.002 s"):
+        check_travel_at_stop(scenario, system, caught.value)
+    y[2, column] = 0.5
+    stop = singular_stop(system, np.linalg.LinAlgError("singular"),
+                         np.array([0.0, 0.001, 0.002, 0.003]), y)
+    assert stop.t == 0.002 and stop.y[column] == 0.5
 
 
 @pytest.mark.parametrize("model", ["first_order", "nonlinear"])
@@ -475,7 +550,8 @@ def test_a_cart_under_a_closed_loop_pushed_off_its_travel_is_named() -> None:
         "travel": [-0.5, 0.5], "drive": "force",
         "force": [{"profile": "step", "amplitude": 1e6}]}}
     with pytest.raises(SimulationError, match=r"the cart left its travel \[-0\.5, 0\.5\] m "
-                       r"\(base\.cart\.travel\).*\(the last state before the run stopped\)"):
+                       r"\(base\.cart\.travel\): s = 0\.5\d* m .*\(the end of the "
+                       r"integrator's first step outside it: the run stopped there\)"):
         simulate(scenario_from_dict(d))
 
 
@@ -502,3 +578,72 @@ def test_optimize_names_what_is_not_prescribed(example: str, named: str) -> None
 
     with pytest.raises(InfeasibleMove, match=named):
         optimize_move(load_scenario(EXAMPLES / example))
+
+
+def _spinning_arm(torque: float, rate_deg_s: float, stiffening: bool = True) -> dict[str, Any]:
+    """gravity_release spun up (its joint's initial rate) in a level plane, pushed by a
+    constant torque (N·m), 0.1 s."""
+    with open(EXAMPLES / "gravity_release.toml", "rb") as file:
+        d = tomllib.load(file)
+    joint = d["joints"][0]
+    joint["torque"][0]["amplitude"] = torque
+    joint["initial_rate_deg_s"] = rate_deg_s
+    d["simulation"].update(t_end=0.1, dt_out=0.001, gravity=[0.0, 0.0],
+                           geometric_stiffening=stiffening)
+    return d
+
+
+def test_a_forward_run_past_the_axial_load_the_first_order_model_holds_warns() -> None:
+    """A forward run warned on its tip deflection only: the arm spun at 5000°/s (axial load
+    parameter S = 13) and pushed by 20 N·m deflects 5.7% of its length (below the 10%
+    warning) yet the first-order tip deflection is 17% of peak off the nonlinear model's
+    (measured, rtol 1e-7): the coupling of the deflection with the axial load it drops,
+    C δ S, is estimated at 6.9%. A 1e7 N·m torque (S ~ 1e10) ran without a word."""
+    run = simulate(scenario_from_dict(_spinning_arm(20.0, 5000.0)), shapes=False)
+    warning = run.metadata["validity_warning"]
+    assert re.search(r"arm carries an axial load S = 13\.\d times its first mode's bending "
+                     r"stiffness .* tip deflection of 5\.7% of its length: δ·S = 0\.7\d+, "
+                     r"beyond 0\.22, .*model = \"nonlinear\"", warning), warning
+    assert "deflected" not in warning  # the deflection alone is within its limit
+    calm = simulate(scenario_from_dict(_spinning_arm(5.0, 500.0)), shapes=False)
+    assert "validity_warning" not in calm.metadata
+
+
+def test_a_forward_run_of_the_paper_model_under_axial_load_warns() -> None:
+    """The paper's model (no geometric stiffening) leaves out the geometric stiffness of the
+    axial load, an error B S^P on its own (2% at S = 0.017): a forward run did not say so."""
+    run = simulate(scenario_from_dict(_spinning_arm(1.0, 1000.0, stiffening=False)),
+                   shapes=False)
+    assert re.search(r"arm carries an axial load S = \S+ times its first mode's bending "
+                     r"stiffness \(axial_load_parameter\), beyond 0\.017, .*set "
+                     r"geometric_stiffening = true", run.metadata["validity_warning"])
+
+
+@pytest.mark.parametrize(("guess", "closed"), [
+    ((-60.0, 20.0), (-60.655, 98.857)), ((60.0, 100.0), (-60.655, 98.857)),
+    ((-150.0, 100.0), (-60.655, 98.857)), ((300.0, 460.0), (299.345, 458.857)),
+    ((-60.0, -100.0), (-156.215, -135.727))])
+def test_a_loop_closes_on_the_branch_nearest_the_guesses(guess: tuple[float, float],
+                                                        closed: tuple[float, float]) -> None:
+    """The four-bar's coupler and rocker guessed far off: the loop closed 2 turns away
+    ((-60°, 20°) → (-876°, -856°)) or on the other assembly branch though the guesses were
+    nearer this one ((60°, 100°) → (204°, 224°)). The dependent angles now close within half
+    a turn of their guesses, on the branch nearest them (the mirror branch (-156°, -136°)
+    where the guesses are nearer it)."""
+    d = _four_bar(initial_angle_deg=guess[1])
+    d["joints"][1]["initial_angle_deg"] = guess[0]
+    run = simulate(scenario_from_dict(d), shapes=False)
+    angles = [math.degrees(run[f"joint{k}_angle"][0]) for k in (2, 3)]
+    np.testing.assert_allclose(angles, closed, atol=1e-3)
+
+
+@pytest.mark.parametrize("example", ["gravity_release.toml", "four_bar.toml"])
+def test_a_nanosecond_run_keeps_its_two_ends(example: str) -> None:
+    """t_end = dt_out = 1e-9 s: Radau IIA merged instants closer than 1e-9 s, so the run's
+    two ends made one node and the forward run crashed with numpy's "cannot reshape array
+    of size 0" (a ValueError: an input error's status)."""
+    with open(EXAMPLES / example, "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=1e-9, dt_out=1e-9)
+    run = simulate(scenario_from_dict(d), shapes=False)
+    assert run.time.size == 2

@@ -190,6 +190,22 @@ class ForwardSystem:
             return self.base.cart.drive, 0
         return drive_side(self.chain.joints[k]), self.drive_index(k)
 
+    def free_travels(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The free rigid coordinates that are a travel with a finite range (a driven
+        cart's, driven sliders'): their columns in p_free and their lower and upper ends
+        (m), which an integrator stops at (the run's travel check then names them)."""
+        columns, lo, hi = [], [], []
+        cart = self.base.cart
+        ranges = ([(0, cart.travel)] if cart is not None and not cart.prescribed else [])
+        ranges += [(self.joint_index(k), self.chain.joints[k].travel)
+                   for k in self.slides if self.joint_index(k) in self.free]
+        for i, (a, b) in ranges:
+            if np.isfinite(a) or np.isfinite(b):
+                columns.append(self.free.index(i))
+                lo.append(a)
+                hi.append(b)
+        return np.array(columns, dtype=np.int64), np.array(lo, float), np.array(hi, float)
+
     def rigid_state(self, t: np.ndarray, p_free: np.ndarray, pd_free: np.ndarray,
                     pdd_free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Full p, ṗ, p̈ (nt, n_rigid): free coordinates given, prescribed joints evaluated."""

@@ -33,6 +33,13 @@ LoopData.__doc__ = ("Constant arrays of the closures for the kernels: fwd the tr
 
 # |Φ| the projection reaches, relative to the loop's size (the links' total length)
 CLOSURE_TOLERANCE = 1e-12
+# A dependent joint angle closed farther than this from its guess (rad) has its closure
+# checked against the least-squares one from the guesses (`LoopSystem._nearest_branch`).
+BRANCH_CHECK = np.radians(30.0)
+# The pull of the guesses on a second least-squares closure, per metre of the links (m/rad):
+# the residual's minimum, kept near the guesses, lies between them and the branch nearest
+# them, from where the projection's Newton steps close the loop on that branch.
+PULL_PER_SIZE = 0.3
 FORE_POINTS = 48  # Gauss points of ∫₀ˣΦ'ᵀΦ' at a closure's point (the modes: ≤ 20 half-waves)
 
 
@@ -141,13 +148,53 @@ class LoopSystem:
             raise SimulationError(self._open_message(
                 self._closest(work, u0, start), "does not close at t = 0 (the residual is "
                 "the least its free joints reach from their initial angles)"))
+        self._nearest_branch(work, u0, start, y)
         if equilibrium:
             from .loop_equilibrium import closed_equilibrium
 
             return closed_equilibrium(self, y, u0)
         return y
 
-    def _close_far(self, work, u0: np.ndarray, start: np.ndarray, y: np.ndarray) -> bool:
+    def _turned(self) -> np.ndarray:
+        """Indices (into the free coordinates) of the dependent revolute joint angles that
+        only the closures set: periodic in a turn (a slider's travel, a base coordinate and
+        an elastic joint, whose spring reads the angle, are not)."""
+        s = self.system
+        joints = range(s.n_base, s.n_base + len(s.chain.links))
+        return np.array([i for i in self.dep if s.free[i] in joints
+                         and s.free[i] - s.n_base not in s.slides
+                         and s.free[i] - s.n_base not in s.elastic], dtype=np.int64)
+
+    def _nearest_branch(self, work, u0: np.ndarray, start: np.ndarray, y: np.ndarray) -> None:
+        """y ← the closed state whose dependent joint angles are nearest their guesses in
+        ``start``: each turned to within half a turn of its guess (Newton's steps from a far
+        guess may close a whole turn or more away), and, where Newton's closure left an
+        angle more than BRANCH_CHECK from its guess, the least-squares closure from the
+        guesses (`_close_far`) taken instead if it is nearer (Newton's steps may jump to the
+        mechanism's other assembly branch)."""
+        turned = self._turned()
+        if turned.size == 0:
+            return
+
+        def wrapped(state: np.ndarray) -> np.ndarray:
+            out = state.copy()
+            out[turned] = start[turned] + np.remainder(state[turned] - start[turned] + np.pi,
+                                                       2 * np.pi) - np.pi
+            return out
+
+        y[:] = wrapped(y)
+        if np.max(np.abs(y[turned] - start[turned])) <= BRANCH_CHECK:
+            return
+        for pull in (0.0, PULL_PER_SIZE * self.size):
+            other = y.copy()
+            if self._close_far(work, u0, start, other, pull):
+                other = wrapped(other)
+                if (np.linalg.norm(other[turned] - start[turned])
+                        < np.linalg.norm(y[turned] - start[turned]) - 1e-9):
+                    y[:] = other
+
+    def _close_far(self, work, u0: np.ndarray, start: np.ndarray, y: np.ndarray,
+                   pull: float = 0.0) -> bool:
         """Close the loops from a guess too far for the projection's Newton steps: the
         dependent joints alone brought to the least |Φ| (the other free joints keeping their
         angles), then projected. y ← the closed state; False when even that leaves the
@@ -155,7 +202,7 @@ class LoopSystem:
         from ._loops_numba import close
 
         trial = self._least_residual(work, u0, start, np.asarray(self.dep, dtype=np.int64),
-                                     tol=1e-14, gtol=1e-14)
+                                     tol=1e-14, gtol=1e-14, pull=pull)
         if not close(self.data, work, u0, trial, 1):
             return False
         y[:] = trial
@@ -168,10 +215,11 @@ class LoopSystem:
         return work.Phi.copy()
 
     def _least_residual(self, work, u0: np.ndarray, start: np.ndarray, moved: np.ndarray,
-                        tol: float, gtol: float) -> np.ndarray:
+                        tol: float, gtol: float, pull: float = 0.0) -> np.ndarray:
         """``start`` with its free coordinates ``moved`` (indices into the free ones) brought
         to the least |Φ| by trust-region least squares (x and f tolerances ``tol``, gradient
-        ``gtol``); work holds Φ and G there."""
+        ``gtol``); work holds Φ and G there. ``pull`` > 0 (m/rad): |Φ|² + pull² |Δ|², Δ the
+        moved coordinates' change, is minimised instead (the steps kept near start)."""
         from scipy.optimize import least_squares
 
         from ._loops_numba import close
@@ -182,10 +230,14 @@ class LoopSystem:
         def residual(angles: np.ndarray) -> np.ndarray:
             trial[moved] = angles
             close(self.data, work, u0, trial, 0)
+            if pull:
+                return np.concatenate([work.Phi, pull * (angles - start[moved])])
             return work.Phi.copy()
 
         def jacobian(angles: np.ndarray) -> np.ndarray:
             residual(angles)
+            if pull:
+                return np.vstack([work.G[:, columns], pull * np.eye(moved.size)])
             return work.G[:, columns].copy()
 
         best = least_squares(residual, start[moved], jac=jacobian, xtol=tol, ftol=tol,

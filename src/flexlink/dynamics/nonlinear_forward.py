@@ -259,6 +259,11 @@ class NonlinearForwardSystem:
         n, nu = self.n, self.nu
         return self.loads.rigid_state(t, y[:, n:n + nu], v[:, n:n + nu], a[:, n:n + nu])
 
+    def free_travels(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`ForwardSystem.free_travels` with the columns in y (m)."""
+        columns, lo, hi = self.loads.free_travels()
+        return columns + self.n, lo, hi
+
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         """y and ẏ at t = 0: the rigid coordinates as given (servos on their reference), the
         links undeformed, at rest but for their initial modal rates, the servo integrals

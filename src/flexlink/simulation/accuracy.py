@@ -41,6 +41,11 @@ P_AXIAL = 1.16
 WARN_ABOVE = 0.02
 # Peak tip deflection per length above which a forward run (no estimate) carries a warning.
 FORWARD_WARN_DEFLECTION = 0.1
+# The forward run's limits of the axial load: where the term the model drops, alone, reaches
+# WARN_ABOVE — the stiffened model's coupling C δ S (δ·S, δ the peak tip deflection per
+# length, S `axial_load_parameter`), the paper's model's missing geometric stiffness B S^P.
+FORWARD_COUPLING_LIMIT = WARN_ABOVE / C_COUPLING
+FORWARD_PAPER_AXIAL_LIMIT = (WARN_ABOVE / B_AXIAL) ** (1.0 / P_AXIAL)
 
 
 def axial_load_parameter(links: Sequence[Link], modal: Sequence[ModalData],
@@ -133,23 +138,60 @@ def accuracy_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
 
 
 def unestimated_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
-                         axial_load: np.ndarray) -> dict[str, Any]:
+                         axial_load: np.ndarray, geometric_stiffening: bool = True
+                         ) -> dict[str, Any]:
     """The accuracy metadata of a forward run (driven joints or a moving base), for which the
     estimate is not calibrated (its measured error against the nonlinear forward model
     scatters beyond a factor 1.5 of it: docs/validation.md, Case 12b): the peak deflection
     and a pointer to the nonlinear model (S recorded too), a warning past
-    FORWARD_WARN_DEFLECTION."""
+    FORWARD_WARN_DEFLECTION or past the axial load's limit (`axial_load_warning`)."""
     k = int(np.argmax(deflection_per_length))
     peak = 100 * float(deflection_per_length[k])
     out: dict[str, Any] = {"axial_load_parameter": float(axial_load[k]), "accuracy": (
         f"not estimated for driven joints or a moving base (peak tip deflection {peak:.1f}% "
         f"of {links[k].name}'s length): run it with model = \"nonlinear\" to compare")}
+    warnings = []
     if deflection_per_length[k] > FORWARD_WARN_DEFLECTION:
-        out["validity_warning"] = (
+        warnings.append(
             f"the tip of {links[k].name} deflected {peak:.0f}% of its length; the first-order "
             "model's error grows with the deflection and is not estimated for forward runs: "
             "model = \"nonlinear\" is accurate at large deflections")
+    axial = axial_load_warning(links, deflection_per_length, axial_load, geometric_stiffening)
+    if axial:
+        warnings.append(axial)
+    if warnings:
+        out["validity_warning"] = "; ".join(warnings)
     return out
+
+
+def axial_load_warning(links: Sequence[Link], deflection_per_length: np.ndarray,
+                       axial_load: np.ndarray, geometric_stiffening: bool) -> str:
+    """The forward run's warning where a link's axial load takes the first-order model past
+    its validity ("" if none does): with geometric stiffening, δ·S beyond
+    FORWARD_COUPLING_LIMIT (the dropped coupling of the deflection with the axial load, C δ
+    S, alone 2% of peak); without, S beyond FORWARD_PAPER_AXIAL_LIMIT (the missing geometric
+    stiffness, B S^P, alone 2%). Non-finite values count as beyond."""
+    d, S = np.asarray(deflection_per_length, float), np.asarray(axial_load, float)
+    if geometric_stiffening:
+        measure = np.where(np.isfinite(d * S), d * S, np.inf)
+        k = int(np.argmax(measure))
+        if not measure[k] > FORWARD_COUPLING_LIMIT:
+            return ""
+        return (f"{links[k].name} carries an axial load S = {S[k]:.3g} times its first mode's "
+                f"bending stiffness (axial_load_parameter: spin, acceleration, outboard pull) "
+                f"with a tip deflection of {100 * d[k]:.3g}% of its length: δ·S = "
+                f"{measure[k]:.3g}, beyond {FORWARD_COUPLING_LIMIT:.2g}, where the coupling "
+                "of the deflection with the axial load that the first-order model drops is "
+                "alone about 2% of peak: model = \"nonlinear\" keeps it")
+    measure = np.where(np.isfinite(S), S, np.inf)
+    k = int(np.argmax(measure))
+    if not measure[k] > FORWARD_PAPER_AXIAL_LIMIT:
+        return ""
+    return (f"{links[k].name} carries an axial load S = {S[k]:.3g} times its first mode's "
+            f"bending stiffness (axial_load_parameter), beyond {FORWARD_PAPER_AXIAL_LIMIT:.2g}, "
+            "where the geometric stiffness the paper's model (geometric_stiffening = false) "
+            "leaves out is alone about 2% of peak: set geometric_stiffening = true, or "
+            "model = \"nonlinear\"")
 
 
 def _percent(fraction: float) -> str:

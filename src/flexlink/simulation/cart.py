@@ -8,6 +8,8 @@ from ..errors import SimulationError
 from ..model import Base
 
 SAMPLE = "the first output sample outside it"
+LAST = "the last state before the run stopped"
+STEP = "the end of the integrator's first step outside it: the run stopped there"
 
 
 def check_travel(base: Base | None, t: np.ndarray, s: np.ndarray, where: str = SAMPLE,

@@ -243,7 +243,7 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
     out = {"peak_tip_deflection_per_length": float(peaks[worst])}
     load = np.zeros(len(links)) if axial_load is None else axial_load
     if not estimate:
-        return {**out, **unestimated_metadata(links, peaks, load)}
+        return {**out, **unestimated_metadata(links, peaks, load, geometric_stiffening)}
     return {**out, **accuracy_metadata(links, peaks, load, geometric_stiffening, inboard)}
 
 

@@ -20,7 +20,7 @@ from ..solvers import Solution
 from ..solvers.forward import FAST_METHOD, integrate_forward
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
 from .accuracy import axial_load_parameter
-from .cart import SAMPLE, check_travel
+from .cart import LAST, SAMPLE, STEP, check_travel
 from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress, check_tip_deflection
 from .prismatic import check_travel as check_slider_travel
@@ -68,9 +68,10 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
 
 def check_travel_before(scenario: Scenario, system: ForwardSystem, t: np.ndarray,
                         stop: StoppedRun) -> None:
-    """A run that stopped (its state grew without bound, or its step collapsed) after a cart
-    or a slider had left its travel: the travel's error, which names the cause and the field,
-    in place of the stop's. Read on the output samples reached, then on the last state."""
+    """A run that stopped (a step ended outside a travel, its state grew without bound, or
+    its step collapsed) after a cart or a slider had left its travel: the travel's error,
+    which names the cause and the field, in place of the stop's. Read on the output samples
+    reached, then on the last state."""
     if stop.states is None or stop.y is None:
         return
     nu = len(system.free)
@@ -78,7 +79,7 @@ def check_travel_before(scenario: Scenario, system: ForwardSystem, t: np.ndarray
     reached = np.all(np.isfinite(stop.states[:, :2 * nu]), axis=1)
     for times, rows, where in ((t[reached], stop.states[reached], SAMPLE),
                                (np.array([stop.t]), stop.y[None, :],
-                                "the last state before the run stopped")):
+                                STEP if stop.left_travel else LAST)):
         if not np.all(np.isfinite(rows[:, :2 * nu])):
             continue
         p = system.rigid_state(times, rows[:, :nu], rows[:, nu:2 * nu],

@@ -8,10 +8,11 @@ import numpy as np
 from ..channels.catalogue import voltage_name
 from ..channels.nonlinear_forward import forward_shapes, forward_values
 from ..dynamics.nonlinear_forward import NonlinearForwardSystem
+from ..errors import StoppedRun
 from ..model import Scenario
 from ..solvers import Solution
 from ..solvers.gauss_forward import solve_nonlinear_forward
-from .cart import check_travel
+from .cart import LAST, STEP, check_travel
 from .common import PathRun, Progress
 from .prismatic import check_travel as check_slider_travel
 
@@ -40,12 +41,20 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
 
         if scenario.controllers:  # sensors read as rows over q: the first-order twin's modes
             loop = sampled_loop(scenario, system.loads, t, "nonlinear")
-        solution, closure_values, constraint_torques, closures = nonlinear_loop_solution(
-            scenario, system, t, on_progress, loop)
+        try:
+            solution, closure_values, constraint_torques, closures = nonlinear_loop_solution(
+                scenario, system, t, on_progress, loop)
+        except StoppedRun as stop:
+            check_travel_at_stop(scenario, system, stop)
+            raise
     else:
-        solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
-                                           on_progress=on_progress, atol=settings.atol,
-                                           step_ends=step_ends)
+        try:
+            solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
+                                               on_progress=on_progress, atol=settings.atol,
+                                               step_ends=step_ends)
+        except StoppedRun as stop:
+            check_travel_at_stop(scenario, system, stop)
+            raise
     y, v, a = system.from_solution(solution)
     if system.rail is not None:
         check_travel(scenario.base, t, system.rigid_state(t, y, v, a)[0][:, 0])
@@ -64,6 +73,23 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
         "path": "forward", "elastic_coordinates": system.n,
         "rigid_coordinates": system.n_rigid,
         **({"controllers": len(scenario.controllers)} if loop else {}), **closures})
+
+
+def check_travel_at_stop(scenario: Scenario, system: NonlinearForwardSystem,
+                         stop: StoppedRun) -> None:
+    """The travel's error (`simulation.cart.check_travel`, `prismatic.check_travel`) of a
+    run that stopped with a cart or a slider outside its travel, read on its last state
+    (``stop.y``: [q, p_free, σ], then possibly the rates)."""
+    if stop.y is None:
+        return
+    y = np.asarray(stop.y, dtype=float)[None, :system.n_y]
+    if not np.all(np.isfinite(y)):
+        return
+    times = np.array([stop.t])
+    p = system.rigid_state(times, y, np.zeros_like(y), np.zeros_like(y))[0]
+    where = STEP if stop.left_travel else LAST
+    check_travel(scenario.base, times, p[:, 0], where)
+    check_slider_travel(system.chain.joints, times, p, system.n_base, where)
 
 
 def nonlinear_forward_values(scenario: Scenario, system: NonlinearForwardSystem,

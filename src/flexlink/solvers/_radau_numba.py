@@ -38,7 +38,6 @@ from ._step_control_numba import (
     tolerances,
     update_peaks,
 )
-from .solution import BLOW_UP
 
 __all__ = ["LinearData", "model_functions", "radau_advance", "rates_at"]
 
@@ -232,7 +231,7 @@ def _recent_factor(control, st, h, err):
 
 @njit(cache=True)
 def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, control,
-                  t_out, states, y, st, ws, cont, projection):
+                  t_out, states, y, st, ws, cont, projection, box):
     """Advance y (in place) from st[X] until st[X] ≥ t_stop (s), storing the state at each
     output time t_out[k] (k from st[NEXT_OUT]) into states[k] from the dense output.
 
@@ -244,8 +243,11 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
     persistent scalars (X, H, …), ws the work arrays and cont (m, 4) the collocation
     polynomial of the last step. projection = (on, itab, U): when ``on``, each accepted
     step's end and each output state are put onto the model's known invariants
-    (`model_project`; itab the inputs' integral table, U its scratch row). Returns 0 (reached t_stop), 1 (blow-up: |y| > BLOW_UP),
-    2 (step size collapsed), 3 (singular iteration matrix)."""
+    (`model_project`; itab the inputs' integral table, U its scratch row). box (2, m): the
+    range [lower, upper] each component must stay in, ±BLOW_UP but where the model has a
+    narrower one (a cart's or a slider's travel). Returns 0 (reached t_stop), 1 (a step
+    ended with a component outside its box, or NaN: a blow-up or a travel left, its output
+    times not written), 2 (step size collapsed), 3 (singular iteration matrix)."""
     J, E1, E2, piv1, piv2, y0, z1, z2, z3, f1, f2, f3, scal, tmp, yp, fp, cw, u = ws
     on, itab, U = projection
     m = y.shape[0]
@@ -437,7 +439,7 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
             bad = False
             for i in range(m):
                 y[i] += z3[i]
-                if not abs(y[i]) < BLOW_UP:  # also catches NaN
+                if not box[0, i] <= y[i] <= box[1, i]:  # also catches NaN
                     bad = True
                 z2i, z1i = z2[i], z1[i]
                 cont[i, 0] = y[i]

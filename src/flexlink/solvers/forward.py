@@ -129,14 +129,13 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
             atol, groups, max_step, on_progress=on_progress, loop=loop,
             held=voltage_columns(system) if loop is not None else slice(0, 0),
             z=slice(2 * nu, 2 * nu + n), projection=known, steps=steps,
-            weights=state_weights(system, y0.size, rate_weights))
+            weights=state_weights(system, y0.size, rate_weights), box=system.free_travels())
     except RadauStop as exc:
-        why = ("the state grew without bound" if exc.why == "blow-up"
-               else "the time step collapsed")
-        if loop is not None:
+        why = stop_reason(exc)
+        if loop is not None and exc.why != "box":
             raise UnstableLoop(exc.t, why) from None
         raise StoppedRun(_stall_message(system, exc.t, why), exc.t, exc.states,
-                         exc.y) from None
+                         exc.y, exc.why == "box") from None
     return forward_solution(data, work, system, t_out, states, stats, loop,
                             Accuracy(rtol, None, LOCAL_CONTROL), known)
 
@@ -196,6 +195,12 @@ def split_state(system: ForwardSystem, y: np.ndarray) -> tuple[np.ndarray, ...]:
     nu, n = len(system.free), system.n
     cuts = np.cumsum([nu, nu, n, n])
     return tuple(np.split(y, cuts, axis=1))
+
+
+def stop_reason(stop: RadauStop) -> str:
+    """Why the compiled integrator stopped, in words."""
+    return {"blow-up": "the state grew without bound",
+            "box": "a cart or a slider left its travel"}.get(stop.why, "the time step collapsed")
 
 
 def _stall_message(system: ForwardSystem, t: float, why: str) -> str:

@@ -88,11 +88,14 @@ CHUNK = 400  # steps per compiled call, between progress reports
 
 def fixed_steps(data: Any, rows: StageInputs, y: np.ndarray, v: np.ndarray, X: np.ndarray,
                 h: float, newton: NewtonSettings, t_ends: np.ndarray,
-                on_progress: Callable[[float], None] | None) -> None:
+                on_progress: Callable[[float], None] | None,
+                check: Callable[[int, int], None] | None = None) -> None:
     """Advance y, v (steps+1, n) in place from row 0 by uniform steps h (s) in the compiled
     loop of the model whose kernel data ``data`` is (`_gauss_numba.gauss_loop`), in chunks
     of CHUNK steps; rows: two stage rows per step; X (2, n): the stage accelerations' guess
-    for the first step. Raises SimulationError at a step whose Newton iteration fails."""
+    for the first step. Raises SimulationError at a step whose Newton iteration fails.
+    ``check(start, end)``: called after each chunk with the rows it wrote (start, end]; it
+    may stop the run by raising."""
     from ._gauss_numba import gauss_loop, residual_model  # numba's import is slow: only when used
 
     steps = y.shape[0] - 1
@@ -108,6 +111,8 @@ def fixed_steps(data: Any, rows: StageInputs, y: np.ndarray, v: np.ndarray, X: n
             raise SimulationError(
                 f"the nonlinear step at t = {t_ends[start + failed]:.4g} s did not converge in "
                 f"{newton.max_iterations} Newton iterations (h = {h:.3g} s): reduce the step")
+        if check is not None:
+            check(start, end)
         if on_progress is not None:
             on_progress(float(t_ends[end]))
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..dynamics.nonlinear_forward import NonlinearForwardSystem
 from ..dynamics.nonlinear_kernel import StageInputs, stage_rows
-from ..errors import SimulationError
+from ..errors import SimulationError, StoppedRun
 from .gauss import (
     FIRST_STEP,
     NEWTON_MAX,
@@ -99,10 +99,16 @@ def integrate_gauss_forward(
     y[0], v[0] = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y[:1], v[:1], compiled), 2, axis=0)
     if compiled:
-        fixed_steps(system.kernel_data(), stage_rows(*inp), y, v, X, h,
-                    newton_settings(newton_tol, NEWTON_MAX,
-                                    ROUND_OFF * system.max_frequency**2, True),
-                    t_ends, on_progress)
+        y[1:] = np.nan  # the rows a failed step did not reach
+        try:
+            fixed_steps(system.kernel_data(), stage_rows(*inp), y, v, X, h,
+                        newton_settings(newton_tol, NEWTON_MAX,
+                                        ROUND_OFF * system.max_frequency**2, True),
+                        t_ends, on_progress,
+                        lambda start, end: check_travels(system, t_ends[start + 1:end + 1],
+                                                         y[start + 1:end + 1]))
+        except np.linalg.LinAlgError as exc:
+            raise singular_stop(system, exc, t_ends, y) from None
     else:
         newton = _Newton(_StageResidual(system), h, newton_tol,  # type: ignore[arg-type]
                          running_peak=True, floor=ROUND_OFF * system.max_frequency**2,
@@ -111,6 +117,36 @@ def integrate_gauss_forward(
     if not (np.all(np.isfinite(y)) and np.all(np.isfinite(v))):
         raise SimulationError("the nonlinear forward integration produced non-finite values")
     return t_ends, y, v
+
+
+def check_travels(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray) -> None:
+    """StoppedRun at the first of the step ends t (s), y (·, n_y) where a cart or a slider
+    is outside its travel (`NonlinearForwardSystem.free_travels`): the run stops there, and
+    its travel check names the field (simulation/nonlinear_forward.py)."""
+    columns, lo, hi = system.free_travels()
+    if columns.size == 0 or y.shape[0] == 0:
+        return
+    s = y[:, columns]
+    out = np.flatnonzero(np.any(~((s >= lo) & (s <= hi)), axis=1))
+    if out.size:
+        i = int(out[0])
+        raise StoppedRun(f"the nonlinear run stopped at t = {t[i]:.6g} s: a cart or a slider "
+                         "left its travel", float(t[i]), None, y[i].copy(), True)
+
+
+def singular_stop(system: NonlinearForwardSystem, exc: Exception, t: np.ndarray,
+                  y: np.ndarray) -> StoppedRun:
+    """The run stopped where its equations became singular, with the last step end it
+    reached (of the step ends t (s), y (·, n_y), NaN where not reached); StoppedRun of the
+    travel left at an earlier of them, if one was (`check_travels`)."""
+    reached = np.flatnonzero(np.all(np.isfinite(y), axis=1))
+    last = int(reached[-1]) if reached.size else 0
+    check_travels(system, t[:last + 1], y[:last + 1])
+    return StoppedRun(
+        f"the nonlinear run failed after t = {t[last]:.6g} s: its equations became singular "
+        f"({exc}); the state left the range where the model holds. Check for loads, gains or "
+        "drive forces far too large, or a cart or slider driven far past its travel",
+        float(t[last]), None, y[last].copy())
 
 
 def node_solution(system: NonlinearForwardSystem, t_nodes: np.ndarray, y: np.ndarray,
@@ -201,7 +237,13 @@ def integrate_forward_adaptive(system: NonlinearForwardSystem, t_end: float, rto
             reuse=longest[0] if longest else None))
         if not longest or inp.u.shape[0] > longest[0].u.shape[0]:
             longest[:] = [inp]
-        return doubling.batch(inp, y0, v0, X, h_prev, H, count, new_step)
+        try:
+            batch = doubling.batch(inp, y0, v0, X, h_prev, H, count, new_step)
+        except np.linalg.LinAlgError as exc:  # the batch's step ends reached: NaN after
+            raise singular_stop(system, exc, t0 + H * np.arange(count + 1),
+                                doubling.reached) from None
+        check_travels(system, t0 + H * np.arange(1, batch.y.shape[0]), batch.y[1:])
+        return batch
 
     y0, v0 = system.initial_state()
     X = np.repeat(system.accelerations(np.zeros(1), y0[None], v0[None]), 2, axis=0)

@@ -162,6 +162,7 @@ class DoublingLoop:
         self.partials = np.empty((2, n, 3 * n))
         self.counts = np.zeros(2, dtype=np.int64)
         self.peak = np.zeros(1)
+        self.reached = np.zeros((0, n))  # the last batch's step ends (row 0 its start)
 
     def batch(self, rows: Any, y0: np.ndarray, v0: np.ndarray, X: np.ndarray, h_prev: float,
               H: float, count: int, new_step: bool) -> Batch:
@@ -170,8 +171,9 @@ class DoublingLoop:
         from the last batch's."""
         from ._gauss_numba import gauss_doubling  # numba's import is slow: only when used
 
-        y = np.empty((count + 1, self.n))
-        v = np.empty((count + 1, self.n))
+        y = np.full((count + 1, self.n), np.nan)  # NaN: rows a failed batch did not reach
+        v = np.full((count + 1, self.n), np.nan)
+        self.reached = y
         y[0], v[0] = y0, v0
         errors = np.zeros(count)
         if new_step:  # the matrices for the new H (shared partials: from the same ones)

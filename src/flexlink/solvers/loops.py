@@ -12,7 +12,7 @@ import numpy as np
 from ..dynamics.forward_kernel import breakpoints, inputs, voltage_columns
 from ..dynamics.loops import LoopSystem, closed_states
 from ..errors import SimulationError, StoppedRun, UnstableLoop
-from .forward import error_groups
+from .forward import error_groups, stop_reason
 from .gauss_sampled import SampledLoop
 from .radau import RadauStop, integrate_radau
 from .solution import LOCAL_CONTROL, Accuracy, Progress, Solution
@@ -48,15 +48,16 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
         states, stats = integrate_radau(
             loops.data, loops.workspace(y0.size), y0, t_out, lambda t: inputs(system, t),
             breakpoints(system), rtol, atol, groups, np.inf, on_progress=on_progress,
-            loop=loop, held=held, z=slice(2 * nu, 2 * nu + n), steps=steps, recent=True)
+            loop=loop, held=held, z=slice(2 * nu, 2 * nu + n), steps=steps, recent=True,
+            box=system.free_travels())
     except RadauStop as exc:
-        if loop is not None:
-            raise UnstableLoop(exc.t, "the state grew without bound" if exc.why == "blow-up"
-                               else "the time step collapsed") from None
+        if loop is not None and exc.why != "box":
+            raise UnstableLoop(exc.t, stop_reason(exc)) from None
         raise StoppedRun(
             f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
             "have reached a singular configuration (a toggle position) or left the "
-            "first-order model's range", exc.t, exc.states, exc.y) from None
+            "first-order model's range", exc.t, exc.states, exc.y,
+            exc.why == "box") from None
     u = inputs(system, t_out)
     if loop is not None:
         u[:, held] = loop.held_voltages(t_out)

@@ -11,7 +11,8 @@ import numpy as np
 
 from ..dynamics.forward_kernel import breakpoints, inputs, voltage_columns
 from ..dynamics.nonlinear_loops import NonlinearLoopSystem, closed_states
-from ..errors import SimulationError, UnstableLoop
+from ..errors import SimulationError, StoppedRun, UnstableLoop
+from .forward import stop_reason
 from .gauss_sampled import SampledLoop
 from .loops import LoopRun
 from .radau import RadauStop, integrate_radau
@@ -48,14 +49,18 @@ def integrate_nonlinear_loops(loops: NonlinearLoopSystem, t_out: np.ndarray, rto
         states, stats = integrate_radau(
             loops.data, loops.workspace(), y0, t_out, lambda t: inputs(system.loads, t),
             breakpoints(system.loads), rtol, atol, error_groups(loops), np.inf,
-            on_progress=on_progress, loop=loop, held=held, z=slice(0, n), recent=True)
+            on_progress=on_progress, loop=loop, held=held, z=slice(0, n), recent=True,
+            box=system.free_travels())
     except RadauStop as exc:
+        if exc.why == "box":  # the run's travel check names it (simulation/nonlinear_forward)
+            raise StoppedRun(f"the closed-loop run stopped at t = {exc.t:.6g} s: "
+                             f"{stop_reason(exc)}", exc.t, exc.states, exc.y, True) from None
         if loop is not None:
-            raise UnstableLoop(exc.t, "the state grew without bound" if exc.why == "blow-up"
-                               else "the time step collapsed") from None
-        raise SimulationError(
+            raise UnstableLoop(exc.t, stop_reason(exc)) from None
+        raise StoppedRun(  # with its last state: a travel left before is named instead
             f"the closed-loop run stopped at t = {exc.t:.6g} s ({exc.why}): the mechanism may "
-            "have reached a singular configuration (a toggle position)") from None
+            "have reached a singular configuration (a toggle position)", exc.t, exc.states,
+            exc.y) from None
     u = inputs(system.loads, t_out)
     if loop is not None:
         u[:, held] = loop.held_voltages(t_out)

@@ -30,15 +30,16 @@ import numpy as np
 
 from .gauss_sampled import SampledLoop
 from .input_table import integrals, tabulate
-from .solution import Progress
+from .solution import BLOW_UP, Progress
 
 CHUNKS = 20  # calls of the compiled loop without controllers, progress reported between them
 
 
 @dataclass
 class RadauStop(Exception):
-    """The run stopped at ``t`` (s): ``why`` is "blow-up" (|y| beyond BLOW_UP) or "stalled"
-    (the step collapsed); ``states``: the output rows reached before it (NaN after), ``y``:
+    """The run stopped at ``t`` (s): ``why`` is "blow-up" (|y| beyond BLOW_UP), "stalled"
+    (the step collapsed) or "box" (a step ended with a component outside its ``box``, at
+    ``t``: `integrate_radau`); ``states``: the output rows reached before it (NaN after), ``y``:
     the last state (what a travel check reads to tell why it stopped)."""
 
     t: float
@@ -57,12 +58,19 @@ def local_tolerances(rtol: float, atol: float) -> tuple[float, float]:
     return 0.7 * rtol ** 0.875, 0.1 * atol
 
 
+def time_scale(t0: float, t1: float) -> float:
+    """The time (s) below which two instants of a run from t0 to t1 count as one: 1e-9 of
+    max(1 s, |t1|), but at most a millionth of the run (a run of a nanosecond keeps its
+    two ends)."""
+    return min(1e-9 * max(1.0, abs(t1)), 1e-6 * (t1 - t0))
+
+
 def segment_nodes(t_out: np.ndarray, breaks: np.ndarray, loop: SampledLoop | None = None
                   ) -> np.ndarray:
     """The nodes (s) no step straddles: the run's ends, the inputs' breakpoints and the
     controllers' sample instants inside it."""
     t0, t1 = float(t_out[0]), float(t_out[-1])
-    scale = 1e-9 * max(1.0, abs(t1))
+    scale = time_scale(t0, t1)
     inner = breaks[(breaks > t0 + scale) & (breaks < t1 - scale)]
     samples = np.zeros(0)
     if loop is not None:
@@ -81,7 +89,8 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     loop: SampledLoop | None = None, held: slice = slice(0, 0),
                     z: slice = slice(0, 0), projection: object | None = None,
                     steps: list | None = None, weights: np.ndarray | None = None,
-                    recent: bool = False) -> tuple[np.ndarray, dict[str, int]]:
+                    recent: bool = False, box: tuple | None = None
+                    ) -> tuple[np.ndarray, dict[str, int]]:
     """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
 
     inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
@@ -96,7 +105,9 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     ``steps``: a list to which every accepted step is appended as (t (s) at its start, h
     (s), segment index, y at its start, y at its end (projected), its stage increments z
     (3, len(y0)), Y_i = y + z_i): the step sequence that the sensitivities
-    (`radau_sensitivity.py`) differentiate. Raises RadauStop."""
+    (`radau_sensitivity.py`) differentiate. ``box``: (columns, lo, hi), components
+    y[columns[j]] that must stay in [lo[j], hi[j]] (a travel): the run stops at the first
+    accepted step that ends outside (None: no such component). Raises RadauStop."""
     from ._radau_numba import (
         EXPONENT,
         F0_OK,
@@ -119,12 +130,18 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         return np.empty((t_out.size, 0)), dict.fromkeys(
             ("steps", "rejected_steps", "rhs_evaluations", "jacobians", "factorisations"), 0)
     t0, t1 = float(t_out[0]), float(t_out[-1])
-    scale = 1e-9 * max(1.0, abs(t1))
+    scale = time_scale(t0, t1)
     nodes = segment_nodes(t_out, breaks, loop)
     tab = tabulate(inputs, nodes)
     on = projection is not None and projection.active.size > 0  # type: ignore[attr-defined]
     itab = integrals(tab) if on else (np.zeros((1, 1, 1)), np.zeros((1, 1)))
     project = (on, itab, np.empty(tab[2].shape[2]))
+    limits = np.empty((2, y0.size))  # each component's range: ±BLOW_UP, a travel's ends
+    limits[0], limits[1] = -BLOW_UP, BLOW_UP
+    if box is not None:
+        columns = np.asarray(box[0], dtype=np.int64)
+        limits[0, columns] = np.maximum(-BLOW_UP, box[1])
+        limits[1, columns] = np.minimum(BLOW_UP, box[2])
     model = model_functions(d, w, projection if on else ())  # d, w, projection: kept alive
     m = y0.size
     groups = np.ascontiguousarray(groups, dtype=np.int64)
@@ -165,20 +182,22 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         if steps is None:
             status = radau_advance(model, M, identity, tab, nodes, held_values, held_columns,
                                    t_stop, hmax, control, t_out, states, y, st, ws, cont,
-                                   project)
+                                   project, limits)
         else:  # one accepted step per call (the loop resumes where it stopped: same steps)
             status = 0
             while status == 0 and st[X] < t_stop:
                 start, seg, y_start = float(st[X]), int(st[SEG]), y.copy()
                 status = radau_advance(model, M, identity, tab, nodes, held_values,
                                        held_columns, min(np.nextafter(start, np.inf), t_stop),
-                                       hmax, control, t_out, states, y, st, ws, cont, project)
+                                       hmax, control, t_out, states, y, st, ws, cont, project,
+                                       limits)
                 if status == 0:  # ws[6:9]: the accepted step's stage increments z1, z2, z3
                     steps.append((start, float(st[H_OLD]), seg, y_start, y.copy(),
                                   np.array(ws[6:9])))
         if status != 0:
-            raise RadauStop(float(st[X]), "blow-up" if status == 1 else "stalled", states,
-                            y.copy())
+            why = "stalled" if status != 1 else (
+                "box" if np.all(np.abs(y) < BLOW_UP) else "blow-up")  # (NaN: a blow-up)
+            raise RadauStop(float(st[X]), why, states, y.copy())
         if on_progress is not None:
             on_progress(float(st[X]))
     if loop is not None:
