@@ -27,6 +27,7 @@ from numba import njit, typeof, types
 from numba.extending import intrinsic
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from .._compiled_calls import borrowed, stack_array
 from ..dynamics._nonlinear_forward_numba import residual as forward_residual
 from ..dynamics._nonlinear_numba import residual as prescribed_residual
 from ..dynamics.nonlinear_kernel import NonlinearData, NonlinearForwardData
@@ -98,7 +99,7 @@ def _call_residual_from(typingctx, address, context, Y, V, X, ang, rate, acc, ro
             _call_codegen(1))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)  # (no runtime: no counts of the arrays it passes on)
 def _residual_from(context, Y, V, X, ang, rate, acc, rot_acc, u, out, records_type):
     """The residual of one state into ``out`` for the model whose record the context holds
     (its type given)."""
@@ -118,13 +119,15 @@ def stage_partials(model, rows, r, Q, V, X, partials):
     into ``partials`` (n, 3n) = [∂R/∂q | ∂R/∂q̇ | ∂R/∂q̈]: forward differences in q and q̇,
     unit steps in q̈ (exact: R is affine in q̈)."""
     n = Q.size
-    angle, rate, acc, rot, u = rows
+    angle, rate, acc, rot, u = _borrowed_rows(rows)
     eps = 1e-7
-    r0 = np.empty(n)
-    r1 = np.empty(n)
-    Qp = Q.copy()
-    Vp = V.copy()
-    Xp = X.copy()
+    r0 = stack_array(n)
+    r1 = stack_array(n)
+    Qp = stack_array(n)
+    Vp = stack_array(n)
+    Xp = stack_array(n)
+    for m in range(n):
+        Qp[m], Vp[m], Xp[m] = Q[m], V[m], X[m]
     model_residual(model, Q, V, X, angle[r], rate[r], acc[r], rot[r], u[r], r0)
     for m in range(n):
         Qp[m] += eps
@@ -197,12 +200,14 @@ def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, which
     of the partials, counts[1] += iterations. Returns whether it converged."""
     n = y0.size
     nodes, coeffs, coeffs2 = tab.nodes, tab.coeffs, tab.coeffs2
-    angle, rates, acc, rot, u = rows
+    # the residual's arguments uncounted, on the stack or borrowed from the caller's
+    angle, rates, acc, rot, u = _borrowed_rows(rows)
+    X = borrowed(X)
     last = have.size - 1
-    Q = np.empty((2, n))
-    V = np.empty((2, n))
-    R = np.empty(2 * n)
-    r0 = np.empty(n)
+    Q = stack_array((2, n))
+    V = stack_array((2, n))
+    R = stack_array(2 * n)
+    r0 = stack_array(n)
     previous = np.inf
     fresh = False
     q_size = 0.0
@@ -238,13 +243,16 @@ def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, which
                            r0)
             for m in range(n):
                 R[st * n + m] = r0[m]
-        dX = np.dot(inverse, R)
         size = 0.0
         largest = 0.0
         for st in range(2):
             for m in range(n):
-                X[st, m] -= dX[st * n + m]
-                size = max(size, abs(dX[st * n + m]))
+                i = st * n + m
+                dx = 0.0
+                for j in range(2 * n):
+                    dx += inverse[i, j] * R[j]
+                X[st, m] -= dx
+                size = max(size, abs(dx))
                 largest = max(largest, abs(X[st, m]))
         theta = size / previous
         # (first iteration: no rate yet, the increment itself must be small)
@@ -259,6 +267,13 @@ def solve_stages(model, rows, k, y0, v0, X, h, tab, newton, inverse, have, which
         previous = size
         fresh = False
     return False
+
+
+@njit(inline="always")
+def _borrowed_rows(rows):
+    """The stage input rows' arrays (a StageInputs), borrowed (`borrowed`)."""
+    angle, rate, acc, rot, u = rows
+    return borrowed(angle), borrowed(rate), borrowed(acc), borrowed(rot), borrowed(u)
 
 
 @njit(cache=True)
