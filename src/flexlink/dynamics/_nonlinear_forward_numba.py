@@ -71,7 +71,8 @@ MASS_REUSE = 6
 MASS_CONTRACTION = 0.02
 # … until the remaining error is within MASS_TOL of the largest |ÿ|: on the slider cases of
 # benchmarks/slider_vs_fe.py 1e-11 takes a residual less per state than 1e-13 and moves
-# every channel by < 1e-9 of its peak (the step loop's Newton stops at 1e-7 of rtol)
+# every channel by < 1e-9 of its peak (the step loop's Newton stops at 1e-7 of the stage
+# accelerations there)
 MASS_TOL = 1e-11
 
 

@@ -18,7 +18,7 @@ from .._compiled_calls import stack_array
 # inertia_elastic and the residuals are compiled without numba's runtime (``_nrt=False``, as
 # `_forward_numba`'s kernels), their scratch on the stack: with it, each call allocated its
 # scratch arrays and counted every array it was passed, at each call level, with atomic
-# operations that cost a third of the residual (the Gauss loops call it millions of times).
+# operations that cost a third of the residual (a Gauss run calls it some 10⁴ times).
 @njit(cache=True, _nrt=False)
 def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, gravity, cart,
                     rail, rail_acc, line_node, line_col, line_s, Y, V, X, ang, rate, acc,
