@@ -97,3 +97,50 @@ def load(typingctx, array, records_type):
     def codegen(context, builder, signature, args):
         return builder.load(records_pointer(context, builder, records, args[0]))
     return records(array, records_type), codegen
+
+
+
+@intrinsic
+def stack_array(typingctx, shape):
+    """A C-contiguous float64 array of ``shape`` (an integer or a tuple of them) on the
+    calling kernel's stack, freed when it returns, uncounted: scratch for a kernel compiled
+    without numba's runtime (``_nrt=False``), which cannot allocate. Call it outside loops
+    (each call takes more stack)."""
+    dims = shape.types if isinstance(shape, types.BaseTuple) else (shape,)
+    if not dims or not all(isinstance(t, types.Integer) for t in dims):
+        raise TypingError(f"stack_array takes an integer or a tuple of them, got {shape}")
+    array = types.Array(types.float64, len(dims), "C")
+
+    def codegen(context, builder, signature, args):
+        from numba.np.arrayobj import make_array, populate_array
+
+        values = (cgutils.unpack_tuple(builder, args[0])
+                  if isinstance(shape, types.BaseTuple) else [args[0]])
+        sizes = [context.cast(builder, v, t, types.intp) for v, t in zip(values, dims)]
+        count = context.get_constant(types.intp, 1)
+        for size in sizes:
+            count = builder.mul(count, size)
+        data = builder.alloca(context.get_value_type(types.float64), size=count)
+        strides = [context.get_constant(types.intp, 8)]
+        for size in reversed(sizes[1:]):
+            strides.insert(0, builder.mul(strides[0], size))
+        out = make_array(array)(context, builder)
+        populate_array(out, data=data, shape=sizes, strides=strides,
+                       itemsize=context.get_constant(types.intp, 8), meminfo=None)
+        return out._getvalue()
+    return array(shape), codegen
+
+@intrinsic
+def borrowed(typingctx, array):
+    """``array`` with its reference-count (meminfo) and owner pointers NULL: a view that
+    numba neither counts nor frees, for the hot calls of a kernel on arrays that outlive
+    them (each count is an atomic operation, at every call level)."""
+    if not isinstance(array, types.Array):
+        raise TypingError(f"borrowed takes an array, got {array}")
+
+    def codegen(context, builder, signature, args):
+        view = cgutils.create_struct_proxy(array)(context, builder, value=args[0])
+        view.meminfo = cgutils.get_null_value(view.meminfo.type)
+        view.parent = cgutils.get_null_value(view.parent.type)
+        return view._getvalue()
+    return array(array), codegen

@@ -12,9 +12,14 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from .._compiled_calls import stack_array
 
 
-@njit(cache=True)
+# inertia_elastic and the residuals are compiled without numba's runtime (``_nrt=False``, as
+# `_forward_numba`'s kernels), their scratch on the stack: with it, each call allocated its
+# scratch arrays and counted every array it was passed, at each call level, with atomic
+# operations that cost a third of the residual (a Gauss run calls it some 10⁴ times).
+@njit(cache=True, _nrt=False)
 def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, gravity, cart,
                     rail, rail_acc, line_node, line_col, line_s, Y, V, X, ang, rate, acc,
                     rot_acc, out):
@@ -40,13 +45,15 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
     rail drives row n."""
     nodes = Ay.shape[0]
     m = n + nu  # columns with node angles
-    c = np.empty(nodes)
-    s = np.empty(nodes)
-    S = np.empty((nodes, 4))
-    line_f = np.empty(line_node.shape[0])  # the inertia force along each line
-    rho = np.ones(nodes)
-    rho_d = np.zeros(nodes)
-    rho_dd = np.zeros(nodes)
+    c = stack_array(nodes)
+    s = stack_array(nodes)
+    S = stack_array((nodes, 4))
+    line_f = stack_array(line_node.shape[0])  # the inertia force along each line
+    rho = stack_array(nodes)
+    rho_d = stack_array(nodes)
+    rho_dd = stack_array(nodes)
+    for j in range(nodes):
+        rho[j], rho_d[j], rho_dd[j] = 1.0, 0.0, 0.0
     for i in range(line_node.shape[0]):
         rho[line_node[i]] = line_s[i, 0]
         rho_d[line_node[i]] = line_s[i, 1]
@@ -124,14 +131,14 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
         out[n] += (m_tot * rx + fx) * rail[0] + (m_tot * ry + fy) * rail[1]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
     """Inertia + damping + elastic − applied (u, n) forces of one state (n,) of the model
     with prescribed joints (d: NonlinearData) into ``out`` — NonlinearSystem.residual
     (rot_acc: the tips' prescribed angular accelerations)."""
     inertia_elastic(d.Ay, d.G, d.s, d.m_tot, d.translation, d.rot_y, d.rot_J, d.Dq, d.Kq, d.n,
                     d.nu, d.gravity, d.cart, d.rail, 0.0, d.line_node, d.line_col,
-                    np.zeros((0, 3)), Y, V, X, ang, rate, acc, rot_acc, out)
+                    stack_array((0, 3)), Y, V, X, ang, rate, acc, rot_acc, out)
     for i in range(d.n):
         out[i] -= u[i]
 
