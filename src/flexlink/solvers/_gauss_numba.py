@@ -20,6 +20,7 @@ than the compiled loop (benchmarks/nonlinear_vs_fe.py).
 
 from __future__ import annotations
 
+import struct
 from typing import Any
 
 import numpy as np
@@ -36,6 +37,7 @@ from ._radau_model import (
     _address,
     _call_codegen,
     _check,
+    _layout,
     _load,
     _pack,
     _type_key,
@@ -60,23 +62,23 @@ def residual_model(d: Any) -> tuple[int, np.ndarray, int]:
     found = _MODELS.get(key)
     if found is None:
         found = _MODELS[key] = _addresses(kernel, records)
-    trampoline, residual = found
-    return trampoline, _pack(records, residual, 0), int(d.n)
+    trampoline, residual, fields = found
+    return trampoline, _pack(records, fields, (residual, 0)), int(d.n)
 
 
-# _type_key(records) → (trampoline, residual) addresses: numba's typeof of a record of dozens
-# of arrays costs milliseconds, more than a short run's step loop
-_MODELS: dict[Any, tuple[int, int]] = {}
+# _type_key(records) → (trampoline, residual) addresses and the records' layout: numba's
+# typeof of a record of dozens of arrays costs milliseconds, more than a short run's step loop
+_MODELS: dict[Any, tuple[int, int, struct.Struct]] = {}
 
 
-def _addresses(kernel: Any, records: tuple) -> tuple[int, int]:
+def _addresses(kernel: Any, records: tuple) -> tuple[int, int, struct.Struct]:
     """The addresses of the residual trampoline for these records' types and of the
-    model's compiled residual ``kernel``."""
+    model's compiled residual ``kernel``, and the records' `_layout`."""
     (d,) = records
+    records_type = typeof(records)
     residual = _address(kernel, (typeof(d),) + _ROWS)
-    trampoline = _address(_residual_from, (CONTEXT,) + _ROWS
-                          + (types.TypeRef(typeof(records)),))
-    return trampoline, residual
+    trampoline = _address(_residual_from, (CONTEXT,) + _ROWS + (types.TypeRef(records_type),))
+    return trampoline, residual, _layout(records_type)
 
 
 @intrinsic
