@@ -340,7 +340,9 @@ def project(d, w, u, y):
         w.v[f.free[d.dep[j]]] += w.step[j]
         y[d.dep[j]] = w.q[f.free[d.dep[j]]]
         y[nu + d.dep[j]] = w.v[f.free[d.dep[j]]]
-    constraints(d, w, False)  # γ at the closed rates; Φ and G are those of this q
+    # γ at the closed rates (Φ and G again those of this q: the same values; one compiled
+    # version of the kinematics, with their Jacobians, serves every call)
+    constraints(d, w)
     return True
 
 
@@ -402,17 +404,13 @@ def solve_constrained(d, w, u, y):
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def rates_in(context, u, y, dy, records_type):
-    """`rates` for the kernel data d and LoopWork w that the compiled loops' context holds
-    (solvers/_radau_model.py; (d, w)'s type given): the loops call it through its address,
-    and the records are read from the context, not handed over array by array."""
-    d, w = load(context, records_type)
-    rates(d, w, u, y, dy)
-
-
-@njit(cache=True, _nrt=False)
-def rates(d, w, u, y, dy):
     """dy/dt of y = [p_free, ṗ_free, z, ż, servo integrals] on the closed loops (the
-    dependent coordinates' entries of y are not read: see `project`)."""
+    dependent coordinates' entries of y are not read: see `project`), for the kernel data d
+    and LoopWork w that the compiled loops' context holds (solvers/_radau_model.py; (d, w)'s
+    type given): the loops call it through its address, and the records are read from the
+    context, not handed over array by array. From Python: `_radau_numba.rates_function`
+    (one compiled version of the rates, not a second one with a Python wrapper)."""
+    d, w = load(context, records_type)
     if not solve_constrained(d, w, u, y):
         dy[:] = np.nan
         return
@@ -422,8 +420,8 @@ def rates(d, w, u, y, dy):
 @njit(cache=True, _nrt=False)
 def closed_states(d, w, u, states, dy, lam, joint_forces, residual):
     """After a run: each state (nt, ·) projected onto the loops in place, its rates dy
-    (nt, ·; `rates` of the projected state, from the same solve), the multipliers λ (nt, n_c),
-    the constraint forces' torques on the joints' rows (G^T λ, nt × N) and the largest |Φ|
+    (nt, ·; `rates_in` of the projected state, from the same solve), the multipliers λ
+    (nt, n_c), the constraint forces' torques on the joints' rows (G^T λ, nt × N) and the largest |Φ|
     of the projected state (nt,; NaN where it does not close)."""
     f = d.fwd
     N = f.length.shape[0]

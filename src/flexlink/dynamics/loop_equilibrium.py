@@ -11,6 +11,8 @@ both models (`closed_equilibrium`: first order; `closed_nonlinear_equilibrium`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..errors import SimulationError
@@ -22,10 +24,8 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
     the input row u (t = 0); ``loops`` a `LoopSystem` whose dependent coordinates are
     chosen. Raises SimulationError naming a servo on a dependent joint (its angle is the
     loop's, not the servo's to hold)."""
-    from ._loops_numba import close, rates
-
-    def project(data, work, u: np.ndarray, y: np.ndarray) -> bool:
-        return close(data, work, u, y, 1)
+    from ..solvers._radau_numba import rates_function
+    from ._loops_numba import close
 
     system = loops.system
     nu, n = len(system.free), system.n
@@ -37,14 +37,18 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         rows.append(nu + j)
         unknowns.append(2 * nu + 2 * n + s if system.chain.joints[k].integrator else j)
     rest = list(range(nu, 2 * nu)) + list(range(2 * nu + n, 2 * nu + 2 * n))
-    return _solve(rates, project, loops.data, loops.workspace(y.size), u, y, unknowns, rows,
-                  rest)
+    work = loops.workspace(y.size)
+
+    def project(u: np.ndarray, y: np.ndarray) -> bool:
+        return close(loops.data, work, u, y, 1)
+    return _solve(rates_function(loops.data, work), project, u, y, unknowns, rows, rest)
 
 
 def closed_nonlinear_equilibrium(loops, Y: np.ndarray, u: np.ndarray) -> np.ndarray:
     """The same on the nonlinear model: ``loops`` a `NonlinearLoopSystem`, Y = [y, ẏ] with
     y = [q, p_free, σ] (a servo's integral is σ̇, a rate)."""
-    from ._nonlinear_loops_numba import project, rates
+    from ..solvers._radau_numba import rates_function
+    from ._nonlinear_loops_numba import project
 
     system = loops.system
     n, nu, ny = system.n, system.nu, system.n_y
@@ -57,7 +61,9 @@ def closed_nonlinear_equilibrium(loops, Y: np.ndarray, u: np.ndarray) -> np.ndar
         rows.append(ny + n + j)
         unknowns.append(ny + n + nu + s if servo.integrator else n + j)
     rest = list(range(ny, ny + n + nu))
-    return _solve(rates, project, loops.data, loops.workspace(), u, Y, unknowns, rows, rest)
+    data, work = loops.data, loops.workspace()
+    return _solve(rates_function(data, work), lambda u, y: project(data, work, u, y), u, Y,
+                  unknowns, rows, rest)
 
 
 def _independent(k: int, j: int, dependent: np.ndarray) -> None:
@@ -69,10 +75,12 @@ def _independent(k: int, j: int, dependent: np.ndarray) -> None:
             "joint (the crank), or use initial = \"rest\"")
 
 
-def _solve(rates, project, data, work, u: np.ndarray, y: np.ndarray, unknowns: list[int],
-           rows: list[int], rest: list[int]) -> np.ndarray:
+def _solve(rates: Callable[[np.ndarray, np.ndarray, np.ndarray], None],
+           project: Callable[[np.ndarray, np.ndarray], bool], u: np.ndarray, y: np.ndarray,
+           unknowns: list[int], rows: list[int], rest: list[int]) -> np.ndarray:
     """State y with its ``rest`` entries (rates) zeroed and its ``unknowns`` moved until
-    the compiled closed-loop ``rates`` vanish on ``rows``, then projected on the loops."""
+    the compiled closed-loop rates(u, y, out) vanish on ``rows``, then projected on the
+    loops (project(u, y): in place, False when they do not close)."""
     start = np.asarray(y, dtype=float).copy()
     start[rest] = 0.0
     out = np.empty_like(start)
@@ -82,13 +90,13 @@ def _solve(rates, project, data, work, u: np.ndarray, y: np.ndarray, unknowns: l
         for i in range(x.shape[0]):
             trial = start.copy()
             trial[unknowns] = x[i]
-            rates(data, work, u, trial, out)
+            rates(u, trial, out)
             r[i] = out[rows]
         return r
 
     closed = start.copy()
     closed[unknowns] = equilibrium.solve(residuals, start[unknowns])
-    if not project(data, work, u, closed):
+    if not project(u, closed):
         raise SimulationError("simulation.initial = \"equilibrium\": the deflected mechanism "
                               "does not close (a singular configuration at t = 0)")
     return closed
