@@ -98,6 +98,11 @@ def _numba_pack(records, first, second):
     return context
 
 
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
 Padded = namedtuple("Padded", ["flag", "x", "small", "rows", "inner", "last"])
 
 
@@ -107,6 +112,7 @@ Padded = namedtuple("Padded", ["flag", "x", "small", "rows", "inner", "last"])
     Padded(True, 2.5, np.int32(-3), np.arange(6.0).reshape(2, 3).T,
            (False, np.float32(1.5), np.bool_(True), (np.zeros(2, dtype=bool),)), np.uint8(9)),
     (np.ones(3), (True,), (1, True), ((), np.float32(2.0)), np.int16(-2)),
+    (_readonly(np.arange(4.0)), np.zeros((3, 2), order="F"), np.zeros(0, dtype=np.int64)),
 ])
 def test_the_context_holds_the_records_as_numba_stores_them(records) -> None:
     fields = layout(typeof(records))
