@@ -51,6 +51,10 @@ from ._forward_numba import workspace as forward_workspace
 
 REVOLUTE, SLIDER = 0, 1
 NEWTON_ITERATIONS = 30
+# `constraints`' ``jac`` as a plain bool, not a literal True or False: numba compiles a
+# function once per literal value, and the kinematics under it (`frames`, `point`, …) with
+# it; one compiled version skips the Jacobians at run time
+JACOBIAN, NO_JACOBIAN = np.bool_(True), np.bool_(False)
 
 LoopWork = namedtuple("LoopWork", [
     "fw", "th", "om", "Jth", "o", "od", "og", "Jo", "r", "rd", "g", "Jr", "r2", "rd2", "g2",
@@ -311,7 +315,7 @@ def project(d, w, u, y):
     load_state(d, w, u, y)
     closed = False
     for _ in range(NEWTON_ITERATIONS):
-        constraints(d, w)
+        constraints(d, w, JACOBIAN)
         big = 0.0
         for c in range(nc):
             big = max(big, abs(w.Phi[c]))
@@ -340,9 +344,7 @@ def project(d, w, u, y):
         w.v[f.free[d.dep[j]]] += w.step[j]
         y[d.dep[j]] = w.q[f.free[d.dep[j]]]
         y[nu + d.dep[j]] = w.v[f.free[d.dep[j]]]
-    # γ at the closed rates (Φ and G again those of this q: the same values; one compiled
-    # version of the kinematics, with their Jacobians, serves every call)
-    constraints(d, w)
+    constraints(d, w, NO_JACOBIAN)  # γ at the closed rates; Φ and G are those of this q
     return True
 
 
@@ -355,7 +357,7 @@ def close(d, w, u, y, newton):
     loops close)."""
     if newton == 0:
         load_state(d, w, u, y)
-        constraints(d, w)
+        constraints(d, w, JACOBIAN)
         return True
     return project(d, w, u, y)
 
