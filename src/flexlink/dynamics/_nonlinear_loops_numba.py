@@ -445,12 +445,10 @@ def solve_constrained(d, w, u, Y):
     _solve(K, rhs)
 
 
-@njit(cache=True, no_cpython_wrapper=True)
+@njit(cache=True)
 def rates(d, w, u, Y, dY):
     """dY/dt of Y = [y, ẏ] on the closed loops (the dependent joints' entries of Y are not
-    read: see `project`). The compiled loops call it through its address; from Python:
-    `_radau_numba.rates_function` (no Python wrapper: unboxing the records is compiled
-    once, in `closed_states`)."""
+    read: see `project`)."""
     solve_constrained(d, w, u, Y)
     if w.closed[0] == 0:
         dY[:] = np.nan

@@ -12,6 +12,7 @@ both models (`closed_equilibrium`: first order; `closed_nonlinear_equilibrium`).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +25,6 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
     the input row u (t = 0); ``loops`` a `LoopSystem` whose dependent coordinates are
     chosen. Raises SimulationError naming a servo on a dependent joint (its angle is the
     loop's, not the servo's to hold)."""
-    from ..solvers._radau_numba import rates_function
     from ._loops_numba import close
 
     system = loops.system
@@ -41,14 +41,30 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
 
     def project(u: np.ndarray, y: np.ndarray) -> bool:
         return close(loops.data, work, u, y, 1)
-    return _solve(rates_function(loops.data, work), project, u, y, unknowns, rows, rest)
+    return _solve(rates_function(loops, work), project, u, y, unknowns, rows, rest)
+
+
+def rates_function(loops, work: Any) -> Callable[[np.ndarray, np.ndarray,
+                                                                np.ndarray], None]:
+    """rates(u, y, dy): the closed-loop rates dy of the state y under the input row u, y
+    projected onto the loops first (y itself unchanged; ``work`` its workspace): the outputs
+    pass (`_loops_numba.closed_states`) on one state, the same constrained solve as the
+    integrator's rates (which Python cannot call: they have no Python wrapper)."""
+    from ._loops_numba import closed_states as kernel
+
+    lam, joint = np.empty((1, loops.n_c)), np.empty((1, len(loops.system.chain.links)))
+    residual = np.empty(1)
+
+    def rates(u: np.ndarray, y: np.ndarray, dy: np.ndarray) -> None:
+        kernel(loops.data, work, np.ascontiguousarray(u, dtype=float)[None],
+               np.array(y, dtype=float)[None], dy[None], lam, joint, residual)
+    return rates
 
 
 def closed_nonlinear_equilibrium(loops, Y: np.ndarray, u: np.ndarray) -> np.ndarray:
     """The same on the nonlinear model: ``loops`` a `NonlinearLoopSystem`, Y = [y, ẏ] with
     y = [q, p_free, σ] (a servo's integral is σ̇, a rate)."""
-    from ..solvers._radau_numba import rates_function
-    from ._nonlinear_loops_numba import project
+    from ._nonlinear_loops_numba import project, rates
 
     system = loops.system
     n, nu, ny = system.n, system.nu, system.n_y
@@ -62,8 +78,8 @@ def closed_nonlinear_equilibrium(loops, Y: np.ndarray, u: np.ndarray) -> np.ndar
         unknowns.append(ny + n + nu + s if servo.integrator else n + j)
     rest = list(range(ny, ny + n + nu))
     data, work = loops.data, loops.workspace()
-    return _solve(rates_function(data, work), lambda u, y: project(data, work, u, y), u, Y,
-                  unknowns, rows, rest)
+    return _solve(lambda u, y, out: rates(data, work, u, y, out),
+                  lambda u, y: project(data, work, u, y), u, Y, unknowns, rows, rest)
 
 
 def _independent(k: int, j: int, dependent: np.ndarray) -> None:
