@@ -51,10 +51,10 @@ _RESULT = "flexlink-warmup-result "  # prefix of a worker's report line
 # CPU seconds each warm-up run compiled for in a two-worker build (``_compiled/build.json``,
 # "compile"), after the runs of its family before it: the build hands the families out
 # longest first. A run missing here counts as the mean of those listed.
-COMPILE_CPU = {"radau_loop": 8, "prescribed": 20, "nonlinear": 19, "nonlinear_step": 1,
-               "forward": 34, "free_base": 12, "nonlinear_forward": 10,
-               "nonlinear_forward_step": 0, "closed_loop": 5, "four_bar": 27,
-               "nonlinear_four_bar": 32, "sensitivities": 10, "batched": 13}
+COMPILE_CPU = {"radau_loop": 8, "prescribed": 18, "nonlinear": 18, "nonlinear_step": 1,
+               "forward": 34, "free_base": 11, "nonlinear_forward": 9,
+               "nonlinear_forward_step": 0, "closed_loop": 5, "four_bar": 17,
+               "nonlinear_four_bar": 26, "sensitivities": 9, "batched": 10}
 # Model paths whose runs integrate with another path's compiled loop (the closed loop's
 # Lawson loop is the prescribed path's; the nonlinear path's Gauss loops, compiled once for
 # both nonlinear models, are the nonlinear forward path's): one family, one worker.

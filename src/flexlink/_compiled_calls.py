@@ -12,6 +12,8 @@ their residual (`dynamics/_forward_numba.py`).
 
 from __future__ import annotations
 
+import ctypes
+import struct
 from typing import Any
 
 import numpy as np
@@ -25,6 +27,12 @@ MATRIX = types.Array(types.float64, 2, "C")
 # A compiled loop's context (solvers/_radau_model.py): HEAD words of addresses, then records
 CONTEXT = types.Array(types.int64, 1, "C")
 HEAD = 2
+# struct codes of the numbers a record may hold, by (numba type class, bits, signed)
+_NUMBER_CODES = {(types.Integer, 8, True): "b", (types.Integer, 8, False): "B",
+                 (types.Integer, 16, True): "h", (types.Integer, 16, False): "H",
+                 (types.Integer, 32, True): "i", (types.Integer, 32, False): "I",
+                 (types.Integer, 64, True): "q", (types.Integer, 64, False): "Q",
+                 (types.Float, 32, True): "f", (types.Float, 64, True): "d"}
 _ADDRESSES: dict[tuple, int] = {}  # (kernel, argument types) → address of its compiled code
 
 
@@ -99,7 +107,6 @@ def load(typingctx, array, records_type):
     return records(array, records_type), codegen
 
 
-
 @intrinsic
 def stack_array(typingctx, shape):
     """A C-contiguous float64 array of ``shape`` (an integer or a tuple of them) on the
@@ -130,6 +137,7 @@ def stack_array(typingctx, shape):
         return out._getvalue()
     return array(shape), codegen
 
+
 @intrinsic
 def borrowed(typingctx, array):
     """``array`` with its reference-count (meminfo) and owner pointers NULL: a view that
@@ -144,3 +152,77 @@ def borrowed(typingctx, array):
         view.parent = cgutils.get_null_value(view.parent.type)
         return view._getvalue()
     return array(array), codegen
+
+
+def layout(records: Any) -> struct.Struct:
+    """How numba holds a value of type ``records`` (arrays, numbers and tuples of them) in
+    memory, as a `struct` format of its fields (`words`' order): an array is its
+    reference-count and owner pointers, element count, item size, data pointer, shape and
+    strides (bytes), 8 bytes each; a number its bytes; a tuple its members, each at the next
+    multiple of its alignment, padded to a multiple of the tuple's. Checked against numba's
+    own size of the type."""
+    from numba.core.registry import cpu_target
+
+    code, size, _ = _layout(records, 0)
+    target = cpu_target.target_context
+    if size != target.get_abi_sizeof(target.get_value_type(records)):
+        raise TypeError(f"numba lays out {records} in another way than `layout` finds")
+    return struct.Struct("<" + code)
+
+
+def _layout(typ: Any, offset: int) -> tuple[str, int, int]:
+    """(`struct` format, end offset, alignment) of a value of numba type ``typ`` placed at
+    ``offset`` (bytes)."""
+    if isinstance(typ, types.Array):
+        words = 5 + 2 * typ.ndim
+        return "q" * words, offset + 8 * words, 8
+    if isinstance(typ, types.Boolean):
+        return "?", offset + 1, 1
+    if isinstance(typ, (types.Integer, types.Float)):
+        code = _NUMBER_CODES[type(typ), typ.bitwidth, getattr(typ, "signed", True)]
+        return code, offset + typ.bitwidth // 8, typ.bitwidth // 8
+    if isinstance(typ, types.BaseTuple):
+        codes, alignment = [], 1
+        for member in typ.types:
+            _, _, align = _layout(member, 0)
+            pad = -offset % align
+            code, offset, _ = _layout(member, offset + pad)
+            codes.append("x" * pad + code)
+            alignment = max(alignment, align)
+        pad = -offset % alignment
+        return "".join(codes) + "x" * pad, offset + pad, alignment
+    raise TypeError(f"a model record holds {typ}: only arrays, numbers and tuples of them "
+                    "can be handed to a compiled loop")
+
+
+def words(x: Any, into: list) -> list:
+    """The field values of ``x`` in `layout`'s order onto ``into``: an array's pointers to
+    its reference count and owner are NULL (a borrowed view that numba neither counts nor
+    frees: the caller keeps ``x`` alive)."""
+    if isinstance(x, np.ndarray):
+        into += (0, 0, x.size, x.itemsize, _data(x), *x.shape, *x.strides)
+    elif isinstance(x, tuple):
+        for member in x:
+            words(member, into)
+    else:
+        into.append(x)
+    return into
+
+
+def _data(x: np.ndarray) -> int:
+    """The address of array ``x``'s first element: through the buffer protocol where that
+    works (a writable, C-contiguous, non-empty array: a fourth of the time of ``ctypes``,
+    which dominates a record's `pack`), else numpy's own."""
+    try:
+        return ctypes.addressof(ctypes.c_char.from_buffer(x))
+    except (TypeError, ValueError, BufferError):
+        return x.ctypes.data
+
+
+def pack(records: Any, fields: struct.Struct, head: tuple[int, ...]) -> np.ndarray:
+    """A context (`CONTEXT`): the `HEAD` words ``head``, then ``records`` as numba holds
+    them (``fields``: `layout` of their type), as `load` reads them back."""
+    context = np.zeros(HEAD + (fields.size + 7) // 8, dtype=np.int64)
+    context[:HEAD] = head
+    fields.pack_into(context, 8 * HEAD, *words(records, []))
+    return context

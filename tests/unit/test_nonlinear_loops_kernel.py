@@ -211,6 +211,7 @@ def test_constrained_accelerations_solve_the_models_equations_on_a_moving_base(m
     G ÿ + γ = 0 at a projected, bent, moving state; Φ invariant under a rigid motion of the
     whole system (the base's coordinates with the mechanism)."""
     from flexlink.dynamics._nonlinear_forward_numba import residual
+    from flexlink.solvers._radau_numba import rates_function
 
     loops = moving
     w = loops.workspace()
@@ -219,7 +220,7 @@ def test_constrained_accelerations_solve_the_models_equations_on_a_moving_base(m
     u = inputs(loops.system.loads, np.array([T]))[0]
     assert kernels.project(loops.data, w, u, Y)
     dY = np.empty_like(Y)
-    kernels.rates(loops.data, w, u, Y, dY)
+    rates_function(loops.data, w)(u, Y, dY)
     a, lam = w.rhs[:ny].copy(), w.rhs[ny:].copy()
     _, G, gam, _ = _phi(loops, w, T, Y)
     r = np.empty(ny)

@@ -26,16 +26,16 @@ BASES = {
 
 def _kernel_rates(loops: NonlinearLoopSystem, t: np.ndarray, y: np.ndarray, v: np.ndarray
                   ) -> np.ndarray:
-    from flexlink.dynamics._nonlinear_loops_numba import rates
+    from flexlink.solvers._radau_numba import rates_function
 
     s = loops.system
     u = inputs(s.loads, t)
-    work = loops.workspace()
+    rates = rates_function(loops.data, loops.workspace())
     out = np.empty_like(y)
     for i in range(t.size):
         Y = np.concatenate([y[i], v[i]])
         dY = np.empty_like(Y)
-        rates(loops.data, work, u[i], Y, dY)
+        rates(u[i], Y, dY)
         np.testing.assert_array_equal(dY[:s.n_y], v[i])
         out[i] = dY[s.n_y:]
     return out

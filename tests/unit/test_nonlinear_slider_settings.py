@@ -111,7 +111,7 @@ def test_the_compiled_residual_is_looked_up_once_per_record_layout() -> None:
     assert len(_gauss_numba._MODELS) == size
     assert again[0] == first[0] and again[2] == first[2]
     # the addresses numba's own typeof finds for this record
-    trampoline, residual = _gauss_numba._addresses(_gauss_numba._RESIDUALS[type(d)], (d,))
+    trampoline, residual, _ = _gauss_numba._addresses(_gauss_numba._RESIDUALS[type(d)], (d,))
     assert first[0] == trampoline and int(first[1][0]) == residual
 
 

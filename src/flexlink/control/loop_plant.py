@@ -8,7 +8,7 @@ functions of them (the compiled `project`). The plant is that ODE's Jacobian
 
     ẋ = A x + B u,   y = C x + D u,   x = [δp_ind; z; δṗ_ind; ż; s],
 
-by central differences of the compiled closed-loop rates (`dynamics._loops_numba.rates`:
+by central differences of the compiled closed-loop rates (`dynamics._loops_numba.rates_in`:
 the constrained equations on the projected state) over the independent components (A) and
 over the input row's columns of the drives and actuators (B); C and D by central differences
 of the run's channel functions on projected states (the dependent joints' angles and rates,
@@ -75,9 +75,9 @@ def loop_plant(scenario: Scenario, t0: float, point: float | Configuration,
     C, D, out_names = _output_jacobians(readings, y, u0, full, columns)
     rigid = [_coordinate_name(system, system.free[j]) for j in independent]
     dy = np.empty_like(y)
-    from ..dynamics._loops_numba import rates
+    from ..solvers._radau_numba import rates_function
 
-    rates(loops.data, loops.workspace(y.size), u0, y, dy)
+    rates_function(loops.data, loops.workspace(y.size))(u0, y, dy)
     moving = np.abs(np.concatenate([y[nu:2 * nu], y[2 * nu + n:2 * nu + 2 * n]])
                     ).max(initial=0.0) > 0
     scale = max(1.0, np.abs(A).max())
@@ -177,16 +177,16 @@ def _input_columns(scenario: Scenario, system: ForwardSystem
 def _input_jacobian(loops: LoopSystem, u0: np.ndarray, y: np.ndarray, columns: list[int],
                     full: np.ndarray) -> np.ndarray:
     """∂ẋ/∂u over the inputs' columns of the input row, on the plant's states ``full``."""
-    from ..dynamics._loops_numba import rates
+    from ..solvers._radau_numba import rates_function
 
-    work = loops.workspace(y.size)
+    rates = rates_function(loops.data, loops.workspace(y.size))
     B = np.empty((full.size, len(columns)))
     up, down = np.empty_like(y), np.empty_like(y)
     for c, col in enumerate(columns):
         for sign, out in ((1.0, up), (-1.0, down)):
             u = u0.copy()
             u[col] += sign * STEP
-            rates(loops.data, work, u, y, out)
+            rates(u, y, out)
         B[:, c] = (up[full] - down[full]) / (2 * STEP)
     return B
 

@@ -51,6 +51,10 @@ from ._forward_numba import workspace as forward_workspace
 
 REVOLUTE, SLIDER = 0, 1
 NEWTON_ITERATIONS = 30
+# `constraints`' ``jac`` as a plain bool, not a literal True or False: numba compiles a
+# function once per literal value, and the kinematics under it (`frames`, `point`, …) with
+# it; one compiled version skips the Jacobians at run time
+JACOBIAN, NO_JACOBIAN = np.bool_(True), np.bool_(False)
 
 LoopWork = namedtuple("LoopWork", [
     "fw", "th", "om", "Jth", "o", "od", "og", "Jo", "r", "rd", "g", "Jr", "r2", "rd2", "g2",
@@ -311,7 +315,7 @@ def project(d, w, u, y):
     load_state(d, w, u, y)
     closed = False
     for _ in range(NEWTON_ITERATIONS):
-        constraints(d, w)
+        constraints(d, w, JACOBIAN)
         big = 0.0
         for c in range(nc):
             big = max(big, abs(w.Phi[c]))
@@ -340,7 +344,7 @@ def project(d, w, u, y):
         w.v[f.free[d.dep[j]]] += w.step[j]
         y[d.dep[j]] = w.q[f.free[d.dep[j]]]
         y[nu + d.dep[j]] = w.v[f.free[d.dep[j]]]
-    constraints(d, w, False)  # γ at the closed rates; Φ and G are those of this q
+    constraints(d, w, NO_JACOBIAN)  # γ at the closed rates; Φ and G are those of this q
     return True
 
 
@@ -353,7 +357,7 @@ def close(d, w, u, y, newton):
     loops close)."""
     if newton == 0:
         load_state(d, w, u, y)
-        constraints(d, w)
+        constraints(d, w, JACOBIAN)
         return True
     return project(d, w, u, y)
 
@@ -402,17 +406,13 @@ def solve_constrained(d, w, u, y):
 
 @njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def rates_in(context, u, y, dy, records_type):
-    """`rates` for the kernel data d and LoopWork w that the compiled loops' context holds
-    (solvers/_radau_model.py; (d, w)'s type given): the loops call it through its address,
-    and the records are read from the context, not handed over array by array."""
-    d, w = load(context, records_type)
-    rates(d, w, u, y, dy)
-
-
-@njit(cache=True, _nrt=False)
-def rates(d, w, u, y, dy):
     """dy/dt of y = [p_free, ṗ_free, z, ż, servo integrals] on the closed loops (the
-    dependent coordinates' entries of y are not read: see `project`)."""
+    dependent coordinates' entries of y are not read: see `project`), for the kernel data d
+    and LoopWork w that the compiled loops' context holds (solvers/_radau_model.py; (d, w)'s
+    type given): the loops call it through its address, and the records are read from the
+    context, not handed over array by array. From Python: `_radau_numba.rates_function`
+    (one compiled version of the rates, not a second one with a Python wrapper)."""
+    d, w = load(context, records_type)
     if not solve_constrained(d, w, u, y):
         dy[:] = np.nan
         return
@@ -422,8 +422,8 @@ def rates(d, w, u, y, dy):
 @njit(cache=True, _nrt=False)
 def closed_states(d, w, u, states, dy, lam, joint_forces, residual):
     """After a run: each state (nt, ·) projected onto the loops in place, its rates dy
-    (nt, ·; `rates` of the projected state, from the same solve), the multipliers λ (nt, n_c),
-    the constraint forces' torques on the joints' rows (G^T λ, nt × N) and the largest |Φ|
+    (nt, ·; `rates_in` of the projected state, from the same solve), the multipliers λ
+    (nt, n_c), the constraint forces' torques on the joints' rows (G^T λ, nt × N) and the largest |Φ|
     of the projected state (nt,; NaN where it does not close)."""
     f = d.fwd
     N = f.length.shape[0]

@@ -11,6 +11,9 @@ both models (`closed_equilibrium`: first order; `closed_nonlinear_equilibrium`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 
 from ..errors import SimulationError
@@ -22,10 +25,7 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
     the input row u (t = 0); ``loops`` a `LoopSystem` whose dependent coordinates are
     chosen. Raises SimulationError naming a servo on a dependent joint (its angle is the
     loop's, not the servo's to hold)."""
-    from ._loops_numba import close, rates
-
-    def project(data, work, u: np.ndarray, y: np.ndarray) -> bool:
-        return close(data, work, u, y, 1)
+    from ._loops_numba import close
 
     system = loops.system
     nu, n = len(system.free), system.n
@@ -37,8 +37,28 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         rows.append(nu + j)
         unknowns.append(2 * nu + 2 * n + s if system.chain.joints[k].integrator else j)
     rest = list(range(nu, 2 * nu)) + list(range(2 * nu + n, 2 * nu + 2 * n))
-    return _solve(rates, project, loops.data, loops.workspace(y.size), u, y, unknowns, rows,
-                  rest)
+    work = loops.workspace(y.size)
+
+    def project(u: np.ndarray, y: np.ndarray) -> bool:
+        return close(loops.data, work, u, y, 1)
+    return _solve(rates_function(loops, work), project, u, y, unknowns, rows, rest)
+
+
+def rates_function(loops, work: Any) -> Callable[[np.ndarray, np.ndarray,
+                                                                np.ndarray], None]:
+    """rates(u, y, dy): the closed-loop rates dy of the state y under the input row u, y
+    projected onto the loops first (y itself unchanged; ``work`` its workspace): the outputs
+    pass (`_loops_numba.closed_states`) on one state, the same constrained solve as the
+    integrator's rates (which Python cannot call: they have no Python wrapper)."""
+    from ._loops_numba import closed_states as kernel
+
+    lam, joint = np.empty((1, loops.n_c)), np.empty((1, len(loops.system.chain.links)))
+    residual = np.empty(1)
+
+    def rates(u: np.ndarray, y: np.ndarray, dy: np.ndarray) -> None:
+        kernel(loops.data, work, np.ascontiguousarray(u, dtype=float)[None],
+               np.array(y, dtype=float)[None], dy[None], lam, joint, residual)
+    return rates
 
 
 def closed_nonlinear_equilibrium(loops, Y: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -57,7 +77,9 @@ def closed_nonlinear_equilibrium(loops, Y: np.ndarray, u: np.ndarray) -> np.ndar
         rows.append(ny + n + j)
         unknowns.append(ny + n + nu + s if servo.integrator else n + j)
     rest = list(range(ny, ny + n + nu))
-    return _solve(rates, project, loops.data, loops.workspace(), u, Y, unknowns, rows, rest)
+    data, work = loops.data, loops.workspace()
+    return _solve(lambda u, y, out: rates(data, work, u, y, out),
+                  lambda u, y: project(data, work, u, y), u, Y, unknowns, rows, rest)
 
 
 def _independent(k: int, j: int, dependent: np.ndarray) -> None:
@@ -69,10 +91,12 @@ def _independent(k: int, j: int, dependent: np.ndarray) -> None:
             "joint (the crank), or use initial = \"rest\"")
 
 
-def _solve(rates, project, data, work, u: np.ndarray, y: np.ndarray, unknowns: list[int],
-           rows: list[int], rest: list[int]) -> np.ndarray:
+def _solve(rates: Callable[[np.ndarray, np.ndarray, np.ndarray], None],
+           project: Callable[[np.ndarray, np.ndarray], bool], u: np.ndarray, y: np.ndarray,
+           unknowns: list[int], rows: list[int], rest: list[int]) -> np.ndarray:
     """State y with its ``rest`` entries (rates) zeroed and its ``unknowns`` moved until
-    the compiled closed-loop ``rates`` vanish on ``rows``, then projected on the loops."""
+    the compiled closed-loop rates(u, y, out) vanish on ``rows``, then projected on the
+    loops (project(u, y): in place, False when they do not close)."""
     start = np.asarray(y, dtype=float).copy()
     start[rest] = 0.0
     out = np.empty_like(start)
@@ -82,13 +106,13 @@ def _solve(rates, project, data, work, u: np.ndarray, y: np.ndarray, unknowns: l
         for i in range(x.shape[0]):
             trial = start.copy()
             trial[unknowns] = x[i]
-            rates(data, work, u, trial, out)
+            rates(u, trial, out)
             r[i] = out[rows]
         return r
 
     closed = start.copy()
     closed[unknowns] = equilibrium.solve(residuals, start[unknowns])
-    if not project(data, work, u, closed):
+    if not project(u, closed):
         raise SimulationError("simulation.initial = \"equilibrium\": the deflected mechanism "
                               "does not close (a singular configuration at t = 0)")
     return closed

@@ -302,14 +302,14 @@ def reduced_jacobian(loops: LoopSystem, t: float, y: np.ndarray | None = None,
     dependent on the closures, the elastic ones, their rates (and servo integrals) — by
     central differences of the compiled rates (step relative to each component's scale);
     and those components' indices into y."""
-    from ._loops_numba import rates
-
     y = loops.y0.copy() if y is None else np.asarray(y, dtype=float).copy()
     nu = len(loops.system.free)
     dep = {int(j) for j in loops.dep} | {int(j) + nu for j in loops.dep}
     keep = np.array([i for i in range(y.size) if i not in dep], dtype=int)
     u = inputs(loops.system, np.array([float(t)]))[0]
-    work = loops.workspace(y.size)
+    from .loop_equilibrium import rates_function
+
+    rates = rates_function(loops, loops.workspace(y.size))
     J = np.empty((keep.size, keep.size))
     up, down = np.empty_like(y), np.empty_like(y)
     for c, i in enumerate(keep):
@@ -317,7 +317,7 @@ def reduced_jacobian(loops: LoopSystem, t: float, y: np.ndarray | None = None,
         for sign, out in ((1.0, up), (-1.0, down)):
             trial = y.copy()
             trial[i] += sign * h
-            rates(loops.data, work, u, trial, out)
+            rates(u, trial, out)
         J[:, c] = (up[keep] - down[keep]) / (2 * h)
     return J, keep
 

@@ -20,6 +20,7 @@ than the compiled loop (benchmarks/nonlinear_vs_fe.py).
 
 from __future__ import annotations
 
+import struct
 from typing import Any
 
 import numpy as np
@@ -37,12 +38,17 @@ from ._radau_model import (
     _address,
     _call_codegen,
     _check,
+    _layout,
     _load,
     _pack,
     _type_key,
 )
 from ._step_control_numba import error_norm, tolerances, update_peaks
 
+# `solve_stages`' ``which`` (the caller's first or second iteration matrix) as int64 values,
+# not literals: numba compiles a function once per literal value, so callers passing 0 and 1
+# compiled it twice
+MATRIX_0, MATRIX_1 = np.int64(0), np.int64(1)
 # kernel-data record class → its compiled residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out)
 _RESIDUALS = {NonlinearData: prescribed_residual, NonlinearForwardData: forward_residual}
 _ROWS = (ROW,) * 9  # Y, V, X, ang, rate, acc, rot_acc, u, out: every row a residual takes
@@ -61,23 +67,23 @@ def residual_model(d: Any) -> tuple[int, np.ndarray, int]:
     found = _MODELS.get(key)
     if found is None:
         found = _MODELS[key] = _addresses(kernel, records)
-    trampoline, residual = found
-    return trampoline, _pack(records, residual, 0), int(d.n)
+    trampoline, residual, fields = found
+    return trampoline, _pack(records, fields, (residual, 0)), int(d.n)
 
 
-# _type_key(records) → (trampoline, residual) addresses: numba's typeof of a record of dozens
-# of arrays costs milliseconds, more than a short run's step loop
-_MODELS: dict[Any, tuple[int, int]] = {}
+# _type_key(records) → (trampoline, residual) addresses and the records' layout: numba's
+# typeof of a record of dozens of arrays costs milliseconds, more than a short run's step loop
+_MODELS: dict[Any, tuple[int, int, struct.Struct]] = {}
 
 
-def _addresses(kernel: Any, records: tuple) -> tuple[int, int]:
+def _addresses(kernel: Any, records: tuple) -> tuple[int, int, struct.Struct]:
     """The addresses of the residual trampoline for these records' types and of the
-    model's compiled residual ``kernel``."""
+    model's compiled residual ``kernel``, and the records' `_layout`."""
     (d,) = records
+    records_type = typeof(records)
     residual = _address(kernel, (typeof(d),) + _ROWS)
-    trampoline = _address(_residual_from, (CONTEXT,) + _ROWS
-                          + (types.TypeRef(typeof(records)),))
-    return trampoline, residual
+    trampoline = _address(_residual_from, (CONTEXT,) + _ROWS + (types.TypeRef(records_type),))
+    return trampoline, residual, _layout(records_type)
 
 
 @intrinsic
@@ -305,7 +311,7 @@ def gauss_loop(model, rows, y, v, X, h, tab, newton, predict_first, peak):
                 X[0, m] += slope
                 X[1, m] += slope
         if not solve_stages(model, rows, 2 * i, y[i], v[i], X, h, tab, newton, inverse, have,
-                            0, partials, counts, peak):
+                            MATRIX_0, partials, counts, peak):
             return i, counts[0], counts[1]
         _advance(y[i], v[i], X, h, tab, y[i + 1], v[i + 1])
     return -1, counts[0], counts[1]
@@ -344,14 +350,14 @@ def gauss_doubling(model, rows, y, v, X, h_prev, H, tab, newton, control, errors
         if checked:
             predict(big, X, h_prev, h_prev, H, nodes)
             if not solve_stages(model, rows, 6 * i, y[i], v[i], big, H, tab, newton,
-                                inverse[0], have, 0, partials, counts, peak):
+                                inverse[0], have, MATRIX_0, partials, counts, peak):
                 return 2, i
             _advance(y[i], v[i], big, H, tab, y_big, v_big)
             predict(fine, big, H, 0.0, h, nodes)
         else:
             predict(fine, X, h_prev, h_prev, h, nodes)
         if not solve_stages(model, rows, 6 * i + 2, y[i], v[i], fine, h, tab, newton, inverse[1],
-                            have, 1, partials, counts, peak):
+                            have, MATRIX_1, partials, counts, peak):
             return 2, i
         _advance(y[i], v[i], fine, h, tab, y_mid, v_mid)
         if checked:
@@ -362,7 +368,7 @@ def gauss_doubling(model, rows, y, v, X, h_prev, H, tab, newton, control, errors
                     last[st, m] = fine[st, m]
             predict(fine, last, h, h, h, nodes)
         if not solve_stages(model, rows, 6 * i + 4, y_mid, v_mid, fine, h, tab, newton, inverse[1],
-                            have, 1, partials, counts, peak):
+                            have, MATRIX_1, partials, counts, peak):
             return 2, i
         _advance(y_mid, v_mid, fine, h, tab, y[i + 1], v[i + 1])
         if checked:

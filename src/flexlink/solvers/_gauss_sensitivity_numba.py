@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._gauss_numba import _advance, model_residual, solve_stages
+from ._gauss_numba import MATRIX_0, _advance, model_residual, solve_stages
 
 
 @njit(cache=True)
@@ -53,7 +53,7 @@ def replay(model, rows, y0, v0, H, parts, tab, newton, starts_y, starts_v, stage
                 have[0] = 0
                 h_last = h
             if not solve_stages(model, rows, 2 * g, y, v, X, h, tab, newton, inverse, have,
-                                0, partials, counts, peak):
+                                MATRIX_0, partials, counts, peak):
                 return g
             for m in range(n):
                 starts_y[g, m] = y[m]

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._lawson_numba import _delta, _gemv, _piece
+from ._lawson_numba import ADD, FIRST, SET, _delta, _gemv, _piece
 from ._lawson_sensitivity_numba import _stages
 
 
@@ -133,7 +133,7 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
         P, P2 = ET[blk], E2T[blk]
         if static[blk]:
             for i in range(i0, i1):
-                _gemv(P, 0, m, y, 1.0, w, False)
+                _gemv(P, FIRST, m, y, 1.0, w, SET)
                 for q in range(m):
                     y[q] = w[q]
                     states[i + 1, q] = y[q]
@@ -175,10 +175,10 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                     u[q] = seed_acc[i + 1, q]
                 for q in range(m):
                     lam[q] += seed_y[i + 1, q]
-                _dots(A_ref, 0, m, u, 1.0, lam, True)  # z̈ = A y
+                _dots(A_ref, FIRST, m, u, 1.0, lam, ADD)  # z̈ = A y
                 _outer(Gs[blk], u, states[i + 1])
                 _outer(W[blk], lam, states[i])
-                _dots(P, 0, m, lam, 1.0, w, False)
+                _dots(P, FIRST, m, lam, 1.0, w, SET)
                 for q in range(m):
                     lam[q] = w[q]
             continue
@@ -197,8 +197,8 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 u[q] = seed_acc[i + 1, q]
             for q in range(m):
                 lam[q] += seed_y[i + 1, q]
-            _dots(A_ref, 0, m, u, 1.0, lam, True)
-            _dots(De, 0, m, u, 1.0, lam, True)
+            _dots(A_ref, FIRST, m, u, 1.0, lam, ADD)
+            _dots(De, FIRST, m, u, 1.0, lam, ADD)
             _outer(Xe, u, states[i + 1])
             for j in range(substeps - 1, -1, -1):
                 tau = (t_out[i] - t_out[i0] + j * h) / span
@@ -212,35 +212,35 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 # y⁺ = E²y + h/6 E²_v k1 + h/3 E_v (k2 + k3) + h/6 k4
                 for q in range(m):
                     E2yb[q] = lam[q]
-                _dots(P2, n, n, lam, h / 6.0, k1b, False)
-                _dots(P, n, n, lam, h / 3.0, k2b, False)
+                _dots(P2, n, n, lam, h / 6.0, k1b, SET)
+                _dots(P, n, n, lam, h / 3.0, k2b, SET)
                 for q in range(n):
                     k3b[q] = k2b[q]
                     k4b[q] = h / 6.0 * lam[n + q]
                 # k4 = ΔÃ(end) c; c = E²y + h E_v k3
-                _dots(De, 0, m, k4b, 1.0, cb, False)
+                _dots(De, FIRST, m, k4b, 1.0, cb, SET)
                 _outer(Xe, k4b, c)
                 for q in range(m):
                     E2yb[q] += cb[q]
-                _dots(P, n, n, cb, h, k3b, True)
+                _dots(P, n, n, cb, h, k3b, ADD)
                 # k3 = ΔÃ(mid) b; b = Ey + h/2 (0, k2, 0)
-                _dots(Dm, 0, m, k3b, 1.0, bb, False)
+                _dots(Dm, FIRST, m, k3b, 1.0, bb, SET)
                 _outer(Xm, k3b, b)
                 for q in range(m):
                     Eyb[q] = bb[q]
                 for q in range(n):
                     k2b[q] += 0.5 * h * bb[n + q]
                 # k2 = ΔÃ(mid) a; a = Ey + h/2 E_v k1
-                _dots(Dm, 0, m, k2b, 1.0, ab, False)
+                _dots(Dm, FIRST, m, k2b, 1.0, ab, SET)
                 _outer(Xm, k2b, a)
                 for q in range(m):
                     Eyb[q] += ab[q]
-                _dots(P, n, n, ab, 0.5 * h, k1b, True)
+                _dots(P, n, n, ab, 0.5 * h, k1b, ADD)
                 # k1 = ΔÃ(start) y
-                _dots(D0, 0, m, k1b, 1.0, lam, False)
+                _dots(D0, FIRST, m, k1b, 1.0, lam, SET)
                 _outer(X0, k1b, yb)
-                _dots(P, 0, m, Eyb, 1.0, lam, True)
-                _dots(P2, 0, m, E2yb, 1.0, lam, True)
+                _dots(P, FIRST, m, Eyb, 1.0, lam, ADD)
+                _dots(P2, FIRST, m, E2yb, 1.0, lam, ADD)
                 _spread(G, lower, upper, p0, p1, tau + dtau, Xe)
                 _spread(G, lower, upper, p0, p1, tau + 0.5 * dtau, Xm)
                 # the step's start is the previous step's end: X0 joins its Xe, D0 is its De

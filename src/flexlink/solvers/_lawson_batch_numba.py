@@ -20,6 +20,7 @@ import numpy as np
 from numba import boolean, float64, int64, njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
+from ._lawson_numba import ADD, FIRST, SET
 
 # Variants per call: a constant trip count lets LLVM unroll and vectorise each inner loop
 # without a scalar remainder or run-time checks (a variable count vectorised only from about
@@ -116,13 +117,13 @@ def _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w, xs):
     """The single kernel's `_stages_ab` per variant."""
     n = k1.shape[0]
     m = Ey.shape[0]
-    _gemv(ET, n, n, k1, 0.5 * h, w, False, xs)
+    _gemv(ET, n, n, k1, 0.5 * h, w, SET, xs)
     _zero2(k2, k3)
-    _gemv2(Dm, 0, m, Ey, 1.0, k3, w, 1.0, k2, xs)
+    _gemv2(Dm, FIRST, m, Ey, 1.0, k3, w, 1.0, k2, xs)
     for q in range(n):
         for v in range(LANES):
             k2[q, v] += k3[q, v]
-    _gemv(Dm, n, n, k2, 0.5 * h, k3, True, xs)
+    _gemv(Dm, n, n, k2, 0.5 * h, k3, ADD, xs)
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -140,7 +141,7 @@ def _fine_step(ET, E2T, Da, Db, h, y, k1, Ey, E2y, u, w, k2, k3, k4, cin, cscale
     _copy(E2y, w)
     _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u, xs)
     _zero2(k4, cout)
-    _gemv2(Db, 0, m, w, 1.0, k4, wc, 1.0, cout, xs)
+    _gemv2(Db, FIRST, m, w, 1.0, k4, wc, 1.0, cout, xs)
     _add(u, n, h / 6.0, k4)
     _copy(u, y)
 
@@ -153,29 +154,29 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     n = k1.shape[0]
     H = 2.0 * h
     _zero2(E2y, Ecy)
-    _gemv2(E2T, 0, m, y, 1.0, E2y, yc, 1.0, Ecy, xs)
-    _gemv(ET, 0, m, y, 1.0, Ey, False, xs)
-    _gemv(E4T, 0, m, yc, 1.0, E4y, False, xs)
+    _gemv2(E2T, FIRST, m, y, 1.0, E2y, yc, 1.0, Ecy, xs)
+    _gemv(ET, FIRST, m, y, 1.0, Ey, SET, xs)
+    _gemv(E4T, FIRST, m, yc, 1.0, E4y, SET, xs)
     _copy(Ecy, wc)
     _fine_step(ET, E2T, D[0], D[1], h, y, k1, Ey, E2y, u, w, k2, k3, k4, c1, 0.5 * H, wc, b2,
                xs)
     _copy(Ecy, wc)
     _add(wc, n, 0.5 * H, b2)
     _zero2(k1, b3)
-    _gemv2(D[1], 0, m, y, 1.0, k1, wc, 1.0, b3, xs)
-    _gemv(ET, 0, m, y, 1.0, Ey, False, xs)
-    _gemv(E2T, 0, m, y, 1.0, E2y, False, xs)
+    _gemv2(D[1], FIRST, m, y, 1.0, k1, wc, 1.0, b3, xs)
+    _gemv(ET, FIRST, m, y, 1.0, Ey, SET, xs)
+    _gemv(E2T, FIRST, m, y, 1.0, E2y, SET, xs)
     _copy(E4y, wc)
     _fine_step(ET, E2T, D[2], D[3], h, y, k1, Ey, E2y, u, w, k2, k3, k4, b3, H, wc, b4, xs)
     for q in range(n):
         for v in range(LANES):
             b2[q, v] += b3[q, v]
     _copy(E4y, yc)
-    _gemv(E4T, n, n, c1, H / 6.0, yc, True, xs)
-    _gemv(E2T, n, n, b2, H / 3.0, yc, True, xs)
+    _gemv(E4T, n, n, c1, H / 6.0, yc, ADD, xs)
+    _gemv(E2T, n, n, b2, H / 3.0, yc, ADD, xs)
     _add(yc, n, H / 6.0, b4)
     _zero2(k1, c1)
-    _gemv2(D[3], 0, m, y, 1.0, k1, yc, 1.0, c1, xs)
+    _gemv2(D[3], FIRST, m, y, 1.0, k1, yc, 1.0, c1, xs)
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -345,8 +346,8 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
                 if starts[v]:
                     p, tau = _lane_piece(lo, hi, count[v], v, 0.0)
                     _lane_delta(W, Ar, p, tau, v, D[3])
-            _gemv(D[3], 0, m, y, 1.0, tk, False, xs)
-            _gemv(D[3], 0, m, yc, 1.0, tc, False, xs)
+            _gemv(D[3], FIRST, m, y, 1.0, tk, SET, xs)
+            _gemv(D[3], FIRST, m, yc, 1.0, tc, SET, xs)
             for v in range(nv):
                 if starts[v]:
                     for q in range(n):
@@ -374,7 +375,7 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
         if resting:  # y ← exp(Δt Ã) y on the static lanes, both passes in one product
             if moving:
                 _zero2(ws, wcs)
-                _gemv2(P, 0, m, y0, 1.0, ws, yc0, 1.0, wcs, xs)
+                _gemv2(P, FIRST, m, y0, 1.0, ws, yc0, 1.0, wcs, xs)
                 for v in range(nv):
                     if at_rest[v]:
                         for q in range(m):
@@ -382,12 +383,12 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
                             yc[q, v] = wcs[q, v]
             else:
                 _zero2(ws, wcs)
-                _gemv2(P, 0, m, y, 1.0, ws, yc, 1.0, wcs, xs)
+                _gemv2(P, FIRST, m, y, 1.0, ws, yc, 1.0, wcs, xs)
                 _copy(wcs, yc)
                 _copy(ws, y)
         _record(i + 1, y, yc, states, peak, spread)
         if moving:  # z̈ = A y on the moving lanes (the static ones': static_accelerations)
-            _gemv(Ar, 0, m, y, 1.0, r, False, xs)
+            _gemv(Ar, FIRST, m, y, 1.0, r, SET, xs)
             for v in range(nv):
                 if not at_rest[v]:
                     for q in range(n):

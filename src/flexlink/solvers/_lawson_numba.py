@@ -22,6 +22,13 @@ from numba import boolean, float64, int64, njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 
+# The matrix helpers' (_gemv, _gemv2, and the other modules' _dots, _many) first column j0
+# and ``accumulate`` as values typed like the others (int64, bool), not literal 0, True or
+# False: numba compiles a function once per type of its arguments, and each literal is a
+# type of its own (a helper called with 0 and with n compiled twice).
+FIRST = np.int64(0)  # j0: from the first column
+SET, ADD = np.bool_(False), np.bool_(True)  # accumulate: out = …, out += …
+
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _delta(polyT, lower, upper, p0, p1, referenceT, tau, outT):
@@ -186,12 +193,12 @@ def _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w):
     (b − Ey has n entries). w: scratch."""
     m = Ey.shape[0]
     n = k1.shape[0]
-    _gemv(ET, n, n, k1, 0.5 * h, w, False)  # a − Ey
+    _gemv(ET, n, n, k1, 0.5 * h, w, SET)  # a − Ey
     _zero2(k2, k3)
-    _gemv2(Dm, 0, m, Ey, 1.0, k3, w, 1.0, k2)
+    _gemv2(Dm, FIRST, m, Ey, 1.0, k3, w, 1.0, k2)
     for q in range(n):
         k2[q] += k3[q]
-    _gemv(Dm, n, n, k2, 0.5 * h, k3, True)
+    _gemv(Dm, n, n, k2, 0.5 * h, k3, ADD)
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -208,18 +215,18 @@ def _step(ET, E2T, Dm, D2, h, u, k1, k2, k3, k4, Ey, E2y, w):
         y⁺ = E²y + h/6 E² k₁ + h/3 E (k₂ + k₃) + h/6 k₄."""
     m = u.shape[0]
     n = k1.shape[0]
-    _gemv(ET, 0, m, u, 1.0, Ey, False)
-    _gemv(E2T, 0, m, u, 1.0, E2y, False)
+    _gemv(ET, FIRST, m, u, 1.0, Ey, SET)
+    _gemv(E2T, FIRST, m, u, 1.0, E2y, SET)
     _copy(E2y, u)  # u becomes y⁺, summed in the order of the formula above
-    _gemv(E2T, n, n, k1, h / 6.0, u, True)
+    _gemv(E2T, n, n, k1, h / 6.0, u, ADD)
     _stages_ab(Dm, ET, h, Ey, k1, k2, k3, w)
     for q in range(n):
         k2[q] += k3[q]
     _copy(E2y, w)
     _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃) in the same pass
-    _gemv(D2, 0, m, w, 1.0, k4, False)
+    _gemv(D2, FIRST, m, w, 1.0, k4, SET)
     _add(u, n, h / 6.0, k4)
-    _gemv(D2, 0, m, u, 1.0, k1, False)
+    _gemv(D2, FIRST, m, u, 1.0, k1, SET)
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -239,7 +246,7 @@ def _fine_step(ET, E2T, Da, Db, h, y, k1, Ey, E2y, u, w, k2, k3, k4, cin, cscale
     _copy(E2y, w)
     _gemv2(ET, n, n, k3, h, w, k2, h / 3.0, u)  # c, and E (k₂ + k₃)
     _zero2(k4, cout)
-    _gemv2(Db, 0, m, w, 1.0, k4, wc, 1.0, cout)  # fine k4, and the coarse stage's k
+    _gemv2(Db, FIRST, m, w, 1.0, k4, wc, 1.0, cout)  # fine k4, and the coarse stage's k
     _add(u, n, h / 6.0, k4)
     _copy(u, y)
 
@@ -259,29 +266,29 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     H = 2.0 * h  # the coarse step
     # Fine step 1 and the coarse step's start: E²y, E_c yc = E² yc, E y, E_c² yc = E⁴ yc.
     _zero2(E2y, Ecy)
-    _gemv2(E2T, 0, m, y, 1.0, E2y, yc, 1.0, Ecy)
-    _gemv(ET, 0, m, y, 1.0, Ey, False)
-    _gemv(E4T, 0, m, yc, 1.0, E4y, False)
+    _gemv2(E2T, FIRST, m, y, 1.0, E2y, yc, 1.0, Ecy)
+    _gemv(ET, FIRST, m, y, 1.0, Ey, SET)
+    _gemv(E4T, FIRST, m, yc, 1.0, E4y, SET)
     _copy(Ecy, wc)  # wc: the coarse stage a = E_c yc + H/2 E_c c1; b2 its coarse k2
     _fine_step(ET, E2T, D[0], D[1], h, y, k1, Ey, E2y, u, w, k2, k3, k4, c1, 0.5 * H, wc, b2)
     _copy(Ecy, wc)
     _add(wc, n, 0.5 * H, b2)  # coarse b
     _zero2(k1, b3)
-    _gemv2(D[1], 0, m, y, 1.0, k1, wc, 1.0, b3)  # fine k1 of step 2, coarse k3
+    _gemv2(D[1], FIRST, m, y, 1.0, k1, wc, 1.0, b3)  # fine k1 of step 2, coarse k3
     # Fine step 2, and the coarse stage c = E_c² yc + H E_c b3.
-    _gemv(ET, 0, m, y, 1.0, Ey, False)
-    _gemv(E2T, 0, m, y, 1.0, E2y, False)
+    _gemv(ET, FIRST, m, y, 1.0, Ey, SET)
+    _gemv(E2T, FIRST, m, y, 1.0, E2y, SET)
     _copy(E4y, wc)  # wc: the coarse stage c; b4 its coarse k4
     _fine_step(ET, E2T, D[2], D[3], h, y, k1, Ey, E2y, u, w, k2, k3, k4, b3, H, wc, b4)
     # The coarse y⁺ = E_c² yc + H/6 E_c² c1 + H/3 E_c (b2 + b3) + H/6 b4.
     for q in range(n):
         b2[q] += b3[q]
     _copy(E4y, yc)
-    _gemv(E4T, n, n, c1, H / 6.0, yc, True)
-    _gemv(E2T, n, n, b2, H / 3.0, yc, True)
+    _gemv(E4T, n, n, c1, H / 6.0, yc, ADD)
+    _gemv(E2T, n, n, b2, H / 3.0, yc, ADD)
     _add(yc, n, H / 6.0, b4)
     _zero2(k1, c1)
-    _gemv2(D[3], 0, m, y, 1.0, k1, yc, 1.0, c1)
+    _gemv2(D[3], FIRST, m, y, 1.0, k1, yc, 1.0, c1)
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -343,19 +350,19 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
             for i in range(i0, i1):
                 if coarse:  # both states in one pass over the propagator
                     _zero2(w, wc)
-                    _gemv2(P, 0, m, y, 1.0, w, yc, 1.0, wc)
+                    _gemv2(P, FIRST, m, y, 1.0, w, yc, 1.0, wc)
                     _copy(wc, yc)
                 else:
-                    _gemv(P, 0, m, y, 1.0, w, False)
+                    _gemv(P, FIRST, m, y, 1.0, w, SET)
                 _copy(w, y)
                 _record(i + 1, y, yc, coarse, states, coarse_states, peak, spread)
             continue
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[b], pieces[b + 1]
         _delta(polyT, lower, upper, p0, p1, A_ref, 0.0, D[3])
-        _gemv(D[3], 0, m, y, 1.0, k1, False)
+        _gemv(D[3], FIRST, m, y, 1.0, k1, SET)
         if coarse:
-            _gemv(D[3], 0, m, yc, 1.0, c1, False)
+            _gemv(D[3], FIRST, m, yc, 1.0, c1, SET)
         for i in range(i0, i1):
             h = (t_out[i + 1] - t_out[i]) / substeps
             dtau = h / span
@@ -376,7 +383,7 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
                     r0 = 2 * (j % 2)
                     _step(P, P2, D[r0], D[r0 + 1], h, y, k1, k2, k3, k4, Ey, E2y, w)
             _record(i + 1, y, yc, coarse, states, coarse_states, peak, spread)
-            _gemv(A_ref, 0, m, y, 1.0, r, False)
+            _gemv(A_ref, FIRST, m, y, 1.0, r, SET)
             for q in range(n):
                 accelerations[i + 1, q] = r[q] + k1[q]
 

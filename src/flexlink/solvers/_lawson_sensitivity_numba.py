@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
-from ._lawson_numba import _delta, _gemv, _gemv2
+from ._lawson_numba import ADD, FIRST, SET, _delta, _gemv, _gemv2
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -58,28 +58,28 @@ def _stages(P, P2, D0, Dm, De, h, y, k1, k2, k3, k4, Ey, E2y, a, b, c, out):
     y⁺ = E²y + h/6 E² k₁ + h/3 E (k₂ + k₃) + h/6 k₄ in ``out``."""
     m = y.shape[0]
     n = k1.shape[0]
-    _gemv(D0, 0, m, y, 1.0, k1, False)
-    _gemv(P, 0, m, y, 1.0, Ey, False)
-    _gemv(P2, 0, m, y, 1.0, E2y, False)
+    _gemv(D0, FIRST, m, y, 1.0, k1, SET)
+    _gemv(P, FIRST, m, y, 1.0, Ey, SET)
+    _gemv(P2, FIRST, m, y, 1.0, E2y, SET)
     for q in range(m):
         a[q] = Ey[q]
-    _gemv(P, n, n, k1, 0.5 * h, a, True)
-    _gemv(Dm, 0, m, a, 1.0, k2, False)
+    _gemv(P, n, n, k1, 0.5 * h, a, ADD)
+    _gemv(Dm, FIRST, m, a, 1.0, k2, SET)
     for q in range(m):
         b[q] = Ey[q]
     for q in range(n):
         b[n + q] += 0.5 * h * k2[q]
-    _gemv(Dm, 0, m, b, 1.0, k3, False)
+    _gemv(Dm, FIRST, m, b, 1.0, k3, SET)
     for q in range(m):
         c[q] = E2y[q]
-    _gemv(P, n, n, k3, h, c, True)
-    _gemv(De, 0, m, c, 1.0, k4, False)
+    _gemv(P, n, n, k3, h, c, ADD)
+    _gemv(De, FIRST, m, c, 1.0, k4, SET)
     for q in range(m):
         out[q] = E2y[q]
-    _gemv(P2, n, n, k1, h / 6.0, out, True)
+    _gemv(P2, n, n, k1, h / 6.0, out, ADD)
     for q in range(n):
         k2[q] += k3[q]  # k2 + k3, the combination y⁺ reads
-    _gemv(P, n, n, k2, h / 3.0, out, True)
+    _gemv(P, n, n, k2, h / 3.0, out, ADD)
     for q in range(n):
         out[n + q] += h / 6.0 * k4[q]
 
@@ -124,12 +124,12 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
         P, P2 = ET[blk], E2T[blk]
         if static[blk]:
             for i in range(i0, i1):
-                _many(P, 0, m, S, 1.0, SW, False)
+                _many(P, FIRST, m, S, 1.0, SW, SET)
                 for k in range(K):
-                    _gemv(PdT[k, blk], 0, m, y, 1.0, r, False)
+                    _gemv(PdT[k, blk], FIRST, m, y, 1.0, r, SET)
                     for q in range(m):
                         SW[k, q] += r[q]
-                _gemv(P, 0, m, y, 1.0, w, False)
+                _gemv(P, FIRST, m, y, 1.0, w, SET)
                 for q in range(m):
                     y[q] = w[q]
                     states[i + 1, q] = y[q]
@@ -156,18 +156,18 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 _delta(dpolyT, lower, upper, p0, p1, zeroT, tau + dtau, dAe)
                 _stages(P, P2, D0, Dm, De, h, y, k1, k2, k3, k4, Ey, E2y, a, b, c, w)
                 # the tangents' stages, with the forcing ∂A/∂p at y's stages
-                _gemv(dA0, 0, m, y, 1.0, Fa, False)
+                _gemv(dA0, FIRST, m, y, 1.0, Fa, SET)
                 _slopes(D0, S, F, G1)
-                _many(P, 0, m, S, 1.0, ES, False)
-                _many(P2, 0, m, S, 1.0, E2S, False)
+                _many(P, FIRST, m, S, 1.0, ES, SET)
+                _many(P2, FIRST, m, S, 1.0, E2S, SET)
                 for k in range(K):
                     for q in range(m):
                         SA[k, q] = ES[k, q]
-                _many(P, n, n, G1, 0.5 * h, SA, True)
+                _many(P, n, n, G1, 0.5 * h, SA, ADD)
                 for q in range(K * n):
                     Fa[q] = 0.0
                     Fb[q] = 0.0
-                _gemv2(dAm, 0, m, a, 1.0, Fa, b, 1.0, Fb)  # a and b: b is known before SA
+                _gemv2(dAm, FIRST, m, a, 1.0, Fa, b, 1.0, Fb)  # a and b: b is known before SA
                 _slopes(Dm, SA, F, G2)
                 for k in range(K):
                     for q in range(m):
@@ -178,8 +178,8 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 for k in range(K):
                     for q in range(m):
                         SC[k, q] = E2S[k, q]
-                _many(P, n, n, G3, h, SC, True)
-                _gemv(dAe, 0, m, c, 1.0, Fa, False)
+                _many(P, n, n, G3, h, SC, ADD)
+                _gemv(dAe, FIRST, m, c, 1.0, Fa, SET)
                 _slopes(De, SC, F, G4)
                 # y⁺ (from _stages), and the same for each S
                 for q in range(m):
@@ -189,8 +189,8 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
                         G2[k, q] += G3[k, q]
                     for q in range(m):
                         SW[k, q] = E2S[k, q]
-                _many(P2, n, n, G1, h / 6.0, SW, True)
-                _many(P, n, n, G2, h / 3.0, SW, True)
+                _many(P2, n, n, G1, h / 6.0, SW, ADD)
+                _many(P, n, n, G2, h / 3.0, SW, ADD)
                 for k in range(K):
                     for q in range(n):
                         SW[k, n + q] += h / 6.0 * G4[k, q]
@@ -202,10 +202,10 @@ def lawson_tangent_blocks(t_out, first, last, static, pieces, lower, upper, poly
             for q in range(m):  # A = Ã_ref + ΔÃ at the end of the last step
                 for r_ in range(n):
                     Dm[q, r_] = De[q, r_] + A_ref[q, r_]
-            _gemv(Dm, 0, m, y, 1.0, k4, False)
+            _gemv(Dm, FIRST, m, y, 1.0, k4, SET)
             for q in range(n):
                 accelerations[i + 1, q] = k4[q]
-            _gemv(dAe, 0, m, y, 1.0, Fa, False)
+            _gemv(dAe, FIRST, m, y, 1.0, Fa, SET)
             _slopes(Dm, S, F, G4)
             for k in range(K):
                 for q in range(m):

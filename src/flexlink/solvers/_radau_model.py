@@ -8,9 +8,11 @@ called its rates by name was compiled (a large part of the kernel build) once pe
 time with the whole model inside. Here the loop takes only `model_functions`' ``model`` =
 (address of the rates trampoline, address of the projection trampoline (0: none), context):
 the context is an int64 array holding the addresses of the model's compiled rates and
-projection and its records (kernel data, workspace, projection record) as numba stores
+projection and its records (kernel data, workspace, projection record) as numba holds
 them, with the arrays' reference-count and owner pointers cleared, so that the loop's types
-do not depend on the model. A trampoline (one small kernel per record type) reads the
+do not depend on the model. The context is written in Python (`_compiled_calls.pack`): a
+compiled writer would be one more kernel per record type, most of its compile time spent
+on the wrapper that unboxes records of a hundred arrays. A trampoline (one small kernel per record type) reads the
 records back and calls the model's compiled code. The records' arrays are not owned by the
 context: the caller keeps the records alive while the loop runs.
 
@@ -25,23 +27,22 @@ project(d, w, pj, u, U, t, y) to `_PROJECTIONS`; all return nothing.
 
 from __future__ import annotations
 
+import struct
 from collections import namedtuple
 from typing import Any
 
 import numpy as np
 from numba import njit, typeof, types
-from numba.core import cgutils
-from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from .._compiled_calls import CONTEXT, ROW
-from .._compiled_calls import HEAD as _HEAD
 from .._compiled_calls import address as _address
 from .._compiled_calls import call_codegen as _call_codegen
 from .._compiled_calls import check as _check
+from .._compiled_calls import layout as _layout
 from .._compiled_calls import load as _load
-from .._compiled_calls import records_pointer as _records_pointer
+from .._compiled_calls import pack as _pack
 from .._compiled_calls import type_key as _type_key
 from ..dynamics._forward_numba import rates_in as forward_rates_in
 from ..dynamics._loops_numba import rates_in as loop_rates_in
@@ -79,7 +80,8 @@ _PROJECTIONS = {ForwardData: forward_project}
 # loops' that hold it) is then not handed over field by field on every evaluation
 _ENTRIES = {ForwardData: forward_rates_in, LoopData: loop_rates_in}
 
-_MODELS: dict[Any, tuple[int, int, int, int]] = {}  # _type_key(records) → `_addresses`
+# _type_key(records) → `_addresses`
+_MODELS: dict[Any, tuple[int, int, int, int, struct.Struct]] = {}
 
 
 def model_functions(d: Any, w: Any, pj: Any = ()) -> tuple[int, int, np.ndarray]:
@@ -91,13 +93,13 @@ def model_functions(d: Any, w: Any, pj: Any = ()) -> tuple[int, int, np.ndarray]
     found = _MODELS.get(key)
     if found is None:
         found = _MODELS[key] = _addresses(records)
-    rates_from, project_from, rates, project = found
-    return rates_from, project_from, _pack(records, rates, project)
+    rates_from, project_from, rates, project, fields = found
+    return rates_from, project_from, _pack(records, fields, (rates, project))
 
 
-def _addresses(records: tuple) -> tuple[int, int, int, int]:
+def _addresses(records: tuple) -> tuple[int, int, int, int, struct.Struct]:
     """The addresses of the rates and projection trampolines for these records' types and
-    of the model's compiled rates and projection (0: none)."""
+    of the model's compiled rates and projection (0: none), and the records' `_layout`."""
     d, w, pj = records
     kernel, entry = _KERNELS.get(type(d)), _ENTRIES.get(type(d))
     if kernel is None and entry is None:
@@ -112,65 +114,14 @@ def _addresses(records: tuple) -> tuple[int, int, int, int]:
     else:
         rates = _address(kernel, (d_type, w_type, ROW, ROW, ROW))
         rates_from = _address(_rates_from, (CONTEXT, ROW, ROW, ROW, records_type))
+    fields = _layout(records_type.instance_type)
     project = _PROJECTIONS.get(type(d))
     if project is None or len(pj) == 0:
-        return rates_from, 0, rates, 0
+        return rates_from, 0, rates, 0, fields
     project = _address(project, (d_type, w_type, typeof(pj), ROW, ROW, types.float64, ROW))
     return (rates_from,
             _address(_project_from, (CONTEXT, ROW, ROW, types.float64, ROW, records_type)),
-            rates, project)
-
-
-def _cleared(context, builder, typ, value):
-    """``value`` of numba type ``typ`` with every array's reference-count (meminfo) and
-    owner (parent) pointers NULL: a borrowed view that numba neither counts nor frees."""
-    if isinstance(typ, types.Array):
-        array = cgutils.create_struct_proxy(typ)(context, builder, value=value)
-        array.meminfo = cgutils.get_null_value(array.meminfo.type)
-        array.parent = cgutils.get_null_value(array.parent.type)
-        return array._getvalue()
-    if isinstance(typ, types.BaseTuple):
-        for k, member in enumerate(typ.types):
-            inner = _cleared(context, builder, member, builder.extract_value(value, k))
-            value = builder.insert_value(value, inner, k)
-        return value
-    if isinstance(typ, (types.Number, types.Boolean)):
-        return value
-    raise TypingError(f"a model record holds {typ}: only arrays, numbers and tuples of them "
-                      "can be handed to the compiled integrator")
-
-
-@intrinsic
-def _context_words(typingctx, records):
-    """Words (int64) of a context holding ``records``."""
-    def codegen(context, builder, signature, args):
-        size = context.get_abi_sizeof(context.get_value_type(records))
-        return context.get_constant(types.intp, _HEAD + (size + 7) // 8)
-    return types.intp(records), codegen
-
-
-@intrinsic
-def _store(typingctx, array, records):
-    """Store ``records`` (their arrays cleared: `_cleared`) into the context ``array``."""
-    if array != CONTEXT:
-        raise TypingError(f"the context is {CONTEXT}, not {array}")
-
-    def codegen(context, builder, signature, args):
-        value = _cleared(context, builder, records, args[1])
-        builder.store(value, _records_pointer(context, builder, records, args[0]))
-        return context.get_dummy_value()
-    return types.none(array, records), codegen
-
-
-@njit(cache=True)
-def _pack(records, rates, project):
-    """A context: the addresses of the model's compiled rates and projection, then the
-    records (d, w, pj)."""
-    context = np.zeros(_context_words(records), dtype=np.int64)
-    context[0] = rates
-    context[1] = project
-    _store(context, records)
-    return context
+            rates, project, fields)
 
 
 @intrinsic

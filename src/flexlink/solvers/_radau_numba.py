@@ -22,6 +22,7 @@ input's jump).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -39,7 +40,7 @@ from ._step_control_numba import (
     update_peaks,
 )
 
-__all__ = ["LinearData", "model_functions", "radau_advance", "rates_at"]
+__all__ = ["LinearData", "model_functions", "radau_advance", "rates_at", "rates_function"]
 
 
 # Radau IIA (s = 3) and its transformation T⁻¹ A⁻¹ T = diag(γ, [[α, −β], [β, α]]).
@@ -516,3 +517,17 @@ def rates_at(d, w, u: np.ndarray, states: np.ndarray, out: np.ndarray) -> None:
               np.ascontiguousarray(states, dtype=float), rows)
     if rows is not out:
         out[...] = rows
+
+
+def rates_function(d, w) -> Callable[[np.ndarray, np.ndarray, np.ndarray], None]:
+    """rates(u, y, dy): dy = f at the state y with the input row u, for the model whose
+    kernel data ``d`` is (``w`` its workspace, which each call overwrites), through the
+    compiled code the integrator calls: for many single evaluations (finite differences,
+    Newton iterations), the model looked up once. ``dy`` a float row (C-contiguous)."""
+    model = model_functions(d, w)
+
+    def rates(u: np.ndarray, y: np.ndarray, dy: np.ndarray,
+              _records=(d, w)) -> None:  # the context borrows the records' arrays
+        _rates_at(model, np.ascontiguousarray(u, dtype=float)[None],
+                  np.ascontiguousarray(y, dtype=float)[None], dy[None])
+    return rates
