@@ -49,19 +49,25 @@ def fit_args(out: Path) -> list[str]:
     return args
 
 
-def test_the_fit_command_imports_only_what_it_uses_and_estimates_the_same(tmp_path: Path) -> None:
+def _lightly_started(tmp_path: Path, args: list[str]) -> dict:
+    """The modules of a `flexlink` command run with ``args`` in a fresh process (`PROBE`),
+    after checking it left numpy's unused packages lazy and numba's registries out."""
     record = tmp_path / "modules.json"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [str(ROOT / "src"), *filter(None, [os.environ.get("PYTHONPATH")])])}
-    done = subprocess.run([sys.executable, "-c", PROBE, str(record),
-                           *fit_args(tmp_path / "command")], env=env, capture_output=True,
-                          text=True, timeout=600, check=False)
+    done = subprocess.run([sys.executable, "-c", PROBE, str(record), *args], env=env,
+                          capture_output=True, text=True, timeout=600, check=False)
     assert done.returncode == 0, done.stderr
     modules = json.loads(record.read_text())
     for name in ("numpy.testing", "numpy.f2py", "numpy.ctypeslib"):
         assert modules.get(name) == "_LazyModule", f"{name}: {modules.get(name)}"
     installed = [name for name in REGISTRY_MODULES if name in modules]
     assert not installed, f"numba's registries were installed: {installed}"
+    return modules
+
+
+def test_the_fit_command_imports_only_what_it_uses_and_estimates_the_same(tmp_path: Path) -> None:
+    modules = _lightly_started(tmp_path, fit_args(tmp_path / "command"))
     assert "matplotlib" not in modules  # drawn by the figure processes
     assert modules["(notes appended)"] is False  # scipy's docstrings left unparsed
     assert (tmp_path / "command" / "figures" / "overlay.png").is_file()
@@ -93,23 +99,14 @@ def test_the_sweep_command_takes_the_same_measures_and_its_workers_match_the_lib
     import flexlink
     from flexlink.scenario import paper_experiment_path
 
-    record, out = tmp_path / "modules.json", tmp_path / "sweep.nc"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-        [str(ROOT / "src"), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    out = tmp_path / "sweep.nc"
     args = ["sweep", "--paper", "--samples", "4", "--seed", "3", "--no-histories",
             "--workers", "2", "-o", str(out)]
     for path, spec in SWEEP_RANDOM.items():
         args += ["--random", f"{path}={spec}"]
     for summary in SWEEP_SUMMARIES:
         args += ["--summary", summary]
-    done = subprocess.run([sys.executable, "-c", PROBE, str(record), *args], env=env,
-                          capture_output=True, text=True, timeout=600, check=False)
-    assert done.returncode == 0, done.stderr
-    modules = json.loads(record.read_text())
-    for name in ("numpy.testing", "numpy.f2py", "numpy.ctypeslib"):
-        assert modules.get(name) == "_LazyModule", f"{name}: {modules.get(name)}"
-    installed = [name for name in REGISTRY_MODULES if name in modules]
-    assert not installed, f"numba's registries were installed: {installed}"
+    modules = _lightly_started(tmp_path, args)
     assert "xarray" not in modules and "pandas" not in modules
     assert modules["(threads)"] == 1  # no progress bar's monitor thread left: no teardown
     library = flexlink.sweep(paper_experiment_path(), random=SWEEP_RANDOM, samples=4, seed=3,
