@@ -378,7 +378,7 @@ def test_conflicting_places_and_an_unwritable_output_fail_before_any_case_runs(
     blocker.write_text("")
     status = main(["sweep", str(spin_file(tmp_path)), "--grid", f"{RATE}=100", "--workers", "1",
                    "-o", str(blocker / "out.nc")])
-    # the option's check, naming the file in the way (was "[Errno 17] File exists")
+    # the option's check, naming the file in the way (not the OS's "[Errno 17] File exists")
     assert status == 2 and f"{blocker} is a file, not a folder" in capsys.readouterr().err
 
 
