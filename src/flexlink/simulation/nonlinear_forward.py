@@ -34,27 +34,23 @@ def run_nonlinear_forward(scenario: Scenario, t: np.ndarray, on_progress: Progre
     closures: dict = {}
     constraint_torques = None
     loop = None
-    if scenario.closures or scenario.controllers:
-        # loops closed by constraints or sampled controllers (simulation/nonlinear_loops.py)
-        from .forward import sampled_loop
-        from .nonlinear_loops import nonlinear_loop_solution
+    try:  # a run stopped outside a travel: the travel's error, named (check_travel_at_stop)
+        if scenario.closures or scenario.controllers:
+            # loops closed by constraints or sampled controllers (simulation/nonlinear_loops.py)
+            from .forward import sampled_loop
+            from .nonlinear_loops import nonlinear_loop_solution
 
-        if scenario.controllers:  # sensors read as rows over q: the first-order twin's modes
-            loop = sampled_loop(scenario, system.loads, t, "nonlinear")
-        try:
+            if scenario.controllers:  # sensors read as rows over q (first-order modes)
+                loop = sampled_loop(scenario, system.loads, t, "nonlinear")
             solution, closure_values, constraint_torques, closures = nonlinear_loop_solution(
                 scenario, system, t, on_progress, loop)
-        except StoppedRun as stop:
-            check_travel_at_stop(scenario, system, stop)
-            raise
-    else:
-        try:
+        else:
             solution = solve_nonlinear_forward(system, t, settings.rtol, settings.step,
                                                on_progress=on_progress, atol=settings.atol,
                                                step_ends=step_ends)
-        except StoppedRun as stop:
-            check_travel_at_stop(scenario, system, stop)
-            raise
+    except StoppedRun as stop:
+        check_travel_at_stop(scenario, system, stop)
+        raise
     y, v, a = system.from_solution(solution)
     if system.rail is not None:
         check_travel(scenario.base, t, system.rigid_state(t, y, v, a)[0][:, 0])
