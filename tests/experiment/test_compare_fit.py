@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import tomllib
@@ -83,6 +84,17 @@ def test_fit_recovers_stiffness_damping_and_gain(files) -> None:
     assert abs(fitted["acc"].frequency_error) < 0.002
 
 
+def test_calibration_parameters_carry_the_channel_s_units(files) -> None:
+    """parameters.csv's unit column: a gain is 1, an offset in the channel's unit, a drift
+    in that unit per second, a delay in s."""
+    experiment = load_experiment(files / "arm.toml")
+    units = experiment.measurement.units
+    got = {p: parse_parameter(p, experiment.file, units).unit
+           for p in ("acc:gain", "acc:offset", "acc:drift", "acc:delay", "strain:drift")}
+    assert got == {"acc:gain": "1", "acc:offset": "m s-2", "acc:drift": "m s-3",
+                   "acc:delay": "s", "strain:drift": "s-1"}
+
+
 def test_compare_with_its_own_results_is_exact(tmp_path) -> None:
     """A results.csv of `flexlink run` is a valid measurement (default mapping): comparing a
     scenario with its own output gives zero error — the plumbing adds nothing."""
@@ -109,15 +121,34 @@ def test_cli_compare_and_fit_write_reports(files, measured) -> None:
     assert {m["name"] for m in metrics["metrics"]} == {"acc", "strain"}
     assert "![measured and simulated signals](figures/overlay.png)" in (
         out / "report.md").read_text()
+    # units in the header, as a plant's modes.csv (frequency_Hz): a reader of the CSV alone
+    # knows the frequencies are in Hz and the errors in percent; metrics.json has the same rows
+    with (out / "metrics.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == ["name", "unit", "nrmse", "correlation", "peak_measured",
+                             "peak_simulated", "peak_error_pct", "frequency_measured_Hz",
+                             "frequency_simulated_Hz", "frequency_error_pct",
+                             "damping_ratio_measured", "damping_ratio_simulated"]
+    acc = next(row for row in rows if row["name"] == "acc")
+    assert acc["unit"] == "m s-2"
+    assert [{k: str(v) for k, v in m.items()} for m in metrics["metrics"]] == rows
+    f_meas, f_sim = float(acc["frequency_measured_Hz"]), float(acc["frequency_simulated_Hz"])
+    assert float(acc["frequency_error_pct"]) == pytest.approx(100 * (f_sim / f_meas - 1))
+    assert 1.0 < f_meas < 100.0  # Hz, not rad/s
 
     out = files / "fit"
     assert main(["fit", str(files / "arm.toml"), "-o", str(out), "-q", "--no-figures",
                  "-p", "links[0].EI=100:1000", "-p", "links[0].damping_ratio",
                  "--channel", "acc"]) == 0
-    rows = (out / "parameters.csv").read_text().splitlines()
-    assert rows[0].startswith("path,initial,start,value,std,ci_low,ci_high")
-    ei = float(rows[1].split(",")[3])
+    with (out / "parameters.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == ["path", "unit", "initial", "start", "value", "std", "ci_low",
+                             "ci_high", "lower", "upper", "at_bound", "identifiable"]
+    assert [(row["path"], row["unit"]) for row in rows] == [("links[0].EI", "N m2"),
+                                                            ("links[0].damping_ratio", "1")]
+    ei = float(rows[0]["value"])
     assert ei == pytest.approx(EI_TRUE, rel=0.01)
+    assert json.loads((out / "fit.json").read_text())["parameters"][0]["unit"] == "N m2"
     fitted = tomllib.loads((out / "scenario.resolved.toml").read_text())
     assert fitted["links"][0]["EI"] == pytest.approx(ei)
 

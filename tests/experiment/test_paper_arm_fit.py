@@ -37,7 +37,7 @@ def test_paper_arm_compare_and_fit(tmp_path, fmt) -> None:
     window = clean.time >= start
     for m in report["metrics"]:
         true_f = dominant_mode(clean.time[window], clean[m["name"]][window]).frequency_hz
-        assert abs(m["frequency_measured"] / true_f - 1) < 0.01, m["name"]  # judged: 1 %
+        assert abs(m["frequency_measured_Hz"] / true_f - 1) < 0.01, m["name"]  # judged: 1 %
 
     assert main(["fit", str(tmp_path / "arm.toml"), "-o", str(tmp_path / "fit"), "-q",
                  "-p", "links[0].EI", "-p", "links[0].damping_ratio",

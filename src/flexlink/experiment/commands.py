@@ -255,6 +255,7 @@ def _fit_command(args: argparse.Namespace, worker: Any) -> int:
         else:
             for e in result.estimates:
                 print(f"{e.path:<28} {e.value:.6g}  (95 % {e.ci_low:.6g} … {e.ci_high:.6g})"
+                      f"{f' {e.unit}' if e.unit not in ('', '1') else ''}"
                       f"{'  AT BOUND' if e.at_bound else ''}")
             print(f"{metrics_table(result.comparison.metrics)}\nwrote {out_dir}")
         return 0

@@ -44,6 +44,29 @@ class SignalMetrics:
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
+    def row(self) -> dict[str, Any]:
+        """The row of metrics.csv and metrics.json (`METRIC_COLUMNS`)."""
+        row = {}
+        for column, name in METRIC_COLUMNS.items():
+            value = getattr(self, name)
+            percent = column.endswith("_pct") and value is not None
+            row[column] = 100.0 * value if percent else value
+        return row
+
+
+# The columns of metrics.csv (keys of metrics.json's rows) → `SignalMetrics` fields. A fixed
+# unit ends the name (as frequency_Hz of a plant's modes.csv, free_vibration_start_s):
+# frequencies in Hz, relative errors in percent; the peaks are in the row's `unit` (the
+# channel's); NRMSE, correlation and damping ratios are ratios.
+METRIC_COLUMNS = {"name": "name", "unit": "unit", "nrmse": "nrmse",
+                  "correlation": "correlation", "peak_measured": "peak_measured",
+                  "peak_simulated": "peak_simulated", "peak_error_pct": "peak_error",
+                  "frequency_measured_Hz": "frequency_measured",
+                  "frequency_simulated_Hz": "frequency_simulated",
+                  "frequency_error_pct": "frequency_error",
+                  "damping_ratio_measured": "damping_measured",
+                  "damping_ratio_simulated": "damping_simulated"}
+
 
 @dataclass
 class Comparison:

@@ -69,9 +69,11 @@ class FitWarning(UserWarning):
 
 @dataclass(frozen=True)
 class Estimate:
-    """A fitted parameter with its 95 % confidence interval."""
+    """A fitted parameter with its 95 % confidence interval; every value in ``unit``
+    (UDUNITS, "" where the schema spells none)."""
 
     path: str
+    unit: str
     initial: float
     start: float  # after the initial-guess step
     value: float
@@ -101,6 +103,16 @@ class Estimate:
 
     def as_dict(self) -> dict[str, Any]:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+    def row(self) -> dict[str, Any]:
+        """The row of parameters.csv and fit.json (`PARAMETER_COLUMNS`)."""
+        return {column: getattr(self, column) for column in PARAMETER_COLUMNS}
+
+
+# The columns of parameters.csv (keys of fit.json's parameter rows): every value of a row,
+# bounds and standard deviation included, in the row's `unit` (the field's, UDUNITS)
+PARAMETER_COLUMNS = ("path", "unit", "initial", "start", "value", "std", "ci_low", "ci_high",
+                     "lower", "upper", "at_bound", "identifiable")
 
 
 @dataclass
@@ -753,9 +765,9 @@ def _estimates(params: list[Parameter], values: list[float], scales: list[float]
         # log-scaled: wider than a decade; linear: wider than ± the parameter's typical size
         wide = (high / low > UNIDENTIFIABLE_RATIO if p.log and low > 0
                 else not math.isfinite(su) or Z95 * su > 1.0)
-        out.append(Estimate(path=p.path, initial=initial[i], start=start[i], value=v, std=std,
-                            ci_low=low, ci_high=high, lower=p.lower, upper=p.upper,
-                            at_bound=at_bound.get(i, False), identifiable=not wide))
+        out.append(Estimate(path=p.path, unit=p.unit, initial=initial[i], start=start[i],
+                            value=v, std=std, ci_low=low, ci_high=high, lower=p.lower,
+                            upper=p.upper, at_bound=at_bound.get(i, False), identifiable=not wide))
     return out, corr
 
 

@@ -53,6 +53,7 @@ class Parameter:
     initial: float | None = None  # None: the scenario's value (model) or a linear estimate
     log: bool = False
     value: float | None = None  # the scenario's value of a model field
+    unit: str = ""  # UDUNITS unit of its values ("" where the schema spells none)
 
     @property
     def is_model(self) -> bool:
@@ -108,7 +109,32 @@ def _calibration(path: str, channels: Mapping[str, str]) -> Parameter:
         raise MeasurementError(f"parameter {path!r}: {channel!r} is not a measured channel "
                                f"(measured: {', '.join(channels) or 'none'})")
     lower, upper = (-0.05, 0.05) if quantity == "delay" else (-math.inf, math.inf)
-    return Parameter(path, quantity, channel=channel, lower=lower, upper=upper)
+    return Parameter(path, quantity, channel=channel, lower=lower, upper=upper,
+                     unit=calibration_unit(quantity, channels[channel]))
+
+
+def calibration_unit(quantity: str, channel_unit: str) -> str:
+    """UDUNITS unit of a channel's calibration ``quantity``: gain 1, offset the channel's
+    unit, drift the channel's unit per second, delay s."""
+    if quantity == "gain":
+        return "1"
+    if quantity == "delay":
+        return "s"
+    if quantity == "offset":
+        return channel_unit
+    return per_second(channel_unit)
+
+
+def per_second(unit: str) -> str:
+    """``unit`` divided by s, in UDUNITS spelling: ``V`` → ``V s-1``, ``m s-2`` → ``m s-3``,
+    ``1`` → ``s-1``."""
+    factors = [] if unit in ("", "1") else unit.split()
+    for k, factor in enumerate(factors):
+        if factor == "s" or (factor.startswith("s") and factor[1:].lstrip("-").isdigit()):
+            power = (int(factor[1:]) if len(factor) > 1 else 1) - 1
+            factors[k] = "" if power == 0 else ("s" if power == 1 else f"s{power}")
+            return " ".join(f for f in factors if f) or "1"
+    return " ".join([*factors, "s-1"])
 
 
 def _model_field(path: str, scenario: ScenarioFile, initial: float | None,
@@ -125,7 +151,8 @@ def _model_field(path: str, scenario: ScenarioFile, initial: float | None,
     if value == 0.0 and None in bounds:
         raise MeasurementError(f"parameter {path} is 0 in the scenario: give both bounds "
                                f"(-p {path}=LOW:HIGH) so the fit knows its scale")
-    param = Parameter(path, target.key, target.path, value=value, log=value > 0)
+    param = Parameter(path, target.key, target.path, value=value, log=value > 0,
+                      unit=_field_unit(target))
     _check_value(scenario, param, value, "")
     if target.key == "damping_ratio":
         lower, upper = DAMPING_BOUNDS
@@ -138,6 +165,12 @@ def _model_field(path: str, scenario: ScenarioFile, initial: float | None,
     if bounds[1] is None:
         upper = _valid_bound(scenario, param, upper)
     return dataclasses.replace(param, lower=lower, upper=upper)
+
+
+def _field_unit(target: Target) -> str:
+    from ..simulation.sensitivities import field_unit  # the schema's, as a sweep's parameters
+
+    return field_unit(target)
 
 
 def _target(path: str, scenario: ScenarioFile) -> Target:

@@ -19,18 +19,13 @@ from ..results.writers import (
     write_channels_csv,
     write_results_csv,
 )
-from .comparison import Comparison, SignalMetrics
+from .comparison import METRIC_COLUMNS, Comparison, SignalMetrics
 from .figures import FigureData, write_figures
-from .identification import FitResult
+from .identification import PARAMETER_COLUMNS, FitResult
 from .report_html import write_experiment_report
 
 if TYPE_CHECKING:
     from .figure_worker import FigureWorker
-
-METRIC_COLUMNS = ("name", "unit", "nrmse", "correlation", "peak_measured", "peak_simulated",
-                  "peak_error", "frequency_measured", "frequency_simulated", "frequency_error",
-                  "damping_measured", "damping_simulated")
-
 
 def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[str, Any],
                      overwrite: bool = False, figures: bool = True,
@@ -56,8 +51,8 @@ def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
     calibrated model; scenario.resolved.toml holds the fitted values."""
     with atomic_folder(out_dir, overwrite) as folder:
         drawing = _common(result.comparison, folder, resolved, figures, figure_worker)
-        rows = [e.as_dict() for e in result.estimates]
-        _write_csv(folder / "parameters.csv", list(rows[0]), rows)
+        rows = [e.row() for e in result.estimates]
+        _write_csv(folder / "parameters.csv", list(PARAMETER_COLUMNS), rows)
         info = {"parameters": rows, "channels": result.channels, "window_s": result.window,
                 "cost": result.cost, "rms_normalised_residual": result.rms_residual,
                 "simulations": result.simulations, "status": result.status,
@@ -75,7 +70,8 @@ def write_fit(result: FitResult, out_dir: Path, resolved: Mapping[str, Any],
         for e in result.estimates:
             flag = (" (at bound)" if e.at_bound else "") + (
                 "" if e.identifiable else " (not identifiable)")
-            lines.append(f"| `{e.path}` | {e.initial:.5g} | {e.start:.5g} | **{e.value:.5g}**"
+            unit = f" [{e.unit}]" if e.unit else ""
+            lines.append(f"| `{e.path}`{unit} | {e.initial:.5g} | {e.start:.5g} | **{e.value:.5g}**"
                          f"{flag} | {e.ci_low:.5g} … {e.ci_high:.5g} | {e.lower:.3g} … "
                          f"{e.upper:.3g} |")
         lines += ["", ("*start*: after matching the free-vibration frequency and damping "
@@ -112,7 +108,7 @@ def _common(comparison: Comparison, folder: Path, resolved: Mapping[str, Any],
         (folder / "figures").mkdir()
         if figure_worker is not None:
             figure_worker.submit(data, folder / "figures")
-    rows = [m.as_dict() for m in comparison.metrics]
+    rows = [m.row() for m in comparison.metrics]
     _write_csv(folder / "metrics.csv", list(METRIC_COLUMNS), rows)
     meta = {"measurement": comparison.measurement.source,
             "free_vibration_start_s": comparison.free_start,

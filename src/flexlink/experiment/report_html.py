@@ -33,16 +33,17 @@ def write_experiment_report(folder: Path, comparison: Comparison, resolved: Mapp
                              "simulations": fit.simulations,
                              "RMS normalised residual": fit.rms_residual, "status": fit.status})
         page.add_table("Estimates", [{
-            "parameter": e.path, "initial": e.initial, "start": e.start, "estimate": e.value,
+            "parameter": e.path, "unit": e.unit, "initial": e.initial, "start": e.start, "estimate": e.value,
             "95 % interval": f"{e.ci_low:.5g} … {e.ci_high:.5g}",
             "bounds": f"{e.lower:.3g} … {e.upper:.3g}", "at bound": "yes" if e.at_bound else ""}
             for e in fit.estimates], note="start: after matching the free-vibration frequency "
             "and damping. Intervals assume the model is right; they are widened for correlated "
             "residuals but not for model error (docs/experiment.md).")
-    page.add_table("Metrics", [m.as_dict() for m in comparison.metrics],
-                   note="nrmse = RMS(sim − meas)/RMS(meas) over the whole run; frequency "
-                        "(damped, Hz) and damping ratio of the dominant component of the free "
-                        "vibration.")
+    page.add_table("Metrics", [m.row() for m in comparison.metrics],
+                   note="nrmse = RMS(sim − meas)/RMS(meas) over the whole run; peaks in the "
+                        "channel's unit; frequency (damped, Hz) and damping ratio of the "
+                        "dominant component of the free vibration; errors (sim − meas)/meas "
+                        "in percent.")
     traces = []
     for m in comparison.metrics:
         factor, unit = display_scale(comparison.results.channels[m.name].unit)
