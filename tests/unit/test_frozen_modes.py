@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -76,6 +77,17 @@ def test_modes_command(tmp_path: Path, capsys) -> None:
     assert (out / "frequencies.csv").read_text().startswith("joint2_deg,f1_Hz")
     with np.load(out / "modes.npz") as data:
         assert data["shapes"].shape[:2] == (4, 8)
+        # every array's dimensions named and its unit given, as a results.mat's variables
+        variables = json.loads(str(data["variables"]))
+        arrays = {name: data[name] for name in variables}
+    assert variables["shapes"]["dims"] == ["joint2", "mode", "link", "point"]
+    assert variables["frequency_hz"]["dims"] == ["joint2", "mode"]
+    assert variables["frequency_hz"]["units"] == "Hz"
+    assert variables["x"]["units"] == "m" and variables["values"]["units"] == "deg"
+    sizes = {d: n for name, meta in variables.items()
+             for d, n in zip(meta["dims"], arrays[name].shape, strict=True)}
+    for name, meta in variables.items():  # one size per dimension name
+        assert [sizes[d] for d in meta["dims"]] == list(arrays[name].shape), name
     assert main(["modes", "--times", "0:1:0.5", "--no-figures", "-o", str(tmp_path / "t")]) == 0
     assert main(["modes", "--grid", "joint2=0:90", "-o", str(tmp_path / "bad")]) == 2
     assert "START:STOP:STEP" in capsys.readouterr().err

@@ -6,7 +6,6 @@ files (so ``--overwrite`` recognises it later)."""
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -292,11 +291,7 @@ def run_modes(args: argparse.Namespace) -> int:
         header, table = modes.table()
         np.savetxt(partial / MODES_CSV, table, delimiter=",", header=",".join(header),
                    comments="", fmt="%.10g")
-        np.savez(partial / MODES_NPZ, coordinate=np.array(modes.coordinate),
-                 values=modes.values, frequency_hz=modes.frequency_hz,
-                 damping_ratio=modes.damping_ratio, shapes=modes.shapes, x=modes.x,
-                 links=np.array(modes.links), joint_angles_deg=modes.configurations,
-                 description=np.array(json.dumps({"scenario": scenario.name})))
+        modes.to_npz(partial / MODES_NPZ, {"scenario": scenario.name})
         if not args.no_figures:
             from .figures import frequency_figure, shapes_figure
 

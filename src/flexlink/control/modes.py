@@ -11,9 +11,11 @@ joint or base) and real poles (servos) are left out.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -52,20 +54,52 @@ class FrozenModes:
     def unit(self) -> str:
         return "s" if self.coordinate == "time" else "deg"
 
+    def variables(self) -> dict[str, tuple[tuple[str, ...], np.ndarray, str, str]]:
+        """Name → (dimensions, values, UDUNITS unit, description) of every array: the data
+        of `to_dataset` and of the modes.npz file (`to_npz`), under modes.npz's names."""
+        dim = self.coordinate
+        what = "time of the run" if dim == "time" else f"angle of {dim}"
+        return {
+            "values": ((dim,), self.values, self.unit, f"the points: {what}"),
+            "frequency_hz": ((dim, "mode"), self.frequency_hz, "Hz",
+                             "natural frequency, modes ascending at each point"),
+            "damping_ratio": ((dim, "mode"), self.damping_ratio, "1", "damping ratio"),
+            "shapes": ((dim, "mode", "link", "point"), self.shapes, "1",
+                       ("deflection of each link in its clamped frame at x, scaled to a "
+                        "largest |w| of 1 per mode")),
+            "x": (("link", "point"), self.x, "m", "distance along each link from its joint"),
+            "links": (("link",), np.array(self.links), "", "link names"),
+            "joint_angles_deg": ((dim, "joint"), self.configurations, "degree",
+                                 "joint angles at each point (joint 1 first)"),
+        }
+
     def to_dataset(self) -> Any:
         """An xarray Dataset (dimensions: the coordinate, mode, link, point)."""
         import xarray as xr
 
-        dim = self.coordinate
+        names = {"frequency_hz": "frequency", "damping_ratio": "damping_ratio",
+                 "shapes": "shape", "x": "x", "joint_angles_deg": "joint_angle"}
+        data = {new: (dims, values, {"units": unit, "long_name": text})
+                for old, (dims, values, unit, text) in self.variables().items()
+                if (new := names.get(old))}
         mode = np.arange(1, self.frequency_hz.shape[1] + 1)
-        return xr.Dataset(
-            {"frequency": ((dim, "mode"), self.frequency_hz, {"units": "Hz"}),
-             "damping_ratio": ((dim, "mode"), self.damping_ratio, {"units": "1"}),
-             "shape": ((dim, "mode", "link", "point"), self.shapes, {"units": "1"}),
-             "x": (("link", "point"), self.x, {"units": "m"}),
-             "joint_angle": ((dim, "joint"), self.configurations, {"units": "degree"})},
-            coords={dim: (dim, self.values, {"units": self.unit}), "mode": mode,
-                    "link": list(self.links)})
+        dim = self.coordinate
+        return xr.Dataset(data, coords={dim: (dim, self.values, {"units": self.unit}),
+                                        "mode": mode, "link": list(self.links)})
+
+    def to_npz(self, path: Path | str, description: Mapping[str, Any]) -> Path:
+        """Write the arrays of `variables` to ``path`` (.npz), with ``coordinate`` (the
+        points' dimension), ``variables`` (JSON text: name → dims, units, long_name, as the
+        ``variables`` of a results.mat) and ``description`` (JSON text of ``description``)."""
+        path = Path(path)
+        variables = self.variables()
+        meta = {name: {"dims": list(dims), "units": unit, "long_name": text}
+                for name, (dims, _, unit, text) in variables.items()}
+        np.savez(path, coordinate=np.array(self.coordinate),
+                 **{name: values for name, (_, values, _, _) in variables.items()},
+                 variables=np.array(json.dumps(meta)),
+                 description=np.array(json.dumps(dict(description))))
+        return path
 
     def table(self) -> tuple[list[str], np.ndarray]:
         """Header and rows of a CSV: the coordinate, then f_i (Hz), then ζ_i."""
