@@ -13,7 +13,7 @@ import flexlink
 from flexlink.cli import main
 from flexlink.control import LinearPlant, linearize
 from flexlink.model import Base, Chain, Link, PiezoActuator, Scenario, TorqueDrive, VelocityServo
-from flexlink.model.histories import Step
+from flexlink.model.histories import ZERO, Step
 from tests.helpers import SmoothStep
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
@@ -206,3 +206,29 @@ def test_zero_transfers_are_found_and_left_out_of_the_bode_plot(tmp_path: Path) 
     assert "u → noise: zero" in [t.get_text() for t in drawn[0].legends[0].get_texts()]
     low, high = magnitude.get_ylim()
     assert high - low >= MIN_SPAN_DB and low < 0.0 < high  # 0 dB in the middle
+
+
+def test_a_free_base_s_default_bode_pairs_are_its_actuator_to_the_sensors(
+        tmp_path: Path, monkeypatch) -> None:
+    """satellite_slew turns its free hub with a moment: the default Bode plot showed
+    base_force_x → base_x (a rigid translation, which nothing applies) and the tips' X; the
+    moment to the arrays' sensors and the attitude is the plant a user controls."""
+    import flexlink.control.figures as control_figures
+
+    drawn: list[list[tuple[str, str]]] = []
+    monkeypatch.setattr(control_figures, "bode_figure",
+                        lambda plant, pairs, path, *a, **k: drawn.append(list(pairs)))
+    assert main(["linearize", str(EXAMPLES / "satellite_slew.toml"), "-q", "-o",
+                 str(tmp_path / "sat")]) == 0
+    assert drawn == [[("base_moment", "right_root_strain"),
+                      ("base_moment", "right_tip_deflection"),
+                      ("base_moment", "base_attitude"), ("base_moment", "joint1_torque")]]
+
+    # a force the loads apply comes first; sensors still before the base's pose and the tips
+    scenario = flexlink.load_scenario(EXAMPLES / "satellite_slew.toml")
+    pushed = dataclasses.replace(scenario, base=dataclasses.replace(
+        scenario.base, loads=(dataclasses.replace(scenario.base.loads[0],
+                                                  moment=ZERO, force_y=Step(1.0)),)))
+    pairs = control_figures.default_pairs(linearize(pushed), pushed)
+    assert {u for u, _ in pairs} == {"base_force_y"}
+    assert [y for _, y in pairs][:2] == ["right_root_strain", "right_tip_deflection"]

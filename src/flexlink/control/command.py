@@ -43,8 +43,9 @@ def add_commands(commands: Any, output: argparse.ArgumentParser) -> None:
     lin.add_argument("--inputs", metavar="NAME,…", help="keep only these inputs")
     lin.add_argument("--outputs", metavar="NAME,…", help="keep only these outputs")
     lin.add_argument("--bode", metavar="INPUT:OUTPUT,…",
-                     help="pairs in the Bode plot (default: the first input to up to four "
-                          "outputs)")
+                     help="pairs in the Bode plot (default: the first input the scenario "
+                          "acts through to up to four outputs it reaches, sensors first; "
+                          "docs/control.md)")
     lin.set_defaults(handler=run_linearize)
 
     modes = commands.add_parser(
@@ -158,7 +159,7 @@ def run_linearize(args: argparse.Namespace) -> int:
         plant = linearize(scenario, at=at, inputs=inputs, outputs=outputs)
         check_finite({"A": plant.A, "B": plant.B, "C": plant.C, "D": plant.D},
                      f"the plant at {args.at}")
-        pairs = _pairs(args.bode, plant)
+        pairs = _pairs(args.bode, plant, scenario)
         estimate = estimate_for_command(scenario, at)
     except ScenarioError as exc:
         return _fail(str(exc))
@@ -187,18 +188,11 @@ def run_linearize(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pairs(text: str | None, plant: Any) -> list[tuple[str, str]]:
-    if text is None:  # the first input (or the next) to up to four outputs it reaches
-        if not plant.input_names or not plant.output_names:
-            return []
-        from .figures import default_band
+def _pairs(text: str | None, plant: Any, scenario: Any = None) -> list[tuple[str, str]]:
+    if text is None:
+        from .figures import default_pairs
 
-        zero = plant.zero_transfers(default_band(plant))
-        for j, u in enumerate(plant.input_names):
-            reached = [y for i, y in enumerate(plant.output_names) if not zero[i, j]]
-            if reached:
-                return [(u, y) for y in reached[:4]]
-        return [(plant.input_names[0], y) for y in plant.output_names[:4]]
+        return default_pairs(plant, scenario)
     pairs = []
     for part in text.split(","):
         u, sep, y = part.partition(":")

@@ -6,12 +6,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .linear import LinearPlant
 from .modes import FrozenModes
+
+if TYPE_CHECKING:
+    from ..model import Scenario
 
 
 def _figure(width: float, height: float):  # type: ignore[no-untyped-def]
@@ -26,6 +29,83 @@ def default_band(plant: LinearPlant) -> np.ndarray:
     lo = max(f.min() / 10, 1e-2) if f.size else 0.1
     hi = min(3 * f.max(), 1e4) if f.size else 100.0
     return np.logspace(np.log10(lo), np.log10(max(hi, 10 * lo)), 600)
+
+
+DEFAULT_PAIRS = 4  # pairs of a Bode plot when none are given
+BASE_LOADS = ("base_force_x", "base_force_y", "base_moment")
+
+
+def default_pairs(plant: LinearPlant, scenario: Scenario | None = None
+                  ) -> list[tuple[str, str]]:
+    """The Bode plot's pairs when none are given: the first input the scenario acts through
+    that reaches an output, to up to `DEFAULT_PAIRS` of the outputs it reaches (not a zero
+    transfer on `default_band`): the sensors first, then the joints', base's and loops'
+    outputs (positions and torques before rates), the link tips' global X, Y last.
+
+    The scenario acts through every input but a free or pinned base's force or moment that
+    its ``[[base.loads]]`` do not apply; those come after, the moment before the forces (a
+    free base's forces alone only translate it, rigidly). Without ``scenario``: the inputs
+    and outputs in the plant's order."""
+    if not plant.input_names or not plant.output_names:
+        return []
+    zero = plant.zero_transfers(default_band(plant))
+    loaded = _loaded_base_inputs(scenario)
+    inputs = sorted(range(len(plant.input_names)),
+                    key=lambda j: _input_rank(plant.input_names[j], loaded))
+    ranks = _output_ranks(plant.output_names, scenario)
+    outputs = sorted(range(len(plant.output_names)), key=lambda i: ranks[i])
+    for j in inputs:
+        reached = [plant.output_names[i] for i in outputs if not zero[i, j]]
+        if reached:
+            return [(plant.input_names[j], y) for y in reached[:DEFAULT_PAIRS]]
+    first = plant.input_names[inputs[0]]
+    return [(first, plant.output_names[i]) for i in outputs[:DEFAULT_PAIRS]]
+
+
+def _loaded_base_inputs(scenario: Scenario | None) -> set[str] | None:
+    """The base's load inputs the scenario's base loads apply (None: no base, or unknown)."""
+    base = None if scenario is None else scenario.base
+    if base is None:
+        return None
+    from ..model.histories import ZERO
+
+    loaded = set()
+    for load in base.loads:
+        x, y = load.force_x != ZERO, load.force_y != ZERO
+        if load.frame == "body" and (x or y):  # components along the turning body's axes
+            x = y = True
+        loaded |= {name for name, on in (("base_force_x", x), ("base_force_y", y)) if on}
+        if load.moment != ZERO or ((x or y) and tuple(load.point) != (0.0, 0.0)):
+            loaded.add("base_moment")
+    return loaded
+
+
+def _input_rank(name: str, loaded: set[str] | None) -> int:
+    if loaded is None or name not in BASE_LOADS or name in loaded:
+        return 0
+    return 1 if name == "base_moment" else 2
+
+
+def _output_ranks(names: Sequence[str], scenario: Scenario | None) -> list[int]:
+    """0 sensors, 1 positions, angles, torques and forces, 2 rates, 3 link tips' X, Y."""
+    if scenario is None:
+        return [1] * len(names)
+    from ..channels import ChannelKind
+    from ..channels.catalogue import catalogue
+
+    channels = {c.name: c for c in catalogue(scenario)}
+    ranks = []
+    for name in names:
+        c = channels.get(name)
+        if c is None:
+            ranks.append(1)
+        elif c.kind == ChannelKind.SENSOR:
+            ranks.append(0)
+        elif c.kind == ChannelKind.TIP:
+            ranks.append(3)
+        else:
+            ranks.append(2 if c.quantity.endswith("rate") or c.quantity == "velocity" else 1)
+    return ranks
 
 
 def bode_figure(plant: LinearPlant, pairs: Sequence[tuple[str, str]], path: Path,
