@@ -26,6 +26,7 @@ from .worker import (
     ChunkResult,
     Kept,
     SharedResults,
+    exit_with_parent,
     init_local_worker,
     load_compiled_code,
     run_chunk,
@@ -205,13 +206,15 @@ class PoolResults:
             stop_pool(self.pool)
 
 
-def ignore_interrupt() -> None:
+def init_pool_worker() -> None:
     """Initializer of a pool's worker: no SIGINT, Ctrl-C is handled once, by the parent,
-    which stops the workers (`stop_pool`); otherwise each worker prints its own traceback
-    of the KeyboardInterrupt over the command's message."""
+    which stops the workers (`stop_pool`; otherwise each worker prints its own traceback of
+    the KeyboardInterrupt over the command's message); and an end with the parent if it is
+    killed (`worker.exit_with_parent`)."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    exit_with_parent()
 
 
 def stop_pool(pool: ProcessPoolExecutor) -> None:

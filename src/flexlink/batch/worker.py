@@ -26,6 +26,7 @@ from .grouped import integrate_together
 from .runner import CaseRunner
 from .summaries import Summary
 
+PARENT_CHECK_S = 0.5  # s between a worker's checks that the process that started it runs
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
                          "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
 
@@ -169,13 +170,32 @@ class LazyCase:
 Case = Scenario | LazyCase
 
 
+def exit_with_parent(interval: float = PARENT_CHECK_S) -> None:
+    """End this worker process at once (status 1) when the process that started it is gone.
+    Killed (SIGKILL, the out-of-memory killer), a parent cannot stop its pool, and its
+    workers would wait on the pool's queue forever. A daemon thread polls `os.getppid`,
+    which changes when the parent dies (the worker passes to init or a subreaper). Linux's
+    parent-death signal cannot serve: it fires when the *thread* that forked the worker
+    ends, and a pool may fork its workers from a thread that ends before the pool."""
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(interval)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="flexlink-parent-watch", daemon=True).start()
+
+
 def init_local_worker(shared: SharedResults | None = None,
                       preload: Scenario | None = None) -> None:
     """Initializer of a local worker process: one BLAS thread (the cores are already shared
-    out by process), no SIGINT (Ctrl-C is handled once, by the parent), the shared result
-    array if the worker was forked (a mapping cannot be sent to a spawned one), and the
-    compiled code a run of ``preload`` needs, loaded before the first case arrives."""
+    out by process), no SIGINT (Ctrl-C is handled once, by the parent), an end with its
+    parent (`exit_with_parent`), the shared result array if the worker was forked (a mapping
+    cannot be sent to a spawned one), and the compiled code a run of ``preload`` needs,
+    loaded before the first case arrives."""
     global _SHARED
+    exit_with_parent()
     _SHARED = shared
     for name in BLAS_THREAD_VARIABLES:
         os.environ[name] = "1"

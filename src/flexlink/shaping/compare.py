@@ -159,10 +159,10 @@ def _fork_pool(workers: int) -> ProcessPoolExecutor | None:
             or "fork" not in multiprocessing.get_all_start_methods()
             or threading.active_count() > 1):
         return None
-    from ..batch.executors import ignore_interrupt
+    from ..batch.executors import init_pool_worker
 
     return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                               initializer=ignore_interrupt)
+                               initializer=init_pool_worker)
 
 
 def _residual_of(index: int, move_end: float, window: float) -> Residual:

@@ -455,11 +455,11 @@ _WORKER_PROBLEM: Problem | None = None
 
 
 def _init_worker(problem: Problem) -> None:
-    from ..batch.executors import ignore_interrupt
+    from ..batch.executors import init_pool_worker
 
     global _WORKER_PROBLEM
     _WORKER_PROBLEM = problem
-    ignore_interrupt()
+    init_pool_worker()
 
 
 def _trial_in_worker(x: np.ndarray, on: Sequence[Discretisation | None] | None
