@@ -27,6 +27,7 @@ from .report_html import write_experiment_report
 if TYPE_CHECKING:
     from .figure_worker import FigureWorker
 
+
 def write_comparison(comparison: Comparison, out_dir: Path, resolved: Mapping[str, Any],
                      overwrite: bool = False, figures: bool = True,
                      figure_worker: FigureWorker | None = None) -> Path:
