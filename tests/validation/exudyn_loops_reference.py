@@ -104,10 +104,7 @@ def simulate_slider_crank_exudyn(crank: float, rod: Link, motion: JointMotion, E
     sensors = [node_sensor(mbs, n) for n in watched]
     wall, t = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-5, newton_rel_tol, 1.0)
     crank_c, root, mid, tip = (node_series(mbs, s, t, n) for s, n in zip(sensors, watched))
-    chord = tip[:, :2] - root[:, :2]
-    normal = np.stack([-chord[:, 1], chord[:, 0]], 1) / np.linalg.norm(chord, axis=1)[:, None]
-    deflection = np.sum(normal * (mid[:, :2] - 0.5 * (root[:, :2] + tip[:, :2])), 1)
-    return {"t": t, "mid_deflection": deflection, "piston_x": tip[:, 0],
+    return {"t": t, "mid_deflection": _chord_deflection(root, mid, tip), "piston_x": tip[:, 0],
             "crank_angle": crank_c[:, 2], "wall_time_s": wall, "keep": keep}
 
 
@@ -116,7 +113,9 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
                              angles: tuple[float, float, float], EA: float, t_end: float,
                              dt_out: float, elements: int = 16, dt: float = 5e-5,
                              newton_rel_tol: float = 1e-8, crank_spring: float = 0.0,
-                             crank_mass_per_length: float | None = None) -> dict[str, Any]:
+                             crank_mass_per_length: float | None = None,
+                             crank_tip_mass: float = 0.0, crank_EI: float = math.inf,
+                             crank_EA: float | None = None) -> dict[str, Any]:
     """A four-bar: the crank (one element, ``STIFF`` times the coupler's stiffness) turned by
     ``motion`` about the origin, the elastic coupler pinned to its tip, the rocker (elastic
     beams of its own EI; ``EA`` for both) pinned to the ground at ``pivot`` and to the
@@ -124,9 +123,15 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
     close the loop at t = 0 (at rest, undeformed). ``crank_spring`` (N·m/rad): the crank
     turned through a torsional spring instead (an elastic joint: ``motion`` the motor's
     angle over the gear ratio), its root's rotation free; ``crank_mass_per_length``
-    (kg/m, default the coupler's) the crank's, whose inertia the spring then feels. Returns
+    (kg/m, default the coupler's) the crank's, whose inertia the spring then feels;
+    ``crank_tip_mass`` (kg) a point mass on the crank's tip node (the crank pin's);
+    ``crank_EI`` (N·m², default rigid) and ``crank_EA`` (N, default ``EA``): a flexible crank,
+    ``elements`` elements clamped to its turned root section. Returns
     t, mid_deflection (the coupler's midpoint from its chord, m), rocker_angle (rad, of the
-    rocker's chord), crank_angle (rad, of the crank's root section)."""
+    rocker's chord), crank_angle (rad, of the crank's root section); with a flexible rocker
+    also rocker_mid_deflection (m, likewise); mid_curvature and rocker_mid_curvature (1/m):
+    the midpoint's curvature, the central difference of the section angles of the nodes
+    beside it (second order in the element length)."""
     import exudyn as exu
     from exudyn.itemInterface import CoordinateConstraint
 
@@ -134,12 +139,16 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
         raise ValueError("an even number of elements: the midpoint is a node")
     theta0 = float(motion.evaluate(np.asarray(0.0))[0])
     _container, mbs, m_ground = new_system()
+    flexible_crank = math.isfinite(crank_EI)
     crank_link = Link("crank", crank, crank_mass_per_length or coupler.mass_per_length,
-                      coupler.EI)
+                      crank_EI if flexible_crank else coupler.EI, tip_mass=crank_tip_mass)
     # a turning crank's inertia is felt through a spring: elements enough for its mass's
     # distribution (one element lumps it at the ends)
-    cn = uniform_beam(mbs, crank_link, CRANK_ELEMENTS if crank_spring > 0.0 else 1,
-                      np.zeros(2), theta0, default_section(crank_link, EA), STIFF)
+    crank_section = default_section(crank_link, (crank_EA or EA) if flexible_crank else EA)
+    cn = uniform_beam(mbs, crank_link,
+                      elements if flexible_crank else
+                      CRANK_ELEMENTS if crank_spring > 0.0 else 1,
+                      np.zeros(2), theta0, crank_section, 1.0 if flexible_crank else STIFF)
     fix(mbs, m_ground, cn[0])
     keep = [_Memo(motion, 0, theta0), _Memo(motion, 1, 0.0)]
     if crank_spring > 0.0:
@@ -159,14 +168,36 @@ def simulate_four_bar_exudyn(crank: float, coupler: Link, rocker: Link,
     kn, rn = coupler_and_rocker(mbs, m_ground, cn[-1],
                                 crank * np.array([math.cos(theta0), math.sin(theta0)]), coupler,
                                 rocker, pivot, angles[1:], EA, elements, STIFF)
-    watched = (kn[0], kn[elements // 2], kn[-1], rn[0], rn[-1], cn[0])
+    h = elements // 2
+    flexible_rocker = len(rn) > 3
+    watched = [kn[0], kn[h], kn[-1], rn[0], rn[-1], cn[0], kn[h - 1], kn[h + 1]]
+    if flexible_rocker:
+        watched += [rn[h - 1], rn[h], rn[h + 1]]
     sensors = [node_sensor(mbs, n) for n in watched]
     wall, t = solve_dynamic(exu, mbs, t_end, dt, dt_out, 1e-5, newton_rel_tol, 1.0)
-    root, mid, end, r0, r1, c0 = (node_series(mbs, s, t, n) for s, n in zip(sensors, watched))
+    series = [node_series(mbs, s, t, n) for s, n in zip(sensors, watched)]
+    root, mid, end, r0, r1, c0 = series[:6]
+    arm = r1[:, :2] - r0[:, :2]
+    out = {"t": t, "mid_deflection": _chord_deflection(root, mid, end),
+           "mid_curvature": _curvature(series[6], series[7], coupler.length / elements),
+           "rocker_angle": np.unwrap(np.arctan2(arm[:, 1], arm[:, 0])), "wall_time_s": wall,
+           "crank_angle": c0[:, 2], "keep": keep}
+    if flexible_rocker:
+        out["rocker_mid_deflection"] = _chord_deflection(r0, series[9], r1)
+        out["rocker_mid_curvature"] = _curvature(series[8], series[10],
+                                                 rocker.length / elements)
+    return out
+
+
+def _chord_deflection(root: np.ndarray, mid: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """The midpoint's distance (m) from the chord root–end, along the chord's normal (the
+    chord turned +90°); rows of node series (x, y, angle)."""
     chord = end[:, :2] - root[:, :2]
     normal = np.stack([-chord[:, 1], chord[:, 0]], 1) / np.linalg.norm(chord, axis=1)[:, None]
-    deflection = np.sum(normal * (mid[:, :2] - 0.5 * (root[:, :2] + end[:, :2])), 1)
-    arm = r1[:, :2] - r0[:, :2]
-    return {"t": t, "mid_deflection": deflection,
-            "rocker_angle": np.unwrap(np.arctan2(arm[:, 1], arm[:, 0])), "wall_time_s": wall,
-            "crank_angle": c0[:, 2], "keep": keep}
+    return np.sum(normal * (mid[:, :2] - 0.5 * (root[:, :2] + end[:, :2])), 1)
+
+
+def _curvature(before: np.ndarray, after: np.ndarray, h: float) -> np.ndarray:
+    """The curvature (1/m) between two nodes 2h apart: the difference of their section
+    angles over 2h."""
+    return (after[:, 2] - before[:, 2]) / (2.0 * h)

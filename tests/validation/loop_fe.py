@@ -40,7 +40,7 @@ def four_bar_frequencies(crank: tuple[float, float, float], coupler: tuple[float
                          angles: tuple[float, float, float], EA: float,
                          elements: int = 40, count: int = 4, held_crank: bool = False,
                          coupler_tip: tuple[float, float] = (0.0, 0.0),
-                         crank_spring: float = 0.0) -> np.ndarray:
+                         crank_spring: float = 0.0, crank_tip: float = 0.0) -> np.ndarray:
     """The lowest ``count`` natural frequencies (Hz, the mechanism's zero included) of the
     four-bar: crank from the origin, coupler from the crank's tip, rocker from ``pivot``
     (the pivot's position enters through the angles), their tips pinned. Each link is (length m, mass per length kg/m, EI N·m², inf: rigid) at
@@ -49,7 +49,8 @@ def four_bar_frequencies(crank: tuple[float, float, float], coupler: tuple[float
     no mechanism motion); ``coupler_tip``: a body (mass kg, rotary inertia kg·m²) on the
     coupler's tip, lumped on its node (it turns with the coupler's end section);
     ``crank_spring``: a torsional spring (N·m/rad) from the ground to the crank's root
-    rotation (an elastic joint whose motor is held)."""
+    rotation (an elastic joint whose motor is held); ``crank_tip``: a point mass (kg) on the
+    crank's tip (the crank pin's)."""
     flexible_EI = max(ei for _, _, ei in (crank, coupler, rocker) if np.isfinite(ei))
     dof = 0
     nodes: list[list[list[int]]] = []  # per link, per node: [u, v, θ] global indices
@@ -87,6 +88,8 @@ def four_bar_frequencies(crank: tuple[float, float, float], coupler: tuple[float
     M[tip_u, tip_u] += coupler_tip[0]
     M[tip_v, tip_v] += coupler_tip[0]
     M[tip_th, tip_th] += coupler_tip[1]
+    for i in nodes[0][-1][:2]:
+        M[i, i] += crank_tip
     keep = [i for i in range(dof) if i not in fixed and i not in merge]
     w2 = eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)], eigvals_only=True,
               subset_by_index=[0, count - 1])
