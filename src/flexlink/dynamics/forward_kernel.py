@@ -76,7 +76,8 @@ def pack(system: ForwardSystem) -> ForwardData:
     def pad(values: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
         out = np.zeros((N, *shape))
         for k, v in enumerate(values):
-            out[(k, *(slice(0, s) for s in np.shape(v)))] = v
+            v = np.asarray(v)
+            out[(k, *map(slice, v.shape))] = v
         return out
 
     bodies, modal = system.bodies, system.modal
