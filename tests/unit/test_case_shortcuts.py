@@ -132,3 +132,51 @@ def test_a_worker_keeps_one_blas_thread_for_good() -> None:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=300, check=False)
     assert done.returncode == 0, done.stderr
+
+
+def _packed_whole(system) -> object:
+    from flexlink.dynamics.forward_kernel import pack
+    from flexlink.dynamics.prescribed_kernel import forward_view
+
+    return pack(forward_view(system))
+
+
+@pytest.mark.parametrize("change", [{"EI": 310.0}, {"damping_ratio": 0.045},
+                                    {"EI": 150.0, "damping_ratio": 0.0}])
+def test_data_repacked_for_a_new_stiffness_equal_those_packed_whole(change) -> None:
+    import dataclasses
+
+    from flexlink.dynamics import prescribed_kernel
+    from flexlink.dynamics.prescribed_kernel import forward_data
+
+    scenario = load_scenario(paper_experiment_path())
+    chain = scenario.chain
+    prescribed_kernel._PACKED.clear()
+    prescribed_kernel._RESTIFFENED.clear()
+    forward_data(FirstOrderSystem(chain))  # packed whole, kept as the next one's sibling
+    links = (dataclasses.replace(chain.links[0], **change), *chain.links[1:])
+    system = FirstOrderSystem(dataclasses.replace(chain, links=links))
+    data = forward_data(system)
+    assert next(iter(prescribed_kernel._RESTIFFENED.values()))[1] is not data  # re-stiffened
+    whole = _packed_whole(system)
+    assert data._fields == whole._fields
+    for name, a, b in zip(data._fields, data, whole):
+        np.testing.assert_array_equal(a, b, err_msg=name)
+        assert np.asarray(a).dtype == np.asarray(b).dtype, name
+
+
+def test_data_of_links_that_differ_in_more_than_stiffness_are_packed_whole() -> None:
+    import dataclasses
+
+    from flexlink.dynamics import prescribed_kernel
+    from flexlink.dynamics.prescribed_kernel import forward_data
+
+    chain = load_scenario(paper_experiment_path()).chain
+    forward_data(FirstOrderSystem(chain))
+    links = (dataclasses.replace(chain.links[0], EI=200.0, tip_mass=chain.links[0].tip_mass
+                                 + 0.01), *chain.links[1:])
+    system = FirstOrderSystem(dataclasses.replace(chain, links=links))
+    data = forward_data(system)
+    assert next(iter(prescribed_kernel._RESTIFFENED.values()))[1] is data  # the new sibling
+    for name, a, b in zip(data._fields, data, _packed_whole(system)):
+        np.testing.assert_array_equal(a, b, err_msg=name)

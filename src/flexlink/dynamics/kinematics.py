@@ -74,7 +74,8 @@ def joint_history(joints: Sequence[JointMotion], t: np.ndarray,
     evaluated = t
     if even is not None and t.ndim == 1 and even.angle.shape == ((t.size + 1) // 2, len(joints)):
         for i, known in enumerate((even.angle, even.rate, even.acceleration)):
-            out[i, 0::2] = known
+            for j in range(len(joints)):  # one long strided copy each, not nt short ones
+                out[i, 0::2, j] = known[:, j]
         evaluated = t[1::2]
     for j, joint in enumerate(joints):
         for i, values in enumerate(joint.evaluate(evaluated)):
