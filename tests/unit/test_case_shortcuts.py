@@ -180,3 +180,25 @@ def test_data_of_links_that_differ_in_more_than_stiffness_are_packed_whole() -> 
     assert next(iter(prescribed_kernel._RESTIFFENED.values()))[1] is data  # the new sibling
     for name, a, b in zip(data._fields, data, _packed_whole(system)):
         np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+def test_scenarios_equal_but_for_their_sensors_as_their_copies_without_sensors_compare() -> None:
+    import dataclasses
+
+    from flexlink.batch.runner import equal_but_sensors
+
+    paper = load_scenario(paper_experiment_path())
+    moved = dataclasses.replace(paper.sensors[0], x=paper.sensors[0].x - 0.1)
+    other_sensors = dataclasses.replace(paper, sensors=(moved, *paper.sensors[1:]))
+    links = (dataclasses.replace(paper.chain.links[0], EI=250.0), *paper.chain.links[1:])
+    stiffer = dataclasses.replace(paper, chain=dataclasses.replace(paper.chain, links=links))
+    longer = dataclasses.replace(paper, settings=dataclasses.replace(paper.settings, rtol=1e-7))
+    motion = MeasuredMotion.from_arrays(np.linspace(0.0, 6.0, 61), np.linspace(0.0, 30.0, 61))
+    measured = dataclasses.replace(paper, chain=dataclasses.replace(
+        paper.chain, joints=(motion, *paper.chain.joints[1:])))
+    measured_again = dataclasses.replace(measured, sensors=())
+    for a, b, equal in [(paper, other_sensors, True), (paper, paper, True),
+                        (paper, stiffer, False), (paper, longer, False),
+                        (measured, measured_again, True), (measured, paper, False)]:
+        assert equal_but_sensors(a, b) is equal
+        assert equal_but_sensors(b, a) is equal
