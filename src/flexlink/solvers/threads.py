@@ -33,7 +33,8 @@ def one_thread_for_good() -> None:
     cores are shared out by process): `single_threaded` then costs nothing, instead of
     setting and restoring every BLAS library's threads around each run (~50 µs)."""
     global _FOR_GOOD, _LIMIT
-    _LIMIT = _controller().limit(limits=1)  # kept alive: the limit holds while it exists
+    # A fresh scan: a forked worker may have loaded a BLAS since its parent's scan.
+    _LIMIT = ThreadpoolController().limit(limits=1)  # kept alive: holds while it exists
     _FOR_GOOD = True
 
 
