@@ -199,10 +199,9 @@ def init_local_worker(shared: SharedResults | None = None,
     _SHARED = shared
     for name in BLAS_THREAD_VARIABLES:
         os.environ[name] = "1"
-    from threadpoolctl import threadpool_limits
+    from ..solvers.threads import one_thread_for_good
 
-    global _THREAD_LIMIT  # keep the limit alive for the life of the process
-    _THREAD_LIMIT = threadpool_limits(limits=1)
+    one_thread_for_good()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if preload is not None:
         load_compiled_code(preload)
@@ -227,6 +226,5 @@ def load_compiled_code(scenario: Scenario) -> None:
         pass
 
 
-_THREAD_LIMIT: object = None
 _SHARED: SharedResults | None = None  # set in a local worker process only
 _RUNNERS = threading.local()  # a Dask worker may run chunks in several threads

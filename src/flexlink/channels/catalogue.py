@@ -254,7 +254,16 @@ def closure_channels(scenario: Scenario) -> list[Channel]:
 
 
 def catalogue(scenario: Scenario) -> list[Channel]:
-    """Every channel a run of ``scenario`` produces, in the order of the results."""
+    """Every channel a run of ``scenario`` produces, in the order of the results. Made once
+    per scenario (a frozen object; a run and its checks ask for it several times)."""
+    made = scenario.__dict__.get("_catalogue")
+    if made is None:
+        made = tuple(_catalogue(scenario))
+        object.__setattr__(scenario, "_catalogue", made)
+    return list(made)
+
+
+def _catalogue(scenario: Scenario) -> list[Channel]:
     model = scenario.settings.model
     out = sensor_channels(scenario)
     base = scenario.base

@@ -11,6 +11,8 @@ and handed to the compiled loop as rows (`inputs`).
 from __future__ import annotations
 
 from collections import namedtuple
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +26,9 @@ from ..model import (
 from ..model.joints import drive_side
 from .forward import ForwardSystem
 from .histories import input_breakpoints
+
+if TYPE_CHECKING:
+    from ..modes import ModalData
 
 ForwardData = namedtuple("ForwardData", [
     "n_base", "base_kind", "n_rigid", "n_x", "stiffening", "base_mass", "base_inertia",
@@ -76,7 +81,8 @@ def pack(system: ForwardSystem) -> ForwardData:
     def pad(values: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
         out = np.zeros((N, *shape))
         for k, v in enumerate(values):
-            out[(k, *(slice(0, s) for s in np.shape(v)))] = v
+            v = np.asarray(v)
+            out[(k, *map(slice, v.shape))] = v
         return out
 
     bodies, modal = system.bodies, system.modal
@@ -160,6 +166,19 @@ def pack(system: ForwardSystem) -> ForwardData:
         attitude=float(base.attitude),
         rail_origin=np.array(base.position if cart is not None else (0.0, 0.0), dtype=float),
         **slide_arrays(chain.joints))
+
+
+def with_stiffness(data: ForwardData, modal: Sequence[ModalData]) -> ForwardData:
+    """``data`` with the stiffness and damping matrices of ``modal``, the modal data of
+    links that differ from those ``data`` was packed for in EI and damping alone (padded as
+    `pack` pads them)."""
+    N, nm = data.stiffness.shape[:2]
+    stiffness, damping = np.zeros((N, nm, nm)), np.zeros((N, nm, nm))
+    for k, d in enumerate(modal):
+        n = d.n
+        stiffness[k, :n, :n] = d.stiffness_matrix
+        damping[k, :n, :n] = d.damping_matrix
+    return data._replace(stiffness=stiffness, damping=damping)
 
 
 def slide_arrays(joints: tuple | list) -> dict[str, np.ndarray]:

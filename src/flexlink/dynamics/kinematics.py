@@ -53,11 +53,14 @@ class JointHistory:
         return JointHistory(self.angle[kept], self.rate[kept], self.acceleration[kept]), index
 
 
-def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
+def joint_history(joints: Sequence[JointMotion], t: np.ndarray,
+                  even: JointHistory | None = None) -> JointHistory:
     """Every joint's prescribed angle, rate and acceleration at times t (s), (nt, N) each,
     read-only. Remembered per process for the last few (joints, t): the cases of a sweep over
     link properties share their motions' histories on the output grid and the table's
-    first samples."""
+    first samples. ``even``: the history at t[0::2] if known (t the output times and their
+    midpoints, what a coefficient table's rest phases are found on): only t[1::2] is
+    evaluated then. A motion evaluates time by time, so the numbers are those of the whole t."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
     try:
         key = (tuple(joints), t.shape, t.tobytes())
@@ -68,18 +71,36 @@ def joint_history(joints: Sequence[JointMotion], t: np.ndarray) -> JointHistory:
         _HISTORIES.move_to_end(key)
         return cached
     out = np.empty((3, *t.shape, len(joints)))
+    evaluated = t
+    if even is not None and t.ndim == 1 and even.angle.shape == ((t.size + 1) // 2, len(joints)):
+        for i, known in enumerate((even.angle, even.rate, even.acceleration)):
+            for j in range(len(joints)):  # one long strided copy each, not nt short ones
+                out[i, 0::2, j] = known[:, j]
+        evaluated = t[1::2]
     for j, joint in enumerate(joints):
-        for i, values in enumerate(joint.evaluate(t)):
-            out[i, ..., j] = values
+        for i, values in enumerate(joint.evaluate(evaluated)):
+            if evaluated is t:
+                out[i, ..., j] = values
+            else:
+                out[i, 1::2, j] = values
     out.flags.writeable = False  # shared between runs
     history = JointHistory(out[0], out[1], out[2])
     if key is not None and out.nbytes <= _HISTORY_BYTES_KEPT:
         _HISTORIES[key] = history
-        # the bytes held: summed once, then less each entry dropped
-        held = sum(h.angle.base.nbytes for h in _HISTORIES.values())
+        held = _held_bytes() + out.nbytes
         while len(_HISTORIES) > _HISTORIES_KEPT or held > _HISTORY_BYTES_KEPT:
             held -= _HISTORIES.popitem(last=False)[1].angle.base.nbytes
+        _HELD[:] = [len(_HISTORIES), held]
     return history
+
+
+def _held_bytes() -> int:
+    """The bytes of the remembered histories before the last one added: the running count,
+    or their sum when the cache changed otherwise (cleared): a sum over every entry at each
+    new history costs a sweep's case tens of µs."""
+    if _HELD[0] == len(_HISTORIES) - 1:
+        return _HELD[1]
+    return sum(h.angle.base.nbytes for h in list(_HISTORIES.values())[:-1])
 
 
 _HISTORIES: OrderedDict[tuple[object, ...], JointHistory] = OrderedDict()
@@ -89,6 +110,7 @@ _HISTORIES_KEPT = 32
 # What the remembered histories may hold together: a paper run's grids take ~1 MB; a long run's
 # histories (10⁶ samples × 10 joints: 240 MB) are not kept beyond their run.
 _HISTORY_BYTES_KEPT = 32_000_000
+_HELD = [0, 0]  # entries of _HISTORIES and their bytes after the last addition
 
 
 def _per_time(maps: np.ndarray, v: np.ndarray) -> np.ndarray:

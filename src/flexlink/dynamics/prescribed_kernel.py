@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 from collections import OrderedDict
+from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
@@ -21,7 +22,7 @@ from ..model import Base, Chain
 from ..model.joints import PrismaticJoint, is_driven
 from .first_order import FirstOrderSystem
 from .forward import ForwardSystem
-from .forward_kernel import ForwardData, pack
+from .forward_kernel import ForwardData, pack, with_stiffness
 from .kinematics import SolvedFrames
 
 
@@ -52,7 +53,7 @@ def forward_data(system: FirstOrderSystem) -> ForwardData:
         data = kept[1]
         _PACKED.move_to_end(key)
     else:
-        data = pack(forward_view(system))
+        data = _restiffened(system)
         if key is not None:  # the modal data kept alive with it: their ids stay theirs
             _PACKED[key] = (list(system.modal), data)
             while len(_PACKED) > _PACKED_KEPT:
@@ -71,6 +72,44 @@ def _packed_chain(chain: Chain) -> tuple[object, ...]:
 
 _PACKED: OrderedDict[tuple[object, ...], tuple[list[object], ForwardData]] = OrderedDict()
 _PACKED_KEPT = 8
+
+
+def _restiffened(system: FirstOrderSystem) -> ForwardData:
+    """`pack` of ``system``, or, when the last system packed had links that differ from
+    ``system``'s in EI and damping ratio alone, its data with ``system``'s stiffness and
+    damping matrices: what a sweep over E, EI or damping would otherwise pack whole per case.
+    Its other modal data must be the same objects (`modes.integrals.modal_data_for_stiffness`
+    shares them between such links)."""
+    try:
+        links = tuple(replace(link, name="", EI=1.0, damping_ratio=0.0)
+                      for link in system.chain.links)
+        key: tuple[object, ...] | None = (links, _packed_chain(system.chain)[1],
+                                          system.geometric_stiffening, system.gravity)
+        last = _RESTIFFENED.get(key)
+    except TypeError:  # a motion that is not hashable (holds arrays)
+        key, last = None, None
+    if last is not None and len(last[0]) == len(system.modal) \
+            and all(_same_but_stiffness(a, b) for a, b in zip(last[0], system.modal)):
+        return with_stiffness(last[1], system.modal)
+    data = pack(forward_view(system))
+    if key is not None:  # one kept: a sweep's cases come one model after the other
+        _RESTIFFENED.clear()
+        _RESTIFFENED[key] = (list(system.modal), data)
+    return data
+
+
+_STIFFNESS_FIELDS = frozenset({"stiffness_matrix", "damping_matrix", "natural_frequencies_hz"})
+
+
+def _same_but_stiffness(a: object, b: object) -> bool:
+    """Whether modal data ``a`` and ``b`` hold the same objects in every field but their
+    stiffness, damping and frequencies."""
+    return a is b or (type(a) is type(b) and all(
+        getattr(a, f.name) is getattr(b, f.name) for f in fields(a)  # type: ignore[arg-type]
+        if f.name not in _STIFFNESS_FIELDS))
+
+
+_RESTIFFENED: dict[tuple[object, ...], tuple[list[object], ForwardData]] = {}
 
 
 def solved_frames(system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np.ndarray,

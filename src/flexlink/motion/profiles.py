@@ -94,7 +94,8 @@ class Cycloidal(_RestToRest):
     @staticmethod
     def _shape(tau: np.ndarray) -> Triple:
         phase = TWO_PI * tau
-        return tau - np.sin(phase) / TWO_PI, 1.0 - np.cos(phase), TWO_PI * np.sin(phase)
+        sine = np.sin(phase)
+        return tau - sine / TWO_PI, 1.0 - np.cos(phase), TWO_PI * sine
 
 
 @dataclass(frozen=True)

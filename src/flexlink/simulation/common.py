@@ -123,7 +123,9 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
     """0, dt_out, 2 dt_out, … up to and including t_end (s)."""
     count = int(np.floor(t_end / dt_out + 1e-9))
     t = np.arange(count + 1) * dt_out
-    return t if np.isclose(t[-1], t_end) else np.append(t, t_end)
+    # np.isclose(t[-1], t_end) on two numbers, without its array machinery (~20 µs)
+    close = abs(float(t[-1]) - t_end) <= 1e-8 + 1e-5 * abs(t_end)
+    return t if close else np.append(t, t_end)
 
 
 @dataclass(frozen=True)

@@ -74,9 +74,19 @@ def motion_times(scenario: Scenario, t: np.ndarray) -> np.ndarray:
 def quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
     """Indices of the flexible links whose first frequency is above UNRESOLVED_FACTOR × the
     output grid's Nyquist frequency and whose estimated quasi-static deflection is below
-    ``rtol`` × their length; none for forward runs."""
+    ``rtol`` × their length; none for forward runs. Remembered per scenario for the last t
+    (a sweep's worker asks before it integrates a chunk's cases, then the case's run)."""
     if scenario.is_forward:
         return []
+    kept = scenario.__dict__.get("_quasi_rigid")
+    if kept is not None and kept[0].shape == t.shape and np.array_equal(kept[0], t):
+        return list(kept[1])
+    out = _quasi_rigid_links(scenario, t)
+    object.__setattr__(scenario, "_quasi_rigid", (np.array(t, dtype=float), tuple(out)))
+    return out
+
+
+def _quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
     settings = scenario.settings
     nyquist = 0.5 / settings.dt_out  # Hz
     modal = chain_modal_data(scenario.chain)

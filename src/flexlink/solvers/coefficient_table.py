@@ -254,8 +254,8 @@ def _initial_blocks(
     # A break inside an interval means motion there, even if the joints are back where they
     # were at both ends and in the middle (a quick move there and back).
     where = np.searchsorted(t_out, breaks)  # t_out[where - 1] < break ≤ t_out[where]
-    on_time = np.isclose(t_out[np.minimum(where, t_out.size - 1)], breaks, rtol=0.0,
-                         atol=_BREAK_TOL)
+    # np.isclose(…, rtol=0, atol=_BREAK_TOL) of finite times, without its generality
+    on_time = np.abs(t_out[np.minimum(where, t_out.size - 1)] - breaks) <= _BREAK_TOL
     inner = where[~on_time] - 1
     resting[inner] = False
     # Equal step lengths within a block (the last output interval may be shorter).

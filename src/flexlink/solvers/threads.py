@@ -8,7 +8,7 @@ a cost comparable to a short run.
 
 from __future__ import annotations
 
-from contextlib import AbstractContextManager
+from contextlib import AbstractContextManager, nullcontext
 from functools import lru_cache
 from typing import Any
 
@@ -21,5 +21,22 @@ def _controller() -> ThreadpoolController:
 
 
 def single_threaded() -> AbstractContextManager[Any]:
-    """Context in which BLAS uses one thread."""
+    """Context in which BLAS uses one thread (nothing to do in a process that keeps one
+    BLAS thread for its life: `one_thread_for_good`)."""
+    if _FOR_GOOD:
+        return nullcontext()
     return _controller().limit(limits=1)
+
+
+def one_thread_for_good() -> None:
+    """Limit BLAS to one thread for the rest of this process (a sweep's worker, whose
+    cores are shared out by process): `single_threaded` then costs nothing, instead of
+    setting and restoring every BLAS library's threads around each run (~50 µs)."""
+    global _FOR_GOOD, _LIMIT
+    # A fresh scan: a forked worker may have loaded a BLAS since its parent's scan.
+    _LIMIT = ThreadpoolController().limit(limits=1)  # kept alive: holds while it exists
+    _FOR_GOOD = True
+
+
+_FOR_GOOD = False
+_LIMIT: object = None
