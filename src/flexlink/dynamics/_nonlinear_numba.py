@@ -13,7 +13,6 @@ from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from .._compiled_calls import stack_array
-from ._sincos_numba import sincos_rows
 
 
 # inertia_elastic and the residuals are compiled without numba's runtime (``_nrt=False``, as
@@ -65,9 +64,6 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
     if cart > 0:
         rx, ry = rail_acc * rail[0] + rx, rail_acc * rail[1] + ry
     force = translation or cart == 1  # the base's inertia force is a row of the residual
-    angle = stack_array(nodes)
-    angle_d = stack_array(nodes)
-    angle_dd = stack_array(nodes)
     for j in range(nodes):
         alpha = ang[j]
         alpha_dot = rate[j]
@@ -78,12 +74,10 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
                 alpha += a * Y[i]
                 alpha_dot += a * V[i]
                 alpha_ddot += a * X[i]
-        angle[j], angle_d[j], angle_dd[j] = alpha, alpha_dot, alpha_ddot
-    sincos_rows(angle, c, s)  # all nodes in one vectorised loop
-    for j in range(nodes):
-        alpha_dot = angle_d[j]
+        c[j] = np.cos(alpha)
+        s[j] = np.sin(alpha)
         # a_j = T e⊥ − R e: T = ρα̈ + 2ρ̇α̇, R = ρα̇² − ρ̈ (α̈ and α̇² where ρ = 1)
-        tangential = rho[j] * angle_dd[j] + 2.0 * rho_d[j] * alpha_dot
+        tangential = rho[j] * alpha_ddot + 2.0 * rho_d[j] * alpha_dot
         radial = rho[j] * (alpha_dot * alpha_dot) - rho_dd[j]
         S[j, 0] = c[j] * tangential
         S[j, 1] = s[j] * tangential
