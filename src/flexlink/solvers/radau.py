@@ -156,7 +156,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     ws = (np.empty((m, m)), np.empty((m, m)), np.empty((m, m), dtype=np.complex128),
           np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
           *(np.empty(m) for _ in range(11)), np.empty(m, dtype=np.complex128),
-          np.empty(tab[2].shape[2]))
+          np.empty(tab[2].shape[2]), np.empty(m), np.empty(m))
     cont = np.zeros((m, 4))
     identity = mass is None
     M = np.eye(1) if mass is None else np.ascontiguousarray(mass, dtype=float)
