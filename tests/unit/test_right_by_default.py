@@ -749,3 +749,18 @@ def test_a_nanosecond_run_keeps_its_two_ends(example: str) -> None:
     d["simulation"].update(t_end=1e-9, dt_out=1e-9)
     run = simulate(scenario_from_dict(d), shapes=False)
     assert run.time.size == 2
+
+
+def test_a_closed_loop_tip_beyond_its_length_is_refused_at_the_step() -> None:
+    """The four-bar with a soft crank (EI 0.005 N·m², the paper's model) spun faster than
+    the crank's first frequency: its tip diverges and passes the crank's length at t ≈
+    0.354 s. With one output interval of 0.4 s the closed-loop run was refused only at the
+    sample t = 0.4 s; the integrator's steps are checked now (as the open chain's)."""
+    with open(EXAMPLES / "four_bar.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["links"][0].update(rigid=False, EI=0.005, modes=2, damping_ratio=0.01)
+    d["simulation"].update(t_end=0.4, dt_out=0.4, geometric_stiffening=False)
+    with pytest.raises(SimulationError, match=r"the tip deflection of crank exceeds its length "
+                       r"\(0\.1 m\) at t = 0\.35\d+ s \(the end of the integrator's first "
+                       r"step beyond it"):
+        simulate(scenario_from_dict(d), shapes=False)

@@ -52,6 +52,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                 scenario, system, t, on_progress, loop, steps)
         except StoppedRun as stop:
             check_travel_before(scenario, system, t, stop)
+            check_deflection_at_stop(scenario, system, t, stop, loop is not None)
             raise
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
@@ -61,7 +62,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                                                   with_outputs=True, steps=steps)
         except StoppedRun as stop:
             check_travel_before(scenario, system, t, stop)
-            check_deflection_at_stop(scenario, system, stop, loop is not None)
+            check_deflection_at_stop(scenario, system, t, stop, loop is not None)
             check_loads_at_stop(scenario, system, stop)
             raise
     return forward_run(scenario, system, t, solution, outputs, loop, closure_values, closures,
@@ -91,23 +92,28 @@ def check_travel_before(scenario: Scenario, system: ForwardSystem, t: np.ndarray
         check_slider_travel(system.chain.joints, times, p, system.n_base, where, tail)
 
 
-def check_deflection_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun,
-                             controlled: bool) -> None:
+def check_deflection_at_stop(scenario: Scenario, system: ForwardSystem, t: np.ndarray,
+                             stop: StoppedRun, controlled: bool) -> None:
     """A run the compiled integrator stopped at a step that ended with a link's tip beyond
-    its length (`solvers.forward.deflection_bounds`): that error, at the step's end, in place
-    of the stop's (``controlled``: under sampled controllers, an unstable closed loop)."""
-    if not stop.left_travel or stop.y is None:
+    its length (`solvers.forward.deflection_bounds`): that error in place of the stop's, at
+    the first output sample reached beyond it, else at the step's end (``controlled``: under
+    sampled controllers, an unstable closed loop)."""
+    if not stop.left_travel or stop.y is None or stop.states is None:
         return
     start = 2 * len(system.free) - system.n_rigid  # a body's offset is its column in [δp; z]
-    for k, body in enumerate(system.bodies):
-        link = scenario.chain.links[k]
-        z = stop.y[start + body.offset:start + body.offset + body.data.n]
-        if abs(z @ body.data.tip_value) > link.length:
-            exc = deflection_error(link, stop.t, system.geometric_stiffening,
-                                   " (the end of the integrator's first step beyond it: the "
-                                   "run stopped there)")
-            raise SimulationError(f"closed loop unstable: {exc}" if controlled
-                                  else str(exc)) from None
+    reached = np.all(np.isfinite(stop.states), axis=1)
+    step = " (the end of the integrator's first step beyond it: the run stopped there)"
+    for times, rows, where in ((t[reached], stop.states[reached], ""),
+                               (np.array([stop.t]), stop.y[None, :], step)):
+        for k, body in enumerate(system.bodies):
+            link = scenario.chain.links[k]
+            z = rows[:, start + body.offset:start + body.offset + body.data.n]
+            beyond = np.abs(z @ body.data.tip_value) > link.length
+            if beyond.any():
+                exc = deflection_error(link, float(times[int(np.argmax(beyond))]),
+                                       system.geometric_stiffening, where)
+                raise SimulationError(f"closed loop unstable: {exc}" if controlled
+                                      else str(exc)) from None
 
 
 def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun) -> None:
