@@ -339,6 +339,24 @@ class ForwardSystem:
         elastic_joints.add_rotor_inertia(self, pdd, M, f)
         return M, C, K, f
 
+    def inertia_shares(self, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray) -> np.ndarray:
+        """Each link's largest share, over the free rigid coordinates and the rigid states
+        p, ṗ, p̈ (nt, n_rigid), of a free coordinate's inertia (the diagonal of M's rigid
+        block: its own T̂ᵀ M T̂ over the whole M, with base, motors and rotors): 1 where a
+        free joint turns the link alone, 0 where no free coordinate moves it; (links,)."""
+        out = np.zeros(len(self.bodies))
+        free = np.array(self.free, dtype=np.int64)
+        if free.size == 0 or p.shape[0] == 0:
+            return out
+        whole = self.matrices(p, pd, pdd)[0][:, free, free]  # (nt, nu)
+        fr = self.frames(p, pd, pdd)
+        for k, body in enumerate(self.bodies):
+            Th = self.xi_maps(fr, k)[0][:, :, free]  # (nt, 3 + n_k, nu)
+            own = np.einsum("tai,ab,tbi->ti", Th, body.M0 + body.M_rot, Th)
+            share = np.divide(own, whole, out=np.zeros_like(own), where=whole > 0.0)
+            out[k] = float(share.max())
+        return out
+
     def _rail(self) -> np.ndarray | None:
         """A cart's rail direction (2,), global axes; None for other bases."""
         cart = self.base.cart

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import functools
 from collections import namedtuple
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -166,32 +166,9 @@ class LoopSystem:
                          and s.free[i] - s.n_base not in s.elastic], dtype=np.int64)
 
     def _nearest_branch(self, work, u0: np.ndarray, start: np.ndarray, y: np.ndarray) -> None:
-        """y ← the closed state whose dependent joint angles are nearest their guesses in
-        ``start``: each turned to within half a turn of its guess (Newton's steps from a far
-        guess may close a whole turn or more away), and, where Newton's closure left an
-        angle more than BRANCH_CHECK from its guess, the least-squares closure from the
-        guesses (`_close_far`) taken instead if it is nearer (Newton's steps may jump to the
-        mechanism's other assembly branch)."""
-        turned = self._turned()
-        if turned.size == 0:
-            return
-
-        def wrapped(state: np.ndarray) -> np.ndarray:
-            out = state.copy()
-            out[turned] = start[turned] + np.remainder(state[turned] - start[turned] + np.pi,
-                                                       2 * np.pi) - np.pi
-            return out
-
-        y[:] = wrapped(y)
-        if np.max(np.abs(y[turned] - start[turned])) <= BRANCH_CHECK:
-            return
-        for pull in (0.0, PULL_PER_SIZE * self.size):
-            other = y.copy()
-            if self._close_far(work, u0, start, other, pull):
-                other = wrapped(other)
-                if (np.linalg.norm(other[turned] - start[turned])
-                        < np.linalg.norm(y[turned] - start[turned]) - 1e-9):
-                    y[:] = other
+        """`nearest_branch` on this model's kinematics (`_close_far`)."""
+        nearest_branch(y, start, self._turned(), self.size,
+                       lambda other, pull: self._close_far(work, u0, start, other, pull))
 
     def _close_far(self, work, u0: np.ndarray, start: np.ndarray, y: np.ndarray,
                    pull: float = 0.0) -> bool:
@@ -216,35 +193,17 @@ class LoopSystem:
 
     def _least_residual(self, work, u0: np.ndarray, start: np.ndarray, moved: np.ndarray,
                         tol: float, gtol: float, pull: float = 0.0) -> np.ndarray:
-        """``start`` with its free coordinates ``moved`` (indices into the free ones) brought
-        to the least |Φ| by trust-region least squares (x and f tolerances ``tol``, gradient
-        ``gtol``); work holds Φ and G there. ``pull`` > 0 (m/rad): |Φ|² + pull² |Δ|², Δ the
-        moved coordinates' change, is minimised instead (the steps kept near start)."""
-        from scipy.optimize import least_squares
-
+        """`least_residual` of ``start``'s free coordinates ``moved`` (indices into the free
+        ones); work holds Φ and G there."""
         from ._loops_numba import close
 
         columns = np.asarray(self.system.free, dtype=np.int64)[moved]
-        trial = start.copy()
 
-        def residual(angles: np.ndarray) -> np.ndarray:
-            trial[moved] = angles
+        def evaluate(trial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             close(self.data, work, u0, trial, 0)
-            if pull:
-                return np.concatenate([work.Phi, pull * (angles - start[moved])])
-            return work.Phi.copy()
+            return work.Phi, work.G[:, columns]
 
-        def jacobian(angles: np.ndarray) -> np.ndarray:
-            residual(angles)
-            if pull:
-                return np.vstack([work.G[:, columns], pull * np.eye(moved.size)])
-            return work.G[:, columns].copy()
-
-        best = least_squares(residual, start[moved], jac=jacobian, xtol=tol, ftol=tol,
-                             gtol=gtol)
-        residual(best.x)
-        return trial
-
+        return least_residual(start, moved, evaluate, tol, gtol, pull)
 
     def _dependent(self, G: np.ndarray) -> np.ndarray:
         """Indices (into the free coordinates) of the dependent ones: from the last free
@@ -272,6 +231,68 @@ class LoopSystem:
         return ("the mechanism " + why + ": " + "; ".join(parts) + ". Give the free joints' "
                 "initial_angle_deg near a closed configuration, or check the closures' "
                 "links, points and ground")
+
+
+def nearest_branch(y: np.ndarray, start: np.ndarray, turned: np.ndarray, size: float,
+                   close_far: Callable[[np.ndarray, float], bool]) -> None:
+    """y ← the closed state whose dependent joint angles (indices ``turned`` into y) are
+    nearest their guesses in ``start``: each turned to within half a turn of its guess
+    (Newton's steps from a far guess may close a whole turn or more away), and, where
+    Newton's closure left an angle more than BRANCH_CHECK from its guess, the least-squares
+    closure from the guesses taken instead if it is nearer (Newton's steps may jump to the
+    mechanism's other assembly branch). close_far(state, pull): the state overwritten by the
+    least-squares closure from the guesses with the pull (m/rad) towards them, False when
+    that leaves the loops open; ``size``: the loop's size (m)."""
+    if turned.size == 0:
+        return
+
+    def wrapped(state: np.ndarray) -> np.ndarray:
+        out = state.copy()
+        out[turned] = start[turned] + np.remainder(state[turned] - start[turned] + np.pi,
+                                                   2 * np.pi) - np.pi
+        return out
+
+    y[:] = wrapped(y)
+    if np.max(np.abs(y[turned] - start[turned])) <= BRANCH_CHECK:
+        return
+    for pull in (0.0, PULL_PER_SIZE * size):
+        other = y.copy()
+        if close_far(other, pull):
+            other = wrapped(other)
+            if (np.linalg.norm(other[turned] - start[turned])
+                    < np.linalg.norm(y[turned] - start[turned]) - 1e-9):
+                y[:] = other
+
+
+def least_residual(start: np.ndarray, moved: np.ndarray,
+                   evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+                   tol: float, gtol: float, pull: float = 0.0) -> np.ndarray:
+    """``start`` with its components ``moved`` brought to the least |Φ| by trust-region
+    least squares (x and f tolerances ``tol``, gradient ``gtol``); evaluate(state) → Φ (m)
+    and its columns over the moved components, left evaluated at the result. ``pull`` > 0
+    (m/rad): |Φ|² + pull² |Δ|², Δ the moved components' change, is minimised instead (the
+    steps kept near start)."""
+    from scipy.optimize import least_squares
+
+    trial = start.copy()
+
+    def residual(values: np.ndarray) -> np.ndarray:
+        trial[moved] = values
+        phi = evaluate(trial)[0]
+        if pull:
+            return np.concatenate([phi, pull * (values - start[moved])])
+        return phi.copy()
+
+    def jacobian(values: np.ndarray) -> np.ndarray:
+        trial[moved] = values
+        G = evaluate(trial)[1]
+        if pull:
+            return np.vstack([G, pull * np.eye(moved.size)])
+        return G.copy()
+
+    best = least_squares(residual, start[moved], jac=jacobian, xtol=tol, ftol=tol, gtol=gtol)
+    residual(best.x)
+    return trial
 
 
 def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray,

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import SimulationError
 from ..model import Closure
 from .forward_kernel import inputs
-from .loops import LoopSystem
+from .loops import LoopSystem, least_residual, nearest_branch
 from .nonlinear_forward import NonlinearForwardSystem
 
 NonlinearLoopData = namedtuple("NonlinearLoopData", [
@@ -154,20 +154,47 @@ class NonlinearLoopSystem:
         start = self._rigid_start()
         y[s.n:s.n + nu], v[s.n:s.n + nu] = start[:nu], start[nu:2 * nu]
         Y = np.concatenate([y, v])
+        guesses = Y.copy()
         u0 = inputs(s.loads, np.zeros(1))[0]
         work = self.workspace()
-        if not project(self.data, work, u0, Y):
-            if self.first_order.y0 is None:  # its own start: named with the residual
+        own = self.first_order.y0 is None
+        if not project(self.data, work, u0, Y) and not (own and self._close_far(
+                work, u0, guesses, Y)):
+            if own:  # its own start: named with the residual
                 raise SimulationError(self.first_order._open_message(
                     work.Phi.copy(), "does not close at t = 0 (the residual left by Newton's "
                     "method from the free joints' initial angles)"))
             raise SimulationError("closures: the loop does not close at t = 0 on the "
                                   "nonlinear model's kinematics")
+        if own:  # on the branch nearest the guesses, as the first-order loops'
+            nearest_branch(Y, guesses, s.n + self.first_order._turned(), self.size,
+                           lambda other, pull: self._close_far(work, u0, guesses, other, pull))
+            project(self.data, work, u0, Y)  # w: the closed state's Φ, G, γ
         if s.initial == "equilibrium":
             from .loop_equilibrium import closed_nonlinear_equilibrium
 
             return closed_nonlinear_equilibrium(self, Y, u0)
         return Y
+
+
+    def _close_far(self, work, u0: np.ndarray, guesses: np.ndarray, Y: np.ndarray,
+                   pull: float = 0.0) -> bool:
+        """Y ← the loops closed from ``guesses`` by least squares over the dependent joint
+        angles (`loops.least_residual`), then Newton's projection; False when that leaves
+        them open (as `LoopSystem._close_far` on this model's kinematics)."""
+        from ._nonlinear_loops_numba import constraints, project
+
+        dep = np.asarray(self.data.dep, dtype=np.int64)
+
+        def evaluate(trial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            constraints(self.data, work, u0, trial)
+            return work.Phi, work.G[:, dep]
+
+        trial = least_residual(guesses, dep, evaluate, tol=1e-14, gtol=1e-14, pull=pull)
+        if not project(self.data, work, u0, trial):
+            return False
+        Y[:] = trial
+        return True
 
 
 def closed_states(loops: NonlinearLoopSystem, t: np.ndarray, states: np.ndarray,

@@ -41,11 +41,16 @@ P_AXIAL = 1.16
 WARN_ABOVE = 0.02
 # Peak tip deflection per length above which a forward run (no estimate) carries a warning.
 FORWARD_WARN_DEFLECTION = 0.1
-# The forward run's limits of the axial load: where the term the model drops, alone, reaches
-# WARN_ABOVE — the stiffened model's coupling C δ S (δ·S, δ the peak tip deflection per
-# length, S `axial_load_parameter`), the paper's model's missing geometric stiffness B S^P.
+# The forward run's limits (`forward_validity_warning`; δ the peak tip deflection per length,
+# S `axial_load_parameter`, μ the share of a free coordinate's inertia). The stiffened
+# model's coupling C δ S, alone WARN_ABOVE where δ·S reaches the limit (the prescribed runs'
+# estimate, whose links no free coordinate moves); the others measured on forward runs
+# against the nonlinear model by scripts/forward_validity_calibration.py
+# (docs/validation.md): their largest error over the measure, 6.0 for μ²·δ·√S and 10.8
+# for the paper's model's S, times the limit is 3% of peak.
 FORWARD_COUPLING_LIMIT = WARN_ABOVE / C_COUPLING
-FORWARD_PAPER_AXIAL_LIMIT = (WARN_ABOVE / B_AXIAL) ** (1.0 / P_AXIAL)
+FORWARD_FREE_LIMIT = 0.005
+FORWARD_PAPER_AXIAL_LIMIT = 0.0025
 
 
 def axial_load_parameter(links: Sequence[Link], modal: Sequence[ModalData],
@@ -138,25 +143,34 @@ def accuracy_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
 
 
 def unestimated_metadata(links: Sequence[Link], deflection_per_length: np.ndarray,
-                         axial_load: np.ndarray, geometric_stiffening: bool = True
-                         ) -> dict[str, Any]:
+                         axial_load: np.ndarray, geometric_stiffening: bool = True,
+                         shares: np.ndarray | None = None) -> dict[str, Any]:
     """The accuracy metadata of a forward run (driven joints or a moving base), for which the
     estimate is not calibrated (its measured error against the nonlinear forward model
     scatters beyond a factor 1.5 of it: docs/validation.md, Case 12b): the peak deflection
-    and a pointer to the nonlinear model (S recorded too), a warning past
-    FORWARD_WARN_DEFLECTION or past the axial load's limit (`axial_load_warning`)."""
+    and a pointer to the nonlinear model (S and the forward measure recorded too), a warning
+    past FORWARD_WARN_DEFLECTION or past a limit of `forward_validity_warning`. ``shares``:
+    each link's `ForwardSystem.inertia_shares` (none if not given)."""
     k = int(np.argmax(deflection_per_length))
     peak = 100 * float(deflection_per_length[k])
-    out: dict[str, Any] = {"axial_load_parameter": float(axial_load[k]), "accuracy": (
-        f"not estimated for driven joints or a moving base (peak tip deflection {peak:.1f}% "
-        f"of {links[k].name}'s length): run it with model = \"nonlinear\" to compare")}
+    mu = np.zeros(len(links)) if shares is None else np.asarray(shares, float)
+    free = forward_free_measure(deflection_per_length, axial_load, mu)
+    j = int(np.argmax(free))
+    out: dict[str, Any] = {
+        "axial_load_parameter": float(axial_load[k]),
+        "forward_validity_measure": float(free[j]), "forward_validity_link": links[j].name,
+        "accuracy": (f"not estimated for driven joints or a moving base (peak tip deflection "
+                     f"{peak:.1f}% of {links[k].name}'s length): run it with model = "
+                     "\"nonlinear\" to compare")}
     warnings = []
     if deflection_per_length[k] > FORWARD_WARN_DEFLECTION:
         warnings.append(
-            f"the tip of {links[k].name} deflected {peak:.0f}% of its length; the first-order "
-            "model's error grows with the deflection and is not estimated for forward runs: "
-            "model = \"nonlinear\" is accurate at large deflections")
-    axial = axial_load_warning(links, deflection_per_length, axial_load, geometric_stiffening)
+            f"the tip of {links[k].name} deflected {peak:.0f}% of its length, beyond "
+            f"{100 * FORWARD_WARN_DEFLECTION:.0f}%: the first-order model's error grows with "
+            "the deflection and is not estimated for forward runs: model = \"nonlinear\" is "
+            "accurate at large deflections")
+    axial = forward_validity_warning(links, deflection_per_length, axial_load, mu,
+                                     geometric_stiffening)
     if axial:
         warnings.append(axial)
     if warnings:
@@ -164,34 +178,62 @@ def unestimated_metadata(links: Sequence[Link], deflection_per_length: np.ndarra
     return out
 
 
-def axial_load_warning(links: Sequence[Link], deflection_per_length: np.ndarray,
-                       axial_load: np.ndarray, geometric_stiffening: bool) -> str:
+def forward_free_measure(deflection_per_length: np.ndarray, axial_load: np.ndarray,
+                         shares: np.ndarray) -> np.ndarray:
+    """μ²·δ·√S of every link (non-finite: inf): δ its peak tip deflection per length, S its
+    `axial_load_parameter`, μ its share of the inertia of a free rigid coordinate that moves
+    it (`ForwardSystem.inertia_shares`). A free coordinate's motion follows the link's
+    first-order reaction, whose dropped second-order terms then feed back into the rigid
+    motion and the deflection: measured, the forward error grows as δ√S times a factor that
+    falls fast as the rest of the inertia grows (scripts/forward_validity_calibration.py)."""
+    d, S, mu = (np.asarray(a, float) for a in (deflection_per_length, axial_load, shares))
+    value = mu * mu * d * np.sqrt(np.maximum(S, 0.0))
+    return np.where(np.isfinite(value), value, np.inf)
+
+
+def forward_validity_warning(links: Sequence[Link], deflection_per_length: np.ndarray,
+                             axial_load: np.ndarray, shares: np.ndarray,
+                             geometric_stiffening: bool) -> str:
     """The forward run's warning where a link's axial load takes the first-order model past
-    its validity ("" if none does): with geometric stiffening, δ·S beyond
-    FORWARD_COUPLING_LIMIT (the dropped coupling of the deflection with the axial load, C δ
-    S, alone 2% of peak); without, S beyond FORWARD_PAPER_AXIAL_LIMIT (the missing geometric
-    stiffness, B S^P, alone 2%). Non-finite values count as beyond."""
+    its validity ("" if none does). With geometric stiffening: μ²·δ·√S beyond
+    FORWARD_FREE_LIMIT (`forward_free_measure`), or δ·S beyond FORWARD_COUPLING_LIMIT (the
+    dropped coupling of the deflection with the axial load, C δ S, alone 2% of peak: the
+    prescribed runs' estimate). Without: S beyond FORWARD_PAPER_AXIAL_LIMIT (the missing
+    geometric stiffness). Both limits measured on forward runs against the nonlinear model
+    (scripts/forward_validity_calibration.py, docs/validation.md). Non-finite values count
+    as beyond."""
     d, S = np.asarray(deflection_per_length, float), np.asarray(axial_load, float)
-    if geometric_stiffening:
-        measure = np.where(np.isfinite(d * S), d * S, np.inf)
+    if not geometric_stiffening:
+        measure = np.where(np.isfinite(S), S, np.inf)
         k = int(np.argmax(measure))
-        if not measure[k] > FORWARD_COUPLING_LIMIT:
+        if not measure[k] > FORWARD_PAPER_AXIAL_LIMIT:
             return ""
         return (f"{links[k].name} carries an axial load S = {S[k]:.3g} times its first mode's "
-                f"bending stiffness (axial_load_parameter: spin, acceleration, outboard pull) "
-                f"with a tip deflection of {100 * d[k]:.3g}% of its length: δ·S = "
-                f"{measure[k]:.3g}, beyond {FORWARD_COUPLING_LIMIT:.2g}, where the coupling "
-                "of the deflection with the axial load that the first-order model drops is "
-                "alone about 2% of peak: model = \"nonlinear\" keeps it")
-    measure = np.where(np.isfinite(S), S, np.inf)
+                f"bending stiffness (axial_load_parameter), beyond {FORWARD_PAPER_AXIAL_LIMIT:.2g}, "
+                "where forward runs of the paper's model (geometric_stiffening = false), which "
+                "leaves out its geometric stiffness, measured more than 3% of peak off the "
+                "nonlinear model: set geometric_stiffening = true, or model = \"nonlinear\"")
+    free = forward_free_measure(d, S, shares)
+    k = int(np.argmax(free))
+    if free[k] > FORWARD_FREE_LIMIT:
+        mu = float(np.asarray(shares, float)[k])
+        return (f"{links[k].name} carries {100 * mu:.0f}% of the inertia of a free coordinate "
+                f"that moves it, an axial load S = {S[k]:.3g} times its first mode's bending "
+                f"stiffness (axial_load_parameter: spin, acceleration, outboard pull) and a tip "
+                f"deflection of {100 * d[k]:.3g}% of its length: μ²·δ·√S = {free[k]:.3g}, beyond "
+                f"{FORWARD_FREE_LIMIT:.2g}, where forward runs measured up to 3% of peak off "
+                "the nonlinear model: model = \"nonlinear\" keeps the terms the first-order "
+                "model drops")
+    measure = np.where(np.isfinite(d * S), d * S, np.inf)
     k = int(np.argmax(measure))
-    if not measure[k] > FORWARD_PAPER_AXIAL_LIMIT:
+    if not measure[k] > FORWARD_COUPLING_LIMIT:
         return ""
     return (f"{links[k].name} carries an axial load S = {S[k]:.3g} times its first mode's "
-            f"bending stiffness (axial_load_parameter), beyond {FORWARD_PAPER_AXIAL_LIMIT:.2g}, "
-            "where the geometric stiffness the paper's model (geometric_stiffening = false) "
-            "leaves out is alone about 2% of peak: set geometric_stiffening = true, or "
-            "model = \"nonlinear\"")
+            f"bending stiffness (axial_load_parameter: spin, acceleration, outboard pull) "
+            f"with a tip deflection of {100 * d[k]:.3g}% of its length: δ·S = "
+            f"{measure[k]:.3g}, beyond {FORWARD_COUPLING_LIMIT:.2g}, where the coupling "
+            "of the deflection with the axial load that the first-order model drops is "
+            "alone about 2% of peak: model = \"nonlinear\" keeps it")
 
 
 def _percent(fraction: float) -> str:

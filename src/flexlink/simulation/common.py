@@ -212,8 +212,8 @@ def integration_metadata(solution: Solution) -> dict[str, Any]:
 
 def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,
                          geometric_stiffening: bool, axial_load: np.ndarray | None = None,
-                         estimate: bool = True, inboard: np.ndarray | None = None
-                         ) -> dict[str, Any]:
+                         estimate: bool = True, inboard: np.ndarray | None = None,
+                         shares: np.ndarray | None = None) -> dict[str, Any]:
     """Metadata on the first-order model's validity: the largest tip deflection relative to
     its link's length and the expected error against the nonlinear model with its statement
     (`accuracy.accuracy_metadata`; a warning where it is large). A SimulationError where a
@@ -222,7 +222,8 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
     ``deflection``: |w(L)| of every link, (nt, links), m; ``axial_load``: each link's
     `accuracy.axial_load_parameter` (zero if not given); ``estimate``: False for a forward
     run, where the estimate is not calibrated (`accuracy.unestimated_metadata`);
-    ``inboard``: `accuracy.hangs_on_elastic` of each link (none if not given)."""
+    ``inboard``: `accuracy.hangs_on_elastic` of each link (none if not given); ``shares``:
+    a forward run's `ForwardSystem.inertia_shares` (none if not given)."""
     lengths = np.array([link.length for link in links])
     ratio = deflection / lengths
     # Column by column: numpy's max over axis 0 of a (nt, few) array is slower.
@@ -233,20 +234,28 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
             beyond = ratio[:, k] > 1.0
             if not beyond.any():
                 continue
-            when = t[int(np.argmax(beyond))]
-            hint = ("; the paper's model has no geometric stiffening and diverges when a link "
-                    "spins faster than its first frequency: set geometric_stiffening = true"
-                    if not geometric_stiffening else "")
-            raise SimulationError(
-                f"the tip deflection of {link.name} exceeds its length ({link.length:g} m) at "
-                f"t = {when:.4g} s: the first-order model is not valid here{hint}; "
-                f"model = \"nonlinear\" handles large deflections")
+            raise deflection_error(link, float(t[int(np.argmax(beyond))]),
+                                   geometric_stiffening)
     worst = int(np.argmax(peaks))
     out = {"peak_tip_deflection_per_length": float(peaks[worst])}
     load = np.zeros(len(links)) if axial_load is None else axial_load
     if not estimate:
-        return {**out, **unestimated_metadata(links, peaks, load, geometric_stiffening)}
+        return {**out, **unestimated_metadata(links, peaks, load, geometric_stiffening,
+                                              shares)}
     return {**out, **accuracy_metadata(links, peaks, load, geometric_stiffening, inboard)}
+
+
+def deflection_error(link: Link, when: float, geometric_stiffening: bool, where: str = ""
+                     ) -> SimulationError:
+    """The error of a first-order run in which the tip of ``link`` deflected beyond its
+    length at t = ``when`` (s); ``where``: how that instant was found (after the time)."""
+    hint = ("; the paper's model has no geometric stiffening and diverges when a link "
+            "spins faster than its first frequency: set geometric_stiffening = true"
+            if not geometric_stiffening else "")
+    return SimulationError(
+        f"the tip deflection of {link.name} exceeds its length ({link.length:g} m) at "
+        f"t = {when:.4g} s{where}: the first-order model is not valid here{hint}; "
+        f"model = \"nonlinear\" handles large deflections")
 
 
 class ProgressBar:

@@ -22,7 +22,7 @@ from ..solvers.gauss_sampled import SampledLoop, sample_grid
 from .accuracy import axial_load_parameter
 from .cart import LAST, SAMPLE, STEP, check_travel
 from .closed_loop import control_values, sensor_rows
-from .common import PathRun, Progress, check_tip_deflection
+from .common import PathRun, Progress, check_tip_deflection, deflection_error
 from .prismatic import check_travel as check_slider_travel
 from .slider_drift import slider_drift_metadata
 
@@ -52,6 +52,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                 scenario, system, t, on_progress, loop, steps)
         except StoppedRun as stop:
             check_travel_before(scenario, system, t, stop)
+            check_deflection_at_stop(scenario, system, t, stop, loop is not None)
             raise
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
@@ -61,6 +62,8 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                                                   with_outputs=True, steps=steps)
         except StoppedRun as stop:
             check_travel_before(scenario, system, t, stop)
+            check_deflection_at_stop(scenario, system, t, stop, loop is not None)
+            check_loads_at_stop(scenario, system, stop)
             raise
     return forward_run(scenario, system, t, solution, outputs, loop, closure_values, closures,
                        with_shapes)
@@ -89,6 +92,105 @@ def check_travel_before(scenario: Scenario, system: ForwardSystem, t: np.ndarray
         check_slider_travel(system.chain.joints, times, p, system.n_base, where, tail)
 
 
+def check_deflection_at_stop(scenario: Scenario, system: ForwardSystem, t: np.ndarray,
+                             stop: StoppedRun, controlled: bool) -> None:
+    """A run the compiled integrator stopped at a step that ended with a link's tip beyond
+    its length (`solvers.forward.deflection_bounds`): that error in place of the stop's, at
+    the first output sample reached beyond it, else at the step's end (``controlled``: under
+    sampled controllers, an unstable closed loop)."""
+    if not stop.left_travel or stop.y is None or stop.states is None:
+        return
+    start = 2 * len(system.free) - system.n_rigid  # a body's offset is its column in [δp; z]
+    reached = np.all(np.isfinite(stop.states), axis=1)
+    step = " (the end of the integrator's first step beyond it: the run stopped there)"
+    for times, rows, where in ((t[reached], stop.states[reached], ""),
+                               (np.array([stop.t]), stop.y[None, :], step)):
+        for k, body in enumerate(system.bodies):
+            link = scenario.chain.links[k]
+            z = rows[:, start + body.offset:start + body.offset + body.data.n]
+            beyond = np.abs(z @ body.data.tip_value) > link.length
+            if beyond.any():
+                exc = deflection_error(link, float(times[int(np.argmax(beyond))]),
+                                       system.geometric_stiffening, where)
+                raise SimulationError(f"closed loop unstable: {exc}" if controlled
+                                      else str(exc)) from None
+
+
+def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun) -> None:
+    """A run that stalled or blew up under loads far beyond the first-order model's range:
+    an error naming them, in place of the stop's (whose hint is about the integrator). The
+    measure is `static_tip_ratio` from the start state with the loads at the stop."""
+    if stop.left_travel:
+        return
+    ratio = static_tip_ratio(system, stop.t)
+    k = int(np.argmax(np.where(np.isfinite(ratio), ratio, np.inf))) if ratio.size else 0
+    if not ratio.size or ratio[k] <= 1.0:
+        return
+    size = f"{ratio[k]:.3g} times" if np.isfinite(ratio[k]) else "beyond any multiple of"
+    loads = ", ".join(applied_loads(scenario, system, stop.t)) or "no load given: the initial state"
+    raise SimulationError(
+        f"the forward run stopped at t = {stop.t:.6g} s under loads far beyond the first-order "
+        f"model's range: the accelerations they cause at the start would bend "
+        f"{scenario.chain.links[k].name}'s tip {size} its length if held steady ({loads}); "
+        "check their values and units") from None
+
+
+def static_tip_ratio(system: ForwardSystem, t: float) -> np.ndarray:
+    """Each link's tip deflection per length that its modal accelerations at the start state
+    under the loads at ``t`` (s) would hold steady, K⁻¹ M z̈ of its clamped modes: far above 1
+    where the loads are beyond what the model can carry (inf where not finite)."""
+    from ..solvers.forward import split_state
+
+    parts = split_state(system, system.initial_state()[None])
+    with np.errstate(all="ignore"):
+        try:
+            zdd = system.accelerations(np.array([t]), *parts)[1][0]
+        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+            zdd = np.full(system.n, np.nan)
+        out = np.zeros(len(system.bodies))
+        start = -system.n_rigid  # a body's offset is its column in x = [δp; z]
+        for k, body in enumerate(system.bodies):
+            d = body.data
+            if d.n == 0:
+                continue
+            a = zdd[start + body.offset:start + body.offset + d.n]
+            held = np.linalg.solve(d.stiffness_matrix, d.clamped_mass_matrix @ a) \
+                if np.all(np.isfinite(a)) else np.full(d.n, np.inf)
+            value = abs(float(held @ d.tip_value)) / d.length
+            out[k] = value if np.isfinite(value) else np.inf
+    return out
+
+
+def applied_loads(scenario: Scenario, system: ForwardSystem, t: float) -> list[str]:
+    """The loads of ``scenario`` at t (s) that are not zero, each as its field and value."""
+    from ..model import TorqueDrive
+    from ..model.joints import drive_side
+
+    at = np.array([t])
+    out = []
+    for k, joint in enumerate(scenario.chain.joints):
+        drive = drive_side(joint)
+        if isinstance(drive, TorqueDrive):
+            value = float(drive.torque.value(at)[0])
+            field, unit = ("force", "N") if k in system.slides else ("torque", "N·m")
+            if value:
+                out.append(f"joints[{k}].{field} = {value:.3g} {unit}")
+    base = scenario.base
+    if base is not None and base.cart is not None and isinstance(base.cart.drive, TorqueDrive):
+        value = float(base.cart.drive.torque.value(at)[0])
+        if value:
+            out.append(f"base.cart.force = {value:.3g} N")
+    for j, load in enumerate(base.loads if base is not None and base.kind != "fixed" else ()):
+        values = [float(h.value(at)[0]) for h in (load.force_x, load.force_y, load.moment)]
+        if any(values):
+            out.append(f"base.loads[{j}]: force ({values[0]:.3g}, {values[1]:.3g}) N, moment "
+                       f"{values[2]:.3g} N·m")
+    g = scenario.settings.gravity
+    if any(g):
+        out.append(f"simulation.gravity = [{g[0]:.3g}, {g[1]:.3g}] m/s²")
+    return out
+
+
 def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, solution: Solution,
                 outputs: object, loop: SampledLoop | None, closure_values: dict,
                 closures: dict, with_shapes: bool) -> PathRun:
@@ -107,7 +209,8 @@ def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, soluti
             scenario.chain.links, t, tip_deflections(view, z), system.geometric_stiffening,
             axial_load_parameter(scenario.chain.links, system.modal, scenario.base,
                                  view.frames.theta, view.frames.omega, view.frames.alpha,
-                                 view.frames.origin_accel), estimate=False)
+                                 view.frames.origin_accel), estimate=False,
+            shares=inertia_shares(system, p, pd, pdd))
     except SimulationError as exc:
         if loop is None:
             raise
@@ -140,6 +243,13 @@ def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, soluti
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,
         **({"controllers": len(scenario.controllers)} if loop else {}), **closures,
         **validity})
+
+
+def inertia_shares(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray
+                   ) -> np.ndarray:
+    """`ForwardSystem.inertia_shares` at the run's first, middle and last output."""
+    rows = np.unique([0, p.shape[0] // 2, p.shape[0] - 1]) if p.shape[0] else np.zeros(0, int)
+    return system.inertia_shares(p[rows], pd[rows], pdd[rows])
 
 
 def sampled_loop(scenario: Scenario, system, t: np.ndarray, model: str = "first-order"

@@ -249,7 +249,7 @@ def _recent_factor(control, st, h, err):
 
 @njit(cache=True)
 def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, control,
-                  t_out, states, y, st, ws, cont, projection, box):
+                  t_out, states, y, st, ws, cont, projection, box, bounds):
     """Advance y (in place) from st[X] until st[X] ≥ t_stop (s), storing the state at each
     output time t_out[k] (k from st[NEXT_OUT]) into states[k] from the dense output.
 
@@ -263,9 +263,12 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
     step's end and each output state are put onto the model's known invariants
     (`model_project`; itab the inputs' integral table, U its scratch row). box (2, m): the
     range [lower, upper] each component must stay in, ±BLOW_UP but where the model has a
-    narrower one (a cart's or a slider's travel). Returns 0 (reached t_stop), 1 (a step
-    ended with a component outside its box, or NaN: a blow-up or a travel left, its output
-    times not written), 2 (step size collapsed), 3 (singular iteration matrix)."""
+    narrower one (a cart's or a slider's travel). bounds (r, m + 1): r linear combinations
+    of the state, each row's coefficients and then the bound of its magnitude (a link's tip
+    deflection and its length). Returns 0 (reached t_stop), 1 (a step ended with a
+    component outside its box or a combination beyond its bound, or NaN: a blow-up or a
+    travel left, its output times not written), 2 (step size collapsed), 3 (singular
+    iteration matrix)."""
     J, E1, E2, piv1, piv2, y0, z1, z2, z3, f1, f2, f3, scal, tmp, yp, fp, cw, u, y3, g3 = ws
     on, itab, U = projection
     m = y.shape[0]
@@ -483,6 +486,12 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
                 acont3 = (ak - z1i / C1) / C2
                 cont[i, 2] = (ak - cont[i, 1]) / C1M1
                 cont[i, 3] = cont[i, 2] - acont3
+            for j in range(bounds.shape[0]):
+                s = 0.0
+                for i in range(m):
+                    s += bounds[j, i] * y[i]
+                if not abs(s) <= bounds[j, m]:
+                    bad = True
             update_peaks(control, y)
             st[X] = x
             st[H_OLD] = h

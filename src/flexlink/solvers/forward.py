@@ -129,7 +129,8 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
             atol, groups, max_step, on_progress=on_progress, loop=loop,
             held=voltage_columns(system) if loop is not None else slice(0, 0),
             z=slice(2 * nu, 2 * nu + n), projection=known, steps=steps,
-            weights=state_weights(system, y0.size, rate_weights), box=system.free_travels())
+            weights=state_weights(system, y0.size, rate_weights), box=system.free_travels(),
+            bounds=deflection_bounds(system, y0.size))
     except RadauStop as exc:
         why = stop_reason(exc)
         if loop is not None and exc.why != "box":
@@ -162,6 +163,25 @@ def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_ou
                     np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
                     FAST_METHOD, stats, extra=states[:, 2 * nu + 2 * n:],
                     accuracy=accuracy), outputs
+
+
+def deflection_bounds(system: ForwardSystem, size: int) -> np.ndarray:
+    """Each elastic link's tip deflection w(L) as a row over the ``size`` state components,
+    then its length (m): the compiled integrator stops at the first accepted step that ends
+    with a tip beyond its link's length (the first-order model has left its range there,
+    whether or not an output sample falls near it)."""
+    nu = len(system.free)
+    rows = []
+    for body in system.bodies:
+        tip = body.data.tip_value
+        if body.data.n == 0 or not np.any(tip):
+            continue
+        row = np.zeros(size + 1)
+        start = 2 * nu + body.offset - system.n_rigid  # body.offset: its column in x = [δp; z]
+        row[start:start + tip.size] = tip
+        row[size] = body.data.length
+        rows.append(row)
+    return np.array(rows).reshape(len(rows), size + 1)
 
 
 def error_groups(system: ForwardSystem, size: int) -> np.ndarray:

@@ -12,7 +12,7 @@ import numpy as np
 from ..dynamics.forward_kernel import breakpoints, inputs, voltage_columns
 from ..dynamics.loops import LoopSystem, closed_states
 from ..errors import SimulationError, StoppedRun, UnstableLoop
-from .forward import error_groups, stop_reason
+from .forward import deflection_bounds, error_groups, stop_reason
 from .gauss_sampled import SampledLoop
 from .radau import RadauStop, integrate_radau
 from .solution import LOCAL_CONTROL, Accuracy, Progress, Solution
@@ -49,7 +49,7 @@ def integrate_loops(loops: LoopSystem, t_out: np.ndarray, rtol: float, atol: flo
             loops.data, loops.workspace(y0.size), y0, t_out, lambda t: inputs(system, t),
             breakpoints(system), rtol, atol, groups, np.inf, on_progress=on_progress,
             loop=loop, held=held, z=slice(2 * nu, 2 * nu + n), steps=steps, recent=True,
-            box=system.free_travels())
+            box=system.free_travels(), bounds=deflection_bounds(system, y0.size))
     except RadauStop as exc:
         if loop is not None and exc.why != "box":
             raise UnstableLoop(exc.t, stop_reason(exc)) from None

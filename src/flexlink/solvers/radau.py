@@ -38,8 +38,8 @@ CHUNKS = 20  # calls of the compiled loop without controllers, progress reported
 @dataclass
 class RadauStop(Exception):
     """The run stopped at ``t`` (s): ``why`` is "blow-up" (|y| beyond BLOW_UP), "stalled"
-    (the step collapsed) or "box" (a step ended with a component outside its ``box``, at
-    ``t``: `integrate_radau`); ``states``: the output rows reached before it (NaN after), ``y``:
+    (the step collapsed) or "box" (a step ended with a component outside its ``box`` or a
+    combination beyond its ``bounds``, at ``t``: `integrate_radau`); ``states``: the output rows reached before it (NaN after), ``y``:
     the last state (what a travel check reads to tell why it stopped)."""
 
     t: float
@@ -89,8 +89,8 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     loop: SampledLoop | None = None, held: slice = slice(0, 0),
                     z: slice = slice(0, 0), projection: object | None = None,
                     steps: list | None = None, weights: np.ndarray | None = None,
-                    recent: bool = False, box: tuple | None = None
-                    ) -> tuple[np.ndarray, dict[str, int]]:
+                    recent: bool = False, box: tuple | None = None,
+                    bounds: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, int]]:
     """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
 
     inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
@@ -107,7 +107,10 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     (3, len(y0)), Y_i = y + z_i): the step sequence that the sensitivities
     (`radau_sensitivity.py`) differentiate. ``box``: (columns, lo, hi), components
     y[columns[j]] that must stay in [lo[j], hi[j]] (a travel): the run stops at the first
-    accepted step that ends outside (None: no such component). Raises RadauStop."""
+    accepted step that ends outside (None: no such component). ``bounds`` (r, len(y0) + 1):
+    linear combinations of the state, each row's coefficients then the bound of its
+    magnitude, that stop the run alike where an accepted step ends beyond one (None: none).
+    Raises RadauStop."""
     from ._radau_numba import (
         EXPONENT,
         F0_OK,
@@ -142,6 +145,8 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         columns = np.asarray(box[0], dtype=np.int64)
         limits[0, columns] = np.maximum(-BLOW_UP, box[1])
         limits[1, columns] = np.minimum(BLOW_UP, box[2])
+    bounds = (np.zeros((0, y0.size + 1)) if bounds is None
+              else np.ascontiguousarray(bounds, dtype=float))
     model = model_functions(d, w, projection if on else ())  # d, w, projection: kept alive
     m = y0.size
     groups = np.ascontiguousarray(groups, dtype=np.int64)
@@ -182,7 +187,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         if steps is None:
             status = radau_advance(model, M, identity, tab, nodes, held_values, held_columns,
                                    t_stop, hmax, control, t_out, states, y, st, ws, cont,
-                                   project, limits)
+                                   project, limits, bounds)
         else:  # one accepted step per call (the loop resumes where it stopped: same steps)
             status = 0
             while status == 0 and st[X] < t_stop:
@@ -190,7 +195,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                 status = radau_advance(model, M, identity, tab, nodes, held_values,
                                        held_columns, min(np.nextafter(start, np.inf), t_stop),
                                        hmax, control, t_out, states, y, st, ws, cont, project,
-                                       limits)
+                                       limits, bounds)
                 if status == 0:  # ws[6:9]: the accepted step's stage increments z1, z2, z3
                     steps.append((start, float(st[H_OLD]), seg, y_start, y.copy(),
                                   np.array(ws[6:9])))

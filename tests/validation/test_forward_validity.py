@@ -1,0 +1,84 @@
+"""The first-order forward runs' validity warning against the nonlinear model (held-out
+cases, not among scripts/forward_validity_calibration.py's): a run without a warning is
+within 3% of peak of the nonlinear model on its channels (every elastic link's tip and
+mid-span deflection, every moving joint's angle and rate, a cart's travel), and the warning
+names the link, its measure, the limit and the fix (docs/validation.md, "The forward runs'
+validity warning, calibrated")."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flexlink.model import PointSensor, Scenario
+from flexlink.scenario import scenario_from_dict
+from flexlink.simulation import simulate
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+COMPARED = re.compile(r"^(tip|mid)\d+$|^joint\d+_(angle|rate|position|velocity)$|"
+                      r"^cart_(position|velocity)$|^base_attitude(_rate)?$")
+
+
+def _arm(torque: float, rate_deg_s: float, hub: float, t_end: float) -> Scenario:
+    """examples/gravity_release.toml's arm in a level plane on a hub (kg·m²), spun up to
+    ``rate_deg_s`` and pushed by ``torque`` (N·m)."""
+    with open(EXAMPLES / "gravity_release.toml", "rb") as file:
+        d = tomllib.load(file)
+    joint = d["joints"][0]
+    joint.update(initial_rate_deg_s=rate_deg_s, motor_inertia=hub)
+    joint["torque"][0]["amplitude"] = torque
+    d["simulation"].update(t_end=t_end, dt_out=0.001, gravity=[0.0, 0.0])
+    return scenario_from_dict(d)
+
+
+def _cart(force: float) -> Scenario:
+    """examples/cart_beam.toml (a beam hanging from a cart), its bang-bang ``force`` (N)."""
+    with open(EXAMPLES / "cart_beam.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["base"]["cart"]["force"][0]["amplitude"] = force
+    d["base"]["cart"]["travel"] = [-5.0, 5.0]
+    return scenario_from_dict(d)
+
+
+def _largest_error(scenario: Scenario) -> tuple[float, dict]:
+    """The first-order (stiffened) run's largest error over the compared channels, relative
+    to each one's nonlinear peak (both at rtol 1e-7), and its metadata."""
+    sensors = tuple(PointSensor(f"{where}{k}", "deflection", k, x * link.length)
+                    for k, link in enumerate(scenario.chain.links) if not link.rigid
+                    for where, x in (("tip", 1.0), ("mid", 0.5)))
+    scenario = dataclasses.replace(scenario, sensors=sensors, settings=dataclasses.replace(
+        scenario.settings, rtol=1e-7, geometric_stiffening=True))
+    reference = simulate(dataclasses.replace(scenario, settings=dataclasses.replace(
+        scenario.settings, model="nonlinear")), shapes=False)
+    run = simulate(scenario, shapes=False)
+    errors = []
+    for name in reference.channels:
+        exact = np.asarray(reference[name])
+        peak = float(np.abs(exact).max())
+        if COMPARED.match(name) and peak > 1e-9 and np.ptp(exact) > 1e-9 * peak:
+            errors.append(float(np.abs(np.asarray(run[name]) - exact).max()) / peak)
+    return max(errors), run.metadata
+
+
+@pytest.mark.parametrize(("case", "warns"), [
+    (lambda: _arm(1.0, 3000.0, 0.0, 0.3), True),   # alone on its pin, fast
+    (lambda: _arm(0.3, 1500.0, 0.0, 0.3), False),
+    (lambda: _arm(20.0, 3000.0, 0.5, 0.3), True),  # on a hub of twice its inertia
+    (lambda: _arm(3.0, 1500.0, 0.5, 0.3), False),
+    (lambda: _cart(12.0), False),                   # a hanging beam, 7% deflection
+], ids=["alone-fast", "alone-slow", "hub-fast", "hub-slow", "cart"])
+def test_a_forward_run_without_a_warning_is_within_3_percent(case, warns: bool) -> None:
+    error, meta = _largest_error(case())
+    print(f"error {error:.3%}, μ²·δ·√S = {meta['forward_validity_measure']:.3g}, "
+          f"warning: {meta.get('validity_warning', '')[:80]}")
+    assert ("validity_warning" in meta) == warns
+    if not warns:
+        assert error <= 0.03
+    else:
+        assert re.search(r"arm carries \d+% of the inertia .*μ²·δ·√S = \S+, beyond 0\.005, "
+                         r".*model = \"nonlinear\"", meta["validity_warning"])
