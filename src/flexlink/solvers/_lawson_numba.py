@@ -345,7 +345,7 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
     r = np.empty(n)
     Ey, E2y, w, u = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     Ecy, E4y, wc = np.empty(m), np.empty(m), np.empty(m)
-    ym = np.empty(m)  # the state between a pair's fine steps, where the trail keeps none
+    ym = np.empty(m)  # the state between a pair's fine steps
     s = 0  # the next row of trail
     for b in range(first.size):
         i0, i1 = first[b], last[b]
@@ -385,7 +385,9 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
                     _copy(y, trail[s])
                 if coarse:
                     _pair(P, P2, P4, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
-                          w, Ecy, E4y, wc, trail[s + 1] if trail.shape[0] else ym)
+                          w, Ecy, E4y, wc, ym)
+                    if trail.shape[0]:
+                        _copy(ym, trail[s + 1])
                     s += 2
                 else:
                     r0 = 2 * (j % 2)
