@@ -106,7 +106,7 @@ def _forward(t_out, first, last, static, pieces, lower, upper, polyT, referenceT
              substeps, states, ys):
     """The forward fine steps from y = [0, 0, 1] (`_lawson_sensitivity_numba._stages`):
     y at the output indices into ``states`` (nt, m), at every step's start on the moving
-    blocks into ``ys`` (steps, m)."""
+    blocks but an output interval's first into ``ys`` (`lawson.RunSteps.starts`)."""
     m = states.shape[1]
     n = (m - 1) // 2
     s = 0
@@ -140,9 +140,10 @@ def _forward(t_out, first, last, static, pieces, lower, upper, polyT, referenceT
                 D0, De = De, D0
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, De)
-                for q in range(m):
-                    ys[s, q] = y[q]
-                s += 1
+                if j > 0:
+                    for q in range(m):
+                        ys[s, q] = y[q]
+                    s += 1
                 _stages(P, P2, D0, Dm, De, h, y, k1, k2, k3, k4, Ey, E2y, a, b, c, w)
                 for q in range(m):
                     y[q] = w[q]
@@ -159,8 +160,9 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
     blocks (module docstring), ``Gs`` (blocks, n, m) Σ seed_acc yᵀ on static blocks, and
     ``W`` (blocks, m, m) Σ λ_{i+1} y_iᵀ on static blocks (the weight of their propagators'
     derivative). Reads the run's states y at the output indices (``states``, (nt, m)) and
-    at the start of every fine step on the moving blocks (``ys``, (steps, m), in order);
-    with ``forward`` it first computes both by the forward steps."""
+    at the start of every other fine step on the moving blocks (``ys``,
+    `lawson.RunSteps.starts`); with ``forward`` it first computes both by the forward
+    steps."""
     m = seed_y.shape[1]
     n = (m - 1) // 2
     if forward:
@@ -218,9 +220,13 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 t0 = _start_tau(t_out, i0, i, j, substeps, span)
                 _delta(polyT, lower, upper, p0, p1, A_ref, t0, D0)
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
-                s -= 1
-                for q in range(m):
-                    yb[q] = ys[s, q]
+                if j > 0:
+                    s -= 1
+                    for q in range(m):
+                        yb[q] = ys[s, q]
+                else:  # the interval's first step starts from its output state
+                    for q in range(m):
+                        yb[q] = states[i, q]
                 _stages(P, P2, D0, Dm, De, h, yb, k1, k2, k3, k4, Ey, E2y, a, b, c, w)
                 # y⁺ = E²y + h/6 E²_v k1 + h/3 E_v (k2 + k3) + h/6 k4
                 for q in range(m):

@@ -330,8 +330,9 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
     (``coarse_states``) and, on moving blocks, z̈ = A y into ``accelerations``; keeps the
     running maxima over the output times of |y| per component in ``peak`` and (coarse) of
     |y − yc| in ``spread`` (m,), the Richardson check's inputs (lawson.py). ``trail``, if
-    it has rows: the start state of every fine step on the moving blocks, in order (what a
-    reverse pass of the steps reads, `_lawson_adjoint_numba`).
+    it has rows: the start state of every fine step on the moving blocks but the first of
+    each output interval (the state at its start, in ``states``), in order (what a reverse
+    pass of the steps reads, `_lawson_adjoint_numba`).
 
     The coarse step of 2h spans two fine steps: its middle and end are their ends, so it reads
     ΔÃ at instants the fine pass evaluates anyway (one pass over the coefficients, _deltas,
@@ -381,18 +382,18 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
                     else:  # a last single step (fine pass alone, odd substeps)
                         _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, D[0])
                         _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, D[1])
-                if trail.shape[0]:
+                if trail.shape[0] and j > 0:  # the first step starts from states[i]
                     _copy(y, trail[s])
+                    s += 1
                 if coarse:
                     _pair(P, P2, P4, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
                           w, Ecy, E4y, wc, ym)
                     if trail.shape[0]:
-                        _copy(ym, trail[s + 1])
-                    s += 2
+                        _copy(ym, trail[s])
+                        s += 1
                 else:
                     r0 = 2 * (j % 2)
                     _step(P, P2, D[r0], D[r0 + 1], h, y, k1, k2, k3, k4, Ey, E2y, w)
-                    s += 1
             _record(i + 1, y, yc, coarse, states, coarse_states, peak, spread)
             _gemv(A_ref, FIRST, m, y, 1.0, r, SET)
             for q in range(n):

@@ -80,7 +80,8 @@ class Discretisation:
 @dataclass(frozen=True)
 class RunSteps:
     """The augmented states of a Lawson run: at the output times (nt, 2n+1) and at the start
-    of every fine step on its moving blocks, in order (steps, 2n+1)."""
+    of every fine step on its moving blocks but an output interval's first (its state at the
+    output time), in order (moving intervals × (substeps − 1), 2n+1)."""
 
     states: np.ndarray
     starts: np.ndarray
@@ -149,9 +150,10 @@ def integrate_lawson_discretised(system: LinearSystem, t_out: np.ndarray, rtol: 
 
 
 def _trail(table: CoefficientTable, n: int, substeps: int) -> np.ndarray:
-    """Room for the start state of every fine step on the table's moving blocks."""
+    """Room for the start state of every fine step on the table's moving blocks but the
+    first of each output interval (`RunSteps.starts`)."""
     intervals = int(np.sum((table.last - table.first)[~table.static]))
-    return np.empty((intervals * substeps, 2 * n + 1))
+    return np.empty((intervals * (substeps - 1), 2 * n + 1))
 
 
 @dataclass(frozen=True)
@@ -327,7 +329,7 @@ def _run(
     acc[0] = table.poly[0, 0] @ y  # A at τ = 0 of the first block
     rows = np.zeros((0, m)) if trail is None else trail
     # each call's first row of the trail: the fine steps of the moving blocks before it
-    steps = np.where(table.static, 0, (table.last - table.first) * substeps)
+    steps = np.where(table.static, 0, (table.last - table.first) * (substeps - 1))
     for lo in range(0, len(table), _BLOCKS_PER_CALL):
         sl = slice(lo, lo + _BLOCKS_PER_CALL)
         lawson_blocks(y, yc, t_out, table.first[sl], table.last[sl], table.static[sl],

@@ -56,7 +56,7 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
         if steps is None:  # the forward steps anew, in the pass
             states = np.empty((nt, m))
             starts = np.empty((int(np.sum((table.last - table.first)[~table.static]))
-                               * discretisation.substeps, m))
+                               * (discretisation.substeps - 1), m))
         else:  # the run's own
             states, starts = steps.states, steps.starts
         lawson_adjoint_blocks(t_out, table.first, table.last, table.static, table.pieces,
