@@ -112,12 +112,13 @@ def test_sensitivities_take_the_settled_table_and_the_same_numbers() -> None:
     np.testing.assert_allclose(kept_gradient[0], new_gradient[0], rtol=1e-11)
 
 
-@pytest.mark.parametrize("halved", [False, True])
-def test_the_run_keeps_its_steps_for_the_reverse_pass(halved: bool,
+@pytest.mark.parametrize(("halved", "rtol"), [(False, None), (True, None), (False, 1e-9)])
+def test_the_run_keeps_its_steps_for_the_reverse_pass(halved: bool, rtol: float | None,
                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     """Asked to, the settled run keeps its states and every fine step's start on the
     moving blocks, in order, the fine steps of its accepted pass (``halved``: the first pass
-    refused, its steps halved once); else none."""
+    refused, its steps halved once; ``rtol`` 1e-9: ten steps per output interval, pairs
+    of them started inside one); else none."""
     from flexlink.solvers import lawson
 
     if halved:
@@ -125,15 +126,16 @@ def test_the_run_keeps_its_steps_for_the_reverse_pass(halved: bool,
     scenario = flexlink.load_paper_experiment()
     t = output_times(1.5, scenario.settings.dt_out)
     system = prescribed_system(scenario, t)
-    solution, disc = integrate_lawson_discretised(system, t, scenario.settings.rtol,
-                                                  scenario.settings.atol, keep_table=True,
-                                                  keep_steps=True)
+    rtol = rtol or scenario.settings.rtol
+    solution, disc = integrate_lawson_discretised(system, t, rtol, scenario.settings.atol,
+                                                  keep_table=True, keep_steps=True)
     assert disc is not None and disc.steps is not None and disc.table is not None
     states, starts = disc.steps.states, disc.steps.starts
     np.testing.assert_array_equal(states[:, :system.n], solution.q)
     table, k = disc.table, disc.substeps
-    first = lawson.prepare(system, t, scenario.settings.rtol, scenario.settings.atol).substeps
+    first = lawson.prepare(system, t, rtol, scenario.settings.atol).substeps
     assert k == (2 * first if halved else first)
+    assert k > 2 or rtol > 1e-9  # the tight run's pairs start inside an interval too
     moving = np.flatnonzero(~table.static)
     intervals = np.concatenate([np.arange(table.first[b], table.last[b]) for b in moving])
     # an output interval's first step starts from the state there: not kept again
@@ -143,8 +145,8 @@ def test_the_run_keeps_its_steps_for_the_reverse_pass(halved: bool,
     _solve(table, system.n, t, k, None, disc.propagators, alone)
     np.testing.assert_allclose(starts, alone, rtol=0, atol=1e-14 * np.abs(alone).max())
     for keep_table in (False, True):  # unless asked for
-        _, plain = integrate_lawson_discretised(system, t, scenario.settings.rtol,
-                                                scenario.settings.atol, keep_table=keep_table)
+        _, plain = integrate_lawson_discretised(system, t, rtol, scenario.settings.atol,
+                                                keep_table=keep_table)
         assert plain is not None and plain.steps is None
 
 
