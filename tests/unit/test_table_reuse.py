@@ -16,9 +16,10 @@ from flexlink.dynamics.first_order import FirstOrderSystem
 from flexlink.motion import Cycloidal
 from flexlink.scenario.fields import ScenarioFile
 from flexlink.simulation import output_times
+from flexlink.simulation.prescribed import prescribed_system
 from flexlink.simulation.sensitivities import prepare_fields, scenario_file, settled_run
 from flexlink.solvers.coefficient_table import CoefficientTable, layout, tabulate, tabulate_on
-from flexlink.solvers.lawson import integrate_lawson_discretised
+from flexlink.solvers.lawson import _solve, _trail, integrate_lawson_discretised
 from flexlink.solvers.lawson_adjoint import lawson_gradient
 from flexlink.solvers.lawson_sensitivity import lawson_sensitivities, steps_on
 from flexlink.solvers.magnus import state_rows
@@ -82,7 +83,7 @@ def test_sensitivities_take_the_settled_table_and_the_same_numbers() -> None:
     fields = prepare_fields(file, scenario, ["links[0].EI", "links[1].damping_ratio",
                                              "sensors[pzt].d31"])
     t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
-    settled = settled_run(scenario, fields, t, lambda _: None, False)
+    settled = settled_run(scenario, fields, t, lambda _: None, False, keep_steps=True)
     disc = settled.discretisation
     assert disc.table is not None
     # a discretisation that others get (the optimiser's workers) does not carry the table
@@ -104,8 +105,49 @@ def test_sensitivities_take_the_settled_table_and_the_same_numbers() -> None:
     seeds = np.random.default_rng(3).standard_normal((3, t.size, settled.nominal.n))
     kept_gradient = lawson_gradient(settled.nominal, rows, t, disc, *seeds, settled_system=True)
     new_gradient = lawson_gradient(settled.nominal, rows, t, disc, *seeds)
-    for a, b in zip(kept_gradient, new_gradient, strict=True):
-        assert np.array_equal(a, b)
+    # the kept one reads the run's own steps, the same steps as the pass's forward ones but
+    # summed in another order (the run's loop pairs them with its coarse steps)
+    assert disc.steps is not None and kept_gradient[1] is disc.steps.states
+    np.testing.assert_allclose(kept_gradient[1], new_gradient[1], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(kept_gradient[0], new_gradient[0], rtol=1e-11)
+
+
+@pytest.mark.parametrize(("halved", "rtol"), [(False, None), (True, None), (False, 1e-9)])
+def test_the_run_keeps_its_steps_for_the_reverse_pass(halved: bool, rtol: float | None,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """Asked to, the settled run keeps its states and every fine step's start on the
+    moving blocks, in order, the fine steps of its accepted pass (``halved``: the first pass
+    refused, its steps halved once; ``rtol`` 1e-9: ten steps per output interval, pairs
+    of them started inside one); else none."""
+    from flexlink.solvers import lawson
+
+    if halved:
+        monkeypatch.setattr(lawson, "agree_maxima", lambda *args: False)
+    scenario = flexlink.load_paper_experiment()
+    t = output_times(1.5, scenario.settings.dt_out)
+    system = prescribed_system(scenario, t)
+    rtol = rtol or scenario.settings.rtol
+    solution, disc = integrate_lawson_discretised(system, t, rtol, scenario.settings.atol,
+                                                  keep_table=True, keep_steps=True)
+    assert disc is not None and disc.steps is not None and disc.table is not None
+    states, starts = disc.steps.states, disc.steps.starts
+    np.testing.assert_array_equal(states[:, :system.n], solution.q)
+    table, k = disc.table, disc.substeps
+    first = lawson.prepare(system, t, rtol, scenario.settings.atol).substeps
+    assert k == (2 * first if halved else first)
+    assert k > 2 or rtol > 1e-9  # the tight run's pairs start inside an interval too
+    moving = np.flatnonzero(~table.static)
+    intervals = np.concatenate([np.arange(table.first[b], table.last[b]) for b in moving])
+    # an output interval's first step starts from the state there: not kept again
+    assert starts.shape == (intervals.size * (k - 1), states.shape[1])
+    # the fine pass alone (the loop without its coarse steps) takes the same steps
+    alone = _trail(table, system.n, k)
+    _solve(table, system.n, t, k, None, disc.propagators, alone)
+    np.testing.assert_allclose(starts, alone, rtol=0, atol=1e-14 * np.abs(alone).max())
+    for keep_table in (False, True):  # unless asked for
+        _, plain = integrate_lawson_discretised(system, t, rtol, scenario.settings.atol,
+                                                keep_table=keep_table)
+        assert plain is not None and plain.steps is None
 
 
 def test_state_rows_on_two_threads_are_the_same_numbers(monkeypatch: pytest.MonkeyPatch

@@ -54,7 +54,7 @@ def adjoint_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
         from .sensitivities import run_on_path
 
         return run_on_path(scenario, fields, t, on_progress, shapes)
-    settled = settled_run(scenario, fields, t, on_progress, shapes)
+    settled = settled_run(scenario, fields, t, on_progress, shapes, keep_steps=True)
     return settled.run, settled
 
 

@@ -251,9 +251,10 @@ class SettledRun:
 
 
 def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
-                on_progress: Progress, shapes: bool) -> SettledRun:
+                on_progress: Progress, shapes: bool, keep_steps: bool = False) -> SettledRun:
     """The prescribed run of ``scenario`` (`prescribed.run_prescribed`, adaptive Lawson),
-    its discretisation and the systems of the fields' stencils."""
+    its discretisation (``keep_steps``: with the run's steps, for a reverse pass) and the
+    systems of the fields' stencils."""
     from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem
     from ..solvers.lawson import integrate_lawson_discretised
     from .prescribed import prescribed_system, run_prescribed
@@ -263,7 +264,8 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
     def adaptive(system: Any, times: np.ndarray, rtol: float, atol: float,
                  progress: Any) -> Solution:
         solution, settled[0] = integrate_lawson_discretised(system, times, rtol, atol,
-                                                            progress, keep_table=True)
+                                                            progress, keep_table=True,
+                                                            keep_steps=keep_steps)
         return solution
 
     # the run's own system is the nominal one: the sensitivities reuse its settled table

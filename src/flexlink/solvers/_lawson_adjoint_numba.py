@@ -101,23 +101,15 @@ def _start_tau(t_out, i0, i, j, substeps, span):
     return (t_out[i - 1] - t_out[i0] + (substeps - 1) * h) / span + h / span
 
 
-@njit(cache=True, error_model="numpy")
-def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, polyT, referenceT,
-                          ET, E2T, substeps, seed_y, seed_acc, G, Gs, W):
-    """The reverse pass of the fine Lawson steps from y = [0, 0, 1] for J with
-    ∂J/∂y_i = ``seed_y`` (nt, m) and ∂J/∂z̈_i = ``seed_acc`` (nt, n) at the output indices
-    i ≥ 1. Accumulates the weights of ∂A/∂p: ``G`` (pieces, degree+1, n, m) on moving
-    blocks (module docstring), ``Gs`` (blocks, n, m) Σ seed_acc yᵀ on static blocks, and
-    ``W`` (blocks, m, m) Σ λ_{i+1} y_iᵀ on static blocks (the weight of their propagators'
-    derivative). Returns the states y (nt, m) of the forward pass."""
-    nt, m = seed_y.shape
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _forward(t_out, first, last, static, pieces, lower, upper, polyT, referenceT, ET, E2T,
+             substeps, states, ys):
+    """The forward fine steps from y = [0, 0, 1] (`_lawson_sensitivity_numba._stages`):
+    y at the output indices into ``states`` (nt, m), at every step's start on the moving
+    blocks but an output interval's first into ``ys`` (`lawson.RunSteps.starts`)."""
+    m = states.shape[1]
     n = (m - 1) // 2
-    steps = 0
-    for blk in range(first.size):
-        if not static[blk]:
-            steps += (last[blk] - first[blk]) * substeps
-    ys = np.empty((steps + 1, m))
-    states = np.empty((nt, m))
+    s = 0
     y = np.zeros(m)
     y[m - 1] = 1.0
     for q in range(m):
@@ -126,8 +118,6 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
     k1, k2, k3, k4 = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     Ey, E2y, a, b, c, w = (np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m),
                            np.empty(m))
-    # forward: every step's start state
-    s = 0
     for blk in range(first.size):
         i0, i1 = first[blk], last[blk]
         P, P2 = ET[blk], E2T[blk]
@@ -150,14 +140,39 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 D0, De = De, D0
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, De)
-                for q in range(m):
-                    ys[s, q] = y[q]
-                s += 1
+                if j > 0:
+                    for q in range(m):
+                        ys[s, q] = y[q]
+                    s += 1
                 _stages(P, P2, D0, Dm, De, h, y, k1, k2, k3, k4, Ey, E2y, a, b, c, w)
                 for q in range(m):
                     y[q] = w[q]
             for q in range(m):
                 states[i + 1, q] = y[q]
+
+
+@njit(cache=True, error_model="numpy")
+def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, polyT, referenceT,
+                          ET, E2T, substeps, seed_y, seed_acc, G, Gs, W, states, ys, forward):
+    """The reverse pass of the fine Lawson steps from y = [0, 0, 1] for J with
+    ∂J/∂y_i = ``seed_y`` (nt, m) and ∂J/∂z̈_i = ``seed_acc`` (nt, n) at the output indices
+    i ≥ 1. Accumulates the weights of ∂A/∂p: ``G`` (pieces, degree+1, n, m) on moving
+    blocks (module docstring), ``Gs`` (blocks, n, m) Σ seed_acc yᵀ on static blocks, and
+    ``W`` (blocks, m, m) Σ λ_{i+1} y_iᵀ on static blocks (the weight of their propagators'
+    derivative). Reads the run's states y at the output indices (``states``, (nt, m)) and
+    at the start of every other fine step on the moving blocks (``ys``,
+    `lawson.RunSteps.starts`); with ``forward`` it first computes both by the forward
+    steps."""
+    m = seed_y.shape[1]
+    n = (m - 1) // 2
+    if forward:
+        _forward(t_out, first, last, static, pieces, lower, upper, polyT, referenceT, ET, E2T,
+                 substeps, states, ys)
+    s = ys.shape[0]
+    D0, Dm, De = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
+    k1, k2, k3, k4 = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    Ey, E2y, a, b, c, w = (np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m),
+                           np.empty(m))
     # backward
     lam = np.zeros(m)
     yb = np.empty(m)
@@ -205,9 +220,13 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                 t0 = _start_tau(t_out, i0, i, j, substeps, span)
                 _delta(polyT, lower, upper, p0, p1, A_ref, t0, D0)
                 _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, Dm)
-                s -= 1
-                for q in range(m):
-                    yb[q] = ys[s, q]
+                if j > 0:
+                    s -= 1
+                    for q in range(m):
+                        yb[q] = ys[s, q]
+                else:  # the interval's first step starts from its output state
+                    for q in range(m):
+                        yb[q] = states[i, q]
                 _stages(P, P2, D0, Dm, De, h, yb, k1, k2, k3, k4, Ey, E2y, a, b, c, w)
                 # y⁺ = E²y + h/6 E²_v k1 + h/3 E_v (k2 + k3) + h/6 k4
                 for q in range(m):
@@ -250,4 +269,3 @@ def lawson_adjoint_blocks(t_out, first, last, static, pieces, lower, upper, poly
                         Xe[q, r] = X0[q, r]
                         X0[q, r] = 0.0
         _spread(G, lower, upper, p0, p1, 0.0, Xe)
-    return states

@@ -253,14 +253,14 @@ def _fine_step(ET, E2T, Da, Db, h, y, k1, Ey, E2y, u, w, k2, k3, k4, cin, cscale
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u, w, Ecy,
-          E4y, wc):
+          E4y, wc, mid):
     """Two fine steps of h on y and one coarse step of 2h on yc (in place), as two _step
     calls with (E, E², ΔÃ at D[0], D[1]), (E, E², D[2], D[3]) and one with (E², E⁴, D[1],
     D[3]): the same operations per entry, bit for bit, but the coarse step's products with
     E², E⁴ and ΔÃ share their passes over a matrix with the fine steps' where both operands
     are known (_gemv2): 20 passes over a matrix instead of 30 (with _stages_ab's). k1, c1:
     ΔÃ(start) y, yc on entry, ΔÃ(end) of the new y, yc on exit; the rest is scratch (b2 … b4:
-    coarse stages)."""
+    coarse stages); ``mid``: the state between the two fine steps, written."""
     m = y.shape[0]
     n = k1.shape[0]
     H = 2.0 * h  # the coarse step
@@ -271,6 +271,7 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _gemv(E4T, FIRST, m, yc, 1.0, E4y, SET)
     _copy(Ecy, wc)  # wc: the coarse stage a = E_c yc + H/2 E_c c1; b2 its coarse k2
     _fine_step(ET, E2T, D[0], D[1], h, y, k1, Ey, E2y, u, w, k2, k3, k4, c1, 0.5 * H, wc, b2)
+    _copy(y, mid)
     _copy(Ecy, wc)
     _add(wc, n, 0.5 * H, b2)  # coarse b
     _zero2(k1, b3)
@@ -316,7 +317,7 @@ def _record(i, y, yc, coarse, states, coarse_states, peak, spread):
 @njit(cache=True, error_model="numpy")
 def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,
                   ET, E2T, E4T, substeps, coarse, states, accelerations, coarse_states,
-                  peak, spread):
+                  peak, spread, trail):
     """Advance the augmented state y = [z, ż, 1] through the blocks, and with ``coarse`` the
     state yc of the Richardson pass with half as many steps alongside (in place, both).
 
@@ -328,7 +329,10 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
     (yc, unless ``coarse_states`` has no rows) at every output index into ``states``
     (``coarse_states``) and, on moving blocks, z̈ = A y into ``accelerations``; keeps the
     running maxima over the output times of |y| per component in ``peak`` and (coarse) of
-    |y − yc| in ``spread`` (m,), the Richardson check's inputs (lawson.py).
+    |y − yc| in ``spread`` (m,), the Richardson check's inputs (lawson.py). ``trail``, if
+    it has rows: the start state of every fine step on the moving blocks but the first of
+    each output interval (the state at its start, in ``states``), in order (what a reverse
+    pass of the steps reads, `_lawson_adjoint_numba`).
 
     The coarse step of 2h spans two fine steps: its middle and end are their ends, so it reads
     ΔÃ at instants the fine pass evaluates anyway (one pass over the coefficients, _deltas,
@@ -342,6 +346,8 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
     r = np.empty(n)
     Ey, E2y, w, u = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     Ecy, E4y, wc = np.empty(m), np.empty(m), np.empty(m)
+    ym = np.empty(m)  # the state between a pair's fine steps
+    s = 0  # the next row of trail
     for b in range(first.size):
         i0, i1 = first[b], last[b]
         A_ref = referenceT[b]
@@ -376,9 +382,15 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
                     else:  # a last single step (fine pass alone, odd substeps)
                         _delta(polyT, lower, upper, p0, p1, A_ref, tau + 0.5 * dtau, D[0])
                         _delta(polyT, lower, upper, p0, p1, A_ref, tau + dtau, D[1])
+                if trail.shape[0] and j > 0:  # the first step starts from states[i]
+                    _copy(y, trail[s])
+                    s += 1
                 if coarse:
                     _pair(P, P2, P4, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
-                          w, Ecy, E4y, wc)
+                          w, Ecy, E4y, wc, ym)
+                    if trail.shape[0]:
+                        _copy(ym, trail[s])
+                        s += 1
                 else:
                     r0 = 2 * (j % 2)
                     _step(P, P2, D[r0], D[r0 + 1], h, y, k1, k2, k3, k4, Ey, E2y, w)
@@ -392,7 +404,8 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
 SIGNATURE = (float64[::1], float64[::1], float64[::1], int64[::1], int64[::1], boolean[::1],
              int64[::1], float64[::1], float64[::1], float64[:, :, :, ::1], float64[:, :, ::1],
              float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], int64, boolean,
-             float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], float64[::1])
+             float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], float64[::1],
+             float64[:, ::1])
 
 
 def load() -> None:

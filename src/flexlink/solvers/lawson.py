@@ -73,6 +73,18 @@ class Discretisation:
     # the settling run's own table (what `tabulate_on` of its system on the layout gives),
     # where its caller asked to keep it (`integrate_lawson_discretised`)
     table: CoefficientTable | None = None
+    # and where asked for, the run's steps (what a reverse pass of them reads)
+    steps: RunSteps | None = None
+
+
+@dataclass(frozen=True)
+class RunSteps:
+    """The augmented states of a Lawson run: at the output times (nt, 2n+1) and at the start
+    of every fine step on its moving blocks but an output interval's first (its state at the
+    output time), in order (moving intervals × (substeps − 1), 2n+1)."""
+
+    states: np.ndarray
+    starts: np.ndarray
 
 
 def integrate_lawson(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
@@ -119,19 +131,29 @@ def integrate_lawson_on(system: LinearSystem, t_out: np.ndarray,
 
 def integrate_lawson_discretised(system: LinearSystem, t_out: np.ndarray, rtol: float,
                                  atol: float, on_progress: Progress | None = None,
-                                 keep_table: bool = False
+                                 keep_table: bool = False, keep_steps: bool = False
                                  ) -> tuple[Solution, Discretisation | None]:
     """`integrate_lawson`, and the discretisation it settled on (None when it handed the
     run to Magnus); ``keep_table``: with the run's table (`Discretisation.table`, for the
-    same system's sensitivities; not for discretisations handed to other processes)."""
+    same system's sensitivities; not for discretisations handed to other processes);
+    ``keep_steps``: with its steps too (`Discretisation.steps`, for its reverse pass)."""
     with single_threaded():
         try:
             start = prepare(system, t_out, rtol, atol)
         except RoughCoefficients:
             # Magnus assembles A where it needs it, which then costs less than a table.
             return integrate_magnus(system, t_out, rtol, atol, on_progress), None
-        solution, discretisation = finish(start, *first_pass(start, on_progress), on_progress)
+        trail = _trail(start.table, start.n, start.substeps) if keep_steps else None
+        solution, discretisation = finish(start, *first_pass(start, on_progress, trail),
+                                          on_progress, trail=trail)
     return solution, replace(discretisation, table=start.table) if keep_table else discretisation
+
+
+def _trail(table: CoefficientTable, n: int, substeps: int) -> np.ndarray:
+    """Room for the start state of every fine step on the table's moving blocks but the
+    first of each output interval (`RunSteps.starts`)."""
+    intervals = int(np.sum((table.last - table.first)[~table.static]))
+    return np.empty((intervals * (substeps - 1), 2 * n + 1))
 
 
 @dataclass(frozen=True)
@@ -183,21 +205,25 @@ def with_propagators(start: Start) -> Start:
                                                 start.substeps))
 
 
-def first_pass(start: Start, on_progress: Progress | None = None
+def first_pass(start: Start, on_progress: Progress | None = None,
+               trail: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """States, z̈ and the running maxima of the run's first pass (fine and coarse steps):
-    what `finish` takes."""
+    what `finish` takes; ``trail`` (`_trail`): filled with its fine steps' start states."""
     # The first comparison from the loop's running maxima (no coarse states kept).
     states, acc, _, peak, spread = _run(start.table, start.n, start.t_out, start.substeps,
-                                        on_progress, start.ET, coarse=True, keep_coarse=False)
+                                        on_progress, start.ET, coarse=True, keep_coarse=False,
+                                        trail=trail)
     return states, acc, peak, spread
 
 
 def finish(start: Start, states: np.ndarray, acc: np.ndarray, peak: np.ndarray,
-           spread: np.ndarray, on_progress: Progress | None = None
-           ) -> tuple[Solution, Discretisation]:
+           spread: np.ndarray, on_progress: Progress | None = None,
+           trail: np.ndarray | None = None) -> tuple[Solution, Discretisation]:
     """The adaptive run from its first pass (states, z̈ and the running maxima of `_run`
-    with the coarse pass): accepted, or steps halved until the Richardson check passes."""
+    with the coarse pass): accepted, or steps halved until the Richardson check passes.
+    ``trail``: the first pass's step states (`first_pass`); then the discretisation keeps
+    the accepted pass's (`Discretisation.steps`)."""
     n, t_out, rtol, atol, table = start.n, start.t_out, start.rtol, start.atol, start.table
     substeps, ET = start.substeps, start.ET
     moving = ~table.static
@@ -209,12 +235,14 @@ def finish(start: Start, states: np.ndarray, acc: np.ndarray, peak: np.ndarray,
             return (Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson",
                              stats, accuracy=Accuracy(rtol, estimate, RICHARDSON)),
                     Discretisation(layout(table, t_out.size), substeps, rtol,
-                                   table.reference, ET))
+                                   table.reference, ET, steps=None if trail is None
+                                   else RunSteps(states, trail)))
         coarse = states
         substeps *= 2
         ET = ET.copy()
         ET[moving] = _block_propagators(table, n, t_out, substeps, moving)
-        states, acc = _solve(table, n, t_out, substeps, on_progress, ET)
+        trail = None if trail is None else _trail(table, n, substeps)
+        states, acc = _solve(table, n, t_out, substeps, on_progress, ET, trail)
         accepted = agree(states[:, :-1], states[:, :-1], coarse[:, :-1], n, rtol, atol)
         estimate = richardson_error(states[:, :-1], coarse[:, :-1], n)
     raise SimulationError(
@@ -260,21 +288,25 @@ def preload_compiled_loop() -> threading.Thread:
 def _solve(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
     on_progress: Progress | None, ET: np.ndarray | None = None,
+    trail: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Augmented states (nt, 2n+1) and z̈ (nt, n) with `substeps` steps per output interval;
-    ET: the block propagators for these substeps if known (_block_propagators)."""
-    states, acc, *_ = _run(table, n, t_out, substeps, on_progress, ET, coarse=False)
+    ET: the block propagators for these substeps if known (_block_propagators); ``trail``
+    (`_trail`): filled with the fine steps' start states."""
+    states, acc, *_ = _run(table, n, t_out, substeps, on_progress, ET, coarse=False,
+                           trail=trail)
     return states, acc
 
 
 def _run(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
     on_progress: Progress | None, ET: np.ndarray | None, coarse: bool,
-    keep_coarse: bool = True,
+    keep_coarse: bool = True, trail: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """States, z̈, (coarse and keep_coarse) the states of the pass with half the steps, and
     per state component the largest |fine state| and (coarse) |fine − coarse state| over
-    the output times (what agree_maxima reads)."""
+    the output times (what agree_maxima reads); ``trail`` (`_trail`), if given, filled with
+    the fine steps' start states."""
     from ._lawson_numba import lawson_blocks  # numba's import is slow: only when used
 
     if coarse and substeps % 2:
@@ -295,12 +327,16 @@ def _run(
     peak = np.abs(y)  # running maxima over the output times, kept by the loop
     spread = np.zeros(m)
     acc[0] = table.poly[0, 0] @ y  # A at τ = 0 of the first block
+    rows = np.zeros((0, m)) if trail is None else trail
+    # each call's first row of the trail: the fine steps of the moving blocks before it
+    steps = np.where(table.static, 0, (table.last - table.first) * (substeps - 1))
     for lo in range(0, len(table), _BLOCKS_PER_CALL):
         sl = slice(lo, lo + _BLOCKS_PER_CALL)
         lawson_blocks(y, yc, t_out, table.first[sl], table.last[sl], table.static[sl],
                       table.pieces[lo:], table.lower, table.upper, polyT,
                       referenceT[sl], ET[sl], E2T[sl], E4T[sl], substeps, coarse, states,
-                      acc, coarse_states, peak, spread)
+                      acc, coarse_states, peak, spread,
+                      rows[int(steps[:lo].sum()):] if rows.shape[0] else rows)
         if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yc))):
             raise SimulationError(
                 f"the state became non-finite near t = {t_out[table.last[sl][-1]]:.4g} s")

@@ -34,7 +34,8 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
     (`lawson_sensitivity.lawson_sensitivities`' run), through its dependence on A only
     (``derivative_rows``: ∂A/∂p_k at given times, (nt, K, n, 2n+1)); and the run's augmented
     states (nt, 2n+1). ``settled_system``: the system is the one whose run settled the
-    discretisation (its table is then the one the discretisation keeps)."""
+    discretisation (its table is then the one the discretisation keeps, and its steps the
+    run's, where the discretisation keeps them: `Discretisation.steps`)."""
     from ._lawson_adjoint_numba import lawson_adjoint_blocks
 
     n = system.n
@@ -51,11 +52,18 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
         G = np.zeros((table.poly.shape[0], table.poly.shape[1], n, m))
         Gs = np.zeros((len(table), n, m))
         W = np.zeros((len(table), m, m))
-        states = lawson_adjoint_blocks(t_out, table.first, table.last, table.static,
-                                       table.pieces, table.lower, table.upper, polyT,
-                                       referenceT, np.ascontiguousarray(ET),
-                                       np.ascontiguousarray(E2T), discretisation.substeps,
-                                       seed_y, seed_acc, G, Gs, W)
+        steps = discretisation.steps if settled_system else None
+        if steps is None:  # the forward steps anew, in the pass
+            states = np.empty((nt, m))
+            starts = np.empty((int(np.sum((table.last - table.first)[~table.static]))
+                               * (discretisation.substeps - 1), m))
+        else:  # the run's own
+            states, starts = steps.states, steps.starts
+        lawson_adjoint_blocks(t_out, table.first, table.last, table.static, table.pieces,
+                              table.lower, table.upper, polyT, referenceT,
+                              np.ascontiguousarray(ET), np.ascontiguousarray(E2T),
+                              discretisation.substeps, seed_y, seed_acc, G, Gs, W, states,
+                              starts, steps is None)
         dtable = tabulate_on(derivative_rows, t_out, discretisation.layout,
                              moving_references=False)
         # z̈ at the first output: A at the first piece's start (its constant coefficient)
