@@ -32,7 +32,7 @@ from ..dynamics import forward_kernel
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.forward_kernel import inputs as input_rows
 from ..dynamics.forward_kernel import voltage_columns
-from ..dynamics.loops import LoopSystem, reduced_jacobian
+from ..dynamics.loops import LoopSystem, difference_steps, reduced_jacobian
 from ..model import Scenario, TorqueDrive, VelocityServo, is_driven
 from ..model.joints import drive_side
 from ..solvers import Solution
@@ -72,7 +72,8 @@ def loop_plant(scenario: Scenario, t0: float, point: float | Configuration,
     def readings(ys: np.ndarray, us: np.ndarray) -> dict[str, np.ndarray]:
         return _readings(scenario, loops, t0, ys, us)
 
-    C, D, out_names = _output_jacobians(readings, y, u0, full, columns)
+    C, D, out_names = _output_jacobians(readings, y, u0, full, columns,
+                                        difference_steps(system, y, OUTPUT_STEP)[full])
     rigid = [_coordinate_name(system, system.free[j]) for j in independent]
     dy = np.empty_like(y)
     from ..solvers._radau_numba import rates_function
@@ -234,9 +235,10 @@ def _readings(scenario: Scenario, loops: LoopSystem, t0: float, ys: np.ndarray,
 
 
 def _output_jacobians(readings: Any, y: np.ndarray, u0: np.ndarray, full: np.ndarray,
-                      columns: list[int]) -> tuple[np.ndarray, np.ndarray, list[str]]:
+                      columns: list[int], state_steps: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """C, D by central differences of ``readings`` over the plant's states (their entries
-    ``full`` of y) and the inputs' columns of u, steps scaled to each entry."""
+    ``full`` of y, steps ``state_steps``: `difference_steps`) and the inputs' columns of u."""
     ns, ni = full.size, len(columns)
     width = ns + ni
     ys = np.tile(y, (1 + 2 * width, 1))
@@ -244,7 +246,7 @@ def _output_jacobians(readings: Any, y: np.ndarray, u0: np.ndarray, full: np.nda
     steps = np.empty(width)
     for j in range(width):
         if j < ns:
-            h = OUTPUT_STEP * max(1.0, abs(y[full[j]]))
+            h = state_steps[j]
             ys[1 + j, full[j]] += h
             ys[1 + width + j, full[j]] -= h
         else:

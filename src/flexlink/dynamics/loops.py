@@ -316,13 +316,30 @@ def closed_states(loops: LoopSystem, t: np.ndarray, states: np.ndarray,
     return out, rates, lam, joint, residual
 
 
+def difference_steps(system: ForwardSystem, y: np.ndarray, step: float) -> np.ndarray:
+    """Central-difference steps for each component of a state y = [p_free, ṗ_free, z, ż,
+    integrals] of ``system``: step × max(scale, |y_i|), the scale 1 (rad, m and their rates)
+    but for an elastic coordinate z_i the one that turns its link's axis by 1 rad (rms over
+    the link, √(L/∫φ_i'² dx), m). A joint angle's step and a mode's then bend the mechanism
+    alike: a high clamped mode's coordinate turns the axis by β_i per metre, and several of
+    them with the joint angle nearly cancel in the kinetic energy (a near-singular mass
+    matrix), so the rates are nonlinear in z on that scale and a step of 1e-6 m biases the
+    Jacobian's large entries enough to turn a high mode into a real pair."""
+    nu, n = len(system.free), system.n
+    scale = np.ones(y.size)
+    scale[2 * nu:2 * nu + n] = np.concatenate(
+        [np.sqrt(d.length / np.diag(d.foreshortening_tip)) for d in system.modal if d.n]
+        or [np.zeros(0)])
+    return step * np.maximum(scale, np.abs(y))
+
+
 def reduced_jacobian(loops: LoopSystem, t: float, y: np.ndarray | None = None,
                      step: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
     """The Jacobian ∂f/∂y of the closed mechanism's rates at time t (s) and state y (default:
     the closed initial state) over its independent components — the free coordinates not
     dependent on the closures, the elastic ones, their rates (and servo integrals) — by
-    central differences of the compiled rates (step relative to each component's scale);
-    and those components' indices into y."""
+    central differences of the compiled rates (`difference_steps`); and those components'
+    indices into y."""
     y = loops.y0.copy() if y is None else np.asarray(y, dtype=float).copy()
     nu = len(loops.system.free)
     dep = {int(j) for j in loops.dep} | {int(j) + nu for j in loops.dep}
@@ -331,10 +348,11 @@ def reduced_jacobian(loops: LoopSystem, t: float, y: np.ndarray | None = None,
     from .loop_equilibrium import rates_function
 
     rates = rates_function(loops, loops.workspace(y.size))
+    steps = difference_steps(loops.system, y, step)
     J = np.empty((keep.size, keep.size))
     up, down = np.empty_like(y), np.empty_like(y)
     for c, i in enumerate(keep):
-        h = step * max(1.0, abs(y[i]))
+        h = steps[i]
         for sign, out in ((1.0, up), (-1.0, down)):
             trial = y.copy()
             trial[i] += sign * h
