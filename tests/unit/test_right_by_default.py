@@ -796,6 +796,20 @@ def test_a_soft_link_held_at_both_ends_by_a_loop_warns(rpm: float, coupler_ei: f
     assert run.metadata["loop_validity_link"] == link
 
 
+def test_a_soft_rod_of_a_slider_crank_warns() -> None:
+    """examples/slider_crank.toml spun up to 100 rad/s with its rod 0.1 times as stiff: the
+    rod's axial load passes its buckling load (S > 1) and the run was 120% of peak off the
+    nonlinear model without a warning; its crank is rigid, so the rod's limit is 0.05."""
+    with open(EXAMPLES / "slider_crank.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["joints"][0]["motion"][0]["to_rate_deg_s"] = math.degrees(100.0)
+    d["links"][1]["EI"] *= 0.1
+    run = simulate(scenario_from_dict(d), shapes=False)
+    assert re.search(r"^rod, held at both ends by the closed loop, deflected [\d.]+% of its "
+                     r"length .*δ_s/\(1 − S\) = inf, beyond 0\.05, .*model = \"nonlinear\"",
+                     run.metadata["validity_warning"]), run.metadata["validity_warning"]
+
+
 @pytest.mark.parametrize(("example", "link"), [
     ("four_bar.toml", "coupler"), ("four_bar_benchmark.toml", "follower"),
     ("slider_crank.toml", "rod"), ("slider_crank_benchmark.toml", "rod")])

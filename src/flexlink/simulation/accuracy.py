@@ -278,7 +278,7 @@ def loop_validity_warning(links: Sequence[Link], held: Sequence[int],
     if not measure[i] > limits[i]:
         return ""
     k = held[i]
-    joined = ", joined to another elastic link," if on_elastic[i] else ""
+    joined = ", joined to another elastic link," if on_elastic[i] else ","
     return (f"{links[k].name}, held at both ends by the closed loop{joined} deflected "
             f"{100 * span_per_length[i]:.3g}% of its length across its span under an axial "
             f"load S = {axial_load[i]:.3g} of its buckling load (|P| L²/(π² EI)): "
