@@ -56,11 +56,14 @@ def _slider_crank(rate_rad_s: float, rod_ei: float, piston: float) -> Scenario:
     return scenario_from_dict(d)
 
 
-def _four_bar(rpm: float, coupler_ei: float, rigid_crank: bool = False) -> Scenario:
+def _four_bar(rpm: float, coupler_ei: float, rigid_crank: bool = False,
+              t_end: float = 0.6) -> Scenario:
     """examples/four_bar_benchmark.toml spun up to ``rpm``, the coupler's EI times
-    ``coupler_ei`` (thickness scaled), the crank rigid if ``rigid_crank``."""
+    ``coupler_ei`` (thickness scaled), the crank rigid if ``rigid_crank``, run to ``t_end``
+    (s)."""
     with open(EXAMPLES / "four_bar_benchmark.toml", "rb") as file:
         d = tomllib.load(file)
+    d["simulation"]["t_end"] = t_end
     d["joints"][0]["motion"][0]["to_rate_deg_s"] = 6.0 * rpm
     d["links"][1]["thickness"] *= coupler_ei ** (1.0 / 3.0)
     if rigid_crank:
@@ -116,14 +119,15 @@ def test_a_forward_run_without_a_warning_is_within_3_percent(case, warns: bool) 
     (lambda: _slider_crank(120.0, 0.5, 0.2), True),    # the rod past its buckling load
     (lambda: _slider_crank(80.0, 0.2, 0.05), False),
     (lambda: _four_bar(150.0, 0.5), False),
-    (lambda: _four_bar(225.0, 1.0), False),            # near the loop's first frequency
+    (lambda: _four_bar(225.0, 1.0), True),             # near the loop's first frequency
+    (lambda: _four_bar(200.0, 1.0, t_end=1.8), False),  # 1.8 s undamped, near it
     (lambda: _four_bar(250.0, 0.5, rigid_crank=True), True),
 ], ids=["slider-crank-heavy", "slider-crank-soft", "four-bar-slow", "four-bar-225rpm",
-        "four-bar-rigid-crank"])
+        "four-bar-200rpm-long", "four-bar-rigid-crank"])
 def test_a_closed_loop_run_without_a_warning_is_within_3_percent(case, warns: bool) -> None:
     """Links held at both ends by the loop (mid-span deflections compared): measured
-    24%, 1.5%, 0.39%, 2.2%, 2.7% (the last warned: its measure is past the limit of a link
-    joined to another elastic link, whose measured error reaches 3.1 times the measure)."""
+    24%, 1.5%, 0.39%, 2.2% (warned: 3.7% when run to 1.2 s), 1.6%, 2.7% (the last warned:
+    its measure is past the limit of a link joined to another elastic link)."""
     error, meta = _largest_error(case())
     print(f"error {error:.3%}, δ_s/(1 − S) = {meta['loop_validity_measure']:.3g}, "
           f"warning: {meta.get('validity_warning', '')[:80]}")
@@ -132,4 +136,4 @@ def test_a_closed_loop_run_without_a_warning_is_within_3_percent(case, warns: bo
         assert error <= 0.03
     else:
         assert re.search(r"held at both ends by the closed loop.* δ_s/\(1 − S\) = \S+, "
-                         r"beyond 0\.0[15], .*model = \"nonlinear\"", meta["validity_warning"])
+                         r"beyond 0\.0(06|5), .*model = \"nonlinear\"", meta["validity_warning"])

@@ -54,11 +54,12 @@ FORWARD_PAPER_AXIAL_LIMIT = 0.0025
 # Links whose far end a closed loop holds (`loop_held_measure`): points of the span where the
 # deflection is read (interior, equally spaced) and the limits of the measure, measured on
 # closed loops against the nonlinear model (scripts/forward_validity_calibration.py): the
-# largest error over the measure 0.47 on a link joined to rigid ones, 3.1 on one joined to
-# another elastic link, times the limit is about 3% of peak.
+# largest error over the measure 0.47 on a link joined to rigid ones, 4.7 on one joined to
+# another elastic link (a long undamped run near the loop's first frequency), times the
+# limit is about 3% of peak.
 LOOP_SPAN_POINTS = 7
 FORWARD_LOOP_LIMIT = 0.05
-FORWARD_LOOP_ON_ELASTIC_LIMIT = 0.01
+FORWARD_LOOP_ON_ELASTIC_LIMIT = 0.006
 
 
 def axial_load_parameter(links: Sequence[Link], modal: Sequence[ModalData],
