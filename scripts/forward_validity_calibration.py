@@ -14,8 +14,12 @@ tests/validation/forward_fe_cases.py, their loads varied), examples/gravity_rele
 arm spun up in a level plane and pushed by a torque (spin, torque and duration varied),
 examples/paper_servo.toml (the stroke and its duration varied), a hub on a velocity servo
 carrying a beam through an elastic joint (examples/flexible_joint_arm.toml, speed varied),
-examples/telescoping_arm.toml (the boom's and the slider's move varied) and
-examples/four_bar.toml (crank speed varied).
+examples/telescoping_arm.toml (the boom's and the slider's move varied),
+examples/four_bar.toml (crank speed varied); and closed loops whose links a closure holds at
+both ends (`loop_cases`: the benchmark four-bar, four_bar.toml and slider_crank.toml with
+speed, the held link's EI and the piston varied), whose measure (`loop_held_measure`: the
+span deflection, the tip's being zero) the rows record as loop_span, loop_axial,
+loop_measure; only mid-span deflection is compared on those links.
 
 For each first-order run: the quantities the warning reads from the run (per link: the peak
 tip deflection per length δ and the axial load parameter S) and the measured error, the
@@ -42,12 +46,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from flexlink.model import PointSensor, Scenario
+from flexlink.model.basis import held_by_loop
 from flexlink.scenario import scenario_from_dict
 from flexlink.simulation import simulate
 
 CSV = Path(__file__).with_suffix(".csv")
 FIELDS = ("case", "stiffening", "link", "deflection_per_length", "axial_load",
-          "free_measure", "measured_error", "worst_channel", "warned", "warning")
+          "free_measure", "loop_link", "loop_span", "loop_axial", "loop_measure",
+          "measured_error", "worst_channel", "warned", "warning")
 COMPARED = re.compile(r"^(tip|mid)\d+$|^joint\d+_(angle|rate|position|velocity|motor_angle)$|"
                       r"^cart_(position|velocity)$|^base_attitude(_rate)?$")
 
@@ -103,11 +109,38 @@ def telescoping(duration: float) -> Scenario:
     return scenario_from_dict(d)
 
 
-def four_bar(rate_deg_s: float) -> Scenario:
-    """examples/four_bar.toml, the crank spun up to ``rate_deg_s``."""
+def four_bar(rate_deg_s: float, coupler_ei: float = 1.0) -> Scenario:
+    """examples/four_bar.toml, the crank spun up to ``rate_deg_s``, the coupler's EI times
+    ``coupler_ei``."""
     d = _example("four_bar")
     d["joints"][0]["motion"][0]["to_rate_deg_s"] = rate_deg_s
+    d["links"][1]["EI"] *= coupler_ei
     d["simulation"]["t_end"] = 1.0
+    return scenario_from_dict(d)
+
+
+def four_bar_benchmark(rpm: float, coupler_ei: float = 1.0, rigid_crank: bool = False,
+                       t_end: float = 0.6) -> Scenario:
+    """examples/four_bar_benchmark.toml, the crank spun up to ``rpm`` (rigid if
+    ``rigid_crank``), the coupler's bending stiffness times ``coupler_ei`` (thickness
+    scaled, mass kept), run to ``t_end`` (s)."""
+    d = _example("four_bar_benchmark")
+    if rigid_crank:
+        d["links"][0] = {k: v for k, v in d["links"][0].items() if k not in
+                         ("E", "width", "thickness", "modes")} | {"rigid": True}
+    d["joints"][0]["motion"][0]["to_rate_deg_s"] = 6.0 * rpm
+    d["links"][1]["thickness"] *= coupler_ei ** (1.0 / 3.0)
+    d["simulation"]["t_end"] = t_end
+    return scenario_from_dict(d)
+
+
+def slider_crank(rate_rad_s: float, rod_ei: float = 1.0, piston: float = 0.05) -> Scenario:
+    """examples/slider_crank.toml, the crank spun up to ``rate_rad_s``, the rod's EI times
+    ``rod_ei``, a ``piston`` of that mass (kg) on the rod's tip."""
+    d = _example("slider_crank")
+    d["joints"][0]["motion"][0]["to_rate_deg_s"] = float(np.degrees(rate_rad_s))
+    d["links"][1]["EI"] *= rod_ei
+    d["links"][1]["tip_mass"] = piston
     return scenario_from_dict(d)
 
 
@@ -154,15 +187,44 @@ def cases() -> list[tuple[str, Callable[[], Scenario]]]:
                     lambda u=duration: telescoping(u)))
     for rate in (360.0, 720.0, 1440.0, 2880.0):
         out.append((f"four-bar {rate:g}°/s", lambda r=rate: four_bar(r)))
+    out += loop_cases()
+    return out
+
+
+def loop_cases() -> list[tuple[str, Callable[[], Scenario]]]:
+    """Closed loops whose links a closure holds at both ends (`loop_held_measure`)."""
+    out: list[tuple[str, Callable[[], Scenario]]] = []
+    for ei in (1.0, 0.3, 0.1, 0.03):
+        for rpm in (100.0, 200.0, 250.0, 300.0, 400.0):
+            out.append((f"benchmark four-bar {rpm:g} rpm, coupler EI ×{ei:g}",
+                        lambda r=rpm, e=ei: four_bar_benchmark(r, e)))
+    for rpm in (200.0, 225.0, 250.0):  # near the loop's first frequency: longer runs drift
+        out.append((f"benchmark four-bar {rpm:g} rpm, coupler EI ×1, 1.2 s",
+                    lambda r=rpm: four_bar_benchmark(r, 1.0, t_end=1.2)))
+    for ei in (1.0, 0.3, 0.1):
+        for rpm in (200.0, 300.0, 400.0):
+            out.append((f"benchmark four-bar, rigid crank {rpm:g} rpm, coupler EI ×{ei:g}",
+                        lambda r=rpm, e=ei: four_bar_benchmark(r, e, True)))
+    for ei in (0.1, 0.02, 0.005, 0.002):
+        for rate in (720.0, 1440.0, 2880.0):
+            out.append((f"four-bar {rate:g}°/s, coupler EI ×{ei:g}",
+                        lambda r=rate, e=ei: four_bar(r, e)))
+    for ei in (1.0, 0.3, 0.1, 0.03, 0.01):
+        for rate in (50.0, 100.0, 150.0, 200.0):
+            for piston in (0.05, 0.5):
+                out.append((f"slider-crank {rate:g} rad/s, rod EI ×{ei:g}, piston {piston:g} kg",
+                            lambda r=rate, e=ei, m=piston: slider_crank(r, e, m)))
     return out
 
 
 def with_tip_sensors(scenario: Scenario) -> Scenario:
     """The scenario with deflection sensors ``tip<k>`` and ``mid<k>`` (mid-span) on every
-    elastic link, rtol 1e-7."""
+    elastic link (``mid<k>`` only on a link whose tip a closed loop holds), rtol 1e-7."""
+    chain = scenario.chain
     sensors = tuple(PointSensor(f"{where}{k}", "deflection", k, x * link.length)
-                    for k, link in enumerate(scenario.chain.links) if not link.rigid
-                    for where, x in (("tip", 1.0), ("mid", 0.5)))
+                    for k, link in enumerate(chain.links) if not link.rigid
+                    for where, x in (("tip", 1.0), ("mid", 0.5))
+                    if where == "mid" or not held_by_loop(chain, k, scenario.closures))
     return dataclasses.replace(scenario, sensors=sensors, settings=dataclasses.replace(
         scenario.settings, rtol=1e-7))
 
@@ -212,6 +274,10 @@ def measure(label: str, scenario: Scenario) -> list[dict[str, object]]:
                      "deflection_per_length": meta["peak_tip_deflection_per_length"],
                      "axial_load": meta["axial_load_parameter"],
                      "free_measure": meta["forward_validity_measure"],
+                     "loop_link": meta.get("loop_validity_link", ""),
+                     "loop_span": meta.get("loop_span_deflection_per_length", float("nan")),
+                     "loop_axial": meta.get("loop_axial_load_parameter", float("nan")),
+                     "loop_measure": meta.get("loop_validity_measure", float("nan")),
                      "measured_error": errors[worst], "worst_channel": worst,
                      "warned": int("validity_warning" in meta),
                      "warning": meta.get("validity_warning", "")})
@@ -291,6 +357,8 @@ def main() -> None:
                 print(label, r["stiffening"], f"δ {float(r['deflection_per_length']):.3g}",
                       f"S {float(r['axial_load']):.3g}",
                       f"error {float(r['measured_error']):.3%} {r['worst_channel']}",
+                      f"span {float(r.get('loop_span', 'nan')):.3g}",
+                      f"Sl {float(r.get('loop_axial', 'nan')):.3g}",
                       "warns" if int(r["warned"]) else "", flush=True)
         with CSV.open("w", newline="") as f:
             writer = csv.DictWriter(f, FIELDS)

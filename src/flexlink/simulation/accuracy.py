@@ -51,6 +51,15 @@ FORWARD_WARN_DEFLECTION = 0.1
 FORWARD_COUPLING_LIMIT = WARN_ABOVE / C_COUPLING
 FORWARD_FREE_LIMIT = 0.005
 FORWARD_PAPER_AXIAL_LIMIT = 0.0025
+# Links whose far end a closed loop holds (`loop_held_measure`): points of the span where the
+# deflection is read (interior, equally spaced) and the limits of the measure, measured on
+# closed loops against the nonlinear model (scripts/forward_validity_calibration.py): the
+# largest error over the measure 0.47 on a link joined to rigid ones, 4.7 on one joined to
+# another elastic link (a long undamped run near the loop's first frequency), times the
+# limit is about 3% of peak.
+LOOP_SPAN_POINTS = 7
+FORWARD_LOOP_LIMIT = 0.05
+FORWARD_LOOP_ON_ELASTIC_LIMIT = 0.006
 
 
 def axial_load_parameter(links: Sequence[Link], modal: Sequence[ModalData],
@@ -234,6 +243,49 @@ def forward_validity_warning(links: Sequence[Link], deflection_per_length: np.nd
             f"{measure[k]:.3g}, beyond {FORWARD_COUPLING_LIMIT:.2g}, where the coupling "
             "of the deflection with the axial load that the first-order model drops is "
             "alone about 2% of peak: model = \"nonlinear\" keeps it")
+
+
+def loop_held_measure(span_per_length: np.ndarray, axial_load: np.ndarray) -> np.ndarray:
+    """δ_s/(1 − S) of every link a closed loop holds at both ends (S ≥ 1 or non-finite:
+    inf): δ_s its peak span deflection per length (its tip's is zero), S its axial load over
+    the first mode's bending stiffness, |P| L²/(π² EI) for a pinned–pinned member (its own
+    inertia's `axial_load_parameter` plus the closures' force along its chord). 1/(1 − S)
+    is the amplification of a compressed member's deflection by its axial load."""
+    d, S = np.asarray(span_per_length, float), np.asarray(axial_load, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        value = np.where(S < 1.0, d / (1.0 - S), np.inf)
+    return np.where(np.isfinite(value), value, np.inf)
+
+
+def loop_limits(on_elastic: np.ndarray) -> np.ndarray:
+    """The limit of `loop_held_measure` of each held link: FORWARD_LOOP_ON_ELASTIC_LIMIT
+    where it is joined to another elastic link (at its joint or by the closure), else
+    FORWARD_LOOP_LIMIT."""
+    return np.where(np.asarray(on_elastic, bool), FORWARD_LOOP_ON_ELASTIC_LIMIT,
+                    FORWARD_LOOP_LIMIT)
+
+
+def loop_validity_warning(links: Sequence[Link], held: Sequence[int],
+                          span_per_length: np.ndarray, axial_load: np.ndarray,
+                          on_elastic: np.ndarray) -> str:
+    """The warning where a link held at both ends by a closed loop takes the first-order
+    model past its validity ("" if none does): `loop_held_measure` beyond its
+    `loop_limits` (scripts/forward_validity_calibration.py, docs/validation.md)."""
+    if not len(held):
+        return ""
+    measure = loop_held_measure(span_per_length, axial_load)
+    limits = loop_limits(on_elastic)
+    i = int(np.argmax(measure / limits))
+    if not measure[i] > limits[i]:
+        return ""
+    k = held[i]
+    joined = ", joined to another elastic link," if on_elastic[i] else ","
+    return (f"{links[k].name}, held at both ends by the closed loop{joined} deflected "
+            f"{100 * span_per_length[i]:.3g}% of its length across its span under an axial "
+            f"load S = {axial_load[i]:.3g} of its buckling load (|P| L²/(π² EI)): "
+            f"δ_s/(1 − S) = {measure[i]:.3g}, beyond {limits[i]:.2g}, where closed-loop runs "
+            "measured more than 3% of peak off the nonlinear model: model = \"nonlinear\" "
+            "keeps the terms the first-order model drops")
 
 
 def _percent(fraction: float) -> str:

@@ -9,17 +9,25 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..channels.catalogue import cart_name, voltage_name
+from ..channels.catalogue import cart_name, closure_name, voltage_name
 from ..channels.first_order import sensor_values, shape_values, tip_deflections, tip_values
 from ..channels.forward import SolvedMotion, pose_and_joint_values
 from ..channels.shapes import LazyShapes
 from ..dynamics.forward import ForwardSystem, drive_force
 from ..errors import SimulationError, StoppedRun
 from ..model import Base, Scenario
+from ..model.basis import held_by_loop
 from ..solvers import Solution
 from ..solvers.forward import FAST_METHOD, integrate_forward
 from ..solvers.gauss_sampled import SampledLoop, sample_grid
-from .accuracy import axial_load_parameter
+from .accuracy import (
+    LOOP_SPAN_POINTS,
+    axial_load_parameter,
+    hangs_on_elastic,
+    loop_held_measure,
+    loop_limits,
+    loop_validity_warning,
+)
 from .cart import LAST, SAMPLE, STEP, check_travel
 from .closed_loop import control_values, sensor_rows
 from .common import PathRun, Progress, check_tip_deflection, deflection_error
@@ -204,17 +212,23 @@ def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, soluti
     check_slider_travel(system.chain.joints, t, p, system.n_base)
     z, zd, zdd = solution.q[:, nu:], solution.q_dot[:, nu:], solution.q_ddot[:, nu:]
     view = SolvedMotion(system, outputs.frames)
+    axial = axial_load_parameter(scenario.chain.links, system.modal, scenario.base,
+                                 view.frames.theta, view.frames.omega, view.frames.alpha,
+                                 view.frames.origin_accel)
     try:
         validity = check_tip_deflection(
             scenario.chain.links, t, tip_deflections(view, z), system.geometric_stiffening,
-            axial_load_parameter(scenario.chain.links, system.modal, scenario.base,
-                                 view.frames.theta, view.frames.omega, view.frames.alpha,
-                                 view.frames.origin_accel), estimate=False,
-            shares=inertia_shares(system, p, pd, pdd))
+            axial, estimate=False, shares=inertia_shares(system, p, pd, pdd))
     except SimulationError as exc:
         if loop is None:
             raise
         raise SimulationError(f"closed loop unstable: {exc}") from None  # the tips ran away
+    if scenario.closures and system.geometric_stiffening:
+        held = loop_held_metadata(scenario, view, z, closure_values, axial)
+        if "validity_warning" in held and "validity_warning" in validity:
+            held["validity_warning"] = (f"{validity['validity_warning']}; "
+                                        f"{held['validity_warning']}")
+        validity.update(held)
     drift = slider_drift_metadata(system, t, p, z, zd, zdd)
     if "validity_warning" in drift and "validity_warning" in validity:
         drift["validity_warning"] = f"{validity['validity_warning']}; {drift['validity_warning']}"
@@ -243,6 +257,59 @@ def forward_run(scenario: Scenario, system: ForwardSystem, t: np.ndarray, soluti
         "elastic_coordinates": system.n, "rigid_coordinates": system.n_rigid,
         **({"controllers": len(scenario.controllers)} if loop else {}), **closures,
         **validity})
+
+
+def loop_held_metadata(scenario: Scenario, view: SolvedMotion, z: np.ndarray,
+                       closure_values: dict[str, np.ndarray], axial: np.ndarray) -> dict:
+    """The validity metadata of the links whose far end a closed loop holds
+    (`model.basis.held_by_loop`), whose tip deflection is zero: each one's peak span
+    deflection per length (at LOOP_SPAN_POINTS interior points), its axial load parameter
+    (``axial``, the tree's `axial_load_parameter`, plus the closures' force along its chord
+    times ∫φ₁'² over the first mode's stiffness) and the warning of
+    `accuracy.loop_validity_warning`."""
+    chain = scenario.chain
+    held = [k for k, link in enumerate(chain.links) if not link.rigid
+            and held_by_loop(chain, k, scenario.closures) and view.modal[k].n]
+    if not held:
+        return {}
+    span = np.zeros(len(held))
+    load = np.zeros(len(held))
+    inboard = hangs_on_elastic(chain.links, scenario.base)
+    on_elastic = np.zeros(len(held), dtype=bool)
+    theta = view.frames.theta
+    for i, k in enumerate(held):
+        d, link = view.modal[k], chain.links[k]
+        x = link.length * np.arange(1, LOOP_SPAN_POINTS + 1) / (LOOP_SPAN_POINTS + 1)
+        w = z[:, view.bodies[k].slice] @ d.shapes.evaluate(x).T  # (nt, points), m
+        span[i] = float(np.abs(w).max()) / link.length if w.size else 0.0
+        along = np.zeros(z.shape[0])
+        for c in scenario.closures:
+            if not ((c.link == k and c.x >= link.length * (1 - 1e-12))
+                    or (c.to_link == k and c.x_to >= link.length * (1 - 1e-12))):
+                continue
+            other = c.to_link if c.link == k else c.link
+            on_elastic[i] |= other is not None and not chain.links[other].rigid
+            if c.kind == "revolute":
+                fx = closure_values[closure_name(c.name, "force_x")]
+                fy = closure_values[closure_name(c.name, "force_y")]
+            else:  # a slider's force is along its line's normal
+                normal = closure_values[closure_name(c.name, "normal_force")]
+                fx, fy = -np.sin(c.angle) * normal, np.cos(c.angle) * normal
+            along += fx * np.cos(theta[:, k]) + fy * np.sin(theta[:, k])
+        on_elastic[i] |= bool(inboard[k])
+        load[i] = axial[k] + float(np.abs(along).max(initial=0.0)) \
+            * d.foreshortening_tip[0, 0] / d.stiffness_matrix[0, 0]
+    measure = loop_held_measure(span, load)
+    i = int(np.argmax(measure / loop_limits(on_elastic)))
+    out = {"loop_validity_link": chain.links[held[i]].name,
+           "loop_span_deflection_per_length": float(span[i]),
+           "loop_axial_load_parameter": float(load[i]),
+           "loop_validity_measure": float(measure[i]),
+           "loop_validity_limit": float(loop_limits(on_elastic)[i])}
+    warning = loop_validity_warning(chain.links, held, span, load, on_elastic)
+    if warning:
+        out["validity_warning"] = warning
+    return out
 
 
 def inertia_shares(system: ForwardSystem, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray
