@@ -100,7 +100,8 @@ def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6) -> dict[str, Any]:
         fe[elements] = (out["wall_time_s"], signals, out["coordinates"])
     finest = max(fe)
     reference = fe[finest][1]
-    length = {"hub_beam": 1.0, "elastic_joint": 1.0, "free_hub": 3.0, "cart": 1.2}[case.kind]
+    length = {"hub_beam": 1.0, "elastic_joint": 1.0, "free_hub": 3.0, "cart": 1.2,
+              "pendulum": 1.0}[case.kind]
     peak_tip = float(np.abs(reference["tip"]).max()) / length
     chosen = None
     for elements in sorted(fe):

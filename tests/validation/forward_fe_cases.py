@@ -14,6 +14,10 @@ geometrically exact Exudyn model (tests/validation/exudyn_forward_reference.py).
   cart (``[base] type = "cart"``) on a level rail, gravity, the cart pushed by a bang-bang force
   along the rail (``amplitude`` in N); in Exudyn the hub is the cart, held to the rail by
   constraints (``rail = True``).
+* ``pendulum``: the hub–beam's pin and hub with a stiffer beam and a tip mass (L = 1 m,
+  1 kg/m, EI = 100 N·m², 0.2 kg) in a vertical plane, released level and undeformed under
+  gravity with no torque: it falls and swings through 170° in 2 s, bending 2.4% of its
+  length (tests/validation/test_gravity.py checks its accuracy).
 
 Each hub at two deflection levels: ``small`` (peak tip deflection ≈ 3% of the length) and
 ``large`` (≥ 30%); the cart at ≈ 2.4%. Both models are undamped. Signals (SI, per case):
@@ -26,7 +30,7 @@ rate.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -82,6 +86,7 @@ GEAR, ROTOR, SPRING = 10.0, 2e-3, 50.0
 CART_MASS = 2.0
 CART_BEAM = Link("beam", 1.2, 0.8, 30.0, tip_mass=0.3, thickness=0.01)
 G = 9.81
+PENDULUM_BEAM = Link("beam", 1.0, 1.0, 100.0, thickness=0.02, tip_mass=0.2)
 
 CASES = {c.name: c for c in (
     DrivenCase("hub_beam_small", "hub_beam", 2.0, 2.0, 4.0, 0.002),
@@ -90,17 +95,20 @@ CASES = {c.name: c for c in (
     DrivenCase("free_hub_large", "free_hub", 100.0, 4.0, 8.0, 0.004),
     DrivenCase("elastic_joint", "elastic_joint", 0.1, 2.0, 4.0, 0.002),
     DrivenCase("cart_hanging", "cart", 4.0, 1.0, 2.0, 0.002),
+    DrivenCase("pendulum", "pendulum", 0.0, 1.0, 2.0, 0.002),
 )}
 
 
 def flexlink_scenario(case: DrivenCase, modes: int = 6, rtol: float = 1e-6) -> Scenario:
     """The case as a flexlink scenario (first order, stiffened, undamped)."""
     settings = SimulationSettings(case.t_end, case.dt_out, geometric_stiffening=True, rtol=rtol)
-    if case.kind in ("hub_beam", "elastic_joint"):
-        link = _with_modes(BEAM, modes)
-        joint = (TorqueDrive(case.moment, motor_inertia=HUB_INERTIA) if case.kind == "hub_beam"
-                 else ElasticJoint(TorqueDrive(case.moment, motor_inertia=ROTOR), SPRING,
-                                   gear_ratio=GEAR))
+    if case.kind in ("hub_beam", "elastic_joint", "pendulum"):
+        link = _with_modes(PENDULUM_BEAM if case.kind == "pendulum" else BEAM, modes)
+        joint = (ElasticJoint(TorqueDrive(case.moment, motor_inertia=ROTOR), SPRING,
+                              gear_ratio=GEAR) if case.kind == "elastic_joint"
+                 else TorqueDrive(case.moment, motor_inertia=HUB_INERTIA))
+        if case.kind == "pendulum":
+            settings = replace(settings, gravity=(0.0, -G))
         chain = Chain((link,), (joint,))
         sensors = (PointSensor("tip", "deflection", 0, link.length),)
         return Scenario(chain, sensors, settings, name=case.name)
@@ -126,8 +134,6 @@ def flexlink_scenario(case: DrivenCase, modes: int = 6, rtol: float = 1e-6) -> S
 
 
 def _with_modes(link: Link, modes: int) -> Link:
-    from dataclasses import replace
-
     return replace(link, modes=modes, damping_ratio=0.0)
 
 
@@ -157,9 +163,11 @@ def exudyn_signals(case: DrivenCase, elements: int, dt: float) -> tuple[dict[str
     def m(t: float) -> float:
         return float(moment.value(np.asarray(t)))
 
-    if case.kind == "hub_beam":
-        out = simulate_hub_exudyn([Appendage(BEAM)], HUB_INERTIA, m, case.t_end, case.dt_out,
-                                  elements, dt=dt)
+    if case.kind in ("hub_beam", "pendulum"):
+        pendulum = case.kind == "pendulum"
+        out = simulate_hub_exudyn([Appendage(PENDULUM_BEAM if pendulum else BEAM)], HUB_INERTIA,
+                                  m, case.t_end, case.dt_out, elements, dt=dt,
+                                  gravity=(0.0, -G) if pendulum else (0.0, 0.0))
     elif case.kind == "elastic_joint":  # N τ_m on the reflected rotor
         out = simulate_hub_exudyn([Appendage(BEAM)], 0.0, lambda t: GEAR * m(t), case.t_end,
                                   case.dt_out, elements, dt=dt,
