@@ -79,17 +79,7 @@ def pack(system: ForwardSystem) -> ForwardData:
     m = 3 + nm
 
     def pad(values: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
-        out = np.zeros((N, *shape))
-        for k, v in enumerate(values):
-            v = np.asarray(v)
-            # the common shapes spelt out: this runs ~17 times per link and pack
-            if v.ndim == 1:
-                out[k, :v.shape[0]] = v
-            elif v.ndim == 2:
-                out[k, :v.shape[0], :v.shape[1]] = v
-            else:
-                out[(k, *map(slice, v.shape))] = v
-        return out
+        return _padded(values, N, shape)
 
     bodies, modal = system.bodies, system.modal
     kind = np.zeros(N + 1, dtype=np.int64)
@@ -174,17 +164,30 @@ def pack(system: ForwardSystem) -> ForwardData:
         **slide_arrays(chain.joints))
 
 
+def _padded(values: Sequence[np.ndarray], N: int, shape: tuple[int, ...]) -> np.ndarray:
+    """(N, *shape) zeros with ``values[k]`` in the leading corner of row k (links' arrays of
+    fewer modes than the most)."""
+    out = np.zeros((N, *shape))
+    for k, v in enumerate(values):
+        v = np.asarray(v)
+        # the common shapes spelt out: this runs ~17 times per link and pack
+        if v.ndim == 1:
+            out[k, :v.shape[0]] = v
+        elif v.ndim == 2:
+            out[k, :v.shape[0], :v.shape[1]] = v
+        else:
+            out[(k, *map(slice, v.shape))] = v
+    return out
+
+
 def with_stiffness(data: ForwardData, modal: Sequence[ModalData]) -> ForwardData:
     """``data`` with the stiffness and damping matrices of ``modal``, the modal data of
     links that differ from those ``data`` was packed for in EI and damping alone (padded as
     `pack` pads them)."""
     N, nm = data.stiffness.shape[:2]
-    stiffness, damping = np.zeros((N, nm, nm)), np.zeros((N, nm, nm))
-    for k, d in enumerate(modal):
-        n = d.n
-        stiffness[k, :n, :n] = d.stiffness_matrix
-        damping[k, :n, :n] = d.damping_matrix
-    return data._replace(stiffness=stiffness, damping=damping)
+    return data._replace(
+        stiffness=_padded([d.stiffness_matrix for d in modal], N, (nm, nm)),
+        damping=_padded([d.damping_matrix for d in modal], N, (nm, nm)))
 
 
 def slide_arrays(joints: tuple | list) -> dict[str, np.ndarray]:
