@@ -23,7 +23,7 @@ def _controller() -> ThreadpoolController:
 def single_threaded() -> AbstractContextManager[Any]:
     """Context in which BLAS uses one thread (nothing to do in a process that keeps one
     BLAS thread for its life: `one_thread_for_good`)."""
-    if _FOR_GOOD:
+    if _LIMIT is not None:
         return nullcontext()
     return _controller().limit(limits=1)
 
@@ -32,11 +32,9 @@ def one_thread_for_good() -> None:
     """Limit BLAS to one thread for the rest of this process (a sweep's worker, whose
     cores are shared out by process): `single_threaded` then costs nothing, instead of
     setting and restoring every BLAS library's threads around each run (~50 µs)."""
-    global _FOR_GOOD, _LIMIT
+    global _LIMIT
     # A fresh scan: a forked worker may have loaded a BLAS since its parent's scan.
     _LIMIT = ThreadpoolController().limit(limits=1)  # kept alive: holds while it exists
-    _FOR_GOOD = True
 
 
-_FOR_GOOD = False
 _LIMIT: object = None
