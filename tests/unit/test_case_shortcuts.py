@@ -152,12 +152,12 @@ def test_data_repacked_for_a_new_stiffness_equal_those_packed_whole(change) -> N
     scenario = load_scenario(paper_experiment_path())
     chain = scenario.chain
     prescribed_kernel._PACKED.clear()
-    prescribed_kernel._RESTIFFENED.clear()
-    forward_data(FirstOrderSystem(chain))  # packed whole, kept as the next one's sibling
+    sibling = forward_data(FirstOrderSystem(chain))  # packed whole, kept
     links = (dataclasses.replace(chain.links[0], **change), *chain.links[1:])
     system = FirstOrderSystem(dataclasses.replace(chain, links=links))
     data = forward_data(system)
-    assert next(iter(prescribed_kernel._RESTIFFENED.values()))[1] is not data  # re-stiffened
+    assert data.mass is sibling.mass and data.stiffness is not sibling.stiffness  # re-stiffened
+    assert len(prescribed_kernel._PACKED) == 1  # one entry per chain but for its stiffness
     whole = _packed_whole(system)
     assert data._fields == whole._fields
     for name, a, b in zip(data._fields, data, whole):
@@ -172,12 +172,14 @@ def test_data_of_links_that_differ_in_more_than_stiffness_are_packed_whole() -> 
     from flexlink.dynamics.prescribed_kernel import forward_data
 
     chain = load_scenario(paper_experiment_path()).chain
-    forward_data(FirstOrderSystem(chain))
+    prescribed_kernel._PACKED.clear()
+    sibling = forward_data(FirstOrderSystem(chain))
     links = (dataclasses.replace(chain.links[0], EI=200.0, tip_mass=chain.links[0].tip_mass
                                  + 0.01), *chain.links[1:])
     system = FirstOrderSystem(dataclasses.replace(chain, links=links))
     data = forward_data(system)
-    assert next(iter(prescribed_kernel._RESTIFFENED.values()))[1] is data  # the new sibling
+    assert data.mass is not sibling.mass  # packed whole
+    assert any(entry[1] is data for entry in prescribed_kernel._PACKED.values())
     for name, a, b in zip(data._fields, data, _packed_whole(system)):
         np.testing.assert_array_equal(a, b, err_msg=name)
 
@@ -202,3 +204,16 @@ def test_scenarios_equal_but_for_their_sensors_as_their_copies_without_sensors_c
                         (measured, measured_again, True), (measured, paper, False)]:
         assert equal_but_sensors(a, b) is equal
         assert equal_but_sensors(b, a) is equal
+
+
+def test_a_chain_packed_before_gets_the_data_remembered_for_it() -> None:
+    from flexlink.dynamics import prescribed_kernel
+    from flexlink.dynamics.prescribed_kernel import forward_data
+
+    chain = load_scenario(paper_experiment_path()).chain
+    prescribed_kernel._PACKED.clear()
+    data = forward_data(FirstOrderSystem(chain))
+    again = FirstOrderSystem(chain)
+    assert forward_data(again) is data
+    for name, a, b in zip(data._fields, data, _packed_whole(again)):
+        np.testing.assert_array_equal(a, b, err_msg=name)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Base, Chain
+from ..model import Base
 from ..model.joints import PrismaticJoint, is_driven
 from .first_order import FirstOrderSystem
 from .forward import ForwardSystem
@@ -37,66 +37,54 @@ def forward_view(system: FirstOrderSystem) -> ForwardSystem:
 
 def forward_data(system: FirstOrderSystem) -> ForwardData:
     """ForwardData of ``system`` (see forward_view), made once per system, and remembered
-    per process for the last few (chain, stiffening, modal data): repeated runs of a
-    scenario build a new system each, and packing is a noticeable part of a short run."""
+    per process for the last few chains (`_packed_key`): repeated runs of a scenario build a
+    new system each, and packing is a noticeable part of a short run. A system whose modal
+    data are those remembered gets the remembered data; one whose modal data differ from
+    them in stiffness, damping and frequencies alone (links that differ in EI and damping
+    ratio: a sweep over E, EI or damping) gets them with its own stiffness and damping
+    matrices (`forward_kernel.with_stiffness`), which equal its data packed whole; any other
+    is packed whole."""
     data = getattr(system, "_forward_data", None)
     if data is not None:
         return data
-    try:  # the modal data by identity (they are cached per link), the chain by value
-        key: tuple[object, ...] | None = (_packed_chain(system.chain),
-                                          system.geometric_stiffening, system.gravity,
-                                          tuple(id(m) for m in system.modal))
+    try:
+        key: tuple[object, ...] | None = _packed_key(system)
         kept = _PACKED.get(key)
     except TypeError:  # a motion that is not hashable (holds arrays): not remembered
         key, kept = None, None
-    if kept is not None and all(a is b for a, b in zip(kept[0], system.modal)):
+    if kept is not None and len(kept[0]) == len(system.modal) \
+            and all(a is b for a, b in zip(kept[0], system.modal)):
         data = kept[1]
-        _PACKED.move_to_end(key)
+    elif kept is not None and len(kept[0]) == len(system.modal) \
+            and all(_same_but_stiffness(a, b) for a, b in zip(kept[0], system.modal)):
+        data = with_stiffness(kept[1], system.modal)
     else:
-        data = _restiffened(system)
-        if key is not None:  # the modal data kept alive with it: their ids stay theirs
-            _PACKED[key] = (list(system.modal), data)
-            while len(_PACKED) > _PACKED_KEPT:
-                _PACKED.popitem(last=False)
+        data = pack(forward_view(system))
+    if key is not None:  # the modal data kept alive with it: compared by identity
+        _PACKED[key] = (list(system.modal), data)
+        _PACKED.move_to_end(key)
+        while len(_PACKED) > _PACKED_KEPT:
+            _PACKED.popitem(last=False)
     system._forward_data = data  # type: ignore[attr-defined]
     return data
 
 
-def _packed_chain(chain: Chain) -> tuple[object, ...]:
-    """What `pack` reads of a chain: its links and its joints, a rotary joint's prescribed
-    motion only as being one (the kernels take the joint states as inputs), so that systems
-    that differ in their motions alone (a sensitivity to a joint angle) share their data."""
-    return (chain.links, tuple(None if not (is_driven(j) or isinstance(j, PrismaticJoint))
-                               else j for j in chain.joints))
+def _packed_key(system: FirstOrderSystem) -> tuple[object, ...]:
+    """What `pack` reads of a system besides its modal data: its links but for their names,
+    EI and damping ratios (which enter through the modal data alone), its joints, a rotary
+    joint's prescribed motion only as being one (the kernels take the joint states as
+    inputs, so that systems that differ in their motions alone share their data), its
+    stiffening and gravity, and its links' mode counts."""
+    chain = system.chain
+    links = tuple(replace(link, name="", EI=1.0, damping_ratio=0.0) for link in chain.links)
+    joints = tuple(None if not (is_driven(j) or isinstance(j, PrismaticJoint)) else j
+                   for j in chain.joints)
+    return (links, joints, system.geometric_stiffening, system.gravity,
+            tuple(m.n for m in system.modal))
 
 
 _PACKED: OrderedDict[tuple[object, ...], tuple[list[object], ForwardData]] = OrderedDict()
 _PACKED_KEPT = 8
-
-
-def _restiffened(system: FirstOrderSystem) -> ForwardData:
-    """`pack` of ``system``, or, when the last system packed had links that differ from
-    ``system``'s in EI and damping ratio alone, its data with ``system``'s stiffness and
-    damping matrices: what a sweep over E, EI or damping would otherwise pack whole per case.
-    Its other modal data must be the same objects (`modes.integrals.modal_data_for_stiffness`
-    shares them between such links)."""
-    try:
-        links = tuple(replace(link, name="", EI=1.0, damping_ratio=0.0)
-                      for link in system.chain.links)
-        key: tuple[object, ...] | None = (links, _packed_chain(system.chain)[1],
-                                          system.geometric_stiffening, system.gravity)
-        last = _RESTIFFENED.get(key)
-    except TypeError:  # a motion that is not hashable (holds arrays)
-        key, last = None, None
-    if last is not None and len(last[0]) == len(system.modal) \
-            and all(_same_but_stiffness(a, b) for a, b in zip(last[0], system.modal)):
-        return with_stiffness(last[1], system.modal)
-    data = pack(forward_view(system))
-    if key is not None:  # one kept: a sweep's cases come one model after the other
-        _RESTIFFENED.clear()
-        _RESTIFFENED[key] = (list(system.modal), data)
-    return data
-
 
 _STIFFNESS_FIELDS = frozenset({"stiffness_matrix", "damping_matrix", "natural_frequencies_hz"})
 
@@ -107,9 +95,6 @@ def _same_but_stiffness(a: object, b: object) -> bool:
     return a is b or (type(a) is type(b) and all(
         getattr(a, f.name) is getattr(b, f.name) for f in fields(a)  # type: ignore[arg-type]
         if f.name not in _STIFFNESS_FIELDS))
-
-
-_RESTIFFENED: dict[tuple[object, ...], tuple[list[object], ForwardData]] = {}
 
 
 def solved_frames(system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np.ndarray,
