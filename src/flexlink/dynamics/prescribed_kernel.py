@@ -81,10 +81,7 @@ def _restiffened(system: FirstOrderSystem) -> ForwardData:
     Its other modal data must be the same objects (`modes.integrals.modal_data_for_stiffness`
     shares them between such links)."""
     try:
-        links = tuple(replace(link, name="", EI=1.0, damping_ratio=0.0)
-                      for link in system.chain.links)
-        key: tuple[object, ...] | None = (links, _packed_chain(system.chain)[1],
-                                          system.geometric_stiffening, system.gravity)
+        key: tuple[object, ...] | None = _unstiffened(system)
         last = _RESTIFFENED.get(key)
     except TypeError:  # a motion that is not hashable (holds arrays)
         key, last = None, None
@@ -96,6 +93,41 @@ def _restiffened(system: FirstOrderSystem) -> ForwardData:
         _RESTIFFENED.clear()
         _RESTIFFENED[key] = (list(system.modal), data)
     return data
+
+
+def _unstiffened(system: FirstOrderSystem) -> tuple[object, ...]:
+    """What `pack` reads of a system but its links' EI and damping ratios (and names)."""
+    links = tuple(replace(link, name="", EI=1.0, damping_ratio=0.0)
+                  for link in system.chain.links)
+    return links, _packed_chain(system.chain)[1], system.geometric_stiffening, system.gravity
+
+
+def stiffness_alone(a: FirstOrderSystem, b: FirstOrderSystem) -> bool:
+    """Whether the state rows of ``a`` and ``b`` differ through their links' stiffness and
+    damping matrices alone: the same joints (motions included) and settings, links that
+    differ in EI and damping ratio only, modal data sharing every other array
+    (`modes.integrals.modal_data_for_stiffness`), and neither with actuators or a start
+    offset. M⁻¹ is then the same, and the rows affine in those matrices."""
+    if a.actuators or b.actuators or a.z_start is not None or b.z_start is not None:
+        return False
+    try:
+        same = (_unstiffened(a) == _unstiffened(b) and a.chain.joints == b.chain.joints)
+    except (TypeError, ValueError):  # values holding arrays (a measured motion)
+        return False
+    return bool(same) and len(a.modal) == len(b.modal) and all(
+        _same_but_stiffness(x, y) for x, y in zip(a.modal, b.modal))
+
+
+def mass_inverse(system: FirstOrderSystem, t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """M⁻¹ (nt, n, n) at times t (s), from ``rows`` = `state_rows` (M⁻¹[−K, −C, f]) there
+    and the rows of the same system with c·I added to its stiffness: their K blocks differ
+    by c M⁻¹. c is the largest modal stiffness, so that the difference keeps M⁻¹ to a few
+    round-offs of its own size."""
+    data = forward_data(system)
+    c = float(np.abs(data.stiffness).max()) or 1.0
+    probe = data._replace(stiffness=data.stiffness + c * np.eye(data.stiffness.shape[1]))
+    n = system.n
+    return (rows[:, :, :n] - state_rows(system, t, probe)[:, :, :n]) / c
 
 
 _STIFFNESS_FIELDS = frozenset({"stiffness_matrix", "damping_matrix", "natural_frequencies_hz"})
@@ -153,15 +185,18 @@ class CompiledFirstOrderSystem(FirstOrderSystem):
         return rows
 
 
-def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:
-    """M⁻¹[−K, −C, f] (nt, n, 2n+1) of ``system`` at times t (s), compiled
-    (`_prescribed_numba.state_rows`; equal to magnus.state_rows of the numpy
-    FirstOrderSystem.matrices to round-off), once per distinct joint state."""
+def state_rows(system: FirstOrderSystem, t: np.ndarray, data: ForwardData | None = None
+               ) -> np.ndarray:
+    """M⁻¹[−K, −C, f] (nt, n, 2n+1) of ``system`` (its packed ``data``, or other data of
+    the same layout) at times t (s), compiled (`_prescribed_numba.state_rows`; equal to
+    magnus.state_rows of the numpy FirstOrderSystem.matrices to round-off), once per
+    distinct joint state."""
     from ._prescribed_numba import state_rows as kernel
 
     if system.actuators:
         raise ValueError("the compiled state rows leave out actuator forces")
-    data = forward_data(system)
+    if data is None:
+        data = forward_data(system)
     unique, inverse = system.joint_history(t).distinct
     c = np.ascontiguousarray
     out = np.empty((unique.angle.shape[0], system.n, 2 * system.n + 1))

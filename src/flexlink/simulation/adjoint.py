@@ -133,7 +133,8 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
             moving[:, j] = column
             seeds[part][:, j] = (moved[0] - moved[1]) / (2.0 * step)
     gradient, _ = lawson_gradient(settled.nominal, settled.derivative_rows, t,
-                                  settled.discretisation, *seeds, settled_system=True)
+                                  settled.discretisation, *seeds, settled_system=True,
+                                  pairing=settled.derivative_pairing)
     for k, (f, moved_systems) in enumerate(zip(fields, settled.systems, strict=True)):
         direct = 0.0
         for w, sc, system in zip(f.weights, f.scenarios, moved_systems, strict=True):

@@ -25,7 +25,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -240,7 +240,9 @@ def _same_breaks(a: np.ndarray, b: np.ndarray) -> bool:
 class SettledRun:
     """A prescribed run, the discretisation its Lawson integrator settled on, its system
     and, per field, the systems of the field's stencil (the nominal one where the offset is
-    0), with ``derivative_rows``: ∂A/∂p of every field at given times (nt, K, n, 2n+1)."""
+    0), with ``derivative_rows``: ∂A/∂p of every field at given times (nt, K, n, 2n+1),
+    and ``derivative_pairing``: Σ_t ⟨∂A/∂p(t), W_t⟩ per field at given times and weights
+    W (nt, n, 2n+1), what a reverse pass reads of them (`lawson_adjoint.lawson_gradient`)."""
 
     run: PathRun
     scenario: Scenario
@@ -248,6 +250,7 @@ class SettledRun:
     nominal: Any
     systems: list[list[Any]]
     derivative_rows: Any
+    derivative_pairing: Any = None
 
 
 def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
@@ -255,7 +258,7 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
     """The prescribed run of ``scenario`` (`prescribed.run_prescribed`, adaptive Lawson),
     its discretisation (``keep_steps``: with the run's steps, for a reverse pass) and the
     systems of the fields' stencils."""
-    from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem
+    from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, mass_inverse
     from ..solvers.lawson import integrate_lawson_discretised
     from .prescribed import prescribed_system, run_prescribed
 
@@ -291,26 +294,71 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
         systems.append([nominal if j == 0 or _same_model(sc, scenario) else system_of(sc)
                         for j, sc in zip(f.offsets, f.scenarios, strict=True)])
 
-    def derivative_rows(times: np.ndarray) -> np.ndarray:
-        rows0 = None  # the nominal rows, where a stencil reads them (not a central one)
-        out = None
+    # the fields that move the links' stiffness and damping matrices alone: their ∂A/∂p
+    # is −M⁻¹[∂K, ∂D, 0] (A is affine in them), no assembly per stencil point
+    changes = [_stiffness_change(nominal, f, moved) for f, moved in zip(fields, systems,
+                                                                        strict=True)]
+
+    def field_rows(times: np.ndarray) -> Iterator[tuple[int, np.ndarray]]:
+        """(k, ∂A/∂p_k at times (nt, n, 2n+1)) of each field the equations read."""
+        rows0 = None  # the nominal rows, where a stencil or M⁻¹ reads them
+        inverse = None
         for k, (f, moved) in enumerate(zip(fields, systems, strict=True)):
             if all(s is nominal for s in moved):  # a field the equations do not read
                 continue
+            if changes[k] is not None:
+                if inverse is None:
+                    rows0 = nominal.state_rows(times) if rows0 is None else rows0
+                    inverse = mass_inverse(nominal, times, rows0)
+                rows = np.zeros((times.size, nominal.n, 2 * nominal.n + 1))
+                np.matmul(inverse, -changes[k], out=rows[:, :, :-1])
+                yield k, rows
+                continue
+            rows = None
             for w, s in zip(f.weights, moved, strict=True):
                 if s is nominal:
                     rows0 = nominal.state_rows(times) if rows0 is None else rows0
-                rows = rows0 if s is nominal else s.state_rows(times)
-                if out is None:
-                    out = np.zeros((rows.shape[0], len(fields), *rows.shape[1:]))
-                # written in place: no per-field temporaries to stack
-                out[:, k] += (w / f.step) * rows
-        if out is None:
-            rows0 = nominal.state_rows(times)
-            out = np.zeros((rows0.shape[0], len(fields), *rows0.shape[1:]))
+                term = (w / f.step) * (rows0 if s is nominal else s.state_rows(times))
+                rows = term if rows is None else rows + term
+            yield k, rows  # type: ignore[misc]
+
+    def derivative_rows(times: np.ndarray) -> np.ndarray:
+        n = nominal.n
+        out = np.zeros((times.size, len(fields), n, 2 * n + 1))
+        for k, rows in field_rows(times):
+            out[:, k] = rows
         return out
 
-    return SettledRun(run, scenario, settled[0], nominal, systems, derivative_rows)
+    def derivative_pairing(times: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """Σ_t ⟨∂A/∂p_k(t), weights_t⟩ (K,): each field's stencil of rows combined, then
+        paired (a difference of pairings would carry the round-off of the whole sum)."""
+        out = np.zeros(len(fields))
+        for k, rows in field_rows(times):
+            out[k] = np.vdot(rows, weights)
+        return out
+
+    return SettledRun(run, scenario, settled[0], nominal, systems, derivative_rows,
+                      derivative_pairing)
+
+
+def _stiffness_change(nominal: Any, f: _Field, moved: list[Any]) -> np.ndarray | None:
+    """[∂K, ∂D] (n, 2n) of a field whose stencil's systems differ from the nominal one in
+    their links' modal stiffness and damping matrices alone (a link's EI or damping ratio:
+    `prescribed_kernel.stiffness_alone`), by the field's stencil of those matrices; None
+    for any other field."""
+    from ..dynamics.prescribed_kernel import stiffness_alone
+
+    if all(s is nominal for s in moved) or not all(
+            s is nominal or stiffness_alone(nominal, s) for s in moved):
+        return None
+    n = nominal.n
+    out = np.zeros((n, 2 * n))
+    for w, s in zip(f.weights, moved, strict=True):
+        for o, data in zip(nominal.offsets, s.modal, strict=True):
+            block = slice(o, o + data.n)
+            out[block, block] += (w / f.step) * data.stiffness_matrix
+            out[block, n + o: n + o + data.n] += (w / f.step) * data.damping_matrix
+    return out
 
 
 def _same_model(moved: Scenario, scenario: Scenario) -> bool:
