@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Base, Chain
+from ..model import Base, Chain, Link
 from ..model.joints import PrismaticJoint, is_driven
 from .first_order import FirstOrderSystem
 from .forward import ForwardSystem
@@ -97,9 +97,12 @@ def _restiffened(system: FirstOrderSystem) -> ForwardData:
 
 def _unstiffened(system: FirstOrderSystem) -> tuple[object, ...]:
     """What `pack` reads of a system but its links' EI and damping ratios (and names)."""
-    links = tuple(replace(link, name="", EI=1.0, damping_ratio=0.0)
-                  for link in system.chain.links)
+    links = tuple(_unstiffened_link(link) for link in system.chain.links)
     return links, _packed_chain(system.chain)[1], system.geometric_stiffening, system.gravity
+
+
+def _unstiffened_link(link: Link) -> Link:
+    return replace(link, name="", EI=1.0, damping_ratio=0.0)
 
 
 def stiffness_alone(a: FirstOrderSystem, b: FirstOrderSystem) -> bool:
@@ -108,14 +111,17 @@ def stiffness_alone(a: FirstOrderSystem, b: FirstOrderSystem) -> bool:
     differ in EI and damping ratio only, modal data sharing every other array
     (`modes.integrals.modal_data_for_stiffness`), and neither with actuators or a start
     offset. M⁻¹ is then the same, and the rows affine in those matrices."""
-    if a.actuators or b.actuators or a.z_start is not None or b.z_start is not None:
+    if a.actuators or b.actuators or a.z_start is not None or b.z_start is not None \
+            or len(a.modal) != len(b.modal) or a.gravity != b.gravity \
+            or a.geometric_stiffening != b.geometric_stiffening \
+            or not all(_same_but_stiffness(x, y) for x, y in zip(a.modal, b.modal)):
         return False
     try:
-        same = (_unstiffened(a) == _unstiffened(b) and a.chain.joints == b.chain.joints)
+        return bool(a.chain.joints == b.chain.joints and all(
+            x == y or _unstiffened_link(x) == _unstiffened_link(y)
+            for x, y in zip(a.chain.links, b.chain.links, strict=True)))
     except (TypeError, ValueError):  # values holding arrays (a measured motion)
         return False
-    return bool(same) and len(a.modal) == len(b.modal) and all(
-        _same_but_stiffness(x, y) for x, y in zip(a.modal, b.modal))
 
 
 def mass_inverse(system: FirstOrderSystem, t: np.ndarray, rows: np.ndarray) -> np.ndarray:

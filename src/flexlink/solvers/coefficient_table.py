@@ -150,10 +150,13 @@ def sample_weights(table: CoefficientTable, t_out: np.ndarray, weights: np.ndarr
     moved = np.swapaxes(moved, 0, 1).reshape(nodes.size, *weights.shape[2:])
     fixed = np.flatnonzero(static)
     times = np.concatenate([nodes, t_out[table.first[block[fixed]]]])
-    unique, inverse = np.unique(times, return_inverse=True)
-    out = np.zeros((unique.size, *weights.shape[2:]))
-    np.add.at(out, inverse.ravel(), np.concatenate([moved, weights[fixed, 0]]))
-    return unique, out
+    order = np.argsort(times, kind="stable")
+    times = times[order]
+    new = np.ones(times.size, dtype=bool)
+    new[1:] = times[1:] != times[:-1]
+    starts = np.flatnonzero(new)  # each instant once: the weights of its copies summed
+    out = np.add.reduceat(np.concatenate([moved, weights[fixed, 0]])[order], starts, axis=0)
+    return times[starts], out
 
 
 class RoughCoefficients(Exception):
