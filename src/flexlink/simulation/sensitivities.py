@@ -14,7 +14,9 @@ a run:
   angle's at least 1e-5 rad) at the table's sampling times; a field whose lower bound the step would cross takes a one-sided
   second-order difference. The assembly is smooth in every numeric field (modes and
   frequencies from roots found to adjacent floating-point numbers), so the difference's
-  error (δ² terms, round-off / δ) is ~1e-9 relative or less.
+  error (δ² terms, round-off / δ) is ~1e-9 relative or less. A field that moves the links'
+  modal stiffness and damping matrices alone (EI, a damping ratio) has ∂A/∂p = −M⁻¹[∂K, ∂D, 0]
+  instead (A is affine in them), ∂K, ∂D by the same stencil of those matrices.
 * ∂channel/∂p at the computed state: the channel map (`prescribed.prescribed_values`) at the
   moved field and the state moved along its sensitivity, by the same stencil. Channels are
   linear or quadratic in the state, so this is exact in the state up to round-off.
