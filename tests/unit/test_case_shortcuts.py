@@ -78,6 +78,17 @@ def test_a_scenario_s_catalogue_is_made_once_and_handed_out_as_a_new_list() -> N
     assert all(a is b for a, b in zip(second, catalogue(scenario)))
 
 
+def test_the_reserved_names_are_made_once_per_chain_shape_and_handed_out_as_a_new_set() -> None:
+    from flexlink.channels.catalogue import _reserved_names, reserved_names
+
+    first = reserved_names(["arm", "forearm"], 2)
+    assert first == set(_reserved_names.__wrapped__(("arm", "forearm"), 2))
+    assert {"arm_tip_X", "forearm_tip_Y", "joint2_angle", "time"} <= first
+    first.add("mine")  # a caller's set is its own
+    assert "mine" not in reserved_names(["arm", "forearm"], 2)
+    assert reserved_names([["unhashable"]], 1) >= {"joint1_angle"}  # type: ignore[list-item]
+
+
 def test_quasi_rigid_links_are_remembered_for_the_output_times_asked_for() -> None:
     from flexlink.simulation import rigid
 
