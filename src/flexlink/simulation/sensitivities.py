@@ -156,52 +156,60 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
     twice = [text for i, text in enumerate(fields) if text in fields[:i]]
     if twice:
         raise SensitivityError(f"sensitivities: {twice[0]} is named twice")
+    from ..scenario.load import reusing_tables
+
     breaks = input_breakpoints(scenario.chain.joints, scenario.actuators)
-    out = []
-    for text in fields:
+    with reusing_tables():  # the stencils' builds share the tables their field leaves alone
+        return [_prepared(file, scenario, text, breaks) for text in fields]
+
+
+def _prepared(file: ScenarioFile, scenario: Scenario, text: str, breaks: np.ndarray
+              ) -> _Field:
+    """`prepare_fields` of one field."""
+    from ..dynamics.first_order import input_breakpoints
+
+    try:
+        target = file.locate(text)
+    except FieldPathError as error:
+        raise SensitivityError(f"sensitivities: {error}") from None
+    if target.value is None:
+        raise SensitivityError(f"sensitivities: {text} has no value in the scenario"
+                               + _numeric_keys(file, target))
+    if target.integer:
+        raise SensitivityError(f"sensitivities: {text} takes integers; a derivative needs "
+                               "a real-valued field")
+    if is_time_grid(target.path):
+        raise SensitivityError(f"sensitivities: {text} changes the output time grid; "
+                               "choose a field of the model")
+    if target.path[0] == "simulation" and target.key in _SETTINGS:
+        raise SensitivityError(f"sensitivities: {text} is a setting of the integrator, "
+                               "not of the model; choose a field of the model")
+    value = float(target.value)
+    unit = field_unit(target)
+    step = field_step(value, unit)
+    problem: Exception | None = None
+    for stencil in _STENCILS:  # central; at a bound, one-sided (second order)
         try:
-            target = file.locate(text)
-        except FieldPathError as error:
-            raise SensitivityError(f"sensitivities: {error}") from None
-        if target.value is None:
-            raise SensitivityError(f"sensitivities: {text} has no value in the scenario"
-                                   + _numeric_keys(file, target))
-        if target.integer:
-            raise SensitivityError(f"sensitivities: {text} takes integers; a derivative needs "
-                                   "a real-valued field")
-        if is_time_grid(target.path):
-            raise SensitivityError(f"sensitivities: {text} changes the output time grid; "
-                                   "choose a field of the model")
-        if target.path[0] == "simulation" and target.key in _SETTINGS:
-            raise SensitivityError(f"sensitivities: {text} is a setting of the integrator, "
-                                   "not of the model; choose a field of the model")
-        value = float(target.value)
-        unit = field_unit(target)
-        step = field_step(value, unit)
-        problem: Exception | None = None
-        for stencil in _STENCILS:  # central; at a bound, one-sided (second order)
-            try:
-                scenarios = tuple(scenario if j == 0 else
-                                  file.build({target.path: value + j * step})
-                                  for j in stencil[0])
-                break
-            except ValueError as error:
-                problem = error
-        else:
-            raise SensitivityError(f"sensitivities: {text} = {value:g} cannot be moved by "
-                                   f"±{step:.3g}: {problem}") from None
-        for moved in scenarios:
-            check_path(moved)
-            if not _same_breaks(breaks, input_breakpoints(moved.chain.joints,
-                                                          moved.actuators)):
-                raise SensitivityError(
-                    f"sensitivities: {text} moves a time where a joint's acceleration jumps "
-                    "(a motion's start or end); the computed run is not differentiable in it "
-                    "on a fixed discretisation. Fields that keep those times (angles, link, "
-                    "sensor and damping properties) take sensitivities")
-        out.append(_Field(target, unit, step, stencil[0], stencil[1], scenarios,
-                          *_wide(file, scenario, target, value, step)))
-    return out
+            scenarios = tuple(scenario if j == 0 else
+                              file.build({target.path: value + j * step})
+                              for j in stencil[0])
+            break
+        except ValueError as error:
+            problem = error
+    else:
+        raise SensitivityError(f"sensitivities: {text} = {value:g} cannot be moved by "
+                               f"±{step:.3g}: {problem}") from None
+    for moved in scenarios:
+        check_path(moved)
+        if not _same_breaks(breaks, input_breakpoints(moved.chain.joints,
+                                                      moved.actuators)):
+            raise SensitivityError(
+                f"sensitivities: {text} moves a time where a joint's acceleration jumps "
+                "(a motion's start or end); the computed run is not differentiable in it "
+                "on a fixed discretisation. Fields that keep those times (angles, link, "
+                "sensor and damping properties) take sensitivities")
+    return _Field(target, unit, step, stencil[0], stencil[1], scenarios,
+                  *_wide(file, scenario, target, value, step))
 
 
 def _wide(file: ScenarioFile, scenario: Scenario, target: Target, value: float,
