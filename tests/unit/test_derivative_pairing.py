@@ -112,3 +112,36 @@ def test_a_start_offset_takes_the_stencils_rows() -> None:
     times = np.linspace(0.0, 0.5, 5)
     np.testing.assert_array_equal(settled.derivative_rows(times),
                                   _stencil_rows(settled, prepared, times))
+
+
+def test_the_seeds_skip_a_link_no_sensor_reads_and_a_part_read_as_a_nan_view() -> None:
+    """`_unread` of some columns: NaN in those columns, given back after; of a whole part:
+    a NaN view, the arrays untouched."""
+    from flexlink.simulation.adjoint import _unread
+    from flexlink.simulation.channel_subset import State
+
+    t = np.linspace(0.0, 1.0, 5)
+    q, qd, qdd = np.arange(15.0).reshape(5, 3), np.ones((5, 3)), np.ones((5, 3))
+
+    def reads_first(scenario: object, system: object, state: State) -> np.ndarray:
+        return state.q[:, 0] ** 2 + state.q_dot[:, 0]
+
+    arrays = [q.copy(), qd, qdd]
+    assert _unread(reads_first, None, None, t, arrays, 0, q, slice(1, 3))
+    assert not _unread(reads_first, None, None, t, arrays, 0, q, slice(0, 1))
+    assert np.array_equal(arrays[0], q)
+    assert not _unread(reads_first, None, None, t, arrays, 1, qd)
+    assert _unread(reads_first, None, None, t, arrays, 2, qdd)
+    assert np.array_equal(arrays[1], qd) and np.array_equal(arrays[2], qdd)
+
+
+def test_the_direct_term_is_left_out_only_where_the_readings_stay_the_nominal_ones() -> None:
+    """A joint's motion moves no sensor reading on the modes (same sensors, links and modal
+    data): its direct term, zero, is not evaluated; a link's EI or a sensor's gain is."""
+    from flexlink.simulation.adjoint import _same_readings
+
+    settled, prepared, _ = _settled(_paper(0.5), FIELDS)
+    same = [all(_same_readings(sc, system, settled.scenario, settled.nominal)
+                for sc, system in zip(f.scenarios, moved, strict=True))
+            for f, moved in zip(prepared, settled.systems, strict=True)]
+    assert same == [field.startswith("joints") for field in FIELDS]
