@@ -78,6 +78,44 @@ def test_a_scenario_s_catalogue_is_made_once_and_handed_out_as_a_new_list() -> N
     assert all(a is b for a, b in zip(second, catalogue(scenario)))
 
 
+def test_the_reserved_names_are_made_once_per_chain_shape_and_handed_out_as_a_new_set() -> None:
+    from flexlink.channels.catalogue import _reserved_names, reserved_names
+
+    first = reserved_names(["arm", "forearm"], 2)
+    assert first == set(_reserved_names.__wrapped__(("arm", "forearm"), 2))
+    assert {"arm_tip_X", "forearm_tip_Y", "joint2_angle", "time"} <= first
+    first.add("mine")  # a caller's set is its own
+    assert "mine" not in reserved_names(["arm", "forearm"], 2)
+    assert reserved_names([["unhashable"]], 1) >= {"joint1_angle"}  # type: ignore[list-item]
+
+
+def test_builds_that_reuse_the_tables_they_share_equal_builds_from_scratch() -> None:
+    """Within reusing_tables, a link or joint table met again as the same object is
+    resolved once: the scenarios equal their builds from scratch, a changed table is
+    resolved anew, and a table with a problem reports it at every build."""
+    from flexlink.scenario import ScenarioError
+    from flexlink.scenario.fields import ScenarioFile
+    from flexlink.scenario.load import reusing_tables
+    from flexlink.simulation.sensitivities import scenario_file
+
+    file = scenario_file(load_scenario(paper_experiment_path()))
+    changes = [{}, {("links", 1, "thickness"): 1.1e-3}, {("links", 0, "EI"): 2.0},
+               {("joints", 1, "motion", 0, "to_deg"): 35.0}, {}]
+    scratch = [file.build(c) for c in changes]
+    with reusing_tables():
+        reused = [file.build(c) for c in changes]
+    assert reused == scratch
+    assert reused[1].chain.links[1] != reused[0].chain.links[1]
+    assert reused[3].chain.joints[1] != reused[0].chain.joints[1]
+    bad = ScenarioFile(file.with_values({("links", 0, "mass_per_length"): -1.0}),
+                       file.base_dir, file.name, file.source)
+    with reusing_tables():
+        for _ in range(2):  # the same tables each time
+            with pytest.raises(ScenarioError, match=r"links\[0\]\.mass_per_length"):
+                bad.build()
+        assert file.build() == scratch[0]
+
+
 def test_quasi_rigid_links_are_remembered_for_the_output_times_asked_for() -> None:
     from flexlink.simulation import rigid
 

@@ -11,6 +11,8 @@ motor rates and spring torques), momentum, tip positions.
 
 from __future__ import annotations
 
+import functools
+
 from ..model import (
     ZERO,
     Chain,
@@ -61,13 +63,21 @@ def tip_name(link: str, axis: str) -> str:
 def reserved_names(link_names: list[str], joints: int) -> set[str]:
     """Every automatic channel name a chain of these links could produce (and ``t``,
     ``time``): a sensor must not take one."""
+    try:  # made once per chain shape: every scenario build asks (sweeps, sensitivities)
+        return set(_reserved_names(tuple(link_names), joints))
+    except TypeError:  # an unhashable name (a problem the scenario check reports)
+        return set(_reserved_names.__wrapped__(tuple(link_names), joints))
+
+
+@functools.lru_cache(maxsize=64)
+def _reserved_names(link_names: tuple[str, ...], joints: int) -> frozenset[str]:
     names = {"t", "time", "momentum_x", "momentum_y", "angular_momentum"}
     names |= {joint_name(k, q) for k in range(joints)
               for q in (*JOINT_QUANTITIES, *SLIDER_QUANTITIES.values())}
     names |= {f"base_{c}{r}" for c in BASE_COORDINATES["free"] for r in ("", "_rate")}
     names |= {cart_name(q) for q in CART_QUANTITIES}
     names |= {tip_name(n, axis) for n in link_names for axis in "XY"}
-    return names
+    return frozenset(names)
 
 
 def sensor_channel(sensor: Sensor, chain: Chain) -> Channel:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Base
+from ..model import Base, Link
 from ..model.joints import PrismaticJoint, is_driven
 from .first_order import FirstOrderSystem
 from .forward import ForwardSystem
@@ -76,7 +76,7 @@ def _packed_key(system: FirstOrderSystem) -> tuple[object, ...]:
     inputs, so that systems that differ in their motions alone share their data), its
     stiffening and gravity, and its links' mode counts."""
     chain = system.chain
-    links = tuple(replace(link, name="", EI=1.0, damping_ratio=0.0) for link in chain.links)
+    links = tuple(_unstiffened_link(link) for link in chain.links)
     joints = tuple(None if not (is_driven(j) or isinstance(j, PrismaticJoint)) else j
                    for j in chain.joints)
     return (links, joints, system.geometric_stiffening, system.gravity,
@@ -85,6 +85,42 @@ def _packed_key(system: FirstOrderSystem) -> tuple[object, ...]:
 
 _PACKED: OrderedDict[tuple[object, ...], tuple[list[object], ForwardData]] = OrderedDict()
 _PACKED_KEPT = 8
+
+
+def _unstiffened_link(link: Link) -> Link:
+    return replace(link, name="", EI=1.0, damping_ratio=0.0)
+
+
+def stiffness_alone(a: FirstOrderSystem, b: FirstOrderSystem) -> bool:
+    """Whether the state rows of ``a`` and ``b`` differ through their links' stiffness and
+    damping matrices alone: the same joints (motions included) and settings, links that
+    differ in EI and damping ratio only, modal data sharing every other array
+    (`modes.integrals.modal_data_for_stiffness`), and neither with actuators or a start
+    offset. M⁻¹ is then the same, and the rows affine in those matrices."""
+    if a.actuators or b.actuators or a.z_start is not None or b.z_start is not None \
+            or len(a.modal) != len(b.modal) or a.gravity != b.gravity \
+            or a.geometric_stiffening != b.geometric_stiffening \
+            or not all(_same_but_stiffness(x, y) for x, y in zip(a.modal, b.modal)):
+        return False
+    try:
+        return bool(a.chain.joints == b.chain.joints and all(
+            x == y or _unstiffened_link(x) == _unstiffened_link(y)
+            for x, y in zip(a.chain.links, b.chain.links, strict=True)))
+    except (TypeError, ValueError):  # values holding arrays (a measured motion)
+        return False
+
+
+def mass_inverse(system: FirstOrderSystem, t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """M⁻¹ (nt, n, n) at times t (s), from ``rows`` = `state_rows` (M⁻¹[−K, −C, f]) there
+    and the rows of the same system with c·I added to its stiffness: their K blocks differ
+    by c M⁻¹. c is the largest modal stiffness, so that the difference keeps M⁻¹ to a few
+    round-offs of its own size."""
+    data = forward_data(system)
+    c = float(np.abs(data.stiffness).max()) or 1.0
+    probe = data._replace(stiffness=data.stiffness + c * np.eye(data.stiffness.shape[1]))
+    n = system.n
+    return (rows[:, :, :n] - state_rows(system, t, probe)[:, :, :n]) / c
+
 
 _STIFFNESS_FIELDS = frozenset({"stiffness_matrix", "damping_matrix", "natural_frequencies_hz"})
 
@@ -138,15 +174,18 @@ class CompiledFirstOrderSystem(FirstOrderSystem):
         return rows
 
 
-def state_rows(system: FirstOrderSystem, t: np.ndarray) -> np.ndarray:
-    """M⁻¹[−K, −C, f] (nt, n, 2n+1) of ``system`` at times t (s), compiled
-    (`_prescribed_numba.state_rows`; equal to magnus.state_rows of the numpy
-    FirstOrderSystem.matrices to round-off), once per distinct joint state."""
+def state_rows(system: FirstOrderSystem, t: np.ndarray, data: ForwardData | None = None
+               ) -> np.ndarray:
+    """M⁻¹[−K, −C, f] (nt, n, 2n+1) of ``system`` (its packed ``data``, or other data of
+    the same layout) at times t (s), compiled (`_prescribed_numba.state_rows`; equal to
+    magnus.state_rows of the numpy FirstOrderSystem.matrices to round-off), once per
+    distinct joint state."""
     from ._prescribed_numba import state_rows as kernel
 
     if system.actuators:
         raise ValueError("the compiled state rows leave out actuator forces")
-    data = forward_data(system)
+    if data is None:
+        data = forward_data(system)
     unique, inverse = system.joint_history(t).distinct
     c = np.ascontiguousarray
     out = np.empty((unique.angle.shape[0], system.n, 2 * system.n + 1))

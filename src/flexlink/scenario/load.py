@@ -11,7 +11,9 @@ from __future__ import annotations
 import math
 import tomllib
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -128,7 +130,9 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     if "flexlink_version" in raw:  # informational, written into resolved scenarios
         p.string(raw, "flexlink_version", "scenario")
     simulation = _simulation(raw, p, default_name)
-    links = [_link(t, path, p) for path, t in p.table_array(raw, "links", required=True)]
+    links = [_once(lambda t=t, path=path: _link(t, path, p), given, (path,), p)  # type: ignore[misc]
+             for (path, t), given in zip(p.table_array(raw, "links", required=True),
+                                         _given_tables(raw, "links"))]
     link_names = [lk.get("name") for lk in links]
     p.check_names(link_names, "links")
     joint_tables = p.table_array(raw, "joints", required=True)
@@ -136,8 +140,11 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         p.add(f"joints: expected one [[joints]] table per link ({len(links)}), "
               f"got {len(joint_tables)}")
     joints, motions = [], []
-    for path, table in joint_tables:
-        joint, motion = _joint(table, path, base_dir, simulation.get("t_end"), p)
+    t_end = simulation.get("t_end")
+    for (path, table), given in zip(joint_tables, _given_tables(raw, "joints")):
+        joint, motion = _once(lambda table=table, path=path: _joint(table, path, base_dir,  # type: ignore[misc]
+                                                                    t_end, p),
+                              given, (path, base_dir, t_end), p)
         joints.append(joint)
         motions.append(motion)
     base = read_base(raw.get("base"), base_dir, p)
@@ -179,6 +186,53 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
     if closures:
         resolved["closures"] = closures
     return resolved, [m for m in motions if m is not None]  # all built: no problems
+
+
+# Within `reusing_tables`: each [[links]] and [[joints]] table's resolution, by the table's
+# identity (and what else it reads), with the table itself to check that identity.
+_REUSED: ContextVar[dict[tuple[Any, ...], tuple[Any, Any]] | None] = ContextVar(
+    "_REUSED", default=None)
+
+
+@contextmanager
+def reusing_tables() -> Iterator[None]:
+    """Within it, scenario builds resolve a [[links]] or [[joints]] table that they share
+    as the same object once: many builds of one file that differ in a value or two (a
+    sensitivity's stencil: `ScenarioFile.with_values` copies only the tables on a changed
+    path and shares the others). For a stretch of builds during which no table is changed
+    in place."""
+    token = _REUSED.set({})
+    try:
+        yield
+    finally:
+        _REUSED.reset(token)
+
+
+def _given_tables(raw: Mapping[str, Any], key: str) -> list[Any]:
+    """The tables of the array of tables ``raw[key]`` as given (`Problems.table_array`
+    hands out copies), in its order."""
+    value = raw.get(key)
+    return [t for t in value if isinstance(t, Mapping)] if isinstance(value, list) else []
+
+
+def _once(read: Callable[[], Any], table: object, key: tuple[Any, ...], p: Problems) -> Any:
+    """``read()``, the resolution of ``table`` (as given in the file's dict), or within
+    `reusing_tables` a copy of its
+    earlier one (a link's dict or a joint's (dict, motion); top-level copies, as building
+    the scenario sets a link's chosen "mode_shapes" in its dict). A table with problems is
+    not kept: they are reported each time."""
+    kept = _REUSED.get()
+    if kept is None:
+        return read()
+    found = kept.get((id(table), *key))
+    if found is None or found[0] is not table:
+        before = len(p.messages)
+        out = read()
+        if len(p.messages) > before:
+            return out
+        found = kept[(id(table), *key)] = (table, out)
+    out = found[1]
+    return dict(out) if isinstance(out, dict) else (dict(out[0]), out[1])
 
 
 def _simulation(raw: Mapping[str, Any], p: Problems, default_name: str) -> dict[str, Any]:

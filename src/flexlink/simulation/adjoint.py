@@ -115,14 +115,20 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
     # ∂J/∂x(t) by central differences along each state coordinate at all times at once
     n = solution.q.shape[1]
     arrays = [solution.q, solution.q_dot, solution.q_ddot]
-    seeds = [np.zeros_like(a) for a in arrays]
+    seeds = [np.zeros(a.shape) for a in arrays]
+    links = _link_columns(settled.nominal, n)
     for part in range(3):
-        shifted = list(arrays)
-        moving = shifted[part] = arrays[part].copy()  # one column moved at a time
-        if part and _unread(functional, nominal_scenario, settled.nominal, t, shifted, part,
+        if part and _unread(functional, nominal_scenario, settled.nominal, t, arrays, part,
                             arrays[part]):
             continue  # sensors that do not read the rates (accelerations): their seed is 0
-        for j in range(n):
+        shifted = list(arrays)
+        moving = shifted[part] = arrays[part].copy()  # one column moved at a time
+        read = links if len(links) == 1 else [
+            cols for cols in links if not _unread(functional, nominal_scenario,
+                                                  settled.nominal, t, shifted, part,
+                                                  arrays[part], cols)]
+        # a link's coordinates that no sensor reads have seeds 0
+        for j in (j for cols in read for j in range(cols.start, cols.stop)):
             column = arrays[part][:, j]
             step = float(np.abs(column).max()) or 1.0
             moved = []
@@ -133,11 +139,16 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
             moving[:, j] = column
             seeds[part][:, j] = (moved[0] - moved[1]) / (2.0 * step)
     gradient, _ = lawson_gradient(settled.nominal, settled.derivative_rows, t,
-                                  settled.discretisation, *seeds, settled_system=True)
+                                  settled.discretisation, *seeds, settled_system=True,
+                                  pairing=settled.derivative_pairing)
     for k, (f, moved_systems) in enumerate(zip(fields, settled.systems, strict=True)):
         direct = 0.0
+        # readings the field does not move (a joint's motion): their differences are 0
+        moves = not all(_same_readings(sc, system, nominal_scenario, settled.nominal)
+                        for sc, system in zip(f.scenarios, moved_systems, strict=True))
         for w, sc, system in zip(f.weights, f.scenarios, moved_systems, strict=True):
-            direct += w * float(np.sum(functional(sc, system, solution)))
+            if moves:
+                direct += w * float(np.sum(functional(sc, system, solution)))
             if system.z_start is not None:  # q = w + z_start(p): the start moves too
                 gradient[k] += w * float(np.sum(seeds[0] @ system.z_start)) / f.step
         gradient[k] += direct / f.step
@@ -145,18 +156,47 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
 
 
 def _unread(functional: Callable[..., np.ndarray], scenario: Scenario, system: Any,
-            t: np.ndarray, arrays: list[np.ndarray], part: int, values: np.ndarray) -> bool:
-    """Whether the functional leaves ``arrays[part]`` (a copy of the state's q, q̇ or q̈,
-    ``values``) unread: finite with that part all NaN, which any arithmetic on it would
-    carry (the readings are linear or quadratic in the state). Its central differences
-    would then be zero to the bit. The copy is given back its values."""
-    probe = arrays[part]
-    probe.fill(np.nan)
+            t: np.ndarray, arrays: list[np.ndarray], part: int, values: np.ndarray,
+            columns: slice | None = None) -> bool:
+    """Whether the functional leaves ``arrays[part]`` (the state's q, q̇ or q̈, ``values``)
+    unread, or only its ``columns``: finite with those all NaN, which any arithmetic on them
+    would carry (the readings are linear or quadratic in the state). Their central
+    differences would then be zero to the bit. The whole part is read as a NaN view
+    (nothing written); ``columns`` are set NaN in ``arrays[part]`` (a copy of ``values``)
+    and given back their values."""
+    probe = list(arrays)
+    if columns is None:
+        probe[part] = np.broadcast_to(np.nan, values.shape)
+    else:
+        arrays[part][:, columns] = np.nan
     try:
         with np.errstate(invalid="ignore"):
-            return bool(np.all(np.isfinite(functional(scenario, system, State(t, *arrays)))))
+            return bool(np.all(np.isfinite(functional(scenario, system, State(t, *probe)))))
     finally:
-        probe[...] = values
+        if columns is not None:
+            arrays[part][:, columns] = values[:, columns]
+
+
+def _link_columns(system: Any, n: int) -> list[slice]:
+    """The state's columns by link (a sensor reads its own link's), or all as one where
+    the links' do not cover them."""
+    columns = [b.slice for b in getattr(system, "bodies", ())]
+    covered = sorted(j for cols in columns for j in range(cols.start, cols.stop))
+    return columns if covered == list(range(n)) else [slice(0, n)]
+
+
+def _same_readings(scenario: Scenario, system: Any, nominal_scenario: Scenario,
+                   nominal: Any) -> bool:
+    """Whether the readings of sensors on the modes (all the functional reads) are the
+    nominal ones: the same sensors, links and modal data (the same objects)."""
+    if system is not nominal and (len(system.modal) != len(nominal.modal) or not all(
+            a is b for a, b in zip(system.modal, nominal.modal))):
+        return False
+    try:
+        return bool(scenario.sensors == nominal_scenario.sensors
+                    and scenario.chain.links == nominal_scenario.chain.links)
+    except ValueError:  # values holding arrays: compared as different
+        return False
 
 
 def _by_tangents(settled: SettledRun, fields: list[_Field], t: np.ndarray,

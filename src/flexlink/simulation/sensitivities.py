@@ -14,7 +14,9 @@ a run:
   angle's at least 1e-5 rad) at the table's sampling times; a field whose lower bound the step would cross takes a one-sided
   second-order difference. The assembly is smooth in every numeric field (modes and
   frequencies from roots found to adjacent floating-point numbers), so the difference's
-  error (δ² terms, round-off / δ) is ~1e-9 relative or less.
+  error (δ² terms, round-off / δ) is ~1e-9 relative or less. A field that moves the links'
+  modal stiffness and damping matrices alone (EI, a damping ratio) has ∂A/∂p = −M⁻¹[∂K, ∂D, 0]
+  instead (A is affine in them), ∂K, ∂D by the same stencil of those matrices.
 * ∂channel/∂p at the computed state: the channel map (`prescribed.prescribed_values`) at the
   moved field and the state moved along its sensitivity, by the same stencil. Channels are
   linear or quadratic in the state, so this is exact in the state up to round-off.
@@ -25,7 +27,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -154,52 +156,60 @@ def prepare_fields(file: ScenarioFile, scenario: Scenario, fields: Sequence[str]
     twice = [text for i, text in enumerate(fields) if text in fields[:i]]
     if twice:
         raise SensitivityError(f"sensitivities: {twice[0]} is named twice")
+    from ..scenario.load import reusing_tables
+
     breaks = input_breakpoints(scenario.chain.joints, scenario.actuators)
-    out = []
-    for text in fields:
+    with reusing_tables():  # the stencils' builds share the tables their field leaves alone
+        return [_prepared(file, scenario, text, breaks) for text in fields]
+
+
+def _prepared(file: ScenarioFile, scenario: Scenario, text: str, breaks: np.ndarray
+              ) -> _Field:
+    """`prepare_fields` of one field."""
+    from ..dynamics.first_order import input_breakpoints
+
+    try:
+        target = file.locate(text)
+    except FieldPathError as error:
+        raise SensitivityError(f"sensitivities: {error}") from None
+    if target.value is None:
+        raise SensitivityError(f"sensitivities: {text} has no value in the scenario"
+                               + _numeric_keys(file, target))
+    if target.integer:
+        raise SensitivityError(f"sensitivities: {text} takes integers; a derivative needs "
+                               "a real-valued field")
+    if is_time_grid(target.path):
+        raise SensitivityError(f"sensitivities: {text} changes the output time grid; "
+                               "choose a field of the model")
+    if target.path[0] == "simulation" and target.key in _SETTINGS:
+        raise SensitivityError(f"sensitivities: {text} is a setting of the integrator, "
+                               "not of the model; choose a field of the model")
+    value = float(target.value)
+    unit = field_unit(target)
+    step = field_step(value, unit)
+    problem: Exception | None = None
+    for stencil in _STENCILS:  # central; at a bound, one-sided (second order)
         try:
-            target = file.locate(text)
-        except FieldPathError as error:
-            raise SensitivityError(f"sensitivities: {error}") from None
-        if target.value is None:
-            raise SensitivityError(f"sensitivities: {text} has no value in the scenario"
-                                   + _numeric_keys(file, target))
-        if target.integer:
-            raise SensitivityError(f"sensitivities: {text} takes integers; a derivative needs "
-                                   "a real-valued field")
-        if is_time_grid(target.path):
-            raise SensitivityError(f"sensitivities: {text} changes the output time grid; "
-                                   "choose a field of the model")
-        if target.path[0] == "simulation" and target.key in _SETTINGS:
-            raise SensitivityError(f"sensitivities: {text} is a setting of the integrator, "
-                                   "not of the model; choose a field of the model")
-        value = float(target.value)
-        unit = field_unit(target)
-        step = field_step(value, unit)
-        problem: Exception | None = None
-        for stencil in _STENCILS:  # central; at a bound, one-sided (second order)
-            try:
-                scenarios = tuple(scenario if j == 0 else
-                                  file.build({target.path: value + j * step})
-                                  for j in stencil[0])
-                break
-            except ValueError as error:
-                problem = error
-        else:
-            raise SensitivityError(f"sensitivities: {text} = {value:g} cannot be moved by "
-                                   f"±{step:.3g}: {problem}") from None
-        for moved in scenarios:
-            check_path(moved)
-            if not _same_breaks(breaks, input_breakpoints(moved.chain.joints,
-                                                          moved.actuators)):
-                raise SensitivityError(
-                    f"sensitivities: {text} moves a time where a joint's acceleration jumps "
-                    "(a motion's start or end); the computed run is not differentiable in it "
-                    "on a fixed discretisation. Fields that keep those times (angles, link, "
-                    "sensor and damping properties) take sensitivities")
-        out.append(_Field(target, unit, step, stencil[0], stencil[1], scenarios,
-                          *_wide(file, scenario, target, value, step)))
-    return out
+            scenarios = tuple(scenario if j == 0 else
+                              file.build({target.path: value + j * step})
+                              for j in stencil[0])
+            break
+        except ValueError as error:
+            problem = error
+    else:
+        raise SensitivityError(f"sensitivities: {text} = {value:g} cannot be moved by "
+                               f"±{step:.3g}: {problem}") from None
+    for moved in scenarios:
+        check_path(moved)
+        if not _same_breaks(breaks, input_breakpoints(moved.chain.joints,
+                                                      moved.actuators)):
+            raise SensitivityError(
+                f"sensitivities: {text} moves a time where a joint's acceleration jumps "
+                "(a motion's start or end); the computed run is not differentiable in it "
+                "on a fixed discretisation. Fields that keep those times (angles, link, "
+                "sensor and damping properties) take sensitivities")
+    return _Field(target, unit, step, stencil[0], stencil[1], scenarios,
+                  *_wide(file, scenario, target, value, step))
 
 
 def _wide(file: ScenarioFile, scenario: Scenario, target: Target, value: float,
@@ -240,7 +250,9 @@ def _same_breaks(a: np.ndarray, b: np.ndarray) -> bool:
 class SettledRun:
     """A prescribed run, the discretisation its Lawson integrator settled on, its system
     and, per field, the systems of the field's stencil (the nominal one where the offset is
-    0), with ``derivative_rows``: ∂A/∂p of every field at given times (nt, K, n, 2n+1)."""
+    0), with ``derivative_rows``: ∂A/∂p of every field at given times (nt, K, n, 2n+1),
+    and ``derivative_pairing``: Σ_t ⟨∂A/∂p(t), W_t⟩ per field at given times and weights
+    W (nt, n, 2n+1), what a reverse pass reads of them (`lawson_adjoint.lawson_gradient`)."""
 
     run: PathRun
     scenario: Scenario
@@ -248,6 +260,7 @@ class SettledRun:
     nominal: Any
     systems: list[list[Any]]
     derivative_rows: Any
+    derivative_pairing: Any = None
 
 
 def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
@@ -255,7 +268,7 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
     """The prescribed run of ``scenario`` (`prescribed.run_prescribed`, adaptive Lawson),
     its discretisation (``keep_steps``: with the run's steps, for a reverse pass) and the
     systems of the fields' stencils."""
-    from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem
+    from ..dynamics.prescribed_kernel import CompiledFirstOrderSystem, mass_inverse
     from ..solvers.lawson import integrate_lawson_discretised
     from .prescribed import prescribed_system, run_prescribed
 
@@ -291,26 +304,71 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
         systems.append([nominal if j == 0 or _same_model(sc, scenario) else system_of(sc)
                         for j, sc in zip(f.offsets, f.scenarios, strict=True)])
 
-    def derivative_rows(times: np.ndarray) -> np.ndarray:
-        rows0 = None  # the nominal rows, where a stencil reads them (not a central one)
-        out = None
+    # the fields that move the links' stiffness and damping matrices alone: their ∂A/∂p
+    # is −M⁻¹[∂K, ∂D, 0] (A is affine in them), no assembly per stencil point
+    changes = [_stiffness_change(nominal, f, moved) for f, moved in zip(fields, systems,
+                                                                        strict=True)]
+
+    def field_rows(times: np.ndarray) -> Iterator[tuple[int, np.ndarray]]:
+        """(k, ∂A/∂p_k at times (nt, n, 2n+1)) of each field the equations read."""
+        rows0 = None  # the nominal rows, where a stencil or M⁻¹ reads them
+        inverse = None
         for k, (f, moved) in enumerate(zip(fields, systems, strict=True)):
             if all(s is nominal for s in moved):  # a field the equations do not read
                 continue
+            if changes[k] is not None:
+                if inverse is None:
+                    rows0 = nominal.state_rows(times) if rows0 is None else rows0
+                    inverse = mass_inverse(nominal, times, rows0)
+                rows = np.zeros((times.size, nominal.n, 2 * nominal.n + 1))
+                np.matmul(inverse, -changes[k], out=rows[:, :, :-1])
+                yield k, rows
+                continue
+            rows = None
             for w, s in zip(f.weights, moved, strict=True):
                 if s is nominal:
                     rows0 = nominal.state_rows(times) if rows0 is None else rows0
-                rows = rows0 if s is nominal else s.state_rows(times)
-                if out is None:
-                    out = np.zeros((rows.shape[0], len(fields), *rows.shape[1:]))
-                # written in place: no per-field temporaries to stack
-                out[:, k] += (w / f.step) * rows
-        if out is None:
-            rows0 = nominal.state_rows(times)
-            out = np.zeros((rows0.shape[0], len(fields), *rows0.shape[1:]))
+                term = (w / f.step) * (rows0 if s is nominal else s.state_rows(times))
+                rows = term if rows is None else rows + term
+            yield k, rows  # type: ignore[misc]
+
+    def derivative_rows(times: np.ndarray) -> np.ndarray:
+        n = nominal.n
+        out = np.zeros((times.size, len(fields), n, 2 * n + 1))
+        for k, rows in field_rows(times):
+            out[:, k] = rows
         return out
 
-    return SettledRun(run, scenario, settled[0], nominal, systems, derivative_rows)
+    def derivative_pairing(times: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """Σ_t ⟨∂A/∂p_k(t), weights_t⟩ (K,): each field's stencil of rows combined, then
+        paired (a difference of pairings would carry the round-off of the whole sum)."""
+        out = np.zeros(len(fields))
+        for k, rows in field_rows(times):
+            out[k] = np.vdot(rows, weights)
+        return out
+
+    return SettledRun(run, scenario, settled[0], nominal, systems, derivative_rows,
+                      derivative_pairing)
+
+
+def _stiffness_change(nominal: Any, f: _Field, moved: list[Any]) -> np.ndarray | None:
+    """[∂K, ∂D] (n, 2n) of a field whose stencil's systems differ from the nominal one in
+    their links' modal stiffness and damping matrices alone (a link's EI or damping ratio:
+    `prescribed_kernel.stiffness_alone`), by the field's stencil of those matrices; None
+    for any other field."""
+    from ..dynamics.prescribed_kernel import stiffness_alone
+
+    if all(s is nominal for s in moved) or not all(
+            s is nominal or stiffness_alone(nominal, s) for s in moved):
+        return None
+    n = nominal.n
+    out = np.zeros((n, 2 * n))
+    for w, s in zip(f.weights, moved, strict=True):
+        for o, data in zip(nominal.offsets, s.modal, strict=True):
+            block = slice(o, o + data.n)
+            out[block, block] += (w / f.step) * data.stiffness_matrix
+            out[block, n + o: n + o + data.n] += (w / f.step) * data.damping_matrix
+    return out
 
 
 def _same_model(moved: Scenario, scenario: Scenario) -> bool:

@@ -129,6 +129,36 @@ def tabulate_on(rows: RowsFunction, t_out: np.ndarray, where: TableLayout,
                            sampler.count, moving_references)
 
 
+def sample_weights(table: CoefficientTable, t_out: np.ndarray, weights: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The transpose of `tabulate_on` on ``table``'s layout: the instants it samples, each
+    once (sorted), and per instant the weight W_i (…) such that, for the table T that
+    `tabulate_on` builds from any samples S_i there, Σ_{p,d} ⟨T.poly[p, d], weights[p, d]⟩ =
+    Σ_i ⟨S_i, W_i⟩. ``weights``: (pieces, DEGREE+1, …), like ``table.poly``; a static
+    piece's polynomial is its sample (its d = 0 coefficient)."""
+    block = np.repeat(np.arange(len(table)), np.diff(table.pieces))
+    static = table.static[block]
+    moving = np.flatnonzero(~static)
+    b = block[moving]
+    # the nodes as tabulate_on places them, to the bit
+    a, e = t_out[table.first[b]], t_out[table.last[b]]
+    starts = a + (e - a) * table.lower[moving]
+    lengths = (e - a) * (table.upper[moving] - table.lower[moving])
+    nodes = (starts[:, None] + lengths[:, None] * _NODES).ravel()
+    # poly[p, d] = Σ_j FIT[d, j] S_pj, so S_pj's weight is Σ_d FIT[d, j] weights[p, d]
+    moved = np.tensordot(_FIT, weights[moving], axes=([0], [1]))  # (j, p, …)
+    moved = np.swapaxes(moved, 0, 1).reshape(nodes.size, *weights.shape[2:])
+    fixed = np.flatnonzero(static)
+    times = np.concatenate([nodes, t_out[table.first[block[fixed]]]])
+    order = np.argsort(times, kind="stable")
+    times = times[order]
+    new = np.ones(times.size, dtype=bool)
+    new[1:] = times[1:] != times[:-1]
+    starts = np.flatnonzero(new)  # each instant once: the weights of its copies summed
+    out = np.add.reduceat(np.concatenate([moved, weights[fixed, 0]])[order], starts, axis=0)
+    return times[starts], out
+
+
 class RoughCoefficients(Exception):
     """A(t) is not smooth between output times (say a measured motion's spline with a knot at
     every sample): tabulating it would cost more assemblies than integrating with them."""

@@ -14,20 +14,26 @@ parameter. So the gradient is the derivative of what the run computed, as the ta
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from scipy.linalg import expm
 
-from .coefficient_table import CoefficientTable, tabulate_on
+from .coefficient_table import CoefficientTable, sample_weights
 from .lawson import Discretisation
 from .lawson_sensitivity import DerivativeRows, steps_on
 from .magnus import augmented
 from .solution import LinearSystem
 from .threads import single_threaded
 
+# times (nt,), weights (nt, n, 2n+1) → Σ_t ⟨∂A/∂p_k(t), weights_t⟩ (K,)
+DerivativePairing = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
 
 def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out: np.ndarray,
                     discretisation: Discretisation, seed_q: np.ndarray, seed_qd: np.ndarray,
-                    seed_qdd: np.ndarray, settled_system: bool = False
+                    seed_qdd: np.ndarray, settled_system: bool = False,
+                    pairing: DerivativePairing | None = None
                     ) -> tuple[np.ndarray, np.ndarray]:
     """dJ/dp_k (K,) of J with ∂J/∂q, ∂J/∂q̇, ∂J/∂q̈ = ``seed_q``, ``seed_qd``, ``seed_qdd``
     (nt, n each) along the system's run on ``discretisation`` from rest at t_out[0]
@@ -35,7 +41,9 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
     (``derivative_rows``: ∂A/∂p_k at given times, (nt, K, n, 2n+1)); and the run's augmented
     states (nt, 2n+1). ``settled_system``: the system is the one whose run settled the
     discretisation (its table is then the one the discretisation keeps, and its steps the
-    run's, where the discretisation keeps them: `Discretisation.steps`)."""
+    run's, where the discretisation keeps them: `Discretisation.steps`). ``pairing``:
+    Σ_i ⟨∂A/∂p_k(t_i), W_i⟩ (K,) at given times t_i and weights W_i (nt, n, 2n+1), where
+    that is cheaper than ``derivative_rows`` (none: from them)."""
     from ._lawson_adjoint_numba import lawson_adjoint_blocks
 
     n = system.n
@@ -64,15 +72,18 @@ def lawson_gradient(system: LinearSystem, derivative_rows: DerivativeRows, t_out
                               np.ascontiguousarray(ET), np.ascontiguousarray(E2T),
                               discretisation.substeps, seed_y, seed_acc, G, Gs, W, states,
                               starts, steps is None)
-        dtable = tabulate_on(derivative_rows, t_out, discretisation.layout,
-                             moving_references=False)
         # z̈ at the first output: A at the first piece's start (its constant coefficient)
         G[0, 0] += np.outer(seed_acc[0], states[0])
-        gradient = np.einsum("pdkij,pdij->k", dtable.poly, G)
         blocks = np.flatnonzero(table.static)
-        if blocks.size:
-            gradient += np.einsum("bkij,bij->k", dtable.reference[blocks],
-                                  _static_weights(table, t_out, blocks, Gs, W, n))
+        if blocks.size:  # a static block's A is its piece's constant coefficient
+            G[table.pieces[blocks], 0] += _static_weights(table, t_out, blocks, Gs, W, n)
+        # J's derivative pairs ∂A/∂p with G through the table of ∂A/∂p on the run's
+        # layout, which is linear in its samples: pair the samples instead, no table made
+        times, weights = sample_weights(table, t_out, G)
+        if pairing is None:
+            gradient = np.einsum("tkij,tij->k", derivative_rows(times), weights)
+        else:
+            gradient = pairing(times, weights)
     return gradient, states
 
 
