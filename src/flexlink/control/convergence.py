@@ -287,6 +287,8 @@ def _shape_vectors(scenario: Scenario, names: tuple[str, ...], vectors: np.ndarr
     elastic = set()
     for link, d, width in zip(scenario.chain.links, data, widths):
         if not link.modes:
+            if width:  # a link made rigid in one of the compared scenarios
+                parts.append(np.zeros((vectors.shape[1], width), dtype=vectors.dtype))
             continue
         rows = [index[f"{link.name}_q{i + 1}"] for i in range(link.modes)]
         elastic.update(rows)
@@ -301,6 +303,29 @@ def _shape_vectors(scenario: Scenario, names: tuple[str, ...], vectors: np.ndarr
         angle = names[i].endswith("_angle") or names[i] == "base_attitude"
         parts.append(vectors[i][:, None] * math.sqrt(inertia if angle else mass))
     return np.hstack(parts) if parts else np.zeros((vectors.shape[1], 0))
+
+
+def frequency_change(scenario: Scenario, changed: Scenario, below_hz: float) -> float:
+    """The largest relative change of ``scenario``'s frequencies below ``below_hz`` (Hz) in
+    ``changed`` (the same chain with other mode counts or links made rigid), each mode paired
+    with the changed one of its shape (`pair`); inf when one has no counterpart. The
+    first-order plant at t = 0, open loop, as `mode_convergence`."""
+    from ..solvers.threads import single_threaded
+
+    def plain(s: Scenario) -> Scenario:
+        return replace(s, settings=replace(s.settings, model="first_order"), controllers=(),
+                       sensors=())
+
+    widths = tuple(max(a.modes, b.modes) for a, b in zip(scenario.chain.links,
+                                                        changed.chain.links))
+    with single_threaded():
+        f, shapes, _ = _modes(plain(scenario), 0.0, widths)
+        g, other, _ = _modes(plain(changed), 0.0, widths)
+    band = np.flatnonzero(f < below_hz)
+    if band.size > g.size:
+        return math.inf
+    paired = pair(shapes[band], other)
+    return float(np.max(np.abs(g[paired] / f[band] - 1.0), initial=0.0))
 
 
 def estimate_for_command(scenario: Scenario, at: At = 0.0) -> ModeConvergence | None:

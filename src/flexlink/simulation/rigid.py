@@ -15,6 +15,7 @@ beyond the Nyquist frequency, refuses it (`stiff_forward_links`).
 from __future__ import annotations
 
 import dataclasses
+import math
 from itertools import pairwise
 
 import numpy as np
@@ -107,6 +108,9 @@ def _quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
 # A link whose highest mode is this many times every other link's sets a forward run's step
 # alone: with it rigid the run takes about that many times fewer steps.
 STEP_SETTING_FACTOR = 10.0
+# Relative change of a frequency the output shows (below its Nyquist frequency) beyond which
+# a stiff link's bending matters: it is advised fewer modes, not rigid = true.
+BAND_CHANGE = 0.01
 
 
 def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
@@ -114,7 +118,9 @@ def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
     first frequency above the output grid's Nyquist frequency, or a highest mode
     STEP_SETTING_FACTOR times every other link's (it alone sets the step). Returns
     ``stiff_links_warning`` naming them with the frequency that sets the step and the fix
-    (none: {}). ValueError, before the run, for the nonlinear model when a first frequency is
+    (none: {}): rigid = true where that moves none of the frequencies the output shows by
+    BAND_CHANGE, else the fewest modes that keep them within BAND_CHANGE (`_fix`).
+    ValueError, before the run, for the nonlinear model when a first frequency is
     UNRESOLVED_FACTOR times the Nyquist frequency."""
     if not scenario.is_forward:
         return {}
@@ -140,18 +146,52 @@ def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
             raise ValueError(f"{text}; the nonlinear model's step control does not converge "
                              f"on it: set rigid = true on links[{k}] (a link this stiff does "
                              "not bend visibly), or give it a lower EI or fewer modes")
-        found.append(text)
+        found.append(text + ": " + _fix(scenario, k, nyquist))
     if not found:
         return {}
-    return {"stiff_links_warning": "; ".join(found) + ": set rigid = true on a link that need "
-            "not bend (it then costs no more than a rigid one)"}
+    return {"stiff_links_warning": "; ".join(found)}
+
+
+def _fix(scenario: Scenario, k: int, nyquist: float) -> str:
+    """The advice for a stiff link k: rigid = true when that moves no frequency below
+    ``nyquist`` (Hz) by BAND_CHANGE; else the fewest modes keeping them within
+    BAND_CHANGE (the link's bending under its joints' loads matters: a four-bar's crank)."""
+    from ..control.convergence import frequency_change
+
+    link = scenario.chain.links[k]
+
+    def changed(to: Link) -> Scenario:
+        return with_links(scenario, {k: to})
+
+    try:
+        shift = frequency_change(scenario, changed(rigid_body(link)), nyquist)
+    except Exception:  # noqa: BLE001 — no plant at t = 0 (e.g. a saturated servo): no check
+        return (f"set rigid = true on links[{k}] if its bending does not matter, or give it "
+                "fewer modes")
+    if shift < BAND_CHANGE:
+        return (f"set rigid = true on links[{k}] (it then costs no more than a rigid link; the "
+                f"frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%)")
+    why = ("not rigid = true: with it rigid " + (
+        f"a mode below {nyquist:.3g} Hz has no counterpart" if math.isinf(shift)
+        else f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%"))
+    for fewer in range(1, link.modes):
+        kept = frequency_change(scenario, changed(dataclasses.replace(link, modes=fewer)),
+                                nyquist)
+        if kept < BAND_CHANGE:
+            return (f"give links[{k}] modes = {fewer} (those frequencies then move by "
+                    f"{100 * kept:.2g}%), {why}")
+    return f"keep its modes, {why}"
+
+
+def with_links(scenario: Scenario, links: dict[int, Link]) -> Scenario:
+    """The scenario with the links at the keys of ``links`` replaced."""
+    chain = tuple(links.get(k, link) for k, link in enumerate(scenario.chain.links))
+    return dataclasses.replace(scenario, chain=dataclasses.replace(scenario.chain, links=chain))
 
 
 def with_rigid_links(scenario: Scenario, indices: list[int]) -> Scenario:
     """The scenario with the links at ``indices`` made rigid."""
-    links = tuple(rigid_body(link) if k in indices else link
-                  for k, link in enumerate(scenario.chain.links))
-    return dataclasses.replace(scenario, chain=dataclasses.replace(scenario.chain, links=links))
+    return with_links(scenario, {k: rigid_body(scenario.chain.links[k]) for k in indices})
 
 
 def rigid_metadata(scenario: Scenario, indices: list[int]) -> dict[str, str]:
