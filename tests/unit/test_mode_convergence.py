@@ -262,3 +262,22 @@ def test_a_mode_that_rises_with_more_modes_is_named_not_estimated() -> None:
     from flexlink.control.convergence import modes_line
 
     assert "rising with more modes" in modes_line(meta)
+
+
+def test_a_link_with_initial_modal_rates_gets_an_estimate() -> None:
+    """The slider-crank benchmark starts its rod with modal rates (one per mode): the finer
+    bases had 4 rates for 8 and 12 modes, so the estimate failed and a run had none."""
+    scenario = scenario_from_dict(_example("slider_crank_benchmark.toml"))
+    assert len(scenario.chain.links[1].initial_modal_rates) == 4
+    estimate = mode_convergence(scenario)
+    assert estimate.modes == (0, 4) and estimate.warning() is None
+    assert estimate.frequency_hz.size == 4 and estimate.error.max() < 1e-3
+
+
+def test_a_free_base_s_modes_pair_by_the_links_deflections() -> None:
+    """The satellite's two arrays on a free base: the eigenvectors of its modes that bend the
+    arrays alike carry an ill-determined base translation (unit size against deflections of
+    1e-8); pairing on the joint and base coordinates too paired 4.16 Hz with 11.07 Hz (277%)."""
+    estimate = mode_convergence(scenario_from_dict(_example("satellite_slew.toml")))
+    np.testing.assert_allclose(estimate.refined_hz[1], estimate.frequency_hz, rtol=1e-3)
+    assert estimate.warning() is None

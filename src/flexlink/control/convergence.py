@@ -5,8 +5,7 @@ the highest kept frequency is usually the least converged. The estimate linearis
 first-order plant (`linearize`, at t = 0 unless told otherwise) with m₁ = n, m₂ = n + k and
 m₃ = n + 2k modes per link, k = min(n, 8) (`levels`), and pairs each kept mode with the mode of
 each finer basis that has its shape: the largest MAC (modal assurance criterion) of the links'
-deflections, mass-weighted (each link's ∫ΦᵀΦ dm with its tip body; the joint and base
-coordinates weighted by the chain's inertia), one-to-one (`pair`). Pairing by rank would compare
+deflections, mass-weighted (each link's ∫ΦᵀΦ dm with its tip body), one-to-one (`pair`). Pairing by rank would compare
 a link's top mode with another link's new modes that fall below it. With d₁ = f(m₁) − f(m₂),
 d₂ = f(m₂) − f(m₃) and an error ∝ m^−p, d₂/d₁ gives p (held ≥ 1, the slowest a Ritz
 frequency of these bases converges) and the error left with n modes is d₁/(1 − (m₁/m₂)^p):
@@ -26,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Scenario
+from ..model import Link, Scenario
 from .linear import LinearPlant
 from .linearization import linearize
 from .operating_point import At
@@ -39,6 +38,15 @@ def levels(n: int) -> tuple[int, int, int]:
     """The mode counts compared for a link with n modes: n, n + k, n + 2k, k = min(n, 8)."""
     k = min(n, 8)
     return n, n + k, n + 2 * k
+
+
+def with_modes(link: Link, n: int) -> Link:
+    """The link with n modes; its initial modal rates (if any) cut to n or padded with
+    zeros."""
+    rates = link.initial_modal_rates
+    if rates:
+        rates = tuple(rates[:n]) + (0.0,) * max(n - len(rates), 0)
+    return replace(link, modes=n, initial_modal_rates=rates)
 
 
 def _order(ratio: float, m: tuple[int, int, int]) -> float:
@@ -231,7 +239,7 @@ def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
     widths = tuple(levels(link.modes)[2] for link in links)
     found = []
     for i in range(3):
-        scaled = tuple(link if link.rigid else replace(link, modes=levels(link.modes)[i])
+        scaled = tuple(link if link.rigid else with_modes(link, levels(link.modes)[i])
                        for link in links)
         with single_threaded():  # small eigenproblems: BLAS threads only contend
             found.append(_modes(replace(base, chain=replace(chain, links=scaled)), at, widths))
@@ -252,6 +260,8 @@ def pair(coarse: np.ndarray, fine: np.ndarray) -> np.ndarray:
     assignment of largest total MAC, |aᴴb|²/(|a|²|b|²)."""
     from scipy.optimize import linear_sum_assignment
 
+    if not coarse.shape[1]:  # no elastic coordinate: nothing to converge, keep the ranks
+        return np.arange(len(coarse))
     a = coarse / np.maximum(np.linalg.norm(coarse, axis=1, keepdims=True), 1e-300)
     b = fine / np.maximum(np.linalg.norm(fine, axis=1, keepdims=True), 1e-300)
     mac = np.abs(a.conj() @ b.T) ** 2
@@ -270,39 +280,26 @@ def _modes(scenario: Scenario, at: At, widths: tuple[int, ...]
 
 def _shape_vectors(scenario: Scenario, names: tuple[str, ...], vectors: np.ndarray,
                    widths: tuple[int, ...]) -> np.ndarray:
-    """(N, d) rows y with |y|² the modes' kinetic-energy measure: each link's modal
-    coordinates q through the Cholesky factor of its ∫ΦᵀΦ dm (tip body included), so that
-    |y|² sums ∫w² dm of the links' deflections; a joint angle, motor angle or base attitude
-    times √(Σ ∫x² dm + J) of the links, a travel or base translation times √(Σ m). Coordinates
-    of the coarser bases are the leading ones of the finer (the same shape functions), so the
-    vectors of every level are laid out alike: ``widths[k]`` entries for link k (zeros past
-    its n)."""
+    """(N, d) rows y, one per mode (columns of the plant's eigenvectors ``vectors``), with |y|²
+    = Σ ∫w² dm of the links' deflections w = Φq (each link's modal coordinates q through the
+    Cholesky factor of its ∫ΦᵀΦ dm, tip body included). Joint, base and cart coordinates are
+    left out: in an oscillatory mode they follow the deflections (momentum), and a free base's
+    are ill-determined in the eigenvectors. A coarser basis's coordinates are the leading
+    ones of a finer (the same shape functions), so the vectors of every level are laid out
+    alike: ``widths[k]`` entries for link k (zeros past its n)."""
     from ..dynamics.first_order import chain_modal_data
 
     index = {name: i for i, name in enumerate(names)}
     data = chain_modal_data(scenario.chain, scenario.base)
-    inertia = sum(d.second_moment + d.rotary_inertia for d in data)
-    mass = sum(d.mass for d in data)
-    parts = []
-    elastic = set()
+    y = np.zeros((vectors.shape[1], sum(widths)), dtype=vectors.dtype)
+    start = 0
     for link, d, width in zip(scenario.chain.links, data, widths):
-        if not link.modes:
-            if width:  # a link made rigid in one of the compared scenarios
-                parts.append(np.zeros((vectors.shape[1], width), dtype=vectors.dtype))
-            continue
-        rows = [index[f"{link.name}_q{i + 1}"] for i in range(link.modes)]
-        elastic.update(rows)
-        factor = np.linalg.cholesky(d.clamped_mass_matrix).T  # RᵀR = ∫ΦᵀΦ dm
-        block = np.zeros((vectors.shape[1], width), dtype=vectors.dtype)
-        block[:, :link.modes] = (factor @ vectors[rows]).T
-        parts.append(block)
-    first_rate = next((i for i, name in enumerate(names)
-                       if name.endswith(("_rate", "_velocity"))), len(names))
-    rigid = [i for i in range(first_rate) if i not in elastic]
-    for i in rigid:
-        angle = names[i].endswith("_angle") or names[i] == "base_attitude"
-        parts.append(vectors[i][:, None] * math.sqrt(inertia if angle else mass))
-    return np.hstack(parts) if parts else np.zeros((vectors.shape[1], 0))
+        if link.modes:
+            rows = [index[f"{link.name}_q{i + 1}"] for i in range(link.modes)]
+            factor = np.linalg.cholesky(d.clamped_mass_matrix).T  # RᵀR = ∫ΦᵀΦ dm
+            y[:, start:start + link.modes] = (factor @ vectors[rows]).T
+        start += width
+    return y
 
 
 def frequency_change(scenario: Scenario, changed: Scenario, below_hz: float) -> float:

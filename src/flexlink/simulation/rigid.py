@@ -156,7 +156,7 @@ def _fix(scenario: Scenario, k: int, nyquist: float) -> str:
     """The advice for a stiff link k: rigid = true when that moves no frequency below
     ``nyquist`` (Hz) by BAND_CHANGE; else the fewest modes keeping them within
     BAND_CHANGE (the link's bending under its joints' loads matters: a four-bar's crank)."""
-    from ..control.convergence import frequency_change
+    from ..control.convergence import frequency_change, with_modes
 
     link = scenario.chain.links[k]
 
@@ -165,20 +165,20 @@ def _fix(scenario: Scenario, k: int, nyquist: float) -> str:
 
     try:
         shift = frequency_change(scenario, changed(rigid_body(link)), nyquist)
+        if shift < BAND_CHANGE:
+            return (f"set rigid = true on links[{k}] (it then costs no more than a rigid link; "
+                    f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%)")
+        fewer = [(n, frequency_change(scenario, changed(with_modes(link, n)), nyquist))
+                 for n in range(1, link.modes)]
     except Exception:  # noqa: BLE001 — no plant at t = 0 (e.g. a saturated servo): no check
         return (f"set rigid = true on links[{k}] if its bending does not matter, or give it "
                 "fewer modes")
-    if shift < BAND_CHANGE:
-        return (f"set rigid = true on links[{k}] (it then costs no more than a rigid link; the "
-                f"frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%)")
     why = ("not rigid = true: with it rigid " + (
         f"a mode below {nyquist:.3g} Hz has no counterpart" if math.isinf(shift)
         else f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%"))
-    for fewer in range(1, link.modes):
-        kept = frequency_change(scenario, changed(dataclasses.replace(link, modes=fewer)),
-                                nyquist)
+    for n, kept in fewer:
         if kept < BAND_CHANGE:
-            return (f"give links[{k}] modes = {fewer} (those frequencies then move by "
+            return (f"give links[{k}] modes = {n} (those frequencies then move by "
                     f"{100 * kept:.2g}%), {why}")
     return f"keep its modes, {why}"
 
