@@ -19,7 +19,7 @@ estimate vouches for ends below the lowest of them.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -302,27 +302,32 @@ def _shape_vectors(scenario: Scenario, names: tuple[str, ...], vectors: np.ndarr
     return y
 
 
-def frequency_change(scenario: Scenario, changed: Scenario, below_hz: float) -> float:
-    """The largest relative change of ``scenario``'s frequencies below ``below_hz`` (Hz) in
-    ``changed`` (the same chain with other mode counts or links made rigid), each mode paired
-    with the changed one of its shape (`pair`); inf when one has no counterpart. The
-    first-order plant at t = 0, open loop, as `mode_convergence`."""
+def frequency_change(scenario: Scenario, below_hz: float) -> Callable[[Scenario], float]:
+    """A function of ``changed`` (the same chain with fewer modes or links made rigid): the
+    largest relative change of ``scenario``'s frequencies below ``below_hz`` (Hz) in it, each
+    mode paired with the changed one of its shape (`pair`); inf when one has no counterpart.
+    The first-order plant at t = 0, open loop, as `mode_convergence`; ``scenario``'s own
+    modes are found once."""
     from ..solvers.threads import single_threaded
 
     def plain(s: Scenario) -> Scenario:
         return replace(s, settings=replace(s.settings, model="first_order"), controllers=(),
                        sensors=())
 
-    widths = tuple(max(a.modes, b.modes) for a, b in zip(scenario.chain.links,
-                                                        changed.chain.links))
+    widths = tuple(link.modes for link in scenario.chain.links)
     with single_threaded():
         f, shapes, _ = _modes(plain(scenario), 0.0, widths)
-        g, other, _ = _modes(plain(changed), 0.0, widths)
     band = np.flatnonzero(f < below_hz)
-    if band.size > g.size:
-        return math.inf
-    paired = pair(shapes[band], other)
-    return float(np.max(np.abs(g[paired] / f[band] - 1.0), initial=0.0))
+
+    def change(changed: Scenario) -> float:
+        with single_threaded():
+            g, other, _ = _modes(plain(changed), 0.0, widths)
+        if band.size > g.size:
+            return math.inf
+        paired = pair(shapes[band], other)
+        return float(np.max(np.abs(g[paired] / f[band] - 1.0), initial=0.0))
+
+    return change
 
 
 def estimate_for_command(scenario: Scenario, at: At = 0.0) -> ModeConvergence | None:

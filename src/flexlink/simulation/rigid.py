@@ -164,22 +164,22 @@ def _fix(scenario: Scenario, k: int, nyquist: float) -> str:
         return with_links(scenario, {k: to})
 
     try:
-        shift = frequency_change(scenario, changed(rigid_body(link)), nyquist)
+        change = frequency_change(scenario, nyquist)
+        shift = change(changed(rigid_body(link)))
         if shift < BAND_CHANGE:
             return (f"set rigid = true on links[{k}] (it then costs no more than a rigid link; "
                     f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%)")
-        fewer = [(n, frequency_change(scenario, changed(with_modes(link, n)), nyquist))
-                 for n in range(1, link.modes)]
+        why = ("not rigid = true: with it rigid " + (
+            f"a mode below {nyquist:.3g} Hz has no counterpart" if math.isinf(shift)
+            else f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%"))
+        for n in range(1, link.modes):
+            kept = change(changed(with_modes(link, n)))
+            if kept < BAND_CHANGE:
+                return (f"give links[{k}] modes = {n} (those frequencies then move by "
+                        f"{100 * kept:.2g}%), {why}")
     except Exception:  # noqa: BLE001 — no plant at t = 0 (e.g. a saturated servo): no check
         return (f"set rigid = true on links[{k}] if its bending does not matter, or give it "
                 "fewer modes")
-    why = ("not rigid = true: with it rigid " + (
-        f"a mode below {nyquist:.3g} Hz has no counterpart" if math.isinf(shift)
-        else f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%"))
-    for n, kept in fewer:
-        if kept < BAND_CHANGE:
-            return (f"give links[{k}] modes = {n} (those frequencies then move by "
-                    f"{100 * kept:.2g}%), {why}")
     return f"keep its modes, {why}"
 
 
