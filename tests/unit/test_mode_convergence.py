@@ -281,3 +281,14 @@ def test_a_free_base_s_modes_pair_by_the_links_deflections() -> None:
     estimate = mode_convergence(scenario_from_dict(_example("satellite_slew.toml")))
     np.testing.assert_allclose(estimate.refined_hz[1], estimate.frequency_hz, rtol=1e-3)
     assert estimate.warning() is None
+
+
+def test_a_rising_mode_the_output_cannot_show_does_not_warn() -> None:
+    """examples/flexible_joint_arm.toml: its top mode (972 Hz with 4 modes; 3631, 3737 Hz
+    with 8, 12) rises with more modes, above the 250 Hz the 2 ms output grid shows: named in
+    the summary, no warning (rank pairing: "61.1% above its converged value")."""
+    estimate = mode_convergence(scenario_from_dict(_example("flexible_joint_arm.toml")))
+    assert estimate.nyquist_hz == pytest.approx(250.0)
+    assert estimate.rising[-1] and estimate.frequency_hz[-1] > estimate.nyquist_hz
+    assert estimate.warning() is None
+    assert "972 Hz (3631, 3737 Hz" in estimate.metadata()["mode_convergence_rising"]

@@ -11,7 +11,8 @@ d₂ = f(m₂) − f(m₃) and an error ∝ m^−p, d₂/d₁ gives p (held ≥ 
 frequency of these bases converges) and the error left with n modes is d₁/(1 − (m₁/m₂)^p):
 Richardson's extrapolation (docs/modes.md, "Mode convergence"). A mode whose frequency rises
 by THRESHOLD or more with more modes (a link on an elastic joint without hub inertia keeps
-one, set by the mode count) has no converged counterpart: it is named, not estimated. The
+one, set by the mode count) has no converged counterpart: it is named, not estimated, and
+warns only where the output can show it (below the output grid's Nyquist frequency). The
 finest basis's modes paired with no kept one are modes the kept basis lacks: the band the
 estimate vouches for ends below the lowest of them.
 """
@@ -80,6 +81,7 @@ class ModeConvergence:
     where: str = "t = 0"  # the operating point, in words
     # the finest basis's frequencies (Hz) paired with no kept mode: modes the kept basis lacks
     missing_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    nyquist_hz: float = math.inf  # the output grid's: the band the channels can show
 
     @property
     def rising(self) -> np.ndarray:
@@ -152,11 +154,13 @@ class ModeConvergence:
 
     def warning(self) -> str | None:
         """A sentence when some kept frequency's estimated error is THRESHOLD or more, or a
-        `rising` mode stands above a mode the basis lacks (the kept spectrum is not the
-        structure's there)."""
+        `rising` mode the output can show (below `nyquist_hz`) stands above a mode the basis
+        lacks (the kept spectrum is not the structure's there)."""
         error = self.error
         n = len(error)
-        misplaced = np.flatnonzero(self.rising & (self.frequency_hz > self.missing_below_hz))
+        f = self.frequency_hz
+        misplaced = np.flatnonzero(self.rising & (f > self.missing_below_hz)
+                                   & (f < self.nyquist_hz))
         if not n or (error.max() < THRESHOLD and not misplaced.size):
             return None
         below = self.converged_below_hz
@@ -251,7 +255,7 @@ def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
     missing = np.setdiff1d(np.arange(last.size), paired[-1])
     return ModeConvergence(bases, tuple(link.name for link in links),
                            tuple(link.modes for link in links), f[:count], refined, where,
-                           np.sort(last[missing]))
+                           np.sort(last[missing]), 0.5 / scenario.settings.dt_out)
 
 
 def pair(coarse: np.ndarray, fine: np.ndarray) -> np.ndarray:
