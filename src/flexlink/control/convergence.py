@@ -20,13 +20,14 @@ estimate vouches for ends below the lowest of them.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from ..model import Link, Scenario
+from ..model import Scenario
+from ..modes.pairing import deflection_vectors, pair
 from .linear import LinearPlant
 from .linearization import linearize
 from .operating_point import At
@@ -39,15 +40,6 @@ def levels(n: int) -> tuple[int, int, int]:
     """The mode counts compared for a link with n modes: n, n + k, n + 2k, k = min(n, 8)."""
     k = min(n, 8)
     return n, n + k, n + 2 * k
-
-
-def with_modes(link: Link, n: int) -> Link:
-    """The link with n modes; its initial modal rates (if any) cut to n or padded with
-    zeros."""
-    rates = link.initial_modal_rates
-    if rates:
-        rates = tuple(rates[:n]) + (0.0,) * max(n - len(rates), 0)
-    return replace(link, modes=n, initial_modal_rates=rates)
 
 
 def _order(ratio: float, m: tuple[int, int, int]) -> float:
@@ -229,6 +221,7 @@ def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
     linearised, e.g. a servo saturated there). The first-order equations, open loop
     (controllers left out)."""
     from ..model.basis import chosen_mode_shapes
+    from ..simulation.rigid import with_modes
     from ..solvers.threads import single_threaded
 
     settings = replace(scenario.settings, model="first_order")
@@ -258,21 +251,6 @@ def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
                            np.sort(last[missing]), 0.5 / scenario.settings.dt_out)
 
 
-def pair(coarse: np.ndarray, fine: np.ndarray) -> np.ndarray:
-    """For each coarse mode's shape vector (rows of ``coarse``, (N, d): `_shape_vectors`), the
-    index of the fine mode (rows of ``fine``, (N', d), N' ≥ N) with its shape: the one-to-one
-    assignment of largest total MAC, |aᴴb|²/(|a|²|b|²)."""
-    from scipy.optimize import linear_sum_assignment
-
-    if not coarse.shape[1]:  # no elastic coordinate: nothing to converge, keep the ranks
-        return np.arange(len(coarse))
-    a = coarse / np.maximum(np.linalg.norm(coarse, axis=1, keepdims=True), 1e-300)
-    b = fine / np.maximum(np.linalg.norm(fine, axis=1, keepdims=True), 1e-300)
-    mac = np.abs(a.conj() @ b.T) ** 2
-    rows, cols = linear_sum_assignment(mac, maximize=True)
-    return cols[np.argsort(rows)]
-
-
 def _modes(scenario: Scenario, at: At, widths: tuple[int, ...]
            ) -> tuple[np.ndarray, np.ndarray, str]:
     """The plant's frequencies (Hz) about ``at``, each mode's shape vector (`_shape_vectors`)
@@ -284,54 +262,14 @@ def _modes(scenario: Scenario, at: At, widths: tuple[int, ...]
 
 def _shape_vectors(scenario: Scenario, names: tuple[str, ...], vectors: np.ndarray,
                    widths: tuple[int, ...]) -> np.ndarray:
-    """(N, d) rows y, one per mode (columns of the plant's eigenvectors ``vectors``), with |y|²
-    = Σ ∫w² dm of the links' deflections w = Φq (each link's modal coordinates q through the
-    Cholesky factor of its ∫ΦᵀΦ dm, tip body included). Joint, base and cart coordinates are
-    left out: in an oscillatory mode they follow the deflections (momentum), and a free base's
-    are ill-determined in the eigenvectors. A coarser basis's coordinates are the leading
-    ones of a finer (the same shape functions), so the vectors of every level are laid out
-    alike: ``widths[k]`` entries for link k (zeros past its n)."""
+    """(N, Σ widths) shape vectors (`modes.pairing.deflection_vectors`) of the plant's
+    eigenvectors ``vectors`` (columns), their elastic rows found by name."""
     from ..dynamics.first_order import chain_modal_data
 
     index = {name: i for i, name in enumerate(names)}
-    data = chain_modal_data(scenario.chain, scenario.base)
-    y = np.zeros((vectors.shape[1], sum(widths)), dtype=vectors.dtype)
-    start = 0
-    for link, d, width in zip(scenario.chain.links, data, widths):
-        if link.modes:
-            rows = [index[f"{link.name}_q{i + 1}"] for i in range(link.modes)]
-            factor = np.linalg.cholesky(d.clamped_mass_matrix).T  # RᵀR = ∫ΦᵀΦ dm
-            y[:, start:start + link.modes] = (factor @ vectors[rows]).T
-        start += width
-    return y
-
-
-def frequency_change(scenario: Scenario, below_hz: float) -> Callable[[Scenario], float]:
-    """A function of ``changed`` (the same chain with fewer modes or links made rigid): the
-    largest relative change of ``scenario``'s frequencies below ``below_hz`` (Hz) in it, each
-    mode paired with the changed one of its shape (`pair`); inf when one has no counterpart.
-    The first-order plant at t = 0, open loop, as `mode_convergence`; ``scenario``'s own
-    modes are found once."""
-    from ..solvers.threads import single_threaded
-
-    def plain(s: Scenario) -> Scenario:
-        return replace(s, settings=replace(s.settings, model="first_order"), controllers=(),
-                       sensors=())
-
-    widths = tuple(link.modes for link in scenario.chain.links)
-    with single_threaded():
-        f, shapes, _ = _modes(plain(scenario), 0.0, widths)
-    band = np.flatnonzero(f < below_hz)
-
-    def change(changed: Scenario) -> float:
-        with single_threaded():
-            g, other, _ = _modes(plain(changed), 0.0, widths)
-        if band.size > g.size:
-            return math.inf
-        paired = pair(shapes[band], other)
-        return float(np.max(np.abs(g[paired] / f[band] - 1.0), initial=0.0))
-
-    return change
+    q = [vectors[[index[f"{link.name}_q{i + 1}"] for i in range(link.modes)]]
+         for link in scenario.chain.links]
+    return deflection_vectors(chain_modal_data(scenario.chain, scenario.base), q, widths)
 
 
 def estimate_for_command(scenario: Scenario, at: At = 0.0) -> ModeConvergence | None:
