@@ -195,3 +195,100 @@ def test_a_closed_loop_s_estimate_names_the_angles_the_loop_closed_at(at: object
     closed = [f"{np.degrees(op[f'joint{k}_angle']):.4g}°" for k in (2, 3)]
     assert mode_convergence(scenario, only_guesses).where == \
         f"rest, the loop closed at joint2 = {closed[0]}, joint3 = {closed[1]}"
+
+
+def _example(name: str):
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples" / name
+    return resolve_scenario_dict(path)
+
+
+def test_modes_are_paired_by_shape_not_by_rank() -> None:
+    """The four-bar linkage with 4 crank modes: the coupler's and follower's new modes fall
+    below the crank's top one (8930 Hz), which rank pairing compared with another mode
+    ("572% above its converged value"). Paired by shape, every kept frequency moves by
+    < 0.1% with 8 and 12 modes per link: no warning; the modes the kept basis lacks (the
+    coupler's and follower's 5th, from 1190 Hz) end the band vouched for."""
+    d = _example("four_bar_benchmark.toml")
+    d["links"][0]["modes"] = 4
+    estimate = mode_convergence(scenario_from_dict(d))
+    assert estimate.frequency_hz[-1] == pytest.approx(8930.25, rel=1e-4)
+    assert estimate.error.max() < 1e-3 and estimate.warning() is None
+    assert estimate.missing_below_hz == pytest.approx(1189.6, rel=1e-3)
+    assert estimate.converged_below_hz == pytest.approx(813.98, rel=1e-4)
+    np.testing.assert_allclose(estimate.refined_hz[1], estimate.frequency_hz, rtol=1e-3)
+
+
+def test_an_unconverged_top_mode_warns_with_its_own_error() -> None:
+    """The paper's arm (4 clamped-free modes per link): its 8th frequency, 224.4 Hz, is
+    1.57% above the same mode with 20 modes per link (220.9 Hz); the estimate says so within
+    a factor 1.2 (rank pairing: 58%, against link1's 5th mode at 141.6 Hz)."""
+    from flexlink.control.linearization import linearize
+    from flexlink.scenario.builtin import paper_experiment_path
+
+    d = resolve_scenario_dict(paper_experiment_path())
+    estimate = mode_convergence(scenario_from_dict(d))
+    for link in d["links"]:
+        link["modes"] = 20
+    fine = linearize(scenario_from_dict(d), outputs=[]).modes()[0]
+    top = estimate.frequency_hz[-1]
+    converged = fine[np.argmin(np.abs(fine - top))]
+    assert converged == pytest.approx(220.91, rel=1e-3)
+    true = top / converged - 1
+    assert 1 / 1.2 < estimate.error[-1] / true < 1.2
+    text = estimate.warning()
+    assert text is not None and f"{top:.4g} Hz, is an estimated {100 * estimate.error[-1]:.3g}%" \
+        in text
+    assert estimate.missing_below_hz == pytest.approx(141.6, rel=1e-3)
+
+
+def test_a_mode_that_rises_with_more_modes_is_named_not_estimated() -> None:
+    """A link on an elastic joint without hub inertia: its top frequency (163 Hz with 4
+    modes) rises with more modes (610, 1343 Hz); the structure's 5th mode (91.8 Hz) is what
+    the basis lacks. Rank pairing called it 78% above its converged value."""
+    from tests.validation.forward_fe_cases import CASES, flexlink_scenario
+
+    estimate = mode_convergence(flexlink_scenario(CASES["elastic_joint"], modes=4))
+    assert estimate.rising.tolist() == [False] * 4 + [True]
+    assert estimate.error[-1] == 0.0 and estimate.highest_error < 0.01
+    assert estimate.highest_hz == pytest.approx(54.64, rel=1e-3)
+    assert estimate.missing_below_hz == pytest.approx(91.82, rel=1e-3)
+    text = estimate.warning()
+    assert text is not None and "163.2 Hz, has no converged counterpart" in text \
+        and "above a mode at 91.82 Hz that this basis lacks" in text and "78" not in text
+    meta = estimate.metadata()
+    assert "163.2 Hz (610.4, 1343 Hz with 8, 12 modes per link)" in meta["mode_convergence_rising"]
+    from flexlink.control.convergence import modes_line
+
+    assert "rising with more modes" in modes_line(meta)
+
+
+def test_a_link_with_initial_modal_rates_gets_an_estimate() -> None:
+    """The slider-crank benchmark starts its rod with modal rates (one per mode): the finer
+    bases had 4 rates for 8 and 12 modes, so the estimate failed and a run had none."""
+    scenario = scenario_from_dict(_example("slider_crank_benchmark.toml"))
+    assert len(scenario.chain.links[1].initial_modal_rates) == 4
+    estimate = mode_convergence(scenario)
+    assert estimate.modes == (0, 4) and estimate.warning() is None
+    assert estimate.frequency_hz.size == 4 and estimate.error.max() < 1e-3
+
+
+def test_a_free_base_s_modes_pair_by_the_links_deflections() -> None:
+    """The satellite's two arrays on a free base: the eigenvectors of its modes that bend the
+    arrays alike carry an ill-determined base translation (unit size against deflections of
+    1e-8); pairing on the joint and base coordinates too paired 4.16 Hz with 11.07 Hz (277%)."""
+    estimate = mode_convergence(scenario_from_dict(_example("satellite_slew.toml")))
+    np.testing.assert_allclose(estimate.refined_hz[1], estimate.frequency_hz, rtol=1e-3)
+    assert estimate.warning() is None
+
+
+def test_a_rising_mode_the_output_cannot_show_does_not_warn() -> None:
+    """examples/flexible_joint_arm.toml: its top mode (972 Hz with 4 modes; 3631, 3737 Hz
+    with 8, 12) rises with more modes, above the 250 Hz the 2 ms output grid shows: named in
+    the summary, no warning (rank pairing: "61.1% above its converged value")."""
+    estimate = mode_convergence(scenario_from_dict(_example("flexible_joint_arm.toml")))
+    assert estimate.nyquist_hz == pytest.approx(250.0)
+    assert estimate.rising[-1] and estimate.frequency_hz[-1] > estimate.nyquist_hz
+    assert estimate.warning() is None
+    assert "972 Hz (3631, 3737 Hz" in estimate.metadata()["mode_convergence_rising"]

@@ -275,7 +275,10 @@ LINKS = Section("links", [
         doc="a link far stiffer than the rest costs as little as a rigid one: with "
             "prescribed joints, a link whose first frequency is far above what `dt_out` "
             "resolves and whose quasi-static deflection is below `rtol` of its length runs "
-            "as rigid (the run's `rigid_links` attribute says which)"),
+            "as rigid (the run's `rigid_links` attribute says which); a forward run names a "
+            "link whose highest mode alone sets its step, advising `rigid = true` only where "
+            "that moves no frequency the output shows by 1%, else fewer modes "
+            "(`stiff_links_warning`, docs/modes.md)"),
 ])
 
 BODIES = Section("links.bodies", [

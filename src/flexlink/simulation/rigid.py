@@ -15,6 +15,8 @@ beyond the Nyquist frequency, refuses it (`stiff_forward_links`).
 from __future__ import annotations
 
 import dataclasses
+import math
+from collections.abc import Callable
 from itertools import pairwise
 
 import numpy as np
@@ -24,6 +26,7 @@ from ..dynamics.histories import input_breakpoints
 from ..dynamics.kinematics import frame_motion, joint_history
 from ..model import Link, Scenario
 from ..modes import modal_data
+from ..modes.pairing import deflection_vectors, pair
 
 # The first frequency must be this many times the output grid's Nyquist frequency: its
 # vibration is then invisible in the output (it would only alias).
@@ -36,6 +39,15 @@ DEFLECTION_FACTOR = 2.0
 def rigid_body(link: Link) -> Link:
     """The link without modes (rigid): same mass, tip mass and tip inertia."""
     return dataclasses.replace(link, modes=0, initial_modal_rates=())
+
+
+def with_modes(link: Link, n: int) -> Link:
+    """The link with n modes; its initial modal rates (if any) cut to n or padded with
+    zeros."""
+    rates = link.initial_modal_rates
+    if rates:
+        rates = tuple(rates[:n]) + (0.0,) * max(n - len(rates), 0)
+    return dataclasses.replace(link, modes=n, initial_modal_rates=rates)
 
 
 def peak_accelerations(scenario: Scenario, t: np.ndarray) -> np.ndarray:
@@ -107,6 +119,9 @@ def _quasi_rigid_links(scenario: Scenario, t: np.ndarray) -> list[int]:
 # A link whose highest mode is this many times every other link's sets a forward run's step
 # alone: with it rigid the run takes about that many times fewer steps.
 STEP_SETTING_FACTOR = 10.0
+# Relative change of a frequency the output shows (below its Nyquist frequency) beyond which
+# a stiff link's bending matters: it is advised fewer modes, not rigid = true.
+BAND_CHANGE = 0.01
 
 
 def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
@@ -114,7 +129,9 @@ def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
     first frequency above the output grid's Nyquist frequency, or a highest mode
     STEP_SETTING_FACTOR times every other link's (it alone sets the step). Returns
     ``stiff_links_warning`` naming them with the frequency that sets the step and the fix
-    (none: {}). ValueError, before the run, for the nonlinear model when a first frequency is
+    (none: {}): rigid = true where that moves none of the frequencies the output shows by
+    BAND_CHANGE, else the fewest modes that keep them within BAND_CHANGE (`_fix`).
+    ValueError, before the run, for the nonlinear model when a first frequency is
     UNRESOLVED_FACTOR times the Nyquist frequency."""
     if not scenario.is_forward:
         return {}
@@ -140,18 +157,115 @@ def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
             raise ValueError(f"{text}; the nonlinear model's step control does not converge "
                              f"on it: set rigid = true on links[{k}] (a link this stiff does "
                              "not bend visibly), or give it a lower EI or fewer modes")
-        found.append(text)
+        found.append(text + ": " + _fix(scenario, k, nyquist))
     if not found:
         return {}
-    return {"stiff_links_warning": "; ".join(found) + ": set rigid = true on a link that need "
-            "not bend (it then costs no more than a rigid one)"}
+    return {"stiff_links_warning": "; ".join(found)}
+
+
+def _fix(scenario: Scenario, k: int, nyquist: float) -> str:
+    """The advice for a stiff link k: rigid = true when that moves no frequency below
+    ``nyquist`` (Hz) by BAND_CHANGE; else the fewest modes keeping them within
+    BAND_CHANGE (the link's bending under its joints' loads matters: a four-bar's crank)."""
+    link = scenario.chain.links[k]
+
+    def changed(to: Link) -> Scenario:
+        return with_links(scenario, {k: to})
+
+    try:
+        change = frequency_change(scenario, nyquist)
+        shift = change(changed(rigid_body(link)))
+        if shift < BAND_CHANGE:
+            return (f"set rigid = true on links[{k}] (it then costs no more than a rigid link; "
+                    f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%)")
+        why = ("not rigid = true: with it rigid " + (
+            f"a mode below {nyquist:.3g} Hz has no counterpart" if math.isinf(shift)
+            else f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%"))
+        for n in range(1, link.modes):
+            kept = change(changed(with_modes(link, n)))
+            if kept < BAND_CHANGE:
+                return (f"give links[{k}] modes = {n} (those frequencies then move by "
+                        f"{100 * kept:.2g}%), {why}")
+    except Exception:  # noqa: BLE001 — no plant at t = 0 (e.g. a saturated servo): no check
+        return (f"set rigid = true on links[{k}] if its bending does not matter, or give it "
+                "fewer modes")
+    return f"keep its modes, {why}"
+
+
+def frequency_change(scenario: Scenario, below_hz: float) -> Callable[[Scenario], float]:
+    """A function of ``changed`` (the same chain with fewer modes or links made rigid): the
+    largest relative change of ``scenario``'s frequencies below ``below_hz`` (Hz) in it, each
+    mode paired with the changed one of its shape (`modes.pairing`); inf when one has no
+    counterpart. The first-order equations at t = 0 (`start_modes`); ``scenario``'s own modes
+    are found once."""
+    widths = tuple(link.modes for link in scenario.chain.links)
+    f, shapes = start_modes(scenario, widths)
+    band = np.flatnonzero(f < below_hz)
+
+    def change(changed: Scenario) -> float:
+        g, other = start_modes(changed, widths)
+        if band.size > g.size:
+            return math.inf
+        paired = pair(shapes[band], other)
+        return float(np.max(np.abs(g[paired] / f[band] - 1.0), initial=0.0))
+
+    return change
+
+
+def start_modes(scenario: Scenario, widths: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """The oscillatory modes of a forward scenario's first-order equations at its t = 0
+    state: frequencies (Hz, ascending) and shape vectors (`modes.pairing.deflection_vectors`,
+    ``widths`` per link). Closed loops: the Jacobian of the constrained rates in independent
+    coordinates (`dynamics.loops.reduced_jacobian`); open chains: M ẍ + C ẋ + K x of the
+    free and elastic coordinates (applied loads' slopes, such as a servo's, left out: the
+    same for the scenarios compared)."""
+    from ..dynamics.forward import ForwardSystem
+    from ..model import Base
+
+    settings = scenario.settings
+    system = ForwardSystem(scenario.chain, scenario.base or Base(),
+                           settings.geometric_stiffening, scenario.actuators,
+                           gravity=settings.gravity, initial=settings.initial)
+    nu, n = len(system.free), system.n
+    if scenario.closures:
+        from ..dynamics.loops import LoopSystem, reduced_jacobian
+
+        J, keep = reduced_jacobian(LoopSystem(system, scenario.closures), 0.0)
+        where = {int(y): row for row, y in enumerate(keep)}
+        elastic = [where[2 * nu + i] for i in range(n)]
+    else:
+        y = system.initial_state()
+        t = np.zeros(1)
+        parts = (y[:nu], y[nu:2 * nu], y[2 * nu:2 * nu + n], y[2 * nu + n:2 * nu + 2 * n],
+                 y[2 * nu + 2 * n:])
+        pdd_free, _, _ = system.accelerations(t, *(v[None] for v in parts))
+        p, pd, pdd = system.rigid_state(t, parts[0][None], parts[1][None], pdd_free)
+        keep = system.free + list(range(system.n_rigid, system.n_x))
+        M, C, K = (a[0][np.ix_(keep, keep)] for a in system.matrices(p, pd, pdd)[:3])
+        size = len(keep)
+        J = np.block([[np.zeros((size, size)), np.eye(size)],
+                      [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+        elastic = list(range(nu, nu + n))
+    lam, vectors = np.linalg.eig(J)
+    scale = max(np.abs(lam).max(initial=0.0), 1.0)
+    kept = np.flatnonzero((lam.imag > 1e-9 * scale) & (np.abs(lam) > 1e-6 * scale))
+    kept = kept[np.argsort(np.abs(lam[kept]))]
+    q = vectors[np.ix_(elastic, kept)]
+    bounds = np.cumsum([0] + [link.modes for link in scenario.chain.links])
+    blocks = [q[a:b] for a, b in pairwise(bounds)]
+    return (np.abs(lam[kept]) / (2 * np.pi),
+            deflection_vectors(system.modal, blocks, widths))
+
+
+def with_links(scenario: Scenario, links: dict[int, Link]) -> Scenario:
+    """The scenario with the links at the keys of ``links`` replaced."""
+    chain = tuple(links.get(k, link) for k, link in enumerate(scenario.chain.links))
+    return dataclasses.replace(scenario, chain=dataclasses.replace(scenario.chain, links=chain))
 
 
 def with_rigid_links(scenario: Scenario, indices: list[int]) -> Scenario:
     """The scenario with the links at ``indices`` made rigid."""
-    links = tuple(rigid_body(link) if k in indices else link
-                  for k, link in enumerate(scenario.chain.links))
-    return dataclasses.replace(scenario, chain=dataclasses.replace(scenario.chain, links=links))
+    return with_links(scenario, {k: rigid_body(scenario.chain.links[k]) for k in indices})
 
 
 def rigid_metadata(scenario: Scenario, indices: list[int]) -> dict[str, str]:
