@@ -128,7 +128,10 @@ def test_the_weights_free_the_step_from_the_top_mode() -> None:
     beam's undamped top mode), integrated with the weights of its channels: fewer than 60%
     of the unweighted run's steps, and its hub angle, travel and tip deflection within 4e-4
     of their peaks of the unweighted run at rtol 1e-9 (a tenth of the model's own error
-    against the FE model, docs/validation.md Case 23)."""
+    against the FE model, docs/validation.md Case 23). One run's error is one draw of its
+    step sequence (the hub angle at rtol 1e-4 is 0.3 of that bound, at 1.04e-4 1.4 times
+    it): over 15 tolerances about the default (0.7e-4 … 1.4e-4), the medians must meet
+    both, and no run be off by half the model's error."""
     from flexlink.modes import modal_data
     from flexlink.simulation.forward import forward_system
     from flexlink.solvers.error_weights import elastic_rate_weights
@@ -144,15 +147,21 @@ def test_the_weights_free_the_step_from_the_top_mode() -> None:
     def run(rtol: float, rate_weights: np.ndarray | None):
         return integrate_forward(system, t, rtol, 1e-12, "radau5", rate_weights=rate_weights)
 
-    reference, plain, weighted = run(1e-9, None), run(1e-4, None), run(1e-4, weights)
-    assert weighted.stats["steps"] < 0.6 * plain.stats["steps"]
     tip = modal_data(scenario.chain.links[1]).tip_value
 
     def signals(solution):  # hub angle, travel, the beam's tip deflection
         return solution.q[:, 0], solution.q[:, 1], solution.q[:, 2:] @ tip
 
-    for ours, ref in zip(signals(weighted), signals(reference)):
-        assert np.abs(ours - ref).max() < 4e-4 * np.abs(ref).max()
+    reference = signals(run(1e-9, None))
+    steps, errors = [], []
+    for rtol in np.geomspace(0.7e-4, 1.4e-4, 15):
+        plain, weighted = run(rtol, None), run(rtol, weights)
+        steps.append(weighted.stats["steps"] / plain.stats["steps"])
+        errors.append([np.abs(ours - ref).max() / np.abs(ref).max()
+                       for ours, ref in zip(signals(weighted), reference)])
+    assert np.median(steps) < 0.6, steps
+    assert np.all(np.median(errors, axis=0) < 4e-4), errors
+    assert np.max(errors) < 2e-3, errors
 
 
 def test_displacement_weights_make_an_amplitude_error_count_alike_at_every_phase() -> None:

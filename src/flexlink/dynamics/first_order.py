@@ -261,6 +261,20 @@ class FirstOrderSystem:
         (`shift_solution`)."""
         self.z_start = None if z_start is None else np.asarray(z_start, dtype=float).copy()
 
+    def tip_bounds(self) -> np.ndarray:
+        """Rows (links, 2n+1) over the integrated state [w, ẇ, 1] giving each link's tip
+        deflection w(L) of z = w + z_start over its length: a magnitude beyond 1 is a tip
+        beyond its length, where the first-order model has diverged (the integrators that
+        read it check every step, `solvers.solution.tip_bounds`)."""
+        rows = np.zeros((len(self.bodies), 2 * self.n + 1))
+        for k, (body, d) in enumerate(zip(self.bodies, self.modal)):
+            if d.n == 0:
+                continue
+            rows[k, body.slice] = d.tip_value / d.length
+            if self.z_start is not None:
+                rows[k, -1] = self.z_start[body.slice] @ d.tip_value / d.length
+        return rows
+
     def shift_solution(self, solution: _Solution) -> _Solution:
         """The solution (a frozen dataclass with coordinates ``q``) in z of one integrated in
         w = z − z_start."""

@@ -71,13 +71,14 @@ def run_closed_loop(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         run = integrate_closed_loop(rows, n, len(actuators), system.coefficient_keys,
                                     system.breakpoints(), system.max_frequency, t, grid,
                                     settings.rtol, settings.atol, control, python, on_progress,
-                                    start)
+                                    start, system.tip_bounds())
     except UnstableLoop as exc:
         raise SimulationError(_unstable_message(scenario, exc, readings, grid)) from None
     out = np.searchsorted(grid, t - 1e-9 * max(1.0, t[-1]))
     states = run.states[out]
     solution = Solution(t, states[:, :n], states[:, n:2 * n], run.acc[out], "lawson",
-                        run.stats, accuracy=Accuracy(settings.rtol, run.estimate, RICHARDSON))
+                        run.stats, accuracy=Accuracy(settings.rtol, run.estimate, RICHARDSON),
+                        reach=run.reach)
     try:
         values, shapes, validity = prescribed_values(scenario, system, solution, with_shapes)
     except SimulationError as exc:  # the tips ran away: say it is the loop

@@ -20,6 +20,7 @@ from ..model import Link, Scenario, Sensor
 from ..results import Results
 from ..results.mechanism_parts import parts_metadata
 from ..solvers import Solution
+from ..solvers.solution import StepReach
 from .accuracy import accuracy_metadata, unestimated_metadata
 
 _version = functools.lru_cache(maxsize=1)(package_version)  # the metadata lookup is slow
@@ -213,7 +214,8 @@ def integration_metadata(solution: Solution) -> dict[str, Any]:
 def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.ndarray,
                          geometric_stiffening: bool, axial_load: np.ndarray | None = None,
                          estimate: bool = True, inboard: np.ndarray | None = None,
-                         shares: np.ndarray | None = None) -> dict[str, Any]:
+                         shares: np.ndarray | None = None,
+                         steps: StepReach | None = None) -> dict[str, Any]:
     """Metadata on the first-order model's validity: the largest tip deflection relative to
     its link's length and the expected error against the nonlinear model with its statement
     (`accuracy.accuracy_metadata`; a warning where it is large). A SimulationError where a
@@ -223,19 +225,31 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
     `accuracy.axial_load_parameter` (zero if not given); ``estimate``: False for a forward
     run, where the estimate is not calibrated (`accuracy.unestimated_metadata`);
     ``inboard``: `accuracy.hangs_on_elastic` of each link (none if not given); ``shares``:
-    a forward run's `ForwardSystem.inertia_shares` (none if not given)."""
+    a forward run's `ForwardSystem.inertia_shares` (none if not given); ``steps``: the
+    integrator's reach of the tips over every step (`solvers.solution.tip_bounds`, one row
+    per link; none if it keeps none): a tip beyond its length between output samples is
+    refused at the end of the first step beyond it."""
     lengths = np.array([link.length for link in links])
     ratio = deflection / lengths
     # Column by column: numpy's max over axis 0 of a (nt, few) array is slower.
     peaks = np.array([ratio[:, k].max() for k in range(len(links))]) if ratio.size \
         else np.zeros(len(links))
-    for k, link in enumerate(links):
+    # the first instant each tip was beyond its length: at an output sample, or at the end
+    # of an integrator's step between samples (inf: never)
+    first = np.full(len(links), np.inf)
+    for k in range(len(links)):
         if not peaks[k] <= 1.0:  # (a NaN deflection is caught where the values are checked)
             beyond = ratio[:, k] > 1.0
-            if not beyond.any():
-                continue
-            raise deflection_error(link, float(t[int(np.argmax(beyond))]),
-                                   geometric_stiffening)
+            if beyond.any():
+                first[k] = t[int(np.argmax(beyond))]
+    stepped = np.full(len(links), np.inf) if steps is None else steps.beyond
+    # a step ending at a sample (to round-off) is that sample
+    between = stepped < first - 1e-9 * np.abs(np.where(np.isfinite(first), first, 0.0))
+    when = np.where(between, stepped, first)
+    if np.isfinite(when).any():
+        k = int(np.argmin(when))
+        raise deflection_error(links[k], float(when[k]), geometric_stiffening,
+                               STEP_BEYOND + ")" if between[k] else "")
     worst = int(np.argmax(peaks))
     out = {"peak_tip_deflection_per_length": float(peaks[worst])}
     load = np.zeros(len(links)) if axial_load is None else axial_load
@@ -243,6 +257,11 @@ def check_tip_deflection(links: tuple[Link, ...], t: np.ndarray, deflection: np.
         return {**out, **unestimated_metadata(links, peaks, load, geometric_stiffening,
                                               shares)}
     return {**out, **accuracy_metadata(links, peaks, load, geometric_stiffening, inboard)}
+
+
+# How a tip found beyond its length between output samples is placed in the error
+# (`deflection_error`'s ``where``), closed by ")" or by what the run did there.
+STEP_BEYOND = " (the end of the integrator's first step beyond it"
 
 
 def deflection_error(link: Link, when: float, geometric_stiffening: bool, where: str = ""

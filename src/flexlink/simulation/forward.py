@@ -30,7 +30,7 @@ from .accuracy import (
 )
 from .cart import LAST, SAMPLE, STEP, check_travel
 from .closed_loop import control_values, sensor_rows
-from .common import PathRun, Progress, check_tip_deflection, deflection_error
+from .common import STEP_BEYOND, PathRun, Progress, check_tip_deflection, deflection_error
 from .prismatic import check_travel as check_slider_travel
 from .slider_drift import slider_drift_metadata
 
@@ -110,7 +110,7 @@ def check_deflection_at_stop(scenario: Scenario, system: ForwardSystem, t: np.nd
         return
     start = 2 * len(system.free) - system.n_rigid  # a body's offset is its column in [δp; z]
     reached = np.all(np.isfinite(stop.states), axis=1)
-    step = " (the end of the integrator's first step beyond it: the run stopped there)"
+    step = STEP_BEYOND + ": the run stopped there)"
     for times, rows, where in ((t[reached], stop.states[reached], ""),
                                (np.array([stop.t]), stop.y[None, :], step)):
         for k, body in enumerate(system.bodies):

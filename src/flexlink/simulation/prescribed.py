@@ -38,7 +38,8 @@ def run_prescribed(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         solution = rigid_solution(t, settings.method)
     if not channels:
         check_tip_deflection(scenario.chain.links, solution.t,
-                             tip_deflections(system, solution.q), settings.geometric_stiffening)
+                             tip_deflections(system, solution.q), settings.geometric_stiffening,
+                             steps=solution.reach)
         return PathRun(solution, {}, metadata={"path": "prescribed"})
     values, shapes, validity, read_sensors = prescribed_readings(scenario, system, solution,
                                                                  with_shapes, kept=kept)
@@ -89,13 +90,13 @@ def prescribed_readings(scenario: Scenario, system: FirstOrderSystem, solution: 
     validity: dict[str, Any] = {}
     if checked and kept is not None:
         validity = check_tip_deflection(links, t, tip_deflections(system, z),
-                                        system.geometric_stiffening)
+                                        system.geometric_stiffening, steps=solution.reach)
     elif checked:
         validity = check_tip_deflection(
             links, t, tip_deflections(system, z), system.geometric_stiffening,
             axial_load_parameter(links, system.modal, scenario.base, frames.theta,
                                  frames.omega, frames.alpha, frames.origin_accel),
-            inboard=hangs_on_elastic(links, scenario.base))
+            inboard=hangs_on_elastic(links, scenario.base), steps=solution.reach)
     torque = joint_torques(system, frames)
     sensors = scenario.sensors if kept is None else \
         tuple(s for s in scenario.sensors if s.name in kept)

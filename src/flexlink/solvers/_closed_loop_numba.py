@@ -10,18 +10,19 @@ from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from ..dynamics._controllers_numba import record, sample
-from ._lawson_numba import _add, _copy, _copy2, _delta, _mv
+from ._lawson_numba import _add, _copy, _copy2, _delta, _mv, _reach
 from .solution import BLOW_UP
 
 
 @njit(cache=True, error_model="numpy")
 def closed_loop_intervals(u, n, grid, i_start, i_stop, block_of, first, last, static, pieces,
                           lower, upper, polyT, referenceT, ET, substeps, states, accelerations,
-                          d, w):
+                          d, w, bounds, reach, beyond):
     """Advance the state u = [z, ż, 1, V] in place over grid intervals i_start … i_stop−1
     (table blocks as in lawson_blocks, block_of[i] the block of interval i). Returns −1, or
     the grid point where the loop blew up (state beyond BLOW_UP or a controller beyond its
-    bound)."""
+    bound). ``bounds``, ``reach``, ``beyond``: as lawson_blocks', read at the end of every
+    step (of every interval on static blocks)."""
     m = u.shape[0]
     D1 = np.empty((m, n))
     Dm = np.empty((m, n))
@@ -39,6 +40,7 @@ def closed_loop_intervals(u, n, grid, i_start, i_stop, block_of, first, last, st
         if static[b]:
             _mv(P, u, wv)
             _copy(wv, u)
+            _reach(bounds, u, grid[i + 1], reach, beyond)
         else:
             A_ref = referenceT[b]
             i0, i1 = first[b], last[b]
@@ -72,6 +74,7 @@ def closed_loop_intervals(u, n, grid, i_start, i_stop, block_of, first, last, st
                 _mv(P, v, u)
                 _add(u, n, h / 6.0, k4)
                 _copy2(D2, D1)
+                _reach(bounds, u, grid[i] + (j + 1) * h, reach, beyond)
             _mv(A_ref, u, r)
             _mv(D2, u, k1)
             for q in range(n):

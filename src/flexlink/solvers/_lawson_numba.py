@@ -314,10 +314,24 @@ def _record(i, y, yc, coarse, states, coarse_states, peak, spread):
                 coarse_states[i, q] = yc[q]
 
 
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _reach(bounds, y, t, reach, beyond):
+    """Keep reach[j] = max |bounds[j] · y| over the states seen, and beyond[j] the time t
+    (s) of the first state where it exceeded 1 (left at inf while none has)."""
+    for j in range(bounds.shape[0]):
+        v = 0.0
+        for i in range(y.shape[0]):
+            v += bounds[j, i] * y[i]
+        v = abs(v)
+        reach[j] = max(reach[j], v)
+        if v > 1.0 and beyond[j] == np.inf:
+            beyond[j] = t
+
+
 @njit(cache=True, error_model="numpy")
 def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT, referenceT,
                   ET, E2T, E4T, substeps, coarse, states, accelerations, coarse_states,
-                  peak, spread, trail):
+                  peak, spread, trail, bounds, reach, beyond):
     """Advance the augmented state y = [z, ż, 1] through the blocks, and with ``coarse`` the
     state yc of the Richardson pass with half as many steps alongside (in place, both).
 
@@ -332,7 +346,11 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
     |y − yc| in ``spread`` (m,), the Richardson check's inputs (lawson.py). ``trail``, if
     it has rows: the start state of every fine step on the moving blocks but the first of
     each output interval (the state at its start, in ``states``), in order (what a reverse
-    pass of the steps reads, `_lawson_adjoint_numba`).
+    pass of the steps reads, `_lawson_adjoint_numba`). ``bounds`` (r, m): linear combinations
+    of the state, each within its bound where its magnitude is at most 1 (a link's tip
+    deflection over its length, `solution.tip_bounds`), read at the end of every fine step
+    (every output interval on static blocks): ``reach`` (r,) keeps the largest magnitude
+    of each, ``beyond`` (r,) the end time of the first step beyond 1 (inf while none is).
 
     The coarse step of 2h spans two fine steps: its middle and end are their ends, so it reads
     ΔÃ at instants the fine pass evaluates anyway (one pass over the coefficients, _deltas,
@@ -362,6 +380,7 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
                     _gemv(P, FIRST, m, y, 1.0, w, SET)
                 _copy(w, y)
                 _record(i + 1, y, yc, coarse, states, coarse_states, peak, spread)
+                _reach(bounds, y, t_out[i + 1], reach, beyond)
             continue
         span = t_out[i1] - t_out[i0]
         p0, p1 = pieces[b], pieces[b + 1]
@@ -391,9 +410,12 @@ def lawson_blocks(y, yc, t_out, first, last, static, pieces, lower, upper, polyT
                     if trail.shape[0]:
                         _copy(ym, trail[s])
                         s += 1
+                    _reach(bounds, ym, t_out[i] + (j + 1) * h, reach, beyond)
+                    _reach(bounds, y, t_out[i] + (j + 2) * h, reach, beyond)
                 else:
                     r0 = 2 * (j % 2)
                     _step(P, P2, D[r0], D[r0 + 1], h, y, k1, k2, k3, k4, Ey, E2y, w)
+                    _reach(bounds, y, t_out[i] + (j + 1) * h, reach, beyond)
             _record(i + 1, y, yc, coarse, states, coarse_states, peak, spread)
             _gemv(A_ref, FIRST, m, y, 1.0, r, SET)
             for q in range(n):
@@ -405,7 +427,7 @@ SIGNATURE = (float64[::1], float64[::1], float64[::1], int64[::1], int64[::1], b
              int64[::1], float64[::1], float64[::1], float64[:, :, :, ::1], float64[:, :, ::1],
              float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], int64, boolean,
              float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], float64[::1],
-             float64[:, ::1])
+             float64[:, ::1], float64[:, ::1], float64[::1], float64[::1])
 
 
 def load() -> None:

@@ -27,7 +27,7 @@ from ..model import Controller, FunctionController
 from .batched_expm import expm_balanced
 from .coefficient_table import CoefficientTable, RoughCoefficients, tabulate
 from .magnus import agree, initial_step, richardson_error
-from .solution import Progress
+from .solution import Progress, StepReach
 
 _MAX_HALVINGS = 10
 _ASSEMBLIES_PER_STEP = 4
@@ -57,6 +57,7 @@ class ClosedLoopRun:
     python_commands: list[np.ndarray]
     stats: dict
     estimate: float = float("nan")  # the accepted run's Richardson error estimate
+    reach: StepReach | None = None  # of the tips over every step (``bounds``)
 
 
 def integrate_closed_loop(rows: Callable[[np.ndarray], np.ndarray], n: int, n_act: int,
@@ -64,10 +65,12 @@ def integrate_closed_loop(rows: Callable[[np.ndarray], np.ndarray], n: int, n_ac
                           max_frequency: float, t_out: np.ndarray, grid: np.ndarray,
                           rtol: float, atol: float, control: ControlData,
                           python: PythonLoop, on_progress: Progress | None = None,
-                          start: np.ndarray | None = None) -> ClosedLoopRun:
+                          start: np.ndarray | None = None,
+                          bounds: np.ndarray | None = None) -> ClosedLoopRun:
     """Integrate from rest over ``grid`` (output times ∪ sample instants) and check the
     error at the outputs ``t_out``. ``rows(times)``: M⁻¹[−K, −C, f, B] (nt, n, 2n+1+n_act).
-    ``start``: z at t = 0 (n,), default undeformed."""
+    ``start``: z at t = 0 (n,), default undeformed; ``bounds`` (r, 2n+1): rows over
+    [z, ż, 1] read at every step (`solution.tip_bounds`; the run's ``reach``)."""
     first_step = initial_step(max_frequency) * min(1.0, (rtol / 1e-4) ** 0.25)
     substeps = 2 * max(1, int(np.ceil(np.diff(grid).max() / (2 * first_step))))
     try:
@@ -78,9 +81,10 @@ def integrate_closed_loop(rows: Callable[[np.ndarray], np.ndarray], n: int, n_ac
                               "coefficients of this motion are too rough to tabulate "
                               "(measured angles?)") from None
     out = np.searchsorted(grid, t_out - 1e-12 * max(1.0, t_out[-1]))
-    coarse = _solve(table, n, n_act, grid, substeps // 2, control, python, None, start)
+    coarse = _solve(table, n, n_act, grid, substeps // 2, control, python, None, start, bounds)
     for _ in range(_MAX_HALVINGS):
-        fine = _solve(table, n, n_act, grid, substeps, control, python, on_progress, start)
+        fine = _solve(table, n, n_act, grid, substeps, control, python, on_progress, start,
+                      bounds)
         s_f, s_c = fine.states[out, :2 * n], coarse.states[out, :2 * n]
         if agree(s_f, s_f, s_c, n, rtol, atol):
             fine.stats.update(steps_per_grid_interval=substeps, table_blocks=len(table),
@@ -110,7 +114,8 @@ def _propagators(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray,
 
 def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, substeps: int,
            control: ControlData, python: PythonLoop, on_progress: Progress | None,
-           start: np.ndarray | None = None) -> ClosedLoopRun:
+           start: np.ndarray | None = None, bounds: np.ndarray | None = None
+           ) -> ClosedLoopRun:
     from ._closed_loop_numba import closed_loop_intervals
 
     ET = _propagators(table, n, n_act, grid, substeps)
@@ -122,6 +127,11 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
     acc = np.zeros((grid.size, n))
     u = np.zeros(m)
     u[2 * n] = 1.0
+    limits = np.zeros((0 if bounds is None else bounds.shape[0], m))
+    if bounds is not None:
+        limits[:, :2 * n + 1] = bounds  # the held voltages do not enter
+    far = np.zeros(limits.shape[0])
+    beyond = np.full(limits.shape[0], np.inf)
     if start is not None:
         u[:n] = start
     work = control_work(control)
@@ -146,7 +156,7 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
         bad = closed_loop_intervals(u, n, grid, int(a), int(b), block_of, table.first,
                                     table.last, table.static, table.pieces, table.lower,
                                     table.upper, polyT, referenceT, ET, substeps, states, acc,
-                                    control, work)
+                                    control, work, limits, far, beyond)
         if bad >= 0:
             raise UnstableLoop(float(grid[bad]), "the response grows without bound", int(bad),
                                states[:bad + 1], work)
@@ -156,7 +166,8 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
     for a, b, A in zip(table.first[table.static], table.last[table.static],
                        table.reference[table.static]):
         acc[a + 1: b + 1] = states[a + 1: b + 1] @ A.T  # resting: z̈ = A y, A constant
-    return ClosedLoopRun(states, acc, work, commands, {})
+    return ClosedLoopRun(states, acc, work, commands, {},
+                         reach=None if bounds is None else StepReach(far, beyond))
 
 
 def call_controller(controller: Controller, function: Callable, t: float, y: np.ndarray) -> np.ndarray:

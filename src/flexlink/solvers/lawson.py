@@ -49,7 +49,16 @@ from .magnus import (
     richardson_error_maxima,
     state_rows,
 )
-from .solution import FIXED_STEP, RICHARDSON, Accuracy, LinearSystem, Progress, Solution
+from .solution import (
+    FIXED_STEP,
+    RICHARDSON,
+    Accuracy,
+    LinearSystem,
+    Progress,
+    Solution,
+    StepReach,
+    tip_bounds,
+)
 from .threads import single_threaded
 
 _MAX_HALVINGS = 10
@@ -168,6 +177,7 @@ class Start:
     table: CoefficientTable
     substeps: int
     ET: np.ndarray | None
+    bounds: np.ndarray | None = None  # the system's `solution.tip_bounds`, read at every step
 
 
 def prepare(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
@@ -195,7 +205,7 @@ def prepare(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
     # exp(h Ã_ref) = E² is what the fine steps use for E(E y) too, its E⁴ the square of
     # that; a static block's exp(Δt Ã) does not depend on h. One Padé exponential per
     # block and pass with a new h.
-    start = Start(n, t_out, rtol, atol, table, substeps, None)
+    start = Start(n, t_out, rtol, atol, table, substeps, None, tip_bounds(system))
     return with_propagators(start) if propagators else start
 
 
@@ -207,21 +217,25 @@ def with_propagators(start: Start) -> Start:
 
 def first_pass(start: Start, on_progress: Progress | None = None,
                trail: np.ndarray | None = None
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """States, z̈ and the running maxima of the run's first pass (fine and coarse steps):
-    what `finish` takes; ``trail`` (`_trail`): filled with its fine steps' start states."""
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, StepReach | None]:
+    """States, z̈, the running maxima of the run's first pass (fine and coarse steps) and
+    its fine steps' reach of the start's bounds: what `finish` takes; ``trail`` (`_trail`):
+    filled with its fine steps' start states."""
     # The first comparison from the loop's running maxima (no coarse states kept).
+    reach = unreached(start.bounds)
     states, acc, _, peak, spread = _run(start.table, start.n, start.t_out, start.substeps,
                                         on_progress, start.ET, coarse=True, keep_coarse=False,
-                                        trail=trail)
-    return states, acc, peak, spread
+                                        trail=trail, bounds=start.bounds, reach=reach)
+    return states, acc, peak, spread, reach
 
 
 def finish(start: Start, states: np.ndarray, acc: np.ndarray, peak: np.ndarray,
-           spread: np.ndarray, on_progress: Progress | None = None,
+           spread: np.ndarray, reach: StepReach | None = None,
+           on_progress: Progress | None = None,
            trail: np.ndarray | None = None) -> tuple[Solution, Discretisation]:
-    """The adaptive run from its first pass (states, z̈ and the running maxima of `_run`
-    with the coarse pass): accepted, or steps halved until the Richardson check passes.
+    """The adaptive run from its first pass (states, z̈, the running maxima of `_run`
+    with the coarse pass and its steps' reach of the start's bounds, None if not read):
+    accepted, or steps halved until the Richardson check passes.
     ``trail``: the first pass's step states (`first_pass`); then the discretisation keeps
     the accepted pass's (`Discretisation.steps`)."""
     n, t_out, rtol, atol, table = start.n, start.t_out, start.rtol, start.atol, start.table
@@ -233,7 +247,8 @@ def finish(start: Start, states: np.ndarray, acc: np.ndarray, peak: np.ndarray,
         if accepted:
             stats = {"steps_per_output_interval": substeps, "table_blocks": len(table)}
             return (Solution(t_out, states[:, :n], states[:, n: 2 * n], acc, "lawson",
-                             stats, accuracy=Accuracy(rtol, estimate, RICHARDSON)),
+                             stats, accuracy=Accuracy(rtol, estimate, RICHARDSON),
+                             reach=reach),
                     Discretisation(layout(table, t_out.size), substeps, rtol,
                                    table.reference, ET, steps=None if trail is None
                                    else RunSteps(states, trail)))
@@ -242,7 +257,9 @@ def finish(start: Start, states: np.ndarray, acc: np.ndarray, peak: np.ndarray,
         ET = ET.copy()
         ET[moving] = _block_propagators(table, n, t_out, substeps, moving)
         trail = None if trail is None else _trail(table, n, substeps)
-        states, acc = _solve(table, n, t_out, substeps, on_progress, ET, trail)
+        reach = unreached(start.bounds)
+        states, acc, *_ = _run(table, n, t_out, substeps, on_progress, ET, coarse=False,
+                               trail=trail, bounds=start.bounds, reach=reach)
         accepted = agree(states[:, :-1], states[:, :-1], coarse[:, :-1], n, rtol, atol)
         estimate = richardson_error(states[:, :-1], coarse[:, :-1], n)
     raise SimulationError(
@@ -302,11 +319,13 @@ def _run(
     table: CoefficientTable, n: int, t_out: np.ndarray, substeps: int,
     on_progress: Progress | None, ET: np.ndarray | None, coarse: bool,
     keep_coarse: bool = True, trail: np.ndarray | None = None,
+    bounds: np.ndarray | None = None, reach: StepReach | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """States, z̈, (coarse and keep_coarse) the states of the pass with half the steps, and
     per state component the largest |fine state| and (coarse) |fine − coarse state| over
     the output times (what agree_maxima reads); ``trail`` (`_trail`), if given, filled with
-    the fine steps' start states."""
+    the fine steps' start states; ``reach`` (`unreached` of ``bounds``, the system's
+    `solution.tip_bounds`), if given, filled with the fine steps' reach of them."""
     from ._lawson_numba import lawson_blocks  # numba's import is slow: only when used
 
     if coarse and substeps % 2:
@@ -328,6 +347,9 @@ def _run(
     spread = np.zeros(m)
     acc[0] = table.poly[0, 0] @ y  # A at τ = 0 of the first block
     rows = np.zeros((0, m)) if trail is None else trail
+    limits = np.zeros((0, m)) if bounds is None or reach is None else bounds
+    far = reach.peak if reach is not None else np.zeros(0)
+    beyond = reach.beyond if reach is not None else np.zeros(0)
     # each call's first row of the trail: the fine steps of the moving blocks before it
     steps = np.where(table.static, 0, (table.last - table.first) * (substeps - 1))
     for lo in range(0, len(table), _BLOCKS_PER_CALL):
@@ -336,7 +358,8 @@ def _run(
                       table.pieces[lo:], table.lower, table.upper, polyT,
                       referenceT[sl], ET[sl], E2T[sl], E4T[sl], substeps, coarse, states,
                       acc, coarse_states, peak, spread,
-                      rows[int(steps[:lo].sum()):] if rows.shape[0] else rows)
+                      rows[int(steps[:lo].sum()):] if rows.shape[0] else rows, limits, far,
+                      beyond)
         if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yc))):
             raise SimulationError(
                 f"the state became non-finite near t = {t_out[table.last[sl][-1]]:.4g} s")
@@ -344,6 +367,14 @@ def _run(
             on_progress(float(t_out[table.last[sl][-1]]))
     static_accelerations(table, states, acc)
     return states, acc, coarse_states, peak, spread
+
+
+def unreached(bounds: np.ndarray | None) -> StepReach | None:
+    """The reach of ``bounds`` (r, m) before any step (`StepReach`: peak 0, none beyond);
+    None without bounds."""
+    if bounds is None:
+        return None
+    return StepReach(np.zeros(bounds.shape[0]), np.full(bounds.shape[0], np.inf))
 
 
 def loop_matrices(table: CoefficientTable, ET: np.ndarray, coarse: bool

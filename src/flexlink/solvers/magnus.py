@@ -33,7 +33,16 @@ import numpy as np
 
 from ..errors import SimulationError
 from .batched_expm import expm_balanced
-from .solution import RICHARDSON, Accuracy, LinearSystem, Matrices, Progress, Solution
+from .solution import (
+    RICHARDSON,
+    Accuracy,
+    LinearSystem,
+    Matrices,
+    Progress,
+    Solution,
+    StepReach,
+    tip_bounds,
+)
 from .threads import single_threaded
 
 _GAUSS = np.array([0.5 - np.sqrt(3) / 6, 0.5 + np.sqrt(3) / 6])
@@ -54,12 +63,12 @@ def integrate_magnus(system: LinearSystem, t_out: np.ndarray, rtol: float, atol:
     coefficient_keys label instants whose coefficients are equal (module docstring).
     """
     with single_threaded():
-        z, zd, substeps, estimate = _integrate(system.matrices, system.n, t_out, rtol, atol,
-                                               on_progress, system.max_frequency,
-                                               system.coefficient_keys)
+        z, zd, substeps, estimate, reach = _integrate(
+            system.matrices, system.n, t_out, rtol, atol, on_progress, system.max_frequency,
+            system.coefficient_keys, tip_bounds(system))
         zdd = accelerations(system.matrices, t_out, z, zd)
     return Solution(t_out, z, zd, zdd, "magnus", {"steps_per_output_interval": substeps},
-                    accuracy=Accuracy(rtol, estimate, RICHARDSON))
+                    accuracy=Accuracy(rtol, estimate, RICHARDSON), reach=reach)
 
 
 def accelerations(matrices: MatrixFunction, t: np.ndarray, z: np.ndarray,
@@ -73,8 +82,8 @@ def accelerations(matrices: MatrixFunction, t: np.ndarray, z: np.ndarray,
 def _integrate(
     matrices: MatrixFunction, n: int, t_out: np.ndarray, rtol: float, atol: float,
     on_progress: Progress | None, max_frequency: float,
-    keys: KeyFunction | None,
-) -> tuple[np.ndarray, np.ndarray, int, float]:
+    keys: KeyFunction | None, bounds: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, int, float, StepReach | None]:
     intervals = np.diff(t_out)
     first_step = initial_step(max_frequency)
     substeps = max(1, int(np.ceil(intervals.max() / first_step)))
@@ -83,10 +92,10 @@ def _integrate(
     previous = _solve(matrices, n, t_out[every_other], substeps, on_progress, keys)
     common = every_other
     for _ in range(_MAX_HALVINGS):
-        fine = _solve(matrices, n, t_out, substeps, on_progress, keys)
+        fine, reach = _solve_reaching(matrices, n, t_out, substeps, on_progress, keys, bounds)
         if agree(fine, fine[common], previous, n, rtol, atol):
-            return fine[:, :n], fine[:, n:], substeps, richardson_error(fine[common],
-                                                                        previous, n)
+            return (fine[:, :n], fine[:, n:], substeps,
+                    richardson_error(fine[common], previous, n), reach)
         previous, common = fine, slice(None)
         substeps *= 2
     raise SimulationError(
@@ -154,6 +163,15 @@ def _solve(
     on_progress: Callable[[float], None] | None, keys: KeyFunction | None = None,
 ) -> np.ndarray:
     """States [z, ż] at t_out (nt, 2n) with `substeps` equal Magnus steps per output interval."""
+    return _solve_reaching(matrices, n, t_out, substeps, on_progress, keys)[0]
+
+
+def _solve_reaching(
+    matrices: MatrixFunction, n: int, t_out: np.ndarray, substeps: int,
+    on_progress: Callable[[float], None] | None, keys: KeyFunction | None = None,
+    bounds: np.ndarray | None = None,
+) -> tuple[np.ndarray, StepReach | None]:
+    """`_solve`, and the steps' reach of ``bounds`` (`solution.tip_bounds`; None without)."""
     frac = np.arange(substeps) / substeps
     starts = (t_out[:-1, None] + np.diff(t_out)[:, None] * frac).ravel()
     h = np.repeat(np.diff(t_out) / substeps, substeps)
@@ -162,16 +180,33 @@ def _solve(
     y[-1] = 1.0
     out = np.empty((t_out.size, 2 * n + 1))
     out[0] = y
+    far = np.zeros(0 if bounds is None else bounds.shape[0])
+    beyond = np.full(far.size, np.inf)
     for lo in range(0, starts.size, _CHUNK):
         sl = slice(lo, lo + _CHUNK)
         _, first, which = np.unique(labels[sl], return_index=True, return_inverse=True)
         props = _propagators(matrices, n, starts[sl][first], h[sl][first])
-        y = _advance(props, which.ravel(), y, lo, substeps, out)
+        # every step's end state (a long rest phase's only at its outputs: zero between)
+        trace = np.zeros((which.size, y.size)) if bounds is not None else None
+        y = _advance(props, which.ravel(), y, lo, substeps, out, trace)
+        if bounds is not None:
+            _reach(np.abs(trace @ bounds.T), starts[sl] + h[sl], far, beyond)
         if not np.all(np.isfinite(y)):
             raise SimulationError(f"the state became non-finite near t = {starts[sl][-1]:.4g} s")
         if on_progress is not None:
             on_progress(float(starts[sl][-1] + h[sl][-1]))
-    return out[:, :-1]
+    return out[:, :-1], None if bounds is None else StepReach(far, beyond)
+
+
+def _reach(values: np.ndarray, ends: np.ndarray, far: np.ndarray, beyond: np.ndarray) -> None:
+    """Keep far (r,) the largest of ``values`` (steps, r), the bounded magnitudes at the
+    steps' ``ends`` (s), and beyond (r,) the first end where one exceeded 1 (in place)."""
+    if not values.size:
+        return
+    np.maximum(far, values.max(axis=0), out=far)
+    over = values > 1.0
+    for j in np.flatnonzero(over.any(axis=0) & np.isinf(beyond)):
+        beyond[j] = ends[int(np.argmax(over[:, j]))]
 
 
 def _step_labels(starts: np.ndarray, h: np.ndarray, keys: KeyFunction | None) -> np.ndarray:
@@ -188,9 +223,11 @@ def _step_labels(starts: np.ndarray, h: np.ndarray, keys: KeyFunction | None) ->
 
 def _advance(
     props: np.ndarray, which: np.ndarray, y: np.ndarray, first_step: int, substeps: int,
-    out: np.ndarray,
+    out: np.ndarray, trace: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Apply props[which[i]] in turn from global step `first_step`; store outputs; return y."""
+    """Apply props[which[i]] in turn from global step `first_step`; store outputs; return y.
+    ``trace`` (steps, 2n+1): where given, each step's end state (a rest phase's taken by
+    powers only at its outputs)."""
     bounds = np.flatnonzero(np.diff(which)) + 1
     for lo, hi in zip(np.concatenate([[0], bounds]), np.concatenate([bounds, [which.size]])):
         P = props[which[lo]]
@@ -200,8 +237,10 @@ def _advance(
             # Long run of one propagator (a rest phase): to the next output, then whole output
             # intervals by powers of P^substeps, then the remainder.
             lead = (-step) % substeps
-            for _ in range(lead):
+            for j in range(lead):
                 y = P @ y
+                if trace is not None:
+                    trace[step - first_step + j] = y
             step += lead
             if lead:
                 out[step // substeps] = y
@@ -210,11 +249,16 @@ def _advance(
             chunk = out[step // substeps + 1: step // substeps + 1 + whole]
             _fill_powers(Q, y, chunk)
             y = chunk[-1].copy()
+            if trace is not None:
+                trace[step - first_step + substeps - 1:
+                      step - first_step + whole * substeps:substeps] = chunk
             step += whole * substeps
             count -= lead + whole * substeps
         for _ in range(count):
             y = P @ y
             step += 1
+            if trace is not None:
+                trace[step - first_step - 1] = y
             if step % substeps == 0:
                 out[step // substeps] = y
     return y

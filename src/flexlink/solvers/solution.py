@@ -32,6 +32,25 @@ SCIPY = "none: scipy solve_ivp controls its local error by rtol and atol, withou
 
 
 @dataclass(frozen=True)
+class StepReach:
+    """How far the bounded combinations of an integrator's state went over every step it
+    took, not only at the output times (`tip_bounds`: each link's tip deflection
+    over its length): ``peak`` (r,) the largest magnitude of each, ``beyond`` (r,) the end
+    time (s) of its first step whose magnitude exceeded 1 (inf where none did)."""
+
+    peak: np.ndarray
+    beyond: np.ndarray
+
+
+def tip_bounds(system: object) -> np.ndarray | None:
+    """The system's rows over the augmented state [w, ẇ, 1] whose magnitude exceeds 1 where
+    a link's tip deflects beyond its length (``tip_bounds()`` of a first-order system; None
+    for a system without them): the linear integrators read them at every step."""
+    rows = getattr(system, "tip_bounds", None)
+    return None if rows is None else np.ascontiguousarray(rows(), dtype=float)
+
+
+@dataclass(frozen=True)
 class Accuracy:
     """What an integrator was asked for and what its own error estimate reached: ``rtol``
     the tolerance requested, ``estimate`` the estimate of the run it returned (a fraction of
@@ -48,8 +67,9 @@ class Solution:
     """Coordinates q, rates q̇ and accelerations q̈ (each (nt, n)) at times t (s); the
     integrator that ran (``method``, which may differ from the one asked for after a
     fallback), its step statistics, ``extra`` states of the run ((nt, m), e.g. servo
-    integrals) when it has any, and its ``accuracy`` (the tolerance asked for and the error
-    estimate reached) when it integrated anything."""
+    integrals) when it has any, its ``accuracy`` (the tolerance asked for and the error
+    estimate reached) when it integrated anything, and its ``reach`` over every step where
+    the integrator keeps one (`StepReach`)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -59,6 +79,7 @@ class Solution:
     stats: Mapping[str, float] = field(default_factory=dict)
     extra: np.ndarray | None = None
     accuracy: Accuracy | None = None
+    reach: StepReach | None = None
 
     def __post_init__(self) -> None:
         for name in ("q", "q_dot", "q_ddot"):
