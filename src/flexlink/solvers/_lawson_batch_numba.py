@@ -148,8 +148,9 @@ def _fine_step(ET, E2T, Da, Db, h, y, k1, Ey, E2y, u, w, k2, k3, k4, cin, cscale
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
 def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u, w, Ecy,
-          E4y, wc, xs):
-    """The single kernel's `_pair` (two fine steps of h, one coarse step of 2h) per variant."""
+          E4y, wc, xs, bounds, reach, beyond, at_rest, t_mid, a):
+    """The single kernel's `_pair` (two fine steps of h, one coarse step of 2h) per variant,
+    with the moving lanes' reach of their bounds read between the fine steps (at t_mid)."""
     m = y.shape[0]
     n = k1.shape[0]
     H = 2.0 * h
@@ -160,6 +161,7 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _copy(Ecy, wc)
     _fine_step(ET, E2T, D[0], D[1], h, y, k1, Ey, E2y, u, w, k2, k3, k4, c1, 0.5 * H, wc, b2,
                xs)
+    _lane_reach(bounds, y, t_mid, at_rest, False, reach, beyond, a)
     _copy(Ecy, wc)
     _add(wc, n, 0.5 * H, b2)
     _zero2(k1, b3)
@@ -177,6 +179,25 @@ def _pair(ET, E2T, E4T, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
     _add(yc, n, H / 6.0, b4)
     _zero2(k1, c1)
     _gemv2(D[3], FIRST, m, y, 1.0, k1, yc, 1.0, c1, xs)
+
+
+@njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
+def _lane_reach(bounds, y, t, at_rest, rest, reach, beyond, a):
+    """The single kernel's `_reach` for the lanes whose ``at_rest`` is ``rest`` (the others'
+    states here are thrown away): bounds (r, m, V), reach and beyond (r, V); ``a`` (V,):
+    scratch. Each lane's sum in the single kernel's order, across the lanes."""
+    for j in range(bounds.shape[0]):
+        for v in range(LANES):
+            a[v] = 0.0
+        for q in range(bounds.shape[1]):
+            for v in range(LANES):
+                a[v] += bounds[j, q, v] * y[q, v]
+        for v in range(LANES):
+            if at_rest[v] == rest:
+                value = abs(a[v])
+                reach[j, v] = max(reach[j, v], value)
+                if value > 1.0 and beyond[j, v] == np.inf:
+                    beyond[j, v] = t
 
 
 @njit(cache=True, no_cpython_wrapper=True, error_model="numpy")
@@ -256,7 +277,7 @@ def _lane_deltas(W, ref, piece, local, out):
 @njit(cache=True, error_model="numpy")
 def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper, poly,
                         reference, ET, E2T, E4T, substeps, states, accelerations, peak,
-                        spread):
+                        spread, bounds, reach, beyond):
     """`_lawson_numba.lawson_blocks` with ``coarse`` and no coarse states, for V = `LANES`
     variants at once, each on its own table (blocks, pieces, polynomials): y, yc (m, V);
     per lane v, padded past its own blocks and polynomials: its table's first, last, static
@@ -264,8 +285,9 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
     degree+1, n, m) and reference (V, blocks, n, m) as in the table (not transposed), its
     ET, E2T, E4T (V, blocks, m, m) (transposed, as the single loop takes them); states
     (V, nt, m); accelerations (V, nt, n) (each variant's contiguous, as its single run's);
-    peak, spread (m, V). t_out and substeps (even) are shared, so is the step h of every
-    output interval.
+    peak, spread (m, V); bounds (r, m, V), reach, beyond (r, V): the single loop's, per lane
+    (rows of zeros where a run has fewer). t_out and substeps (even) are shared, so is the
+    step h of every output interval.
 
     Output interval by output interval, every lane in the block of its own table that holds
     it: the lanes in moving blocks cross it in Lawson steps (those in static blocks take the
@@ -307,6 +329,7 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
     y0, yc0, ws, wcs = (np.zeros((m, nv)), np.zeros((m, nv)), np.zeros((m, nv)),
                         np.zeros((m, nv)))
     xs = np.zeros((8, nv))
+    sums = np.zeros(nv)  # _lane_reach's
     for i in range(nt - 1):
         moving = False
         resting = False
@@ -371,7 +394,10 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
                                                            tau + 2.0 * dtau)
                 _lane_deltas(W, Ar, piece, local, D)
                 _pair(P, P2, P4, D, h, y, k1, yc, c1, k2, k3, k4, b2, b3, b4, Ey, E2y, u,
-                      w, Ecy, E4y, wc, xs)
+                      w, Ecy, E4y, wc, xs, bounds, reach, beyond, at_rest,
+                      t_out[i] + (j + 1) * h, sums)
+                _lane_reach(bounds, y, t_out[i] + (j + 2) * h, at_rest, False, reach, beyond,
+                            sums)
         if resting:  # y ← exp(Δt Ã) y on the static lanes, both passes in one product
             if moving:
                 _zero2(ws, wcs)
@@ -386,6 +412,7 @@ def lawson_blocks_batch(y, yc, t_out, first, last, static, pieces, lower, upper,
                 _gemv2(P, FIRST, m, y, 1.0, ws, yc, 1.0, wcs, xs)
                 _copy(wcs, yc)
                 _copy(ws, y)
+            _lane_reach(bounds, y, t_out[i + 1], at_rest, True, reach, beyond, sums)
         _record(i + 1, y, yc, states, peak, spread)
         if moving:  # z̈ = A y on the moving lanes (the static ones': static_accelerations)
             _gemv(Ar, FIRST, m, y, 1.0, r, SET, xs)
@@ -400,7 +427,8 @@ SIGNATURE = (float64[:, ::1], float64[:, ::1], float64[::1], int64[:, ::1], int6
              boolean[:, ::1], int64[:, ::1], float64[:, ::1], float64[:, ::1],
              float64[:, :, :, :, ::1], float64[:, :, :, ::1], float64[:, :, :, ::1],
              float64[:, :, :, ::1], float64[:, :, :, ::1], int64, float64[:, :, ::1],
-             float64[:, :, ::1], float64[:, ::1], float64[:, ::1])
+             float64[:, :, ::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1],
+             float64[:, ::1], float64[:, ::1])
 
 
 def load() -> None:

@@ -21,11 +21,13 @@ import numpy as np
 
 from .batched_expm import expm_balanced_many
 from .lawson import Start, assemble_propagators, propagator_stacks, static_accelerations
+from .solution import StepReach
 
 MIN_GROUP = 24  # fewer variants on one discretisation run faster one by one
 MAX_GROUP = 32  # one call of the loop (its `LANES`; a smaller group is filled up to it)
 
-FirstPass = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # states, z̈, peak, spread
+# states, z̈, peak, spread, the reach of the run's bounds (`lawson.first_pass`)
+FirstPass = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, StepReach | None]
 
 
 def shared_key(start: Start) -> Hashable:
@@ -113,6 +115,14 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
     acc = np.empty((tiles, LANES, t_out.size, n))
     peak = np.empty((tiles, m, LANES))
     spread = np.zeros((tiles, m, LANES))
+    rows = max((s.bounds.shape[0] for s in padded if s.bounds is not None), default=0)
+    bounds = np.zeros((tiles * LANES, rows, m))
+    for v, s in enumerate(padded):
+        if s.bounds is not None:
+            bounds[v, :s.bounds.shape[0]] = s.bounds
+    bounds = np.ascontiguousarray(np.moveaxis(per_lane(bounds), 1, -1))  # (tiles, r, m, V)
+    reach = np.zeros((tiles, rows, LANES))
+    beyond = np.full((tiles, rows, LANES), np.inf)
     for k in range(tiles):
         y = np.zeros((m, LANES))
         y[-1] = 1.0
@@ -121,7 +131,8 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
         peak[k] = np.abs(y)
         lawson_blocks_batch(y, yc, t_out, first_[k], last_[k], static[k], pieces[k],
                             lower[k], upper[k], poly[k], reference[k], ET[k], E2T[k],
-                            E4T[k], first.substeps, states[k], acc[k], peak[k], spread[k])
+                            E4T[k], first.substeps, states[k], acc[k], peak[k], spread[k],
+                            bounds[k], reach[k], beyond[k])
     out: list[FirstPass | None] = []
     for v, start in enumerate(starts):
         k, lane = divmod(v, LANES)
@@ -134,7 +145,10 @@ def first_passes(starts: Sequence[Start]) -> list[FirstPass | None]:
         s, a = states[k, lane], acc[k, lane]
         a[0] = start.table.poly[0, 0] @ s[0]  # A at τ = 0 of the first block
         static_accelerations(start.table, s, a)
-        out.append((s, a, top.copy(), gap.copy()))
+        r = None if start.bounds is None else StepReach(
+            reach[k, :start.bounds.shape[0], lane].copy(),
+            beyond[k, :start.bounds.shape[0], lane].copy())
+        out.append((s, a, top.copy(), gap.copy(), r))
     return out
 
 
