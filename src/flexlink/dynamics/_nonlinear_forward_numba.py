@@ -78,9 +78,10 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
     travel, 1 on each servo integral's row), the columns of a translating base's coordinates
     (a free base: x, y; a cart with a free travel: s), which move no node angle, as the
     residual's change under a unit acceleration (their rows: M symmetric). One residual a
-    state, two on a cart, and no iteration: a third (Case 23's slider on a cart, 4 modes) to
-    two fifths (6 modes) less CPU than iterating with an earlier state's inverse mass
-    matrix, and equal to the numpy equations' direct solve to round-off."""
+    state, two on a cart, and no iteration: a quarter (Case 23's slider on a cart, 4 modes)
+    to two fifths (Case 23, 6 modes) less CPU than iterating with an earlier state's
+    (Broyden-updated) inverse mass matrix, and equal to the numpy equations' direct solve
+    to round-off."""
     b, ny = Y.shape
     n, m = d.n, d.n + d.nu
     Ay = d.Ay
