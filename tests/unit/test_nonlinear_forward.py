@@ -55,35 +55,15 @@ def test_compiled_kernels_match_the_numpy_equations(name: str) -> None:
                                    atol=1e-11 * np.abs(reference[i]).max())
 
 
-def test_broyden_update_maps_the_residual_change_to_the_correction() -> None:
-    """The mass-matrix inverse's update of the step-end accelerations: after it, H Δr = s
-    (the secant of an affine residual); a correction within BROYDEN_STEP of ÿ leaves H."""
-    from flexlink.dynamics._nonlinear_forward_numba import BROYDEN_STEP, _broyden
-
-    rng = np.random.default_rng(3)
-    M = np.eye(4) + 0.1 * rng.normal(size=(4, 4))
-    H = np.linalg.inv(M + 0.01 * rng.normal(size=(4, 4)))  # an older state's inverse
-    s, X = rng.normal(size=4), rng.normal(size=4)
-    r_prev = rng.normal(size=4)
-    r = r_prev + M @ s
-    updated = H.copy()
-    _broyden(updated, s, r, r_prev, X, np.empty(4))
-    np.testing.assert_allclose(updated @ (r - r_prev), s, rtol=1e-12, atol=1e-12)
-    assert not np.allclose(updated, H)
-    tiny = 0.5 * BROYDEN_STEP * np.abs(X).max() * s / np.abs(s).max()
-    kept = H.copy()
-    _broyden(kept, tiny, r_prev + M @ tiny, r_prev, X, np.empty(4))
-    np.testing.assert_array_equal(kept, H)
-
-
 def test_step_end_accelerations_along_a_run_match_the_numpy_equations() -> None:
-    """The compiled accelerations of a run's step ends (each state iterating from the last
-    one's with the updated inverse) against numpy's direct solve, to 1e-10 of the peak."""
+    """The compiled accelerations of a run's step ends (the mass matrix assembled from the node
+    angles) against numpy's direct solve (its columns from the residual), to 1e-12 of the
+    peak."""
     system = _system("pinned")
     t, y, v = integrate_gauss_forward(system, 0.5, 2e-3)
     expected = system.accelerations(t, y, v, compiled=False)
     got = system.accelerations(t, y, v, compiled=True)
-    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
 
 @pytest.mark.parametrize("name", ["free", "pinned", "free_gravity", "pinned_gravity"])

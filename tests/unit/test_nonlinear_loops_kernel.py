@@ -168,8 +168,9 @@ def test_mass_matrix_is_the_residuals_change_under_unit_accelerations(loops) -> 
     u = inputs(loops.system.loads, np.array([T]))[0]
     _phi(loops, w, T, Y)
     f = loops.data.fwd
-    M = mass_matrix(f.Ay, loops.data.At, f.G, f.rot_y, f.rot_J, w.c, w.s,
-                    np.empty((f.Ay.shape[0],) * 2), np.empty(f.Ay.shape))
+    M = np.empty((f.Ay.shape[1],) * 2)
+    mass_matrix(f.Ay, loops.data.At, f.G, f.rot_y, f.rot_J, w.c, w.s,
+                np.empty((f.Ay.shape[0],) * 2), np.empty(f.Ay.shape[::-1]), M)
     X = np.zeros(ny)
     r0, r1 = np.empty(ny), np.empty(ny)
     residual(f, Y[:ny], Y[ny:], X, w.ang, w.rate, w.acc, w.rot_acc, u, r0)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..dynamics.nonlinear_forward import NonlinearForwardSystem
+from ..dynamics.nonlinear_forward import NonlinearForwardSystem, StageInputs
 from ..model import Sensor
 from .catalogue import cart_name
 from .forward import pose_and_joint_values
@@ -16,13 +16,14 @@ from .shapes import POINTS, LinkShape
 
 
 def forward_motion(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray,
-                   v: np.ndarray, a: np.ndarray) -> ArcMotion:
-    """The ArcMotion of the solved y, ẏ, ÿ (nt, n_y) at times t (s)."""
-    alpha, alpha_d, alpha_dd, R, _, Rdd = system.node_motion(t, y, v, a)
+                   v: np.ndarray, a: np.ndarray, inp: StageInputs | None = None) -> ArcMotion:
+    """The ArcMotion of the solved y, ẏ, ÿ (nt, n_y) at times t (s) (``inp``: the system's
+    stage_inputs(t) if known)."""
+    inp = system.stage_inputs(t) if inp is None else inp
+    alpha, alpha_d, alpha_dd, R, _, Rdd = system.node_motion(t, y, v, a, inp)
     p, _, _ = system.rigid_state(t, y, v, a)
     q = y[:, :system.n]
-    lengths = (system.line_weights(y, v, a, system.stage_inputs(t)) if system.slides
-               else None)
+    lengths = system.line_weights(y, v, a, inp) if system.slides else None
     return ArcMotion(alpha, alpha_d, alpha_dd, R, Rdd,
                      q @ system.root_A.T + p @ system.root_B.T + system.root_offset
                      + system.link_offset, q, lengths)
@@ -35,18 +36,19 @@ def forward_values(system: NonlinearForwardSystem, t: np.ndarray, y: np.ndarray,
     angles, rates, torques, servo references and commands, momentum (base not fixed), tips.
     ``constraint_torques`` (nt, N; N·m): closed loops' constraint forces on each joint, left
     out of its motor torque."""
-    motion = forward_motion(system, t, y, v, a)
+    inp = system.stage_inputs(t)
+    motion = forward_motion(system, t, y, v, a, inp)
     values = motion_sensor_values(system, motion, sensors)
     p, pd, _ = system.rigid_state(t, y, v, a)
     moving = system.base.kind != "fixed"
-    momenta = system.momentum(t, y, v) if moving else None
-    torques = system.joint_torques(t, y, v, a)
+    momenta = system.momentum(t, y, v, inp) if moving else None
+    torques = system.joint_torques(t, y, v, a, inp=inp)
     if constraint_torques is not None:
         torques = torques - constraint_torques
     values.update(pose_and_joint_values(system.loads, t, p, pd, v[:, system.n + system.nu:],
                                         torques, momenta))
     if system.rail is not None:
-        values[cart_name("force")] = system.cart_force(t, y, v, a)
+        values[cart_name("force")] = system.cart_force(t, y, v, a, inp)
     values.update(motion_tip_values(system, motion))
     return values
 

@@ -498,9 +498,11 @@ def applied(d, u, p, pd, integral, Q, rates):
         c = u.shape[0] - 4  # the cart's input columns
         Q[0] = _drive(d, N, d.joint_kind[N], u[c], u[c + 1], u[c + 3], p[0], pd[0],
                       integral, rates)
-        ct, st = np.cos(d.attitude), np.sin(d.attitude)
         base = 4 * N
         nl = d.load_point.shape[0]
+        ct, st = 1.0, 0.0
+        if nl > 0:  # (two libm calls at every evaluation otherwise)
+            ct, st = np.cos(d.attitude), np.sin(d.attitude)
         for j in range(nl):  # the rail takes the loads across it and their moment
             fx, fy = u[base + j], u[base + nl + j]
             if d.load_body[j]:

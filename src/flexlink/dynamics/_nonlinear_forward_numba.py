@@ -16,8 +16,16 @@ from numba import njit
 
 from .. import _compiled_cache  # noqa: F401 — kernels compiled at installation
 from .._compiled_calls import borrowed, stack_array
+from ._forward_numba import _solve
 from ._forward_numba import applied as _applied
-from ._nonlinear_numba import inertia_elastic
+from ._nonlinear_numba import (
+    directions,
+    inertia_elastic,
+    mass_matrix,
+    node_angles,
+    scaled,
+    travel_columns,
+)
 
 
 @njit(cache=True, _nrt=False)  # (no runtime: see _nonlinear_numba.inertia_elastic)
@@ -63,41 +71,22 @@ def residual(d, Y, V, X, ang, rate, acc, rot_acc, u, out):
             out[m + i] = X[m + i] - rates[i]
 
 
-# A state of a run iterates with an earlier state's mass matrix (`accelerations`) while
-# each iteration divides the correction by at least MASS_CONTRACTION, at most MASS_REUSE
-# times, before it builds its own: along a run's step ends the correction falls by ~1e-3 an
-# iteration from the last state's ÿ, one residual each, against n_y + 1 for a mass matrix
-MASS_REUSE = 6
-MASS_CONTRACTION = 0.02
-# Each iteration's correction s and the change of the residual it caused, M s (exact: the
-# residual is affine in ÿ), update M₀⁻¹ (Broyden) so that it maps M s to s: the mass matrix
-# moves little from one step end to the next, and the update carries its move over. Only
-# corrections above BROYDEN_STEP of ÿ update it: a smaller one's M s is mostly the
-# residual's round-off.
-BROYDEN_STEP = 1e-6
-# … until the remaining error is within MASS_TOL of the largest |ÿ|. With the updates the
-# contraction varies from one iteration to the next and the remaining error its rate gives
-# is rougher: at 1e-11 the accelerations of a free base's run on uniform steps were 2–3×
-# further from converged ones than without updates (their differences in the base's mass
-# over 1e-4 of it, tests/unit/test_nonlinear_free_base_torque.py, then missed its
-# sensitivity); at 1e-12 they are closer than without updates at 1e-11 on every coordinate,
-# and on the slider cases of benchmarks/slider_vs_fe.py every step end within 1e-11 of the
-# largest |ÿ|, for fewer residuals per state: 5.1 → 4.5 (Case 23, 6 modes), 8.5 → 8.3
-# (large, 6 modes). (The step loop's Newton stops at 1e-7 of the stage accelerations there.)
-MASS_TOL = 1e-12
-
-
 @njit(cache=True)
 def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
-    """ÿ (b, n_y) of b states. The residual is affine in ÿ: M's columns from its change
-    under unit accelerations, then M ÿ = −r(ÿ = 0). The step ends of a run have nearly the
-    same M from one to the next: each state first iterates ÿ ← ÿ − M₀⁻¹ r(ÿ) from the last
-    state's ÿ with M₀ the last mass matrix built, until the remaining error (the correction
-    times θ/(1 − θ), θ its contraction) is below MASS_TOL of ÿ, and builds its own M when
-    θ exceeds MASS_CONTRACTION or the corrections, shrinking by θ, would not reach that
-    within MASS_REUSE iterations. Between iterations M₀⁻¹ takes Broyden's update with
-    the pair (correction, change of the residual) (BROYDEN_STEP)."""
+    """ÿ (b, n_y) of b states: M ÿ = −r(ÿ = 0), the residual being affine in ÿ. M from the
+    node angles (`mass_matrix` on the angle columns, `travel_columns` on a slider's free
+    travel, 1 on each servo integral's row), the columns of a translating base's coordinates
+    (a free base: x, y; a cart with a free travel: s), which move no node angle, as the
+    residual's change under a unit acceleration (their rows: M symmetric). One residual a
+    state, two on a cart, and no iteration: a quarter (Case 23's slider on a cart, 4 modes)
+    to two fifths (Case 23, 6 modes) less CPU than iterating with an earlier state's
+    (Broyden-updated) inverse mass matrix, and equal to the numpy equations' direct solve
+    to round-off."""
     b, ny = Y.shape
+    n, m = d.n, d.n + d.nu
+    Ay = d.Ay
+    nodes = Ay.shape[0]
+    lines = d.line_node.shape[0]
     out = np.empty((b, ny))
     # the residual's arguments uncounted (`borrowed`, on the stack): each count is atomic
     Y, V, ang, rate, acc = borrowed(Y), borrowed(V), borrowed(ang), borrowed(rate), borrowed(acc)
@@ -106,100 +95,61 @@ def accelerations(d, Y, V, ang, rate, acc, rot_acc, u):
     X[:] = 0.0
     r0 = stack_array(ny)
     r1 = stack_array(ny)
-    M = np.empty((ny, ny))
-    M0 = stack_array((ny, ny))  # M₀⁻¹
-    step = stack_array(ny)  # the last correction of ÿ
-    r_prev = stack_array(ny)  # the residual it corrected
-    reuse = False
+    K = stack_array((ny, ny))
+    rhs = stack_array(ny)
+    theta = stack_array(nodes)
+    phi = stack_array(nodes)
+    c = stack_array(nodes)
+    s = stack_array(nodes)
+    rc = stack_array(nodes)
+    rs = stack_array(nodes)
+    rho = stack_array(nodes)
+    H = stack_array((nodes, nodes))
+    columns = Ay.shape[1]  # (those of the servo integrals zero)
+    HA = stack_array((columns, nodes))
+    At = stack_array((columns, nodes))
+    for j in range(nodes):
+        for i in range(columns):
+            At[i, j] = Ay[j, i]
+    moving = 2 if d.translation else (1 if d.cart == 1 else 0)  # columns n, n + 1
     for t in range(b):
-        done = False
-        if reuse:
-            for i in range(ny):
-                X[i] = outb[t - 1, i]
-            previous = np.inf
-            for j in range(MASS_REUSE):
-                residual(d, Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], r1)
-                if j > 0:
-                    _broyden(M0, step, r1, r_prev, X, r0)
-                size = 0.0
-                largest = 0.0
-                for i in range(ny):
-                    c = 0.0
-                    for k in range(ny):
-                        c += M0[i, k] * r1[k]
-                    X[i] -= c
-                    step[i] = -c
-                    r_prev[i] = r1[i]
-                    size = max(size, abs(c))
-                    largest = max(largest, abs(X[i]))
-                theta = size / previous
-                # (first iteration: no θ yet, the correction itself must be small)
-                remaining = size * theta / (1.0 - theta) if 0.0 < theta < 1.0 else size
-                if remaining <= MASS_TOL * largest:
-                    done = True
-                    break
-                if theta > MASS_CONTRACTION:
-                    break
-                # iterations still needed at this rate: more than are left, build now
-                if 0.0 < theta < 1.0 and remaining * theta ** (MASS_REUSE - 1 - j) > (
-                        MASS_TOL * largest):
-                    break
-                previous = size
-        if not done:
-            X[:] = 0.0
-            residual(d, Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], r0)
+        y = Y[t]
+        residual(d, y, V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], r0)
+        # (rc, rs take the node rates unread: scratch until `scaled` below)
+        node_angles(Ay, n, m, ang[t], rate[t], acc[t], y, V[t], X, theta, phi, rc, rs)
+        directions(theta, phi, c, s)
+        for j in range(nodes):
+            rho[j] = 1.0
+        for i in range(lines):  # a line node's length: its travel, y's or the input's
+            col = d.line_col[i]
+            rho[d.line_node[i]] = y[col] if col >= 0 else u[t, d.line_u[i, 0]]
+        for i in range(ny):
             for k in range(ny):
-                X[k] = 1.0
-                residual(d, Y[t], V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], r1)
-                X[k] = 0.0
-                for i in range(ny):
-                    M[i, k] = r1[i] - r0[i]
-            inverse = np.linalg.inv(M)
-            for i in range(ny):
-                c = 0.0
-                for k in range(ny):
-                    M0[i, k] = inverse[i, k]
-                    c -= inverse[i, k] * r0[k]
-                X[i] = c
-            reuse = True
+                K[i, k] = 0.0
+        mass_matrix(Ay, At, d.G, d.rot_y, d.rot_J, scaled(rho, c, rc), scaled(rho, s, rs), H,
+                    HA, K)
+        if lines > 0:
+            travel_columns(Ay, d.G, d.line_node, d.line_col, c, s, rc, rs, K)
+        for e in range(moving):
+            k = n + e
+            X[k] = 1.0
+            residual(d, y, V[t], X, ang[t], rate[t], acc[t], rot_acc[t], u[t], r1)
+            X[k] = 0.0
+            for i in range(m):
+                K[i, k] = r1[i] - r0[i]
+                K[k, i] = K[i, k]
+        for i in range(m, ny):  # σ̈ − its rate
+            K[i, i] = 1.0
+        finite = True
+        for i in range(ny):
+            rhs[i] = -r0[i]
+            finite = finite and np.isfinite(r0[i])
+        _solve(K, rhs)
+        if finite and not np.isfinite(rhs[0]):  # (`_solve`'s zero pivot)
+            raise np.linalg.LinAlgError("singular mass matrix")
         for i in range(ny):  # (a loop: a slice assignment links numba's shape error in)
-            outb[t, i] = X[i]
+            outb[t, i] = rhs[i]
     return out
-
-
-@njit(cache=True, _nrt=False)
-def _broyden(H, s, r, r_prev, X, scratch):
-    """Broyden's update of H ≈ M⁻¹ (n, n) in place from the correction s of ÿ (X after it)
-    and the residuals r_prev before and r after it (r − r_prev = M s): H ← H + (s − H Δr)
-    sᵀH / (sᵀH Δr), after which H Δr = s; skipped when s is within BROYDEN_STEP of max|ÿ|
-    or the update would be near-singular. ``scratch`` (n,): sᵀH."""
-    n = s.size
-    s_size = 0.0
-    x_size = 0.0
-    s_norm2 = 0.0
-    for i in range(n):
-        s_size = max(s_size, abs(s[i]))
-        x_size = max(x_size, abs(X[i]))
-        s_norm2 += s[i] * s[i]
-    if s_size <= BROYDEN_STEP * x_size:
-        return
-    den = 0.0
-    for k in range(n):
-        c = 0.0
-        for i in range(n):
-            c += s[i] * H[i, k]
-        scratch[k] = c
-        den += c * (r[k] - r_prev[k])
-    # sᵀH Δr ≈ sᵀs while H is near M⁻¹ (the iteration contracts): else keep H
-    if not den > 0.5 * s_norm2:
-        return
-    for i in range(n):
-        w = s[i]
-        for k in range(n):
-            w -= H[i, k] * (r[k] - r_prev[k])
-        w /= den
-        for k in range(n):
-            H[i, k] += w * scratch[k]
 
 
 @njit(cache=True)

@@ -55,7 +55,7 @@ from .. import _compiled_cache  # noqa: F401 — kernels compiled at installatio
 from ._forward_numba import _solve
 from ._loops_numba import NEWTON_ITERATIONS, REVOLUTE
 from ._nonlinear_forward_numba import residual
-from ._nonlinear_numba import mass_matrix
+from ._nonlinear_numba import mass_matrix, scaled, travel_columns
 
 NonlinearLoopWork = namedtuple("NonlinearLoopWork", [
     "yp", "c", "s", "ad", "ang", "rate", "acc", "rot_acc", "Phi", "Phid", "G", "gam", "GJ",
@@ -76,7 +76,7 @@ def workspace(d, n_state: int) -> NonlinearLoopWork:
     w = NonlinearLoopWork(e(n_state), e(nodes), e(nodes), e(nodes), e(nodes), e(nodes),
                           e(nodes), e(f.rot_J.shape[0]), e(nc), e(nc), e((nc, ny)), e(nc),
                           e((nc, N)), e((nc, nc)), e(nc), e(ny), e(ny), e(ny), e((nodes, nodes)),
-                          e((nodes, ny)), e((ny + nc, ny + nc)), e(ny + nc), e(nodes),
+                          e((ny, nodes)), e((ny + nc, ny + nc)), e(ny + nc), e(nodes),
                           e(nodes), e(nodes), e(nodes), np.zeros(1, dtype=np.int64), e(nodes),
                           e(nodes))
     return w
@@ -348,43 +348,6 @@ def project(d, w, u, Y):
     return True
 
 
-@njit(inline="always")
-def _scaled(rho, x, out):
-    """out = ρ x elementwise (each node's cos or sin times its length)."""
-    for j in range(x.shape[0]):
-        out[j] = rho[j] * x[j]
-    return out
-
-
-@njit(inline="always")
-def _travel_columns(Ay, G, line_node, line_col, c, s, rc, rs, K):
-    """A slider's free travel s in the mass matrix K: its line node L carries the point
-    acceleration s̈ e(α_L), so with the angle columns' b_j = ρ_j e⊥(α_j) its column holds
-    Σ_j Ay_jk G_jL ρ_j e⊥_j·e_L = Σ_j Ay_jk G_jL ρ_j sin(α_L − α_j) and its entry with a
-    travel s' on node L' G_LL' cos(α_L − α_L') (the residual's change under a unit s̈;
-    rc, rs: ρ cos, ρ sin of the nodes). The angle columns themselves are `mass_matrix`'s with
-    ρ cos, ρ sin: b_j·b_l = ρ_j ρ_l cos(α_j − α_l)."""
-    nodes, m = Ay.shape[0], line_col.shape[0]
-    for a in range(m):
-        col = line_col[a]
-        if col < 0:
-            continue
-        L = line_node[a]
-        for k in range(Ay.shape[1]):
-            acc = 0.0
-            for j in range(nodes):
-                x = Ay[j, k]
-                if x != 0.0:
-                    acc += x * G[j, L] * (s[L] * rc[j] - c[L] * rs[j])
-            K[k, col] = acc
-            K[col, k] = acc
-        for b in range(m):
-            other = line_col[b]
-            if other >= 0:
-                L2 = line_node[b]
-                K[col, other] = G[L, L2] * (c[L] * c[L2] + s[L] * s[L2])
-
-
 # Inlined by numba into `rates` and `closed_states` (its records' fields are read, not copied
 # into new records): called, as a kernel of its own, it made each rate evaluation ~7% slower.
 @njit(inline="always")
@@ -411,16 +374,15 @@ def solve_constrained(d, w, u, Y):
     # rows) and 1 on each servo integral's row (σ̈ − its rate)
     lines = f.line_node.shape[0]
     K, rhs = w.K, w.rhs
-    if lines == 0:
-        M = mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, w.c, w.s, w.H, w.HA)
-    else:
-        M = mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, _scaled(w.rho, w.c, w.rc),
-                        _scaled(w.rho, w.s, w.rs), w.H, w.HA)
     for i in range(ny):
         for k in range(ny):
-            K[i, k] = M[i, k]
-    if lines > 0:
-        _travel_columns(f.Ay, f.G, f.line_node, f.line_col, w.c, w.s, w.rc, w.rs, K)
+            K[i, k] = 0.0
+    if lines == 0:
+        mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, w.c, w.s, w.H, w.HA, K)
+    else:
+        mass_matrix(f.Ay, d.At, f.G, f.rot_y, f.rot_J, scaled(w.rho, w.c, w.rc),
+                    scaled(w.rho, w.s, w.rs), w.H, w.HA, K)
+        travel_columns(f.Ay, f.G, f.line_node, f.line_col, w.c, w.s, w.rc, w.rs, K)
     # a translating base (free: x, y; a cart with a free travel: s) moves no node angle, so
     # mass_matrix leaves its columns out: they are the residual's change under a unit
     # acceleration (it is affine in ÿ), its rows their transposes (M symmetric)

@@ -35,7 +35,7 @@ from .arc import ArcQuadrature, arc_quadrature
 from .first_order import chain_modal_data
 from .kinematics import JointHistory, joint_history
 from .nonlinear_bodies import body_nodes, body_rows
-from .nonlinear_kernel import NonlinearData, StageInputs, stage_rows
+from .nonlinear_kernel import NonlinearData, StageInputs, coupling_weights, stage_rows
 
 
 @dataclass(frozen=True)
@@ -142,7 +142,7 @@ class NonlinearSystem:
         self.W = np.vstack(rows)
         self.point_mass = np.concatenate(masses)
         self.R = np.sqrt(self.point_mass)[:, None] * self.W
-        self.G = self.R.T @ self.R
+        self.G = coupling_weights(self.W, self.point_mass)
         self.lift = self.W.T @ self.point_mass  # the mass each node's direction carries, kg
         self.tip_inertia = np.concatenate([b.rot_J for b in rotary])
         self._At = np.ascontiguousarray(self.A.T)

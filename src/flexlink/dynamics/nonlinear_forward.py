@@ -42,7 +42,13 @@ from .arc import ArcQuadrature, arc_quadrature
 from .elastic_joints import spring_energy, spring_frequency
 from .forward import ForwardSystem
 from .nonlinear_bodies import body_nodes, body_rows
-from .nonlinear_kernel import NonlinearForwardData, StageInputs, forward_data, stage_rows
+from .nonlinear_kernel import (
+    NonlinearForwardData,
+    StageInputs,
+    coupling_weights,
+    forward_data,
+    stage_rows,
+)
 from .prismatic import sliders
 
 RIGID_POINTS = 2  # Gauss points of a link without modes
@@ -211,7 +217,7 @@ class NonlinearForwardSystem:
             absolute.append(False)
         self.W = np.vstack(rows)
         self.point_mass = np.concatenate(masses)
-        self.G = self.W.T @ (self.point_mass[:, None] * self.W)
+        self.G = coupling_weights(self.W, self.point_mass)
         self.s = self.W.T @ self.point_mass
         self.m_tot = float(self.point_mass.sum())
         # explicit row counts: with every link rigid (n = 0) the -1 of reshape is undefined
@@ -260,9 +266,12 @@ class NonlinearForwardSystem:
         return self.loads.rigid_state(t, y[:, n:n + nu], v[:, n:n + nu], a[:, n:n + nu])
 
     def free_travels(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """`ForwardSystem.free_travels` with the columns in y (m)."""
-        columns, lo, hi = self.loads.free_travels()
-        return columns + self.n, lo, hi
+        """`ForwardSystem.free_travels` with the columns in y (m) (copies of the system's:
+        the step loop checks them after every batch)."""
+        if not hasattr(self, "_free_travels"):
+            columns, lo, hi = self.loads.free_travels()
+            self._free_travels = (columns + self.n, lo, hi)
+        return tuple(x.copy() for x in self._free_travels)  # type: ignore[return-value]
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         """y and ẏ at t = 0: the rigid coordinates as given (servos on their reference), the
@@ -472,13 +481,13 @@ class NonlinearForwardSystem:
 
     # -- readings -----------------------------------------------------------------------------
     def joint_torques(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray,
-                      compiled: bool = True) -> np.ndarray:
+                      compiled: bool = True, inp: StageInputs | None = None) -> np.ndarray:
         """Torque each joint's motor applies (b, N), N·m: the generalized inertia force of β_k
         (with the motor inertia; for a driven joint equal to its drive torque); a slider's
         column: the force along its line, N (the drive's, or what a prescribed travel takes).
-        ``compiled``: the numba kernel, else numpy."""
+        ``compiled``: the numba kernel, else numpy; ``inp``: stage_inputs(t) if known."""
         joints = slice(self.n_base, self.n_base + len(self.chain.links))
-        inp = self.stage_inputs(t)
+        inp = self.stage_inputs(t) if inp is None else inp
         if compiled:
             from ._nonlinear_forward_numba import joint_torques
 
@@ -496,17 +505,19 @@ class NonlinearForwardSystem:
         out[:, self.slides] = line
         return out
 
-    def cart_force(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
-                   ) -> np.ndarray:
+    def cart_force(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray,
+                   inp: StageInputs | None = None) -> np.ndarray:
         """Force along the rail (b,), N, that a cart's drive applies: the inertia force of
-        the whole system along the rail (gravity included) less the base loads along it."""
-        _, F, _, _, _ = self._inertia(y, v, a, self.stage_inputs(t))
+        the whole system along the rail (gravity included) less the base loads along it
+        (``inp``: stage_inputs(t) if known)."""
+        _, F, _, _, _ = self._inertia(y, v, a, self.stage_inputs(t) if inp is None else inp)
         return F @ self.rail - self.loads.rail_loads(t)
 
-    def node_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray
-                    ) -> tuple[np.ndarray, ...]:
-        """α, α̇, α̈ at the nodes (b, nodes) and R_b, Ṙ_b, R̈_b (b, 2) (zero unless free)."""
-        inp = self.stage_inputs(t)
+    def node_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray, a: np.ndarray,
+                    inp: StageInputs | None = None) -> tuple[np.ndarray, ...]:
+        """α, α̇, α̈ at the nodes (b, nodes) and R_b, Ṙ_b, R̈_b (b, 2) (zero unless free;
+        ``inp``: stage_inputs(t) if known)."""
+        inp = self.stage_inputs(t) if inp is None else inp
         alphas = (y @ self.Ay.T + inp.angle, v @ self.Ay.T + inp.rate,
                   a @ self.Ay.T + inp.acceleration)
         n = self.n
@@ -518,12 +529,14 @@ class NonlinearForwardSystem:
                      pd[:, :1] * self.rail, pdd[:, :1] * self.rail)
         return alphas + trans
 
-    def point_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray]:
-        """Positions and velocities (b, points, 2) of the point masses, global (m, m/s)."""
+    def point_motion(self, t: np.ndarray, y: np.ndarray, v: np.ndarray,
+                     inp: StageInputs | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities (b, points, 2) of the point masses, global (m, m/s)
+        (``inp``: stage_inputs(t) if known)."""
         zero = np.zeros_like(y)
-        alpha, alpha_d, _, R, Rd, _ = self.node_motion(t, y, v, zero)
-        rho, rho_d, _ = self.line_weights(y, v, zero, self.stage_inputs(t))
+        inp = self.stage_inputs(t) if inp is None else inp
+        alpha, alpha_d, _, R, Rd, _ = self.node_motion(t, y, v, zero, inp)
+        rho, rho_d, _ = self.line_weights(y, v, zero, inp)
         c, s = np.cos(alpha), np.sin(alpha)
         r = np.stack([(rho * c) @ self.W.T, (rho * s) @ self.W.T], -1) + R[:, None]
         rate = rho * alpha_d
@@ -558,13 +571,13 @@ class NonlinearForwardSystem:
         r, _ = self.point_motion(t, y, np.zeros_like(y))
         return -np.einsum("bpi,p,i->b", r, self.point_mass, self.gravity)
 
-    def momentum(self, t: np.ndarray, y: np.ndarray, v: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
+    def momentum(self, t: np.ndarray, y: np.ndarray, v: np.ndarray,
+                 inp: StageInputs | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Linear momentum (b, 2), N·s, and angular momentum about the origin (b,), N·m·s,
         exact, from the kinematics: Σ m ṙ, Σ m r × ṙ + J α̇ of the tip and base inertias (a
         motor's rotor turns with its joint angle relative to its parent: ∂L/∂θ̇_b has no
-        share of it, as in the first-order model)."""
-        r, rd = self.point_motion(t, y, v)
+        share of it, as in the first-order model; ``inp``: stage_inputs(t) if known)."""
+        r, rd = self.point_motion(t, y, v, inp)
         linear = np.einsum("bpi,p->bi", rd, self.point_mass)
         angular = np.einsum("bp,p->b", r[..., 0] * rd[..., 1] - r[..., 1] * rd[..., 0],
                             self.point_mass)

@@ -27,7 +27,8 @@ units, global axes). Unknowns y: the n elastic coordinates q, then the nu free r
 coordinates (none with every joint prescribed), then the servo integrals.
 
 - Ay (nodes, n + nu): the node angles' coefficients on [q, p_free], rad per unit;
-- G (nodes, nodes): the nodes' coupling weights Wᵀ diag(m) W, kg·m²;
+- G (nodes, nodes): the nodes' coupling weights Wᵀ diag(m) W, kg·m², exactly symmetric
+  (`coupling_weights`);
 - s (nodes,): Wᵀm, the mass each node's direction carries (kg·m);
 - m_tot: the total point mass, kg (the translation rows only);
 - translation: y[n], y[n + 1] are the base point's x, y (a free base);
@@ -55,6 +56,14 @@ base loads and actuator forces at the solved rigid state, reading them from this
 One flat record, not one nested in the other: the compiled kernels take a record's arrays
 one by one at every call, and a nested one is taken again where it is read."""
 
+
+def coupling_weights(W: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """G = Wᵀ diag(m) W (nodes, nodes), kg·m², of the point masses m (p,), kg, at the weight
+    rows W (p, nodes), m: symmetric to the bit, as the compiled residual reads its rows as
+    its columns (`_nonlinear_numba.inertia_elastic`)."""
+    R = np.sqrt(mass)[:, None] * W
+    G = R.T @ R
+    return 0.5 * (G + G.T)
 
 def forward_data(core: dict, loads: ForwardData) -> NonlinearForwardData:
     """The NonlinearForwardData of a model's own arrays ``core`` (NonlinearData's fields) and
