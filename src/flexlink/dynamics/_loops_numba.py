@@ -39,6 +39,7 @@ handed, which cost several times their arithmetic.
 
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 
 import numpy as np
@@ -51,10 +52,14 @@ from ._forward_numba import workspace as forward_workspace
 
 REVOLUTE, SLIDER = 0, 1
 NEWTON_ITERATIONS = 30
-# `constraints`' ``jac`` as a plain bool, not a literal True or False: numba compiles a
-# function once per literal value, and the kinematics under it (`frames`, `point`, …) with
-# it; one compiled version skips the Jacobians at run time
-JACOBIAN, NO_JACOBIAN = np.bool_(True), np.bool_(False)
+# `project`: after a position correction larger than this (rad or m) the rates are solved
+# again with the corrected state's G; below it they close the loop to about this fraction
+# of their size (G's change over the correction), far inside the integration's tolerances.
+CHORD_STEP = 1e-7
+# `constraints`' ``jac`` as a plain bool, not a literal True: numba compiles a function once
+# per literal value, and the kinematics under it (`frames`, `point`, …) with it; one
+# compiled version skips the Jacobians at run time (the tests' calls without them)
+JACOBIAN = np.bool_(True)
 
 LoopWork = namedtuple("LoopWork", [
     "fw", "th", "om", "Jth", "o", "od", "og", "Jo", "r", "rd", "g", "Jr", "r2", "rd2", "g2",
@@ -76,7 +81,8 @@ def workspace(d, n_servos: int, n_state: int, calls: bool = True) -> LoopWork:
                     e((nc, nc)), e(nc), e(n_state), e((m + nc, m + nc)), e(m + nc))
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def point(f, k, s, phi, fore, w, r, rd, g, Jr, jac=True):
     """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x; only when
     ``jac``) of the point at s (m) on link k whose mode values there are phi, from the frames
@@ -124,7 +130,8 @@ def point(f, k, s, phi, fore, w, r, rd, g, Jr, jac=True):
             Jr[1, o + i] -= sn * fq
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def base_pose(f, w):
     """The base's reference point (m), its velocity, its attitude (rad) and rate, and the
     coordinate of the attitude (−1: constant): a fixed base at the origin; a pinned base
@@ -141,7 +148,8 @@ def base_pose(f, w):
     return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def base_point(f, w, px, py, r, rd, g, Jr, jac=True):
     """Position, velocity, γ and Jacobian (2, n_x; only when ``jac``) of the point (px, py)
     fixed in the base (m, base axes): a branch's joint, a closure's ground pivot."""
@@ -164,7 +172,8 @@ def base_point(f, w, px, py, r, rd, g, Jr, jac=True):
         Jr[1, att] = ax
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def frames(f, w, jac=True):
     """Every frame's angle, rate, origin, its velocity and γ, and (``jac``) the Jacobians
     of the angle and the origin, from q = w.q, q̇ = w.v (a branch starts at its point of
@@ -215,7 +224,8 @@ def frames(f, w, jac=True):
             w.Jth[k, nb + k] += 1.0
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def slide(f, w, k, i, th, om, jac=True):
     """Frame k on a slider's block: the line through the section (w.o[k] as `frames`
     left it) turns with it (angle th, rate om; Jacobian w.Jth[k], without q[i]), and the block
@@ -242,7 +252,8 @@ def slide(f, w, k, i, th, om, jac=True):
     w.om[k] = om
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def constraints(d, w, jac=True):
     """Φ (w.Phi), γ (w.gam) and, when ``jac``, G = ∂Φ/∂q (w.G) at q = w.q, q̇ = w.v (without:
     w.G is left as it was, for a change of q̇ alone at the same q)."""
@@ -284,7 +295,8 @@ def constraints(d, w, jac=True):
                 w.G[row, att] += -ny_ * dx + nx_ * dy
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def load_state(d, w, u, y):
     """w.q, w.v from the input row u (prescribed joints) and the state y (free, elastic)."""
     f = d.fwd
@@ -304,47 +316,58 @@ def load_state(d, w, u, y):
         w.q[nr + i], w.v[nr + i] = y[2 * nu + i], y[2 * nu + n + i]
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def project(d, w, u, y):
     """Overwrite the dependent coordinates of y (`LoopData.dep`, indices into the free ones)
     and their rates with those that close the loops, Newton's method from y's values; True
-    when |Φ| ≤ d.tol (then w.Phi, w.G, w.gam hold the closed state's)."""
+    when |Φ| ≤ d.tol (then w.Phi, w.G, w.gam hold the closed state's).
+
+    Each iteration corrects the positions (Φ = 0) and the rates (G q̇ = 0, linear: one solve)
+    with the same G, and the next evaluation checks the positions and gives G and γ at the
+    corrected state: a state within the integration's drift of closing (~1e-8) takes two
+    evaluations. The rates then close the loop with the G of the state before the last
+    position correction; after a correction larger than CHORD_STEP they are solved once more
+    with the closed state's G."""
     f = d.fwd
     nu = f.free.shape[0]
     nc = d.dep.shape[0]
     load_state(d, w, u, y)
     closed = False
+    moved = math.inf  # the last position correction (rad or m); the rates not yet solved
     for _ in range(NEWTON_ITERATIONS):
         constraints(d, w, JACOBIAN)
         big = 0.0
         for c in range(nc):
             big = max(big, abs(w.Phi[c]))
-        if big <= d.tol:
+        if big <= d.tol and moved <= CHORD_STEP:
             closed = True
             break
+        moved = 0.0
+        if big > d.tol:
+            for c in range(nc):
+                w.step[c] = -w.Phi[c]
+                for j in range(nc):
+                    w.Gd[c, j] = w.G[c, f.free[d.dep[j]]]
+            _solve(w.Gd, w.step)
+            for j in range(nc):
+                w.q[f.free[d.dep[j]]] += w.step[j]
+                moved = max(moved, abs(w.step[j]))
         for c in range(nc):
-            w.step[c] = -w.Phi[c]
+            acc = 0.0
+            for col in range(f.n_x):
+                acc += w.G[c, col] * w.v[col]
+            w.step[c] = -acc
             for j in range(nc):
                 w.Gd[c, j] = w.G[c, f.free[d.dep[j]]]
         _solve(w.Gd, w.step)
         for j in range(nc):
-            w.q[f.free[d.dep[j]]] += w.step[j]
+            w.v[f.free[d.dep[j]]] += w.step[j]
     if not closed:
         return False
-    # Rates: G q̇ = 0 for the dependent ones (linear: one solve), then γ at those rates.
-    for c in range(nc):
-        acc = 0.0
-        for col in range(f.n_x):
-            acc += w.G[c, col] * w.v[col]
-        w.step[c] = -acc
-        for j in range(nc):
-            w.Gd[c, j] = w.G[c, f.free[d.dep[j]]]
-    _solve(w.Gd, w.step)
     for j in range(nc):
-        w.v[f.free[d.dep[j]]] += w.step[j]
         y[d.dep[j]] = w.q[f.free[d.dep[j]]]
         y[nu + d.dep[j]] = w.v[f.free[d.dep[j]]]
-    constraints(d, w, NO_JACOBIAN)  # γ at the closed rates; Φ and G are those of this q
     return True
 
 
