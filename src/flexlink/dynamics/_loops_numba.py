@@ -39,7 +39,6 @@ handed, which cost several times their arithmetic.
 
 from __future__ import annotations
 
-import math
 from collections import namedtuple
 
 import numpy as np
@@ -52,14 +51,10 @@ from ._forward_numba import workspace as forward_workspace
 
 REVOLUTE, SLIDER = 0, 1
 NEWTON_ITERATIONS = 30
-# `project`: after a position correction larger than this (rad or m) the rates are solved
-# again with the corrected state's G; below it they close the loop to about this fraction
-# of their size (G's change over the correction), far inside the integration's tolerances.
-CHORD_STEP = 1e-7
-# `constraints`' ``jac`` as a plain bool, not a literal True: numba compiles a function once
-# per literal value, and the kinematics under it (`frames`, `point`, …) with it; one
-# compiled version skips the Jacobians at run time (the tests' calls without them)
-JACOBIAN = np.bool_(True)
+# `constraints`' ``jac`` as a plain bool, not a literal True or False: numba compiles a
+# function once per literal value, and the kinematics under it (`frames`, `point`, …) with
+# it; one compiled version skips the Jacobians at run time
+JACOBIAN, NO_JACOBIAN = np.bool_(True), np.bool_(False)
 
 LoopWork = namedtuple("LoopWork", [
     "fw", "th", "om", "Jth", "o", "od", "og", "Jo", "r", "rd", "g", "Jr", "r2", "rd2", "g2",
@@ -321,53 +316,43 @@ def load_state(d, w, u, y):
 def project(d, w, u, y):
     """Overwrite the dependent coordinates of y (`LoopData.dep`, indices into the free ones)
     and their rates with those that close the loops, Newton's method from y's values; True
-    when |Φ| ≤ d.tol (then w.Phi, w.G, w.gam hold the closed state's).
-
-    Each iteration corrects the positions (Φ = 0) and the rates (G q̇ = 0, linear: one solve)
-    with the same G, and the next evaluation checks the positions and gives G and γ at the
-    corrected state: a state within the integration's drift of closing (~1e-8) takes two
-    evaluations. The rates then close the loop with the G of the state before the last
-    position correction; after a correction larger than CHORD_STEP they are solved once more
-    with the closed state's G."""
+    when |Φ| ≤ d.tol (then w.Phi, w.G, w.gam hold the closed state's)."""
     f = d.fwd
     nu = f.free.shape[0]
     nc = d.dep.shape[0]
     load_state(d, w, u, y)
     closed = False
-    moved = math.inf  # the last position correction (rad or m); the rates not yet solved
     for _ in range(NEWTON_ITERATIONS):
         constraints(d, w, JACOBIAN)
         big = 0.0
         for c in range(nc):
             big = max(big, abs(w.Phi[c]))
-        if big <= d.tol and moved <= CHORD_STEP:
+        if big <= d.tol:
             closed = True
             break
-        moved = 0.0
-        if big > d.tol:
-            for c in range(nc):
-                w.step[c] = -w.Phi[c]
-                for j in range(nc):
-                    w.Gd[c, j] = w.G[c, f.free[d.dep[j]]]
-            _solve(w.Gd, w.step)
-            for j in range(nc):
-                w.q[f.free[d.dep[j]]] += w.step[j]
-                moved = max(moved, abs(w.step[j]))
         for c in range(nc):
-            acc = 0.0
-            for col in range(f.n_x):
-                acc += w.G[c, col] * w.v[col]
-            w.step[c] = -acc
+            w.step[c] = -w.Phi[c]
             for j in range(nc):
                 w.Gd[c, j] = w.G[c, f.free[d.dep[j]]]
         _solve(w.Gd, w.step)
         for j in range(nc):
-            w.v[f.free[d.dep[j]]] += w.step[j]
+            w.q[f.free[d.dep[j]]] += w.step[j]
     if not closed:
         return False
+    # Rates: G q̇ = 0 for the dependent ones (linear: one solve), then γ at those rates.
+    for c in range(nc):
+        acc = 0.0
+        for col in range(f.n_x):
+            acc += w.G[c, col] * w.v[col]
+        w.step[c] = -acc
+        for j in range(nc):
+            w.Gd[c, j] = w.G[c, f.free[d.dep[j]]]
+    _solve(w.Gd, w.step)
     for j in range(nc):
+        w.v[f.free[d.dep[j]]] += w.step[j]
         y[d.dep[j]] = w.q[f.free[d.dep[j]]]
         y[nu + d.dep[j]] = w.v[f.free[d.dep[j]]]
+    constraints(d, w, NO_JACOBIAN)  # γ at the closed rates; Φ and G are those of this q
     return True
 
 
