@@ -76,7 +76,8 @@ def workspace(d, n_servos: int, n_state: int, calls: bool = True) -> LoopWork:
                     e((nc, nc)), e(nc), e(n_state), e((m + nc, m + nc)), e(m + nc))
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def point(f, k, s, phi, fore, w, r, rd, g, Jr, jac=True):
     """Position r, velocity ṙ, γ (r̈ without q̈ terms) and Jacobian Jr (2, n_x; only when
     ``jac``) of the point at s (m) on link k whose mode values there are phi, from the frames
@@ -124,7 +125,8 @@ def point(f, k, s, phi, fore, w, r, rd, g, Jr, jac=True):
             Jr[1, o + i] -= sn * fq
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def base_pose(f, w):
     """The base's reference point (m), its velocity, its attitude (rad) and rate, and the
     coordinate of the attitude (−1: constant): a fixed base at the origin; a pinned base
@@ -141,7 +143,8 @@ def base_pose(f, w):
     return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def base_point(f, w, px, py, r, rd, g, Jr, jac=True):
     """Position, velocity, γ and Jacobian (2, n_x; only when ``jac``) of the point (px, py)
     fixed in the base (m, base axes): a branch's joint, a closure's ground pivot."""
@@ -164,7 +167,8 @@ def base_point(f, w, px, py, r, rd, g, Jr, jac=True):
         Jr[1, att] = ax
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def frames(f, w, jac=True):
     """Every frame's angle, rate, origin, its velocity and γ, and (``jac``) the Jacobians
     of the angle and the origin, from q = w.q, q̇ = w.v (a branch starts at its point of
@@ -215,7 +219,8 @@ def frames(f, w, jac=True):
             w.Jth[k, nb + k] += 1.0
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def slide(f, w, k, i, th, om, jac=True):
     """Frame k on a slider's block: the line through the section (w.o[k] as `frames`
     left it) turns with it (angle th, rate om; Jacobian w.Jth[k], without q[i]), and the block
@@ -242,7 +247,8 @@ def slide(f, w, k, i, th, om, jac=True):
     w.om[k] = om
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def constraints(d, w, jac=True):
     """Φ (w.Phi), γ (w.gam) and, when ``jac``, G = ∂Φ/∂q (w.G) at q = w.q, q̇ = w.v (without:
     w.G is left as it was, for a change of q̇ alone at the same q)."""
@@ -284,7 +290,8 @@ def constraints(d, w, jac=True):
                 w.G[row, att] += -ny_ * dx + nx_ * dy
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def load_state(d, w, u, y):
     """w.q, w.v from the input row u (prescribed joints) and the state y (free, elastic)."""
     f = d.fwd
@@ -304,7 +311,8 @@ def load_state(d, w, u, y):
         w.q[nr + i], w.v[nr + i] = y[2 * nu + i], y[2 * nu + n + i]
 
 
-@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+      forceinline=True)
 def project(d, w, u, y):
     """Overwrite the dependent coordinates of y (`LoopData.dep`, indices into the free ones)
     and their rates with those that close the loops, Newton's method from y's values; True

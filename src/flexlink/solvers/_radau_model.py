@@ -6,9 +6,9 @@ numba optimises and emits every function it calls by name again inside the calle
 compiles a caller once per type of its arguments: a loop that took each model's records and
 called its rates by name was compiled (a large part of the kernel build) once per model, each
 time with the whole model inside. Here the loop takes only `model_functions`' ``model`` =
-(address of the rates trampoline, address of the projection trampoline (0: none), context):
-the context is an int64 array holding the addresses of the model's compiled rates and
-projection and its records (kernel data, workspace, projection record) as numba holds
+(address of the rates trampoline, address of the projection entry (0: none), context):
+the context is an int64 array holding the address of the model's compiled rates and its
+records (kernel data, workspace, projection record) as numba holds
 them, with the arrays' reference-count and owner pointers cleared, so that the loop's types
 do not depend on the model. The context is written in Python (`_compiled_calls.pack`): a
 compiled writer would be one more kernel per record type, most of its compile time spent
@@ -21,8 +21,9 @@ A model adds its kernel-data record class and compiled rates(d, w, u, y, dy) to
 a compiled entry(context, u, y, dy, records_type) that reads the records (d, w) from the
 context itself, only the fields it uses, to `_ENTRIES` (the loop calls it in the
 trampoline's place: the forward model's and the closed loops', whose records are large),
-and, if it has invariants to keep (a forward system's momentum), its compiled
-project(d, w, pj, u, U, t, y) to `_PROJECTIONS`; all return nothing.
+and, if it has invariants to keep (a forward system's momentum), its compiled projection
+entry(context, u, U, t, y, records_type), which reads the records (d, w, pj) from the
+context alike, to `_PROJECTIONS`; all return nothing.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ from .._compiled_calls import pack as _pack
 from .._compiled_calls import type_key as _type_key
 from ..dynamics._forward_numba import rates_in as forward_rates_in
 from ..dynamics._loops_numba import rates_in as loop_rates_in
-from ..dynamics._momentum_numba import project as forward_project
+from ..dynamics._momentum_numba import project_in as forward_project_in
 from ..dynamics._nonlinear_loops_numba import rates as nonlinear_loop_rates
 from ..dynamics.forward_kernel import ForwardData
 from ..dynamics.loops import LoopData
@@ -71,9 +72,10 @@ def linear_rates(d, w, u, y, dy):
 
 # kernel-data record class → its compiled rates(d, w, u, y, dy)
 _KERNELS = {LinearData: linear_rates, NonlinearLoopData: nonlinear_loop_rates}
-# kernel-data record class → its compiled projection onto known invariants
-# project(d, w, pj, u, U, t, y) (a model without one is not projected)
-_PROJECTIONS = {ForwardData: forward_project}
+# kernel-data record class → its compiled projection onto known invariants that reads the
+# records (d, w, pj) from the context itself, entry(context, u, U, t, y, records_type) (the
+# projection trampoline's signature; a model without one is not projected)
+_PROJECTIONS = {ForwardData: forward_project_in}
 # kernel-data record class → its compiled rates that read the records (d, w) from the context
 # themselves, entry(context, u, y, dy, records_type) (the trampoline's signature; the loop
 # calls it in the trampoline's place): a large record (the forward model's, the closed
@@ -87,7 +89,7 @@ _MODELS: dict[Any, tuple[int, int, int, int, struct.Struct]] = {}
 def model_functions(d: Any, w: Any, pj: Any = ()) -> tuple[int, int, np.ndarray]:
     """The ``model`` argument of the compiled loops for kernel data ``d``, workspace ``w``
     and projection record ``pj`` (``()``: none): (address of the rates trampoline, address
-    of the projection trampoline or 0, context). The records must outlive every use of it."""
+    of the projection entry or 0, context). The records must outlive every use of it."""
     records = (d, w, pj)
     key = _type_key(records)
     found = _MODELS.get(key)
@@ -98,8 +100,10 @@ def model_functions(d: Any, w: Any, pj: Any = ()) -> tuple[int, int, np.ndarray]
 
 
 def _addresses(records: tuple) -> tuple[int, int, int, int, struct.Struct]:
-    """The addresses of the rates and projection trampolines for these records' types and
-    of the model's compiled rates and projection (0: none), and the records' `_layout`."""
+    """The addresses of the rates trampoline (or entry) and of the projection entry (0:
+    none) for these records' types, of the model's compiled rates (0: an entry reads the
+    records itself) and 0 (the context's second head word, unused), and the records'
+    `_layout`."""
     d, w, pj = records
     kernel, entry = _KERNELS.get(type(d)), _ENTRIES.get(type(d))
     if kernel is None and entry is None:
@@ -118,10 +122,8 @@ def _addresses(records: tuple) -> tuple[int, int, int, int, struct.Struct]:
     project = _PROJECTIONS.get(type(d))
     if project is None or len(pj) == 0:
         return rates_from, 0, rates, 0, fields
-    project = _address(project, (d_type, w_type, typeof(pj), ROW, ROW, types.float64, ROW))
-    return (rates_from,
-            _address(_project_from, (CONTEXT, ROW, ROW, types.float64, ROW, records_type)),
-            rates, project, fields)
+    return rates_from, _address(project, (CONTEXT, ROW, ROW, types.float64, ROW,
+                                          records_type)), rates, 0, fields
 
 
 @intrinsic
@@ -129,13 +131,6 @@ def _call_rates(typingctx, address, d, w, u, y, dy):
     """The model's compiled rates(d, w, u, y, dy) at ``address``."""
     _check("the model's rates", (u, y, dy), (ROW, ROW, ROW))
     return types.none(address, d, w, u, y, dy), _call_codegen(0)
-
-
-@intrinsic
-def _call_project(typingctx, address, d, w, pj, u, U, t, y):
-    """The model's compiled project(d, w, pj, u, U, t, y) at ``address``."""
-    _check("the model's projection", (u, U, t, y), (ROW, ROW, types.float64, ROW))
-    return types.none(address, d, w, pj, u, U, t, y), _call_codegen(0)
 
 
 @intrinsic
@@ -147,8 +142,8 @@ def _call_rates_from(typingctx, address, context, u, y, dy):
 
 @intrinsic
 def _call_project_from(typingctx, address, context, u, U, t, y):
-    """The projection trampoline (`_project_from`) at ``address``."""
-    _check("the projection trampoline", (context, u, U, t, y),
+    """The model's projection entry (`_PROJECTIONS`) at ``address``."""
+    _check("the projection entry", (context, u, U, t, y),
            (CONTEXT, ROW, ROW, types.float64, ROW))
     return types.none(address, context, u, U, t, y), _call_codegen(1)
 
@@ -158,13 +153,6 @@ def _rates_from(context, u, y, dy, records_type):
     """dy = f(t, y) of the model whose records the context holds (their type given)."""
     d, w, _ = _load(context, records_type)
     _call_rates(context[0], d, w, u, y, dy)
-
-
-@njit(cache=True)
-def _project_from(context, u, U, t, y, records_type):
-    """y (in place) onto the invariants of the model whose records the context holds."""
-    d, w, pj = _load(context, records_type)
-    _call_project(context[1], d, w, pj, u, U, t, y)
 
 
 @njit(inline="always")
