@@ -240,6 +240,9 @@ def test_resting_intervals_are_those_the_keys_of_every_middle_tell(motion, with_
     system = FirstOrderSystem(chain, actuators=(patch,) if with_patch else ())
     system.joint_history(t)  # the output times first, as a run asks
     resting = system.resting_intervals(t)
+    if with_patch:  # voltages are part of the keys: the table asks them
+        assert resting is None
+        return
     kinematics._HISTORIES.clear()
     expected = resting_from_keys(t, FirstOrderSystem(chain, actuators=system.actuators)
                                  .coefficient_keys)

@@ -333,17 +333,16 @@ class FirstOrderSystem:
         new[1:] = np.any(rows[1:] != rows[:-1], axis=1)
         return np.cumsum(new) - 1
 
-    def resting_intervals(self, t_out: np.ndarray) -> np.ndarray:
+    def resting_intervals(self, t_out: np.ndarray) -> np.ndarray | None:
         """Per output interval of t_out (s), whether the coefficients are equal at both its
         ends and its middle (the joints rest there): what
         `coefficient_table.resting_from_keys` gives of `coefficient_keys`, with the joints
         evaluated at the middles of the intervals whose ends are alike only (a Lawson table's
-        rest phases, without the joint history of every middle)."""
+        rest phases, without the joint history of every middle). None with actuators (their
+        voltages are part of the keys: the table then asks the keys)."""
+        if self.actuators:
+            return None
         t_out = np.asarray(t_out, dtype=float)
-        if self.actuators:  # their voltages are part of the keys
-            from ..solvers.coefficient_table import resting_from_keys
-
-            return resting_from_keys(t_out, self.coefficient_keys)
         at = self.joint_history(t_out)
         run = at.distinct[1]
         resting = run[1:] == run[:-1]  # the ends alike

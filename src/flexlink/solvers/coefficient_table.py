@@ -26,8 +26,9 @@ import numpy as np
 
 RowsFunction = Callable[[np.ndarray], np.ndarray]  # times (nt,) → A (nt, n, 2n+1)
 KeyFunction = Callable[[np.ndarray], np.ndarray]
-# output times (nt,) → per output interval (nt − 1,), whether A is equal at its ends and middle
-RestFunction = Callable[[np.ndarray], np.ndarray]
+# output times (nt,) → per output interval (nt − 1,), whether A is equal at its ends and
+# middle; or None: ask the keys
+RestFunction = Callable[[np.ndarray], "np.ndarray | None"]
 
 DEGREE = 5
 _NODES = 0.5 - 0.5 * np.cos(np.pi * np.arange(DEGREE + 1) / DEGREE)  # Chebyshev–Lobatto, [0, 1]
@@ -144,8 +145,9 @@ def tabulate(
     """Build the table of A(t) over the output times t_out (s). ``breaks``: times (s) where A
     is known not to be smooth (a motion starts or stops); blocks and pieces end there instead
     of being refined down to them. ``resting``, if given, tells the output intervals at rest
-    instead of ``keys`` (`resting_from_keys`, what it must equal). Raises RoughCoefficients
-    when it would need more than ``budget`` assemblies per moving output interval (+ 200)."""
+    instead of ``keys`` (`resting_from_keys`, what it must equal) unless it returns None.
+    Raises RoughCoefficients when it would need more than ``budget`` assemblies per moving
+    output interval (+ 200)."""
     breaks = np.asarray([] if breaks is None else breaks, dtype=float)
     breaks = breaks[(breaks > t_out[0]) & (breaks < t_out[-1])]
     blocks = _initial_blocks(t_out, keys, breaks, resting)
@@ -258,8 +260,9 @@ def _initial_blocks(
     """(first, last, static) blocks: runs of resting intervals, and moving runs cut into pieces
     of ≤ _MAX_INTERVALS intervals of equal length and ≤ _MAX_BLOCK seconds, cut at breaks."""
     intervals = np.diff(t_out)
-    if rests is not None:
-        resting = np.array(rests(t_out), dtype=bool)  # a copy: cut at breaks below
+    told = None if rests is None else rests(t_out)
+    if told is not None:
+        resting = np.array(told, dtype=bool)  # a copy: cut at breaks below
     elif keys is None:
         resting = np.zeros(intervals.size, dtype=bool)
     else:
