@@ -3,6 +3,7 @@ shortcut gives the numbers, and the errors, of the work it saves."""
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 import textwrap
@@ -12,11 +13,13 @@ import pytest
 
 from flexlink.dynamics import kinematics
 from flexlink.dynamics.first_order import FirstOrderSystem
-from flexlink.model import Chain, Link
+from flexlink.model import Chain, Link, PiezoActuator, Step
 from flexlink.motion import Cycloidal, Harmonic, Hold, MeasuredMotion, Quintic, Sequence, Spinup
 from flexlink.motion.shaped import shaped_move
 from flexlink.scenario import load_scenario, paper_experiment_path
 from flexlink.simulation.common import output_times
+from flexlink.simulation.prescribed import prescribed_system
+from flexlink.solvers.coefficient_table import resting_from_keys, tabulate
 from flexlink.solvers.solution import Solution, all_finite
 
 MOTIONS = [
@@ -255,3 +258,46 @@ def test_a_chain_packed_before_gets_the_data_remembered_for_it() -> None:
     assert forward_data(again) is data
     for name, a, b in zip(data._fields, data, _packed_whole(again)):
         np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+# a joint that moves there and back within one output interval of 1 ms (0.8002–0.8008 s):
+# alike at both ends of [0.800, 0.801] s, not in its middle
+THERE_AND_BACK = Sequence((Cycloidal(0.0, 10.0, 0.8002, 0.0003),
+                           Cycloidal(10.0, 0.0, 0.8005, 0.0003)))
+
+
+@pytest.mark.parametrize("motion", [*MOTIONS, THERE_AND_BACK, Hold(3.0)],
+                         ids=lambda m: type(m).__name__)
+@pytest.mark.parametrize("with_patch", [False, True], ids=["joints", "patch"])
+def test_resting_intervals_are_those_the_keys_of_every_middle_tell(motion, with_patch) -> None:
+    links = (Link("a", 0.5, 2.0, 300.0, modes=1), Link("b", 0.4, 1.0, 200.0, modes=1))
+    patch = PiezoActuator("patch", 1, 0.01, 0.04, 0.025, 30.33e9, 265e-12, 0.001,
+                          voltage=Step(50.0, 0.7))
+    chain = Chain(links, (motion, Cycloidal(0.0, 10.0, 0.05, 0.5)))
+    t = output_times(1.0, 1e-3)
+    system = FirstOrderSystem(chain, actuators=(patch,) if with_patch else ())
+    system.joint_history(t)  # the output times first, as a run asks
+    resting = system.resting_intervals(t)
+    if with_patch:  # voltages are part of the keys: the table asks them
+        assert resting is None
+        return
+    kinematics._HISTORIES.clear()
+    expected = resting_from_keys(t, FirstOrderSystem(chain, actuators=system.actuators)
+                                 .coefficient_keys)
+    np.testing.assert_array_equal(resting, expected)
+    assert not resting.all()  # the second joint moves from 0.05 to 0.55 s
+    if motion is THERE_AND_BACK:  # the ends alike, the middle not
+        assert resting[799] and not resting[800] and resting[801]
+
+
+def test_a_lawson_table_from_resting_intervals_equals_the_one_from_keys() -> None:
+    scenario = load_scenario(paper_experiment_path())
+    t = output_times(scenario.settings.t_end, scenario.settings.dt_out)
+    system = prescribed_system(scenario, t)
+    rows, breaks = system.state_rows, system.breakpoints()
+    fast = tabulate(rows, t, system.coefficient_keys, 1e-4, breaks=breaks,
+                    resting=system.resting_intervals)
+    keyed = tabulate(rows, t, system.coefficient_keys, 1e-4, breaks=breaks)
+    assert fast.static.any() and not fast.static.all()
+    for field in dataclasses.fields(keyed):
+        np.testing.assert_array_equal(getattr(fast, field.name), getattr(keyed, field.name))

@@ -347,6 +347,32 @@ class FirstOrderSystem:
         new[1:] = np.any(rows[1:] != rows[:-1], axis=1)
         return np.cumsum(new) - 1
 
+    def resting_intervals(self, t_out: np.ndarray) -> np.ndarray | None:
+        """Per output interval of t_out (s), whether the coefficients are equal at both its
+        ends and its middle (the joints rest there): what
+        `coefficient_table.resting_from_keys` gives of `coefficient_keys`, with the joints
+        evaluated at the middles of the intervals whose ends are alike only (a Lawson table's
+        rest phases, without the joint history of every middle). None with actuators (their
+        voltages are part of the keys: the table then asks the keys)."""
+        if self.actuators:
+            return None
+        t_out = np.asarray(t_out, dtype=float)
+        at = self.joint_history(t_out)
+        run = at.distinct[1]
+        resting = run[1:] == run[:-1]  # the ends alike
+        ends = np.flatnonzero(resting)
+        if ends.size:
+            # the middles as resting_from_keys places them, to the bit
+            middle = joint_history(self.chain.joints,
+                                   t_out[ends] + 0.5 * (t_out[ends + 1] - t_out[ends]))
+            alike = np.ones(ends.size, dtype=bool)
+            for values, mid in ((at.angle, middle.angle), (at.rate, middle.rate),
+                                (at.acceleration, middle.acceleration)):
+                for k in range(values.shape[1]):
+                    alike &= mid[:, k] == values[ends, k]
+            resting[ends] = alike
+        return resting
+
     def voltages(self, t: np.ndarray) -> np.ndarray:
         """Open-loop actuator voltages (nt, n_act), V, clipped to each actuator's limit."""
         t = np.asarray(t, dtype=float)

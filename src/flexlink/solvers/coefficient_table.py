@@ -26,6 +26,9 @@ import numpy as np
 
 RowsFunction = Callable[[np.ndarray], np.ndarray]  # times (nt,) → A (nt, n, 2n+1)
 KeyFunction = Callable[[np.ndarray], np.ndarray]
+# output times (nt,) → per output interval (nt − 1,), whether A is equal at its ends and
+# middle; or None: ask the keys
+RestFunction = Callable[[np.ndarray], "np.ndarray | None"]
 
 DEGREE = 5
 _NODES = 0.5 - 0.5 * np.cos(np.pi * np.arange(DEGREE + 1) / DEGREE)  # Chebyshev–Lobatto, [0, 1]
@@ -167,14 +170,17 @@ class RoughCoefficients(Exception):
 def tabulate(
     rows: RowsFunction, t_out: np.ndarray, keys: KeyFunction | None, tolerance: float,
     budget: float | None = None, breaks: np.ndarray | None = None,
+    resting: RestFunction | None = None,
 ) -> CoefficientTable:
     """Build the table of A(t) over the output times t_out (s). ``breaks``: times (s) where A
     is known not to be smooth (a motion starts or stops); blocks and pieces end there instead
-    of being refined down to them. Raises RoughCoefficients when it would need more than
-    ``budget`` assemblies per moving output interval (+ 200)."""
+    of being refined down to them. ``resting``, if given, tells the output intervals at rest
+    instead of ``keys`` (`resting_from_keys`, what it must equal) unless it returns None.
+    Raises RoughCoefficients when it would need more than ``budget`` assemblies per moving
+    output interval (+ 200)."""
     breaks = np.asarray([] if breaks is None else breaks, dtype=float)
     breaks = breaks[(breaks > t_out[0]) & (breaks < t_out[-1])]
-    blocks = _initial_blocks(t_out, keys, breaks)
+    blocks = _initial_blocks(t_out, keys, breaks, resting)
     sampler = _Sampler(rows)
     limit = (np.inf if budget is None
              else budget * sum(b - a for a, b, static in blocks if not static) + 200)
@@ -257,30 +263,40 @@ def _pieces_between_breaks(
 ) -> list[tuple[int, int, float, float]]:
     """The block's initial pieces: one, or (a block of one interval) one per side of each
     break inside it."""
+    if b - a > 1:
+        return [(a, b, 0.0, 1.0)]
     inside = breaks[(breaks > t_out[a] + _BREAK_TOL) & (breaks < t_out[b] - _BREAK_TOL)]
-    if b - a > 1 or inside.size == 0:
+    if inside.size == 0:
         return [(a, b, 0.0, 1.0)]
     tau = np.concatenate([[0.0], (inside - t_out[a]) / (t_out[b] - t_out[a]), [1.0]])
     return [(a, b, float(lo), float(hi)) for lo, hi in itertools.pairwise(tau) if hi > lo]
 
 
+def resting_from_keys(t_out: np.ndarray, keys: KeyFunction) -> np.ndarray:
+    """Per output interval of t_out (s), whether ``keys`` label its ends and its middle alike
+    (A equal there: the joints rest)."""
+    interleaved = np.empty(2 * t_out.size - 1)  # in time order: keys label runs
+    interleaved[0::2] = t_out
+    interleaved[1::2] = t_out[:-1] + 0.5 * np.diff(t_out)
+    k = keys(interleaved)
+    at, mid = k[0::2], k[1::2]
+    return (at[:-1] == at[1:]) & (at[:-1] == mid)
+
+
 def _initial_blocks(
-    t_out: np.ndarray, keys: KeyFunction | None, breaks: np.ndarray
+    t_out: np.ndarray, keys: KeyFunction | None, breaks: np.ndarray,
+    rests: RestFunction | None = None,
 ) -> list[tuple[int, int, bool]]:
     """(first, last, static) blocks: runs of resting intervals, and moving runs cut into pieces
     of ≤ _MAX_INTERVALS intervals of equal length and ≤ _MAX_BLOCK seconds, cut at breaks."""
     intervals = np.diff(t_out)
-    if keys is None:
+    told = None if rests is None else rests(t_out)
+    if told is not None:
+        resting = np.array(told, dtype=bool)  # a copy: cut at breaks below
+    elif keys is None:
         resting = np.zeros(intervals.size, dtype=bool)
-        label = np.zeros(intervals.size)
     else:
-        interleaved = np.empty(2 * t_out.size - 1)  # in time order: keys label runs
-        interleaved[0::2] = t_out
-        interleaved[1::2] = t_out[:-1] + 0.5 * intervals
-        k = keys(interleaved)
-        at, mid = k[0::2], k[1::2]
-        resting = (at[:-1] == at[1:]) & (at[:-1] == mid)
-        label = at[:-1]
+        resting = resting_from_keys(t_out, keys)
     # A break inside an interval means motion there, even if the joints are back where they
     # were at both ends and in the middle (a quick move there and back).
     where = np.searchsorted(t_out, breaks)  # t_out[where - 1] < break ≤ t_out[where]
@@ -290,10 +306,10 @@ def _initial_blocks(
     resting[inner] = False
     # Equal step lengths within a block (the last output interval may be shorter).
     length_key = np.round(intervals / intervals.max(), 9)
-    # Runs of intervals alike in rest/motion, rest state and length; moving runs then cut.
+    # Runs of intervals alike in rest/motion and length; moving runs then cut. Two resting
+    # intervals in a row rest in one state (they share an end).
     change = np.ones(intervals.size, dtype=bool)
-    change[1:] = ((resting[1:] != resting[:-1]) | (length_key[1:] != length_key[:-1])
-                  | (resting[1:] & (label[1:] != label[:-1])))
+    change[1:] = (resting[1:] != resting[:-1]) | (length_key[1:] != length_key[:-1])
     # A break on an output time starts a block there; one inside an interval makes that
     # interval a block of its own.
     change[np.clip(where[on_time], 0, intervals.size - 1)] = True

@@ -197,10 +197,12 @@ def prepare(system: LinearSystem, t_out: np.ndarray, rtol: float, atol: float,
     # A system may bring its own (compiled) state rows M⁻¹[−K, −C, f].
     rows = getattr(system, "state_rows", None) or (
         lambda times: state_rows(matrices, times))
+    # A system may tell its resting intervals itself (cheaper than keys on every middle).
     table = tabulate(rows, t_out,
                      system.coefficient_keys, tolerance=rtol,
                      budget=_ASSEMBLIES_PER_STEP * substeps,
-                     breaks=system.breakpoints())
+                     breaks=system.breakpoints(),
+                     resting=getattr(system, "resting_intervals", None))
     # The coarse pass (h doubled) runs alongside the fine one in the compiled loop: its
     # exp(h Ã_ref) = E² is what the fine steps use for E(E y) too, its E⁴ the square of
     # that; a static block's exp(Δt Ã) does not depend on h. One Padé exponential per
