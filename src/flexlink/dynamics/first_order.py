@@ -365,12 +365,9 @@ class FirstOrderSystem:
             # the middles as resting_from_keys places them, to the bit
             middle = joint_history(self.chain.joints,
                                    t_out[ends] + 0.5 * (t_out[ends + 1] - t_out[ends]))
-            alike = np.ones(ends.size, dtype=bool)
-            for values, mid in ((at.angle, middle.angle), (at.rate, middle.rate),
-                                (at.acceleration, middle.acceleration)):
-                for k in range(values.shape[1]):
-                    alike &= mid[:, k] == values[ends, k]
-            resting[ends] = alike
+            resting[ends] = ((middle.angle == at.angle[ends]).all(axis=1)
+                             & (middle.rate == at.rate[ends]).all(axis=1)
+                             & (middle.acceleration == at.acceleration[ends]).all(axis=1))
         return resting
 
     def voltages(self, t: np.ndarray) -> np.ndarray:

@@ -27,7 +27,7 @@ from ..model import Controller, FunctionController
 from .batched_expm import expm_balanced
 from .coefficient_table import CoefficientTable, RoughCoefficients, tabulate
 from .magnus import agree, initial_step, richardson_error
-from .solution import Progress, StepReach
+from .solution import Progress, StepReach, unreached
 
 _MAX_HALVINGS = 10
 _ASSEMBLIES_PER_STEP = 4
@@ -130,8 +130,7 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
     limits = np.zeros((0 if bounds is None else bounds.shape[0], m))
     if bounds is not None:
         limits[:, :2 * n + 1] = bounds  # the held voltages do not enter
-    far = np.zeros(limits.shape[0])
-    beyond = np.full(limits.shape[0], np.inf)
+    reach = unreached(limits)  # no rows without bounds
     if start is not None:
         u[:n] = start
     work = control_work(control)
@@ -156,7 +155,7 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
         bad = closed_loop_intervals(u, n, grid, int(a), int(b), block_of, table.first,
                                     table.last, table.static, table.pieces, table.lower,
                                     table.upper, polyT, referenceT, ET, substeps, states, acc,
-                                    control, work, limits, far, beyond)
+                                    control, work, limits, reach.peak, reach.beyond)
         if bad >= 0:
             raise UnstableLoop(float(grid[bad]), "the response grows without bound", int(bad),
                                states[:bad + 1], work)
@@ -167,7 +166,7 @@ def _solve(table: CoefficientTable, n: int, n_act: int, grid: np.ndarray, subste
                        table.reference[table.static]):
         acc[a + 1: b + 1] = states[a + 1: b + 1] @ A.T  # resting: z̈ = A y, A constant
     return ClosedLoopRun(states, acc, work, commands, {},
-                         reach=None if bounds is None else StepReach(far, beyond))
+                         reach=None if bounds is None else reach)
 
 
 def call_controller(controller: Controller, function: Callable, t: float, y: np.ndarray) -> np.ndarray:

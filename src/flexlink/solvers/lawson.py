@@ -58,6 +58,7 @@ from .solution import (
     Solution,
     StepReach,
     tip_bounds,
+    unreached,
 )
 from .threads import single_threaded
 
@@ -369,14 +370,6 @@ def _run(
             on_progress(float(t_out[table.last[sl][-1]]))
     static_accelerations(table, states, acc)
     return states, acc, coarse_states, peak, spread
-
-
-def unreached(bounds: np.ndarray | None) -> StepReach | None:
-    """The reach of ``bounds`` (r, m) before any step (`StepReach`: peak 0, none beyond);
-    None without bounds."""
-    if bounds is None:
-        return None
-    return StepReach(np.zeros(bounds.shape[0]), np.full(bounds.shape[0], np.inf))
 
 
 def loop_matrices(table: CoefficientTable, ET: np.ndarray, coarse: bool

@@ -42,6 +42,7 @@ from .solution import (
     Solution,
     StepReach,
     tip_bounds,
+    unreached,
 )
 from .threads import single_threaded
 
@@ -180,8 +181,7 @@ def _solve_reaching(
     y[-1] = 1.0
     out = np.empty((t_out.size, 2 * n + 1))
     out[0] = y
-    far = np.zeros(0 if bounds is None else bounds.shape[0])
-    beyond = np.full(far.size, np.inf)
+    reach = unreached(bounds)
     for lo in range(0, starts.size, _CHUNK):
         sl = slice(lo, lo + _CHUNK)
         _, first, which = np.unique(labels[sl], return_index=True, return_inverse=True)
@@ -189,13 +189,13 @@ def _solve_reaching(
         # every step's end state (a long rest phase's only at its outputs: zero between)
         trace = np.zeros((which.size, y.size)) if bounds is not None else None
         y = _advance(props, which.ravel(), y, lo, substeps, out, trace)
-        if bounds is not None:
-            _reach(np.abs(trace @ bounds.T), starts[sl] + h[sl], far, beyond)
+        if reach is not None:
+            _reach(np.abs(trace @ bounds.T), starts[sl] + h[sl], reach.peak, reach.beyond)
         if not np.all(np.isfinite(y)):
             raise SimulationError(f"the state became non-finite near t = {starts[sl][-1]:.4g} s")
         if on_progress is not None:
             on_progress(float(starts[sl][-1] + h[sl][-1]))
-    return out[:, :-1], None if bounds is None else StepReach(far, beyond)
+    return out[:, :-1], reach
 
 
 def _reach(values: np.ndarray, ends: np.ndarray, far: np.ndarray, beyond: np.ndarray) -> None:

@@ -42,6 +42,14 @@ class StepReach:
     beyond: np.ndarray
 
 
+def unreached(bounds: np.ndarray | None) -> StepReach | None:
+    """The reach of ``bounds`` (r, m) before any step (`StepReach`: peak 0, none beyond),
+    which the integrators update in place; None without bounds."""
+    if bounds is None:
+        return None
+    return StepReach(np.zeros(bounds.shape[0]), np.full(bounds.shape[0], np.inf))
+
+
 def tip_bounds(system: object) -> np.ndarray | None:
     """The system's rows over the augmented state [w, ẇ, 1] whose magnitude exceeds 1 where
     a link's tip deflects beyond its length (``tip_bounds()`` of a first-order system; None
