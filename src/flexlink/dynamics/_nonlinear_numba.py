@@ -69,25 +69,22 @@ def directions(theta, phi, c, s):
 def node_angles(Ay, n, m, ang, rate, acc, Y, V, X, theta, phi, alpha_d, alpha_dd):
     """Each node's rigid angle θ = ang + Ay[:, n:m]·Y[n:m] and elastic slope φ =
     Ay[:, :n]·Y[:n] (α = θ + φ, `directions`), rad, its rate α̇ = rate + Ay·V and
-    acceleration α̈ = acc + Ay·X (nodes,), from the first m columns of Ay."""
-    for j in range(Ay.shape[0]):
-        th = ang[j]
-        ph = 0.0
-        alpha_dot = rate[j]
-        alpha_ddot = acc[j]
-        for i in range(m):
+    acceleration α̈ = acc + Ay·X (nodes,), from the first m columns of Ay. Column by column,
+    the inner loop along the nodes (vectorised; each sum in the order of the columns)."""
+    nodes = Ay.shape[0]
+    for j in range(nodes):
+        theta[j] = ang[j]
+        phi[j] = 0.0
+        alpha_d[j] = rate[j]
+        alpha_dd[j] = acc[j]
+    for i in range(m):
+        y, v, x = Y[i], V[i], X[i]
+        sums = phi if i < n else theta
+        for j in range(nodes):
             a = Ay[j, i]
-            if a != 0.0:
-                if i < n:
-                    ph += a * Y[i]
-                else:
-                    th += a * Y[i]
-                alpha_dot += a * V[i]
-                alpha_ddot += a * X[i]
-        theta[j] = th
-        phi[j] = ph
-        alpha_d[j] = alpha_dot
-        alpha_dd[j] = alpha_ddot
+            sums[j] += a * y
+            alpha_d[j] += a * v
+            alpha_dd[j] += a * x
 
 
 # inertia_elastic and the residuals are compiled without numba's runtime (``_nrt=False``, as
@@ -127,7 +124,6 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
     alpha_d = stack_array(nodes)
     alpha_dd = stack_array(nodes)
     S = stack_array((nodes, 4))
-    g = stack_array((4, nodes))
     line_f = stack_array(line_node.shape[0])  # the inertia force along each line
     rho = stack_array(nodes)
     rho_d = stack_array(nodes)
@@ -155,22 +151,27 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
         S[j, 2] = c[j] * radial
         S[j, 3] = s[j] * radial
     # g = G S (nodes, 4) as sums of G's rows (G symmetric): the inner loop runs along a row
-    # and vectorises, which a sum along each row (a reduction, ordered) does not
-    for r in range(4):
-        for j in range(nodes):
-            g[r, j] = 0.0
+    # and vectorises, which a sum along each row (a reduction, ordered) does not; four rows
+    # of their own, which the compiler keeps apart from G (in one (4, nodes) array they cost
+    # the residual of a 20-node link a sixth more)
+    g0s = stack_array(nodes)
+    g1s = stack_array(nodes)
+    g2s = stack_array(nodes)
+    g3s = stack_array(nodes)
+    for j in range(nodes):
+        g0s[j] = g1s[j] = g2s[j] = g3s[j] = 0.0
     for k in range(nodes):
         S0, S1, S2, S3 = S[k, 0], S[k, 1], S[k, 2], S[k, 3]
         for j in range(nodes):
             w = G[k, j]
-            g[0, j] += w * S0
-            g[1, j] += w * S1
-            g[2, j] += w * S2
-            g[3, j] += w * S3
+            g0s[j] += w * S0
+            g1s[j] += w * S1
+            g2s[j] += w * S2
+            g3s[j] += w * S3
     out[:] = 0.0
     fx = fy = 0.0
     for j in range(nodes):
-        g0, g1, g2, g3 = g[0, j], g[1, j], g[2, j], g[3, j]
+        g0, g1, g2, g3 = g0s[j], g1s[j], g2s[j], g3s[j]
         # F_j = Σ_l G_jl a_l + lift_j (R̈_b − g) = (−g1 − g2, g0 − g3) + lift_j (rx, ry)
         uj = c[j] * (g0 - g3) + s[j] * (g1 + g2)
         if rx != 0.0 or ry != 0.0:
