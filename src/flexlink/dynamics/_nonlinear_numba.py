@@ -123,7 +123,11 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
     phi = stack_array(nodes)  # … and its elastic slope (columns 0 … n)
     alpha_d = stack_array(nodes)
     alpha_dd = stack_array(nodes)
-    S = stack_array((nodes, 4))
+    # S = [c T, s T, c R, s R] (nodes, 4) as four rows (vectorised; (nodes, 4) was not)
+    S0s = stack_array(nodes)
+    S1s = stack_array(nodes)
+    S2s = stack_array(nodes)
+    S3s = stack_array(nodes)
     line_f = stack_array(line_node.shape[0])  # the inertia force along each line
     rho = stack_array(nodes)
     rho_d = stack_array(nodes)
@@ -146,10 +150,10 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
         # a_j = T e⊥ − R e: T = ρα̈ + 2ρ̇α̇, R = ρα̇² − ρ̈ (α̈ and α̇² where ρ = 1)
         tangential = rho[j] * alpha_dd[j] + 2.0 * rho_d[j] * alpha_d[j]
         radial = rho[j] * (alpha_d[j] * alpha_d[j]) - rho_dd[j]
-        S[j, 0] = c[j] * tangential
-        S[j, 1] = s[j] * tangential
-        S[j, 2] = c[j] * radial
-        S[j, 3] = s[j] * radial
+        S0s[j] = c[j] * tangential
+        S1s[j] = s[j] * tangential
+        S2s[j] = c[j] * radial
+        S3s[j] = s[j] * radial
     # g = G S (nodes, 4) as sums of G's rows (G symmetric): the inner loop runs along a row
     # and vectorises, which a sum along each row (a reduction, ordered) does not; four rows
     # of their own, which the compiler keeps apart from G (in one (4, nodes) array they cost
@@ -161,7 +165,7 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
     for j in range(nodes):
         g0s[j] = g1s[j] = g2s[j] = g3s[j] = 0.0
     for k in range(nodes):
-        S0, S1, S2, S3 = S[k, 0], S[k, 1], S[k, 2], S[k, 3]
+        S0, S1, S2, S3 = S0s[k], S1s[k], S2s[k], S3s[k]
         for j in range(nodes):
             w = G[k, j]
             g0s[j] += w * S0
@@ -177,8 +181,8 @@ def inertia_elastic(Ay, G, lift, m_tot, translation, rot_y, rot_J, D, K, n, nu, 
         if rx != 0.0 or ry != 0.0:
             uj += lift[j] * (c[j] * ry - s[j] * rx)
         if force:
-            fx += lift[j] * (-S[j, 1] - S[j, 2])
-            fy += lift[j] * (S[j, 0] - S[j, 3])
+            fx += lift[j] * (-S1s[j] - S2s[j])
+            fy += lift[j] * (S0s[j] - S3s[j])
         for i in range(m):
             out[i] += Ay[j, i] * rho[j] * uj
         for i in range(line_node.shape[0]):
