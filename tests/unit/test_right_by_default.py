@@ -773,6 +773,31 @@ def test_an_absurd_load_is_named_as_the_cause(field: str, value: float, named: s
     assert "Radau" not in message
 
 
+@pytest.mark.parametrize(("field", "named"), [
+    ("torque", r"joints\[1\]\.torque = 1e\+300 N·m"),
+    ("gravity", r"simulation\.gravity = \[0, -1e\+200\] m/s²")])
+def test_an_absurd_load_on_a_closed_loop_is_named_not_taken_for_a_toggle(
+        field: str, named: str) -> None:
+    """The four-bar with 1e300 N·m on its coupler's pin or 1e200 m/s² of gravity stalls at
+    t = 0 and was told the mechanism may have reached a toggle position: the loads are
+    named as on an open chain, from the accelerations the closed loop allows."""
+    with open(EXAMPLES / "four_bar.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=0.3, dt_out=0.01)
+    if field == "torque":
+        d["joints"][1] = {"drive": "torque", "initial_angle_deg": -60.0,
+                          "torque": [{"profile": "step", "amplitude": 1e300}]}
+    else:
+        d["simulation"]["gravity"] = [0.0, -1e200]
+    with pytest.raises(SimulationError) as error:
+        simulate(scenario_from_dict(d), shapes=False)
+    message = str(error.value)
+    assert re.search(r"under loads far beyond the first-order model's range: .* coupler's tip "
+                     r".* its length if held steady \(" + named + r"\); check their values "
+                     r"and units", message), message
+    assert "toggle" not in message
+
+
 @pytest.mark.parametrize(("guess", "closed"), [(-20.0, -90.0), (20.0, 90.0),
                                                (-160.0, -90.0), (160.0, 90.0)])
 def test_a_nonlinear_loop_with_a_slider_closes_on_the_branch_nearest_the_guess(

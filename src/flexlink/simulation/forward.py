@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,6 +35,9 @@ from .common import STEP_BEYOND, PathRun, Progress, check_tip_deflection, deflec
 from .prismatic import check_travel as check_slider_travel
 from .slider_drift import slider_drift_metadata
 
+if TYPE_CHECKING:
+    from ..dynamics.loops import LoopSystem
+
 
 def forward_system(scenario: Scenario) -> ForwardSystem:
     """The forward system of ``scenario`` (first-order model)."""
@@ -61,6 +65,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         except StoppedRun as stop:
             check_travel_before(scenario, system, t, stop)
             check_deflection_at_stop(scenario, system, t, stop, loop is not None)
+            check_loads_at_stop(scenario, system, stop, closed=True)
             raise
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
@@ -124,13 +129,20 @@ def check_deflection_at_stop(scenario: Scenario, system: ForwardSystem, t: np.nd
                                       else str(exc)) from None
 
 
-def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun) -> None:
+def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun,
+                        closed: bool = False) -> None:
     """A run that stalled or blew up under loads far beyond the first-order model's range:
-    an error naming them, in place of the stop's (whose hint is about the integrator). The
-    measure is `static_tip_ratio` from the start state with the loads at the stop."""
+    an error naming them, in place of the stop's (whose hint is about the integrator; on
+    ``closed`` loops, a toggle position). The measure is `static_tip_ratio` from the start
+    state with the loads at the stop, the loops closed."""
     if stop.left_travel:
         return
-    ratio = static_tip_ratio(system, stop.t)
+    loops = None
+    if closed:
+        from ..dynamics.loops import LoopSystem
+
+        loops = LoopSystem(system, scenario.closures)
+    ratio = static_tip_ratio(system, stop.t, loops)
     k = int(np.argmax(np.where(np.isfinite(ratio), ratio, np.inf))) if ratio.size else 0
     if not ratio.size or ratio[k] <= 1.0:
         return
@@ -143,16 +155,16 @@ def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: Stopped
         "check their values and units") from None
 
 
-def static_tip_ratio(system: ForwardSystem, t: float) -> np.ndarray:
+def static_tip_ratio(system: ForwardSystem, t: float, loops: LoopSystem | None = None
+                     ) -> np.ndarray:
     """Each link's tip deflection per length that its modal accelerations at the start state
     under the loads at ``t`` (s) would hold steady, K⁻¹ M z̈ of its clamped modes: far above 1
-    where the loads are beyond what the model can carry (inf where not finite)."""
-    from ..solvers.forward import split_state
-
-    parts = split_state(system, system.initial_state()[None])
+    where the loads are beyond what the model can carry (inf where not finite). With
+    ``loops``: the closed start state, the accelerations the closures allow (the loads they
+    carry bend the links as the loops hold them)."""
     with np.errstate(all="ignore"):
         try:
-            zdd = system.accelerations(np.array([t]), *parts)[1][0]
+            zdd = _start_modal_accelerations(system, t, loops)
         except (np.linalg.LinAlgError, ValueError, FloatingPointError):
             zdd = np.full(system.n, np.nan)
         out = np.zeros(len(system.bodies))
@@ -167,6 +179,25 @@ def static_tip_ratio(system: ForwardSystem, t: float) -> np.ndarray:
             value = abs(float(held @ d.tip_value)) / d.length
             out[k] = value if np.isfinite(value) else np.inf
     return out
+
+
+def _start_modal_accelerations(system: ForwardSystem, t: float, loops: LoopSystem | None
+                               ) -> np.ndarray:
+    """z̈ (n,) at the start state under the inputs at ``t`` (s): the tree's, or with
+    ``loops`` the closed start state's constrained rates (y = [p, ṗ, z, ż, …])."""
+    if loops is None:
+        from ..solvers.forward import split_state
+
+        parts = split_state(system, system.initial_state()[None])
+        return system.accelerations(np.array([t]), *parts)[1][0]
+    from ..dynamics.forward_kernel import inputs
+    from ..dynamics.loop_equilibrium import rates_function
+
+    y = loops.y0
+    rates = np.empty_like(y)
+    rates_function(loops, loops.workspace(y.size))(inputs(system, np.array([t]))[0], y, rates)
+    nu, n = len(system.free), system.n
+    return rates[2 * nu + n:2 * nu + 2 * n]
 
 
 def applied_loads(scenario: Scenario, system: ForwardSystem, t: float) -> list[str]:
