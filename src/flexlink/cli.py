@@ -507,14 +507,15 @@ def _simulate_and_write(scenario: Any, resolved: dict[str, Any], out_dir: Path,
 
 
 def _mode_convergence(scenario: Any) -> dict[str, Any]:
-    """The run attributes of the mode-convergence estimate (control/convergence.py); none
-    where the scenario cannot be linearised at t = 0, which the run itself did not need."""
-    from .control.convergence import mode_convergence
+    """The run attributes of the mode-convergence estimate (control/convergence.py): none
+    where the scenario cannot be linearised at t = 0, which the run itself did not need; a
+    `mode_convergence_warning` naming any other failure of it."""
+    from .control.convergence import estimate_for_command
 
-    try:
-        return mode_convergence(scenario).metadata()
-    except Exception:  # noqa: BLE001 — an estimate beside the run, never its failure
-        return {}
+    estimate, failure = estimate_for_command(scenario)
+    if failure is not None:
+        return {"mode_convergence_warning": failure}
+    return estimate.metadata() if estimate is not None else {}
 
 
 def _load(path: Path | None) -> tuple[Any, dict[str, Any]]:

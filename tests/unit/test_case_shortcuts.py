@@ -119,6 +119,23 @@ def test_builds_that_reuse_the_tables_they_share_equal_builds_from_scratch() -> 
         assert file.build() == scratch[0]
 
 
+def test_an_array_of_tables_hands_out_each_copy_with_the_table_it_copies() -> None:
+    """One filter pairs each [[links]] / [[joints]] table's copy with the table as given (the
+    key of its reuse): past an entry that is not a table, the pairs stay aligned."""
+    from flexlink.scenario.errors import Problems
+
+    first, third = {"length": 1.0}, {"length": 2.0}
+    p = Problems()
+    found = p.given_tables({"links": [first, 5, third]}, "links", required=True)
+    assert [(path, given) for path, _, given in found] == [("links[0]", first),
+                                                          ("links[2]", third)]
+    assert all(copy == given and copy is not given for _, copy, given in found)
+    assert [g is t for (_, _, g), t in zip(found, (first, third))] == [True, True]
+    assert len(p.messages) == 1 and p.messages[0].startswith("links[1]: expected a table")
+    assert Problems().table_array({"links": [first, 5, third]}, "links", required=True) == \
+        [(path, copy) for path, copy, _ in found]
+
+
 def test_quasi_rigid_links_are_remembered_for_the_output_times_asked_for() -> None:
     from flexlink.simulation import rigid
 

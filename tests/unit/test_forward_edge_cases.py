@@ -63,10 +63,57 @@ def test_a_link_that_sets_the_step_alone_is_named() -> None:
 
 
 def test_the_nonlinear_model_refuses_a_link_it_cannot_resolve_before_running() -> None:
+    """The refusal's advice is checked as the first-order warning's is: rigid = true here
+    moves the frequencies below the 500 Hz Nyquist frequency by 1e-8."""
     d = _driven_paper(0.1, model="nonlinear")
     d["links"][0]["EI"] = 1e9
-    with pytest.raises(ValueError, match=r"links\[0\] \(link1\).*set rigid = true on links\[0\]"):
+    with pytest.raises(ValueError, match=r"links\[0\] \(link1\).*set rigid = true on links\[0\] "
+                       r"\(it then costs no more than a rigid link; the frequencies below 500 Hz "
+                       r"move by"):
         simulate(scenario_from_dict(d), shapes=False)
+
+
+def _four_bar_with_four_crank_modes() -> dict:
+    from pathlib import Path
+
+    d = resolve_scenario_dict(Path(__file__).resolve().parents[2] / "examples"
+                              / "four_bar_benchmark.toml")
+    d["links"][0]["modes"] = 4
+    return d
+
+
+def test_the_nonlinear_refusal_of_a_link_whose_bending_matters_advises_a_finer_grid() -> None:
+    """Fewer modes leave a refused link's first frequency where it is: where rigid = true
+    would move a frequency the output shows (the four-bar's crank), the refusal's advice is
+    the output grid that resolves the link, with the reason it is not rigid = true."""
+    from flexlink.simulation import rigid
+
+    scenario = scenario_from_dict(_four_bar_with_four_crank_modes())
+    advice = rigid._fix(scenario, 0, 1000.0, 20e3, refused=True)
+    assert advice.startswith("give it a dt_out of at most 0.00025 s")
+    assert "not rigid = true: with it rigid a mode below 1e+03 Hz has no counterpart" in advice
+    assert "modes =" not in advice
+
+
+def test_only_a_mechanism_without_modes_at_t0_leaves_the_stiff_link_advice_unchecked(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A singular mass matrix or a loop that does not assemble at t = 0 gives the advice
+    without the band check; any other failure of the check is a defect and is raised."""
+    from flexlink.simulation import rigid
+
+    scenario = scenario_from_dict(_four_bar_with_four_crank_modes())
+
+    def failing(error: Exception):  # type: ignore[no-untyped-def]
+        def change(*_: object) -> None:
+            raise error
+        return change
+
+    monkeypatch.setattr(rigid, "frequency_change", failing(np.linalg.LinAlgError("singular")))
+    assert rigid._fix(scenario, 0, 1000.0, 118.0) == (
+        "set rigid = true on links[0] if its bending does not matter, or give it fewer modes")
+    monkeypatch.setattr(rigid, "frequency_change", failing(IndexError("a defect")))
+    with pytest.raises(IndexError, match="a defect"):
+        rigid._fix(scenario, 0, 1000.0, 118.0)
 
 
 def test_non_finite_channel_values_are_an_error_naming_the_channel_and_time() -> None:
@@ -82,12 +129,8 @@ def test_a_stiff_link_whose_bending_matters_is_advised_fewer_modes_not_rigid() -
     the pin's force moves the coupler's boundary; the loop's lowest mode, 43 Hz, has no
     counterpart with the crank rigid). The advice is its fewest modes keeping the frequencies
     the output shows within 1%: modes = 1 (strains within 0.01% of 4 modes)."""
-    from pathlib import Path
-
-    d = resolve_scenario_dict(Path(__file__).resolve().parents[2] / "examples"
-                              / "four_bar_benchmark.toml")
-    d["links"][0]["modes"] = 4
-    warning = stiff_forward_links(scenario_from_dict(d))["stiff_links_warning"]
+    warning = stiff_forward_links(scenario_from_dict(_four_bar_with_four_crank_modes()))[
+        "stiff_links_warning"]
     assert "links[0] (crank): its highest mode" in warning
     assert "give links[0] modes = 1" in warning and "set rigid = true" not in warning
     assert "with it rigid a mode below 1e+03 Hz has no counterpart" in warning

@@ -232,3 +232,24 @@ def test_a_free_base_s_default_bode_pairs_are_its_actuator_to_the_sensors(
     pairs = control_figures.default_pairs(linearize(pushed), pushed)
     assert {u for u, _ in pairs} == {"base_force_y"}
     assert [y for _, y in pairs][:2] == ["right_root_strain", "right_tip_deflection"]
+
+
+def test_the_linearize_command_names_a_failed_run_and_raises_a_defect(
+        tmp_path: Path, capsys, monkeypatch) -> None:
+    """A run up to --at that fails is reported (status 1); any other exception is a defect,
+    raised rather than printed as a failed linearisation."""
+    from flexlink.control import linearization
+    from flexlink.errors import SimulationError
+
+    def failing(error: Exception):  # type: ignore[no-untyped-def]
+        def linearize(*_: object, **__: object) -> None:
+            raise error
+        return linearize
+
+    args = ["linearize", str(EXAMPLES / "paper_servo.toml"), "-q", "-o", str(tmp_path / "p")]
+    monkeypatch.setattr(linearization, "linearize", failing(SimulationError("it stalled")))
+    assert main(args) == 1
+    assert capsys.readouterr().err == "linearisation failed: it stalled\n"
+    monkeypatch.setattr(linearization, "linearize", failing(IndexError("out of range")))
+    with pytest.raises(IndexError, match="out of range"):
+        main(args)

@@ -292,3 +292,51 @@ def test_a_rising_mode_the_output_cannot_show_does_not_warn() -> None:
     assert estimate.rising[-1] and estimate.frequency_hz[-1] > estimate.nyquist_hz
     assert estimate.warning() is None
     assert "972 Hz (3631, 3737 Hz" in estimate.metadata()["mode_convergence_rising"]
+
+
+def test_a_failure_of_the_estimate_is_reported_not_hidden(monkeypatch: pytest.MonkeyPatch,
+                                                           capsys: pytest.CaptureFixture[str]
+                                                           ) -> None:
+    """No linearisation about the operating point (a saturated servo) leaves no estimate
+    quietly; any other failure of the estimate is a warning naming it, beside a run's
+    results (`flexlink run`) and a plant's (`flexlink linearize`, `flexlink modes`)."""
+    from pathlib import Path
+
+    from flexlink.cli import _mode_convergence
+    from flexlink.control import command, convergence
+    from flexlink.control.operating_point import NotLinearizable
+    from flexlink.scenario import load_scenario
+
+    scenario = load_scenario(Path(__file__).resolve().parents[2] / "examples" / "four_bar.toml")
+
+    def failing(error: Exception):  # type: ignore[no-untyped-def]
+        def estimate(*_: object) -> None:
+            raise error
+        return estimate
+
+    monkeypatch.setattr(convergence, "mode_convergence", failing(NotLinearizable("saturated")))
+    assert convergence.estimate_for_command(scenario) == (None, None)
+    assert _mode_convergence(scenario) == {}
+    monkeypatch.setattr(convergence, "mode_convergence", failing(IndexError("out of range")))
+    estimate, failure = convergence.estimate_for_command(scenario)
+    assert estimate is None
+    assert failure is not None and failure.startswith(
+        "the mode-convergence estimate failed (IndexError: out of range)")
+    assert _mode_convergence(scenario) == {"mode_convergence_warning": failure}
+    command._print_estimate(estimate, failure)
+    assert capsys.readouterr().err == f"warning: {failure}\n"
+
+
+def test_a_closed_loop_of_rigid_links_has_no_estimate_and_no_failure() -> None:
+    """Nothing to estimate: the estimate failed on it (an empty reduction) and was hidden."""
+    from pathlib import Path
+
+    from flexlink.control.convergence import estimate_for_command
+
+    d = resolve_scenario_dict(Path(__file__).resolve().parents[2] / "examples"
+                              / "slider_crank.toml")
+    for link in d["links"]:
+        for key in ("EI", "E", "width", "thickness", "damping_ratio", "modes", "mode_shapes"):
+            link.pop(key, None)
+        link["rigid"] = True
+    assert estimate_for_command(scenario_from_dict(d)) == (None, None)

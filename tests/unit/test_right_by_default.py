@@ -773,6 +773,38 @@ def test_an_absurd_load_is_named_as_the_cause(field: str, value: float, named: s
     assert "Radau" not in message
 
 
+TORQUE_NAMED = (r"'s tip 3\.5\d*e\+299 times its length if held steady \(joints\[1\]\.torque "
+                r"= 1e\+300 N·m")
+GRAVITY_NAMED = (r" across its span 4\.6\d* times its length if held steady "
+                 r"\(simulation\.gravity = \[0, -1e\+06\] m/s²")
+
+
+@pytest.mark.parametrize(("field", "named"), [
+    ("torque", TORQUE_NAMED), ("gravity", GRAVITY_NAMED)])
+def test_an_absurd_load_on_a_closed_loop_is_named_not_taken_for_a_toggle(
+        field: str, named: str) -> None:
+    """The four-bar with 1e300 N·m on its coupler's pin (stalls at t = 0) or 1e6 m/s² of
+    gravity (at 0.9 ms) was told the mechanism may have reached a toggle position: the loads
+    are named as on an open chain, from the accelerations the closed loop allows and the
+    largest deflection they would hold, across the span of the coupler the loop holds at
+    both ends (its tip deflection is zero: 9.81 m/s² bends it 4.5e-5 of its length across
+    its span, 1e6 m/s² 4.6 times)."""
+    with open(EXAMPLES / "four_bar.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=0.3, dt_out=0.01)
+    if field == "torque":
+        d["joints"][1] = {"drive": "torque", "initial_angle_deg": -60.0,
+                          "torque": [{"profile": "step", "amplitude": 1e300}]}
+    else:
+        d["simulation"]["gravity"] = [0.0, -1e6]
+    with pytest.raises(SimulationError) as error:
+        simulate(scenario_from_dict(d), shapes=False)
+    message = str(error.value)
+    assert re.search(r"under loads far beyond the first-order model's range: .* coupler"
+                     + named + r"\); check their values and units", message), message
+    assert "toggle" not in message
+
+
 @pytest.mark.parametrize(("guess", "closed"), [(-20.0, -90.0), (20.0, 90.0),
                                                (-160.0, -90.0), (160.0, 90.0)])
 def test_a_nonlinear_loop_with_a_slider_closes_on_the_branch_nearest_the_guess(

@@ -160,14 +160,14 @@ def run_linearize(args: argparse.Namespace) -> int:
         check_finite({"A": plant.A, "B": plant.B, "C": plant.C, "D": plant.D},
                      f"the plant at {args.at}")
         pairs = _pairs(args.bode, plant, scenario)
-        estimate = estimate_for_command(scenario, at)
+        estimate, failure = estimate_for_command(scenario, at)
     except ScenarioError as exc:
         return _fail(str(exc))
     except NonFiniteResult as exc:
         return _fail(f"linearisation failed: {exc}", status=1)
     except (OutputFolderError, ValueError, TypeError, OSError) as exc:
         return _fail(f"error: {exc}")
-    except Exception as exc:  # noqa: BLE001 — a failed run up to --at
+    except _run_failures() as exc:  # a failed run up to --at
         return _fail(f"linearisation failed: {exc}", status=1)
     with _folder(out, args, resolved) as partial:
         plant.to_npz(partial / PLANT_NPZ)
@@ -183,7 +183,7 @@ def run_linearize(args: argparse.Namespace) -> int:
               f"{len(plant.output_names)} outputs; "
               + ("equilibrium" if plant.equilibrium else "frozen time (not an equilibrium)"))
         print("modes (Hz): " + ", ".join(f"{v:.4g}" for v in f[:8]))
-        _print_estimate(estimate)
+        _print_estimate(estimate, failure)
     print(out)
     return 0
 
@@ -217,8 +217,21 @@ def _write_poles(plant: Any, path: Path, estimate: Any) -> None:
                comments="", fmt=["%d", "%.10g", "%.6g", "%.3g"])
 
 
-def _print_estimate(estimate: Any) -> None:
-    """The mode-convergence line and, where a frequency moves by 1% or more, its warning."""
+def _run_failures() -> tuple[type[BaseException], ...]:
+    """How a run up to the operating point fails (imported only when one does); anything
+    else is a defect, not caught."""
+    import numpy as np
+
+    from ..errors import SimulationError
+
+    return (SimulationError, FloatingPointError, np.linalg.LinAlgError)
+
+
+def _print_estimate(estimate: Any, failure: str | None) -> None:
+    """The mode-convergence line and, where a frequency moves by 1% or more, its warning;
+    the warning naming the estimate's failure (`estimate_for_command`)."""
+    if failure is not None:
+        print(f"warning: {failure}", file=sys.stderr)
     if estimate is None:
         return
     from .convergence import modes_line
@@ -269,7 +282,7 @@ def run_modes(args: argparse.Namespace) -> int:
         modes = frozen_modes(scenario, times=times, angles=angles, count=args.count)
         check_finite({"frequency": modes.frequency_hz, "damping ratio": modes.damping_ratio,
                       "mode shapes": modes.shapes}, "the frozen-time modes")
-        estimate = estimate_for_command(
+        estimate, failure = estimate_for_command(
             scenario, {k: v[0] for k, v in angles.items()} if angles else 0.0)
     except ScenarioError as exc:
         return _fail(str(exc))
@@ -277,7 +290,7 @@ def run_modes(args: argparse.Namespace) -> int:
         return _fail(f"modes failed: {exc}", status=1)
     except (OutputFolderError, ValueError, TypeError, OSError) as exc:
         return _fail(f"error: {exc}")
-    except Exception as exc:  # noqa: BLE001 — a failed run
+    except _run_failures() as exc:  # a failed run up to --times
         return _fail(f"modes failed: {exc}", status=1)
     import numpy as np
 
@@ -295,6 +308,6 @@ def run_modes(args: argparse.Namespace) -> int:
         print(f"{modes.values.size} points of {modes.coordinate}, "
               f"{modes.frequency_hz.shape[1]} modes; lowest: "
               f"{modes.frequency_hz[:, 0].min():.4g}–{modes.frequency_hz[:, 0].max():.4g} Hz")
-        _print_estimate(estimate)
+        _print_estimate(estimate, failure)
     print(out)
     return 0

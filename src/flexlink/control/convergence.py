@@ -26,11 +26,12 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import RunTooLarge, SimulationError
 from ..model import Scenario
 from ..modes.pairing import deflection_vectors, pair
 from .linear import LinearPlant
 from .linearization import linearize
-from .operating_point import At
+from .operating_point import At, NotLinearizable
 
 # Estimated relative error of a kept frequency above which a run warns.
 THRESHOLD = 0.01
@@ -272,16 +273,31 @@ def _shape_vectors(scenario: Scenario, names: tuple[str, ...], vectors: np.ndarr
     return deflection_vectors(chain_modal_data(scenario.chain, scenario.base), q, widths)
 
 
-def estimate_for_command(scenario: Scenario, at: At = 0.0) -> ModeConvergence | None:
-    """The estimate beside a `flexlink linearize` or `flexlink modes` result: about ``at``,
-    at t = 0 for a later time of a forward run (which would be simulated again with more
-    modes); None where the scenario cannot be linearised there."""
+# Why a scenario has no estimate without anything having failed: it has no linearisation
+# about the operating point (a servo saturated or a load's kink there), no rest configuration
+# to fall back on, or the run up to it would not fit in memory.
+NO_ESTIMATE = (NotLinearizable, SimulationError)
+
+
+def estimate_for_command(scenario: Scenario, at: At = 0.0
+                         ) -> tuple[ModeConvergence | None, str | None]:
+    """The estimate beside a run's, a `flexlink linearize` or a `flexlink modes` result:
+    about ``at``, at t = 0 for a later time of a forward run (which would be simulated again
+    with more modes). None where there is nothing to estimate (every link rigid) or the
+    scenario cannot be linearised there (NO_ESTIMATE); for any other failure None and a
+    warning naming it (the result beside it does not depend on the estimate)."""
     if isinstance(at, int | float) and at > 0 and scenario.is_forward:
         at = 0.0
+    if not any(link.modes for link in scenario.chain.links):
+        return None, None
     try:
-        return mode_convergence(scenario, at)
-    except Exception:  # noqa: BLE001 — an estimate beside the result, never its failure
-        return None
+        return mode_convergence(scenario, at), None
+    except NO_ESTIMATE:
+        return None, None
+    except Exception as exc:  # noqa: BLE001 — reported: the result does not depend on it
+        return None, (f"the mode-convergence estimate failed ({type(exc).__name__}: {exc}); "
+                      "the results do not depend on it, but the accuracy of the modes is "
+                      "not estimated")
 
 
 def _plant(scenario: Scenario, at: At) -> tuple[LinearPlant, str]:
@@ -289,7 +305,7 @@ def _plant(scenario: Scenario, at: At) -> tuple[LinearPlant, str]:
     if isinstance(at, int | float) and at == 0.0:
         try:
             return linearize(scenario, at=0.0, outputs=[]), "t = 0"
-        except ValueError:
+        except (NotLinearizable, RunTooLarge):
             from ..model.joints import initial_angle
 
             at = [math.degrees(initial_angle(j)) for j in scenario.chain.joints]

@@ -37,7 +37,14 @@ from ..model import Scenario, TorqueDrive, VelocityServo, is_driven
 from ..model.joints import drive_side
 from ..solvers import Solution
 from .linear import LinearPlant
-from .operating_point import At, Configuration, Shifted, held_scenario, parse_at
+from .operating_point import (
+    At,
+    Configuration,
+    NotLinearizable,
+    Shifted,
+    held_scenario,
+    parse_at,
+)
 from .plant_parts import (  # noqa: F401 — modes.py and tests import these from here
     STEP,
     _check_run_size,
@@ -100,10 +107,10 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
         plant = loop_plant(scenario, t0, point)
     elif scenario.settings.model == "nonlinear" and not scenario.is_forward:
         if not isinstance(point, Configuration):
-            raise ValueError("at: a model = 'nonlinear' scenario is linearised about a rest "
-                             "configuration (joint angles), its static deflection under the "
-                             "actuators' t = 0 voltages; a time of its run is not an "
-                             "equilibrium")
+            raise NotLinearizable("at: a model = 'nonlinear' scenario is linearised about a "
+                                  "rest configuration (joint angles), its static deflection "
+                                  "under the actuators' t = 0 voltages; a time of its run is "
+                                  "not an equilibrium")
         from .nonlinear import nonlinear_plant
 
         plant = nonlinear_plant(original, scenario, point)
@@ -311,8 +318,9 @@ def _load_derivatives(system: ForwardSystem, t0: float, p: np.ndarray, pd: np.nd
 
         slope, smooth = _central(fun, width) if width else (np.zeros((nk + ns, 0)), True)
         if not smooth:
-            raise ValueError("the applied loads have a kink (a saturation) at the operating "
-                             "point: choose another time or a rest configuration")
+            raise NotLinearizable("the applied loads have a kink (a saturation) at the "
+                                  "operating point: choose another time or a rest "
+                                  "configuration")
         full = np.zeros((nk + ns, nk if which != "s" else ns))
         full[:, :width] = slope
         out.append(full)

@@ -79,6 +79,12 @@ class Configuration:
 BASE_KEYS = ("base_x", "base_y", "base_attitude")
 
 
+class NotLinearizable(ValueError):
+    """The scenario has no linearisation about the operating point asked for (a servo
+    saturated or a load's kink there, a time of a nonlinear prescribed run); the message
+    says why and which operating point to choose instead."""
+
+
 def parse_at(scenario: Scenario, at: At) -> float | Configuration:
     """A time (s) or a Configuration from ``at``; errors name the offending entry."""
     joints = scenario.chain.joints

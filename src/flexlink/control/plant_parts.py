@@ -14,7 +14,7 @@ from ..dynamics.forward import ForwardSystem
 from ..dynamics.servos import command_volts, servo_torque
 from ..model import Base, PositionServo, Scenario, VelocityServo
 from .linear import LinearPlant
-from .operating_point import Configuration
+from .operating_point import Configuration, NotLinearizable
 
 STEP = 1e-6  # central-difference step in the rigid coordinates (rad, m, and their rates)
 
@@ -60,9 +60,9 @@ def _check_servos(scenario: Scenario, system: ForwardSystem, t0: float, p: np.nd
             error = float(joint.reference.evaluate(t)[0][0]) - p[i]
             saturated |= abs(joint.bandwidth * error) >= joint.rate_limit
         if saturated:
-            raise ValueError(f"joint {k + 1}'s servo is saturated at the operating point: the "
-                             "linearisation is of the unsaturated servo law; choose another "
-                             "time or a rest configuration")
+            raise NotLinearizable(f"joint {k + 1}'s servo is saturated at the operating point: the "
+                                  "linearisation is of the unsaturated servo law; choose "
+                                  "another time or a rest configuration")
 
 
 def _elastic_names(scenario: Scenario) -> list[str]:

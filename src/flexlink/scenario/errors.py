@@ -235,7 +235,14 @@ class Problems:
     def table_array(
         self, raw: Mapping[str, Any], key: str, *, required: bool
     ) -> list[tuple[str, dict[str, Any]]]:
-        """The tables of an array of tables ``[[key]]`` with their paths."""
+        """The tables of an array of tables ``[[key]]`` with their paths (copies)."""
+        return [(path, table) for path, table, _ in self.given_tables(raw, key,
+                                                                       required=required)]
+
+    def given_tables(
+        self, raw: Mapping[str, Any], key: str, *, required: bool
+    ) -> list[tuple[str, dict[str, Any], Mapping[str, Any]]]:
+        """`table_array`'s (path, copy) pairs, each with the table as given in ``raw``."""
         if key not in raw:
             if required:
                 self.add(f"missing section [[{key}]] (at least one table)")
@@ -249,7 +256,7 @@ class Problems:
         out = []
         for i, table in enumerate(value):
             if isinstance(table, Mapping):
-                out.append((f"{key}[{i}]", dict(table)))
+                out.append((f"{key}[{i}]", dict(table), table))
             else:
                 self.add(f"{key}[{i}]: expected a table, got {describe(table)}")
         return out

@@ -131,17 +131,17 @@ def _resolve(raw: Mapping[str, Any], base_dir: Path, default_name: str,
         p.string(raw, "flexlink_version", "scenario")
     simulation = _simulation(raw, p, default_name)
     links = [_once(lambda t=t, path=path: _link(t, path, p), given, (path,), p)  # type: ignore[misc]
-             for (path, t), given in zip(p.table_array(raw, "links", required=True),
-                                         _given_tables(raw, "links"))]
+             for path, t, given in p.given_tables(raw, "links", required=True)]
     link_names = [lk.get("name") for lk in links]
     p.check_names(link_names, "links")
-    joint_tables = p.table_array(raw, "joints", required=True)
+    given_joints = p.given_tables(raw, "joints", required=True)
+    joint_tables = [(path, table) for path, table, _ in given_joints]
     if links and joint_tables and len(joint_tables) != len(links):
         p.add(f"joints: expected one [[joints]] table per link ({len(links)}), "
               f"got {len(joint_tables)}")
     joints, motions = [], []
     t_end = simulation.get("t_end")
-    for (path, table), given in zip(joint_tables, _given_tables(raw, "joints")):
+    for path, table, given in given_joints:
         joint, motion = _once(lambda table=table, path=path: _joint(table, path, base_dir,  # type: ignore[misc]
                                                                     t_end, p),
                               given, (path, base_dir, t_end), p)
@@ -206,13 +206,6 @@ def reusing_tables() -> Iterator[None]:
         yield
     finally:
         _REUSED.reset(token)
-
-
-def _given_tables(raw: Mapping[str, Any], key: str) -> list[Any]:
-    """The tables of the array of tables ``raw[key]`` as given (`Problems.table_array`
-    hands out copies), in its order."""
-    value = raw.get(key)
-    return [t for t in value if isinstance(t, Mapping)] if isinstance(value, list) else []
 
 
 def _once(read: Callable[[], Any], table: object, key: tuple[Any, ...], p: Problems) -> Any:

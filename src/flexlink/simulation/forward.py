@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,6 +35,9 @@ from .common import STEP_BEYOND, PathRun, Progress, check_tip_deflection, deflec
 from .prismatic import check_travel as check_slider_travel
 from .slider_drift import slider_drift_metadata
 
+if TYPE_CHECKING:
+    from ..dynamics.loops import LoopSystem
+
 
 def forward_system(scenario: Scenario) -> ForwardSystem:
     """The forward system of ``scenario`` (first-order model)."""
@@ -61,6 +65,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
         except StoppedRun as stop:
             check_travel_before(scenario, system, t, stop)
             check_deflection_at_stop(scenario, system, t, stop, loop is not None)
+            check_loads_at_stop(scenario, system, stop, closed=True)
             raise
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
@@ -124,38 +129,50 @@ def check_deflection_at_stop(scenario: Scenario, system: ForwardSystem, t: np.nd
                                       else str(exc)) from None
 
 
-def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun) -> None:
+def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun,
+                        closed: bool = False) -> None:
     """A run that stalled or blew up under loads far beyond the first-order model's range:
-    an error naming them, in place of the stop's (whose hint is about the integrator). The
-    measure is `static_tip_ratio` from the start state with the loads at the stop."""
+    an error naming them, in place of the stop's (whose hint is about the integrator; on
+    ``closed`` loops, a toggle position). The measure is `static_deflection_ratio` from the
+    start state with the loads at the stop, the loops closed."""
     if stop.left_travel:
         return
-    ratio = static_tip_ratio(system, stop.t)
+    loops = None
+    if closed:
+        from ..dynamics.loops import LoopSystem
+
+        loops = LoopSystem(system, scenario.closures)
+    ratio, at_tip = static_deflection_ratio(system, stop.t, loops)
     k = int(np.argmax(np.where(np.isfinite(ratio), ratio, np.inf))) if ratio.size else 0
     if not ratio.size or ratio[k] <= 1.0:
         return
     size = f"{ratio[k]:.3g} times" if np.isfinite(ratio[k]) else "beyond any multiple of"
+    where = "'s tip" if at_tip[k] else " across its span"
     loads = ", ".join(applied_loads(scenario, system, stop.t)) or "no load given: the initial state"
     raise SimulationError(
         f"the forward run stopped at t = {stop.t:.6g} s under loads far beyond the first-order "
         f"model's range: the accelerations they cause at the start would bend "
-        f"{scenario.chain.links[k].name}'s tip {size} its length if held steady ({loads}); "
+        f"{scenario.chain.links[k].name}{where} "
+        f"{size} its length if held steady ({loads}); "
         "check their values and units") from None
 
 
-def static_tip_ratio(system: ForwardSystem, t: float) -> np.ndarray:
-    """Each link's tip deflection per length that its modal accelerations at the start state
-    under the loads at ``t`` (s) would hold steady, K⁻¹ M z̈ of its clamped modes: far above 1
-    where the loads are beyond what the model can carry (inf where not finite)."""
-    from ..solvers.forward import split_state
-
-    parts = split_state(system, system.initial_state()[None])
+def static_deflection_ratio(system: ForwardSystem, t: float, loops: LoopSystem | None = None
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """Each link's largest deflection per length (its tip, or LOOP_SPAN_POINTS interior
+    points: a link a loop holds at both ends has no tip deflection) that its modal
+    accelerations at the start state under the loads at ``t`` (s) would hold steady,
+    K⁻¹ M z̈ of its clamped modes: far above 1 where the loads are beyond what the model can
+    carry (inf where not finite); and whether the tip's is the largest. With ``loops``: the
+    closed start state, the accelerations the closures allow (the loads they carry bend the
+    links as the loops hold them)."""
     with np.errstate(all="ignore"):
         try:
-            zdd = system.accelerations(np.array([t]), *parts)[1][0]
+            zdd = _start_modal_accelerations(system, t, loops)
         except (np.linalg.LinAlgError, ValueError, FloatingPointError):
             zdd = np.full(system.n, np.nan)
         out = np.zeros(len(system.bodies))
+        at_tip = np.ones(len(system.bodies), dtype=bool)
         start = -system.n_rigid  # a body's offset is its column in x = [δp; z]
         for k, body in enumerate(system.bodies):
             d = body.data
@@ -164,9 +181,32 @@ def static_tip_ratio(system: ForwardSystem, t: float) -> np.ndarray:
             a = zdd[start + body.offset:start + body.offset + d.n]
             held = np.linalg.solve(d.stiffness_matrix, d.clamped_mass_matrix @ a) \
                 if np.all(np.isfinite(a)) else np.full(d.n, np.inf)
-            value = abs(float(held @ d.tip_value)) / d.length
+            x = d.length * np.arange(1, LOOP_SPAN_POINTS + 1) / (LOOP_SPAN_POINTS + 1)
+            tip = abs(float(held @ d.tip_value))
+            span = float(np.abs(d.shapes.evaluate(x) @ held).max())
+            at_tip[k] = not span > tip
+            value = max(tip, span) / d.length if np.all(np.isfinite(held)) else np.inf
             out[k] = value if np.isfinite(value) else np.inf
-    return out
+    return out, at_tip
+
+
+def _start_modal_accelerations(system: ForwardSystem, t: float, loops: LoopSystem | None
+                               ) -> np.ndarray:
+    """z̈ (n,) at the start state under the inputs at ``t`` (s): the tree's, or with
+    ``loops`` the closed start state's constrained rates (y = [p, ṗ, z, ż, …])."""
+    if loops is None:
+        from ..solvers.forward import split_state
+
+        parts = split_state(system, system.initial_state()[None])
+        return system.accelerations(np.array([t]), *parts)[1][0]
+    from ..dynamics.forward_kernel import inputs
+    from ..dynamics.loop_equilibrium import rates_function
+
+    y = loops.y0
+    rates = np.empty_like(y)
+    rates_function(loops, loops.workspace(y.size))(inputs(system, np.array([t]))[0], y, rates)
+    nu, n = len(system.free), system.n
+    return rates[2 * nu + n:2 * nu + 2 * n]
 
 
 def applied_loads(scenario: Scenario, system: ForwardSystem, t: float) -> list[str]:

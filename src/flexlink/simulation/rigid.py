@@ -24,6 +24,7 @@ import numpy as np
 from ..dynamics.first_order import chain_modal_data
 from ..dynamics.histories import input_breakpoints
 from ..dynamics.kinematics import frame_motion, joint_history
+from ..errors import SimulationError
 from ..model import Link, Scenario
 from ..modes import modal_data
 from ..modes.pairing import deflection_vectors, pair
@@ -155,19 +156,31 @@ def stiff_forward_links(scenario: Scenario) -> dict[str, str]:
                      f"frequency ({nyquist:.3g} Hz), so its vibration cannot show in the output")
         if nonlinear and f[0] > UNRESOLVED_FACTOR * nyquist:
             raise ValueError(f"{text}; the nonlinear model's step control does not converge "
-                             f"on it: set rigid = true on links[{k}] (a link this stiff does "
-                             "not bend visibly), or give it a lower EI or fewer modes")
-        found.append(text + ": " + _fix(scenario, k, nyquist))
+                             f"on it: {_fix(scenario, k, nyquist, f[0], refused=True)}")
+        found.append(text + ": " + _fix(scenario, k, nyquist, f[0]))
     if not found:
         return {}
     return {"stiff_links_warning": "; ".join(found)}
 
 
-def _fix(scenario: Scenario, k: int, nyquist: float) -> str:
+# Failures of the t = 0 modes that leave a stiff link without the check of its band: the
+# mechanism does not assemble there, or its mass matrix is singular.
+NO_START_MODES = (SimulationError, np.linalg.LinAlgError)
+
+
+def _fix(scenario: Scenario, k: int, nyquist: float, first_hz: float,
+         refused: bool = False) -> str:
     """The advice for a stiff link k: rigid = true when that moves no frequency below
-    ``nyquist`` (Hz) by BAND_CHANGE; else the fewest modes keeping them within
-    BAND_CHANGE (the link's bending under its joints' loads matters: a four-bar's crank)."""
+    ``nyquist`` (Hz) by BAND_CHANGE; else (the link's bending under its joints' loads
+    matters: a four-bar's crank) the fewest modes keeping them within BAND_CHANGE, or, for
+    the nonlinear model's refusal (``refused``: its first mode, ``first_hz``, is beyond
+    UNRESOLVED_FACTOR × ``nyquist``, which fewer modes do not change), an output grid fine
+    enough to resolve it."""
     link = scenario.chain.links[k]
+    # dt_out at which the first mode is UNRESOLVED_FACTOR × the Nyquist frequency 0.5/dt_out
+    finer = (f"a dt_out of at most {0.5 * UNRESOLVED_FACTOR / first_hz:.2g} s (the output grid "
+             f"then resolves its first mode, {first_hz:.3g} Hz, within "
+             f"{UNRESOLVED_FACTOR:g}× its Nyquist frequency)")
 
     def changed(to: Link) -> Scenario:
         return with_links(scenario, {k: to})
@@ -175,20 +188,22 @@ def _fix(scenario: Scenario, k: int, nyquist: float) -> str:
     try:
         change = frequency_change(scenario, nyquist)
         shift = change(changed(rigid_body(link)))
-        if shift < BAND_CHANGE:
-            return (f"set rigid = true on links[{k}] (it then costs no more than a rigid link; "
-                    f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%)")
-        why = ("not rigid = true: with it rigid " + (
-            f"a mode below {nyquist:.3g} Hz has no counterpart" if math.isinf(shift)
-            else f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%"))
-        for n in range(1, link.modes):
-            kept = change(changed(with_modes(link, n)))
-            if kept < BAND_CHANGE:
-                return (f"give links[{k}] modes = {n} (those frequencies then move by "
-                        f"{100 * kept:.2g}%), {why}")
-    except Exception:  # noqa: BLE001 — no plant at t = 0 (e.g. a saturated servo): no check
-        return (f"set rigid = true on links[{k}] if its bending does not matter, or give it "
-                "fewer modes")
+    except NO_START_MODES:
+        return (f"set rigid = true on links[{k}] if its bending does not matter, or "
+                + (finer if refused else "give it fewer modes"))
+    if shift < BAND_CHANGE:
+        return (f"set rigid = true on links[{k}] (it then costs no more than a rigid link; "
+                f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%)")
+    why = ("not rigid = true: with it rigid " + (
+        f"a mode below {nyquist:.3g} Hz has no counterpart" if math.isinf(shift)
+        else f"the frequencies below {nyquist:.3g} Hz move by {100 * shift:.2g}%"))
+    if refused:
+        return f"give it {finer}, {why}"
+    for n in range(1, link.modes):
+        kept = change(changed(with_modes(link, n)))
+        if kept < BAND_CHANGE:
+            return (f"give links[{k}] modes = {n} (those frequencies then move by "
+                    f"{100 * kept:.2g}%), {why}")
     return f"keep its modes, {why}"
 
 
