@@ -365,9 +365,14 @@ class FirstOrderSystem:
             # the middles as resting_from_keys places them, to the bit
             middle = joint_history(self.chain.joints,
                                    t_out[ends] + 0.5 * (t_out[ends + 1] - t_out[ends]))
-            resting[ends] = ((middle.angle == at.angle[ends]).all(axis=1)
-                             & (middle.rate == at.rate[ends]).all(axis=1)
-                             & (middle.acceleration == at.acceleration[ends]).all(axis=1))
+            # Column by column: numpy's all over axis 1 of these (intervals, joints) arrays
+            # reduces each short row in its own inner loop, ~5x slower (~0.2 ms a case).
+            alike = np.ones(ends.size, dtype=bool)
+            for values, mid in ((at.angle, middle.angle), (at.rate, middle.rate),
+                                (at.acceleration, middle.acceleration)):
+                for k in range(values.shape[1]):
+                    alike &= mid[:, k] == values[ends, k]
+            resting[ends] = alike
         return resting
 
     def voltages(self, t: np.ndarray) -> np.ndarray:
