@@ -931,6 +931,16 @@ def test_an_equilibrium_start_with_a_joint_nothing_holds_is_refused(
         simulate(scenario)
 
 
+def test_a_plant_about_a_start_an_unheld_joint_leaves_is_frozen_time_not_refused() -> None:
+    """The linearisation of that start is still made, and says it is no equilibrium."""
+    from flexlink.control import linearize
+
+    scenario = scenario_from_dict(_unheld_start("gravity_release.toml", "first_order",
+                                                angle=80.0))
+    for at in (0.0, {"joint1": 80.0}):
+        assert not linearize(scenario, at=at).equilibrium
+
+
 @pytest.mark.parametrize("model", ["first_order", "nonlinear"])
 @pytest.mark.parametrize("angle", [90.0, -90.0])
 def test_an_unheld_joint_already_balanced_starts_in_equilibrium(model: str,
@@ -959,3 +969,23 @@ def test_the_api_takes_the_path_of_a_scenario_file() -> None:
             call({"simulation": {}})
     with pytest.raises(TypeError, match="scenario_from_dict"):
         load_scenario({"simulation": {}})  # type: ignore[arg-type]
+
+
+def test_an_unknown_channel_of_results_is_named_with_the_channels() -> None:
+    """results["tip_deflexion"] raised a bare KeyError('tip_deflexion')."""
+    r = simulate(EXAMPLES / "gravity_release.toml", shapes=False)
+    with pytest.raises(KeyError, match=r"no channel 'tip_deflexion' \(did you mean "
+                       r"'tip_deflection'\?\); channels: tip_deflection, joint1_angle"):
+        r["tip_deflexion"]
+
+
+def test_measured_angles_inside_motion_are_sent_to_the_joint() -> None:
+    """motion = [{csv = "angles.csv"}] (the README's "or measured angles: csv = …" read as a
+    segment) was told only "missing required key 'profile'"."""
+    d = _paper_dict()
+    d["joints"][0]["motion"] = [{"csv": "angles.csv", "angle_column": "beta1"}]
+    with pytest.raises(ScenarioError, match=re.escape(
+            "joints[0].motion[0]: measured angles are not a motion segment: give csv (and "
+            "time_column, angle_column, lowpass_hz) on joints[0] itself, in place of its "
+            "motion")):
+        scenario_from_dict(d)

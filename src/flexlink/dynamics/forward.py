@@ -72,6 +72,9 @@ class ForwardSystem:
         self.geometric_stiffening = geometric_stiffening
         self.gravity: tuple[float, float] = (float(gravity[0]), float(gravity[1]))
         self.initial = initial
+        # False: an equilibrium start refuses joints that nothing holds and the loads turn
+        # (`unheld`); True: they may (a frozen-time plant about that start).
+        self.unheld_may_move = False
         self._start: np.ndarray | None = None
         self.modal: list[ModalData] = (list(modal) if modal is not None
                                        else chain_modal_data(chain, base))
@@ -156,9 +159,12 @@ class ForwardSystem:
         holds at an equilibrium start, but for the ``dependent`` ones (a loop's, which its
         closures hold), and their `equilibrium.Unheld` names: a torque-driven or free joint
         (or motor) must be at rest with the loads at t = 0 by itself. The base's
-        coordinates are left out: the equilibrium is relative to the base, which may move."""
+        coordinates are left out: the equilibrium is relative to the base, which may move.
+        None of them with ``unheld_may_move``."""
         from .equilibrium import Unheld
 
+        if self.unheld_may_move:
+            return [], []
         held = {self.servo_of(k)[1] for k in self.servos}
         held |= {self.joint_index(k) for k in self.elastic}
         columns, names = [], []

@@ -501,6 +501,12 @@ def _segment(segment: Any, path: str, motion_module: Any,
         p.add(f"{path}: expected a table like {{profile = \"hold\", angle_deg = 0.0}}, "
               f"got {describe(segment)}")
         return {}, None
+    if "csv" in segment and "profile" not in segment and ".motion[" in path:
+        joint = path.split(".motion[")[0]
+        p.add(f"{path}: measured angles are not a motion segment: give csv (and "
+              f"time_column, angle_column, lowpass_hz) on {joint} itself, in place of its "
+              "motion")
+        return dict(segment), None
     profile = read_field(segment, schema.PROFILE, path, p)
     if profile is None:
         return dict(segment), None
