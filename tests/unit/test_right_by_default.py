@@ -973,7 +973,7 @@ def test_the_api_takes_the_path_of_a_scenario_file() -> None:
 
 def test_an_unknown_channel_of_results_is_named_with_the_channels() -> None:
     """results["tip_deflexion"] raised a bare KeyError('tip_deflexion')."""
-    r = simulate(EXAMPLES / "gravity_release.toml", shapes=False)
+    r = simulate(load_scenario(EXAMPLES / "gravity_release.toml"), shapes=False)
     with pytest.raises(KeyError, match=r"no channel 'tip_deflexion' \(did you mean "
                        r"'tip_deflection'\?\); channels: tip_deflection, joint1_angle"):
         r["tip_deflexion"]
