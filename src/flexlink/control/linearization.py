@@ -71,7 +71,8 @@ class _Equations:
     Ru: np.ndarray
 
 
-def linearize(scenario: Scenario | str | PathLike[str], at: At = 0.0, inputs: list[str] | None = None,
+def linearize(scenario: Scenario | str | PathLike[str], at: At = 0.0,
+              inputs: list[str] | None = None,
               outputs: list[str] | None = None) -> LinearPlant:
     """The continuous plant (A, B, C, D) of ``scenario`` about ``at``: a time in s of its run
     (the joints', base's and servos' state then; frozen-time unless it is at rest), joint

@@ -110,7 +110,8 @@ class FrozenModes:
         return header, np.column_stack([self.values, self.frequency_hz, self.damping_ratio])
 
 
-def frozen_modes(scenario: Scenario | str | PathLike[str], times: Sequence[float] | np.ndarray | None = None,
+def frozen_modes(scenario: Scenario | str | PathLike[str],
+                 times: Sequence[float] | np.ndarray | None = None,
                  angles: Mapping[str, Sequence[float]] | None = None,
                  count: int | None = None) -> FrozenModes:
     """Modes over ``times`` (s) of the scenario's run, or at rest over a grid of joint angles
