@@ -61,6 +61,7 @@ def _scenarios() -> dict[str, dict]:
     stiff["links"][0]["EI"] = 1e9
     out["stiff_nonlinear_driven.toml"] = stiff
     out["long_driven.toml"] = _driven(_paper(t_end=1e5, geometric_stiffening=True))
+    out["huge_t_end_driven.toml"] = _driven(_paper(t_end=1e9, dt_out=1e6))
     return out
 
 
@@ -213,6 +214,7 @@ CASES = {
     "nonlinear driven arm, EI = 1e9": (["run", "{in}/stiff_nonlinear_driven.toml", "-o", "{out}"], 2, "set rigid = true on links[0]"),
     "linearize a driven arm at 5e4 s": (["linearize", "{in}/long_driven.toml", "--at", "5e4", "-o", "{out}"], 2, "simulation.dt_out: the run up to t = 50000 s needs"),
     "modes over a driven arm's 1e5 s": (["modes", "{in}/long_driven.toml", "-o", "{out}"], 2, "simulation.dt_out: the run up to t = 100000 s needs"),
+    "run a driven arm for 1e9 s, sampled every 1e6 s": (["run", "{in}/huge_t_end_driven.toml", "-o", "{out}"], 2, "simulation.t_end = 1e+09 s: this forward run tabulates its inputs in pieces of at most 0.25 s, 4e+09 pieces × at least 400 B = 1.6 TB of memory"),
 }
 CASES["animate: csv only"] = (["animate", "{run}", "-o", "{out}/a.gif"], 2,
                               "holds no link shapes")

@@ -927,3 +927,97 @@ def test_the_shipped_loops_within_their_validity_stay_quiet(example: str, link: 
     assert run.metadata["loop_validity_link"] == link
     assert 0.0 < run.metadata["loop_validity_measure"] < run.metadata["loop_validity_limit"]
     assert "validity_warning" not in run.metadata, run.metadata["validity_warning"]
+
+
+def _unheld_start(example: str, model: str, joint: dict[str, Any] | None = None,
+                  angle: float | None = None) -> dict[str, Any]:
+    with open(EXAMPLES / example, "rb") as file:
+        d = tomllib.load(file)
+    d["simulation"].update(t_end=0.05, dt_out=0.01, model=model, initial="equilibrium",
+                           gravity=[0.0, -9.81])
+    if joint is not None:
+        d["joints"][0] = joint
+    if angle is not None:
+        d["joints"][0]["initial_angle_deg"] = angle
+    return d
+
+
+_FREE_CRANK = {"drive": "torque", "torque": [{"profile": "step", "amplitude": 0.0}],
+               "initial_angle_deg": 90.0}
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+@pytest.mark.parametrize(("example", "joint", "angle", "rate"), [
+    ("gravity_release.toml", None, 80.0, "2.6 rad/s²"),  # an arm 10° off upright, free pin
+    ("four_bar.toml", _FREE_CRANK, None, "14.1 rad/s²")])  # a loop on an unheld crank
+def test_an_equilibrium_start_with_a_joint_nothing_holds_is_refused(
+        model: str, example: str, joint: dict[str, Any] | None, angle: float | None,
+        rate: str) -> None:
+    """initial = "equilibrium" with a torque-driven or free joint that the loads turn at
+    t = 0 (an inverted arm on a free pin, a four-bar whose crank nothing holds under gravity)
+    balanced only the links' deflection and started the run falling, without a word."""
+    scenario = scenario_from_dict(_unheld_start(example, model, joint, angle))
+    with pytest.raises(SimulationError, match=re.escape(
+            'initial = "equilibrium": no static equilibrium at t = 0: joints[0], held by no '
+            f"servo, spring or prescribed motion, starts accelerating at {rate}")):
+        simulate(scenario)
+
+
+def test_a_plant_about_a_start_an_unheld_joint_leaves_is_frozen_time_not_refused() -> None:
+    """The linearisation of that start is still made, and says it is no equilibrium."""
+    from flexlink.control import linearize
+
+    scenario = scenario_from_dict(_unheld_start("gravity_release.toml", "first_order",
+                                                angle=80.0))
+    for at in (0.0, {"joint1": 80.0}):
+        assert not linearize(scenario, at=at).equilibrium
+
+
+@pytest.mark.parametrize("model", ["first_order", "nonlinear"])
+@pytest.mark.parametrize("angle", [90.0, -90.0])
+def test_an_unheld_joint_already_balanced_starts_in_equilibrium(model: str,
+                                                               angle: float) -> None:
+    """The free pin upright or hanging: an equilibrium, which stays put."""
+    r = simulate(scenario_from_dict(_unheld_start("gravity_release.toml", model,
+                                                  angle=angle)))
+    assert np.ptp(r["joint1_angle"]) < 1e-12
+
+
+def test_the_api_takes_the_path_of_a_scenario_file() -> None:
+    """flexlink.simulate("arm.toml") (as flexlink.sweep takes a path) failed with
+    "AttributeError: 'str' object has no attribute 'chain'"; a dict or None now gets a
+    TypeError that says what to give."""
+    from flexlink.control import frozen_modes, linearize, mode_convergence
+
+    path = EXAMPLES / "gravity_release.toml"
+    assert simulate(str(path), shapes=False).metadata["path"] == "forward"
+    assert linearize(path).A.shape == linearize(load_scenario(path)).A.shape
+    assert frozen_modes(path, times=[0.0]).frequency_hz.shape[0] == 1
+    assert mode_convergence(path).modes == (4,)
+    for call in (simulate, linearize, frozen_modes, mode_convergence):
+        with pytest.raises(TypeError, match=f"{call.__name__}: expected a Scenario "
+                           r"\(flexlink.load_scenario\(path\)\) or the path of a scenario "
+                           "file, got dict"):
+            call({"simulation": {}})
+    with pytest.raises(TypeError, match="scenario_from_dict"):
+        load_scenario({"simulation": {}})  # type: ignore[arg-type]
+
+
+def test_an_unknown_channel_of_results_is_named_with_the_channels() -> None:
+    """results["tip_deflexion"] raised a bare KeyError('tip_deflexion')."""
+    r = simulate(load_scenario(EXAMPLES / "gravity_release.toml"), shapes=False)
+    with pytest.raises(KeyError, match=r"no channel 'tip_deflexion' \(did you mean "
+                       r"'tip_deflection'\?\); channels: tip_deflection, joint1_angle"):
+        r["tip_deflexion"]
+
+
+def test_measured_angles_inside_motion_are_sent_to_the_joint() -> None:
+    """motion = [{csv = "angles.csv"}] (the README's "or measured angles: csv = …" read as a
+    segment) was told only "missing required key 'profile'"."""
+    d = _paper_dict()
+    d["joints"][0]["motion"] = [{"csv": "angles.csv", "angle_column": "beta1"}]
+    with pytest.raises(ScenarioError, match=re.escape(
+            "joints[0].motion[0]: measured angles are not a motion segment: give csv (and "
+            "time_column, angle_column, lowpass_hz) on joints[0] itself, in place of its "
+            "motion")):
+        scenario_from_dict(d)

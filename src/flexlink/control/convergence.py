@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from os import PathLike
 from typing import Any
 
 import numpy as np
@@ -216,11 +217,14 @@ def _counts(modes: tuple[int, ...]) -> str:
     return ", ".join("/".join(str(levels(n)[i]) for n in flexible) for i in range(3))
 
 
-def mode_convergence(scenario: Scenario, at: At = 0.0) -> ModeConvergence:
+def mode_convergence(scenario: Scenario | str | PathLike[str], at: At = 0.0) -> ModeConvergence:
     """The estimate for ``scenario`` about ``at`` (as for `linearize`; default: the joints'
     state at t = 0, or a rest configuration of the t = 0 angles where that state cannot be
     linearised, e.g. a servo saturated there). The first-order equations, open loop
-    (controllers left out)."""
+    (controllers left out). ``scenario``: a `Scenario`, or the path of a scenario file."""
+    from ..scenario.load import as_scenario
+
+    scenario = as_scenario(scenario, "mode_convergence")
     from ..model.basis import chosen_mode_shapes
     from ..simulation.rigid import with_modes
     from ..solvers.threads import single_threaded

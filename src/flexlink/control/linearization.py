@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from os import PathLike
 from typing import Any
 
 import numpy as np
@@ -77,7 +78,8 @@ class _Equations:
     Ru: np.ndarray
 
 
-def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
+def linearize(scenario: Scenario | str | PathLike[str], at: At = 0.0,
+              inputs: list[str] | None = None,
               outputs: list[str] | None = None) -> LinearPlant:
     """The continuous plant (A, B, C, D) of ``scenario`` about ``at``: a time in s of its run
     (the joints', base's and servos' state then; frozen-time unless it is at rest), joint
@@ -93,7 +95,10 @@ def linearize(scenario: Scenario, at: At = 0.0, inputs: list[str] | None = None,
     ``inputs``/``outputs``: keep only these, in this order. The first-order equations are
     used; a ``model = "nonlinear"`` scenario with prescribed joints is linearised at a rest
     configuration about its static deflection under the actuators' t = 0 voltages
-    (control/nonlinear.py)."""
+    (control/nonlinear.py). ``scenario``: a `Scenario`, or the path of a scenario file."""
+    from ..scenario.load import as_scenario
+
+    scenario = as_scenario(scenario, "linearize")
     point = parse_at(scenario, at)
     original = scenario
     if isinstance(point, Configuration):

@@ -15,6 +15,7 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from os import PathLike
 from pathlib import Path
 from typing import Any
 
@@ -109,13 +110,18 @@ class FrozenModes:
         return header, np.column_stack([self.values, self.frequency_hz, self.damping_ratio])
 
 
-def frozen_modes(scenario: Scenario, times: Sequence[float] | np.ndarray | None = None,
+def frozen_modes(scenario: Scenario | str | PathLike[str],
+                 times: Sequence[float] | np.ndarray | None = None,
                  angles: Mapping[str, Sequence[float]] | None = None,
                  count: int | None = None) -> FrozenModes:
     """Modes over ``times`` (s) of the scenario's run, or at rest over a grid of joint angles
     ``angles = {"joint2": [0, 10, …, 90]}`` (deg; several joints: equal lengths, zipped;
     other joints at their t = 0 angle). Neither: 101 times over the run. ``count``: the
-    lowest modes kept (default: as many as every point has)."""
+    lowest modes kept (default: as many as every point has). ``scenario``: a `Scenario`, or
+    the path of a scenario file."""
+    from ..scenario.load import as_scenario
+
+    scenario = as_scenario(scenario, "frozen_modes")
     if times is not None and angles is not None:
         raise ValueError("give times or angles, not both")
     if count is not None and count < 1:

@@ -20,9 +20,13 @@ STEP = 1e-6  # central-difference step in the rigid coordinates (rad, m, and the
 
 
 def forward_system(scenario: Scenario) -> ForwardSystem:
-    return ForwardSystem(scenario.chain, scenario.base or Base(),
-                         scenario.settings.geometric_stiffening, scenario.actuators,
-                         gravity=scenario.settings.gravity, initial=scenario.settings.initial)
+    """The plant's system: its start may have unheld joints that the loads turn (a plant
+    about it is frozen-time, ``equilibrium`` False), which a run refuses."""
+    system = ForwardSystem(scenario.chain, scenario.base or Base(),
+                           scenario.settings.geometric_stiffening, scenario.actuators,
+                           gravity=scenario.settings.gravity, initial=scenario.settings.initial)
+    system.unheld_may_move = True
+    return system
 
 
 def _check_run_size(scenario: Scenario, t_end: float) -> None:

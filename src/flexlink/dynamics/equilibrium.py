@@ -9,7 +9,8 @@ K z = f directly (`FirstOrderSystem.equilibrium`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -26,12 +27,25 @@ RESIDUAL = 1e-6
 ROUND_OFF = 1e-10
 
 
-def solve(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray) -> np.ndarray:
+def solve(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
+          watched: Sequence[Unheld] = ()) -> np.ndarray:
     """x with residuals(x) = 0 from x0: ``residuals`` maps a batch (b, m) of unknowns to
     (b, k) accelerations (k ≥ m: least squares), evaluated at once for the Jacobian's
-    columns. A SimulationError when the iteration does not settle (no equilibrium: a servo
-    too weak for the load, a standing link past its buckling load)."""
+    columns, followed by the accelerations of the ``watched`` coordinates (the joints
+    nothing holds), which must vanish at the solution too (`check_unheld`). A
+    SimulationError when the iteration does not settle (no equilibrium: a servo too weak
+    for the load, a standing link past its buckling load)."""
     x = np.asarray(x0, dtype=float).copy()
+    k = len(watched)
+    held = residuals if not k else (lambda xs: residuals(xs)[:, :-k])
+    x = _newton(held, x)
+    if k:
+        check_unheld(residuals, np.asarray(x0, dtype=float), x, watched)
+    return x
+
+
+def _newton(residuals: Callable[[np.ndarray], np.ndarray], x: np.ndarray) -> np.ndarray:
+    x0 = x.copy()
     m = x.size
     if m == 0:
         return x
@@ -63,3 +77,38 @@ def solve(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray) -> np.n
             "the load (torque_limit, saturation), or a standing link past its buckling load; "
             'use initial = "rest"')
     return x
+
+
+class Unheld(NamedTuple):
+    """A rigid coordinate that no servo, spring or prescribed motion holds at the start: the
+    joint's place in the scenario (``joints[k]``, or its motor) and the unit of its
+    acceleration."""
+
+    name: str
+    unit: str  # "rad/s²" or "m/s²"
+
+
+# Accelerations of unheld joints at the solution below this (rad/s², m/s²) are round-off: a
+# drift of 1e-9 rad/s² turns a joint 5e-7 rad in 30 s.
+UNHELD_FLOOR = 1e-9
+
+
+def check_unheld(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, x: np.ndarray,
+                 watched: Sequence[Unheld]) -> None:
+    """Refuses a start whose unheld joints (the last len(watched) columns of ``residuals``)
+    accelerate at the equilibrium x of the held ones: no static equilibrium exists (an
+    inverted arm on a free pin, a torque that does not balance the load), and the run would
+    start moving, not at rest."""
+    r = residuals(np.stack([x0, x]))
+    k = len(watched)
+    start, left = np.abs(r[0]), np.abs(r[1, -k:])
+    bound = max(UNHELD_FLOOR, RESIDUAL * float(start.max()))
+    worst = int(np.argmax(left))
+    if not np.all(np.isfinite(left)) or left[worst] > bound:
+        name, unit = watched[worst]
+        raise SimulationError(
+            'simulation.initial = "equilibrium": no static equilibrium at t = 0: '
+            f"{name}, held by no servo, spring or prescribed motion, starts accelerating at "
+            f"{left[worst]:.3g} {unit} under the loads at t = 0 (gravity, torques, forces). "
+            "Hold it (a servo, or a prescribed motion), balance its load, or use "
+            'initial = "rest"')

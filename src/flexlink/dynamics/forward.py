@@ -72,6 +72,9 @@ class ForwardSystem:
         self.geometric_stiffening = geometric_stiffening
         self.gravity: tuple[float, float] = (float(gravity[0]), float(gravity[1]))
         self.initial = initial
+        # False: an equilibrium start refuses joints that nothing holds and the loads turn
+        # (`unheld`); True: they may (a frozen-time plant about that start).
+        self.unheld_may_move = False
         self._start: np.ndarray | None = None
         self.modal: list[ModalData] = (list(modal) if modal is not None
                                        else chain_modal_data(chain, base))
@@ -145,9 +148,36 @@ class ForwardSystem:
                 states[:, 2 * nu + 2 * n:])
             return np.concatenate([pdd, zdd], 1)[:, rows]
 
+        columns, watched = self.unheld()
+        rows += columns
         y = start.copy()
-        y[unknowns] = equilibrium.solve(residuals, start[unknowns])
+        y[unknowns] = equilibrium.solve(residuals, start[unknowns], watched)
         return y
+
+    def unheld(self, dependent: Sequence[int] = ()) -> tuple[list[int], list[Any]]:
+        """The joints' free coordinates (indices into ``free``) that no servo or spring
+        holds at an equilibrium start, but for the ``dependent`` ones (a loop's, which its
+        closures hold), and their `equilibrium.Unheld` names: a torque-driven or free joint
+        (or motor) must be at rest with the loads at t = 0 by itself. The base's
+        coordinates are left out: the equilibrium is relative to the base, which may move.
+        None of them with ``unheld_may_move``."""
+        from .equilibrium import Unheld
+
+        if self.unheld_may_move:
+            return [], []
+        held = {self.servo_of(k)[1] for k in self.servos}
+        held |= {self.joint_index(k) for k in self.elastic}
+        columns, names = [], []
+        for j, i in enumerate(self.free):
+            if i < self.n_base or i in held or j in dependent:
+                continue
+            links = len(self.chain.links)
+            k, motor = ((i - self.n_base, False) if i < self.n_base + links
+                        else (self.elastic[i - self.n_base - links], True))
+            columns.append(j)
+            names.append(Unheld(f"joints[{k}]" + ("'s motor" if motor else ""),
+                                "m/s²" if k in self.slides else "rad/s²"))
+        return columns, names
 
     def _rest_state(self) -> np.ndarray:
         """initial_state with the links undeformed, at rest but for their initial modal

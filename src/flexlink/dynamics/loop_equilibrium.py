@@ -11,7 +11,7 @@ both models (`closed_equilibrium`: first order; `closed_nonlinear_equilibrium`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -38,10 +38,12 @@ def closed_equilibrium(loops, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         unknowns.append(2 * nu + 2 * n + s if system.chain.joints[k].integrator else j)
     rest = list(range(nu, 2 * nu)) + list(range(2 * nu + n, 2 * nu + 2 * n))
     work = loops.workspace(y.size)
+    columns, watched = system.unheld(_free_indices(loops.dep))
+    rows += [nu + j for j in columns]
 
     def project(u: np.ndarray, y: np.ndarray) -> bool:
         return close(loops.data, work, u, y, 1)
-    return _solve(rates_function(loops, work), project, u, y, unknowns, rows, rest)
+    return _solve(rates_function(loops, work), project, u, y, unknowns, rows, rest, watched)
 
 
 def rates_function(loops, work: Any) -> Callable[[np.ndarray, np.ndarray,
@@ -77,9 +79,15 @@ def closed_nonlinear_equilibrium(loops, Y: np.ndarray, u: np.ndarray) -> np.ndar
         rows.append(ny + n + j)
         unknowns.append(ny + n + nu + s if servo.integrator else n + j)
     rest = list(range(ny, ny + n + nu))
+    columns, watched = system.loads.unheld(_free_indices(loops.data.dep - n))
+    rows += [ny + n + j for j in columns]
     data, work = loops.data, loops.workspace()
     return _solve(lambda u, y, out: rates(data, work, u, y, out),
-                  lambda u, y: project(data, work, u, y), u, Y, unknowns, rows, rest)
+                  lambda u, y: project(data, work, u, y), u, Y, unknowns, rows, rest, watched)
+
+
+def _free_indices(dependent: np.ndarray) -> list[int]:
+    return [int(j) for j in np.asarray(dependent).ravel()]
 
 
 def _independent(k: int, j: int, dependent: np.ndarray) -> None:
@@ -93,10 +101,12 @@ def _independent(k: int, j: int, dependent: np.ndarray) -> None:
 
 def _solve(rates: Callable[[np.ndarray, np.ndarray, np.ndarray], None],
            project: Callable[[np.ndarray, np.ndarray], bool], u: np.ndarray, y: np.ndarray,
-           unknowns: list[int], rows: list[int], rest: list[int]) -> np.ndarray:
+           unknowns: list[int], rows: list[int], rest: list[int],
+           watched: Sequence[equilibrium.Unheld] = ()) -> np.ndarray:
     """State y with its ``rest`` entries (rates) zeroed and its ``unknowns`` moved until
     the compiled closed-loop rates(u, y, out) vanish on ``rows``, then projected on the
-    loops (project(u, y): in place, False when they do not close)."""
+    loops (project(u, y): in place, False when they do not close); the last
+    len(``watched``) rows are the unheld joints' (`equilibrium.solve`)."""
     start = np.asarray(y, dtype=float).copy()
     start[rest] = 0.0
     out = np.empty_like(start)
@@ -111,7 +121,7 @@ def _solve(rates: Callable[[np.ndarray, np.ndarray, np.ndarray], None],
         return r
 
     closed = start.copy()
-    closed[unknowns] = equilibrium.solve(residuals, start[unknowns])
+    closed[unknowns] = equilibrium.solve(residuals, start[unknowns], watched)
     if not project(u, closed):
         raise SimulationError("simulation.initial = \"equilibrium\": the deflected mechanism "
                               "does not close (a singular configuration at t = 0)")

@@ -306,13 +306,15 @@ class NonlinearForwardSystem:
             rows.append(n + self.free.index(self.n_base + k))
             in_y.append(rows[-1])
         cut = len(in_y)
+        columns, watched = self.loads.unheld()
+        rows += [n + j for j in columns]
 
         def residuals(x: np.ndarray) -> np.ndarray:
             Y, V = np.repeat(y[None], x.shape[0], 0), np.repeat(v[None], x.shape[0], 0)
             Y[:, in_y], V[:, in_v] = x[:, :cut], x[:, cut:]
             return self.accelerations(np.zeros(x.shape[0]), Y, V)[:, rows]
 
-        x = equilibrium.solve(residuals, np.concatenate([y[in_y], v[in_v]]))
+        x = equilibrium.solve(residuals, np.concatenate([y[in_y], v[in_v]]), watched)
         y, v = y.copy(), v.copy()
         y[in_y], v[in_v] = x[:cut], x[cut:]
         return y, v

@@ -73,7 +73,15 @@ class Results:
         return out
 
     def __getitem__(self, name: str) -> np.ndarray:
-        return self._values[name]
+        try:
+            return self._values[name]
+        except KeyError:
+            import difflib
+
+            close = difflib.get_close_matches(str(name), list(self._values), n=1, cutoff=0.6)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise KeyError(f"no channel {name!r}{hint}; channels: "
+                           f"{', '.join(self._values)}") from None
 
     def __contains__(self, name: object) -> bool:
         return name in self._values

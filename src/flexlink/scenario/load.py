@@ -9,6 +9,7 @@ Angles stay in degrees here: the motion constructors take degrees and convert on
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 import warnings
 from collections.abc import Callable, Iterator, Mapping
@@ -73,9 +74,23 @@ flexlink_version = package_version
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a TOML scenario file; CSV paths are relative to its folder."""
+    if isinstance(path, Mapping):
+        raise TypeError("load_scenario reads a TOML file: give its path; for a dict of "
+                        "its tables use flexlink.scenario.scenario_from_dict(d)")
     path = Path(path)
     return scenario_from_dict(read_toml(path), base_dir=path.parent, name=path.stem,
                               source=str(path))
+
+
+def as_scenario(scenario: Scenario | str | os.PathLike[str], what: str) -> Scenario:
+    """``scenario`` itself, or the scenario file it names loaded (`load_scenario`); a
+    TypeError naming ``what`` (the function called) for anything else."""
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, str | os.PathLike):
+        return load_scenario(scenario)
+    raise TypeError(f"{what}: expected a Scenario (flexlink.load_scenario(path)) or the path "
+                    f"of a scenario file, got {type(scenario).__name__}")
 
 
 def scenario_from_dict(d: Mapping[str, Any], base_dir: Path = Path("."), *,
@@ -479,6 +494,12 @@ def _segment(segment: Any, path: str, motion_module: Any,
         p.add(f"{path}: expected a table like {{profile = \"hold\", angle_deg = 0.0}}, "
               f"got {describe(segment)}")
         return {}, None
+    if "csv" in segment and "profile" not in segment and ".motion[" in path:
+        joint = path.split(".motion[")[0]
+        p.add(f"{path}: measured angles are not a motion segment: give csv (and "
+              f"time_column, angle_column, lowpass_hz) on {joint} itself, in place of its "
+              "motion")
+        return dict(segment), None
     profile = read_field(segment, schema.PROFILE, path, p)
     if profile is None:
         return dict(segment), None

@@ -206,7 +206,10 @@ SIMULATION = Section("simulation", [
                        "on elastic joints start at rest in static equilibrium with the loads "
                        "at t = 0 (gravity, held joints): a run without motion then stays at "
                        "rest; a start no equilibrium exists for (a servo that cannot hold the "
-                       "load within its torque_limit or saturation) is refused"},
+                       "load within its torque_limit or saturation; a torque-driven or free "
+                       "joint that the loads turn at t = 0, such as an arm standing off "
+                       "upright on a free pin) is refused; the base may move (the equilibrium "
+                       "is relative to it)"},
         doc="the state at t = 0"),
 ])
 

@@ -21,6 +21,7 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import replace
 from functools import partial
 from importlib import import_module
+from os import PathLike
 from typing import Any
 
 import numpy as np
@@ -67,7 +68,7 @@ def model_path(scenario: Scenario) -> str:
     return "nonlinear" if scenario.settings.model == "nonlinear" else "prescribed"
 
 
-def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True,
+def simulate(scenario: Scenario | str | PathLike[str], progress: bool = False, shapes: bool = True,
              sensitivities: Sequence[str] | None = None) -> Results:
     """Run one scenario: elastic coordinates start at rest, undeformed or (``initial =
     "equilibrium"``) in static equilibrium; joints follow their prescriptions,
@@ -75,7 +76,11 @@ def simulate(scenario: Scenario, progress: bool = False, shapes: bool = True,
     runs longer than a second; ``shapes``: every link's deformed shape on a grid of points
     (what animations draw; sweeps leave it out); ``sensitivities``: field paths
     (``links[0].EI``, …) whose derivatives of every channel the run computes too
-    (`Results.sensitivity`, docs/sensitivities.md)."""
+    (`Results.sensitivity`, docs/sensitivities.md). ``scenario``: a `Scenario`, or the path
+    of a scenario file."""
+    from ..scenario.load import as_scenario
+
+    scenario = as_scenario(scenario, "simulate")
     if sensitivities is not None:
         from .sensitivities import simulate_with_sensitivities
 

@@ -94,12 +94,50 @@ def memory_problem(estimate: MemoryEstimate, t_end: float, what: str,
 
 def check_run_memory(scenario: Scenario) -> None:
     """RunTooLarge, before anything runs, if the run's arrays would not fit in memory."""
+    check_input_table(scenario)
     estimate = run_memory(scenario)
     if estimate.total <= ALWAYS_FITS:
         return  # asking the system how much is free costs a noticeable part of a small run
     problem = memory_problem(estimate, scenario.settings.t_end, "this run")
     if problem:
         raise RunTooLarge(problem)
+
+
+# Bytes per piece of a forward run's input table while it is made (solvers/input_table.py):
+# its ends, times and values at 17 points and 9 coefficients of one input column, at least.
+TABLE_PIECE_BYTES = 400
+
+
+def check_input_table(scenario: Scenario) -> None:
+    """RunTooLarge if the compiled forward integrator's input table, pieces of at most
+    `input_table.MAX_PIECE` over the whole run whatever dt_out, would not fit in memory
+    (a t_end of 1e9 s)."""
+    settings = scenario.settings
+    if not (scenario.is_forward and settings.model != "nonlinear"
+            and settings.method in ("lawson", "magnus")):
+        return  # the paths without the table
+    from ..solvers.input_table import MAX_PIECE
+
+    pieces = float(np.ceil(settings.t_end / MAX_PIECE))
+    need = pieces * TABLE_PIECE_BYTES
+    if need <= ALWAYS_FITS:
+        return
+    available = available_memory()
+    budget = MEMORY_SHARE * available
+    if need > budget:
+        fits = budget / TABLE_PIECE_BYTES * MAX_PIECE
+        raise RunTooLarge(
+            f"simulation.t_end = {settings.t_end:g} s: this forward run tabulates its inputs "
+            f"in pieces of at most {MAX_PIECE:g} s, {pieces:.3g} pieces × at least "
+            f"{TABLE_PIECE_BYTES} B = {_size(need)} of memory, more than "
+            f"{MEMORY_SHARE:.0%} of the {_size(available)} available; t_end = "
+            f"{_round_down(fits):g} s or shorter fits")
+
+
+def _round_down(value: float) -> float:
+    """``value`` to one significant digit, rounded down."""
+    decade = 10.0 ** np.floor(np.log10(value))
+    return float(np.floor(value / decade) * decade)
 
 
 def _size(count: float) -> str:
