@@ -187,3 +187,43 @@ def test_recent_errors_end_the_rejections_of_a_ringing_mode() -> None:
             < plain["steps"] + plain["rejected_steps"])
     assert stats["factorisations"] < plain["factorisations"]
     assert error <= plain_error
+
+
+@pytest.mark.parametrize("c", [3.7, 2.1 + 1.3j])
+def test_the_second_order_solve_is_the_whole_systems(c: complex) -> None:
+    """Positions 0, 3 whose rates are the components 1, 4 (J's rows [0 I]) and one other
+    component (2): the iteration matrix reduced to the velocity and other rows solves
+    (c I − J) x = b as the whole system does, real and complex."""
+    from flexlink.solvers._radau_numba import _lu, _reduced_matrix, _solve
+    from flexlink.solvers.radau import second_order_reduction
+
+    rng = np.random.default_rng(3)
+    J = rng.standard_normal((5, 5))
+    J[[0, 3]] = 0.0
+    J[0, 1] = J[3, 4] = 1.0
+    b = rng.standard_normal(5) + (1j * rng.standard_normal(5) if isinstance(c, complex) else 0)
+    reduced = second_order_reduction(np.array([[0, 3], [1, 4]]), 5)
+    assert [list(a) for a in reduced] == [[1, 4, 2], [0, 3, 2], [1, 4, -1]]
+    E = np.empty((3, 3), dtype=b.dtype)
+    piv = np.empty(3, dtype=np.int64)
+    _reduced_matrix(J, c, reduced, E)
+    assert _lu(E, piv)
+    x = b.copy()
+    _solve(E, piv, J, c, reduced, x, np.empty(3, dtype=b.dtype))
+    np.testing.assert_allclose(x, np.linalg.solve(c * np.eye(5) - J, b), rtol=1e-12)
+
+
+def test_the_second_order_run_is_the_whole_one() -> None:
+    """The oscillator with its position's rate named (f[0] = y[1]): the same steps and
+    states to round-off as with the whole iteration matrices; pairs that are not a
+    position and a velocity each are refused."""
+    t = np.linspace(0.0, 2.0, 201)
+    args = (LinearData(A_OSC, B_OSC), (), np.array([1.0, 0.0]), t, _no_input, np.zeros(0),
+            1e-6, 1e-14, np.array([0, 1]))
+    whole, whole_stats = integrate_radau(*args)
+    halved, halved_stats = integrate_radau(*args, second_order=np.array([[0], [1]]))
+    assert halved_stats == whole_stats
+    peak = np.abs(whole).max(axis=0)
+    assert np.all(np.abs(halved - whole).max(axis=0) <= 1e-12 * peak)  # measured 3e-13
+    with pytest.raises(ValueError, match="second_order"):
+        integrate_radau(*args, second_order=np.array([[0], [0]]))

@@ -345,11 +345,13 @@ class ForwardSystem:
         return xi_maps(fr, self.bodies[k], k, self.n_x)
 
     # -- equations --------------------------------------------------------------------------
-    def matrices(self, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray
+    def matrices(self, p: np.ndarray, pd: np.ndarray, pdd: np.ndarray,
+                 frames: FrameMotion | None = None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """M, C, K (nt, n_x, n_x) and f (nt, n_x) of the perturbation equations in x = [δp; z]
-        about rigid states p, ṗ, p̈ (nt, n_rigid); f is minus the zero-order inertia force."""
-        fr = self.frames(p, pd, pdd)
+        about rigid states p, ṗ, p̈ (nt, n_rigid); f is minus the zero-order inertia force.
+        ``frames``: `frames` at those states, if the caller has them."""
+        fr = self.frames(p, pd, pdd) if frames is None else frames
         nt, n_x = p.shape[0], self.n_x
         M = np.zeros((nt, n_x, n_x))
         C = np.zeros_like(M)
@@ -378,8 +380,8 @@ class ForwardSystem:
         free = np.array(self.free, dtype=np.int64)
         if free.size == 0 or p.shape[0] == 0:
             return out
-        whole = self.matrices(p, pd, pdd)[0][:, free, free]  # (nt, nu)
         fr = self.frames(p, pd, pdd)
+        whole = self.matrices(p, pd, pdd, fr)[0][:, free, free]  # (nt, nu)
         for k, body in enumerate(self.bodies):
             Th = self.xi_maps(fr, k)[0][:, :, free]  # (nt, 3 + n_k, nu)
             own = np.einsum("tai,ab,tbi->ti", Th, body.M0 + body.M_rot, Th)

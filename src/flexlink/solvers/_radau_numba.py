@@ -4,7 +4,10 @@ the transformed stage system (one real and one complex linear system per iterati
 Jacobian and its factorisations reused across steps while Newton converges fast), the
 embedded error estimate filtered by (γ₀/h M − J)⁻¹, the step controller shared with the
 Gauss collocation (`_step_control_numba`: weighted max norm, Gustafsson's predictive factor),
-and the collocation polynomial as dense output.
+and the collocation polynomial as dense output. Where the model's rates of its coordinates
+are its velocities exactly (a forward model's state [p, ṗ, z, ż, …]), the velocities are
+eliminated from each linear system (x_V = c x_P − b_P, as RADAU5's second-order option): the
+factorisations and solves are of the other half only (`_reduced_matrix`, `_solve`).
 
 f at an accepted step's end, which the next step's error estimate reads (and nothing else),
 is estimated rather than evaluated where that is safe: the last Newton iterate evaluated f
@@ -200,6 +203,49 @@ def _lu_solve(LU, piv, b):
         b[i] = acc / LU[i, i]
 
 
+@njit(cache=True)
+def _reduced_matrix(J, c, reduced, E):
+    """E = the iteration matrix c I − J (c real or complex) reduced to the rows and columns
+    of ``reduced`` = (rows, cols, vel) (`radau.second_order_reduction`): where rows P of f are
+    f_P = y_V exactly (J's P rows are [0 I]), x_V = c x_P − b_P eliminates the velocities,
+    leaving the rows Q (all but P) in the unknowns x_R (all but V); vel[j] is the velocity
+    of the position cols[j] (−1: cols[j] is neither)."""
+    rows, cols, vel = reduced
+    for i in range(rows.shape[0]):
+        a = rows[i]
+        for j in range(cols.shape[0]):
+            col, v = cols[j], vel[j]
+            if v >= 0:
+                E[i, j] = c * ((c if a == v else 0.0) - J[a, v]) - J[a, col]
+            else:
+                E[i, j] = (c if a == col else 0.0) - J[a, col]
+
+
+@njit(cache=True)
+def _solve(LU, piv, J, c, reduced, b, w):
+    """b ← (c I − J)⁻¹ b from the factors of the iteration matrix: `_lu`'s of the whole
+    (no ``reduced`` rows) or of `_reduced_matrix` (w: scratch of its size)."""
+    rows, cols, vel = reduced
+    r = rows.shape[0]
+    if r == 0:
+        _lu_solve(LU, piv, b)
+        return
+    for i in range(r):  # the rows Q with x_V = c x_P − b_P put in
+        a = rows[i]
+        acc = b[a]
+        for j in range(r):
+            v = vel[j]
+            if v >= 0:
+                acc += ((c if a == v else 0.0) - J[a, v]) * b[cols[j]]
+        w[i] = acc
+    _lu_solve(LU, piv, w)
+    for j in range(r):
+        if vel[j] >= 0:
+            b[vel[j]] = c * w[j] - b[cols[j]]
+    for j in range(r):
+        b[cols[j]] = w[j]
+
+
 # Inlined into the loop rather than compiled on its own: as a kernel of its own it would
 # optimise and emit the whole model it calls once more for each record type.
 @njit(inline="always")
@@ -249,7 +295,7 @@ def _recent_factor(control, st, h, err):
 
 @njit(cache=True)
 def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, hmax, control,
-                  t_out, states, y, st, ws, cont, projection, box, bounds):
+                  t_out, states, y, st, ws, cont, projection, box, bounds, reduced):
     """Advance y (in place) from st[X] until st[X] ≥ t_stop (s), storing the state at each
     output time t_out[k] (k from st[NEXT_OUT]) into states[k] from the dense output.
 
@@ -265,11 +311,15 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
     range [lower, upper] each component must stay in, ±BLOW_UP but where the model has a
     narrower one (a cart's or a slider's travel). bounds (r, m + 1): r linear combinations
     of the state, each row's coefficients and then the bound of its magnitude (a link's tip
-    deflection and its length). Returns 0 (reached t_stop), 1 (a step ended with a
+    deflection and its length). reduced: `radau.second_order_reduction` (its rows empty: the
+    iteration matrices whole; else, with ``identity``, reduced to the rows of f that are
+    not f_P = y_V; E1, E2 and wr, wc of that size). Returns 0 (reached t_stop), 1 (a step ended with a
     component outside its box or a combination beyond its bound, or NaN: a blow-up or a
     travel left, its output times not written), 2 (step size collapsed), 3 (singular
     iteration matrix)."""
-    J, E1, E2, piv1, piv2, y0, z1, z2, z3, f1, f2, f3, scal, tmp, yp, fp, cw, u, y3, g3 = ws
+    (J, E1, E2, piv1, piv2, y0, z1, z2, z3, f1, f2, f3, scal, tmp, yp, fp, cw, u, y3, g3, wr,
+     wc) = ws
+    halved = reduced[0].shape[0] > 0
     on, itab, U = projection
     m = y.shape[0]
     n_seg = seg_t.shape[0] - 1
@@ -310,11 +360,15 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
         if st[LU_OK] == 0.0 or h != st[H_LU]:
             fac1 = GAMMA / h
             alphn, betan = ALPHA / h, BETA / h
-            for i in range(m):
-                for j in range(m):
-                    mij = (1.0 if i == j else 0.0) if identity else mass[i, j]
-                    E1[i, j] = fac1 * mij - J[i, j]
-                    E2[i, j] = complex(alphn * mij - J[i, j], betan * mij)
+            if halved:
+                _reduced_matrix(J, fac1, reduced, E1)
+                _reduced_matrix(J, complex(alphn, betan), reduced, E2)
+            else:
+                for i in range(m):
+                    for j in range(m):
+                        mij = (1.0 if i == j else 0.0) if identity else mass[i, j]
+                        E1[i, j] = fac1 * mij - J[i, j]
+                        E2[i, j] = complex(alphn * mij - J[i, j], betan * mij)
             if not (_lu(E1, piv1) and _lu(E2, piv2)):
                 return 3
             st[LUS] += 1
@@ -385,8 +439,8 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
                 z2[i] += s2 * alphn - s3 * betan
                 z3[i] += s3 * alphn + s2 * betan
                 cw[i] = complex(z2[i], z3[i])
-            _lu_solve(E1, piv1, z1)
-            _lu_solve(E2, piv2, cw)
+            _solve(E1, piv1, J, fac1, reduced, z1, wr)
+            _solve(E2, piv2, J, complex(alphn, betan), reduced, cw, wc)
             for i in range(m):
                 z2[i] = cw[i].real
                 z3[i] = cw[i].imag
@@ -437,7 +491,7 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
         _mass_times(mass, identity, f1, f2)
         for i in range(m):
             tmp[i] = f2[i] + y0[i]
-        _lu_solve(E1, piv1, tmp)
+        _solve(E1, piv1, J, fac1, reduced, tmp, wr)
         err = max(error_norm(control, tmp, scal), 1e-10)
         if err >= 1.0 and st[F0_OK] == 2.0:  # not rejected on f's estimate: f itself
             input_row(tab, held_values, held, seg, x, u)
@@ -446,7 +500,7 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
             st[F0_OK] = 1.0
             for i in range(m):
                 tmp[i] = f2[i] + y0[i]
-            _lu_solve(E1, piv1, tmp)
+            _solve(E1, piv1, J, fac1, reduced, tmp, wr)
             err = max(error_norm(control, tmp, scal), 1e-10)
         if err >= 1.0 and (st[FIRST] != 0.0 or st[REJECT] != 0.0):
             for i in range(m):
@@ -456,7 +510,7 @@ def radau_advance(model, mass, identity, tab, seg_t, held_values, held, t_stop, 
             st[RATES] += 1
             for i in range(m):
                 tmp[i] = f1[i] + f2[i]
-            _lu_solve(E1, piv1, tmp)
+            _solve(E1, piv1, J, fac1, reduced, tmp, wr)
             err = max(error_norm(control, tmp, scal), 1e-10)
         # many Newton iterations: a more cautious factor (RADAU5)
         safety = min(SAFETY, SAFETY * (1 + 2 * NEWTON_MAX) / (newt + 2 * NEWTON_MAX))

@@ -130,7 +130,7 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
             held=voltage_columns(system) if loop is not None else slice(0, 0),
             z=slice(2 * nu, 2 * nu + n), projection=known, steps=steps,
             weights=state_weights(system, y0.size, rate_weights), box=system.free_travels(),
-            bounds=deflection_bounds(system, y0.size))
+            bounds=deflection_bounds(system, y0.size), second_order=rate_pairs(nu, n))
     except RadauStop as exc:
         why = stop_reason(exc)
         if loop is not None and exc.why != "box":
@@ -163,6 +163,13 @@ def forward_solution(data: ForwardData, work: tuple, system: ForwardSystem, t_ou
                     np.hstack([rates[:, nu:2 * nu], rates[:, 2 * nu + n:2 * nu + 2 * n]]),
                     FAST_METHOD, stats, extra=states[:, 2 * nu + 2 * n:],
                     accuracy=accuracy), outputs
+
+
+def rate_pairs(nu: int, n: int) -> np.ndarray:
+    """(2, nu + n): the state's coordinates p_free, z and the components that are their
+    rates ṗ_free, ż (the state [p_free, ṗ_free, z, ż, …]; `_forward_numba.state_rates`)."""
+    return np.array([np.r_[np.arange(nu), 2 * nu + np.arange(n)],
+                     np.r_[nu + np.arange(nu), 2 * nu + n + np.arange(n)]], dtype=np.int64)
 
 
 def deflection_bounds(system: ForwardSystem, size: int) -> np.ndarray:

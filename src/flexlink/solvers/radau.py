@@ -82,6 +82,28 @@ def segment_nodes(t_out: np.ndarray, breaks: np.ndarray, loop: SampledLoop | Non
     return nodes
 
 
+def second_order_reduction(pairs: np.ndarray | None, size: int
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The iteration matrices' reduction (`_radau_numba._reduced_matrix`) for a state of
+    ``size`` components whose rates at pairs[0] are the components pairs[1] exactly (a
+    coordinate's rate is its velocity in the state): (rows, cols, vel), the rows (the
+    velocities, then every component that is neither) and unknowns (the positions, then
+    the same others) kept, and each unknown's velocity (−1: none). Solving the rate stages
+    only, the factorisations are of half the size (RADAU5's second-order structure, Hairer
+    and Wanner §IV.8). None: no reduction (empty arrays)."""
+    none = np.zeros(0, dtype=np.int64)
+    if pairs is None or np.size(pairs) == 0:
+        return none, none, none
+    pos, vel = (np.asarray(a, dtype=np.int64) for a in pairs)
+    if pos.shape != vel.shape or np.unique(np.concatenate([pos, vel])).size != 2 * pos.size \
+            or pos.min() < 0 or max(pos.max(), vel.max()) >= size:
+        raise ValueError("second_order pairs must be distinct positions and velocities "
+                         f"among the {size} state components")
+    others = np.setdiff1d(np.arange(size), np.concatenate([pos, vel]))
+    return (np.concatenate([vel, others]), np.concatenate([pos, others]),
+            np.concatenate([vel, np.full(others.size, -1, dtype=np.int64)]))
+
+
 def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     inputs: Callable[[np.ndarray], np.ndarray], breaks: np.ndarray,
                     rtol: float, atol: float, groups: np.ndarray, hmax: float = np.inf,
@@ -90,7 +112,8 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                     z: slice = slice(0, 0), projection: object | None = None,
                     steps: list | None = None, weights: np.ndarray | None = None,
                     recent: bool = False, box: tuple | None = None,
-                    bounds: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, int]]:
+                    bounds: np.ndarray | None = None, second_order: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, dict[str, int]]:
     """States (len(t_out), len(y0)) at t_out from y0 at t_out[0], and step statistics.
 
     inputs(t) → input rows (len(t), columns); breaks: times (s) where an input is not
@@ -110,7 +133,10 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     accepted step that ends outside (None: no such component). ``bounds`` (r, len(y0) + 1):
     linear combinations of the state, each row's coefficients then the bound of its
     magnitude, that stop the run alike where an accepted step ends beyond one (None: none).
-    Raises RadauStop."""
+    ``second_order`` (2, k): components whose rates are other components exactly
+    (f[second_order[0]] = y[second_order[1]]: coordinates and their velocities; with the
+    identity mass only): the linear systems are solved for the rest only
+    (`second_order_reduction`). Raises RadauStop."""
     from ._radau_numba import (
         EXPONENT,
         F0_OK,
@@ -158,10 +184,15 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
     st[X], st[H], st[FACCON], st[FIRST], st[NEXT_OUT] = t0, min(1e-5, hmax), 1.0, 1.0, 1.0
     st[F0_OK] = 0.0
     st[RECENT] = 1.0 if recent else 0.0
-    ws = (np.empty((m, m)), np.empty((m, m)), np.empty((m, m), dtype=np.complex128),
-          np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
+    if second_order is not None and mass is not None:
+        raise ValueError("second_order needs the identity mass (mass = None)")
+    reduced = second_order_reduction(second_order, m)
+    r = reduced[0].size or m  # the iteration matrices' size
+    ws = (np.empty((m, m)), np.empty((r, r)), np.empty((r, r), dtype=np.complex128),
+          np.empty(r, dtype=np.int64), np.empty(r, dtype=np.int64),
           *(np.empty(m) for _ in range(11)), np.empty(m, dtype=np.complex128),
-          np.empty(tab[2].shape[2]), np.empty(m), np.empty(m))
+          np.empty(tab[2].shape[2]), np.empty(m), np.empty(m), np.empty(r),
+          np.empty(r, dtype=np.complex128))
     cont = np.zeros((m, 4))
     identity = mass is None
     M = np.eye(1) if mass is None else np.ascontiguousarray(mass, dtype=float)
@@ -187,7 +218,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
         if steps is None:
             status = radau_advance(model, M, identity, tab, nodes, held_values, held_columns,
                                    t_stop, hmax, control, t_out, states, y, st, ws, cont,
-                                   project, limits, bounds)
+                                   project, limits, bounds, reduced)
         else:  # one accepted step per call (the loop resumes where it stopped: same steps)
             status = 0
             while status == 0 and st[X] < t_stop:
@@ -195,7 +226,7 @@ def integrate_radau(d: object, w: object, y0: np.ndarray, t_out: np.ndarray,
                 status = radau_advance(model, M, identity, tab, nodes, held_values,
                                        held_columns, min(np.nextafter(start, np.inf), t_stop),
                                        hmax, control, t_out, states, y, st, ws, cont, project,
-                                       limits, bounds)
+                                       limits, bounds, reduced)
                 if status == 0:  # ws[6:9]: the accepted step's stage increments z1, z2, z3
                     steps.append((start, float(st[H_OLD]), seg, y_start, y.copy(),
                                   np.array(ws[6:9])))
