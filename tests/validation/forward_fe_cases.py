@@ -13,7 +13,10 @@ geometrically exact Exudyn model (tests/validation/exudyn_forward_reference.py).
 * ``cart``: examples/cart_beam.toml undamped — a beam with a tip mass hanging from a 2 kg
   cart (``[base] type = "cart"``) on a level rail, gravity, the cart pushed by a bang-bang force
   along the rail (``amplitude`` in N); in Exudyn the hub is the cart, held to the rail by
-  constraints (``rail = True``).
+  constraints (``rail = True``). The same beam standing on the cart (``cart_inverted``: its
+  weight compresses it, 1/4 of its tip-load buckling load) and held level
+  (``cart_horizontal``: released undeformed, it sags and swings to ≈ 20% of its length under
+  its weight, past the first-order model's validity).
 * ``pendulum``: the hub–beam's pin and hub with a stiffer beam and a tip mass (L = 1 m,
   1 kg/m, EI = 100 N·m², 0.2 kg) in a vertical plane, released level and undeformed under
   gravity with no torque: it falls and swings through 170° in 2 s, bending 2.4% of its
@@ -63,6 +66,7 @@ class DrivenCase:
     slew: float
     t_end: float
     dt_out: float
+    beam_angle: float = -90.0  # deg from the rail, the cart's beam (kind "cart" only)
 
     @property
     def moment(self) -> BangBang:
@@ -95,6 +99,8 @@ CASES = {c.name: c for c in (
     DrivenCase("free_hub_large", "free_hub", 100.0, 4.0, 8.0, 0.004),
     DrivenCase("elastic_joint", "elastic_joint", 0.1, 2.0, 4.0, 0.002),
     DrivenCase("cart_hanging", "cart", 4.0, 1.0, 2.0, 0.002),
+    DrivenCase("cart_inverted", "cart", 4.0, 1.0, 2.0, 0.002, beam_angle=90.0),
+    DrivenCase("cart_horizontal", "cart", 4.0, 1.0, 2.0, 0.002, beam_angle=0.0),
     DrivenCase("pendulum", "pendulum", 0.0, 1.0, 2.0, 0.002),
 )}
 
@@ -120,7 +126,7 @@ def flexlink_scenario(case: DrivenCase, modes: int = 6, rtol: float = 1e-6) -> S
         sensors = (PointSensor("tip", "deflection", 0, link.length),)
         settings = SimulationSettings(case.t_end, case.dt_out, geometric_stiffening=True,
                                       rtol=rtol, gravity=(0.0, -G))
-        return Scenario(Chain((link,), (Hold(-90.0),)), sensors, settings, base=base,
+        return Scenario(Chain((link,), (Hold(case.beam_angle),)), sensors, settings, base=base,
                         name=case.name)
     right = _with_modes(ARRAY, modes)
     left = _with_modes(Link("array_left", ARRAY.length, ARRAY.mass_per_length, ARRAY.EI,
@@ -173,7 +179,7 @@ def exudyn_signals(case: DrivenCase, elements: int, dt: float) -> tuple[dict[str
                                   case.dt_out, elements, dt=dt,
                                   rotor=(GEAR**2 * ROTOR, SPRING, 0.0))
     elif case.kind == "cart":
-        out = simulate_hub_exudyn([Appendage(CART_BEAM, angle=-np.pi / 2)], 0.0, m,
+        out = simulate_hub_exudyn([Appendage(CART_BEAM, angle=np.radians(case.beam_angle))], 0.0, m,
                                   case.t_end, case.dt_out, elements, hub_mass=CART_MASS,
                                   dt=dt, gravity=(0.0, -G), rail=True)
         return ({"tip": np.asarray(out["tip_deflection"][0]),
