@@ -55,6 +55,8 @@ sys.path.insert(0, str(ROOT))  # the Exudyn model lives with the validation test
 from flexlink import simulate
 from tests.validation.forward_fe_cases import (
     CASES,
+    THIN_ROTARY,
+    THIN_SHEAR,
     DrivenCase,
     error_of_peak,
     exudyn_signals,
@@ -91,12 +93,14 @@ def _fmt(errors: dict[str, float]) -> str:
     return " ".join(f"{k} {100 * v:.3g}%" for k, v in errors.items())
 
 
-def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6) -> dict[str, Any]:
-    """Every row of one case, printed as it runs; returns the summary numbers."""
+def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6, thin: bool = False
+          ) -> dict[str, Any]:
+    """Every row of one case, printed as it runs; returns the summary numbers (``thin``:
+    Exudyn's beams near the Euler–Bernoulli limit, `thin_section`)."""
     fe: dict[int, tuple[float, dict[str, np.ndarray], int]] = {}
     for elements, dt in MESHES.items():
         try:
-            signals, out = exudyn_signals(case, elements, dt)
+            signals, out = exudyn_signals(case, elements, dt, thin)
         except RuntimeError as error:  # Newton may fail on a coarse mesh of a violent slew
             print(f"| {case.name} | Exudyn, {elements} el., dt {dt * 1e3:g} ms | failed: "
                   f"{error} | | |", flush=True)
@@ -144,13 +148,19 @@ def main() -> None:
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
     parser.add_argument("--rtol", type=float, default=1e-6,
                         help="first-order runs' tolerance (1e-4: flexlink's default)")
+    parser.add_argument("--thin", action="store_true",
+                        help="Exudyn's sections near the Euler-Bernoulli beam flexlink models "
+                             f"(shear stiffness x{THIN_SHEAR:g}, rotary inertia "
+                             f"x{THIN_ROTARY:g}): flexlink's own error, without the section's")
     args = parser.parse_args()
     print(f"# {platform.machine()} {os.cpu_count()} cores, {platform.processor() or ''} "
           f"Python {platform.python_version()}, numpy {np.__version__}")
     print("| case | model | wall [s] | error / peak vs. finest FE | Exudyn (coarsest within 1%)"
           " / flexlink |")
     print("|---|---|---|---|---|")
-    summaries = [_case(CASES[name], args.repeat, args.rtol) for name in args.cases]
+    print("# Exudyn's sections: EA = 12 EI/h², GA (ν = 0.3) and ρI from the depth h"
+          + (f", then GA x{THIN_SHEAR:g}, ρI x{THIN_ROTARY:g}" if args.thin else ""))
+    summaries = [_case(CASES[name], args.repeat, args.rtol, args.thin) for name in args.cases]
     print()
     for s in summaries:
         print(f"{s['case']}: peak tip deflection {100 * s['peak_tip']:.3g}% of the length "

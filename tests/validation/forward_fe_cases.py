@@ -53,6 +53,7 @@ from flexlink.model import (
 from flexlink.motion import Hold
 
 from .exudyn_forward_reference import Appendage, simulate_hub_exudyn
+from .exudyn_pieces import BeamSection, default_section
 
 
 @dataclass(frozen=True)
@@ -160,33 +161,51 @@ def flexlink_signals(case: DrivenCase, results: Any) -> dict[str, np.ndarray]:
             "hub_rate": rate, "hub_momentum": SAT_INERTIA * rate}
 
 
-def exudyn_signals(case: DrivenCase, elements: int, dt: float) -> tuple[dict[str, np.ndarray],
-                                                                          dict[str, Any]]:
+# Exudyn's section near flexlink's Euler–Bernoulli beam: shear stiffness ×10, rotary inertia
+# ×0.01 (a tenth of the section's shear flexibility left; ×100 stalls Newton).
+THIN_SHEAR, THIN_ROTARY = 10.0, 0.01
+
+
+def thin_section(link: Link) -> BeamSection:
+    """`default_section` with the shear stiffness times THIN_SHEAR and the rotary inertia
+    times THIN_ROTARY."""
+    s = default_section(link)
+    return BeamSection(s.EA, THIN_SHEAR * s.GA, THIN_ROTARY * s.rhoI)
+
+
+def exudyn_signals(case: DrivenCase, elements: int, dt: float, thin: bool = False
+                   ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """The comparison signals of the Exudyn model with ``elements`` per appendage and step
-    ``dt`` (s), and the raw result (wall time, coordinates)."""
+    ``dt`` (s), and the raw result (wall time, coordinates); ``thin``: every beam on
+    `thin_section`, near the Euler–Bernoulli limit flexlink models (the default section's
+    shear flexibility and rotary inertia, terms in (h/L)², slow its vibrations: on the
+    pendulum 0.8% of the tip's peak after 2 s)."""
     moment = case.moment
+
+    def app(link: Link, **kw: Any) -> Appendage:
+        return Appendage(link, section=thin_section(link) if thin else None, **kw)
 
     def m(t: float) -> float:
         return float(moment.value(np.asarray(t)))
 
     if case.kind in ("hub_beam", "pendulum"):
         pendulum = case.kind == "pendulum"
-        out = simulate_hub_exudyn([Appendage(PENDULUM_BEAM if pendulum else BEAM)], HUB_INERTIA,
+        out = simulate_hub_exudyn([app(PENDULUM_BEAM if pendulum else BEAM)], HUB_INERTIA,
                                   m, case.t_end, case.dt_out, elements, dt=dt,
                                   gravity=(0.0, -G) if pendulum else (0.0, 0.0))
     elif case.kind == "elastic_joint":  # N τ_m on the reflected rotor
-        out = simulate_hub_exudyn([Appendage(BEAM)], 0.0, lambda t: GEAR * m(t), case.t_end,
+        out = simulate_hub_exudyn([app(BEAM)], 0.0, lambda t: GEAR * m(t), case.t_end,
                                   case.dt_out, elements, dt=dt,
                                   rotor=(GEAR**2 * ROTOR, SPRING, 0.0))
     elif case.kind == "cart":
-        out = simulate_hub_exudyn([Appendage(CART_BEAM, angle=np.radians(case.beam_angle))], 0.0, m,
+        out = simulate_hub_exudyn([app(CART_BEAM, angle=np.radians(case.beam_angle))], 0.0, m,
                                   case.t_end, case.dt_out, elements, hub_mass=CART_MASS,
                                   dt=dt, gravity=(0.0, -G), rail=True)
         return ({"tip": np.asarray(out["tip_deflection"][0]),
                  "cart_travel": out["hub_position"][:, 0]}, out)
     else:
-        arrays = [Appendage(ARRAY, (SAT_OFFSET, 0.0), 0.0),
-                  Appendage(ARRAY, (-SAT_OFFSET, 0.0), np.pi)]
+        arrays = [app(ARRAY, point=(SAT_OFFSET, 0.0), angle=0.0),
+                  app(ARRAY, point=(-SAT_OFFSET, 0.0), angle=np.pi)]
         out = simulate_hub_exudyn(arrays, SAT_INERTIA, m, case.t_end, case.dt_out, elements,
                                   pinned=False, hub_mass=SAT_MASS, dt=dt)
     signals = {"tip": np.asarray(out["tip_deflection"][0]), "hub_angle": out["hub_angle"],
