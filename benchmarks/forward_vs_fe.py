@@ -18,7 +18,9 @@ large (≥ 30%) deflection, undamped:
   ±4 N for 1 s, 2 s simulated; flexlink: ``[base] type = "cart"`` with a force drive;
   ``cart_inverted``, ``cart_horizontal``: the same beam standing on the cart and held level
   (released undeformed under its weight: ≈ 20% tip deflection);
-- ``pendulum``: a hub–beam with a tip mass released level under gravity.
+- ``pendulum``: a hub–beam with a tip mass released level under gravity;
+- ``arm``: a gravity-loaded arm on a pinned hub swung up 70° from hanging, rest to rest, by
+  the rigid arm's inverse-dynamics torque.
 
 flexlink runs its default forward integrator, first order with geometric stiffening, 4 and 6
 modes per link (at rtol 1e-6, or ``--rtol``), and the nonlinear model with its default settings (docs/nonlinear.md §4, §7:
@@ -109,7 +111,7 @@ def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6, thin: bool = False
     finest = max(fe)
     reference = fe[finest][1]
     length = {"hub_beam": 1.0, "elastic_joint": 1.0, "free_hub": 3.0, "cart": 1.2,
-              "pendulum": 1.0}[case.kind]
+              "pendulum": 1.0, "arm": 1.0}[case.kind]
     peak_tip = float(np.abs(reference["tip"]).max()) / length
     chosen = None
     for elements in sorted(fe):
