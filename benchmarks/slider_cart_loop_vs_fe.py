@@ -138,8 +138,8 @@ CASES: dict[str, dict[str, Any]] = {
                          ("rod_mid", "rod_deflection", False)),
              # the rod midpoint moves by 0.25% of its peak from 6.25e-5 s to 3.125e-5 s
              # (64 elements), the crank tip by 0.06%: the reference takes the finer step.
-             # 128 elements move them by 0.72% and 0.20% more (softer: the sections'
-             # (h/L)² terms) but cost ~150 s of Newton, so the reference stays at 64
+             # 128 elements move them by 0.72% and 0.20% more (softer: linear elements
+             # converge from the stiff side) but cost ~150 s of Newton, so it stays at 64
              "reference": (64, 3.125e-5),
              "ladder": ((8, 2.5e-4), (16, 2.5e-4), (16, 1.25e-4), (32, 2.5e-4),
                         (32, 1.25e-4), (64, 6.25e-5)),
