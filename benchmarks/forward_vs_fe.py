@@ -1,7 +1,7 @@
 """Driven runs: flexlink's forward dynamics against a geometrically exact FE model (Exudyn),
 timed side by side in one run (issue 14, item 4).
 
-    python benchmarks/forward_vs_fe.py                    # all four cases
+    python benchmarks/forward_vs_fe.py                    # every case
     python benchmarks/forward_vs_fe.py --cases hub_beam_small --repeat 1
 
 Cases (tests/validation/forward_fe_cases.py), each at a small (tip ≈ 3% of the length) and a
@@ -15,7 +15,12 @@ large (≥ 30%) deflection, undamped:
 - ``elastic_joint``: the hub–beam's beam on an elastic joint (spring, gear, rotor), a
   bang-bang motor torque over 2 s, 4 s simulated (docs/elastic_joints.md).
 - ``cart_hanging``: examples/cart_beam.toml undamped, a beam hanging from a cart pushed by
-  ±4 N for 1 s, 2 s simulated; flexlink: ``[base] type = "cart"`` with a force drive.
+  ±4 N for 1 s, 2 s simulated; flexlink: ``[base] type = "cart"`` with a force drive;
+  ``cart_inverted``, ``cart_horizontal``: the same beam standing on the cart and held level
+  (released undeformed under its weight: ≈ 20% tip deflection);
+- ``pendulum``: a hub–beam with a tip mass released level under gravity;
+- ``arm``: a gravity-loaded arm on a pinned hub swung up 70° from hanging, rest to rest, by
+  the rigid arm's inverse-dynamics torque.
 
 flexlink runs its default forward integrator, first order with geometric stiffening, 4 and 6
 modes per link (at rtol 1e-6, or ``--rtol``), and the nonlinear model with its default settings (docs/nonlinear.md §4, §7:
@@ -52,6 +57,8 @@ sys.path.insert(0, str(ROOT))  # the Exudyn model lives with the validation test
 from flexlink import simulate
 from tests.validation.forward_fe_cases import (
     CASES,
+    THIN_ROTARY,
+    THIN_SHEAR,
     DrivenCase,
     error_of_peak,
     exudyn_signals,
@@ -66,9 +73,9 @@ CONVERGED = ("tip", "hub_angle", "cart_travel")  # those a case has: resolved wi
 
 
 def _flexlink(case: DrivenCase, modes: int, repeat: int, model: str = "first_order",
-              rtol: float = 1e-6) -> tuple[float, float, dict[str, np.ndarray]]:
-    """Median wall and CPU (process) time (s) of ``simulate`` and the comparison signals;
-    ``rtol``: the first-order runs' tolerance."""
+              rtol: float = 1e-6) -> tuple[float, float, dict[str, np.ndarray], str]:
+    """Median wall and CPU (process) time (s) of ``simulate``, the comparison signals and the
+    run's validity warning ("" if none); ``rtol``: the first-order runs' tolerance."""
     scenario = flexlink_scenario(case, modes, rtol=rtol)
     if model == "nonlinear":  # its default settings: adaptive steps at its default rtol
         scenario = replace(scenario, settings=replace(scenario.settings, model="nonlinear",
@@ -80,19 +87,22 @@ def _flexlink(case: DrivenCase, modes: int, repeat: int, model: str = "first_ord
         results = simulate(scenario)
         walls.append(time.perf_counter() - start)
         cpus.append(time.process_time() - cpu)
-    return statistics.median(walls), statistics.median(cpus), flexlink_signals(case, results)
+    return (statistics.median(walls), statistics.median(cpus), flexlink_signals(case, results),
+            str(results.metadata.get("validity_warning", "")))
 
 
 def _fmt(errors: dict[str, float]) -> str:
     return " ".join(f"{k} {100 * v:.3g}%" for k, v in errors.items())
 
 
-def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6) -> dict[str, Any]:
-    """Every row of one case, printed as it runs; returns the summary numbers."""
+def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6, thin: bool = False
+          ) -> dict[str, Any]:
+    """Every row of one case, printed as it runs; returns the summary numbers (``thin``:
+    Exudyn's beams near the Euler–Bernoulli limit, `thin_section`)."""
     fe: dict[int, tuple[float, dict[str, np.ndarray], int]] = {}
     for elements, dt in MESHES.items():
         try:
-            signals, out = exudyn_signals(case, elements, dt)
+            signals, out = exudyn_signals(case, elements, dt, thin)
         except RuntimeError as error:  # Newton may fail on a coarse mesh of a violent slew
             print(f"| {case.name} | Exudyn, {elements} el., dt {dt * 1e3:g} ms | failed: "
                   f"{error} | | |", flush=True)
@@ -101,7 +111,7 @@ def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6) -> dict[str, Any]:
     finest = max(fe)
     reference = fe[finest][1]
     length = {"hub_beam": 1.0, "elastic_joint": 1.0, "free_hub": 3.0, "cart": 1.2,
-              "pendulum": 1.0}[case.kind]
+              "pendulum": 1.0, "arm": 1.0}[case.kind]
     peak_tip = float(np.abs(reference["tip"]).max()) / length
     chosen = None
     for elements in sorted(fe):
@@ -121,13 +131,14 @@ def _case(case: DrivenCase, repeat: int, rtol: float = 1e-6) -> dict[str, Any]:
             name = f"flexlink {label}, {modes} modes"
             name += ", default settings" if model == "nonlinear" else f", rtol {rtol:g}"
             try:
-                wall, cpu, ours = _flexlink(case, modes, repeat, model, rtol)
+                wall, cpu, ours, warning = _flexlink(case, modes, repeat, model, rtol)
             except Exception as error:  # noqa: BLE001 — a refused run is a result to report
                 print(f"| {case.name} | {name} | refused: {error} | | |", flush=True)
                 continue
             errors = error_of_peak(ours, reference)
             ratio = summary["fe_wall"] / wall
-            print(f"| {case.name} | {name} | {wall:.3g} (CPU {cpu:.3g}) | {_fmt(errors)} | "
+            warned = f" (warns: {warning})" if warning else ""
+            print(f"| {case.name} | {name} | {wall:.3g} (CPU {cpu:.3g}) | {_fmt(errors)}{warned} | "
                   f"{ratio:.2g}× (CPU {summary['fe_wall'] / cpu:.2g}×) |", flush=True)
             summary[f"{model}{modes}"] = (wall, errors, ratio)
     return summary
@@ -139,13 +150,19 @@ def main() -> None:
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
     parser.add_argument("--rtol", type=float, default=1e-6,
                         help="first-order runs' tolerance (1e-4: flexlink's default)")
+    parser.add_argument("--thin", action="store_true",
+                        help="Exudyn's sections near the Euler-Bernoulli beam flexlink models "
+                             f"(shear stiffness x{THIN_SHEAR:g}, rotary inertia "
+                             f"x{THIN_ROTARY:g}): flexlink's own error, without the section's")
     args = parser.parse_args()
     print(f"# {platform.machine()} {os.cpu_count()} cores, {platform.processor() or ''} "
           f"Python {platform.python_version()}, numpy {np.__version__}")
     print("| case | model | wall [s] | error / peak vs. finest FE | Exudyn (coarsest within 1%)"
           " / flexlink |")
     print("|---|---|---|---|---|")
-    summaries = [_case(CASES[name], args.repeat, args.rtol) for name in args.cases]
+    print("# Exudyn's sections: EA = 12 EI/h², GA (ν = 0.3) and ρI from the depth h"
+          + (f", then GA x{THIN_SHEAR:g}, ρI x{THIN_ROTARY:g}" if args.thin else ""))
+    summaries = [_case(CASES[name], args.repeat, args.rtol, args.thin) for name in args.cases]
     print()
     for s in summaries:
         print(f"{s['case']}: peak tip deflection {100 * s['peak_tip']:.3g}% of the length "
