@@ -70,6 +70,22 @@ def test_the_samples_weights_pair_as_the_tables_monomials() -> None:
     assert got == pytest.approx(expected, rel=1e-12)
 
 
+def test_the_run_keeps_the_rows_its_table_sampled() -> None:
+    """The nominal system keeps the rows its run's table sampled: at the instants the
+    pairing reads (the table's samples) they are there, equal to the rows computed anew;
+    an instant never computed is not, and a caller changing rows it was given changes
+    nothing kept."""
+    settled, _, t = _settled(_paper(), FIELDS[:1])
+    nominal, table = settled.nominal, settled.discretisation.table
+    times, _ = sample_weights(table, t, np.zeros(table.poly.shape))
+    kept = nominal.kept_rows(times)
+    assert kept is not None
+    np.testing.assert_array_equal(kept, nominal.state_rows(times))
+    assert nominal.kept_rows(np.append(times, times[1] + 1e-7)) is None
+    kept[:] = np.nan
+    np.testing.assert_array_equal(nominal.kept_rows(times), nominal.state_rows(times))
+
+
 def test_the_mass_matrix_inverse_from_the_rows() -> None:
     """mass_inverse equals the inverse of the numpy model's M (gravity, stiffening on)."""
     scenario = _paper(gravity=[0.0, -9.81], geometric_stiffening=True).build()

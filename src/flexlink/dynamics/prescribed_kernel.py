@@ -163,15 +163,49 @@ class CompiledFirstOrderSystem(FirstOrderSystem):
     """FirstOrderSystem whose state rows M⁻¹[−K, −C, f] (what the Lawson table samples) come
     from the compiled kernel; ``matrices`` stays the numpy reference."""
 
+    _kept: list[tuple[np.ndarray, np.ndarray]] | None = None  # `keep_rows`
+
     def state_rows(self, t: np.ndarray) -> np.ndarray:
         """M⁻¹[−K, −C, f + B V] (nt, n, 2n+1) at times t (s)."""
         if self.actuators:  # their forces: the numpy route (open-loop actuators are rare)
             M, C, K, f = self.matrices(t)
-            return np.linalg.solve(M, np.concatenate([-K, -C, f[:, :, None]], axis=2))
-        rows = state_rows(self, t)
-        if self.z_start is not None:  # in w = z − z_start: M⁻¹(f − K z_start)
-            rows[:, :, -1] += rows[:, :, :self.n] @ self.z_start
+            rows = np.linalg.solve(M, np.concatenate([-K, -C, f[:, :, None]], axis=2))
+        else:
+            rows = state_rows(self, t)
+            if self.z_start is not None:  # in w = z − z_start: M⁻¹(f − K z_start)
+                rows[:, :, -1] += rows[:, :, :self.n] @ self.z_start
+        kept = self._kept
+        if self._keeping and kept is not None and (
+                rows.nbytes <= _KEPT_BYTES - sum(r.nbytes for _, r in kept)):
+            kept.append((np.array(t, dtype=float), rows.copy()))
         return rows
+
+    _keeping = False
+
+    def keep_rows(self, keep: bool = True) -> None:
+        """From now on (``keep``) remember the rows of the `state_rows` calls (up to
+        _KEPT_BYTES), for `kept_rows`: a run's table samples them, its sensitivities read
+        them again (the same numbers: each row depends on its instant's joint state alone);
+        or (not ``keep``) remember no more, keeping those remembered."""
+        if keep:
+            self._kept = []
+        self._keeping = keep
+
+    def kept_rows(self, t: np.ndarray) -> np.ndarray | None:
+        """The rows of `state_rows` at times t (s) as an earlier call since `keep_rows`
+        computed them, or None where one of the times was not among its."""
+        if not self._kept:
+            return None
+        times = np.concatenate([k[0] for k in self._kept])
+        order = np.argsort(times, kind="stable")
+        times = times[order]
+        where = np.minimum(np.searchsorted(times, t), times.size - 1)
+        if not np.array_equal(times[where], t):
+            return None
+        return np.concatenate([k[1] for k in self._kept])[order[where]]
+
+
+_KEPT_BYTES = 1 << 26  # `CompiledFirstOrderSystem.keep_rows`' rows: 64 MB at most
 
 
 def state_rows(system: FirstOrderSystem, t: np.ndarray, data: ForwardData | None = None
