@@ -152,12 +152,26 @@ def test_the_seeds_skip_a_link_no_sensor_reads_and_a_part_read_as_a_nan_view() -
 
 
 def test_the_direct_term_is_left_out_only_where_the_readings_stay_the_nominal_ones() -> None:
-    """A joint's motion moves no sensor reading on the modes (same sensors, links and modal
-    data): its direct term, zero, is not evaluated; a link's EI or a sensor's gain is."""
+    """The readings of the metric's sensors stay the nominal ones, bit for bit, under a
+    joint's motion, a link's EI or damping ratio (the same mode shapes) and another
+    sensor's gain: their direct term, zero, is not evaluated; a link's mass or the
+    sensor's own gain moves them."""
     from flexlink.simulation.adjoint import _same_readings
+    from flexlink.simulation.channel_subset import State, channel_values
 
-    settled, prepared, _ = _settled(_paper(0.5), FIELDS)
-    same = [all(_same_readings(sc, system, settled.scenario, settled.nominal)
-                for sc, system in zip(f.scenarios, moved, strict=True))
-            for f, moved in zip(prepared, settled.systems, strict=True)]
-    assert same == [field.startswith("joints") for field in FIELDS]
+    settled, prepared, t = _settled(_paper(0.5), FIELDS)
+    rng = np.random.default_rng(7)
+    n = settled.nominal.n
+    state = State(t, *(rng.standard_normal((t.size, n)) for _ in range(3)))
+    for names, moving in ((["link2_tip_deflection"], ("links[1].mass_per_length",)),
+                          (["pzt"], ("links[1].mass_per_length", "sensors[pzt].d31"))):
+        nominal = channel_values(settled.scenario, settled.nominal, state, names)[0]
+        for f, moved, field in zip(prepared, settled.systems, FIELDS, strict=True):
+            same = [_same_readings(sc, system, settled.scenario, settled.nominal, names)
+                    for sc, system in zip(f.scenarios, moved, strict=True)]
+            assert all(same) == (field not in moving), (names, field)
+            for sc, system, kept in zip(f.scenarios, moved, same, strict=True):
+                if kept:
+                    values = channel_values(sc, system, state, names)[0]
+                    for name in names:
+                        np.testing.assert_array_equal(values[name], nominal[name])

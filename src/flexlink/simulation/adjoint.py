@@ -144,7 +144,7 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
     for k, (f, moved_systems) in enumerate(zip(fields, settled.systems, strict=True)):
         direct = 0.0
         # readings the field does not move (a joint's motion): their differences are 0
-        moves = not all(_same_readings(sc, system, nominal_scenario, settled.nominal)
+        moves = not all(_same_readings(sc, system, nominal_scenario, settled.nominal, names)
                         for sc, system in zip(f.scenarios, moved_systems, strict=True))
         for w, sc, system in zip(f.weights, f.scenarios, moved_systems, strict=True):
             if moves:
@@ -186,16 +186,24 @@ def _link_columns(system: Any, n: int) -> list[slice]:
 
 
 def _same_readings(scenario: Scenario, system: Any, nominal_scenario: Scenario,
-                   nominal: Any) -> bool:
-    """Whether the readings of sensors on the modes (all the functional reads) are the
-    nominal ones: the same sensors, links and modal data (the same objects)."""
+                   nominal: Any, names: list[str]) -> bool:
+    """Whether the readings of the sensors ``names`` on the modes (all the functional
+    reads) are the nominal ones: the same sensors, links but for their EI and damping
+    ratios, and modal data that are the same objects or share all but their stiffness,
+    damping and frequencies (a reading takes a link's mode shapes, its place in the state
+    and a strain gauge's depth: `channels.modal.modal_reading`)."""
+    from ..dynamics.prescribed_kernel import _same_but_stiffness, _unstiffened_link
+
     if system is not nominal and (len(system.modal) != len(nominal.modal) or not all(
-            a is b for a, b in zip(system.modal, nominal.modal))):
+            a is b or _same_but_stiffness(a, b) for a, b in zip(system.modal, nominal.modal))):
         return False
     try:
-        return bool(scenario.sensors == nominal_scenario.sensors
-                    and scenario.chain.links == nominal_scenario.chain.links)
-    except ValueError:  # values holding arrays: compared as different
+        return bool([s for s in scenario.sensors if s.name in names]
+                    == [s for s in nominal_scenario.sensors if s.name in names]
+                    and all(a == b or _unstiffened_link(a) == _unstiffened_link(b)
+                            for a, b in zip(scenario.chain.links,
+                                            nominal_scenario.chain.links, strict=True)))
+    except ValueError:  # values holding arrays, or other links: compared as different
         return False
 
 
