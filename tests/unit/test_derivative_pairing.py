@@ -175,3 +175,39 @@ def test_the_direct_term_is_left_out_only_where_the_readings_stay_the_nominal_on
                     values = channel_values(sc, system, state, names)[0]
                     for name in names:
                         np.testing.assert_array_equal(values[name], nominal[name])
+
+
+def test_the_seeds_are_the_sensors_rows_where_those_give_the_readings() -> None:
+    """Sensors on the modes read fixed rows of the state: the seeds from those rows equal
+    central differences of the weighted readings along the state's coordinates (zero on
+    the rates); readings the rows do not give (an offset) leave the seeds to the
+    differences."""
+    from flexlink.simulation.adjoint import _seeds_by_rows
+    from flexlink.simulation.channel_subset import State, channel_values
+
+    settled, _, t = _settled(_paper(0.5), FIELDS[:1])
+    solution = settled.run.solution
+    arrays = [solution.q, solution.q_dot, solution.q_ddot]
+    names = ["link2_tip_deflection", "pzt", "link2_root_strain"]
+    readings = channel_values(settled.scenario, settled.nominal, solution, names)[0]
+    rng = np.random.default_rng(11)
+    weights = {name: rng.standard_normal(t.size) for name in names}
+    seeds = _seeds_by_rows(settled.scenario, settled.nominal, t, arrays, readings, weights)
+    assert seeds is not None
+
+    def weighted(state: State) -> np.ndarray:
+        values = channel_values(settled.scenario, settled.nominal, state, names)[0]
+        return sum(weights[name] * values[name] for name in names)  # type: ignore[return-value]
+
+    for part, j in [(0, 0), (0, 5), (0, 7), (1, 6), (2, 7)]:
+        moved = []
+        for sign in (1.0, -1.0):
+            shifted = [a.copy() for a in arrays]
+            shifted[part][:, j] += sign
+            moved.append(weighted(State(t, *shifted)))
+        expected = (moved[0] - moved[1]) / 2.0
+        np.testing.assert_allclose(seeds[part][:, j], expected, rtol=0,
+                                   atol=1e-12 * max(np.abs(expected).max(), 1e-300))
+    assert not np.any(seeds[1]) and not np.any(seeds[2])
+    offset = {name: values + 1e-3 for name, values in readings.items()}
+    assert _seeds_by_rows(settled.scenario, settled.nominal, t, arrays, offset, weights) is None

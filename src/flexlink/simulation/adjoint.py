@@ -102,22 +102,25 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
     names = list(slopes)
     solution = settled.run.solution
     nominal_scenario = settled.scenario
-    _, frames = channel_values(nominal_scenario, settled.nominal, solution, names)
+    readings, frames = channel_values(nominal_scenario, settled.nominal, solution, names)
     if frames:
         return _by_tangents(settled, fields, t, slopes), "tangents"
     weights = {name: np.asarray(slopes[name], dtype=float) for name in names}
+    arrays = [solution.q, solution.q_dot, solution.q_ddot]
+    seeds = _seeds_by_rows(nominal_scenario, settled.nominal, t, arrays, readings, weights)
 
     def functional(scenario: Scenario, system: Any, sol: Solution) -> np.ndarray:
         """Σ_c ∂J/∂c · c, per output time."""
         values, _ = channel_values(scenario, system, sol, names)
         return sum(weights[name] * values[name] for name in names)  # type: ignore[return-value]
 
-    # ∂J/∂x(t) by central differences along each state coordinate at all times at once
+    # else ∂J/∂x(t) by central differences along each state coordinate at all times at once
     n = solution.q.shape[1]
-    arrays = [solution.q, solution.q_dot, solution.q_ddot]
-    seeds = [np.zeros(a.shape) for a in arrays]
     links = _link_columns(settled.nominal, n)
-    for part in range(3):
+    differenced = range(3) if seeds is None else range(0)
+    if seeds is None:
+        seeds = [np.zeros(a.shape) for a in arrays]
+    for part in differenced:
         if part and _unread(functional, nominal_scenario, settled.nominal, t, arrays, part,
                             arrays[part]):
             continue  # sensors that do not read the rates (accelerations): their seed is 0
@@ -153,6 +156,30 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
                 gradient[k] += w * float(np.sum(seeds[0] @ system.z_start)) / f.step
         gradient[k] += direct / f.step
     return gradient, "adjoint"
+
+
+def _seeds_by_rows(scenario: Scenario, system: Any, t: np.ndarray, arrays: list[np.ndarray],
+                   readings: Mapping[str, np.ndarray], weights: Mapping[str, np.ndarray]
+                   ) -> list[np.ndarray] | None:
+    """∂J/∂(q, q̇, q̈) (nt, n each) of J = Σ_t Σ_c weights_c(t) c(t) where each channel is
+    a fixed row over the state, c(t) = Σ_parts r_c · x(t) (the sensors on the modes: a
+    reading of a link's shapes at a point): the rows read at unit states (one channel
+    evaluation per part), checked against the run's ``readings``; None where they do not
+    give them (a reading that is not such a row)."""
+    n = arrays[0].shape[1]
+    if t.size < n:
+        return None
+    unit, zero = np.eye(n), np.zeros((n, n))
+    rows = [channel_values(scenario, system, State(t[:n], *(  # type: ignore[arg-type]
+        unit if p == part else zero for p in range(3))), list(weights))[0]
+        for part in range(3)]
+    for name, values in readings.items():
+        predicted = sum(a @ r[name] for a, r in zip(arrays, rows, strict=True))
+        scale = float(np.abs(values).max())
+        if not np.allclose(predicted, values, rtol=0.0, atol=1e-12 * scale + 1e-300):
+            return None
+    return [sum(w[:, None] * r[name][None, :] for name, w in weights.items())  # type: ignore[misc]
+            for r in rows]
 
 
 def _unread(functional: Callable[..., np.ndarray], scenario: Scenario, system: Any,
