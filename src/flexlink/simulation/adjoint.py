@@ -7,8 +7,9 @@ J = metric(channels) depends on the fields p through the run's state and directl
 channel map (a sensor's gain, a link's shapes): dJ/dp = Σ_t ∂J/∂x(t) ∂x(t)/∂p + ∂J/∂p|x, with
 x = (q, q̇, q̈) at the output times. The first term is the reverse pass with the seeds
 ∂J/∂x(t) = Σ_c ∂J/∂c(t) ∂c(t)/∂x(t), its cost independent of the number of fields; the
-channels' derivatives in the state are central differences along each state coordinate at
-every output time at once (each channel at one time depends on the state at that time only,
+channels' derivatives in the state are their rows over the state where they are such rows
+(sensors on the modes), else central differences along each state coordinate at every
+output time at once (each channel at one time depends on the state at that time only,
 linearly or quadratically, so the differences are exact to round-off), and ∂J/∂p|x central
 differences of the channel map over each field's stencil at the run's state, as the tangents'
 channel pass takes them. Both read only the metric's channels, which for sensors on the
