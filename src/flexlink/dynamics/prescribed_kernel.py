@@ -11,6 +11,7 @@ outboard-loaded modes included) as `ForwardData` of a fixed base.
 
 from __future__ import annotations
 
+import functools
 import os
 from collections import OrderedDict
 from dataclasses import fields, replace
@@ -88,6 +89,17 @@ _PACKED_KEPT = 8
 
 
 def _unstiffened_link(link: Link) -> Link:
+    """The link without its name, EI and damping ratio (those set to "", 1 and 0);
+    remembered for the last links asked for (a hashable link's: equal links give equal
+    results, and `replace` costs more than the look-up)."""
+    try:
+        return _unstiffened(link)
+    except TypeError:  # a value that does not hash
+        return replace(link, name="", EI=1.0, damping_ratio=0.0)
+
+
+@functools.lru_cache(maxsize=64)
+def _unstiffened(link: Link) -> Link:
     return replace(link, name="", EI=1.0, damping_ratio=0.0)
 
 
@@ -129,8 +141,13 @@ def _same_but_stiffness(a: object, b: object) -> bool:
     """Whether modal data ``a`` and ``b`` hold the same objects in every field but their
     stiffness, damping and frequencies."""
     return a is b or (type(a) is type(b) and all(
-        getattr(a, f.name) is getattr(b, f.name) for f in fields(a)  # type: ignore[arg-type]
-        if f.name not in _STIFFNESS_FIELDS))
+        getattr(a, name) is getattr(b, name) for name in _compared_fields(type(a))))
+
+
+@functools.lru_cache(maxsize=8)
+def _compared_fields(kind: type) -> tuple[str, ...]:
+    """`_same_but_stiffness`' fields of a modal data class."""
+    return tuple(f.name for f in fields(kind) if f.name not in _STIFFNESS_FIELDS)
 
 
 def solved_frames(system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np.ndarray,

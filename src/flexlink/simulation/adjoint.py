@@ -231,7 +231,7 @@ def _same_readings(scenario: Scenario, system: Any, nominal_scenario: Scenario,
                     and all(a == b or _unstiffened_link(a) == _unstiffened_link(b)
                             for a, b in zip(scenario.chain.links,
                                             nominal_scenario.chain.links, strict=True)))
-    except ValueError:  # values holding arrays, or other links: compared as different
+    except (TypeError, ValueError):  # values holding arrays, other links: as different
         return False
 
 
