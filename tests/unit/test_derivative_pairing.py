@@ -211,3 +211,20 @@ def test_the_seeds_are_the_sensors_rows_where_those_give_the_readings() -> None:
     assert not np.any(seeds[1]) and not np.any(seeds[2])
     offset = {name: values + 1e-3 for name, values in readings.items()}
     assert _seeds_by_rows(settled.scenario, settled.nominal, t, arrays, offset, weights) is None
+
+
+def test_the_stencils_share_the_joints_their_field_leaves_alone() -> None:
+    """Built with the scenario in one reusing_tables, a link field's moved scenarios hold
+    the scenario's joints (their motions' breaks need no second look); a joint's motion
+    field's do not, and a field moving a motion's start is still refused."""
+    from flexlink.scenario.load import reusing_tables
+    from flexlink.simulation.sensitivities import SensitivityError, _same_motions
+
+    file = _paper()
+    with reusing_tables():
+        scenario = file.build()
+        link, joint = prepare_fields(file, scenario, ["links[0].EI", "joints[1].motion[0].to_deg"])
+        assert all(_same_motions(s, scenario) for s in link.scenarios)
+        assert not any(_same_motions(s, scenario) for s in joint.scenarios)
+        with pytest.raises(SensitivityError, match="acceleration jumps"):
+            prepare_fields(file, scenario, ["joints[0].motion[0].start"])

@@ -201,7 +201,11 @@ def _prepared(file: ScenarioFile, scenario: Scenario, text: str, breaks: np.ndar
         raise SensitivityError(f"sensitivities: {text} = {value:g} cannot be moved by "
                                f"±{step:.3g}: {problem}") from None
     for moved in scenarios:
+        if moved is scenario:
+            continue
         check_path(moved)
+        if _same_motions(moved, scenario):
+            continue  # the same breaks
         if not _same_breaks(breaks, input_breakpoints(moved.chain.joints,
                                                       moved.actuators)):
             raise SensitivityError(
@@ -240,6 +244,14 @@ def field_step(value: float, unit: str) -> float:
     if natural is not None:
         return RELATIVE_STEP * max(abs(value), natural)
     return RELATIVE_STEP * abs(value) if value else ABSOLUTE_STEP
+
+
+def _same_motions(a: Scenario, b: Scenario) -> bool:
+    """Whether two scenarios' joints are the same objects and neither has actuators (what
+    `input_breakpoints` reads): their builds shared those tables (`reusing_tables`)."""
+    ja, jb = a.chain.joints, b.chain.joints
+    return (not a.actuators and not b.actuators and len(ja) == len(jb)
+            and all(x is y for x, y in zip(ja, jb)))
 
 
 def _same_breaks(a: np.ndarray, b: np.ndarray) -> bool:
