@@ -136,6 +136,24 @@ def test_an_array_of_tables_hands_out_each_copy_with_the_table_it_copies() -> No
         [(path, copy) for path, copy, _ in found]
 
 
+def test_an_inner_reusing_tables_keeps_the_outer_ones_resolutions(monkeypatch) -> None:
+    """A build inside a second reusing_tables (the stencils' inside the run's) resolves
+    no link table the outer one resolved already."""
+    from flexlink.scenario import load
+    from flexlink.simulation.sensitivities import scenario_file
+
+    file = scenario_file(load_scenario(paper_experiment_path()))
+    resolved = []
+    link = load._link
+    monkeypatch.setattr(load, "_link", lambda *a: resolved.append(a[1]) or link(*a))
+    with load.reusing_tables():
+        nominal = file.build()
+        with load.reusing_tables():
+            moved = file.build({("links", 1, "thickness"): 1.1e-3})
+    assert resolved == ["links[0]", "links[1]", "links[1]"]
+    assert nominal == file.build() and moved == file.build({("links", 1, "thickness"): 1.1e-3})
+
+
 def test_quasi_rigid_links_are_remembered_for_the_output_times_asked_for() -> None:
     from flexlink.simulation import rigid
 

@@ -70,6 +70,22 @@ def test_the_samples_weights_pair_as_the_tables_monomials() -> None:
     assert got == pytest.approx(expected, rel=1e-12)
 
 
+def test_the_run_keeps_the_rows_its_table_sampled() -> None:
+    """The nominal system keeps the rows its run's table sampled: at the instants the
+    pairing reads (the table's samples) they are there, equal to the rows computed anew;
+    an instant never computed is not, and a caller changing rows it was given changes
+    nothing kept."""
+    settled, _, t = _settled(_paper(), FIELDS[:1])
+    nominal, table = settled.nominal, settled.discretisation.table
+    times, _ = sample_weights(table, t, np.zeros(table.poly.shape))
+    kept = nominal.kept_rows(times)
+    assert kept is not None
+    np.testing.assert_array_equal(kept, nominal.state_rows(times))
+    assert nominal.kept_rows(np.append(times, times[1] + 1e-7)) is None
+    kept[:] = np.nan
+    np.testing.assert_array_equal(nominal.kept_rows(times), nominal.state_rows(times))
+
+
 def test_the_mass_matrix_inverse_from_the_rows() -> None:
     """mass_inverse equals the inverse of the numpy model's M (gravity, stiffening on)."""
     scenario = _paper(gravity=[0.0, -9.81], geometric_stiffening=True).build()
@@ -136,12 +152,79 @@ def test_the_seeds_skip_a_link_no_sensor_reads_and_a_part_read_as_a_nan_view() -
 
 
 def test_the_direct_term_is_left_out_only_where_the_readings_stay_the_nominal_ones() -> None:
-    """A joint's motion moves no sensor reading on the modes (same sensors, links and modal
-    data): its direct term, zero, is not evaluated; a link's EI or a sensor's gain is."""
+    """The readings of the metric's sensors stay the nominal ones, bit for bit, under a
+    joint's motion, a link's EI or damping ratio (the same mode shapes) and another
+    sensor's gain: their direct term, zero, is not evaluated; a link's mass or the
+    sensor's own gain moves them."""
     from flexlink.simulation.adjoint import _same_readings
+    from flexlink.simulation.channel_subset import State, channel_values
 
-    settled, prepared, _ = _settled(_paper(0.5), FIELDS)
-    same = [all(_same_readings(sc, system, settled.scenario, settled.nominal)
-                for sc, system in zip(f.scenarios, moved, strict=True))
-            for f, moved in zip(prepared, settled.systems, strict=True)]
-    assert same == [field.startswith("joints") for field in FIELDS]
+    settled, prepared, t = _settled(_paper(0.5), FIELDS)
+    rng = np.random.default_rng(7)
+    n = settled.nominal.n
+    state = State(t, *(rng.standard_normal((t.size, n)) for _ in range(3)))
+    for names, moving in ((["link2_tip_deflection"], ("links[1].mass_per_length",)),
+                          (["pzt"], ("links[1].mass_per_length", "sensors[pzt].d31"))):
+        nominal = channel_values(settled.scenario, settled.nominal, state, names)[0]
+        for f, moved, field in zip(prepared, settled.systems, FIELDS, strict=True):
+            same = [_same_readings(sc, system, settled.scenario, settled.nominal, names)
+                    for sc, system in zip(f.scenarios, moved, strict=True)]
+            assert all(same) == (field not in moving), (names, field)
+            for sc, system, kept in zip(f.scenarios, moved, same, strict=True):
+                if kept:
+                    values = channel_values(sc, system, state, names)[0]
+                    for name in names:
+                        np.testing.assert_array_equal(values[name], nominal[name])
+
+
+def test_the_seeds_are_the_sensors_rows_where_those_give_the_readings() -> None:
+    """Sensors on the modes read fixed rows of the state: the seeds from those rows equal
+    central differences of the weighted readings along the state's coordinates (zero on
+    the rates); readings the rows do not give (an offset) leave the seeds to the
+    differences."""
+    from flexlink.simulation.adjoint import _seeds_by_rows
+    from flexlink.simulation.channel_subset import State, channel_values
+
+    settled, _, t = _settled(_paper(0.5), FIELDS[:1])
+    solution = settled.run.solution
+    arrays = [solution.q, solution.q_dot, solution.q_ddot]
+    names = ["link2_tip_deflection", "pzt", "link2_root_strain"]
+    readings = channel_values(settled.scenario, settled.nominal, solution, names)[0]
+    rng = np.random.default_rng(11)
+    weights = {name: rng.standard_normal(t.size) for name in names}
+    seeds = _seeds_by_rows(settled.scenario, settled.nominal, t, arrays, readings, weights)
+    assert seeds is not None
+
+    def weighted(state: State) -> np.ndarray:
+        values = channel_values(settled.scenario, settled.nominal, state, names)[0]
+        return sum(weights[name] * values[name] for name in names)  # type: ignore[return-value]
+
+    for part, j in [(0, 0), (0, 5), (0, 7), (1, 6), (2, 7)]:
+        moved = []
+        for sign in (1.0, -1.0):
+            shifted = [a.copy() for a in arrays]
+            shifted[part][:, j] += sign
+            moved.append(weighted(State(t, *shifted)))
+        expected = (moved[0] - moved[1]) / 2.0
+        np.testing.assert_allclose(seeds[part][:, j], expected, rtol=0,
+                                   atol=1e-12 * max(np.abs(expected).max(), 1e-300))
+    assert not np.any(seeds[1]) and not np.any(seeds[2])
+    offset = {name: values + 1e-3 for name, values in readings.items()}
+    assert _seeds_by_rows(settled.scenario, settled.nominal, t, arrays, offset, weights) is None
+
+
+def test_the_stencils_share_the_joints_their_field_leaves_alone() -> None:
+    """Built with the scenario in one reusing_tables, a link field's moved scenarios hold
+    the scenario's joints (their motions' breaks need no second look); a joint's motion
+    field's do not, and a field moving a motion's start is still refused."""
+    from flexlink.scenario.load import reusing_tables
+    from flexlink.simulation.sensitivities import SensitivityError, _same_motions
+
+    file = _paper()
+    with reusing_tables():
+        scenario = file.build()
+        link, joint = prepare_fields(file, scenario, ["links[0].EI", "joints[1].motion[0].to_deg"])
+        assert all(_same_motions(s, scenario) for s in link.scenarios)
+        assert not any(_same_motions(s, scenario) for s in joint.scenarios)
+        with pytest.raises(SensitivityError, match="acceleration jumps"):
+            prepare_fields(file, scenario, ["joints[0].motion[0].start"])

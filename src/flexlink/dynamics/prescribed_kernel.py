@@ -11,6 +11,7 @@ outboard-loaded modes included) as `ForwardData` of a fixed base.
 
 from __future__ import annotations
 
+import functools
 import os
 from collections import OrderedDict
 from dataclasses import fields, replace
@@ -88,6 +89,17 @@ _PACKED_KEPT = 8
 
 
 def _unstiffened_link(link: Link) -> Link:
+    """The link without its name, EI and damping ratio (those set to "", 1 and 0);
+    remembered for the last links asked for (a hashable link's: equal links give equal
+    results, and `replace` costs more than the look-up)."""
+    try:
+        return _unstiffened(link)
+    except TypeError:  # a value that does not hash
+        return replace(link, name="", EI=1.0, damping_ratio=0.0)
+
+
+@functools.lru_cache(maxsize=64)
+def _unstiffened(link: Link) -> Link:
     return replace(link, name="", EI=1.0, damping_ratio=0.0)
 
 
@@ -129,8 +141,13 @@ def _same_but_stiffness(a: object, b: object) -> bool:
     """Whether modal data ``a`` and ``b`` hold the same objects in every field but their
     stiffness, damping and frequencies."""
     return a is b or (type(a) is type(b) and all(
-        getattr(a, f.name) is getattr(b, f.name) for f in fields(a)  # type: ignore[arg-type]
-        if f.name not in _STIFFNESS_FIELDS))
+        getattr(a, name) is getattr(b, name) for name in _compared_fields(type(a))))
+
+
+@functools.lru_cache(maxsize=8)
+def _compared_fields(kind: type) -> tuple[str, ...]:
+    """`_same_but_stiffness`' fields of a modal data class."""
+    return tuple(f.name for f in fields(kind) if f.name not in _STIFFNESS_FIELDS)
 
 
 def solved_frames(system: FirstOrderSystem, t: np.ndarray, z: np.ndarray, zd: np.ndarray,
@@ -163,15 +180,49 @@ class CompiledFirstOrderSystem(FirstOrderSystem):
     """FirstOrderSystem whose state rows M⁻¹[−K, −C, f] (what the Lawson table samples) come
     from the compiled kernel; ``matrices`` stays the numpy reference."""
 
+    _kept: list[tuple[np.ndarray, np.ndarray]] | None = None  # `keep_rows`
+
     def state_rows(self, t: np.ndarray) -> np.ndarray:
         """M⁻¹[−K, −C, f + B V] (nt, n, 2n+1) at times t (s)."""
         if self.actuators:  # their forces: the numpy route (open-loop actuators are rare)
             M, C, K, f = self.matrices(t)
-            return np.linalg.solve(M, np.concatenate([-K, -C, f[:, :, None]], axis=2))
-        rows = state_rows(self, t)
-        if self.z_start is not None:  # in w = z − z_start: M⁻¹(f − K z_start)
-            rows[:, :, -1] += rows[:, :, :self.n] @ self.z_start
+            rows = np.linalg.solve(M, np.concatenate([-K, -C, f[:, :, None]], axis=2))
+        else:
+            rows = state_rows(self, t)
+            if self.z_start is not None:  # in w = z − z_start: M⁻¹(f − K z_start)
+                rows[:, :, -1] += rows[:, :, :self.n] @ self.z_start
+        kept = self._kept
+        if self._keeping and kept is not None and (
+                rows.nbytes <= _KEPT_BYTES - sum(r.nbytes for _, r in kept)):
+            kept.append((np.array(t, dtype=float), rows.copy()))
         return rows
+
+    _keeping = False
+
+    def keep_rows(self, keep: bool = True) -> None:
+        """From now on (``keep``) remember the rows of the `state_rows` calls (up to
+        _KEPT_BYTES), for `kept_rows`: a run's table samples them, its sensitivities read
+        them again (the same numbers: each row depends on its instant's joint state alone);
+        or (not ``keep``) remember no more, keeping those remembered."""
+        if keep:
+            self._kept = []
+        self._keeping = keep
+
+    def kept_rows(self, t: np.ndarray) -> np.ndarray | None:
+        """The rows of `state_rows` at times t (s) as an earlier call since `keep_rows`
+        computed them, or None where one of the times was not among its."""
+        if not self._kept:
+            return None
+        times = np.concatenate([k[0] for k in self._kept])
+        order = np.argsort(times, kind="stable")
+        times = times[order]
+        where = np.minimum(np.searchsorted(times, t), times.size - 1)
+        if not np.array_equal(times[where], t):
+            return None
+        return np.concatenate([k[1] for k in self._kept])[order[where]]
+
+
+_KEPT_BYTES = 1 << 26  # `CompiledFirstOrderSystem.keep_rows`' rows: 64 MB at most
 
 
 def state_rows(system: FirstOrderSystem, t: np.ndarray, data: ForwardData | None = None

@@ -99,10 +99,11 @@ def scenario_from_dict(d: Mapping[str, Any], base_dir: Path = Path("."), *,
 
     ``name`` is used when ``simulation.name`` is absent; ``source`` labels error messages.
     """
-    resolved, motions = _resolve(d, Path(base_dir), name, source)
+    base_dir = base_dir if isinstance(base_dir, Path) else Path(base_dir)  # Path() costs
+    resolved, motions = _resolve(d, base_dir, name, source)
     scenario = _build(resolved, motions)
     # what field paths address (simulation/sensitivities.py); dataclasses.replace drops it
-    object.__setattr__(scenario, "_origin", (d, Path(base_dir), name, source))
+    object.__setattr__(scenario, "_origin", (d, base_dir, name, source))
     return scenario
 
 
@@ -215,8 +216,8 @@ def reusing_tables() -> Iterator[None]:
     as the same object once: many builds of one file that differ in a value or two (a
     sensitivity's stencil: `ScenarioFile.with_values` copies only the tables on a changed
     path and shares the others). For a stretch of builds during which no table is changed
-    in place."""
-    token = _REUSED.set({})
+    in place. Within another, the outer one's resolutions serve."""
+    token = _REUSED.set({} if _REUSED.get() is None else _REUSED.get())
     try:
         yield
     finally:

@@ -7,8 +7,9 @@ J = metric(channels) depends on the fields p through the run's state and directl
 channel map (a sensor's gain, a link's shapes): dJ/dp = Σ_t ∂J/∂x(t) ∂x(t)/∂p + ∂J/∂p|x, with
 x = (q, q̇, q̈) at the output times. The first term is the reverse pass with the seeds
 ∂J/∂x(t) = Σ_c ∂J/∂c(t) ∂c(t)/∂x(t), its cost independent of the number of fields; the
-channels' derivatives in the state are central differences along each state coordinate at
-every output time at once (each channel at one time depends on the state at that time only,
+channels' derivatives in the state are their rows over the state where they are such rows
+(sensors on the modes), else central differences along each state coordinate at every
+output time at once (each channel at one time depends on the state at that time only,
 linearly or quadratically, so the differences are exact to round-off), and ∂J/∂p|x central
 differences of the channel map over each field's stencil at the run's state, as the tangents'
 channel pass takes them. Both read only the metric's channels, which for sensors on the
@@ -102,22 +103,25 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
     names = list(slopes)
     solution = settled.run.solution
     nominal_scenario = settled.scenario
-    _, frames = channel_values(nominal_scenario, settled.nominal, solution, names)
+    readings, frames = channel_values(nominal_scenario, settled.nominal, solution, names)
     if frames:
         return _by_tangents(settled, fields, t, slopes), "tangents"
     weights = {name: np.asarray(slopes[name], dtype=float) for name in names}
+    arrays = [solution.q, solution.q_dot, solution.q_ddot]
+    seeds = _seeds_by_rows(nominal_scenario, settled.nominal, t, arrays, readings, weights)
 
     def functional(scenario: Scenario, system: Any, sol: Solution) -> np.ndarray:
         """Σ_c ∂J/∂c · c, per output time."""
         values, _ = channel_values(scenario, system, sol, names)
         return sum(weights[name] * values[name] for name in names)  # type: ignore[return-value]
 
-    # ∂J/∂x(t) by central differences along each state coordinate at all times at once
+    # else ∂J/∂x(t) by central differences along each state coordinate at all times at once
     n = solution.q.shape[1]
-    arrays = [solution.q, solution.q_dot, solution.q_ddot]
-    seeds = [np.zeros(a.shape) for a in arrays]
     links = _link_columns(settled.nominal, n)
-    for part in range(3):
+    differenced = range(3) if seeds is None else range(0)
+    if seeds is None:
+        seeds = [np.zeros(a.shape) for a in arrays]
+    for part in differenced:
         if part and _unread(functional, nominal_scenario, settled.nominal, t, arrays, part,
                             arrays[part]):
             continue  # sensors that do not read the rates (accelerations): their seed is 0
@@ -144,7 +148,7 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
     for k, (f, moved_systems) in enumerate(zip(fields, settled.systems, strict=True)):
         direct = 0.0
         # readings the field does not move (a joint's motion): their differences are 0
-        moves = not all(_same_readings(sc, system, nominal_scenario, settled.nominal)
+        moves = not all(_same_readings(sc, system, nominal_scenario, settled.nominal, names)
                         for sc, system in zip(f.scenarios, moved_systems, strict=True))
         for w, sc, system in zip(f.weights, f.scenarios, moved_systems, strict=True):
             if moves:
@@ -153,6 +157,30 @@ def _objective_gradient(settled: SettledRun, fields: list[_Field], t: np.ndarray
                 gradient[k] += w * float(np.sum(seeds[0] @ system.z_start)) / f.step
         gradient[k] += direct / f.step
     return gradient, "adjoint"
+
+
+def _seeds_by_rows(scenario: Scenario, system: Any, t: np.ndarray, arrays: list[np.ndarray],
+                   readings: Mapping[str, np.ndarray], weights: Mapping[str, np.ndarray]
+                   ) -> list[np.ndarray] | None:
+    """∂J/∂(q, q̇, q̈) (nt, n each) of J = Σ_t Σ_c weights_c(t) c(t) where each channel is
+    a fixed row over the state, c(t) = Σ_parts r_c · x(t) (the sensors on the modes: a
+    reading of a link's shapes at a point): the rows read at unit states (one channel
+    evaluation per part), checked against the run's ``readings``; None where they do not
+    give them (a reading that is not such a row)."""
+    n = arrays[0].shape[1]
+    if t.size < n:
+        return None
+    unit, zero = np.eye(n), np.zeros((n, n))
+    rows = [channel_values(scenario, system, State(t[:n], *(  # type: ignore[arg-type]
+        unit if p == part else zero for p in range(3))), list(weights))[0]
+        for part in range(3)]
+    for name, values in readings.items():
+        predicted = sum(a @ r[name] for a, r in zip(arrays, rows, strict=True))
+        scale = float(np.abs(values).max())
+        if not np.allclose(predicted, values, rtol=0.0, atol=1e-12 * scale + 1e-300):
+            return None
+    return [sum(w[:, None] * r[name][None, :] for name, w in weights.items())  # type: ignore[misc]
+            for r in rows]
 
 
 def _unread(functional: Callable[..., np.ndarray], scenario: Scenario, system: Any,
@@ -186,16 +214,24 @@ def _link_columns(system: Any, n: int) -> list[slice]:
 
 
 def _same_readings(scenario: Scenario, system: Any, nominal_scenario: Scenario,
-                   nominal: Any) -> bool:
-    """Whether the readings of sensors on the modes (all the functional reads) are the
-    nominal ones: the same sensors, links and modal data (the same objects)."""
+                   nominal: Any, names: list[str]) -> bool:
+    """Whether the readings of the sensors ``names`` on the modes (all the functional
+    reads) are the nominal ones: the same sensors, links but for their EI and damping
+    ratios, and modal data that are the same objects or share all but their stiffness,
+    damping and frequencies (a reading takes a link's mode shapes, its place in the state
+    and a strain gauge's depth: `channels.modal.modal_reading`)."""
+    from ..dynamics.prescribed_kernel import _same_but_stiffness, _unstiffened_link
+
     if system is not nominal and (len(system.modal) != len(nominal.modal) or not all(
-            a is b for a, b in zip(system.modal, nominal.modal))):
+            a is b or _same_but_stiffness(a, b) for a, b in zip(system.modal, nominal.modal))):
         return False
     try:
-        return bool(scenario.sensors == nominal_scenario.sensors
-                    and scenario.chain.links == nominal_scenario.chain.links)
-    except ValueError:  # values holding arrays: compared as different
+        return bool([s for s in scenario.sensors if s.name in names]
+                    == [s for s in nominal_scenario.sensors if s.name in names]
+                    and all(a == b or _unstiffened_link(a) == _unstiffened_link(b)
+                            for a, b in zip(scenario.chain.links,
+                                            nominal_scenario.chain.links, strict=True)))
+    except (TypeError, ValueError):  # values holding arrays, other links: as different
         return False
 
 

@@ -25,6 +25,7 @@ a run:
 from __future__ import annotations
 
 import difflib
+import functools
 import math
 import re
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -200,7 +201,11 @@ def _prepared(file: ScenarioFile, scenario: Scenario, text: str, breaks: np.ndar
         raise SensitivityError(f"sensitivities: {text} = {value:g} cannot be moved by "
                                f"±{step:.3g}: {problem}") from None
     for moved in scenarios:
+        if moved is scenario:
+            continue
         check_path(moved)
+        if _same_motions(moved, scenario):
+            continue  # the same breaks
         if not _same_breaks(breaks, input_breakpoints(moved.chain.joints,
                                                       moved.actuators)):
             raise SensitivityError(
@@ -239,6 +244,14 @@ def field_step(value: float, unit: str) -> float:
     if natural is not None:
         return RELATIVE_STEP * max(abs(value), natural)
     return RELATIVE_STEP * abs(value) if value else ABSOLUTE_STEP
+
+
+def _same_motions(a: Scenario, b: Scenario) -> bool:
+    """Whether two scenarios' joints are the same objects and neither has actuators (what
+    `input_breakpoints` reads): their builds shared those tables (`reusing_tables`)."""
+    ja, jb = a.chain.joints, b.chain.joints
+    return (not a.actuators and not b.actuators and len(ja) == len(jb)
+            and all(x is y for x, y in zip(ja, jb)))
 
 
 def _same_breaks(a: np.ndarray, b: np.ndarray) -> bool:
@@ -283,7 +296,9 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
 
     # the run's own system is the nominal one: the sensitivities reuse its settled table
     nominal = prescribed_system(scenario, t)
+    nominal.keep_rows()  # the table's samples: the sensitivities read them again
     run = run_prescribed(scenario, t, on_progress, shapes, adaptive, system=nominal)
+    nominal.keep_rows(False)
     if run.solution.q.shape[1] == 0:
         raise SensitivityError("sensitivities: every link is rigid: there is nothing to "
                                "differentiate through the integrator")
@@ -311,7 +326,7 @@ def settled_run(scenario: Scenario, fields: list[_Field], t: np.ndarray,
 
     def field_rows(times: np.ndarray) -> Iterator[tuple[int, np.ndarray]]:
         """(k, ∂A/∂p_k at times (nt, n, 2n+1)) of each field the equations read."""
-        rows0 = None  # the nominal rows, where a stencil or M⁻¹ reads them
+        rows0 = nominal.kept_rows(times)  # the nominal rows, where a stencil or M⁻¹ reads
         inverse = None
         for k, (f, moved) in enumerate(zip(fields, systems, strict=True)):
             if all(s is nominal for s in moved):  # a field the equations do not read
@@ -525,21 +540,26 @@ _TABLE_OF = {name: "joints" for name in ("torque", "velocity_pid", "position", "
 def field_unit(target: Target) -> str:
     """The UDUNITS unit of a field's values, from the schema ("1" if dimensionless, "" where
     the schema gives none it can spell)."""
-    from ..scenario import schema
-
     key = target.key
     names = [step for step in target.path if isinstance(step, str)]
     if key in ("amplitude", "values") and len(names) >= 2:  # a history's profile: its unit
         key = names[-2]  # is the history's (joints[0].torque, base.loads[0].moment)
-    head = str(target.path[0])
+    return _unit(key, str(target.path[0]), bool(target.slider))
+
+
+@functools.lru_cache(maxsize=256)
+def _unit(key: str, head: str, slider: bool) -> str:
+    """`field_unit` of key ``key`` under top-level table ``head`` (a slider's or not)."""
+    from ..scenario import schema
+
     # a cart's and a slider's keys (their servo gains per m) only under their own tables
     own = {"base": [schema.CART], "joints": [schema.PRISMATIC]}.get(head, [])
-    if target.slider:  # a slider's drive keys are a cart's, its profiles travel (m)
+    if slider:  # a slider's drive keys are a cart's, its profiles travel (m)
         own = [schema.PRISMATIC, schema.CART]
     sections = [*schema.SECTIONS.values(), *own] + list(schema.PROFILES.values()) + \
         list(schema.CART_PROFILES.values()) + list(schema.HISTORIES.values())
     found = [s[key].unit for s in sections if key in s.keys]
-    if target.slider:  # its travel profiles and force history: a cart's
+    if slider:  # its travel profiles and force history: a cart's
         mine = [*own, *schema.CART_PROFILES.values(), *schema.HISTORIES.values()]
         preferred = [s[key].unit for s in mine if key in s.keys]
     else:
@@ -644,14 +664,16 @@ def sensitivity_run(scenario: Scenario | ScenarioFile, fields: Sequence[str], pr
     on_progress, shapes) → (PathRun, extra)`` (timed, single-threaded, with the links the
     run makes rigid rigid in every moved scenario too, ``drive`` applied to the scenario
     and every moved one first): the Results, the prepared fields and the extra."""
+    from ..scenario.load import reusing_tables
     from .common import ProgressBar, assemble_results, check_run_memory, output_times, timed
     from .rigid import quasi_rigid_links, rigid_metadata, with_rigid_links
 
     file = scenario_file(scenario)
-    if isinstance(scenario, ScenarioFile):
-        scenario = file.build()
-    check_path(scenario)
-    prepared = prepare_fields(file, scenario, fields)
+    with reusing_tables():  # the stencils' builds share the tables the scenario's resolved
+        if isinstance(scenario, ScenarioFile):
+            scenario = file.build()
+        check_path(scenario)
+        prepared = prepare_fields(file, scenario, fields)
     if drive is not None:
         scenario = drive(scenario)
         prepared = [f.mapped(drive) for f in prepared]

@@ -103,7 +103,9 @@ def steps_on(system: LinearSystem, t_out: np.ndarray, discretisation: Discretisa
     static = table.static
     reference = np.where(static[:, None, None], table.reference, discretisation.reference)
     ET = discretisation.propagators.copy()
-    if static.any():
+    # the settling run's own table: its static blocks' exp(Δt Ã) are the run's (the same
+    # arguments); another system's are its own
+    if static.any() and table is not discretisation.table:
         ET[static] = _block_propagators(table, n, t_out, discretisation.substeps, static)
     E2T = ET.copy()
     E2T[~static] = ET[~static] @ ET[~static]
