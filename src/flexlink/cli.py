@@ -81,7 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="results folder to create (must not exist or be empty)")
     output.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     output.add_argument("--overwrite", action="store_true",
-                        help="replace DIR if it holds an earlier flexlink run")
+                        help="replace DIR if it holds an earlier flexlink run and nothing else")
     output.add_argument("-q", "--quiet", action="store_true",
                         help="no progress bar and no summary; print only the results folder")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True,

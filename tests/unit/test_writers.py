@@ -13,6 +13,7 @@ import xarray as xr
 
 from flexlink.channels import Channel, ChannelKind
 from flexlink.results import Results, plotting, writers
+from flexlink.results.folder import WRITTEN_NAMES
 from flexlink.results.writers import OutputFolderError, write_run
 from flexlink.scenario import load_scenario, resolve_scenario_dict, scenario_from_dict
 from flexlink.scenario.toml_writer import dump_toml
@@ -107,11 +108,32 @@ def test_refuses_a_non_empty_folder(tmp_path: Path, resolved: dict[str, Any]) ->
 
 
 def test_overwrite_replaces_an_earlier_run(tmp_path: Path, resolved: dict[str, Any]) -> None:
-    out = write_run(fake_results(), tmp_path / "run", resolved, figures=False)
-    (out / "stale.txt").write_text("old")
+    out = write_run(fake_results(), tmp_path / "run", resolved, report=False)
+    (out / "results.csv").write_text("old")
     write_run(fake_results(), out, resolved, figures=False, overwrite=True)
-    assert not (out / "stale.txt").exists() and (out / "results.csv").is_file()
+    assert (out / "results.csv").read_text() != "old" and not (out / "figures").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+@pytest.mark.parametrize("mine", ["notes.txt", "figures/sketch.jpg", "data/raw.csv"])
+def test_overwrite_refuses_a_run_folder_holding_a_file_of_the_user(
+        tmp_path: Path, resolved: dict[str, Any], mine: str) -> None:
+    """--overwrite deleted every file in an earlier run folder, the user's own included; it
+    now replaces only a folder holding nothing but what flexlink writes, and names the rest."""
+    out = write_run(fake_results(), tmp_path / "run", resolved)
+    (out / mine).parent.mkdir(exist_ok=True)
+    (out / mine).write_text("mine")
+    with pytest.raises(OutputFolderError, match=f"did not write \\({mine.split('/')[0]}"):
+        write_run(fake_results(), out, resolved, figures=False, overwrite=True)
+    assert (out / mine).read_text() == "mine" and (out / "figures").is_dir()
+
+
+def test_every_file_a_command_writes_is_known_to_overwrite() -> None:
+    from flexlink.control import command
+
+    names = [command.PLANT_NPZ, command.PLANT_MAT, command.BODE_PNG, command.POLES_CSV,
+             command.MODES_CSV, command.MODES_NPZ, command.FREQUENCY_PNG, command.SHAPES_PNG]
+    assert set(names) <= WRITTEN_NAMES
 
 
 def test_failure_leaves_no_folder(tmp_path: Path, resolved: dict[str, Any],

@@ -1,6 +1,10 @@
 """The names of the files in a run folder (written by `writers`, read by `reading`, shown
 by `report_html`)."""
 
+from __future__ import annotations
+
+from pathlib import Path
+
 RESOLVED_NAME = "scenario.resolved.toml"
 RESULTS_CSV = "results.csv"
 CHANNELS_CSV = "channels.csv"
@@ -8,3 +12,29 @@ RESULTS_NC = "results.nc"
 RESULTS_MAT = "results.mat"
 ANIMATION_GIF = "animation.gif"
 REPORT_NAME = "report.html"
+FIGURES_DIR = "figures"
+
+# Every name a flexlink command writes at the top of its output folder (run, compare, fit,
+# linearize, modes, optimize; figures/ holds only PNG pictures): --overwrite replaces only a
+# folder holding nothing else, so it never deletes a file the user put there.
+WRITTEN_NAMES = frozenset({
+    RESOLVED_NAME, RESULTS_CSV, CHANNELS_CSV, RESULTS_NC, RESULTS_MAT, ANIMATION_GIF,
+    REPORT_NAME,
+    "report.md", "metrics.csv", "metrics.json", "simulated.csv", "simulated_channels.csv",
+    "parameters.csv", "fit.json",
+    "plant.npz", "plant.mat", "bode.png", "modes.csv", "frequencies.csv", "modes.npz",
+    "frequencies.png", "shapes.png",
+    "optimized.toml", "trajectory.csv", "summary.json", "residual.png", "robustness.png",
+})
+
+
+def foreign_entries(folder: Path) -> list[str]:
+    """The entries of ``folder`` (relative paths, sorted) that no flexlink command writes."""
+    foreign = []
+    for entry in sorted(folder.iterdir()):
+        if entry.name == FIGURES_DIR and entry.is_dir() and not entry.is_symlink():
+            foreign += [f"{FIGURES_DIR}/{p.name}" for p in sorted(entry.iterdir())
+                        if p.suffix != ".png" or not p.is_file() or p.is_symlink()]
+        elif entry.name not in WRITTEN_NAMES or not entry.is_file() or entry.is_symlink():
+            foreign.append(entry.name)
+    return foreign

@@ -34,6 +34,7 @@ from .folder import (
     RESULTS_CSV,
     RESULTS_MAT,
     RESULTS_NC,
+    foreign_entries,
 )
 from .layout import run_layout
 from .matlab import write_mat
@@ -54,7 +55,8 @@ class OutputFolderError(FileExistsError):
 def check_output_dir(out_dir: Path, overwrite: bool = False) -> None:
     """Raise OutputFolderError unless ``out_dir`` can be created beside its siblings (its
     parent a writable folder) and is absent, empty, or (with ``overwrite``) an earlier flexlink
-    results folder. Call it before a long simulation to fail early."""
+    results folder holding only files flexlink writes (`folder.foreign_entries`). Call it
+    before a long simulation to fail early."""
     out_dir = Path(out_dir)
     try:
         check_writable(out_dir, "output folder")
@@ -72,6 +74,13 @@ def check_output_dir(out_dir: Path, overwrite: bool = False) -> None:
     if not (out_dir / RESOLVED_NAME).is_file():
         raise OutputFolderError(f"refusing to overwrite {out_dir}: it does not look like a "
                                 f"flexlink results folder (no {RESOLVED_NAME} in it)")
+    foreign = foreign_entries(out_dir)
+    if foreign:
+        shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5
+                                          else "")
+        raise OutputFolderError(f"refusing to overwrite {out_dir}: it holds files flexlink "
+                                f"did not write ({shown}); move them out of it or choose "
+                                "another folder")
 
 
 def write_run(
