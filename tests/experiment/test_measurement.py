@@ -12,6 +12,7 @@ from scipy.io import savemat
 
 from flexlink.experiment.files import MeasurementError, read_columns
 from flexlink.experiment.measurement import (
+    ConstantChannelWarning,
     MeasurementSpec,
     MeasurementWarning,
     NoisyAngleWarning,
@@ -48,10 +49,15 @@ def write(path: Path, text: str) -> Path:
     return path
 
 
+def live(n: int, start: float = 0.0) -> np.ndarray:
+    """A sensor column that changes (a constant one is warned as a dead channel)."""
+    return start + np.linspace(0.0, 0.1, n)
+
+
 def table(n: int = 50, dt_ms: float = 1.0) -> dict[str, np.ndarray]:
     t = np.arange(n) * dt_ms
-    return {"time_ms": t, "b1": np.linspace(0.0, 9.0, n), "acc_g": np.full(n, 0.5),
-            "pzt_mv": np.full(n, 3.0)}
+    return {"time_ms": t, "b1": np.linspace(0.0, 9.0, n), "acc_g": live(n, 0.5),
+            "pzt_mv": live(n, 3.0)}
 
 
 def spec() -> MeasurementSpec:
@@ -180,7 +186,7 @@ def test_lowpass_removes_noise_and_checks_nyquist() -> None:
     t = np.arange(n) * 1.0
     rng = np.random.default_rng(0)
     cols = {"time_ms": t, "b1": 10 * np.sin(2 * np.pi * t / 1000) + rng.normal(0, 0.2, n),
-            "acc_g": np.zeros(n), "pzt_mv": np.zeros(n)}
+            "acc_g": live(n), "pzt_mv": live(n)}
     raw = dict(MAPPING)
     raw["columns"] = [dict(MAPPING["columns"][0], lowpass_hz=30.0)]
     m = condition(cols, parse_spec(raw, SCENARIO), SCENARIO, "x")
@@ -219,7 +225,7 @@ def test_map_option() -> None:
 
 def test_default_mapping_reads_a_results_csv_layout() -> None:
     n = 20
-    cols = {"t": np.arange(n) * 1e-3, "joint1_angle": np.zeros(n), "pzt": np.ones(n),
+    cols = {"t": np.arange(n) * 1e-3, "joint1_angle": np.zeros(n), "pzt": live(n, 1.0),
             "other": np.ones(n), "link1_tip_X": np.ones(n)}
     m = condition(cols, MeasurementSpec(), SCENARIO, "x")
     assert set(m.angles) == {0} and set(m.signals) == {"pzt"}
@@ -227,10 +233,22 @@ def test_default_mapping_reads_a_results_csv_layout() -> None:
         condition({"t": cols["t"], "x": cols["pzt"]}, MeasurementSpec(), SCENARIO, "x")
 
 
+def test_a_dead_sensor_channel_is_warned_naming_its_column() -> None:
+    """A constant measured sensor column gave infinite metrics and a correlation of 0.0
+    without a word."""
+    cols = table()
+    cols["pzt_mv"] = np.full(50, 3.0)
+    with pytest.warns(ConstantChannelWarning, match="sensor column 'pzt_mv' \\(pzt\\) is "
+                                                    "constant"):
+        m = condition(cols, spec(), SCENARIO, "x")
+    assert any("'pzt_mv'" in note for note in m.notes)
+    assert not any("acc_g" in note for note in m.notes)
+
+
 def test_unfiltered_quantised_angle_is_warned() -> None:
     n = 400
     cols = {"time_ms": np.arange(n) * 1.0, "b1": np.round(np.linspace(0, 2.0, n) / 0.05) * 0.05,
-            "acc_g": np.zeros(n), "pzt_mv": np.zeros(n)}
+            "acc_g": live(n), "pzt_mv": live(n)}
     with pytest.warns(MeasurementWarning, match="steps of 0.05 deg.*Set lowpass_hz"):
         condition(cols, spec(), SCENARIO, "x")
     raw = dict(MAPPING)
@@ -246,8 +264,8 @@ def test_joint_angles_held_before_and_after_the_manoeuvre() -> None:
     tau = np.clip((t_ms / 1000 - 0.5) / 1.0, 0, 1)
     clean = 9.0 * (tau - np.sin(2 * np.pi * tau) / (2 * np.pi))
     rng = np.random.default_rng(2)
-    cols = {"time_ms": t_ms, "b1": clean + rng.normal(0, 0.005, n), "acc_g": np.zeros(n),
-            "pzt_mv": np.zeros(n)}
+    cols = {"time_ms": t_ms, "b1": clean + rng.normal(0, 0.005, n), "acc_g": live(n),
+            "pzt_mv": live(n)}
     with pytest.warns(NoisyAngleWarning):  # unfiltered noise: warned (see below)
         m = condition(cols, spec(), SCENARIO, "x")
     held = held_angles(m)[0]
@@ -273,8 +291,8 @@ def noisy_move(noise_deg: float, seed: int = 0, n: int = 4000) -> dict[str, np.n
     tau = np.clip((t_ms / 1000 - 0.5) / 1.5, 0, 1)
     clean = 80.0 * (tau - np.sin(2 * np.pi * tau) / (2 * np.pi))
     rng = np.random.default_rng(seed)
-    return {"time_ms": t_ms, "b1": clean + rng.normal(0, noise_deg, n), "acc_g": np.zeros(n),
-            "pzt_mv": np.zeros(n)}
+    return {"time_ms": t_ms, "b1": clean + rng.normal(0, noise_deg, n), "acc_g": live(n),
+            "pzt_mv": live(n)}
 
 
 def test_noisy_unfiltered_angle_is_warned_with_a_cutoff() -> None:

@@ -311,6 +311,12 @@ def condition(columns: Mapping[str, np.ndarray], spec: MeasurementSpec, scenario
                 hints[c.joint] = noisy
             angles[c.joint] = values
         else:
+            if values.size and np.ptp(values) == 0.0:
+                warn(f"sensor column {c.column!r} ({c.sensor}) is constant ({values[0]:g}) "
+                     "over the whole record: a dead or unplugged channel? Its comparison "
+                     "metrics are infinite (normalised by its zero spread) and its "
+                     "correlation undefined; check the file or drop the column",
+                     ConstantChannelWarning)
             signals[str(c.sensor)] = values
         units[c.target] = si_unit
     return Measurement(time=t, angles=angles, signals=signals, units=units, source=source,
@@ -414,6 +420,11 @@ def lowpass(t: np.ndarray, values: np.ndarray, cutoff_hz: float, label: str) -> 
         raise MeasurementError(f"{label}: lowpass_hz = {cutoff_hz:g} Hz must be below the "
                                f"Nyquist frequency {0.5 * fs:g} Hz of the samples")
     return zero_phase_lowpass(values, cutoff_hz, fs)
+
+
+class ConstantChannelWarning(MeasurementWarning):
+    """A measured sensor column never changes (a dead channel): nothing to compare against;
+    the message names the column."""
 
 
 class NoisyAngleWarning(MeasurementWarning):
