@@ -773,6 +773,26 @@ def test_an_absurd_load_is_named_as_the_cause(field: str, value: float, named: s
     assert "Radau" not in message
 
 
+def test_a_stall_of_the_compiled_integrator_does_not_suggest_scipys_radau() -> None:
+    """An absurd mass_per_length stalled the compiled Radau IIA at t = 0 and the advice was
+    to try method = "Radau" (scipy's, the same family); explicit methods are the ones to
+    leave."""
+    from types import SimpleNamespace
+
+    from flexlink.solvers.forward import _stall_message
+
+    with open(EXAMPLES / "gravity_release.toml", "rb") as file:
+        d = tomllib.load(file)
+    d["links"][0]["mass_per_length"] = 1e-12
+    with pytest.raises(SimulationError, match="stalled") as error:
+        simulate(scenario_from_dict(d), shapes=False)
+    message = str(error.value)
+    assert "Radau" not in message and "check their values and units" in message, message
+    stiffened = SimpleNamespace(geometric_stiffening=True)
+    assert 'try the default "lawson"' in _stall_message(stiffened, 1.0, "x", "RK45")
+    assert "try" not in _stall_message(stiffened, 1.0, "x", "Radau")
+
+
 TORQUE_NAMED = (r"'s tip 3\.5\d*e\+299 times its length if held steady \(joints\[1\]\.torque "
                 r"= 1e\+300 N·m")
 GRAVITY_NAMED = (r" across its span 4\.6\d* times its length if held steady "

@@ -33,6 +33,7 @@ from .solution import LOCAL_CONTROL, SCIPY, Accuracy, Progress, Solution
 
 DEFAULT_METHOD = "DOP853"  # of integrate_forward: the reference
 FAST_METHOD = "radau5"  # what a run's "lawson" or "magnus" maps to
+EXPLICIT_METHODS = ("RK45", "DOP853")  # scipy's, of simulation.method
 MAX_STEP_OUTPUTS = 10  # longest solve_ivp step, in output intervals (simulation.dt_out)
 
 
@@ -91,7 +92,8 @@ def integrate_forward(system: ForwardSystem, t_out: np.ndarray, rtol: float, ato
         y, evaluations = integrate_ivp(rhs, system.initial_state(), t_out, rtol, atol, method,
                                        max_step)
     except Stalled as exc:
-        raise SimulationError(_stall_message(system, exc.t, "the time step collapsed")) from None
+        raise SimulationError(_stall_message(system, exc.t, "the time step collapsed",
+                                             method)) from None
     p_free, pd_free, z, zd, integral = split_state(system, y)
     pdd_free, zdd, _ = system.accelerations(t_out, p_free, pd_free, z, zd, integral)
     solution = Solution(t_out, np.hstack([p_free, z]), np.hstack([pd_free, zd]),
@@ -135,7 +137,7 @@ def _integrate_compiled(system: ForwardSystem, t_out: np.ndarray, rtol: float, a
         why = stop_reason(exc)
         if loop is not None and exc.why != "box":
             raise UnstableLoop(exc.t, why) from None
-        raise StoppedRun(_stall_message(system, exc.t, why), exc.t, exc.states,
+        raise StoppedRun(_stall_message(system, exc.t, why, FAST_METHOD), exc.t, exc.states,
                          exc.y, exc.why == "box") from None
     return forward_solution(data, work, system, t_out, states, stats, loop,
                             Accuracy(rtol, None, LOCAL_CONTROL), known)
@@ -230,10 +232,18 @@ def stop_reason(stop: RadauStop) -> str:
             "box": "a cart or a slider left its travel"}.get(stop.why, "the time step collapsed")
 
 
-def _stall_message(system: ForwardSystem, t: float, why: str) -> str:
-    hint = ("; the paper's model (geometric_stiffening = false) is not energy-consistent and "
-            "can blow up when a light link swings fast: set geometric_stiffening = true"
-            if not system.geometric_stiffening else
-            "; the first-order model may be outside its range (large deflections), or a servo "
-            "loop is very stiff: try method = \"Radau\"")
-    return f"the forward run stalled at t = {t:.6g} s ({why}){hint}"
+def _stall_message(system: ForwardSystem, t: float, why: str, method: str) -> str:
+    """The stop's words and a hint that fits the integrator that stopped (``method``: the
+    compiled Radau IIA's FAST_METHOD or a scipy method's name)."""
+    if not system.geometric_stiffening:
+        hint = ("the paper's model (geometric_stiffening = false) is not energy-consistent "
+                "and can blow up when a light link swings fast: set geometric_stiffening = "
+                "true")
+    else:
+        hint = ("the first-order model may be outside its range (large deflections), a "
+                "servo loop very stiff, or a mass, stiffness or load far off (check their "
+                "values and units)")
+        if method in EXPLICIT_METHODS:
+            hint += (f"; method = \"{method}\" is explicit and stalls on stiff runs: try the "
+                     "default \"lawson\"")
+    return f"the forward run stalled at t = {t:.6g} s ({why}); {hint}"
