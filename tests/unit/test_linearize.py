@@ -253,3 +253,8 @@ def test_the_linearize_command_names_a_failed_run_and_raises_a_defect(
     monkeypatch.setattr(linearization, "linearize", failing(IndexError("out of range")))
     with pytest.raises(IndexError, match="out of range"):
         main(args)
+    # a TypeError inside was printed as bad input ("error: …", status 2); the command's own
+    # input never raises one
+    monkeypatch.setattr(linearization, "linearize", failing(TypeError("a defect")))
+    with pytest.raises(TypeError, match="a defect"):
+        main(args)

@@ -657,6 +657,25 @@ def test_idle_work_runs_on_the_pool_between_evaluations() -> None:
     assert here.idle_results() == [None, None, None]
 
 
+def test_early_report_runs_leave_bad_input_to_the_optimiser_and_raise_a_defect(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The optional early runs caught every exception, a defect included; bad input still
+    gives none (the optimiser then names it)."""
+    from flexlink.shaping import optimize
+    from flexlink.shaping.command import early_report_runs
+
+    def failing(error: Exception):  # type: ignore[no-untyped-def]
+        def joint_moves(*_: object) -> None:
+            raise error
+        return joint_moves
+
+    monkeypatch.setattr(optimize, "joint_moves", failing(optimize.InfeasibleMove("no move")))
+    assert early_report_runs(_arm(), 0.5, "zv", ["first_order"], True) == ([], [])
+    monkeypatch.setattr(optimize, "joint_moves", failing(IndexError("out of range")))
+    with pytest.raises(IndexError, match="out of range"):
+        early_report_runs(_arm(), 0.5, "zv", ["first_order"], True)
+
+
 def test_early_report_runs_equal_the_report_runs_of_any_answer() -> None:
     """The report's runs of the cycloidal and shaped moves made before the optimiser answers
     (`early_report_runs`, from the scenario with its moves as harmonic profiles) are those

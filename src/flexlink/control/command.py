@@ -165,7 +165,7 @@ def run_linearize(args: argparse.Namespace) -> int:
         return _fail(str(exc))
     except NonFiniteResult as exc:
         return _fail(f"linearisation failed: {exc}", status=1)
-    except (OutputFolderError, ValueError, TypeError, OSError) as exc:
+    except (OutputFolderError, ValueError, OSError) as exc:
         return _fail(f"error: {exc}")
     except _run_failures() as exc:  # a failed run up to --at
         return _fail(f"linearisation failed: {exc}", status=1)
@@ -288,7 +288,7 @@ def run_modes(args: argparse.Namespace) -> int:
         return _fail(str(exc))
     except NonFiniteResult as exc:
         return _fail(f"modes failed: {exc}", status=1)
-    except (OutputFolderError, ValueError, TypeError, OSError) as exc:
+    except (OutputFolderError, ValueError, OSError) as exc:
         return _fail(f"error: {exc}")
     except _run_failures() as exc:  # a failed run up to --times
         return _fail(f"modes failed: {exc}", status=1)

@@ -303,6 +303,9 @@ def early_report_runs(scenario: Any, duration: float | None, shaper: str, models
     those made from the answer, whatever its coefficients (the same end angles)."""
     import functools
 
+    import numpy as np
+
+    from ..errors import SimulationError
     from ..motion import Harmonic
     from . import compare
     from .optimize import joint_moves
@@ -313,8 +316,8 @@ def early_report_runs(scenario: Any, duration: float | None, shaper: str, models
         stand_in = compare.with_moves(scenario, {m.joint: Harmonic(
             m.from_deg, m.to_deg, m.start, m.duration) for m in moves})
         versions = reference_versions(stand_in, moves, shaper)[0]
-    except Exception:  # noqa: BLE001 — none early: the optimiser or the report says why
-        return [], []
+    except (ValueError, SimulationError, np.linalg.LinAlgError):
+        return [], []  # none early: the optimiser or the report says why; a defect is raised
     end = max(m.end for m in moves)
     keys, calls = [], []
     for model, label, e, keep in report_plan([*versions, "optimised"], models, figures):
