@@ -579,11 +579,13 @@ def test_a_loops_plant_states_the_closed_angles_not_the_guesses() -> None:
 
 @pytest.mark.parametrize("example, named", [
     ("four_bar.toml", r"base_point.*\[\[closures\]\].*joints\[1\], joints\[2\] are driven"),
-    ("paper_servo.toml", r"joints\[0\], joints\[1\] are driven or sliders; give joints\[0\]"),
+    ("paper_servo.toml", r"joints\[0\], joints\[1\] are driven; give joints\[0\]"),
+    ("telescoping_arm.toml", r"fixed hub: joints\[1\] is a slider$"),
     ("cart_beam.toml", r"the base moves \(base.kind = 'cart'\); remove \[base\]")])
 def test_optimize_names_what_is_not_prescribed(example: str, named: str) -> None:
     """`optimize` of a mechanism it cannot take said only 'needs prescribed joints on a fixed
-    hub (no drive, no moving base)': now the base, the loop and the joints, and the fix."""
+    hub (no drive, no moving base)': now the base, the loop and the joints, and the fix; a
+    slider is named as one ("joints[1] is driven or sliders" was said of one slider)."""
     from flexlink.scenario import load_scenario
     from flexlink.shaping import InfeasibleMove, optimize_move
 

@@ -412,6 +412,17 @@ def test_a_sweep_file_defines_the_same_sweep_as_the_options(
     assert "grid links[0].EI: expected a number, got 'x'" in err
 
 
+def test_the_sweep_key_scenario_is_pointed_to_base(tmp_path: Path) -> None:
+    """`scenario = "arm.toml"` in a sweep file (the scenario swept is its `base`) got
+    "allowed: base, samples, …" with no suggestion: spelled nothing like it."""
+    from flexlink.batch.spec import read_sweep_file
+
+    spec = tmp_path / "sweep.toml"
+    spec.write_text('scenario = "arm.toml"\nsamples = 2\n', encoding="utf-8")
+    with pytest.raises(SweepError, match=r"unknown key 'scenario' \(did you mean 'base'\?\)"):
+        read_sweep_file(spec)
+
+
 @pytest.mark.filterwarnings(FORK_WITH_THREADS)
 def test_forked_workers_write_through_the_shared_array_bit_for_bit(
         tmp_path: Path, forked_workers, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -43,7 +43,7 @@ def read_sweep_file(path: str | Path) -> dict[str, Any]:
     except ScenarioError as exc:
         raise SweepError(_in_file(path, exc.problems)) from None
     p = Problems()
-    p.unknown_keys(raw, KEYS, "")
+    p.unknown_keys(raw, KEYS, "", meant={"scenario": "base"})  # base: the scenario swept
     where = "sweep"  # messages read "sweep.samples must be …", prefixed with the file
     base_name = p.string(raw, "base", where)
     out: dict[str, Any] = {

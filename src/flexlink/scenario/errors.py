@@ -84,14 +84,17 @@ class Problems:
         self.messages.append(message)
 
     def unknown_keys(
-        self, table: Mapping[str, Any], allowed: Iterable[str], path: str, noun: str = "key"
+        self, table: Mapping[str, Any], allowed: Iterable[str], path: str, noun: str = "key",
+        meant: Mapping[str, str] | None = None,
     ) -> None:
-        """Report every key of ``table`` not in ``allowed``, suggesting the closest one."""
+        """Report every key of ``table`` not in ``allowed``, suggesting the closest one;
+        ``meant``: the allowed key meant by a name spelled nothing like it (a synonym)."""
         allowed = list(dict.fromkeys(allowed))  # readers may pass a key twice
         for key in table:
             if key in allowed:
                 continue
-            close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
+            close = ([meant[key]] if meant and key in meant
+                     else difflib.get_close_matches(key, allowed, n=1, cutoff=0.6))
             hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(allowed)
             self.add(f"{path + ': ' if path else ''}unknown {noun} '{key}' ({hint})")
 

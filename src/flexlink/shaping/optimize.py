@@ -573,8 +573,10 @@ def fd_gradient(evaluate_many: Callable[[Sequence[np.ndarray]], list[Any]], x: n
 
 def _not_prescribed(scenario: Scenario) -> str:
     """Why ``scenario`` is not one `optimize_move` takes, naming the fields and the fix."""
-    joints = [f"joints[{k}]" for k, j in enumerate(scenario.chain.joints)
-              if is_driven(j) or isinstance(j, PrismaticJoint)]
+    chain = list(enumerate(scenario.chain.joints))
+    sliders = [f"joints[{k}]" for k, j in chain if isinstance(j, PrismaticJoint)]
+    joints = [f"joints[{k}]" for k, j in chain
+              if is_driven(j) and not isinstance(j, PrismaticJoint)]
     causes, fixes = [], []
     if scenario.base is not None and scenario.base.kind != "fixed":
         causes.append(f"the base moves (base.kind = {scenario.base.kind!r})")
@@ -584,9 +586,11 @@ def _not_prescribed(scenario: Scenario) -> str:
     if scenario.closures:
         causes.append("[[closures]] close a loop")
     if joints:
-        causes.append(f"{', '.join(joints)} {'is' if len(joints) == 1 else 'are'} driven or "
-                      "sliders")
+        causes.append(f"{', '.join(joints)} {'is' if len(joints) == 1 else 'are'} driven")
         fixes.append(f"give {', '.join(joints)} a `motion` instead of a `drive`")
+    if sliders:
+        causes.append(f"{', '.join(sliders)} "
+                      f"{'is a slider' if len(sliders) == 1 else 'are sliders'}")
     fix = ("; " + " and ".join(fixes)) if fixes else ""
     return ("optimize needs an open chain of prescribed revolute joints on a fixed hub: "
             + "; ".join(causes) + fix)
