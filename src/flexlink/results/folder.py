@@ -27,6 +27,9 @@ WRITTEN_NAMES = frozenset({
     "optimized.toml", "trajectory.csv", "summary.json", "residual.png", "robustness.png",
 })
 
+# what file browsers leave in a folder they show: replaced with it, as nobody's work
+BROWSER_FILES = frozenset({".DS_Store", "Thumbs.db", "desktop.ini"})
+
 
 def foreign_entries(folder: Path) -> list[str]:
     """The entries of ``folder`` (relative paths, sorted) that no flexlink command writes."""
@@ -34,7 +37,13 @@ def foreign_entries(folder: Path) -> list[str]:
     for entry in sorted(folder.iterdir()):
         if entry.name == FIGURES_DIR and entry.is_dir() and not entry.is_symlink():
             foreign += [f"{FIGURES_DIR}/{p.name}" for p in sorted(entry.iterdir())
-                        if p.suffix != ".png" or not p.is_file() or p.is_symlink()]
-        elif entry.name not in WRITTEN_NAMES or not entry.is_file() or entry.is_symlink():
+                        if not _ours(p, p.suffix == ".png")]
+        elif not _ours(entry, entry.name in WRITTEN_NAMES):
             foreign.append(entry.name)
     return foreign
+
+
+def _ours(entry: Path, written: bool) -> bool:
+    """``entry`` is a plain file flexlink wrote (``written``: its name is one) or a file
+    browser's."""
+    return (written or entry.name in BROWSER_FILES) and entry.is_file() and not entry.is_symlink()
