@@ -111,6 +111,7 @@ def test_overwrite_replaces_an_earlier_run(tmp_path: Path, resolved: dict[str, A
     out = write_run(fake_results(), tmp_path / "run", resolved, report=False)
     (out / "results.csv").write_text("old")
     (out / "figures" / "Thumbs.db").write_text("a file browser's")
+    (out / "animation.mp4").write_text("flexlink animate's video of the run")
     write_run(fake_results(), out, resolved, figures=False, overwrite=True)
     assert (out / "results.csv").read_text() != "old" and not (out / "figures").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]

@@ -11,6 +11,7 @@ CHANNELS_CSV = "channels.csv"
 RESULTS_NC = "results.nc"
 RESULTS_MAT = "results.mat"
 ANIMATION_GIF = "animation.gif"
+ANIMATION_MP4 = "animation.mp4"  # the same animation as a video (`flexlink animate -o`)
 REPORT_NAME = "report.html"
 FIGURES_DIR = "figures"
 
@@ -19,6 +20,7 @@ FIGURES_DIR = "figures"
 # folder holding nothing else, so it never deletes a file the user put there.
 WRITTEN_NAMES = frozenset({
     RESOLVED_NAME, RESULTS_CSV, CHANNELS_CSV, RESULTS_NC, RESULTS_MAT, ANIMATION_GIF,
+    ANIMATION_MP4,
     REPORT_NAME,
     "report.md", "metrics.csv", "metrics.json", "simulated.csv", "simulated_channels.csv",
     "parameters.csv", "fit.json",
