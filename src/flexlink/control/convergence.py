@@ -140,11 +140,14 @@ class ModeConvergence:
 
     def rising_text(self) -> str:
         """``163 Hz (610, 1343 Hz with 8, 12 modes per link)`` for each `rising` mode ("")."""
+        return "; ".join(f"{self.frequency_hz[i]:.4g} Hz ({self._refined_text(i)})"
+                         for i in np.flatnonzero(self.rising))
+
+    def _refined_text(self, i: int) -> str:
+        """``610, 1343 Hz with 8, 12 modes per link``: kept mode i with the finer bases."""
         counts = _counts(self.modes).split(", ")
-        return "; ".join(
-            f"{self.frequency_hz[i]:.4g} Hz ({self.refined_hz[0, i]:.4g}, "
-            f"{self.refined_hz[1, i]:.4g} Hz with {counts[1]}, {counts[2]} modes per link)"
-            for i in np.flatnonzero(self.rising))
+        return (f"{self.refined_hz[0, i]:.4g}, {self.refined_hz[1, i]:.4g} Hz with "
+                f"{counts[1]}, {counts[2]} modes per link")
 
     def warning(self) -> str | None:
         """A sentence when some kept frequency's estimated error is THRESHOLD or more, or a
@@ -170,11 +173,9 @@ class ModeConvergence:
                          f"(from {_counts(self.modes)} modes per link)")
         if misplaced.size:
             i = int(misplaced[0])
-            counts = _counts(self.modes).split(", ")
             found.append(f"frequency {i + 1} at {self.where}, {self.frequency_hz[i]:.4g} Hz, "
                          f"has no converged counterpart: it rises with more modes "
-                         f"({self.refined_hz[0, i]:.4g}, {self.refined_hz[1, i]:.4g} Hz with "
-                         f"{counts[1]}, {counts[2]} modes per link) and stands above a mode at "
+                         f"({self._refined_text(i)}) and stands above a mode at "
                          f"{self.missing_below_hz:.4g} Hz that this basis lacks")
         return (f"mode basis ({self.basis_text()}): {'; '.join(found)}; {band}. Raise `modes` "
                 "(or choose `mode_shapes`) for the higher frequencies (docs/modes.md)")

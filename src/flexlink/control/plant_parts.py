@@ -12,7 +12,7 @@ import numpy as np
 from ..channels.catalogue import cart_name, catalogue
 from ..dynamics.forward import ForwardSystem
 from ..dynamics.servos import command_volts, servo_torque
-from ..model import Base, PositionServo, Scenario, VelocityServo
+from ..model import PositionServo, Scenario, VelocityServo
 from .linear import LinearPlant
 from .operating_point import Configuration, NotLinearizable
 
@@ -22,9 +22,9 @@ STEP = 1e-6  # central-difference step in the rigid coordinates (rad, m, and the
 def forward_system(scenario: Scenario) -> ForwardSystem:
     """The plant's system: its start may have unheld joints that the loads turn (a plant
     about it is frozen-time, ``equilibrium`` False), which a run refuses."""
-    system = ForwardSystem(scenario.chain, scenario.base or Base(),
-                           scenario.settings.geometric_stiffening, scenario.actuators,
-                           gravity=scenario.settings.gravity, initial=scenario.settings.initial)
+    from ..simulation.forward import forward_system as run_system
+
+    system = run_system(scenario)
     system.unheld_may_move = True
     return system
 

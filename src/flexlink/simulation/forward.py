@@ -63,9 +63,7 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
             solution, closure_values, joint_forces, closures = closed_loop_solution(
                 scenario, system, t, on_progress, loop, steps)
         except StoppedRun as stop:
-            check_travel_before(scenario, system, t, stop)
-            check_deflection_at_stop(scenario, system, t, stop, loop is not None)
-            check_loads_at_stop(scenario, system, stop, closed=True)
+            explain_stop(scenario, system, t, stop, loop is not None)
             raise
         outputs = closed_loop_outputs(system, solution, joint_forces)
     else:
@@ -74,12 +72,20 @@ def run_forward(scenario: Scenario, t: np.ndarray, on_progress: Progress,
                                                   method, on_progress, loop=loop,
                                                   with_outputs=True, steps=steps)
         except StoppedRun as stop:
-            check_travel_before(scenario, system, t, stop)
-            check_deflection_at_stop(scenario, system, t, stop, loop is not None)
-            check_loads_at_stop(scenario, system, stop)
+            explain_stop(scenario, system, t, stop, loop is not None)
             raise
     return forward_run(scenario, system, t, solution, outputs, loop, closure_values, closures,
                        with_shapes)
+
+
+def explain_stop(scenario: Scenario, system: ForwardSystem, t: np.ndarray, stop: StoppedRun,
+                 controlled: bool) -> None:
+    """A SimulationError naming what stopped the run where it was a travel left, a tip beyond
+    its length or loads far beyond the model's range (``controlled``: sampled controllers
+    ran); else nothing, and the stop's own error stands."""
+    check_travel_before(scenario, system, t, stop)
+    check_deflection_at_stop(scenario, system, t, stop, controlled)
+    check_loads_at_stop(scenario, system, stop)
 
 
 def check_travel_before(scenario: Scenario, system: ForwardSystem, t: np.ndarray,
@@ -129,16 +135,15 @@ def check_deflection_at_stop(scenario: Scenario, system: ForwardSystem, t: np.nd
                                       else str(exc)) from None
 
 
-def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun,
-                        closed: bool = False) -> None:
+def check_loads_at_stop(scenario: Scenario, system: ForwardSystem, stop: StoppedRun) -> None:
     """A run that stalled or blew up under loads far beyond the first-order model's range:
     an error naming them, in place of the stop's (whose hint is about the integrator; on
-    ``closed`` loops, a toggle position). The measure is `static_deflection_ratio` from the
+    closed loops, a toggle position). The measure is `static_deflection_ratio` from the
     start state with the loads at the stop, the loops closed."""
     if stop.left_travel:
         return
     loops = None
-    if closed:
+    if scenario.closures:
         from ..dynamics.loops import LoopSystem
 
         loops = LoopSystem(system, scenario.closures)

@@ -234,13 +234,10 @@ def start_modes(scenario: Scenario, widths: tuple[int, ...]) -> tuple[np.ndarray
     coordinates (`dynamics.loops.reduced_jacobian`); open chains: M ẍ + C ẋ + K x of the
     free and elastic coordinates (applied loads' slopes, such as a servo's, left out: the
     same for the scenarios compared)."""
-    from ..dynamics.forward import ForwardSystem
-    from ..model import Base
+    from ..solvers.forward import split_state
+    from .forward import forward_system
 
-    settings = scenario.settings
-    system = ForwardSystem(scenario.chain, scenario.base or Base(),
-                           settings.geometric_stiffening, scenario.actuators,
-                           gravity=settings.gravity, initial=settings.initial)
+    system = forward_system(scenario)
     nu, n = len(system.free), system.n
     if scenario.closures:
         from ..dynamics.loops import LoopSystem, reduced_jacobian
@@ -249,12 +246,10 @@ def start_modes(scenario: Scenario, widths: tuple[int, ...]) -> tuple[np.ndarray
         where = {int(y): row for row, y in enumerate(keep)}
         elastic = [where[2 * nu + i] for i in range(n)]
     else:
-        y = system.initial_state()
         t = np.zeros(1)
-        parts = (y[:nu], y[nu:2 * nu], y[2 * nu:2 * nu + n], y[2 * nu + n:2 * nu + 2 * n],
-                 y[2 * nu + 2 * n:])
-        pdd_free, _, _ = system.accelerations(t, *(v[None] for v in parts))
-        p, pd, pdd = system.rigid_state(t, parts[0][None], parts[1][None], pdd_free)
+        parts = split_state(system, system.initial_state()[None])
+        pdd_free, _, _ = system.accelerations(t, *parts)
+        p, pd, pdd = system.rigid_state(t, parts[0], parts[1], pdd_free)
         keep = system.free + list(range(system.n_rigid, system.n_x))
         M, C, K = (a[0][np.ix_(keep, keep)] for a in system.matrices(p, pd, pdd)[:3])
         size = len(keep)
